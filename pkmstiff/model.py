@@ -1,0 +1,167 @@
+"""In-memory description of a six-strut PKM (pod or glide), in SI units.
+
+A :class:`Machine` is what a machine file (TOML) loads into; every array is float64 in SI units
+(m, rad, kg, N, N/m) and has the chain index as its leading axis (``n`` chains, 6 for spatial PKMs).
+Symbols follow ``spec/models.md`` §0 and ``spec/machines.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+ChainKind = Literal["pod", "glide"]
+TiltConvention = Literal["axis", "normal"]
+StrutDirection = Literal["outward", "drive_to_platform"]
+
+
+@dataclass(frozen=True)
+class JointType:
+    """Kind of joint with its angle convention and limits (spec models.md §2).
+
+    Angles in rad; a missing limit is ``-inf``/``+inf``.  ``ina_coupled`` switches on the
+    coupled limit |tilt| <= 75 deg - 2/3 |swivel| (Cobet eq. B.6).  ``stiffness`` names a
+    component instance of the machine file (``[components.<name>]``) or is ``None`` (rigid).
+    """
+
+    name: str
+    convention: TiltConvention = "axis"
+    strut_direction: StrutDirection = "outward"
+    swivel_min: float = -np.inf
+    swivel_max: float = np.inf
+    tilt_min: float = -np.inf
+    tilt_max: float = np.inf
+    ina_coupled: bool = False
+    stiffness: str | None = None
+    mass: float = 0.0
+
+
+@dataclass(frozen=True)
+class Guide:
+    """A guide shared by several glide drives, with spacing limits (Cobet eq. B.3, B.4).
+
+    Distances in m; ``inf``/``0`` where no limit applies.  ``chains`` holds the 0-based chain indices.
+    """
+
+    name: str
+    chains: tuple[int, ...]
+    min_distance: float = 0.0
+    max_distance: float = np.inf
+    safety_margin: float = 0.0
+
+
+@dataclass(frozen=True)
+class Chains:
+    """Geometry of all kinematic chains; arrays with leading dimension n (chains).
+
+    Glide chains (``kind == "glide"``): drive-side joint point q_i = s_i + lambda_i r_i + q_off_i
+    (models.md §1.3).  Pod chains: q_i is fixed in the MKS and the strut length is the drive coordinate.
+    """
+
+    kind: ChainKind
+    # glide: guide start s_i, unit direction r_i, usable length t_i, constant strut length l_i
+    guide_start: np.ndarray  # (n, 3)
+    guide_direction: np.ndarray  # (n, 3), unit vectors
+    guide_length: np.ndarray  # (n,)
+    strut_length: np.ndarray  # (n,) glide: constant; pod: NaN
+    larger_root: np.ndarray  # (n,) bool, glide root choice (default False = smaller root)
+    # pod: strut length limits (glide: NaN)
+    length_min: np.ndarray  # (n,)
+    length_max: np.ndarray  # (n,)
+    # drive-side joint: glide = offset q_off from the guide point; pod = fixed point in the MKS
+    drive_joint: np.ndarray  # (n, 3)
+    drive_axis: np.ndarray  # (n, 3) a_i (MKS)
+    drive_reference: np.ndarray  # (n, 3) b_i (MKS)
+    # platform-side joint (PKS)
+    platform_joint: np.ndarray  # (n, 3) p'_i
+    platform_axis: np.ndarray  # (n, 3) m'_i
+    platform_reference: np.ndarray  # (n, 3) n'_i
+    strut_radius: np.ndarray  # (n,) m, for collision checks
+    drive_joint_type: tuple[str, ...]  # names into Machine.joint_types
+    platform_joint_type: tuple[str, ...]
+    guide: tuple[str | None, ...]  # name of the shared guide per chain (glide) or None
+
+    @property
+    def n(self) -> int:
+        return int(self.drive_joint.shape[0])
+
+
+@dataclass(frozen=True)
+class Hull:
+    """Platform hull polyhedron in the PKS: vertices (m) and triangles (vertex indices)."""
+
+    vertices: np.ndarray  # (nv, 3)
+    triangles: np.ndarray  # (nt, 3) int
+
+    @property
+    def empty(self) -> bool:
+        return self.vertices.shape[0] == 0
+
+
+@dataclass(frozen=True)
+class Tool:
+    """Tool centre point: tip = O' + R (offset + length * axis) (models.md §5.1; default axis -z')."""
+
+    offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    length: float = 0.0
+
+    def tip(self, length: float | None = None) -> np.ndarray:
+        """TCP position in the PKS (m)."""
+        return self.offset + (self.length if length is None else length) * self.axis
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Machine-level admissibility settings (spec models.md §8)."""
+
+    singularity_threshold: float = 1e8  # condition number of J_C^-1 (SI) above which a pose is singular
+    strut_collision_mode: Literal["exact", "table_B2"] = "exact"
+    platform_end_exclusion: float | None = None  # m excluded at the platform end of a strut; None = strut radius
+    drive_load_include_coulomb: bool = True
+
+
+@dataclass(frozen=True)
+class Machine:
+    """A complete PKM description loaded from a machine file."""
+
+    name: str
+    title: str
+    chains: Chains
+    joint_types: dict[str, JointType]
+    guides: dict[str, Guide]
+    hull: Hull
+    tool: Tool
+    gravity: np.ndarray  # (3,) m/s^2, e.g. (0, 0, -9.81)
+    limits: Limits
+    transmission_weight: float  # w in m/rad (models.md §6.1)
+    components: dict[str, dict[str, Any]]  # named component instances (raw, SI), built by `components`
+    chain_components: tuple[dict[str, str], ...]  # per chain: role -> component instance name
+    machine_components: dict[str, str]  # machine-level role -> component instance name
+    assumptions: dict[str, str]  # key -> one-line reason for every value not given by the spec
+    source: str = ""
+    path: str = ""
+
+    @property
+    def kind(self) -> ChainKind:
+        return self.chains.kind
+
+    @property
+    def n_chains(self) -> int:
+        return self.chains.n
+
+    def joint_type_arrays(self, side: Literal["drive", "platform"]) -> dict[str, np.ndarray]:
+        """Per-chain arrays of the joint settings of one side (for vectorised checks)."""
+        names = self.chains.drive_joint_type if side == "drive" else self.chains.platform_joint_type
+        jts = [self.joint_types[n] for n in names]
+        return {
+            "normal": np.array([j.convention == "normal" for j in jts]),
+            "outward": np.array([j.strut_direction == "outward" for j in jts]),
+            "swivel_min": np.array([j.swivel_min for j in jts]),
+            "swivel_max": np.array([j.swivel_max for j in jts]),
+            "tilt_min": np.array([j.tilt_min for j in jts]),
+            "tilt_max": np.array([j.tilt_max for j in jts]),
+            "ina_coupled": np.array([j.ina_coupled for j in jts]),
+        }

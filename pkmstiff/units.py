@@ -1,0 +1,155 @@
+"""Parsing of quantities with units from input files (pint), returning SI magnitudes.
+
+Accepted forms for a quantity expected in the dimension of ``unit`` (an SI unit string such as
+``"N/m"``, ``"m"``, ``"rad"``, ``"kg*m^2"``):
+
+* a bare number -> taken as SI (``2.7`` for a length means 2.7 m);
+* a string with a unit -> ``"150 mm"``, ``"25 N/um"``, ``"30 deg"``, ``"4348 N*m/urad"``;
+* a list of those (vectors / tables), e.g. ``[1.35, "800 mm", 0]``;
+* a table ``{value = [1350, 800, 0], unit = "mm"}``.
+
+Every error is an :class:`InputError` naming the source file, the key, what was expected and what was found.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+import pint
+
+
+class InputError(ValueError):
+    """Invalid input data; the message names file, key, expectation and finding."""
+
+    def __init__(self, source: str, key: str, expected: str, found: Any):
+        self.source, self.key, self.expected, self.found = source, key, expected, found
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}key '{key}': expected {expected}, found {found!r}")
+
+
+@lru_cache(maxsize=1)
+def ureg() -> pint.UnitRegistry:
+    reg = pint.UnitRegistry()
+    # the field writes micrometres as "um" (pint knows "um" and "µm"); nothing else to add
+    return reg
+
+
+@lru_cache(maxsize=256)
+def _si_factor(unit: str) -> tuple[float, Any]:
+    q = ureg()(unit)
+    q = q if isinstance(q, pint.Quantity) else ureg().Quantity(q)
+    return float(q.to_base_units().magnitude), q.dimensionality
+
+
+def _scalar(value: Any, unit: str, source: str, key: str) -> float:
+    if isinstance(value, bool):
+        raise InputError(source, key, f"a number or a quantity in {unit}", value)
+    if isinstance(value, (int, float)):
+        return float(value)
+    if isinstance(value, str):
+        try:
+            q = ureg()(value)
+        except Exception as exc:  # pint raises several kinds
+            raise InputError(source, key, f"a quantity in {unit} (e.g. '1.5 {unit}')", value) from exc
+        if not isinstance(q, pint.Quantity):
+            return float(q)  # dimensionless string like "2.5"
+        factor, dim = _si_factor(unit)
+        if q.dimensionality != dim:
+            raise InputError(source, key, f"a quantity with the dimension of {unit}", f"{value} ({q.dimensionality})")
+        return float(q.to_base_units().magnitude) / factor
+    raise InputError(source, key, f"a number or a quantity in {unit}", value)
+
+
+def parse_quantity(
+    value: Any,
+    unit: str,
+    *,
+    source: str = "",
+    key: str = "",
+    shape: tuple[int | None, ...] | None = None,
+    min_value: float | None = None,
+    positive: bool = False,
+    allow_nan: bool = False,
+) -> float | np.ndarray:
+    """Parse ``value`` as a quantity of the dimension of ``unit`` and return its magnitude in ``unit``.
+
+    ``unit`` should be the SI unit (then the result is SI). ``shape`` (``None`` entries are free) is
+    checked for array values; a scalar is expected when ``shape`` is ``None``. ``min_value`` and
+    ``positive`` check the range; NaN/inf are rejected unless ``allow_nan``.
+    """
+    if isinstance(value, dict):
+        if set(value) != {"value", "unit"}:
+            raise InputError(source, key, "a table with exactly the keys 'value' and 'unit'", value)
+        vunit = value["unit"]
+        try:
+            factor, dim = _si_factor(str(vunit))
+            tfactor, tdim = _si_factor(unit)
+        except Exception as exc:
+            raise InputError(source, key + ".unit", "a unit name understood by pint", vunit) from exc
+        if dim != tdim:
+            raise InputError(source, key + ".unit", f"a unit with the dimension of {unit}", vunit)
+        raw = parse_quantity(value["value"], "dimensionless", source=source, key=key + ".value",
+                             shape=shape, allow_nan=allow_nan)
+        result = np.asarray(raw, dtype=float) * (factor / tfactor)
+        result = float(result) if np.ndim(result) == 0 else result
+    elif isinstance(value, (list, tuple)):
+        try:
+            result = np.array(_nested(value, unit, source, key), dtype=float)
+        except ValueError as exc:
+            if isinstance(exc, InputError):
+                raise
+            raise InputError(source, key, "a rectangular array", value) from exc
+    else:
+        if unit == "dimensionless" and isinstance(value, str):
+            try:
+                result = float(value)
+            except ValueError:
+                raise InputError(source, key, "a number", value) from None
+        else:
+            result = _scalar(value, unit, source, key)
+
+    arr = np.asarray(result)
+    if shape is None and arr.ndim != 0:
+        raise InputError(source, key, f"a single quantity in {unit}", value)
+    if shape is not None:
+        if arr.ndim != len(shape) or any(s is not None and s != a for s, a in zip(shape, arr.shape)):
+            want = "(" + ", ".join("any" if s is None else str(s) for s in shape) + ")"
+            raise InputError(source, key, f"an array of shape {want} in {unit}", f"shape {arr.shape}: {value}")
+    if not allow_nan and not np.all(np.isfinite(arr)):
+        raise InputError(source, key, f"finite numbers in {unit}", value)
+    if positive and np.any(arr <= 0):
+        raise InputError(source, key, f"positive values in {unit}", value)
+    if min_value is not None and np.any(arr < min_value):
+        raise InputError(source, key, f"values >= {min_value:g} {unit}", value)
+    return float(arr) if arr.ndim == 0 else arr
+
+
+def _nested(value: Any, unit: str, source: str, key: str) -> Any:
+    if isinstance(value, (list, tuple)):
+        return [_nested(v, unit, source, f"{key}[{i}]") for i, v in enumerate(value)]
+    if unit == "dimensionless":
+        if isinstance(value, (int, float)) and not isinstance(value, bool):
+            return float(value)
+        raise InputError(source, key, "a number", value)
+    return _scalar(value, unit, source, key)
+
+
+def to_unit(value_si: float | np.ndarray, unit: str) -> float | np.ndarray:
+    """Convert an SI magnitude to ``unit`` (for output at the edges: mm, deg, N/um, ...)."""
+    factor, _ = _si_factor(unit)
+    return np.asarray(value_si) / factor if np.ndim(value_si) else float(value_si) / factor
+
+
+def si(value: float | np.ndarray, unit: str) -> float | np.ndarray:
+    """Convert a magnitude given in ``unit`` to SI."""
+    factor, _ = _si_factor(unit)
+    return np.asarray(value) * factor if np.ndim(value) else float(value) * factor
+
+
+def isfinite_or_raise(x: float, source: str, key: str, expected: str) -> float:
+    if not math.isfinite(x):
+        raise InputError(source, key, expected, x)
+    return x
