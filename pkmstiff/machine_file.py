@@ -127,7 +127,12 @@ def load_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> Machi
         if opt not in available:
             raise MachineFileError(src, "options", f"one of {sorted(available)}", opt)
         raw = _merge(raw, available[opt])
-    return _build(raw, src, options)
+    try:
+        return _build(raw, src, options)
+    except MachineFileError:
+        raise
+    except InputError as exc:  # raised by the unit parser or a component model: report as a machine-file error
+        raise MachineFileError(exc.source or src, exc.key, exc.expected, exc.found) from None
 
 
 # ----------------------------------------------------------------------------------------------------------------
