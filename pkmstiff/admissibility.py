@@ -13,7 +13,13 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from .collision import point_segment_distance, segment_distance, segment_pierces_triangle, unique_edges
+from .collision import (
+    point_segment_distance,
+    point_triangle_face_distance,
+    segment_distance,
+    segment_pierces_triangle,
+    unique_edges,
+)
 from .model import Machine
 
 
@@ -207,7 +213,9 @@ def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w
 
     The test runs in platform coordinates, where the hull is constant: strut i runs from p'_i to
     q'_i = R^T (q_i - w). A strut collides if (1) an edge of a hull triangle is closer to its axis than its radius,
-    or (2) its axis pierces a hull triangle. A length (default: the strut radius) at the platform end is excluded
+    (2) its axis pierces a hull triangle (Cobet's two tests), or (3) an end of its axis is closer to a face than
+    its radius (a strut parallel to a face passes (1) and (2); with (3) the test uses the exact segment-hull
+    distance). A length (default: the strut radius) at the platform end is excluded
     because the strut's own joint lies on or near the hull (spec assumption). A bounding-sphere broad phase keeps
     the exact tests to the few strut/hull pairs that can touch.
     """
@@ -234,7 +242,12 @@ def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w
                                           hc.tri[None, :, 2]).any(axis=1)
         near = (segment_distance(a[:, None], b[:, None], hc.edges[None, :, 0], hc.edges[None, :, 1])
                 < r[:, None]).any(axis=1)
-        bad[pi, ci] = pierce | near
+        # end points closer to a face than the radius: with edges and piercing the exact segment-hull distance
+        face = np.minimum(point_triangle_face_distance(a[:, None], hc.tri[None, :, 0], hc.tri[None, :, 1],
+                                                       hc.tri[None, :, 2]),
+                          point_triangle_face_distance(b[:, None], hc.tri[None, :, 0], hc.tri[None, :, 1],
+                                                       hc.tri[None, :, 2]))
+        bad[pi, ci] = pierce | near | (face < r[:, None]).any(axis=1)
     labels = [f"strut {i + 1}" for i in range(ch.n)]
     return CheckResult(~bad.any(axis=1), Reason.PLATFORM_COLLISION, bad, labels)
 

@@ -11,6 +11,7 @@ from pkmstiff.collision import (
     point_segment_distance,
     segment_distance,
     segment_pierces_triangle,
+    segment_triangle_distance,
     unique_edges,
 )
 
@@ -154,3 +155,26 @@ def test_piercing(a, b, expected):
 def test_unique_edges_of_tetrahedron():
     tris = np.array([[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]])
     assert unique_edges(tris).shape == (6, 2)
+
+
+@settings(max_examples=80, deadline=None)
+@given(point, point, point, point, point)
+def test_segment_triangle_distance_is_exact(a, b, t1, t2, t3):
+    from hypothesis import assume
+
+    assume(np.linalg.norm(np.cross(t2 - t1, t3 - t1)) > 1e-3)  # non-degenerate triangle
+
+    # reference: minimise over the segment parameter s and barycentric (u, v) with u, v >= 0, u + v <= 1
+    def f(x):
+        s_, u, v = x
+        r = a + s_ * (b - a) - (t1 + u * (t2 - t1) + v * (t3 - t1))
+        return r @ r
+
+    from scipy.optimize import LinearConstraint
+
+    con = LinearConstraint([[0, 1, 1]], -np.inf, 1.0)
+    best = min(minimize(f, x0, bounds=[(0, 1), (0, 1), (0, 1)], constraints=[con], method="SLSQP",
+                        options={"ftol": 1e-14, "maxiter": 500}).fun
+               for x0 in ([0.5, 0.3, 0.3], [0, 0, 0], [1, 0, 0], [0, 0.9, 0.05], [1, 0.05, 0.9]))
+    # SLSQP on a convex quadratic over a polytope: ~1e-6 absolute in the distance
+    assert segment_triangle_distance(a, b, t1, t2, t3) == pytest.approx(np.sqrt(max(best, 0)), abs=2e-5)
