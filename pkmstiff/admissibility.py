@@ -90,7 +90,15 @@ class Admissibility:
         return {k: c.skipped for k, c in self.checks.items() if c.skipped}
 
     def failing(self, i: int) -> list[str]:
-        """Human-readable failing reasons of pose ``i``, with the chains/pairs involved where known."""
+        """Human-readable failing reasons of pose ``i``, with the chains/pairs involved where known.
+
+        Consistent with the reason code: an unreachable pose reports only that (naming the chains).
+        """
+        if self.reasons[i] & Reason.UNREACHABLE:
+            rng = self.checks.get(Reason.DRIVE_RANGE.name.lower())
+            who = ([lab for lab, bad in zip(rng.labels, rng.detail[i]) if bad]
+                   if rng is not None and rng.detail is not None and rng.labels else [])
+            return [REASON_TEXT[Reason.UNREACHABLE] + (f" ({', '.join(who)})" if who else "")]
         out = []
         for c in self.checks.values():
             if c.skipped or c.ok[i]:
@@ -101,8 +109,6 @@ class Admissibility:
                 if who:
                     text += f" ({', '.join(who)})"
             out.append(text)
-        if self.reasons[i] & Reason.UNREACHABLE and not any("reach" in t for t in out):
-            out.insert(0, REASON_TEXT[Reason.UNREACHABLE])
         return out
 
 
