@@ -201,17 +201,40 @@ def check_strut_collision(machine: Machine, p: np.ndarray, q: np.ndarray) -> Che
 class _HullCache:
     tri: np.ndarray  # (T, 3, 3) PKS
     edges: np.ndarray  # (E, 2, 3) PKS
-    centre: np.ndarray
-    radius: float
+    normals: np.ndarray  # (F, 3) unit outward normals of the convex hull's face planes
+    offsets: np.ndarray  # (F,) n . x <= offset inside the convex hull
+
+
+_HULL_CACHE: dict[int, _HullCache] = {}
 
 
 def _hull_cache(machine: Machine) -> _HullCache:
-    h = machine.hull
-    tri = h.vertices[h.triangles]
-    edges = h.vertices[unique_edges(h.triangles)]
-    centre = 0.5 * (h.vertices.min(axis=0) + h.vertices.max(axis=0))
-    radius = float(np.linalg.norm(h.vertices - centre, axis=1).max())
-    return _HullCache(tri, edges, centre, radius)
+    key = id(machine.hull)
+    if key not in _HULL_CACHE:
+        from scipy.spatial import ConvexHull
+
+        h = machine.hull
+        eq = np.unique(np.round(ConvexHull(h.vertices).equations, 12), axis=0)  # coplanar triangles share a plane
+        _HULL_CACHE[key] = _HullCache(h.vertices[h.triangles], h.vertices[unique_edges(h.triangles)],
+                                      eq[:, :3], -eq[:, 3])
+    return _HULL_CACHE[key]
+
+
+def _clip_to_expanded_hull(a: np.ndarray, b: np.ndarray, r: np.ndarray, hc: _HullCache) -> np.ndarray:
+    """True where segment [a, b] meets the convex hull with every face plane pushed out by r (Cyrus-Beck).
+
+    That region contains every point closer than r to the hull (and to any triangulated body inside its convex
+    hull), so False is an exact rejection for the collision test.
+    """
+    na = a @ hc.normals.T  # (..., F)
+    nd = (b - a) @ hc.normals.T
+    room = hc.offsets + r[..., None] - na  # n.(a + t d) <= h + r  <=>  t nd <= room
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = room / nd
+    outside_parallel = (np.abs(nd) < 1e-15) & (room < 0)
+    t_enter = np.where(nd < 0, t, -np.inf).max(axis=-1, initial=0.0)
+    t_exit = np.where(nd > 0, t, np.inf).min(axis=-1, initial=1.0)
+    return (t_enter <= t_exit) & ~outside_parallel.any(axis=-1)
 
 
 def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w: np.ndarray) -> CheckResult:
@@ -220,10 +243,11 @@ def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w
     The test runs in platform coordinates, where the hull is constant: strut i runs from p'_i to
     q'_i = R^T (q_i - w). A strut collides if (1) an edge of a hull triangle is closer to its axis than its radius,
     (2) its axis pierces a hull triangle (Cobet's two tests), or (3) an end of its axis is closer to a face than
-    its radius (a strut parallel to a face passes (1) and (2); with (3) the test uses the exact segment-hull
-    distance). A length (default: the strut radius) at the platform end is excluded
-    because the strut's own joint lies on or near the hull (spec assumption). A bounding-sphere broad phase keeps
-    the exact tests to the few strut/hull pairs that can touch.
+    its radius (a strut ending above a face passes (1) and (2); with (3) the test is the exact segment-hull
+    distance). A length (default: the strut radius) at the platform end is excluded because the strut's own joint
+    lies on or near the hull (spec assumption). Broad phase (exact): clipping against the convex hull with its face
+    planes pushed out by the radius rejects struts that cannot touch; for a convex hull, clipping against the hull
+    itself proves the collisions of struts that enter it. The exact tests run only on the remaining near misses.
     """
     ch = machine.chains
     n_pose = q.shape[0]
@@ -231,29 +255,29 @@ def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w
         return CheckResult(np.ones(n_pose, bool), Reason.PLATFORM_COLLISION, skipped="machine has no platform hull")
     hc = _hull_cache(machine)
     q_loc = np.einsum("nji,nkj->nki", rot, q - w[:, None, :])  # R^T (q - w), (N, n, 3)
-    p_loc = np.broadcast_to(ch.platform_joint, q_loc.shape)
-    seg = q_loc - p_loc
+    seg = q_loc - ch.platform_joint
     length = np.linalg.norm(seg, axis=-1, keepdims=True)
     excl = ch.strut_radius if machine.limits.platform_end_exclusion is None else \
         np.full(ch.n, machine.limits.platform_end_exclusion)
-    start = p_loc + seg / np.maximum(length, 1e-12) * excl[:, None]
+    start = ch.platform_joint + seg / np.maximum(length, 1e-12) * excl[:, None]
     radius = np.broadcast_to(ch.strut_radius, q_loc.shape[:2])
 
     bad = np.zeros(q_loc.shape[:2], bool)
-    cand = point_segment_distance(hc.centre, start, q_loc) < hc.radius + radius
-    pi, ci = np.nonzero(cand)
+    with np.errstate(invalid="ignore"):
+        near_hull = _clip_to_expanded_hull(start, q_loc, radius, hc) & np.isfinite(q_loc).all(axis=-1)
+        if machine.hull.convex:  # a segment that enters the convex hull itself collides: no exact test needed
+            inside = near_hull & _clip_to_expanded_hull(start, q_loc, np.zeros_like(radius), hc)
+            bad |= inside
+            near_hull &= ~inside
+    pi, ci = np.nonzero(near_hull)
     if pi.size:
-        a, b, r = start[pi, ci], q_loc[pi, ci], radius[pi, ci]
-        pierce = segment_pierces_triangle(a[:, None], b[:, None], hc.tri[None, :, 0], hc.tri[None, :, 1],
-                                          hc.tri[None, :, 2]).any(axis=1)
-        near = (segment_distance(a[:, None], b[:, None], hc.edges[None, :, 0], hc.edges[None, :, 1])
-                < r[:, None]).any(axis=1)
+        a, b, r = start[pi, ci][:, None], q_loc[pi, ci][:, None], radius[pi, ci][:, None]
+        t1, t2, t3 = hc.tri[None, :, 0], hc.tri[None, :, 1], hc.tri[None, :, 2]
+        pierce = segment_pierces_triangle(a, b, t1, t2, t3).any(axis=1)
+        near = (segment_distance(a, b, hc.edges[None, :, 0], hc.edges[None, :, 1]) < r).any(axis=1)
         # end points closer to a face than the radius: with edges and piercing the exact segment-hull distance
-        face = np.minimum(point_triangle_face_distance(a[:, None], hc.tri[None, :, 0], hc.tri[None, :, 1],
-                                                       hc.tri[None, :, 2]),
-                          point_triangle_face_distance(b[:, None], hc.tri[None, :, 0], hc.tri[None, :, 1],
-                                                       hc.tri[None, :, 2]))
-        bad[pi, ci] = pierce | near | (face < r[:, None]).any(axis=1)
+        face = np.minimum(point_triangle_face_distance(a, t1, t2, t3), point_triangle_face_distance(b, t1, t2, t3))
+        bad[pi, ci] = pierce | near | (face < r).any(axis=1)
     labels = [f"strut {i + 1}" for i in range(ch.n)]
     return CheckResult(~bad.any(axis=1), Reason.PLATFORM_COLLISION, bad, labels)
 

@@ -436,7 +436,7 @@ def _hull(tab: Any, src: str) -> Hull:
     except QhullError as exc:
         raise MachineFileError(src, "hull.vertices", "vertices spanning a volume (convex hull)", "degenerate set") \
             from exc
-    return Hull(vertices=verts, triangles=_oriented(verts, ch.simplices))
+    return Hull(vertices=verts, triangles=_oriented(verts, ch.simplices), convex=True)
 
 
 def _oriented(verts: np.ndarray, tris: np.ndarray) -> np.ndarray:

@@ -94,6 +94,7 @@ class Hull:
 
     vertices: np.ndarray  # (nv, 3)
     triangles: np.ndarray  # (nt, 3) int
+    convex: bool = False  # True when the triangles are the convex hull of the vertices
 
     @property
     def empty(self) -> bool:
