@@ -1,0 +1,10 @@
+"""pkmstiff component model library: drives, guides, struts, joints, bearings and bodies (spec models.md §3).
+
+All quantities are SI; every component evaluates a batch of N poses at once from a
+:class:`~components.protocol.ComponentState`. Build components from machine-file tables with
+:func:`components.registry.build_component`.
+"""
+
+from .protocol import Component, ComponentRangeError, ComponentState, ConstantAxial, parallel, series
+
+__all__ = ["Component", "ComponentRangeError", "ComponentState", "ConstantAxial", "parallel", "series"]

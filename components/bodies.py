@@ -1,0 +1,161 @@
+"""Rigid bodies (mass, inertia, centre of gravity) and 6×6 body stiffness (spec models.md §3.7, §4.3, §4.6).
+
+Mass matrix of a body about its CoG in MKS axes: M = diag(m I₃, R I'_cg Rᵀ) (I'_cg in body axes).
+Referred to another point O with ρ = CoG − O: M_O = N(ρ)ᵀ M_cg N(ρ) (parallel-axis theorem) with the
+reference matrix N(Δ) = [[I₃, −[Δ]×], [0, I₃]] of Cobet eq. 4.45. DOF order (u_x, u_y, u_z, θ_x, θ_y, θ_z).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from pkmstiff.units import si
+
+from .protocol import Component, ComponentState, _full
+
+_SYM_TOL = 1e-9  # relative asymmetry tolerated in input matrices (round-off of printed/converted data)
+
+
+def skew(v: Any) -> np.ndarray:
+    """[v]× (..., 3, 3) with [v]× u = v × u."""
+    v = np.asarray(v, dtype=float)
+    S = np.zeros(v.shape[:-1] + (3, 3))
+    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
+    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
+    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
+    return S
+
+
+def reference_matrix(delta: Any) -> np.ndarray:
+    """N(Δ) (..., 6, 6) of Cobet eq. 4.45: maps body twist/displacement at the reference to the point at offset Δ."""
+    delta = np.asarray(delta, dtype=float)
+    N = np.broadcast_to(np.eye(6), delta.shape[:-1] + (6, 6)).copy()
+    N[..., :3, 3:] = -skew(delta)
+    return N
+
+
+def shift_mass_matrix(M_cg: Any, rho: Any) -> np.ndarray:
+    """M_O = N(ρ)ᵀ M_cg N(ρ) (..., 6, 6), ρ = CoG − O in MKS components (models.md §4.6)."""
+    N = reference_matrix(rho)
+    return np.swapaxes(N, -1, -2) @ np.asarray(M_cg, dtype=float) @ N
+
+
+def _check_symmetric(K: np.ndarray, what: str) -> None:
+    scale = max(float(np.max(np.abs(K))), np.finfo(float).tiny)
+    if np.max(np.abs(K - K.T)) > _SYM_TOL * scale:
+        raise ValueError(f"{what}: the matrix must be symmetric, found max |K - K^T| = "
+                         f"{np.max(np.abs(K - K.T)):.3g} (max |K| = {scale:.3g})")
+
+
+def _check_positive_definite(K: np.ndarray, what: str, semi: bool = False) -> None:
+    eig = np.linalg.eigvalsh(0.5 * (K + K.T))
+    bad = eig.min() < 0 if semi else eig.min() <= 0
+    if bad:
+        kind = "positive semi-definite" if semi else "positive definite"
+        raise ValueError(f"{what}: the matrix must be {kind}, found smallest eigenvalue {eig.min():.6g}")
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class RigidBody(Component):
+    """Rigid body: ``mass`` [kg], ``inertia`` I'_cg (3, 3) about the CoG in body axes [kg·m²], ``cog`` (3,)
+    position of the CoG relative to the body's reference point in body axes [m].
+
+    A rigid body has no compliance: :meth:`stiffness` returns ``np.inf`` per pose (rigid, usable in ``series``).
+    """
+
+    kind: ClassVar[str] = "body"
+    inertia: np.ndarray = None  # type: ignore[assignment]
+    cog: np.ndarray = None  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        inertia = np.zeros((3, 3)) if self.inertia is None else np.asarray(self.inertia, dtype=float)
+        if inertia.shape == (3,):
+            inertia = np.diag(inertia)
+        cog = np.zeros(3) if self.cog is None else np.asarray(self.cog, dtype=float)
+        if inertia.shape != (3, 3) or cog.shape != (3,):
+            raise ValueError(f"body '{self.name}': inertia must be (3, 3) or (3,), cog (3,); found "
+                             f"{inertia.shape}, {cog.shape}")
+        if not self.mass >= 0:
+            raise ValueError(f"body '{self.name}': mass must be >= 0, found {self.mass!r}")
+        _check_symmetric(inertia, f"body '{self.name}' inertia")
+        _check_positive_definite(inertia, f"body '{self.name}' inertia", semi=True)
+        object.__setattr__(self, "inertia", 0.5 * (inertia + inertia.T))
+        object.__setattr__(self, "cog", cog)
+
+    def stiffness(self, state: ComponentState) -> np.ndarray:
+        return _full(state, np.inf)
+
+    def mass_matrix(self, R: Any = None) -> np.ndarray:
+        """M_cg = diag(m I₃, R I'_cg Rᵀ) (6, 6) or (N, 6, 6) about the CoG in MKS axes; ``R`` body → MKS."""
+        Rm = np.eye(3) if R is None else np.asarray(R, dtype=float)
+        M = np.zeros(Rm.shape[:-2] + (6, 6))
+        M[..., :3, :3] = self.mass * np.eye(3)
+        M[..., 3:, 3:] = Rm @ self.inertia @ np.swapaxes(Rm, -1, -2)
+        return M
+
+    def mass_matrix_about(self, point: Any, origin: Any = (0.0, 0.0, 0.0), R: Any = None) -> np.ndarray:
+        """Mass matrix about ``point`` (MKS) for a body whose reference point is at ``origin`` (MKS), orientation R.
+
+        CoG in the MKS = origin + R cog; ρ = CoG − point (parallel-axis theorem, models.md §4.6).
+        """
+        Rm = np.eye(3) if R is None else np.asarray(R, dtype=float)
+        cog_mks = np.asarray(origin, dtype=float) + (Rm @ self.cog)
+        return shift_mass_matrix(self.mass_matrix(Rm), cog_mks - np.asarray(point, dtype=float))
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class BodyStiffness(Component):
+    """Constant 6×6 body stiffness (e.g. the platform stiffness K_P used as K_U, machines.md §1.4).
+
+    ``matrix`` (6, 6) in SI (blocks N/m, N/rad, N·m/rad), symmetric positive definite, in the axes it was
+    determined in (platform axes: use :meth:`in_mks`).
+    """
+
+    kind: ClassVar[str] = "matrix6"
+    matrix: np.ndarray
+
+    def __post_init__(self) -> None:
+        K = np.asarray(self.matrix, dtype=float)
+        if K.shape != (6, 6) or not np.all(np.isfinite(K)):
+            raise ValueError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape {K.shape}")
+        _check_symmetric(K, f"body stiffness '{self.name}'")
+        _check_positive_definite(K, f"body stiffness '{self.name}'")
+        object.__setattr__(self, "matrix", 0.5 * (K + K.T))
+
+    @classmethod
+    def from_diagonal(cls, translational: Any, rotational: Any, **kwargs: Any) -> "BodyStiffness":
+        """diag(k_x, k_y, k_z [N/m]; k_a, k_b, k_c [N·m/rad])."""
+        return cls(matrix=np.diag(np.concatenate([np.asarray(translational, float), np.asarray(rotational, float)])),
+                   **kwargs)
+
+    @classmethod
+    def from_units(cls, values: Any, *, translational_unit: str = "N/um", rotational_unit: str = "N*m/urad",
+                   coupling_unit: str = "N/urad", **kwargs: Any) -> "BodyStiffness":
+        """From 6 diagonal values or a 6×6 matrix given in the dissertation's units.
+
+        Default rotational unit N·m/µrad: the interpretation of the unprinted Hexaglide K_P units
+        (machines.md §1.4 note 3) — configurable.
+        """
+        v = np.asarray(values, dtype=float)
+        K = np.diag(v) if v.shape == (6,) else v.copy()
+        if K.shape != (6, 6):
+            raise ValueError(f"body stiffness: expected 6 diagonal values or a (6, 6) matrix, found shape {v.shape}")
+        K[:3, :3] = si(K[:3, :3], translational_unit)
+        K[3:, 3:] = si(K[3:, 3:], rotational_unit)
+        K[:3, 3:] = si(K[:3, 3:], coupling_unit)
+        K[3:, :3] = si(K[3:, :3], coupling_unit)
+        return cls(matrix=K, **kwargs)
+
+    def stiffness(self, state: ComponentState) -> np.ndarray:
+        return np.broadcast_to(self.matrix, (state.n, 6, 6)).copy()
+
+    def in_mks(self, R: Any) -> np.ndarray:
+        """H K Hᵀ with H = diag(R, R) (..., 6, 6) for a matrix given in body axes (models.md §4.4)."""
+        Rm = np.asarray(R, dtype=float)
+        H = np.zeros(Rm.shape[:-2] + (6, 6))
+        H[..., :3, :3] = Rm
+        H[..., 3:, 3:] = Rm
+        return H @ self.matrix @ np.swapaxes(H, -1, -2)

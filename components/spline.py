@@ -1,0 +1,81 @@
+"""Clamped cubic splines with the end-slope rule of Cobet 3.2.5 (spec models.md §3.5 (5)).
+
+The end slopes are the secant slopes to the nearest neighbour,
+``s'(x_0) = (y_1 - y_0)/(x_1 - x_0)`` and ``s'(x_N) = (y_N - y_{N-1})/(x_N - x_{N-1})``.
+Because the spline is linear in the support values (the end slopes are linear in them too), a tensor
+product of two such splines is the bicubic interpolant used for (swivel, tilt) grids.
+
+Extrapolation outside the support range is a documented policy (``"clamp"`` = the end value, the spec's
+Assumption; ``"error"`` raises :class:`~components.protocol.ComponentRangeError`). NaN abscissae give NaN.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+
+from .protocol import ComponentRangeError
+
+Extrapolation = Literal["clamp", "error"]
+EXTRAPOLATION_POLICIES: tuple[str, ...] = ("clamp", "error")
+_RANGE_TOL = 1e-12  # rad; absorbs round-off of angles computed exactly at a table end (e.g. arccos -> pi/2)
+
+
+def _check_nodes(x: np.ndarray, what: str) -> None:
+    if x.ndim != 1 or x.size < 2:
+        raise ValueError(f"{what}: expected at least 2 support points in a 1-D array, found shape {x.shape}")
+    if not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
+        raise ValueError(f"{what}: support abscissae must be finite and strictly increasing, found {x.tolist()}")
+
+
+def secant_end_slopes(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """End slopes of the clamped spline: secant slopes to the nearest neighbour (along axis 0 of ``y``)."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    return (y[1] - y[0]) / (x[1] - x[0]), (y[-1] - y[-2]) / (x[-1] - x[-2])
+
+
+def clamped_spline(x: np.ndarray, y: np.ndarray, what: str = "spline") -> CubicSpline:
+    """Clamped cubic spline through ``(x, y)`` (``y`` may carry trailing axes) with secant end slopes."""
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    _check_nodes(x, what)
+    if y.shape[0] != x.size:
+        raise ValueError(f"{what}: {x.size} abscissae but {y.shape[0]} values")
+    s0, sn = secant_end_slopes(x, y)
+    return CubicSpline(x, y, axis=0, bc_type=((1, s0), (1, sn)), extrapolate=True)
+
+
+def apply_range_policy(
+    value: np.ndarray, lo: float, hi: float, policy: str, *, angle: str, table: str, unit: str = "deg"
+) -> np.ndarray:
+    """Apply the extrapolation policy to abscissae ``value`` (rad) for a table covering ``[lo, hi]``.
+
+    ``"clamp"`` clips to the range (NaN stays NaN); ``"error"`` raises naming the angle, the first
+    offending value and the table range (in degrees when ``unit == "deg"``).
+    """
+    value = np.asarray(value, dtype=float)
+    if policy == "clamp":
+        return np.clip(value, lo, hi)
+    if policy == "error":
+        bad = (value < lo - _RANGE_TOL) | (value > hi + _RANGE_TOL)  # False for NaN
+        if np.any(bad):
+            idx = int(np.flatnonzero(bad.ravel())[0])
+            conv = np.rad2deg if unit == "deg" else (lambda v: v)
+            raise ComponentRangeError(
+                f"{table}: {angle} = {conv(value.ravel()[idx]):.6g} {unit} (pose {idx}) lies outside the table range "
+                f"[{conv(lo):.6g}, {conv(hi):.6g}] {unit} (extrapolation='error'; use 'clamp' to hold the end values)")
+        return np.clip(value, lo, hi)  # only round-off excursions remain
+    raise ValueError(f"{table}: unknown extrapolation policy {policy!r}, expected one of {EXTRAPOLATION_POLICIES}")
+
+
+def spline_weights(x_nodes: np.ndarray, xq: np.ndarray) -> np.ndarray:
+    """Weights ``W`` (len(xq), len(x_nodes)) with ``s(xq) = W @ y`` for the clamped end-slope spline.
+
+    NaN entries of ``xq`` give rows of NaN.
+    """
+    x_nodes = np.asarray(x_nodes, dtype=float)
+    basis = clamped_spline(x_nodes, np.eye(x_nodes.size))
+    return basis(np.asarray(xq, dtype=float))
