@@ -52,6 +52,7 @@ def pose_report(machine_name: str, pose_si: np.ndarray) -> dict:
         "drive_joint_points_m": [_finite(v) for v in ev.drive_point[0]],
         "platform_joint_points_m": [_finite(v) for v in ev.platform_point[0]],
         "condition_number": _finite(ev.kappa[0]),
+        "static_drive_loads_N": None if ev.drive_loads is None else _finite(ev.drive_loads[0]),
         "admissible": bool(a.ok[0]),
         "reasons": a.failing(0),
         "skipped_checks": a.skipped(),
@@ -88,6 +89,8 @@ def _cmd_pose(args: argparse.Namespace) -> int:
         conv = rep[f"{side}_joint_convention"][0]
         rows += [(f"{side} joint swivel [deg]", (rep[f"{side}_joint_swivel_deg"], 1.0)),
                  (f"{side} joint tilt [deg] ({conv})", (rep[f"{side}_joint_tilt_deg"], 1.0))]
+    if rep["static_drive_loads_N"] is not None:
+        rows.append(("static drive load [N]", (rep["static_drive_loads_N"], 1.0)))
     width = max(len(label) for label, _ in rows) + 2
     for label, vals in rows:
         body = "  ".join(f"{i + 1:>8d}" for i in range(n)) if vals is None else _fmt(vals[0], vals[1])

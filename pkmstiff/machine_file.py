@@ -206,13 +206,15 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     assumptions = raw.get("assumptions", {})
     if not isinstance(assumptions, dict) or not all(isinstance(v, str) for v in assumptions.values()):
         raise MachineFileError(src, "assumptions", "a table key = one-line reason (strings)", assumptions)
+    built = _build_components(components, src)
+    _check_joint_conventions(joint_types, built, src)
     title = str(mtab.get("title", name)) + (f" [{', '.join(options)}]" if options else "")
     return Machine(
         name=name + (":" + ",".join(options) if options else ""), title=title, chains=chains,
         joint_types=joint_types, guides=guides, hull=hull, tool=tool, gravity=gravity, limits=limits,
         transmission_weight=w, components=components, chain_components=chain_components,
         machine_components={k: str(v) for k, v in mcomp.items()}, assumptions=dict(assumptions),
-        source=str(mtab.get("source", "")), path=src,
+        source=str(mtab.get("source", "")), path=src, built_components=built,
     )
 
 
@@ -263,11 +265,29 @@ def _components(tab: Any, src: str) -> dict[str, dict[str, Any]]:
         if models is not None and model not in models:
             raise MachineFileError(src, key + ".model", f"one of the component models {sorted(models)}", model)
         out[cname] = dict(params)
-    if models is not None:
-        from components.registry import build_component
-        for cname, params in out.items():
-            build_component(cname, params, source=src, base_dir=str(Path(src).parent))  # raises InputError if invalid
     return out
+
+
+def _build_components(components: dict[str, dict[str, Any]], src: str) -> dict[str, tuple[dict, Any]]:
+    """Build every component instance (validating its parameters); empty without the component library."""
+    try:
+        from components.registry import build_component
+    except ImportError:
+        return {}
+    return {name: (params, build_component(name, params, source=src, base_dir=str(Path(src).parent)))
+            for name, params in components.items()}
+
+
+def _check_joint_conventions(joint_types: dict[str, JointType], built: dict, src: str) -> None:
+    """A joint's stiffness data must refer to the tilt convention of its joint type (models.md §2 (b))."""
+    for jt in joint_types.values():
+        if jt.stiffness is None or jt.stiffness not in built:
+            continue
+        conv = getattr(built[jt.stiffness][1], "angle_convention", None)
+        if conv is not None and conv != jt.convention:
+            raise MachineFileError(src, f"joint_types.{jt.name}.stiffness",
+                                   f"stiffness data in the joint type's '{jt.convention}' tilt convention",
+                                   f"component '{jt.stiffness}' with angle_convention '{conv}'")
 
 
 def _check_ref(ref: Any, components: dict, src: str, key: str) -> None:

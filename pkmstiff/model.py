@@ -144,6 +144,8 @@ class Machine:
     assumptions: dict[str, str]  # key -> one-line reason for every value not given by the spec
     source: str = ""
     path: str = ""
+    # component instances built on load: name -> (raw parameter table it was built from, instance)
+    built_components: dict[str, tuple[dict, Any]] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def kind(self) -> ChainKind:

@@ -109,7 +109,7 @@ def evaluate_poses(
     machine: Machine,
     poses: ArrayLike,
     checks: Sequence[str] = adm.ALL_CHECKS,
-    drive_load_data: adm.DriveLoadData | None = None,
+    drive_load_data: adm.DriveLoadData | None | str = "auto",
     requirements: Iterable[Callable[[PoseEvaluation], np.ndarray]] = (),
     chunk_size: int = DEFAULT_CHUNK,
 ) -> PoseEvaluation:
@@ -118,9 +118,15 @@ def evaluate_poses(
     Work is done in chunks of ``chunk_size`` poses to bound memory. Unreachable or singular poses never raise:
     their quantities are NaN/inf and the reason code says why. ``requirements`` are callables taking the
     evaluation of a chunk and returning a per-pose boolean (True = requirement met), reported as REQUIREMENT.
+    ``drive_load_data="auto"`` takes masses and drive forces from the machine's components (the static
+    drive-load check is skipped, with the reason "no mass data", where they are missing).
     """
     x = as_poses(poses)
     reqs = list(requirements)
+    if drive_load_data == "auto":
+        from .machine_components import drive_load_data as _dld
+
+        drive_load_data = _dld(machine)
     parts = [evaluate_chunk(machine, x[s:s + chunk_size], checks, drive_load_data, reqs)
              for s in range(0, max(len(x), 1), chunk_size)] if len(x) else []
     if not parts:

@@ -104,3 +104,27 @@ def test_every_bundled_machine_has_admissible_poses(name):
     poses = np.concatenate([g.reshape(-1, 3), np.zeros((g.size // 3, 3))], axis=1)
     a = check_admissibility(m, poses)
     assert a.ok.sum() > 5, (name, a.summary())
+
+
+def test_static_drive_loads_balance_gravity(hexaglide):
+    # eq. 4.90: tau_g = J_C^T g_P, so (J_C^-1)^T tau_g must give back the holding wrench (m g up, rho x F)
+    from pkmstiff.machine_components import drive_load_data
+
+    data = drive_load_data(hexaglide)
+    assert data is not None and data.moved_mass == pytest.approx(117.24)
+    p = _yz_grid(ny=7, nz=5)
+    p[:, 3] = 0.05  # tilted platform: the CoG moment term matters if the CoG is off O'
+    ev = evaluate_poses(hexaglide, p)
+    good = np.isfinite(ev.drive_loads).all(axis=1)
+    wrench = np.einsum("nji,nj->ni", ev.jinv[good], ev.drive_loads[good])
+    expect_f = np.array([0.0, 0.0, 117.24 * 9.81])
+    # relative 1e-9: J_C from a QR inverse of J_C^-1 (condition numbers < 1e3 here)
+    np.testing.assert_allclose(wrench[:, :3], np.broadcast_to(expect_f, wrench[:, :3].shape), rtol=1e-9, atol=1e-6)
+    np.testing.assert_allclose(wrench[:, 3:], 0.0, atol=1e-6)  # CoG at O' (assumption): no moment
+    assert "drive_load" not in ev.admissibility.skipped()
+
+
+def test_drive_load_check_skipped_without_masses():
+    m = load_machine("linapod")
+    a = evaluate_poses(m, [[0.0, 0.0, 0.3, 0, 0, 0]]).admissibility
+    assert "no mass data" in a.skipped()["drive_load"]
