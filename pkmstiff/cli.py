@@ -35,6 +35,27 @@ def _cmd_machines(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_components(args: argparse.Namespace) -> int:
+    from components.registry import available_models, model_info
+
+    models = available_models()
+    if args.model:
+        if args.model not in models:
+            raise CliError(f"unknown component model {args.model!r}; expected one of {', '.join(sorted(models))}")
+        info = model_info(args.model)
+        print(f"{args.model}: {models[args.model]}")
+        for p in info.parameters:
+            print(f"  {p.key:<40} [{p.unit}] default {p.default}: {p.meaning}")
+        return 0
+    if args.json:
+        print(json.dumps(models, indent=2))
+        return 0
+    width = max(map(len, models))
+    for name, desc in sorted(models.items()):
+        print(f"{name:<{width}}  {desc}")
+    return 0
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     try:
         demo = importlib.import_module("pkmstiff.demo")
@@ -57,6 +78,10 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("machines", help="list the bundled machines, one line each")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=_cmd_machines)
+    p = sub.add_parser("components", help="list the component models (or the parameters of one)")
+    p.add_argument("model", nargs="?", help="show the parameters of this model")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=_cmd_components)
     p = sub.add_parser("demo", help="run the demo on the bundled Hexaglide")
     p.add_argument("--out", default="out/demo", help="output directory (default out/demo)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
