@@ -38,8 +38,8 @@ def segment_distance(
     denom = a * c - b * b
     parallel = denom <= _EPS * np.maximum(a * c, _EPS)
     safe = np.where(parallel, 1.0, denom)
-    a_safe = np.maximum(a, _EPS)
-    c_safe = np.maximum(c, _EPS)
+    a_safe = np.where(a > 0.0, a, 1.0)  # only exact zeros need guarding: the quotients below are well scaled
+    c_safe = np.where(c > 0.0, c, 1.0)
     s_line = np.where(parallel, 0.0, (b * e - c * d) / safe)
     if mode == "table_B2":
         t_line = np.where(parallel, 0.0, (a * e - b * d) / safe)
@@ -58,7 +58,7 @@ def segment_distance(
     s = np.where(below, np.clip(-d / a_safe, 0.0, 1.0), np.where(above, np.clip((b - d) / a_safe, 0.0, 1.0), s))
     t = np.clip(t, 0.0, 1.0)
     # degenerate second segment (a point): project it onto the first segment
-    point2 = c <= _EPS
+    point2 = c <= _EPS * np.maximum(a, _EPS)
     s = np.where(point2, np.clip(-d / a_safe, 0.0, 1.0), s)
     t = np.where(point2, 0.0, t)
     return np.linalg.norm(w + s[..., None] * u - t[..., None] * v, axis=-1)
