@@ -1,0 +1,113 @@
+"""Section maps (Cobet chapter 2 display): a quantity as colour on its plane, the admissible region outlined."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..model import Machine
+from ..sections import SectionResult
+from . import offscreen
+from .sketch import add_sketch
+
+MM = 1e3
+
+
+def _plane_grid(res: SectionResult, in_3d: bool, pv):
+    """StructuredGrid of the raster in mm: 3-D machine coordinates, or plane coordinates (u, v, 0)."""
+    pl = res.plane
+    if in_3d:
+        pts = pl.points() * MM
+    else:
+        uu, vv = np.meshgrid(pl.u_values * MM, pl.v_values * MM)
+        pts = np.column_stack([uu.ravel(), vv.ravel(), np.zeros(uu.size)])
+    nv, nu = pl.shape
+    grid = pv.StructuredGrid()
+    grid.points = pts
+    grid.dimensions = (nu, nv, 1)
+    return grid
+
+
+def _title(res: SectionResult) -> str:
+    ori = ", ".join(f"{v:g}" for v in np.rad2deg(res.orientation))
+    tool = "" if res.tool_length is None else f", tool {res.tool_length * MM:g} mm"
+    return f"{res.machine}: {res.plane.name}, a,b,c = {ori} deg{tool}"
+
+
+def quantity_title(res: SectionResult, name: str) -> str:
+    return f"{res.labels[name]}\n{name} [{res.units[name]}]"
+
+
+def plot_section(res: SectionResult, name: str, path: str | Path, window_size=(1000, 760), cmap: str = "viridis",
+                 clim: tuple[float, float] | None = None) -> Path:
+    """Write a PNG of quantity ``name`` on its plane: colour map, admissible outline, axes in mm, colour bar.
+
+    Inadmissible points are transparent; the black line is the boundary of the admissible region.
+    """
+    pv = offscreen()
+    grid = _plane_grid(res, in_3d=False, pv=pv)
+    values = res.display(name)
+    grid.point_data[name] = values.ravel()
+    grid.point_data["admissible"] = res.ok.astype(float).ravel()
+    p = pv.Plotter(off_screen=True, window_size=window_size)
+    finite = values[np.isfinite(values)]
+    if clim is None and finite.size:
+        clim = (float(finite.min()), float(finite.max())) if finite.max() > finite.min() else \
+            (float(finite.min()) - 0.5, float(finite.max()) + 0.5)
+    p.add_mesh(grid, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0, show_scalar_bar=True,
+               scalar_bar_args={"title": quantity_title(res, name), "vertical": True, "position_x": 0.86,
+                                "position_y": 0.15, "height": 0.7, "width": 0.08, "title_font_size": 16,
+                                "label_font_size": 14, "fmt": "%.4g"})
+    if res.ok.any() and not res.ok.all():
+        outline = grid.contour([0.5], scalars="admissible")
+        if outline.n_points:
+            p.add_mesh(outline, color="black", line_width=3)
+    border = grid.outline()
+    p.add_mesh(border, color="gray", line_width=1)
+    u, v = res.plane.u_name, res.plane.v_name
+    p.show_bounds(xtitle=f"{u} [mm]", ytitle=f"{v} [mm]", ztitle="", show_zaxis=False, grid=False,
+                  location="outer", ticks="outside", font_size=12, n_xlabels=5, n_ylabels=5, use_2d=True)
+    p.add_text(_title(res), position="upper_left", font_size=11, color="black")
+    p.set_background("white")
+    p.view_xy()
+    p.enable_parallel_projection()
+    p.camera.zoom(0.92)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    p.screenshot(str(path))
+    p.close()
+    return path
+
+
+def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Machine, reference_pose, path: str | Path,
+                      window_size=(1100, 900), cmap: str = "viridis") -> Path:
+    """Three section planes in 3-D (shared colour scale) with a sketch of the machine at ``reference_pose``."""
+    pv = offscreen()
+    p = pv.Plotter(off_screen=True, window_size=window_size)
+    vals = [r.display(name) for r in results]
+    finite = np.concatenate([v[np.isfinite(v)] for v in vals]) if vals else np.array([])
+    clim = (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min() else None
+    for k, (r, v) in enumerate(zip(results, vals)):
+        grid = _plane_grid(r, in_3d=True, pv=pv)
+        grid.point_data[name] = v.ravel()
+        p.add_mesh(grid, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0, show_scalar_bar=(k == 0),
+                   scalar_bar_args={"title": quantity_title(results[0], name), "vertical": True,
+                                    "position_x": 0.87, "position_y": 0.2, "height": 0.6, "fmt": "%.4g"})
+    add_sketch(p, machine, reference_pose, opacity=0.9)
+    p.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", grid=False, location="outer", font_size=10)
+    p.add_text(f"{results[0].machine}: {name} on three section planes", position="upper_left", font_size=11,
+               color="black")
+    p.set_background("white")
+    bounds = np.array(p.bounds).reshape(3, 2)
+    focus = bounds.mean(axis=1)
+    dist = 2.2 * float(np.linalg.norm(bounds[:, 1] - bounds[:, 0]))
+    direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])  # front right, from above
+    p.camera_position = [tuple(focus + dist * direction), tuple(focus), (0.0, 0.0, 1.0)]
+    p.camera.zoom(1.5)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    p.screenshot(str(path))
+    p.close()
+    return path

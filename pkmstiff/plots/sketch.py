@@ -1,0 +1,73 @@
+"""Geometric sketch of a machine at a pose: guides / fixed drive joints, struts, drive and platform joints, hull."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..kinematics import inverse_kinematics
+from ..model import Machine
+from . import offscreen
+
+MM = 1e3
+
+
+def machine_sketch(machine: Machine, pose, scale: float = MM):
+    """pyvista MultiBlock (coordinates in mm by default) of the machine at ``pose`` (x, y, z [m], a, b, c [rad]).
+
+    Blocks: ``guides`` (glide: the usable guide segments), ``struts`` (tubes), ``drive_joints``,
+    ``platform_joints`` (spheres), ``platform`` (the hull, or the polygon of platform joints when no hull is given).
+    Unreachable chains are left out.
+    """
+    pv = offscreen()
+    ik = inverse_kinematics(machine, np.asarray(pose, float)[None])
+    ch = machine.chains
+    blocks = pv.MultiBlock()
+    if ch.kind == "glide":
+        start = ch.guide_start
+        end = ch.guide_start + ch.guide_length[:, None] * ch.guide_direction
+        blocks["guides"] = _lines(np.stack([start, end], 1) * scale, pv)
+    q, p = ik.q[0] * scale, ik.p[0] * scale
+    ok = np.isfinite(q).all(axis=1)
+    radius = float(np.mean(ch.strut_radius)) * scale
+    struts = pv.MultiBlock()
+    for i in np.nonzero(ok)[0]:
+        struts[f"strut {i + 1}"] = pv.Line(q[i], p[i]).tube(radius=radius)
+    blocks["struts"] = struts.combine() if len(struts) else pv.PolyData()
+    blocks["drive_joints"] = _spheres(q[ok], 1.6 * radius, pv)
+    blocks["platform_joints"] = _spheres(p[ok], 1.6 * radius, pv)
+    R, w = ik.R[0], ik.poses[0, :3]
+    if not machine.hull.empty:
+        verts = (machine.hull.vertices @ R.T + w) * scale
+        faces = np.hstack([np.full((len(machine.hull.triangles), 1), 3), machine.hull.triangles]).ravel()
+        blocks["platform"] = pv.PolyData(verts, faces)
+    else:
+        pts = (ch.platform_joint @ R.T + w) * scale
+        blocks["platform"] = pv.PolyData(pts).delaunay_3d().extract_surface() if len(pts) >= 4 else pv.PolyData(pts)
+    return blocks
+
+
+def add_sketch(plotter, machine: Machine, pose, opacity: float = 1.0) -> None:
+    """Draw the sketch into a plotter with consistent colours."""
+    sk = machine_sketch(machine, pose)
+    colours = {"guides": "dimgray", "struts": "steelblue", "drive_joints": "black", "platform_joints": "black",
+               "platform": "lightgray"}
+    for name in sk.keys():
+        mesh = sk[name]
+        if mesh is None or mesh.n_points == 0:
+            continue
+        kw = {"line_width": 4} if name == "guides" else {}
+        plotter.add_mesh(mesh, color=colours.get(name, "gray"), opacity=opacity, **kw)
+
+
+def _lines(segments: np.ndarray, pv):
+    pts = segments.reshape(-1, 3)
+    n = len(segments)
+    lines = np.hstack([np.full((n, 1), 2), np.arange(2 * n).reshape(n, 2)]).ravel()
+    return pv.PolyData(pts, lines=lines)
+
+
+def _spheres(points: np.ndarray, radius: float, pv):
+    if len(points) == 0:
+        return pv.PolyData()
+    return pv.PolyData(points).glyph(geom=pv.Sphere(radius=radius, theta_resolution=12, phi_resolution=12),
+                                     scale=False, orient=False)

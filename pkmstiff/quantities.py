@@ -1,0 +1,161 @@
+"""Registry of named quantities that can be evaluated on arrays of poses (section maps, requirements, reports).
+
+A quantity has a name (``"kx"``, ``"f1"``, ``"tilt_drive_1"``, ``"U"``), a display unit (the field's habit:
+N/µm, Hz, deg, m/min) and a function computing SI values for a chunk of admissible poses from an
+:class:`EvalContext`. Families with an index (``f<n>``, ``tilt_drive_<i>``) are resolved by pattern.
+Expensive intermediate results (structure model, modal analysis) are shared through ``EvalContext.cached``.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from .model import Machine
+from .poses import PoseEvaluation
+from .units import to_unit
+
+
+@dataclass
+class EvalContext:
+    """What a quantity function sees: the machine, a chunk of poses and their kinematic evaluation."""
+
+    machine: Machine
+    ev: PoseEvaluation
+    tool_length: float | None = None  # m; None = the machine file's tool length
+    options: dict[str, Any] = field(default_factory=dict)
+    _cache: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def poses(self) -> np.ndarray:
+        return self.ev.poses
+
+    def cached(self, key: str, build: Callable[[], Any]) -> Any:
+        if key not in self._cache:
+            self._cache[key] = build()
+        return self._cache[key]
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A named per-pose quantity; ``compute`` returns SI values of shape (N,)."""
+
+    name: str
+    label: str
+    unit: str  # display unit
+    si_unit: str
+    compute: Callable[[EvalContext], np.ndarray]
+    group: str = "kinematics"
+    needs_structure: bool = False
+
+    def to_display(self, values_si: np.ndarray) -> np.ndarray:
+        return np.asarray(to_unit(values_si, self.unit)) if self.unit != self.si_unit else np.asarray(values_si)
+
+
+_REGISTRY: dict[str, Quantity] = {}
+_FAMILIES: list[tuple[re.Pattern, Callable[[re.Match], Quantity], str]] = []
+
+
+def register_quantity(q: Quantity) -> Quantity:
+    """Add (or replace) a quantity under its name."""
+    _REGISTRY[q.name] = q
+    return q
+
+
+def register_family(pattern: str, factory: Callable[[re.Match], Quantity], example: str) -> None:
+    """Register a family of indexed quantities, e.g. ``r"f(\\d+)"`` -> the n-th eigenfrequency."""
+    _FAMILIES.append((re.compile(pattern + r"\Z"), factory, example))
+
+
+class UnknownQuantityError(ValueError):
+    pass
+
+
+def get_quantity(name: str) -> Quantity:
+    """Look a quantity up by name (exact names first, then indexed families)."""
+    if name in _REGISTRY:
+        return _REGISTRY[name]
+    for pat, factory, _ in _FAMILIES:
+        m = pat.match(name)
+        if m:
+            return factory(m)
+    raise UnknownQuantityError(
+        f"unknown quantity {name!r}; known: {', '.join(sorted(_REGISTRY))} and the families "
+        f"{', '.join(ex for _, _, ex in _FAMILIES)}")
+
+
+def available_quantities() -> dict[str, str]:
+    """Name (or family example) -> 'label [unit]'."""
+    out = {n: f"{q.label} [{q.unit}]" for n, q in sorted(_REGISTRY.items())}
+    for _, factory, example in _FAMILIES:
+        q = get_quantity(example)
+        out[example] = f"{q.label} [{q.unit}]"
+    return out
+
+
+def evaluate_quantities(ctx: EvalContext, names: list[str]) -> dict[str, np.ndarray]:
+    """SI values (N,) of several quantities for one chunk (sharing cached intermediates)."""
+    return {n: np.asarray(get_quantity(n).compute(ctx), dtype=float) for n in names}
+
+
+# ----------------------------------------------------------------------------------------------- kinematic ones
+
+
+def _chain_column(arr: np.ndarray, i: int, name: str) -> np.ndarray:
+    if i >= arr.shape[1]:
+        raise UnknownQuantityError(f"{name}: the machine has only {arr.shape[1]} chains")
+    return arr[:, i]
+
+
+register_quantity(Quantity("kappa", "condition number of J^-1", "1", "1", lambda c: c.ev.kappa))
+
+
+def _transmission(c: EvalContext) -> np.ndarray:
+    from .kinematics import transmission_quality
+
+    return transmission_quality(c.machine, c.ev.jinv)
+
+
+register_quantity(Quantity("U", "transmission quality (eq. 4.75)", "1", "1", _transmission))
+
+
+def _angle_family(m: re.Match) -> Quantity:
+    qty, side = m.group(1), m.group(2)
+    i = int(m.group(3)) - 1
+    key = f"{side}_{qty}"
+    return Quantity(m.group(0), f"{qty.replace('_', ' ')} of {side} joint {i + 1}", "deg", "rad",
+                    lambda c: _chain_column(c.ev.angles[key], i, m.group(0)))
+
+
+register_family(r"(swivel|tilt|tilt_axis|tilt_normal)_(drive|platform)_(\d+)", _angle_family, "tilt_drive_1")
+
+
+def _drive_family(m: re.Match) -> Quantity:
+    i = int(m.group(1)) - 1
+    return Quantity(m.group(0), f"drive coordinate {i + 1}", "mm", "m",
+                    lambda c: _chain_column(c.ev.drive, i, m.group(0)))
+
+
+register_family(r"drive_(\d+)", _drive_family, "drive_1")
+
+
+def _load_family(m: re.Match) -> Quantity:
+    i = int(m.group(1)) - 1
+
+    def f(c: EvalContext) -> np.ndarray:
+        if c.ev.drive_loads is None:
+            return np.full(len(c.ev.poses), np.nan)
+        return _chain_column(c.ev.drive_loads, i, m.group(0))
+
+    return Quantity(m.group(0), f"static drive load {i + 1} (eq. 4.90)", "N", "N", f)
+
+
+register_family(r"drive_load_(\d+)", _load_family, "drive_load_1")
+
+
+for _k, _axis in enumerate("xyz"):
+    register_quantity(Quantity(_axis, f"position {_axis} of O'", "mm", "m",
+                               (lambda k: lambda c: c.poses[:, k])(_k), group="pose"))

@@ -1,0 +1,155 @@
+"""Workspace sections: raster orientation, masking, statistics, plots, exports, parallel evaluation."""
+
+import json
+
+import meshio
+import numpy as np
+import pytest
+
+from pkmstiff import load_machine
+from pkmstiff.admissibility import Reason
+from pkmstiff.export import to_csv, to_npz, to_vtk
+from pkmstiff.quantities import EvalContext, Quantity, register_quantity
+from pkmstiff.sections import SectionError, axis_plane, evaluate_section, general_plane
+
+
+@pytest.fixture(scope="module")
+def hexaglide():
+    return load_machine("hexaglide")
+
+
+@pytest.fixture(scope="module")
+def yz(hexaglide):
+    plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.2, -0.5), 0.05)
+    return evaluate_section(hexaglide, plane, ["y", "z", "kappa", "tilt_drive_1"])
+
+
+# analytic test field f = 2 y - 3 z + 0.5 (m), registered like any quantity
+register_quantity(Quantity("_test_field", "analytic test field", "m", "m",
+                           lambda c: 2 * c.poses[:, 1] - 3 * c.poses[:, 2] + 0.5))
+
+
+def test_raster_orientation(hexaglide):
+    plane = axis_plane("yz", 0.1, (-0.2, 0.4), (-1.1, -0.9), 0.1)
+    assert plane.shape == (3, 7)  # rows along v = z, columns along u = y
+    res = evaluate_section(hexaglide, plane, ["_test_field", "x", "y", "z"])
+    vv, uu = np.meshgrid(plane.v_values, plane.u_values, indexing="ij")
+    expect = 2 * uu - 3 * vv + 0.5
+    ok = res.ok
+    assert ok.sum() >= 5
+    np.testing.assert_allclose(res.values["_test_field"][ok], expect[ok], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(res.values["x"][ok], 0.1, atol=1e-15)  # the plane sits at x = 0.1 m
+    np.testing.assert_allclose(res.values["y"][ok], uu[ok], atol=1e-15)
+    assert np.all(np.isnan(res.values["_test_field"][~ok]))
+    # display unit of positions is mm
+    np.testing.assert_allclose(res.display("z")[ok], vv[ok] * 1e3, rtol=1e-12)
+
+
+def test_xz_and_general_planes(hexaglide):
+    xz = axis_plane("xz", 0.2, (-0.3, 0.3), (-1.1, -0.8), 0.1)
+    np.testing.assert_allclose(xz.points()[:, 1], 0.2)
+    g = general_plane((0, 0.2, -1.0), (1, 1, 0), (0, 0, 1), (-0.1, 0.1), (-0.1, 0.1), 0.1)
+    pts = g.points()
+    # every raster point lies in the plane through the origin spanned by the two axes
+    np.testing.assert_allclose((pts - [0, 0.2, -1.0]) @ np.cross(g.u_axis, g.v_axis), 0.0, atol=1e-15)
+    with pytest.raises(SectionError, match="'yz', 'xz' or 'xy'"):
+        axis_plane("ab", 0.0, (0, 1), (0, 1), 0.1)
+    with pytest.raises(SectionError, match="lo < hi"):
+        axis_plane("yz", 0.0, (1, 0), (0, 1), 0.1)
+
+
+def test_masking_and_reasons(yz):
+    assert yz.ok.any() and (~yz.ok).any()
+    assert np.all((yz.reasons == 0) == yz.ok)
+    for name in yz.values:
+        assert np.all(np.isnan(yz.values[name][~yz.ok]))
+        assert np.all(np.isfinite(yz.values[name][yz.ok]))
+    counts = yz.reason_counts()
+    assert counts["UNREACHABLE"] > 0  # the lower part of the raster is out of reach of the struts
+    # a point far below is unreachable and carries only that reason
+    iv, iu = 0, int(np.argmin(np.abs(yz.plane.u_values - 0.0)))
+    assert yz.reasons[iv, iu] == int(Reason.UNREACHABLE) or yz.plane.v_values[iv] > -1.2
+
+
+def test_statistics_on_a_synthetic_field(hexaglide):
+    plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.2, -0.5), 0.05)
+    res = evaluate_section(hexaglide, plane, ["_test_field"])
+    vv, uu = np.meshgrid(plane.v_values, plane.u_values, indexing="ij")
+    f = (2 * uu - 3 * vv + 0.5)[res.ok]
+    st = res.statistics()["_test_field"]
+    assert st["min"] == pytest.approx(f.min(), abs=1e-12)
+    assert st["max"] == pytest.approx(f.max(), abs=1e-12)
+    assert st["mean"] == pytest.approx(f.mean(), abs=1e-12)
+    assert st["count"] == res.ok.sum()
+    # area: one 50 mm x 50 mm cell per admissible point
+    assert st["admissible_area_m2"] == pytest.approx(res.ok.sum() * 0.05 * 0.05, rel=1e-12)
+    assert st["unit"] == "m"
+
+
+def test_parallel_equals_serial(hexaglide):
+    plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.2, -0.5), 0.02)
+    a = evaluate_section(hexaglide, plane, ["kappa", "tilt_platform_3"], chunk_size=500)
+    b = evaluate_section(hexaglide, plane, ["kappa", "tilt_platform_3"], chunk_size=500, n_jobs=2)
+    np.testing.assert_array_equal(a.ok, b.ok)
+    np.testing.assert_array_equal(a.reasons, b.reasons)
+    for n in a.values:
+        np.testing.assert_array_equal(a.values[n], b.values[n])  # bitwise: chunks are independent
+
+
+def test_vtk_round_trip(tmp_path, yz):
+    path = to_vtk(yz, tmp_path / "section.vtu")
+    assert json.loads(path.with_suffix(".json").read_text())["machine"] == "hexaglide"
+    mesh = meshio.read(path)
+    nv, nu = yz.plane.shape
+    np.testing.assert_allclose(mesh.points, yz.plane.points() * 1e3, rtol=0, atol=1e-9)
+    got = mesh.point_data["tilt_drive_1 [deg]"].ravel()
+    np.testing.assert_allclose(got, yz.display("tilt_drive_1").ravel(), rtol=1e-12, equal_nan=True)
+    np.testing.assert_array_equal(mesh.point_data["reason_code"].ravel(), yz.reasons.ravel())
+
+
+def test_csv_and_npz(tmp_path, yz):
+    p = to_csv(yz, tmp_path / "s.csv")
+    lines = p.read_text().splitlines()
+    meta = {line[2:].split(":", 1)[0]: json.loads(line.split(":", 1)[1]) for line in lines if line.startswith("# ")}
+    assert meta["machine"] == "hexaglide" and meta["units"]["kappa"] == "1"
+    header = [line for line in lines if not line.startswith("#")][0].split(",")
+    assert "tilt_drive_1 [deg]" in header and "y [mm]" in header
+    assert len([line for line in lines if not line.startswith("#")]) == 1 + yz.ok.size
+    z = np.load(to_npz(yz, tmp_path / "s.npz"))
+    np.testing.assert_array_equal(z["tilt_drive_1 [deg]"], yz.display("tilt_drive_1"))
+    assert json.loads(str(z["metadata"]))["orientation_deg"] == [0.0, 0.0, 0.0]
+
+
+def test_png_written_and_not_blank(tmp_path, yz, hexaglide):
+    from PIL import Image
+
+    from pkmstiff.plots.section_maps import plot_section, plot_three_planes
+    from pkmstiff.sections import evaluate_three_planes, three_planes
+
+    path = plot_section(yz, "tilt_drive_1", tmp_path / "map.png", window_size=(500, 380))
+    img = np.asarray(Image.open(path).convert("RGB"), float)
+    assert img.shape[0] == 380 and img.std() > 10  # not a uniform image
+    colourful = (img.max(axis=2) - img.min(axis=2)) > 60  # pixels of the colour map (not grey/white/black)
+    assert colourful.mean() > 0.05
+    rs = evaluate_three_planes(hexaglide, three_planes((0, 0.1, -0.9), (0.5, 0.6, 0.3), 0.1), ["kappa"])
+    p3 = plot_three_planes(rs, "kappa", hexaglide, [0, 0, -1.0, 0, 0, 0], tmp_path / "three.png",
+                           window_size=(500, 400))
+    assert np.asarray(Image.open(p3).convert("L"), float).std() > 10
+
+
+def test_unknown_quantity(hexaglide):
+    from pkmstiff.quantities import UnknownQuantityError
+
+    plane = axis_plane("yz", 0.0, (0, 0.1), (-1.0, -0.9), 0.1)
+    with pytest.raises(UnknownQuantityError, match="unknown quantity 'kq'.*tilt_drive_1"):
+        evaluate_section(hexaglide, plane, ["kq"])
+
+
+def test_context_cache_shares_work(hexaglide):
+    from pkmstiff.poses import evaluate_poses
+
+    calls = []
+    ctx = EvalContext(hexaglide, evaluate_poses(hexaglide, [[0, 0, -1.0, 0, 0, 0]]))
+    for _ in range(3):
+        ctx.cached("k", lambda: calls.append(1) or 42)
+    assert calls == [1]
