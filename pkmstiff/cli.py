@@ -58,13 +58,8 @@ def _cmd_components(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    try:
-        demo = importlib.import_module("pkmstiff.demo")
-    except ModuleNotFoundError:
-        print("pkmstiff demo: not yet available in this version (the section maps arrive with the sections issue).")
-        m = load_machine("hexaglide")
-        print(f"Bundled machine '{m.name}' loaded: {m.title}, {m.n_chains} chains.")
-        return 0
+    from . import demo
+
     return int(demo.run(args))
 
 
@@ -85,6 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_components)
     p = sub.add_parser("demo", help="run the demo on the bundled Hexaglide")
     p.add_argument("--out", default="out/demo", help="output directory (default out/demo)")
+    p.add_argument("--step", type=float, default=10.0, help="raster step of the YZ maps [mm] (default 10)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(func=_cmd_demo)
     for modname in _COMMAND_MODULES:
