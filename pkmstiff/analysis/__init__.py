@@ -1,0 +1,23 @@
+"""Analyses of the PKM structure model (spec models.md §5, §6): static stiffness and weak points at the TCP, modal
+analysis, frequency response, kinetostatics, and a chunked batch evaluation for pose maps.
+
+Build the model with :func:`pkmstiff.structure.build_structure`, then call the functions below; every result has
+the leading pose axis N and is NaN where a pose could not be modelled (``structure.failing(i)`` says why).
+"""
+
+from .batch import StructureBatch, evaluate_structure
+from .frf import FRFResult, tcp_frf
+from .kinetostatics import (DEFAULT_ACCELERATION_DIRECTIONS, DEFAULT_VELOCITY_DIRECTIONS, DriveData, Kinetostatics,
+                            KinetostaticsOptions, drive_data, kinetostatics, max_acceleration, max_velocity,
+                            twist_directions)
+from .modal import ModalAnalysis, modal_analysis, natural_frequencies
+from .static import (Deformation, WeakPoints, axis_stiffness, directional_stiffness, static_deformation,
+                     tcp_compliance, tcp_stiffness_matrix, weak_points)
+
+__all__ = [
+    "StructureBatch", "evaluate_structure", "FRFResult", "tcp_frf", "DEFAULT_ACCELERATION_DIRECTIONS",
+    "DEFAULT_VELOCITY_DIRECTIONS", "DriveData", "Kinetostatics", "KinetostaticsOptions", "drive_data",
+    "kinetostatics", "max_acceleration", "max_velocity", "twist_directions", "ModalAnalysis", "modal_analysis",
+    "natural_frequencies", "Deformation", "WeakPoints", "axis_stiffness", "directional_stiffness",
+    "static_deformation", "tcp_compliance", "tcp_stiffness_matrix", "weak_points",
+]
