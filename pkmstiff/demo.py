@@ -34,9 +34,13 @@ def run(args: argparse.Namespace) -> int:
     from .plots.section_maps import plot_three_planes
 
     fig3 = plot_three_planes(three, "kx", machine, REFERENCE_POSE, out / "hexaglide_three_planes_kx.png")
+    from .plots.section_maps import plot_reasons
+
+    reasons_png = plot_reasons(res, out / "hexaglide_yz_admissibility.png")
     seconds = time.perf_counter() - t0
     info = summary(res, seconds)
-    _write_summary(out, machine.title, info, [f for f in files if f.suffix == ".png"] + [fig3], machine.assumptions)
+    _write_summary(out, machine.title, info, [f for f in files if f.suffix == ".png"] + [reasons_png, fig3],
+                   machine.assumptions)
     print(f"pkmstiff demo: {machine.title}, {plane.name}, {res.ok.sum()} of {res.ok.size} points admissible, "
           f"{seconds:.1f} s")
     for n, st in info["statistics"].items():

@@ -159,3 +159,106 @@ register_family(r"drive_load_(\d+)", _load_family, "drive_load_1")
 for _k, _axis in enumerate("xyz"):
     register_quantity(Quantity(_axis, f"position {_axis} of O'", "mm", "m",
                                (lambda k: lambda c: c.poses[:, k])(_k), group="pose"))
+
+
+# ------------------------------------------------------------------------------------ structure-model quantities
+# They share one structure evaluation per chunk (TCP compliance + lowest modes, pkmstiff.analysis), cached in the
+# context; the tool length of the context applies (None: the machine file's).
+
+
+def _structure(c: EvalContext, n_modes: int = 6):
+    from .analysis import evaluate_structure
+
+    n_modes = max(n_modes, int(c.options.get("n_modes", 6)))
+    key = f"structure:{n_modes}"
+    if key not in c._cache:
+        # a batch with more modes serves requests for fewer
+        have = [k for k in c._cache if k.startswith("structure:") and int(k.split(":")[1]) >= n_modes]
+        c._cache[key] = c._cache[have[0]] if have else evaluate_structure(
+            c.machine, c.poses, tool_length=c.tool_length, n_modes=n_modes,
+            neglect_spindle=bool(c.options.get("neglect_spindle", False)))
+    return c._cache[key]
+
+
+_STIFFNESS = {"kx": (0, "x"), "ky": (1, "y"), "kz": (2, "z")}
+for _name, (_i, _ax) in _STIFFNESS.items():
+    register_quantity(Quantity(_name, f"TCP stiffness in {_ax} (force / displacement in {_ax})", "N/um", "N/m",
+                               (lambda i: lambda c: _structure(c).stiffness[:, i])(_i), "stiffness", True))
+for _i, _ax in enumerate("xyz"):
+    register_quantity(Quantity(f"kr{_ax}", f"rotational TCP stiffness about {_ax}", "N*m/urad", "N*m/rad",
+                               (lambda i: lambda c: _structure(c).stiffness[:, 3 + i])(_i), "stiffness", True))
+
+
+def _kmin(c: EvalContext) -> np.ndarray:
+    comp = _structure(c).compliance[:, :3, :3]
+    out = np.full(len(comp), np.nan)
+    good = np.isfinite(comp).all(axis=(1, 2))
+    if good.any():
+        out[good] = 1.0 / np.linalg.eigvalsh(comp[good])[:, -1]  # weakest direction: largest compliance
+    return out
+
+
+register_quantity(Quantity("kmin", "minimum translational TCP stiffness (weakest direction)", "N/um", "N/m", _kmin,
+                           "stiffness", True))
+
+
+def _freq_family(m: re.Match) -> Quantity:
+    n = int(m.group(1))
+    if n < 1:
+        raise UnknownQuantityError(f"eigenfrequencies are numbered from 1, found {m.group(0)!r}")
+    return Quantity(m.group(0), f"eigenfrequency {n}", "Hz", "Hz",
+                    lambda c: _structure(c, n).frequencies_hz[:, n - 1], "modal", True)
+
+
+register_family(r"f(\d+)", _freq_family, "f1")
+
+
+def _kinetostatics(c: EvalContext):
+    from .analysis.kinetostatics import kinetostatics
+
+    return c.cached("kinetostatics", lambda: kinetostatics(c.machine, c.poses))
+
+
+def _vmax_family(m: re.Match) -> Quantity:
+    ax = m.group(1)
+    return Quantity(m.group(0), f"maximum TCP velocity along {ax} (eq. 4.79)", "m/min", "m/s",
+                    lambda c: _kinetostatics(c).v_max[:, "xyz".index(ax)], "kinetostatics", True)
+
+
+register_family(r"vmax_([xyz])", _vmax_family, "vmax_y")
+
+
+def _amax_family(m: re.Match) -> Quantity:
+    label = m.group(1)  # "+x", "-z", ...
+    key = label.lstrip("+")
+
+    def f(c: EvalContext) -> np.ndarray:
+        k = _kinetostatics(c)
+        return k.a_max[:, k.acceleration_labels.index(key)]
+
+    return Quantity(m.group(0), f"maximum TCP acceleration towards {label} (eq. 4.87-4.93)", "m/s^2", "m/s^2", f,
+                    "kinetostatics", True)
+
+
+register_family(r"amax_([+-][xyz])", _amax_family, "amax_+z")
+
+
+def _share_family(m: re.Match) -> Quantity:
+    comp, direction = m.group(1), m.group(2)
+
+    def f(c: EvalContext) -> np.ndarray:
+        from .analysis.static import weak_points
+        from .structure import build_structure
+
+        wp = c.cached(f"weak:{direction}", lambda: weak_points(build_structure(c.machine, c.poses), direction,
+                                                               tool_length=c.tool_length))
+        if comp not in wp.component_labels:
+            return np.zeros(len(c.poses))  # component absent (rigid): no share
+        return wp.component_shares[:, wp.component_labels.index(comp)]
+
+    return Quantity(m.group(0), f"share of the {comp.replace('_', ' ')} in the TCP compliance along {direction}",
+                    "%", "1", f, "stiffness", True)
+
+
+register_family(r"share_(drive|guide|drive_suspension|drive_joint|strut|platform_joint|platform_spindle)_([xyz])",
+                _share_family, "share_drive_joint_x")

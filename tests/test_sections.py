@@ -153,3 +153,37 @@ def test_context_cache_shares_work(hexaglide):
     for _ in range(3):
         ctx.cached("k", lambda: calls.append(1) or 42)
     assert calls == [1]
+
+
+def test_structure_quantities_match_the_point_analysis(hexaglide):
+    from pkmstiff.analysis import evaluate_structure
+    from pkmstiff.quantities import evaluate_quantities
+    from pkmstiff.poses import evaluate_poses
+
+    poses = np.array([[0, 0, -1.0, 0, 0, 0], [0, 0.3, -0.95, 0, 0, 0]])
+    ctx = EvalContext(hexaglide, evaluate_poses(hexaglide, poses), tool_length=0.15)
+    q = evaluate_quantities(ctx, ["kx", "ky", "kz", "krz", "f1", "f7", "kmin"] +
+                            [f"share_{c}_x" for c in ("drive", "guide", "drive_joint", "strut", "platform_joint",
+                                                      "platform_spindle")])
+    ref = evaluate_structure(hexaglide, poses, tool_length=0.15, n_modes=7)
+    np.testing.assert_allclose(q["kx"], ref.stiffness[:, 0], rtol=1e-12)
+    np.testing.assert_allclose(q["krz"], ref.stiffness[:, 5], rtol=1e-12)
+    np.testing.assert_allclose(q["f7"], ref.frequencies_hz[:, 6], rtol=1e-12)
+    np.testing.assert_allclose(q["f1"], ref.frequencies_hz[:, 0], rtol=1e-12)
+    # the weakest translational direction is never stiffer than an axis direction
+    assert np.all(q["kmin"] <= np.minimum(np.minimum(q["kx"], q["ky"]), q["kz"]) * (1 + 1e-12))
+    # component shares of the x-compliance sum to one (energy shares, spec §5.1 weak points)
+    total = sum(v for k, v in q.items() if k.startswith("share_"))
+    np.testing.assert_allclose(total, 1.0, rtol=1e-9)
+
+
+def test_section_of_structure_quantities(hexaglide):
+    plane = axis_plane("yz", 0.0, (-0.1, 0.1), (-1.05, -0.95), 0.05)
+    res = evaluate_section(hexaglide, plane, ["kx", "f1"], tool_length=0.0)
+    assert res.ok[1, 2] and res.ok.sum() >= 10
+    centre = res.values["kx"][1, 2]  # v = -1.0 m is row 1, u = 0 is column 2
+    from pkmstiff.analysis import evaluate_structure
+
+    ref = evaluate_structure(hexaglide, [[0, 0, -1.0, 0, 0, 0]], tool_length=0.0)
+    assert centre == pytest.approx(ref.stiffness[0, 0], rel=1e-12)
+    assert res.units["kx"] == "N/um" and res.display("kx")[1, 2] == pytest.approx(centre * 1e-6)

@@ -37,7 +37,7 @@ def _title(res: SectionResult) -> str:
 
 
 def quantity_title(res: SectionResult, name: str) -> str:
-    return f"{res.labels[name]}\n{name} [{res.units[name]}]"
+    return f"{name} [{res.units[name]}]"
 
 
 def plot_section(res: SectionResult, name: str, path: str | Path, window_size=(1000, 760), cmap: str = "viridis",
@@ -69,7 +69,8 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size=(1
     u, v = res.plane.u_name, res.plane.v_name
     p.show_bounds(xtitle=f"{u} [mm]", ytitle=f"{v} [mm]", ztitle="", show_zaxis=False, grid=False,
                   location="outer", ticks="outside", font_size=12, n_xlabels=5, n_ylabels=5, use_2d=True)
-    p.add_text(_title(res), position="upper_left", font_size=11, color="black")
+    p.add_text(f"{_title(res)}\n{res.labels[name]} [{res.units[name]}]", position="upper_left", font_size=11,
+               color="black")
     p.set_background("white")
     p.view_xy()
     p.enable_parallel_projection()
@@ -106,6 +107,43 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
     direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])  # front right, from above
     p.camera_position = [tuple(focus + dist * direction), tuple(focus), (0.0, 0.0, 1.0)]
     p.camera.zoom(1.5)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    p.screenshot(str(path))
+    p.close()
+    return path
+
+
+def plot_reasons(res: SectionResult, path: str | Path, window_size=(1000, 760)) -> Path:
+    """Write a PNG showing, per raster point, the first failing admissibility check (categorical colours)."""
+    from ..admissibility import Reason
+
+    pv = offscreen()
+    grid = _plane_grid(res, in_3d=False, pv=pv)
+    reasons = list(Reason)
+    code = np.zeros(res.reasons.shape)  # 0 = admissible, k = first failing reason (bit order)
+    for k, r in reversed(list(enumerate(reasons, start=1))):
+        code[(res.reasons & int(r)) > 0] = k
+    present = [0] + sorted({int(c) for c in np.unique(code) if c > 0})
+    names = ["admissible"] + [reasons[k - 1].name.lower().replace("_", " ") for k in present[1:]]
+    index = np.searchsorted(present, code)  # compact categories 0..len(present)-1
+    grid.point_data["reason"] = index.ravel().astype(float)
+    colours = ["#2ca02c", "#d62728", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
+               "#1f77b4", "#000000"]
+    p = pv.Plotter(off_screen=True, window_size=window_size)
+    p.add_mesh(grid, scalars="reason", cmap=colours[:len(present)], clim=(-0.5, len(present) - 0.5),
+               show_scalar_bar=False, interpolate_before_map=False)
+    p.add_legend([[n, colours[i]] for i, n in enumerate(names)], bcolor="white", face="rectangle", size=(0.28, 0.3),
+                 loc="upper right")
+    u, v = res.plane.u_name, res.plane.v_name
+    p.show_bounds(xtitle=f"{u} [mm]", ytitle=f"{v} [mm]", ztitle="", show_zaxis=False, grid=False,
+                  location="outer", ticks="outside", font_size=12, n_xlabels=5, n_ylabels=5, use_2d=True)
+    p.add_text(f"{_title(res)}\nadmissibility: first failing check per point", position="upper_left",
+               font_size=11, color="black")
+    p.set_background("white")
+    p.view_xy()
+    p.enable_parallel_projection()
+    p.camera.zoom(0.92)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     p.screenshot(str(path))
