@@ -194,11 +194,34 @@ def _cmd_point(args: argparse.Namespace) -> int:
         from .cli import CliError
 
         raise CliError(str(exc)) from None
+    figures = _mode_figures(args) if args.figures else []
+    if figures:
+        rep["figures"] = [str(f) for f in figures]
     if args.json:
         print(json.dumps(rep, indent=2))
     else:
         _print_report(rep)
+        for f in figures:
+            print(f"wrote {f}")
     return 0
+
+
+def _mode_figures(args: argparse.Namespace) -> list:
+    """Mode-shape PNGs of the lowest ``--modes`` modes (and a GIF of mode 1 with ``--gif``) into ``--figures``."""
+    from pathlib import Path
+
+    from .cli_pose import parse_pose
+    from .machine_file import load_machine
+    from .plots.modes import animate_mode_shape, plot_mode_shape
+
+    machine = load_machine(args.machine)
+    pose = parse_pose(args.pose)
+    out = Path(args.figures)
+    stem = machine.name.replace(":", "_")
+    files = [plot_mode_shape(machine, pose, out / f"{stem}_mode{k}.png", mode=k) for k in range(1, args.modes + 1)]
+    if args.gif:
+        files.append(animate_mode_shape(machine, pose, out / f"{stem}_mode1.gif", mode=1))
+    return files
 
 
 def add_commands(sub: Any) -> None:
@@ -216,4 +239,7 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")
     p.add_argument("--neglect-spindle", action="store_true", help="load the platform at the TCP (K_U rigid)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.add_argument("--figures", metavar="DIR", default=None,
+                   help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")
+    p.add_argument("--gif", action="store_true", help="with --figures: also an animated GIF of mode 1")
     p.set_defaults(func=_cmd_point)

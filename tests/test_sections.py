@@ -187,3 +187,27 @@ def test_section_of_structure_quantities(hexaglide):
     ref = evaluate_structure(hexaglide, [[0, 0, -1.0, 0, 0, 0]], tool_length=0.0)
     assert centre == pytest.approx(ref.stiffness[0, 0], rel=1e-12)
     assert res.units["kx"] == "N/um" and res.display("kx")[1, 2] == pytest.approx(centre * 1e-6)
+
+
+def test_mode_shape_figure_and_gif(tmp_path, hexaglide):
+    from PIL import Image
+
+    from pkmstiff.analysis.modal import modal_analysis
+    from pkmstiff.plots.modes import animate_mode_shape, mode_shape, plot_mode_shape
+    from pkmstiff.structure import build_structure
+
+    pose = [0.0, 0.0, -1.0, 0.0, 0.0, 0.0]
+    ms = mode_shape(hexaglide, pose, 2)
+    ref = modal_analysis(build_structure(hexaglide, [pose]), 6)
+    assert ms.frequency_hz == pytest.approx(ref.frequencies_hz[0, 1], rel=1e-12)
+    assert ms.description == ref.description(0, 1)
+    # the platform moves as a rigid body: the distances between its joints are preserved to first order
+    d0 = np.linalg.norm(ms.p[0] - ms.p[3])
+    eps = 1e-6
+    d1 = np.linalg.norm(ms.p[0] + eps * ms.dp[0] - ms.p[3] - eps * ms.dp[3])
+    assert abs(d1 - d0) < 1e-3 * eps * np.abs(ms.dp).max()
+    png = plot_mode_shape(hexaglide, pose, tmp_path / "mode.png", mode=1, window_size=(400, 320))
+    assert np.asarray(Image.open(png).convert("L"), float).std() > 10
+    gif = animate_mode_shape(hexaglide, pose, tmp_path / "mode.gif", mode=1, frames=4, window_size=(240, 200))
+    with Image.open(gif) as im:
+        assert im.n_frames == 4

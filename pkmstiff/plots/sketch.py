@@ -18,37 +18,42 @@ def machine_sketch(machine: Machine, pose, scale: float = MM):
     ``platform_joints`` (spheres), ``platform`` (the hull, or the polygon of platform joints when no hull is given).
     Unreachable chains are left out.
     """
-    pv = offscreen()
     ik = inverse_kinematics(machine, np.asarray(pose, float)[None])
+    R, w = ik.R[0], ik.poses[0, :3]
+    hull = machine.hull.vertices @ R.T + w if not machine.hull.empty else None
+    return sketch_from_points(machine, ik.q[0], ik.p[0], hull, scale)
+
+
+def sketch_from_points(machine: Machine, q: np.ndarray, p: np.ndarray, hull_points: np.ndarray | None,
+                       scale: float = MM):
+    """Sketch from drive-side joint points q (n, 3), platform-side joint points p (n, 3) and hull vertices (m)."""
+    pv = offscreen()
     ch = machine.chains
     blocks = pv.MultiBlock()
     if ch.kind == "glide":
         start = ch.guide_start
         end = ch.guide_start + ch.guide_length[:, None] * ch.guide_direction
         blocks["guides"] = _lines(np.stack([start, end], 1) * scale, pv)
-    q, p = ik.q[0] * scale, ik.p[0] * scale
-    ok = np.isfinite(q).all(axis=1)
+    q, p = q * scale, p * scale
+    ok = np.isfinite(q).all(axis=1) & np.isfinite(p).all(axis=1)
     radius = float(np.mean(ch.strut_radius)) * scale
     struts = pv.MultiBlock()
     for i in np.nonzero(ok)[0]:
         struts[f"strut {i + 1}"] = pv.Line(q[i], p[i]).tube(radius=radius)
-    blocks["struts"] = struts.combine() if len(struts) else pv.PolyData()
+    blocks["struts"] = struts.combine().extract_surface(algorithm="dataset_surface") if len(struts) else pv.PolyData()
     blocks["drive_joints"] = _spheres(q[ok], 1.6 * radius, pv)
     blocks["platform_joints"] = _spheres(p[ok], 1.6 * radius, pv)
-    R, w = ik.R[0], ik.poses[0, :3]
-    if not machine.hull.empty:
-        verts = (machine.hull.vertices @ R.T + w) * scale
+    if hull_points is not None:
         faces = np.hstack([np.full((len(machine.hull.triangles), 1), 3), machine.hull.triangles]).ravel()
-        blocks["platform"] = pv.PolyData(verts, faces)
-    else:
-        pts = (ch.platform_joint @ R.T + w) * scale
-        blocks["platform"] = pv.PolyData(pts).delaunay_3d().extract_surface() if len(pts) >= 4 else pv.PolyData(pts)
+        blocks["platform"] = pv.PolyData(hull_points * scale, faces)
+    elif ok.sum() >= 4:
+        blocks["platform"] = pv.PolyData(p[ok]).delaunay_3d().extract_surface()
     return blocks
 
 
-def add_sketch(plotter, machine: Machine, pose, opacity: float = 1.0) -> None:
-    """Draw the sketch into a plotter with consistent colours."""
-    sk = machine_sketch(machine, pose)
+def add_sketch(plotter, machine: Machine, pose, opacity: float = 1.0, sketch=None, colour: str | None = None) -> None:
+    """Draw the sketch (of ``pose``, or a given ``sketch``) into a plotter with consistent colours."""
+    sk = machine_sketch(machine, pose) if sketch is None else sketch
     colours = {"guides": "dimgray", "struts": "steelblue", "drive_joints": "black", "platform_joints": "black",
                "platform": "lightgray"}
     for name in sk.keys():
@@ -56,7 +61,7 @@ def add_sketch(plotter, machine: Machine, pose, opacity: float = 1.0) -> None:
         if mesh is None or mesh.n_points == 0:
             continue
         kw = {"line_width": 4} if name == "guides" else {}
-        plotter.add_mesh(mesh, color=colours.get(name, "gray"), opacity=opacity, **kw)
+        plotter.add_mesh(mesh, color=colour or colours.get(name, "gray"), opacity=opacity, **kw)
 
 
 def _lines(segments: np.ndarray, pv):
