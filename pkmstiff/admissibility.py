@@ -3,6 +3,11 @@
 Every check returns a per-pose boolean (True = admissible) and sets a bit of a reason code; the combined mask is
 admissible where no bit is set. Poses whose inverse kinematics has no solution carry only ``UNREACHABLE``: the
 other checks are not evaluated there (their inputs do not exist), so reason counts stay meaningful.
+
+The collision checks loop over poses in compiled code (:mod:`pkmstiff._kernels`): strut-strut evaluates every
+pair of every pose (the per-pair detail is reported); strut-platform rejects or accepts most struts with the
+exact Cyrus-Beck broad phase and runs the exact edge/face/piercing tests, with early exit, only on near misses.
+Both use the same compiled primitives as the array functions of :mod:`pkmstiff.collision`.
 """
 
 from __future__ import annotations
@@ -13,14 +18,9 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from .collision import (
-    point_segment_distance,
-    point_triangle_face_distance,
-    segment_distance,
-    segment_pierces_triangle,
-    unique_edges,
-)
-from .model import Machine
+from . import _kernels
+from .collision import unique_edges
+from .model import Hull, Machine
 
 
 class Reason(enum.IntFlag):
@@ -168,9 +168,16 @@ def check_joint_angles(
             CheckResult(~ina_all.any(axis=1), Reason.INA_LIMIT, ina_all, labels))
 
 
-def check_singularity(machine: Machine, kappa: np.ndarray) -> CheckResult:
-    """Singular if the condition number of J_C^-1 exceeds the threshold or is not finite (models.md §1.6)."""
-    bad = ~(kappa <= machine.limits.singularity_threshold)
+def check_singularity(machine: Machine, kappa: np.ndarray | None = None, *,
+                      singular: np.ndarray | None = None) -> CheckResult:
+    """Singular if the condition number of J_C^-1 exceeds the threshold or is not finite (models.md §1.6).
+
+    Give either ``kappa`` (N,) or the ready decision ``singular`` (N,) bool, e.g. from
+    :func:`pkmstiff.kinematics.singular_mask`, which needs κ only near the threshold.
+    """
+    if (kappa is None) == (singular is None):
+        raise ValueError("check_singularity: expected exactly one of kappa (N,) or singular (N,) bool")
+    bad = np.asarray(singular, bool) if kappa is None else ~(np.asarray(kappa) <= machine.limits.singularity_threshold)
     return CheckResult(~bad, Reason.SINGULAR)
 
 
@@ -178,10 +185,22 @@ def strut_pairs(n: int) -> list[tuple[int, int]]:
     return [(i, j) for i in range(n) for j in range(i + 1, n)]
 
 
+def _kernel_array(x: np.ndarray) -> np.ndarray:
+    """C-contiguous, writable float64 array (one compiled kernel signature for all callers)."""
+    return np.require(x, dtype=np.float64, requirements=("C", "W"))
+
+
+def _soa_points(x: np.ndarray) -> np.ndarray:
+    """Per-chain points (N, n, 3) -> component-first (3, n, N) as used by the kernels (no copy for IK output)."""
+    return _kernel_array(np.transpose(np.asarray(x, dtype=np.float64), (2, 1, 0)))
+
+
 def check_strut_collision(machine: Machine, p: np.ndarray, q: np.ndarray) -> CheckResult:
     """B.7: struts i, j collide if the distance of their axes is below r_i + r_j (all pairs).
 
     Pairs that share a joint point in the geometry (same platform point or same fixed drive point) are skipped.
+    The distance is the exact segment distance or Cobet's Table B.2 (``machine.limits.strut_collision_mode``),
+    evaluated for every pair of every pose in one compiled loop (:func:`pkmstiff._kernels.strut_collision`).
     """
     ch = machine.chains
     pairs = [(i, j) for i, j in strut_pairs(ch.n)
@@ -189,10 +208,15 @@ def check_strut_collision(machine: Machine, p: np.ndarray, q: np.ndarray) -> Che
              and not (ch.kind == "pod" and np.allclose(ch.drive_joint[i], ch.drive_joint[j]))]
     if not pairs:
         return CheckResult(np.ones(p.shape[0], bool), Reason.STRUT_COLLISION, skipped="no strut pairs")
-    ii = np.array([a for a, _ in pairs])
-    jj = np.array([b for _, b in pairs])
-    dist = segment_distance(p[:, ii], q[:, ii], p[:, jj], q[:, jj], mode=machine.limits.strut_collision_mode)
-    bad = dist < (ch.strut_radius[ii] + ch.strut_radius[jj])
+    mode = machine.limits.strut_collision_mode
+    if mode not in ("exact", "table_B2"):
+        raise ValueError(f"machine '{machine.name}': limits.strut_collision_mode: expected 'exact' or 'table_B2', "
+                         f"found {mode!r}")
+    ii = np.array([a for a, _ in pairs], dtype=np.int64)
+    jj = np.array([b for _, b in pairs], dtype=np.int64)
+    rsum = _kernel_array(ch.strut_radius[ii] + ch.strut_radius[jj])
+    bad = np.empty((p.shape[0], len(pairs)), bool)
+    _kernels.strut_collision(_soa_points(p), _soa_points(q), ii, jj, rsum, mode == "table_B2", bad)
     labels = [f"struts {a + 1}-{b + 1}" for a, b in pairs]
     return CheckResult(~bad.any(axis=1), Reason.STRUT_COLLISION, bad, labels)
 
@@ -205,36 +229,20 @@ class _HullCache:
     offsets: np.ndarray  # (F,) n . x <= offset inside the convex hull
 
 
-_HULL_CACHE: dict[int, _HullCache] = {}
+_HULL_CACHE: dict[int, tuple[Hull, _HullCache]] = {}
 
 
 def _hull_cache(machine: Machine) -> _HullCache:
-    key = id(machine.hull)
-    if key not in _HULL_CACHE:
+    h = machine.hull
+    hit = _HULL_CACHE.get(id(h))
+    if hit is None or hit[0] is not h:  # keep the hull alive with its entry: its id cannot be reused meanwhile
         from scipy.spatial import ConvexHull
 
-        h = machine.hull
         eq = np.unique(np.round(ConvexHull(h.vertices).equations, 12), axis=0)  # coplanar triangles share a plane
-        _HULL_CACHE[key] = _HullCache(h.vertices[h.triangles], h.vertices[unique_edges(h.triangles)],
-                                      eq[:, :3], -eq[:, 3])
-    return _HULL_CACHE[key]
-
-
-def _clip_to_expanded_hull(a: np.ndarray, b: np.ndarray, r: np.ndarray, hc: _HullCache) -> np.ndarray:
-    """True where segment [a, b] meets the convex hull with every face plane pushed out by r (Cyrus-Beck).
-
-    That region contains every point closer than r to the hull (and to any triangulated body inside its convex
-    hull), so False is an exact rejection for the collision test.
-    """
-    na = a @ hc.normals.T  # (..., F)
-    nd = (b - a) @ hc.normals.T
-    room = hc.offsets + r[..., None] - na  # n.(a + t d) <= h + r  <=>  t nd <= room
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = room / nd
-    outside_parallel = (np.abs(nd) < 1e-15) & (room < 0)
-    t_enter = np.where(nd < 0, t, -np.inf).max(axis=-1, initial=0.0)
-    t_exit = np.where(nd > 0, t, np.inf).min(axis=-1, initial=1.0)
-    return (t_enter <= t_exit) & ~outside_parallel.any(axis=-1)
+        hc = _HullCache(*(_kernel_array(x) for x in (h.vertices[h.triangles], h.vertices[unique_edges(h.triangles)],
+                                                     eq[:, :3], -eq[:, 3])))
+        hit = _HULL_CACHE[id(h)] = (h, hc)
+    return hit[1]
 
 
 def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w: np.ndarray) -> CheckResult:
@@ -245,39 +253,24 @@ def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w
     (2) its axis pierces a hull triangle (Cobet's two tests), or (3) an end of its axis is closer to a face than
     its radius (a strut ending above a face passes (1) and (2); with (3) the test is the exact segment-hull
     distance). A length (default: the strut radius) at the platform end is excluded because the strut's own joint
-    lies on or near the hull (spec assumption). Broad phase (exact): clipping against the convex hull with its face
-    planes pushed out by the radius rejects struts that cannot touch; for a convex hull, clipping against the hull
-    itself proves the collisions of struts that enter it. The exact tests run only on the remaining near misses.
+    lies on or near the hull (spec assumption). Broad phase (exact): Cyrus-Beck clipping against the convex hull
+    with its face planes pushed out by the radius rejects struts that cannot touch; for a convex hull, clipping
+    against the hull itself proves the collisions of struts that enter it. The exact tests (with early exit) run
+    only on the remaining near misses. One compiled loop over poses and struts
+    (:func:`pkmstiff._kernels.platform_collision`); struts with NaN end points (unreachable) never collide.
     """
     ch = machine.chains
     n_pose = q.shape[0]
     if machine.hull.empty:
         return CheckResult(np.ones(n_pose, bool), Reason.PLATFORM_COLLISION, skipped="machine has no platform hull")
     hc = _hull_cache(machine)
-    q_loc = np.einsum("nji,nkj->nki", rot, q - w[:, None, :])  # R^T (q - w), (N, n, 3)
-    seg = q_loc - ch.platform_joint
-    length = np.linalg.norm(seg, axis=-1, keepdims=True)
     excl = ch.strut_radius if machine.limits.platform_end_exclusion is None else \
         np.full(ch.n, machine.limits.platform_end_exclusion)
-    start = ch.platform_joint + seg / np.maximum(length, 1e-12) * excl[:, None]
-    radius = np.broadcast_to(ch.strut_radius, q_loc.shape[:2])
-
-    bad = np.zeros(q_loc.shape[:2], bool)
-    with np.errstate(invalid="ignore"):
-        near_hull = _clip_to_expanded_hull(start, q_loc, radius, hc) & np.isfinite(q_loc).all(axis=-1)
-        if machine.hull.convex:  # a segment that enters the convex hull itself collides: no exact test needed
-            inside = near_hull & _clip_to_expanded_hull(start, q_loc, np.zeros_like(radius), hc)
-            bad |= inside
-            near_hull &= ~inside
-    pi, ci = np.nonzero(near_hull)
-    if pi.size:
-        a, b, r = start[pi, ci][:, None], q_loc[pi, ci][:, None], radius[pi, ci][:, None]
-        t1, t2, t3 = hc.tri[None, :, 0], hc.tri[None, :, 1], hc.tri[None, :, 2]
-        pierce = segment_pierces_triangle(a, b, t1, t2, t3).any(axis=1)
-        near = (segment_distance(a, b, hc.edges[None, :, 0], hc.edges[None, :, 1]) < r).any(axis=1)
-        # end points closer to a face than the radius: with edges and piercing the exact segment-hull distance
-        face = np.minimum(point_triangle_face_distance(a, t1, t2, t3), point_triangle_face_distance(b, t1, t2, t3))
-        bad[pi, ci] = pierce | near | (face < r).any(axis=1)
+    bad = np.empty((n_pose, ch.n), bool)
+    _kernels.platform_collision(
+        _soa_points(q), _kernel_array(np.moveaxis(np.asarray(rot, dtype=np.float64), 0, 2)),
+        _kernel_array(np.asarray(w, dtype=np.float64).T), _kernel_array(ch.platform_joint), _kernel_array(excl),
+        _kernel_array(ch.strut_radius), hc.normals, hc.offsets, hc.tri, hc.edges, bool(machine.hull.convex), bad)
     labels = [f"strut {i + 1}" for i in range(ch.n)]
     return CheckResult(~bad.any(axis=1), Reason.PLATFORM_COLLISION, bad, labels)
 

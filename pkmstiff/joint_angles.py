@@ -10,7 +10,8 @@ vector (b_i, n_i = R n'_i).  With the joint-local strut direction u (decision (a
 
 ``tilt`` holds the convention of each chain's joint type (decision (b)); both conventions are
 always returned as well.  All angles in rad.  Limits (B.5, B.6) are checked in
-:mod:`pkmstiff.admissibility`.
+:mod:`pkmstiff.admissibility`.  The per-joint arithmetic is one compiled loop per side
+(:func:`pkmstiff._kernels.side_angles`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .kinematics import IK, _cross_soa, _to_soa, _vec_soa
+from . import _kernels
+from .kinematics import IK, _to_soa, _vec_soa
 from .model import Machine
 
 Array = NDArray[np.float64]
@@ -53,44 +55,32 @@ class JointAngles:
         return {"drive": (self.drive.swivel, self.drive.tilt), "platform": (self.platform.swivel, self.platform.tilt)}
 
 
-def _dot(u: Array, v: Array) -> Array:
-    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-
-
-def _norm(v: Array) -> Array:
-    return np.sqrt(_dot(v, v))
-
-
 def _side_angles(
-    axis: Array, ref: Array, u: Array, axis0: Array, ref0: Array, normal: Array, tol: float, signed: bool
+    d: Array, R: Array, axis0: Array, ref0: Array, rotate: bool, sign: Array, normal: Array, tol: float, signed: bool
 ) -> SideAngles:
-    """Angles of one side.  ``axis``, ``ref`` (3, n, N or 1) in the MKS, ``u`` (3, n, N) unit strut
-    directions; ``axis0``, ``ref0`` (n, 3) the same vectors in their own frame (norms and the angle
-    between them do not change under the rotation R)."""
-    m_norm = np.linalg.norm(axis0, axis=1)[:, None]  # (n, 1)
-    n_norm = np.linalg.norm(ref0, axis=1)[:, None]
-    ref_par = (np.linalg.norm(np.cross(ref0, axis0), axis=1)[:, None] <= tol * n_norm * m_norm)  # n ∥ m
-    mu = _dot(axis, u)
-    mxu = _norm(_cross_soa(axis, u))  # |m × u| = |m| sin∠(m, u), |u| = 1
-    # atan2 forms equal the arccos/arcsin of spec §2 but stay accurate near 0 and 90 deg
-    tilt_axis = np.arctan2(mxu, np.abs(mu))
-    tilt_normal = np.copysign(0.5 * np.pi - tilt_axis, mu)  # = arcsin(m·u / |m|)
-    u_perp = u * (m_norm * m_norm) - axis * mu  # m × (u × m)
-    nu = _dot(ref, u_perp)
-    nxu = _cross_soa(ref, u_perp)
-    undefined = ref_par | (mxu <= tol * m_norm)  # |u_⊥| = |m| |m × u| = 0: strut along the axis
-    swivel = np.where(undefined, np.nan, np.arctan2(_norm(nxu), nu))  # ∠(n, u_⊥) in [0, π]
-    swivel_signed = None
-    if signed:
-        swivel_signed = np.where(undefined, np.nan, np.arctan2(_dot(axis, nxu) / m_norm, nu))
-    tilt = np.where(normal[:, None], tilt_normal, tilt_axis)
+    """Angles of one side from the strut vectors ``d`` (3, n, N) and rotations ``R`` (3, 3, N), component-first;
+    ``axis0``, ``ref0`` (n, 3) the joint axis and swivel reference in their own frame (rotated by R if
+    ``rotate``); u = sign_i d̂.  The per-pose arithmetic runs in :func:`pkmstiff._kernels.side_angles`."""
+    n, N = d.shape[1], d.shape[2]
+    m_norm = np.linalg.norm(axis0, axis=1)
+    n_norm = np.linalg.norm(ref0, axis=1)
+    # n ∥ m: norms and the angle between them do not change under the rotation R
+    ref_par = np.linalg.norm(np.cross(ref0, axis0), axis=1) <= tol * n_norm * m_norm
+    out = np.empty((5 if signed else 4, n, N))
+    swivel, tilt, tilt_axis, tilt_normal = out[0], out[1], out[2], out[3]
+    swivel_signed = out[4] if signed else out[0]  # not written unless ``signed``
+    _kernels.side_angles(d, R, np.ascontiguousarray(axis0, dtype=np.float64),
+                         np.ascontiguousarray(ref0, dtype=np.float64), rotate,
+                         np.ascontiguousarray(sign, dtype=np.float64), np.ascontiguousarray(normal, dtype=np.bool_),
+                         np.ascontiguousarray(ref_par, dtype=np.bool_), float(tol), signed,
+                         swivel, swivel_signed, tilt, tilt_axis, tilt_normal)
     return SideAngles(
         swivel=swivel.T,
         tilt=tilt.T,
         tilt_axis=tilt_axis.T,
         tilt_normal=tilt_normal.T,
         normal=normal,
-        swivel_signed=None if swivel_signed is None else swivel_signed.T,
+        swivel_signed=swivel_signed.T if signed else None,
     )
 
 
@@ -107,23 +97,17 @@ def joint_angles(machine: Machine, ik: IK, signed: bool = True, parallel_tol: fl
     unreachable give NaN throughout.  ``signed=False`` skips the signed swivel angle (``None``; ~10 % faster).
     """
     ch = machine.chains
-    d = _vec_soa(ik.d)  # (3, n, N)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        dhat = d / _norm(d)[None]
-    R = _to_soa(ik.R, 2)  # (3, 3, N)
+    d = np.require(_vec_soa(ik.d), dtype=np.float64, requirements=("C", "W"))  # (3, n, N), no copy for IK output
+    R = np.require(_to_soa(ik.R, 2), dtype=np.float64, requirements=("C", "W"))  # (3, 3, N)
     sides = {}
     for side in ("drive", "platform"):
         jt = machine.joint_type_arrays(side)  # type: ignore[arg-type]
-        if side == "drive":
-            axis0, ref0 = ch.drive_axis, ch.drive_reference
-            axis, ref = axis0.T[:, :, None], ref0.T[:, :, None]
-            u = dhat
-        else:
-            axis0, ref0 = ch.platform_axis, ch.platform_reference
-            axis = np.matmul(axis0[None], R)  # (3, n, N): m_i = R m'_i
-            ref = np.matmul(ref0[None], R)
-            u = dhat * np.where(jt["outward"], -1.0, 1.0)[None, :, None]
         normal = np.asarray(jt["normal"], dtype=bool)
-        with np.errstate(invalid="ignore"):
-            sides[side] = _side_angles(axis, ref, u, axis0, ref0, normal, parallel_tol, signed)
+        if side == "drive":
+            sides[side] = _side_angles(d, R, ch.drive_axis, ch.drive_reference, False, np.ones(ch.n), normal,
+                                       parallel_tol, signed)
+        else:
+            sign = np.where(jt["outward"], -1.0, 1.0) * np.ones(ch.n)
+            sides[side] = _side_angles(d, R, ch.platform_axis, ch.platform_reference, True, sign, normal,
+                                       parallel_tol, signed)
     return JointAngles(drive=sides["drive"], platform=sides["platform"])

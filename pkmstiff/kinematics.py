@@ -8,6 +8,10 @@ Array layout: results are exposed pose-first, e.g. ``IK.p`` has shape ``(N, n, 3
 hot path works "component-first" (pose axis last, contiguous), because numpy evaluates long 1-D
 operations much faster than many tiny 3×3 / 6×6 ones; the exposed arrays are transposed *views*
 of that storage (not C-contiguous; call ``np.ascontiguousarray`` if a copy is needed).
+
+The Householder QR of J_C⁻¹ behind J_C, the condition-number bounds and the singularity check runs per pose
+in compiled code (:func:`pkmstiff._kernels.qr_inverse`, reading the component-first storage directly); the
+certified power iteration for κ stays vectorised numpy over the QR factors.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ from typing import Iterator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import _kernels
 from .model import Machine
 from .rotation import cardan_angles, cardan_matrix, cardan_rate_matrix
 
@@ -271,60 +276,6 @@ def relative_inverse_jacobian(jinv: Array, ik: IK) -> Array:
 # ----------------------------------------------------------------------------------------------------------
 
 
-def _householder_qr(a: Array) -> list[tuple[Array, Array]]:
-    """Householder QR of a (n, n, M) in place (R in the upper triangle); returns the reflectors (v, β).
-
-    H_k = I − β_k v_k v_kᵀ acts on rows k…n−1; H_{n−2} … H_0 A = R, so A = H_0 … H_{n−2} R.
-    Unpivoted Householder QR is backward stable; an exactly singular matrix gives a zero R_kk.
-    """
-    n = a.shape[0]
-    refl = []
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for k in range(n - 1):
-            x = a[k:, k]  # (m, M)
-            normx = np.sqrt(np.einsum("im,im->m", x, x))
-            x0 = x[0].copy()
-            alpha = np.where(x0 >= 0.0, -normx, normx)  # sign choice avoids cancellation in v0
-            v = x.copy()
-            v[0] = x0 - alpha
-            vtv = normx * normx - x0 * x0 + v[0] * v[0]
-            beta = np.where(vtv > 0.0, 2.0 / vtv, 0.0)
-            sub = a[k:, k + 1 :]
-            s = np.einsum("im,ijm->jm", v, sub) * beta
-            sub -= v[:, None, :] * s[None, :, :]
-            a[k, k] = alpha
-            a[k + 1 :, k] = 0.0
-            refl.append((v, beta))
-    return refl
-
-
-def _upper_inverse(r: Array) -> Array:
-    """Inverse of upper triangular matrices r (n, n, M) by back substitution (inf/NaN if R_kk = 0)."""
-    n = r.shape[0]
-    t = np.zeros_like(r)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        dinv = 1.0 / np.einsum("iim->im", r)
-        for i in range(n - 1, -1, -1):
-            t[i, i] = dinv[i]
-            for j in range(i + 1, n):
-                s = r[i, i + 1] * t[i + 1, j]
-                for k in range(i + 2, j + 1):
-                    s = s + r[i, k] * t[k, j]
-                t[i, j] = -s * dinv[i]
-    return t
-
-
-def _apply_qt_right(t: Array, refl: list[tuple[Array, Array]]) -> Array:
-    """X = T Qᵀ = T H_{n−2} … H_0 in place (the inverse A⁻¹ = R⁻¹ Qᵀ)."""
-    with np.errstate(invalid="ignore", over="ignore"):
-        for k in range(len(refl) - 1, -1, -1):
-            v, beta = refl[k]
-            blk = t[:, k:]  # (n, m, M)
-            s = np.einsum("ijm,jm->im", blk, v) * beta
-            blk -= s[:, None, :] * v[None, :, :]
-    return t
-
-
 def _dot_m(u: Array, v: Array) -> Array:
     """Dot products over the first axis: (n, M) · (n, M) → (M,)."""
     return np.einsum("im,im->m", u, v)
@@ -484,60 +435,52 @@ def _svd_condition(A: Array) -> Array:
     return out
 
 
-@dataclass
-class _ChunkOut:
-    inverse: Array | None = None  # (M, n, n)
-    kappa: Array | None = None  # (M,)
-    bounds: tuple[Array, Array] | None = None  # (M,), (M,)
-    n_svd: int = 0
+_NO3 = np.empty((0, 0, 0))
+_NO1 = np.empty(0)
 
 
-def _process_chunk(
-    A: Array, inverse: bool, kappa: bool, bounds: bool, rtol: float, max_iter: int
-) -> _ChunkOut:
-    """One chunk, A component-first (n, n, M): QR, then inverse / certified κ / Frobenius bounds."""
+def _qr_chunk(
+    As: Array, s: slice, inv: Array | None, bnd: tuple[Array, Array] | None, rt: bool
+) -> tuple[Array, Array, Array]:
+    """Householder QR of the matrices ``As[:, :, s]`` (component-first (n, n, N), C-contiguous) in compiled code
+    (:func:`pkmstiff._kernels.qr_inverse`): writes the inverses A⁻¹ = R⁻¹Qᵀ into ``inv[s]`` (NaN where singular or
+    not finite) and the Frobenius bounds of κ into ``bnd[0][s], bnd[1][s]`` where given; returns R and R⁻¹
+    (n, n, M) (if ``rt``, else empty) and ok (M,) = finite input and finite R⁻¹."""
+    n = As.shape[0]
+    m = s.stop - s.start
+    r = np.empty((n, n, m)) if rt else _NO3
+    t = np.empty((n, n, m)) if rt else _NO3
+    ok = np.empty(m, dtype=np.bool_)
+    _kernels.qr_inverse(As, s.start, s.stop, rt, inv is not None, bnd is not None, r, t,
+                        _NO3 if inv is None else inv, _NO1 if bnd is None else bnd[0],
+                        _NO1 if bnd is None else bnd[1], ok)
+    return r, t, ok
+
+
+def _kappa_chunk(A: Array, a: Array, t: Array, ok: Array, rtol: float, max_iter: int) -> tuple[Array, int]:
+    """Certified κ for one chunk: A (n, n, M) component-first, its R factor ``a``, R⁻¹ ``t`` and ``ok``."""
     n, _, M = A.shape
-    out = _ChunkOut()
-    finite = np.isfinite(A).all(axis=(0, 1))
-    a = np.array(A, order="C", copy=True)
-    if not finite.all():
-        a[:, :, ~finite] = np.eye(n)[:, :, None]
-    refl = _householder_qr(a)
-    t = _upper_inverse(a)
-    ok = finite & np.isfinite(t).all(axis=(0, 1))
-    if inverse:
-        X = _apply_qt_right(t.copy(), refl)
-        X[:, :, ~(ok & np.isfinite(X).all(axis=(0, 1)))] = np.nan
-        out.inverse = np.moveaxis(X, 2, 0)
+    n_svd = 0
     if not ok.all():  # NaN/inf or exactly singular: κ = inf; continue with the others only
         sel = np.flatnonzero(ok)
         A, a, t = np.take(A, sel, axis=2), np.take(a, sel, axis=2), np.take(t, sel, axis=2)
     m = a.shape[2]
-    if bounds:
-        with np.errstate(over="ignore", invalid="ignore"):
-            # ‖A‖₂ ≤ ‖A‖_F ≤ √n ‖A‖₂ and ‖A⁻¹‖_F = ‖R⁻¹‖_F (Q orthogonal); row/column norms bound ‖·‖₂ below
-            hi = np.sqrt(np.einsum("ijm,ijm->m", a, a) * np.einsum("ijm,ijm->m", t, t))
-            col = np.sqrt(np.einsum("ijm,ijm->jm", a, a).max(axis=0) * np.einsum("ijm,ijm->im", t, t).max(axis=0))
-            lo = np.maximum(hi / n, col)
-        out.bounds = (np.full(M, np.inf), np.full(M, np.inf))
-        out.bounds[0][ok], out.bounds[1][ok] = lo, hi
-    if kappa:
-        G = np.empty((n, n, 2 * m))
-        np.einsum("kim,kjm->ijm", a, a, out=G[:, :, :m])  # RᵀR = AᵀA
-        np.einsum("ikm,jkm->ijm", t, t, out=G[:, :, m:])  # R⁻¹R⁻ᵀ, same spectrum as (AᵀA)⁻¹
-        # certify each λ_max to (1 + rtol)² so that κ_hi/κ_lo ≤ (1 + rtol)²
-        lo, hi = _lambda_max_bounds(G, (1.0 + rtol) ** 2 - 1.0, max_iter)
-        with np.errstate(over="ignore", invalid="ignore"):
-            k_lo = np.sqrt(lo[:m] * lo[m:])
-            k_hi = np.sqrt(hi[:m] * hi[m:])
-            k = np.sqrt(k_lo * k_hi)  # geometric midpoint: |κ_returned/κ − 1| ≤ rtol
-        redo = np.flatnonzero(~(np.isfinite(k_hi) & (k_hi <= k_lo * (1.0 + rtol) ** 2) & (k_lo > 0.0)))
-        if redo.size:
-            k[redo] = _svd_condition(np.moveaxis(np.take(A, redo, axis=2), 2, 0))
-            out.n_svd = int(redo.size)
-        out.kappa = np.full(M, np.inf)
-        out.kappa[ok] = np.where(np.isfinite(k), k, np.inf)
-    return out
+    G = np.empty((n, n, 2 * m))
+    np.einsum("kim,kjm->ijm", a, a, out=G[:, :, :m])  # RᵀR = AᵀA
+    np.einsum("ikm,jkm->ijm", t, t, out=G[:, :, m:])  # R⁻¹R⁻ᵀ, same spectrum as (AᵀA)⁻¹
+    # certify each λ_max to (1 + rtol)² so that κ_hi/κ_lo ≤ (1 + rtol)²
+    lo, hi = _lambda_max_bounds(G, (1.0 + rtol) ** 2 - 1.0, max_iter)
+    with np.errstate(over="ignore", invalid="ignore"):
+        k_lo = np.sqrt(lo[:m] * lo[m:])
+        k_hi = np.sqrt(hi[:m] * hi[m:])
+        k = np.sqrt(k_lo * k_hi)  # geometric midpoint: |κ_returned/κ − 1| ≤ rtol
+    redo = np.flatnonzero(~(np.isfinite(k_hi) & (k_hi <= k_lo * (1.0 + rtol) ** 2) & (k_lo > 0.0)))
+    if redo.size:
+        k[redo] = _svd_condition(np.moveaxis(np.take(A, redo, axis=2), 2, 0))
+        n_svd = int(redo.size)
+    kap = np.full(M, np.inf)
+    kap[ok] = np.where(np.isfinite(k), k, np.inf)
+    return kap, n_svd
 
 
 def _check_square_stack(A: ArrayLike, name: str) -> Array:
@@ -566,27 +509,24 @@ def _run_chunked(
     if kappa and A.shape[1] != 6:
         raise KinematicsInputError(f"jinv: the fast condition number needs 6×6 matrices, found {A.shape[1:]}")
     N, n, _ = A.shape
-    As = np.moveaxis(A, 0, 2)  # (n, n, N) view; contiguous if jinv came from inverse_jacobian
+    # component-first (n, n, N): no copy if jinv came from inverse_jacobian
+    As = np.require(np.moveaxis(A, 0, 2), dtype=np.float64, requirements=("C", "W"))
     inv = np.empty((N, n, n)) if inverse else None
     kap = np.empty(N) if kappa else None
     bnd = (np.empty(N), np.empty(N)) if bounds else None
     n_svd = 0
     for s in chunk_slices(N, chunk_size):
-        c = _process_chunk(As[:, :, s], inverse, kappa, bounds, rtol, max_iter)
-        if inverse:
-            inv[s] = c.inverse
+        a, t, ok = _qr_chunk(As, s, inv, bnd, rt=kappa)
         if kappa:
-            kap[s] = c.kappa
-        if bounds:
-            bnd[0][s], bnd[1][s] = c.bounds
-        n_svd += c.n_svd
+            kap[s], n_s = _kappa_chunk(As[:, :, s], a, t, ok, rtol, max_iter)
+            n_svd += n_s
     return inv, kap, bnd, n_svd
 
 
 def kinematic_jacobian(jinv: ArrayLike, chunk_size: int = DEFAULT_CHUNK) -> Array:
     """Kinematic Jacobian J_C = (J_C⁻¹)⁻¹, t = J_C q̇ (spec §1.4, Cobet eq. A.22/A.23), shape (N, n, n).
 
-    Inverted as R⁻¹Qᵀ from a vectorised Householder QR; unlike ``np.linalg.inv`` this never raises
+    Inverted as R⁻¹Qᵀ from a per-pose Householder QR (compiled); unlike ``np.linalg.inv`` this never raises
     for a batch: matrices that are exactly singular or contain NaN/inf give a NaN matrix.
     """
     return _run_chunked(jinv, inverse=True, chunk_size=chunk_size)[0]  # type: ignore[return-value]
@@ -604,7 +544,7 @@ def condition_number(
     Matrices with NaN/inf entries (unreachable chains, glide d·r = 0) and exactly singular ones
     give ``inf`` (spec §1.6: non-finite counts as singular).
 
-    ``method="fast"`` (default, 6×6 only): A = QR by vectorised Householder, ‖A‖₂² = λ_max(RᵀR) and
+    ``method="fast"`` (default, 6×6 only): A = QR by Householder (compiled, per pose), ‖A‖₂² = λ_max(RᵀR) and
     ‖A⁻¹‖₂² = λ_max(R⁻¹R⁻ᵀ) from a three-vector block power iteration with *certified* lower and
     upper bounds (see :func:`_lambda_max_bounds`).  Every returned value satisfies
     |κ_returned/κ − 1| ≤ ``rtol`` (plus rounding, which is O(κ·1e-16) for any method, SVD included);
@@ -645,6 +585,16 @@ def is_singular(machine: Machine, kappa: ArrayLike) -> Array:
     return ~(kappa <= machine.limits.singularity_threshold)
 
 
+def _singular_from_bounds(machine: Machine, A: Array, lo: Array, hi: Array) -> Array:
+    """κ > threshold from certified bounds lo ≤ κ ≤ hi; an exact κ (SVD) only where they straddle it."""
+    thr = machine.limits.singularity_threshold
+    out = ~(hi <= thr)
+    amb = np.flatnonzero((lo <= thr) & (hi > thr) & np.isfinite(hi))
+    if amb.size:
+        out[amb] = ~(_svd_condition(A[amb]) <= thr)
+    return out
+
+
 def singular_mask(machine: Machine, jinv: ArrayLike, chunk_size: int = DEFAULT_CHUNK) -> Array:
     """Singularity check κ(J_C⁻¹) > threshold (spec §1.6) without computing κ where not needed, (N,) bool.
 
@@ -652,13 +602,16 @@ def singular_mask(machine: Machine, jinv: ArrayLike, chunk_size: int = DEFAULT_C
     Same result as ``is_singular(machine, condition_number(jinv, method="svd"))``.
     """
     A = _check_square_stack(jinv, "jinv")
-    thr = machine.limits.singularity_threshold
     lo, hi = condition_bounds(A, chunk_size)
-    out = ~(hi <= thr)
-    amb = np.flatnonzero((lo <= thr) & (hi > thr) & np.isfinite(hi))
-    if amb.size:
-        out[amb] = ~(_svd_condition(A[amb]) <= thr)
-    return out
+    return _singular_from_bounds(machine, A, lo, hi)
+
+
+def jacobian_and_singular(machine: Machine, jinv: ArrayLike, chunk_size: int = DEFAULT_CHUNK) -> tuple[Array, Array]:
+    """J_C (N, n, n) (:func:`kinematic_jacobian`) and the singularity check (:func:`singular_mask`) from one QR
+    factorisation per pose (spec §1.4, §1.6); the pose pipeline's form, which needs no condition number."""
+    A = _check_square_stack(jinv, "jinv")
+    inv, _, bnd, _ = _run_chunked(A, inverse=True, bounds=True, chunk_size=chunk_size)
+    return inv, _singular_from_bounds(machine, A, *bnd)  # type: ignore[misc]
 
 
 def transmission_quality(machine: Machine, jinv: ArrayLike, w: float | None = None, **kw) -> Array:

@@ -168,23 +168,11 @@ def _evaluate_chunk(machine: Machine, poses: np.ndarray, names: Sequence[str], t
     ok = ev.ok.copy()
     vals = {n: np.full(len(poses), np.nan) for n in names}
     if ok.any() and names:
-        sub = ev if ok.all() else _subset(ev, ok)
+        sub = ev if ok.all() else ev.subset(ok)
         ctx = EvalContext(machine, sub, tool_length, options)
         for n in names:
             vals[n][ok] = np.asarray(get_quantity(n).compute(ctx), float)
     return ok, ev.admissibility.reasons, vals
-
-
-def _subset(ev, mask):
-    from dataclasses import replace
-
-    from .admissibility import Admissibility
-
-    adm = Admissibility(ok=ev.admissibility.ok[mask], reasons=ev.admissibility.reasons[mask], checks={})
-    return replace(ev, poses=ev.poses[mask], drive=ev.drive[mask], strut_length=ev.strut_length[mask],
-                   drive_point=ev.drive_point[mask], platform_point=ev.platform_point[mask], jinv=ev.jinv[mask],
-                   jc=ev.jc[mask], kappa=ev.kappa[mask], angles={k: v[mask] for k, v in ev.angles.items()},
-                   admissibility=adm, drive_loads=None if ev.drive_loads is None else ev.drive_loads[mask])
 
 
 def section_poses(plane: Plane, orientation: Iterable[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
