@@ -1,0 +1,21 @@
+"""Workspace analysis (spec models.md §7, Cobet 4.1): modified octree, boundary surface and volume, rotation-angle
+maps and the rotational workspace, user requirements.
+
+Modules: :mod:`.octree` (generic modified octree), :mod:`.oracle` (pose admissibility as a predicate),
+:mod:`.translational` (constant-orientation workspace of a machine), :mod:`.surface` (closed mesh, STL/VTK),
+:mod:`.volume` (volume methods), :mod:`.rotation` (predictor-corrector angle maps), :mod:`.requirements`
+(``"kx>=20 N/um"``), :mod:`.plots` (figures), :mod:`.validation` (accuracy on sphere and cube).
+"""
+
+from .octree import OctreeResult, octree_boundary
+from .oracle import PoseOracle, staged_admissible
+from .requirements import Requirement, parse_requirement, register_quantity
+from .rotation import SIX_DIRECTIONS, RotationMapResult, rotation_angle_map, rotational_workspace_map
+from .surface import BoundarySurface, boundary_surface
+from .translational import WorkspaceResult, constant_orientation_workspace, reach_box, volume_vs_orientation
+from .volume import workspace_volume
+
+__all__ = ["BoundarySurface", "OctreeResult", "PoseOracle", "Requirement", "RotationMapResult", "SIX_DIRECTIONS",
+           "WorkspaceResult", "boundary_surface", "constant_orientation_workspace", "octree_boundary",
+           "parse_requirement", "reach_box", "register_quantity", "rotation_angle_map", "rotational_workspace_map",
+           "staged_admissible", "volume_vs_orientation", "workspace_volume"]

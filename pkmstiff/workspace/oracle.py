@@ -1,0 +1,202 @@
+"""Admissibility of points of a workspace: a pose with some coordinates free (spec models.md §7.1, §8).
+
+:class:`PoseOracle` turns a machine, a base pose and the free coordinates into the predicate the octree and the
+rotation-angle searches need: ``oracle(points (N, k)) -> bool (N,)`` with the points written into the free
+columns of the base pose (positions: columns x, y, z; rotational workspace: a, b, c).
+
+Evaluation is staged; the result equals ``evaluate_poses(...).ok`` with the same checks and requirements:
+
+1. inverse kinematics and the drive-range check (B.1/B.2) for all points — cheap, and it removes the many
+   unreachable points around a workspace boundary;
+2. the full pipeline (:func:`pkmstiff.poses.evaluate_poses`: joint angles, singularity, collisions, drive load)
+   for the survivors;
+3. the user requirements (:mod:`pkmstiff.workspace.requirements`) only for the poses admissible so far.
+
+Workspace with one variable orientation range (spec §7.1 Table 4.1/4.2 Note): ``orientation_range=("c", lo, hi)``
+samples that angle from lo to hi (both included) at ``range_step``; mode ``"all"`` (Merlet, Table 4.1) needs every
+sample admissible, ``"any"`` (Table 4.2: c chosen to avoid collisions and singularities) needs at least one.
+Samples are evaluated one after the other, each only for the points still undecided.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+from typing import Iterable, Literal, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .. import admissibility as adm
+from ..kinematics import inverse_kinematics
+from ..model import Machine
+from ..poses import PoseEvaluation, evaluate_poses
+from ..quantities import EvalContext
+from .requirements import Requirement, parse_requirements
+
+ANGLE_INDEX = {"a": 3, "b": 4, "c": 5}
+RangeMode = Literal["all", "any"]
+
+
+class OracleInputError(ValueError):
+    """Invalid oracle settings; the message names the argument, the expectation and the finding."""
+
+
+@dataclass
+class EvaluationStats:
+    """Counts (poses) and times (s) of the admissibility evaluations."""
+
+    points: int = 0  # points asked for (one per octree corner / search step)
+    poses: int = 0  # poses evaluated (points x orientation samples actually needed)
+    full_pipeline: int = 0  # poses that reached stage 2
+    requirement_poses: int = 0  # poses on which requirements were evaluated
+    time_prefilter: float = 0.0
+    time_pipeline: float = 0.0
+    time_requirements: float = 0.0
+
+    @property
+    def time(self) -> float:
+        return self.time_prefilter + self.time_pipeline + self.time_requirements
+
+    def as_dict(self) -> dict[str, float]:
+        return {"points": self.points, "poses_evaluated": self.poses, "full_pipeline_poses": self.full_pipeline,
+                "requirement_poses": self.requirement_poses, "time_prefilter_s": self.time_prefilter,
+                "time_pipeline_s": self.time_pipeline, "time_requirements_s": self.time_requirements}
+
+
+def subset_evaluation(ev: PoseEvaluation, mask: np.ndarray) -> PoseEvaluation:
+    """The evaluation restricted to the poses where ``mask`` is True."""
+    a = adm.Admissibility(ok=ev.admissibility.ok[mask], reasons=ev.admissibility.reasons[mask], checks={})
+    return replace(ev, poses=ev.poses[mask], drive=ev.drive[mask], strut_length=ev.strut_length[mask],
+                   drive_point=ev.drive_point[mask], platform_point=ev.platform_point[mask], jinv=ev.jinv[mask],
+                   jc=ev.jc[mask], kappa=ev.kappa[mask], angles={k: v[mask] for k, v in ev.angles.items()},
+                   admissibility=a, drive_loads=None if ev.drive_loads is None else ev.drive_loads[mask])
+
+
+def staged_admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str] = adm.ALL_CHECKS,
+                      requirements: Sequence[Requirement] = (), stats: EvaluationStats | None = None,
+                      prefilter: bool = True, chunk_size: int = 20_000, tool_length: float | None = None
+                      ) -> np.ndarray:
+    """(N,) admissibility of poses (N, 6), identical to ``evaluate_poses`` + requirements (see module doc)."""
+    st = stats if stats is not None else EvaluationStats()
+    out = np.zeros(len(poses), bool)
+    for s in range(0, len(poses), chunk_size):
+        x = poses[s:s + chunk_size]
+        st.poses += len(x)
+        t0 = time.perf_counter()
+        if prefilter and "drive_range" in checks:
+            ik = inverse_kinematics(machine, x)
+            live = adm.check_drive_range(machine, ik.drive, ik.reachable).ok & ik.all_reachable
+        else:
+            live = np.ones(len(x), bool)
+        t1 = time.perf_counter()
+        st.time_prefilter += t1 - t0
+        idx = np.flatnonzero(live)
+        if idx.size == 0:
+            continue
+        ev = evaluate_poses(machine, x[idx], checks=checks, chunk_size=chunk_size)
+        ok = ev.ok
+        st.full_pipeline += idx.size
+        t2 = time.perf_counter()
+        st.time_pipeline += t2 - t1
+        if requirements and ok.any():
+            sub = ev if ok.all() else subset_evaluation(ev, ok)
+            ctx = EvalContext(machine, sub, tool_length)
+            met = np.ones(int(ok.sum()), bool)
+            for r in requirements:
+                met &= r.evaluate(ctx)
+            st.requirement_poses += int(ok.sum())
+            ok = ok.copy()
+            ok[ok] = met
+            st.time_requirements += time.perf_counter() - t2
+        out[s + idx] = ok
+    return out
+
+
+class PoseOracle:
+    """Predicate ``points (N, k) -> bool (N,)``: admissibility of ``base_pose`` with ``free`` columns replaced."""
+
+    def __init__(
+        self,
+        machine: Machine,
+        base_pose: ArrayLike = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        free: Sequence[int] = (0, 1, 2),
+        *,
+        requirements: Iterable[str | Requirement] = (),
+        checks: Sequence[str] = adm.ALL_CHECKS,
+        orientation_range: tuple[str, float, float] | None = None,
+        range_step: float = math.radians(2.0),
+        range_mode: RangeMode = "all",
+        prefilter: bool = True,
+        chunk_size: int = 20_000,
+    ):
+        base = np.asarray(base_pose, float)
+        if base.shape != (6,) or not np.isfinite(base).all():
+            raise OracleInputError(f"base_pose: expected 6 finite numbers (x, y, z [m], a, b, c [rad]), "
+                                   f"found {base_pose!r}")
+        self.free = tuple(int(f) for f in free)
+        if not self.free or any(f < 0 or f > 5 for f in self.free) or len(set(self.free)) != len(self.free):
+            raise OracleInputError(f"free: expected distinct pose columns in 0..5, found {free!r}")
+        unknown = set(checks) - set(adm.ALL_CHECKS)
+        if unknown:
+            raise OracleInputError(f"checks: unknown {sorted(unknown)}; expected a subset of {adm.ALL_CHECKS}")
+        self.machine, self.base, self.checks = machine, base, tuple(checks)
+        self.requirements = parse_requirements(requirements)
+        self.prefilter, self.chunk_size = prefilter, chunk_size
+        self.stats = EvaluationStats()
+        self.range_mode = range_mode
+        self.range_samples = self._range_samples(orientation_range, range_step, range_mode)
+
+    def _range_samples(self, rng, step, mode) -> tuple[int, np.ndarray] | None:
+        if rng is None:
+            return None
+        if mode not in ("all", "any"):
+            raise OracleInputError(f"range_mode: expected 'all' or 'any', found {mode!r}")
+        try:
+            name, lo, hi = rng
+            col = ANGLE_INDEX[str(name)]
+        except (KeyError, TypeError, ValueError):
+            raise OracleInputError(f"orientation_range: expected (angle 'a'|'b'|'c', lo [rad], hi [rad]), "
+                                   f"found {rng!r}") from None
+        if col in self.free:
+            raise OracleInputError(f"orientation_range: angle {name!r} is a free coordinate of the oracle")
+        if not (np.isfinite(lo) and np.isfinite(hi) and hi >= lo and step > 0):
+            raise OracleInputError(f"orientation_range: expected finite lo <= hi and a positive step, "
+                                   f"found {rng!r}, step {step!r}")
+        n = max(1, math.ceil((hi - lo) / step - 1e-9)) + 1
+        return col, np.linspace(lo, hi, n)
+
+    def poses(self, points: np.ndarray) -> np.ndarray:
+        pts = np.asarray(points, float).reshape(len(points), -1)
+        if pts.shape[1] != len(self.free):
+            raise OracleInputError(f"points: expected shape (N, {len(self.free)}), found {np.shape(points)}")
+        x = np.repeat(self.base[None], len(pts), axis=0)
+        x[:, list(self.free)] = pts
+        return x
+
+    def admissible_poses(self, poses: np.ndarray) -> np.ndarray:
+        """(N,) admissibility of full poses (N, 6), honouring the orientation range."""
+        if self.range_samples is None:
+            return staged_admissible(self.machine, poses, self.checks, self.requirements, self.stats,
+                                     self.prefilter, self.chunk_size)
+        col, samples = self.range_samples
+        want_all = self.range_mode == "all"
+        result = np.full(len(poses), want_all)
+        undecided = np.ones(len(poses), bool)
+        for v in samples:
+            idx = np.flatnonzero(undecided)
+            if idx.size == 0:
+                break
+            x = poses[idx].copy()
+            x[:, col] = v
+            ok = staged_admissible(self.machine, x, self.checks, self.requirements, self.stats,
+                                   self.prefilter, self.chunk_size)
+            decided = ~ok if want_all else ok  # "all": one failure decides; "any": one success decides
+            result[idx[decided]] = not want_all
+            undecided[idx[decided]] = False
+        return result
+
+    def __call__(self, points: np.ndarray) -> np.ndarray:
+        self.stats.points += len(points)
+        return self.admissible_poses(self.poses(points))

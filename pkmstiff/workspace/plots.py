@@ -1,0 +1,199 @@
+"""Figures of workspaces and rotation-angle maps (coordinates in mm, angles in degrees, volumes in m^3).
+
+3-D figures use pyvista off-screen; 2-D maps and curves use matplotlib (Agg backend). The machine sketch is the
+shared one of :mod:`pkmstiff.plots.sketch` (guides or fixed drive joints, struts, joints, platform hull at a pose
+computed by the inverse kinematics).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+
+from ..model import Machine
+from ..plots import offscreen
+from ..plots.sketch import add_sketch, machine_sketch
+from .rotation import RotationMapResult
+from .translational import WorkspaceResult
+
+__all__ = ["machine_sketch", "plot_convergence", "plot_rotation_maps", "plot_rotational_workspace",
+           "plot_volume_vs_orientation", "plot_workspace", "reference_pose"]
+
+INADMISSIBLE = "#f2d7d5"  # face colour where the base orientation is inadmissible (no angle)
+
+
+def reference_pose(res: WorkspaceResult, machine: Machine) -> np.ndarray | None:
+    """An admissible pose near the centre of the workspace: the centre of the boundary's box if admissible, else
+    the evaluated admissible corner closest to it; None for an empty workspace."""
+    o = res.octree
+    lo, hi = res.bounding_box()
+    if not np.isfinite(lo).all():
+        return None
+    c = np.concatenate([0.5 * (lo + hi), res.orientation])
+    from ..poses import evaluate_poses
+
+    if evaluate_poses(machine, c[None]).ok[0]:
+        return c
+    pts = o.admissible_points() if o.admissible_keys.size else o.boundary_points
+    return np.concatenate([pts[np.argmin(np.linalg.norm(pts - c[:3], axis=1))], res.orientation])
+
+
+def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pose: Sequence[float] | None = None,
+                   window_size: tuple[int, int] = (1200, 900), show_points: bool = False,
+                   view: Sequence[float] | None = None) -> Path:
+    """PNG of the closed workspace surface (mm) with the machine sketch at ``pose`` (default: a central pose)."""
+    pv = offscreen()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pl = pv.Plotter(off_screen=True, window_size=list(window_size))
+    pl.set_background("white")
+    if res.surface is not None and res.surface.triangles.shape[0]:
+        mesh = res.surface.to_pyvista()
+        mesh.points *= 1e3
+        mesh = mesh.compute_normals(auto_orient_normals=False, consistent_normals=False, split_vertices=False)
+        pl.add_mesh(mesh, color="#e8a33d", opacity=0.55, smooth_shading=True, specular=0.2)
+    if show_points:
+        pl.add_points(res.boundary_points * 1e3, color="black", point_size=2, render_points_as_spheres=False)
+    x = reference_pose(res, machine) if pose is None else np.asarray(pose, float)
+    if x is not None:
+        add_sketch(pl, machine, x)
+    lo, hi = res.bounding_box()
+    s = res.summary()
+    title = (f"{machine.name}: workspace at a,b,c = {', '.join(f'{d:g}' for d in s['orientation_deg'])} deg, "
+             f"eps = {s['resolution_mm']:g} mm\nV = {res.volume:.4f} m^3, "
+             f"{s['boundary_points']:,} boundary points, {s['evaluations']:,} evaluations")
+    pl.add_text(title, font_size=10, color="black")
+    if np.isfinite(lo).all():
+        pl.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", color="black", font_size=9,
+                       bounds=np.ravel(np.column_stack([lo, hi]) * 1e3).tolist())
+    pl.camera_position = "iso" if view is None else None
+    if view is not None:
+        pl.view_vector(list(view))
+    pl.camera.zoom(1.1)
+    pl.screenshot(str(path))
+    pl.close()
+    return path
+
+
+class PlotDependencyError(ImportError):
+    """matplotlib (2-D maps and curves) is not installed."""
+
+
+def _plt():
+    try:
+        import matplotlib
+    except ModuleNotFoundError:
+        raise PlotDependencyError("the 2-D workspace figures need matplotlib: pip install matplotlib "
+                                  "(or pass --no-plot)") from None
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_rotation_maps(res: RotationMapResult, path: str | Path, labels: tuple[str, str] = ("u [mm]", "v [mm]"),
+                       scale: tuple[float, float] = (1e3, 1e3), title: str = "", cmap: str = "gray_r") -> Path:
+    """One grey-scale contour panel per direction (Cobet's display, §7.2); white = inadmissible base orientation."""
+    plt = _plt()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    dirs = list(res.angles)
+    ncol = min(3, len(dirs))
+    nrow = int(np.ceil(len(dirs) / ncol))
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.9 * nrow), squeeze=False)
+    U, V = np.meshgrid(res.u_values * scale[0], res.v_values * scale[1])
+    vmax = max(float(np.nanmax(np.degrees(a))) if np.isfinite(a).any() else 0.0 for a in res.angles.values())
+    levels = np.linspace(0.0, max(vmax, 1.0), 19)
+    for ax, d in zip(axes.ravel(), dirs):
+        a = np.degrees(res.angles[d])
+        ax.set_facecolor(INADMISSIBLE)
+        if np.isfinite(a).any():
+            cs = ax.contourf(U, V, np.ma.masked_invalid(a), levels=levels, cmap=cmap, extend="neither")
+            fig.colorbar(cs, ax=ax, label="max. angle [deg]")
+        ax.set_title(f"{d}: max {np.nanmax(a) if np.isfinite(a).any() else float('nan'):.0f} deg, "
+                     f"mean {np.nanmean(a) if np.isfinite(a).any() else float('nan'):.1f} deg", fontsize=9)
+        ax.set_xlabel(labels[0])
+        ax.set_ylabel(labels[1])
+        ax.set_aspect("equal" if scale[0] == scale[1] else "auto")
+    for ax in axes.ravel()[len(dirs):]:
+        ax.set_visible(False)
+    if title:
+        fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_volume_vs_orientation(angles_rad: np.ndarray, volumes: Mapping[str, np.ndarray], path: str | Path,
+                               title: str = "") -> Path:
+    """Workspace volume (m^3) over one tool angle at a time, one curve per rotation axis."""
+    plt = _plt()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for ax_name, vols in volumes.items():
+        ax.plot(np.degrees(angles_rad), vols, marker="o", ms=3, label=f"rotation about {ax_name}")
+    ax.set_xlabel("tool angle [deg] (other angles 0)")
+    ax.set_ylabel("workspace volume [m$^3$]")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.ndarray]], path: str | Path) -> Path:
+    """|relative volume error| [%] over eps [mm], log-log, one panel per body, one curve per method."""
+    plt = _plt()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(1, len(errors), figsize=(5.6 * len(errors), 4.2), squeeze=False)
+    for ax, (body, by_method) in zip(axes.ravel(), errors.items()):
+        for meth, err in by_method.items():
+            ax.loglog(eps_mm, np.maximum(np.abs(err), 1e-4), marker="o", ms=3, label=meth)
+        ax.axhline(0.5, color="red", lw=0.8, ls="--", label="0.5 % target")
+        ax.set_xticks(eps_mm, [f"{e:g}" for e in eps_mm])
+        ax.minorticks_off()
+        ax.set_xlabel("resolution eps [mm]")
+        ax.set_ylabel("|volume error| [%]")
+        ax.set_title(body, fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | Path, title: str = "",
+                              cmap: str = "gray_r") -> Path:
+    """Projections of the rotational workspace at a point (spec §7.1): one panel per result, e.g. max. +a over
+    (b, c) and max. +b over (a, c); axes and values in degrees."""
+    plt = _plt()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(1, len(results), figsize=(5.2 * len(results), 4.2), squeeze=False)
+    for ax, res in zip(axes.ravel(), results):
+        d = next(iter(res.angles))
+        a = np.degrees(res.angles[d])
+        ax.set_facecolor(INADMISSIBLE)
+        U, V = np.meshgrid(np.degrees(res.u_values), np.degrees(res.v_values))
+        if np.isfinite(a).any():
+            cs = ax.contourf(U, V, np.ma.masked_invalid(a), levels=18, cmap=cmap)
+            fig.colorbar(cs, ax=ax, label=f"max. rotation {d} [deg]")
+        ax.set_xlabel(f"{res.settings.get('u_angle', 'u')} [deg]")
+        ax.set_ylabel(f"{res.settings.get('v_angle', 'v')} [deg]")
+        ax.set_title(f"max. {d} over ({res.settings.get('u_angle')}, {res.settings.get('v_angle')})", fontsize=10)
+    if title:
+        fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

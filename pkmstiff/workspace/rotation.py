@@ -1,0 +1,410 @@
+"""Maximum admissible rotation angles on a raster (spec models.md §7.1, §7.6, Cobet 4.1.5, eq. 4.21-4.24).
+
+From the base orientation at every raster point, the angle in a direction (+a, -a, +b, -b, +a+b, -a-b, also +c, -c;
+"+a+b" = equal simultaneous rotation) is raised in steps of ``increment`` until the pose becomes inadmissible; the
+result is the last admissible angle (>= 0, rad), NaN where the base orientation itself is inadmissible.
+
+Angles live on the lattice k * increment, k = 0 .. K = floor(max_angle / increment) (Assumption: max_angle 90 deg);
+a point admissible up to K reports K * increment (``at_limit``).
+
+* ``method="plain"``: incremental search from k = 0 at every point. Vectorised: all active raster points and all
+  directions advance together in blocks of ``block`` increments; a point stops after the block holding its first
+  inadmissible increment.
+* ``method="predictor_corrector"``: the search at (u_n, v_m) starts at the prediction from the neighbours
+  (eq. 4.21-4.24; two previous values -> linear extrapolation, one -> that value, none -> the base angle; the
+  available directions averaged; NaN neighbours unavailable), rounded to the lattice (Note: so that the result is
+  on the same lattice as the plain search and equals it whenever the admissible angles form one interval). If
+  the prediction is admissible the angle is raised until inadmissible and the last admissible value stored (spec
+  rule), otherwise lowered until admissible, bounded by the base angle, which is known admissible.
+  Vectorisation: the predictor needs the results at (n-1, m), (n-2, m), (n, m-1), (n, m-2) only, so all points on
+  one anti-diagonal n + m = const are independent: each anti-diagonal is corrected in lock-step (one evaluation
+  per point and direction per step) for all directions at once. The stored angles are those of the printed
+  row-by-row order.
+* ``verify=True``: after each anti-diagonal, every increment between the base angle and the corrector's search
+  range is checked; a point with an inadmissible gap gets the plain-search result (spec caveat). With it the
+  result always equals the plain search.
+
+The base-orientation check is done once per raster point and shared by all directions and both methods.
+Evaluation counts: ``evaluations[dir]`` = poses evaluated by the search in that direction (excluding the shared
+base check); ``plain_sequential[dir]`` = what a plain search stopping at the first inadmissible increment needs
+(k* + 2 per point, K + 1 at the limit, 0 outside): the reference for the savings.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Iterable, Literal, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .. import admissibility as adm
+from ..model import Machine
+from .oracle import EvaluationStats, staged_admissible
+from .requirements import Requirement, parse_requirements
+
+DIRECTIONS: dict[str, tuple[int, int, int]] = {
+    "+a": (1, 0, 0), "-a": (-1, 0, 0), "+b": (0, 1, 0), "-b": (0, -1, 0), "+a+b": (1, 1, 0), "-a-b": (-1, -1, 0),
+    "+c": (0, 0, 1), "-c": (0, 0, -1),
+}
+SIX_DIRECTIONS = ("+a", "-a", "+b", "-b", "+a+b", "-a-b")
+Method = Literal["predictor_corrector", "plain"]
+
+
+class RotationMapError(ValueError):
+    """Invalid rotation-map argument; the message names the argument, the expectation and the finding."""
+
+
+@dataclass
+class RotationMapResult:
+    """Maximum admissible angles (rad) per direction on a raster; arrays (nv, nu)."""
+
+    u_values: np.ndarray
+    v_values: np.ndarray
+    base_poses: np.ndarray  # (nv, nu, 6)
+    angles: dict[str, np.ndarray]  # rad, NaN where the base orientation is inadmissible
+    at_limit: dict[str, np.ndarray]  # bool: admissible up to max_angle
+    base_ok: np.ndarray  # (nv, nu) bool
+    evaluations: dict[str, int]
+    plain_sequential: dict[str, int]
+    base_evaluations: int
+    verify_corrections: dict[str, int]
+    increment: float
+    max_angle: float
+    method: str
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def angle(self) -> np.ndarray:
+        """The map of the only direction (error if there are several)."""
+        if len(self.angles) != 1:
+            raise RotationMapError(f"result holds {len(self.angles)} directions; use .angles[direction]")
+        return next(iter(self.angles.values()))
+
+    def savings(self) -> dict[str, dict[str, float]]:
+        """Evaluations per direction vs the plain sequential search (both without the shared base check)."""
+        out = {}
+        for d in self.angles:
+            e, p = self.evaluations[d], self.plain_sequential[d]
+            out[d] = {"evaluations": e, "plain_sequential": p, "saved": p - e,
+                      "saved_fraction": (p - e) / p if p else 0.0}
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-ready summary; keys name their units."""
+        stats = {}
+        for d, a in self.angles.items():
+            fin = a[np.isfinite(a)]
+            stats[d] = {"max_deg": float(np.degrees(fin.max())) if fin.size else None,
+                        "mean_deg": float(np.degrees(fin.mean())) if fin.size else None,
+                        "min_deg": float(np.degrees(fin.min())) if fin.size else None,
+                        "points_at_limit": int(self.at_limit[d].sum())}
+        return {"method": self.method, "increment_deg": math.degrees(self.increment),
+                "max_angle_deg": math.degrees(self.max_angle),
+                "raster": [int(len(self.v_values)), int(len(self.u_values))],
+                "admissible_points": int(self.base_ok.sum()), "base_evaluations": self.base_evaluations,
+                "angles": stats, "evaluations": self.savings(), "verify_corrections": self.verify_corrections,
+                "settings": self.settings}
+
+
+def _directions(direction: str | Sequence[str]) -> list[str]:
+    dirs = [direction] if isinstance(direction, str) else list(direction)
+    bad = [d for d in dirs if d not in DIRECTIONS]
+    if bad or not dirs or len(set(dirs)) != len(dirs):
+        raise RotationMapError(f"direction: expected distinct names among {list(DIRECTIONS)}, found {direction!r}")
+    return dirs
+
+
+def _values(v: ArrayLike, name: str) -> np.ndarray:
+    arr = np.asarray(v, float).ravel()
+    if arr.size == 0 or not np.isfinite(arr).all() or (arr.size > 1 and np.any(np.diff(arr) <= 0)):
+        raise RotationMapError(f"{name}: expected a non-empty strictly increasing list of finite numbers, found {v!r}")
+    return arr
+
+
+class _Evaluator:
+    def __init__(self, machine: Machine, checks: Sequence[str], reqs: Sequence[Requirement]):
+        self.machine, self.checks, self.reqs = machine, tuple(checks), list(reqs)
+        self.stats = EvaluationStats()
+
+    def __call__(self, poses: np.ndarray) -> np.ndarray:
+        if len(poses) == 0:
+            return np.zeros(0, bool)
+        return staged_admissible(self.machine, poses, self.checks, self.reqs, self.stats)
+
+
+def angle_search(
+    machine: Machine,
+    base_poses: np.ndarray,
+    u_values: ArrayLike,
+    v_values: ArrayLike,
+    direction: str | Sequence[str] = SIX_DIRECTIONS,
+    increment: float = math.radians(1.0),
+    max_angle: float = math.radians(90.0),
+    *,
+    requirements: Iterable[str | Requirement] = (),
+    checks: Sequence[str] = adm.ALL_CHECKS,
+    method: Method = "predictor_corrector",
+    verify: bool = False,
+    block: int = 8,
+) -> RotationMapResult:
+    """Maximum admissible angles from ``base_poses`` (nv, nu, 6) on the raster (u_values, v_values); see module doc."""
+    u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
+    base = np.asarray(base_poses, float)
+    if base.shape != (v.size, u.size, 6) or not np.isfinite(base).all():
+        raise RotationMapError(f"base_poses: expected finite values of shape ({v.size}, {u.size}, 6), "
+                               f"found {base.shape}")
+    if not (math.isfinite(increment) and increment > 0):
+        raise RotationMapError(f"increment: expected a positive angle in rad, found {increment!r}")
+    if not (math.isfinite(max_angle) and max_angle >= increment):
+        raise RotationMapError(f"max_angle: expected a finite angle >= increment (rad), found {max_angle!r}")
+    if method not in ("predictor_corrector", "plain"):
+        raise RotationMapError(f"method: expected 'predictor_corrector' or 'plain', found {method!r}")
+    dirs = _directions(direction)
+    reqs = parse_requirements(requirements)
+    K = int(math.floor(max_angle / increment + 1e-9))
+    dvec = np.zeros((len(dirs), 6))
+    dvec[:, 3:] = np.array([DIRECTIONS[d] for d in dirs], float)
+    ev = _Evaluator(machine, checks, reqs)
+    nv, nu = base.shape[:2]
+    flat = base.reshape(-1, 6)
+    base_ok = ev(flat)
+    base_evals = flat.shape[0]
+    kbest = np.full((flat.shape[0], len(dirs)), -1, np.int64)  # -1 = outside
+    evals = np.zeros(len(dirs), np.int64)
+    fixes = np.zeros(len(dirs), np.int64)
+    if method == "plain":
+        _plain(ev, flat, base_ok, dvec, increment, K, block, kbest, evals)
+    else:
+        _predictor_corrector(ev, flat.reshape(nv, nu, 6), base_ok.reshape(nv, nu), u, v, dvec, increment, K,
+                             verify, kbest.reshape(nv, nu, -1), evals, fixes)
+    angles, at_limit, plain_seq = {}, {}, {}
+    for j, d in enumerate(dirs):
+        k = kbest[:, j]
+        angles[d] = np.where(k >= 0, k * increment, np.nan).reshape(nv, nu)
+        at_limit[d] = (k == K).reshape(nv, nu)
+        plain_seq[d] = int(np.where(k < 0, 0, np.where(k == K, K, k + 1)).sum())  # k=0 is the shared base check
+    settings = {"checks": list(checks), "requirements": [r.text for r in reqs], "verify": verify,
+                "block": block, "increments": K}
+    return RotationMapResult(u, v, base, angles, at_limit, base_ok.reshape(nv, nu),
+                             {d: int(evals[j]) for j, d in enumerate(dirs)}, plain_seq, base_evals,
+                             {d: int(fixes[j]) for j, d in enumerate(dirs)}, float(increment), float(max_angle),
+                             method, settings)
+
+
+def _plain(ev: _Evaluator, flat: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray, inc: float, K: int,
+           block: int, kbest: np.ndarray, evals: np.ndarray) -> None:
+    """Plain incremental search, all points and directions in blocks of increments."""
+    D = dvec.shape[0]
+    pi, di = np.nonzero(np.repeat(base_ok[:, None], D, axis=1))
+    kbest[pi, di] = 0
+    k0 = 0
+    while pi.size and k0 < K:
+        ks = np.arange(k0 + 1, min(k0 + block, K) + 1)
+        poses = flat[pi][:, None, :] + (ks[None, :, None] * inc) * dvec[di][:, None, :]
+        ok = ev(poses.reshape(-1, 6)).reshape(pi.size, ks.size)
+        np.add.at(evals, di, ks.size)
+        first_bad = np.where(ok.all(axis=1), ks.size, np.argmin(ok, axis=1))
+        kbest[pi, di] = k0 + first_bad  # last admissible increment
+        go = first_bad == ks.size
+        pi, di = pi[go], di[go]
+        k0 = int(ks[-1])
+
+
+def _predictor_corrector(ev: _Evaluator, base: np.ndarray, base_ok: np.ndarray, u: np.ndarray, v: np.ndarray,
+                         dvec: np.ndarray, inc: float, K: int, verify: bool, kbest: np.ndarray,
+                         evals: np.ndarray, fixes: np.ndarray) -> None:
+    nv, nu, D = kbest.shape
+    f = np.full((nv, nu, D), np.nan)  # results in rad (NaN = outside / not yet computed)
+    for diag in range(nu + nv - 1):
+        m = np.arange(max(0, diag - nu + 1), min(nv, diag + 1))
+        n = diag - m
+        inside = base_ok[m, n]
+        m, n = m[inside], n[inside]
+        if m.size == 0:
+            continue
+        pred = _prediction(f, u, v, m, n)  # (P, D) rad
+        k = np.clip(np.rint(pred / inc), 0, K).astype(np.int64)
+        k_start = k.copy()
+        P = m.size
+        pts = base[m, n]  # (P, 6)
+        # first step: evaluate the prediction (k = 0 is the base orientation, known admissible)
+        ok = np.ones((P, D), bool)
+        need = k > 0
+        ok[need] = _eval(ev, pts, dvec, inc, need, k, evals)
+        up = ok.copy()  # searching upwards from an admissible prediction
+        result = np.where(ok, k, -1)
+        active = np.where(up, k < K, True)
+        cur = k.copy()
+        while active.any():
+            cur = np.where(active, np.where(up, cur + 1, cur - 1), cur)
+            at_base = active & ~up & (cur == 0)  # lowering reached the base angle: admissible by the base check
+            result[at_base] = 0
+            active &= ~at_base
+            if not active.any():
+                break
+            val = _eval(ev, pts, dvec, inc, active, cur, evals)
+            res_now = np.zeros((P, D), bool)
+            res_now[active] = val
+            # upwards: stop at the first inadmissible angle, result = cur - 1; downwards: stop at the first admissible
+            stop_up = active & up & ~res_now
+            result[stop_up] = cur[stop_up] - 1
+            cont_up = active & up & res_now
+            result[cont_up] = cur[cont_up]
+            stop_dn = active & ~up & res_now
+            result[stop_dn] = cur[stop_dn]
+            active = (cont_up & (cur < K)) | (active & ~up & ~res_now)
+        if verify:
+            lo_checked = np.minimum(k_start, np.maximum(result, 0))  # the search covered [lo_checked, ...]
+            result, nfix = _verify(ev, pts, dvec, inc, result, lo_checked, evals)
+            fixes += nfix
+        kbest[m, n] = result
+        f[m, n] = result * inc
+
+
+def _prediction(f: np.ndarray, u: np.ndarray, v: np.ndarray, m: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Predicted angles (eq. 4.21-4.24) at raster points (m, n) for all directions, (P, D)."""
+    D = f.shape[2]
+    total = np.zeros((m.size, D))
+    count = np.zeros((m.size, D))
+    for along_u in (True, False):
+        i = n if along_u else m
+        c = u if along_u else v
+
+        def at(off):
+            ok = i - off >= 0
+            vals = np.full((m.size, D), np.nan)
+            sel = np.flatnonzero(ok)
+            if along_u:
+                vals[sel] = f[m[sel], n[sel] - off]
+            else:
+                vals[sel] = f[m[sel] - off, n[sel]]
+            return vals
+
+        f1, f2 = at(1), at(2)
+        c0 = c[i]
+        c1 = c[np.maximum(i - 1, 0)]
+        c2 = c[np.maximum(i - 2, 0)]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lin = f1 + (f1 - f2) / (c1 - c2)[:, None] * (c0 - c1)[:, None]  # eq. 4.22 / 4.23
+        two = np.isfinite(f1) & np.isfinite(f2)
+        one = np.isfinite(f1) & ~two
+        est = np.where(two, lin, np.where(one, f1, 0.0))  # eq. 4.24 for one neighbour
+        have = two | one
+        total += np.where(have, est, 0.0)
+        count += have
+    return np.where(count > 0, total / np.maximum(count, 1), 0.0)  # eq. 4.21; none: the base angle
+
+
+def _eval(ev: _Evaluator, pts: np.ndarray, dvec: np.ndarray, inc: float, mask: np.ndarray, k: np.ndarray,
+          evals: np.ndarray) -> np.ndarray:
+    """Admissibility at angle k * inc for the (point, direction) pairs in ``mask``; counts per direction."""
+    pi, di = np.nonzero(mask)
+    poses = pts[pi] + (k[pi, di] * inc)[:, None] * dvec[di]
+    np.add.at(evals, di, 1)
+    return ev(poses)
+
+
+def _verify(ev: _Evaluator, pts: np.ndarray, dvec: np.ndarray, inc: float, result: np.ndarray, lo_checked: np.ndarray,
+            evals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Check increments 1 .. lo_checked - 1 below the corrector's range; on a gap take the plain result."""
+    pi, di = np.nonzero(lo_checked > 1)
+    D = result.shape[1]
+    nfix = np.zeros(D, np.int64)
+    if pi.size == 0:
+        return result, nfix
+    counts = lo_checked[pi, di] - 1
+    rep = np.repeat(np.arange(pi.size), counts)
+    ks = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + 1
+    poses = pts[pi[rep]] + (ks * inc)[:, None] * dvec[di[rep]]
+    ok = ev(poses)
+    np.add.at(evals, di[rep], 1)
+    bad_k = np.where(ok, np.iinfo(np.int64).max, ks)
+    first_bad = np.full(pi.size, np.iinfo(np.int64).max)
+    np.minimum.at(first_bad, rep, bad_k)
+    gap = first_bad < np.iinfo(np.int64).max
+    out = result.copy()
+    out[pi[gap], di[gap]] = first_bad[gap] - 1
+    np.add.at(nfix, di[gap], 1)
+    return out, nfix
+
+
+def _raster_points(origin: ArrayLike, u_axis: ArrayLike, v_axis: ArrayLike, u: np.ndarray, v: np.ndarray,
+                   names: tuple[str, str, str]) -> np.ndarray:
+    o, a, b = (np.asarray(x, float) for x in (origin, u_axis, v_axis))
+    for arr, nm in ((o, names[0]), (a, names[1]), (b, names[2])):
+        if arr.shape != (3,) or not np.isfinite(arr).all():
+            raise RotationMapError(f"{nm}: expected 3 finite numbers, found {arr.tolist()}")
+    return o + u[None, :, None] * a + v[:, None, None] * b  # (nv, nu, 3)
+
+
+def rotation_angle_map(
+    machine: Machine,
+    origin: ArrayLike,
+    u_axis: ArrayLike,
+    v_axis: ArrayLike,
+    u_values: ArrayLike,
+    v_values: ArrayLike,
+    base_orientation: ArrayLike = (0.0, 0.0, 0.0),
+    direction: str | Sequence[str] = "+a",
+    increment: float = math.radians(1.0),
+    max_angle: float = math.radians(90.0),
+    requirements: Iterable[str | Requirement] = (),
+    method: Method = "predictor_corrector",
+    verify: bool = False,
+    **kw: Any,
+) -> RotationMapResult:
+    """Maximum admissible angles on a section raster: positions origin + u * u_axis + v * v_axis (m).
+
+    ``base_orientation`` (a, b, c) in rad; ``direction`` one name or several (searched together);
+    ``increment``, ``max_angle`` in rad. Returns a :class:`RotationMapResult` (angles (nv, nu) rad, NaN outside).
+    """
+    u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
+    pos = _raster_points(origin, u_axis, v_axis, u, v, ("origin", "u_axis", "v_axis"))
+    ori = np.asarray(base_orientation, float)
+    if ori.shape != (3,) or not np.isfinite(ori).all():
+        raise RotationMapError(f"base_orientation: expected three finite angles in rad, found {base_orientation!r}")
+    base = np.concatenate([pos, np.broadcast_to(ori, pos.shape)], axis=-1)
+    res = angle_search(machine, base, u, v, direction, increment, max_angle, requirements=requirements,
+                       method=method, verify=verify, **kw)
+    res.settings.update({"origin_m": np.asarray(origin, float).tolist(), "u_axis": np.asarray(u_axis, float).tolist(),
+                         "v_axis": np.asarray(v_axis, float).tolist(),
+                         "base_orientation_deg": np.degrees(ori).tolist()})
+    return res
+
+
+def rotational_workspace_map(
+    machine: Machine,
+    point: ArrayLike,
+    direction: str = "+a",
+    u_values: ArrayLike = np.radians(np.arange(-30.0, 30.1, 2.0)),
+    v_values: ArrayLike = np.radians(np.arange(-60.0, 60.1, 4.0)),
+    base_orientation: ArrayLike = (0.0, 0.0, 0.0),
+    increment: float = math.radians(1.0),
+    max_angle: float = math.radians(90.0),
+    **kw: Any,
+) -> RotationMapResult:
+    """Rotational workspace at a point (spec §7.1): the maximum angle in ``direction`` over a raster of the two
+    other angles — "+a as a function of (b, c)" (u = b, v = c) or "+b as a function of (a, c)" (u = a, v = c).
+
+    ``point`` (x, y, z) in m; raster values in rad, added to ``base_orientation``.
+    """
+    dirs = _directions(direction)
+    if len(dirs) != 1 or len(direction) != 2:
+        raise RotationMapError(f"direction: expected one single-axis direction such as '+a' or '-b', "
+                               f"found {direction!r}")
+    axis = "abc".index(direction[1])
+    others = [i for i in range(3) if i != axis]
+    u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
+    p = np.asarray(point, float)
+    if p.shape != (3,) or not np.isfinite(p).all():
+        raise RotationMapError(f"point: expected x, y, z (3 finite numbers, m), found {point!r}")
+    base = np.zeros((v.size, u.size, 6))
+    base[..., :3] = p
+    base[..., 3:] = np.asarray(base_orientation, float)
+    base[..., 3 + others[0]] += u[None, :]
+    base[..., 3 + others[1]] += v[:, None]
+    res = angle_search(machine, base, u, v, direction, increment, max_angle, **kw)
+    res.settings.update({"point_m": p.tolist(), "u_angle": "abc"[others[0]], "v_angle": "abc"[others[1]]})
+    return res

@@ -1,0 +1,226 @@
+"""Modified octree, closed boundary surface and volume methods on analytic bodies (spec models.md §7.3, §7.5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pkmstiff.workspace.octree import CORNER_OFFSETS, OctreeInputError, levels_for, octree_boundary
+from pkmstiff.workspace.surface import boundary_surface
+from pkmstiff.workspace.volume import pyramid_volume, tetrahedron_volume, workspace_volume
+
+# body centre off the lattice planes of the box [-0.8, 0.8]^3 (an aligned face would sit exactly on corners)
+CENTRE = np.array([0.0123, 0.0271, 0.0389])
+BOX = (np.full(3, -0.8), np.full(3, 0.8))  # 1.6 m = 6.25 mm * 2**8: eps is reached by repeated halving
+
+
+def sphere(p, c=CENTRE, r=0.5):
+    return np.linalg.norm(p - c, axis=1) <= r
+
+
+def cube(p, c=CENTRE, a=0.5):
+    return np.all(np.abs(p - c) <= a, axis=1)
+
+
+@pytest.fixture(scope="module")
+def bodies_6mm():
+    out = {}
+    # "cube, h not dividing": box +-0.61 m gives h = 1.22 m / 256 = 4.77 mm, so the cube edge is 209.8 h and the
+    # mid-point errors of opposite faces do not cancel (with h = 6.25 mm the edge is exactly 160 h)
+    for name, fn, exact, box in (("sphere", sphere, np.pi / 6, BOX), ("cube", cube, 1.0, BOX),
+                                 ("cube, h not dividing", cube, 1.0, (np.full(3, -0.61), np.full(3, 0.61)))):
+        res = octree_boundary(fn, *box, 0.00625)
+        rep = workspace_volume(res, ("surface_nets", "tetrahedron", "divergence", "pyramid"),
+                               refine_steps=3, admissible=fn)
+        out[name] = (res, rep, exact)
+    return out
+
+
+@pytest.mark.parametrize("body", ["sphere", "cube", "cube, h not dividing"])
+def test_surface_nets_volume_within_half_percent_at_6mm(bodies_6mm, body):
+    # issue 6 acceptance: < 0.5 % at eps = 6.25 mm (dissertation: 2.3 % sphere, 1.7 % cube with tetrahedra).
+    # With 3 bisection steps an aligned cube face is located within h/16; six faces of 1 m^2 give <= 0.23 %.
+    res, rep, exact = bodies_6mm[body]
+    assert np.all(res.spacing <= 0.00625)
+    assert abs(rep.volumes["surface_nets"] / exact - 1) < 0.005
+
+
+@pytest.mark.parametrize("body", ["sphere", "cube"])
+def test_tetrahedron_method_converges_from_below(bodies_6mm, body):
+    # eq. 4.1 centroids lie inside the body, so the mesh through them is inside and the volume from below
+    # (spec §7.5); the inward offset is at most one voxel edge h, so the deficit is below area * h / V.
+    res, rep, exact = bodies_6mm[body]
+    area_over_v = 3 / 0.5 if body == "sphere" else 6.0  # sphere 3/r, cube 6/a (1/m)
+    for m in ("tetrahedron", "divergence"):
+        rel = rep.volumes[m] / exact - 1
+        assert -area_over_v * res.spacing[0] < rel < 0
+    # both bodies are star-shaped about the cloud centre: signed and unsigned sums agree to rounding
+    assert rep.volumes["tetrahedron"] == pytest.approx(rep.volumes["divergence"], rel=1e-12)
+
+
+def test_surface_is_closed_and_lies_near_the_sphere(bodies_6mm):
+    res, rep, _ = bodies_6mm["sphere"]
+    for mesh in (rep.centroid_mesh, rep.crossing_mesh):
+        assert mesh.is_closed()
+    # refined crossing vertices: within the bisection bracket h/16 plus the mesh-vertex averaging (chord) error
+    d = np.abs(np.linalg.norm(rep.crossing_mesh.vertices - CENTRE, axis=1) - 0.5)
+    assert d.max() < res.spacing[0] / 2
+
+
+def test_error_decreases_with_resolution():
+    errs = {}
+    for eps in (0.05, 0.025, 0.0125):
+        res = octree_boundary(sphere, *BOX, eps)
+        rep = workspace_volume(res, ("surface_nets", "tetrahedron"))
+        errs[eps] = {k: abs(v / (np.pi / 6) - 1) for k, v in rep.volumes.items()}
+    for m in ("surface_nets", "tetrahedron"):
+        assert errs[0.0125][m] < errs[0.025][m] < errs[0.05][m]
+    # the tetrahedron method converges linearly (error ~ 3 h / (2 r)): halving eps roughly halves it
+    assert 1.6 < errs[0.025]["tetrahedron"] / errs[0.0125]["tetrahedron"] < 2.4
+    # the mid-point surface is unbiased: at least 10x more accurate than the centroid surface here
+    assert errs[0.0125]["surface_nets"] < errs[0.0125]["tetrahedron"] / 10
+
+
+@settings(max_examples=10, deadline=None)
+@given(c=st.tuples(*[st.floats(-0.15, 0.15)] * 3), r=st.floats(0.15, 0.5), eps=st.sampled_from([0.06, 0.045, 0.035]))
+def test_boundary_points_within_eps_of_the_sphere(c, r, eps):
+    c = np.asarray(c)
+    res = octree_boundary(lambda p: np.linalg.norm(p - c, axis=1) <= r, [-0.7] * 3, [0.7] * 3, eps)
+    assert np.all(res.spacing <= eps)
+    pts = res.boundary_points
+    d = np.abs(np.linalg.norm(pts - c, axis=1) - r)
+    # the centroid of the admissible corners of a voxel cut by a plane is at most one edge h from the plane
+    # (worst case: four corners of a face admissible); curvature adds at most h^2 / r
+    h = res.spacing.max()
+    assert d.max() <= h + h * h / r <= eps + eps * eps / r
+    # completeness: every point of the true surface has a boundary point within a voxel diagonal
+    rng = np.random.default_rng(0)
+    dirs = rng.normal(size=(200, 3))
+    surf = c + r * dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
+    nearest = np.min(np.linalg.norm(surf[:, None, :] - pts[None, ::1, :], axis=2), axis=1)
+    assert nearest.max() <= np.sqrt(3) * h
+
+
+def _depth_first(fn, lo, hi, eps):
+    """The spec's recursive algorithm (§7.3 Note) with memoised corners, as an independent reference."""
+    levels = levels_for(np.asarray(lo, float), np.asarray(hi, float), eps)
+    n = 1 << levels
+    h = (np.asarray(hi) - np.asarray(lo)) / n
+    cache: dict[tuple, bool] = {}
+
+    def adm(i):
+        if i not in cache:
+            cache[i] = bool(fn((np.asarray(lo) + np.asarray(i) * h)[None])[0])
+        return cache[i]
+
+    leaves = set()
+
+    def rec(i0, size):
+        axes = [k for k in range(3) if size[k] > 1]
+        half = [size[k] // 2 if k in axes else size[k] for k in range(3)]
+        for c in range(1 << len(axes)):
+            off = [0, 0, 0]
+            for b, k in enumerate(axes):
+                off[k] = half[k] * ((c >> b) & 1)
+            ci = tuple(i0[k] + off[k] for k in range(3))
+            corners = [adm(tuple(ci[k] + o[k] * half[k] for k in range(3))) for o in CORNER_OFFSETS]
+            na = sum(corners)
+            if na in (0, 8):
+                continue
+            if any(s > 1 for s in half):
+                rec(ci, half)
+            else:
+                leaves.add(ci)
+
+    rec((0, 0, 0), tuple(int(v) for v in n))
+    return leaves, len(cache)
+
+
+def test_level_by_level_equals_depth_first_recursion():
+    # non-cubic box: the modification (split only axes above eps) changes the number of halvings per axis
+    lo, hi, eps = [-0.6, -0.3, -0.45], [0.6, 0.3, 0.45], 0.05
+    fn = lambda p: (np.linalg.norm((p - [0.05, 0.02, 0.0]) / [0.5, 0.25, 0.35], axis=1) <= 1.0)  # noqa: E731
+    ref_leaves, ref_evals = _depth_first(fn, lo, hi, eps)
+    res = octree_boundary(fn, lo, hi, eps, min_level=1, closure=False)
+    assert res.levels.tolist() == [5, 4, 5]  # 1.2/32, 0.6/16, 0.9/32 <= 0.05
+    assert {tuple(v) for v in res.leaf_index.tolist()} == ref_leaves
+    # the reference never evaluates the 8 corners of the whole box (level 0 is split without looking at it)
+    assert res.evaluations == ref_evals
+
+
+def test_torus_closed_surface_divergence_vs_unsigned_sum():
+    # a torus is not star-shaped about its centre (which lies in the hole): the unsigned eq. 4.14 sum counts the
+    # tetrahedra of the inner wall with the wrong sign, the signed sum (divergence theorem) does not
+    R, r = 0.35, 0.12
+    c = np.array([0.011, -0.007, 0.013])
+
+    def torus(p):
+        q = p - c
+        return (np.hypot(q[:, 0], q[:, 1]) - R) ** 2 + q[:, 2] ** 2 <= r * r
+
+    res = octree_boundary(torus, [-0.6] * 3, [0.6] * 3, 0.0125)
+    exact = 2 * np.pi**2 * R * r * r
+    # unsigned sum about the centre in closed form: (1/3) * surface integral of |p.n| = (2 pi r / 3) *
+    # integral over phi of |R cos(phi) + r| (R + r cos(phi)) (torus parametrisation, p.n = R cos(phi) + r)
+    phi = np.linspace(0, 2 * np.pi, 200_001)
+    unsigned = 2 * np.pi * r / 3 * np.trapezoid(np.abs(R * np.cos(phi) + r) * (R + r * np.cos(phi)), phi)
+    rep = workspace_volume(res, ("surface_nets", "divergence", "tetrahedron"))
+    mesh = rep.crossing_mesh
+    assert mesh.is_closed() and rep.centroid_mesh.is_closed()
+    assert abs(rep.volumes["surface_nets"] / exact - 1) < 0.01  # unbiased mid-points, h/r = 0.08
+    # same mesh, unsigned about the centre; 5 %: the facet normals of a voxel-based mesh scatter about the surface
+    # normal, which adds |p.n| where p.n changes sign (|phi| near 110 deg)
+    assert abs(tetrahedron_volume(mesh, z=c) / unsigned - 1) < 0.05
+    assert unsigned > 1.4 * exact
+    assert rep.volumes["divergence"] < exact  # centroid mesh: from below
+
+
+def test_pyramid_method_follows_eq_4_6():
+    res = octree_boundary(sphere, *BOX, 0.05)
+    s = res.boundary_points
+    z = np.array([0.1, 0.0, 0.0])
+    expected = sum(np.linalg.norm(z - p) for p in s) * (res.spacing.sum() / 3) ** 2 / 3
+    assert pyramid_volume(res, z) == pytest.approx(expected, rel=1e-12)
+
+
+def test_tetrahedron_volume_of_a_unit_cube_mesh():
+    v = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+    t = np.array([[0, 2, 1], [0, 3, 2], [4, 5, 6], [4, 6, 7], [0, 1, 5], [0, 5, 4], [1, 2, 6], [1, 6, 5],
+                  [2, 3, 7], [2, 7, 6], [3, 0, 4], [3, 4, 7]])
+    from pkmstiff.workspace.surface import BoundarySurface
+
+    mesh = BoundarySurface(v, t, "test")
+    assert mesh.is_closed()
+    assert mesh.signed_volume() == pytest.approx(1.0, abs=1e-15)
+    assert tetrahedron_volume(mesh, z=[0.3, 0.6, 0.2]) == pytest.approx(1.0, abs=1e-15)
+
+
+def test_workspace_touching_the_box_is_reported_and_closed():
+    res = octree_boundary(lambda p: p[:, 0] <= 0.2, [-0.5] * 3, [0.5] * 3, 0.05)
+    assert res.touches_box
+    mesh = boundary_surface(res)
+    assert mesh.is_closed()  # capped by virtual inadmissible corners outside the box
+    # cut slab: x in [-0.5, 0.2] (box faces exact, x = 0.2 estimated by mid-points within h/2)
+    assert mesh.signed_volume() == pytest.approx(0.7, abs=0.5 * res.spacing[0])
+
+
+def test_stl_and_vtk_round_trip(tmp_path, bodies_6mm):
+    import pyvista as pv
+
+    mesh = bodies_6mm["sphere"][1].crossing_mesh
+    for name in ("ws.stl", "ws.vtp"):
+        back = pv.read(str(mesh.save(tmp_path / name, scale=1e3)))
+        assert back.n_cells == mesh.triangles.shape[0]
+        assert np.allclose(back.bounds, np.ravel(np.column_stack([mesh.vertices.min(0), mesh.vertices.max(0)])) * 1e3,
+                           atol=1e-3)  # float32 STL coordinates in mm
+
+
+def test_bad_input_names_the_argument():
+    with pytest.raises(OctreeInputError, match="hi > lo"):
+        octree_boundary(sphere, [0, 0, 0], [1, -1, 1], 0.1)
+    with pytest.raises(OctreeInputError, match="eps"):
+        octree_boundary(sphere, [0, 0, 0], [1, 1, 1], -1.0)
+    with pytest.raises(OctreeInputError, match="shape"):
+        octree_boundary(lambda p: np.ones(3, bool), [0, 0, 0], [1, 1, 1], 0.5)
