@@ -36,6 +36,7 @@ class Reason(enum.IntFlag):
     PLATFORM_COLLISION = 128  # B.12: a strut touches or pierces the platform hull
     DRIVE_LOAD = 256  # B.13: static drive load exceeds the available drive force
     REQUIREMENT = 512  # a user requirement (e.g. minimum stiffness) is not met
+    FRAME = 1024  # O' outside the frame limits of the machine file (bed, guide structure)
 
 
 REASON_TEXT: dict[Reason, str] = {
@@ -49,9 +50,10 @@ REASON_TEXT: dict[Reason, str] = {
     Reason.PLATFORM_COLLISION: "strut-platform collision",
     Reason.DRIVE_LOAD: "static drive load exceeds the available drive force",
     Reason.REQUIREMENT: "user requirement not met",
+    Reason.FRAME: "platform outside the frame limits (machine bed / guide structure)",
 }
 
-ALL_CHECKS = ("drive_range", "drive_spacing", "joint_angles", "singularity", "strut_collision",
+ALL_CHECKS = ("frame", "drive_range", "drive_spacing", "joint_angles", "singularity", "strut_collision",
               "platform_collision", "drive_load")
 
 
@@ -113,6 +115,15 @@ class Admissibility:
 
 
 # ------------------------------------------------------------------------------------------------- single checks
+
+
+def check_frame(machine: Machine, position: np.ndarray) -> CheckResult:
+    """Frame limits: the position of O' (N, 3) must lie in the machine file's box [limits.frame]."""
+    lim = machine.limits
+    if np.all(np.isinf(lim.position_min)) and np.all(np.isinf(lim.position_max)):
+        return CheckResult(np.ones(len(position), bool), Reason.FRAME, skipped="no frame limits in the machine file")
+    bad = (position < lim.position_min) | (position > lim.position_max)
+    return CheckResult(~bad.any(axis=1), Reason.FRAME, bad, ["x", "y", "z"])
 
 
 def check_drive_range(machine: Machine, drive: np.ndarray, reachable: np.ndarray) -> CheckResult:

@@ -34,7 +34,9 @@ class UnknownMachineError(ValueError):
 _TOP_KEYS = {"format_version", "machine", "limits", "tool", "joint_types", "guides", "chain_defaults", "chains",
              "hull", "components", "machine_components", "assumptions", "options"}
 _MACHINE_KEYS = {"name", "title", "type", "source", "extends", "gravity", "transmission_weight", "notes"}
-_LIMIT_KEYS = {"singularity_threshold", "strut_collision_mode", "platform_end_exclusion", "drive_load_include_coulomb"}
+_LIMIT_KEYS = {"singularity_threshold", "strut_collision_mode", "platform_end_exclusion", "drive_load_include_coulomb",
+               "frame"}
+_FRAME_KEYS = {f"{a}_{m}" for a in "xyz" for m in ("min", "max")}
 _TOOL_KEYS = {"offset", "axis", "length"}
 _JOINT_KEYS = {"convention", "strut_direction", "swivel_min", "swivel_max", "tilt_min", "tilt_max", "ina_coupled",
                "stiffness", "mass", "description"}
@@ -236,6 +238,18 @@ def _limits(tab: Any, src: str) -> Limits:
             raise MachineFileError(src, "limits.drive_load_include_coulomb", "true or false",
                                    tab["drive_load_include_coulomb"])
         kw["drive_load_include_coulomb"] = tab["drive_load_include_coulomb"]
+    if "frame" in tab:
+        fr = _check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.")
+        lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+        for k, v in fr.items():
+            (lo if k.endswith("min") else hi)["xyz".index(k[0])] = float(
+                parse_quantity(v, "m", source=src, key=f"limits.frame.{k}"))
+        bad = np.nonzero(lo >= hi)[0]
+        if bad.size:
+            a = "xyz"[bad[0]]
+            raise MachineFileError(src, f"limits.frame.{a}_min", f"a value below {a}_max = {hi[bad[0]]} m",
+                                   fr.get(f"{a}_min"))
+        kw["position_min"], kw["position_max"] = lo, hi
     return Limits(**kw)
 
 

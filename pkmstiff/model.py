@@ -122,6 +122,9 @@ class Limits:
     strut_collision_mode: Literal["exact", "table_B2"] = "exact"
     platform_end_exclusion: float | None = None  # m excluded at the platform end of a strut; None = strut radius
     drive_load_include_coulomb: bool = True
+    # frame: box for the position of O' in the MKS (m); -inf/+inf where not limited
+    position_min: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
+    position_max: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
 
 @dataclass(frozen=True)

@@ -115,6 +115,8 @@ def evaluate_chunk(
     reach = ik.all_reachable
 
     results: list[adm.CheckResult] = []
+    if "frame" in checks:
+        results.append(adm.check_frame(machine, ik.poses[:, :3]))
     if "drive_range" in checks:
         results.append(adm.check_drive_range(machine, ik.drive, ik.reachable))
     if "drive_spacing" in checks:

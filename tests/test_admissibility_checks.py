@@ -181,3 +181,13 @@ def test_combine_reason_codes():
     assert adm.reason_names(a.reasons[3]) == ["UNREACHABLE"]  # other checks are not evaluated there
     s = a.summary()
     assert s["DRIVE_RANGE"] == 2 and s["SINGULAR"] == 1 and s["UNREACHABLE"] == 1 and s["admissible"] == 1
+
+
+def test_frame_limits(hexaglide):
+    # Hexaglide frame (machine file): -1.1 m <= z <= -0.34 m, x and y free
+    pos = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.1], [0.0, 0.0, -1.1001], [5.0, -3.0, -0.34], [0.0, 0.0, 0.3]])
+    res = adm.check_frame(hexaglide, pos)
+    np.testing.assert_array_equal(res.ok, [True, True, False, True, False])
+    assert res.detail[2].tolist() == [False, False, True]
+    unlimited = adm.check_frame(load_machine("paralix"), pos)
+    assert unlimited.skipped and unlimited.ok.all()

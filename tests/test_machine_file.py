@@ -135,3 +135,17 @@ def test_pod_length_limits_validated(tmp_path):
     p.write_text(text)
     with pytest.raises(MachineFileError, match=r"length_max.*> length_min"):
         load_machine(p)
+
+
+def test_frame_limits_validated(tmp_path):
+    m = load_machine("hexaglide")
+    np.testing.assert_allclose(m.limits.position_min, [-np.inf, -np.inf, -1.1])
+    np.testing.assert_allclose(m.limits.position_max, [np.inf, np.inf, -0.34])
+    text = (bundled_machine_dir() / "hexaglide.toml").read_text()
+    for bad, pattern in [('frame = { z_min = "-1100 mm", z_max = "-340 mm" }', r"limits\.frame\.z_min.*below z_max"),
+                         ('frame = { z_low = "-1100 mm" }', r"limits\.frame\.z_low.*unknown key")]:
+        p = tmp_path / "f.toml"
+        p.write_text(text.replace('frame = { z_min = "-1100 mm", z_max = "-340 mm" }',
+                                  bad.replace('"-1100 mm", z_max = "-340 mm"', '"-300 mm", z_max = "-340 mm"')))
+        with pytest.raises(MachineFileError, match=pattern):
+            load_machine(p)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Iterable, Literal, Sequence
 
 import numpy as np
@@ -65,15 +65,6 @@ class EvaluationStats:
                 "time_pipeline_s": self.time_pipeline, "time_requirements_s": self.time_requirements}
 
 
-def subset_evaluation(ev: PoseEvaluation, mask: np.ndarray) -> PoseEvaluation:
-    """The evaluation restricted to the poses where ``mask`` is True."""
-    a = adm.Admissibility(ok=ev.admissibility.ok[mask], reasons=ev.admissibility.reasons[mask], checks={})
-    return replace(ev, poses=ev.poses[mask], drive=ev.drive[mask], strut_length=ev.strut_length[mask],
-                   drive_point=ev.drive_point[mask], platform_point=ev.platform_point[mask], jinv=ev.jinv[mask],
-                   jc=ev.jc[mask], kappa=ev.kappa[mask], angles={k: v[mask] for k, v in ev.angles.items()},
-                   admissibility=a, drive_loads=None if ev.drive_loads is None else ev.drive_loads[mask])
-
-
 def staged_admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str] = adm.ALL_CHECKS,
                       requirements: Sequence[Requirement] = (), stats: EvaluationStats | None = None,
                       prefilter: bool = True, chunk_size: int = 20_000, tool_length: float | None = None
@@ -101,7 +92,7 @@ def staged_admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str]
         t2 = time.perf_counter()
         st.time_pipeline += t2 - t1
         if requirements and ok.any():
-            sub = ev if ok.all() else subset_evaluation(ev, ok)
+            sub = ev if ok.all() else ev.subset(ok)
             ctx = EvalContext(machine, sub, tool_length)
             met = np.ones(int(ok.sum()), bool)
             for r in requirements:

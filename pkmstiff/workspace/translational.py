@@ -24,7 +24,8 @@ def reach_box(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
     """A box that certainly contains every position of O' the chains can reach.
 
     |w - q_i| <= l_i + |p'_i| for every chain (the strut spans l_i, the platform joint lies |p'_i| from O'), with
-    q_i on its guide segment (glide) or fixed (pod, l_i = l_max): the intersection of the chains' boxes.
+    q_i on its guide segment (glide) or fixed (pod, l_i = l_max): the intersection of the chains' boxes and of the
+    machine's frame limits (``[limits] frame``).
     """
     ch = machine.chains
     reach = (ch.strut_length if ch.kind == "glide" else ch.length_max) + np.linalg.norm(ch.platform_joint, axis=1)
@@ -34,8 +35,8 @@ def reach_box(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
         lo_i, hi_i = np.minimum(a, b), np.maximum(a, b)
     else:
         lo_i = hi_i = ch.drive_joint
-    lo = (lo_i - reach[:, None]).max(axis=0)
-    hi = (hi_i + reach[:, None]).min(axis=0)
+    lo = np.maximum((lo_i - reach[:, None]).max(axis=0), machine.limits.position_min)
+    hi = np.minimum((hi_i + reach[:, None]).min(axis=0), machine.limits.position_max)
     if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or np.any(hi <= lo):
         raise ValueError(f"machine '{machine.name}': the chains' reach boxes do not overlap (no workspace); "
                          f"found lo={lo.tolist()} m, hi={hi.tolist()} m")
