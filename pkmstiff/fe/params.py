@@ -1,0 +1,110 @@
+"""Reading FE parameter files (TOML) into SI values with unit checks and clear errors.
+
+Quantities may carry units (``"60 mm"``, ``"210 GPa"``, ``"5 kN"``); bare numbers are SI. Every error is
+an :class:`~pkmstiff.units.InputError` naming the file, the key, the expectation and the finding.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any, Mapping
+
+from pkmstiff.units import InputError, parse_quantity
+
+from .materials import CubicCylindrical, Isotropic, Material, MaterialError
+
+# schema: section -> key -> unit ("m", "Pa", "N", ... positive; "m0" non-negative; "m~" any sign; "str" text,
+# "int" count, "-" dimensionless)
+Schema = Mapping[str, Mapping[str, str]]
+
+
+def load_toml(path: str | Path) -> dict[str, Any]:
+    """Parse a TOML file; a syntax error becomes an InputError naming the file."""
+    p = Path(path)
+    if not p.is_file():
+        raise InputError(str(p), "(file)", "an existing TOML parameter file", "no such file")
+    try:
+        return tomllib.loads(p.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(str(p), "(syntax)", "valid TOML", str(exc)) from None
+
+
+def read_section(raw: Mapping[str, Any], section: str, spec: Mapping[str, str], source: str,
+                 optional: frozenset[str] = frozenset()) -> dict[str, Any]:
+    """Read ``[section]`` with the keys of ``spec`` (unit per key); unknown keys are rejected."""
+    tab = raw.get(section)
+    if not isinstance(tab, dict):
+        raise InputError(source, section, f"a [{section}] table with keys {', '.join(spec)}", tab)
+    unknown = sorted(set(tab) - set(spec))
+    if unknown:
+        raise InputError(source, f"{section}.{unknown[0]}", f"one of the keys {', '.join(spec)}", unknown[0])
+    out: dict[str, Any] = {}
+    for key, unit in spec.items():
+        full = f"{section}.{key}"
+        if key not in tab:
+            if key in optional:
+                continue
+            raise InputError(source, full, f"a value ({unit})", "missing")
+        v = tab[key]
+        if unit == "str":
+            if not isinstance(v, str):
+                raise InputError(source, full, "a string", v)
+            out[key] = v
+        elif unit == "int":
+            if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+                raise InputError(source, full, "a positive integer", v)
+            out[key] = v
+        elif unit == "-":
+            out[key] = parse_quantity(v, "dimensionless", source=source, key=full)
+        elif unit.endswith("~"):  # quantity of any sign, e.g. a coordinate "m~"
+            out[key] = parse_quantity(v, unit[:-1], source=source, key=full)
+        elif unit.endswith("0"):  # non-negative quantity, e.g. "m0"
+            out[key] = parse_quantity(v, unit[:-1], source=source, key=full, min_value=0.0)
+        else:
+            out[key] = parse_quantity(v, unit, source=source, key=full, positive=True)
+    return out
+
+
+def read_materials(raw: Mapping[str, Any], source: str) -> dict[str, Material]:
+    """``[materials.NAME]`` tables: isotropic (E, nu[, density]) or ``law = "cubic_cylindrical"`` (E, G, nu)."""
+    tab = raw.get("materials")
+    if not isinstance(tab, dict) or not tab:
+        raise InputError(source, "materials", "at least one [materials.NAME] table", tab)
+    out: dict[str, Material] = {}
+    for name, m in tab.items():
+        key = f"materials.{name}"
+        if not isinstance(m, dict):
+            raise InputError(source, key, "a table", m)
+        law = m.get("law", "isotropic")
+        try:
+            if law == "isotropic":
+                v = read_section({"m": m}, "m", {"law": "str", "E": "Pa", "nu": "-", "density": "kg/m^3",
+                                                 "note": "str"}, source, optional=frozenset({"law", "density", "note"}))
+                out[name] = Isotropic(name, v["E"], v["nu"], v.get("density", 0.0))
+            elif law == "cubic_cylindrical":
+                v = read_section({"m": m}, "m", {"law": "str", "E": "Pa", "G": "Pa", "nu": "-", "density": "kg/m^3",
+                                                 "note": "str"}, source, optional=frozenset({"density", "note"}))
+                out[name] = CubicCylindrical(name, v["E"], v["G"], v["nu"], density=v.get("density", 0.0))
+            else:
+                raise InputError(source, f"{key}.law", "'isotropic' or 'cubic_cylindrical'", law)
+        except InputError as exc:
+            raise InputError(source, exc.key.replace("m.", f"{key}.", 1), exc.expected, exc.found) from None
+        except MaterialError as exc:
+            raise InputError(source, key, "valid material constants", str(exc)) from None
+    return out
+
+
+def material(materials: Mapping[str, Material], name: str, source: str, key: str) -> Material:
+    """Look up a named material (error names the key that referenced it)."""
+    if name not in materials:
+        raise InputError(source, key, f"one of the materials {', '.join(materials)}", name)
+    return materials[name]
+
+
+def read_assumptions(raw: Mapping[str, Any], source: str) -> dict[str, str]:
+    """``[assumptions]``: key -> one-line reason."""
+    tab = raw.get("assumptions", {})
+    if not isinstance(tab, dict) or not all(isinstance(v, str) for v in tab.values()):
+        raise InputError(source, "assumptions", "a table parameter = one-line reason (strings)", tab)
+    return dict(tab)
