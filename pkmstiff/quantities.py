@@ -156,6 +156,29 @@ def _load_family(m: re.Match) -> Quantity:
 register_family(r"drive_load_(\d+)", _load_family, "drive_load_1")
 
 
+def _max_abs(key: str) -> Callable[[EvalContext], np.ndarray]:
+    def f(c: EvalContext) -> np.ndarray:
+        arr = np.abs(c.ev.angles[key])
+        with np.errstate(invalid="ignore"):
+            return np.where(np.isnan(arr).all(axis=1), np.nan, np.nanmax(np.where(np.isnan(arr), -np.inf, arr), axis=1))
+    return f
+
+
+for _side in ("drive", "platform"):
+    for _qty in ("tilt", "swivel"):
+        register_quantity(Quantity(f"{_qty}_{_side}_max", f"largest {_qty} angle of the {_side}-side joints", "deg",
+                                   "rad", _max_abs(f"{_side}_{_qty}")))
+
+
+def _drive_load_max(c: EvalContext) -> np.ndarray:
+    if c.ev.drive_loads is None:
+        return np.full(len(c.ev.poses), np.nan)
+    return np.abs(c.ev.drive_loads).max(axis=1)
+
+
+register_quantity(Quantity("drive_load_max", "largest static drive load |tau_g| (eq. 4.90)", "N", "N", _drive_load_max))
+
+
 for _k, _axis in enumerate("xyz"):
     register_quantity(Quantity(_axis, f"position {_axis} of O'", "mm", "m",
                                (lambda k: lambda c: c.poses[:, k])(_k), group="pose"))

@@ -11,7 +11,8 @@ from pkmstiff import load_machine
 from pkmstiff.kinematics import transmission_quality
 from pkmstiff.poses import evaluate_poses
 from pkmstiff.workspace.oracle import OracleInputError, PoseOracle, staged_admissible
-from pkmstiff.workspace.requirements import RequirementError, parse_requirement, register_quantity
+from pkmstiff.quantities import Quantity, register_quantity
+from pkmstiff.workspace.requirements import RequirementError, parse_requirement
 
 from .kin_fixtures import BUNDLED, CENTRE
 
@@ -38,7 +39,7 @@ def test_parse_dimensionless_and_si_conversion():
 
 def test_registered_structure_quantity_takes_units():
     # the hook the structure model will use; N/um -> N/m and Hz stay SI
-    register_quantity("kx_test", "N/um", lambda ctx: np.full(len(ctx.ev.poses), 3.0e7))
+    register_quantity(Quantity("kx_test", "test stiffness", "N/um", "N/m", lambda ctx: np.full(len(ctx.ev.poses), 3.0e7)))
     r = parse_requirement("kx_test>=20 N/um")
     assert r.limit_si == pytest.approx(2.0e7, rel=1e-12)
     assert parse_requirement("kx_test > 0.02 N/nm").limit_si == pytest.approx(2.0e7, rel=1e-12)
@@ -58,7 +59,7 @@ def test_bad_requirements_are_explained(text, match):
 
 def test_requirement_on_structure_quantity_filters_poses():
     m = load_machine("hexaglide")
-    register_quantity("kz_test", "N/um", lambda ctx: 1e7 * (1.0 - ctx.ev.poses[:, 2]))  # fake: stiffer lower
+    register_quantity(Quantity("kz_test", "test stiffness", "N/um", "N/m", lambda ctx: 1e7 * (1.0 - ctx.ev.poses[:, 2])))  # fake: stiffer lower
     x = _poses_around("hexaglide", 400, seed=3)
     base = evaluate_poses(m, x).ok
     got = staged_admissible(m, x, requirements=[parse_requirement("kz_test>=19 N/um")])

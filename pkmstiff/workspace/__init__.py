@@ -9,7 +9,7 @@ Modules: :mod:`.octree` (generic modified octree), :mod:`.oracle` (pose admissib
 
 from .octree import OctreeResult, octree_boundary
 from .oracle import PoseOracle, staged_admissible
-from .requirements import Requirement, parse_requirement, register_quantity
+from .requirements import Requirement, parse_requirement
 from .rotation import SIX_DIRECTIONS, RotationMapResult, rotation_angle_map, rotational_workspace_map
 from .surface import BoundarySurface, boundary_surface
 from .translational import WorkspaceResult, constant_orientation_workspace, reach_box, volume_vs_orientation
@@ -17,5 +17,5 @@ from .volume import workspace_volume
 
 __all__ = ["BoundarySurface", "OctreeResult", "PoseOracle", "Requirement", "RotationMapResult", "SIX_DIRECTIONS",
            "WorkspaceResult", "boundary_surface", "constant_orientation_workspace", "octree_boundary",
-           "parse_requirement", "reach_box", "register_quantity", "rotation_angle_map", "rotational_workspace_map",
+           "parse_requirement", "reach_box", "rotation_angle_map", "rotational_workspace_map",
            "staged_admissible", "volume_vs_orientation", "workspace_volume"]

@@ -3,12 +3,8 @@
 A requirement compares a named per-pose quantity with a limit (spec models.md §7.3: "any additional user
 requirements (e.g. minimum stiffness, acceleration, orientability, maximum condition number, minimum transmission
 quality)"). Quantities come from the shared registry :mod:`pkmstiff.quantities` (name -> SI values for a chunk of
-poses); the kinematic ones are available now (``kappa``, ``U``, per-joint ``tilt_drive_3`` / ``swivel_platform_1``,
-``drive_load_2``, and the maxima over all chains registered here: ``tilt_drive_max``, ``tilt_platform_max``,
-``swivel_drive_max``, ``swivel_platform_max``, ``drive_load_max``). Structure-model quantities (``kx``, ``f1``, ...)
-are added by the structure-model code through the same registry; :func:`register_quantity` is the short hook:
-
-    register_quantity("kx", "N/um", lambda ctx: stiffness_x(ctx.machine, ctx.ev))  # SI values (N/m)
+poses; ``pkmstiff quantities`` lists them: ``kx``, ``f1``, ``kappa``, ``U``, ``tilt_drive_max``, ...). New
+quantities are added with :func:`pkmstiff.quantities.register_quantity`.
 
 A requirement is evaluated only on poses that passed every admissibility check (so expensive quantities are
 never computed for unreachable poses); a NaN value fails the requirement.
@@ -16,87 +12,23 @@ never computed for unreachable poses); a NaN value fails the requirement.
 
 from __future__ import annotations
 
-import importlib
 import re
 from dataclasses import dataclass
 from typing import Callable, Iterable
 
 import numpy as np
 
-from ..quantities import EvalContext, Quantity, UnknownQuantityError, get_quantity
-from ..quantities import register_quantity as _register
+from ..quantities import EvalContext, UnknownQuantityError, get_quantity
 from ..units import ureg
 
 _OPS: dict[str, Callable[[np.ndarray, float], np.ndarray]] = {
     ">=": np.greater_equal, "<=": np.less_equal, ">": np.greater, "<": np.less,
 }
 _PATTERN = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(>=|<=|=>|=<|>|<)\s*(\S.*?)\s*$")
-# modules that register further quantities when imported (structure model); tried once on an unknown name
-_PROVIDERS = ("pkmstiff.analysis",)
 
 
 class RequirementError(ValueError):
     """A requirement string that cannot be parsed; the message names the text, the expectation and the finding."""
-
-
-_SI_CANDIDATES = ("N/m", "N*m/rad", "Hz", "rad", "m", "N", "m/s", "m/s^2", "kg", "s")
-
-
-def _si_unit_of(unit: str) -> str:
-    """The SI unit with the dimension of ``unit`` ("N/um" -> "N/m", "deg" -> "rad"); base units otherwise."""
-    if unit in ("1", "", "dimensionless"):
-        return "1"
-    q = ureg()(unit)
-    for cand in _SI_CANDIDATES:
-        if ureg()(cand).dimensionality == q.dimensionality:
-            return cand
-    return str(q.to_base_units().units)
-
-
-def register_quantity(name: str, unit: str, fn: Callable[[EvalContext], np.ndarray], label: str | None = None,
-                      needs_structure: bool = False) -> Quantity:
-    """Register a per-pose quantity usable in requirements and section maps.
-
-    ``unit`` is the display unit (``"N/um"``, ``"Hz"``, ``"deg"``, ``"1"``); ``fn(ctx)`` returns SI values
-    of shape (N,) for the poses of ``ctx.ev`` (:class:`pkmstiff.quantities.EvalContext`).
-    """
-    q = Quantity(name, label or name, unit or "1", _si_unit_of(unit), fn,
-                 group="structure" if needs_structure else "kinematics", needs_structure=needs_structure)
-    return _register(q)
-
-
-def _max_abs(key: str) -> Callable[[EvalContext], np.ndarray]:
-    def f(ctx: EvalContext) -> np.ndarray:
-        arr = np.abs(ctx.ev.angles[key])
-        with np.errstate(invalid="ignore"):
-            return np.where(np.isnan(arr).all(axis=1), np.nan, np.nanmax(np.where(np.isnan(arr), -np.inf, arr), axis=1))
-    return f
-
-
-def _drive_load_max(ctx: EvalContext) -> np.ndarray:
-    if ctx.ev.drive_loads is None:
-        return np.full(len(ctx.ev.poses), np.nan)
-    return np.abs(ctx.ev.drive_loads).max(axis=1)
-
-
-for _side in ("drive", "platform"):
-    for _qty in ("tilt", "swivel"):
-        register_quantity(f"{_qty}_{_side}_max", "deg", _max_abs(f"{_side}_{_qty}"),
-                          label=f"largest {_qty} angle of the {_side}-side joints")
-register_quantity("drive_load_max", "N", _drive_load_max, label="largest static drive load |tau_g| (eq. 4.90)")
-
-
-def lookup_quantity(name: str) -> Quantity:
-    """The registered quantity ``name``; imports the structure-model providers once if it is unknown."""
-    try:
-        return get_quantity(name)
-    except UnknownQuantityError:
-        for mod in _PROVIDERS:
-            try:
-                importlib.import_module(mod)
-            except ModuleNotFoundError:
-                continue
-        return get_quantity(name)
 
 
 @dataclass(frozen=True)
@@ -110,7 +42,7 @@ class Requirement:
 
     def evaluate(self, ctx: EvalContext) -> np.ndarray:
         """(N,) bool: requirement met (NaN values fail)."""
-        vals = np.asarray(lookup_quantity(self.quantity).compute(ctx), float)
+        vals = np.asarray(get_quantity(self.quantity).compute(ctx), float)
         with np.errstate(invalid="ignore"):
             return _OPS[self.op](vals, self.limit_si) & np.isfinite(vals)
 
@@ -128,7 +60,7 @@ def parse_requirement(text: str) -> Requirement:
     name, op, value = m.group(1), m.group(2), m.group(3)
     op = {"=>": ">=", "=<": "<="}.get(op, op)
     try:
-        q = lookup_quantity(name)
+        q = get_quantity(name)
     except UnknownQuantityError as exc:
         raise RequirementError(f"requirement {text!r}: {exc}") from None
     try:
