@@ -40,6 +40,23 @@ def quantity_title(res: SectionResult, name: str) -> str:
     return f"{name} [{res.units[name]}]"
 
 
+def _finish_plane_plot(p, res: SectionResult, subtitle: str, path: str | Path) -> Path:
+    """Axes in mm along the plane's two axes, title, 2-D view; write the PNG."""
+    u, v = res.plane.u_name, res.plane.v_name
+    p.show_bounds(xtitle=f"{u} [mm]", ytitle=f"{v} [mm]", ztitle="", show_zaxis=False, grid=False,
+                  location="outer", ticks="outside", font_size=12, n_xlabels=5, n_ylabels=5, use_2d=True)
+    p.add_text(f"{_title(res)}\n{subtitle}", position="upper_left", font_size=11, color="black")
+    p.set_background("white")
+    p.view_xy()
+    p.enable_parallel_projection()
+    p.camera.zoom(0.92)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    p.screenshot(str(path))
+    p.close()
+    return path
+
+
 def plot_section(res: SectionResult, name: str, path: str | Path, window_size=(1000, 760), cmap: str = "viridis",
                  clim: tuple[float, float] | None = None) -> Path:
     """Write a PNG of quantity ``name`` on its plane: colour map, admissible outline, axes in mm, colour bar.
@@ -66,20 +83,7 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size=(1
             p.add_mesh(outline, color="black", line_width=3)
     border = grid.outline()
     p.add_mesh(border, color="gray", line_width=1)
-    u, v = res.plane.u_name, res.plane.v_name
-    p.show_bounds(xtitle=f"{u} [mm]", ytitle=f"{v} [mm]", ztitle="", show_zaxis=False, grid=False,
-                  location="outer", ticks="outside", font_size=12, n_xlabels=5, n_ylabels=5, use_2d=True)
-    p.add_text(f"{_title(res)}\n{res.labels[name]} [{res.units[name]}]", position="upper_left", font_size=11,
-               color="black")
-    p.set_background("white")
-    p.view_xy()
-    p.enable_parallel_projection()
-    p.camera.zoom(0.92)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    p.screenshot(str(path))
-    p.close()
-    return path
+    return _finish_plane_plot(p, res, f"{res.labels[name]} [{res.units[name]}]", path)
 
 
 def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Machine, reference_pose, path: str | Path,
@@ -135,17 +139,4 @@ def plot_reasons(res: SectionResult, path: str | Path, window_size=(1000, 760)) 
                show_scalar_bar=False, interpolate_before_map=False)
     p.add_legend([[n, colours[i]] for i, n in enumerate(names)], bcolor="white", face="rectangle", size=(0.28, 0.3),
                  loc="upper right")
-    u, v = res.plane.u_name, res.plane.v_name
-    p.show_bounds(xtitle=f"{u} [mm]", ytitle=f"{v} [mm]", ztitle="", show_zaxis=False, grid=False,
-                  location="outer", ticks="outside", font_size=12, n_xlabels=5, n_ylabels=5, use_2d=True)
-    p.add_text(f"{_title(res)}\nadmissibility: first failing check per point", position="upper_left",
-               font_size=11, color="black")
-    p.set_background("white")
-    p.view_xy()
-    p.enable_parallel_projection()
-    p.camera.zoom(0.92)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    p.screenshot(str(path))
-    p.close()
-    return path
+    return _finish_plane_plot(p, res, "admissibility: first failing check per point", path)
