@@ -13,7 +13,7 @@ from .machine_file import MachineFileError, UnknownMachineError, bundled_machine
 from .units import InputError
 
 # modules that add their own sub-commands with ``add_commands(subparsers)``
-_COMMAND_MODULES = ("pkmstiff.cli_pose", "pkmstiff.cli_point", "pkmstiff.cli_section", "pkmstiff.cli_workspace", "pkmstiff.cli_report",
+_COMMAND_MODULES = ("pkmstiff.cli_pose", "pkmstiff.cli_point", "pkmstiff.cli_section", "pkmstiff.cli_workspace", "pkmstiff.cli_report", "pkmstiff.cli_sweep",
                     "pkmstiff.fe.cli")
 
 

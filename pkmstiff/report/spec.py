@@ -1,0 +1,613 @@
+"""Report specs: a TOML file describing a comparison of machine variants -> a :class:`Report` (``pkmstiff report``).
+
+A spec names the variants (bundled machine or machine file, options, parameter overrides, tool length,
+orientation), the section planes and their quantities and statistics, the workspace, single poses and machine
+values to compare. :func:`build_report` evaluates everything and returns one comparison table (rows = metric and
+statistic, columns = variants, "% of baseline"), section maps (one figure per variant and quantity, a shared colour
+scale per quantity), workspace figures, the machine files' assumptions (prefixed with the variant) and the settings.
+Every key is validated; errors are :class:`SpecError` naming the file, the key, what was expected and what was found.
+Lengths are in mm and angles in degrees in the spec (keys ``*_mm``, ``*_deg``); SI inside.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+import time
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..model import Machine
+from ..units import InputError
+from .model import Figure, Report, Table
+
+__all__ = ["SpecError", "Variant", "SectionSpec", "WorkspaceSpec", "PointSpec", "ReportSpec", "load_spec",
+           "fast_spec", "build_report", "run_spec", "STATISTICS", "MACHINE_ROWS"]
+
+# statistic -> (label, unit override or None = the quantity's display unit)
+STATISTICS = {"min": ("min", None), "mean": ("mean", None), "max": ("max", None),
+              "area": ("admissible area", "m^2"), "count": ("admissible points", "1")}
+# machine value -> (row label, unit, function of (machine, variant) in that unit)
+MACHINE_ROWS: dict[str, tuple[str, str, Callable[[Machine, "Variant"], float]]] = {
+    "transmission_weight": ("transmission quality weight w (eq. 4.77)", "m/rad",
+                            lambda m, v: float(m.transmission_weight)),
+    "tool_length": ("tool length", "mm",
+                    lambda m, v: 1e3 * float(m.tool.length if v.tool_length is None else v.tool_length)),
+}
+
+_REPORT_KEYS = {"title", "summary", "baseline", "digits", "machine_rows", "assumptions"}
+_VARIANT_KEYS = {"name", "machine", "options", "overrides", "tool_length_mm", "orientation_deg", "description"}
+_SECTION_KEYS = {"plane", "at_mm", "range", "step_mm", "quantities", "statistics", "maps", "tool_length_mm",
+                 "orientation_deg", "title"}
+_WORKSPACE_KEYS = {"resolution_mm", "box_mm", "requirements", "methods", "figures", "orientation_deg"}
+_POINT_KEYS = {"pose", "quantities", "tool_length_mm", "label"}
+_OPTION_KEYS = {"fast_step_mm", "fast_resolution_mm", "jobs"}
+_TOP_KEYS = {"report", "variants", "sections", "workspace", "points", "options"}
+
+
+class SpecError(InputError):
+    """An invalid report spec (names file, key, what was expected and what was found)."""
+
+
+@dataclass(frozen=True)
+class Variant:
+    name: str
+    machine: str  # bundled name or path (resolved against the spec's folder), without ':options'
+    options: tuple[str, ...] = ()
+    overrides: Mapping[str, Any] = field(default_factory=dict)  # dotted path -> value (pkmstiff.machine_variants)
+    tool_length: float | None = None  # m; None = the machine file's
+    orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
+    description: str = ""
+
+
+@dataclass(frozen=True)
+class SectionSpec:
+    plane: str  # "yz" | "xz" | "xy"
+    at: float  # m
+    u_range: tuple[float, float]  # m
+    v_range: tuple[float, float]  # m
+    step: float  # m
+    quantities: tuple[str, ...]
+    statistics: tuple[str, ...] = ("min", "mean", "max")
+    maps: bool = True
+    tool_length: float | None = None  # m; None = the variant's
+    orientation: tuple[float, float, float] | None = None  # rad; None = the variant's
+    title: str = ""
+    range_text: str = ""
+
+    @property
+    def name(self) -> str:
+        normal = ({"x", "y", "z"} - set(self.plane)).pop()
+        return self.title or f"{self.plane.upper()} plane at {normal} = {self.at * 1e3:g} mm"
+
+
+@dataclass(frozen=True)
+class WorkspaceSpec:
+    resolution: float  # m
+    box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None  # (lo, hi) m
+    requirements: tuple[str, ...] = ()
+    methods: tuple[str, ...] = ("surface_nets",)
+    figures: bool = True
+    orientation: tuple[float, float, float] | None = None  # rad; None = the variant's
+
+
+@dataclass(frozen=True)
+class PointSpec:
+    pose: tuple[float, ...]  # (x, y, z [m], a, b, c [rad])
+    quantities: tuple[str, ...]
+    tool_length: float | None = None  # m; None = the variant's
+    label: str = ""
+
+    @property
+    def name(self) -> str:
+        if self.label:
+            return self.label
+        p = self.pose
+        return (f"x, y, z = {p[0] * 1e3:g}, {p[1] * 1e3:g}, {p[2] * 1e3:g} mm, "
+                f"a, b, c = {math.degrees(p[3]):g}, {math.degrees(p[4]):g}, {math.degrees(p[5]):g} deg")
+
+
+@dataclass(frozen=True)
+class ReportSpec:
+    title: str
+    variants: tuple[Variant, ...]
+    sections: tuple[SectionSpec, ...] = ()
+    workspace: WorkspaceSpec | None = None
+    points: tuple[PointSpec, ...] = ()
+    baseline: str | None = None
+    summary: str = ""
+    digits: int = 4
+    machine_rows: tuple[str, ...] = ()
+    assumptions: Mapping[str, str] = field(default_factory=dict)
+    fast_step: float | None = None  # m
+    fast_resolution: float | None = None  # m
+    jobs: int = 1
+    source: str = ""
+
+
+# ---------------------------------------------------------------------------------------------------------- parsing
+class _Reader:
+    """Typed access to a spec table with key checks; every error names file and key."""
+
+    def __init__(self, src: str):
+        self.src = src
+
+    def error(self, key: str, expected: str, found: Any) -> SpecError:
+        return SpecError(self.src, key, expected, found)
+
+    def table(self, value: Any, key: str, allowed: set[str]) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise self.error(key or "(top level)", "a table", value)
+        unknown = sorted(set(value) - allowed)
+        if unknown:
+            raise self.error(f"{key}.{unknown[0]}" if key else unknown[0], f"one of the keys {sorted(allowed)}",
+                             "unknown key")
+        return value
+
+    def req(self, tab: dict, key: str, prefix: str, what: str) -> Any:
+        if key not in tab:
+            raise self.error(f"{prefix}{key}", f"{what} (the key is required)", "missing key")
+        return tab[key]
+
+    def number(self, value: Any, key: str, *, positive: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise self.error(key, "a finite number", value)
+        if positive and not value > 0:
+            raise self.error(key, "a positive number", value)
+        return float(value)
+
+    def numbers(self, value: Any, key: str, n: int, what: str) -> list[float]:
+        if not isinstance(value, list) or len(value) != n:
+            raise self.error(key, f"a list of {n} numbers ({what})", value)
+        return [self.number(v, f"{key}[{i + 1}]") for i, v in enumerate(value)]
+
+    def string(self, value: Any, key: str) -> str:
+        if not isinstance(value, str):
+            raise self.error(key, "a string", value)
+        return value
+
+    def strings(self, value: Any, key: str, *, nonempty: bool = True) -> tuple[str, ...]:
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value) or (nonempty and not value):
+            raise self.error(key, "a list of strings" + (" (at least one)" if nonempty else ""), value)
+        return tuple(value)
+
+    def boolean(self, value: Any, key: str) -> bool:
+        if not isinstance(value, bool):
+            raise self.error(key, "true or false", value)
+        return value
+
+    def orientation(self, value: Any, key: str) -> tuple[float, float, float]:
+        a, b, c = self.numbers(value, key, 3, "a, b, c in deg")
+        return (math.radians(a), math.radians(b), math.radians(c))
+
+    def quantities(self, value: Any, key: str) -> tuple[str, ...]:
+        from ..quantities import UnknownQuantityError, get_quantity
+
+        names = self.strings(value, key)
+        for n in names:
+            try:
+                get_quantity(n)
+            except UnknownQuantityError as exc:
+                raise self.error(key, "quantity names (see 'pkmstiff quantities')", f"{n!r}: {exc}") from None
+        return names
+
+
+def _flatten(d: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested TOML tables (unquoted dotted keys) -> {"a.b.c": value}; quoted dotted keys pass through."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        path = f"{prefix}.{k}" if prefix else k
+        if isinstance(v, dict):
+            out.update(_flatten(v, path))
+        else:
+            out[path] = v
+    return out
+
+
+def _variant(r: _Reader, tab: Any, i: int, spec_dir: Path) -> Variant:
+    p = f"variants[{i + 1}]"
+    tab = r.table(tab, p, _VARIANT_KEYS)
+    name = r.string(r.req(tab, "name", p + ".", "a short variant name"), p + ".name").strip()
+    if not name:
+        raise r.error(p + ".name", "a non-empty name", name)
+    from ..machine_variants import split_machine_spec
+
+    mspec, opts = split_machine_spec(r.string(r.req(tab, "machine", p + ".", "a bundled machine name or a machine "
+                                                                        "file path"), p + ".machine"))
+    if mspec.endswith(".toml") or "/" in mspec or "\\" in mspec:
+        mp = Path(mspec)
+        mspec = str(mp if mp.is_absolute() else spec_dir / mp)
+    opts += list(r.strings(tab["options"], p + ".options", nonempty=False)) if "options" in tab else []
+    overrides = tab.get("overrides", {})
+    if not isinstance(overrides, dict):
+        raise r.error(p + ".overrides", "a table of dotted machine-file paths = values", overrides)
+    return Variant(name=name, machine=mspec, options=tuple(opts), overrides=_flatten(overrides),
+                   tool_length=None if "tool_length_mm" not in tab else
+                   1e-3 * r.number(tab["tool_length_mm"], p + ".tool_length_mm"),
+                   orientation=r.orientation(tab.get("orientation_deg", [0, 0, 0]), p + ".orientation_deg"),
+                   description=r.string(tab.get("description", ""), p + ".description"))
+
+
+def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
+    from ..cli_section import SectionArgumentError, parse_ranges
+
+    p = f"sections[{i + 1}]"
+    tab = r.table(tab, p, _SECTION_KEYS)
+    plane = r.string(tab.get("plane", "yz"), p + ".plane").lower()
+    if plane not in ("yz", "xz", "xy"):
+        raise r.error(p + ".plane", "'yz', 'xz' or 'xy'", plane)
+    rng = r.string(r.req(tab, "range", p + ".", "in-plane ranges in mm, e.g. 'y=-600:800,z=-1200:-500'"),
+                   p + ".range")
+    try:
+        ranges = parse_ranges(rng, plane)
+    except SectionArgumentError as exc:
+        raise r.error(p + ".range", f"AXIS=LO:HI pairs in mm for both axes of the {plane.upper()} plane",
+                      f"{rng!r} ({str(exc).removeprefix('--range: ')})") from None
+    stats = r.strings(tab.get("statistics", ["min", "mean", "max"]), p + ".statistics")
+    bad = [s for s in stats if s not in STATISTICS]
+    if bad:
+        raise r.error(p + ".statistics", f"a list of {sorted(STATISTICS)}", bad[0])
+    return SectionSpec(
+        plane=plane, at=1e-3 * r.number(tab.get("at_mm", 0.0), p + ".at_mm"), u_range=ranges[plane[0]],
+        v_range=ranges[plane[1]], step=1e-3 * r.number(tab.get("step_mm", 10.0), p + ".step_mm", positive=True),
+        quantities=r.quantities(r.req(tab, "quantities", p + ".", "quantity names, e.g. ['kx', 'U']"),
+                                p + ".quantities"),
+        statistics=stats, maps=r.boolean(tab.get("maps", True), p + ".maps"),
+        tool_length=None if "tool_length_mm" not in tab else 1e-3 * r.number(tab["tool_length_mm"],
+                                                                              p + ".tool_length_mm"),
+        orientation=None if "orientation_deg" not in tab else r.orientation(tab["orientation_deg"],
+                                                                             p + ".orientation_deg"),
+        title=r.string(tab.get("title", ""), p + ".title"), range_text=rng)
+
+
+def _workspace(r: _Reader, tab: Any) -> WorkspaceSpec:
+    from ..workspace.requirements import RequirementError, parse_requirements
+    from ..workspace.volume import METHODS
+
+    tab = r.table(tab, "workspace", _WORKSPACE_KEYS)
+    box = None
+    if "box_mm" in tab:
+        b = r.numbers(tab["box_mm"], "workspace.box_mm", 6, "xmin, xmax, ymin, ymax, zmin, zmax in mm")
+        lo, hi = tuple(1e-3 * v for v in b[0::2]), tuple(1e-3 * v for v in b[1::2])
+        if not all(h > l for l, h in zip(lo, hi)):
+            raise r.error("workspace.box_mm", "min < max on every axis", b)
+        box = (lo, hi)
+    reqs = r.strings(tab.get("requirements", []), "workspace.requirements", nonempty=False)
+    try:
+        parse_requirements(reqs)
+    except RequirementError as exc:
+        raise r.error("workspace.requirements", "requirements such as 'U>=0.2' or 'kx>=20 N/um'", str(exc)) from None
+    methods = r.strings(tab.get("methods", ["surface_nets"]), "workspace.methods")
+    bad = [m for m in methods if m not in METHODS]
+    if bad:
+        raise r.error("workspace.methods", f"a list of {list(METHODS)}", bad[0])
+    return WorkspaceSpec(
+        resolution=1e-3 * r.number(r.req(tab, "resolution_mm", "workspace.", "the octree resolution in mm"),
+                                   "workspace.resolution_mm", positive=True),
+        box=box, requirements=reqs, methods=methods, figures=r.boolean(tab.get("figures", True), "workspace.figures"),
+        orientation=None if "orientation_deg" not in tab else r.orientation(tab["orientation_deg"],
+                                                                             "workspace.orientation_deg"))
+
+
+def _point(r: _Reader, tab: Any, i: int) -> PointSpec:
+    p = f"points[{i + 1}]"
+    tab = r.table(tab, p, _POINT_KEYS)
+    v = r.numbers(r.req(tab, "pose", p + ".", "x, y, z [mm], a, b, c [deg]"), p + ".pose", 6,
+                  "x, y, z in mm and a, b, c in deg")
+    pose = tuple(1e-3 * x for x in v[:3]) + tuple(math.radians(a) for a in v[3:])
+    return PointSpec(pose=pose, quantities=r.quantities(r.req(tab, "quantities", p + ".", "quantity names"),
+                                                        p + ".quantities"),
+                     tool_length=None if "tool_length_mm" not in tab else
+                     1e-3 * r.number(tab["tool_length_mm"], p + ".tool_length_mm"),
+                     label=r.string(tab.get("label", ""), p + ".label"))
+
+
+def load_spec(path: str | Path) -> ReportSpec:
+    """Read and validate a report spec (see the README, "Report specs", for every key)."""
+    path = Path(path)
+    src = str(path)
+    try:
+        with open(path, "rb") as fh:
+            raw = tomllib.load(fh)
+    except FileNotFoundError:
+        raise SpecError(src, "(file)", "an existing report spec file", "no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SpecError(src, "(file)", "valid TOML", str(exc)) from None
+    r = _Reader(src)
+    r.table(raw, "", _TOP_KEYS)
+    rep = r.table(r.req(raw, "report", "", "a [report] table with at least 'title'"), "report", _REPORT_KEYS)
+    vt = r.req(raw, "variants", "", "an array of [[variants]] tables")
+    if not isinstance(vt, list) or not vt:
+        raise r.error("variants", "an array of at least one [[variants]] table", vt)
+    variants = tuple(_variant(r, t, i, path.parent) for i, t in enumerate(vt))
+    names = [v.name for v in variants]
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise r.error("variants", "unique variant names", f"{dup[0]!r} used more than once")
+    baseline = rep.get("baseline")
+    if baseline is not None and baseline not in names:
+        raise r.error("report.baseline", f"one of the variant names {names}", baseline)
+    sections = raw.get("sections", [])
+    if not isinstance(sections, list):
+        raise r.error("sections", "an array of [[sections]] tables", sections)
+    points = raw.get("points", [])
+    if not isinstance(points, list):
+        raise r.error("points", "an array of [[points]] tables", points)
+    mrows = r.strings(rep.get("machine_rows", []), "report.machine_rows", nonempty=False)
+    bad = [m for m in mrows if m not in MACHINE_ROWS]
+    if bad:
+        raise r.error("report.machine_rows", f"a list of {sorted(MACHINE_ROWS)}", bad[0])
+    assumptions = rep.get("assumptions", {})
+    if not isinstance(assumptions, dict) or not all(isinstance(v, str) for v in assumptions.values()):
+        raise r.error("report.assumptions", "a table key = one-line reason (strings)", assumptions)
+    opts = r.table(raw.get("options", {}), "options", _OPTION_KEYS)
+    digits = rep.get("digits", 4)
+    if isinstance(digits, bool) or not isinstance(digits, int) or not 1 <= digits <= 12:
+        raise r.error("report.digits", "an integer 1..12 (significant digits)", digits)
+    jobs = opts.get("jobs", 1)
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs == 0:
+        raise r.error("options.jobs", "a non-zero integer (-1: all cores)", jobs)
+    spec = ReportSpec(
+        title=r.string(r.req(rep, "title", "report.", "the report title"), "report.title"),
+        variants=variants, sections=tuple(_section(r, t, i) for i, t in enumerate(sections)),
+        workspace=_workspace(r, raw["workspace"]) if "workspace" in raw else None,
+        points=tuple(_point(r, t, i) for i, t in enumerate(points)), baseline=baseline,
+        summary=r.string(rep.get("summary", ""), "report.summary"), digits=digits, machine_rows=mrows,
+        assumptions=dict(assumptions),
+        fast_step=None if "fast_step_mm" not in opts else 1e-3 * r.number(opts["fast_step_mm"],
+                                                                          "options.fast_step_mm", positive=True),
+        fast_resolution=None if "fast_resolution_mm" not in opts else
+        1e-3 * r.number(opts["fast_resolution_mm"], "options.fast_resolution_mm", positive=True),
+        jobs=jobs, source=src)
+    if not (spec.sections or spec.workspace or spec.points or spec.machine_rows):
+        raise r.error("(file)", "at least one of [[sections]], [workspace], [[points]], report.machine_rows",
+                      "nothing to compare")
+    return spec
+
+
+def fast_spec(spec: ReportSpec) -> ReportSpec:
+    """The spec with the coarse raster step / workspace resolution of ``[options]`` (``--fast``).
+
+    Without ``fast_step_mm`` every section step is multiplied by 4; without ``fast_resolution_mm`` the workspace
+    resolution by 4 (a coarse but recognisable result).
+    """
+    sections = tuple(dataclasses.replace(s, step=spec.fast_step or 4.0 * s.step) for s in spec.sections)
+    ws = spec.workspace
+    if ws is not None:
+        ws = dataclasses.replace(ws, resolution=spec.fast_resolution or 4.0 * ws.resolution)
+    return dataclasses.replace(spec, sections=sections, workspace=ws)
+
+
+# ------------------------------------------------------------------------------------------------------- evaluation
+def _load_variant(v: Variant) -> Machine:
+    from ..machine_variants import machine_with
+
+    return machine_with(v.machine, v.overrides, v.options)
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "x"
+
+
+def _section_rows(sec: SectionSpec, results: list, table: Table, multi: bool) -> None:
+    from ..quantities import get_quantity
+
+    where = f" ({sec.name})" if multi else ""
+    for q in sec.quantities:
+        unit = get_quantity(q).unit
+        for stat in sec.statistics:
+            label, unit_override = STATISTICS[stat]
+            vals = []
+            for res in results:
+                st = res.statistics()[q]
+                if stat == "area":
+                    vals.append(st["admissible_area_m2"])
+                elif stat == "count":
+                    vals.append(float(st["count"]))
+                else:
+                    vals.append(st[stat] if st["count"] else None)
+            table.add(f"{q} {label}{where}", unit_override or unit, vals)
+
+
+def _point_values(machine: Machine, pt: PointSpec, tool_length: float | None) -> tuple[dict[str, float], list[str]]:
+    """Display-unit values of the point's quantities, or ({}, reasons) if the pose is inadmissible."""
+    from ..poses import evaluate_poses
+    from ..quantities import EvalContext, evaluate_quantities, get_quantity
+
+    ev = evaluate_poses(machine, np.asarray(pt.pose, float)[None, :])
+    if not ev.ok[0]:
+        return {}, ev.admissibility.failing(0)
+    ctx = EvalContext(machine, ev, tool_length, {})
+    vals = evaluate_quantities(ctx, list(pt.quantities))
+    return {n: float(get_quantity(n).to_display(vals[n])[0]) for n in pt.quantities}, []
+
+
+def _fmt_deg(o: Sequence[float]) -> str:
+    return ", ".join(f"{math.degrees(a):g}" for a in o)
+
+
+def _tool_mm(machine: Machine, tl: float | None) -> float:
+    return 1e3 * float(machine.tool.length if tl is None else tl)
+
+
+def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
+                 log: Callable[[str], None] | None = None) -> Report:
+    """Evaluate a spec for every variant and assemble the report; figures are written to ``out_dir``.
+
+    ``fast`` applies :func:`fast_spec`; ``n_jobs`` (default: the spec's ``options.jobs``) is passed to the
+    section evaluation. ``log`` receives one progress line per step.
+    """
+    from ..plots.section_maps import plot_section
+    from ..quantities import get_quantity
+    from ..sections import axis_plane, evaluate_section
+
+    log = log or (lambda msg: None)
+    if fast:
+        spec = fast_spec(spec)
+    jobs = spec.jobs if n_jobs is None else n_jobs
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    names = [v.name for v in spec.variants]
+    machines = []
+    for v in spec.variants:
+        machines.append(_load_variant(v))
+        log(f"variant {v.name}: {machines[-1].title}")
+
+    report = Report(spec.title)
+    report.summary = spec.summary
+    base = f"; baseline: {spec.baseline}" if spec.baseline else ""
+    variants_text = "\n\n".join(
+        f"{v.name}: {m.title} ({m.name}{', overrides ' + ', '.join(f'{k} = {val!r}' for k, val in v.overrides.items()) if v.overrides else ''}), "
+        f"tool length {_tool_mm(m, v.tool_length):g} mm, orientation a, b, c = {_fmt_deg(v.orientation)} deg"
+        + (f". {v.description}" if v.description else "")
+        for v, m in zip(spec.variants, machines))
+    comparison = report.section("Comparison", f"Variants compared{base}.\n\n{variants_text}")
+    table = Table(spec.title if len(spec.title) < 80 else "Comparison of the variants", names,
+                  baseline=spec.baseline, digits=spec.digits)
+    comparison.tables.append(table)
+    notes: list[str] = []
+
+    # workspace volume first (as in Cobet Table 5.1), then sections, points, machine values
+    ws_figs: list[Figure] = []
+    if spec.workspace is not None:
+        from ..workspace.translational import constant_orientation_workspace
+
+        ws = spec.workspace
+        vols: dict[str, list[float | None]] = {m: [] for m in ws.methods}
+        for v, m in zip(spec.variants, machines):
+            t0 = time.perf_counter()
+            ori = ws.orientation if ws.orientation is not None else v.orientation
+            res = constant_orientation_workspace(m, ws.resolution, ori, requirements=ws.requirements,
+                                                 box=None if ws.box is None else (np.array(ws.box[0]),
+                                                                                   np.array(ws.box[1])),
+                                                 methods=ws.methods)
+            for meth in ws.methods:
+                vols[meth].append(res.volumes.get(meth))
+            if res.octree.touches_box:
+                notes.append(f"Workspace of {v.name} touches the initial box and is cut there (enlarge box_mm).")
+            log(f"workspace {v.name}: {res.volume:.4f} m^3 ({time.perf_counter() - t0:.1f} s)")
+            if ws.figures:
+                from ..workspace.plots import plot_workspace
+
+                path = plot_workspace(res, m, out / "workspace" / f"{_slug(v.name)}.png")
+                ws_figs.append(Figure(path, f"{v.name}: workspace at a, b, c = {_fmt_deg(ori)} deg, "
+                                            f"resolution {ws.resolution * 1e3:g} mm, V = {res.volume:.4g} m^3"))
+        for meth in ws.methods:
+            table.add(f"workspace volume ({meth.replace('_', ' ')})", "m^3", vols[meth])
+
+    map_sections = []
+    multi = len(spec.sections) > 1
+    for k, sec in enumerate(spec.sections):
+        plane = axis_plane(sec.plane, sec.at, sec.u_range, sec.v_range, sec.step)
+        results = []
+        for v, m in zip(spec.variants, machines):
+            t0 = time.perf_counter()
+            tl = sec.tool_length if sec.tool_length is not None else v.tool_length
+            ori = sec.orientation if sec.orientation is not None else v.orientation
+            res = evaluate_section(m, plane, sec.quantities, orientation=ori, tool_length=tl, n_jobs=jobs,
+                                   progress=False)
+            res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
+            if res.tool_length is None:
+                res.tool_length = m.tool.length
+            results.append(res)
+            log(f"section {sec.name}, {v.name}: {int(res.ok.sum())} of {res.ok.size} points admissible "
+                f"({time.perf_counter() - t0:.1f} s)")
+        _section_rows(sec, results, table, multi)
+        if sec.maps:
+            figs = []
+            for q in sec.quantities:
+                finite = [r.display(q)[r.ok] for r in results]
+                finite = np.concatenate([f[np.isfinite(f)] for f in finite])
+                clim = (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min() \
+                    else None  # one colour scale per quantity across the variants
+                for v, res in zip(spec.variants, results):
+                    path = plot_section(res, q, out / "maps" / f"{k + 1}_{_slug(sec.plane)}_{_slug(q)}_"
+                                                               f"{_slug(v.name)}.png", clim=clim)
+                    figs.append(Figure(path, f"{v.name}: {get_quantity(q).label} [{res.units[q]}] on the "
+                                             f"{sec.name}; white = inadmissible, black line = admissible boundary"))
+            map_sections.append((sec, figs))
+
+    for pt in spec.points:
+        rows: dict[str, list[float | None]] = {q: [] for q in pt.quantities}
+        for v, m in zip(spec.variants, machines):
+            tl = pt.tool_length if pt.tool_length is not None else v.tool_length
+            vals, reasons = _point_values(m, pt, tl)
+            if reasons:
+                notes.append(f"{v.name} at {pt.name}: inadmissible ({'; '.join(reasons)})")
+            for q in pt.quantities:
+                rows[q].append(vals.get(q))
+        for q in pt.quantities:
+            table.add(f"{q} at {pt.name}", get_quantity(q).unit, rows[q])
+
+    for key in spec.machine_rows:
+        label, unit, fn = MACHINE_ROWS[key]
+        table.add(label, unit, [fn(m, v) for v, m in zip(spec.variants, machines)])
+
+    stats_note = ("Section statistics (min, mean, max) are taken over the admissible raster points of the plane "
+                  "(unweighted); n/a = no admissible point.") if spec.sections else ""
+    comparison.text += "\n\n" + "\n\n".join([t for t in [stats_note] + notes if t])
+    for sec, figs in map_sections:
+        s = report.section(f"Section maps: {sec.name}",
+                           f"Quantities {', '.join(sec.quantities)} on the {sec.name} "
+                           f"(raster {sec.step * 1e3:g} mm, {sec.range_text}); the colour scale of a quantity is "
+                           f"the same for every variant.")
+        s.figures.extend(figs)
+    if ws_figs:
+        s = report.section("Workspace", "Constant-orientation workspace of each variant (closed boundary surface) "
+                                        "with the machine at a central pose.")
+        s.figures.extend(ws_figs)
+
+    report.assumptions = dict(spec.assumptions)
+    if spec.sections:
+        report.assumptions.setdefault("report: section statistics",
+                                      "min/mean/max over the admissible raster points, every point weighted equally")
+    for v, m in zip(spec.variants, machines):
+        for key, reason in m.assumptions.items():
+            report.assumptions[f"{v.name}: {key}"] = reason
+    report.settings = _settings(spec, machines, fast, jobs)
+    return report
+
+
+def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) -> dict[str, Any]:
+    s: dict[str, Any] = {"spec": spec.source, "fast": fast, "jobs": jobs}
+    if spec.baseline:
+        s["baseline"] = spec.baseline
+    for v, m in zip(spec.variants, machines):
+        s[f"variant {v.name}"] = {"machine": m.name, "file": m.path, "options": list(v.options),
+                                  "overrides": dict(v.overrides), "tool_length_mm": _tool_mm(m, v.tool_length),
+                                  "orientation_deg": [round(math.degrees(a), 9) for a in v.orientation]}
+    for k, sec in enumerate(spec.sections):
+        s[f"section {k + 1}"] = {"plane": sec.name, "range_mm": sec.range_text, "step_mm": sec.step * 1e3,
+                                 "quantities": list(sec.quantities), "statistics": list(sec.statistics),
+                                 "tool_length_mm": None if sec.tool_length is None else sec.tool_length * 1e3,
+                                 "orientation_deg": None if sec.orientation is None else
+                                 [round(math.degrees(a), 9) for a in sec.orientation]}
+    if spec.workspace is not None:
+        ws = spec.workspace
+        s["workspace"] = {"resolution_mm": ws.resolution * 1e3, "methods": list(ws.methods),
+                          "requirements": list(ws.requirements),
+                          "box_mm": None if ws.box is None else [1e3 * x for pair in zip(*ws.box) for x in pair],
+                          "orientation_deg": None if ws.orientation is None else
+                          [round(math.degrees(a), 9) for a in ws.orientation]}
+    for k, pt in enumerate(spec.points):
+        s[f"point {k + 1}"] = {"pose": pt.name, "quantities": list(pt.quantities),
+                               "tool_length_mm": None if pt.tool_length is None else pt.tool_length * 1e3}
+    return s
+
+
+def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
+             log: Callable[[str], None] | None = None) -> dict[str, Path]:
+    """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths."""
+    from .render import run_info, write_report
+
+    t0 = time.perf_counter()
+    spec = load_spec(path)
+    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log)
+    info = run_info()
+    info["run time"] = f"{time.perf_counter() - t0:.1f} s"
+    return write_report(report, out_dir, run=info)

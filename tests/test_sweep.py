@@ -1,0 +1,228 @@
+"""Parameter sweeps (pkmstiff.sweep), machine variants by override (pkmstiff.machine_variants), sweep files."""
+
+from __future__ import annotations
+
+import csv
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pkmstiff import load_machine
+from pkmstiff.machine_file import MachineFileError
+from pkmstiff.machine_variants import OverrideError, machine_with, parse_override_path
+from pkmstiff.sweep import (LogUniform, Normal, Parameter, Sweep, SweepError, Uniform, grid_points,
+                            random_points, run_sweep)
+from pkmstiff.sweep_evaluations import Combined, PointValues, SectionStatistics
+
+POSE = np.array([[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]])
+SWEEPS = Path(__file__).resolve().parents[1] / "studies" / "sweeps"
+
+
+def _kx(machine) -> float:
+    from pkmstiff.analysis import evaluate_structure
+
+    return float(evaluate_structure(machine, POSE, tool_length=0.0, n_modes=1).stiffness[0, 0])
+
+
+# ------------------------------------------------------------------------------------------------ machine variants
+def test_no_overrides_equals_load_machine():
+    a, b = load_machine("hexapod_6x:constant_drive_stiffness"), machine_with("hexapod_6x:constant_drive_stiffness")
+    assert a.name == b.name and a.components == b.components
+    assert _kx(a) == _kx(b)  # same builder, same data: bit-identical
+
+
+def test_overrides_equal_a_hand_edited_machine_file(tmp_path):
+    """Round trip: overrides give the same machine as a file that extends the original with the same changes."""
+    child = tmp_path / "edited.toml"
+    child.write_text("""
+format_version = 1
+[machine]
+name = "hexaglide"
+extends = "hexaglide"
+[components.strut_950]
+k = "300 N/um"
+[joint_types.iwf_3dof]
+tilt_min = "7 deg"
+[[chains]]
+[[chains]]
+[[chains]]
+platform_joint = [0.31, -0.13, 0.15]
+[[chains]]
+[[chains]]
+[[chains]]
+""")
+    edited = load_machine(child)
+    over = machine_with("hexaglide", {"components.strut_950.k": "300 N/um", "joint_types.iwf_3dof.tilt_min": "7 deg",
+                                      "chains[3].platform_joint": [0.31, -0.13, 0.15]})
+    assert over.components == edited.components
+    assert over.joint_types["iwf_3dof"].tilt_min == pytest.approx(math.radians(7), rel=1e-15)
+    np.testing.assert_array_equal(over.chains.platform_joint, edited.chains.platform_joint)
+    assert _kx(over) == _kx(edited)
+    assert _kx(over) != _kx(load_machine("hexaglide"))  # the overrides did change the machine
+
+
+def test_wildcard_sets_every_chain():
+    m = machine_with("hexaglide", {"chains[*].strut_radius": "30 mm"})
+    np.testing.assert_allclose(m.chains.strut_radius, 0.03, rtol=1e-15)
+
+
+@pytest.mark.parametrize("overrides, exc, pattern", [
+    ({"components.strut_95.k": 1}, OverrideError, r"key 'components.strut_95.k': expected an existing table "
+                                                  r"'components.strut_95' \(keys at 'components': \[.*'strut_950'"),
+    ({"components.strut_950.kk": 1}, MachineFileError, r"key 'components.strut_950.kk'.*unknown parameter 'kk'"),
+    ({"components.strut_950.k": "3 kg"}, MachineFileError, r"key 'components.strut_950.k': expected a quantity with "
+                                                           r"the dimension of N/m"),
+    ({"chains[7].strut_radius": 0.1}, OverrideError, r"key 'chains\[7\].strut_radius': expected a 1-based index 1..6"),
+    ({"joint_types.iwf_3dof.tilt_mni": 1}, MachineFileError, r"key 'joint_types.iwf_3dof.tilt_mni': expected one of "
+                                                             r"the keys"),
+    ({"components..k": 1}, OverrideError, r"dotted keys"),
+])
+def test_invalid_override_gives_a_clear_error(overrides, exc, pattern):
+    with pytest.raises(exc, match=pattern) as info:
+        machine_with("hexaglide", overrides)
+    assert "hexaglide.toml" in str(info.value) or "(override)" in str(info.value)
+
+
+def test_parse_override_path():
+    assert parse_override_path("chains[3].platform_joint") == [("chains", 3), ("platform_joint", None)]
+    assert parse_override_path("chains[*].label") == [("chains", "*"), ("label", None)]
+
+
+# ---------------------------------------------------------------------------------------------- grid and random
+def test_grid_is_the_cartesian_product_first_slowest():
+    pts = grid_points([Parameter("a.x", values=(1, 2)), Parameter("b.y", values=("p", "q", "r"))])
+    assert pts == [{"a.x": a, "b.y": b} for a, b in itertools.product((1, 2), ("p", "q", "r"))]
+    assert grid_points({"a.x": [1, 2, 3]}) == [{"a.x": 1}, {"a.x": 2}, {"a.x": 3}]
+    with pytest.raises(SweepError, match="parameter 'a.x': a grid sweep needs a list of values"):
+        grid_points([Parameter("a.x", distribution=Uniform(0, 1))])
+
+
+def test_random_points_are_seeded_and_in_range():
+    params = [Parameter("a.u", distribution=Uniform(2.0, 3.0)), Parameter("a.l", distribution=LogUniform(1.0, 1e3)),
+              Parameter("a.n", distribution=Normal(0.0, 5.0, low=-1.0, high=1.0)),
+              Parameter("a.c", values=(10, 20, 30))]
+    a, b = random_points(params, 200, seed=7), random_points(params, 200, seed=7)
+    assert a == b and a != random_points(params, 200, seed=8)
+    u = np.array([p["a.u"] for p in a])
+    lg = np.array([p["a.l"] for p in a])
+    assert u.min() >= 2.0 and u.max() <= 3.0 and lg.min() >= 1.0 and lg.max() <= 1e3
+    assert all(-1.0 <= p["a.n"] <= 1.0 for p in a) and {p["a.c"] for p in a} == {10, 20, 30}
+    # log-uniform: log10 is uniform on [0, 3]; its mean 1.5 within 5 sigma (sigma = 3/sqrt(12)/sqrt(200) = 0.061)
+    assert abs(np.log10(lg).mean() - 1.5) < 5 * 3 / math.sqrt(12) / math.sqrt(200)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.floats(-1e6, 1e6), st.floats(1e-3, 1e6), st.integers(0, 2**32 - 1), st.integers(1, 50))
+def test_uniform_samples_stay_in_bounds(low, width, seed, n):
+    pts = random_points({"x.y": Uniform(low, low + width)}, n, seed)
+    assert len(pts) == n and all(low <= p["x.y"] <= low + width for p in pts)
+
+
+def test_parameter_units_and_columns():
+    p = Parameter("components.strut_950.k", values=(300,), unit="N/um")
+    assert p.column == "components.strut_950.k [N/um]" and p.override(300) == "300.0 N/um"
+    assert Parameter("chains[1].label", values=("x",)).override("x") == "x"
+    with pytest.raises(SweepError, match="with unit 'N/um' the values must be numbers"):
+        Parameter("components.strut_950.k", values=("300 N/um",), unit="N/um")
+    with pytest.raises(SweepError, match="expected a unit"):
+        Parameter("components.strut_950.k", values=(1,), unit="furlongs per parsec^7 x")
+    with pytest.raises(SweepError, match="a random sweep needs a positive number of samples"):
+        Sweep("hexaglide", [Parameter("a.b", values=(1,))], _kx_eval, mode="random")
+    with pytest.raises(SweepError, match="each path at most once"):
+        Sweep("hexaglide", [Parameter("a.b", values=(1,)), Parameter("a.b", values=(2,))], _kx_eval)
+
+
+def _kx_eval(machine):
+    return {"kx [N/m]": _kx(machine)}
+
+
+# -------------------------------------------------------------------------------------------------------- running
+EVAL = Combined((PointValues((0, 0, -1000, 0, 0, 0), ("kx", "f1")),
+                 SectionStatistics(("kx",), range="y=-200:800,z=-1100:-500", step_mm=100, statistics=("mean",))))
+
+
+def _sweep() -> Sweep:
+    return Sweep("hexaglide", [Parameter("components.strut_950.k", values=(150, 344, -5), unit="N/um"),
+                               Parameter("components.strut_1000.k", values=(200, 326), unit="N/um")], EVAL)
+
+
+def test_failing_tasks_are_recorded_and_physics_holds(tmp_path):
+    res = run_sweep(_sweep())
+    assert [r["task"] for r in res.rows] == list(range(6))
+    bad = res.failed
+    assert [r["task"] for r in bad] == [4, 5]  # k = -5 N/um for the last grid value of the first parameter
+    assert all("key 'components.strut_950.k': expected positive values" in r["error"] for r in bad)
+    assert all("kx [N/um]" not in r for r in bad)
+    assert np.isnan(res.column("kx [N/um]")[4])
+    ok = [r for r in res.rows if not r["error"]]
+    kx = {(r["components.strut_950.k [N/um]"], r["components.strut_1000.k [N/um]"]): r["kx [N/um]"] for r in ok}
+    # stiffer struts in series with the joints and drives: TCP stiffness rises in both parameters
+    assert kx[(150, 200)] < kx[(344, 200)] and kx[(150, 200)] < kx[(150, 326)] < kx[(344, 326)]
+    # the bundled machine's values (344, 326 N/um) give the unmodified machine's stiffness (same builder)
+    assert kx[(344, 326)] == pytest.approx(_kx(load_machine("hexaglide")) / 1e6, rel=1e-12)
+    # CSV round trip: metadata lines, header, exact floats
+    path = res.to_csv(tmp_path / "s.csv")
+    lines = path.read_text().splitlines()
+    assert lines[0] == "# machine: hexaglide" and any(x.startswith("# failed: 2") for x in lines)
+    rows = list(csv.DictReader(x for x in lines if not x.startswith("#")))
+    assert list(rows[0]) == res.columns and res.columns[-1] == "error"
+    assert float(rows[0]["kx [N/um]"]) == res.rows[0]["kx [N/um]"] and rows[4]["kx [N/um]"] == ""
+
+
+def test_serial_parallel_and_dask_give_identical_rows():
+    distributed = pytest.importorskip("dask.distributed")
+    sweep = _sweep()
+    serial = run_sweep(sweep)
+    local = run_sweep(sweep, n_jobs=2)
+    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1,
+                                  dashboard_address=None) as cluster:
+        dask = run_sweep(sweep, scheduler=cluster.scheduler_address)  # the documented path: a scheduler address
+    assert serial.rows == local.rows == dask.rows  # bit-identical: the same pure task function everywhere
+    assert len(serial.failed) == 2
+
+
+def test_sweep_file_and_cli(tmp_path):
+    import argparse
+
+    from pkmstiff import cli_sweep
+    from pkmstiff.sweep_file import SweepFileError, load_sweep
+
+    s = load_sweep(SWEEPS / "hexaglide_strut_sweep.toml")
+    assert len(s.tasks()) == 12 and s.tasks()[0].overrides == {"components.strut_950.k": "150.0 N/um",
+                                                               "joint_types.iwf_3dof.tilt_min": "5.0 deg"}
+    f = tmp_path / "s.toml"
+    f.write_text("""
+[sweep]
+machine = "hexaglide"
+mode = "random"
+samples = 3
+seed = 1
+[[parameters]]
+path = "components.strut_950.k"
+unit = "N/um"
+distribution = "uniform"
+low = 200
+high = 400
+[[evaluations]]
+kind = "point"
+pose = [0, 0, -1000, 0, 0, 0]
+quantities = ["kx"]
+""")
+    parser = argparse.ArgumentParser()
+    cli_sweep.add_commands(parser.add_subparsers())
+    args = parser.parse_args(["sweep", str(f), "--out", str(tmp_path / "r.csv"), "--quiet"])
+    assert args.func(args) == 0
+    rows = list(csv.DictReader(x for x in (tmp_path / "r.csv").read_text().splitlines() if not x.startswith("#")))
+    assert len(rows) == 3 and all(200 <= float(r["components.strut_950.k [N/um]"]) <= 400 for r in rows)
+    assert all(r["error"] == "" and float(r["kx [N/um]"]) > 0 for r in rows)
+    f.write_text(f.read_text().replace('distribution = "uniform"', 'distribution = "gaussian"'))
+    with pytest.raises(SweepFileError, match=r"key 'parameters\[1\].distribution'"):
+        load_sweep(f)
+    f.write_text(f.read_text().replace('kind = "point"', 'kind = "point"\ncolour = 2'))
+    with pytest.raises(SweepFileError, match=r"key 'parameters\[1\].distribution'|key 'evaluations\[1\].colour'"):
+        load_sweep(f)
