@@ -15,7 +15,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from .admissibility import Reason
+from .admissibility import ALL_CHECKS, Reason
 from .model import Machine
 from .poses import evaluate_poses
 from .quantities import EvalContext, get_quantity
@@ -163,8 +163,8 @@ class SectionResult:
 
 
 def _evaluate_chunk(machine: Machine, poses: np.ndarray, names: Sequence[str], tool_length: float | None,
-                    options: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    ev = evaluate_poses(machine, poses)
+                    options: dict[str, Any], checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    ev = evaluate_poses(machine, poses, checks=checks)
     ok = ev.ok.copy()
     vals = {n: np.full(len(poses), np.nan) for n in names}
     if ok.any() and names:
@@ -191,12 +191,14 @@ def evaluate_section(
     n_jobs: int = 1,
     progress: bool | None = None,
     options: dict[str, Any] | None = None,
+    checks: Sequence[str] = ALL_CHECKS,
 ) -> SectionResult:
     """Evaluate ``quantities`` (names, see :mod:`pkmstiff.quantities`) on a plane, masked by admissibility.
 
     ``orientation`` = (a, b, c) in rad, fixed over the plane; ``tool_length`` in m (None: the machine's).
     ``n_jobs`` > 1 evaluates chunks in parallel processes (joblib); the result is identical to the serial one
     because chunks are independent. ``progress``: None = a progress bar only on a terminal when the section is large.
+    ``checks``: the admissibility checks to apply (default all, see :data:`pkmstiff.admissibility.ALL_CHECKS`).
     """
     names = list(dict.fromkeys(quantities))
     qs = {n: get_quantity(n) for n in names}  # raises early for unknown names
@@ -212,10 +214,10 @@ def evaluate_section(
         from joblib import Parallel, delayed
 
         n = os.cpu_count() or 1 if n_jobs < 0 else n_jobs
-        parts = Parallel(n_jobs=n)(delayed(_evaluate_chunk)(machine, p, names, tool_length, opts) for p in
+        parts = Parallel(n_jobs=n)(delayed(_evaluate_chunk)(machine, p, names, tool_length, opts, checks) for p in
                                    _progress(jobs, progress))
     else:
-        parts = [_evaluate_chunk(machine, p, names, tool_length, opts) for p in _progress(jobs, progress)]
+        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks) for p in _progress(jobs, progress)]
     shape = plane.shape
     ok = np.concatenate([p[0] for p in parts]).reshape(shape)
     reasons = np.concatenate([p[1] for p in parts]).reshape(shape)
@@ -224,7 +226,7 @@ def evaluate_section(
         machine=machine.name, plane=plane, orientation=np.asarray(orientation, float), tool_length=tool_length,
         values=values, units={n: q.unit for n, q in qs.items()}, si_units={n: q.si_unit for n, q in qs.items()},
         labels={n: q.label for n, q in qs.items()}, ok=ok, reasons=reasons,
-        settings={"chunk_size": chunk_size, "n_jobs": n_jobs, **opts},
+        settings={"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks), **opts},
     )
 
 

@@ -36,8 +36,7 @@ from pkmstiff import admissibility as adm  # noqa: E402
 from pkmstiff.model import Machine  # noqa: E402
 from pkmstiff.poses import evaluate_poses  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.quantities import EvalContext, get_quantity  # noqa: E402
-from pkmstiff.sections import SectionResult, axis_plane, evaluate_section, section_poses  # noqa: E402
+from pkmstiff.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
 from pkmstiff.workspace.plots import plot_workspace  # noqa: E402
 from pkmstiff.workspace.rotation import RotationMapResult, rotational_workspace_map  # noqa: E402
 from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace  # noqa: E402
@@ -120,26 +119,9 @@ def sections(machines: dict[str, Machine], step: float) -> dict[str, SectionResu
 
 
 def kinematic_section(machine: Machine, step: float) -> SectionResult:
-    """The section of :func:`sections` with every check except the static drive load (B.13).
-
-    ``evaluate_section`` always runs all checks, so this evaluates the same quantities from the registry on the
-    poses admissible without B.13 (same raster, tool length and orientation).
-    """
-    pl = plane(step)
-    poses = section_poses(pl)
-    ev = evaluate_poses(machine, poses, checks=NO_DRIVE_LOAD)
-    ok = ev.ok
-    values = {q: np.full(len(poses), np.nan) for q in QUANTITIES}
-    if ok.any():
-        ctx = EvalContext(machine, ev if ok.all() else ev.subset(ok), TOOL_LENGTH)
-        for q in QUANTITIES:
-            values[q][ok] = np.asarray(get_quantity(q).compute(ctx), float)
-    qs = {q: get_quantity(q) for q in QUANTITIES}
-    return SectionResult(machine=machine.name, plane=pl, orientation=np.zeros(3), tool_length=TOOL_LENGTH,
-                         values={q: v.reshape(pl.shape) for q, v in values.items()},
-                         units={q: x.unit for q, x in qs.items()}, si_units={q: x.si_unit for q, x in qs.items()},
-                         labels={q: x.label for q, x in qs.items()}, ok=ok.reshape(pl.shape),
-                         reasons=ev.admissibility.reasons.reshape(pl.shape), settings={"checks": list(NO_DRIVE_LOAD)})
+    """The section of :func:`sections` with every check except the static drive load (B.13)."""
+    return evaluate_section(machine, plane(step), list(QUANTITIES), tool_length=TOOL_LENGTH, progress=False,
+                            checks=NO_DRIVE_LOAD)
 
 
 def argmax_pose(res: SectionResult, name: str) -> list[float]:

@@ -51,13 +51,12 @@ STUDY_ASSUMPTIONS = {
                   "- the surface-nets volume differs by < 0.5 % between the two on these machines (checked for "
                   "the Hexaglide in study c: 0.2692 vs 0.2701 m^3); volumes by surface nets (default), the "
                   "tetrahedron method (eq. 4.14, the dissertation's) and the signed divergence sum",
-    "Linapod usable part": "machine table at z = 0 (Cobet 5.2): the usable workspace is the part with O' at z >= 0 "
-                           "(tool length 0), computed as a frame limit z >= 0, so the table is a boundary of the "
-                           "octree like any other check",
-    "6X usable part": "the 6X file has no frame: its data admit O' up to z = 3.2 m, with the platform between and "
-                      "above the drive joints; the usable part keeps the platform joints below the plane of the lower "
-                      "drive joints, z <= min z(q_i) - max z'(p'_i) = 2.300 - 0.495 = 1.805 m (frame limit; study "
-                      "assumption, as in study a)",
+    "whole vs usable": "'whole' = the workspace the geometry admits (the machine without its frame limits), "
+                       "'usable' = with the frame limits of the machine file: Linapod machine table at z = 0 "
+                       "(Cobet 5.2, O' z >= 0 at tool length 0); 6X platform joints below the plane of the lower "
+                       "drive joints, z <= 2.300 - 0.495 = 1.805 m (without it the data admit O' up to z = 3.2 m); "
+                       "Hexaglide between the machine bed z = -1.1 m and z = -0.34 m (without it the data admit a "
+                       "mirror workspace above the guides)",
     "rotation maps": "maximum admissible +a (rotation about x) from a = b = c = 0 in steps of the increment up to a "
                      "search bound of 90 deg (points at the bound are counted), YZ plane at x = 0 (Paralix "
                      "x = -2000 mm), raster = the workspace's bounding box in y and z plus 50 mm; mean over the "
@@ -74,35 +73,30 @@ STUDY_ASSUMPTIONS = {
 }
 
 
-def with_frame(machine: Machine, z_min: float = -np.inf, z_max: float = np.inf) -> Machine:
-    """A copy of ``machine`` whose frame limits additionally bound O' to z_min <= z <= z_max (m)."""
-    lo = machine.limits.position_min.copy()
-    hi = machine.limits.position_max.copy()
-    lo[2], hi[2] = max(lo[2], z_min), min(hi[2], z_max)
-    return dataclasses.replace(machine, limits=dataclasses.replace(machine.limits, position_min=lo, position_max=hi))
+def without_frame(machine: Machine) -> Machine:
+    """A copy of ``machine`` without frame limits: the workspace its geometry admits."""
+    free = dataclasses.replace(machine.limits, position_min=np.full(3, -np.inf), position_max=np.full(3, np.inf))
+    return dataclasses.replace(machine, limits=free)
 
 
-def usable_limits(name: str, machine: Machine) -> tuple[float, float] | None:
-    """(z_min, z_max) of the usable part (m), or None where the whole workspace is usable (see STUDY_ASSUMPTIONS)."""
-    if name == "linapod":
-        return (0.0, np.inf)
-    if name == "hexapod_6x":
-        return (-np.inf, float(machine.chains.drive_joint[:, 2].min() - machine.chains.platform_joint[:, 2].max()))
-    return None
+def usable_limits(machine: Machine) -> tuple[float, float] | None:
+    """(z_min, z_max) of the machine file's frame (m), or None where the file sets no frame in z."""
+    lo, hi = float(machine.limits.position_min[2]), float(machine.limits.position_max[2])
+    return None if np.isinf(lo) and np.isinf(hi) else (lo, hi)
 
 
 def workspaces(machines: dict[str, Machine], names: dict[str, str], eps: float) -> dict[str, dict[str, Any]]:
-    """Whole workspace and (where defined) the usable part per machine."""
+    """Whole workspace (geometry only, no frame) and, where the file sets a frame, the usable part per machine."""
     out: dict[str, dict[str, Any]] = {}
     for lab, m in machines.items():
-        whole = constant_orientation_workspace(m, eps)
-        lim = usable_limits(names[lab], m)
+        lim = usable_limits(m)
+        whole = constant_orientation_workspace(without_frame(m), eps)
         usable = None
         if lim is not None:
             lo, hi = whole.bounding_box()
             lo, hi = lo - MARGIN, hi + MARGIN
             lo[2], hi[2] = max(lo[2], lim[0] - MARGIN), min(hi[2], lim[1] + MARGIN)
-            usable = constant_orientation_workspace(with_frame(m, *lim), eps, box=fit_box(lo, hi, eps))
+            usable = constant_orientation_workspace(m, eps, box=fit_box(lo, hi, eps))
         out[lab] = {"whole": whole, "usable": usable, "limits": lim}
     return out
 

@@ -353,3 +353,13 @@ def test_bundled_specs_are_valid(spec):
 
     for v in s.variants:  # every variant's machine, options and overrides build
         machine_with(v.machine, v.overrides, v.options)
+
+
+def test_count_rows_print_as_integers():
+    from pkmstiff.report.model import Table
+    from pkmstiff.report.render import _table_grid as table_cells
+
+    t = Table("counts", ["A", "B"], baseline="A").add("candidates", "evaluations", [936, 900]).add("k", "N/um", [20.0, 25.0])
+    _, rows = table_cells(t)
+    assert [c.text for c in rows[0][2]][::2] == ["936", "900"]  # a count row: integers
+    assert [c.text for c in rows[1][2]][::2] == ["20.00", "25.00"]  # a measured row keeps its significant digits

@@ -125,3 +125,14 @@ def test_figures_are_written(tmp_path, hexaglide):
     rm = rotation_angle_map(hexaglide, [0, 0, 0], [0, 1, 0], [0, 0, 1], np.arange(0.0, 0.61, 0.2),
                             np.arange(-1.1, -0.79, 0.1), direction=("+a", "-a"), increment=np.radians(5))
     assert plot_rotation_maps(rm, tmp_path / "rm.png").stat().st_size > 10_000
+
+
+def test_thin_workspace_is_found_by_a_finer_start_grid():
+    # The Linapod's usable workspace (0 <= z <= ~0.7 m above its table) is thinner than the 0.8 m spacing of the
+    # level-3 start grid of its default box; the octree must start finer instead of reporting an empty workspace.
+    from pkmstiff import load_machine
+    from pkmstiff.workspace.translational import constant_orientation_workspace
+
+    ws = constant_orientation_workspace(load_machine("linapod"), 0.05, (0.0, 0.0, 0.0))
+    assert ws.settings["start_level"] > 3
+    assert ws.volume > 0.5  # m^3; 0.657 m^3 at 25 mm

@@ -88,6 +88,16 @@ def format_value(value: float | None, digits: int) -> str:
     return "0" if float(text) == 0 else text
 
 
+_COUNT_UNITS = {"count", "points", "evaluations", "poses"}
+
+
+def _is_count_row(row) -> bool:
+    """A row counting things (unit "count", "points", "evaluations", "poses"): whole numbers, printed as integers."""
+    vals = [v for v in row.values if v is not None]
+    return (row.unit.strip() in _COUNT_UNITS and bool(vals)
+            and all(math.isfinite(v) and float(v).is_integer() and abs(v) < 1e15 for v in vals))
+
+
 def percent_of_baseline(value: float | None, base: float | None) -> float | None:
     """100 · value / base, or None when either is missing, non-finite, or the baseline is zero."""
     if value is None or base is None:
@@ -127,8 +137,9 @@ def _table_grid(table: Table) -> tuple[list[tuple[str, str]], list[tuple[str, st
     rows = []
     for row in table.rows:
         cells = []
+        count = _is_count_row(row)
         for j, v in enumerate(row.values):
-            cells.append(_Cell(format_value(v, table.digits), "num"))
+            cells.append(_Cell(str(int(v)) if count and v is not None else format_value(v, table.digits), "num"))
             if ib is not None:
                 cells.append(_Cell(format_percent(percent_of_baseline(v, row.values[ib])), "pct"))
         rows.append((row.label, row.unit, cells))

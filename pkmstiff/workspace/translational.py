@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 import time
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
@@ -18,6 +19,9 @@ from .oracle import PoseOracle, RangeMode
 from .requirements import Requirement
 from .surface import BoundarySurface
 from .volume import DEFAULT_METHODS, workspace_volume
+
+
+MAX_RETRY_LEVEL = 6  # finest start grid tried when a coarser one finds no admissible corner
 
 
 def reach_box(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
@@ -146,6 +150,16 @@ def constant_orientation_workspace(
                         checks=checks, orientation_range=orientation_range, range_step=range_step,
                         range_mode=range_mode)
     res = octree_boundary(oracle, lo, hi, resolution, min_level=min_level, progress=progress)
+    # A workspace thinner than the start grid's spacing is missed when no start corner is admissible (spec §7.3,
+    # known limitation): start finer before concluding that there is none, and say so if there still is none.
+    level = min_level
+    while res.leaf_index.shape[0] == 0 and res.inside_volume == 0.0 and level < max(min_level, MAX_RETRY_LEVEL):
+        level += 1
+        res = octree_boundary(oracle, lo, hi, resolution, min_level=level, progress=progress)
+    if res.leaf_index.shape[0] == 0 and res.inside_volume == 0.0:
+        warnings.warn(f"{machine.name}: no admissible point found on the octree start grids up to level {level} "
+                      f"(spacing {np.max((hi - lo) / 2 ** level) * 1e3:.0f} mm); the workspace is empty or thinner "
+                      f"than that — give a tighter box", RuntimeWarning, stacklevel=2)
     rep = workspace_volume(res, tuple(methods), refine_steps=refine_steps, admissible=oracle)
     run = time.perf_counter() - t0
     st = oracle.stats
@@ -156,7 +170,7 @@ def constant_orientation_workspace(
                 "orientation_range": None if orientation_range is None else
                 [orientation_range[0], math.degrees(orientation_range[1]), math.degrees(orientation_range[2])],
                 "orientation_range_unit": "deg", "range_step_deg": math.degrees(range_step),
-                "range_mode": range_mode, "refine_steps": refine_steps, "min_level": min_level}
+                "range_mode": range_mode, "refine_steps": refine_steps, "min_level": min_level, "start_level": level}
     return WorkspaceResult(machine.name, ori, float(resolution), res, rep.volumes, rep.crossing_mesh, stats, settings)
 
 
