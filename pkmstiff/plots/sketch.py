@@ -47,7 +47,7 @@ def sketch_from_points(machine: Machine, q: np.ndarray, p: np.ndarray, hull_poin
         faces = np.hstack([np.full((len(machine.hull.triangles), 1), 3), machine.hull.triangles]).ravel()
         blocks["platform"] = pv.PolyData(hull_points * scale, faces)
     elif ok.sum() >= 4:
-        blocks["platform"] = pv.PolyData(p[ok]).delaunay_3d().extract_surface()
+        blocks["platform"] = pv.PolyData(p[ok]).delaunay_3d().extract_surface(algorithm="dataset_surface")
     return blocks
 
 
