@@ -3,10 +3,6 @@ against independent computations (closed forms, spline data of the spec, physica
 
 from __future__ import annotations
 
-import importlib.util
-import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,30 +14,16 @@ from pkmstiff.machine_components import machine_components
 from pkmstiff.poses import evaluate_poses
 from pkmstiff.structure import structure_layout
 
-STUDIES = Path(__file__).resolve().parents[1] / "studies"
+from tests.study_runs import load, run_fast
+
 SCRIPTS = {"a": "a_hexapod_drive_model.py", "b": "b_hexaglide_joint_model.py", "d": "d_joint_components.py",
            "f": "f_measurement_point.py"}
-
-
-def load(name: str):
-    path = STUDIES / name
-    spec = importlib.util.spec_from_file_location(f"study_{path.stem}", path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod
-    spec.loader.exec_module(mod)
-    return mod
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """Each study run once in --fast mode: letter -> (module, output dir, results.json)."""
-    out = {}
-    for letter, script in SCRIPTS.items():
-        mod = load(script)
-        d = tmp_path_factory.mktemp(f"study_{letter}")
-        assert mod.main(["--fast", "--out", str(d)]) == 0
-        out[letter] = (mod, d, json.loads((d / "results.json").read_text(encoding="utf-8")))
-    return out
+    return run_fast(SCRIPTS, tmp_path_factory)
 
 
 @pytest.mark.parametrize("letter", sorted(SCRIPTS))

@@ -4,11 +4,7 @@ joint-stiffness table of the spec, admissibility of the reported rotation angles
 
 from __future__ import annotations
 
-import importlib.util
-import json
 import math
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,29 +15,15 @@ import pkmstiff
 from pkmstiff.poses import evaluate_poses
 from pkmstiff.sections import axis_plane, evaluate_section
 
-STUDIES = Path(__file__).resolve().parents[1] / "studies"
+from tests.study_runs import load, run_fast
+
 SCRIPTS = {"c": "c_hexaglide_variants.py", "e": "e_joint_orientation.py", "g": "g_machine_comparison.py"}
-
-
-def load(name: str):
-    path = STUDIES / name
-    spec = importlib.util.spec_from_file_location(f"study_{path.stem}", path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod
-    spec.loader.exec_module(mod)
-    return mod
 
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """Each study run once in --fast mode: letter -> (module, output dir, results.json)."""
-    out = {}
-    for letter, script in SCRIPTS.items():
-        mod = load(script)
-        d = tmp_path_factory.mktemp(f"study_{letter}")
-        assert mod.main(["--fast", "--out", str(d)]) == 0
-        out[letter] = (mod, d, json.loads((d / "results.json").read_text(encoding="utf-8")))
-    return out
+    return run_fast(SCRIPTS, tmp_path_factory)
 
 
 @pytest.fixture(scope="module")
