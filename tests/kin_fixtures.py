@@ -10,7 +10,6 @@ import dataclasses
 
 import numpy as np
 
-from pkmstiff.kinematics import IK
 from pkmstiff.model import Chains, Hull, JointType, Limits, Machine, Tool
 
 BUNDLED = ("hexaglide", "hexaglide_v1", "hexaglide_v2", "hexapod_6x", "linapod", "paralix")
@@ -82,20 +81,6 @@ def hexaglide_by_hand() -> Machine:
 def with_chains(machine: Machine, **changes) -> Machine:
     """Copy of ``machine`` with some ``Chains`` fields replaced."""
     return dataclasses.replace(machine, chains=dataclasses.replace(machine.chains, **changes))
-
-
-def within_drive_range(machine: Machine, ik: IK) -> np.ndarray:
-    """(N,) bool: reachable and every drive inside its range (B.1/B.2), used to pick admissible test poses.
-
-    Stand-in for the full admissibility of ``pkmstiff.admissibility`` in these kinematics tests.
-    """
-    ch = machine.chains
-    with np.errstate(invalid="ignore"):
-        if ch.kind == "glide":
-            ok = ik.reachable & (ik.drive >= 0.0) & (ik.drive <= ch.guide_length)
-        else:
-            ok = (ik.drive >= ch.length_min) & (ik.drive <= ch.length_max)
-    return ok.all(axis=1)
 
 
 def random_poses(name: str, n: int, rng: np.random.Generator, dpos: float = 0.1, dang_deg: float = 5.0) -> np.ndarray:
