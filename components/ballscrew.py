@@ -33,6 +33,16 @@ RANGE_POLICIES: tuple[str, ...] = ("clamp", "error")
 DRIVE_MODELS: tuple[str, ...] = ("fit_3_22", "exact_3_3")
 
 
+def _check_drive_data(drive) -> None:
+    """Range policy and positive stiffness data common to the ball-screw drives (eq. 3.2, 3.3)."""
+    if drive.out_of_range not in RANGE_POLICIES:
+        raise ValueError(f"drive '{drive.name}': out_of_range must be one of {RANGE_POLICIES}, "
+                         f"found {drive.out_of_range!r}")
+    for key in ("k_al", "spindle_ea", "k_m", "k_tm"):
+        if not getattr(drive, key) > 0:
+            raise ValueError(f"drive '{drive.name}': {key} must be positive, found {getattr(drive, key)!r}")
+
+
 # --------------------------------------------------------------------------------------------- formulas
 def spindle_axial_rigidity(d_sp: float, E: float) -> float:
     """EA = π d_Sp² E / 4 [N] of the spindle (numerator of Cobet eq. 3.1); d_Sp = mean of core and nominal diameter."""
@@ -166,12 +176,7 @@ class BallScrewDrive(Component):
     def __post_init__(self) -> None:
         if self.arrangement not in ARRANGEMENTS:
             raise ValueError(f"drive '{self.name}': arrangement must be one of {ARRANGEMENTS}, found {self.arrangement!r}")
-        if self.out_of_range not in RANGE_POLICIES:
-            raise ValueError(f"drive '{self.name}': out_of_range must be one of {RANGE_POLICIES}, "
-                             f"found {self.out_of_range!r}")
-        for key in ("k_al", "spindle_ea", "k_m", "k_tm"):
-            if not getattr(self, key) > 0:
-                raise ValueError(f"drive '{self.name}': {key} must be positive, found {getattr(self, key)!r}")
+        _check_drive_data(self)
         if self.arrangement != "fixed_floating" and self.spindle_length is None:
             raise ValueError(f"drive '{self.name}': spindle_length is required for the {self.arrangement} arrangement")
         if self.spindle_length is not None and not self.spindle_length > 0:
@@ -243,12 +248,7 @@ class TelescopicBallScrew(Component):
     def __post_init__(self) -> None:
         if self.drive_model not in DRIVE_MODELS:
             raise ValueError(f"drive '{self.name}': drive_model must be one of {DRIVE_MODELS}, found {self.drive_model!r}")
-        if self.out_of_range not in RANGE_POLICIES:
-            raise ValueError(f"drive '{self.name}': out_of_range must be one of {RANGE_POLICIES}, "
-                             f"found {self.out_of_range!r}")
-        for key in ("k_al", "spindle_ea", "k_m", "k_tm"):
-            if not getattr(self, key) > 0:
-                raise ValueError(f"drive '{self.name}': {key} must be positive, found {getattr(self, key)!r}")
+        _check_drive_data(self)
         if not 0 < self.l_eff_min < self.l_eff_max:
             raise ValueError(f"drive '{self.name}': need 0 < l_eff_min < l_eff_max, found "
                              f"{self.l_eff_min}, {self.l_eff_max}")

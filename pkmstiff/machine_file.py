@@ -12,7 +12,6 @@ import copy
 import dataclasses
 import importlib.resources
 import math
-import tomllib
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -20,6 +19,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from .model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
+from .tomlfile import read_toml
 from .units import InputError, parse_quantity
 
 
@@ -73,11 +73,7 @@ def resolve_machine_path(name_or_path: str | Path) -> Path:
 
 
 def _read_toml(path: Path) -> dict[str, Any]:
-    try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise MachineFileError(str(path), "(file)", "valid TOML", str(exc)) from None
+    return read_toml(path, MachineFileError, "machine file")
 
 
 def _merge(base: Any, over: Any) -> Any:

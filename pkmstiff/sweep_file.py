@@ -21,12 +21,12 @@ Errors are :class:`SweepFileError` naming the file, the key, what was expected a
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import Any
 
 from .sweep import Choice, LogUniform, Normal, Parameter, Sweep, SweepError, Uniform
 from .sweep_evaluations import Combined, PointValues, SectionStatistics, WorkspaceVolume
+from .tomlfile import read_toml
 from .units import InputError
 
 __all__ = ["SweepFileError", "load_sweep"]
@@ -107,13 +107,7 @@ def load_sweep(path: str | Path) -> Sweep:
     """Read and validate a sweep file."""
     path = Path(path)
     src = str(path)
-    try:
-        with open(path, "rb") as fh:
-            raw = tomllib.load(fh)
-    except FileNotFoundError:
-        raise SweepFileError(src, "(file)", "an existing sweep file", "no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SweepFileError(src, "(file)", "valid TOML", str(exc)) from None
+    raw = read_toml(path, SweepFileError, "sweep file")
     _table(src, raw, "(top level)", {"sweep", "parameters", "evaluations"})
     sw = _table(src, raw.get("sweep"), "sweep", _SWEEP_KEYS)
     if "machine" not in sw:

@@ -15,7 +15,6 @@ import dataclasses
 import math
 import re
 import time
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
@@ -23,6 +22,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ..model import Machine
+from ..tomlfile import read_toml
 from ..units import InputError
 from .model import Figure, Report, Table
 
@@ -311,13 +311,7 @@ def load_spec(path: str | Path) -> ReportSpec:
     """Read and validate a report spec (see the README, "Report specs", for every key)."""
     path = Path(path)
     src = str(path)
-    try:
-        with open(path, "rb") as fh:
-            raw = tomllib.load(fh)
-    except FileNotFoundError:
-        raise SpecError(src, "(file)", "an existing report spec file", "no such file") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SpecError(src, "(file)", "valid TOML", str(exc)) from None
+    raw = read_toml(path, SpecError, "report spec file")
     r = _Reader(src)
     r.table(raw, "", _TOP_KEYS)
     rep = r.table(r.req(raw, "report", "", "a [report] table with at least 'title'"), "report", _REPORT_KEYS)

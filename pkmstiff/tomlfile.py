@@ -1,0 +1,21 @@
+"""Reading TOML input files with errors that name the file (machine files, report specs, sweep files)."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from .units import InputError
+
+
+def read_toml(path: str | Path, error: type[InputError] = InputError, what: str = "TOML file") -> dict[str, Any]:
+    """Parse ``path``; a missing file or invalid TOML raises ``error(file, "(file)", expected, found)``."""
+    src = str(path)
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise error(src, "(file)", f"an existing {what}", "no such file") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise error(src, "(file)", "valid TOML", str(exc)) from None
