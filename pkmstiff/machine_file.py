@@ -107,24 +107,36 @@ def _raw_with_extends(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]
     return merged
 
 
+def split_machine_spec(name_or_path: str | Path, options: Iterable[str] = ()) -> tuple[str, list[str]]:
+    """``"hexapod_6x:constant_drive_stiffness"`` -> (``"hexapod_6x"``, [``"constant_drive_stiffness"``])."""
+    opts = list(options)
+    spec = str(name_or_path)
+    if ":" in spec and not Path(spec).exists() and not (len(spec) > 1 and spec[1] == ":"):
+        spec, extra = spec.split(":", 1)
+        opts += [o for o in extra.split(",") if o]
+    return spec, opts
+
+
+def raw_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> tuple[dict[str, Any], str, list[str]]:
+    """The raw TOML data of a machine with ``extends`` resolved and options applied: (raw dict, source, options)."""
+    spec, opts = split_machine_spec(name_or_path, options)
+    path = resolve_machine_path(spec)
+    raw = _raw_with_extends(path)
+    src = str(path)
+    available = raw.get("options", {})
+    for opt in opts:
+        if opt not in available:
+            raise MachineFileError(src, "options", f"one of {sorted(available)}", opt)
+        raw = _merge(raw, available[opt])
+    return raw, src, opts
+
+
 def load_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> Machine:
     """Load and validate a machine by bundled name (``"hexaglide"``, ``"linapod:printed_values"``) or path.
 
     ``options`` (or the ``:opt1,opt2`` suffix of the name) selects ``[options.NAME]`` override tables of the file.
     """
-    options = list(options)
-    spec = str(name_or_path)
-    if ":" in spec and not Path(spec).exists() and not (len(spec) > 1 and spec[1] == ":"):
-        spec, opts = spec.split(":", 1)
-        options += [o for o in opts.split(",") if o]
-    path = resolve_machine_path(spec)
-    raw = _raw_with_extends(path)
-    src = str(path)
-    available = raw.get("options", {})
-    for opt in options:
-        if opt not in available:
-            raise MachineFileError(src, "options", f"one of {sorted(available)}", opt)
-        raw = _merge(raw, available[opt])
+    raw, src, options = raw_machine(name_or_path, options)
     try:
         return _build(raw, src, options)
     except MachineFileError:

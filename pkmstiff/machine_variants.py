@@ -23,7 +23,7 @@ import re
 from pathlib import Path
 from typing import Any, Mapping
 
-from .machine_file import MachineFileError, _build, _merge, _raw_with_extends, resolve_machine_path
+from .machine_file import MachineFileError, _build, raw_machine, split_machine_spec
 from .model import Machine
 from .units import InputError
 
@@ -35,34 +35,6 @@ _SEGMENT = re.compile(r"^(?P<key>[^\[\]]+)(?:\[(?P<index>\*|\d+)\])?$")
 
 class OverrideError(MachineFileError):
     """An override path that does not lead into the machine file (names the override and what is there)."""
-
-
-def split_machine_spec(name_or_path: str | Path, options: tuple[str, ...] | list[str] = ()) -> tuple[str, list[str]]:
-    """``"hexapod_6x:constant_drive_stiffness"`` -> (``"hexapod_6x"``, [``"constant_drive_stiffness"``])."""
-    opts = list(options)
-    spec = str(name_or_path)
-    if ":" in spec and not Path(spec).exists() and not (len(spec) > 1 and spec[1] == ":"):
-        spec, extra = spec.split(":", 1)
-        opts += [o for o in extra.split(",") if o]
-    return spec, opts
-
-
-def raw_machine(name_or_path: str | Path, options: tuple[str, ...] | list[str] = ()) -> tuple[dict[str, Any], str,
-                                                                                               list[str]]:
-    """The raw TOML data of a machine as :func:`load_machine` builds it: ``extends`` resolved, options applied.
-
-    Returns (raw dict, source path, option names).
-    """
-    spec, opts = split_machine_spec(name_or_path, options)
-    path = resolve_machine_path(spec)
-    raw = _raw_with_extends(path)
-    src = str(path)
-    available = raw.get("options", {})
-    for opt in opts:
-        if opt not in available:
-            raise MachineFileError(src, "options", f"one of {sorted(available)}", opt)
-        raw = _merge(raw, available[opt])
-    return raw, src, opts
 
 
 def parse_override_path(path: str) -> list[tuple[str, int | str | None]]:

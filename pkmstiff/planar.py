@@ -35,7 +35,6 @@ at least one term of a chain must be elastic).
 from __future__ import annotations
 
 import importlib.resources
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -45,6 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import sde
 from .admissibility import Reason
+from .tomlfile import read_toml
 from .units import InputError, parse_quantity
 
 Array = NDArray[np.float64]
@@ -143,12 +143,7 @@ def load_planar(name_or_path: str | Path) -> PlanarMachine:
             raise PlanarFileError(str(name_or_path), "(file)", f"a bundled planar machine {bundled_planar()} or "
                                   "a path to a .toml file", "no such machine")
     src = str(p)
-    try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise PlanarFileError(src, "(file)", "an existing file", "not found") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise PlanarFileError(src, "(file)", "valid TOML", str(exc)) from None
+    raw = read_toml(p, PlanarFileError, "planar machine file")
     try:
         return _build(raw, src)
     except PlanarFileError:

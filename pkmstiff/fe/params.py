@@ -6,10 +6,10 @@ an :class:`~pkmstiff.units.InputError` naming the file, the key, the expectation
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import Any, Mapping
 
+from pkmstiff.tomlfile import read_toml
 from pkmstiff.units import InputError, parse_quantity
 
 from .materials import CubicCylindrical, Isotropic, Material, MaterialError
@@ -20,14 +20,8 @@ Schema = Mapping[str, Mapping[str, str]]
 
 
 def load_toml(path: str | Path) -> dict[str, Any]:
-    """Parse a TOML file; a syntax error becomes an InputError naming the file."""
-    p = Path(path)
-    if not p.is_file():
-        raise InputError(str(p), "(file)", "an existing TOML parameter file", "no such file")
-    try:
-        return tomllib.loads(p.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(str(p), "(syntax)", "valid TOML", str(exc)) from None
+    """Parse a TOML parameter file; a missing file or a syntax error becomes an InputError naming the file."""
+    return read_toml(path, InputError, "TOML parameter file")
 
 
 def read_section(raw: Mapping[str, Any], section: str, spec: Mapping[str, str], source: str,
