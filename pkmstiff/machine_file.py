@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from .model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
-from .tomlfile import read_toml
+from pkmstiff.io import read_toml
 from .units import InputError, parse_quantity
 
 

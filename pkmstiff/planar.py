@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import sde
 from .admissibility import Reason
-from .tomlfile import read_toml
+from pkmstiff.io import read_toml
 from .units import InputError, parse_quantity
 
 Array = NDArray[np.float64]

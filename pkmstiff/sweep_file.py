@@ -26,7 +26,7 @@ from typing import Any
 
 from .sweep import Choice, LogUniform, Normal, Parameter, Sweep, SweepError, Uniform
 from .sweep_evaluations import Combined, PointValues, SectionStatistics, WorkspaceVolume
-from .tomlfile import read_toml
+from pkmstiff.io import read_toml
 from .units import InputError
 
 __all__ = ["SweepFileError", "load_sweep"]

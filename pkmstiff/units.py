@@ -20,14 +20,7 @@ from typing import Any
 import numpy as np
 import pint
 
-
-class InputError(ValueError):
-    """Invalid input data; the message names file, key, expectation and finding."""
-
-    def __init__(self, source: str, key: str, expected: str, found: Any):
-        self.source, self.key, self.expected, self.found = source, key, expected, found
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}key '{key}': expected {expected}, found {found!r}")
+from .errors import InputError
 
 
 @lru_cache(maxsize=1)

@@ -9,7 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
-from pkmstiff.tomlfile import read_toml
+from pkmstiff.io import read_toml
 from pkmstiff.units import InputError, parse_quantity
 
 from .materials import CubicCylindrical, Isotropic, Material, MaterialError

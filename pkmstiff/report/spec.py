@@ -22,7 +22,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from ..model import Machine
-from ..tomlfile import read_toml
+from pkmstiff.io import read_toml
 from ..units import InputError
 from .model import Figure, Report, Table
 

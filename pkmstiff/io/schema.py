@@ -1,0 +1,32 @@
+"""One allowed-key check for every TOML input (machine, planar, sweep, report, FE parameters, calibration, mechanism).
+
+Tables are checked key by key so that the error names the file, the dotted key, what was expected and what was found.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
+
+from ..errors import InputError
+
+
+def check_keys(table: Any, allowed: Iterable[str], source: str, prefix: str = "",
+               error: type[InputError] = InputError) -> dict[str, Any]:
+    """Return ``table`` if it is a table whose keys all lie in ``allowed``; else raise ``error`` naming the first
+    offending key as ``prefix + key`` (``prefix`` ends with a dot, e.g. ``"chains[2]."``)."""
+    allowed = set(allowed)
+    if not isinstance(table, dict):
+        raise error(source, prefix.rstrip(".") or "(file)", "a table", table)
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise error(source, f"{prefix}{unknown[0]}", f"one of the keys {sorted(allowed)}", "unknown key")
+    return table
+
+
+def require(table: dict[str, Any], key: str, source: str, prefix: str = "", what: str = "a value",
+            error: type[InputError] = InputError) -> Any:
+    """Return ``table[key]``; a missing key raises ``error`` naming ``prefix + key`` and ``what`` was expected."""
+    if key not in table:
+        raise error(source, f"{prefix}{key}", what, "missing key")
+    return table[key]
