@@ -26,11 +26,11 @@ from typing import Callable  # noqa: E402
 import numpy as np  # noqa: E402
 
 import pkmstiff  # noqa: E402
-from pkmstiff import admissibility as adm  # noqa: E402
-from pkmstiff.joint_angles import joint_angles  # noqa: E402
+import pkmstiff.admissibility.checks as adm  # noqa: E402
+from pkmstiff.kinematics.joint_angles import joint_angles  # noqa: E402
 from pkmstiff.kinematics import inverse_jacobian, inverse_kinematics, jacobian_and_singular  # noqa: E402
-from pkmstiff.machine_components import drive_load_data  # noqa: E402
-from pkmstiff.poses import evaluate_poses  # noqa: E402
+from pkmstiff.machine.roles import drive_load_data  # noqa: E402
+from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
 
 BOXES = {"hexapod_6x": ((-0.5, 0.5), (-0.5, 0.5), (0.6, 1.6))}
 DEFAULT_BOX = ((-0.4, 0.4), (-0.6, 0.8), (-1.2, -0.5))  # Hexaglide working region (sections' y, z box)
@@ -55,7 +55,7 @@ def cpu_time(f: Callable[[], object], repeat: int) -> tuple[float, float, object
     return best_cpu, best_wall, out
 
 
-def stages(m: pkmstiff.model.Machine, poses: np.ndarray, repeat: int) -> dict[str, float]:
+def stages(m: pkmstiff.machine.model.Machine, poses: np.ndarray, repeat: int) -> dict[str, float]:
     """CPU time of each pipeline stage for all poses, in one chunk (s)."""
     t: dict[str, float] = {}
     t["IK"], _, ik = cpu_time(lambda: inverse_kinematics(m, poses), repeat)

@@ -22,7 +22,7 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from pkmstiff.joint_angles import joint_angles  # noqa: E402
+from pkmstiff.kinematics.joint_angles import joint_angles  # noqa: E402
 from pkmstiff.kinematics import (  # noqa: E402
     chunk_slices,
     condition_number,
@@ -31,7 +31,7 @@ from pkmstiff.kinematics import (  # noqa: E402
     jacobian_and_condition,
     singular_mask,
 )
-from pkmstiff.machine_file import load_machine  # noqa: E402
+from pkmstiff.machine.loader import load_machine  # noqa: E402
 
 
 def sample_poses(n: int, seed: int = 0) -> np.ndarray:

@@ -3,7 +3,7 @@
 Model: spindle + platform (rigid bodies) + 6 drives (point masses) = 30 DOF; 13 SDEs: 6 drive–frame 3×3
 (``R diag(kx, ky, kz) Rᵀ``), 6 drive–platform axial along the strut, 1 platform–spindle 6×6.  Random but realistic
 geometry per pose, stiffnesses 1e7–1e9 N/m, masses 10–120 kg.  Timed: model build, and assembly + TCP compliance
-+ 6 lowest natural frequencies (:func:`pkmstiff.sde.evaluate_point`).  Prints poses/s and peak memory.
++ 6 lowest natural frequencies (:func:`pkmstiff.multibody.evaluate_point`).  Prints poses/s and peak memory.
 
 Usage: ``python benchmarks/bench_sde.py [n_poses ...] [--chunk N]`` (default 10000 100000).
 The CPU time (process time) is printed beside the wall time: on a machine shared with other jobs it is the better
@@ -28,8 +28,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from pkmstiff.sde import SDEModel, evaluate_point  # noqa: E402
-from pkmstiff.sde.linalg import rotation_about_axis  # noqa: E402
+from pkmstiff.multibody import SDEModel, evaluate_point  # noqa: E402
+from pkmstiff.multibody.linalg import rotation_about_axis  # noqa: E402
 
 
 def pkm_like_model(n_poses: int, seed: int = 0, check_psd: bool = False) -> SDEModel:

@@ -15,7 +15,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import pkmstiff  # noqa: E402
-from pkmstiff.sections import Plane, evaluate_section  # noqa: E402
+from pkmstiff.evaluation.sections import Plane, evaluate_section  # noqa: E402
 
 
 def main(n: int = 200) -> None:

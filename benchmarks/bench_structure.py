@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
 from pkmstiff.analysis import evaluate_structure  # noqa: E402
-from pkmstiff.machine_file import load_machine  # noqa: E402
+from pkmstiff.machine.loader import load_machine  # noqa: E402
 
 
 def hexaglide_poses(n: int, seed: int = 0) -> np.ndarray:

@@ -5,6 +5,6 @@ All quantities are SI; every component evaluates a batch of N poses at once from
 :func:`components.registry.build_component`.
 """
 
-from .protocol import Component, ComponentRangeError, ComponentState, ConstantAxial, parallel, series
+from components.protocol import Component, ComponentRangeError, ComponentState, ConstantAxial, parallel, series
 
 __all__ = ["Component", "ComponentRangeError", "ComponentState", "ConstantAxial", "parallel", "series"]

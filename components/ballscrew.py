@@ -26,7 +26,7 @@ import numpy as np
 
 from pkmstiff.units import to_unit
 
-from .protocol import Component, ComponentRangeError, ComponentState, parallel, series
+from components.protocol import Component, ComponentRangeError, ComponentState, parallel, series
 
 ARRANGEMENTS: tuple[str, ...] = ("fixed_fixed", "fixed_floating", "floating_fixed")
 RANGE_POLICIES: tuple[str, ...] = ("clamp", "error")

@@ -13,7 +13,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .protocol import Component, ComponentState
+from components.protocol import Component, ComponentState
 
 
 def roller_positions(n: int) -> np.ndarray:

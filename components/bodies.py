@@ -14,7 +14,7 @@ import numpy as np
 
 from pkmstiff.units import si
 
-from .protocol import Component, ComponentState, _full
+from components.protocol import Component, ComponentState, _full
 
 _SYM_TOL = 1e-9  # relative asymmetry tolerated in input matrices (round-off of printed/converted data)
 

@@ -13,7 +13,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .protocol import Component, ComponentState, _full
+from components.protocol import Component, ComponentState, _full
 
 AXIAL_MODES: tuple[str, ...] = ("constant", "pole_placement")
 

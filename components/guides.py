@@ -16,7 +16,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .protocol import Component, ComponentState
+from components.protocol import Component, ComponentState
 
 _PARALLEL_TOL = 1e-6  # |component of the vertical orthogonal to x'| below which the guide counts as vertical
 

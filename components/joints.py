@@ -21,14 +21,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .joint_tables import (  # re-exported: the documented entry points are components.joints.*
+from components.joint_tables import (  # re-exported: the documented entry points are components.joints.*
     JointTable,
     bundled_tables,
     load_joint_table,
     write_joint_table,
 )
-from .protocol import Component, ComponentState, _full
-from .spline import EXTRAPOLATION_POLICIES, apply_range_policy, clamped_spline, spline_weights
+from components.protocol import Component, ComponentState, _full
+from components.spline import EXTRAPOLATION_POLICIES, apply_range_policy, clamped_spline, spline_weights
 
 __all__ = [
     "JointModel", "ConstantJoint", "AnalyticJoint330", "TiltTableJoint", "SwivelTiltTableJoint", "ProductJoint",

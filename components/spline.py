@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from .protocol import ComponentRangeError
+from components.protocol import ComponentRangeError
 
 Extrapolation = Literal["clamp", "error"]
 EXTRAPOLATION_POLICIES: tuple[str, ...] = ("clamp", "error")

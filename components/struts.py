@@ -11,7 +11,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from .protocol import Component, ComponentState, _full
+from components.protocol import Component, ComponentState, _full
 
 
 def strut_stiffness(E: float, area: float, length: float | np.ndarray) -> np.ndarray:

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pint
 
-from .errors import InputError
+from pkmstiff.errors import InputError
 
 
 @lru_cache(maxsize=1)

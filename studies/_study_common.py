@@ -17,9 +17,9 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from pkmstiff.model import Machine
+from pkmstiff.machine.model import Machine
 from pkmstiff.report.model import Report, Table
-from pkmstiff.sections import SectionResult
+from pkmstiff.evaluation.sections import SectionResult
 
 STAT_KEYS = ("max", "mean", "min")
 

@@ -29,9 +29,9 @@ from _study_common import (MapPanel, Stopwatch, add_stat_rows, common_mask, devi
                            shared_clim, write_outputs)
 
 import pkmstiff  # noqa: E402
-from pkmstiff.machine_components import machine_components  # noqa: E402
+from pkmstiff.machine.roles import machine_components  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
+from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
 
 BASELINE = "angle-dependent (measured)"
 CONSTANT = "constant (0 deg values)"

@@ -33,13 +33,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study_common import MapPanel, Stopwatch, machine_assumptions, plot_maps, shared_clim, write_outputs  # noqa: E402
 
 import pkmstiff  # noqa: E402
-from pkmstiff import admissibility as adm  # noqa: E402
+import pkmstiff.admissibility.checks as adm  # noqa: E402
 from pkmstiff.analysis import axis_stiffness, tcp_compliance  # noqa: E402
-from pkmstiff.machine_components import machine_components  # noqa: E402
-from pkmstiff.model import Machine  # noqa: E402
-from pkmstiff.poses import evaluate_poses  # noqa: E402
+from pkmstiff.machine.roles import machine_components  # noqa: E402
+from pkmstiff.machine.model import Machine  # noqa: E402
+from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.sections import Plane, SectionResult, axis_plane, evaluate_section, section_poses  # noqa: E402
+from pkmstiff.evaluation.sections import Plane, SectionResult, axis_plane, evaluate_section, section_poses  # noqa: E402
 from pkmstiff.structure import build_structure  # noqa: E402
 
 ORIGINAL, PUBLISHED = "original", "published (Table 5.4)"

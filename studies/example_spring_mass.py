@@ -1,4 +1,4 @@
-"""Example: a small spring–mass system with the generic SDE layer (pkmstiff.sde).
+"""Example: a small spring–mass system with the generic SDE layer (pkmstiff.multibody).
 
 A rigid table (20 kg) on four vertical springs at its corners and three horizontal springs, carrying a 5 kg point
 mass on a 3×3 spring; evaluated for three payload positions at once (a leading "pose" axis) to show batching.
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-import pkmstiff.sde as sde
+import pkmstiff.multibody as sde
 
 
 def build(payload_x_m: np.ndarray) -> sde.SDEModel:

@@ -30,9 +30,9 @@ from _study_common import (Stopwatch, machine_assumptions, parse_args, relative_
 
 import pkmstiff  # noqa: E402
 from pkmstiff.analysis import axis_stiffness, modal_analysis, tcp_compliance, weak_points  # noqa: E402
-from pkmstiff.joint_angles import joint_angles  # noqa: E402
+from pkmstiff.kinematics.joint_angles import joint_angles  # noqa: E402
 from pkmstiff.kinematics import inverse_kinematics  # noqa: E402
-from pkmstiff.machine_components import machine_components  # noqa: E402
+from pkmstiff.machine.roles import machine_components  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
 from pkmstiff.structure import build_structure  # noqa: E402
 

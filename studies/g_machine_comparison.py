@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study_common import Stopwatch, machine_assumptions, parse_args, write_outputs  # noqa: E402
 
 import pkmstiff  # noqa: E402
-from pkmstiff.model import Machine  # noqa: E402
+from pkmstiff.machine.model import Machine  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
 from pkmstiff.workspace.plots import plot_workspace  # noqa: E402
 from pkmstiff.workspace.rotation import RotationMapResult, rotation_angle_map  # noqa: E402

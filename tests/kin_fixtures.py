@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from pkmstiff.model import Chains, Hull, JointType, Limits, Machine, Tool
+from pkmstiff.machine.model import Chains, Hull, JointType, Limits, Machine, Tool
 
 BUNDLED = ("hexaglide", "hexaglide_v1", "hexaglide_v2", "hexapod_6x", "linapod", "paralix")
 

@@ -5,9 +5,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pkmstiff import admissibility as adm
+import pkmstiff.admissibility.checks as adm
 from pkmstiff import load_machine
-from pkmstiff.model import Hull
+from pkmstiff.machine.model import Hull
 
 
 @pytest.fixture(scope="module")
@@ -100,7 +100,7 @@ def _cube_machine(base):
     v = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])
     from scipy.spatial import ConvexHull
 
-    from pkmstiff.machine_file import _oriented
+    from pkmstiff.machine.loader import _oriented
 
     hull = Hull(vertices=v, triangles=_oriented(v, ConvexHull(v).simplices))
     ch = dataclasses.replace(base.chains, platform_joint=np.tile([2.0, 0.0, 0.0], (6, 1)),

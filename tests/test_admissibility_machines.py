@@ -5,9 +5,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pkmstiff import admissibility as adm
+import pkmstiff.admissibility.checks as adm
 from pkmstiff import load_machine
-from pkmstiff.poses import check_admissibility, evaluate_poses
+from pkmstiff.admissibility.pipeline import check_admissibility, evaluate_poses
 
 
 @pytest.fixture(scope="module")
@@ -108,7 +108,7 @@ def test_every_bundled_machine_has_admissible_poses(name):
 
 def test_static_drive_loads_balance_gravity(hexaglide):
     # eq. 4.90: tau_g = J_C^T g_P, so (J_C^-1)^T tau_g must give back the holding wrench (m g up, rho x F)
-    from pkmstiff.machine_components import drive_load_data
+    from pkmstiff.machine.roles import drive_load_data
 
     data = drive_load_data(hexaglide)
     assert data is not None and data.moved_mass == pytest.approx(117.24)

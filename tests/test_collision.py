@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize
 
-from pkmstiff.collision import (
+from pkmstiff.admissibility.collision import (
     line_parameters,
     point_segment_distance,
     segment_distance,

@@ -26,9 +26,9 @@ from exudyn.rigidBodyUtilities import RotationMatrix2RotXYZ  # noqa: E402
 from components.protocol import ComponentState  # noqa: E402
 from pkmstiff.analysis import evaluate_structure, tcp_compliance  # noqa: E402
 from pkmstiff.kinematics import inverse_kinematics  # noqa: E402
-from pkmstiff.machine_components import machine_components  # noqa: E402
-from pkmstiff.machine_file import load_machine  # noqa: E402
-from pkmstiff.sde import natural_frequencies  # noqa: E402
+from pkmstiff.machine.roles import machine_components  # noqa: E402
+from pkmstiff.machine.loader import load_machine  # noqa: E402
+from pkmstiff.multibody import natural_frequencies  # noqa: E402
 from pkmstiff.structure import build_structure  # noqa: E402
 
 MACHINE = load_machine("hexaglide")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from components.joint_tables import load_joint_table
-from pkmstiff.fe.cli import cmd_fe_joint
+from pkmstiff.cli.fe import cmd_fe_joint
 from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
 from pkmstiff.units import InputError
 
@@ -214,7 +214,7 @@ def test_progress_bar_only_on_a_terminal(monkeypatch):
     import io
     import sys
 
-    from pkmstiff.fe.cli import _progress
+    from pkmstiff.cli.fe import _progress
 
     class Tty(io.StringIO):
         def isatty(self):

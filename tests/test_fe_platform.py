@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from components.registry import build_component
-from pkmstiff.fe.cli import cmd_fe_platform
+from pkmstiff.cli.fe import cmd_fe_platform
 from pkmstiff.fe.platform import component_toml, load_platform_parameters, platform_stiffness
 from pkmstiff.units import InputError
 

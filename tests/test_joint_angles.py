@@ -1,4 +1,4 @@
-"""Tests of pkmstiff.joint_angles: swivel and tilt angles in both conventions (spec models.md §2)."""
+"""Tests of pkmstiff.kinematics.joint_angles: swivel and tilt angles in both conventions (spec models.md §2)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pkmstiff.joint_angles import joint_angles
+from pkmstiff.kinematics.joint_angles import joint_angles
 from pkmstiff.kinematics import inverse_kinematics
-from pkmstiff.machine_file import load_machine
-from pkmstiff.rotation import cardan_matrix
+from pkmstiff.machine.loader import load_machine
+from pkmstiff.kinematics.rotation import cardan_matrix
 
 from .kin_fixtures import BUNDLED, CENTRE, hexaglide_by_hand, random_poses, with_chains
 

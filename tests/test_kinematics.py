@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pkmstiff.poses import evaluate_poses
+from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.kinematics import (
     KinematicsInputError,
     cardan_inverse_jacobian,
@@ -26,8 +26,8 @@ from pkmstiff.kinematics import (
     singular_mask,
     transmission_quality,
 )
-from pkmstiff.machine_file import load_machine
-from pkmstiff.rotation import cardan_matrix, rotation_from_axis_angle
+from pkmstiff.machine.loader import load_machine
+from pkmstiff.kinematics.rotation import cardan_matrix, rotation_from_axis_angle
 
 from .kin_fixtures import BUNDLED, CENTRE, hexaglide_by_hand, random_poses, with_chains
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pkmstiff import MachineFileError, UnknownMachineError, bundled_machines, load_machine
-from pkmstiff.machine_file import bundled_machine_dir
+from pkmstiff.machine.loader import bundled_machine_dir
 
 EXPECTED = {"hexaglide", "hexaglide_v1", "hexaglide_v2", "hexapod_6x", "linapod", "paralix"}
 

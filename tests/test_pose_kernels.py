@@ -1,4 +1,4 @@
-"""Compiled kernels of the pose pipeline (pkmstiff._kernels) against the array API and independent references.
+"""Compiled kernels of the pose pipeline (pkmstiff.kinematics.kernels) against the array API and independent references.
 
 The primitives' maths is checked against brute-force minimisation in test_collision.py; here the fused per-pose
 kernels (strut-strut, strut-platform with its broad phase, QR of J_C^-1, lazy κ, singularity decision) are checked
@@ -14,9 +14,9 @@ import pytest
 from scipy.spatial import ConvexHull
 from scipy.spatial.transform import Rotation
 
-from pkmstiff import admissibility as adm
+import pkmstiff.admissibility.checks as adm
 from pkmstiff import load_machine
-from pkmstiff.collision import (
+from pkmstiff.admissibility.collision import (
     point_segment_distance,
     segment_distance,
     segment_pierces_triangle,
@@ -30,9 +30,9 @@ from pkmstiff.kinematics import (
     kinematic_jacobian,
     singular_mask,
 )
-from pkmstiff.machine_file import _oriented
-from pkmstiff.model import Hull
-from pkmstiff.poses import evaluate_poses
+from pkmstiff.machine.loader import _oriented
+from pkmstiff.machine.model import Hull
+from pkmstiff.admissibility.pipeline import evaluate_poses
 
 
 @pytest.fixture(scope="module")

@@ -257,8 +257,8 @@ def _rows(report) -> dict[str, list]:
 def test_spec_table_matches_direct_evaluation(tmp_path):
     from pkmstiff import load_machine
     from pkmstiff.analysis import evaluate_structure
-    from pkmstiff.machine_variants import machine_with
-    from pkmstiff.sections import axis_plane, evaluate_section
+    from pkmstiff.machine.variants import machine_with
+    from pkmstiff.evaluation.sections import axis_plane, evaluate_section
 
     spec = load_spec(_mini(tmp_path))
     rep = build_report(spec, tmp_path / "out")
@@ -334,7 +334,7 @@ def test_spec_errors_name_the_key(tmp_path, edit, key):
 
 def test_bad_override_is_a_machine_file_error(tmp_path):
     from pkmstiff.cli import main
-    from pkmstiff.machine_file import MachineFileError
+    from pkmstiff.machine.loader import MachineFileError
 
     p = tmp_path / "bad.toml"
     p.write_text(MINI.replace("MAPS", "false").replace('"components.strut_950.k" = "100 N/um"',
@@ -349,7 +349,7 @@ def test_bad_override_is_a_machine_file_error(tmp_path):
 def test_bundled_specs_are_valid(spec):
     s = load_spec(spec)
     assert s.variants and (s.baseline is None or s.baseline in [v.name for v in s.variants])
-    from pkmstiff.machine_variants import machine_with
+    from pkmstiff.machine.variants import machine_with
 
     for v in s.variants:  # every variant's machine, options and overrides build
         machine_with(v.machine, v.overrides, v.options)

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import pkmstiff.sde as sde
-from pkmstiff.sde.linalg import reference_matrix, rotation_about_axis, skew, translation_matrix
+import pkmstiff.multibody as sde
+from pkmstiff.multibody.linalg import reference_matrix, rotation_about_axis, skew, translation_matrix
 
 
 def random_spd(rng: np.random.Generator, d: int, lo: float, hi: float) -> np.ndarray:

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import pkmstiff.sde as sde
-from pkmstiff.sde.linalg import rotation_about_axis
+import pkmstiff.multibody as sde
+from pkmstiff.multibody.linalg import rotation_about_axis
 
 
 def oscillator(k: float, m: float, c: float) -> sde.SDEModel:

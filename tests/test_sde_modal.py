@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-import pkmstiff.sde as sde
+import pkmstiff.multibody as sde
 
 
 def chain(n_mass: int, k: float, m: float, k_t: float) -> sde.SDEModel:

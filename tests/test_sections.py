@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 from pkmstiff import load_machine
-from pkmstiff.admissibility import Reason
-from pkmstiff.export import to_csv, to_npz, to_vtk
-from pkmstiff.quantities import EvalContext, Quantity, register_quantity
-from pkmstiff.sections import SectionError, axis_plane, evaluate_section, general_plane
+from pkmstiff.admissibility.checks import Reason
+from pkmstiff.evaluation.export import to_csv, to_npz, to_vtk
+from pkmstiff.evaluation.quantities import EvalContext, Quantity, register_quantity
+from pkmstiff.evaluation.sections import SectionError, axis_plane, evaluate_section, general_plane
 
 
 @pytest.fixture(scope="module")
@@ -124,7 +124,7 @@ def test_png_written_and_not_blank(tmp_path, yz, hexaglide):
     from PIL import Image
 
     from pkmstiff.plots.section_maps import plot_section, plot_three_planes
-    from pkmstiff.sections import evaluate_three_planes, three_planes
+    from pkmstiff.evaluation.sections import evaluate_three_planes, three_planes
 
     path = plot_section(yz, "tilt_drive_1", tmp_path / "map.png", window_size=(500, 380))
     img = np.asarray(Image.open(path).convert("RGB"), float)
@@ -138,7 +138,7 @@ def test_png_written_and_not_blank(tmp_path, yz, hexaglide):
 
 
 def test_unknown_quantity(hexaglide):
-    from pkmstiff.quantities import UnknownQuantityError
+    from pkmstiff.evaluation.quantities import UnknownQuantityError
 
     plane = axis_plane("yz", 0.0, (0, 0.1), (-1.0, -0.9), 0.1)
     with pytest.raises(UnknownQuantityError, match="unknown quantity 'kq'.*tilt_drive_1"):
@@ -146,7 +146,7 @@ def test_unknown_quantity(hexaglide):
 
 
 def test_context_cache_shares_work(hexaglide):
-    from pkmstiff.poses import evaluate_poses
+    from pkmstiff.admissibility.pipeline import evaluate_poses
 
     calls = []
     ctx = EvalContext(hexaglide, evaluate_poses(hexaglide, [[0, 0, -1.0, 0, 0, 0]]))
@@ -157,8 +157,8 @@ def test_context_cache_shares_work(hexaglide):
 
 def test_structure_quantities_match_the_point_analysis(hexaglide):
     from pkmstiff.analysis import evaluate_structure
-    from pkmstiff.quantities import evaluate_quantities
-    from pkmstiff.poses import evaluate_poses
+    from pkmstiff.evaluation.quantities import evaluate_quantities
+    from pkmstiff.admissibility.pipeline import evaluate_poses
 
     poses = np.array([[0, 0, -1.0, 0, 0, 0], [0, 0.3, -0.95, 0, 0, 0]])
     ctx = EvalContext(hexaglide, evaluate_poses(hexaglide, poses), tool_length=0.15)

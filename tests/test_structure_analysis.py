@@ -6,12 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import pkmstiff.sde as sde
+import pkmstiff.multibody as sde
 from pkmstiff.analysis import (evaluate_structure, kinetostatics, modal_analysis, natural_frequencies,
                                static_deformation, tcp_compliance, tcp_frf, tcp_stiffness_matrix, weak_points)
 from pkmstiff.kinematics import inverse_kinematics
-from pkmstiff.machine_file import load_machine
-from pkmstiff.sde.linalg import reference_matrix
+from pkmstiff.machine.loader import load_machine
+from pkmstiff.multibody.linalg import reference_matrix
 from pkmstiff.structure import build_structure
 
 HEXAGLIDE = load_machine("hexaglide")
@@ -145,7 +145,7 @@ def test_frf_static_limit_accelerance_and_peaks():
 def fd_inverse_jacobian(machine, pose, h=1e-6):
     """∂q/∂(v, ω) by central differences of the inverse kinematics (small rotations about global axes)."""
     from pkmstiff.kinematics import inverse_kinematics_frames
-    from pkmstiff.rotation import cardan_matrix
+    from pkmstiff.kinematics.rotation import cardan_matrix
 
     R = cardan_matrix(*pose[3:])
     cols = []
@@ -241,8 +241,8 @@ def test_sde_damping_is_proportional_so_modal_and_direct_frf_agree():
 def test_full_admissibility_check_excludes_inadmissible_poses():
     """check='full': every failing admissibility check of the pose pipeline makes the pose NaN (here the drive
     range: y = 0.95 m pushes drives 1, 2 off their guides), with the pipeline's reason code."""
-    from pkmstiff.admissibility import Reason
-    from pkmstiff.poses import evaluate_poses
+    from pkmstiff.admissibility.checks import Reason
+    from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.structure import StructureOptions
 
     poses = np.vstack([POSES, [[0.0, 0.95, -0.9, 0.0, 0.0, 0.0]]])

@@ -9,7 +9,7 @@ import pytest
 
 from pkmstiff.analysis import kinetostatics, natural_frequencies, tcp_compliance
 from pkmstiff.cli import main
-from pkmstiff.machine_file import load_machine
+from pkmstiff.machine.loader import load_machine
 from pkmstiff.structure import build_structure
 
 

@@ -11,15 +11,15 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import pkmstiff.sde as sde
-from pkmstiff.admissibility import Reason
+import pkmstiff.multibody as sde
+from pkmstiff.admissibility.checks import Reason
 from pkmstiff.analysis import evaluate_structure, tcp_compliance
 from pkmstiff.analysis.batch import _evaluate_chunk
 from pkmstiff.kinematics import inverse_kinematics, inverse_kinematics_frames
-from pkmstiff.machine_components import machine_components
-from pkmstiff.machine_file import load_machine
-from pkmstiff.model import Limits
-from pkmstiff.sde.linalg import rotation_about_axis
+from pkmstiff.machine.roles import machine_components
+from pkmstiff.machine.loader import load_machine
+from pkmstiff.machine.model import Limits
+from pkmstiff.multibody.linalg import rotation_about_axis
 from pkmstiff.structure import (COMPONENT_FAILED, NOT_POSITIVE_DEFINITE, StructureModelError, StructureOptions,
                                 build_structure, structure_from_ik)
 
@@ -271,7 +271,7 @@ def test_pod_chain_stiffness_is_the_telescopic_drive():
 def test_pole_placement_drive_stiffness_uses_the_joint_space_mass():
     """axial_stiffness = 'pole_placement': k_A,i = m_i Ω² with m_i = diag(M_A + J_Cᵀ M_P J_C)_i (eq. 3.5, 3.10–3.12),
     J_C here from a finite-difference inverse Jacobian, M_P = 117.24 kg and the PKS inertia at O' (machine file)."""
-    from pkmstiff.rotation import cardan_matrix
+    from pkmstiff.kinematics.rotation import cardan_matrix
     from tests.test_structure_analysis import fd_inverse_jacobian
 
     machine = load_machine("hexaglide")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from pkmstiff.planar import (PlanarFileError, bundled_planar, load_planar, planar_compliance, planar_inverse_jacobian,
+from pkmstiff.analysis.planar import (PlanarFileError, bundled_planar, load_planar, planar_compliance, planar_inverse_jacobian,
                              planar_inverse_kinematics, planar_kinetostatics, planar_modes, planar_stiffness,
                              planar_structure)
 

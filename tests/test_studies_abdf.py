@@ -10,8 +10,8 @@ from scipy.interpolate import CubicSpline
 
 import pkmstiff
 from pkmstiff.kinematics import inverse_kinematics
-from pkmstiff.machine_components import machine_components
-from pkmstiff.poses import evaluate_poses
+from pkmstiff.machine.roles import machine_components
+from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.structure import structure_layout
 
 from tests.study_runs import load, run_fast

@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pkmstiff
-from pkmstiff.poses import evaluate_poses
-from pkmstiff.sections import axis_plane, evaluate_section
+from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.evaluation.sections import axis_plane, evaluate_section
 
 from tests.study_runs import load, run_fast
 

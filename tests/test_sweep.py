@@ -1,4 +1,4 @@
-"""Parameter sweeps (pkmstiff.sweep), machine variants by override (pkmstiff.machine_variants), sweep files."""
+"""Parameter sweeps (pkmstiff.evaluation.sweep), machine variants by override (pkmstiff.machine.variants), sweep files."""
 
 from __future__ import annotations
 
@@ -13,11 +13,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pkmstiff import load_machine
-from pkmstiff.machine_file import MachineFileError
-from pkmstiff.machine_variants import OverrideError, machine_with, parse_override_path
-from pkmstiff.sweep import (LogUniform, Normal, Parameter, Sweep, SweepError, Uniform, grid_points,
+from pkmstiff.machine.loader import MachineFileError
+from pkmstiff.machine.variants import OverrideError, machine_with, parse_override_path
+from pkmstiff.evaluation.sweep import (LogUniform, Normal, Parameter, Sweep, SweepError, Uniform, grid_points,
                             random_points, run_sweep)
-from pkmstiff.sweep_evaluations import Combined, PointValues, SectionStatistics
+from pkmstiff.evaluation.requests import Combined, PointValues, SectionStatistics
 
 POSE = np.array([[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]])
 SWEEPS = Path(__file__).resolve().parents[1] / "studies" / "sweeps"
@@ -189,8 +189,8 @@ def test_serial_parallel_and_dask_give_identical_rows():
 def test_sweep_file_and_cli(tmp_path):
     import argparse
 
-    from pkmstiff import cli_sweep
-    from pkmstiff.sweep_file import SweepFileError, load_sweep
+    import pkmstiff.cli.sweep as cli_sweep
+    from pkmstiff.report.sweep_file import SweepFileError, load_sweep
 
     s = load_sweep(SWEEPS / "hexaglide_strut_sweep.toml")
     assert len(s.tasks()) == 12 and s.tasks()[0].overrides == {"components.strut_950.k": "150.0 N/um",

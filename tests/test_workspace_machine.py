@@ -9,7 +9,7 @@ import pytest
 
 from pkmstiff import load_machine
 from pkmstiff.cli import main
-from pkmstiff.poses import evaluate_poses
+from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.workspace.translational import constant_orientation_workspace, fit_box, reach_box
 
 # the working region of the Hexaglide below its guides; extents 12.5 mm * 2**k (spec §7.4: halving)

@@ -9,9 +9,9 @@ import pytest
 
 from pkmstiff import load_machine
 from pkmstiff.kinematics import transmission_quality
-from pkmstiff.poses import evaluate_poses
+from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.workspace.oracle import OracleInputError, PoseOracle, staged_admissible
-from pkmstiff.quantities import Quantity, register_quantity
+from pkmstiff.evaluation.quantities import Quantity, register_quantity
 from pkmstiff.workspace.requirements import RequirementError, parse_requirement
 
 from .kin_fixtures import BUNDLED, CENTRE

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from pkmstiff import load_machine
-from pkmstiff.poses import evaluate_poses
+from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.workspace.rotation import (SIX_DIRECTIONS, RotationMapError, _prediction, rotation_angle_map,
                                          rotational_workspace_map)
 

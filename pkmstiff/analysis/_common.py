@@ -7,8 +7,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .. import sde
-from ..structure import PKMStructure, StructureModelError
+import pkmstiff.multibody as sde
+from pkmstiff.structure import PKMStructure, StructureModelError
 
 Array = NDArray[np.float64]
 

@@ -17,16 +17,16 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import sde
-from ..kinematics import as_poses
-from ..model import Machine
-from ..sde.assembly import stiffness_matrix
-from ..sde.modal import modal_chunk
-from ..sde.solver import StaticSystem
-from ..sde.static import point_transform
-from ..structure import (DEFAULT_CHUNK, NOT_POSITIVE_DEFINITE, STATUS_TEXT, PKMStructure, StructureOptions,
+import pkmstiff.multibody as sde
+from pkmstiff.kinematics import as_poses
+from pkmstiff.machine.model import Machine
+from pkmstiff.multibody.assembly import stiffness_matrix
+from pkmstiff.multibody.modal import modal_chunk
+from pkmstiff.multibody.solver import StaticSystem
+from pkmstiff.multibody.static import point_transform
+from pkmstiff.structure import (DEFAULT_CHUNK, NOT_POSITIVE_DEFINITE, STATUS_TEXT, PKMStructure, StructureOptions,
                          build_structure, platform_spindle_matrix, structure_layout)
-from ._common import Array, load_body
+from pkmstiff.analysis._common import Array, load_body
 
 
 @dataclass
@@ -35,7 +35,7 @@ class StructureBatch:
 
     ``compliance`` (N, 6, 6) at the TCP (m/N, rad/(N m), mixed 1/N) or None; ``stiffness`` (N, 6): k_x, k_y, k_z
     [N/m] and k_rx, k_ry, k_rz [N m/rad] (``1/C_jj``); ``frequencies_hz`` (N, n_modes); ``reasons`` (N,)
-    :class:`~pkmstiff.admissibility.Reason` bits; ``status`` (N,) structure bits (:data:`~pkmstiff.structure.
+    :class:`~pkmstiff.admissibility.checks.Reason` bits; ``status`` (N,) structure bits (:data:`~pkmstiff.structure.
     STATUS_TEXT`).
     """
 
@@ -50,7 +50,7 @@ class StructureBatch:
 
     def failing(self, i: int) -> list[str]:
         """Why pose ``i`` has no result (empty if it has one)."""
-        from ..admissibility import REASON_TEXT, Reason
+        from pkmstiff.admissibility.checks import REASON_TEXT, Reason
 
         out = [REASON_TEXT[r] for r in Reason if int(self.reasons[i]) & int(r)]
         return out + [t for bit, t in STATUS_TEXT.items() if int(self.status[i]) & bit]

@@ -15,9 +15,9 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import sde
-from ..structure import PKMStructure
-from ._common import Array, load_body, parse_direction
+import pkmstiff.multibody as sde
+from pkmstiff.structure import PKMStructure
+from pkmstiff.analysis._common import Array, load_body, parse_direction
 
 
 @dataclass
@@ -38,7 +38,7 @@ def tcp_frf(st: PKMStructure, freq_hz: Any, response: Any = "x", excitation: Any
             neglect_spindle: bool = False, max_peaks: int = 6) -> FRFResult:
     """FRF between two directions at the TCP (``"x"``, ``"-y"``, ``"rz"`` or vectors) over ``freq_hz`` (Hz)."""
     if kind not in ("receptance", "accelerance"):
-        from ..structure import StructureModelError
+        from pkmstiff.structure import StructureModelError
 
         raise StructureModelError("tcp_frf", "kind", "'receptance' or 'accelerance'", kind)
     f = np.asarray(freq_hz, dtype=float).ravel()

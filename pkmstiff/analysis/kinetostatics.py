@@ -10,7 +10,7 @@ static drive loads.
   gravity ``τ_g = J_Cᵀ g_P`` (eq. 4.90), available force ``T_i = τ_max − τ_min``:
   ``a_max = min_{μ_i ≠ 0} (T_i − sign(μ_i)(τ_g,i + c_i)) / |μ_i|``; a negative bound (or a drive with μ_i = 0
   that cannot hold ``|τ_g,i + c_i| ≤ T_i``) means the pose cannot accelerate in e: 0 and ``infeasible``.
-* Static drive loads ``τ_g`` (eq. 4.90) via :func:`pkmstiff.admissibility.static_drive_loads` (the same function
+* Static drive loads ``τ_g`` (eq. 4.90) via :func:`pkmstiff.admissibility.checks.static_drive_loads` (the same function
   as the B.13 admissibility check).
 
 M_A = drive masses (drive + guide + drive-joint mass), M_P = platform (+ spindle) about O' (spec §4.6).  Extensions
@@ -27,14 +27,15 @@ from typing import Any, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..admissibility import DriveLoadData, Reason, static_drive_loads
-from ..kinematics import as_poses, inverse_jacobian, inverse_kinematics, jacobian_and_condition
-from ..kinematics import transmission_quality as _tq
-from ..machine_components import machine_components
-from ..model import Machine
-from ..structure import (PKSBody, StructureModelError, dynamics_masses, mass_matrix_about_origin,
+from pkmstiff.admissibility.checks import Reason, static_drive_loads
+from pkmstiff.machine.roles import DriveLoadData
+from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics, jacobian_and_condition
+from pkmstiff.kinematics import transmission_quality as _tq
+from pkmstiff.machine.roles import machine_components
+from pkmstiff.machine.model import Machine
+from pkmstiff.structure import (PKSBody, StructureModelError, dynamics_masses, mass_matrix_about_origin,
                          vertical_direction)
-from ._common import AXIS_NAMES, Array
+from pkmstiff.analysis._common import AXIS_NAMES, Array
 
 DEFAULT_VELOCITY_DIRECTIONS = ("x", "y", "z")
 DEFAULT_ACCELERATION_DIRECTIONS = ("x", "-x", "y", "-y", "z", "-z")

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import sde
-from ..structure import PKMStructure
-from ._common import Array, component_energies, present_components, shares
+import pkmstiff.multibody as sde
+from pkmstiff.structure import PKMStructure
+from pkmstiff.analysis._common import Array, component_energies, present_components, shares
 
 
 def natural_frequencies(st: PKMStructure, n_modes: int = 6) -> Array:
@@ -30,7 +30,7 @@ class ModalAnalysis:
     """Lowest modes at N poses.
 
     ``frequencies_hz``, ``eigenvalues`` (rad²/s²) (N, k); ``shapes`` (N, k, n) mass-normalised (vᵀMv = 1) in the
-    DOF order of ``dof_labels``; ``dominant`` (N, k) index into :data:`pkmstiff.sde.MOTION_LABELS` of the
+    DOF order of ``dof_labels``; ``dominant`` (N, k) index into :data:`pkmstiff.multibody.MOTION_LABELS` of the
     platform's dominant motion and ``dominant_share`` its kinetic-energy share; ``kinetic`` (N, k, bodies)
     kinetic-energy shares per body (``body_labels``); ``strain`` (N, k, E) strain-energy shares per SDE
     (``element_labels``); ``component_strain`` (N, k, C) per component kind (``component_labels``).

@@ -15,9 +15,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import sde
-from ..structure import PKMStructure
-from ._common import Array, component_energies, load_body, parse_direction, present_components, shares
+import pkmstiff.multibody as sde
+from pkmstiff.structure import PKMStructure
+from pkmstiff.analysis._common import Array, component_energies, load_body, parse_direction, present_components, shares
 
 
 def tcp_compliance(st: PKMStructure, tool_length: float | ArrayLike | None = None, neglect_spindle: bool = False) -> Array:

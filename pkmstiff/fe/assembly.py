@@ -16,10 +16,10 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import CellBasis, MeshHex
 
-from .coupling import Condensation, ConstraintError, ConstraintSet, guyan, rbe2_rows
-from .elasticity import ElementName, rotate_stiffness, scalar_basis, stiffness_matrix
-from .materials import Material
-from .ties import tie
+from pkmstiff.fe.coupling import Condensation, ConstraintError, ConstraintSet, guyan, rbe2_rows
+from pkmstiff.fe.elasticity import ElementName, rotate_stiffness, scalar_basis, stiffness_matrix
+from pkmstiff.fe.materials import Material
+from pkmstiff.fe.ties import tie
 
 Selector = Callable[[np.ndarray], np.ndarray]  # local node coordinates (3, n) -> boolean mask (n,)
 Placement = tuple[np.ndarray, np.ndarray]  # (R (3, 3), t (3,)): x_global = R x_local + t

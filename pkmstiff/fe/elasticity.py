@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import CellBasis, ElementHex1, ElementHex2, ElementHexS2, MeshHex
 
-from .materials import CubicCylindrical, Isotropic, Material
+from pkmstiff.fe.materials import CubicCylindrical, Isotropic, Material
 
 ElementName = Literal["hex8", "hex20", "hex27"]
 ELEMENTS = {"hex8": (ElementHex1, 2), "hex20": (ElementHexS2, 4), "hex27": (ElementHex2, 4)}

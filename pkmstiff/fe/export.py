@@ -19,8 +19,8 @@ import numpy as np
 
 from components.joint_tables import write_joint_table
 
-from .assembly import PartModel, Solution
-from .joints import SweepResult, element_label, tie_tolerance
+from pkmstiff.fe.assembly import PartModel, Solution
+from pkmstiff.fe.joints import SweepResult, element_label, tie_tolerance
 
 # VTK hexahedron vertex order expressed in skfem's MeshHex order (V000, V010, V100, V001, V110, V011, V101, V111)
 _SKFEM_TO_VTK_HEX = np.array([0, 2, 4, 1, 3, 6, 7, 5])

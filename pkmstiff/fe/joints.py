@@ -37,12 +37,12 @@ import numpy as np
 
 from pkmstiff.units import InputError
 
-from . import mesh as fm
-from .assembly import NodeSet, Part, PartModel, ReferencePoint, Solution, Tie
-from .coupling import stiffness_along
-from .elasticity import ELEMENTS, element_type_label
-from .materials import CubicCylindrical, Material
-from .params import load_toml, material, read_assumptions, read_materials, read_section
+from pkmstiff.fe import mesh as fm
+from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Solution, Tie
+from pkmstiff.fe.coupling import stiffness_along
+from pkmstiff.fe.elasticity import ELEMENTS, element_type_label
+from pkmstiff.fe.materials import CubicCylindrical, Material
+from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section
 
 KINDS = ("2dof", "3dof")
 DEFAULT_ANGLES_DEG = tuple(range(0, 91, 15))

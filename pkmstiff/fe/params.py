@@ -12,7 +12,7 @@ from typing import Any, Mapping
 from pkmstiff.io import read_toml
 from pkmstiff.units import InputError, parse_quantity
 
-from .materials import CubicCylindrical, Isotropic, Material, MaterialError
+from pkmstiff.fe.materials import CubicCylindrical, Isotropic, Material, MaterialError
 
 # schema: section -> key -> unit ("m", "Pa", "N", ... positive; "m0" non-negative; "m~" any sign; "str" text,
 # "int" count, "-" dimensionless)

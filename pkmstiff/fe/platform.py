@@ -21,11 +21,11 @@ import numpy as np
 
 from pkmstiff.units import InputError, parse_quantity
 
-from . import mesh as fm
-from .assembly import NodeSet, Part, PartModel, ReferencePoint, Solution, Tie
-from .elasticity import ELEMENTS, element_type_label
-from .materials import Isotropic, Material
-from .params import load_toml, material, read_assumptions, read_materials, read_section
+from pkmstiff.fe import mesh as fm
+from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Solution, Tie
+from pkmstiff.fe.elasticity import ELEMENTS, element_type_label
+from pkmstiff.fe.materials import Isotropic, Material
+from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section
 
 SUPPORTS = ("pinned", "clamped")
 SCHEMA: dict[str, dict[str, str]] = {
@@ -179,7 +179,7 @@ def to_dissertation_units(K: np.ndarray) -> np.ndarray:
 
 def component_toml(result: PlatformResult, component_name: str = "platform_stiffness") -> str:
     """A ``[components.NAME]`` table (model ``body_stiffness``) for a machine file, with provenance comments."""
-    from .export import versions
+    from pkmstiff.fe.export import versions
 
     p = result.params
     Kd = to_dissertation_units(result.K)

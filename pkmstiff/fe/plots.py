@@ -12,7 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .export import FieldMesh
+from pkmstiff.fe.export import FieldMesh
 
 
 def deformed_image(fm: FieldMesh, path: str | Path, title: str = "", magnified_fraction: float = 0.08,

@@ -8,7 +8,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from typing import Any
 
-from ..errors import InputError
+from pkmstiff.errors import InputError
 
 
 def check_keys(table: Any, allowed: Iterable[str], source: str, prefix: str = "",

@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.modal import ModalAnalysis, modal_analysis
-from ..kinematics import inverse_kinematics
-from ..model import Machine
-from ..structure import build_structure
-from . import offscreen
-from .sketch import add_sketch, sketch_from_points
+from pkmstiff.analysis.modal import ModalAnalysis, modal_analysis
+from pkmstiff.kinematics import inverse_kinematics
+from pkmstiff.machine.model import Machine
+from pkmstiff.structure import build_structure
+from pkmstiff.plots import offscreen
+from pkmstiff.plots.sketch import add_sketch, sketch_from_points
 
 
 @dataclass

@@ -7,10 +7,10 @@ from typing import Sequence
 
 import numpy as np
 
-from ..model import Machine
-from ..sections import SectionResult
-from . import offscreen
-from .sketch import add_sketch
+from pkmstiff.machine.model import Machine
+from pkmstiff.evaluation.sections import SectionResult
+from pkmstiff.plots import offscreen
+from pkmstiff.plots.sketch import add_sketch
 
 MM = 1e3
 
@@ -120,7 +120,7 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
 
 def plot_reasons(res: SectionResult, path: str | Path, window_size=(1000, 760)) -> Path:
     """Write a PNG showing, per raster point, the first failing admissibility check (categorical colours)."""
-    from ..admissibility import Reason
+    from pkmstiff.admissibility.checks import Reason
 
     pv = offscreen()
     grid = _plane_grid(res, in_3d=False, pv=pv)

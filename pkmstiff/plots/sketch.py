@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics import inverse_kinematics
-from ..model import Machine
-from . import offscreen
+from pkmstiff.kinematics import inverse_kinematics
+from pkmstiff.machine.model import Machine
+from pkmstiff.plots import offscreen
 
 MM = 1e3
 

@@ -1,7 +1,7 @@
 """Design-study reports: data model (:mod:`.model`), rendering to self-contained HTML + Markdown (:mod:`.render`)
 and report specs in TOML (:mod:`.spec`, the ``pkmstiff report`` command)."""
 
-from .model import Figure, Report, Row, Section, Table
-from .render import ReportError, run_info, write_report
+from pkmstiff.report.model import Figure, Report, Row, Section, Table
+from pkmstiff.report.render import ReportError, run_info, write_report
 
 __all__ = ["Figure", "Report", "ReportError", "Row", "Section", "Table", "run_info", "write_report"]

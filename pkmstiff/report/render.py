@@ -24,7 +24,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from .model import Figure, Report, Table
+from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["ReportError", "write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]
 
@@ -152,7 +152,7 @@ def _version(dist: str) -> str:
         return metadata.version(dist)
     except metadata.PackageNotFoundError:
         if dist == "pkmstiff":  # running from a source tree that is not installed
-            from .. import __version__
+            from pkmstiff import __version__
 
             return __version__
         return "not installed"

@@ -21,10 +21,10 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..model import Machine
+from pkmstiff.machine.model import Machine
 from pkmstiff.io import read_toml
-from ..units import InputError
-from .model import Figure, Report, Table
+from pkmstiff.units import InputError
+from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["SpecError", "Variant", "SectionSpec", "WorkspaceSpec", "PointSpec", "ReportSpec", "load_spec",
            "fast_spec", "build_report", "run_spec", "STATISTICS", "MACHINE_ROWS"]
@@ -59,7 +59,7 @@ class Variant:
     name: str
     machine: str  # bundled name or path (resolved against the spec's folder), without ':options'
     options: tuple[str, ...] = ()
-    overrides: Mapping[str, Any] = field(default_factory=dict)  # dotted path -> value (pkmstiff.machine_variants)
+    overrides: Mapping[str, Any] = field(default_factory=dict)  # dotted path -> value (pkmstiff.machine.variants)
     tool_length: float | None = None  # m; None = the machine file's
     orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
     description: str = ""
@@ -186,7 +186,7 @@ class _Reader:
         return (math.radians(a), math.radians(b), math.radians(c))
 
     def quantities(self, value: Any, key: str) -> tuple[str, ...]:
-        from ..quantities import UnknownQuantityError, get_quantity
+        from pkmstiff.evaluation.quantities import UnknownQuantityError, get_quantity
 
         names = self.strings(value, key)
         for n in names:
@@ -215,7 +215,7 @@ def _variant(r: _Reader, tab: Any, i: int, spec_dir: Path) -> Variant:
     name = r.string(r.req(tab, "name", p + ".", "a short variant name"), p + ".name").strip()
     if not name:
         raise r.error(p + ".name", "a non-empty name", name)
-    from ..machine_variants import split_machine_spec
+    from pkmstiff.machine.variants import split_machine_spec
 
     mspec, opts = split_machine_spec(r.string(r.req(tab, "machine", p + ".", "a bundled machine name or a machine "
                                                                         "file path"), p + ".machine"))
@@ -234,7 +234,7 @@ def _variant(r: _Reader, tab: Any, i: int, spec_dir: Path) -> Variant:
 
 
 def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
-    from ..cli_section import SectionArgumentError, parse_ranges
+    from pkmstiff.cli.section import SectionArgumentError, parse_ranges
 
     p = f"sections[{i + 1}]"
     tab = r.table(tab, p, _SECTION_KEYS)
@@ -266,8 +266,8 @@ def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
 
 
 def _workspace(r: _Reader, tab: Any) -> WorkspaceSpec:
-    from ..workspace.requirements import RequirementError, parse_requirements
-    from ..workspace.volume import METHODS
+    from pkmstiff.workspace.requirements import RequirementError, parse_requirements
+    from pkmstiff.workspace.volume import METHODS
 
     tab = r.table(tab, "workspace", _WORKSPACE_KEYS)
     box = None
@@ -379,7 +379,7 @@ def fast_spec(spec: ReportSpec) -> ReportSpec:
 
 # ------------------------------------------------------------------------------------------------------- evaluation
 def _load_variant(v: Variant) -> Machine:
-    from ..machine_variants import machine_with
+    from pkmstiff.machine.variants import machine_with
 
     return machine_with(v.machine, v.overrides, v.options)
 
@@ -389,7 +389,7 @@ def _slug(text: str) -> str:
 
 
 def _section_rows(sec: SectionSpec, results: list, table: Table, multi: bool) -> None:
-    from ..quantities import get_quantity
+    from pkmstiff.evaluation.quantities import get_quantity
 
     where = f" ({sec.name})" if multi else ""
     for q in sec.quantities:
@@ -410,8 +410,8 @@ def _section_rows(sec: SectionSpec, results: list, table: Table, multi: bool) ->
 
 def _point_values(machine: Machine, pt: PointSpec, tool_length: float | None) -> tuple[dict[str, float], list[str]]:
     """Display-unit values of the point's quantities, or ({}, reasons) if the pose is inadmissible."""
-    from ..poses import evaluate_poses
-    from ..quantities import EvalContext, evaluate_quantities, get_quantity
+    from pkmstiff.admissibility.pipeline import evaluate_poses
+    from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
 
     ev = evaluate_poses(machine, np.asarray(pt.pose, float)[None, :])
     if not ev.ok[0]:
@@ -436,9 +436,9 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     ``fast`` applies :func:`fast_spec`; ``n_jobs`` (default: the spec's ``options.jobs``) is passed to the
     section evaluation. ``log`` receives one progress line per step.
     """
-    from ..plots.section_maps import plot_section
-    from ..quantities import get_quantity
-    from ..sections import axis_plane, evaluate_section
+    from pkmstiff.plots.section_maps import plot_section
+    from pkmstiff.evaluation.quantities import get_quantity
+    from pkmstiff.evaluation.sections import axis_plane, evaluate_section
 
     log = log or (lambda msg: None)
     if fast:
@@ -469,7 +469,7 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     # workspace volume first (as in Cobet Table 5.1), then sections, points, machine values
     ws_figs: list[Figure] = []
     if spec.workspace is not None:
-        from ..workspace.translational import constant_orientation_workspace
+        from pkmstiff.workspace.translational import constant_orientation_workspace
 
         ws = spec.workspace
         vols: dict[str, list[float | None]] = {m: [] for m in ws.methods}
@@ -486,7 +486,7 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
                 notes.append(f"Workspace of {v.name} touches the initial box and is cut there (enlarge box_mm).")
             log(f"workspace {v.name}: {res.volume:.4f} m^3 ({time.perf_counter() - t0:.1f} s)")
             if ws.figures:
-                from ..workspace.plots import plot_workspace
+                from pkmstiff.workspace.plots import plot_workspace
 
                 path = plot_workspace(res, m, out / "workspace" / f"{_slug(v.name)}.png")
                 ws_figs.append(Figure(path, f"{v.name}: workspace at a, b, c = {_fmt_deg(ori)} deg, "
@@ -597,7 +597,7 @@ def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) 
 def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
              log: Callable[[str], None] | None = None) -> dict[str, Path]:
     """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths."""
-    from .render import run_info, write_report
+    from pkmstiff.report.render import run_info, write_report
 
     t0 = time.perf_counter()
     spec = load_spec(path)

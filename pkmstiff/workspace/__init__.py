@@ -7,13 +7,13 @@ Modules: :mod:`.octree` (generic modified octree), :mod:`.oracle` (pose admissib
 (``"kx>=20 N/um"``), :mod:`.plots` (figures), :mod:`.validation` (accuracy on sphere and cube).
 """
 
-from .octree import OctreeResult, octree_boundary
-from .oracle import PoseOracle, staged_admissible
-from .requirements import Requirement, parse_requirement
-from .rotation import SIX_DIRECTIONS, RotationMapResult, rotation_angle_map, rotational_workspace_map
-from .surface import BoundarySurface, boundary_surface
-from .translational import WorkspaceResult, constant_orientation_workspace, reach_box, volume_vs_orientation
-from .volume import workspace_volume
+from pkmstiff.workspace.octree import OctreeResult, octree_boundary
+from pkmstiff.workspace.oracle import PoseOracle, staged_admissible
+from pkmstiff.workspace.requirements import Requirement, parse_requirement
+from pkmstiff.workspace.rotation import SIX_DIRECTIONS, RotationMapResult, rotation_angle_map, rotational_workspace_map
+from pkmstiff.workspace.surface import BoundarySurface, boundary_surface
+from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace, reach_box, volume_vs_orientation
+from pkmstiff.workspace.volume import workspace_volume
 
 __all__ = ["BoundarySurface", "OctreeResult", "PoseOracle", "Requirement", "RotationMapResult", "SIX_DIRECTIONS",
            "WorkspaceResult", "boundary_surface", "constant_orientation_workspace", "octree_boundary",

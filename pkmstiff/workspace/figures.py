@@ -13,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import load_machine
-from .plots import (plot_convergence, plot_rotation_maps, plot_rotational_workspace, plot_volume_vs_orientation,
+from pkmstiff import load_machine
+from pkmstiff.workspace.plots import (plot_convergence, plot_rotation_maps, plot_rotational_workspace, plot_volume_vs_orientation,
                     plot_workspace)
-from .rotation import SIX_DIRECTIONS, rotation_angle_map, rotational_workspace_map
-from .translational import constant_orientation_workspace, volume_vs_orientation
-from .validation import volume_convergence
+from pkmstiff.workspace.rotation import SIX_DIRECTIONS, rotation_angle_map, rotational_workspace_map
+from pkmstiff.workspace.translational import constant_orientation_workspace, volume_vs_orientation
+from pkmstiff.workspace.validation import volume_convergence
 
 BELOW = (np.array([-1.6, -0.4, -1.9]), np.array([1.6, 1.2, -0.3]))  # Hexaglide working region below the guides
 

@@ -8,7 +8,7 @@ Evaluation is staged; the result equals ``evaluate_poses(...).ok`` with the same
 
 1. inverse kinematics and the drive-range check (B.1/B.2) for all points — cheap, and it removes the many
    unreachable points around a workspace boundary;
-2. the full pipeline (:func:`pkmstiff.poses.evaluate_poses`: joint angles, singularity, collisions, drive load)
+2. the full pipeline (:func:`pkmstiff.admissibility.pipeline.evaluate_poses`: joint angles, singularity, collisions, drive load)
    for the survivors;
 3. the user requirements (:mod:`pkmstiff.workspace.requirements`) only for the poses admissible so far.
 
@@ -28,12 +28,12 @@ from typing import Iterable, Literal, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import admissibility as adm
-from ..kinematics import inverse_kinematics
-from ..model import Machine
-from ..poses import PoseEvaluation, evaluate_poses
-from ..quantities import EvalContext
-from .requirements import Requirement, parse_requirements
+import pkmstiff.admissibility.checks as adm
+from pkmstiff.kinematics import inverse_kinematics
+from pkmstiff.machine.model import Machine
+from pkmstiff.admissibility.pipeline import PoseEvaluation, evaluate_poses
+from pkmstiff.evaluation.quantities import EvalContext
+from pkmstiff.workspace.requirements import Requirement, parse_requirements
 
 ANGLE_INDEX = {"a": 3, "b": 4, "c": 5}
 RangeMode = Literal["all", "any"]

@@ -12,11 +12,11 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from ..model import Machine
-from ..plots import offscreen
-from ..plots.sketch import add_sketch, machine_sketch
-from .rotation import RotationMapResult
-from .translational import WorkspaceResult
+from pkmstiff.machine.model import Machine
+from pkmstiff.plots import offscreen
+from pkmstiff.plots.sketch import add_sketch, machine_sketch
+from pkmstiff.workspace.rotation import RotationMapResult
+from pkmstiff.workspace.translational import WorkspaceResult
 
 __all__ = ["machine_sketch", "plot_convergence", "plot_rotation_maps", "plot_rotational_workspace",
            "plot_volume_vs_orientation", "plot_workspace", "reference_pose"]
@@ -32,7 +32,7 @@ def reference_pose(res: WorkspaceResult, machine: Machine) -> np.ndarray | None:
     if not np.isfinite(lo).all():
         return None
     c = np.concatenate([0.5 * (lo + hi), res.orientation])
-    from ..poses import evaluate_poses
+    from pkmstiff.admissibility.pipeline import evaluate_poses
 
     if evaluate_poses(machine, c[None]).ok[0]:
         return c

@@ -2,9 +2,9 @@
 
 A requirement compares a named per-pose quantity with a limit (spec models.md §7.3: "any additional user
 requirements (e.g. minimum stiffness, acceleration, orientability, maximum condition number, minimum transmission
-quality)"). Quantities come from the shared registry :mod:`pkmstiff.quantities` (name -> SI values for a chunk of
+quality)"). Quantities come from the shared registry :mod:`pkmstiff.evaluation.quantities` (name -> SI values for a chunk of
 poses; ``pkmstiff quantities`` lists them: ``kx``, ``f1``, ``kappa``, ``U``, ``tilt_drive_max``, ...). New
-quantities are added with :func:`pkmstiff.quantities.register_quantity`.
+quantities are added with :func:`pkmstiff.evaluation.quantities.register_quantity`.
 
 A requirement is evaluated only on poses that passed every admissibility check (so expensive quantities are
 never computed for unreachable poses); a NaN value fails the requirement.
@@ -18,8 +18,8 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from ..quantities import EvalContext, UnknownQuantityError, get_quantity
-from ..units import ureg
+from pkmstiff.evaluation.quantities import EvalContext, UnknownQuantityError, get_quantity
+from pkmstiff.units import ureg
 
 _OPS: dict[str, Callable[[np.ndarray, float], np.ndarray]] = {
     ">=": np.greater_equal, "<=": np.less_equal, ">": np.greater, "<": np.less,

@@ -39,10 +39,10 @@ from typing import Any, Iterable, Literal, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import admissibility as adm
-from ..model import Machine
-from .oracle import EvaluationStats, staged_admissible
-from .requirements import Requirement, parse_requirements
+import pkmstiff.admissibility.checks as adm
+from pkmstiff.machine.model import Machine
+from pkmstiff.workspace.oracle import EvaluationStats, staged_admissible
+from pkmstiff.workspace.requirements import Requirement, parse_requirements
 
 DIRECTIONS: dict[str, tuple[int, int, int]] = {
     "+a": (1, 0, 0), "-a": (-1, 0, 0), "+b": (0, 1, 0), "-b": (0, -1, 0), "+a+b": (1, 1, 0), "-a-b": (-1, -1, 0),

@@ -24,7 +24,7 @@ from typing import Callable, Literal
 
 import numpy as np
 
-from .octree import Lattice, OctreeResult
+from pkmstiff.workspace.octree import Lattice, OctreeResult
 
 VertexMode = Literal["centroid", "crossing"]
 

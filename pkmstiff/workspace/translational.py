@@ -12,13 +12,13 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .. import admissibility as adm
-from ..model import Machine
-from .octree import OctreeResult, Progress, octree_boundary
-from .oracle import PoseOracle, RangeMode
-from .requirements import Requirement
-from .surface import BoundarySurface
-from .volume import DEFAULT_METHODS, workspace_volume
+import pkmstiff.admissibility.checks as adm
+from pkmstiff.machine.model import Machine
+from pkmstiff.workspace.octree import OctreeResult, Progress, octree_boundary
+from pkmstiff.workspace.oracle import PoseOracle, RangeMode
+from pkmstiff.workspace.requirements import Requirement
+from pkmstiff.workspace.surface import BoundarySurface
+from pkmstiff.workspace.volume import DEFAULT_METHODS, workspace_volume
 
 
 MAX_RETRY_LEVEL = 6  # finest start grid tried when a coarser one finds no admissible corner

@@ -12,8 +12,8 @@ from typing import Callable
 
 import numpy as np
 
-from .octree import octree_boundary
-from .volume import workspace_volume
+from pkmstiff.workspace.octree import octree_boundary
+from pkmstiff.workspace.volume import workspace_volume
 
 CENTRE = np.array([0.0123, 0.0271, 0.0389])
 BOX = (np.full(3, -0.8), np.full(3, 0.8))

@@ -26,8 +26,8 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .octree import OctreeResult
-from .surface import BoundarySurface, boundary_surface
+from pkmstiff.workspace.octree import OctreeResult
+from pkmstiff.workspace.surface import BoundarySurface, boundary_surface
 
 METHODS = ("surface_nets", "divergence", "tetrahedron", "pyramid", "voxels")
 DEFAULT_METHODS = ("surface_nets", "divergence", "tetrahedron", "pyramid")

@@ -1,0 +1,5 @@
+import sys
+
+from pkmstiff.cli import main
+
+sys.exit(main())

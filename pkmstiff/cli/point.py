@@ -1,0 +1,245 @@
+"""``pkmstiff point``: stiffness, modes, weak points and kinetostatics at one pose (mm and degrees on the command line).
+
+Spatial machines (``pkmstiff machines``): ``--pose x,y,z,a,b,c``; planar examples (``biglide``, ``bipod``):
+``--pose x,y``.  Output units: N/µm, N·m/µrad, Hz, %, m/min and m/s, m/s², N; ``--json`` prints one object whose
+keys name their units.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+import numpy as np
+
+from pkmstiff.machine.loader import bundled_machines, load_machine
+
+WEAK_POINT_DIRECTIONS = ("x", "y", "z")
+
+
+class PointArgumentError(ValueError):
+    pass
+
+
+def _num(x: Any) -> Any:
+    """JSON-safe number or list (NaN/inf → null)."""
+    arr = np.asarray(x, dtype=float)
+    if arr.ndim == 0:
+        v = float(arr)
+        return v if math.isfinite(v) else None
+    return [_num(v) for v in arr]
+
+
+def parse_values(text: str, count: int, what: str) -> list[float]:
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise PointArgumentError(f"--pose: expected {count} numbers {what}, found {text!r}") from None
+    if len(vals) != count or not all(math.isfinite(v) for v in vals):
+        raise PointArgumentError(f"--pose: expected {count} finite numbers {what}, found {text!r}")
+    return vals
+
+
+def _is_planar(name: str) -> bool:
+    from pkmstiff.analysis.planar import bundled_planar
+
+    return name in bundled_planar() and name not in bundled_machines()
+
+
+def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None = None, n_modes: int = 6,
+                 neglect_spindle: bool = False) -> dict:
+    """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units."""
+    if _is_planar(machine_name):
+        return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"))
+    from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
+    from pkmstiff.cli.pose import PoseArgumentError, parse_pose
+    from pkmstiff.structure import build_structure
+
+    try:
+        pose = parse_pose(pose_text)
+    except PoseArgumentError as exc:
+        raise PointArgumentError(str(exc)) from None
+    if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
+        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
+    if n_modes < 0:
+        raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
+    m = load_machine(machine_name)
+    tl = None if tool_length_mm is None else tool_length_mm * 1e-3
+    st = build_structure(m, pose[None])
+    ks = kinetostatics(m, pose[None])
+    rep: dict[str, Any] = {
+        "machine": m.name, "machine_type": m.kind,
+        "pose": {"x_mm": pose[0] * 1e3, "y_mm": pose[1] * 1e3, "z_mm": pose[2] * 1e3,
+                 "a_deg": math.degrees(pose[3]), "b_deg": math.degrees(pose[4]), "c_deg": math.degrees(pose[5])},
+        "tool_length_mm": (m.tool.length if tl is None else tl) * 1e3,
+        "neglect_spindle": neglect_spindle,
+        "modelled": bool(st.ok[0]), "reasons": st.failing(0),
+        "model": {"bodies": [] if st.empty else st.model.body_names, "dof": 0 if st.empty else st.model.n_dof,
+                  "tcp_body": st.tcp_body},
+    }
+    comp = tcp_compliance(st, tl, neglect_spindle)[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        diag = 1.0 / np.diagonal(comp)
+    rep["k_N_per_um"] = {ax: _num(diag[i] / 1e6) for i, ax in enumerate("xyz")}
+    rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(diag[3 + i] / 1e6) for i, ax in enumerate("xyz")}
+    rep["weak_points_percent"] = {}
+    for d in WEAK_POINT_DIRECTIONS:
+        wp = weak_points(st, d, tl, neglect_spindle)
+        rep["weak_points_percent"][d] = {lab: _num(100 * wp.component_shares[0, j])
+                                         for j, lab in enumerate(wp.component_labels)}
+    if n_modes and not st.empty:
+        n_dyn = st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs)
+        k = min(n_modes, n_dyn)
+        ma = modal_analysis(st, k, shapes=False)
+        rep["frequencies_hz"] = _num(ma.frequencies_hz[0])
+        rep["mode_descriptions"] = [ma.description(0, i) for i in range(k)]
+    else:
+        rep["frequencies_hz"], rep["mode_descriptions"] = [], []
+    rep["transmission_quality"] = _num(ks.transmission_quality[0])
+    rep["transmission_weight_m_per_rad"] = ks.weight
+    rep["v_max_m_per_s"] = {lab: _num(ks.v_max[0, i]) for i, lab in enumerate(ks.velocity_labels)}
+    rep["v_max_m_per_min"] = {lab: _num(ks.v_max[0, i] * 60) for i, lab in enumerate(ks.velocity_labels)}
+    rep["v_limiting_drive"] = {lab: _drive(ks.v_limiting[0, i]) for i, lab in enumerate(ks.velocity_labels)}
+    rep["a_max_m_per_s2"] = {lab: _num(ks.a_max[0, i]) for i, lab in enumerate(ks.acceleration_labels)}
+    rep["a_limiting_drive"] = {lab: _drive(ks.a_limiting[0, i]) for i, lab in enumerate(ks.acceleration_labels)}
+    rep["a_infeasible"] = {lab: bool(ks.a_infeasible[0, i]) for i, lab in enumerate(ks.acceleration_labels)}
+    rep["static_drive_loads_N"] = _num(ks.drive_loads[0])
+    rep["notes"] = ks.notes
+    return rep
+
+
+def _drive(i: Any) -> int | None:
+    return None if int(i) < 0 else int(i) + 1  # 1-based drive numbers in the output
+
+
+def _planar_report(name: str, xy_mm: list[float]) -> dict:
+    from pkmstiff.analysis.planar import load_planar, planar_kinetostatics, planar_modes, planar_stiffness, planar_structure
+
+    pm = load_planar(name)
+    pos = np.array([xy_mm]) * 1e-3
+    ps = planar_structure(pm, pos)
+    k = planar_stiffness(ps)[0]
+    md = planar_modes(ps)
+    kin = planar_kinetostatics(pm, pos, directions=((1, 0), (0, 1), (-1, 0), (0, -1)))
+    from pkmstiff.admissibility.checks import reason_names
+
+    labels = ["x", "y", "-x", "-y"]
+    return {
+        "machine": pm.name, "machine_type": f"planar {pm.kind}",
+        "pose": {"x_mm": xy_mm[0], "y_mm": xy_mm[1]},
+        "modelled": bool(ps.index.size), "reasons": reason_names(int(ps.reasons[0])),
+        "k_N_per_um": {"x": _num(k[0, 0] / 1e6), "y": _num(k[1, 1] / 1e6)},
+        "stiffness_matrix_N_per_um": _num(k / 1e6),
+        "frequencies_hz": _num(md.frequencies_hz[0]),
+        "transmission_quality": _num(kin.transmission_quality[0]),
+        "v_max_m_per_s": {lab: _num(kin.v_max[0, i]) for i, lab in enumerate(labels[:2])},
+        "v_max_m_per_min": {lab: _num(60 * kin.v_max[0, i]) for i, lab in enumerate(labels[:2])},
+        "a_max_m_per_s2": {lab: _num(kin.a_max[0, i]) for i, lab in enumerate(labels)},
+        "a_limiting_drive": {lab: _drive(kin.a_limiting[0, i]) for i, lab in enumerate(labels)},
+        "static_drive_loads_N": _num(kin.drive_loads[0]),
+    }
+
+
+def _f(v: Any, fmt: str = "8.3f") -> str:
+    return f"{'n/a':>8}" if v is None else format(v, fmt)
+
+
+def _print_report(rep: dict) -> None:
+    p = rep["pose"]
+    where = ", ".join(f"{k.split('_')[0]}={v:.3f} {k.split('_')[1]}" for k, v in p.items())
+    print(f"{rep['machine']} ({rep['machine_type']}) at {where}"
+          + (f", tool length {rep['tool_length_mm']:.1f} mm" if "tool_length_mm" in rep else ""))
+    if not rep["modelled"]:
+        print("pose not modelled: " + "; ".join(rep["reasons"]))
+    k = rep["k_N_per_um"]
+    print("static stiffness at the TCP:  " + "   ".join(f"k_{a} = {_f(v, '.3f')} N/um" for a, v in k.items()))
+    if "rotational_stiffness_Nm_per_urad" in rep:
+        r = rep["rotational_stiffness_Nm_per_urad"]
+        print("rotational stiffness:         " + "   ".join(f"k_r{a} = {_f(v, '.3f')} N*m/urad" for a, v in r.items()))
+    if rep.get("frequencies_hz"):
+        print("natural frequencies:")
+        descr = rep.get("mode_descriptions") or [""] * len(rep["frequencies_hz"])
+        for i, (f, d) in enumerate(zip(rep["frequencies_hz"], descr)):
+            print(f"  {i + 1:2d}  {_f(f, '8.2f')} Hz  {d}")
+    if rep.get("weak_points_percent"):
+        wp = rep["weak_points_percent"]
+        dirs = list(wp)
+        labels = list(next(iter(wp.values())))
+        print("weak points (share of the TCP compliance for a force along x, y, z) [%]:")
+        print(f"  {'component':<18}" + "".join(f"{d:>9}" for d in dirs))
+        for lab in labels:
+            print(f"  {lab:<18}" + "".join(_f(wp[d][lab], '9.1f') for d in dirs))
+    tq = rep["transmission_quality"]
+    w = rep.get("transmission_weight_m_per_rad")
+    print(f"transmission quality: {_f(tq, '.4f')}" + (f"  (w = {w:.4f} m/rad)" if w else ""))
+    vs, vm = rep["v_max_m_per_s"], rep["v_max_m_per_min"]
+    print("maximum velocity:     " + "   ".join(f"{d}: {_f(vm[d], '.1f')} m/min ({_f(vs[d], '.3f')} m/s)"
+                                            for d in vs))
+    am, lim = rep["a_max_m_per_s2"], rep["a_limiting_drive"]
+    print("maximum acceleration: " + "   ".join(
+        f"{d}: {_f(am[d], '.2f')} m/s^2" + (f" (drive {lim[d]})" if lim.get(d) else "") for d in am))
+    loads = rep["static_drive_loads_N"]
+    if loads is not None:
+        print("static drive loads:   " + "  ".join(_f(v, '.1f') for v in loads) + " N")
+    for note in rep.get("notes", []):
+        print(f"  note: {note}")
+
+
+def _cmd_point(args: argparse.Namespace) -> int:
+    try:
+        rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle)
+    except PointArgumentError as exc:
+        from pkmstiff.cli import CliError
+
+        raise CliError(str(exc)) from None
+    figures = _mode_figures(args) if args.figures else []
+    if figures:
+        rep["figures"] = [str(f) for f in figures]
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        _print_report(rep)
+        for f in figures:
+            print(f"wrote {f}")
+    return 0
+
+
+def _mode_figures(args: argparse.Namespace) -> list:
+    """Mode-shape PNGs of the lowest ``--modes`` modes (and a GIF of mode 1 with ``--gif``) into ``--figures``."""
+    from pathlib import Path
+
+    from pkmstiff.cli.pose import parse_pose
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
+
+    machine = load_machine(args.machine)
+    pose = parse_pose(args.pose)
+    out = Path(args.figures)
+    stem = machine.name.replace(":", "_")
+    files = [plot_mode_shape(machine, pose, out / f"{stem}_mode{k}.png", mode=k) for k in range(1, args.modes + 1)]
+    if args.gif:
+        files.append(animate_mode_shape(machine, pose, out / f"{stem}_mode1.gif", mode=1))
+    return files
+
+
+def add_commands(sub: Any) -> None:
+    p = sub.add_parser("point", help="stiffness, modes, weak points and kinetostatics at one pose",
+                       description="Structure model (spindle, platform, drives) at one pose: TCP stiffness, natural "
+                                   "frequencies with mode descriptions, weak points, transmission quality, maximum "
+                                   "velocity and acceleration, static drive loads. Units on the command line: mm and "
+                                   "degrees.")
+    p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines'), machine file, or a planar "
+                                   "example ('biglide', 'bipod')")
+    p.add_argument("--pose", required=True, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0 "
+                                                 "(planar examples: x,y in mm)")
+    p.add_argument("--tool-length", type=float, default=None, metavar="MM",
+                   help="tool length in mm (default: machine file)")
+    p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")
+    p.add_argument("--neglect-spindle", action="store_true", help="load the platform at the TCP (K_U rigid)")
+    p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.add_argument("--figures", metavar="DIR", default=None,
+                   help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")
+    p.add_argument("--gif", action="store_true", help="with --figures: also an animated GIF of mode 1")
+    p.set_defaults(func=_cmd_point)

@@ -1,0 +1,157 @@
+"""``pkmstiff section``: quantities on a workspace section plane (mm and degrees on the command line)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pkmstiff.machine.loader import load_machine
+from pkmstiff.evaluation.quantities import UnknownQuantityError, available_quantities, get_quantity
+from pkmstiff.evaluation.sections import SectionError, SectionResult, axis_plane, evaluate_section
+
+FORMATS = ("png", "vtu", "csv", "npz")
+
+
+class SectionArgumentError(ValueError):
+    pass
+
+
+def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
+    """``"y=-600:800,z=-1200:-500"`` (mm) -> {"y": (-0.6, 0.8), "z": (-1.2, -0.5)} in m, for the plane's axes."""
+    out = {}
+    for part in text.split(","):
+        try:
+            axis, rng = part.split("=")
+            lo, hi = (float(v) for v in rng.split(":"))
+        except ValueError:
+            raise SectionArgumentError(f"--range: expected AXIS=LO:HI pairs in mm separated by commas, "
+                                       f"found {part!r}") from None
+        axis = axis.strip().lower()
+        if axis not in plane:
+            raise SectionArgumentError(f"--range: axis {axis!r} is not in the {plane.upper()} plane")
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+            raise SectionArgumentError(f"--range {axis}: expected LO < HI (mm), found {lo:g}:{hi:g}")
+        out[axis] = (lo * 1e-3, hi * 1e-3)
+    missing = [a for a in plane if a not in out]
+    if missing:
+        raise SectionArgumentError(f"--range: missing the range of {', '.join(missing)} for the {plane.upper()} plane")
+    return out
+
+
+def parse_triple_deg(text: str, what: str) -> np.ndarray:
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
+        raise SectionArgumentError(f"{what}: expected three numbers a,b,c in degrees, found {text!r}")
+    return np.deg2rad(vals)
+
+
+def write_outputs(res: SectionResult, out: Path, formats, stem: str) -> list[Path]:
+    """PNG per quantity plus VTU/CSV/NPZ of all quantities and a statistics JSON."""
+    from pkmstiff.evaluation.export import to_csv, to_npz, to_vtk
+
+    paths = []
+    out.mkdir(parents=True, exist_ok=True)
+    if "png" in formats:
+        from pkmstiff.plots.section_maps import plot_section
+
+        paths += [plot_section(res, n, out / f"{stem}_{n}.png") for n in res.values]
+    if "vtu" in formats:
+        paths.append(to_vtk(res, out / f"{stem}.vtu"))
+    if "csv" in formats:
+        paths.append(to_csv(res, out / f"{stem}.csv"))
+    if "npz" in formats:
+        paths.append(to_npz(res, out / f"{stem}.npz"))
+    stats = out / f"{stem}_statistics.json"
+    stats.write_text(json.dumps(summary(res), indent=2))
+    paths.append(stats)
+    return paths
+
+
+def summary(res: SectionResult, seconds: float | None = None) -> dict:
+    d = {"machine": res.machine, "plane": res.plane.name, "points": int(res.ok.size),
+         "admissible_points": int(res.ok.sum()),
+         "admissible_area_m2": float(res.ok.sum()) * res.plane.cell_area,
+         "orientation_deg": np.rad2deg(res.orientation).tolist(),
+         "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
+         "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v}}
+    if seconds is not None:
+        d["run_time_s"] = seconds
+    return d
+
+
+def _cmd_section(args: argparse.Namespace) -> int:
+    from pkmstiff.cli import CliError
+
+    try:
+        ranges = parse_ranges(args.range, args.plane.lower())
+        ori = parse_triple_deg(args.orientation, "--orientation")
+        names = [q.strip() for q in args.quantities.split(",") if q.strip()]
+        for n in names:
+            get_quantity(n)
+        formats = [f.strip() for f in args.formats.split(",") if f.strip()]
+        bad = set(formats) - set(FORMATS)
+        if bad:
+            raise SectionArgumentError(f"--formats: expected a subset of {','.join(FORMATS)}, found {sorted(bad)}")
+        if not (args.step > 0):
+            raise SectionArgumentError(f"--step: expected a positive step in mm, found {args.step}")
+        plane_kind = args.plane.lower()
+        plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], args.step * 1e-3)
+    except (SectionArgumentError, SectionError, UnknownQuantityError) as exc:
+        raise CliError(str(exc)) from None
+    machine = load_machine(args.machine)
+    t0 = time.perf_counter()
+    res = evaluate_section(machine, plane, names, orientation=ori,
+                           tool_length=None if args.tool_length is None else args.tool_length * 1e-3,
+                           n_jobs=args.jobs, progress=False if args.quiet else None)
+    seconds = time.perf_counter() - t0
+    stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
+    paths = write_outputs(res, Path(args.out), formats, stem) if args.out else []
+    if args.json:
+        print(json.dumps(summary(res, seconds), indent=2))
+        return 0
+    print(f"{res.machine}: {res.plane.name}, {res.ok.sum()} of {res.ok.size} points admissible "
+          f"({float(res.ok.sum()) * plane.cell_area:.4g} m²), {seconds:.2f} s")
+    for n, st in res.statistics().items():
+        print(f"  {n:<16} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
+    reasons = {k: v for k, v in res.reason_counts().items() if v}
+    if reasons:
+        print("  inadmissible points by reason: " + ", ".join(f"{k} {v}" for k, v in reasons.items()))
+    for p in paths:
+        print(f"  wrote {p}")
+    return 0
+
+
+def _cmd_quantities(args: argparse.Namespace) -> int:
+    for name, desc in available_quantities().items():
+        print(f"{name:<20} {desc}")
+    return 0
+
+
+def add_commands(sub) -> None:
+    p = sub.add_parser("section", help="evaluate quantities on a workspace section plane",
+                       description="Quantities on a section plane, masked by all admissibility checks. "
+                                   "Lengths in mm, angles in degrees. See 'pkmstiff quantities' for names.")
+    p.add_argument("machine", help="bundled machine name or machine file")
+    p.add_argument("--plane", default="yz", choices=["yz", "xz", "xy", "YZ", "XZ", "XY"], help="section plane")
+    p.add_argument("--at", type=float, default=0.0, help="position of the plane along its normal axis [mm]")
+    p.add_argument("--range", required=True, help="in-plane ranges in mm, e.g. y=-600:800,z=-1200:-500")
+    p.add_argument("--step", type=float, default=10.0, help="raster step [mm] (default 10)")
+    p.add_argument("--orientation", default="0,0,0", help="tool orientation a,b,c [deg] (default 0,0,0)")
+    p.add_argument("--tool-length", type=float, default=None, help="tool length [mm] (default: machine file)")
+    p.add_argument("--quantities", default="kappa", help="comma-separated quantity names, e.g. kx,ky,kz,f1")
+    p.add_argument("--out", default=None, help="output directory for PNG/VTU/CSV/NPZ (none: print only)")
+    p.add_argument("--formats", default="png,vtu,csv,npz", help="output formats (default png,vtu,csv,npz)")
+    p.add_argument("--jobs", type=int, default=1, help="parallel processes (-1: all cores)")
+    p.add_argument("--json", action="store_true", help="print per-quantity statistics as JSON (with units)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_section)
+    q = sub.add_parser("quantities", help="list the quantities that sections and requirements can use")
+    q.set_defaults(func=_cmd_quantities)

@@ -1,0 +1,326 @@
+"""``pkmstiff workspace`` and ``pkmstiff rotation-map`` (mm and degrees on the command line)."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from pkmstiff.machine.loader import load_machine
+
+PLANES = {  # name -> (u axis, v axis, normal axis)
+    "yz": ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0), 0),
+    "xz": ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0), 1),
+    "xy": ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), 2),
+}
+
+
+def _cli_error(msg: str) -> Exception:
+    from pkmstiff.cli import CliError
+
+    return CliError(msg)
+
+
+def _floats(text: str, n: int | None, option: str, what: str) -> list[float]:
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise _cli_error(f"{option}: expected {what}, found {text!r}") from None
+    if (n is not None and len(vals) != n) or not all(math.isfinite(v) for v in vals):
+        raise _cli_error(f"{option}: expected {what}, found {text!r}")
+    return vals
+
+
+def _range(text: str, option: str, unit: str) -> tuple[float, float]:
+    lo, hi = _floats(text, 2, option, f"MIN,MAX in {unit}")
+    if hi <= lo:
+        raise _cli_error(f"{option}: expected MIN < MAX ({unit}), found {text!r}")
+    return lo, hi
+
+
+def _positive(value: float, option: str, unit: str) -> float:
+    if not (math.isfinite(value) and value > 0):
+        raise _cli_error(f"{option}: expected a positive number in {unit}, found {value!r}")
+    return value
+
+
+class _Progress:
+    """tqdm bar over octree levels, only on a terminal and without --quiet."""
+
+    def __init__(self, enabled: bool, desc: str):
+        self.bar = None
+        self.enabled = enabled and sys.stderr.isatty()
+        self.desc = desc
+
+    def __call__(self, level: int, lmax: int, evals: int) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=lmax, desc=self.desc, unit="level", leave=False)
+        self.bar.n = level
+        self.bar.set_postfix(evaluations=evals)
+        self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _requirements(args: argparse.Namespace) -> list[Any]:
+    from pkmstiff.workspace.requirements import RequirementError, parse_requirements
+
+    try:
+        return parse_requirements(args.require or [])
+    except RequirementError as exc:
+        raise _cli_error(f"--require: {exc}") from None
+
+
+# ------------------------------------------------------------------------------------------------------- workspace
+
+
+def _cmd_workspace(args: argparse.Namespace) -> int:
+    from pkmstiff.workspace.octree import OctreeInputError
+    from pkmstiff.workspace.oracle import OracleInputError
+    from pkmstiff.workspace.translational import constant_orientation_workspace
+
+    machine = load_machine(args.machine)
+    eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
+    ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
+    box = None
+    if args.box:
+        b = _floats(args.box, 6, "--box", "xmin,xmax,ymin,ymax,zmin,zmax in mm")
+        box = (np.array(b[0::2]) * 1e-3, np.array(b[1::2]) * 1e-3)
+    rng = None
+    if args.range:
+        parts = args.range.split(",")
+        if len(parts) != 3 or parts[0] not in ("a", "b", "c"):
+            raise _cli_error(f"--range: expected ANGLE,MIN,MAX with ANGLE one of a, b, c and MIN, MAX in deg, "
+                             f"found {args.range!r}")
+        lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE,MIN,MAX (deg)")
+        rng = (parts[0], math.radians(lo), math.radians(hi))
+    progress = _Progress(not args.quiet, "octree")
+    try:
+        res = constant_orientation_workspace(
+            machine, eps, ori, requirements=_requirements(args), box=box, orientation_range=rng,
+            range_step=math.radians(_positive(args.range_step, "--range-step", "deg")), range_mode=args.range_mode,
+            refine_steps=args.refine, min_level=args.min_level, progress=progress)
+    except (OctreeInputError, OracleInputError, ValueError) as exc:
+        if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
+            raise _cli_error(str(exc)) from None
+        raise
+    finally:
+        progress.close()
+    summary = res.summary()
+    files = _write_workspace(res, machine, Path(args.out), plot=not args.no_plot) if args.out else {}
+    summary["files"] = files
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    if summary["bounding_box_mm"] is None:
+        print(f"{machine.name}: no admissible point found in the initial box (resolution {args.resolution:g} mm, "
+              f"{summary['evaluations']:,} evaluations); check --orientation, --require and --box")
+        return 0
+    lo, hi = summary["bounding_box_mm"]["min"], summary["bounding_box_mm"]["max"]
+    print(f"{machine.name}: workspace at a,b,c = {args.orientation} deg, resolution {args.resolution:g} mm "
+          f"(effective {', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
+    print(f"volume: {res.volume:.5f} m^3 (surface nets); "
+          + ", ".join(f"{k} {v:.5f}" for k, v in res.volumes.items() if k != "surface_nets") + " m^3")
+    print("bounding box [mm]: " + ", ".join(f"{c} {a:.1f}..{b:.1f}" for c, a, b in zip("xyz", lo, hi)))
+    print(f"boundary points: {summary['boundary_points']:,}; evaluations: {summary['evaluations']:,}; "
+          f"run time {summary['run_time_s']:.2f} s ({summary['evaluation_time_s']:.2f} s evaluating poses)")
+    if summary["touches_initial_box"]:
+        print("warning: the workspace touches the initial box; it is cut there (enlarge --box)")
+    for name, p in files.items():
+        print(f"{name}: {p}")
+    return 0
+
+
+def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
+    out.mkdir(parents=True, exist_ok=True)
+    files: dict[str, str] = {}
+    pts = res.boundary_points * 1e3
+    p = out / "boundary_points.csv"
+    with p.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["x_mm", "y_mm", "z_mm"])
+        w.writerows(np.round(pts, 4).tolist())
+    files["boundary points (eq. 4.1, mm)"] = str(p)
+    if res.surface is not None and res.surface.triangles.shape[0]:
+        files["surface STL (mm)"] = str(res.surface.save(out / "workspace_surface.stl", scale=1e3))
+        files["surface VTK (mm)"] = str(res.surface.save(out / "workspace_surface.vtp", scale=1e3))
+    if plot:
+        from pkmstiff.workspace.plots import plot_workspace
+
+        files["figure"] = str(plot_workspace(res, machine, out / "workspace.png"))
+    s = res.summary()
+    s["files"] = files
+    (out / "workspace.json").write_text(json.dumps(s, indent=2))
+    files["summary JSON"] = str(out / "workspace.json")
+    return files
+
+
+# ---------------------------------------------------------------------------------------------------- rotation map
+
+
+def _raster(lo: float, hi: float, step: float) -> np.ndarray:
+    n = int(math.floor((hi - lo) / step + 1e-9))
+    return lo + step * np.arange(n + 1)
+
+
+def _cmd_rotation_map(args: argparse.Namespace) -> int:
+    from pkmstiff.workspace.rotation import (DIRECTIONS, RotationMapError, rotation_angle_map,
+                                     rotational_workspace_map)
+
+    machine = load_machine(args.machine)
+    inc = math.radians(_positive(args.increment, "--increment", "deg"))
+    amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
+    ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
+    dirs = [d.strip() for d in args.directions.split(",") if d.strip()]
+    bad = [d for d in dirs if d not in DIRECTIONS]
+    if bad or not dirs:
+        raise _cli_error(f"--directions: expected a comma-separated list of {', '.join(DIRECTIONS)}, "
+                         f"found {args.directions!r}")
+    method = {"pc": "predictor_corrector", "predictor_corrector": "predictor_corrector", "plain": "plain"}[args.method]
+    t0 = time.perf_counter()
+    try:
+        if args.point:
+            point = np.array(_floats(args.point, 3, "--point", "x,y,z in mm")) * 1e-3
+            if len(dirs) != 1 or len(dirs[0]) != 2:
+                raise _cli_error("--point (rotational workspace): expected exactly one single-axis direction, "
+                                 f"e.g. --directions +a, found {args.directions!r}")
+            step = math.radians(_positive(args.step, "--step", "deg"))
+            u_lo, u_hi = _range(args.u_range or "-30,30", "--u-range", "deg")
+            v_lo, v_hi = _range(args.v_range or "-60,60", "--v-range", "deg")
+            u = np.radians(_raster(u_lo, u_hi, math.degrees(step)))
+            v = np.radians(_raster(v_lo, v_hi, math.degrees(step)))
+            res = rotational_workspace_map(machine, point, dirs[0], u, v, ori, inc, amax,
+                                           requirements=_requirements(args), method=method, verify=args.verify)
+            others = [c for c in "abc" if c != dirs[0][1]]
+            labels, scale = (f"{others[0]} [deg]", f"{others[1]} [deg]"), (180 / math.pi, 180 / math.pi)
+            title = (f"{machine.name}: max. rotation {dirs[0]} at x,y,z = {args.point} mm")
+        else:
+            if args.plane not in PLANES:
+                raise _cli_error(f"--plane: expected one of {', '.join(PLANES)}, found {args.plane!r}")
+            ua, va, normal = PLANES[args.plane]
+            origin = np.zeros(3)
+            origin[normal] = args.at * 1e-3
+            if not (args.u_range and args.v_range):
+                raise _cli_error("--u-range and --v-range (mm) are required for a section plane")
+            step = _positive(args.step, "--step", "mm")
+            u = _raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
+            v = _raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
+            res = rotation_angle_map(machine, origin, ua, va, u, v, ori, dirs, inc, amax,
+                                     requirements=_requirements(args), method=method, verify=args.verify)
+            labels = (f"{args.plane[0]} [mm]", f"{args.plane[1]} [mm]")
+            scale = (1e3, 1e3)
+            title = f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at {args.at:g} mm"
+    except RotationMapError as exc:
+        raise _cli_error(str(exc)) from None
+    run = time.perf_counter() - t0
+    summary = res.summary()
+    summary.update({"machine": machine.name, "run_time_s": run})
+    files: dict[str, str] = {}
+    if args.out:
+        out = Path(args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        for d, a in res.angles.items():
+            p = out / f"rotation_map_{d.replace('+', 'p').replace('-', 'm')}.csv"
+            _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels)
+            files[f"map {d} (deg)"] = str(p)
+        if not args.no_plot:
+            from pkmstiff.workspace.plots import PlotDependencyError, plot_rotation_maps
+
+            try:
+                files["figure"] = str(plot_rotation_maps(res, out / "rotation_map.png", labels, scale, title))
+            except PlotDependencyError as exc:
+                raise _cli_error(str(exc)) from None
+        summary["files"] = files
+        (out / "rotation_map.json").write_text(json.dumps(summary, indent=2))
+        files["summary JSON"] = str(out / "rotation_map.json")
+    if args.json:
+        print(json.dumps(summary, indent=2))
+        return 0
+    print(title)
+    print(f"{summary['admissible_points']} of {res.base_ok.size} raster points admissible at the base orientation; "
+          f"increment {args.increment:g} deg, max {args.max_angle:g} deg, method {method}; run time {run:.2f} s")
+    for d, st in summary["angles"].items():
+        ev = summary["evaluations"][d]
+        mx = "n/a" if st["max_deg"] is None else f"{st['max_deg']:.1f}"
+        mn = "n/a" if st["mean_deg"] is None else f"{st['mean_deg']:.1f}"
+        print(f"  {d:>5}: max {mx} deg, mean {mn} deg; {ev['evaluations']:,} evaluations "
+              f"(plain search {ev['plain_sequential']:,}, saved {100 * ev['saved_fraction']:.0f} %)")
+    for name, p in files.items():
+        print(f"{name}: {p}")
+    return 0
+
+
+def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str]) -> None:
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow([f"{labels[1]} \\ {labels[0]}"] + [f"{x:.4f}" for x in u])
+        for vi, row in zip(v, deg):
+            w.writerow([f"{vi:.4f}"] + ["" if not np.isfinite(x) else f"{x:.4f}" for x in row])
+
+
+def add_commands(sub: Any) -> None:
+    p = sub.add_parser(
+        "workspace", help="workspace boundary, volume and surface by the modified octree",
+        description="Workspace at constant orientation (or with one variable orientation range) by the modified "
+                    "octree (Cobet 4.1.4): volume [m^3], bounding box, boundary points, closed surface (STL/VTK, mm). "
+                    "Units on the command line: mm and degrees.")
+    p.add_argument("machine", help="bundled machine name or path to a machine file")
+    p.add_argument("--resolution", type=float, required=True, help="resolution eps in mm (e.g. 12.5)")
+    p.add_argument("--orientation", default="0,0,0", help="tool orientation a,b,c in deg (default 0,0,0)")
+    p.add_argument("--require", action="append", metavar="REQ",
+                   help="extra requirement, e.g. 'U>=0.2', 'kappa<=100', 'kx>=20 N/um' (repeatable)")
+    p.add_argument("--box", help="initial box xmin,xmax,ymin,ymax,zmin,zmax in mm (default: the chains' reach box)")
+    p.add_argument("--range", help="variable orientation range ANGLE,MIN,MAX in deg, e.g. c,-30,30")
+    p.add_argument("--range-step", type=float, default=2.0, help="sampling step of --range in deg (default 2)")
+    p.add_argument("--range-mode", choices=("all", "any"), default="all",
+                   help="'all' samples admissible (Merlet) or 'any' (choose the angle) (default all)")
+    p.add_argument("--refine", type=int, default=0,
+                   help="bisection steps along boundary edges for the volume (default 0)")
+    p.add_argument("--min-level", type=int, default=3, help="octree start level (default 3 = 8 voxels per axis)")
+    p.add_argument("--out", help="output directory (boundary points CSV, STL/VTK surface, PNG, JSON)")
+    p.add_argument("--no-plot", action="store_true", help="no PNG figure")
+    p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_workspace)
+
+    p = sub.add_parser(
+        "rotation-map", help="maximum admissible rotation angles on a section plane or at a point",
+        description="Maximum admissible rotation angles in +a, -a, +b, -b, +a+b, -a-b on a section plane by the "
+                    "2-D predictor-corrector (Cobet 4.1.5), or with --point the rotational workspace at a point "
+                    "(max. +a over (b, c) or max. +b over (a, c)). Units: mm and degrees.")
+    p.add_argument("machine", help="bundled machine name or path to a machine file")
+    p.add_argument("--plane", default="yz", help="section plane yz, xz or xy (default yz)")
+    p.add_argument("--at", type=float, default=0.0, help="plane position along its normal in mm (default 0)")
+    p.add_argument("--u-range", help="first in-plane coordinate MIN,MAX (mm; with --point: deg)")
+    p.add_argument("--v-range", help="second in-plane coordinate MIN,MAX (mm; with --point: deg)")
+    p.add_argument("--step", type=float, default=25.0, help="raster step (mm; with --point: deg) (default 25)")
+    p.add_argument("--point", help="x,y,z in mm: rotational workspace at this point instead of a plane")
+    p.add_argument("--directions", default="+a,-a,+b,-b,+a+b,-a-b", help="comma-separated directions")
+    p.add_argument("--increment", type=float, default=1.0, help="angle increment in deg (default 1)")
+    p.add_argument("--max-angle", type=float, default=90.0, help="search bound in deg (default 90)")
+    p.add_argument("--orientation", default="0,0,0", help="base orientation a,b,c in deg (default 0,0,0)")
+    p.add_argument("--method", choices=("pc", "predictor_corrector", "plain"), default="pc",
+                   help="predictor-corrector (default) or plain incremental search")
+    p.add_argument("--verify", action="store_true", help="check every increment below the result (gaps)")
+    p.add_argument("--require", action="append", metavar="REQ", help="extra requirement, e.g. 'U>=0.2' (repeatable)")
+    p.add_argument("--out", help="output directory (CSV maps in deg, PNG, JSON)")
+    p.add_argument("--no-plot", action="store_true", help="no PNG figure")
+    p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=_cmd_rotation_map)
+
+
+__all__: Sequence[str] = ("add_commands",)

@@ -1,0 +1,81 @@
+"""Export of section results: VTK (.vtu, ParaView), CSV and NPZ, each with metadata and units.
+
+Coordinates are written in mm and quantities in their display units; array names carry the unit, e.g.
+``kx [N/um]``. Inadmissible points hold NaN; the reason code (bit mask of
+:class:`pkmstiff.admissibility.checks.Reason`) and the admissibility flag are exported too.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from pkmstiff.admissibility.checks import Reason
+from pkmstiff.evaluation.sections import SectionResult
+
+MM = 1e3
+
+
+def _columns(res: SectionResult) -> dict[str, np.ndarray]:
+    pts = res.plane.points() * MM
+    uu, vv = np.meshgrid(res.plane.u_values * MM, res.plane.v_values * MM)
+    cols = {"x [mm]": pts[:, 0], "y [mm]": pts[:, 1], "z [mm]": pts[:, 2],
+            f"{res.plane.u_name} (plane u) [mm]": uu.ravel(), f"{res.plane.v_name} (plane v) [mm]": vv.ravel(),
+            "admissible": res.ok.ravel().astype(int), "reason_code": res.reasons.ravel().astype(int)}
+    for name in res.values:
+        cols[f"{name} [{res.units[name]}]"] = res.display(name).ravel()
+    return cols
+
+
+def _metadata(res: SectionResult) -> dict:
+    meta = res.metadata()
+    meta["reason_bits"] = {r.name: int(r) for r in Reason}
+    meta["coordinates_unit"] = "mm"
+    return meta
+
+
+def to_vtk(res: SectionResult, path: str | Path) -> Path:
+    """Write a ``.vtu`` grid of quad cells (points in mm, one point array per quantity, named with its unit) for
+    ParaView; the metadata go to a JSON file beside it (``<name>.json``). Written and readable by meshio."""
+    import meshio
+
+    nv, nu = res.plane.shape
+    idx = np.arange(nv * nu).reshape(nv, nu)
+    quads = np.stack([idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]], axis=-1).reshape(-1, 4)
+    data = {k: np.asarray(v, float) for k, v in _columns(res).items() if not k.startswith(("x [", "y [", "z ["))}
+    path = Path(path)
+    if path.suffix != ".vtu":
+        path = path.with_suffix(".vtu")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    meshio.write(path, meshio.Mesh(res.plane.points() * MM, [("quad", quads)], point_data=data))
+    path.with_suffix(".json").write_text(json.dumps(_metadata(res), indent=2))
+    return path
+
+
+def to_csv(res: SectionResult, path: str | Path) -> Path:
+    """Write a CSV: ``# key: value`` metadata lines, then one row per raster point."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cols = _columns(res)
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        for k, v in _metadata(res).items():
+            fh.write(f"# {k}: {json.dumps(v)}\n")
+        w = csv.writer(fh)
+        w.writerow(list(cols))
+        for row in zip(*cols.values()):
+            w.writerow(["" if isinstance(x, float) and np.isnan(x) else f"{x:.10g}" for x in row])
+    return path
+
+
+def to_npz(res: SectionResult, path: str | Path) -> Path:
+    """Write an NPZ: grids (nv, nu) per quantity in display units, ``u_mm``, ``v_mm``, ``ok``, ``reasons`` and
+    ``metadata`` (a JSON string)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {f"{n} [{res.units[n]}]": res.display(n) for n in res.values}
+    np.savez_compressed(path, u_mm=res.plane.u_values * MM, v_mm=res.plane.v_values * MM, ok=res.ok,
+                        reasons=res.reasons, metadata=json.dumps(_metadata(res)), **arrays)
+    return path

@@ -1,0 +1,254 @@
+"""Workspace sections (spec models.md §7.2): quantities on a rastered plane, masked by admissibility.
+
+A section is a plane through the workspace given by an origin and two orthonormal in-plane axes (YZ, XZ, XY or
+any plane), a raster (u, v values) and a fixed tool orientation and tool length. The raster points are the
+positions of O' (the pose's position); tool-dependent quantities (TCP stiffness) use the tool length. Every
+raster point is checked for admissibility; quantities are evaluated only at admissible points and are NaN
+elsewhere, where the reason code says why.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from typing import Any, Iterable, Sequence
+
+import numpy as np
+
+from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
+from pkmstiff.machine.model import Machine
+from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.evaluation.quantities import EvalContext, get_quantity
+
+AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
+
+
+class SectionError(ValueError):
+    pass
+
+
+@dataclass(frozen=True)
+class Plane:
+    """A section plane: points origin + u * u_axis + v * v_axis (m), u and v on a regular raster."""
+
+    origin: np.ndarray  # (3,) m
+    u_axis: np.ndarray  # (3,) unit
+    v_axis: np.ndarray  # (3,) unit, orthogonal to u_axis
+    u_values: np.ndarray  # (nu,) m
+    v_values: np.ndarray  # (nv,) m
+    u_name: str = "u"
+    v_name: str = "v"
+    name: str = "plane"
+
+    def __post_init__(self) -> None:
+        for key in ("u_axis", "v_axis"):
+            a = np.asarray(getattr(self, key), float)
+            if a.shape != (3,) or not np.isclose(np.linalg.norm(a), 1.0, atol=1e-9):
+                raise SectionError(f"plane {key}: expected a unit 3-vector, found {a}")
+        if abs(float(np.dot(self.u_axis, self.v_axis))) > 1e-9:
+            raise SectionError("plane axes must be orthogonal")
+        for key in ("u_values", "v_values"):
+            vals = np.asarray(getattr(self, key), float)
+            if vals.ndim != 1 or vals.size < 2 or not np.all(np.diff(vals) > 0):
+                raise SectionError(f"plane {key}: expected at least 2 increasing values, found {vals}")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(nv, nu): rows along v, columns along u."""
+        return (len(self.v_values), len(self.u_values))
+
+    @property
+    def normal(self) -> np.ndarray:
+        return np.cross(self.u_axis, self.v_axis)
+
+    def points(self) -> np.ndarray:
+        """Raster points (nv * nu, 3) in m, row-major: index = iv * nu + iu."""
+        uu, vv = np.meshgrid(self.u_values, self.v_values)
+        return self.origin + uu.reshape(-1, 1) * self.u_axis + vv.reshape(-1, 1) * self.v_axis
+
+    @property
+    def cell_area(self) -> float:
+        """Area represented by one raster point (m²) for a regular raster."""
+        du = float(np.mean(np.diff(self.u_values)))
+        dv = float(np.mean(np.diff(self.v_values)))
+        return du * dv
+
+    def metadata(self) -> dict[str, Any]:
+        return {"plane": self.name, "origin_m": self.origin.tolist(), "u_axis": self.u_axis.tolist(),
+                "v_axis": self.v_axis.tolist(), "u_name": self.u_name, "v_name": self.v_name,
+                "u_range_m": [float(self.u_values[0]), float(self.u_values[-1])],
+                "v_range_m": [float(self.v_values[0]), float(self.v_values[-1])],
+                "shape_nv_nu": list(self.shape)}
+
+
+def _raster(lo: float, hi: float, step: float) -> np.ndarray:
+    if not (hi > lo and step > 0):
+        raise SectionError(f"range {lo}:{hi} with step {step}: expected lo < hi and step > 0")
+    n = int(np.floor((hi - lo) / step + 1e-9)) + 1
+    return lo + step * np.arange(n)
+
+
+def axis_plane(kind: str, at: float, u_range: tuple[float, float], v_range: tuple[float, float],
+               step: float | tuple[float, float]) -> Plane:
+    """Plane 'yz' (x = at), 'xz' (y = at) or 'xy' (z = at); ranges and step in m.
+
+    The in-plane axes are the two named axes in order, e.g. 'yz': u = y, v = z.
+    """
+    kind = kind.lower()
+    if kind not in ("yz", "xz", "xy"):
+        raise SectionError(f"plane: expected 'yz', 'xz' or 'xy', found {kind!r}")
+    su, sv = (step, step) if np.isscalar(step) else step
+    normal_axis = ({"x", "y", "z"} - set(kind)).pop()
+    origin = AXES[normal_axis] * at
+    return Plane(origin=origin, u_axis=AXES[kind[0]], v_axis=AXES[kind[1]], u_values=_raster(*u_range, su),
+                 v_values=_raster(*v_range, sv), u_name=kind[0], v_name=kind[1],
+                 name=f"{kind.upper()} plane at {normal_axis} = {at * 1e3:g} mm")
+
+
+def general_plane(origin, u_axis, v_axis, u_range, v_range, step, name="plane") -> Plane:
+    """Any plane by origin and two in-plane axes (normalised; v is orthogonalised against u)."""
+    u = np.asarray(u_axis, float)
+    u = u / np.linalg.norm(u)
+    v = np.asarray(v_axis, float)
+    v = v - np.dot(v, u) * u
+    if np.linalg.norm(v) < 1e-9:
+        raise SectionError("plane axes must not be parallel")
+    v = v / np.linalg.norm(v)
+    su, sv = (step, step) if np.isscalar(step) else step
+    return Plane(np.asarray(origin, float), u, v, _raster(*u_range, su), _raster(*v_range, sv), name=name)
+
+
+@dataclass
+class SectionResult:
+    """Values of quantities on a plane (SI, NaN where inadmissible) with admissibility and metadata."""
+
+    machine: str
+    plane: Plane
+    orientation: np.ndarray  # (3,) rad
+    tool_length: float | None  # m
+    values: dict[str, np.ndarray]  # name -> (nv, nu) SI
+    units: dict[str, str]  # name -> display unit
+    si_units: dict[str, str]
+    labels: dict[str, str]
+    ok: np.ndarray  # (nv, nu) bool
+    reasons: np.ndarray  # (nv, nu) uint32
+    settings: dict[str, Any] = field(default_factory=dict)
+
+    def display(self, name: str) -> np.ndarray:
+        """Values of ``name`` in its display unit."""
+        return get_quantity(name).to_display(self.values[name])
+
+    def statistics(self) -> dict[str, dict[str, float]]:
+        """Per quantity over the admissible points: min, mean, max (display unit), count, admissible area (m²)."""
+        area = float(self.ok.sum()) * self.plane.cell_area
+        out = {}
+        for name in self.values:
+            d = self.display(name)[self.ok]
+            d = d[np.isfinite(d)]
+            out[name] = {"unit": self.units[name], "min": float(d.min()) if d.size else float("nan"),
+                         "mean": float(d.mean()) if d.size else float("nan"),
+                         "max": float(d.max()) if d.size else float("nan"), "count": int(d.size),
+                         "admissible_points": int(self.ok.sum()), "admissible_area_m2": area}
+        return out
+
+    def reason_counts(self) -> dict[str, int]:
+        return {r.name: int(np.count_nonzero(self.reasons & int(r))) for r in Reason}  # type: ignore[misc]
+
+    def metadata(self) -> dict[str, Any]:
+        return {"machine": self.machine, **self.plane.metadata(),
+                "orientation_deg": np.rad2deg(self.orientation).tolist(),
+                "tool_length_mm": None if self.tool_length is None else self.tool_length * 1e3,
+                "units": self.units, "settings": self.settings,
+                "note": "raster points are positions of O' in the machine frame; values NaN where inadmissible"}
+
+
+def _evaluate_chunk(machine: Machine, poses: np.ndarray, names: Sequence[str], tool_length: float | None,
+                    options: dict[str, Any], checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+    ev = evaluate_poses(machine, poses, checks=checks)
+    ok = ev.ok.copy()
+    vals = {n: np.full(len(poses), np.nan) for n in names}
+    if ok.any() and names:
+        sub = ev if ok.all() else ev.subset(ok)
+        ctx = EvalContext(machine, sub, tool_length, options)
+        for n in names:
+            vals[n][ok] = np.asarray(get_quantity(n).compute(ctx), float)
+    return ok, ev.admissibility.reasons, vals
+
+
+def section_poses(plane: Plane, orientation: Iterable[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+    pts = plane.points()
+    ori = np.broadcast_to(np.asarray(orientation, float), (len(pts), 3))
+    return np.concatenate([pts, ori], axis=1)
+
+
+def evaluate_section(
+    machine: Machine,
+    plane: Plane,
+    quantities: Sequence[str] = (),
+    orientation: Iterable[float] = (0.0, 0.0, 0.0),
+    tool_length: float | None = None,
+    chunk_size: int = 4096,
+    n_jobs: int = 1,
+    progress: bool | None = None,
+    options: dict[str, Any] | None = None,
+    checks: Sequence[str] = ALL_CHECKS,
+) -> SectionResult:
+    """Evaluate ``quantities`` (names, see :mod:`pkmstiff.evaluation.quantities`) on a plane, masked by admissibility.
+
+    ``orientation`` = (a, b, c) in rad, fixed over the plane; ``tool_length`` in m (None: the machine's).
+    ``n_jobs`` > 1 evaluates chunks in parallel processes (joblib); the result is identical to the serial one
+    because chunks are independent. ``progress``: None = a progress bar only on a terminal when the section is large.
+    ``checks``: the admissibility checks to apply (default all, see :data:`pkmstiff.admissibility.checks.ALL_CHECKS`).
+    """
+    names = list(dict.fromkeys(quantities))
+    qs = {n: get_quantity(n) for n in names}  # raises early for unknown names
+    poses = section_poses(plane, orientation)
+    opts = dict(options or {})
+    starts = list(range(0, len(poses), chunk_size))
+    if progress is None:
+        import sys
+
+        progress = sys.stderr.isatty() and len(poses) * (1 + len(names)) > 20_000
+    jobs = [poses[s:s + chunk_size] for s in starts]
+    if n_jobs != 1 and len(jobs) > 1:
+        from joblib import Parallel, delayed
+
+        n = os.cpu_count() or 1 if n_jobs < 0 else n_jobs
+        parts = Parallel(n_jobs=n)(delayed(_evaluate_chunk)(machine, p, names, tool_length, opts, checks) for p in
+                                   _progress(jobs, progress))
+    else:
+        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks) for p in _progress(jobs, progress)]
+    shape = plane.shape
+    ok = np.concatenate([p[0] for p in parts]).reshape(shape)
+    reasons = np.concatenate([p[1] for p in parts]).reshape(shape)
+    values = {n: np.concatenate([p[2][n] for p in parts]).reshape(shape) for n in names}
+    return SectionResult(
+        machine=machine.name, plane=plane, orientation=np.asarray(orientation, float), tool_length=tool_length,
+        values=values, units={n: q.unit for n, q in qs.items()}, si_units={n: q.si_unit for n, q in qs.items()},
+        labels={n: q.label for n, q in qs.items()}, ok=ok, reasons=reasons,
+        settings={"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks), **opts},
+    )
+
+
+def _progress(items: list, enabled: bool):
+    if not enabled:
+        return items
+    from tqdm import tqdm
+
+    return tqdm(items, desc="section", unit="chunk", leave=False)
+
+
+def three_planes(centre: Iterable[float], half_extent: Iterable[float], step: float) -> list[Plane]:
+    """The three orthogonal planes YZ, XZ, XY through ``centre`` (m) with half extents (hx, hy, hz) (m)."""
+    c = np.asarray(centre, float)
+    h = np.asarray(half_extent, float)
+    return [
+        axis_plane("yz", c[0], (c[1] - h[1], c[1] + h[1]), (c[2] - h[2], c[2] + h[2]), step),
+        axis_plane("xz", c[1], (c[0] - h[0], c[0] + h[0]), (c[2] - h[2], c[2] + h[2]), step),
+        axis_plane("xy", c[2], (c[0] - h[0], c[0] + h[0]), (c[1] - h[1], c[1] + h[1]), step),
+    ]
+
+
+def evaluate_three_planes(machine: Machine, planes: list[Plane], quantities: Sequence[str], **kw) -> list[SectionResult]:
+    """A three-plane set (Cobet chapter 2): the same quantities on each plane."""
+    return [evaluate_section(machine, p, quantities, **kw) for p in planes]

@@ -1,0 +1,491 @@
+"""Loading and validation of TOML machine files (format described in the README, "Machine files").
+
+A machine is loaded by bundled name (``"hexaglide"``), by name with options (``"linapod:printed_values"``) or by
+path. A file may ``extends`` another machine and override parts of it (tables are merged key by key, the
+``chains`` array element by element); ``[options.NAME]`` tables are optional overrides selected at load time.
+Every value is validated; errors are :class:`MachineFileError` naming file, key, expectation and finding.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import importlib.resources
+import math
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+from scipy.spatial import ConvexHull, QhullError
+
+from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
+from pkmstiff.io import read_toml
+from pkmstiff.units import InputError, parse_quantity
+
+
+class MachineFileError(InputError):
+    """A machine file is invalid (names file, key, what was expected and what was found)."""
+
+
+class UnknownMachineError(ValueError):
+    """No bundled machine of that name and no file at that path."""
+
+
+_TOP_KEYS = {"format_version", "machine", "limits", "tool", "joint_types", "guides", "chain_defaults", "chains",
+             "hull", "components", "machine_components", "assumptions", "options"}
+_MACHINE_KEYS = {"name", "title", "type", "source", "extends", "gravity", "transmission_weight", "notes"}
+_LIMIT_KEYS = {"singularity_threshold", "strut_collision_mode", "platform_end_exclusion", "drive_load_include_coulomb",
+               "frame"}
+_FRAME_KEYS = {f"{a}_{m}" for a in "xyz" for m in ("min", "max")}
+_TOOL_KEYS = {"offset", "axis", "length"}
+_JOINT_KEYS = {"convention", "strut_direction", "swivel_min", "swivel_max", "tilt_min", "tilt_max", "ina_coupled",
+               "stiffness", "mass", "description"}
+_GUIDE_KEYS = {"chains", "min_distance", "max_distance", "safety_margin"}
+_GLIDE_CHAIN_KEYS = {"guide_start", "guide_direction", "guide_length", "strut_length", "root"}
+_POD_CHAIN_KEYS = {"length_min", "length_max"}
+_COMMON_CHAIN_KEYS = {"drive_joint", "drive_axis", "drive_reference", "platform_joint", "platform_axis",
+                      "platform_reference", "strut_radius", "drive_joint_type", "platform_joint_type", "components",
+                      "label"}
+_HULL_KEYS = {"vertices", "triangles", "source"}
+
+
+def bundled_machine_dir() -> Path:
+    return Path(str(importlib.resources.files("pkmstiff") / "machine" / "bundled"))
+
+
+def bundled_machines() -> list[str]:
+    """Names of the machine files shipped with the package."""
+    return sorted(p.stem for p in bundled_machine_dir().glob("*.toml"))
+
+
+def resolve_machine_path(name_or_path: str | Path) -> Path:
+    p = Path(name_or_path)
+    if p.suffix == ".toml" or p.exists():
+        if not p.is_file():
+            raise UnknownMachineError(f"machine file '{p}' does not exist")
+        return p
+    candidate = bundled_machine_dir() / f"{name_or_path}.toml"
+    if candidate.is_file():
+        return candidate
+    raise UnknownMachineError(
+        f"unknown machine '{name_or_path}': not a file and not a bundled machine (bundled: {', '.join(bundled_machines())})"
+    )
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    return read_toml(path, MachineFileError, "machine file")
+
+
+def _merge(base: Any, over: Any) -> Any:
+    """Deep merge: tables key by key, equally long arrays of tables element by element, everything else replaced."""
+    if isinstance(base, dict) and isinstance(over, dict):
+        out = copy.deepcopy(base)
+        for k, v in over.items():
+            out[k] = _merge(out[k], v) if k in out else copy.deepcopy(v)
+        return out
+    if (isinstance(base, list) and isinstance(over, list) and len(base) == len(over)
+            and all(isinstance(x, dict) for x in base + over)):
+        return [_merge(b, o) for b, o in zip(base, over)]
+    return copy.deepcopy(over)
+
+
+def _raw_with_extends(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+    raw = _read_toml(path)
+    parent = raw.get("machine", {}).get("extends") if isinstance(raw.get("machine"), dict) else None
+    if parent is None:
+        return raw
+    try:
+        parent_path = resolve_machine_path(parent if not str(parent).endswith(".toml") else path.parent / parent)
+    except UnknownMachineError as exc:
+        raise MachineFileError(str(path), "machine.extends", "a bundled machine name or a path", parent) from exc
+    if parent_path.resolve() in seen:
+        raise MachineFileError(str(path), "machine.extends", "no circular 'extends'", parent)
+    base = _raw_with_extends(parent_path, seen + (path.resolve(),))
+    # the child's own assumptions/options add to the parent's; 'extends' itself is not inherited
+    merged = _merge(base, raw)
+    merged["machine"].pop("extends", None)
+    return merged
+
+
+def split_machine_spec(name_or_path: str | Path, options: Iterable[str] = ()) -> tuple[str, list[str]]:
+    """``"hexapod_6x:constant_drive_stiffness"`` -> (``"hexapod_6x"``, [``"constant_drive_stiffness"``])."""
+    opts = list(options)
+    spec = str(name_or_path)
+    if ":" in spec and not Path(spec).exists() and not (len(spec) > 1 and spec[1] == ":"):
+        spec, extra = spec.split(":", 1)
+        opts += [o for o in extra.split(",") if o]
+    return spec, opts
+
+
+def raw_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> tuple[dict[str, Any], str, list[str]]:
+    """The raw TOML data of a machine with ``extends`` resolved and options applied: (raw dict, source, options)."""
+    spec, opts = split_machine_spec(name_or_path, options)
+    path = resolve_machine_path(spec)
+    raw = _raw_with_extends(path)
+    src = str(path)
+    available = raw.get("options", {})
+    for opt in opts:
+        if opt not in available:
+            raise MachineFileError(src, "options", f"one of {sorted(available)}", opt)
+        raw = _merge(raw, available[opt])
+    return raw, src, opts
+
+
+def load_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> Machine:
+    """Load and validate a machine by bundled name (``"hexaglide"``, ``"linapod:printed_values"``) or path.
+
+    ``options`` (or the ``:opt1,opt2`` suffix of the name) selects ``[options.NAME]`` override tables of the file.
+    """
+    raw, src, options = raw_machine(name_or_path, options)
+    try:
+        return _build(raw, src, options)
+    except MachineFileError:
+        raise
+    except InputError as exc:  # raised by the unit parser or a component model: report as a machine-file error
+        raise MachineFileError(exc.source or src, exc.key, exc.expected, exc.found) from None
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# building and validation
+
+
+def _req(table: dict, key: str, src: str, prefix: str, what: str) -> Any:
+    if key not in table:
+        raise MachineFileError(src, f"{prefix}{key}", f"{what} (the key is required)", "missing key")
+    return table[key]
+
+
+def _check_keys(table: Any, allowed: set[str], src: str, prefix: str) -> dict:
+    if not isinstance(table, dict):
+        raise MachineFileError(src, prefix.rstrip(".") or "(top level)", "a table", table)
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise MachineFileError(src, f"{prefix}{unknown[0]}", f"one of the keys {sorted(allowed)}", "unknown key")
+    return table
+
+
+def _vec(value: Any, src: str, key: str, unit: str = "m") -> np.ndarray:
+    return np.asarray(parse_quantity(value, unit, source=src, key=key, shape=(3,)), dtype=float)
+
+
+def _direction(value: Any, src: str, key: str) -> np.ndarray:
+    v = _vec(value, src, key, "dimensionless")
+    norm = float(np.linalg.norm(v))
+    if norm < 1e-9:
+        raise MachineFileError(src, key, "a non-zero direction vector", list(v))
+    return v / norm
+
+
+def _angle(value: Any, src: str, key: str) -> float:
+    return float(parse_quantity(value, "rad", source=src, key=key))
+
+
+def _length(value: Any, src: str, key: str, *, positive: bool = True) -> float:
+    return float(parse_quantity(value, "m", source=src, key=key, positive=positive, min_value=None if positive else 0.0))
+
+
+def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
+    _check_keys(raw, _TOP_KEYS, src, "")
+    mtab = _check_keys(_req(raw, "machine", src, "", "a [machine] table"), _MACHINE_KEYS, src, "machine.")
+    name = str(_req(mtab, "name", src, "machine.", "the machine's short name"))
+    kind = _req(mtab, "type", src, "machine.", "'pod' or 'glide'")
+    if kind not in ("pod", "glide"):
+        raise MachineFileError(src, "machine.type", "'pod' or 'glide'", kind)
+    gravity = _vec(mtab.get("gravity", [0.0, 0.0, -9.81]), src, "machine.gravity", "m/s^2")
+    w = float(parse_quantity(mtab.get("transmission_weight", 1.0), "m/rad", source=src,
+                             key="machine.transmission_weight", positive=True))
+
+    limits = _limits(raw.get("limits", {}), src)
+    tool = _tool(raw.get("tool", {}), src)
+    components = _components(raw.get("components", {}), src)
+    joint_types = _joint_types(raw.get("joint_types", {}), src, components)
+    chain_tables = _req(raw, "chains", src, "", "an array of [[chains]] tables")
+    if not isinstance(chain_tables, list) or len(chain_tables) < 2:
+        raise MachineFileError(src, "chains", "an array of at least 2 [[chains]] tables", chain_tables)
+    defaults = raw.get("chain_defaults", {})
+    chains, chain_components = _chains(kind, chain_tables, defaults, src, joint_types, components)
+    guides = _guides(raw.get("guides", {}), src, chains.n, kind)
+    on_guide = {c: g.name for g in guides.values() for c in g.chains}
+    chains = dataclasses.replace(chains, guide=tuple(on_guide.get(i) for i in range(chains.n)))
+    hull = _hull(raw.get("hull", {}), src)
+    mcomp = raw.get("machine_components", {})
+    if not isinstance(mcomp, dict):
+        raise MachineFileError(src, "machine_components", "a table role = component name", mcomp)
+    for role, ref in mcomp.items():
+        _check_ref(ref, components, src, f"machine_components.{role}")
+    assumptions = raw.get("assumptions", {})
+    if not isinstance(assumptions, dict) or not all(isinstance(v, str) for v in assumptions.values()):
+        raise MachineFileError(src, "assumptions", "a table key = one-line reason (strings)", assumptions)
+    built = _build_components(components, src)
+    _check_joint_conventions(joint_types, built, src)
+    title = str(mtab.get("title", name)) + (f" [{', '.join(options)}]" if options else "")
+    return Machine(
+        name=name + (":" + ",".join(options) if options else ""), title=title, chains=chains,
+        joint_types=joint_types, guides=guides, hull=hull, tool=tool, gravity=gravity, limits=limits,
+        transmission_weight=w, components=components, chain_components=chain_components,
+        machine_components={k: str(v) for k, v in mcomp.items()}, assumptions=dict(assumptions),
+        source=str(mtab.get("source", "")), path=src, built_components=built,
+    )
+
+
+def _limits(tab: Any, src: str) -> Limits:
+    _check_keys(tab, _LIMIT_KEYS, src, "limits.")
+    kw: dict[str, Any] = {}
+    if "singularity_threshold" in tab:
+        kw["singularity_threshold"] = float(parse_quantity(tab["singularity_threshold"], "dimensionless", source=src,
+                                                           key="limits.singularity_threshold", min_value=1.0))
+    if "strut_collision_mode" in tab:
+        if tab["strut_collision_mode"] not in ("exact", "table_B2"):
+            raise MachineFileError(src, "limits.strut_collision_mode", "'exact' or 'table_B2'", tab["strut_collision_mode"])
+        kw["strut_collision_mode"] = tab["strut_collision_mode"]
+    if "platform_end_exclusion" in tab:
+        kw["platform_end_exclusion"] = _length(tab["platform_end_exclusion"], src, "limits.platform_end_exclusion",
+                                               positive=False)
+    if "drive_load_include_coulomb" in tab:
+        if not isinstance(tab["drive_load_include_coulomb"], bool):
+            raise MachineFileError(src, "limits.drive_load_include_coulomb", "true or false",
+                                   tab["drive_load_include_coulomb"])
+        kw["drive_load_include_coulomb"] = tab["drive_load_include_coulomb"]
+    if "frame" in tab:
+        fr = _check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.")
+        lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
+        for k, v in fr.items():
+            (lo if k.endswith("min") else hi)["xyz".index(k[0])] = float(
+                parse_quantity(v, "m", source=src, key=f"limits.frame.{k}"))
+        bad = np.nonzero(lo >= hi)[0]
+        if bad.size:
+            a = "xyz"[bad[0]]
+            raise MachineFileError(src, f"limits.frame.{a}_min", f"a value below {a}_max = {hi[bad[0]]} m",
+                                   fr.get(f"{a}_min"))
+        kw["position_min"], kw["position_max"] = lo, hi
+    return Limits(**kw)
+
+
+def _tool(tab: Any, src: str) -> Tool:
+    _check_keys(tab, _TOOL_KEYS, src, "tool.")
+    return Tool(
+        offset=_vec(tab.get("offset", [0, 0, 0]), src, "tool.offset"),
+        axis=_direction(tab.get("axis", [0, 0, -1]), src, "tool.axis"),
+        length=_length(tab.get("length", 0.0), src, "tool.length", positive=False),
+    )
+
+
+def _components(tab: Any, src: str) -> dict[str, dict[str, Any]]:
+    if not isinstance(tab, dict):
+        raise MachineFileError(src, "components", "a table of named component tables", tab)
+    out = {}
+    try:
+        from components.registry import available_models  # the component library validates the parameters
+        models = set(available_models())
+    except ImportError:  # component library not installed: only the structure is checked
+        models = None
+    for cname, params in tab.items():
+        key = f"components.{cname}"
+        if not isinstance(params, dict):
+            raise MachineFileError(src, key, "a table with at least the key 'model'", params)
+        model = _req(params, "model", src, key + ".", "the name of a component model")
+        if models is not None and model not in models:
+            raise MachineFileError(src, key + ".model", f"one of the component models {sorted(models)}", model)
+        out[cname] = dict(params)
+    return out
+
+
+def _build_components(components: dict[str, dict[str, Any]], src: str) -> dict[str, tuple[dict, Any]]:
+    """Build every component instance (validating its parameters); empty without the component library."""
+    try:
+        from components.registry import build_component
+    except ImportError:
+        return {}
+    return {name: (params, build_component(name, params, source=src, base_dir=str(Path(src).parent)))
+            for name, params in components.items()}
+
+
+def _check_joint_conventions(joint_types: dict[str, JointType], built: dict, src: str) -> None:
+    """A joint's stiffness data must refer to the tilt convention of its joint type (models.md §2 (b))."""
+    for jt in joint_types.values():
+        if jt.stiffness is None or jt.stiffness not in built:
+            continue
+        conv = getattr(built[jt.stiffness][1], "angle_convention", None)
+        if conv is not None and conv != jt.convention:
+            raise MachineFileError(src, f"joint_types.{jt.name}.stiffness",
+                                   f"stiffness data in the joint type's '{jt.convention}' tilt convention",
+                                   f"component '{jt.stiffness}' with angle_convention '{conv}'")
+
+
+def _check_ref(ref: Any, components: dict, src: str, key: str) -> None:
+    if not isinstance(ref, str) or ref not in components:
+        raise MachineFileError(src, key, f"the name of a component defined under [components] ({sorted(components)})",
+                               ref)
+
+
+def _joint_types(tab: Any, src: str, components: dict) -> dict[str, JointType]:
+    if not isinstance(tab, dict) or not tab:
+        raise MachineFileError(src, "joint_types", "at least one [joint_types.NAME] table", tab)
+    out = {}
+    for jname, jt in tab.items():
+        p = f"joint_types.{jname}."
+        _check_keys(jt, _JOINT_KEYS, src, p)
+        conv = jt.get("convention", "axis")
+        if conv not in ("axis", "normal"):
+            raise MachineFileError(src, p + "convention", "'axis' or 'normal'", conv)
+        sdir = jt.get("strut_direction", "outward")
+        if sdir not in ("outward", "drive_to_platform"):
+            raise MachineFileError(src, p + "strut_direction", "'outward' or 'drive_to_platform'", sdir)
+        kw = {k: _angle(jt[k], src, p + k) for k in ("swivel_min", "swivel_max", "tilt_min", "tilt_max") if k in jt}
+        for lo, hi in (("swivel_min", "swivel_max"), ("tilt_min", "tilt_max")):
+            if lo in kw and hi in kw and kw[lo] > kw[hi]:
+                raise MachineFileError(src, p + lo, f"a value <= {hi}", jt[lo])
+        ina = jt.get("ina_coupled", False)
+        if not isinstance(ina, bool):
+            raise MachineFileError(src, p + "ina_coupled", "true or false", ina)
+        stiff = jt.get("stiffness")
+        if stiff is not None:
+            _check_ref(stiff, components, src, p + "stiffness")
+        mass = float(parse_quantity(jt.get("mass", 0.0), "kg", source=src, key=p + "mass", min_value=0.0))
+        out[jname] = JointType(name=jname, convention=conv, strut_direction=sdir, ina_coupled=ina,
+                               stiffness=stiff, mass=mass, **kw)
+    return out
+
+
+def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
+            components: dict) -> tuple[Chains, tuple[dict[str, str], ...]]:
+    allowed = _COMMON_CHAIN_KEYS | (_GLIDE_CHAIN_KEYS if kind == "glide" else _POD_CHAIN_KEYS)
+    _check_keys(defaults, allowed, src, "chain_defaults.")
+    n = len(tables)
+    cols: dict[str, list] = {k: [] for k in allowed}
+    comps: list[dict[str, str]] = []
+    for i, tab in enumerate(tables):
+        p = f"chains[{i + 1}]."
+        _check_keys(tab, allowed, src, p)
+        t = _merge(defaults, tab)
+
+        def need(key: str, what: str) -> Any:
+            if key not in t:
+                raise MachineFileError(src, p + key, f"{what} (required for a {kind} chain)", "missing key")
+            return t[key]
+
+        cols["drive_joint"].append(_vec(t.get("drive_joint", [0, 0, 0]) if kind == "glide"
+                                        else need("drive_joint", "the drive-side joint point [x, y, z] in m"),
+                                        src, p + "drive_joint"))
+        cols["drive_axis"].append(_direction(need("drive_axis", "the drive joint's first axis a_i"), src,
+                                             p + "drive_axis"))
+        cols["drive_reference"].append(_direction(need("drive_reference", "the drive joint's swivel reference b_i"),
+                                                  src, p + "drive_reference"))
+        cols["platform_joint"].append(_vec(need("platform_joint", "the platform joint point p'_i [x, y, z] in m"),
+                                           src, p + "platform_joint"))
+        cols["platform_axis"].append(_direction(need("platform_axis", "the platform joint's first axis m'_i"), src,
+                                                p + "platform_axis"))
+        cols["platform_reference"].append(_direction(need("platform_reference",
+                                                          "the platform joint's swivel reference n'_i"),
+                                                     src, p + "platform_reference"))
+        cols["strut_radius"].append(_length(need("strut_radius", "the strut radius for collision checks"), src,
+                                            p + "strut_radius", positive=False))
+        for side in ("drive_joint_type", "platform_joint_type"):
+            jt = need(side, "the name of a [joint_types.NAME] table")
+            if jt not in joint_types:
+                raise MachineFileError(src, p + side, f"one of the joint types {sorted(joint_types)}", jt)
+            cols[side].append(jt)
+        if kind == "glide":
+            cols["guide_start"].append(_vec(need("guide_start", "the guide start point s_i"), src, p + "guide_start"))
+            cols["guide_direction"].append(_direction(need("guide_direction", "the guide direction r_i"), src,
+                                                      p + "guide_direction"))
+            cols["guide_length"].append(_length(need("guide_length", "the usable guide length t_i"), src,
+                                                p + "guide_length"))
+            cols["strut_length"].append(_length(need("strut_length", "the strut length l_i"), src, p + "strut_length"))
+            root = t.get("root", "smaller")
+            if root not in ("smaller", "larger"):
+                raise MachineFileError(src, p + "root", "'smaller' or 'larger'", root)
+            cols["root"].append(root == "larger")
+        else:
+            lmin = _length(need("length_min", "the minimum strut length"), src, p + "length_min")
+            lmax = _length(need("length_max", "the maximum strut length"), src, p + "length_max")
+            if lmax <= lmin:
+                raise MachineFileError(src, p + "length_max", f"a length > length_min = {lmin} m", t["length_max"])
+            cols["length_min"].append(lmin)
+            cols["length_max"].append(lmax)
+        cc = t.get("components", {})
+        if not isinstance(cc, dict):
+            raise MachineFileError(src, p + "components", "a table role = component name", cc)
+        for role, ref in cc.items():
+            _check_ref(ref, components, src, f"{p}components.{role}")
+        comps.append({k: str(v) for k, v in cc.items()})
+
+    nan = np.full(n, np.nan)
+    glide = kind == "glide"
+    chains = Chains(
+        kind=kind,  # type: ignore[arg-type]
+        guide_start=np.array(cols["guide_start"]) if glide else np.zeros((n, 3)),
+        guide_direction=np.array(cols["guide_direction"]) if glide else np.zeros((n, 3)),
+        guide_length=np.array(cols["guide_length"]) if glide else nan.copy(),
+        strut_length=np.array(cols["strut_length"]) if glide else nan.copy(),
+        larger_root=np.array(cols["root"], dtype=bool) if glide else np.zeros(n, dtype=bool),
+        length_min=nan.copy() if glide else np.array(cols["length_min"]),
+        length_max=nan.copy() if glide else np.array(cols["length_max"]),
+        drive_joint=np.array(cols["drive_joint"]), drive_axis=np.array(cols["drive_axis"]),
+        drive_reference=np.array(cols["drive_reference"]), platform_joint=np.array(cols["platform_joint"]),
+        platform_axis=np.array(cols["platform_axis"]), platform_reference=np.array(cols["platform_reference"]),
+        strut_radius=np.array(cols["strut_radius"]),
+        drive_joint_type=tuple(cols["drive_joint_type"]), platform_joint_type=tuple(cols["platform_joint_type"]),
+        guide=tuple([None] * n),
+    )
+    return chains, tuple(comps)
+
+
+def _guides(tab: Any, src: str, n: int, kind: str) -> dict[str, Guide]:
+    if not isinstance(tab, dict):
+        raise MachineFileError(src, "guides", "a table of [guides.NAME] tables", tab)
+    out = {}
+    used: set[int] = set()
+    for gname, g in tab.items():
+        p = f"guides.{gname}."
+        _check_keys(g, _GUIDE_KEYS, src, p)
+        if kind != "glide":
+            raise MachineFileError(src, f"guides.{gname}", "shared guides only for glide machines", "a guide table")
+        members = _req(g, "chains", src, p, "the 1-based chain numbers on this guide")
+        if (not isinstance(members, list) or len(members) < 2
+                or not all(isinstance(c, int) and not isinstance(c, bool) and 1 <= c <= n for c in members)):
+            raise MachineFileError(src, p + "chains", f"a list of at least two chain numbers 1..{n}", members)
+        if used & set(members):
+            raise MachineFileError(src, p + "chains", "each chain on at most one guide", members)
+        used |= set(members)
+        out[gname] = Guide(
+            name=gname, chains=tuple(c - 1 for c in members),
+            min_distance=_length(g.get("min_distance", 0.0), src, p + "min_distance", positive=False),
+            max_distance=(math.inf if "max_distance" not in g
+                          else _length(g["max_distance"], src, p + "max_distance")),
+            safety_margin=_length(g.get("safety_margin", 0.0), src, p + "safety_margin", positive=False),
+        )
+    return out
+
+
+def _hull(tab: Any, src: str) -> Hull:
+    _check_keys(tab, _HULL_KEYS, src, "hull.")
+    if "vertices" not in tab:
+        return Hull(vertices=np.zeros((0, 3)), triangles=np.zeros((0, 3), dtype=int))
+    verts = np.asarray(parse_quantity(tab["vertices"], "m", source=src, key="hull.vertices", shape=(None, 3)))
+    if "triangles" in tab:
+        tri = np.asarray(parse_quantity(tab["triangles"], "dimensionless", source=src, key="hull.triangles",
+                                        shape=(None, 3)))
+        if np.any(tri != np.round(tri)) or tri.min() < 0 or tri.max() >= len(verts):
+            raise MachineFileError(src, "hull.triangles", f"integer vertex indices 0..{len(verts) - 1}",
+                                   tab["triangles"])
+        return Hull(vertices=verts, triangles=tri.astype(int))
+    if len(verts) < 4:
+        raise MachineFileError(src, "hull.vertices", "at least 4 vertices spanning a volume (or give 'triangles')",
+                               f"{len(verts)} vertices")
+    try:
+        ch = ConvexHull(verts)
+    except QhullError as exc:
+        raise MachineFileError(src, "hull.vertices", "vertices spanning a volume (convex hull)", "degenerate set") \
+            from exc
+    return Hull(vertices=verts, triangles=_oriented(verts, ch.simplices), convex=True)
+
+
+def _oriented(verts: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Orient convex-hull triangles outward (normal away from the centroid)."""
+    c = verts.mean(axis=0)
+    a, b, d = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]
+    flip = np.einsum("ij,ij->i", np.cross(b - a, d - a), a - c) < 0
+    tris = tris.copy()
+    tris[flip] = tris[flip][:, [0, 2, 1]]
+    return tris

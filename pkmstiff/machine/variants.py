@@ -1,0 +1,111 @@
+"""Machines with modified parameters: a bundled machine or machine file plus overrides of its raw TOML values.
+
+An override is a dotted path into the machine file's tables and a value written as in the file (a bare number is
+SI, a string carries its unit, e.g. ``"300 N/um"``, ``"7 deg"``; lists and tables as in TOML):
+
+    machine_with("hexaglide", {"components.strut_950.k": "300 N/um",
+                               "joint_types.iwf_3dof.tilt_min": "7 deg",
+                               "chains[3].platform_joint": [0.31, -0.13, 0.15],
+                               "chains[*].strut_radius": "30 mm"})
+
+``chains[i]`` is 1-based (chain i, as in the machine file's error messages and the guides' chain lists);
+``chains[*]`` sets the key in every chain. Every table on the path must exist in the file (after ``extends`` and
+options); the last key may be new (e.g. a limit the file does not set). The modified raw data go through the same
+validation as :func:`pkmstiff.machine.loader.load_machine`, so an invalid value or an unknown key gives the usual
+:class:`MachineFileError` naming the key; a path that does not lead into the file gives an
+:class:`OverrideError` naming the override and the keys available there.
+"""
+
+from __future__ import annotations
+
+import copy
+import re
+from pathlib import Path
+from typing import Any, Mapping
+
+from pkmstiff.machine.loader import MachineFileError, _build, raw_machine, split_machine_spec
+from pkmstiff.machine.model import Machine
+from pkmstiff.units import InputError
+
+__all__ = ["OverrideError", "machine_with", "parse_override_path", "raw_machine", "apply_overrides",
+           "split_machine_spec"]
+
+_SEGMENT = re.compile(r"^(?P<key>[^\[\]]+)(?:\[(?P<index>\*|\d+)\])?$")
+
+
+class OverrideError(MachineFileError):
+    """An override path that does not lead into the machine file (names the override and what is there)."""
+
+
+def parse_override_path(path: str) -> list[tuple[str, int | str | None]]:
+    """``"chains[3].platform_joint"`` -> [("chains", 3), ("platform_joint", None)]; ``[*]`` gives "*"."""
+    if not isinstance(path, str) or not path.strip():
+        raise OverrideError("(override)", str(path), "a dotted path such as 'components.strut_950.k'", path)
+    out: list[tuple[str, int | str | None]] = []
+    for seg in path.strip().split("."):
+        m = _SEGMENT.match(seg.strip())
+        if not m:
+            raise OverrideError("(override)", path, "dotted keys, each optionally with a 1-based index [i] or [*], "
+                                "e.g. 'chains[3].platform_joint'", seg)
+        idx = m.group("index")
+        out.append((m.group("key").strip(), None if idx is None else ("*" if idx == "*" else int(idx))))
+    return out
+
+
+def _set(node: Any, segments: list[tuple[str, int | str | None]], value: Any, path: str, src: str, done: str) -> None:
+    key, idx = segments[0]
+    here = f"{done}.{key}" if done else key
+    last = len(segments) == 1
+    if not isinstance(node, dict):
+        raise OverrideError(src, path, f"a table at '{done}'", type(node).__name__)
+    if idx is None:
+        if last:
+            node[key] = copy.deepcopy(value)
+            return
+        if key not in node:
+            raise OverrideError(src, path, f"an existing table '{here}' (keys at '{done or '(top level)'}': "
+                                f"{sorted(node)})", "no such key")
+        _set(node[key], segments[1:], value, path, src, here)
+        return
+    seq = node.get(key)
+    if not isinstance(seq, list):
+        raise OverrideError(src, path, f"an array of tables at '{here}'",
+                            "no such key" if key not in node else type(seq).__name__)
+    if idx == "*":
+        targets = list(range(len(seq)))
+    else:
+        if not 1 <= idx <= len(seq):
+            raise OverrideError(src, path, f"a 1-based index 1..{len(seq)} into '{here}'", idx)
+        targets = [idx - 1]
+    for t in targets:
+        if last:
+            seq[t] = copy.deepcopy(value)
+        else:
+            _set(seq[t], segments[1:], value, path, src, f"{here}[{t + 1}]")
+
+
+def apply_overrides(raw: dict[str, Any], overrides: Mapping[str, Any], src: str = "(override)") -> dict[str, Any]:
+    """A deep copy of ``raw`` with every override set (in the mapping's order)."""
+    out = copy.deepcopy(raw)
+    for path, value in overrides.items():
+        _set(out, parse_override_path(path), value, path, src, "")
+    return out
+
+
+def machine_with(name_or_path: str | Path, overrides: Mapping[str, Any] | None = None,
+                 options: tuple[str, ...] | list[str] = ()) -> Machine:
+    """Load a machine (bundled name with ``:options`` or path) with ``overrides`` applied to its raw TOML values.
+
+    The result is validated exactly like :func:`pkmstiff.machine.loader.load_machine` (same builder); with no
+    overrides it equals ``load_machine(name_or_path, options)``. Errors name the machine file and, for invalid
+    values, the key and the overrides applied.
+    """
+    raw, src, opts = raw_machine(name_or_path, options)
+    overrides = dict(overrides or {})
+    raw = apply_overrides(raw, overrides, src)
+    where = src if not overrides else f"{src} with overrides {sorted(overrides)}"
+    try:
+        return _build(raw, src, opts)
+    except InputError as exc:  # MachineFileError included: add which overrides were applied
+        raise MachineFileError(where if exc.source in (src, "", None) else exc.source, exc.key, exc.expected,
+                               exc.found) from None

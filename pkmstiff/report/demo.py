@@ -1,0 +1,82 @@
+"""``pkmstiff demo``: stiffness and first eigenfrequency maps of the bundled Hexaglide (Cobet Figs. 4.25, 4.30).
+
+YZ plane at x = 0, a = b = c = 0, tool length 0: maps of k_x, k_y, k_z [N/µm] and f1 [Hz], a three-plane figure of
+k_x with a sketch of the machine, VTU/CSV exports and a short Markdown + HTML summary, written to ``out/demo/``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import html
+import time
+from pathlib import Path
+
+from pkmstiff.cli.section import summary, write_outputs
+from pkmstiff.machine.loader import load_machine
+from pkmstiff.evaluation.sections import axis_plane, evaluate_section, evaluate_three_planes, three_planes
+
+MACHINE = "hexaglide"
+QUANTITIES = ("kx", "ky", "kz", "f1")
+REFERENCE_POSE = (0.0, 0.0, -1.0, 0.0, 0.0, 0.0)  # the dissertation's measurement point
+
+
+def run(args: argparse.Namespace) -> int:
+    out = Path(getattr(args, "out", "out/demo"))
+    quiet = bool(getattr(args, "quiet", False))
+    step = float(getattr(args, "step", 10.0)) * 1e-3
+    t0 = time.perf_counter()
+    machine = load_machine(MACHINE)
+    plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.2, -0.5), step)
+    res = evaluate_section(machine, plane, QUANTITIES, tool_length=0.0, progress=False if quiet else None)
+    files = write_outputs(res, out, ("png", "vtu", "csv"), "hexaglide_yz")
+    planes = three_planes((0.0, 0.1, -0.9), (0.5, 0.7, 0.35), max(step, 0.02))
+    three = evaluate_three_planes(machine, planes, ["kx"], tool_length=0.0, progress=False)
+    from pkmstiff.plots.section_maps import plot_three_planes
+
+    fig3 = plot_three_planes(three, "kx", machine, REFERENCE_POSE, out / "hexaglide_three_planes_kx.png")
+    from pkmstiff.plots.section_maps import plot_reasons
+
+    reasons_png = plot_reasons(res, out / "hexaglide_yz_admissibility.png")
+    seconds = time.perf_counter() - t0
+    info = summary(res, seconds)
+    _write_summary(out, machine.title, info, [f for f in files if f.suffix == ".png"] + [reasons_png, fig3],
+                   machine.assumptions)
+    print(f"pkmstiff demo: {machine.title}, {plane.name}, {res.ok.sum()} of {res.ok.size} points admissible, "
+          f"{seconds:.1f} s")
+    for n, st in info["statistics"].items():
+        print(f"  {n:<4} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
+    print(f"  wrote {out / 'summary.md'}, {out / 'summary.html'} and {len(files) + 1} figure/data files")
+    return 0
+
+
+def _table(info: dict) -> list[list[str]]:
+    rows = [["quantity", "unit", "min", "mean", "max", "admissible points"]]
+    for n, st in info["statistics"].items():
+        rows.append([n, st["unit"], f"{st['min']:.4g}", f"{st['mean']:.4g}", f"{st['max']:.4g}", str(st["count"])])
+    return rows
+
+
+def _write_summary(out: Path, title: str, info: dict, images: list[Path], assumptions: dict[str, str]) -> None:
+    rows = _table(info)
+    reasons = ", ".join(f"{k} {v}" for k, v in info["inadmissible_reasons"].items()) or "none"
+    md = [f"# pkmstiff demo — {title}", "",
+          f"{info['plane']}, a = b = c = 0, tool length 0 mm; {info['admissible_points']} of {info['points']} raster "
+          f"points admissible ({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.", "",
+          "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
+    md += ["| " + " | ".join(r) + " |" for r in rows[1:]]
+    md += ["", f"Inadmissible points by reason: {reasons}.", ""]
+    md += [f"![{p.stem}]({p.name})" for p in images]
+    md += ["", "## Assumptions (machine file)", ""] + [f"- `{k}`: {v}" for k, v in assumptions.items()]
+    (out / "summary.md").write_text("\n".join(md) + "\n", encoding="utf-8")
+    cells = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in rows[1:])
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in rows[0])
+    imgs = "".join(f'<figure><img src="{p.name}" width="640"><figcaption>{html.escape(p.stem)}</figcaption></figure>'
+                   for p in images)
+    ass = "".join(f"<li><code>{html.escape(k)}</code>: {html.escape(v)}</li>" for k, v in assumptions.items())
+    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>pkmstiff demo</title></head><body>"
+            f"<h1>pkmstiff demo — {html.escape(title)}</h1><p>{html.escape(md[2])}</p>"
+            f"<table border='1' cellpadding='4'><tr>{head}</tr>{cells}</table>"
+            f"<p>Inadmissible points by reason: {html.escape(reasons)}.</p>{imgs}"
+            f"<h2>Assumptions (machine file)</h2><ul>{ass}</ul></body></html>")
+    (out / "summary.html").write_text(page, encoding="utf-8")
+
