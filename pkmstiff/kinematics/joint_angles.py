@@ -22,7 +22,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 import pkmstiff.kinematics.kernels as _kernels
-from pkmstiff.kinematics import IK, _to_soa, _vec_soa
+from pkmstiff.kinematics.arrays import _to_soa, _vec_soa
+from pkmstiff.kinematics.inverse import IK
 from pkmstiff.machine.model import Machine
 
 Array = NDArray[np.float64]
