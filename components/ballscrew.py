@@ -24,9 +24,8 @@ from typing import Any, Callable, ClassVar
 
 import numpy as np
 
-from pkmstiff.units import to_unit
-
 from components.protocol import Component, ComponentRangeError, ComponentState, parallel, series
+from pkmstiff.units import to_unit
 
 ARRANGEMENTS: tuple[str, ...] = ("fixed_fixed", "fixed_floating", "floating_fixed")
 RANGE_POLICIES: tuple[str, ...] = ("clamp", "error")

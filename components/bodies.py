@@ -12,9 +12,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from pkmstiff.units import si
-
 from components.protocol import Component, ComponentState, _full
+from pkmstiff.units import si
 
 _SYM_TOL = 1e-9  # relative asymmetry tolerated in input matrices (round-off of printed/converted data)
 

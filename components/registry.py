@@ -17,19 +17,24 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
-from pkmstiff.units import InputError, parse_quantity, si
-
 from components import ballscrew as bs
 from components.bearings import TaperedRollerBearing
 from components.bodies import BodyStiffness, RigidBody
 from components.direct_drive import AXIAL_MODES, LinearDirectDrive
 from components.guides import GuideCarriages
 from components.joint_tables import JointTableNotFound, load_joint_table
-from components.joints import AnalyticJoint330, ConstantJoint, ProductJoint, joint_from_table
-from components.joints import SwivelTiltTableJoint, TiltTableJoint
+from components.joints import (
+    AnalyticJoint330,
+    ConstantJoint,
+    ProductJoint,
+    SwivelTiltTableJoint,
+    TiltTableJoint,
+    joint_from_table,
+)
 from components.protocol import Component, ConstantAxial
 from components.spline import EXTRAPOLATION_POLICIES
 from components.struts import Strut, StrutSections
+from pkmstiff.units import InputError, parse_quantity, si
 
 _MISSING = object()
 COMMON_KEYS: tuple[str, ...] = ("model", "assumptions", "provenance")

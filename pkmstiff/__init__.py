@@ -11,19 +11,27 @@ Layers (each a subpackage; imports only downward): ``units``/``errors`` → ``io
 ``calibration``/``mechanisms`` → ``plots`` → ``report`` → ``cli``.
 """
 
-from pkmstiff.errors import InputError, PkmstiffError
-from pkmstiff.machine import Machine, MachineFileError, UnknownMachineError, bundled_machines, load_machine
-
 __version__ = "0.1.0"
+
+#: the facade: name -> layer module that defines it (imported on first use, so ``import pkmstiff.errors`` stays light)
+_FACADE = {
+    "InputError": "pkmstiff.errors", "PkmstiffError": "pkmstiff.errors",
+    "Machine": "pkmstiff.machine", "MachineFileError": "pkmstiff.machine", "UnknownMachineError": "pkmstiff.machine",
+    "bundled_machines": "pkmstiff.machine", "load_machine": "pkmstiff.machine",
+    "inverse_kinematics": "pkmstiff.kinematics", "forward_kinematics": "pkmstiff.kinematics",
+}
 
 
 def __getattr__(name: str):
-    # the kinematics entry points without importing the kinematics layer at ``import pkmstiff``
-    if name in ("inverse_kinematics", "forward_kinematics"):
-        import pkmstiff.kinematics as kin
+    if name in _FACADE:
+        import importlib
 
-        return getattr(kin, name)
+        return getattr(importlib.import_module(_FACADE[name]), name)
     raise AttributeError(f"module 'pkmstiff' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(list(globals()) + list(_FACADE))
 
 
 __all__ = ["InputError", "Machine", "MachineFileError", "PkmstiffError", "UnknownMachineError", "bundled_machines",

@@ -37,7 +37,7 @@ from pkmstiff.machine.model import Machine  # noqa: E402
 from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
 from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
-from pkmstiff.workspace.plots import plot_workspace  # noqa: E402
+from pkmstiff.plots.workspace import plot_workspace  # noqa: E402
 from pkmstiff.workspace.rotation import RotationMapResult, rotational_workspace_map  # noqa: E402
 from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace  # noqa: E402
 

@@ -30,7 +30,7 @@ from _study_common import Stopwatch, machine_assumptions, parse_args, write_outp
 import pkmstiff  # noqa: E402
 from pkmstiff.machine.model import Machine  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.workspace.plots import plot_workspace  # noqa: E402
+from pkmstiff.plots.workspace import plot_workspace  # noqa: E402
 from pkmstiff.workspace.rotation import RotationMapResult, rotation_angle_map  # noqa: E402
 from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace, fit_box  # noqa: E402
 

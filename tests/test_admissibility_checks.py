@@ -3,21 +3,10 @@
 import dataclasses
 
 import numpy as np
-import pytest
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff import load_machine
 from pkmstiff.machine.model import Hull
-
-
-@pytest.fixture(scope="module")
-def hexapod():
-    return load_machine("hexapod_6x")
-
-
-@pytest.fixture(scope="module")
-def hexaglide():
-    return load_machine("hexaglide")
 
 
 def _angles(n_pose, swivel_deg, tilt_deg):

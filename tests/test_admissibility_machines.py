@@ -10,11 +10,6 @@ from pkmstiff import load_machine
 from pkmstiff.admissibility.pipeline import check_admissibility, evaluate_poses
 
 
-@pytest.fixture(scope="module")
-def hexaglide():
-    return load_machine("hexaglide")
-
-
 def _yz_grid(x=0.0, ny=29, nz=15):
     y, z = np.meshgrid(np.linspace(-0.6, 0.8, ny), np.linspace(-1.2, -0.5, nz))
     p = np.zeros((y.size, 6))
@@ -103,7 +98,9 @@ def test_every_bundled_machine_has_admissible_poses(name):
     g = np.stack(np.meshgrid(np.linspace(x0, x1, 9), np.linspace(y0, y1, 9), np.linspace(z0, z1, 9)), -1)
     poses = np.concatenate([g.reshape(-1, 3), np.zeros((g.size // 3, 3))], axis=1)
     a = check_admissibility(m, poses)
-    assert a.ok.sum() > 5, (name, a.summary())
+    # each box is the region the platform works in: a healthy model admits a real share of it (observed 14-80 %),
+    # a broken check (everything masked) or a stand-in (everything admitted) fails one of the bounds
+    assert 0.10 <= a.ok.mean() <= 0.90, (name, a.ok.mean(), a.summary())
 
 
 def test_static_drive_loads_balance_gravity(hexaglide):

@@ -178,6 +178,8 @@ def test_segment_triangle_distance_is_exact(a, b, t1, t2, t3):
     con = LinearConstraint([[0, 1, 1]], -np.inf, 1.0)
     best = min(minimize(f, x0, bounds=[(0, 1), (0, 1), (0, 1)], constraints=[con], method="SLSQP",
                         options={"ftol": 1e-14, "maxiter": 500}).fun
-               for x0 in ([0.5, 0.3, 0.3], [0, 0, 0], [1, 0, 0], [0, 0.9, 0.05], [1, 0.05, 0.9]))
+               for x0 in ([0.5, 0.3, 0.3], [0.5, 0.05, 0.05], [0, 0.9, 0.05], [1, 0.05, 0.9])
+               + tuple([s0, u0, v0] for s0 in (0, 1) for u0, v0 in ((0, 0), (1, 0), (0, 1))))
+    # (also a start at every segment end x triangle vertex: SLSQP stalls short of a touching vertex otherwise)
     # SLSQP on a convex quadratic over a polytope: ~1e-6 absolute in the distance
     assert segment_triangle_distance(a, b, t1, t2, t3) == pytest.approx(np.sqrt(max(best, 0)), abs=2e-5)

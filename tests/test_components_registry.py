@@ -6,8 +6,7 @@ from typing import ClassVar
 import numpy as np
 import pytest
 
-from components import Component, ComponentState
-from components import registry
+from components import Component, ComponentState, registry
 from components.joints import write_joint_table
 from components.registry import available_models, build_component, build_components, register_model
 from pkmstiff.units import InputError, si, to_unit

@@ -17,17 +17,27 @@ import pytest
 import scipy.linalg
 
 exu = pytest.importorskip("exudyn", reason="exudyn is a test-only dependency (extra 'test'); not installed here")
-from exudyn.itemInterface import (LoadForceVector, LoadTorqueVector, MarkerBodyPosition,  # noqa: E402
-                                  MarkerBodyRigid, NodePoint, NodeRigidBodyRxyz, ObjectConnectorCartesianSpringDamper,
-                                  ObjectConnectorRigidBodySpringDamper, ObjectConnectorSpringDamper, ObjectGround,
-                                  ObjectMassPoint, ObjectRigidBody)
+from exudyn.itemInterface import (  # noqa: E402
+    LoadForceVector,
+    LoadTorqueVector,
+    MarkerBodyPosition,
+    MarkerBodyRigid,
+    NodePoint,
+    NodeRigidBodyRxyz,
+    ObjectConnectorCartesianSpringDamper,
+    ObjectConnectorRigidBodySpringDamper,
+    ObjectConnectorSpringDamper,
+    ObjectGround,
+    ObjectMassPoint,
+    ObjectRigidBody,
+)
 from exudyn.rigidBodyUtilities import RotationMatrix2RotXYZ  # noqa: E402
 
 from components.protocol import ComponentState  # noqa: E402
 from pkmstiff.analysis import evaluate_structure, tcp_compliance  # noqa: E402
 from pkmstiff.kinematics import inverse_kinematics  # noqa: E402
-from pkmstiff.machine.roles import machine_components  # noqa: E402
 from pkmstiff.machine.loader import load_machine  # noqa: E402
+from pkmstiff.machine.roles import machine_components  # noqa: E402
 from pkmstiff.multibody import natural_frequencies  # noqa: E402
 from pkmstiff.structure import build_structure  # noqa: E402
 

@@ -9,12 +9,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pkmstiff.kinematics.joint_angles import joint_angles
 from pkmstiff.kinematics import inverse_kinematics
-from pkmstiff.machine.loader import load_machine
+from pkmstiff.kinematics.joint_angles import joint_angles
 from pkmstiff.kinematics.rotation import cardan_matrix
-
-from .kin_fixtures import BUNDLED, CENTRE, hexaglide_by_hand, random_poses, with_chains
+from pkmstiff.machine.loader import load_machine
+from tests.conftest import BUNDLED, CENTRE, hexaglide_by_hand, random_poses, with_chains
 
 MACHINES = {name: load_machine(name) for name in BUNDLED}
 deg = np.deg2rad

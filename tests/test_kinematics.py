@@ -26,10 +26,9 @@ from pkmstiff.kinematics import (
     singular_mask,
     transmission_quality,
 )
-from pkmstiff.machine.loader import load_machine
 from pkmstiff.kinematics.rotation import cardan_matrix, rotation_from_axis_angle
-
-from .kin_fixtures import BUNDLED, CENTRE, hexaglide_by_hand, random_poses, with_chains
+from pkmstiff.machine.loader import load_machine
+from tests.conftest import BUNDLED, CENTRE, hexaglide_by_hand, random_poses, with_chains
 
 MACHINES = {name: load_machine(name) for name in BUNDLED}
 seeds = st.integers(0, 2**32 - 1)

@@ -22,6 +22,7 @@ from pkmstiff.admissibility.collision import (
     segment_pierces_triangle,
     segment_triangle_distance,
 )
+from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.kinematics import (
     condition_number,
     inverse_jacobian,
@@ -32,18 +33,6 @@ from pkmstiff.kinematics import (
 )
 from pkmstiff.machine.loader import _oriented
 from pkmstiff.machine.model import Hull
-from pkmstiff.admissibility.pipeline import evaluate_poses
-
-
-@pytest.fixture(scope="module")
-def hexaglide():
-    return load_machine("hexaglide")
-
-
-@pytest.fixture(scope="module")
-def hexapod():
-    return load_machine("hexapod_6x")
-
 
 BOX = {"hexaglide": ((-0.4, 0.4), (-0.6, 0.8), (-1.3, -0.4)), "hexapod_6x": ((-0.5, 0.5), (-0.5, 0.5), (0.6, 1.6))}
 

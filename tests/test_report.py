@@ -202,7 +202,8 @@ def test_percent_round_trip(base, v):
 # ------------------------------------------------------------------------------------------------- report specs
 import math  # noqa: E402
 
-from pkmstiff.report.spec import SpecError, build_report, fast_spec, load_spec  # noqa: E402
+from pkmstiff.report.build import build_report  # noqa: E402
+from pkmstiff.report.spec import SpecError, fast_spec, load_spec  # noqa: E402
 
 SPECS = Path(__file__).resolve().parents[1] / "studies" / "specs"
 
@@ -257,8 +258,8 @@ def _rows(report) -> dict[str, list]:
 def test_spec_table_matches_direct_evaluation(tmp_path):
     from pkmstiff import load_machine
     from pkmstiff.analysis import evaluate_structure
-    from pkmstiff.machine.variants import machine_with
     from pkmstiff.evaluation.sections import axis_plane, evaluate_section
+    from pkmstiff.machine.variants import machine_with
 
     spec = load_spec(_mini(tmp_path))
     rep = build_report(spec, tmp_path / "out")

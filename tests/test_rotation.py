@@ -8,7 +8,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix, cardan_rate_matrix, rotation_from_axis_angle, skew
+from pkmstiff.kinematics.rotation import (
+    cardan_angles,
+    cardan_matrix,
+    cardan_rate_matrix,
+    rotation_from_axis_angle,
+    skew,
+)
 
 angle = st.floats(-np.pi, np.pi, allow_nan=False)
 small_b = st.floats(-np.deg2rad(80.0), np.deg2rad(80.0), allow_nan=False)

@@ -16,12 +16,18 @@ from pkmstiff.admissibility.checks import Reason
 from pkmstiff.analysis import evaluate_structure, tcp_compliance
 from pkmstiff.analysis.batch import _evaluate_chunk
 from pkmstiff.kinematics import inverse_kinematics, inverse_kinematics_frames
-from pkmstiff.machine.roles import machine_components
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.machine.model import Limits
+from pkmstiff.machine.roles import machine_components
 from pkmstiff.multibody.linalg import rotation_about_axis
-from pkmstiff.structure import (COMPONENT_FAILED, NOT_POSITIVE_DEFINITE, StructureModelError, StructureOptions,
-                                build_structure, structure_from_ik)
+from pkmstiff.structure import (
+    COMPONENT_FAILED,
+    NOT_POSITIVE_DEFINITE,
+    StructureModelError,
+    StructureOptions,
+    build_structure,
+    structure_from_ik,
+)
 
 HEXAGLIDE = load_machine("hexaglide")
 HEX_6X = load_machine("hexapod_6x")

@@ -7,9 +7,18 @@ import numpy as np
 import pytest
 import scipy.linalg
 
-from pkmstiff.analysis.planar import (PlanarFileError, bundled_planar, load_planar, planar_compliance, planar_inverse_jacobian,
-                             planar_inverse_kinematics, planar_kinetostatics, planar_modes, planar_stiffness,
-                             planar_structure)
+from pkmstiff.analysis.planar import (
+    PlanarFileError,
+    bundled_planar,
+    load_planar,
+    planar_compliance,
+    planar_inverse_jacobian,
+    planar_inverse_kinematics,
+    planar_kinetostatics,
+    planar_modes,
+    planar_stiffness,
+    planar_structure,
+)
 
 BIGLIDE, BIPOD = load_planar("biglide"), load_planar("bipod")
 POS = np.array([[0.0, -0.707], [0.15, -0.6], [-0.2, -0.8]])  # m; x = 0, y = -707 mm is Cobet's mode-shape point

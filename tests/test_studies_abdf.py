@@ -3,18 +3,16 @@ against independent computations (closed forms, spline data of the spec, physica
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
 
 import pkmstiff
+from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.roles import machine_components
-from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.structure import structure_layout
-
-from tests.study_runs import load, run_fast
+from tests.conftest import load, run_fast
 
 SCRIPTS = {"a": "a_hexapod_drive_model.py", "b": "b_hexaglide_joint_model.py", "d": "d_joint_components.py",
            "f": "f_measurement_point.py"}

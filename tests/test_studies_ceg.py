@@ -14,8 +14,7 @@ from hypothesis import strategies as st
 import pkmstiff
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.evaluation.sections import axis_plane, evaluate_section
-
-from tests.study_runs import load, run_fast
+from tests.conftest import load, run_fast
 
 SCRIPTS = {"c": "c_hexaglide_variants.py", "e": "e_joint_orientation.py", "g": "g_machine_comparison.py"}
 

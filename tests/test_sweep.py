@@ -13,11 +13,20 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pkmstiff import load_machine
+from pkmstiff.evaluation.sweep import (
+    LogUniform,
+    Normal,
+    Parameter,
+    Sweep,
+    SweepError,
+    Uniform,
+    grid_points,
+    random_points,
+    run_sweep,
+)
 from pkmstiff.machine.loader import MachineFileError
 from pkmstiff.machine.variants import OverrideError, machine_with, parse_override_path
-from pkmstiff.evaluation.sweep import (LogUniform, Normal, Parameter, Sweep, SweepError, Uniform, grid_points,
-                            random_points, run_sweep)
-from pkmstiff.evaluation.requests import Combined, PointValues, SectionStatistics
+from pkmstiff.report.sweep_evaluations import Combined, PointValues, SectionStatistics
 
 POSE = np.array([[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]])
 SWEEPS = Path(__file__).resolve().parents[1] / "studies" / "sweeps"

@@ -8,17 +8,12 @@ import numpy as np
 import pytest
 
 from pkmstiff import load_machine
-from pkmstiff.cli import main
 from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.cli import main
 from pkmstiff.workspace.translational import constant_orientation_workspace, fit_box, reach_box
 
 # the working region of the Hexaglide below its guides; extents 12.5 mm * 2**k (spec §7.4: halving)
 BELOW = (np.array([-1.6, -0.4, -1.9]), np.array([1.6, 1.2, -0.3]))
-
-
-@pytest.fixture(scope="module")
-def hexaglide():
-    return load_machine("hexaglide")
 
 
 @pytest.fixture(scope="module")
@@ -113,13 +108,13 @@ def test_cli_rotation_map_and_errors(tmp_path, capsys):
 
 
 def test_figures_are_written(tmp_path, hexaglide):
-    from pkmstiff.workspace.plots import plot_workspace
+    from pkmstiff.plots.workspace import plot_workspace
 
     res = constant_orientation_workspace(hexaglide, 0.1, box=BELOW, methods=("surface_nets",))
     png = plot_workspace(res, hexaglide, tmp_path / "ws.png", window_size=(400, 300))
     assert png.stat().st_size > 10_000  # a rendered image, not an empty canvas
     pytest.importorskip("matplotlib")
-    from pkmstiff.workspace.plots import plot_rotation_maps
+    from pkmstiff.plots.workspace import plot_rotation_maps
     from pkmstiff.workspace.rotation import rotation_angle_map
 
     rm = rotation_angle_map(hexaglide, [0, 0, 0], [0, 1, 0], [0, 0, 1], np.arange(0.0, 0.61, 0.2),
@@ -130,7 +125,6 @@ def test_figures_are_written(tmp_path, hexaglide):
 def test_thin_workspace_is_found_by_a_finer_start_grid():
     # The Linapod's usable workspace (0 <= z <= ~0.7 m above its table) is thinner than the 0.8 m spacing of the
     # level-3 start grid of its default box; the octree must start finer instead of reporting an empty workspace.
-    from pkmstiff import load_machine
     from pkmstiff.workspace.translational import constant_orientation_workspace
 
     ws = constant_orientation_workspace(load_machine("linapod"), 0.05, (0.0, 0.0, 0.0))

@@ -8,13 +8,12 @@ import numpy as np
 import pytest
 
 from pkmstiff import load_machine
-from pkmstiff.kinematics import transmission_quality
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.workspace.oracle import OracleInputError, PoseOracle, staged_admissible
 from pkmstiff.evaluation.quantities import Quantity, register_quantity
+from pkmstiff.kinematics import transmission_quality
+from pkmstiff.workspace.oracle import OracleInputError, PoseOracle, staged_admissible
 from pkmstiff.workspace.requirements import RequirementError, parse_requirement
-
-from .kin_fixtures import BUNDLED, CENTRE
+from tests.conftest import BUNDLED, CENTRE
 
 
 def _poses_around(name: str, n: int, seed: int = 0, rot: float = 0.15, span: float = 0.5) -> np.ndarray:

@@ -9,8 +9,13 @@ import pytest
 
 from pkmstiff import load_machine
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.workspace.rotation import (SIX_DIRECTIONS, RotationMapError, _prediction, rotation_angle_map,
-                                         rotational_workspace_map)
+from pkmstiff.workspace.rotation import (
+    SIX_DIRECTIONS,
+    RotationMapError,
+    _prediction,
+    rotation_angle_map,
+    rotational_workspace_map,
+)
 
 INC = math.radians(2.0)
 

@@ -13,6 +13,7 @@ from typing import Literal
 import numpy as np
 
 import pkmstiff.kinematics.kernels as _kernels
+
 _EPS = _kernels.EPS
 
 

@@ -21,8 +21,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
+from pkmstiff.kinematics import (
+    IK,
+    as_poses,
+    condition_number,
+    inverse_jacobian,
+    inverse_kinematics,
+    jacobian_and_singular,
+)
 from pkmstiff.kinematics.joint_angles import joint_angles
-from pkmstiff.kinematics import as_poses, condition_number, inverse_jacobian, inverse_kinematics, jacobian_and_singular
 from pkmstiff.machine.model import Machine
 from pkmstiff.machine.roles import DriveLoadData
 
@@ -104,15 +111,25 @@ def evaluate_chunk(
     checks: Sequence[str] = adm.ALL_CHECKS,
     drive_load_data: DriveLoadData | None = None,
     requirements: Iterable[Callable[["PoseEvaluation"], np.ndarray]] = (),
+    *,
+    ik: IK | None = None,
+    with_angles: bool = True,
 ) -> PoseEvaluation:
-    """Evaluate one chunk of poses (see :func:`evaluate_poses`)."""
+    """Evaluate one chunk of poses (see :func:`evaluate_poses`).
+
+    ``ik``: the inverse kinematics of ``poses`` if the caller has it already (the structure model), so it is not
+    repeated. ``with_angles=False`` skips the joint angles (``angles`` is then empty), allowed only without the
+    joint-angle check.
+    """
     unknown = set(checks) - set(adm.ALL_CHECKS)
     if unknown:
         raise ValueError(f"unknown admissibility checks {sorted(unknown)}; expected a subset of {adm.ALL_CHECKS}")
-    ik = inverse_kinematics(machine, poses)
+    if not with_angles and "joint_angles" in checks:
+        raise ValueError("evaluate_chunk: the joint-angle check needs the joint angles (with_angles=True)")
+    ik = inverse_kinematics(machine, poses) if ik is None else ik
     jinv = inverse_jacobian(machine, ik)
     jc, singular = jacobian_and_singular(machine, jinv)
-    angles = _angle_dict(joint_angles(machine, ik))
+    angles = _angle_dict(joint_angles(machine, ik)) if with_angles else {}
     reach = ik.all_reachable
 
     results: list[adm.CheckResult] = []

@@ -7,12 +7,29 @@ the leading pose axis N and is NaN where a pose could not be modelled (``structu
 
 from pkmstiff.analysis.batch import StructureBatch, evaluate_structure
 from pkmstiff.analysis.frf import FRFResult, tcp_frf
-from pkmstiff.analysis.kinetostatics import (DEFAULT_ACCELERATION_DIRECTIONS, DEFAULT_VELOCITY_DIRECTIONS, DriveData, Kinetostatics,
-                            KinetostaticsOptions, drive_data, kinetostatics, max_acceleration, max_velocity,
-                            twist_directions)
+from pkmstiff.analysis.kinetostatics import (
+                            DEFAULT_ACCELERATION_DIRECTIONS,
+                            DEFAULT_VELOCITY_DIRECTIONS,
+                            DriveData,
+                            Kinetostatics,
+                            KinetostaticsOptions,
+                            drive_data,
+                            kinetostatics,
+                            max_acceleration,
+                            max_velocity,
+                            twist_directions,
+)
 from pkmstiff.analysis.modal import ModalAnalysis, modal_analysis, natural_frequencies
-from pkmstiff.analysis.static import (Deformation, WeakPoints, axis_stiffness, directional_stiffness, static_deformation,
-                     tcp_compliance, tcp_stiffness_matrix, weak_points)
+from pkmstiff.analysis.static import (
+                            Deformation,
+                            WeakPoints,
+                            axis_stiffness,
+                            directional_stiffness,
+                            static_deformation,
+                            tcp_compliance,
+                            tcp_stiffness_matrix,
+                            weak_points,
+)
 
 __all__ = [
     "StructureBatch", "evaluate_structure", "FRFResult", "tcp_frf", "DEFAULT_ACCELERATION_DIRECTIONS",

@@ -18,15 +18,23 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
+from pkmstiff.analysis._common import Array, load_body
 from pkmstiff.kinematics import as_poses
 from pkmstiff.machine.model import Machine
 from pkmstiff.multibody.assembly import stiffness_matrix
 from pkmstiff.multibody.modal import modal_chunk
 from pkmstiff.multibody.solver import StaticSystem
 from pkmstiff.multibody.static import point_transform
-from pkmstiff.structure import (DEFAULT_CHUNK, NOT_POSITIVE_DEFINITE, STATUS_TEXT, PKMStructure, StructureOptions,
-                         build_structure, platform_spindle_matrix, structure_layout)
-from pkmstiff.analysis._common import Array, load_body
+from pkmstiff.structure import (
+    DEFAULT_CHUNK,
+    NOT_POSITIVE_DEFINITE,
+    STATUS_TEXT,
+    PKMStructure,
+    StructureOptions,
+    build_structure,
+    platform_spindle_matrix,
+    structure_layout,
+)
 
 
 @dataclass

@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
-from pkmstiff.structure import PKMStructure
 from pkmstiff.analysis._common import Array, load_body, parse_direction
+from pkmstiff.structure import PKMStructure
 
 
 @dataclass

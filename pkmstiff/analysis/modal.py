@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 
 import pkmstiff.multibody as sde
-from pkmstiff.structure import PKMStructure
 from pkmstiff.analysis._common import Array, component_energies, present_components, shares
+from pkmstiff.structure import PKMStructure
 
 
 def natural_frequencies(st: PKMStructure, n_modes: int = 6) -> Array:

@@ -44,7 +44,8 @@ from numpy.typing import ArrayLike, NDArray
 
 import pkmstiff.multibody as sde
 from pkmstiff.admissibility.checks import Reason
-from pkmstiff.io import read_toml
+from pkmstiff.errors import PlanarFileError  # noqa: F401 (re-exported)
+from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.units import InputError, parse_quantity
 
 Array = NDArray[np.float64]
@@ -52,8 +53,6 @@ Array = NDArray[np.float64]
 SINGULARITY_THRESHOLD = 1e8  # κ(J⁻¹) above which a pose is singular (models.md §1.6)
 
 
-class PlanarFileError(InputError):
-    """A planar machine file is invalid (names file, key, expectation and finding)."""
 
 
 @dataclass(frozen=True)
@@ -113,21 +112,6 @@ def bundled_planar() -> list[str]:
     return sorted(p.stem for p in planar_machine_dir().glob("*.toml"))
 
 
-def _keys(table: Any, allowed: set[str], src: str, prefix: str) -> dict:
-    if not isinstance(table, dict):
-        raise PlanarFileError(src, prefix.rstrip(".") or "(top level)", "a table", table)
-    bad = sorted(set(table) - allowed)
-    if bad:
-        raise PlanarFileError(src, prefix + bad[0], f"one of the keys {sorted(allowed)}", "unknown key")
-    return table
-
-
-def _need(table: dict, key: str, src: str, prefix: str, what: str) -> Any:
-    if key not in table:
-        raise PlanarFileError(src, prefix + key, f"{what} (the key is required)", "missing key")
-    return table[key]
-
-
 def _stiffness(value: Any, src: str, key: str) -> float:
     if isinstance(value, str) and value.strip().lower() == "rigid":
         return np.inf
@@ -153,28 +137,31 @@ def load_planar(name_or_path: str | Path) -> PlanarMachine:
 
 
 def _build(raw: dict, src: str) -> PlanarMachine:
-    _keys(raw, _TOP, src, "")
+    check_keys(raw, _TOP, src, "", error=PlanarFileError)
     if raw.get("format_version", 1) != 1:
         raise PlanarFileError(src, "format_version", "1", raw.get("format_version"))
-    mt = _keys(_need(raw, "machine", src, "", "a [machine] table"), _MACHINE, src, "machine.")
-    kind = _need(mt, "type", src, "machine.", "'glide' or 'pod'")
+    mt = check_keys(require(raw, "machine", src, "", "a [machine] table", error=PlanarFileError), _MACHINE, src,
+                    "machine.", error=PlanarFileError)
+    kind = require(mt, "type", src, "machine.", "'glide' or 'pod'", error=PlanarFileError)
     if kind not in ("glide", "pod"):
         raise PlanarFileError(src, "machine.type", "'glide' or 'pod'", kind)
-    name = str(_need(mt, "name", src, "machine.", "the machine's short name"))
+    name = str(require(mt, "name", src, "machine.", "the machine's short name", error=PlanarFileError))
     gravity = parse_quantity(mt.get("gravity", [0.0, -9.81]), "m/s^2", source=src, key="machine.gravity",
                              shape=(2,))
-    plat = _keys(_need(raw, "platform", src, "", "a [platform] table with the mass"), {"mass"}, src, "platform.")
-    m_p = float(parse_quantity(_need(plat, "mass", src, "platform.", "the platform mass"), "kg", source=src,
+    plat = check_keys(require(raw, "platform", src, "", "a [platform] table with the mass", error=PlanarFileError),
+                      {"mass"}, src, "platform.", error=PlanarFileError)
+    mass = require(plat, "mass", src, "platform.", "the platform mass", error=PlanarFileError)
+    m_p = float(parse_quantity(mass, "kg", source=src,
                                key="platform.mass", positive=True))
     allowed = _COMMON | (_GLIDE if kind == "glide" else _POD)
-    defaults = _keys(raw.get("chain_defaults", {}), allowed, src, "chain_defaults.")
-    chains = _need(raw, "chains", src, "", "two [[chains]] tables")
+    defaults = check_keys(raw.get("chain_defaults", {}), allowed, src, "chain_defaults.", error=PlanarFileError)
+    chains = require(raw, "chains", src, "", "two [[chains]] tables", error=PlanarFileError)
     if not isinstance(chains, list) or len(chains) != 2:
         raise PlanarFileError(src, "chains", "exactly two [[chains]] tables", chains)
     cols: dict[str, list] = {}
     for i, ch in enumerate(chains):
         pre = f"chains[{i + 1}]."
-        t = {**defaults, **_keys(ch, allowed, src, pre)}
+        t = {**defaults, **check_keys(ch, allowed, src, pre, error=PlanarFileError)}
 
         def q(key: str, unit: str, what: str, *, shape: Any = None, positive: bool = False, default: Any = None,
               min_value: float | None = None) -> Any:

@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
-from pkmstiff.structure import PKMStructure
 from pkmstiff.analysis._common import Array, component_energies, load_body, parse_direction, present_components, shares
+from pkmstiff.structure import PKMStructure
 
 
 def tcp_compliance(st: PKMStructure, tool_length: float | ArrayLike | None = None, neglect_spindle: bool = False) -> Array:

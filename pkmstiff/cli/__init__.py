@@ -5,35 +5,17 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import sys
 from typing import Sequence
 
 from pkmstiff import __version__
-from pkmstiff.machine.loader import MachineFileError, UnknownMachineError, bundled_machines, load_machine
-from pkmstiff.units import InputError
+from pkmstiff.errors import CliError, PkmstiffError  # noqa: F401 (CliError re-exported)
 
 # modules that add their own sub-commands with ``add_commands(subparsers)``
-_COMMAND_MODULES = ("pkmstiff.cli.pose", "pkmstiff.cli.point", "pkmstiff.cli.section", "pkmstiff.cli.workspace", "pkmstiff.cli.report", "pkmstiff.cli.sweep",
+_COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.demo", "pkmstiff.cli.pose", "pkmstiff.cli.point",
+                    "pkmstiff.cli.section", "pkmstiff.cli.workspace", "pkmstiff.cli.report", "pkmstiff.cli.sweep",
                     "pkmstiff.cli.fe")
-
-
-class CliError(Exception):
-    """A user error on the command line; printed without traceback, exit code 2."""
-
-
-def _cmd_machines(args: argparse.Namespace) -> int:
-    rows = []
-    for name in bundled_machines():
-        m = load_machine(name)
-        rows.append({"name": name, "type": m.kind, "chains": m.n_chains, "title": m.title,
-                     "assumptions": len(m.assumptions)})
-    if args.json:
-        print(json.dumps(rows, indent=2))
-    else:
-        width = max(len(r["name"]) for r in rows)
-        for r in rows:
-            print(f"{r['name']:<{width}}  {r['type']:<5}  {r['title']}  ({r['assumptions']} assumptions)")
-    return 0
 
 
 def _cmd_components(args: argparse.Namespace) -> int:
@@ -57,11 +39,6 @@ def _cmd_components(args: argparse.Namespace) -> int:
     return 0
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
-    import pkmstiff.report.demo as demo
-    return int(demo.run(args))
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="pkmstiff",
@@ -70,18 +47,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"pkmstiff {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    p = sub.add_parser("machines", help="list the bundled machines, one line each")
-    p.add_argument("--json", action="store_true", help="print JSON")
-    p.set_defaults(func=_cmd_machines)
     p = sub.add_parser("components", help="list the component models (or the parameters of one)")
     p.add_argument("model", nargs="?", help="show the parameters of this model")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=_cmd_components)
-    p = sub.add_parser("demo", help="run the demo on the bundled Hexaglide")
-    p.add_argument("--out", default="out/demo", help="output directory (default out/demo)")
-    p.add_argument("--step", type=float, default=10.0, help="raster step of the YZ maps [mm] (default 10)")
-    p.add_argument("--quiet", action="store_true", help="no progress bars")
-    p.set_defaults(func=_cmd_demo)
     for modname in _COMMAND_MODULES:
         try:
             mod = importlib.import_module(modname)
@@ -93,7 +62,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _headless() -> None:
+    """Choose VTK's EGL window when there is no display (the edge decides the rendering back-end)."""
+    if not os.environ.get("DISPLAY"):
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run ``pkmstiff ARGS``; a toolkit error (:class:`~pkmstiff.errors.PkmstiffError`) prints one line, exit 2."""
+    _headless()
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -101,7 +78,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     try:
         return int(args.func(args) or 0)
-    except (MachineFileError, UnknownMachineError, InputError, CliError) as exc:
+    except PkmstiffError as exc:
         print(f"pkmstiff {args.command}: error: {exc}", file=sys.stderr)
         return 2
 

@@ -123,7 +123,7 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
 def joint_image(jm: Any, tilt_deg: float, path: str | Path) -> Path:
     """PNG of the joint deformed by its parameter-file load at ``tilt_deg``."""
     from pkmstiff.fe.export import field_mesh
-    from pkmstiff.fe.plots import deformed_image
+    from pkmstiff.plots.fe import deformed_image
 
     th = math.radians(tilt_deg)
     sol, u, k = jm.deformed(th)

@@ -14,13 +14,12 @@ from typing import Any
 
 import numpy as np
 
+from pkmstiff.errors import PointArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.machine.loader import bundled_machines, load_machine
 
 WEAK_POINT_DIRECTIONS = ("x", "y", "z")
 
 
-class PointArgumentError(ValueError):
-    pass
 
 
 def _num(x: Any) -> Any:
@@ -115,7 +114,13 @@ def _drive(i: Any) -> int | None:
 
 
 def _planar_report(name: str, xy_mm: list[float]) -> dict:
-    from pkmstiff.analysis.planar import load_planar, planar_kinetostatics, planar_modes, planar_stiffness, planar_structure
+    from pkmstiff.analysis.planar import (
+        load_planar,
+        planar_kinetostatics,
+        planar_modes,
+        planar_stiffness,
+        planar_structure,
+    )
 
     pm = load_planar(name)
     pos = np.array([xy_mm]) * 1e-3

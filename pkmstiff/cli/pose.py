@@ -8,12 +8,9 @@ import math
 
 import numpy as np
 
-from pkmstiff.machine.loader import load_machine
 from pkmstiff.admissibility.pipeline import evaluate_poses
-
-
-class PoseArgumentError(ValueError):
-    pass
+from pkmstiff.errors import PoseArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.machine.loader import load_machine
 
 
 def parse_pose(text: str) -> np.ndarray:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from pkmstiff.report.spec import run_spec
+    from pkmstiff.report.build import run_spec
 
     t0 = time.perf_counter()
 

@@ -4,91 +4,23 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from pathlib import Path
 
-import numpy as np
-
-from pkmstiff.machine.loader import load_machine
+from pkmstiff.errors import SectionArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import UnknownQuantityError, available_quantities, get_quantity
-from pkmstiff.evaluation.sections import SectionError, SectionResult, axis_plane, evaluate_section
+from pkmstiff.evaluation.sections import SectionError, axis_plane, evaluate_section, section_summary
+from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
+from pkmstiff.machine.loader import load_machine
+from pkmstiff.report.outputs import write_section_outputs
 
 FORMATS = ("png", "vtu", "csv", "npz")
 
 
-class SectionArgumentError(ValueError):
-    pass
-
-
-def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
-    """``"y=-600:800,z=-1200:-500"`` (mm) -> {"y": (-0.6, 0.8), "z": (-1.2, -0.5)} in m, for the plane's axes."""
-    out = {}
-    for part in text.split(","):
-        try:
-            axis, rng = part.split("=")
-            lo, hi = (float(v) for v in rng.split(":"))
-        except ValueError:
-            raise SectionArgumentError(f"--range: expected AXIS=LO:HI pairs in mm separated by commas, "
-                                       f"found {part!r}") from None
-        axis = axis.strip().lower()
-        if axis not in plane:
-            raise SectionArgumentError(f"--range: axis {axis!r} is not in the {plane.upper()} plane")
-        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-            raise SectionArgumentError(f"--range {axis}: expected LO < HI (mm), found {lo:g}:{hi:g}")
-        out[axis] = (lo * 1e-3, hi * 1e-3)
-    missing = [a for a in plane if a not in out]
-    if missing:
-        raise SectionArgumentError(f"--range: missing the range of {', '.join(missing)} for the {plane.upper()} plane")
-    return out
-
-
-def parse_triple_deg(text: str, what: str) -> np.ndarray:
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        vals = []
-    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
-        raise SectionArgumentError(f"{what}: expected three numbers a,b,c in degrees, found {text!r}")
-    return np.deg2rad(vals)
-
-
-def write_outputs(res: SectionResult, out: Path, formats, stem: str) -> list[Path]:
-    """PNG per quantity plus VTU/CSV/NPZ of all quantities and a statistics JSON."""
-    from pkmstiff.evaluation.export import to_csv, to_npz, to_vtk
-
-    paths = []
-    out.mkdir(parents=True, exist_ok=True)
-    if "png" in formats:
-        from pkmstiff.plots.section_maps import plot_section
-
-        paths += [plot_section(res, n, out / f"{stem}_{n}.png") for n in res.values]
-    if "vtu" in formats:
-        paths.append(to_vtk(res, out / f"{stem}.vtu"))
-    if "csv" in formats:
-        paths.append(to_csv(res, out / f"{stem}.csv"))
-    if "npz" in formats:
-        paths.append(to_npz(res, out / f"{stem}.npz"))
-    stats = out / f"{stem}_statistics.json"
-    stats.write_text(json.dumps(summary(res), indent=2))
-    paths.append(stats)
-    return paths
-
-
-def summary(res: SectionResult, seconds: float | None = None) -> dict:
-    d = {"machine": res.machine, "plane": res.plane.name, "points": int(res.ok.size),
-         "admissible_points": int(res.ok.sum()),
-         "admissible_area_m2": float(res.ok.sum()) * res.plane.cell_area,
-         "orientation_deg": np.rad2deg(res.orientation).tolist(),
-         "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
-         "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v}}
-    if seconds is not None:
-        d["run_time_s"] = seconds
-    return d
 
 
 def _cmd_section(args: argparse.Namespace) -> int:
-    from pkmstiff.cli import CliError
+    from pkmstiff.errors import CliError
 
     try:
         ranges = parse_ranges(args.range, args.plane.lower())
@@ -113,9 +45,9 @@ def _cmd_section(args: argparse.Namespace) -> int:
                            n_jobs=args.jobs, progress=False if args.quiet else None)
     seconds = time.perf_counter() - t0
     stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
-    paths = write_outputs(res, Path(args.out), formats, stem) if args.out else []
+    paths = write_section_outputs(res, Path(args.out), formats, stem) if args.out else []
     if args.json:
-        print(json.dumps(summary(res, seconds), indent=2))
+        print(json.dumps(section_summary(res, seconds), indent=2))
         return 0
     print(f"{res.machine}: {res.plane.name}, {res.ok.sum()} of {res.ok.size} points admissible "
           f"({float(res.ok.sum()) * plane.cell_area:.4g} m²), {seconds:.2f} s")

@@ -8,7 +8,7 @@ from pathlib import Path
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from pkmstiff.cli import CliError
+    from pkmstiff.errors import CliError
     from pkmstiff.evaluation.sweep import SweepError, run_sweep
     from pkmstiff.report.sweep_file import load_sweep
 

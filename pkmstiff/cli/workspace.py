@@ -23,7 +23,7 @@ PLANES = {  # name -> (u axis, v axis, normal axis)
 
 
 def _cli_error(msg: str) -> Exception:
-    from pkmstiff.cli import CliError
+    from pkmstiff.errors import CliError
 
     return CliError(msg)
 
@@ -90,7 +90,8 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.workspace.octree import OctreeInputError
     from pkmstiff.workspace.oracle import OracleInputError
-    from pkmstiff.workspace.translational import constant_orientation_workspace
+    from pkmstiff.workspace.requests import WorkspaceRequest
+    from pkmstiff.workspace.translational import DEFAULT_METHODS
 
     machine = load_machine(args.machine)
     eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
@@ -109,10 +110,11 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         rng = (parts[0], math.radians(lo), math.radians(hi))
     progress = _Progress(not args.quiet, "octree")
     try:
-        res = constant_orientation_workspace(
-            machine, eps, ori, requirements=_requirements(args), box=box, orientation_range=rng,
-            range_step=math.radians(_positive(args.range_step, "--range-step", "deg")), range_mode=args.range_mode,
-            refine_steps=args.refine, min_level=args.min_level, progress=progress)
+        req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS)
+        res = req.evaluate(machine, orientation_range=rng,
+                           range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
+                           range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level,
+                           progress=progress)
     except (OctreeInputError, OracleInputError, ValueError) as exc:
         if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
             raise _cli_error(str(exc)) from None
@@ -158,7 +160,7 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
         files["surface STL (mm)"] = str(res.surface.save(out / "workspace_surface.stl", scale=1e3))
         files["surface VTK (mm)"] = str(res.surface.save(out / "workspace_surface.vtp", scale=1e3))
     if plot:
-        from pkmstiff.workspace.plots import plot_workspace
+        from pkmstiff.plots.workspace import plot_workspace
 
         files["figure"] = str(plot_workspace(res, machine, out / "workspace.png"))
     s = res.summary()
@@ -177,8 +179,8 @@ def _raster(lo: float, hi: float, step: float) -> np.ndarray:
 
 
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
-    from pkmstiff.workspace.rotation import (DIRECTIONS, RotationMapError, rotation_angle_map,
-                                     rotational_workspace_map)
+    from pkmstiff.workspace.requests import RotationMapRequest
+    from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
 
     machine = load_machine(args.machine)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
@@ -218,8 +220,9 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             step = _positive(args.step, "--step", "mm")
             u = _raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
             v = _raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
-            res = rotation_angle_map(machine, origin, ua, va, u, v, ori, dirs, inc, amax,
-                                     requirements=_requirements(args), method=method, verify=args.verify)
+            req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
+                                     inc, amax, tuple(_requirements(args)), method)
+            res = req.evaluate(machine, verify=args.verify)
             labels = (f"{args.plane[0]} [mm]", f"{args.plane[1]} [mm]")
             scale = (1e3, 1e3)
             title = f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at {args.at:g} mm"
@@ -237,7 +240,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels)
             files[f"map {d} (deg)"] = str(p)
         if not args.no_plot:
-            from pkmstiff.workspace.plots import PlotDependencyError, plot_rotation_maps
+            from pkmstiff.plots.workspace import PlotDependencyError, plot_rotation_maps
 
             try:
                 files["figure"] = str(plot_rotation_maps(res, out / "rotation_map.png", labels, scale, title))

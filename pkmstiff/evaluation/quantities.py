@@ -14,8 +14,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from pkmstiff.machine.model import Machine
 from pkmstiff.admissibility.pipeline import PoseEvaluation
+from pkmstiff.errors import UnknownQuantityError  # noqa: F401 (re-exported)
+from pkmstiff.machine.model import Machine
 from pkmstiff.units import to_unit
 
 
@@ -70,8 +71,6 @@ def register_family(pattern: str, factory: Callable[[re.Match], Quantity], examp
     _FAMILIES.append((re.compile(pattern + r"\Z"), factory, example))
 
 
-class UnknownQuantityError(ValueError):
-    pass
 
 
 def get_quantity(name: str) -> Quantity:

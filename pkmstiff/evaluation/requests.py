@@ -1,216 +1,94 @@
-"""Ready-made sweep evaluations: functions of a machine returning named numbers (names carry their units).
+"""One evaluation-request model: what to evaluate on a machine, in SI units, and one statistics function.
 
-All are frozen dataclasses (picklable, so they run in local processes and on Dask workers). Lengths in mm and angles
-in degrees in their settings, as on the command line:
+A request is a frozen (picklable) dataclass with ``evaluate(machine)``. The command line, report specs, sweeps and
+studies are thin front-ends that build requests from their own units (mm, degrees) and format the results:
 
-* :class:`SectionStatistics` — statistics of quantities on a section plane, e.g. ``"kx mean [N/um]"``;
-* :class:`PointValues` — quantities at one pose, e.g. ``"f1 [Hz]"`` (an inadmissible pose is an error naming why);
-* :class:`WorkspaceVolume` — constant-orientation workspace volume, ``"volume [m^3]"``;
-* :class:`Combined` — several of these merged into one row.
+* :class:`SectionRequest` — quantities on a section plane, masked by admissibility (:class:`SectionResult`);
+* :class:`PointRequest` — quantities at one pose (:class:`PointResult`, with the failing checks if inadmissible);
+* :class:`pkmstiff.workspace.requests.WorkspaceRequest` and ``RotationMapRequest`` — the workspace layer's.
+
+:func:`statistic` is the one place that turns a section's per-quantity statistics into a named number.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Sequence
 
 import numpy as np
 
+from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
+from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section
 from pkmstiff.machine.model import Machine
-from pkmstiff.evaluation.sweep import SweepError
 
-__all__ = ["SectionStatistics", "PointValues", "WorkspaceVolume", "Combined", "InadmissiblePoseError"]
-
-SECTION_STATISTICS = ("min", "mean", "max", "area", "count")
-
-
-class InadmissiblePoseError(ValueError):
-    """The pose of a :class:`PointValues` evaluation is not admissible for this machine variant."""
+#: statistics of a section quantity -> (label, unit override or None = the quantity's display unit)
+STATISTICS = {"min": ("min", None), "mean": ("mean", None), "max": ("max", None),
+              "area": ("admissible area", "m^2"), "count": ("admissible points", "1")}
 
 
-def _check_quantities(names: Sequence[str], where: str) -> tuple[str, ...]:
-    from pkmstiff.evaluation.quantities import UnknownQuantityError, get_quantity
+def statistic(stats: dict[str, float], name: str) -> float:
+    """The statistic ``name`` (one of :data:`STATISTICS`) from one entry of :meth:`SectionResult.statistics`.
 
-    names = tuple(names)
-    if not names or not all(isinstance(n, str) for n in names):
-        raise SweepError(f"{where}: expected a non-empty list of quantity names, found {names!r}")
-    for n in names:
-        try:
-            get_quantity(n)
-        except UnknownQuantityError as exc:
-            raise SweepError(f"{where}: {exc}") from None
-    return names
-
-
-def _orientation(values: Sequence[float], where: str) -> tuple[float, float, float]:
-    v = tuple(float(x) for x in values)
-    if len(v) != 3 or not all(math.isfinite(x) for x in v):
-        raise SweepError(f"{where}: expected three angles a, b, c in deg, found {values!r}")
-    return v  # type: ignore[return-value]
+    ``area`` is the admissible area [m²], ``count`` the number of admissible points with a finite value; min, mean
+    and max are in the quantity's display unit and NaN when there is no admissible point.
+    """
+    if name == "area":
+        return stats["admissible_area_m2"]
+    if name == "count":
+        return float(stats["count"])
+    return stats[name]
 
 
 @dataclass(frozen=True)
-class SectionStatistics:
-    """Statistics of ``quantities`` over the admissible points of a section plane (as ``pkmstiff section``).
+class SectionRequest:
+    """Quantities on an axis-parallel section plane (``plane`` "yz", "xz" or "xy" at ``at`` along its normal)."""
 
-    Outputs ``"<q> <stat> [<unit>]"`` for stat in min, mean, max (display unit), area (admissible area, m^2),
-    count (admissible points). A statistic without any admissible point is NaN and ``"<q> count [1]"`` says so.
-    """
-
+    plane: str
+    at: float  # m
+    u_range: tuple[float, float]  # m, first in-plane axis
+    v_range: tuple[float, float]  # m, second in-plane axis
+    step: float  # m
     quantities: tuple[str, ...]
-    plane: str = "yz"
-    at_mm: float = 0.0
-    range: str = "y=-600:800,z=-1200:-500"
-    step_mm: float = 20.0
-    statistics: tuple[str, ...] = ("mean", "max")
-    tool_length_mm: float | None = None
-    orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
+    tool_length: float | None = None  # m; None = the machine file's
 
-    def __post_init__(self) -> None:
-        from pkmstiff.cli.section import SectionArgumentError, parse_ranges
-
-        object.__setattr__(self, "quantities", _check_quantities(self.quantities, "SectionStatistics.quantities"))
-        object.__setattr__(self, "plane", str(self.plane).lower())
-        if self.plane not in ("yz", "xz", "xy"):
-            raise SweepError(f"SectionStatistics.plane: expected 'yz', 'xz' or 'xy', found {self.plane!r}")
-        try:
-            parse_ranges(self.range, self.plane)
-        except SectionArgumentError as exc:
-            raise SweepError(f"SectionStatistics.range: {exc}") from None
-        if not (isinstance(self.step_mm, (int, float)) and self.step_mm > 0):
-            raise SweepError(f"SectionStatistics.step_mm: expected a positive step in mm, found {self.step_mm!r}")
-        stats = tuple(self.statistics)
-        bad = [s for s in stats if s not in SECTION_STATISTICS]
-        if bad or not stats:
-            raise SweepError(f"SectionStatistics.statistics: expected a list of {list(SECTION_STATISTICS)}, "
-                             f"found {list(stats)!r}")
-        object.__setattr__(self, "statistics", stats)
-        object.__setattr__(self, "orientation_deg", _orientation(self.orientation_deg,
-                                                                 "SectionStatistics.orientation_deg"))
-
-    def __call__(self, machine: Machine) -> dict[str, float]:
-        from pkmstiff.cli.section import parse_ranges
-        from pkmstiff.evaluation.sections import axis_plane, evaluate_section
-
-        r = parse_ranges(self.range, self.plane)
-        plane = axis_plane(self.plane, self.at_mm * 1e-3, r[self.plane[0]], r[self.plane[1]], self.step_mm * 1e-3)
-        res = evaluate_section(machine, plane, self.quantities, orientation=np.radians(self.orientation_deg),
-                               tool_length=None if self.tool_length_mm is None else self.tool_length_mm * 1e-3,
-                               n_jobs=1, progress=False)
-        out: dict[str, float] = {}
-        for q, st in res.statistics().items():
-            for s in self.statistics:
-                if s == "area":
-                    out[f"{q} area [m^2]"] = st["admissible_area_m2"]
-                elif s == "count":
-                    out[f"{q} count [1]"] = float(st["count"])
-                else:
-                    out[f"{q} {s} [{st['unit']}]"] = st[s]
-        return out
+    def evaluate(self, machine: Machine, *, n_jobs: int = 1, progress: bool | None = False) -> SectionResult:
+        plane = axis_plane(self.plane, self.at, self.u_range, self.v_range, self.step)
+        return evaluate_section(machine, plane, self.quantities, orientation=self.orientation,
+                                tool_length=self.tool_length, n_jobs=n_jobs, progress=progress)
 
 
 @dataclass(frozen=True)
-class PointValues:
-    """Quantities at one pose ``(x, y, z [mm], a, b, c [deg])``: outputs ``"<q> [<unit>]"``.
+class PointResult:
+    """Quantities at one pose in display units (empty if inadmissible) and the failing checks."""
 
-    An inadmissible pose raises :class:`InadmissiblePoseError` with the failing checks (recorded as the task's
-    error); ``suffix`` is appended to the output names (e.g. ``" @z-1000"``) to combine several points.
-    """
+    values: dict[str, float]
+    failing: list[str]
 
-    pose: tuple[float, float, float, float, float, float]
+    @property
+    def admissible(self) -> bool:
+        return not self.failing
+
+
+@dataclass(frozen=True)
+class PointRequest:
+    """Quantities at one pose (x, y, z [m], a, b, c [rad])."""
+
+    pose: tuple[float, ...]
     quantities: tuple[str, ...]
-    tool_length_mm: float | None = None
-    suffix: str = ""
+    tool_length: float | None = None  # m; None = the machine file's
 
-    def __post_init__(self) -> None:
-        p = tuple(float(x) for x in self.pose)
-        if len(p) != 6 or not all(math.isfinite(x) for x in p):
-            raise SweepError(f"PointValues.pose: expected x, y, z [mm], a, b, c [deg], found {self.pose!r}")
-        object.__setattr__(self, "pose", p)
-        object.__setattr__(self, "quantities", _check_quantities(self.quantities, "PointValues.quantities"))
-
-    def __call__(self, machine: Machine) -> dict[str, float]:
-        from pkmstiff.admissibility.pipeline import evaluate_poses
-        from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
-
-        pose = np.array([[*(v * 1e-3 for v in self.pose[:3]), *np.radians(self.pose[3:])]])
-        ev = evaluate_poses(machine, pose)
+    def evaluate(self, machine: Machine) -> PointResult:
+        ev = evaluate_poses(machine, np.asarray(self.pose, float)[None, :])
         if not ev.ok[0]:
-            raise InadmissiblePoseError(f"pose {list(self.pose)} (mm, deg) is inadmissible for {machine.name}: "
-                                        + "; ".join(ev.admissibility.failing(0)))
-        tl = None if self.tool_length_mm is None else self.tool_length_mm * 1e-3
-        vals = evaluate_quantities(EvalContext(machine, ev, tl, {}), list(self.quantities))
-        return {f"{q} [{get_quantity(q).unit}]{self.suffix}": float(get_quantity(q).to_display(vals[q])[0])
-                for q in self.quantities}
+            return PointResult({}, ev.admissibility.failing(0))
+        vals = evaluate_quantities(EvalContext(machine, ev, self.tool_length, {}), list(self.quantities))
+        return PointResult({n: float(get_quantity(n).to_display(vals[n])[0]) for n in self.quantities}, [])
 
 
-@dataclass(frozen=True)
-class WorkspaceVolume:
-    """Constant-orientation workspace volume (octree, spec §7.3): output ``"volume [m^3]"`` (+ ``"touches box"``).
-
-    ``box_mm`` = (xmin, xmax, ymin, ymax, zmin, zmax) or None (the chains' reach box); ``requirements`` as in
-    ``pkmstiff workspace --require``; ``method`` one of :data:`pkmstiff.workspace.volume.METHODS`.
-    """
-
-    resolution_mm: float
-    box_mm: tuple[float, ...] | None = None
-    requirements: tuple[str, ...] = ()
-    orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    method: str = "surface_nets"
-
-    def __post_init__(self) -> None:
-        from pkmstiff.workspace.requirements import RequirementError, parse_requirements
-        from pkmstiff.workspace.volume import METHODS
-
-        if not (isinstance(self.resolution_mm, (int, float)) and self.resolution_mm > 0):
-            raise SweepError(f"WorkspaceVolume.resolution_mm: expected a positive length in mm, "
-                             f"found {self.resolution_mm!r}")
-        if self.box_mm is not None:
-            b = tuple(float(v) for v in self.box_mm)
-            if len(b) != 6 or not all(hi > lo for lo, hi in zip(b[0::2], b[1::2])):
-                raise SweepError(f"WorkspaceVolume.box_mm: expected xmin, xmax, ymin, ymax, zmin, zmax (mm) with "
-                                 f"min < max, found {self.box_mm!r}")
-            object.__setattr__(self, "box_mm", b)
-        if self.method not in METHODS:
-            raise SweepError(f"WorkspaceVolume.method: expected one of {list(METHODS)}, found {self.method!r}")
-        object.__setattr__(self, "requirements", tuple(self.requirements))
-        try:
-            parse_requirements(self.requirements)
-        except RequirementError as exc:
-            raise SweepError(f"WorkspaceVolume.requirements: {exc}") from None
-        object.__setattr__(self, "orientation_deg", _orientation(self.orientation_deg,
-                                                                 "WorkspaceVolume.orientation_deg"))
-
-    def __call__(self, machine: Machine) -> dict[str, float]:
-        from pkmstiff.workspace.translational import constant_orientation_workspace
-
-        box = None
-        if self.box_mm is not None:
-            b = np.array(self.box_mm) * 1e-3
-            box = (b[0::2], b[1::2])
-        res = constant_orientation_workspace(machine, self.resolution_mm * 1e-3, np.radians(self.orientation_deg),
-                                             requirements=self.requirements, box=box, methods=(self.method,))
-        return {"volume [m^3]": float(res.volumes[self.method]), "touches box [1]": float(res.octree.touches_box)}
-
-
-@dataclass(frozen=True)
-class Combined:
-    """Several evaluations of the same machine merged into one output dict (later names must not repeat)."""
-
-    parts: tuple[Callable[[Machine], Mapping[str, Any]], ...]
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "parts", tuple(self.parts))
-        if not self.parts or not all(callable(p) for p in self.parts):
-            raise SweepError(f"Combined.parts: expected at least one evaluation, found {self.parts!r}")
-
-    def __call__(self, machine: Machine) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for p in self.parts:
-            d = p(machine)
-            clash = sorted(set(d) & set(out))
-            if clash:
-                raise SweepError(f"Combined: output {clash[0]!r} is produced twice; give PointValues a suffix")
-            out.update(d)
-        return out
+def check_quantity_names(names: Sequence[str]) -> tuple[str, ...]:
+    """The names as a tuple if every one is a registered quantity; else the registry's error."""
+    for n in names:
+        get_quantity(n)
+    return tuple(names)

@@ -16,15 +16,14 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
-from pkmstiff.machine.model import Machine
 from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
+from pkmstiff.machine.model import Machine
 
 AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
 
 
-class SectionError(ValueError):
-    pass
 
 
 @dataclass(frozen=True)
@@ -252,3 +251,16 @@ def three_planes(centre: Iterable[float], half_extent: Iterable[float], step: fl
 def evaluate_three_planes(machine: Machine, planes: list[Plane], quantities: Sequence[str], **kw) -> list[SectionResult]:
     """A three-plane set (Cobet chapter 2): the same quantities on each plane."""
     return [evaluate_section(machine, p, quantities, **kw) for p in planes]
+
+
+def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
+    """Plane, admissible points and area, orientation, tool length, statistics and reasons (JSON-ready, units in keys)."""
+    d = {"machine": res.machine, "plane": res.plane.name, "points": int(res.ok.size),
+         "admissible_points": int(res.ok.sum()),
+         "admissible_area_m2": float(res.ok.sum()) * res.plane.cell_area,
+         "orientation_deg": np.rad2deg(res.orientation).tolist(),
+         "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
+         "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v}}
+    if seconds is not None:
+        d["run_time_s"] = seconds
+    return d

@@ -4,14 +4,14 @@ A sweep is a base machine (bundled name with ``:options`` or a path), parameters
 machine file's raw tables (``components.strut_950.k``, ``chains[3].platform_joint``,
 ``joint_types.iwf_3dof.tilt_min``; see :mod:`pkmstiff.machine.variants`) with a list of values (grid: Cartesian
 product) or a distribution (random: ``n_samples`` draws from a seeded generator) — and an evaluation: a function
-of the modified machine returning named numbers (ready-made ones in :mod:`pkmstiff.evaluation.requests`).
+of the modified machine returning named numbers (ready-made ones in :mod:`pkmstiff.report.sweep_evaluations`).
 
 Every task is the pure function :func:`run_task` of a picklable :class:`SweepTask`; a failing task records its
 error message in its row and never stops the sweep. Serial, local-parallel (joblib/loky processes) and Dask
 (``dask.distributed.Client(address)``) execution give identical rows in task order.
 
     from pkmstiff.evaluation.sweep import Parameter, Sweep, run_sweep
-    from pkmstiff.evaluation.requests import SectionStatistics
+    from pkmstiff.report.sweep_evaluations import SectionStatistics
     sweep = Sweep("hexaglide", [Parameter("components.strut_950.k", values=(200, 344, 500), unit="N/um")],
                   SectionStatistics(("kx",), range="y=-200:800,z=-1100:-500", step_mm=25))
     result = run_sweep(sweep, n_jobs=2)                 # or scheduler="tcp://10.0.0.5:8786"
@@ -30,14 +30,13 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from pkmstiff.errors import SweepError  # noqa: F401 (re-exported)
 from pkmstiff.machine.model import Machine
 
 __all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
            "SweepResult", "grid_points", "random_points", "run_task", "run_sweep"]
 
 
-class SweepError(ValueError):
-    """An invalid sweep definition (names the parameter or setting, what was expected and what was found)."""
 
 
 # ----------------------------------------------------------------------------------------------------- distributions

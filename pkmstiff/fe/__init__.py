@@ -14,8 +14,14 @@ SI units inside (m, Pa, N, N/m, rad); mm, degrees and N/µm only at the file/CLI
 
 from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Tie
 from pkmstiff.fe.coupling import compliance_along, guyan, rbe2_rows, stiffness_along
-from pkmstiff.fe.joints import (DEFAULT_ANGLES_DEG, JointParameters, SweepResult, build_joint_model, load_joint_parameters,
-                     sweep)
+from pkmstiff.fe.joints import (
+                     DEFAULT_ANGLES_DEG,
+                     JointParameters,
+                     SweepResult,
+                     build_joint_model,
+                     load_joint_parameters,
+                     sweep,
+)
 from pkmstiff.fe.materials import CubicCylindrical, Isotropic
 from pkmstiff.fe.platform import PlatformParameters, load_platform_parameters, platform_stiffness
 

@@ -21,9 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-
-class ConstraintError(ValueError):
-    """Inconsistent constraints (cyclic ties, singular reduced system); the message names the cause."""
+from pkmstiff.errors import ConstraintError  # noqa: F401 (re-exported)
 
 
 def rbe2_rows(slave_points: np.ndarray, ref_point: np.ndarray) -> np.ndarray:

@@ -18,7 +18,6 @@ import meshio
 import numpy as np
 
 from components.joint_tables import write_joint_table
-
 from pkmstiff.fe.assembly import PartModel, Solution
 from pkmstiff.fe.joints import SweepResult, element_label, tie_tolerance
 

@@ -35,14 +35,13 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from pkmstiff.units import InputError
-
 from pkmstiff.fe import mesh as fm
 from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Solution, Tie
 from pkmstiff.fe.coupling import stiffness_along
 from pkmstiff.fe.elasticity import ELEMENTS, element_type_label
 from pkmstiff.fe.materials import CubicCylindrical, Material
 from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section
+from pkmstiff.units import InputError
 
 KINDS = ("2dof", "3dof")
 DEFAULT_ANGLES_DEG = tuple(range(0, 91, 15))

@@ -18,9 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-
-class MaterialError(ValueError):
-    """Invalid material constants (names the material, the constant, the expectation and the value)."""
+from pkmstiff.errors import MaterialError  # noqa: F401 (re-exported)
 
 
 @dataclass(frozen=True)

@@ -19,6 +19,8 @@ from typing import Literal, Sequence
 import numpy as np
 from skfem import MeshHex
 
+from pkmstiff.errors import MeshGeometryError  # noqa: F401 (re-exported)
+
 Axis = Literal["x", "y", "z"]
 
 # global = _PERM[axis] @ local: the primitive is built along local z; cyclic permutations keep the
@@ -31,8 +33,6 @@ _PERM: dict[str, np.ndarray] = {
 _AXIS_INDEX = {"x": 0, "y": 1, "z": 2}
 
 
-class MeshGeometryError(ValueError):
-    """A primitive was asked for an impossible geometry (names the primitive, expectation and finding)."""
 
 
 @dataclass(frozen=True)

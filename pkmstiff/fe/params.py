@@ -9,10 +9,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
-from pkmstiff.io import read_toml
-from pkmstiff.units import InputError, parse_quantity
-
 from pkmstiff.fe.materials import CubicCylindrical, Isotropic, Material, MaterialError
+from pkmstiff.io import check_keys, read_toml
+from pkmstiff.units import InputError, parse_quantity
 
 # schema: section -> key -> unit ("m", "Pa", "N", ... positive; "m0" non-negative; "m~" any sign; "str" text,
 # "int" count, "-" dimensionless)
@@ -30,9 +29,7 @@ def read_section(raw: Mapping[str, Any], section: str, spec: Mapping[str, str], 
     tab = raw.get(section)
     if not isinstance(tab, dict):
         raise InputError(source, section, f"a [{section}] table with keys {', '.join(spec)}", tab)
-    unknown = sorted(set(tab) - set(spec))
-    if unknown:
-        raise InputError(source, f"{section}.{unknown[0]}", f"one of the keys {', '.join(spec)}", unknown[0])
+    check_keys(tab, spec, source, f"{section}.")
     out: dict[str, Any] = {}
     for key, unit in spec.items():
         full = f"{section}.{key}"

@@ -19,13 +19,12 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.units import InputError, parse_quantity
-
 from pkmstiff.fe import mesh as fm
 from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Solution, Tie
 from pkmstiff.fe.elasticity import ELEMENTS, element_type_label
 from pkmstiff.fe.materials import Isotropic, Material
 from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section
+from pkmstiff.units import InputError, parse_quantity
 
 SUPPORTS = ("pinned", "clamped")
 SCHEMA: dict[str, dict[str, str]] = {

@@ -17,7 +17,7 @@ def check_keys(table: Any, allowed: Iterable[str], source: str, prefix: str = ""
     offending key as ``prefix + key`` (``prefix`` ends with a dot, e.g. ``"chains[2]."``)."""
     allowed = set(allowed)
     if not isinstance(table, dict):
-        raise error(source, prefix.rstrip(".") or "(file)", "a table", table)
+        raise error(source, prefix.rstrip(".") or "(top level)", "a table", table)
     unknown = sorted(set(table) - allowed)
     if unknown:
         raise error(source, f"{prefix}{unknown[0]}", f"one of the keys {sorted(allowed)}", "unknown key")
@@ -28,5 +28,5 @@ def require(table: dict[str, Any], key: str, source: str, prefix: str = "", what
             error: type[InputError] = InputError) -> Any:
     """Return ``table[key]``; a missing key raises ``error`` naming ``prefix + key`` and ``what`` was expected."""
     if key not in table:
-        raise error(source, f"{prefix}{key}", what, "missing key")
+        raise error(source, f"{prefix}{key}", f"{what} (the key is required)", "missing key")
     return table[key]

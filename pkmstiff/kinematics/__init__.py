@@ -5,10 +5,30 @@ Poses are arrays of shape ``(N, 6)``: x, y, z [m] (O' in the MKS) and Cardan ang
 (:mod:`pkmstiff.kinematics.rotation`). Results are pose-first, e.g. ``IK.p`` has shape ``(N, n, 3)``.
 """
 
-from pkmstiff.kinematics.arrays import DEFAULT_CHUNK, KinematicsInputError, POSE_COLUMNS, POSE_UNITS, as_poses, chunk_slices
+from pkmstiff.kinematics.arrays import (
+    DEFAULT_CHUNK,
+    POSE_COLUMNS,
+    POSE_UNITS,
+    KinematicsInputError,
+    as_poses,
+    chunk_slices,
+)
+from pkmstiff.kinematics.conditioning import (
+    condition_bounds,
+    condition_number,
+    is_singular,
+    jacobian_and_condition,
+    jacobian_and_singular,
+    kinematic_jacobian,
+    singular_mask,
+    transmission_quality,
+)
+from pkmstiff.kinematics.forward import FK_STATUS, FKResult, forward_kinematics
 from pkmstiff.kinematics.inverse import IK, inverse_kinematics, inverse_kinematics_frames
 from pkmstiff.kinematics.jacobians import cardan_inverse_jacobian, inverse_jacobian, relative_inverse_jacobian
-from pkmstiff.kinematics.conditioning import condition_bounds, condition_number, is_singular, jacobian_and_condition, jacobian_and_singular, kinematic_jacobian, singular_mask, transmission_quality
-from pkmstiff.kinematics.forward import FKResult, FK_STATUS, forward_kinematics
 
-__all__ = ["DEFAULT_CHUNK", "FKResult", "FK_STATUS", "IK", "KinematicsInputError", "POSE_COLUMNS", "POSE_UNITS", "as_poses", "cardan_inverse_jacobian", "chunk_slices", "condition_bounds", "condition_number", "forward_kinematics", "inverse_jacobian", "inverse_kinematics", "inverse_kinematics_frames", "is_singular", "jacobian_and_condition", "jacobian_and_singular", "kinematic_jacobian", "relative_inverse_jacobian", "singular_mask", "transmission_quality"]
+__all__ = ["DEFAULT_CHUNK", "FKResult", "FK_STATUS", "IK", "KinematicsInputError", "POSE_COLUMNS", "POSE_UNITS",
+           "as_poses", "cardan_inverse_jacobian", "chunk_slices", "condition_bounds", "condition_number",
+           "forward_kinematics", "inverse_jacobian", "inverse_kinematics", "inverse_kinematics_frames",
+           "is_singular", "jacobian_and_condition", "jacobian_and_singular", "kinematic_jacobian",
+           "relative_inverse_jacobian", "singular_mask", "transmission_quality"]

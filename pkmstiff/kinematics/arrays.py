@@ -12,6 +12,8 @@ from typing import Iterator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pkmstiff.errors import KinematicsInputError  # noqa: F401 (re-exported)
+
 Array = NDArray[np.float64]
 
 
@@ -26,8 +28,6 @@ POSE_UNITS = ("m", "m", "m", "rad", "rad", "rad")
 DEFAULT_CHUNK = 4096
 
 
-class KinematicsInputError(ValueError):
-    """Invalid argument of a kinematics function; the message names the argument, expectation and finding."""
 
 
 def as_poses(poses: ArrayLike, name: str = "poses") -> Array:

@@ -11,12 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.kinematics.kernels as _kernels
-from pkmstiff.kinematics.arrays import (
-    DEFAULT_CHUNK,
-    Array,
-    KinematicsInputError,
-    chunk_slices,
-)
+from pkmstiff.kinematics.arrays import DEFAULT_CHUNK, Array, KinematicsInputError, chunk_slices
 from pkmstiff.machine.model import Machine
 
 

@@ -1,4 +1,5 @@
-"""Inverse Jacobian J_C^-1 in twist form and its Cardan-rate and relative variants (docs/theory/kinematics.md, Cobet §1.4).
+"""Inverse Jacobian J_C^-1 in twist form and its Cardan-rate and relative variants
+(docs/theory/kinematics.md, Cobet §1.4).
 """
 
 from __future__ import annotations
@@ -7,9 +8,7 @@ import numpy as np
 
 from pkmstiff.kinematics.arrays import Array, _cross_soa, _to_soa, _vec_soa
 from pkmstiff.kinematics.inverse import IK
-from pkmstiff.kinematics.rotation import (
-    cardan_rate_matrix,
-)
+from pkmstiff.kinematics.rotation import cardan_rate_matrix
 from pkmstiff.machine.model import Machine
 
 

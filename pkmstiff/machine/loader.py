@@ -18,18 +18,10 @@ from typing import Any, Iterable
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from pkmstiff.errors import MachineFileError, UnknownMachineError  # noqa: F401 (re-exported)
+from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
-from pkmstiff.io import read_toml
 from pkmstiff.units import InputError, parse_quantity
-
-
-class MachineFileError(InputError):
-    """A machine file is invalid (names file, key, what was expected and what was found)."""
-
-
-class UnknownMachineError(ValueError):
-    """No bundled machine of that name and no file at that path."""
-
 
 _TOP_KEYS = {"format_version", "machine", "limits", "tool", "joint_types", "guides", "chain_defaults", "chains",
              "hull", "components", "machine_components", "assumptions", "options"}
@@ -149,21 +141,6 @@ def load_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> Machi
 # building and validation
 
 
-def _req(table: dict, key: str, src: str, prefix: str, what: str) -> Any:
-    if key not in table:
-        raise MachineFileError(src, f"{prefix}{key}", f"{what} (the key is required)", "missing key")
-    return table[key]
-
-
-def _check_keys(table: Any, allowed: set[str], src: str, prefix: str) -> dict:
-    if not isinstance(table, dict):
-        raise MachineFileError(src, prefix.rstrip(".") or "(top level)", "a table", table)
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise MachineFileError(src, f"{prefix}{unknown[0]}", f"one of the keys {sorted(allowed)}", "unknown key")
-    return table
-
-
 def _vec(value: Any, src: str, key: str, unit: str = "m") -> np.ndarray:
     return np.asarray(parse_quantity(value, unit, source=src, key=key, shape=(3,)), dtype=float)
 
@@ -185,10 +162,11 @@ def _length(value: Any, src: str, key: str, *, positive: bool = True) -> float:
 
 
 def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
-    _check_keys(raw, _TOP_KEYS, src, "")
-    mtab = _check_keys(_req(raw, "machine", src, "", "a [machine] table"), _MACHINE_KEYS, src, "machine.")
-    name = str(_req(mtab, "name", src, "machine.", "the machine's short name"))
-    kind = _req(mtab, "type", src, "machine.", "'pod' or 'glide'")
+    check_keys(raw, _TOP_KEYS, src, "", error=MachineFileError)
+    mtab = check_keys(require(raw, "machine", src, "", "a [machine] table", error=MachineFileError), _MACHINE_KEYS, src,
+                      "machine.", error=MachineFileError)
+    name = str(require(mtab, "name", src, "machine.", "the machine's short name", error=MachineFileError))
+    kind = require(mtab, "type", src, "machine.", "'pod' or 'glide'", error=MachineFileError)
     if kind not in ("pod", "glide"):
         raise MachineFileError(src, "machine.type", "'pod' or 'glide'", kind)
     gravity = _vec(mtab.get("gravity", [0.0, 0.0, -9.81]), src, "machine.gravity", "m/s^2")
@@ -199,7 +177,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     tool = _tool(raw.get("tool", {}), src)
     components = _components(raw.get("components", {}), src)
     joint_types = _joint_types(raw.get("joint_types", {}), src, components)
-    chain_tables = _req(raw, "chains", src, "", "an array of [[chains]] tables")
+    chain_tables = require(raw, "chains", src, "", "an array of [[chains]] tables", error=MachineFileError)
     if not isinstance(chain_tables, list) or len(chain_tables) < 2:
         raise MachineFileError(src, "chains", "an array of at least 2 [[chains]] tables", chain_tables)
     defaults = raw.get("chain_defaults", {})
@@ -229,7 +207,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
 
 
 def _limits(tab: Any, src: str) -> Limits:
-    _check_keys(tab, _LIMIT_KEYS, src, "limits.")
+    check_keys(tab, _LIMIT_KEYS, src, "limits.", error=MachineFileError)
     kw: dict[str, Any] = {}
     if "singularity_threshold" in tab:
         kw["singularity_threshold"] = float(parse_quantity(tab["singularity_threshold"], "dimensionless", source=src,
@@ -247,7 +225,7 @@ def _limits(tab: Any, src: str) -> Limits:
                                    tab["drive_load_include_coulomb"])
         kw["drive_load_include_coulomb"] = tab["drive_load_include_coulomb"]
     if "frame" in tab:
-        fr = _check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.")
+        fr = check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.", error=MachineFileError)
         lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
         for k, v in fr.items():
             (lo if k.endswith("min") else hi)["xyz".index(k[0])] = float(
@@ -262,7 +240,7 @@ def _limits(tab: Any, src: str) -> Limits:
 
 
 def _tool(tab: Any, src: str) -> Tool:
-    _check_keys(tab, _TOOL_KEYS, src, "tool.")
+    check_keys(tab, _TOOL_KEYS, src, "tool.", error=MachineFileError)
     return Tool(
         offset=_vec(tab.get("offset", [0, 0, 0]), src, "tool.offset"),
         axis=_direction(tab.get("axis", [0, 0, -1]), src, "tool.axis"),
@@ -283,7 +261,7 @@ def _components(tab: Any, src: str) -> dict[str, dict[str, Any]]:
         key = f"components.{cname}"
         if not isinstance(params, dict):
             raise MachineFileError(src, key, "a table with at least the key 'model'", params)
-        model = _req(params, "model", src, key + ".", "the name of a component model")
+        model = require(params, "model", src, key + ".", "the name of a component model", error=MachineFileError)
         if models is not None and model not in models:
             raise MachineFileError(src, key + ".model", f"one of the component models {sorted(models)}", model)
         out[cname] = dict(params)
@@ -324,7 +302,7 @@ def _joint_types(tab: Any, src: str, components: dict) -> dict[str, JointType]:
     out = {}
     for jname, jt in tab.items():
         p = f"joint_types.{jname}."
-        _check_keys(jt, _JOINT_KEYS, src, p)
+        check_keys(jt, _JOINT_KEYS, src, p, error=MachineFileError)
         conv = jt.get("convention", "axis")
         if conv not in ("axis", "normal"):
             raise MachineFileError(src, p + "convention", "'axis' or 'normal'", conv)
@@ -350,13 +328,13 @@ def _joint_types(tab: Any, src: str, components: dict) -> dict[str, JointType]:
 def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
             components: dict) -> tuple[Chains, tuple[dict[str, str], ...]]:
     allowed = _COMMON_CHAIN_KEYS | (_GLIDE_CHAIN_KEYS if kind == "glide" else _POD_CHAIN_KEYS)
-    _check_keys(defaults, allowed, src, "chain_defaults.")
+    check_keys(defaults, allowed, src, "chain_defaults.", error=MachineFileError)
     n = len(tables)
     cols: dict[str, list] = {k: [] for k in allowed}
     comps: list[dict[str, str]] = []
     for i, tab in enumerate(tables):
         p = f"chains[{i + 1}]."
-        _check_keys(tab, allowed, src, p)
+        check_keys(tab, allowed, src, p, error=MachineFileError)
         t = _merge(defaults, tab)
 
         def need(key: str, what: str) -> Any:
@@ -438,10 +416,10 @@ def _guides(tab: Any, src: str, n: int, kind: str) -> dict[str, Guide]:
     used: set[int] = set()
     for gname, g in tab.items():
         p = f"guides.{gname}."
-        _check_keys(g, _GUIDE_KEYS, src, p)
+        check_keys(g, _GUIDE_KEYS, src, p, error=MachineFileError)
         if kind != "glide":
             raise MachineFileError(src, f"guides.{gname}", "shared guides only for glide machines", "a guide table")
-        members = _req(g, "chains", src, p, "the 1-based chain numbers on this guide")
+        members = require(g, "chains", src, p, "the 1-based chain numbers on this guide", error=MachineFileError)
         if (not isinstance(members, list) or len(members) < 2
                 or not all(isinstance(c, int) and not isinstance(c, bool) and 1 <= c <= n for c in members)):
             raise MachineFileError(src, p + "chains", f"a list of at least two chain numbers 1..{n}", members)
@@ -459,7 +437,7 @@ def _guides(tab: Any, src: str, n: int, kind: str) -> dict[str, Guide]:
 
 
 def _hull(tab: Any, src: str) -> Hull:
-    _check_keys(tab, _HULL_KEYS, src, "hull.")
+    check_keys(tab, _HULL_KEYS, src, "hull.", error=MachineFileError)
     if "vertices" not in tab:
         return Hull(vertices=np.zeros((0, 3)), triangles=np.zeros((0, 3), dtype=int))
     verts = np.asarray(parse_quantity(tab["vertices"], "m", source=src, key="hull.vertices", shape=(None, 3)))

@@ -23,6 +23,7 @@ import re
 from pathlib import Path
 from typing import Any, Mapping
 
+from pkmstiff.errors import OverrideError  # noqa: F401 (re-exported)
 from pkmstiff.machine.loader import MachineFileError, _build, raw_machine, split_machine_spec
 from pkmstiff.machine.model import Machine
 from pkmstiff.units import InputError
@@ -33,8 +34,6 @@ __all__ = ["OverrideError", "machine_with", "parse_override_path", "raw_machine"
 _SEGMENT = re.compile(r"^(?P<key>[^\[\]]+)(?:\[(?P<index>\*|\d+)\])?$")
 
 
-class OverrideError(MachineFileError):
-    """An override path that does not lead into the machine file (names the override and what is there)."""
 
 
 def parse_override_path(path: str) -> list[tuple[str, int | str | None]]:

@@ -4,18 +4,45 @@ Build an :class:`SDEModel` from point masses, rigid bodies, stiffness–damping 
 call the analysis functions below.  Everything is vectorised over a leading pose axis and chunked over poses.
 """
 
-from pkmstiff.multibody.assembly import (damping_matrix, element_deformations, element_energies, element_forces, mass_matrix,
-                       stiffness_matrix)
+from pkmstiff.multibody.assembly import (
+                       damping_matrix,
+                       element_deformations,
+                       element_energies,
+                       element_forces,
+                       mass_matrix,
+                       stiffness_matrix,
+)
 from pkmstiff.multibody.batch import PointEvaluation, evaluate_point
 from pkmstiff.multibody.bodies import FRAME, PointMass, RigidBody, combine_rigid, make_point_mass, make_rigid_body
 from pkmstiff.multibody.constraints import constraint_matrix, null_space_basis
 from pkmstiff.multibody.frf import PointDirection, accelerance, find_peaks, load_vector, receptance
 from pkmstiff.multibody.inputs import SDEInputError, SingularModelError
-from pkmstiff.multibody.modal import (MOTION_LABELS, ModalResult, describe_modes, kinetic_energy_shares, mode_label, modes,
-                    motion_shares, natural_frequencies, strain_energy_shares)
-from pkmstiff.multibody.static import (axis_stiffness, body_displacements, directional_stiffness, energy_shares, group_matrix,
-                     point_compliance, point_load, point_motion, point_stiffness, sde_deformations, sde_forces,
-                     solve_static, weak_points)
+from pkmstiff.multibody.modal import (
+                       MOTION_LABELS,
+                       ModalResult,
+                       describe_modes,
+                       kinetic_energy_shares,
+                       mode_label,
+                       modes,
+                       motion_shares,
+                       natural_frequencies,
+                       strain_energy_shares,
+)
+from pkmstiff.multibody.static import (
+                       axis_stiffness,
+                       body_displacements,
+                       directional_stiffness,
+                       energy_shares,
+                       group_matrix,
+                       point_compliance,
+                       point_load,
+                       point_motion,
+                       point_stiffness,
+                       sde_deformations,
+                       sde_forces,
+                       solve_static,
+                       weak_points,
+)
 from pkmstiff.multibody.system import DOF_NAMES, SDEModel
 
 __all__ = [

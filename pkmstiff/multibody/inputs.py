@@ -10,15 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.units import InputError
-
-
-class SDEInputError(InputError):
-    """Invalid input to the SDE model; the message names the object, the key, the expectation and the finding."""
-
-
-class SingularModelError(ValueError):
-    """The stiffness matrix (or a pivot block of it) is not positive definite: the model is under-restrained."""
+from pkmstiff.errors import SDEInputError, SingularModelError  # noqa: F401 (re-exported)
 
 
 def pose_array(value: Any, core: tuple[int, ...], source: str, key: str, *, extra: int | None = None) -> np.ndarray:

@@ -20,7 +20,6 @@ from pkmstiff.multibody.inputs import SingularModelError
 from pkmstiff.multibody.linalg import solve_lower, solve_upper_t
 from pkmstiff.multibody.system import SDEModel
 
-
 UNDER_RESTRAINED = "the model is under-restrained (missing SDE or frame binding) or has a zero stiffness"
 
 

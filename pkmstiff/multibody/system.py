@@ -12,7 +12,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from pkmstiff.multibody.bodies import FRAME, Body, PointMass, RigidBody, make_point_mass, make_rigid_body
+from pkmstiff.multibody.bodies import FRAME, Body, RigidBody, make_point_mass, make_rigid_body
 from pkmstiff.multibody.elements import BindingKind, MatrixSpec, RigidBinding, SDESet, matrix_spec
 from pkmstiff.multibody.inputs import SDEInputError, common_poses, pose_array
 

@@ -1,18 +1,16 @@
 """Off-screen pyvista figures: section maps, three-plane figures, machine sketches, mode shapes (PNG/GIF).
 
-Coordinates in figures are in mm, quantities in their display units (N/µm, Hz, deg, …).
+Coordinates in figures are in mm, quantities in their display units (N/µm, Hz, deg, …). Every plotter is created
+with ``off_screen=True``; the library sets no global state. On a machine without a display, choose VTK's EGL
+window at the edge (the command line does) to avoid VTK's X-server warning:
+``VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow``.
 """
 
 from __future__ import annotations
 
-import os
-
 
 def offscreen():
-    """Import pyvista configured for off-screen rendering (no X server needed)."""
-    if not os.environ.get("DISPLAY"):
-        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    """Import pyvista (lazily: it is heavy); every plotter of the toolkit renders off-screen."""
     import pyvista as pv
 
-    pv.OFF_SCREEN = True
     return pv

@@ -10,9 +10,9 @@ import numpy as np
 from pkmstiff.analysis.modal import ModalAnalysis, modal_analysis
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
-from pkmstiff.structure import build_structure
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch, sketch_from_points
+from pkmstiff.structure import build_structure
 
 
 @dataclass

@@ -7,8 +7,8 @@ from typing import Sequence
 
 import numpy as np
 
-from pkmstiff.machine.model import Machine
 from pkmstiff.evaluation.sections import SectionResult
+from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch
 

@@ -11,9 +11,15 @@ import html
 import time
 from pathlib import Path
 
-from pkmstiff.cli.section import summary, write_outputs
+from pkmstiff.evaluation.sections import (
+    axis_plane,
+    evaluate_section,
+    evaluate_three_planes,
+    section_summary,
+    three_planes,
+)
 from pkmstiff.machine.loader import load_machine
-from pkmstiff.evaluation.sections import axis_plane, evaluate_section, evaluate_three_planes, three_planes
+from pkmstiff.report.outputs import write_section_outputs
 
 MACHINE = "hexaglide"
 QUANTITIES = ("kx", "ky", "kz", "f1")
@@ -28,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
     machine = load_machine(MACHINE)
     plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.2, -0.5), step)
     res = evaluate_section(machine, plane, QUANTITIES, tool_length=0.0, progress=False if quiet else None)
-    files = write_outputs(res, out, ("png", "vtu", "csv"), "hexaglide_yz")
+    files = write_section_outputs(res, out, ("png", "vtu", "csv"), "hexaglide_yz")
     planes = three_planes((0.0, 0.1, -0.9), (0.5, 0.7, 0.35), max(step, 0.02))
     three = evaluate_three_planes(machine, planes, ["kx"], tool_length=0.0, progress=False)
     from pkmstiff.plots.section_maps import plot_three_planes
@@ -38,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
 
     reasons_png = plot_reasons(res, out / "hexaglide_yz_admissibility.png")
     seconds = time.perf_counter() - t0
-    info = summary(res, seconds)
+    info = section_summary(res, seconds)
     _write_summary(out, machine.title, info, [f for f in files if f.suffix == ".png"] + [reasons_png, fig3],
                    machine.assumptions)
     print(f"pkmstiff demo: {machine.title}, {plane.name}, {res.ok.sum()} of {res.ok.size} points admissible, "

@@ -24,6 +24,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from pkmstiff.errors import ReportError  # noqa: F401 (re-exported)
 from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["ReportError", "write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]
@@ -57,8 +58,6 @@ nav ul{columns:2}
 """
 
 
-class ReportError(ValueError):
-    """A report cannot be rendered (bad baseline, missing or non-PNG figure); names the table/figure."""
 
 
 # ----------------------------------------------------------------------------------------------------------- numbers

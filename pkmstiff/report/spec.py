@@ -2,9 +2,9 @@
 
 A spec names the variants (bundled machine or machine file, options, parameter overrides, tool length,
 orientation), the section planes and their quantities and statistics, the workspace, single poses and machine
-values to compare. :func:`build_report` evaluates everything and returns one comparison table (rows = metric and
-statistic, columns = variants, "% of baseline"), section maps (one figure per variant and quantity, a shared colour
-scale per quantity), workspace figures, the machine files' assumptions (prefixed with the variant) and the settings.
+values to compare. :func:`pkmstiff.report.build.build_report` evaluates everything and returns one comparison
+table (rows = metric and statistic, columns = variants, "% of baseline"), section maps (one figure per variant and
+quantity, a shared colour scale per quantity), workspace figures, the machine files' assumptions (prefixed with the variant) and the settings.
 Every key is validated; errors are :class:`SpecError` naming the file, the key, what was expected and what was found.
 Lengths are in mm and angles in degrees in the spec (keys ``*_mm``, ``*_deg``); SI inside.
 """
@@ -13,25 +13,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Mapping
 
-import numpy as np
-
+from pkmstiff.errors import (
+    SectionArgumentError,
+    SpecError,  # noqa: F401 (re-exported)
+)
+from pkmstiff.evaluation.requests import STATISTICS
+from pkmstiff.io import check_keys, read_toml, require
+from pkmstiff.io.ranges import parse_ranges
 from pkmstiff.machine.model import Machine
-from pkmstiff.io import read_toml
-from pkmstiff.units import InputError
-from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["SpecError", "Variant", "SectionSpec", "WorkspaceSpec", "PointSpec", "ReportSpec", "load_spec",
-           "fast_spec", "build_report", "run_spec", "STATISTICS", "MACHINE_ROWS"]
+           "fast_spec", "STATISTICS", "MACHINE_ROWS"]
 
-# statistic -> (label, unit override or None = the quantity's display unit)
-STATISTICS = {"min": ("min", None), "mean": ("mean", None), "max": ("max", None),
-              "area": ("admissible area", "m^2"), "count": ("admissible points", "1")}
 # machine value -> (row label, unit, function of (machine, variant) in that unit)
 MACHINE_ROWS: dict[str, tuple[str, str, Callable[[Machine, "Variant"], float]]] = {
     "transmission_weight": ("transmission quality weight w (eq. 4.77)", "m/rad",
@@ -50,8 +47,6 @@ _OPTION_KEYS = {"fast_step_mm", "fast_resolution_mm", "jobs"}
 _TOP_KEYS = {"report", "variants", "sections", "workspace", "points", "options"}
 
 
-class SpecError(InputError):
-    """An invalid report spec (names file, key, what was expected and what was found)."""
 
 
 @dataclass(frozen=True)
@@ -143,16 +138,10 @@ class _Reader:
     def table(self, value: Any, key: str, allowed: set[str]) -> dict[str, Any]:
         if not isinstance(value, dict):
             raise self.error(key or "(top level)", "a table", value)
-        unknown = sorted(set(value) - allowed)
-        if unknown:
-            raise self.error(f"{key}.{unknown[0]}" if key else unknown[0], f"one of the keys {sorted(allowed)}",
-                             "unknown key")
-        return value
+        return check_keys(value, allowed, self.src, f"{key}." if key else "", SpecError)
 
     def req(self, tab: dict, key: str, prefix: str, what: str) -> Any:
-        if key not in tab:
-            raise self.error(f"{prefix}{key}", f"{what} (the key is required)", "missing key")
-        return tab[key]
+        return require(tab, key, self.src, prefix, what, SpecError)
 
     def number(self, value: Any, key: str, *, positive: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -234,8 +223,6 @@ def _variant(r: _Reader, tab: Any, i: int, spec_dir: Path) -> Variant:
 
 
 def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
-    from pkmstiff.cli.section import SectionArgumentError, parse_ranges
-
     p = f"sections[{i + 1}]"
     tab = r.table(tab, p, _SECTION_KEYS)
     plane = r.string(tab.get("plane", "yz"), p + ".plane").lower()
@@ -375,233 +362,3 @@ def fast_spec(spec: ReportSpec) -> ReportSpec:
     if ws is not None:
         ws = dataclasses.replace(ws, resolution=spec.fast_resolution or 4.0 * ws.resolution)
     return dataclasses.replace(spec, sections=sections, workspace=ws)
-
-
-# ------------------------------------------------------------------------------------------------------- evaluation
-def _load_variant(v: Variant) -> Machine:
-    from pkmstiff.machine.variants import machine_with
-
-    return machine_with(v.machine, v.overrides, v.options)
-
-
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "x"
-
-
-def _section_rows(sec: SectionSpec, results: list, table: Table, multi: bool) -> None:
-    from pkmstiff.evaluation.quantities import get_quantity
-
-    where = f" ({sec.name})" if multi else ""
-    for q in sec.quantities:
-        unit = get_quantity(q).unit
-        for stat in sec.statistics:
-            label, unit_override = STATISTICS[stat]
-            vals = []
-            for res in results:
-                st = res.statistics()[q]
-                if stat == "area":
-                    vals.append(st["admissible_area_m2"])
-                elif stat == "count":
-                    vals.append(float(st["count"]))
-                else:
-                    vals.append(st[stat] if st["count"] else None)
-            table.add(f"{q} {label}{where}", unit_override or unit, vals)
-
-
-def _point_values(machine: Machine, pt: PointSpec, tool_length: float | None) -> tuple[dict[str, float], list[str]]:
-    """Display-unit values of the point's quantities, or ({}, reasons) if the pose is inadmissible."""
-    from pkmstiff.admissibility.pipeline import evaluate_poses
-    from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
-
-    ev = evaluate_poses(machine, np.asarray(pt.pose, float)[None, :])
-    if not ev.ok[0]:
-        return {}, ev.admissibility.failing(0)
-    ctx = EvalContext(machine, ev, tool_length, {})
-    vals = evaluate_quantities(ctx, list(pt.quantities))
-    return {n: float(get_quantity(n).to_display(vals[n])[0]) for n in pt.quantities}, []
-
-
-def _fmt_deg(o: Sequence[float]) -> str:
-    return ", ".join(f"{math.degrees(a):g}" for a in o)
-
-
-def _tool_mm(machine: Machine, tl: float | None) -> float:
-    return 1e3 * float(machine.tool.length if tl is None else tl)
-
-
-def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
-                 log: Callable[[str], None] | None = None) -> Report:
-    """Evaluate a spec for every variant and assemble the report; figures are written to ``out_dir``.
-
-    ``fast`` applies :func:`fast_spec`; ``n_jobs`` (default: the spec's ``options.jobs``) is passed to the
-    section evaluation. ``log`` receives one progress line per step.
-    """
-    from pkmstiff.plots.section_maps import plot_section
-    from pkmstiff.evaluation.quantities import get_quantity
-    from pkmstiff.evaluation.sections import axis_plane, evaluate_section
-
-    log = log or (lambda msg: None)
-    if fast:
-        spec = fast_spec(spec)
-    jobs = spec.jobs if n_jobs is None else n_jobs
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    names = [v.name for v in spec.variants]
-    machines = []
-    for v in spec.variants:
-        machines.append(_load_variant(v))
-        log(f"variant {v.name}: {machines[-1].title}")
-
-    report = Report(spec.title)
-    report.summary = spec.summary
-    base = f"; baseline: {spec.baseline}" if spec.baseline else ""
-    variants_text = "\n\n".join(
-        f"{v.name}: {m.title} ({m.name}{', overrides ' + ', '.join(f'{k} = {val!r}' for k, val in v.overrides.items()) if v.overrides else ''}), "
-        f"tool length {_tool_mm(m, v.tool_length):g} mm, orientation a, b, c = {_fmt_deg(v.orientation)} deg"
-        + (f". {v.description}" if v.description else "")
-        for v, m in zip(spec.variants, machines))
-    comparison = report.section("Comparison", f"Variants compared{base}.\n\n{variants_text}")
-    table = Table(spec.title if len(spec.title) < 80 else "Comparison of the variants", names,
-                  baseline=spec.baseline, digits=spec.digits)
-    comparison.tables.append(table)
-    notes: list[str] = []
-
-    # workspace volume first (as in Cobet Table 5.1), then sections, points, machine values
-    ws_figs: list[Figure] = []
-    if spec.workspace is not None:
-        from pkmstiff.workspace.translational import constant_orientation_workspace
-
-        ws = spec.workspace
-        vols: dict[str, list[float | None]] = {m: [] for m in ws.methods}
-        for v, m in zip(spec.variants, machines):
-            t0 = time.perf_counter()
-            ori = ws.orientation if ws.orientation is not None else v.orientation
-            res = constant_orientation_workspace(m, ws.resolution, ori, requirements=ws.requirements,
-                                                 box=None if ws.box is None else (np.array(ws.box[0]),
-                                                                                   np.array(ws.box[1])),
-                                                 methods=ws.methods)
-            for meth in ws.methods:
-                vols[meth].append(res.volumes.get(meth))
-            if res.octree.touches_box:
-                notes.append(f"Workspace of {v.name} touches the initial box and is cut there (enlarge box_mm).")
-            log(f"workspace {v.name}: {res.volume:.4f} m^3 ({time.perf_counter() - t0:.1f} s)")
-            if ws.figures:
-                from pkmstiff.workspace.plots import plot_workspace
-
-                path = plot_workspace(res, m, out / "workspace" / f"{_slug(v.name)}.png")
-                ws_figs.append(Figure(path, f"{v.name}: workspace at a, b, c = {_fmt_deg(ori)} deg, "
-                                            f"resolution {ws.resolution * 1e3:g} mm, V = {res.volume:.4g} m^3"))
-        for meth in ws.methods:
-            table.add(f"workspace volume ({meth.replace('_', ' ')})", "m^3", vols[meth])
-
-    map_sections = []
-    multi = len(spec.sections) > 1
-    for k, sec in enumerate(spec.sections):
-        plane = axis_plane(sec.plane, sec.at, sec.u_range, sec.v_range, sec.step)
-        results = []
-        for v, m in zip(spec.variants, machines):
-            t0 = time.perf_counter()
-            tl = sec.tool_length if sec.tool_length is not None else v.tool_length
-            ori = sec.orientation if sec.orientation is not None else v.orientation
-            res = evaluate_section(m, plane, sec.quantities, orientation=ori, tool_length=tl, n_jobs=jobs,
-                                   progress=False)
-            res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
-            if res.tool_length is None:
-                res.tool_length = m.tool.length
-            results.append(res)
-            log(f"section {sec.name}, {v.name}: {int(res.ok.sum())} of {res.ok.size} points admissible "
-                f"({time.perf_counter() - t0:.1f} s)")
-        _section_rows(sec, results, table, multi)
-        if sec.maps:
-            figs = []
-            for q in sec.quantities:
-                finite = [r.display(q)[r.ok] for r in results]
-                finite = np.concatenate([f[np.isfinite(f)] for f in finite])
-                clim = (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min() \
-                    else None  # one colour scale per quantity across the variants
-                for v, res in zip(spec.variants, results):
-                    path = plot_section(res, q, out / "maps" / f"{k + 1}_{_slug(sec.plane)}_{_slug(q)}_"
-                                                               f"{_slug(v.name)}.png", clim=clim)
-                    figs.append(Figure(path, f"{v.name}: {get_quantity(q).label} [{res.units[q]}] on the "
-                                             f"{sec.name}; white = inadmissible, black line = admissible boundary"))
-            map_sections.append((sec, figs))
-
-    for pt in spec.points:
-        rows: dict[str, list[float | None]] = {q: [] for q in pt.quantities}
-        for v, m in zip(spec.variants, machines):
-            tl = pt.tool_length if pt.tool_length is not None else v.tool_length
-            vals, reasons = _point_values(m, pt, tl)
-            if reasons:
-                notes.append(f"{v.name} at {pt.name}: inadmissible ({'; '.join(reasons)})")
-            for q in pt.quantities:
-                rows[q].append(vals.get(q))
-        for q in pt.quantities:
-            table.add(f"{q} at {pt.name}", get_quantity(q).unit, rows[q])
-
-    for key in spec.machine_rows:
-        label, unit, fn = MACHINE_ROWS[key]
-        table.add(label, unit, [fn(m, v) for v, m in zip(spec.variants, machines)])
-
-    stats_note = ("Section statistics (min, mean, max) are taken over the admissible raster points of the plane "
-                  "(unweighted); n/a = no admissible point.") if spec.sections else ""
-    comparison.text += "\n\n" + "\n\n".join([t for t in [stats_note] + notes if t])
-    for sec, figs in map_sections:
-        s = report.section(f"Section maps: {sec.name}",
-                           f"Quantities {', '.join(sec.quantities)} on the {sec.name} "
-                           f"(raster {sec.step * 1e3:g} mm, {sec.range_text}); the colour scale of a quantity is "
-                           f"the same for every variant.")
-        s.figures.extend(figs)
-    if ws_figs:
-        s = report.section("Workspace", "Constant-orientation workspace of each variant (closed boundary surface) "
-                                        "with the machine at a central pose.")
-        s.figures.extend(ws_figs)
-
-    report.assumptions = dict(spec.assumptions)
-    if spec.sections:
-        report.assumptions.setdefault("report: section statistics",
-                                      "min/mean/max over the admissible raster points, every point weighted equally")
-    for v, m in zip(spec.variants, machines):
-        for key, reason in m.assumptions.items():
-            report.assumptions[f"{v.name}: {key}"] = reason
-    report.settings = _settings(spec, machines, fast, jobs)
-    return report
-
-
-def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) -> dict[str, Any]:
-    s: dict[str, Any] = {"spec": spec.source, "fast": fast, "jobs": jobs}
-    if spec.baseline:
-        s["baseline"] = spec.baseline
-    for v, m in zip(spec.variants, machines):
-        s[f"variant {v.name}"] = {"machine": m.name, "file": m.path, "options": list(v.options),
-                                  "overrides": dict(v.overrides), "tool_length_mm": _tool_mm(m, v.tool_length),
-                                  "orientation_deg": [round(math.degrees(a), 9) for a in v.orientation]}
-    for k, sec in enumerate(spec.sections):
-        s[f"section {k + 1}"] = {"plane": sec.name, "range_mm": sec.range_text, "step_mm": sec.step * 1e3,
-                                 "quantities": list(sec.quantities), "statistics": list(sec.statistics),
-                                 "tool_length_mm": None if sec.tool_length is None else sec.tool_length * 1e3,
-                                 "orientation_deg": None if sec.orientation is None else
-                                 [round(math.degrees(a), 9) for a in sec.orientation]}
-    if spec.workspace is not None:
-        ws = spec.workspace
-        s["workspace"] = {"resolution_mm": ws.resolution * 1e3, "methods": list(ws.methods),
-                          "requirements": list(ws.requirements),
-                          "box_mm": None if ws.box is None else [1e3 * x for pair in zip(*ws.box) for x in pair],
-                          "orientation_deg": None if ws.orientation is None else
-                          [round(math.degrees(a), 9) for a in ws.orientation]}
-    for k, pt in enumerate(spec.points):
-        s[f"point {k + 1}"] = {"pose": pt.name, "quantities": list(pt.quantities),
-                               "tool_length_mm": None if pt.tool_length is None else pt.tool_length * 1e3}
-    return s
-
-
-def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
-             log: Callable[[str], None] | None = None) -> dict[str, Path]:
-    """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths."""
-    from pkmstiff.report.render import run_info, write_report
-
-    t0 = time.perf_counter()
-    spec = load_spec(path)
-    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log)
-    info = run_info()
-    info["run time"] = f"{time.perf_counter() - t0:.1f} s"
-    return write_report(report, out_dir, run=info)

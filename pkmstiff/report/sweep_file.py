@@ -24,9 +24,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from pkmstiff.errors import SweepFileError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.sweep import Choice, LogUniform, Normal, Parameter, Sweep, SweepError, Uniform
-from pkmstiff.evaluation.requests import Combined, PointValues, SectionStatistics, WorkspaceVolume
-from pkmstiff.io import read_toml
+from pkmstiff.io import check_keys, read_toml
+from pkmstiff.report.sweep_evaluations import Combined, PointValues, SectionStatistics, WorkspaceVolume
 from pkmstiff.units import InputError
 
 __all__ = ["SweepFileError", "load_sweep"]
@@ -41,17 +42,10 @@ _EVAL_KEYS = {
 }
 
 
-class SweepFileError(InputError):
-    """An invalid sweep file (names file, key, what was expected and what was found)."""
 
 
 def _table(src: str, tab: Any, key: str, allowed: set[str]) -> dict[str, Any]:
-    if not isinstance(tab, dict):
-        raise SweepFileError(src, key, "a table", tab)
-    unknown = sorted(set(tab) - allowed)
-    if unknown:
-        raise SweepFileError(src, f"{key}.{unknown[0]}", f"one of the keys {sorted(allowed)}", "unknown key")
-    return tab
+    return check_keys(tab, allowed, src, f"{key}.", SweepFileError)
 
 
 def _parameter(src: str, tab: Any, i: int) -> Parameter:

@@ -31,12 +31,7 @@ reference point is O'; a massless spindle (Hexaglide: all of M_P on the platform
 """
 
 from pkmstiff.structure.assembly import platform_spindle_matrix
-from pkmstiff.structure.build import (
-                                       build_structure,
-                                       iter_structures,
-                                       structure_from_ik,
-                                       structure_summary,
-)
+from pkmstiff.structure.build import build_structure, iter_structures, structure_from_ik, structure_summary
 from pkmstiff.structure.layout import (
                                        PKSBody,
                                        StructureLayout,
@@ -45,11 +40,7 @@ from pkmstiff.structure.layout import (
                                        structure_layout,
                                        vertical_direction,
 )
-from pkmstiff.structure.masses import (
-                                       dynamics_masses,
-                                       mass_matrix_about_origin,
-                                       platform_mass_matrix,
-)
+from pkmstiff.structure.masses import dynamics_masses, mass_matrix_about_origin, platform_mass_matrix
 from pkmstiff.structure.model import PKMStructure
 from pkmstiff.structure.options import (
                                        COMPONENT_FAILED,

@@ -3,51 +3,30 @@
 
 from __future__ import annotations
 
-import dataclasses
 from typing import Any, Iterator
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.admissibility.checks import Reason
-from pkmstiff.kinematics import (
-    IK,
-    as_poses,
-    inverse_jacobian,
-    inverse_kinematics,
-    singular_mask,
-)
+from pkmstiff.admissibility.pipeline import evaluate_chunk, evaluate_poses
+from pkmstiff.kinematics import IK, as_poses, inverse_kinematics
 from pkmstiff.kinematics.joint_angles import joint_angles
 from pkmstiff.machine.model import Machine
 from pkmstiff.structure.layout import StructureLayout, structure_layout
 from pkmstiff.structure.model import PKMStructure
-from pkmstiff.structure.options import (
-    COMPONENT_FAILED,
-    DEFAULT_CHUNK,
-    Array,
-    StructureModelError,
-    StructureOptions,
-)
+from pkmstiff.structure.options import COMPONENT_FAILED, DEFAULT_CHUNK, Array, StructureModelError, StructureOptions
 from pkmstiff.structure.stiffness import chain_stiffness
 
 
 def _kinematic_reasons(machine: Machine, ik: IK, options: StructureOptions) -> Array:
-    """Reason bits (N,) of poses that cannot be modelled: unreachable, singular (or any check with 'full')."""
-    if options.check == "full":
-        from pkmstiff.admissibility.pipeline import evaluate_poses
+    """Reason bits (N,) of poses that cannot be modelled: unreachable, singular (or any check with 'full').
 
+    The pose pipeline decides, on the structure's own inverse kinematics (not repeated here).
+    """
+    if options.check == "full":
         return evaluate_poses(machine, ik.poses).admissibility.reasons.astype(np.uint32)
-    reasons = np.zeros(ik.n_poses, np.uint32)
-    reach = ik.all_reachable
-    reasons[~reach] = int(Reason.UNREACHABLE)
-    if reach.any():
-        idx = np.flatnonzero(reach)
-        sub = IK(**{f.name: (getattr(ik, f.name)[idx] if isinstance(getattr(ik, f.name), np.ndarray)
-                             else getattr(ik, f.name)) for f in dataclasses.fields(IK)})
-        with np.errstate(invalid="ignore", divide="ignore"):
-            sing = singular_mask(machine, inverse_jacobian(machine, sub))
-        reasons[idx[sing]] |= np.uint32(int(Reason.SINGULAR))
-    return reasons
+    ev = evaluate_chunk(machine, ik.poses, ("singularity",), ik=ik, with_angles=False)
+    return ev.admissibility.reasons.astype(np.uint32)
 
 
 def structure_from_ik(machine: Machine, ik: IK, options: StructureOptions | None = None,

@@ -10,19 +10,10 @@ from typing import Any
 import numpy as np
 
 import pkmstiff.multibody as sde
-from pkmstiff.kinematics import (
-    IK,
-    inverse_jacobian,
-    kinematic_jacobian,
-)
+from pkmstiff.kinematics import IK, inverse_jacobian, kinematic_jacobian
 from pkmstiff.machine.model import Machine
 from pkmstiff.machine.roles import MachineComponents, machine_components
-from pkmstiff.structure.layout import (
-    PKSBody,
-    StructureLayout,
-    combine_bodies,
-    component_body,
-)
+from pkmstiff.structure.layout import PKSBody, StructureLayout, combine_bodies, component_body
 from pkmstiff.structure.options import Array
 
 

@@ -15,13 +15,7 @@ from pkmstiff.admissibility.checks import Reason
 from pkmstiff.machine.model import Machine
 from pkmstiff.structure.assembly import drive_names, rigid_chains, sde_model
 from pkmstiff.structure.layout import StructureLayout
-from pkmstiff.structure.options import (
-    NOT_POSITIVE_DEFINITE,
-    STATUS_TEXT,
-    Array,
-    StructureModelError,
-    StructureOptions,
-)
+from pkmstiff.structure.options import NOT_POSITIVE_DEFINITE, STATUS_TEXT, Array, StructureModelError, StructureOptions
 from pkmstiff.structure.stiffness import ChainStiffness
 
 

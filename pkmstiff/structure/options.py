@@ -9,7 +9,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from pkmstiff.units import InputError
+from pkmstiff.errors import StructureModelError  # noqa: F401 (re-exported)
 
 Array = NDArray[np.float64]
 
@@ -31,8 +31,6 @@ STATUS_TEXT = {
 }
 
 
-class StructureModelError(InputError):
-    """The machine's data do not define a structure model (names machine, key, expectation and finding)."""
 
 
 @dataclass(frozen=True)

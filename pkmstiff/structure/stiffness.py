@@ -9,9 +9,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from pkmstiff.kinematics import (
-    IK,
-)
+from pkmstiff.kinematics import IK
 from pkmstiff.structure.layout import StructureLayout
 from pkmstiff.structure.masses import effective_mass
 from pkmstiff.structure.options import Array

@@ -12,7 +12,12 @@ from pkmstiff.workspace.oracle import PoseOracle, staged_admissible
 from pkmstiff.workspace.requirements import Requirement, parse_requirement
 from pkmstiff.workspace.rotation import SIX_DIRECTIONS, RotationMapResult, rotation_angle_map, rotational_workspace_map
 from pkmstiff.workspace.surface import BoundarySurface, boundary_surface
-from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace, reach_box, volume_vs_orientation
+from pkmstiff.workspace.translational import (
+           WorkspaceResult,
+           constant_orientation_workspace,
+           reach_box,
+           volume_vs_orientation,
+)
 from pkmstiff.workspace.volume import workspace_volume
 
 __all__ = ["BoundarySurface", "OctreeResult", "PoseOracle", "Requirement", "RotationMapResult", "SIX_DIRECTIONS",

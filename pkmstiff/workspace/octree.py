@@ -37,6 +37,8 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pkmstiff.errors import OctreeInputError  # noqa: F401 (re-exported)
+
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)
 
@@ -44,8 +46,6 @@ Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so 
 CORNER_OFFSETS = np.array([[c & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], dtype=np.int64)
 
 
-class OctreeInputError(ValueError):
-    """Invalid octree argument; the message names the argument, the expectation and the finding."""
 
 
 @dataclass

@@ -29,18 +29,17 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
+from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.errors import OracleInputError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation.quantities import EvalContext
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
-from pkmstiff.admissibility.pipeline import PoseEvaluation, evaluate_poses
-from pkmstiff.evaluation.quantities import EvalContext
 from pkmstiff.workspace.requirements import Requirement, parse_requirements
 
 ANGLE_INDEX = {"a": 3, "b": 4, "c": 5}
 RangeMode = Literal["all", "any"]
 
 
-class OracleInputError(ValueError):
-    """Invalid oracle settings; the message names the argument, the expectation and the finding."""
 
 
 @dataclass

@@ -18,6 +18,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
+from pkmstiff.errors import RequirementError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, UnknownQuantityError, get_quantity
 from pkmstiff.units import ureg
 
@@ -27,8 +28,6 @@ _OPS: dict[str, Callable[[np.ndarray, float], np.ndarray]] = {
 _PATTERN = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*(>=|<=|=>|=<|>|<)\s*(\S.*?)\s*$")
 
 
-class RequirementError(ValueError):
-    """A requirement string that cannot be parsed; the message names the text, the expectation and the finding."""
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
+from pkmstiff.errors import RotationMapError  # noqa: F401 (re-exported)
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.oracle import EvaluationStats, staged_admissible
 from pkmstiff.workspace.requirements import Requirement, parse_requirements
@@ -52,8 +53,6 @@ SIX_DIRECTIONS = ("+a", "-a", "+b", "-b", "+a+b", "-a-b")
 Method = Literal["predictor_corrector", "plain"]
 
 
-class RotationMapError(ValueError):
-    """Invalid rotation-map argument; the message names the argument, the expectation and the finding."""
 
 
 @dataclass

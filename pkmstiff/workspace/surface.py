@@ -24,13 +24,12 @@ from typing import Callable, Literal
 
 import numpy as np
 
+from pkmstiff.errors import SurfaceError  # noqa: F401 (re-exported)
 from pkmstiff.workspace.octree import Lattice, OctreeResult
 
 VertexMode = Literal["centroid", "crossing"]
 
 
-class SurfaceError(ValueError):
-    """The octree result cannot be meshed (e.g. it was computed without the closure step)."""
 
 
 @dataclass

@@ -4,8 +4,8 @@
 from __future__ import annotations
 
 import math
-import warnings
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
@@ -19,7 +19,6 @@ from pkmstiff.workspace.oracle import PoseOracle, RangeMode
 from pkmstiff.workspace.requirements import Requirement
 from pkmstiff.workspace.surface import BoundarySurface
 from pkmstiff.workspace.volume import DEFAULT_METHODS, workspace_volume
-
 
 MAX_RETRY_LEVEL = 6  # finest start grid tried when a coarser one finds no admissible corner
 

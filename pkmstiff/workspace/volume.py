@@ -26,6 +26,7 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pkmstiff.errors import VolumeError  # noqa: F401 (re-exported)
 from pkmstiff.workspace.octree import OctreeResult
 from pkmstiff.workspace.surface import BoundarySurface, boundary_surface
 
@@ -33,8 +34,6 @@ METHODS = ("surface_nets", "divergence", "tetrahedron", "pyramid", "voxels")
 DEFAULT_METHODS = ("surface_nets", "divergence", "tetrahedron", "pyramid")
 
 
-class VolumeError(ValueError):
-    """Unknown volume method or unusable input."""
 
 
 def cloud_centre(points: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Example figures of the README (``python -m pkmstiff.workspace.figures [OUTDIR]``, default docs/images).
+"""Example figures of the README (``python -m pkmstiff.plots.workspace_figures [OUTDIR]``, default docs/images).
 
 Hexaglide (bundled data): constant-orientation workspace at eps = 12.5 mm with the machine sketch, maximum rotation
 angles on the Y-Z plane at x = 0, rotational workspace at x = 0, y = 400, z = -1000 mm (as Cobet Figs. 4.4, 4.5), volume
@@ -14,8 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from pkmstiff import load_machine
-from pkmstiff.workspace.plots import (plot_convergence, plot_rotation_maps, plot_rotational_workspace, plot_volume_vs_orientation,
-                    plot_workspace)
+from pkmstiff.plots.workspace import (
+    plot_convergence,
+    plot_rotation_maps,
+    plot_rotational_workspace,
+    plot_volume_vs_orientation,
+    plot_workspace,
+)
 from pkmstiff.workspace.rotation import SIX_DIRECTIONS, rotation_angle_map, rotational_workspace_map
 from pkmstiff.workspace.translational import constant_orientation_workspace, volume_vs_orientation
 from pkmstiff.workspace.validation import volume_convergence

@@ -2,7 +2,7 @@
 
 The deformation is magnified so that the largest displacement appears as ``magnified_fraction`` of the
 model size; the colour shows the true displacement magnitude in µm; the undeformed shape is drawn as a
-grey wireframe. Works headless (``pyvista.OFF_SCREEN``).
+grey wireframe. Renders off-screen (``off_screen=True`` plotter).
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ def deformed_image(fm: FieldMesh, path: str | Path, title: str = "", magnified_f
     """
     import pyvista as pv
 
-    pv.OFF_SCREEN = True
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     n = fm.cells.shape[0]

@@ -1,17 +1,42 @@
-"""Shared fixtures of the kinematics tests: a hand-built Hexaglide and workspace-centre poses.
+"""Shared test helpers and fixtures.
 
-The hand-built Hexaglide is typed in from spec machines.md §1.1 (Cobet Table C.1) independently of the
-machine-file loader, so that the hand-computed joint-angle test does not depend on the loader.
+* bundled machines loaded once per test module (``hexaglide``, ``hexapod``);
+* kinematics helpers: a hand-built Hexaglide and workspace-centre poses of every bundled machine;
+* study helpers: load a script from ``studies/`` (not a package) and run it once in --fast mode.
+
+VTK's EGL window is chosen for the whole session when there is no display (as the command line does).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import importlib.util
+import json
+import os
+import sys
+from pathlib import Path
 
 import numpy as np
+import pytest
 
+from pkmstiff import load_machine
 from pkmstiff.machine.model import Chains, Hull, JointType, Limits, Machine, Tool
 
+if not os.environ.get("DISPLAY"):
+    os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+
+@pytest.fixture(scope="module")
+def hexaglide():
+    return load_machine("hexaglide")
+
+
+@pytest.fixture(scope="module")
+def hexapod():
+    return load_machine("hexapod_6x")
+
+
+# ------------------------------------------------------------------------------------------------------ kinematics
 BUNDLED = ("hexaglide", "hexaglide_v1", "hexaglide_v2", "hexapod_6x", "linapod", "paralix")
 
 #: workspace-centre poses (x, y, z [m], a, b, c [rad]) chosen by scanning each machine: every drive within
@@ -89,3 +114,28 @@ def random_poses(name: str, n: int, rng: np.random.Generator, dpos: float = 0.1,
     poses[:, :3] += rng.uniform(-dpos, dpos, (n, 3))
     poses[:, 3:] += rng.uniform(-1.0, 1.0, (n, 3)) * np.deg2rad(dang_deg)
     return poses
+
+
+# --------------------------------------------------------------------------------------------------------- studies
+STUDIES = Path(__file__).resolve().parents[1] / "studies"
+
+
+def load(name: str):
+    """Import ``studies/<name>`` as a module."""
+    path = STUDIES / name
+    spec = importlib.util.spec_from_file_location(f"study_{path.stem}", path)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def run_fast(scripts: dict[str, str], tmp_path_factory) -> dict:
+    """Each study run once in --fast mode: letter -> (module, output dir, results.json)."""
+    out = {}
+    for letter, script in scripts.items():
+        mod = load(script)
+        d = tmp_path_factory.mktemp(f"study_{letter}")
+        assert mod.main(["--fast", "--out", str(d)]) == 0
+        out[letter] = (mod, d, json.loads((d / "results.json").read_text(encoding="utf-8")))
+    return out

@@ -12,6 +12,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from pkmstiff.errors import PlotDependencyError  # noqa: F401 (re-exported)
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch, machine_sketch
@@ -77,33 +78,28 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
     return path
 
 
-class PlotDependencyError(ImportError):
-    """matplotlib (2-D maps and curves) is not installed."""
 
 
-def _plt():
+def _figure(figsize: tuple[float, float]):
+    """A matplotlib Figure that renders without a GUI back-end (no pyplot, no global back-end switch)."""
     try:
-        import matplotlib
+        from matplotlib.figure import Figure
     except ModuleNotFoundError:
         raise PlotDependencyError("the 2-D workspace figures need matplotlib: pip install matplotlib "
                                   "(or pass --no-plot)") from None
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+    return Figure(figsize=figsize)
 
 
 def plot_rotation_maps(res: RotationMapResult, path: str | Path, labels: tuple[str, str] = ("u [mm]", "v [mm]"),
                        scale: tuple[float, float] = (1e3, 1e3), title: str = "", cmap: str = "gray_r") -> Path:
     """One grey-scale contour panel per direction (Cobet's display, §7.2); white = inadmissible base orientation."""
-    plt = _plt()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     dirs = list(res.angles)
     ncol = min(3, len(dirs))
     nrow = int(np.ceil(len(dirs) / ncol))
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.6 * ncol, 3.9 * nrow), squeeze=False)
+    fig = _figure((4.6 * ncol, 3.9 * nrow))
+    axes = fig.subplots(nrow, ncol, squeeze=False)
     U, V = np.meshgrid(res.u_values * scale[0], res.v_values * scale[1])
     vmax = max(float(np.nanmax(np.degrees(a))) if np.isfinite(a).any() else 0.0 for a in res.angles.values())
     levels = np.linspace(0.0, max(vmax, 1.0), 19)
@@ -124,17 +120,16 @@ def plot_rotation_maps(res: RotationMapResult, path: str | Path, labels: tuple[s
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
 def plot_volume_vs_orientation(angles_rad: np.ndarray, volumes: Mapping[str, np.ndarray], path: str | Path,
                                title: str = "") -> Path:
     """Workspace volume (m^3) over one tool angle at a time, one curve per rotation axis."""
-    plt = _plt()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    fig = _figure((6.4, 4.2))
+    ax = fig.subplots()
     for ax_name, vols in volumes.items():
         ax.plot(np.degrees(angles_rad), vols, marker="o", ms=3, label=f"rotation about {ax_name}")
     ax.set_xlabel("tool angle [deg] (other angles 0)")
@@ -145,16 +140,15 @@ def plot_volume_vs_orientation(angles_rad: np.ndarray, volumes: Mapping[str, np.
         ax.set_title(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
 def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.ndarray]], path: str | Path) -> Path:
     """|relative volume error| [%] over eps [mm], log-log, one panel per body, one curve per method."""
-    plt = _plt()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig, axes = plt.subplots(1, len(errors), figsize=(5.6 * len(errors), 4.2), squeeze=False)
+    fig = _figure((5.6 * len(errors), 4.2))
+    axes = fig.subplots(1, len(errors), squeeze=False)
     for ax, (body, by_method) in zip(axes.ravel(), errors.items()):
         for meth, err in by_method.items():
             ax.loglog(eps_mm, np.maximum(np.abs(err), 1e-4), marker="o", ms=3, label=meth)
@@ -168,7 +162,6 @@ def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.nd
         ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
 
 
@@ -176,10 +169,10 @@ def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | 
                               cmap: str = "gray_r") -> Path:
     """Projections of the rotational workspace at a point (spec §7.1): one panel per result, e.g. max. +a over
     (b, c) and max. +b over (a, c); axes and values in degrees."""
-    plt = _plt()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig, axes = plt.subplots(1, len(results), figsize=(5.2 * len(results), 4.2), squeeze=False)
+    fig = _figure((5.2 * len(results), 4.2))
+    axes = fig.subplots(1, len(results), squeeze=False)
     for ax, res in zip(axes.ravel(), results):
         d = next(iter(res.angles))
         a = np.degrees(res.angles[d])
@@ -195,5 +188,4 @@ def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | 
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path

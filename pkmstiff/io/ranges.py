@@ -1,0 +1,43 @@
+"""Parsing the compact range and angle texts of the command line and of sweep/report files (mm and degrees in,
+SI out): ``"y=-600:800,z=-1200:-500"`` and ``"a,b,c"``."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from pkmstiff.errors import SectionArgumentError
+
+
+def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
+    """``"y=-600:800,z=-1200:-500"`` (mm) -> {"y": (-0.6, 0.8), "z": (-1.2, -0.5)} in m, for the plane's axes."""
+    out = {}
+    for part in text.split(","):
+        try:
+            axis, rng = part.split("=")
+            lo, hi = (float(v) for v in rng.split(":"))
+        except ValueError:
+            raise SectionArgumentError(f"--range: expected AXIS=LO:HI pairs in mm separated by commas, "
+                                       f"found {part!r}") from None
+        axis = axis.strip().lower()
+        if axis not in plane:
+            raise SectionArgumentError(f"--range: axis {axis!r} is not in the {plane.upper()} plane")
+        if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+            raise SectionArgumentError(f"--range {axis}: expected LO < HI (mm), found {lo:g}:{hi:g}")
+        out[axis] = (lo * 1e-3, hi * 1e-3)
+    missing = [a for a in plane if a not in out]
+    if missing:
+        raise SectionArgumentError(f"--range: missing the range of {', '.join(missing)} for the {plane.upper()} plane")
+    return out
+
+
+def parse_triple_deg(text: str, what: str) -> np.ndarray:
+    """``"a,b,c"`` in degrees -> (3,) array in rad; ``what`` names the option in the error."""
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
+        raise SectionArgumentError(f"{what}: expected three numbers a,b,c in degrees, found {text!r}")
+    return np.deg2rad(vals)

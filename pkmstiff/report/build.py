@@ -1,0 +1,236 @@
+"""Evaluating a report spec for every variant and assembling the comparison report (``pkmstiff report``).
+
+Every evaluation goes through the request model (:mod:`pkmstiff.evaluation.requests`,
+:mod:`pkmstiff.workspace.requests`) and the one statistics function :func:`~pkmstiff.evaluation.requests.statistic`.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+
+from pkmstiff.evaluation.quantities import get_quantity
+from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
+from pkmstiff.machine.model import Machine
+from pkmstiff.report.model import Figure, Report, Table
+from pkmstiff.report.spec import MACHINE_ROWS, PointSpec, ReportSpec, SectionSpec, Variant, fast_spec, load_spec
+from pkmstiff.workspace.requests import WorkspaceRequest
+
+__all__ = ["build_report", "run_spec"]
+
+
+def _load_variant(v: Variant) -> Machine:
+    from pkmstiff.machine.variants import machine_with
+
+    return machine_with(v.machine, v.overrides, v.options)
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "x"
+
+
+def _section_rows(sec: SectionSpec, results: list, table: Table, multi: bool) -> None:
+    where = f" ({sec.name})" if multi else ""
+    for q in sec.quantities:
+        unit = get_quantity(q).unit
+        for stat in sec.statistics:
+            label, unit_override = STATISTICS[stat]
+            vals = [statistic(res.statistics()[q], stat) for res in results]
+            table.add(f"{q} {label}{where}", unit_override or unit, [None if v != v else v for v in vals])
+
+
+def _fmt_deg(o: Sequence[float]) -> str:
+    return ", ".join(f"{math.degrees(a):g}" for a in o)
+
+
+def _tool_mm(machine: Machine, tl: float | None) -> float:
+    return 1e3 * float(machine.tool.length if tl is None else tl)
+
+
+def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
+                 log: Callable[[str], None] | None = None) -> Report:
+    """Evaluate a spec for every variant and assemble the report; figures are written to ``out_dir``.
+
+    ``fast`` applies :func:`~pkmstiff.report.spec.fast_spec`; ``n_jobs`` (default: the spec's ``options.jobs``) is
+    passed to the section evaluation. ``log`` receives one progress line per step.
+    """
+    log = log or (lambda msg: None)
+    if fast:
+        spec = fast_spec(spec)
+    jobs = spec.jobs if n_jobs is None else n_jobs
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    machines = []
+    for v in spec.variants:
+        machines.append(_load_variant(v))
+        log(f"variant {v.name}: {machines[-1].title}")
+    pairs = list(zip(spec.variants, machines))
+
+    report = Report(spec.title)
+    report.summary = spec.summary
+    base = f"; baseline: {spec.baseline}" if spec.baseline else ""
+    variants_text = "\n\n".join(_variant_text(v, m) for v, m in pairs)
+    comparison = report.section("Comparison", f"Variants compared{base}.\n\n{variants_text}")
+    table = Table(spec.title if len(spec.title) < 80 else "Comparison of the variants", [v.name for v in spec.variants],
+                  baseline=spec.baseline, digits=spec.digits)
+    comparison.tables.append(table)
+    notes: list[str] = []
+
+    # workspace volume first (as in Cobet Table 5.1), then sections, points, machine values
+    ws_figs = _workspace_rows(spec, pairs, table, notes, out, log) if spec.workspace is not None else []
+    multi = len(spec.sections) > 1
+    map_sections = [(sec, figs) for k, sec in enumerate(spec.sections)
+                    for figs in [_section(sec, k, pairs, table, multi, jobs, out, log)] if sec.maps]
+    for pt in spec.points:
+        _point_rows(pt, pairs, table, notes)
+    for key in spec.machine_rows:
+        label, unit, fn = MACHINE_ROWS[key]
+        table.add(label, unit, [fn(m, v) for v, m in pairs])
+
+    stats_note = ("Section statistics (min, mean, max) are taken over the admissible raster points of the plane "
+                  "(unweighted); n/a = no admissible point.") if spec.sections else ""
+    comparison.text += "\n\n" + "\n\n".join([t for t in [stats_note] + notes if t])
+    for sec, figs in map_sections:
+        s = report.section(f"Section maps: {sec.name}",
+                           f"Quantities {', '.join(sec.quantities)} on the {sec.name} "
+                           f"(raster {sec.step * 1e3:g} mm, {sec.range_text}); the colour scale of a quantity is "
+                           f"the same for every variant.")
+        s.figures.extend(figs)
+    if ws_figs:
+        s = report.section("Workspace", "Constant-orientation workspace of each variant (closed boundary surface) "
+                                        "with the machine at a central pose.")
+        s.figures.extend(ws_figs)
+
+    report.assumptions = dict(spec.assumptions)
+    if spec.sections:
+        report.assumptions.setdefault("report: section statistics",
+                                      "min/mean/max over the admissible raster points, every point weighted equally")
+    for v, m in pairs:
+        for key, reason in m.assumptions.items():
+            report.assumptions[f"{v.name}: {key}"] = reason
+    report.settings = _settings(spec, machines, fast, jobs)
+    return report
+
+
+def _variant_text(v: Variant, m: Machine) -> str:
+    overrides = (", overrides " + ", ".join(f"{k} = {val!r}" for k, val in v.overrides.items())) if v.overrides else ""
+    return (f"{v.name}: {m.title} ({m.name}{overrides}), tool length {_tool_mm(m, v.tool_length):g} mm, "
+            f"orientation a, b, c = {_fmt_deg(v.orientation)} deg" + (f". {v.description}" if v.description else ""))
+
+
+def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str], out: Path,
+                    log: Callable[[str], None]) -> list[Figure]:
+    ws = spec.workspace
+    figs: list[Figure] = []
+    vols: dict[str, list[float | None]] = {m: [] for m in ws.methods}
+    for v, m in pairs:
+        t0 = time.perf_counter()
+        ori = ws.orientation if ws.orientation is not None else v.orientation
+        res = WorkspaceRequest(ws.resolution, ws.box, ws.requirements, ori, ws.methods).evaluate(m)
+        for meth in ws.methods:
+            vols[meth].append(res.volumes.get(meth))
+        if res.octree.touches_box:
+            notes.append(f"Workspace of {v.name} touches the initial box and is cut there (enlarge box_mm).")
+        log(f"workspace {v.name}: {res.volume:.4f} m^3 ({time.perf_counter() - t0:.1f} s)")
+        if ws.figures:
+            from pkmstiff.plots.workspace import plot_workspace
+
+            path = plot_workspace(res, m, out / "workspace" / f"{_slug(v.name)}.png")
+            figs.append(Figure(path, f"{v.name}: workspace at a, b, c = {_fmt_deg(ori)} deg, "
+                                     f"resolution {ws.resolution * 1e3:g} mm, V = {res.volume:.4g} m^3"))
+    for meth in ws.methods:
+        table.add(f"workspace volume ({meth.replace('_', ' ')})", "m^3", vols[meth])
+    return figs
+
+
+def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, jobs: int, out: Path,
+             log: Callable[[str], None]) -> list[Figure]:
+    """Evaluate one section for every variant, add its rows; the maps' figures (one colour scale per quantity)."""
+    results = []
+    for v, m in pairs:
+        t0 = time.perf_counter()
+        req = SectionRequest(sec.plane, sec.at, sec.u_range, sec.v_range, sec.step, sec.quantities,
+                             sec.orientation if sec.orientation is not None else v.orientation,
+                             sec.tool_length if sec.tool_length is not None else v.tool_length)
+        res = req.evaluate(m, n_jobs=jobs)
+        res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
+        if res.tool_length is None:
+            res.tool_length = m.tool.length
+        results.append(res)
+        log(f"section {sec.name}, {v.name}: {int(res.ok.sum())} of {res.ok.size} points admissible "
+            f"({time.perf_counter() - t0:.1f} s)")
+    _section_rows(sec, results, table, multi)
+    if not sec.maps:
+        return []
+    from pkmstiff.plots.section_maps import plot_section
+
+    figs = []
+    for q in sec.quantities:
+        finite = [r.display(q)[r.ok] for r in results]
+        finite = np.concatenate([f[np.isfinite(f)] for f in finite])
+        clim = (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min() \
+            else None  # one colour scale per quantity across the variants
+        for (v, _), res in zip(pairs, results):
+            path = plot_section(res, q, out / "maps" / f"{k + 1}_{_slug(sec.plane)}_{_slug(q)}_{_slug(v.name)}.png",
+                                clim=clim)
+            figs.append(Figure(path, f"{v.name}: {get_quantity(q).label} [{res.units[q]}] on the "
+                                     f"{sec.name}; white = inadmissible, black line = admissible boundary"))
+    return figs
+
+
+def _point_rows(pt: PointSpec, pairs: list, table: Table, notes: list[str]) -> None:
+    rows: dict[str, list[float | None]] = {q: [] for q in pt.quantities}
+    for v, m in pairs:
+        tl = pt.tool_length if pt.tool_length is not None else v.tool_length
+        res = PointRequest(pt.pose, pt.quantities, tl).evaluate(m)
+        if not res.admissible:
+            notes.append(f"{v.name} at {pt.name}: inadmissible ({'; '.join(res.failing)})")
+        for q in pt.quantities:
+            rows[q].append(res.values.get(q))
+    for q in pt.quantities:
+        table.add(f"{q} at {pt.name}", get_quantity(q).unit, rows[q])
+
+
+def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) -> dict[str, Any]:
+    s: dict[str, Any] = {"spec": spec.source, "fast": fast, "jobs": jobs}
+    if spec.baseline:
+        s["baseline"] = spec.baseline
+    for v, m in zip(spec.variants, machines):
+        s[f"variant {v.name}"] = {"machine": m.name, "file": m.path, "options": list(v.options),
+                                  "overrides": dict(v.overrides), "tool_length_mm": _tool_mm(m, v.tool_length),
+                                  "orientation_deg": [round(math.degrees(a), 9) for a in v.orientation]}
+    for k, sec in enumerate(spec.sections):
+        s[f"section {k + 1}"] = {"plane": sec.name, "range_mm": sec.range_text, "step_mm": sec.step * 1e3,
+                                 "quantities": list(sec.quantities), "statistics": list(sec.statistics),
+                                 "tool_length_mm": None if sec.tool_length is None else sec.tool_length * 1e3,
+                                 "orientation_deg": None if sec.orientation is None else
+                                 [round(math.degrees(a), 9) for a in sec.orientation]}
+    if spec.workspace is not None:
+        ws = spec.workspace
+        s["workspace"] = {"resolution_mm": ws.resolution * 1e3, "methods": list(ws.methods),
+                          "requirements": list(ws.requirements),
+                          "box_mm": None if ws.box is None else [1e3 * x for pair in zip(*ws.box) for x in pair],
+                          "orientation_deg": None if ws.orientation is None else
+                          [round(math.degrees(a), 9) for a in ws.orientation]}
+    for k, pt in enumerate(spec.points):
+        s[f"point {k + 1}"] = {"pose": pt.name, "quantities": list(pt.quantities),
+                               "tool_length_mm": None if pt.tool_length is None else pt.tool_length * 1e3}
+    return s
+
+
+def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
+             log: Callable[[str], None] | None = None) -> dict[str, Path]:
+    """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths."""
+    from pkmstiff.report.render import run_info, write_report
+
+    t0 = time.perf_counter()
+    spec = load_spec(path)
+    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log)
+    info = run_info()
+    info["run time"] = f"{time.perf_counter() - t0:.1f} s"
+    return write_report(report, out_dir, run=info)

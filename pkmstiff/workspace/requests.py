@@ -1,0 +1,58 @@
+"""Workspace evaluation requests (SI units), the workspace layer's part of the request model of
+:mod:`pkmstiff.evaluation.requests`."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from pkmstiff.machine.model import Machine
+from pkmstiff.workspace.rotation import RotationMapResult, rotation_angle_map
+from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace
+
+
+@dataclass(frozen=True)
+class WorkspaceRequest:
+    """Constant-orientation workspace by the modified octree (docs/theory/workspace.md, Cobet §7.3).
+
+    ``box`` = (lo, hi) in m or None (the chains' reach box); ``requirements`` as in ``pkmstiff workspace
+    --require``; ``methods`` volume methods of :data:`pkmstiff.workspace.volume.METHODS`.
+    """
+
+    resolution: float  # m
+    box: tuple[Any, Any] | None = None  # (lo (3,), hi (3,)) m
+    requirements: tuple[str, ...] = ()
+    orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
+    methods: tuple[str, ...] = ("surface_nets",)
+
+    def evaluate(self, machine: Machine, **options: Any) -> WorkspaceResult:
+        """``options`` are passed to :func:`constant_orientation_workspace` (progress, refine_steps, ...)."""
+        box = None if self.box is None else (np.asarray(self.box[0], float), np.asarray(self.box[1], float))
+        return constant_orientation_workspace(machine, self.resolution, self.orientation,
+                                              requirements=self.requirements, box=box, methods=self.methods,
+                                              **options)
+
+
+@dataclass(frozen=True)
+class RotationMapRequest:
+    """Maximum admissible rotation angles on a section raster origin + u·u_axis + v·v_axis (m; Cobet §7.4)."""
+
+    origin: tuple[float, float, float]  # m
+    u_axis: tuple[float, float, float]
+    v_axis: tuple[float, float, float]
+    u_values: tuple[float, ...]  # m
+    v_values: tuple[float, ...]  # m
+    directions: tuple[str, ...] = ("+a",)
+    base_orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
+    increment: float = math.radians(1.0)  # rad
+    max_angle: float = math.radians(90.0)  # rad
+    requirements: tuple[str, ...] = ()
+    method: str = "predictor_corrector"
+
+    def evaluate(self, machine: Machine, **options: Any) -> RotationMapResult:
+        return rotation_angle_map(machine, self.origin, self.u_axis, self.v_axis, self.u_values, self.v_values,
+                                  self.base_orientation, list(self.directions), self.increment, self.max_angle,
+                                  requirements=self.requirements, method=self.method, **options)
