@@ -1,4 +1,4 @@
-"""pkmstiff component model library: drives, guides, struts, joints, bearings and bodies (spec models.md §3).
+"""pkmstiff component model library: drives, guides, struts, joints, bearings and bodies (docs/theory/components.md).
 
 All quantities are SI; every component evaluates a batch of N poses at once from a
 :class:`~components.protocol.ComponentState`. Build components from machine-file tables with

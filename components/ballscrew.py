@@ -1,4 +1,4 @@
-"""Ball-screw drives with indirect measuring system (spec models.md §3.1, Cobet eq. 3.1–3.4, 3.21–3.24).
+"""Ball-screw drives with indirect measuring system (docs/theory/components.md, Cobet eq. 3.1–3.4, 3.21–3.24).
 
 Axial stiffness of the drive depends on the nut position through the spindle; bearings, nut and nut
 connection are constant. Arrangements (Cobet Table 3.1):
@@ -12,7 +12,7 @@ connection are constant. Arrangements (Cobet Table 3.1):
 The nut position along the spindle is ``s = nut_offset + drive_position`` measured from the motor-side
 bearing (``state.l_eff``, when given, is used directly as l_eff resp. l_Sp1).
 
-:class:`TelescopicBallScrew` is the pod strut drive of the 6X Hexapod (machines.md §4.2): fixed–floating,
+:class:`TelescopicBallScrew` is the pod strut drive of the 6X Hexapod (docs/user-guide/machines.md): fixed–floating,
 driven by the strut length through l_eff = l_eff_min + (l − l_at_l_eff_min) (Assumption) and evaluated either
 with the quadratic fit of Cobet eq. 3.22 (default) or the exact eq. 3.3.
 """
@@ -119,7 +119,7 @@ def fit_stroke_polynomial(
     """Fit a polynomial in l_eff [m] to a length-dependent drive stiffness [N/m] (Cobet eq. 3.22).
 
     Sampling: ``n_samples`` equally spaced points including both ends. 200 samples reproduce the fit
-    quoted in machines.md §4.2 (85.05, −246.0, 284.1 N/µm, r = 0.998) for the 6X data; the printed
+    quoted in docs/user-guide/machines.md (85.05, −246.0, 284.1 N/µm, r = 0.998) for the 6X data; the printed
     eq. 3.22 (85.3, −248.14, 285.53) is not reproduced exactly by any uniform sampling (its sampling is not
     stated); all samplings with ≥ 20 points are within 2 % of it.
     """
@@ -224,7 +224,7 @@ class BallScrewDrive(Component):
 
 @dataclass(frozen=True, kw_only=True, eq=False)
 class TelescopicBallScrew(Component):
-    """Telescopic strut drive of a pod machine (fixed–floating ball screw, machines.md §4.2).
+    """Telescopic strut drive of a pod machine (fixed–floating ball screw, docs/user-guide/machines.md).
 
     l_eff = l_eff_min + (l − length_at_l_eff_min) from ``state.strut_length`` (or ``state.drive_position``;
     ``state.l_eff`` overrides). ``drive_model``: ``"fit_3_22"`` (default) evaluates the polynomial
@@ -263,7 +263,7 @@ class TelescopicBallScrew(Component):
         object.__setattr__(self, "limits", {"l_eff_min": self.l_eff_min, "l_eff_max": self.l_eff_max, **self.limits})
         defaults = {
             "l_eff_mapping": "l_eff = l_eff_min + (l - length_at_l_eff_min): strut-length-to-spindle-length mapping "
-                             "assumed by the toolkit (machines.md §4.2)",
+                             "assumed by the toolkit (docs/user-guide/machines.md)",
         }
         if self.out_of_range == "clamp":
             defaults["out_of_range"] = "l_eff outside [l_eff_min, l_eff_max] is clamped to the range (toolkit choice)"

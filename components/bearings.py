@@ -1,4 +1,4 @@
-"""Tapered roller bearings after Dietl and the tensile-test-rig evaluation (spec models.md §3.5 (2), (4)).
+"""Tapered roller bearings after Dietl and the tensile-test-rig evaluation (docs/theory/components.md).
 
 Dietl's linear spring model (Cobet eq. 3.31, 3.32): with displacements u_B = (u_x, u_z, u_ϑ) (radial,
 axial, tilt) K_L = Σ k_i N_iᵀ N_i, N_i = [cos α cos φ_i, sin α, −r sin α cos φ_i]. For equally spaced
@@ -17,7 +17,7 @@ from components.protocol import Component, ComponentState
 
 
 def roller_positions(n: int) -> np.ndarray:
-    """Equally spaced roller angles φ_i = 2π(i−1)/n [rad] (Assumption, models.md §3.5 (2))."""
+    """Equally spaced roller angles φ_i = 2π(i−1)/n [rad] (Assumption, docs/theory/components.md)."""
     return 2.0 * np.pi * np.arange(n) / n
 
 
@@ -61,7 +61,7 @@ class TaperedRollerBearing(Component):
             phi = roller_positions(int(self.n_rollers))
             if "roller_angles" not in self.assumptions:
                 object.__setattr__(self, "assumptions", {**self.assumptions, "roller_angles":
-                                   "equally spaced rollers (models.md §3.5 (2) Assumption)"})
+                                   "equally spaced rollers (docs/theory/components.md Assumption)"})
         else:
             phi = np.asarray(self.roller_angles, dtype=float)
             if phi.shape != (int(self.n_rollers),):

@@ -1,4 +1,4 @@
-"""Rigid bodies (mass, inertia, centre of gravity) and 6×6 body stiffness (spec models.md §3.7, §4.3, §4.6).
+"""Rigid bodies (mass, inertia, centre of gravity) and 6×6 body stiffness (docs/theory/components.md).
 
 Mass matrix of a body about its CoG in MKS axes: M = diag(m I₃, R I'_cg Rᵀ) (I'_cg in body axes).
 Referred to another point O with ρ = CoG − O: M_O = N(ρ)ᵀ M_cg N(ρ) (parallel-axis theorem) with the
@@ -37,7 +37,7 @@ def reference_matrix(delta: Any) -> np.ndarray:
 
 
 def shift_mass_matrix(M_cg: Any, rho: Any) -> np.ndarray:
-    """M_O = N(ρ)ᵀ M_cg N(ρ) (..., 6, 6), ρ = CoG − O in MKS components (models.md §4.6)."""
+    """M_O = N(ρ)ᵀ M_cg N(ρ) (..., 6, 6), ρ = CoG − O in MKS components (docs/theory/structure.md)."""
     N = reference_matrix(rho)
     return np.swapaxes(N, -1, -2) @ np.asarray(M_cg, dtype=float) @ N
 
@@ -98,7 +98,7 @@ class RigidBody(Component):
     def mass_matrix_about(self, point: Any, origin: Any = (0.0, 0.0, 0.0), R: Any = None) -> np.ndarray:
         """Mass matrix about ``point`` (MKS) for a body whose reference point is at ``origin`` (MKS), orientation R.
 
-        CoG in the MKS = origin + R cog; ρ = CoG − point (parallel-axis theorem, models.md §4.6).
+        CoG in the MKS = origin + R cog; ρ = CoG − point (parallel-axis theorem, docs/theory/structure.md).
         """
         Rm = np.eye(3) if R is None else np.asarray(R, dtype=float)
         cog_mks = np.asarray(origin, dtype=float) + (Rm @ self.cog)
@@ -107,7 +107,7 @@ class RigidBody(Component):
 
 @dataclass(frozen=True, kw_only=True, eq=False)
 class BodyStiffness(Component):
-    """Constant 6×6 body stiffness (e.g. the platform stiffness K_P used as K_U, machines.md §1.4).
+    """Constant 6×6 body stiffness (e.g. the platform stiffness K_P used as K_U, docs/user-guide/machines.md).
 
     ``matrix`` (6, 6) in SI (blocks N/m, N/rad, N·m/rad), symmetric positive definite, in the axes it was
     determined in (platform axes: use :meth:`in_mks`).
@@ -136,7 +136,7 @@ class BodyStiffness(Component):
         """From 6 diagonal values or a 6×6 matrix given in the dissertation's units.
 
         Default rotational unit N·m/µrad: the interpretation of the unprinted Hexaglide K_P units
-        (machines.md §1.4 note 3) — configurable.
+        (docs/user-guide/machines.md note 3) — configurable.
         """
         v = np.asarray(values, dtype=float)
         K = np.diag(v) if v.shape == (6,) else v.copy()
@@ -152,7 +152,7 @@ class BodyStiffness(Component):
         return np.broadcast_to(self.matrix, (state.n, 6, 6)).copy()
 
     def in_mks(self, R: Any) -> np.ndarray:
-        """H K Hᵀ with H = diag(R, R) (..., 6, 6) for a matrix given in body axes (models.md §4.4)."""
+        """H K Hᵀ with H = diag(R, R) (..., 6, 6) for a matrix given in body axes (docs/theory/structure.md)."""
         Rm = np.asarray(R, dtype=float)
         H = np.zeros(Rm.shape[:-2] + (6, 6))
         H[..., :3, :3] = Rm

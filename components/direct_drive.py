@@ -1,4 +1,4 @@
-"""Linear direct drives and ball screws with direct measuring system (spec models.md §3.2, §6.3).
+"""Linear direct drives and ball screws with direct measuring system (docs/theory/components.md).
 
 The axial stiffness of a PD-controlled drive is position independent (Cobet eq. 3.5, 3.9):
 ``k_A = k_m k_px = m_i Ω²``. The toolkit offers ``axial_stiffness = "constant"`` (default, value given,
@@ -21,9 +21,9 @@ AXIAL_MODES: tuple[str, ...] = ("constant", "pole_placement")
 def joint_space_mass_diagonal(J_C: Any, M_A: Any, M_P: Any) -> np.ndarray:
     """Diagonal of the joint-space mass matrix M_q = M_A + J_Cᵀ M_P J_C (Cobet eq. 3.10–3.12) [kg].
 
-    ``J_C`` (N, n, n): kinematic Jacobian, twist = J_C q̇ (models.md §1.4); ``M_A`` (n,) or (N, n): drive
+    ``J_C`` (N, n, n): kinematic Jacobian, twist = J_C q̇ (docs/theory/kinematics.md); ``M_A`` (n,) or (N, n): drive
     masses (diagonal of M_A); ``M_P`` (n, n) or (N, n, n): platform + spindle mass matrix referred to O' in
-    MKS axes (models.md §4.6). Returns (N, n).
+    MKS axes (docs/theory/structure.md). Returns (N, n).
     """
     J = np.asarray(J_C, dtype=float)
     MP = np.asarray(M_P, dtype=float)
@@ -78,7 +78,7 @@ class LinearDirectDrive(Component):
         return self.limits.get("coulomb_friction", 0.0) * np.sign(v) + self.limits.get("viscous_friction", 0.0) * v
 
     def available_force(self) -> float:
-        """T = τ_q,max − τ_q,min [N] (models.md §6.3); needs limits max_force (reserve defaults to 0)."""
+        """T = τ_q,max − τ_q,min [N] (docs/theory/kinetostatics.md); needs limits max_force (reserve defaults to 0)."""
         if "max_force" not in self.limits:
             raise ValueError(f"drive '{self.name}': no max_force limit given")
         return self.limits["max_force"] - self.limits.get("force_reserve", 0.0)

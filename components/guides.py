@@ -1,11 +1,11 @@
-"""Guide carriages and the anisotropic glide-drive stiffness (spec models.md §3.3, §4.4; Cobet eq. 3.6, 3.14).
+"""Guide carriages and the anisotropic glide-drive stiffness (docs/theory/components.md; Cobet eq. 3.6, 3.14).
 
 In the drive coordinate system (x' = guide direction, y' horizontal transverse, z' vertical transverse)
 the drive stiffness is K'_W = diag(k_x, k_y, k_z): k_x = axial drive stiffness, k_y / k_z = sum of the
 horizontal / vertical stiffnesses of all carriages (parallel connection). In the MKS it is K_W = R K'_W Rᵀ
 with the drive-frame axes as the columns of R.
 
-Note (models.md §4.4): Cobet eq. 4.40 prints K_W = R K'_W; a stiffness tensor transforms by the
+Note (docs/theory/structure.md): Cobet eq. 4.40 prints K_W = R K'_W; a stiffness tensor transforms by the
 congruence R K' Rᵀ, which is what :func:`drive_frame_stiffness` implements.
 """
 
@@ -59,7 +59,7 @@ def drive_frame(
 
 
 def drive_frame_stiffness(K_local: Any, R: Any) -> np.ndarray:
-    """K_W = R K' Rᵀ (..., 3, 3) — drive stiffness from drive coordinates into the MKS (models.md §4.4)."""
+    """K_W = R K' Rᵀ (..., 3, 3) — drive stiffness from drive coordinates into the MKS (docs/theory/structure.md)."""
     K = np.asarray(K_local, dtype=float)
     Rm = np.asarray(R, dtype=float)
     return Rm @ K @ np.swapaxes(Rm, -1, -2)

@@ -1,7 +1,7 @@
-"""Joint stiffness models (spec models.md §3.5, component-data.md §1–§5).
+"""Joint stiffness models (docs/theory/components.md).
 
 A joint stiffness is a scalar axial (tension/compression) stiffness along the strut in N/m that depends
-on the joint angles of models.md §2, handed over in ``state.tilt`` / ``state.swivel`` (rad) in the joint's
+on the joint angles of docs/theory/kinematics.md, handed over in ``state.tilt`` / ``state.swivel`` (rad) in the joint's
 own convention (``angle_convention`` = ``"axis"`` | ``"normal"`` | ``None`` for models valid in either).
 
 Models: :class:`ConstantJoint`, :class:`AnalyticJoint330` (Cobet eq. 3.30), :class:`TiltTableJoint`
@@ -35,7 +35,7 @@ __all__ = [
     "analytic_3_30", "joint_from_table", "load_joint_table", "write_joint_table", "bundled_tables", "JointTable",
 ]
 
-_CLAMP_NOTE = "outside the tabulated angle range the end value is used (models.md §3.5 (5) Assumption)"
+_CLAMP_NOTE = "outside the tabulated angle range the end value is used (docs/theory/components.md Assumption)"
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -82,7 +82,7 @@ class ConstantJoint(JointModel):
 
 
 def analytic_3_30(tilt: Any, k_AaL: float, k_BrL: float, k_CrL: float, k_CaL: float) -> np.ndarray:
-    """Analytic substitute model of a Cardan joint, Cobet eq. 3.30 (models.md §3.5 (1)).
+    """Analytic substitute model of a Cardan joint, Cobet eq. 3.30 (docs/theory/components.md).
 
     k_G(θ) = 2 k_AaL k_BrL / (2 k_BrL + k_AaL (2 + k_BrL sqrt((cos θ / k_CrL)² + (4 sin θ / k_CaL)²))).
     Homogeneous in the stiffness unit (SI in, SI out); ``tilt`` in rad.
@@ -200,7 +200,7 @@ class SwivelTiltTableJoint(JointModel):
         for key, value in (("swivel_nodes", sw), ("tilt_nodes", ti), ("k_grid", k)):
             object.__setattr__(self, key, value)
         self._add_assumption("interpolation", "bicubic tensor-product spline with the end-slope rule per axis "
-                                              "(models.md §3.5 (5) Assumption)")
+                                              "(docs/theory/components.md Assumption)")
         if self.extrapolation == "clamp":
             self._add_assumption("extrapolation", _CLAMP_NOTE)
 
@@ -217,7 +217,7 @@ class SwivelTiltTableJoint(JointModel):
 
 @dataclass(frozen=True, kw_only=True, eq=False)
 class ProductJoint(JointModel):
-    """k(φ, θ) = k_ref · g_φ(φ) · g_θ(θ) from two 1-D curves normalised to their maxima (models.md §3.5 (5)).
+    """k(φ, θ) = k_ref · g_φ(φ) · g_θ(θ) from two 1-D curves normalised to their maxima (docs/theory/components.md).
 
     The curves may be given in any unit (stiffness or already normalised); each is divided by its largest
     support value. ``k_ref`` [N/m] is the stiffness at the common maximum.
@@ -250,7 +250,7 @@ class ProductJoint(JointModel):
         object.__setattr__(self, "_splines", (clamped_spline(sw, gs, what=f"joint '{self.name}' swivel curve"),
                                               clamped_spline(ti, gt, what=f"joint '{self.name}' tilt curve")))
         self._add_assumption("interpolation", "k = k_ref g_swivel(swivel) g_tilt(tilt), curves normalised to "
-                                              "their maxima (models.md §3.5 (5) Assumption)")
+                                              "their maxima (docs/theory/components.md Assumption)")
         if self.extrapolation == "clamp":
             self._add_assumption("extrapolation", _CLAMP_NOTE)
 

@@ -132,7 +132,7 @@ class Component(ABC):
         """Stiffness for every pose of ``state``: ``(N,)``, ``(N, 3, 3)`` or ``(N, 6, 6)`` in SI units."""
 
     def damping(self, state: ComponentState) -> np.ndarray | None:
-        """Damping of the same shape as the stiffness, or ``None`` (damping is neglected, models.md §4.1)."""
+        """Damping of the same shape as the stiffness, or ``None`` (damping is neglected, docs/theory/structure.md)."""
         return None
 
     @property

@@ -406,7 +406,7 @@ def _telescopic(defaults: dict[str, Any]) -> Callable[[Params], Component]:
             length_at_l_eff_min=p.quantity("length_at_l_eff_min", "m", positive=True),
             out_of_range=p.choice("out_of_range", bs.RANGE_POLICIES, "clamp"),
             mass=mass, limits=limits)
-        prov = "6X Hexapod telescopic strut, machines.md §4.2 / component-data.md §8" if defaults else ""
+        prov = "6X Hexapod telescopic strut, docs/user-guide/machines.md / docs/theory/components.md" if defaults else ""
         object.__setattr__(drive, "provenance", "; ".join(v for v in (prov, *notes.values()) if v))
         return drive
     return factory
@@ -537,7 +537,7 @@ def _tapered_roller_bearing(p: Params) -> Component:
     n = p.integer("n_rollers", min_value=3)
     notes = {}
     if not p.has("pitch_radius"):
-        notes["pitch_radius"] = "not given by the source (component-data.md §6); 0 m: tilt row/column is zero"
+        notes["pitch_radius"] = "not given by the source (docs/theory/components.md); 0 m: tilt row/column is zero"
     angles = p.quantity("roller_angles", "rad", None, shape=(n,))
     return TaperedRollerBearing(name=p.name, n_rollers=n, k_roller=p.quantity("k_roller", "N/m", positive=True),
                                 contact_angle=p.quantity("contact_angle", "rad", positive=True),
@@ -571,7 +571,7 @@ def _body_stiffness(p: Params) -> Component:
     notes = {}
     if not p.has("rotational_unit"):
         notes["rotational_unit"] = ("bare rotational entries read as N*m/urad (interpretation of the unprinted "
-                                    "Hexaglide K_P units, machines.md §1.4 note 3)")
+                                    "Hexaglide K_P units, docs/user-guide/machines.md note 3)")
     if p.exactly_one(("diagonal",), ("matrix",)) == 0:
         trans = p.quantity_in("diagonal", "N/m", t_unit, shape=(6,))
         rot = p.quantity_in("diagonal", "N*m/rad", r_unit, shape=(6,))
@@ -625,7 +625,7 @@ register_model("telescopic_ballscrew", _telescopic({}),
                "telescopic pod strut drive (fixed-floating ball screw) driven by the strut length",
                equation="Cobet eq. 3.3 / 3.22", parameters=_TELESCOPIC_DOCS)
 register_model("telescopic_ballscrew_6x", _telescopic(_6X_DEFAULTS),
-               "6X Hexapod telescopic strut drive; defaults = machines.md §4.2 data (each overridable)",
+               "6X Hexapod telescopic strut drive; defaults = docs/user-guide/machines.md data (each overridable)",
                equation="Cobet eq. 3.3 / 3.22, 3.4, 3.24",
                parameters=tuple(ParamDoc(d.key, d.unit, "6X data", d.meaning) for d in _TELESCOPIC_DOCS))
 register_model("linear_direct_drive", _linear_direct_drive,
@@ -665,14 +665,14 @@ register_model("joint_table", lambda p: _load_table(p, swivel=False),
                + _TABLE_DOCS + _JOINT_DOCS)
 register_model("joint_table_swivel_tilt", lambda p: _load_table(p, swivel=True),
                "tabulated joint stiffness on a (swivel, tilt) grid, bicubic end-slope spline",
-               equation="models.md §3.5 (5) Assumption",
+               equation="docs/theory/components.md Assumption",
                parameters=(ParamDoc("table | swivel + tilt + stiffness", "name/path | rad + rad + N/m", "one required",
                                     "2-D table or inline grid (stiffness[swivel][tilt])"),
                            ParamDoc("undefined_swivel", "rad | 'nan'", "'nan'", "swivel used where it is undefined"))
                + _TABLE_DOCS + _JOINT_DOCS)
 register_model("joint_product_swivel_tilt", _joint_product,
                "k_ref g_swivel(swivel) g_tilt(tilt) from two normalised 1-D curves",
-               equation="models.md §3.5 (5) Assumption",
+               equation="docs/theory/components.md Assumption",
                parameters=(ParamDoc("k_ref", "N/m", "required", "stiffness at the maxima of both curves"),
                            ParamDoc("swivel, g_swivel", "rad, -", "required", "swivel curve (normalised to its max)"),
                            ParamDoc("tilt, g_tilt", "rad, -", "required", "tilt curve (normalised to its max)"),
@@ -687,12 +687,12 @@ register_model("tapered_roller_bearing", _tapered_roller_bearing, "tapered rolle
                            ParamDoc("roller_angles", "rad", "equally spaced", "roller positions phi_i"),
                            ParamDoc("mass", "kg", "0", "bearing mass")))
 register_model("rigid_body", _rigid_body, "rigid body: mass, inertia about the CoG (body axes), CoG",
-               equation="models.md §4.6",
+               equation="docs/theory/structure.md",
                parameters=(ParamDoc("mass", "kg", "required", "mass"),
                            ParamDoc("inertia", "kg*m^2", "0", "3 principal values or a 3x3 tensor about the CoG"),
                            ParamDoc("cog", "m", "(0, 0, 0)", "CoG relative to the body reference point, body axes")))
 register_model("body_stiffness", _body_stiffness, "constant 6x6 body stiffness (e.g. platform K_P / K_U)",
-               equation="models.md §3.7, §4.4",
+               equation="docs/theory/components.md",
                parameters=(ParamDoc("diagonal | matrix", "see units", "one required", "6 values or 6x6 matrix"),
                            ParamDoc("translational_unit", "-", "'N/um'", "unit of bare translational entries"),
                            ParamDoc("rotational_unit", "-", "'N*m/urad'", "unit of bare rotational entries (Assumption)"),

@@ -1,4 +1,4 @@
-"""Clamped cubic splines with the end-slope rule of Cobet 3.2.5 (spec models.md §3.5 (5)).
+"""Clamped cubic splines with the end-slope rule of Cobet 3.2.5 (docs/theory/components.md).
 
 The end slopes are the secant slopes to the nearest neighbour,
 ``s'(x_0) = (y_1 - y_0)/(x_1 - x_0)`` and ``s'(x_N) = (y_N - y_{N-1})/(x_N - x_{N-1})``.

@@ -1,4 +1,4 @@
-"""Struts (spec models.md §3.4; Cobet eq. 3.7, 3.8).
+"""Struts (docs/theory/components.md; Cobet eq. 3.7, 3.8).
 
 Constant cross-section: k_St = EA / l (eq. 3.7). Sections in series: 1/k_St = Σ l_j / (E_j A_j) (eq. 3.8).
 Mass = density × volume, or mass per length × length, or given directly.

@@ -1,7 +1,7 @@
 """Study a — 6X Hexapod drive model: constant vs stroke-dependent drive stiffness (Cobet 3.1, Fig. 3.1).
 
 z-stiffness k_z of the 6X on the YZ plane at x = 0 (a = b = c = 0, tool length 0, platform ideally rigid) with
-three drive models of the telescopic ball-screw struts (spec models.md §9 "3.1", machines.md §4.2):
+three drive models of the telescopic ball-screw struts (docs/user-guide/studies.md "3.1", docs/user-guide/machines.md):
 
 * stroke-dependent, quadratic fit eq. 3.22 over the effective spindle length (``hexapod_6x``, the toolkit default
   and this study's baseline),
@@ -55,9 +55,9 @@ STUDY_ASSUMPTIONS = {
     "plane extent": "YZ plane at x = 0, y -800…850 mm, z 300…1800 mm: the connected admissible region at "
                     "a = b = c = 0 below z = 1800 mm (upper platform joints, z' = 495 mm, below the lower drive "
                     "joints at z = 2300 mm; the 6X file has no frame limits)",
-    "6X joints": "the 6X joints are rigid: INA joint stiffness values are not published (component-data.md §4)",
+    "6X joints": "the 6X joints are rigid: INA joint stiffness values are not published (docs/theory/components.md)",
     "platform": "platform ideally rigid (Cobet 3.3.2); tool length 0 (TCP = O')",
-    "strut length to l_eff": "l_eff = 0.12 m + (l - 1.28 m) (spec machines.md §4.2 note)",
+    "strut length to l_eff": "l_eff = 0.12 m + (l - 1.28 m) (docs/user-guide/machines.md note)",
 }
 
 

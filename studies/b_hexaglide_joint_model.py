@@ -3,7 +3,7 @@ and the tilt-angle distributions of the first drive-side and platform-side joint
 
 x-stiffness k_x of the Hexaglide on the YZ plane at x = 0 (a = b = c = 0, tool length 0) with
 
-* angle-dependent joint stiffness: the improved joints, measured (bundled tables, component-data.md §1; the
+* angle-dependent joint stiffness: the improved joints, measured (bundled tables, docs/theory/components.md; the
   toolkit default and this study's baseline),
 * constant joint stiffness: the 0° values of the same joints, 262 N/µm drive side (3 DOF) and 269 N/µm platform
   side (2 DOF) (``hexaglide:constant_joint_stiffness``).
@@ -50,7 +50,7 @@ STUDY_ASSUMPTIONS = {
                 "basis (component data of chapter 3); the constant 0 deg model is the simplification compared "
                 "against it, so its % and deviations state the error of the simplification",
     "constant joint stiffness": "0 deg values of the improved measured joints: 262 N/um (3-DOF, drive side), "
-                                "269 N/um (2-DOF, platform side), component-data.md §1",
+                                "269 N/um (2-DOF, platform side), docs/theory/components.md",
     "tool": "tool length 0 (TCP = O'); spindle and platform as in the machine file (K_P as K_U)",
     "plane extent": "YZ plane at x = 0, y -250…1100 mm, z -1150…-350 mm: the whole admissible region at "
                     "a = b = c = 0 (frame limits of the machine file: machine bed z = -1100 mm, z <= -340 mm)",

@@ -1,7 +1,7 @@
 """Study c — Hexaglide original vs Kirchner's variants 1 and 2 (Cobet 5.1, Table 5.1).
 
 For each configuration (``hexaglide``, ``hexaglide_v1``, ``hexaglide_v2``; component data of the variants = the
-original's, spec machines.md §1.3) the quantities of the dissertation's Table 5.1 (spec models.md §9 "5.1"):
+original's, docs/user-guide/machines.md) the quantities of the dissertation's Table 5.1 (docs/user-guide/studies.md "5.1"):
 
 * constant-orientation workspace at a = b = c = 0 and its volume (modified octree; the dissertation's tetrahedron
   method eq. 4.14 at eps = 3.125 mm, and the toolkit's surface-nets and divergence volumes on the same boundary);
@@ -79,11 +79,11 @@ STUDY_ASSUMPTIONS = {
     "transmission weight": "w = 0.5 m / 20 deg = 1.432 m/rad from the machine files (eq. 5.1)",
     "velocity": "v_max in y = largest TCP speed along y with every drive at most 1 m/s (eq. 4.79), a = b = c = 0",
     "variants' component data": "the variants use the original's component data (Cobet 5.1); strut stiffness and "
-                                "mass scaled with the strut length (EA = 3.26e8 N, 12.13 kg/m, spec §1.3)",
+                                "mass scaled with the strut length (EA = 3.26e8 N, 12.13 kg/m, docs/theory/kinematics.md)",
     "variants' hulls": "the variants' platform hulls are the convex hulls of the 3 + 3 printed vertices (Cobet "
                        "Tables C.3, C.4) - much smaller bodies than the original's 28-vertex hull, so the "
                        "strut-platform check cuts less of the variants' workspaces; three printed variant-1 "
-                       "vertices break the vertex pattern in one sign (spec §1.3 note 3, option pattern_hull, "
+                       "vertices break the vertex pattern in one sign (docs/theory/kinematics.md note 3, option pattern_hull, "
                        "not used)",
     "rotational workspace points": "the dissertation's points (original x = 0, y = 0, z = -900 mm; variant 1 "
                                    "z = -1150 mm; variant 2 y = -200, z = -1000 mm) are not admissible at "
@@ -355,7 +355,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     sec_rot = rep.section(
         "Rotational workspace at a point",
-        "Maximum admissible +a as a function of (b, c) and maximum +b as a function of (a, c) (Cobet 5.1, spec §7.1). "
+        "Maximum admissible +a as a function of (b, c) and maximum +b as a function of (a, c) (Cobet 5.1, docs/theory/workspace.md). "
         "Status of the dissertation's points at a = b = c = 0: " + "; ".join(
             f"{lab} {tuple(round(v * 1e3) for v in DISSERTATION_POINTS[lab])} mm: {status[lab]}" for lab in labels)
         + ". The second pair of columns uses the admissible raster point nearest to the centroid of each "

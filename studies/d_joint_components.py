@@ -9,7 +9,7 @@ the dissertation measured the frequency responses of Table 5.3), for
 * improved joints, FE (``hexaglide:improved_joints_fe``: ``iwf_3dof_improved_fe``, ``iwf_2dof_improved_fe``),
 * improved joints, measured (``hexaglide``, the bundled default) for reference.
 
-The improved (steel) joints are heavier by 2.35 kg (3 DOF) and 1.8 kg (2 DOF) (component-data.md §3); the bundled
+The improved (steel) joints are heavier by 2.35 kg (3 DOF) and 1.8 kg (2 DOF) (docs/theory/components.md); the bundled
 masses include the improved joints, so the old variant removes these masses. To separate the effects of stiffness
 and mass on the frequencies, the frequency table also has the improved FE joints with the old masses.
 
@@ -59,12 +59,12 @@ STUDY_ASSUMPTIONS = {
     "old joint stiffness": "the old joints' measured curves are published only graphically (Cobet Fig. 3.32) and "
                            "as single FE points: the toolkit's own FE sweeps of plausible old designs "
                            "(iwf_3dof_old_fe, iwf_2dof_old_fe) are used, so this study cannot reproduce the "
-                           "dissertation's numbers exactly (spec models.md §9, 5.3 note)",
+                           "dissertation's numbers exactly (docs/user-guide/studies.md, 5.3 note)",
     "joint masses": "the bundled drive (102.17 kg) and platform (117.24 kg) masses include the improved joints; "
                     "the old joints are lighter by 2.35 kg (3-DOF, per drive) and 1.8 kg (2-DOF, removed as a point "
-                    "mass at each platform joint, with the platform CoG and inertia updated) (component-data.md §3)",
+                    "mass at each platform joint, with the platform CoG and inertia updated) (docs/theory/components.md)",
     "tool": "tool length 0 (TCP = O') for the stiffness (Cobet 5.3 does not restate it; consistent with 4.2.4)",
-    "frequencies": "undamped eigenfrequencies of the 30-DOF rigid-body model (spec §5.2); the dissertation's "
+    "frequencies": "undamped eigenfrequencies of the 30-DOF rigid-body model (docs/theory/structure.md); the dissertation's "
                    "Table 5.3 values are measured frequency-response peaks at z = -950 mm",
 }
 

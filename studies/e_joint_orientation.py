@@ -3,7 +3,7 @@
 1. Original orientation (joint axes a_i along the guides, Table C.1) vs the dissertation's optimised orientation
    (Cobet Table 5.4, option ``hexaglide:optimised_drive_joints``): drive-joint tilt distribution with the joint
    stiffness at the maximum, mean and minimum tilt (Table 5.5) and k_x, k_y, k_z maximum and mean (Table 5.6) on the
-   YZ plane at x = 0, a = b = c = 0, tool length 0, minimum drive-joint tilt 5 deg (spec models.md §9 "5.4").
+   YZ plane at x = 0, a = b = c = 0, tool length 0, minimum drive-joint tilt 5 deg (docs/user-guide/studies.md "5.4").
 2. An optimiser (scipy differential evolution, fixed seed) over the drive-joint axes: the mirror-symmetric pairs
    (1, 2), (3, 4), (5, 6) share one orientation, each given by two spherical angles (theta = angle of a_i from the
    downward vertical, phi = azimuth of its horizontal projection), so six angles in all; b_i = the normalised
@@ -68,10 +68,10 @@ MIRROR = np.array([-1.0, 1.0, 1.0])  # mirror about the YZ plane (x -> -x)
 STUDY_ASSUMPTIONS = {
     "published orientation": "a_i, b_i of Cobet Table 5.4 as printed (option optimised_drive_joints); b_4 printed "
                              "with reversed signs - irrelevant, the joint stiffness depends on the axis-referenced "
-                             "tilt only (spec machines.md §1.5)",
+                             "tilt only (docs/user-guide/machines.md)",
     "section plane": "YZ plane at x = 0, y -300…1100 mm, z -1100…-340 mm (the original's admissible region; the "
                      "machine bed z = -1.1 m is the frame limit), a = b = c = 0, tool length 0 (TCP = O')",
-    "joint stiffness": "improved 3-DOF drive joints, measured (component-data.md §1), a function of the "
+    "joint stiffness": "improved 3-DOF drive joints, measured (docs/theory/components.md), a function of the "
                        "axis-referenced tilt only; the joint stiffness in Table 5.5 is that spline at the tilt",
     "optimiser parametrisation": "mirror-symmetric pairs (1, 2), (3, 4), (5, 6) share one orientation (the machine "
                                  "is symmetric to x = 0): a_odd = (sin t cos p, sin t sin p, -cos t), a_even = a_odd "

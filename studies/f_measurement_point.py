@@ -55,7 +55,7 @@ STUDY_ASSUMPTIONS = {
                                "so only the two simulations are compared",
     "tool length": "Cobet 5.5 does not state the tool length of the stiffness measurement: 0 and 150 mm are both "
                    "given; the tool points along -z' from O'",
-    "frequencies": "undamped eigenfrequencies of the 30-DOF rigid-body model (spec §5.2, meaningful below about "
+    "frequencies": "undamped eigenfrequencies of the 30-DOF rigid-body model (docs/theory/structure.md, meaningful below about "
                    "250 Hz); modes do not depend on the tool length (rigid tool, massless)",
 }
 
@@ -170,7 +170,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                  + " / ".join(f"{mo['f_hz']:.1f}" for mo in fe["modes"]) + " Hz."),
     )
     sec = rep.section("Static stiffness at the TCP (Cobet Table 5.7)",
-                      "k = force / displacement in the force direction at the TCP (spec §5.1); tool along -z' from "
+                      "k = force / displacement in the force direction at the TCP (docs/theory/structure.md); tool along -z' from "
                       "O', pose x = y = 0, z = -1000 mm, a = b = c = 0. k_z does not depend on the tool length here "
                       "(a force along the tool axis exerts no moment about O'). Percentages refer to the measured "
                       "joints.")
@@ -218,7 +218,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     sec3 = rep.section("Weak points",
                        "Share of each component kind in the TCP compliance for a unit force in x, y, z (strain "
-                       "energy of the load case = compliance in its direction, spec §5.1); columns = load direction "
+                       "energy of the load case = compliance in its direction, docs/theory/structure.md); columns = load direction "
                        "and tool length. Each column sums to 100 %.")
     keys = [(d, L) for L in TOOL_LENGTHS for d in DIRECTIONS]
     for lab in labels:

@@ -1,6 +1,6 @@
 """Study g — kinematic comparison of the 6X Hexapod, Linapod, Paralix and Hexaglide (Cobet 5.2).
 
-For each machine (spec models.md §9 "5.2"):
+For each machine (docs/user-guide/studies.md "5.2"):
 
 * the constant-orientation workspace at a = b = c = 0 and its volume at one common octree resolution (surface nets,
   the dissertation's tetrahedron method eq. 4.14 and the signed divergence sum), with figures (the 6X and the
@@ -61,7 +61,7 @@ STUDY_ASSUMPTIONS = {
                      "search bound of 90 deg (points at the bound are counted), YZ plane at x = 0 (Paralix "
                      "x = -2000 mm), raster = the workspace's bounding box in y and z plus 50 mm; mean over the "
                      "raster points whose base orientation is admissible",
-    "geometry-only machines": "Linapod and Paralix: only the geometry is published (spec machines.md §2.3, §3.2): "
+    "geometry-only machines": "Linapod and Paralix: only the geometry is published (docs/user-guide/machines.md): "
                               "no joint angle limits, no masses (the static drive-load check B.13 is skipped), no "
                               "drive spacing limits; the Paralix has no hull and the Linapod's hull check is off by "
                               "default (see its machine-file assumptions) - their workspaces and rotation angles are "

@@ -1,4 +1,4 @@
-"""Admissibility of poses (spec models.md §8, Cobet App. B), vectorised over poses.
+"""Admissibility of poses (docs/theory/admissibility.md, Cobet App. B), vectorised over poses.
 
 Every check returns a per-pose boolean (True = admissible) and sets a bit of a reason code; the combined mask is
 admissible where no bit is set. Poses whose inverse kinematics has no solution carry only ``UNREACHABLE``: the
@@ -27,12 +27,12 @@ from pkmstiff.machine.roles import DriveLoadData
 class Reason(enum.IntFlag):
     """Reason codes (bit flags) for inadmissible poses."""
 
-    UNREACHABLE = 1  # glide: a strut cannot reach its guide (negative discriminant, models.md §1.3)
+    UNREACHABLE = 1  # glide: a strut cannot reach its guide (negative discriminant, docs/theory/kinematics.md)
     DRIVE_RANGE = 2  # B.1/B.2: drive position or strut length outside its range
     DRIVE_SPACING = 4  # B.3/B.4: two drives on one guide too close / too far apart
     JOINT_ANGLE = 8  # B.5: swivel or tilt angle outside its limits
     INA_LIMIT = 16  # B.6: coupled INA Cardan limit |tilt| <= 75 deg - 2/3 |swivel|
-    SINGULAR = 32  # App. B.3 / models.md §1.6: condition number above the threshold
+    SINGULAR = 32  # App. B.3 / docs/theory/kinematics.md: condition number above the threshold
     STRUT_COLLISION = 64  # B.7-B.11: two struts closer than the sum of their radii
     PLATFORM_COLLISION = 128  # B.12: a strut touches or pierces the platform hull
     DRIVE_LOAD = 256  # B.13: static drive load exceeds the available drive force
@@ -160,7 +160,7 @@ def check_joint_angles(
     """B.5 limits on swivel and tilt and the coupled INA limit B.6 for both joint sides.
 
     ``side_angles`` maps ``"drive"``/``"platform"`` to ``(swivel, tilt)`` arrays (N, n) in rad, tilt in the joint
-    type's convention. An undefined (NaN) swivel skips all swivel-dependent checks (models.md §2 (c)). B.6 is
+    type's convention. An undefined (NaN) swivel skips all swivel-dependent checks (docs/theory/kinematics.md). B.6 is
     applied symmetrically, |tilt| <= 75 deg - 2/3 |swivel| (spec assumption).
     """
     bad_lim, bad_ina, labels = [], [], []
@@ -182,7 +182,7 @@ def check_joint_angles(
 
 def check_singularity(machine: Machine, kappa: np.ndarray | None = None, *,
                       singular: np.ndarray | None = None) -> CheckResult:
-    """Singular if the condition number of J_C^-1 exceeds the threshold or is not finite (models.md §1.6).
+    """Singular if the condition number of J_C^-1 exceeds the threshold or is not finite (docs/theory/kinematics.md).
 
     Give either ``kappa`` (N,) or the ready decision ``singular`` (N,) bool, e.g. from
     :func:`pkmstiff.kinematics.singular_mask`, which needs κ only near the threshold.

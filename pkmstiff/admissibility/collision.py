@@ -1,4 +1,4 @@
-"""Geometric primitives of the collision checks of spec models.md §8 (Cobet App. B.4), vectorised.
+"""Geometric primitives of the collision checks of docs/theory/admissibility.md (Cobet App. B.4), vectorised.
 
 All functions broadcast over leading axes; points are ``(..., 3)`` arrays in m. The arithmetic lives in
 :mod:`pkmstiff.kinematics.kernels` (compiled scalar primitives, the only implementation, shared with the fused per-pose

@@ -1,6 +1,6 @@
 """Pose evaluation pipeline: kinematics, joint angles and all admissibility checks for arrays of poses.
 
-``evaluate_poses(machine, poses)`` runs, chunk by chunk, the inverse kinematics (models.md §1.2-1.3), the
+``evaluate_poses(machine, poses)`` runs, chunk by chunk, the inverse kinematics (docs/theory/kinematics.md), the
 inverse and kinematic Jacobians (§1.4), the joint angles (§2) and every check of §8, and returns per-pose arrays
 (SI units) plus the combined admissibility with reason codes.
 

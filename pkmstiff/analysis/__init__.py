@@ -1,4 +1,4 @@
-"""Analyses of the PKM structure model (spec models.md §5, §6): static stiffness and weak points at the TCP, modal
+"""Analyses of the PKM structure model (docs/theory/structure.md): static stiffness and weak points at the TCP, modal
 analysis, frequency response, kinetostatics, and a chunked batch evaluation for pose maps.
 
 Build the model with :func:`pkmstiff.structure.build_structure`, then call the functions below; every result has

@@ -40,7 +40,7 @@ def parse_direction(direction: Any, what: str = "direction") -> tuple[np.ndarray
 
 
 def load_body(st: PKMStructure, neglect_spindle: bool) -> str:
-    """Body carrying the TCP load: the spindle, or the platform with ``neglect_spindle`` (K_U rigid, spec §5.1)."""
+    """Body carrying the TCP load: the spindle, or the platform with ``neglect_spindle`` (K_U rigid, docs/theory/structure.md)."""
     return "platform" if neglect_spindle else st.tcp_body
 
 

@@ -1,8 +1,8 @@
 """Batch evaluation of many poses: TCP compliance and lowest natural frequencies, chunked (bounded memory).
 
 Per chunk: inverse kinematics, singularity check, joint angles and component stiffnesses, one assembly of the
-structure model, the TCP compliance by block elimination (spec §5.1) and the lowest frequencies (eigenvalues
-only, spec §5.2).  A massless spindle hanging on U alone is left out of both solves (24-DOF model, see
+structure model, the TCP compliance by block elimination (docs/theory/structure.md) and the lowest frequencies (eigenvalues
+only, docs/theory/structure.md).  A massless spindle hanging on U alone is left out of both solves (24-DOF model, see
 :attr:`pkmstiff.structure.PKMStructure.dynamic_model`): its TCP compliance is the platform compliance at the
 coupling point plus ``K_U⁻¹`` in series, transferred to the TCP — algebraically identical to the 30-DOF solve.
 Poses that cannot be modelled give NaN and their reason code; a chunk never raises because of single poses (poses

@@ -1,4 +1,4 @@
-"""Frequency response at the tool centre point: receptance, accelerance and peaks (extension of spec §4.7).
+"""Frequency response at the tool centre point: receptance, accelerance and peaks (extension of docs/theory/structure.md).
 
 Damping: SDE damping matrices (``StructureOptions.damping_beta``: ``C_e = β K_e`` per SDE) and/or a modal damping
 ratio ``zeta``; the spec itself neglects damping (§4.1), no damping data are given for any machine, so both are

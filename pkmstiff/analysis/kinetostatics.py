@@ -1,11 +1,11 @@
-"""Kinetostatics (spec models.md §6, Cobet 4.3): transmission quality, maximum tool velocity and acceleration,
+"""Kinetostatics (docs/theory/kinetostatics.md, Cobet 4.3): transmission quality, maximum tool velocity and acceleration,
 static drive loads.
 
 * Transmission quality ``U = σ_min(W J_C)/σ_max(W J_C)``, ``W = diag(1, 1, 1, w, w, w)`` (eq. 4.75, 4.77), w from
   the machine file (Hexaglide eq. 5.1, 6X eq. 4.78); 0 at singular poses.
 * Maximum velocity (eq. 4.79) in a twist direction e: ``v_max = min_i q̇_max,i / |(J_C⁻¹ e)_i|`` (m/s; rad/s for
   rotations) and the limiting drive.
-* Maximum acceleration from standstill (eq. 4.80–4.93, sign-aware form of spec §6.3):
+* Maximum acceleration from standstill (eq. 4.80–4.93, sign-aware form of docs/theory/kinetostatics.md):
   ``μ = M_q e``, ``M_q = M_A J_C⁻¹ + J_Cᵀ M_P`` (eq. 4.86), Coulomb friction ``c_i = C_i sign((J_C⁻¹ e)_i)``,
   gravity ``τ_g = J_Cᵀ g_P`` (eq. 4.90), available force ``T_i = τ_max − τ_min``:
   ``a_max = min_{μ_i ≠ 0} (T_i − sign(μ_i)(τ_g,i + c_i)) / |μ_i|``; a negative bound (or a drive with μ_i = 0
@@ -13,8 +13,8 @@ static drive loads.
 * Static drive loads ``τ_g`` (eq. 4.90) via :func:`pkmstiff.admissibility.checks.static_drive_loads` (the same function
   as the B.13 admissibility check).
 
-M_A = drive masses (drive + guide + drive-joint mass), M_P = platform (+ spindle) about O' (spec §4.6).  Extensions
-of spec §6.3 (Assumptions, off by default): half of each strut's mass to the drive and half to the platform
+M_A = drive masses (drive + guide + drive-joint mass), M_P = platform (+ spindle) about O' (docs/theory/structure.md).  Extensions
+of docs/theory/kinetostatics.md (Assumptions, off by default): half of each strut's mass to the drive and half to the platform
 (``strut_mass_split``); drive weight along non-horizontal guides (``drive_gravity``, glide only).
 Unreachable and singular poses give NaN with their reason code.
 """
@@ -47,7 +47,7 @@ DEFAULT_ACCELERATION_DIRECTIONS = ("x", "-x", "y", "-y", "z", "-z")
 
 @dataclass(frozen=True)
 class KinetostaticsOptions:
-    """``strut_mass_split`` / ``drive_gravity``: spec §6.3 extensions (Assumptions, off by default);
+    """``strut_mass_split`` / ``drive_gravity``: docs/theory/kinetostatics.md extensions (Assumptions, off by default);
     ``include_coulomb``: Coulomb friction opposes the starting motion (eq. 4.89); ``weight``: transmission-quality
     weight w [m/rad] (None = machine file)."""
 
@@ -71,7 +71,7 @@ class DriveData:
 
     @property
     def available_force(self) -> np.ndarray:
-        """T = τ_max − τ_min (n,) in N (spec §6.3)."""
+        """T = τ_max − τ_min (n,) in N (docs/theory/kinetostatics.md)."""
         return self.max_force - self.force_reserve
 
 
@@ -133,7 +133,7 @@ def max_velocity(jinv: Array, directions: Array, max_speed: Array) -> tuple[Arra
 
 def max_acceleration(jinv: Array, jc: Array, directions: Array, m_a: Array, m_p: Array, tau_g: Array,
                      available: Array, coulomb: Array) -> tuple[Array, Array, Array]:
-    """Maximum acceleration from standstill (spec §6.3, sign-aware eq. 4.88/4.92–4.93).
+    """Maximum acceleration from standstill (docs/theory/kinetostatics.md, sign-aware eq. 4.88/4.92–4.93).
 
     ``jinv``, ``jc`` (N, n, 6)/(N, 6, n); ``directions`` (k, 6); ``m_a`` (n,) kg; ``m_p`` (N, 6, 6) about O';
     ``tau_g`` (N, n) N; ``available`` T (n,) N; ``coulomb`` C (n,) N.  Returns a_max (N, k) [m/s² or rad/s²],

@@ -1,10 +1,10 @@
-"""Modal analysis of the structure model (spec models.md §5.2, Cobet eq. 4.73).
+"""Modal analysis of the structure model (docs/theory/structure.md, Cobet eq. 4.73).
 
-``K v = λ M v`` (generalized symmetric eigenproblem; massless DOFs condensed statically, spec §4.6),
+``K v = λ M v`` (generalized symmetric eigenproblem; massless DOFs condensed statically, docs/theory/structure.md),
 ``f = √λ / (2π)`` in Hz, lowest first.  Each mode is described by the dominant motion of the platform (the
 largest share of its kinetic energy among translations along and rotations about x, y, z), with kinetic-energy
 shares per body and strain-energy shares per SDE and per component kind.  The rigid-body model is meaningful
-below about 250 Hz (spec §4.1).  NaN for poses that are not modelled.
+below about 250 Hz (docs/theory/structure.md).  NaN for poses that are not modelled.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Planar two-DOF examples: biglide and bipod (spec models.md §1.7, §4.8, §6; machines.md §5; Cobet App. C.5).
+"""Planar two-DOF examples: biglide and bipod (docs/theory/kinematics.md; docs/user-guide/machines.md; Cobet App. C.5).
 
 A :class:`PlanarMachine` is loaded from a small TOML file (bundled: ``"biglide"``, ``"bipod"`` in
 ``pkmstiff/machine/bundled/planar/``; schema below).  Coordinates (x, y) with y vertical; SI units inside.
@@ -6,11 +6,11 @@ A :class:`PlanarMachine` is loaded from a small TOML file (bundled: ``"biglide"`
 Models:
 
 * inverse kinematics: biglide ``q_i = s_i + λ_i r_i`` on the line–sphere (here line–circle) intersection with the
-  strut length (smaller root by default, models.md §1.3), bipod ``l_i = |p − q_i|``;
+  strut length (smaller root by default, docs/theory/kinematics.md), bipod ``l_i = |p − q_i|``;
 * inverse Jacobian (eq. A.24/A.25 in the general form of §1.4): glide row ``d_iᵀ/(d_i·r_i)``, pod ``d̂_iᵀ``;
 * structure model on the generic SDE layer, embedded in 3-D (z out of plane, held by exact rigid bindings):
   platform point mass; biglide drives = point masses with ``K_A = R diag(k_drive, k_guide) Rᵀ`` (eq. 4.33) and
-  rigid struts (exact rigid bindings, not the dissertation's simplified eq. 4.53–4.56, see spec §4.8); bipod:
+  rigid struts (exact rigid bindings, not the dissertation's simplified eq. 4.53–4.56, see docs/theory/structure.md); bipod:
   SDE ``k n nᵀ`` from the platform to the fixed drive points (eq. 4.42), ``K = Σ k n nᵀ`` (eq. 4.57);
 * transmission quality ``1/κ(J⁻¹)`` (no weighting), ``v_max`` (eq. 4.79), ``a_max`` with
   ``M_q = M_A J⁻¹ + Jᵀ M_P`` (eq. 4.91–4.94; bipod M_A = 0) in the sign-aware form of §6.3.
@@ -50,7 +50,7 @@ from pkmstiff.units import InputError, parse_quantity
 
 Array = NDArray[np.float64]
 
-SINGULARITY_THRESHOLD = 1e8  # κ(J⁻¹) above which a pose is singular (models.md §1.6)
+SINGULARITY_THRESHOLD = 1e8  # κ(J⁻¹) above which a pose is singular (docs/theory/kinematics.md)
 
 
 
@@ -267,7 +267,7 @@ class PlanarIK:
 
 
 def planar_inverse_kinematics(pm: PlanarMachine, positions: ArrayLike) -> PlanarIK:
-    """Drive coordinates and joint points for platform positions (N, 2) (spec §1.3 in 2-D, §1.7)."""
+    """Drive coordinates and joint points for platform positions (N, 2) (docs/theory/kinematics.md in 2-D, §1.7)."""
     p = _positions(positions)
     if pm.kind == "glide":
         c = pm.guide_start[None] - p[:, None, :]  # (N, 2, 2)
@@ -292,7 +292,7 @@ def planar_inverse_kinematics(pm: PlanarMachine, positions: ArrayLike) -> Planar
 
 
 def planar_inverse_jacobian(pm: PlanarMachine, ik: PlanarIK) -> Array:
-    """J⁻¹ (N, 2, 2), q̇ = J⁻¹ ṗ: glide row ``d_iᵀ/(d_i·r_i)``, pod ``d̂_iᵀ`` (eq. A.24, A.25, spec §1.4/§1.7)."""
+    """J⁻¹ (N, 2, 2), q̇ = J⁻¹ ṗ: glide row ``d_iᵀ/(d_i·r_i)``, pod ``d̂_iᵀ`` (eq. A.24, A.25, docs/theory/kinematics.md/§1.7)."""
     with np.errstate(divide="ignore", invalid="ignore"):
         if pm.kind == "glide":
             return ik.d / np.einsum("nij,ij->ni", ik.d, pm.guide_direction)[..., None]
@@ -348,7 +348,7 @@ class PlanarStructure:
 
 
 def planar_structure(pm: PlanarMachine, positions: ArrayLike) -> PlanarStructure:
-    """Structure model (spec §4.8) embedded in 3-D; the out-of-plane DOFs are removed by rigid bindings."""
+    """Structure model (docs/theory/structure.md) embedded in 3-D; the out-of-plane DOFs are removed by rigid bindings."""
     ik = planar_inverse_kinematics(pm, positions)
     jinv = planar_inverse_jacobian(pm, ik)
     reasons, _ = planar_reasons(pm, ik, jinv)

@@ -1,4 +1,4 @@
-"""Static analyses at the tool centre point (spec models.md §5.1, Cobet eq. 4.70–4.72).
+"""Static analyses at the tool centre point (docs/theory/structure.md, Cobet eq. 4.70–4.72).
 
 TCP = ``O' + R (tool.offset + L_tool · tool.axis)`` on the spindle body (or on the platform with
 ``neglect_spindle=True``, i.e. K_U rigid).  Stiffness in a direction e: ``k_e = |F| / (e·u_TCP) = 1/(eᵀ C e)`` for
@@ -44,7 +44,7 @@ def directional_stiffness(compliance: Array, direction: Any, rotational: bool = 
 
 
 def axis_stiffness(compliance: Array) -> Array:
-    """(N, 6): k_x, k_y, k_z [N/m] and k_rx, k_ry, k_rz [N m/rad] at the TCP from its compliance (spec §5.1)."""
+    """(N, 6): k_x, k_y, k_z [N/m] and k_rx, k_ry, k_rz [N m/rad] at the TCP from its compliance (docs/theory/structure.md)."""
     return sde.axis_stiffness(compliance)
 
 
@@ -86,7 +86,7 @@ def static_deformation(st: PKMStructure, force: Any = (0.0, 0.0, 0.0), moment: A
 
 @dataclass
 class WeakPoints:
-    """Shares of the TCP compliance in one load direction (spec §5.1 "weak points"), each row summing to 1.
+    """Shares of the TCP compliance in one load direction (docs/theory/structure.md "weak points"), each row summing to 1.
 
     ``element_labels``/``element_shares`` (N, E): per SDE (W1…W6, V1…V6, U); ``component_labels``/
     ``component_shares`` (N, C): per component kind (drive, guide, drive_joint, strut, platform_joint,

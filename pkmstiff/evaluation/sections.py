@@ -1,4 +1,4 @@
-"""Workspace sections (spec models.md §7.2): quantities on a rastered plane, masked by admissibility.
+"""Workspace sections (docs/theory/workspace.md): quantities on a rastered plane, masked by admissibility.
 
 A section is a plane through the workspace given by an origin and two orthonormal in-plane axes (YZ, XZ, XY or
 any plane), a raster (u, v values) and a fixed tool orientation and tool length. The raster points are the

@@ -1,4 +1,4 @@
-"""Finite-element component models with scikit-fem (spec models.md §3.5 (3), §3.7).
+"""Finite-element component models with scikit-fem (docs/theory/components.md, §3.7).
 
 * :mod:`.mesh` — structured hexahedral primitives (box, O-grid cylinder, tube, block with bore).
 * :mod:`.materials`, :mod:`.elasticity` — isotropic and bearing-substitute (cubic-cylindrical) laws,

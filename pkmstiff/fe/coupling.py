@@ -148,7 +148,7 @@ def compliance_along(K6: np.ndarray, direction: np.ndarray) -> float:
     """Compliance [m/N] along the unit ``direction`` for a force through the reference point, moments zero.
 
     Uses the translational block of the compliance C = K^-1 (rotations free), i.e. the deformation in the
-    load direction per unit load — the joint-stiffness definition of the spec (models.md §3.5 (3)).
+    load direction per unit load — the joint-stiffness definition of the spec (docs/theory/components.md).
     """
     d = np.asarray(direction, float)
     d = d / np.linalg.norm(d)

@@ -1,8 +1,8 @@
-"""Parametric FE models of the IWF Hexaglide joints and the tilt sweep (spec models.md §3.5 (3)).
+"""Parametric FE models of the IWF Hexaglide joints and the tilt sweep (docs/theory/components.md).
 
 Layout (joint frame: origin at the joint centre, first joint axis = z, tilt axis = y; the strut
 direction at tilt angle theta is u = (sin theta, 0, cos theta), i.e. the axis-referenced tilt of
-models.md §2 with theta = 0 collinear with the first axis):
+docs/theory/kinematics.md with theta = 0 collinear with the first axis):
 
 * ``base_connection`` — adapter block between the drive carriage / platform (clamped bottom face) and
   the housing ("drive-/platform-side connection geometry").
@@ -15,10 +15,10 @@ models.md §2 with theta = 0 collinear with the first axis):
 * ``connection`` rod along the strut to the strut-side thread; its end face is rigidly coupled (RBE2) to
   the reference point on the strut axis where the load acts.
 
-Every tapered roller bearing is a ring of substitute material (spec component-data.md §6) bonded (tied)
+Every tapered roller bearing is a ring of substitute material (docs/theory/components.md) bonded (tied)
 to its shaft/trunnion and bore. The strut-side group (cross, trunnions, strut fork, connection) is rotated
 about y by the tilt angle; the base side stays fixed. Joint stiffness = force / deformation along the
-strut at the reference point (rotations free, moments zero), spec models.md §3.5 (3).
+strut at the reference point (rotations free, moments zero), docs/theory/components.md.
 
 Assumption (documented in the parameter files): the real IWF geometry is not published; the layout
 realises the axis-referenced tilt range 0-90 deg without collisions (see :func:`check_clearances`).
@@ -410,7 +410,7 @@ def ring_stiffness(inner_radius: float, outer_radius: float, width: float, ring_
                    h: float = 0.003, n_phi: int = 24, element: str = "hex20") -> np.ndarray:
     """6x6 stiffness [N/m, N m/rad] of one substitute bearing ring (axis z), outer surface clamped, inner surface
     rigidly coupled to its centre: radial = [0, 0], axial = [2, 2] — for comparison with the Dietl values
-    k_r = 176.8 N/um, k_a = 118.8 N/um of spec component-data.md §6 (rigid inner and outer rings)."""
+    k_r = 176.8 N/um, k_a = 118.8 N/um of docs/theory/components.md (rigid inner and outer rings)."""
     ring = fm.tube((0, 0, -width / 2), (0, 0, width / 2), inner_radius, outer_radius, h, n_phi)
     mat = ring_material.with_axis((0, 0, 0), (0, 0, 1))
     sag = 1.0 - math.cos(math.pi / n_phi)  # hex20 mid-side nodes lie on the chords

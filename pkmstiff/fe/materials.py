@@ -1,10 +1,9 @@
 """Linear-elastic material laws for the FE component models (SI: Pa, kg/m^3).
 
 * :class:`Isotropic` — steel, aluminium, cast iron (E, nu).
-* :class:`CubicCylindrical` — the substitute material of the bearing rings (spec component-data.md §6,
-  models.md §3.5 (3)): E = 7.7 GPa, G = 3.2 GPa, nu = 0.1.
+* :class:`CubicCylindrical` — the substitute material of the bearing rings (docs/theory/components.md): E = 7.7 GPa, G = 3.2 GPa, nu = 0.1.
 
-Note (spec component-data.md §6): for an isotropic material G = E/(2(1+nu)) = 3.5 GPa, so the printed
+Note (docs/theory/components.md): for an isotropic material G = E/(2(1+nu)) = 3.5 GPa, so the printed
 E, G, nu cannot all hold for an isotropic law. We honour all three with the smallest anisotropic law that
 has three independent constants: *cubic symmetry whose axes are the local cylindrical axes (radial,
 circumferential, axial) of the ring*. In those axes the compliance is S11 = 1/E, S12 = -nu/E,

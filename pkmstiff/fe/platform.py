@@ -1,4 +1,4 @@
-"""Parametric FE model of a PKM platform: 6x6 stiffness at the spindle reference point (spec models.md §3.7).
+"""Parametric FE model of a PKM platform: 6x6 stiffness at the spindle reference point (docs/theory/components.md).
 
 Geometry (platform frame PKS, origin O', z' along the spindle): an annular ``plate`` around a
 ``spindle_housing`` tube. The spindle is taken as rigid and clamped in the housing bore: all bore-surface

@@ -267,7 +267,7 @@ def _run_chunked(
 
 
 def kinematic_jacobian(jinv: ArrayLike, chunk_size: int = DEFAULT_CHUNK) -> Array:
-    """Kinematic Jacobian J_C = (J_C⁻¹)⁻¹, t = J_C q̇ (spec §1.4, Cobet eq. A.22/A.23), shape (N, n, n).
+    """Kinematic Jacobian J_C = (J_C⁻¹)⁻¹, t = J_C q̇ (docs/theory/kinematics.md, Cobet eq. A.22/A.23), shape (N, n, n).
 
     Inverted as R⁻¹Qᵀ from a per-pose Householder QR (compiled); unlike ``np.linalg.inv`` this never raises
     for a batch: matrices that are exactly singular or contain NaN/inf give a NaN matrix.
@@ -282,10 +282,10 @@ def condition_number(
     max_iter: int = 6,
     method: str = "fast",
 ) -> Array:
-    """Spectral condition number κ = σ_max/σ_min = ‖A‖₂‖A⁻¹‖₂ per matrix (Cobet eq. A.18, spec §1.6), (N,).
+    """Spectral condition number κ = σ_max/σ_min = ‖A‖₂‖A⁻¹‖₂ per matrix (Cobet eq. A.18, docs/theory/kinematics.md), (N,).
 
     Matrices with NaN/inf entries (unreachable chains, glide d·r = 0) and exactly singular ones
-    give ``inf`` (spec §1.6: non-finite counts as singular).
+    give ``inf`` (docs/theory/kinematics.md: non-finite counts as singular).
 
     ``method="fast"`` (default, 6×6 only): A = QR by Householder (compiled, per pose), ‖A‖₂² = λ_max(RᵀR) and
     ‖A⁻¹‖₂² = λ_max(R⁻¹R⁻ᵀ) from a three-vector block power iteration with *certified* lower and
@@ -323,7 +323,7 @@ def condition_bounds(jinv: ArrayLike, chunk_size: int = DEFAULT_CHUNK) -> tuple[
 
 
 def is_singular(machine: Machine, kappa: ArrayLike) -> Array:
-    """True where κ(J_C⁻¹) > ``machine.limits.singularity_threshold`` (default 1e8) or not finite (spec §1.6)."""
+    """True where κ(J_C⁻¹) > ``machine.limits.singularity_threshold`` (default 1e8) or not finite (docs/theory/kinematics.md)."""
     kappa = np.asarray(kappa, dtype=float)
     return ~(kappa <= machine.limits.singularity_threshold)
 
@@ -339,7 +339,7 @@ def _singular_from_bounds(machine: Machine, A: Array, lo: Array, hi: Array) -> A
 
 
 def singular_mask(machine: Machine, jinv: ArrayLike, chunk_size: int = DEFAULT_CHUNK) -> Array:
-    """Singularity check κ(J_C⁻¹) > threshold (spec §1.6) without computing κ where not needed, (N,) bool.
+    """Singularity check κ(J_C⁻¹) > threshold (docs/theory/kinematics.md) without computing κ where not needed, (N,) bool.
 
     Uses :func:`condition_bounds`; only poses whose bounds straddle the threshold get an exact κ (SVD).
     Same result as ``is_singular(machine, condition_number(jinv, method="svd"))``.
@@ -351,7 +351,7 @@ def singular_mask(machine: Machine, jinv: ArrayLike, chunk_size: int = DEFAULT_C
 
 def jacobian_and_singular(machine: Machine, jinv: ArrayLike, chunk_size: int = DEFAULT_CHUNK) -> tuple[Array, Array]:
     """J_C (N, n, n) (:func:`kinematic_jacobian`) and the singularity check (:func:`singular_mask`) from one QR
-    factorisation per pose (spec §1.4, §1.6); the pose pipeline's form, which needs no condition number."""
+    factorisation per pose (docs/theory/kinematics.md); the pose pipeline's form, which needs no condition number."""
     A = _check_square_stack(jinv, "jinv")
     inv, _, bnd, _ = _run_chunked(A, inverse=True, bounds=True, chunk_size=chunk_size)
     return inv, _singular_from_bounds(machine, A, *bnd)  # type: ignore[misc]

@@ -89,13 +89,13 @@ def forward_kinematics(
     damping: bool = True,
     max_backtrack: int = 30,
 ) -> FKResult:
-    """Forward kinematics by Newton's method on the inverse kinematics (Cobet eq. A.12–A.17, spec §1.5).
+    """Forward kinematics by Newton's method on the inverse kinematics (Cobet eq. A.12–A.17, docs/theory/kinematics.md).
 
     ``drive_coords`` (N, n) or (n,) in m (glide λ_i, pod l_i); start poses ``x0`` (N, 6) or (6,).
     Each step solves J⁻¹(x_k) Δx = q° − q(x_k) with the Cardan inverse Jacobian (A.20) as a linear
     least-squares problem by Householder QR (``np.linalg.qr``, A.14–A.17), vectorised over N.
     Stops when ‖q° − q(x_k)‖₂ ≤ ``tol_q`` [m] and ‖Δx_k‖₂ ≤ ``tol_x`` [m, rad] (Assumption: 1e-12,
-    max 50 iterations, spec §1.5).
+    max 50 iterations, docs/theory/kinematics.md).
 
     ``damping=True`` (toolkit addition; the dissertation's Newton method has no step-size control):
     backtracking line search — the step x_k + α Δx_k with α = 1, 1/2, 1/4, … (at most

@@ -15,7 +15,7 @@ from pkmstiff.machine.model import Machine
 
 @dataclass(frozen=True)
 class IK:
-    """Result of the inverse kinematics for N poses of a machine with n chains (spec §1.2, §1.3).
+    """Result of the inverse kinematics for N poses of a machine with n chains (docs/theory/kinematics.md).
 
     All lengths in m, angles in rad.  Entries of chains that cannot reach their guide (glide,
     negative discriminant) are NaN and ``reachable`` is False there.  The vector arrays are views of
@@ -49,7 +49,7 @@ class IK:
 
 
 def inverse_kinematics(machine: Machine, poses: ArrayLike) -> IK:
-    """Inverse kinematics of N poses (spec §1.2 pod, eq. A.6–A.8; §1.3 glide, eq. A.9–A.11).
+    """Inverse kinematics of N poses (docs/theory/kinematics.md pod, eq. A.6–A.8; §1.3 glide, eq. A.9–A.11).
 
     Glide chains use the root of the line–sphere intersection selected per chain by
     ``machine.chains.larger_root`` (default False = smaller root).  Never raises for unreachable

@@ -13,7 +13,7 @@ from pkmstiff.machine.model import Machine
 
 
 def inverse_jacobian(machine: Machine, ik: IK) -> Array:
-    """Inverse kinematic Jacobian J_C⁻¹ (N, n, 6) in twist form, q̇ = J_C⁻¹ (v, ω) (spec §1.4).
+    """Inverse kinematic Jacobian J_C⁻¹ (N, n, 6) in twist form, q̇ = J_C⁻¹ (v, ω) (docs/theory/kinematics.md).
 
     Row i: pod [d̂_iᵀ, (ρ_i × d̂_i)ᵀ]; glide [d_iᵀ, (ρ_i × d_i)ᵀ] / (d_i · r_i), with ρ_i = R p'_i and
     v, ω in MKS components (SI: columns 0–2 dimensionless, 3–5 in m/rad).  Rows of unreachable chains
@@ -37,7 +37,7 @@ def inverse_jacobian(machine: Machine, ik: IK) -> Array:
 
 
 def cardan_inverse_jacobian(jinv: Array, ik: IK) -> Array:
-    """Cardan inverse Jacobian ∂q/∂(x, y, z, a, b, c) = J_C⁻¹ diag(I, E(a, b)) (Cobet eq. A.20, spec §1.4)."""
+    """Cardan inverse Jacobian ∂q/∂(x, y, z, a, b, c) = J_C⁻¹ diag(I, E(a, b)) (Cobet eq. A.20, docs/theory/kinematics.md)."""
     E = cardan_rate_matrix(ik.poses[:, 3], ik.poses[:, 4])
     out = np.array(jinv, dtype=float, copy=True)
     out[:, :, 3:] = np.matmul(jinv[:, :, 3:], E)
@@ -45,7 +45,7 @@ def cardan_inverse_jacobian(jinv: Array, ik: IK) -> Array:
 
 
 def relative_inverse_jacobian(jinv: Array, ik: IK) -> Array:
-    """Relative inverse Jacobian ∂q/∂(x, y, z, a', b', c') = J_C⁻¹ diag(I, R) (Cobet eq. A.21, spec §1.4).
+    """Relative inverse Jacobian ∂q/∂(x, y, z, a', b', c') = J_C⁻¹ diag(I, R) (Cobet eq. A.21, docs/theory/kinematics.md).
 
     a', b', c' are infinitesimal rotations about the axes of the tool frame (PKS).
     """

@@ -1,10 +1,10 @@
-"""Swivel and tilt angles of the drive-side and platform-side joints (spec models.md §2, Cobet eq. 3.25–3.29).
+"""Swivel and tilt angles of the drive-side and platform-side joints (docs/theory/kinematics.md, Cobet eq. 3.25–3.29).
 
 Every joint has a first axis (drive side a_i, platform side m_i = R m'_i) and a swivel reference
 vector (b_i, n_i = R n'_i).  With the joint-local strut direction u (decision (a)):
 
 * swivel  φ = ∠(n, u_⊥), u_⊥ = m × (u × m)   ∈ [0, π]   (eq. 3.25/3.28; NaN if n ∥ m or u ∥ m)
-* signed swivel φ_s = atan2(m̂ · (n × u_⊥), n · u_⊥) ∈ (−π, π]  (spec §2, optional variant)
+* signed swivel φ_s = atan2(m̂ · (n × u_⊥), n · u_⊥) ∈ (−π, π]  (docs/theory/kinematics.md, optional variant)
 * tilt, axis-referenced   ϑ_axis   = arccos(|m · u| / (|m||u|)) ∈ [0, π/2]   (zero: strut ∥ axis)
 * tilt, normal-referenced ϑ_normal = arcsin(m · u / (|m||u|))    ∈ [−π/2, π/2] (zero: strut ⊥ axis)
 
@@ -46,7 +46,7 @@ class SideAngles:
 
 @dataclass(frozen=True)
 class JointAngles:
-    """Joint angles of both sides (spec models.md §2)."""
+    """Joint angles of both sides (docs/theory/kinematics.md)."""
 
     drive: SideAngles
     platform: SideAngles
@@ -88,7 +88,7 @@ def _side_angles(
 def joint_angles(machine: Machine, ik: IK, signed: bool = True, parallel_tol: float = PARALLEL_TOL) -> JointAngles:
     """Swivel and tilt angles (rad) of all drive-side and platform-side joints for the poses of ``ik``.
 
-    Strut direction per joint type (``strut_direction``, spec §2 decision (a)): ``"outward"``
+    Strut direction per joint type (``strut_direction``, docs/theory/kinematics.md decision (a)): ``"outward"``
     (default) uses u = +d̂ at the drive joint and u = −d̂ at the platform joint;
     ``"drive_to_platform"`` uses u = +d̂ at both.  Note: the dissertation does not fix the sign; the
     outward convention is the spec's interpretation (it makes the 6X swivel angles small at the

@@ -1,6 +1,6 @@
 """Compiled (numba) kernels of the pose pipeline's hot paths: collision geometry, QR of J_C^-1, joint angles.
 
-This module holds the only implementation of each geometric primitive of spec models.md §8 (Cobet App. B.4)
+This module holds the only implementation of each geometric primitive of docs/theory/admissibility.md (Cobet App. B.4)
 and of the batched 6×6 QR of §1.4/§1.6; the array-level public functions in :mod:`pkmstiff.admissibility.collision`,
 :mod:`pkmstiff.kinematics`, :mod:`pkmstiff.kinematics.joint_angles` and :mod:`pkmstiff.admissibility.checks` are thin wrappers
 that validate and lay out the arrays and call the kernels here.
@@ -452,7 +452,7 @@ def qr_inverse(A, start, stop, want_rt, want_inv, want_bounds, r_out, t_out, inv
 @_jit
 def side_angles(d, rot, axis0, ref0, rotate, sign, normal, ref_par, tol, signed,
                 swivel, swivel_signed, tilt, tilt_axis, tilt_normal):
-    """Swivel and tilt angles of one joint side (spec models.md §2, eq. 3.25-3.29) for n chains and N poses.
+    """Swivel and tilt angles of one joint side (docs/theory/kinematics.md, eq. 3.25-3.29) for n chains and N poses.
 
     ``d`` (3, n, N) strut vectors; joint axis m and swivel reference n are ``axis0``/``ref0`` (n, 3), rotated by
     ``rot`` (3, 3, N) if ``rotate`` (platform side); u = sign_i d̂ (joint-local strut direction). ``normal`` (n,)

@@ -1,6 +1,6 @@
 """Cardan angles, rotation matrices and small-rotation helpers, vectorised over poses.
 
-Conventions (spec ``models.md`` §1.1, Cobet eq. A.1–A.4): rotation ``a`` about x, then ``b`` about the
+Conventions (docs/theory/kinematics.md, Cobet eq. A.1–A.4): rotation ``a`` about x, then ``b`` about the
 rotated y-axis, then ``c`` about the twice-rotated z-axis, :math:`R = R_a R_b R_c` (PKS → MKS).
 All angles in rad.  Every function broadcasts over leading axes: angle arrays of shape ``S`` give
 matrices of shape ``S + (3, 3)``.
@@ -15,9 +15,9 @@ Array = NDArray[np.float64]
 
 
 def cardan_matrix(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> Array:
-    """Rotation matrix :math:`R = R_a R_b R_c` from Cardan angles a, b, c in rad (spec §1.1).
+    """Rotation matrix :math:`R = R_a R_b R_c` from Cardan angles a, b, c in rad (docs/theory/kinematics.md).
 
-    Note (spec §1.1): the matrix printed as Cobet eq. A.5 equals R_x(c) R_y(b) R_z(a), i.e. it has a
+    Note (docs/theory/kinematics.md): the matrix printed as Cobet eq. A.5 equals R_x(c) R_y(b) R_z(a), i.e. it has a
     and c interchanged and contradicts eq. A.1–A.4; this function implements the product A.1·A.2·A.3.
 
     Returns an array of shape ``broadcast(a, b, c).shape + (3, 3)``.
@@ -40,7 +40,7 @@ def cardan_matrix(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> Array:
 
 
 def cardan_angles(R: ArrayLike) -> Array:
-    """Cardan angles (a, b, c) in rad of rotation matrices ``R`` (shape ``(..., 3, 3)``), spec §1.1.
+    """Cardan angles (a, b, c) in rad of rotation matrices ``R`` (shape ``(..., 3, 3)``), docs/theory/kinematics.md.
 
     Inverse of :func:`cardan_matrix` for |b| < 90°: b = asin(R13), a = atan2(-R23, R33),
     c = atan2(-R12, R11).  ``b`` is evaluated as atan2(R13, hypot(R11, R12)), which equals asin(R13)
@@ -57,7 +57,7 @@ def cardan_angles(R: ArrayLike) -> Array:
 
 
 def cardan_rate_matrix(a: ArrayLike, b: ArrayLike) -> Array:
-    """Matrix E(a, b) with ω = E (ȧ, ḃ, ċ)ᵀ (angular velocity in the MKS), spec §1.1; det E = cos b."""
+    """Matrix E(a, b) with ω = E (ȧ, ḃ, ċ)ᵀ (angular velocity in the MKS), docs/theory/kinematics.md; det E = cos b."""
     a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
     sa, ca = np.sin(a), np.cos(a)
     sb, cb = np.sin(b), np.cos(b)

@@ -279,7 +279,7 @@ def _build_components(components: dict[str, dict[str, Any]], src: str) -> dict[s
 
 
 def _check_joint_conventions(joint_types: dict[str, JointType], built: dict, src: str) -> None:
-    """A joint's stiffness data must refer to the tilt convention of its joint type (models.md §2 (b))."""
+    """A joint's stiffness data must refer to the tilt convention of its joint type (docs/theory/kinematics.md)."""
     for jt in joint_types.values():
         if jt.stiffness is None or jt.stiffness not in built:
             continue

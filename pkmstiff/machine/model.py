@@ -2,7 +2,7 @@
 
 A :class:`Machine` is what a machine file (TOML) loads into; every array is float64 in SI units
 (m, rad, kg, N, N/m) and has the chain index as its leading axis (``n`` chains, 6 for spatial PKMs).
-Symbols follow ``spec/models.md`` §0 and ``spec/machines.md``.
+Symbols follow ``docs/theory/index.md and ``docs/user-guide/machines.md``.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ StrutDirection = Literal["outward", "drive_to_platform"]
 
 @dataclass(frozen=True)
 class JointType:
-    """Kind of joint with its angle convention and limits (spec models.md §2).
+    """Kind of joint with its angle convention and limits (docs/theory/kinematics.md).
 
     Angles in rad; a missing limit is ``-inf``/``+inf``.  ``ina_coupled`` switches on the
     coupled limit |tilt| <= 75 deg - 2/3 |swivel| (Cobet eq. B.6).  ``stiffness`` names a
@@ -57,7 +57,7 @@ class Chains:
     """Geometry of all kinematic chains; arrays with leading dimension n (chains).
 
     Glide chains (``kind == "glide"``): drive-side joint point q_i = s_i + lambda_i r_i + q_off_i
-    (models.md §1.3).  Pod chains: q_i is fixed in the MKS and the strut length is the drive coordinate.
+    (docs/theory/kinematics.md).  Pod chains: q_i is fixed in the MKS and the strut length is the drive coordinate.
     """
 
     kind: ChainKind
@@ -103,7 +103,7 @@ class Hull:
 
 @dataclass(frozen=True)
 class Tool:
-    """Tool centre point: tip = O' + R (offset + length * axis) (models.md §5.1; default axis -z')."""
+    """Tool centre point: tip = O' + R (offset + length * axis) (docs/theory/structure.md; default axis -z')."""
 
     offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     axis: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
@@ -116,7 +116,7 @@ class Tool:
 
 @dataclass(frozen=True)
 class Limits:
-    """Machine-level admissibility settings (spec models.md §8)."""
+    """Machine-level admissibility settings (docs/theory/admissibility.md)."""
 
     singularity_threshold: float = 1e8  # condition number of J_C^-1 (SI) above which a pose is singular
     strut_collision_mode: Literal["exact", "table_B2"] = "exact"
@@ -140,7 +140,7 @@ class Machine:
     tool: Tool
     gravity: np.ndarray  # (3,) m/s^2, e.g. (0, 0, -9.81)
     limits: Limits
-    transmission_weight: float  # w in m/rad (models.md §6.1)
+    transmission_weight: float  # w in m/rad (docs/theory/kinetostatics.md)
     components: dict[str, dict[str, Any]]  # named component instances (raw, SI), built by `components`
     chain_components: tuple[dict[str, str], ...]  # per chain: role -> component instance name
     machine_components: dict[str, str]  # machine-level role -> component instance name

@@ -1,4 +1,4 @@
-"""Component instances of a machine, by role (spec models.md §3, §4.2).
+"""Component instances of a machine, by role (docs/theory/components.md).
 
 Roles per chain (``[[chains]] components``): ``drive`` (glide: axial drive stiffness along the guide; pod: the
 length-dependent telescopic drive, i.e. the strut term of eq. 4.48), ``guide`` (glide: guide carriages, transverse

@@ -1,4 +1,4 @@
-"""Generic spring–damper (SDE) multibody model and its analyses (spec models.md §4, §5).
+"""Generic spring–damper (SDE) multibody model and its analyses (docs/theory/structure.md).
 
 Build an :class:`SDEModel` from point masses, rigid bodies, stiffness–damping elements and rigid bindings, then
 call the analysis functions below.  Everything is vectorised over a leading pose axis and chunked over poses.

@@ -1,4 +1,4 @@
-"""Assembly of the global stiffness, damping and mass matrices (spec models.md §4.5, §4.6).
+"""Assembly of the global stiffness, damping and mass matrices (docs/theory/structure.md).
 
 Every SDE contributes by the congruence rule (Cobet eq. 4.58–4.69): with ``l = G_a q_a − G_b q_b`` and
 ``G_ab = [G_a, −G_b]``, the element block ``G_abᵀ K G_ab`` is added to the rows/columns of the DOFs of a and b,
@@ -118,7 +118,7 @@ def _assemble(model: SDEModel, which: str) -> np.ndarray:
 
 
 def stiffness_matrix(model: SDEModel, poses: slice | None = None) -> np.ndarray:
-    """Global stiffness matrix K (N, n, n) in N/m, N and N m/rad (spec §4.5), for all poses or the slice ``poses``.
+    """Global stiffness matrix K (N, n, n) in N/m, N and N m/rad (docs/theory/structure.md), for all poses or the slice ``poses``.
 
     Memory N·n²·8 bytes: iterate ``for sl, sub in model.chunks(size)`` for large batches.  The result is a
     (pose-strided) view; use ``np.ascontiguousarray`` if C order is needed.
@@ -136,7 +136,7 @@ def has_damping(model: SDEModel) -> bool:
 
 
 def mass_blocks(model: SDEModel) -> list[tuple[slice, np.ndarray]]:
-    """Diagonal mass blocks ``(dof slice, (N, d, d))``: ``m I3`` resp. ``diag(m I3, I_cg)`` (spec §4.6)."""
+    """Diagonal mass blocks ``(dof slice, (N, d, d))``: ``m I3`` resp. ``diag(m I3, I_cg)`` (docs/theory/structure.md)."""
     n_p = model.n_poses
     out = []
     for b in model.bodies:
@@ -150,7 +150,7 @@ def mass_blocks(model: SDEModel) -> list[tuple[slice, np.ndarray]]:
 
 
 def mass_matrix(model: SDEModel, poses: slice | None = None) -> np.ndarray:
-    """Global block-diagonal mass matrix M (N, n, n) in kg and kg m² (spec §4.6)."""
+    """Global block-diagonal mass matrix M (N, n, n) in kg and kg m² (docs/theory/structure.md)."""
     model = model if poses is None else model.poses(poses)
     n = model.n_dof
     out = np.zeros((model.n_poses, n, n))

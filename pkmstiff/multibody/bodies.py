@@ -1,4 +1,4 @@
-"""Bodies of the SDE structure model: the fixed frame, point masses and rigid bodies (spec models.md §4.2, §4.6).
+"""Bodies of the SDE structure model: the fixed frame, point masses and rigid bodies (docs/theory/structure.md).
 
 Generalized coordinates (small displacements, SI units):
 
@@ -79,7 +79,7 @@ def make_point_mass(name: str, mass: Any, position: Any = (0.0, 0.0, 0.0)) -> Po
 def make_rigid_body(
     name: str, mass: Any, position: Any, inertia: Any, rotation: Any | None = None
 ) -> RigidBody:
-    """Validated :class:`RigidBody` (spec §4.6: ``M_body = diag(m I3, R I'_cg Rᵀ)``).
+    """Validated :class:`RigidBody` (docs/theory/structure.md: ``M_body = diag(m I3, R I'_cg Rᵀ)``).
 
     ``inertia``: about the CoG, (3,) principal moments, (3, 3) or (N, 3, 3) tensor, in kg m².  With ``rotation``
     ((3, 3) or (N, 3, 3), columns = body axes in global components) the tensor is given in body axes and

@@ -1,4 +1,4 @@
-"""Rigid bindings eliminated by a null-space basis (spec models.md §4.5, the preferred method).
+"""Rigid bindings eliminated by a null-space basis (docs/theory/structure.md, the preferred method).
 
 Each binding gives constraint rows ``Φ q = 0`` (``Φ = P [G_a, −G_b]`` with ``P`` = axisᵀ, I3 or I6).  The basis
 ``Z`` (N, n, n − n_c) of the null space of Φ is the complement of ``Φᵀ``'s column space from a complete QR

@@ -1,6 +1,6 @@
-"""Stiffness–damping elements (SDE) and rigid bindings (spec models.md §4.1, §4.4).
+"""Stiffness–damping elements (SDE) and rigid bindings (docs/theory/structure.md).
 
-An SDE connects a point of body a with a point of body b (coupling points coincide, spec §4.1).  Its deformation is
+An SDE connects a point of body a with a point of body b (coupling points coincide, docs/theory/structure.md).  Its deformation is
 ``l = G_a q_a - G_b q_b`` with ``G = T(Δ)`` (3×3 element on a rigid body), ``N(Δ)`` (6×6 element on a rigid body),
 ``I3`` (point mass), nothing (frame); ``Δ`` = coupling point − body reference point.  Energy ``½ lᵀ K l``
 (Cobet eq. 4.36/4.37).  Stiffness forms: scalar ``k`` along a unit ``axis`` (``K = k n nᵀ``, Cobet eq. 4.48/4.42),
@@ -134,7 +134,7 @@ class SDESet:
 
 @dataclass(frozen=True)
 class RigidBinding:
-    """A rigid connection of a point of body a with body b, eliminated by a null-space basis (spec §4.5).
+    """A rigid connection of a point of body a with body b, eliminated by a null-space basis (docs/theory/structure.md).
 
     ``kind``: ``"axial"`` = no relative translation along ``axis`` (rigid strut, 1 constraint), ``"point"`` = no
     relative translation (3 constraints, a spherical joint), ``"full"`` = no relative translation or rotation

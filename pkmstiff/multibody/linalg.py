@@ -1,4 +1,4 @@
-"""Small batched geometry and linear-algebra helpers for the SDE model (spec models.md §4.3).
+"""Small batched geometry and linear-algebra helpers for the SDE model (docs/theory/structure.md).
 
 All functions broadcast over any leading axes (poses, elements).
 """
@@ -19,7 +19,7 @@ def skew(v: np.ndarray) -> np.ndarray:
 
 
 def reference_matrix(delta: np.ndarray) -> np.ndarray:
-    """Reference matrix N(Δ) = [[I, -[Δ]x], [0, I]] of Cobet eq. 4.45 (spec §4.3); (..., 3) -> (..., 6, 6).
+    """Reference matrix N(Δ) = [[I, -[Δ]x], [0, I]] of Cobet eq. 4.45 (docs/theory/structure.md); (..., 3) -> (..., 6, 6).
 
     ``N(Δ) q_body`` is the (translation, rotation) of the point at offset Δ from the body reference point.
     """
@@ -32,7 +32,7 @@ def reference_matrix(delta: np.ndarray) -> np.ndarray:
 
 
 def translation_matrix(delta: np.ndarray) -> np.ndarray:
-    """T(Δ) = [I, -[Δ]x], the top three rows of N(Δ) (spec §4.3); (..., 3) -> (..., 3, 6)."""
+    """T(Δ) = [I, -[Δ]x], the top three rows of N(Δ) (docs/theory/structure.md); (..., 3) -> (..., 3, 6)."""
     delta = np.asarray(delta, dtype=float)
     out = np.zeros(delta.shape[:-1] + (3, 6))
     idx = np.arange(3)

@@ -1,12 +1,12 @@
-"""Modal analysis of the SDE model (spec models.md §5.2, Cobet eq. 4.73).
+"""Modal analysis of the SDE model (docs/theory/structure.md, Cobet eq. 4.73).
 
 ``K v = λ M v`` is solved after (1) eliminating rigid bindings with the null-space basis Z, (2) condensing massless
-DOFs statically (Guyan, spec §4.6) and (3) mass-normalising with the block factors of M (``m^{-1/2}`` for
+DOFs statically (Guyan, docs/theory/structure.md) and (3) mass-normalising with the block factors of M (``m^{-1/2}`` for
 translations, ``L⁻¹`` with ``I_cg = L Lᵀ`` for rotations), which turns the generalized problem into a standard
 symmetric one ``A y = λ y`` solved by LAPACK (``eigvalsh`` when only frequencies are needed, ``eigh`` for shapes).
 ``f = √λ / (2π)`` in Hz (λ < 0 from round-off on free rigid-body modes is clipped to 0).  Mode shapes are
 mass-normalised (``vᵀ M v = 1``) full DOF vectors (condensed DOFs recovered, ``q = Z q_r`` with bindings).
-Validity: the rigid-body model is meaningful below about 250 Hz (spec §4.1).
+Validity: the rigid-body model is meaningful below about 250 Hz (docs/theory/structure.md).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Batched static solves of K q = f without forming K⁻¹ (spec models.md §5.1: solve, do not invert).
+"""Batched static solves of K q = f without forming K⁻¹ (docs/theory/structure.md: solve, do not invert).
 
 Without rigid bindings the solver eliminates bodies one at a time (a block LDLᵀ over the body graph in
 minimum-degree order; e.g. in the PKM model every drive only couples to the platform), so a solve costs a few

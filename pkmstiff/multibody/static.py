@@ -1,4 +1,4 @@
-"""Static analyses of the SDE model (spec models.md §5.1, Cobet eq. 4.70–4.72).
+"""Static analyses of the SDE model (docs/theory/structure.md, Cobet eq. 4.70–4.72).
 
 Units: forces N, moments N m, displacements m, rotations rad; compliances m/N, rad/(N m) (mixed blocks m/(N m) =
 rad/N); stiffnesses N/m and N m/rad.  All functions chunk over poses with ``chunk_size`` (memory ∝ chunk·n²).
@@ -130,7 +130,7 @@ def point_stiffness(model: SDEModel, body: str, point: Any | None = None,
 
 
 def directional_stiffness(compliance: np.ndarray, direction: Any, rotational: bool = False) -> np.ndarray:
-    """Stiffness in direction e: ``k_e = |F| / (e·u) = 1 / (eᵀ C e)`` for a unit force along e (spec §5.1).
+    """Stiffness in direction e: ``k_e = |F| / (e·u) = 1 / (eᵀ C e)`` for a unit force along e (docs/theory/structure.md).
 
     ``compliance`` (N, 6, 6) or (N, 3, 3); ``direction`` (3,) or (k, 3) (normalised here).  ``rotational=True``
     uses the rotational block (moment about e, rotation about e): N m/rad instead of N/m.  Returns (N,) or (N, k).

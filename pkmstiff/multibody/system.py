@@ -1,4 +1,4 @@
-"""The generic SDE multibody model: bodies, stiffness–damping elements and rigid bindings (spec models.md §4).
+"""The generic SDE multibody model: bodies, stiffness–damping elements and rigid bindings (docs/theory/structure.md).
 
 DOF ordering: bodies in the order they were added, 3 DOF per point mass ``(u_x, u_y, u_z)`` and 6 per rigid body
 ``(u_x, u_y, u_z, θ_x, θ_y, θ_z)`` (global axes, reference point = CoG); the frame has none.  Every quantity may
@@ -176,7 +176,7 @@ class SDEModel:
     def add_rigid_binding(
         self, name: str, body_a: str, body_b: str, point: Any, *, kind: BindingKind | None = None, axis: Any = None
     ) -> None:
-        """Rigid connection at ``point`` (m), eliminated exactly by a null-space basis (spec §4.5, preferred method).
+        """Rigid connection at ``point`` (m), eliminated exactly by a null-space basis (docs/theory/structure.md, preferred method).
 
         ``kind``: ``"axial"`` (needs ``axis``: rigid strut), ``"point"`` (no relative translation), ``"full"`` (also
         no relative rotation; both sides rigid or frame).  Default: ``"axial"`` if ``axis`` is given, else ``"full"``
@@ -272,7 +272,7 @@ class SDEModel:
 
     @property
     def massless_dofs(self) -> np.ndarray:
-        """Indices of DOFs without mass/inertia (condensed statically before eigenanalysis, spec §4.6)."""
+        """Indices of DOFs without mass/inertia (condensed statically before eigenanalysis, docs/theory/structure.md)."""
         out: list[int] = []
         for b in self._bodies.values():
             s = self.dof_index(b.name)

@@ -37,7 +37,7 @@ class ModeShape:
 
 def mode_shape(machine: Machine, pose, mode: int = 1, n_modes: int | None = None,
                modal: ModalAnalysis | None = None) -> ModeShape:
-    """Point displacements of mode ``mode`` (1 = lowest) at ``pose`` from the structure model (spec §5.2)."""
+    """Point displacements of mode ``mode`` (1 = lowest) at ``pose`` from the structure model (docs/theory/structure.md)."""
     pose = np.asarray(pose, float)
     st = build_structure(machine, pose[None])
     modal = modal or modal_analysis(st, n_modes or max(mode, 6), shapes=True)

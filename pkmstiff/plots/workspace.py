@@ -167,7 +167,7 @@ def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.nd
 
 def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | Path, title: str = "",
                               cmap: str = "gray_r") -> Path:
-    """Projections of the rotational workspace at a point (spec §7.1): one panel per result, e.g. max. +a over
+    """Projections of the rotational workspace at a point (docs/theory/workspace.md): one panel per result, e.g. max. +a over
     (b, c) and max. +b over (a, c); axes and values in degrees."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -145,7 +145,7 @@ class PointValues:
 
 @dataclass(frozen=True)
 class WorkspaceVolume:
-    """Constant-orientation workspace volume (octree, spec §7.3): output ``"volume [m^3]"`` (+ ``"touches box"``).
+    """Constant-orientation workspace volume (octree, docs/theory/workspace.md): output ``"volume [m^3]"`` (+ ``"touches box"``).
 
     ``box_mm`` = (xmin, xmax, ymin, ymax, zmin, zmax) or None (the chains' reach box); ``requirements`` as in
     ``pkmstiff workspace --require``; ``method`` one of :data:`pkmstiff.workspace.volume.METHODS`.

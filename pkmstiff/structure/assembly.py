@@ -45,7 +45,7 @@ def rigid_chains(ks: ChainStiffness) -> np.ndarray:
 
 def sde_model(layout: StructureLayout, w: Array, R: Array, p: Array, q: Array, u: Array,
                ks: ChainStiffness, with_spindle: bool = True) -> sde.SDEModel:
-    """Bodies and bindings (spec §4.2–4.4) for the modelled poses (leading axis M).
+    """Bodies and bindings (docs/theory/structure.md) for the modelled poses (leading axis M).
 
     ``with_spindle=False`` leaves out a separate spindle body and U (see :attr:`PKMStructure.dynamic_model`).
     """

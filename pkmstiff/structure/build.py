@@ -49,7 +49,7 @@ def structure_from_ik(machine: Machine, ik: IK, options: StructureOptions | None
 
 def build_structure(machine: Machine, poses: ArrayLike, options: StructureOptions | None = None,
                     layout: StructureLayout | None = None) -> PKMStructure:
-    """Structure model (spec §4) of ``machine`` at poses ``(N, 6)`` = (x, y, z [m], a, b, c [rad]).
+    """Structure model (docs/theory/structure.md) of ``machine`` at poses ``(N, 6)`` = (x, y, z [m], a, b, c [rad]).
 
     All poses are held in one SDE model; for large batches use :func:`iter_structures` (chunks) or the batch
     evaluation :func:`pkmstiff.analysis.evaluate_structure`.

@@ -82,7 +82,7 @@ class StructureLayout:
 
 
 def structure_layout(machine: Machine, options: StructureOptions | None = None) -> StructureLayout:
-    """Masses and bodies of the structure model of ``machine`` (spec §4.2, §4.6); raises on missing data."""
+    """Masses and bodies of the structure model of ``machine`` (docs/theory/structure.md); raises on missing data."""
     options = options or StructureOptions()
     try:
         mc = machine_components(machine)

@@ -18,13 +18,13 @@ from pkmstiff.structure.options import Array
 
 
 def platform_mass_matrix(layout: StructureLayout, R: Array) -> Array:
-    """M_P (N, 6, 6) of platform + spindle referred to O' in MKS axes (spec §4.6, parallel-axis theorem)."""
+    """M_P (N, 6, 6) of platform + spindle referred to O' in MKS axes (docs/theory/structure.md, parallel-axis theorem)."""
     body = combine_bodies([layout.platform, layout.spindle]) if layout.separate_spindle else layout.platform
     return mass_matrix_about_origin(body, R)
 
 
 def mass_matrix_about_origin(body: PKSBody, R: Array) -> Array:
-    """``N(ρ)ᵀ diag(m I, R I' Rᵀ) N(ρ)`` (N, 6, 6) about O' in MKS axes, ρ = R cog (spec §4.6)."""
+    """``N(ρ)ᵀ diag(m I, R I' Rᵀ) N(ρ)`` (N, 6, 6) about O' in MKS axes, ρ = R cog (docs/theory/structure.md)."""
     rho = R @ body.cog
     m = np.zeros((R.shape[0], 6, 6))
     m[:, [0, 1, 2], [0, 1, 2]] = body.mass
@@ -38,10 +38,10 @@ def mass_matrix_about_origin(body: PKSBody, R: Array) -> Array:
 
 def dynamics_masses(machine: Machine, strut_mass_split: bool = False,
                     components: MachineComponents | None = None) -> tuple[np.ndarray, PKSBody]:
-    """M_A (n,) [kg] and the body moved by the drives (PKS) for the rigid-body dynamics of spec §3.2 / §6.3.
+    """M_A (n,) [kg] and the body moved by the drives (PKS) for the rigid-body dynamics of docs/theory/components.md / §6.3.
 
     M_A = drive + guide carriages + drive-joint mass; moved body = platform + spindle.  ``strut_mass_split``
-    (spec §6.3 extension, Assumption, off by default) adds half of each strut to the drive and half, at the platform
+    (docs/theory/kinetostatics.md extension, Assumption, off by default) adds half of each strut to the drive and half, at the platform
     joint, to the moved body.  (The structure model's own mass distribution is set by :class:`StructureOptions`.)
     """
     mc = components or machine_components(machine)
@@ -62,7 +62,7 @@ def dynamics_masses(machine: Machine, strut_mass_split: bool = False,
 def effective_mass(layout: StructureLayout, ik: IK, idx: Array, machine: Machine) -> Array:
     """Diagonal of M_q = M_A + J_Cᵀ M_P J_C (eq. 3.10–3.12) for pole-placement drives (N, n) [kg].
 
-    M_A and M_P as in :func:`dynamics_masses` (platform + spindle about O', no strut shares: spec §3.2).
+    M_A and M_P as in :func:`dynamics_masses` (platform + spindle about O', no strut shares: docs/theory/components.md).
     """
     from components.direct_drive import joint_space_mass_diagonal
 

@@ -88,7 +88,7 @@ class PKMStructure:
         return not len(self.index)
 
     def tcp(self, tool_length: float | ArrayLike | None = None) -> Array:
-        """TCP in the MKS (M, 3): ``O' + R (tool.offset + L · tool.axis)`` (spec §5.1).
+        """TCP in the MKS (M, 3): ``O' + R (tool.offset + L · tool.axis)`` (docs/theory/structure.md).
 
         ``tool_length``: L in m (None: machine file), or a tool vector (3,) in the PKS [m] from O' to the tool tip
         that replaces ``tool.offset + L · tool.axis`` (any tool orientation).
@@ -124,7 +124,7 @@ class PKMStructure:
         """Model for the eigenvalue problem: :attr:`model`, or without a massless spindle.
 
         A massless spindle coupled to the platform only through U adds nothing to the dynamic stiffness: its static
-        condensation gives ``K_PP − N_Pᵀ K_U N_P``, i.e. exactly the platform block without U (spec §4.6 Guyan).
+        condensation gives ``K_PP − N_Pᵀ K_U N_P``, i.e. exactly the platform block without U (docs/theory/structure.md Guyan).
         Leaving it out saves the condensation (frequencies identical; mode shapes then lack the spindle DOFs).
         """
         if not self.massless_spindle or not len(self.index):

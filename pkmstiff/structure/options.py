@@ -39,7 +39,7 @@ class StructureOptions:
 
     ``strut_mass_to_drive``: fraction of each strut's mass lumped at the drive joint (rest at the platform joint);
     ``joint_masses``: add the joint types' masses (drive joint → drive, platform joint → platform);
-    ``coupling_point``: r_U in the PKS [m] (spec §4.4 Assumption: O'); ``k_u_axes``: axes in which the
+    ``coupling_point``: r_U in the PKS [m] (docs/theory/structure.md Assumption: O'); ``k_u_axes``: axes in which the
     ``platform_spindle`` matrix is given (``"platform"`` → ``H K_U Hᵀ``, or ``"machine"``);
     ``damping_beta``: stiffness-proportional SDE damping ``C_e = β K_e`` [s] (no damping data given: 0);
     ``free_frame``: replace the fixed frame by a free rigid body ``base`` of ``frame_mass`` [kg] and

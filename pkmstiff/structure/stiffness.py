@@ -122,7 +122,7 @@ def _pole_placement(layout: StructureLayout) -> bool:
 
 
 def chain_stiffness(layout: StructureLayout, ik: IK, angles: Any, idx: Array) -> tuple[ChainStiffness, Array]:
-    """Component stiffnesses at the poses ``idx`` of ``ik`` and an ok mask (len(idx),) (spec §3, eq. 4.48)."""
+    """Component stiffnesses at the poses ``idx`` of ``ik`` and an ok mask (len(idx),) (docs/theory/components.md, eq. 4.48)."""
     mc, n, m = layout.components, layout.n, len(idx)
     arrays = _chain_arrays(ik, angles, idx)
     if _pole_placement(layout):

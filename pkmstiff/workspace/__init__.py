@@ -1,4 +1,4 @@
-"""Workspace analysis (spec models.md §7, Cobet 4.1): modified octree, boundary surface and volume, rotation-angle
+"""Workspace analysis (docs/theory/workspace.md, Cobet 4.1): modified octree, boundary surface and volume, rotation-angle
 maps and the rotational workspace, user requirements.
 
 Modules: :mod:`.octree` (generic modified octree), :mod:`.oracle` (pose admissibility as a predicate),

@@ -1,10 +1,10 @@
-"""Modified octree for the boundary of a 3-D admissible set (spec models.md §7.3, Cobet 4.1.4, eq. 4.1).
+"""Modified octree for the boundary of a 3-D admissible set (docs/theory/workspace.md, Cobet 4.1.4, eq. 4.1).
 
 The algorithm works on any admissibility predicate ``admissible(points (N, 3)) -> bool (N,)`` over a box: the
 translational workspace at constant orientation (points = positions of O'), the workspace with one variable
 orientation range, or the rotational workspace at a point (points = Cardan angles).
 
-Implementation (the text's intended behaviour, spec §7.3 Note, evaluated level by level instead of depth first):
+Implementation (the text's intended behaviour, docs/theory/workspace.md Note, evaluated level by level instead of depth first):
 
 * All corners live on the finest lattice: axis k of the box is halved ``L_k`` times, the smallest number with
   ``extent_k / 2**L_k <= eps``; corners are integer triples hashed to one int64 key.
@@ -249,7 +249,7 @@ def octree_boundary(
     closure: bool = True,
     progress: Progress | None = None,
 ) -> OctreeResult:
-    """Boundary voxels and points of the set ``{x : admissible(x)}`` inside the box [lo, hi] (spec §7.3).
+    """Boundary voxels and points of the set ``{x : admissible(x)}`` inside the box [lo, hi] (docs/theory/workspace.md).
 
     ``eps`` is the resolution (every leaf edge <= eps). ``min_level`` (Assumption, default 3): the octree starts
     on the uniform grid of level ``min_level`` (8 voxels per axis) instead of level 1, so that sets much smaller

@@ -1,4 +1,4 @@
-"""Admissibility of points of a workspace: a pose with some coordinates free (spec models.md §7.1, §8).
+"""Admissibility of points of a workspace: a pose with some coordinates free (docs/theory/workspace.md).
 
 :class:`PoseOracle` turns a machine, a base pose and the free coordinates into the predicate the octree and the
 rotation-angle searches need: ``oracle(points (N, k)) -> bool (N,)`` with the points written into the free
@@ -12,7 +12,7 @@ Evaluation is staged; the result equals ``evaluate_poses(...).ok`` with the same
    for the survivors;
 3. the user requirements (:mod:`pkmstiff.workspace.requirements`) only for the poses admissible so far.
 
-Workspace with one variable orientation range (spec §7.1 Table 4.1/4.2 Note): ``orientation_range=("c", lo, hi)``
+Workspace with one variable orientation range (docs/theory/workspace.md Table 4.1/4.2 Note): ``orientation_range=("c", lo, hi)``
 samples that angle from lo to hi (both included) at ``range_step``; mode ``"all"`` (Merlet, Table 4.1) needs every
 sample admissible, ``"any"`` (Table 4.2: c chosen to avoid collisions and singularities) needs at least one.
 Samples are evaluated one after the other, each only for the points still undecided.

@@ -1,6 +1,6 @@
 """User requirements on workspace points: ``"kx>=20 N/um"``, ``"f1>=50 Hz"``, ``"U>=0.2"``, ``"kappa<=100"``.
 
-A requirement compares a named per-pose quantity with a limit (spec models.md §7.3: "any additional user
+A requirement compares a named per-pose quantity with a limit (docs/theory/workspace.md: "any additional user
 requirements (e.g. minimum stiffness, acceleration, orientability, maximum condition number, minimum transmission
 quality)"). Quantities come from the shared registry :mod:`pkmstiff.evaluation.quantities` (name -> SI values for a chunk of
 poses; ``pkmstiff quantities`` lists them: ``kx``, ``f1``, ``kappa``, ``U``, ``tilt_drive_max``, ...). New

@@ -1,4 +1,4 @@
-"""Maximum admissible rotation angles on a raster (spec models.md §7.1, §7.6, Cobet 4.1.5, eq. 4.21-4.24).
+"""Maximum admissible rotation angles on a raster (docs/theory/workspace.md, Cobet 4.1.5, eq. 4.21-4.24).
 
 From the base orientation at every raster point, the angle in a direction (+a, -a, +b, -b, +a+b, -a-b, also +c, -c;
 "+a+b" = equal simultaneous rotation) is raised in steps of ``increment`` until the pose becomes inadmissible; the
@@ -384,7 +384,7 @@ def rotational_workspace_map(
     max_angle: float = math.radians(90.0),
     **kw: Any,
 ) -> RotationMapResult:
-    """Rotational workspace at a point (spec §7.1): the maximum angle in ``direction`` over a raster of the two
+    """Rotational workspace at a point (docs/theory/workspace.md): the maximum angle in ``direction`` over a raster of the two
     other angles — "+a as a function of (b, c)" (u = b, v = c) or "+b as a function of (a, c)" (u = a, v = c).
 
     ``point`` (x, y, z) in m; raster values in rad, added to ``base_orientation``.

@@ -1,4 +1,4 @@
-"""Watertight triangulated boundary of an octree result (spec models.md §7.3 "triangulated by connecting
+"""Watertight triangulated boundary of an octree result (docs/theory/workspace.md "triangulated by connecting
 neighbouring points"; Assumption: surface extraction from the leaf voxels).
 
 Connectivity (surface nets): every leaf voxel carries one vertex; every finest-lattice edge whose two end points

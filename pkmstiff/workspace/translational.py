@@ -1,5 +1,4 @@
-"""Translational workspace of a machine: constant orientation or one variable orientation range (spec §7.1, §7.3,
-§7.5). Positions are those of O' (the pose's position) in the machine frame, in m; volumes in m^3."""
+"""Translational workspace of a machine: constant orientation or one variable orientation range (docs/theory/workspace.md). Positions are those of O' (the pose's position) in the machine frame, in m; volumes in m^3."""
 
 from __future__ import annotations
 
@@ -149,7 +148,7 @@ def constant_orientation_workspace(
                         checks=checks, orientation_range=orientation_range, range_step=range_step,
                         range_mode=range_mode)
     res = octree_boundary(oracle, lo, hi, resolution, min_level=min_level, progress=progress)
-    # A workspace thinner than the start grid's spacing is missed when no start corner is admissible (spec §7.3,
+    # A workspace thinner than the start grid's spacing is missed when no start corner is admissible (docs/theory/workspace.md,
     # known limitation): start finer before concluding that there is none, and say so if there still is none.
     level = min_level
     while res.leaf_index.shape[0] == 0 and res.inside_volume == 0.0 and level < max(min_level, MAX_RETRY_LEVEL):

@@ -1,4 +1,4 @@
-"""Accuracy of the volume methods on the dissertation's regular bodies (spec models.md §7.5, Cobet Figs. 4.14-4.16).
+"""Accuracy of the volume methods on the dissertation's regular bodies (docs/theory/workspace.md, Cobet Figs. 4.14-4.16).
 
 Sphere of diameter 1000 mm (V = pi/6 m^3) and cube of edge 1000 mm (V = 1 m^3), centred slightly off the lattice
 planes of the box [-0.8, 0.8]^3 m (an aligned face would lie exactly on voxel corners, which flatters or penalises

@@ -1,4 +1,4 @@
-"""Volume of a workspace from its octree boundary (spec models.md §7.5, Cobet eq. 4.2-4.20).
+"""Volume of a workspace from its octree boundary (docs/theory/workspace.md, Cobet eq. 4.2-4.20).
 
 Methods (all return the volume in the cube of the box's length unit, m^3 for positions in m):
 
@@ -7,7 +7,7 @@ Methods (all return the volume in the cube of the box's length unit, m^3 for pos
 * ``tetrahedron`` — eq. 4.14: V = sum |(p1 - z) . ((p2 - z) x (p3 - z))| / 6 over the triangles of the boundary
   points (eq. 4.1) connected to a closed mesh, z = centre of the point cloud (mid-point of its extent).
 * ``divergence`` — the signed sum of eq. 4.14 (divergence theorem) on the same mesh: exact for the triangulated
-  surface, independent of z, also for non-star-shaped sets (spec §7.5 Assumption: recommended default there).
+  surface, independent of z, also for non-star-shaped sets (docs/theory/workspace.md Assumption: recommended default there).
 * ``surface_nets`` (this toolkit's method, default) — the divergence theorem on the closed mesh whose vertices are
   the estimated crossing points on the sign-change edges (:mod:`pkmstiff.workspace.surface`), instead of the
   centroids of eq. 4.1. The centroids lie on average half a voxel inside the boundary, so every method built on
