@@ -17,9 +17,11 @@ angle to use instead. Extrapolation outside a table: ``"clamp"`` (default, spec 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+
+from pkmstiff.errors import ComponentDataError, InputError, JointTableNotFound
 
 from components.joint_tables import (  # re-exported: the documented entry points are components.joints.*
     JointTable,
@@ -27,8 +29,12 @@ from components.joint_tables import (  # re-exported: the documented entry point
     load_joint_table,
     write_joint_table,
 )
+from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState, _full
 from components.spline import EXTRAPOLATION_POLICIES, apply_range_policy, clamped_spline, spline_weights
+
+if TYPE_CHECKING:
+    from components.reader import Params
 
 __all__ = [
     "JointModel", "ConstantJoint", "AnalyticJoint330", "TiltTableJoint", "SwivelTiltTableJoint", "ProductJoint",
@@ -47,7 +53,7 @@ class JointModel(Component):
 
     def __post_init__(self) -> None:
         if self.angle_convention not in (None, "axis", "normal"):
-            raise ValueError(f"joint '{self.name}': angle_convention must be 'axis', 'normal' or None, "
+            raise ComponentDataError(f"joint '{self.name}': angle_convention must be 'axis', 'normal' or None, "
                              f"found {self.angle_convention!r}")
 
     def within_limits(self, state: ComponentState) -> np.ndarray:
@@ -75,7 +81,7 @@ class ConstantJoint(JointModel):
     def __post_init__(self) -> None:
         super().__post_init__()
         if not self.k > 0:
-            raise ValueError(f"joint '{self.name}': k must be positive, found {self.k!r}")
+            raise ComponentDataError(f"joint '{self.name}': k must be positive, found {self.k!r}")
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         return _full(state, self.k)
@@ -105,7 +111,7 @@ class AnalyticJoint330(JointModel):
         super().__post_init__()
         for key in ("k_AaL", "k_BrL", "k_CrL", "k_CaL"):
             if not getattr(self, key) > 0:
-                raise ValueError(f"joint '{self.name}': {key} must be positive, found {getattr(self, key)!r}")
+                raise ComponentDataError(f"joint '{self.name}': {key} must be positive, found {getattr(self, key)!r}")
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         tilt = state.require("tilt", self.name)
@@ -114,12 +120,12 @@ class AnalyticJoint330(JointModel):
 
 def _check_policy(name: str, policy: str) -> None:
     if policy not in EXTRAPOLATION_POLICIES:
-        raise ValueError(f"joint '{name}': extrapolation must be one of {EXTRAPOLATION_POLICIES}, found {policy!r}")
+        raise ComponentDataError(f"joint '{name}': extrapolation must be one of {EXTRAPOLATION_POLICIES}, found {policy!r}")
 
 
 def _positive_finite(name: str, what: str, values: np.ndarray) -> None:
     if not np.all(np.isfinite(values)) or np.any(values <= 0):
-        raise ValueError(f"joint '{name}': {what} must be positive and finite, found {np.asarray(values).tolist()}")
+        raise ComponentDataError(f"joint '{name}': {what} must be positive and finite, found {np.asarray(values).tolist()}")
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -166,7 +172,7 @@ def _swivel_values(state: ComponentState, name: str, undefined_swivel: str | flo
 
 def _check_undefined(name: str, undefined_swivel: Any) -> None:
     if undefined_swivel != "nan" and not isinstance(undefined_swivel, (int, float)):
-        raise ValueError(f"joint '{name}': undefined_swivel must be 'nan' or a swivel angle in rad, "
+        raise ComponentDataError(f"joint '{name}': undefined_swivel must be 'nan' or a swivel angle in rad, "
                          f"found {undefined_swivel!r}")
 
 
@@ -192,7 +198,7 @@ class SwivelTiltTableJoint(JointModel):
         ti = np.asarray(self.tilt_nodes, dtype=float)
         k = np.asarray(self.k_grid, dtype=float)
         if k.shape != (sw.size, ti.size):
-            raise ValueError(f"joint '{self.name}': k_grid must have shape ({sw.size}, {ti.size}) = (swivel, tilt), "
+            raise ComponentDataError(f"joint '{self.name}': k_grid must have shape ({sw.size}, {ti.size}) = (swivel, tilt), "
                              f"found {k.shape}")
         _positive_finite(self.name, "tabulated stiffness", k)
         clamped_spline(sw, k, what=f"joint '{self.name}' swivel axis")  # validates the nodes
@@ -237,7 +243,7 @@ class ProductJoint(JointModel):
         _check_policy(self.name, self.extrapolation)
         _check_undefined(self.name, self.undefined_swivel)
         if not self.k_ref > 0:
-            raise ValueError(f"joint '{self.name}': k_ref must be positive, found {self.k_ref!r}")
+            raise ComponentDataError(f"joint '{self.name}': k_ref must be positive, found {self.k_ref!r}")
         curves = []
         for nodes, values, axis in ((self.swivel_nodes, self.g_swivel, "swivel"), (self.tilt_nodes, self.g_tilt, "tilt")):
             x = np.asarray(nodes, dtype=float)
@@ -270,10 +276,134 @@ def joint_from_table(table: JointTable, **kwargs: Any) -> TiltTableJoint | Swive
     kwargs.setdefault("angle_convention", table.angle_convention)
     kwargs.setdefault("provenance", table.provenance)
     if table.angle_convention != kwargs["angle_convention"]:
-        raise ValueError(f"joint '{kwargs['name']}': table {table.path} is tabulated in the "
+        raise ComponentDataError(f"joint '{kwargs['name']}': table {table.path} is tabulated in the "
                          f"'{table.angle_convention}' convention, not '{kwargs['angle_convention']}'")
     if table.swivel is None:
         kwargs.pop("undefined_swivel", None)
         return TiltTableJoint(tilt_nodes=table.tilt, k_nodes=table.stiffness, table_name=table.path, **kwargs)
     return SwivelTiltTableJoint(swivel_nodes=table.swivel, tilt_nodes=table.tilt, k_grid=table.stiffness,
                                 table_name=table.path, **kwargs)
+
+
+# --------------------------------------------------------------------------------------------- machine files
+#: Parameters every joint model accepts: tilt convention of the data, angle limits (Cobet eq. B.5), mass.
+JOINT_COMMON: tuple[Param, ...] = (
+    Param("angle_convention", "-", None, "'axis' or 'normal': tilt convention the data refer to",
+          kind="raw", default_text="none (any; tables: the file's)"),
+    Param("tilt_min", "rad", None, "smallest admissible tilt (Cobet eq. B.5)"),
+    Param("tilt_max", "rad", None, "largest admissible tilt (Cobet eq. B.5)"),
+    Param("swivel_min", "rad", None, "smallest admissible swivel (Cobet eq. B.5)"),
+    Param("swivel_max", "rad", None, "largest admissible swivel (Cobet eq. B.5)"),
+    Param("mass", "kg", 0.0, "joint mass", min_value=0.0),
+)
+EXTRAPOLATION = Param("extrapolation", "-", "clamp", "outside the table: 'clamp' (end value) or 'error'",
+                      choices=EXTRAPOLATION_POLICIES)
+UNDEFINED_SWIVEL = Param("undefined_swivel", "rad", "nan", "swivel used where it is undefined ('nan': NaN stiffness)",
+                         kind="raw")
+
+
+def _joint_common(p: "Params") -> dict[str, Any]:
+    limits = {}
+    for key in ("tilt_min", "tilt_max", "swivel_min", "swivel_max"):
+        value = p[key]
+        if value is not None:
+            limits[key] = value
+    for lo, hi in (("tilt_min", "tilt_max"), ("swivel_min", "swivel_max")):
+        if lo in limits and hi in limits and limits[lo] > limits[hi]:
+            raise p.error(hi, f"a value >= {lo} ({np.rad2deg(limits[lo]):g} deg)", f"{np.rad2deg(limits[hi]):g} deg")
+    conv = p["angle_convention"]
+    if conv is not None and conv not in ("axis", "normal"):
+        raise p.error("angle_convention", "'axis' or 'normal'", conv)
+    return {"name": p.name, "limits": limits, "angle_convention": conv, "mass": p["mass"]}
+
+
+def _undefined_swivel(p: "Params") -> str | float:
+    value = p["undefined_swivel"]
+    if value == "nan":
+        return "nan"
+    return p.get("undefined_swivel", kind="quantity")
+
+
+def _load_table(p: "Params", swivel: bool) -> Component:
+    common = _joint_common(p)
+    policy = p["extrapolation"]
+    extra = {"undefined_swivel": _undefined_swivel(p)} if swivel else {}
+    if p.exactly_one(("table",), ("tilt", "stiffness")) == 0:
+        ref = p["table"]
+        try:
+            table = load_joint_table(ref, base_dir=p.base_dir)
+        except JointTableNotFound as exc:
+            raise p.error("table", exc.expected, f"{ref!r} ({exc.found})") from exc
+        except InputError as exc:  # content error: keep file/line/column, add who referenced the table
+            where = f"{exc.source} (table of {p.key('table')} in {p.source or 'input'})"
+            raise InputError(where, exc.key, exc.expected, exc.found) from exc
+        if (table.swivel is not None) != swivel:
+            want = "a swivel-tilt table (swivel_deg,tilt_deg,k_N_per_um)" if swivel else "a tilt table (tilt_deg,k_N_per_um)"
+            raise p.error("table", want, f"{table.path} has the other format")
+        if common["angle_convention"] is None:
+            common["angle_convention"] = table.angle_convention
+        elif common["angle_convention"] != table.angle_convention:
+            raise p.error("angle_convention", f"the table's convention '{table.angle_convention}' ({table.path})",
+                          common["angle_convention"])
+        return joint_from_table(table, extrapolation=policy, **common, **extra)
+    tilt = p.get("tilt", required=True)
+    if swivel:
+        sw = p.get("swivel", required=True)
+        k = p.get("stiffness", required=True, shape=(sw.size, tilt.size))
+        return SwivelTiltTableJoint(swivel_nodes=sw, tilt_nodes=tilt, k_grid=k, extrapolation=policy,
+                                    table_name="inline", **common, **extra)
+    k = p.get("stiffness", required=True, shape=(tilt.size,))
+    return TiltTableJoint(tilt_nodes=tilt, k_nodes=k, extrapolation=policy, table_name="inline", **common)
+
+
+def _joint_product(p: "Params") -> Component:
+    common = _joint_common(p)
+    sw = p["swivel"]
+    ti = p["tilt"]
+    return ProductJoint(k_ref=p["k_ref"], swivel_nodes=sw, g_swivel=p.get("g_swivel", shape=(sw.size,)),
+                        tilt_nodes=ti, g_tilt=p.get("g_tilt", shape=(ti.size,)), extrapolation=p["extrapolation"],
+                        undefined_swivel=_undefined_swivel(p), **common)
+
+
+_TABLE = Param("table", "-", None, "bundled table name or CSV path (relative to the machine file)",
+               kind="string", required="unless inline data")
+_INLINE_TILT = Param("tilt", "rad", None, "inline tilt nodes, ascending", required="unless table", shape=(None,))
+MODELS: tuple[ModelSpec, ...] = (
+    ModelSpec("joint_constant", "angle-independent joint stiffness", "k = const",
+              (Param("k", "N/m", None, "joint stiffness", required=True, positive=True, rigid_ok=True),)
+              + JOINT_COMMON,
+              lambda p: ConstantJoint(k=p["k"], **_joint_common(p))),
+    ModelSpec("joint_analytic_3_30", "analytic substitute Cardan-joint model over tilt", "Cobet eq. 3.30",
+              tuple(Param(k, "N/m", None, m, required=True, positive=True) for k, m in (
+                  ("k_AaL", "bearing A axial stiffness"), ("k_BrL", "bearing B radial stiffness"),
+                  ("k_CrL", "bearing C radial stiffness"), ("k_CaL", "bearing C axial stiffness"))) + JOINT_COMMON,
+              lambda p: AnalyticJoint330(**{k: p[k] for k in ("k_AaL", "k_BrL", "k_CrL", "k_CaL")},
+                                         **_joint_common(p))),
+    ModelSpec("joint_table", "tabulated joint stiffness over tilt, clamped end-slope cubic spline", "Cobet 3.2.5",
+              (_TABLE, _INLINE_TILT,
+               Param("stiffness", "N/m", None, "inline stiffness at the tilt nodes", required="unless table",
+                     shape=(None,), positive=True),
+               EXTRAPOLATION) + JOINT_COMMON,
+              lambda p: _load_table(p, swivel=False), tables="tilt"),
+    ModelSpec("joint_table_swivel_tilt",
+              "tabulated joint stiffness on a (swivel, tilt) grid, bicubic end-slope spline",
+              "models.md §3.5 (5) Assumption",
+              (_TABLE,
+               Param("swivel", "rad", None, "inline swivel nodes, ascending", required="unless table", shape=(None,)),
+               _INLINE_TILT,
+               Param("stiffness", "N/m", None, "inline grid stiffness[swivel][tilt]", required="unless table",
+                     shape=(None, None), positive=True),
+               UNDEFINED_SWIVEL, EXTRAPOLATION) + JOINT_COMMON,
+              lambda p: _load_table(p, swivel=True), tables="swivel_tilt"),
+    ModelSpec("joint_product_swivel_tilt", "k_ref g_swivel(swivel) g_tilt(tilt) from two normalised 1-D curves",
+              "models.md §3.5 (5) Assumption",
+              (Param("k_ref", "N/m", None, "stiffness at the maxima of both curves", required=True, positive=True),
+               Param("swivel", "rad", None, "swivel nodes of g_swivel, ascending", required=True, shape=(None,)),
+               Param("g_swivel", "-", None, "swivel curve (normalised to its maximum)", required=True,
+                     shape=(None,), positive=True),
+               Param("tilt", "rad", None, "tilt nodes of g_tilt, ascending", required=True, shape=(None,)),
+               Param("g_tilt", "-", None, "tilt curve (normalised to its maximum)", required=True, shape=(None,),
+                     positive=True),
+               UNDEFINED_SWIVEL, EXTRAPOLATION) + JOINT_COMMON,
+              _joint_product),
+)

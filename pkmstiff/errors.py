@@ -21,3 +21,20 @@ class InputError(PkmstiffError, ValueError):
         self.source, self.key, self.expected, self.found = source, key, expected, found
         where = f"{source}: " if source else ""
         super().__init__(f"{where}key '{key}': expected {expected}, found {found!r}")
+
+
+# components
+class ComponentDataError(PkmstiffError, ValueError):
+    """Data a component cannot use: invalid constructor arguments or a state array it needs but was not given."""
+
+
+class ComponentRangeError(PkmstiffError, ValueError):
+    """A state value (angle, position) lies outside the range a component can evaluate."""
+
+
+class ComponentModelError(PkmstiffError, ValueError):
+    """A component model is registered or declared inconsistently (name taken, parameter read but not declared)."""
+
+
+class JointTableNotFound(InputError):
+    """The named joint table is neither a bundled table nor an existing file."""
