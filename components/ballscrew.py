@@ -44,7 +44,7 @@ def _check_drive_data(drive) -> None:
     """Range policy and positive stiffness data common to the ball-screw drives (eq. 3.2, 3.3)."""
     if drive.out_of_range not in RANGE_POLICIES:
         raise ComponentDataError(f"drive '{drive.name}': out_of_range must be one of {RANGE_POLICIES}, "
-                         f"found {drive.out_of_range!r}")
+                                 f"found {drive.out_of_range!r}")
     for key in ("k_al", "spindle_ea", "k_m", "k_tm"):
         if not getattr(drive, key) > 0:
             raise ComponentDataError(f"drive '{drive.name}': {key} must be positive, found {getattr(drive, key)!r}")
@@ -133,8 +133,9 @@ def fit_stroke_polynomial(
     """
     lo, hi = (float(v) for v in l_eff_range)
     if not (0 < lo < hi) or degree < 0 or n_samples < degree + 2:
-        raise ComponentDataError(f"fit_stroke_polynomial: need 0 < l_min < l_max, degree >= 0 and n_samples >= degree + 2, "
-                         f"found range {l_eff_range}, degree {degree}, n_samples {n_samples}")
+        raise ComponentDataError("fit_stroke_polynomial: need 0 < l_min < l_max, degree >= 0 and "
+                                 f"n_samples >= degree + 2, "
+                                 f"found range {l_eff_range}, degree {degree}, n_samples {n_samples}")
     x = np.linspace(lo, hi, n_samples)
     y = np.asarray(stiffness_of_l_eff(x), dtype=float)
     coeffs = np.polyfit(x, y, degree)
@@ -182,15 +183,19 @@ class BallScrewDrive(Component):
 
     def __post_init__(self) -> None:
         if self.arrangement not in ARRANGEMENTS:
-            raise ComponentDataError(f"drive '{self.name}': arrangement must be one of {ARRANGEMENTS}, found {self.arrangement!r}")
+            raise ComponentDataError(f"drive '{self.name}': arrangement must be one of {ARRANGEMENTS}, found "
+                                     f"{self.arrangement!r}")
         _check_drive_data(self)
         if self.arrangement != "fixed_floating" and self.spindle_length is None:
-            raise ComponentDataError(f"drive '{self.name}': spindle_length is required for the {self.arrangement} arrangement")
+            raise ComponentDataError(f"drive '{self.name}': spindle_length is required for the {self.arrangement} "
+                                     f"arrangement")
         if self.spindle_length is not None and not self.spindle_length > 0:
-            raise ComponentDataError(f"drive '{self.name}': spindle_length must be positive, found {self.spindle_length!r}")
+            raise ComponentDataError(f"drive '{self.name}': spindle_length must be positive, found "
+                                     f"{self.spindle_length!r}")
         hi = self.l_eff_max if self.l_eff_max is not None else (self.spindle_length or np.inf)
         if not 0 <= self.l_eff_min < hi:
-            raise ComponentDataError(f"drive '{self.name}': need 0 <= l_eff_min < l_eff_max, found {self.l_eff_min}, {hi}")
+            raise ComponentDataError(f"drive '{self.name}': need 0 <= l_eff_min < l_eff_max, found {self.l_eff_min}, "
+                                     f"{hi}")
         object.__setattr__(self, "l_eff_max", hi)
         limits = {"l_eff_min": self.l_eff_min, "l_eff_max": hi, **self.limits}
         object.__setattr__(self, "limits", limits)
@@ -254,11 +259,12 @@ class TelescopicBallScrew(Component):
 
     def __post_init__(self) -> None:
         if self.drive_model not in DRIVE_MODELS:
-            raise ComponentDataError(f"drive '{self.name}': drive_model must be one of {DRIVE_MODELS}, found {self.drive_model!r}")
+            raise ComponentDataError(f"drive '{self.name}': drive_model must be one of {DRIVE_MODELS}, found "
+                                     f"{self.drive_model!r}")
         _check_drive_data(self)
         if not 0 < self.l_eff_min < self.l_eff_max:
             raise ComponentDataError(f"drive '{self.name}': need 0 < l_eff_min < l_eff_max, found "
-                             f"{self.l_eff_min}, {self.l_eff_max}")
+                                     f"{self.l_eff_min}, {self.l_eff_max}")
         if self.drive_model == "fit_3_22":
             c = np.asarray(self.fit_coefficients, dtype=float)
             if c.ndim != 1 or c.size == 0:
@@ -266,7 +272,7 @@ class TelescopicBallScrew(Component):
             x = np.linspace(self.l_eff_min, self.l_eff_max, 101)
             if np.any(np.polyval(c, x) <= 0):
                 raise ComponentDataError(f"drive '{self.name}': the fit polynomial is not positive over "
-                                 f"[{self.l_eff_min}, {self.l_eff_max}] m")
+                                         f"[{self.l_eff_min}, {self.l_eff_max}] m")
         object.__setattr__(self, "fit_coefficients", tuple(float(v) for v in self.fit_coefficients))
         object.__setattr__(self, "limits", {"l_eff_min": self.l_eff_min, "l_eff_max": self.l_eff_max, **self.limits})
         defaults = {

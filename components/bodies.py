@@ -52,7 +52,7 @@ def _check_symmetric(K: np.ndarray, what: str) -> None:
     scale = max(float(np.max(np.abs(K))), np.finfo(float).tiny)
     if np.max(np.abs(K - K.T)) > _SYM_TOL * scale:
         raise ComponentDataError(f"{what}: the matrix must be symmetric, found max |K - K^T| = "
-                         f"{np.max(np.abs(K - K.T)):.3g} (max |K| = {scale:.3g})")
+                                 f"{np.max(np.abs(K - K.T)):.3g} (max |K| = {scale:.3g})")
 
 
 def _check_positive_definite(K: np.ndarray, what: str, semi: bool = False) -> None:
@@ -82,7 +82,7 @@ class RigidBody(Component):
         cog = np.zeros(3) if self.cog is None else np.asarray(self.cog, dtype=float)
         if inertia.shape != (3, 3) or cog.shape != (3,):
             raise ComponentDataError(f"body '{self.name}': inertia must be (3, 3) or (3,), cog (3,); found "
-                             f"{inertia.shape}, {cog.shape}")
+                                     f"{inertia.shape}, {cog.shape}")
         if not self.mass >= 0:
             raise ComponentDataError(f"body '{self.name}': mass must be >= 0, found {self.mass!r}")
         _check_symmetric(inertia, f"body '{self.name}' inertia")
@@ -125,7 +125,8 @@ class BodyStiffness(Component):
     def __post_init__(self) -> None:
         K = np.asarray(self.matrix, dtype=float)
         if K.shape != (6, 6) or not np.all(np.isfinite(K)):
-            raise ComponentDataError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape {K.shape}")
+            raise ComponentDataError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape "
+                                     f"{K.shape}")
         _check_symmetric(K, f"body stiffness '{self.name}'")
         _check_positive_definite(K, f"body stiffness '{self.name}'")
         object.__setattr__(self, "matrix", 0.5 * (K + K.T))
@@ -147,7 +148,8 @@ class BodyStiffness(Component):
         v = np.asarray(values, dtype=float)
         K = np.diag(v) if v.shape == (6,) else v.copy()
         if K.shape != (6, 6):
-            raise ComponentDataError(f"body stiffness: expected 6 diagonal values or a (6, 6) matrix, found shape {v.shape}")
+            raise ComponentDataError(f"body stiffness: expected 6 diagonal values or a (6, 6) matrix, found shape "
+                                     f"{v.shape}")
         K[:3, :3] = si(K[:3, :3], translational_unit)
         K[3:, 3:] = si(K[3:, 3:], rotational_unit)
         K[:3, 3:] = si(K[:3, 3:], coupling_unit)

@@ -40,7 +40,7 @@ def joint_space_mass_diagonal(J_C: Any, M_A: Any, M_P: Any) -> np.ndarray:
     n = J.shape[-1]
     if MP.shape[-2:] != (n, n) or MA.shape[-1] != n:
         raise ComponentDataError(f"joint_space_mass_diagonal: M_A must end in ({n},) and M_P in ({n}, {n}), "
-                         f"found {MA.shape} and {MP.shape}")
+                                 f"found {MA.shape} and {MP.shape}")
     MP = np.broadcast_to(MP, (J.shape[0], n, n))
     return MA + np.einsum("nki,nkl,nli->ni", J, MP, J)
 
@@ -62,13 +62,13 @@ class LinearDirectDrive(Component):
     def __post_init__(self) -> None:
         if self.axial_stiffness not in AXIAL_MODES:
             raise ComponentDataError(f"drive '{self.name}': axial_stiffness must be one of {AXIAL_MODES}, "
-                             f"found {self.axial_stiffness!r}")
+                                     f"found {self.axial_stiffness!r}")
         if self.axial_stiffness == "constant" and not (self.k_axial is not None and self.k_axial > 0):
             raise ComponentDataError(f"drive '{self.name}': axial_stiffness='constant' needs a positive k_axial, "
-                             f"found {self.k_axial!r}")
+                                     f"found {self.k_axial!r}")
         if self.axial_stiffness == "pole_placement" and not (self.pole_distance is not None and self.pole_distance > 0):
-            raise ComponentDataError(f"drive '{self.name}': axial_stiffness='pole_placement' needs a positive pole_distance "
-                             f"(rad/s), found {self.pole_distance!r}")
+            raise ComponentDataError(f"drive '{self.name}': axial_stiffness='pole_placement' needs a positive "
+                                     f"pole_distance (rad/s), found {self.pole_distance!r}")
         for key, value in self.limits.items():
             if not value >= 0:
                 raise ComponentDataError(f"drive '{self.name}': limit {key} must be >= 0, found {value!r}")

@@ -96,7 +96,7 @@ class GuideCarriages(Component):
     def __post_init__(self) -> None:
         if not (self.k_horizontal > 0 and self.k_vertical > 0):
             raise ComponentDataError(f"guide '{self.name}': carriage stiffnesses must be positive, found "
-                             f"{self.k_horizontal!r}, {self.k_vertical!r}")
+                                     f"{self.k_horizontal!r}, {self.k_vertical!r}")
         if int(self.count) != self.count or self.count < 1:
             raise ComponentDataError(f"guide '{self.name}': count must be a positive integer, found {self.count!r}")
 

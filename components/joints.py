@@ -54,7 +54,7 @@ class JointModel(Component):
     def __post_init__(self) -> None:
         if self.angle_convention not in (None, "axis", "normal"):
             raise ComponentDataError(f"joint '{self.name}': angle_convention must be 'axis', 'normal' or None, "
-                             f"found {self.angle_convention!r}")
+                                     f"found {self.angle_convention!r}")
 
     def within_limits(self, state: ComponentState) -> np.ndarray:
         """``(N,)`` bool: angles inside the limits of Cobet eq. B.5 (an undefined swivel skips swivel checks)."""
@@ -120,12 +120,14 @@ class AnalyticJoint330(JointModel):
 
 def _check_policy(name: str, policy: str) -> None:
     if policy not in EXTRAPOLATION_POLICIES:
-        raise ComponentDataError(f"joint '{name}': extrapolation must be one of {EXTRAPOLATION_POLICIES}, found {policy!r}")
+        raise ComponentDataError(f"joint '{name}': extrapolation must be one of {EXTRAPOLATION_POLICIES}, found "
+                                 f"{policy!r}")
 
 
 def _positive_finite(name: str, what: str, values: np.ndarray) -> None:
     if not np.all(np.isfinite(values)) or np.any(values <= 0):
-        raise ComponentDataError(f"joint '{name}': {what} must be positive and finite, found {np.asarray(values).tolist()}")
+        raise ComponentDataError(f"joint '{name}': {what} must be positive and finite, found "
+                                 f"{np.asarray(values).tolist()}")
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -173,7 +175,7 @@ def _swivel_values(state: ComponentState, name: str, undefined_swivel: str | flo
 def _check_undefined(name: str, undefined_swivel: Any) -> None:
     if undefined_swivel != "nan" and not isinstance(undefined_swivel, (int, float)):
         raise ComponentDataError(f"joint '{name}': undefined_swivel must be 'nan' or a swivel angle in rad, "
-                         f"found {undefined_swivel!r}")
+                                 f"found {undefined_swivel!r}")
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -198,8 +200,8 @@ class SwivelTiltTableJoint(JointModel):
         ti = np.asarray(self.tilt_nodes, dtype=float)
         k = np.asarray(self.k_grid, dtype=float)
         if k.shape != (sw.size, ti.size):
-            raise ComponentDataError(f"joint '{self.name}': k_grid must have shape ({sw.size}, {ti.size}) = (swivel, tilt), "
-                             f"found {k.shape}")
+            raise ComponentDataError(f"joint '{self.name}': k_grid must have shape ({sw.size}, {ti.size}) = (swivel, "
+                                     f"tilt), found {k.shape}")
         _positive_finite(self.name, "tabulated stiffness", k)
         clamped_spline(sw, k, what=f"joint '{self.name}' swivel axis")  # validates the nodes
         clamped_spline(ti, k.T, what=f"joint '{self.name}' tilt axis")
@@ -277,7 +279,7 @@ def joint_from_table(table: JointTable, **kwargs: Any) -> TiltTableJoint | Swive
     kwargs.setdefault("provenance", table.provenance)
     if table.angle_convention != kwargs["angle_convention"]:
         raise ComponentDataError(f"joint '{kwargs['name']}': table {table.path} is tabulated in the "
-                         f"'{table.angle_convention}' convention, not '{kwargs['angle_convention']}'")
+                                 f"'{table.angle_convention}' convention, not '{kwargs['angle_convention']}'")
     if table.swivel is None:
         kwargs.pop("undefined_swivel", None)
         return TiltTableJoint(tilt_nodes=table.tilt, k_nodes=table.stiffness, table_name=table.path, **kwargs)

@@ -79,7 +79,8 @@ class ComponentState:
                 continue
             arr = np.atleast_1d(np.asarray(value, dtype=float))
             if arr.ndim != 1:
-                raise ComponentDataError(f"ComponentState.{name}: expected a 1-D array of shape (N,), found shape {arr.shape}")
+                raise ComponentDataError(f"ComponentState.{name}: expected a 1-D array of shape (N,), found shape "
+                                         f"{arr.shape}")
             object.__setattr__(self, name, arr)
         sizes = {name: getattr(self, name).shape[0] for name in self._ARRAYS if getattr(self, name) is not None}
         if len(set(sizes.values())) > 1:
@@ -88,7 +89,8 @@ class ComponentState:
             if int(self.n_poses) < 1:
                 raise ComponentDataError(f"ComponentState.n_poses: expected an integer >= 1, found {self.n_poses!r}")
             if sizes and next(iter(sizes.values())) != int(self.n_poses):
-                raise ComponentDataError(f"ComponentState: n_poses={self.n_poses} does not match the array lengths {sizes}")
+                raise ComponentDataError(f"ComponentState: n_poses={self.n_poses} does not match the array lengths "
+                                         f"{sizes}")
 
     @property
     def n(self) -> int:
@@ -100,7 +102,7 @@ class ComponentState:
         return int(self.n_poses) if self.n_poses is not None else 1
 
     def require(self, name: str, component: str) -> np.ndarray:
-        """Return the array ``name`` or raise a :class:`ComponentDataError` (a ValueError) naming the component that needs it."""
+        """Return the array ``name`` or raise a :class:`ComponentDataError` naming the component that needs it."""
         value = getattr(self, name)
         if value is None:
             raise ComponentDataError(f"component '{component}': ComponentState.{name} is required but was not given")
@@ -193,14 +195,15 @@ def series(*k: Any, matrix: bool | None = None) -> np.ndarray:
         return np.asarray(np.inf)
     for j, m in enumerate(mats):
         if not _is_matrix(m):
-            raise ComponentDataError(f"series(matrix=True): operand {j} has shape {m.shape}, expected (..., n, n) or np.inf")
+            raise ComponentDataError(f"series(matrix=True): operand {j} has shape {m.shape}, expected (..., n, n) or "
+                                     f"np.inf")
     result = mats[0]
     for m in mats[1:]:
         try:
             result = result @ np.linalg.solve(result + m, m)
         except np.linalg.LinAlgError as exc:
             raise ComponentDataError("series of matrices: the sum of two consecutive stiffness matrices is singular; "
-                             "series needs positive-definite stiffness matrices") from exc
+                                     "series needs positive-definite stiffness matrices") from exc
     return 0.5 * (result + np.swapaxes(result, -1, -2))
 
 

@@ -27,7 +27,8 @@ def _check_nodes(x: np.ndarray, what: str) -> None:
     if x.ndim != 1 or x.size < 2:
         raise ComponentDataError(f"{what}: expected at least 2 support points in a 1-D array, found shape {x.shape}")
     if not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
-        raise ComponentDataError(f"{what}: support abscissae must be finite and strictly increasing, found {x.tolist()}")
+        raise ComponentDataError(f"{what}: support abscissae must be finite and strictly increasing, found "
+                                 f"{x.tolist()}")
 
 
 def secant_end_slopes(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -68,7 +69,8 @@ def apply_range_policy(
                 f"{table}: {angle} = {conv(value.ravel()[idx]):.6g} {unit} (pose {idx}) lies outside the table range "
                 f"[{conv(lo):.6g}, {conv(hi):.6g}] {unit} (extrapolation='error'; use 'clamp' to hold the end values)")
         return np.clip(value, lo, hi)  # only round-off excursions remain
-    raise ComponentDataError(f"{table}: unknown extrapolation policy {policy!r}, expected one of {EXTRAPOLATION_POLICIES}")
+    raise ComponentDataError(f"{table}: unknown extrapolation policy {policy!r}, expected one of "
+                             f"{EXTRAPOLATION_POLICIES}")
 
 
 def spline_weights(x_nodes: np.ndarray, xq: np.ndarray) -> np.ndarray:

@@ -71,8 +71,8 @@ class StrutSections(Component):
     def __post_init__(self) -> None:
         arrays = [np.atleast_1d(np.asarray(getattr(self, key), dtype=float)) for key in ("E", "area", "length")]
         if len({a.shape for a in arrays}) != 1 or arrays[0].ndim != 1:
-            raise ComponentDataError(f"strut '{self.name}': E, area and length must be 1-D arrays of equal length, found "
-                             f"shapes {[a.shape for a in arrays]}")
+            raise ComponentDataError(f"strut '{self.name}': E, area and length must be 1-D arrays of equal length, "
+                                     f"found shapes {[a.shape for a in arrays]}")
         for key, a in zip(("E", "area", "length"), arrays):
             if np.any(~(a > 0)):
                 raise ComponentDataError(f"strut '{self.name}': {key} must be positive, found {a.tolist()}")
