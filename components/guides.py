@@ -12,7 +12,7 @@ congruence R K' Rᵀ, which is what :func:`drive_frame_stiffness` implements.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -20,9 +20,6 @@ from pkmstiff.errors import ComponentDataError
 
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
-
-if TYPE_CHECKING:
-    from components.reader import Params
 
 _PARALLEL_TOL = 1e-6  # |component of the vertical orthogonal to x'| below which the guide counts as vertical
 

@@ -340,7 +340,8 @@ def _load_table(p: "Params", swivel: bool) -> Component:
             where = f"{exc.source} (table of {p.key('table')} in {p.source or 'input'})"
             raise InputError(where, exc.key, exc.expected, exc.found) from exc
         if (table.swivel is not None) != swivel:
-            want = "a swivel-tilt table (swivel_deg,tilt_deg,k_N_per_um)" if swivel else "a tilt table (tilt_deg,k_N_per_um)"
+            want = ("a swivel-tilt table (swivel_deg,tilt_deg,k_N_per_um)" if swivel
+                    else "a tilt table (tilt_deg,k_N_per_um)")
             raise p.error("table", want, f"{table.path} has the other format")
         if common["angle_convention"] is None:
             common["angle_convention"] = table.angle_convention

@@ -20,7 +20,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError, ComponentRangeError  # re-exported: components.protocol.*
+from pkmstiff.errors import ComponentDataError, ComponentRangeError  # noqa: F401 (re-exported: components.protocol.*)
 
 from components.limits import DRIVE_LIMITS, drive_limits
 from components.params import ModelSpec, Param
