@@ -74,7 +74,8 @@ class TelescopicBallScrew(Component):
         if state.l_eff is not None:
             value = state.l_eff
         else:
-            length = state.strut_length if state.strut_length is not None else state.require("drive_position", self.name)
+            length = (state.strut_length if state.strut_length is not None
+                      else state.require("drive_position", self.name))
             value = self.l_eff_min + (length - self.length_at_l_eff_min)
         return _range_policy(value, self.l_eff_min, self.l_eff_max, self.out_of_range, "l_eff", self.name)
 

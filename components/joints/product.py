@@ -1,0 +1,92 @@
+"""Product model k_ref g_swivel(swivel) g_tilt(tilt) of two normalised 1-D curves (models.md §3.5 (5) Assumption)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from pkmstiff.errors import ComponentDataError
+
+from components.joints.base import (_CLAMP_NOTE, EXTRAPOLATION, JOINT_COMMON, UNDEFINED_SWIVEL, JointModel,
+                                    _check_policy, _check_undefined, _joint_common, _positive_finite,
+                                    _undefined_swivel, swivel_tilt_in_range)
+from components.params import ModelSpec, Param
+from components.protocol import Component, ComponentState
+from components.spline import clamped_spline
+
+if TYPE_CHECKING:
+    from components.reader import Params
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class ProductJoint(JointModel):
+    """k(φ, θ) = k_ref · g_φ(φ) · g_θ(θ) from two 1-D curves normalised to their maxima (models.md §3.5 (5)).
+
+    The curves may be given in any unit (stiffness or already normalised); each is divided by its largest
+    support value. ``k_ref`` [N/m] is the stiffness at the common maximum.
+    """
+
+    k_ref: float
+    swivel_nodes: np.ndarray
+    g_swivel: np.ndarray
+    tilt_nodes: np.ndarray
+    g_tilt: np.ndarray
+    extrapolation: str = "clamp"
+    undefined_swivel: str | float = "nan"
+    _splines: Any = field(init=False, repr=False, default=None)
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _check_policy(self.name, self.extrapolation)
+        _check_undefined(self.name, self.undefined_swivel)
+        if not self.k_ref > 0:
+            raise ComponentDataError(f"joint '{self.name}': k_ref must be positive, found {self.k_ref!r}")
+        curves = []
+        for nodes, values, axis in ((self.swivel_nodes, self.g_swivel, "swivel"),
+                                    (self.tilt_nodes, self.g_tilt, "tilt")):
+            x = np.asarray(nodes, dtype=float)
+            g = np.asarray(values, dtype=float)
+            _positive_finite(self.name, f"{axis} curve", g)
+            curves.append((x, g / g.max()))
+        (sw, gs), (ti, gt) = curves
+        for key, value in (("swivel_nodes", sw), ("g_swivel", gs), ("tilt_nodes", ti), ("g_tilt", gt)):
+            object.__setattr__(self, key, value)
+        object.__setattr__(self, "_splines", (clamped_spline(sw, gs, what=f"joint '{self.name}' swivel curve"),
+                                              clamped_spline(ti, gt, what=f"joint '{self.name}' tilt curve")))
+        self._add_assumption("interpolation", "k = k_ref g_swivel(swivel) g_tilt(tilt), curves normalised to "
+                                              "their maxima (models.md §3.5 (5) Assumption)")
+        if self.extrapolation == "clamp":
+            self._add_assumption("extrapolation", _CLAMP_NOTE)
+
+    def stiffness(self, state: ComponentState) -> np.ndarray:
+        table = f"joint '{self.name}'"
+        sw, ti = swivel_tilt_in_range(self, state, table)
+        s_sw, s_ti = self._splines
+        return self.k_ref * s_sw(sw) * s_ti(ti)
+
+
+# --------------------------------------------------------------------------------------------- machine files
+def _joint_product(p: "Params") -> Component:
+    common = _joint_common(p)
+    sw = p["swivel"]
+    ti = p["tilt"]
+    return ProductJoint(k_ref=p["k_ref"], swivel_nodes=sw, g_swivel=p.get("g_swivel", shape=(sw.size,)),
+                        tilt_nodes=ti, g_tilt=p.get("g_tilt", shape=(ti.size,)), extrapolation=p["extrapolation"],
+                        undefined_swivel=_undefined_swivel(p), **common)
+
+
+MODELS: tuple[ModelSpec, ...] = (
+    ModelSpec("joint_product_swivel_tilt", "k_ref g_swivel(swivel) g_tilt(tilt) from two normalised 1-D curves",
+              "models.md §3.5 (5) Assumption",
+              (Param("k_ref", "N/m", None, "stiffness at the maxima of both curves", required=True, positive=True),
+               Param("swivel", "rad", None, "swivel nodes of g_swivel, ascending", required=True, shape=(None,)),
+               Param("g_swivel", "-", None, "swivel curve (normalised to its maximum)", required=True,
+                     shape=(None,), positive=True),
+               Param("tilt", "rad", None, "tilt nodes of g_tilt, ascending", required=True, shape=(None,)),
+               Param("g_tilt", "-", None, "tilt curve (normalised to its maximum)", required=True, shape=(None,),
+                     positive=True),
+               UNDEFINED_SWIVEL, EXTRAPOLATION) + JOINT_COMMON,
+              _joint_product),
+)
