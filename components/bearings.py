@@ -13,10 +13,9 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError
-
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
+from pkmstiff.errors import ComponentDataError
 
 if TYPE_CHECKING:
     from components.reader import Params

@@ -12,11 +12,10 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError, InputError
-from pkmstiff.units import parse_quantity, si
-
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState, _full
+from pkmstiff.errors import ComponentDataError, InputError
+from pkmstiff.units import parse_quantity, si
 
 if TYPE_CHECKING:
     from components.reader import Params

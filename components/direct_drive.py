@@ -13,11 +13,10 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError
-
 from components.limits import DRIVE_LIMITS, drive_limits
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState, _full
+from pkmstiff.errors import ComponentDataError
 
 if TYPE_CHECKING:
     from components.reader import Params

@@ -16,10 +16,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError
-
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
+from pkmstiff.errors import ComponentDataError
 
 _PARALLEL_TOL = 1e-6  # |component of the vertical orthogonal to x'| below which the guide counts as vertical
 

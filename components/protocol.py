@@ -20,10 +20,9 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError, ComponentRangeError  # noqa: F401 (re-exported: components.protocol.*)
-
 from components.limits import DRIVE_LIMITS, drive_limits
 from components.params import ModelSpec, Param
+from pkmstiff.errors import ComponentDataError, ComponentRangeError  # noqa: F401 (re-exported: components.protocol.*)
 
 StiffnessKind = Literal["axial", "matrix3", "matrix6", "body"]
 

@@ -15,10 +15,9 @@ from typing import Any, Iterable
 
 import numpy as np
 
+from components.params import Param
 from pkmstiff.errors import ComponentModelError, InputError
 from pkmstiff.units import parse_quantity, si
-
-from components.params import Param
 
 _MISSING = object()
 COMMON_KEYS: tuple[str, ...] = ("model", "assumptions", "provenance")

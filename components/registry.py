@@ -16,12 +16,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Callable, Iterable
 
-from pkmstiff.errors import ComponentModelError, InputError
-
 from components import ballscrew, bearings, bodies, direct_drive, guides, joints, protocol, struts
 from components.params import ModelInfo, ModelSpec, Param
 from components.protocol import Component
 from components.reader import COMMON_KEYS, Params
+from pkmstiff.errors import ComponentModelError, InputError
 
 __all__ = ["COMMON_KEYS", "ModelInfo", "ModelSpec", "Param", "Params", "available_models", "build_component",
            "build_components", "model_info", "models", "register", "register_model"]

@@ -23,7 +23,9 @@ class InputError(PkmstiffError, ValueError):
         super().__init__(f"{where}key '{key}': expected {expected}, found {found!r}")
 
 
-# components
+# -------------------- components
+
+
 class ComponentDataError(PkmstiffError, ValueError):
     """Data a component cannot use: invalid constructor arguments or a state array it needs but was not given."""
 

@@ -7,9 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError, ComponentRangeError
-
 from components.protocol import parallel, series
+from pkmstiff.errors import ComponentDataError, ComponentRangeError
 
 ARRANGEMENTS: tuple[str, ...] = ("fixed_fixed", "fixed_floating", "floating_fixed")
 RANGE_POLICIES: tuple[str, ...] = ("clamp", "error")

@@ -6,8 +6,12 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from components.ballscrew.formulas import (RANGE_POLICIES, apparent_mass_from_inertia, max_axial_force,
-                                           spindle_axial_rigidity)
+from components.ballscrew.formulas import (
+    RANGE_POLICIES,
+    apparent_mass_from_inertia,
+    max_axial_force,
+    spindle_axial_rigidity,
+)
 from components.limits import drive_limits
 from components.params import Param
 

@@ -8,14 +8,13 @@ from typing import TYPE_CHECKING, Any, Callable, ClassVar
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError
-
 from components.ballscrew.formulas import DRIVE_MODELS, _check_drive_data, _range_policy, fixed_floating_stiffness
 from components.ballscrew.screw_params import RANGE_PARAM, SCREW_DATA, SCREW_DYNAMICS, _spindle_ea, screw_dynamics
 from components.ballscrew.stroke_fit import StrokeFit, fit_stroke_polynomial
 from components.limits import DRIVE_LIMITS
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
+from pkmstiff.errors import ComponentDataError
 
 if TYPE_CHECKING:
     from components.reader import Params

@@ -8,11 +8,10 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError
-
 from components.params import Param
 from components.protocol import Component, ComponentState
 from components.spline import EXTRAPOLATION_POLICIES, apply_range_policy
+from pkmstiff.errors import ComponentDataError
 
 if TYPE_CHECKING:
     from components.reader import Params

@@ -7,11 +7,10 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError
-
 from components.joints.base import JOINT_COMMON, JointModel, _joint_common
 from components.params import ModelSpec, Param
 from components.protocol import ComponentState, _full
+from pkmstiff.errors import ComponentDataError
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

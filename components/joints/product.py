@@ -7,14 +7,23 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError
-
-from components.joints.base import (_CLAMP_NOTE, EXTRAPOLATION, JOINT_COMMON, UNDEFINED_SWIVEL, JointModel,
-                                    _check_policy, _check_undefined, _joint_common, _positive_finite,
-                                    _undefined_swivel, swivel_tilt_in_range)
+from components.joints.base import (
+    _CLAMP_NOTE,
+    EXTRAPOLATION,
+    JOINT_COMMON,
+    UNDEFINED_SWIVEL,
+    JointModel,
+    _check_policy,
+    _check_undefined,
+    _joint_common,
+    _positive_finite,
+    _undefined_swivel,
+    swivel_tilt_in_range,
+)
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
 from components.spline import clamped_spline
+from pkmstiff.errors import ComponentDataError
 
 if TYPE_CHECKING:
     from components.reader import Params

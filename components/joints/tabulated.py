@@ -8,15 +8,24 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError, InputError, JointTableNotFound
-
 from components.joint_tables import JointTable, load_joint_table
-from components.joints.base import (_CLAMP_NOTE, EXTRAPOLATION, JOINT_COMMON, UNDEFINED_SWIVEL, JointModel,
-                                    _check_policy, _check_undefined, _joint_common, _positive_finite,
-                                    _undefined_swivel, swivel_tilt_in_range)
+from components.joints.base import (
+    _CLAMP_NOTE,
+    EXTRAPOLATION,
+    JOINT_COMMON,
+    UNDEFINED_SWIVEL,
+    JointModel,
+    _check_policy,
+    _check_undefined,
+    _joint_common,
+    _positive_finite,
+    _undefined_swivel,
+    swivel_tilt_in_range,
+)
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
 from components.spline import apply_range_policy, clamped_spline, spline_weights
+from pkmstiff.errors import ComponentDataError, InputError, JointTableNotFound
 
 if TYPE_CHECKING:
     from components.reader import Params
