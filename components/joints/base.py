@@ -16,7 +16,7 @@ from pkmstiff.errors import ComponentDataError
 if TYPE_CHECKING:
     from components.reader import Params
 
-_CLAMP_NOTE = "outside the tabulated angle range the end value is used (models.md §3.5 (5) Assumption)"
+CLAMP_NOTE = "outside the tabulated angle range the end value is used (models.md §3.5 (5) Assumption)"
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -47,19 +47,19 @@ class JointModel(Component):
             object.__setattr__(self, "assumptions", {**self.assumptions, key: text})
 
 
-def _check_policy(name: str, policy: str) -> None:
+def check_policy(name: str, policy: str) -> None:
     if policy not in EXTRAPOLATION_POLICIES:
         raise ComponentDataError(f"joint '{name}': extrapolation must be one of {EXTRAPOLATION_POLICIES}, found "
                                  f"{policy!r}")
 
 
-def _positive_finite(name: str, what: str, values: np.ndarray) -> None:
+def positive_finite(name: str, what: str, values: np.ndarray) -> None:
     if not np.all(np.isfinite(values)) or np.any(values <= 0):
         raise ComponentDataError(f"joint '{name}': {what} must be positive and finite, found "
                                  f"{np.asarray(values).tolist()}")
 
 
-def _swivel_values(state: ComponentState, name: str, undefined_swivel: str | float) -> np.ndarray:
+def swivel_values(state: ComponentState, name: str, undefined_swivel: str | float) -> np.ndarray:
     swivel = state.require("swivel", name)
     if undefined_swivel == "nan":
         return swivel
@@ -69,14 +69,14 @@ def _swivel_values(state: ComponentState, name: str, undefined_swivel: str | flo
 def swivel_tilt_in_range(joint: Any, state: ComponentState, table: str) -> tuple[np.ndarray, np.ndarray]:
     """(swivel, tilt) per pose for a swivel- and tilt-dependent joint: the ``undefined_swivel`` rule, then the
     joint's extrapolation policy on both axes (models.md §3.5 (5)); ``table`` names the data in errors."""
-    sw = apply_range_policy(_swivel_values(state, joint.name, joint.undefined_swivel), joint.swivel_nodes[0],
+    sw = apply_range_policy(swivel_values(state, joint.name, joint.undefined_swivel), joint.swivel_nodes[0],
                             joint.swivel_nodes[-1], joint.extrapolation, angle="swivel", table=table)
     ti = apply_range_policy(state.require("tilt", joint.name), joint.tilt_nodes[0], joint.tilt_nodes[-1],
                             joint.extrapolation, angle="tilt", table=table)
     return sw, ti
 
 
-def _check_undefined(name: str, undefined_swivel: Any) -> None:
+def check_undefined(name: str, undefined_swivel: Any) -> None:
     if undefined_swivel != "nan" and not isinstance(undefined_swivel, (int, float)):
         raise ComponentDataError(f"joint '{name}': undefined_swivel must be 'nan' or a swivel angle in rad, "
                                  f"found {undefined_swivel!r}")
@@ -99,7 +99,7 @@ UNDEFINED_SWIVEL = Param("undefined_swivel", "rad", "nan", "swivel used where it
                          kind="raw")
 
 
-def _joint_common(p: "Params") -> dict[str, Any]:
+def read_joint_common(p: "Params") -> dict[str, Any]:
     limits = {}
     for key in ("tilt_min", "tilt_max", "swivel_min", "swivel_max"):
         value = p[key]
@@ -114,7 +114,7 @@ def _joint_common(p: "Params") -> dict[str, Any]:
     return {"name": p.name, "limits": limits, "angle_convention": conv, "mass": p["mass"]}
 
 
-def _undefined_swivel(p: "Params") -> str | float:
+def read_undefined_swivel(p: "Params") -> str | float:
     value = p["undefined_swivel"]
     if value == "nan":
         return "nan"

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from components.joints.base import JOINT_COMMON, JointModel, _joint_common
+from components.joints.base import JOINT_COMMON, JointModel, read_joint_common
 from components.params import ModelSpec, Param
 from components.protocol import ComponentState, _full
 from pkmstiff.errors import ComponentDataError
@@ -64,11 +64,11 @@ MODELS: tuple[ModelSpec, ...] = (
     ModelSpec("joint_constant", "angle-independent joint stiffness", "k = const",
               (Param("k", "N/m", None, "joint stiffness", required=True, positive=True, rigid_ok=True),)
               + JOINT_COMMON,
-              lambda p: ConstantJoint(k=p["k"], **_joint_common(p))),
+              lambda p: ConstantJoint(k=p["k"], **read_joint_common(p))),
     ModelSpec("joint_analytic_3_30", "analytic substitute Cardan-joint model over tilt", "Cobet eq. 3.30",
               tuple(Param(k, "N/m", None, m, required=True, positive=True) for k, m in (
                   ("k_AaL", "bearing A axial stiffness"), ("k_BrL", "bearing B radial stiffness"),
                   ("k_CrL", "bearing C radial stiffness"), ("k_CaL", "bearing C axial stiffness"))) + JOINT_COMMON,
               lambda p: AnalyticJoint330(**{k: p[k] for k in ("k_AaL", "k_BrL", "k_CrL", "k_CaL")},
-                                         **_joint_common(p))),
+                                         **read_joint_common(p))),
 )

@@ -7,19 +7,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from components.joints.base import (
-    _CLAMP_NOTE,
-    EXTRAPOLATION,
-    JOINT_COMMON,
-    UNDEFINED_SWIVEL,
-    JointModel,
-    _check_policy,
-    _check_undefined,
-    _joint_common,
-    _positive_finite,
-    _undefined_swivel,
-    swivel_tilt_in_range,
-)
+from components.joints import base
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
 from components.spline import clamped_spline
@@ -30,7 +18,7 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class ProductJoint(JointModel):
+class ProductJoint(base.JointModel):
     """k(φ, θ) = k_ref · g_φ(φ) · g_θ(θ) from two 1-D curves normalised to their maxima (models.md §3.5 (5)).
 
     The curves may be given in any unit (stiffness or already normalised); each is divided by its largest
@@ -48,8 +36,8 @@ class ProductJoint(JointModel):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _check_policy(self.name, self.extrapolation)
-        _check_undefined(self.name, self.undefined_swivel)
+        base.check_policy(self.name, self.extrapolation)
+        base.check_undefined(self.name, self.undefined_swivel)
         if not self.k_ref > 0:
             raise ComponentDataError(f"joint '{self.name}': k_ref must be positive, found {self.k_ref!r}")
         curves = []
@@ -57,7 +45,7 @@ class ProductJoint(JointModel):
                                     (self.tilt_nodes, self.g_tilt, "tilt")):
             x = np.asarray(nodes, dtype=float)
             g = np.asarray(values, dtype=float)
-            _positive_finite(self.name, f"{axis} curve", g)
+            base.positive_finite(self.name, f"{axis} curve", g)
             curves.append((x, g / g.max()))
         (sw, gs), (ti, gt) = curves
         for key, value in (("swivel_nodes", sw), ("g_swivel", gs), ("tilt_nodes", ti), ("g_tilt", gt)):
@@ -67,23 +55,23 @@ class ProductJoint(JointModel):
         self._add_assumption("interpolation", "k = k_ref g_swivel(swivel) g_tilt(tilt), curves normalised to "
                                               "their maxima (models.md §3.5 (5) Assumption)")
         if self.extrapolation == "clamp":
-            self._add_assumption("extrapolation", _CLAMP_NOTE)
+            self._add_assumption("extrapolation", base.CLAMP_NOTE)
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         table = f"joint '{self.name}'"
-        sw, ti = swivel_tilt_in_range(self, state, table)
+        sw, ti = base.swivel_tilt_in_range(self, state, table)
         s_sw, s_ti = self._splines
         return self.k_ref * s_sw(sw) * s_ti(ti)
 
 
 # --------------------------------------------------------------------------------------------- machine files
 def _joint_product(p: "Params") -> Component:
-    common = _joint_common(p)
+    common = base.read_joint_common(p)
     sw = p["swivel"]
     ti = p["tilt"]
     return ProductJoint(k_ref=p["k_ref"], swivel_nodes=sw, g_swivel=p.get("g_swivel", shape=(sw.size,)),
                         tilt_nodes=ti, g_tilt=p.get("g_tilt", shape=(ti.size,)), extrapolation=p["extrapolation"],
-                        undefined_swivel=_undefined_swivel(p), **common)
+                        undefined_swivel=base.read_undefined_swivel(p), **common)
 
 
 MODELS: tuple[ModelSpec, ...] = (
@@ -96,6 +84,6 @@ MODELS: tuple[ModelSpec, ...] = (
                Param("tilt", "rad", None, "tilt nodes of g_tilt, ascending", required=True, shape=(None,)),
                Param("g_tilt", "-", None, "tilt curve (normalised to its maximum)", required=True, shape=(None,),
                      positive=True),
-               UNDEFINED_SWIVEL, EXTRAPOLATION) + JOINT_COMMON,
+               base.UNDEFINED_SWIVEL, base.EXTRAPOLATION) + base.JOINT_COMMON,
               _joint_product),
 )

@@ -9,19 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from components.joint_tables import JointTable, load_joint_table
-from components.joints.base import (
-    _CLAMP_NOTE,
-    EXTRAPOLATION,
-    JOINT_COMMON,
-    UNDEFINED_SWIVEL,
-    JointModel,
-    _check_policy,
-    _check_undefined,
-    _joint_common,
-    _positive_finite,
-    _undefined_swivel,
-    swivel_tilt_in_range,
-)
+from components.joints import base
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
 from components.spline import apply_range_policy, clamped_spline, spline_weights
@@ -32,7 +20,7 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class TiltTableJoint(JointModel):
+class TiltTableJoint(base.JointModel):
     """Tabulated stiffness over tilt (rad, ascending) with the clamped end-slope spline (Cobet 3.2.5)."""
 
     tilt_nodes: np.ndarray
@@ -43,15 +31,15 @@ class TiltTableJoint(JointModel):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _check_policy(self.name, self.extrapolation)
+        base.check_policy(self.name, self.extrapolation)
         tilt = np.asarray(self.tilt_nodes, dtype=float)
         k = np.asarray(self.k_nodes, dtype=float)
-        _positive_finite(self.name, "tabulated stiffness", k)
+        base.positive_finite(self.name, "tabulated stiffness", k)
         object.__setattr__(self, "tilt_nodes", tilt)
         object.__setattr__(self, "k_nodes", k)
         object.__setattr__(self, "_spline", clamped_spline(tilt, k, what=f"joint '{self.name}' tilt table"))
         if self.extrapolation == "clamp":
-            self._add_assumption("extrapolation", _CLAMP_NOTE)
+            self._add_assumption("extrapolation", base.CLAMP_NOTE)
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         tilt = apply_range_policy(state.require("tilt", self.name), self.tilt_nodes[0], self.tilt_nodes[-1],
@@ -67,7 +55,7 @@ class TiltTableJoint(JointModel):
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class SwivelTiltTableJoint(JointModel):
+class SwivelTiltTableJoint(base.JointModel):
     """Stiffness on a (swivel, tilt) grid, tensor-product (bicubic) end-slope spline per axis (Assumption).
 
     ``k_grid`` has shape (len(swivel_nodes), len(tilt_nodes)) in N/m; nodes in rad, ascending.
@@ -82,15 +70,15 @@ class SwivelTiltTableJoint(JointModel):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _check_policy(self.name, self.extrapolation)
-        _check_undefined(self.name, self.undefined_swivel)
+        base.check_policy(self.name, self.extrapolation)
+        base.check_undefined(self.name, self.undefined_swivel)
         sw = np.asarray(self.swivel_nodes, dtype=float)
         ti = np.asarray(self.tilt_nodes, dtype=float)
         k = np.asarray(self.k_grid, dtype=float)
         if k.shape != (sw.size, ti.size):
             raise ComponentDataError(f"joint '{self.name}': k_grid must have shape ({sw.size}, {ti.size}) = (swivel, "
                                      f"tilt), found {k.shape}")
-        _positive_finite(self.name, "tabulated stiffness", k)
+        base.positive_finite(self.name, "tabulated stiffness", k)
         clamped_spline(sw, k, what=f"joint '{self.name}' swivel axis")  # validates the nodes
         clamped_spline(ti, k.T, what=f"joint '{self.name}' tilt axis")
         for key, value in (("swivel_nodes", sw), ("tilt_nodes", ti), ("k_grid", k)):
@@ -98,11 +86,11 @@ class SwivelTiltTableJoint(JointModel):
         self._add_assumption("interpolation", "bicubic tensor-product spline with the end-slope rule per axis "
                                               "(models.md §3.5 (5) Assumption)")
         if self.extrapolation == "clamp":
-            self._add_assumption("extrapolation", _CLAMP_NOTE)
+            self._add_assumption("extrapolation", base.CLAMP_NOTE)
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         table = f"joint '{self.name}' ({self.table_name})"
-        sw, ti = swivel_tilt_in_range(self, state, table)
+        sw, ti = base.swivel_tilt_in_range(self, state, table)
         w_sw = spline_weights(self.swivel_nodes, sw)
         w_ti = spline_weights(self.tilt_nodes, ti)
         return np.sum((w_sw @ self.k_grid) * w_ti, axis=1)  # k(φ_n, θ_n) = Σ_st w_s(φ_n) K_st w_t(θ_n)
@@ -125,9 +113,9 @@ def joint_from_table(table: JointTable, **kwargs: Any) -> TiltTableJoint | Swive
 
 # --------------------------------------------------------------------------------------------- machine files
 def _load_table(p: "Params", swivel: bool) -> Component:
-    common = _joint_common(p)
+    common = base.read_joint_common(p)
     policy = p["extrapolation"]
-    extra = {"undefined_swivel": _undefined_swivel(p)} if swivel else {}
+    extra = {"undefined_swivel": base.read_undefined_swivel(p)} if swivel else {}
     if p.exactly_one(("table",), ("tilt", "stiffness")) == 0:
         ref = p["table"]
         try:
@@ -165,7 +153,7 @@ MODELS: tuple[ModelSpec, ...] = (
               (_TABLE, _INLINE_TILT,
                Param("stiffness", "N/m", None, "inline stiffness at the tilt nodes", required="unless table",
                      shape=(None,), positive=True),
-               EXTRAPOLATION) + JOINT_COMMON,
+               base.EXTRAPOLATION) + base.JOINT_COMMON,
               lambda p: _load_table(p, swivel=False), tables="tilt"),
     ModelSpec("joint_table_swivel_tilt",
               "tabulated joint stiffness on a (swivel, tilt) grid, bicubic end-slope spline",
@@ -175,6 +163,6 @@ MODELS: tuple[ModelSpec, ...] = (
                _INLINE_TILT,
                Param("stiffness", "N/m", None, "inline grid stiffness[swivel][tilt]", required="unless table",
                      shape=(None, None), positive=True),
-               UNDEFINED_SWIVEL, EXTRAPOLATION) + JOINT_COMMON,
+               base.UNDEFINED_SWIVEL, base.EXTRAPOLATION) + base.JOINT_COMMON,
               lambda p: _load_table(p, swivel=True), tables="swivel_tilt"),
 )
