@@ -9,11 +9,16 @@ source and only affects the tilt row/column.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
+from pkmstiff.errors import ComponentDataError
+
+if TYPE_CHECKING:
+    from components.reader import Params
 
 
 def roller_positions(n: int) -> np.ndarray:
@@ -49,14 +54,15 @@ class TaperedRollerBearing(Component):
 
     def __post_init__(self) -> None:
         if int(self.n_rollers) != self.n_rollers or self.n_rollers < 3:
-            raise ValueError(f"bearing '{self.name}': n_rollers must be an integer >= 3, found {self.n_rollers!r}")
+            raise ComponentDataError(f"bearing '{self.name}': n_rollers must be an integer >= 3, found "
+                                     f"{self.n_rollers!r}")
         if not self.k_roller > 0:
-            raise ValueError(f"bearing '{self.name}': k_roller must be positive, found {self.k_roller!r}")
+            raise ComponentDataError(f"bearing '{self.name}': k_roller must be positive, found {self.k_roller!r}")
         if not 0 < self.contact_angle < np.pi / 2:
-            raise ValueError(f"bearing '{self.name}': contact_angle must lie in (0, 90) deg, found "
-                             f"{np.rad2deg(self.contact_angle)!r} deg")
+            raise ComponentDataError(f"bearing '{self.name}': contact_angle must lie in (0, 90) deg, found "
+                                     f"{np.rad2deg(self.contact_angle)!r} deg")
         if not self.pitch_radius >= 0:
-            raise ValueError(f"bearing '{self.name}': pitch_radius must be >= 0, found {self.pitch_radius!r}")
+            raise ComponentDataError(f"bearing '{self.name}': pitch_radius must be >= 0, found {self.pitch_radius!r}")
         if self.roller_angles is None:
             phi = roller_positions(int(self.n_rollers))
             if "roller_angles" not in self.assumptions:
@@ -65,8 +71,8 @@ class TaperedRollerBearing(Component):
         else:
             phi = np.asarray(self.roller_angles, dtype=float)
             if phi.shape != (int(self.n_rollers),):
-                raise ValueError(f"bearing '{self.name}': roller_angles must have {self.n_rollers} entries, "
-                                 f"found {phi.shape}")
+                raise ComponentDataError(f"bearing '{self.name}': roller_angles must have {self.n_rollers} entries, "
+                                         f"found {phi.shape}")
         object.__setattr__(self, "_K", dietl_stiffness_matrix(self.k_roller, self.contact_angle, phi,
                                                                self.pitch_radius))
 
@@ -87,6 +93,29 @@ class TaperedRollerBearing(Component):
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         return np.broadcast_to(self._K, (state.n, 3, 3)).copy()
+
+
+def _tapered_roller_bearing(p: "Params") -> Component:
+    n = p["n_rollers"]
+    notes = {}
+    if not p.has("pitch_radius"):
+        notes["pitch_radius"] = "not given by the source (docs/theory/components.md); 0 m: tilt row/column is zero"
+    angles = p.get("roller_angles", shape=(n,))
+    return TaperedRollerBearing(name=p.name, n_rollers=n, k_roller=p["k_roller"], contact_angle=p["contact_angle"],
+                                pitch_radius=p["pitch_radius"], roller_angles=None if angles is None else tuple(angles),
+                                mass=p["mass"], assumptions=notes)
+
+
+MODELS: tuple[ModelSpec, ...] = (ModelSpec(
+    "tapered_roller_bearing", "tapered roller bearing, Dietl spring model", "Cobet eq. 3.31, 3.32",
+    (Param("n_rollers", "-", None, "number of rollers", required=True, kind="integer", min_value=3),
+     Param("k_roller", "N/m", None, "local roller stiffness", required=True, positive=True),
+     Param("contact_angle", "rad", None, "contact angle alpha", required=True, positive=True),
+     Param("pitch_radius", "m", 0.0, "pitch radius r (tilt DOF)", min_value=0.0, default_text="0 (not given)"),
+     Param("roller_angles", "rad", None, "roller positions phi_i (n_rollers values)", shape=(None,),
+           default_text="equally spaced"),
+     Param("mass", "kg", 0.0, "bearing mass", min_value=0.0)),
+    _tapered_roller_bearing),)
 
 
 @dataclass(frozen=True)

@@ -8,12 +8,17 @@ reference matrix N(Δ) = [[I₃, −[Δ]×], [0, I₃]] of Cobet eq. 4.45. DOF o
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState, _full
-from pkmstiff.units import si
+from pkmstiff.errors import ComponentDataError, InputError
+from pkmstiff.units import parse_quantity, si
+
+if TYPE_CHECKING:
+    from components.reader import Params
 
 _SYM_TOL = 1e-9  # relative asymmetry tolerated in input matrices (round-off of printed/converted data)
 
@@ -45,8 +50,8 @@ def shift_mass_matrix(M_cg: Any, rho: Any) -> np.ndarray:
 def _check_symmetric(K: np.ndarray, what: str) -> None:
     scale = max(float(np.max(np.abs(K))), np.finfo(float).tiny)
     if np.max(np.abs(K - K.T)) > _SYM_TOL * scale:
-        raise ValueError(f"{what}: the matrix must be symmetric, found max |K - K^T| = "
-                         f"{np.max(np.abs(K - K.T)):.3g} (max |K| = {scale:.3g})")
+        raise ComponentDataError(f"{what}: the matrix must be symmetric, found max |K - K^T| = "
+                                 f"{np.max(np.abs(K - K.T)):.3g} (max |K| = {scale:.3g})")
 
 
 def _check_positive_definite(K: np.ndarray, what: str, semi: bool = False) -> None:
@@ -54,7 +59,7 @@ def _check_positive_definite(K: np.ndarray, what: str, semi: bool = False) -> No
     bad = eig.min() < 0 if semi else eig.min() <= 0
     if bad:
         kind = "positive semi-definite" if semi else "positive definite"
-        raise ValueError(f"{what}: the matrix must be {kind}, found smallest eigenvalue {eig.min():.6g}")
+        raise ComponentDataError(f"{what}: the matrix must be {kind}, found smallest eigenvalue {eig.min():.6g}")
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -75,10 +80,10 @@ class RigidBody(Component):
             inertia = np.diag(inertia)
         cog = np.zeros(3) if self.cog is None else np.asarray(self.cog, dtype=float)
         if inertia.shape != (3, 3) or cog.shape != (3,):
-            raise ValueError(f"body '{self.name}': inertia must be (3, 3) or (3,), cog (3,); found "
-                             f"{inertia.shape}, {cog.shape}")
+            raise ComponentDataError(f"body '{self.name}': inertia must be (3, 3) or (3,), cog (3,); found "
+                                     f"{inertia.shape}, {cog.shape}")
         if not self.mass >= 0:
-            raise ValueError(f"body '{self.name}': mass must be >= 0, found {self.mass!r}")
+            raise ComponentDataError(f"body '{self.name}': mass must be >= 0, found {self.mass!r}")
         _check_symmetric(inertia, f"body '{self.name}' inertia")
         _check_positive_definite(inertia, f"body '{self.name}' inertia", semi=True)
         object.__setattr__(self, "inertia", 0.5 * (inertia + inertia.T))
@@ -119,7 +124,8 @@ class BodyStiffness(Component):
     def __post_init__(self) -> None:
         K = np.asarray(self.matrix, dtype=float)
         if K.shape != (6, 6) or not np.all(np.isfinite(K)):
-            raise ValueError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape {K.shape}")
+            raise ComponentDataError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape "
+                                     f"{K.shape}")
         _check_symmetric(K, f"body stiffness '{self.name}'")
         _check_positive_definite(K, f"body stiffness '{self.name}'")
         object.__setattr__(self, "matrix", 0.5 * (K + K.T))
@@ -141,7 +147,8 @@ class BodyStiffness(Component):
         v = np.asarray(values, dtype=float)
         K = np.diag(v) if v.shape == (6,) else v.copy()
         if K.shape != (6, 6):
-            raise ValueError(f"body stiffness: expected 6 diagonal values or a (6, 6) matrix, found shape {v.shape}")
+            raise ComponentDataError(f"body stiffness: expected 6 diagonal values or a (6, 6) matrix, found shape "
+                                     f"{v.shape}")
         K[:3, :3] = si(K[:3, :3], translational_unit)
         K[3:, 3:] = si(K[3:, 3:], rotational_unit)
         K[:3, 3:] = si(K[:3, 3:], coupling_unit)
@@ -158,3 +165,64 @@ class BodyStiffness(Component):
         H[..., :3, :3] = Rm
         H[..., 3:, 3:] = Rm
         return H @ self.matrix @ np.swapaxes(H, -1, -2)
+
+
+# --------------------------------------------------------------------------------------------- machine files
+def _rigid_body(p: "Params") -> Component:
+    inertia_raw = p.raw("inertia", None)
+    inertia = None
+    if inertia_raw is not None:
+        is_matrix = isinstance(inertia_raw, (list, tuple)) and inertia_raw and isinstance(inertia_raw[0], (list, tuple))
+        if isinstance(inertia_raw, dict):
+            is_matrix = np.ndim(inertia_raw.get("value")) == 2
+        inertia = p.get("inertia", shape=(3, 3) if is_matrix else (3,))
+    return RigidBody(name=p.name, mass=p["mass"], inertia=inertia, cog=p["cog"])
+
+
+_UNIT_PARAMS = (("translational_unit", "N/m"), ("rotational_unit", "N*m/rad"), ("coupling_unit", "N/rad"))
+
+
+def _body_stiffness(p: "Params") -> Component:
+    t_unit, r_unit, c_unit = (p[key] for key, _ in _UNIT_PARAMS)
+    for (key, dim), unit in zip(_UNIT_PARAMS, (t_unit, r_unit, c_unit)):
+        try:
+            parse_quantity(f"1 {unit}", dim, source=p.source, key=p.key(key))
+        except InputError as exc:
+            raise p.error(key, f"a unit of {dim}", unit) from exc
+    notes = {}
+    if not p.has("rotational_unit"):
+        notes["rotational_unit"] = ("bare rotational entries read as N*m/urad (interpretation of the unprinted "
+                                    "Hexaglide K_P units, docs/user-guide/machines.md note 3)")
+    if p.exactly_one(("diagonal",), ("matrix",)) == 0:
+        trans = p.quantity_in("diagonal", "N/m", t_unit, shape=(6,))
+        rot = p.quantity_in("diagonal", "N*m/rad", r_unit, shape=(6,))
+        K = np.diag(np.concatenate([trans[:3], rot[3:]]))
+    else:
+        K = np.empty((6, 6))
+        blocks = p.quantity_in("matrix", "N/m", t_unit, shape=(6, 6))
+        K[:3, :3] = blocks[:3, :3]
+        K[3:, 3:] = p.quantity_in("matrix", "N*m/rad", r_unit, shape=(6, 6))[3:, 3:]
+        coupling = p.quantity_in("matrix", "N/rad", c_unit, shape=(6, 6))
+        K[:3, 3:], K[3:, :3] = coupling[:3, 3:], coupling[3:, :3]
+    return BodyStiffness(name=p.name, matrix=K, assumptions=notes)
+
+
+MODELS: tuple[ModelSpec, ...] = (
+    ModelSpec("rigid_body", "rigid body: mass, inertia about the CoG (body axes), CoG", "docs/theory/structure.md",
+              (Param("mass", "kg", None, "mass", required=True, min_value=0.0),
+               Param("inertia", "kg*m^2", None, "3 principal values or a 3x3 tensor about the CoG (body axes)",
+                     shape=(3,), default_text="0"),
+               Param("cog", "m", None, "CoG relative to the body reference point, body axes", shape=(3,),
+                     default_text="(0, 0, 0)")),
+              _rigid_body),
+    ModelSpec("body_stiffness", "constant 6x6 body stiffness (e.g. platform K_P / K_U)", "docs/theory/components.md",
+              (Param("diagonal", "N/m, N*m/rad", None, "6 diagonal values (instead of matrix)",
+                     required="unless matrix", kind="raw", shape=(6,)),
+               Param("matrix", "N/m, N/rad, N*m/rad", None, "6x6 matrix (instead of diagonal)",
+                     required="unless diagonal", kind="raw", shape=(6, 6)),
+               Param("translational_unit", "-", "N/um", "unit of bare translational entries", kind="string"),
+               Param("rotational_unit", "-", "N*m/urad", "unit of bare rotational entries (Assumption)",
+                     kind="string"),
+               Param("coupling_unit", "-", "N/urad", "unit of bare coupling entries", kind="string")),
+              _body_stiffness),
+)

@@ -16,7 +16,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
+from pkmstiff.errors import ComponentDataError
 
 _PARALLEL_TOL = 1e-6  # |component of the vertical orthogonal to x'| below which the guide counts as vertical
 
@@ -36,7 +38,7 @@ def drive_frame(
     x = np.asarray(guide_direction, dtype=float)
     norm = np.linalg.norm(x, axis=-1, keepdims=True)
     if np.any(norm == 0) or not np.all(np.isfinite(norm)):
-        raise ValueError(f"drive_frame: guide directions must be finite non-zero vectors, found {x.tolist()}")
+        raise ComponentDataError(f"drive_frame: guide directions must be finite non-zero vectors, found {x.tolist()}")
     x = x / norm
 
     def orthogonal(ref: np.ndarray) -> np.ndarray:
@@ -48,7 +50,7 @@ def drive_frame(
     if np.any(is_vertical):
         zf = orthogonal(np.broadcast_to(np.asarray(fallback, dtype=float), x.shape))
         if np.any(is_vertical & (np.linalg.norm(zf, axis=-1, keepdims=True) < _PARALLEL_TOL)):
-            raise ValueError("drive_frame: the fallback reference is parallel to a vertical guide direction")
+            raise ComponentDataError("drive_frame: the fallback reference is parallel to a vertical guide direction")
         z = np.where(is_vertical, zf, z)
         zn = np.linalg.norm(z, axis=-1, keepdims=True)
     z = z / zn
@@ -89,10 +91,10 @@ class GuideCarriages(Component):
 
     def __post_init__(self) -> None:
         if not (self.k_horizontal > 0 and self.k_vertical > 0):
-            raise ValueError(f"guide '{self.name}': carriage stiffnesses must be positive, found "
-                             f"{self.k_horizontal!r}, {self.k_vertical!r}")
+            raise ComponentDataError(f"guide '{self.name}': carriage stiffnesses must be positive, found "
+                                     f"{self.k_horizontal!r}, {self.k_vertical!r}")
         if int(self.count) != self.count or self.count < 1:
-            raise ValueError(f"guide '{self.name}': count must be a positive integer, found {self.count!r}")
+            raise ComponentDataError(f"guide '{self.name}': count must be a positive integer, found {self.count!r}")
 
     @property
     def k_y(self) -> float:
@@ -114,3 +116,14 @@ class GuideCarriages(Component):
     def drive_stiffness(self, k_axial: Any, R: Any) -> np.ndarray:
         """K_W = R K'_W Rᵀ (N, 3, 3) in the MKS; ``R`` from :func:`drive_frame`."""
         return drive_frame_stiffness(self.local_stiffness(k_axial), R)
+
+
+# --------------------------------------------------------------------------------------------- machine files
+MODELS: tuple[ModelSpec, ...] = (ModelSpec(
+    "guide_carriages", "guide carriages in parallel: transverse drive stiffness", "Cobet eq. 3.6, 3.14",
+    (Param("k_horizontal", "N/m", None, "per carriage, horizontal (y')", required=True, positive=True),
+     Param("k_vertical", "N/m", None, "per carriage, vertical (z')", required=True, positive=True),
+     Param("count", "-", 1, "number of carriages per drive", kind="integer", min_value=1),
+     Param("mass", "kg", 0.0, "carriage mass", min_value=0.0)),
+    lambda p: GuideCarriages(name=p.name, k_horizontal=p["k_horizontal"], k_vertical=p["k_vertical"],
+                             count=p["count"], mass=p["mass"])),)

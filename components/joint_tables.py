@@ -24,7 +24,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from pkmstiff.units import InputError, si, to_unit
+from pkmstiff.errors import InputError, JointTableNotFound  # JointTableNotFound re-exported here
+from pkmstiff.units import si, to_unit
 
 METHODS: tuple[str, ...] = ("measured", "FE", "analytic")
 CONVENTIONS: tuple[str, ...] = ("axis", "normal")
@@ -33,10 +34,6 @@ FE_REQUIRED_KEYS: tuple[str, ...] = ("parameters", "mesh_size", "element_type", 
 HEADER_1D: tuple[str, ...] = ("tilt_deg", "k_N_per_um")
 HEADER_2D: tuple[str, ...] = ("swivel_deg", "tilt_deg", "k_N_per_um")
 _KEY_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-
-
-class JointTableNotFound(InputError):
-    """The named joint table is neither a bundled table nor an existing file."""
 
 
 @dataclass(frozen=True, eq=False)

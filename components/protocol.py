@@ -20,6 +20,10 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
+from components.limits import DRIVE_LIMITS, drive_limits
+from components.params import ModelSpec, Param
+from pkmstiff.errors import ComponentDataError, ComponentRangeError  # noqa: F401 (re-exported: components.protocol.*)
+
 StiffnessKind = Literal["axial", "matrix3", "matrix6", "body"]
 
 #: SI unit of every key that may appear in :attr:`Component.limits`.
@@ -38,10 +42,6 @@ LIMIT_UNITS: dict[str, str] = {
     "position_min": "m",
     "position_max": "m",
 }
-
-
-class ComponentRangeError(ValueError):
-    """A state value (angle, position) lies outside the range a component can evaluate."""
 
 
 @dataclass(frozen=True)
@@ -78,16 +78,18 @@ class ComponentState:
                 continue
             arr = np.atleast_1d(np.asarray(value, dtype=float))
             if arr.ndim != 1:
-                raise ValueError(f"ComponentState.{name}: expected a 1-D array of shape (N,), found shape {arr.shape}")
+                raise ComponentDataError(f"ComponentState.{name}: expected a 1-D array of shape (N,), found shape "
+                                         f"{arr.shape}")
             object.__setattr__(self, name, arr)
         sizes = {name: getattr(self, name).shape[0] for name in self._ARRAYS if getattr(self, name) is not None}
         if len(set(sizes.values())) > 1:
-            raise ValueError(f"ComponentState: all arrays must have the same length N, found {sizes}")
+            raise ComponentDataError(f"ComponentState: all arrays must have the same length N, found {sizes}")
         if self.n_poses is not None:
             if int(self.n_poses) < 1:
-                raise ValueError(f"ComponentState.n_poses: expected an integer >= 1, found {self.n_poses!r}")
+                raise ComponentDataError(f"ComponentState.n_poses: expected an integer >= 1, found {self.n_poses!r}")
             if sizes and next(iter(sizes.values())) != int(self.n_poses):
-                raise ValueError(f"ComponentState: n_poses={self.n_poses} does not match the array lengths {sizes}")
+                raise ComponentDataError(f"ComponentState: n_poses={self.n_poses} does not match the array lengths "
+                                         f"{sizes}")
 
     @property
     def n(self) -> int:
@@ -99,10 +101,10 @@ class ComponentState:
         return int(self.n_poses) if self.n_poses is not None else 1
 
     def require(self, name: str, component: str) -> np.ndarray:
-        """Return the array ``name`` or raise a ValueError naming the component that needs it."""
+        """Return the array ``name`` or raise a :class:`ComponentDataError` naming the component that needs it."""
         value = getattr(self, name)
         if value is None:
-            raise ValueError(f"component '{component}': ComponentState.{name} is required but was not given")
+            raise ComponentDataError(f"component '{component}': ComponentState.{name} is required but was not given")
         return value
 
     def replace(self, **changes: Any) -> "ComponentState":
@@ -161,7 +163,7 @@ def parallel(*k: Any) -> np.ndarray:
     ``np.inf`` (rigid) makes the sum rigid.
     """
     if not k:
-        raise ValueError("parallel() needs at least one stiffness")
+        raise ComponentDataError("parallel() needs at least one stiffness")
     total = np.asarray(k[0], dtype=float)
     for kj in k[1:]:
         total = total + np.asarray(kj, dtype=float)
@@ -180,7 +182,7 @@ def series(*k: Any, matrix: bool | None = None) -> np.ndarray:
     Pass ``matrix=False`` to force the elementwise rule for arrays whose last two axes happen to be square.
     """
     if not k:
-        raise ValueError("series() needs at least one stiffness")
+        raise ComponentDataError("series() needs at least one stiffness")
     if matrix is None:
         matrix = any(_is_matrix(kj) for kj in k)
     if not matrix:
@@ -192,14 +194,15 @@ def series(*k: Any, matrix: bool | None = None) -> np.ndarray:
         return np.asarray(np.inf)
     for j, m in enumerate(mats):
         if not _is_matrix(m):
-            raise ValueError(f"series(matrix=True): operand {j} has shape {m.shape}, expected (..., n, n) or np.inf")
+            raise ComponentDataError(f"series(matrix=True): operand {j} has shape {m.shape}, expected (..., n, n) or "
+                                     f"np.inf")
     result = mats[0]
     for m in mats[1:]:
         try:
             result = result @ np.linalg.solve(result + m, m)
         except np.linalg.LinAlgError as exc:
-            raise ValueError("series of matrices: the sum of two consecutive stiffness matrices is singular; "
-                             "series needs positive-definite stiffness matrices") from exc
+            raise ComponentDataError("series of matrices: the sum of two consecutive stiffness matrices is singular; "
+                                     "series needs positive-definite stiffness matrices") from exc
     return 0.5 * (result + np.swapaxes(result, -1, -2))
 
 
@@ -212,7 +215,14 @@ class ConstantAxial(Component):
 
     def __post_init__(self) -> None:
         if not self.k > 0:
-            raise ValueError(f"component '{self.name}': k must be positive, found {self.k!r}")
+            raise ComponentDataError(f"component '{self.name}': k must be positive, found {self.k!r}")
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         return _full(state, self.k)
+
+
+MODELS: tuple[ModelSpec, ...] = (ModelSpec(
+    "constant_axial", "constant axial stiffness (drive, strut or any axial element)", "k = const",
+    (Param("k", "N/m", None, "axial stiffness", required=True, positive=True, rigid_ok=True),
+     Param("mass", "kg", 0.0, "moved mass", min_value=0.0)) + DRIVE_LIMITS,
+    lambda p: ConstantAxial(name=p.name, k=p["k"], mass=p["mass"], limits=drive_limits(p))),)

@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from components.protocol import ComponentRangeError
+from pkmstiff.errors import ComponentDataError, ComponentRangeError
 
 Extrapolation = Literal["clamp", "error"]
 EXTRAPOLATION_POLICIES: tuple[str, ...] = ("clamp", "error")
@@ -25,9 +25,10 @@ _RANGE_TOL = 1e-12  # rad; absorbs round-off of angles computed exactly at a tab
 
 def _check_nodes(x: np.ndarray, what: str) -> None:
     if x.ndim != 1 or x.size < 2:
-        raise ValueError(f"{what}: expected at least 2 support points in a 1-D array, found shape {x.shape}")
+        raise ComponentDataError(f"{what}: expected at least 2 support points in a 1-D array, found shape {x.shape}")
     if not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
-        raise ValueError(f"{what}: support abscissae must be finite and strictly increasing, found {x.tolist()}")
+        raise ComponentDataError(f"{what}: support abscissae must be finite and strictly increasing, found "
+                                 f"{x.tolist()}")
 
 
 def secant_end_slopes(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -43,7 +44,7 @@ def clamped_spline(x: np.ndarray, y: np.ndarray, what: str = "spline") -> CubicS
     y = np.asarray(y, dtype=float)
     _check_nodes(x, what)
     if y.shape[0] != x.size:
-        raise ValueError(f"{what}: {x.size} abscissae but {y.shape[0]} values")
+        raise ComponentDataError(f"{what}: {x.size} abscissae but {y.shape[0]} values")
     s0, sn = secant_end_slopes(x, y)
     return CubicSpline(x, y, axis=0, bc_type=((1, s0), (1, sn)), extrapolate=True)
 
@@ -68,7 +69,8 @@ def apply_range_policy(
                 f"{table}: {angle} = {conv(value.ravel()[idx]):.6g} {unit} (pose {idx}) lies outside the table range "
                 f"[{conv(lo):.6g}, {conv(hi):.6g}] {unit} (extrapolation='error'; use 'clamp' to hold the end values)")
         return np.clip(value, lo, hi)  # only round-off excursions remain
-    raise ValueError(f"{table}: unknown extrapolation policy {policy!r}, expected one of {EXTRAPOLATION_POLICIES}")
+    raise ComponentDataError(f"{table}: unknown extrapolation policy {policy!r}, expected one of "
+                             f"{EXTRAPOLATION_POLICIES}")
 
 
 def spline_weights(x_nodes: np.ndarray, xq: np.ndarray) -> np.ndarray:

@@ -23,6 +23,25 @@ class InputError(PkmstiffError, ValueError):
         super().__init__(f"{where}key '{key}': expected {expected}, found {found!r}")
 
 
+# -------------------- components
+
+
+class ComponentDataError(PkmstiffError, ValueError):
+    """Data a component cannot use: invalid constructor arguments or a state array it needs but was not given."""
+
+
+class ComponentRangeError(PkmstiffError, ValueError):
+    """A state value (angle, position) lies outside the range a component can evaluate."""
+
+
+class ComponentModelError(PkmstiffError, ValueError):
+    """A component model is registered or declared inconsistently (name taken, parameter read but not declared)."""
+
+
+class JointTableNotFound(InputError):
+    """The named joint table is neither a bundled table nor an existing file."""
+
+
 # -------------------- machine
 
 
@@ -154,7 +173,7 @@ class InadmissiblePoseError(PkmstiffError, ValueError):
 
 
 class SectionArgumentError(PkmstiffError, ValueError):
-    pass
+    """A range or angle text (``"y=-600:800,z=-1200:-500"``, ``"a,b,c"``) that cannot be read."""
 
 
 class CliError(PkmstiffError):
@@ -162,8 +181,8 @@ class CliError(PkmstiffError):
 
 
 class PoseArgumentError(PkmstiffError, ValueError):
-    pass
+    """A ``--pose`` value that is not six finite numbers x,y,z [mm], a,b,c [deg]."""
 
 
 class PointArgumentError(PkmstiffError, ValueError):
-    pass
+    """An invalid option of ``pkmstiff point``."""

@@ -19,23 +19,16 @@ _COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.demo", "pkmstiff.cli.
 
 
 def _cmd_components(args: argparse.Namespace) -> int:
-    from components.registry import available_models, model_info
+    from components import catalogue  # listed from the models' parameter declarations
+    from components.registry import available_models
 
-    models = available_models()
-    if args.model:
-        if args.model not in models:
-            raise CliError(f"unknown component model {args.model!r}; expected one of {', '.join(sorted(models))}")
-        info = model_info(args.model)
-        print(f"{args.model}: {models[args.model]}")
-        for p in info.parameters:
-            print(f"  {p.key:<40} [{p.unit}] default {p.default}: {p.meaning}")
-        return 0
+    if args.model and args.model not in available_models():
+        raise CliError(f"unknown component model {args.model!r}; expected one of "
+                       f"{', '.join(sorted(available_models()))}")
     if args.json:
-        print(json.dumps(models, indent=2))
+        print(json.dumps(catalogue.as_json(args.model), indent=2))
         return 0
-    width = max(map(len, models))
-    for name, desc in sorted(models.items()):
-        print(f"{name:<{width}}  {desc}")
+    print("\n".join(catalogue.model_listing(args.model) if args.model else catalogue.listing()))
     return 0
 
 

@@ -1,0 +1,32 @@
+"""Drive limits shared by the drive models: declaration and reader (Cobet eq. 4.89, docs/theory/kinetostatics.md).
+
+The values go to :attr:`components.protocol.Component.limits` (SI, keys in
+:data:`components.protocol.LIMIT_UNITS`); a limit that is not given is absent from the dict.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from components.params import Param
+
+if TYPE_CHECKING:
+    from components.reader import Params
+
+DRIVE_LIMITS: tuple[Param, ...] = (
+    Param("max_force", "N", None, "maximum drive force", min_value=0.0),
+    Param("force_reserve", "N", None, "force reserve (static friction + safety)", min_value=0.0),
+    Param("max_speed", "m/s", None, "maximum drive speed", min_value=0.0),
+    Param("coulomb_friction", "N", None, "Coulomb friction coefficient C (eq. 4.89)", min_value=0.0),
+    Param("viscous_friction", "N*s/m", None, "viscous friction coefficient V (eq. 4.89)", min_value=0.0),
+)
+
+
+def drive_limits(p: "Params") -> dict[str, float]:
+    """The drive limits given in the table (declared in :data:`DRIVE_LIMITS`), SI."""
+    out = {}
+    for decl in DRIVE_LIMITS:
+        value = p[decl.key]
+        if value is not None:
+            out[decl.key] = value
+    return out
