@@ -13,23 +13,9 @@ from pkmstiff import __version__
 from pkmstiff.errors import CliError, PkmstiffError  # noqa: F401 (CliError re-exported)
 
 # modules that add their own sub-commands with ``add_commands(subparsers)``
-_COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.demo", "pkmstiff.cli.pose", "pkmstiff.cli.point",
+_COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.components", "pkmstiff.cli.demo", "pkmstiff.cli.pose", "pkmstiff.cli.point",
                     "pkmstiff.cli.section", "pkmstiff.cli.workspace", "pkmstiff.cli.report", "pkmstiff.cli.sweep",
                     "pkmstiff.cli.fe")
-
-
-def _cmd_components(args: argparse.Namespace) -> int:
-    from components import catalogue  # listed from the models' parameter declarations
-    from components.registry import available_models
-
-    if args.model and args.model not in available_models():
-        raise CliError(f"unknown component model {args.model!r}; expected one of "
-                       f"{', '.join(sorted(available_models()))}")
-    if args.json:
-        print(json.dumps(catalogue.as_json(args.model), indent=2))
-        return 0
-    print("\n".join(catalogue.model_listing(args.model) if args.model else catalogue.listing()))
-    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -40,10 +26,6 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"pkmstiff {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    p = sub.add_parser("components", help="list the component models (or the parameters of one)")
-    p.add_argument("model", nargs="?", help="show the parameters of this model")
-    p.add_argument("--json", action="store_true", help="print JSON")
-    p.set_defaults(func=_cmd_components)
     for modname in _COMMAND_MODULES:
         try:
             mod = importlib.import_module(modname)
