@@ -38,7 +38,7 @@ def circle_run(R: float = 0.15, n: int = 4096, *, offset=(0.0, 0.0), radius_erro
     c, si = np.cos(theta), np.sin(theta)
     u = np.outer(c, e1) + np.outer(si, e2)
     P = s + R * u
-    radial = radius_error + sum(a * np.cos(k * theta - psi) for k, (a, psi) in (lobes or {}).items())
+    radial = np.full(n, radius_error) + sum(a * np.cos(k * theta - psi) for k, (a, psi) in (lobes or {}).items())
     A = s + (R + radial)[:, None] * u
     A = A + ellipse * (np.outer(c, e1) - np.outer(si, e2))
     A = A + offset[0] * e1 + offset[1] * e2

@@ -75,7 +75,8 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
                         "315°"], fontsize=8)
     lines = [f"bar {ev.bar_length * 1e3:g} mm, plane {ev.plane.name}", f"scale {step:g} µm/div", ""]
     for lab, run in ev.runs.items():
-        lines += [f"{lab.upper() + ":":<5}G      {run.circular_deviation * 1e6:8.2f} µm",
+        tag = lab.upper() + ":"
+        lines += [f"{tag:<5}G      {run.circular_deviation * 1e6:8.2f} µm",
                   f"     F max  {run.radial_deviation_max * 1e6:+8.2f} µm",
                   f"     F min  {run.radial_deviation_min * 1e6:+8.2f} µm",
                   f"     offset {np.linalg.norm(run.centre_offset) * 1e6:8.2f} µm",
