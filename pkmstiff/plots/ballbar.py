@@ -44,8 +44,8 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
     devs = np.concatenate([r.deviation for r in ev.runs.values()]) * 1e6
     lo_d, hi_d = float(min(devs.min(), 0.0)), float(max(devs.max(), 0.0))
     span = max(hi_d - lo_d, 1e-3)
-    step = _nice_step(span)
-    lo = math.floor(lo_d / step) * step - step  # one division inside the most negative point
+    step = _nice_step(span * 0.8)  # about five divisions across the traces
+    lo = math.floor(lo_d / step) * step - 2 * step  # two divisions inside the most negative point: limits distortion
     hi = math.ceil(hi_d / step) * step + 0.5 * step
     for lab, run in ev.runs.items():
         order = np.argsort(np.mod(run.theta, 2 * np.pi))
