@@ -70,7 +70,8 @@ def _print_text(rep: dict[str, Any]) -> None:
                  if rule == "auto" else "")
         print(f"       harmonics: n = {h['n']} ({rule}{extra}); residual rms {r['filtered_rms_residual_um']:.3f} um")
         for k, (a, p) in enumerate(zip(h["amplitude_um"], h["phase_deg"])):
-            print(f"         A{k:<2} {a:+10.4f} um   phi {p:7.2f} deg")
+            amp = f"{a:+10.4f}".replace("-0.0000", "+0.0000")  # no negative zero for a rounded-away A0
+            print(f"         A{k:<2} {amp} um   phi {p:7.2f} deg")
     if rep["hysteresis_H_um"] is not None:
         print(f"  hysteresis H {rep['hysteresis_H_um']:.3f} um, circularity {rep['circularity_um']:.3f} um")
     else:
