@@ -165,3 +165,34 @@ def test_cli_malformed_file_exit_2(tmp_path, capsys):
     assert main(["ballbar", "analyse", str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert "line 6, column 3 (y_mm)" in err and "\n" not in err and "Traceback" not in err
+
+
+def test_blank_and_comment_lines_keep_line_numbers(tmp_path):
+    text = GOOD.replace("0.004,0,150,0,0,0,0,0.002,ccw\n", "\n# a comment between rows\n0.004,0,150,0,0,0,0,0.002,ccw\n")
+    text = text.replace("-150,0,0,0,0,0,0.001", "-150,0,0,0,0,0,x")
+    path = tmp_path / "c.csv"
+    path.write_text(text)
+    with pytest.raises(MeasurementFileError, match=r"line 9, column 8 \(reading_mm\)"):
+        read_measurement(path)
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_finite = st.floats(-1e6, 1e6, allow_nan=False, allow_infinity=False)
+
+
+@settings(max_examples=40, deadline=None)
+@given(pose=st.lists(_finite, min_size=6, max_size=6), reading=st.floats(-1e-3, 1e-3),
+       offset=st.lists(st.floats(-1.0, 1.0), min_size=3, max_size=3), bar=st.floats(1e-3, 2.0))
+def test_round_trip_property(tmp_path_factory, pose, reading, offset, bar):
+    m = BallbarMeasurement(bar_length=bar, fixed_ball=np.array(offset), ball_offset=np.array(offset[::-1]),
+                           t=np.array([0.0, 0.5]), reading=np.array([reading, -reading]),
+                           poses=np.array([pose, pose[::-1]]))
+    path = write_measurement(tmp_path_factory.mktemp("rt") / "p.csv", m)
+    back = read_measurement(path)
+    # 15 significant digits in the file unit plus one unit conversion: relative error ≤ 1e-14;
+    # absolute floor 1e-300 for values that underflow to ~0 in either direction
+    for name in ("reading", "poses", "fixed_ball", "ball_offset"):
+        assert np.allclose(getattr(back, name), getattr(m, name), rtol=1e-14, atol=1e-300), name
+    assert back.bar_length == pytest.approx(bar, rel=1e-14)
