@@ -562,19 +562,43 @@ def ball_positions(poses: ArrayLike, ball_offset: ArrayLike) -> Array:
     return X[:, :3] + R @ v
 
 
+def commanded_poses(meas: Any, machine: Any = None, start_pose: ArrayLike | None = None, source: str = "") -> Array:
+    """Commanded poses (N, 6) [m, rad] of a measurement: its pose columns, or — for a file with drive values only —
+    the forward kinematics of ``machine`` (a :class:`~pkmstiff.machine.Machine`) from ``start_pose`` (6,)
+    (Newton on the inverse kinematics, Cobet eq. A.12–A.17, all samples started from the same pose)."""
+    if meas.poses is not None:
+        return np.asarray(meas.poses, dtype=float)
+    if machine is None or start_pose is None:
+        raise BallbarError("the file has drive values but no commanded pose columns (x_mm … c_deg); give a machine "
+                           "and a start pose for the forward kinematics (--machine, --start-pose)", source)
+    from pkmstiff.kinematics import forward_kinematics
+
+    q = np.asarray(meas.drives, dtype=float)
+    if q.shape[1] != machine.n_chains:
+        raise BallbarError(f"the file has {q.shape[1]} drive columns, machine '{machine.name}' has "
+                           f"{machine.n_chains} drives", source)
+    x0 = np.asarray(start_pose, dtype=float)
+    if x0.shape != (6,) or not np.all(np.isfinite(x0)):
+        raise BallbarError(f"start pose must be 6 finite numbers, found {start_pose!r}", source)
+    fk = forward_kinematics(machine, q, x0)
+    if not fk.converged.all():
+        bad = int(np.flatnonzero(~fk.converged)[0])
+        raise BallbarError(f"forward kinematics did not converge for {int((~fk.converged).sum())} of {len(q)} "
+                           f"samples (first: sample {bad}, status {fk.status[bad]}); try a start pose nearer the "
+                           f"path", source)
+    return fk.poses
+
+
 def evaluate_measurement(meas: Any, *, harmonics: int | Literal["auto"] = "auto", alpha: float = 0.01,
-                         min_relative: float = 0.0, plane: str | ArrayLike | None = None,
-                         source: str = "") -> BallbarEvaluation:
+                         min_relative: float = 0.0, plane: str | ArrayLike | None = None, machine: Any = None,
+                         start_pose: ArrayLike | None = None, source: str = "") -> BallbarEvaluation:
     """Evaluate a :class:`~pkmstiff.calibration.measurement_file.BallbarMeasurement` (a circular test).
 
-    The commanded moving-ball positions come from the pose columns and the header's ball offset; a file with
-    drive values only needs a machine model to map them to poses, which this function does not do (error).
+    The commanded moving-ball positions come from the poses (:func:`commanded_poses`: the pose columns, or the
+    forward kinematics of ``machine`` from ``start_pose`` for a drive-only file) and the header's ball offset.
     ``plane`` overrides the file's ``plane`` header.
     """
-    if meas.poses is None:
-        raise BallbarError("the file has drive values but no commanded pose columns (x_mm … c_deg); a circular-test "
-                           "evaluation needs the commanded poses", source)
-    P = ball_positions(meas.poses, meas.ball_offset)
+    P = ball_positions(commanded_poses(meas, machine, start_pose, source), meas.ball_offset)
     return evaluate_circular_test(P, meas.reading, meas.fixed_ball, meas.bar_length, direction=meas.direction,
                                   plane=meas.plane if plane is None else plane, harmonics=harmonics, alpha=alpha,
                                   min_relative=min_relative, source=source)

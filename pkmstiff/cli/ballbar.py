@@ -38,14 +38,37 @@ def _clean(x: Any) -> Any:
     return x
 
 
+def _start_pose(text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) != 6 or not all(math.isfinite(v) for v in vals):
+        raise BallbarError(f"--start-pose: expected 6 numbers x,y,z,a,b,c (mm, deg), found {text!r}")
+    return [v * 1e-3 for v in vals[:3]] + [math.radians(v) for v in vals[3:]]
+
+
 def analyse_file(path: str, harmonics: int | str = "auto", plot_dir: str | None = None,
-                 alpha: float = 0.01) -> dict[str, Any]:
+                 alpha: float = 0.01, machine: str | None = None, start_pose: str | None = None) -> dict[str, Any]:
     """Everything ``pkmstiff ballbar analyse`` prints, as a JSON-ready dict (keys name their units)."""
     from pkmstiff.calibration.ballbar import evaluate_measurement
     from pkmstiff.calibration.measurement_file import read_measurement
 
     meas = read_measurement(path)
-    ev = evaluate_measurement(meas, harmonics=harmonics, alpha=alpha, source=str(path))
+    model = None
+    x0 = _start_pose(start_pose)
+    if meas.poses is None and x0 is not None:
+        from pkmstiff.machine.loader import load_machine
+
+        name = machine or meas.machine
+        if not name:
+            raise BallbarError("a drive-only file needs a machine: give --machine or the header key 'machine'",
+                               str(path))
+        model = load_machine(name)
+    ev = evaluate_measurement(meas, harmonics=harmonics, alpha=alpha, machine=model, start_pose=x0,
+                              source=str(path))
     out = {"file": str(path), "machine": meas.machine, "instrument": meas.instrument, "samples": meas.n_samples,
            **ev.to_dict()}
     if plot_dir is not None:
@@ -84,7 +107,8 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     harmonics = _harmonics_arg(args.harmonics)
     if not 0.0 < args.alpha < 1.0:
         raise BallbarError(f"--alpha: expected a probability in (0, 1), found {args.alpha}")
-    rep = analyse_file(args.file, harmonics=harmonics, plot_dir=args.plot, alpha=args.alpha)
+    rep = analyse_file(args.file, harmonics=harmonics, plot_dir=args.plot, alpha=args.alpha, machine=args.machine,
+                       start_pose=args.start_pose)
     if args.json:
         print(json.dumps(rep, indent=2))
     else:
@@ -106,6 +130,9 @@ def add_commands(sub: Any) -> None:
                    help="number of harmonics of the filtered reconstruction, or 'auto' (region-B rule; default)")
     a.add_argument("--alpha", type=float, default=0.01,
                    help="false-alarm probability of the automatic choice (default 0.01)")
+    a.add_argument("--machine", help="machine for a drive-only file (default: the file's 'machine' header)")
+    a.add_argument("--start-pose", metavar="x,y,z,a,b,c",
+                   help="start pose (mm, deg) of the forward kinematics for a drive-only file")
     a.add_argument("--plot", metavar="DIR", help="write the polar deviation plot and harmonic spectrum (PNG) here")
     a.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     a.set_defaults(func=_cmd_analyse)
