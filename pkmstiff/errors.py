@@ -186,3 +186,29 @@ class PoseArgumentError(PkmstiffError, ValueError):
 
 class PointArgumentError(PkmstiffError, ValueError):
     """An invalid option of ``pkmstiff point``."""
+
+
+# -------------------- calibration (ball-bar evaluation and measurement files)
+
+
+class BallbarError(InputError):
+    """Ball-bar data that cannot be evaluated (too few samples, an incomplete revolution, a non-planar run, ...)."""
+
+    def __init__(self, message: str, source: str = ""):
+        self.source, self.key, self.expected, self.found = source, "", "", None
+        Exception.__init__(self, f"{source}: {message}" if source else message)
+
+
+class MeasurementFileError(BallbarError):
+    """A malformed measurement CSV; the one-line message names file, line (1-based) and column (1-based, name)."""
+
+    def __init__(self, source: str, line: int | None, message: str, column: int | None = None,
+                 column_name: str | None = None):
+        self.line, self.column, self.column_name = line, column, column_name
+        where = []
+        if line is not None:
+            where.append(f"line {line}")
+        if column is not None:
+            where.append(f"column {column}" + (f" ({column_name})" if column_name else ""))
+        prefix = ", ".join(where)
+        super().__init__(f"{prefix}: {message}" if prefix else message, source)

@@ -1,0 +1,409 @@
+"""Ball-bar measurement files: a CSV with a commented header (issue 16 item 5; instrument data calibration.md §1).
+
+Layout (one sample per row, comma separated, ``#`` starts a comment line)::
+
+    # pkmstiff ball-bar measurement
+    # format_version: 1
+    # machine: felix
+    # instrument: QC10
+    # bar_length_mm: 150
+    # fixed_ball_mm: 0, 0, 0
+    # ball_offset_mm: 0, 0, 0
+    # range_mm: -1, 1
+    # resolution_um: 0.1
+    # accuracy_um: 0.5
+    # sample_rate_hz: 250
+    # plane: XY
+    # units: t_s s; x_mm y_mm z_mm mm; a_deg b_deg c_deg deg; q<i>_mm mm; q<i>_deg deg; reading_mm mm; ...
+    # note: free text (repeatable)
+    t_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,reading_mm,feed_mm_min,direction,temperature_C
+    0,150,0,0,0,0,0,0.00123,500,ccw,20.1
+
+Header keys carry their unit in the name (as do the columns); ``units`` is written for people and not read.
+Columns: ``t_s`` (required, non-decreasing), the commanded pose ``x_mm … c_deg`` (all six) and/or drive
+values ``q1_mm``/``q1_deg``, ``q2_…`` (consecutive), ``reading_mm`` (required: the transducer reading, i.e. the
+measured ball distance minus ``bar_length``), optional ``feed_mm_min``, ``direction`` (``ccw``/``cw``) and
+``temperature_C``. Instrument defaults are the QC10 class values of Szatmári Tab. 4.3 (calibration.md §1).
+
+Every error is a :class:`~pkmstiff.errors.MeasurementFileError` whose one-line message names the file, the line
+and, for a cell, the column number and name. Readings outside the instrument range are an error on reading (the
+first offending line is named, with the count); :func:`range_violations` lists them for a writer's report.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pkmstiff.errors import MeasurementFileError
+
+Array = NDArray[np.float64]
+
+SIGNATURE = "pkmstiff ball-bar measurement"
+FORMAT_VERSION = 1
+POSE_COLUMNS = ("x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg")
+_POSE_SCALE = np.array([1e-3, 1e-3, 1e-3, math.pi / 180, math.pi / 180, math.pi / 180])
+_DRIVE_RE = re.compile(r"^q(\d+)_(mm|deg)$")
+_OPTIONAL = ("feed_mm_min", "direction", "temperature_C")
+UNITS_LINE = ("t_s s; x_mm y_mm z_mm mm; a_deg b_deg c_deg deg; q<i>_mm mm (linear drive); q<i>_deg deg (rotary "
+              "drive); reading_mm mm (measured distance - bar_length); feed_mm_min mm/min; temperature_C degC")
+
+# QC10-class defaults (Szatmári Tab. 4.3, calibration.md §1)
+QC10_RANGE = (-1e-3, 1e-3)
+QC10_RESOLUTION = 0.1e-6
+QC10_ACCURACY = 0.5e-6
+QC10_SAMPLE_RATE = 250.0
+
+
+@dataclass
+class BallbarMeasurement:
+    """One ball-bar measurement in SI units.
+
+    Header: ``bar_length`` [m], ``fixed_ball`` (3,) [m] (centre-mount ball in machine coordinates),
+    ``ball_offset`` (3,) [m] (moving ball in the pose frame), instrument ``range`` (lo, hi) of the reading [m],
+    ``resolution``, ``accuracy`` [m], ``sample_rate`` [Hz], ``plane`` (name or "auto"), ``notes``.
+    Samples (N,): ``t`` [s], ``poses`` (N, 6) [m, rad] or None, ``drives`` (N, n) [m or rad per ``drive_units``]
+    or None, ``reading`` [m], ``feed`` [m/s] or None, ``direction`` ("ccw"/"cw") or None, ``temperature`` [°C]
+    or None. ``lines`` (N,) holds the file line of each sample when read from a file.
+    """
+
+    bar_length: float
+    fixed_ball: Array
+    t: Array
+    reading: Array
+    poses: Array | None = None
+    drives: Array | None = None
+    drive_units: tuple[str, ...] = ()
+    feed: Array | None = None
+    direction: NDArray[np.str_] | None = None
+    temperature: Array | None = None
+    ball_offset: Array = field(default_factory=lambda: np.zeros(3))
+    machine: str = ""
+    instrument: str = "QC10"
+    range: tuple[float, float] = QC10_RANGE
+    resolution: float = QC10_RESOLUTION
+    accuracy: float = QC10_ACCURACY
+    sample_rate: float = QC10_SAMPLE_RATE
+    plane: str = "auto"
+    notes: list[str] = field(default_factory=list)
+    lines: NDArray[np.int64] | None = None
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t.size)
+
+
+def range_violations(meas: BallbarMeasurement) -> NDArray[np.int64]:
+    """Indices of samples whose reading lies outside the instrument range ``meas.range``."""
+    lo, hi = meas.range
+    return np.flatnonzero((meas.reading < lo) | (meas.reading > hi))
+
+
+# ------------------------------------------------------------------------------------------------- writing
+
+def _fmt(x: float) -> str:
+    return "%.15g" % float(x)  # 15 significant digits: exact to 1e-15 relative, no binary noise like 0.0193000001
+
+
+def _vec(v: Array, scale: float) -> str:
+    return ", ".join(_fmt(x / scale) for x in v)
+
+
+def write_measurement(path: str | Path, meas: BallbarMeasurement, *, allow_out_of_range: bool = False) -> Path:
+    """Write ``meas`` as a measurement CSV (format above); values are printed with the shortest round-trip repr of
+    their value in the file unit, so reading back reproduces them to one unit in the last place.
+
+    Readings outside the instrument range raise :class:`MeasurementFileError` naming the first sample and the
+    count, unless ``allow_out_of_range`` (the file then fails to read, as a real instrument's would).
+    """
+    path = Path(path)
+    src = str(path)
+    n = meas.n_samples
+    _check_lengths(meas, src)
+    bad = range_violations(meas)
+    if bad.size and not allow_out_of_range:
+        i = int(bad[0])
+        raise MeasurementFileError(src, None, f"{bad.size} reading(s) outside the instrument range "
+                                   f"[{meas.range[0] * 1e3:g}, {meas.range[1] * 1e3:g}] mm, first at sample {i} "
+                                   f"(t = {meas.t[i]:g} s, reading {meas.reading[i] * 1e3:g} mm)")
+    cols: list[tuple[str, Array | NDArray[np.str_]]] = [("t_s", meas.t)]
+    if meas.poses is not None:
+        for j, name in enumerate(POSE_COLUMNS):
+            cols.append((name, meas.poses[:, j] / _POSE_SCALE[j]))
+    if meas.drives is not None:
+        units = meas.drive_units or ("mm",) * meas.drives.shape[1]
+        for j, u in enumerate(units):
+            cols.append((f"q{j + 1}_{u}", meas.drives[:, j] / (1e-3 if u == "mm" else math.pi / 180)))
+    cols.append(("reading_mm", meas.reading / 1e-3))
+    if meas.feed is not None:
+        cols.append(("feed_mm_min", meas.feed * 60e3))
+    if meas.direction is not None:
+        cols.append(("direction", np.asarray(meas.direction)))
+    if meas.temperature is not None:
+        cols.append(("temperature_C", meas.temperature))
+    head = [
+        f"# {SIGNATURE}",
+        f"# format_version: {FORMAT_VERSION}",
+        f"# machine: {meas.machine}",
+        f"# instrument: {meas.instrument}",
+        f"# bar_length_mm: {_fmt(meas.bar_length / 1e-3)}",
+        f"# fixed_ball_mm: {_vec(np.asarray(meas.fixed_ball), 1e-3)}",
+        f"# ball_offset_mm: {_vec(np.asarray(meas.ball_offset), 1e-3)}",
+        f"# range_mm: {_vec(np.asarray(meas.range), 1e-3)}",
+        f"# resolution_um: {_fmt(meas.resolution / 1e-6)}",
+        f"# accuracy_um: {_fmt(meas.accuracy / 1e-6)}",
+        f"# sample_rate_hz: {_fmt(meas.sample_rate)}",
+        f"# plane: {meas.plane}",
+        f"# units: {UNITS_LINE}",
+    ] + [f"# note: {note}" for note in meas.notes]
+    text_cols = []
+    for name, values in cols:
+        if name == "direction":
+            text_cols.append([str(v) for v in values])
+        else:
+            text_cols.append([_fmt(v) for v in np.asarray(values, dtype=float)])
+    rows = [",".join(c[i] for c in text_cols) for i in range(n)]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(head + [",".join(name for name, _ in cols)] + rows) + "\n", encoding="utf-8")
+    return path
+
+
+def _check_lengths(meas: BallbarMeasurement, src: str) -> None:
+    n = meas.n_samples
+    for name in ("reading", "poses", "drives", "feed", "direction", "temperature"):
+        v = getattr(meas, name)
+        if v is not None and len(v) != n:
+            raise MeasurementFileError(src, None, f"'{name}' has {len(v)} samples, expected {n} (as 't')")
+    if meas.poses is None and meas.drives is None:
+        raise MeasurementFileError(src, None, "a measurement needs commanded poses or drive values")
+
+
+# ------------------------------------------------------------------------------------------------- reading
+
+_HEADER_KEYS = ("format_version", "machine", "instrument", "bar_length_mm", "fixed_ball_mm", "ball_offset_mm",
+                "range_mm", "resolution_um", "accuracy_um", "sample_rate_hz", "plane", "units", "note")
+
+
+def _numbers(src: str, line: int, key: str, text: str, count: int) -> list[float]:
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        vals = []
+    if len(vals) != count or not all(math.isfinite(v) for v in vals):
+        what = "a number" if count == 1 else f"{count} comma-separated numbers"
+        raise MeasurementFileError(src, line, f"header key '{key}': expected {what}, found {text!r}")
+    return vals
+
+
+def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMeasurement:
+    """Read a measurement CSV (format in the module docstring) into SI units.
+
+    Raises :class:`MeasurementFileError` (one line: file, line, column) for: a missing file, unknown or repeated
+    header keys, bad header values, a missing column row, unknown/duplicate/missing columns, rows with the wrong
+    number of cells, cells that are not finite numbers (or not ccw/cw), time running backwards, and — with
+    ``check_range`` — readings outside the instrument range.
+    """
+    path = Path(path)
+    src = str(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise MeasurementFileError(src, None, "file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MeasurementFileError(src, None, f"cannot read the file ({exc.__class__.__name__})") from None
+    lines = text.splitlines()
+    header: dict[str, tuple[int, str]] = {}
+    notes: list[str] = []
+    columns: list[str] | None = None
+    col_line = 0
+    data_lines: list[int] = []
+    data_rows: list[list[str]] = []
+    for no, raw in enumerate(lines, start=1):
+        s = raw.strip()
+        if not s:
+            continue
+        if s.startswith("#"):
+            if columns is not None:
+                continue  # comments between data rows are allowed and ignored
+            body = s[1:].strip()
+            if ":" not in body:
+                continue  # free comment (e.g. the signature line)
+            key, value = (p.strip() for p in body.split(":", 1))
+            if key not in _HEADER_KEYS:
+                raise MeasurementFileError(src, no, f"unknown header key '{key}'; expected one of "
+                                           f"{', '.join(_HEADER_KEYS)}")
+            if key == "note":
+                notes.append(value)
+                continue
+            if key in header:
+                raise MeasurementFileError(src, no, f"header key '{key}' repeated (first on line {header[key][0]})")
+            header[key] = (no, value)
+            continue
+        cells = [c.strip() for c in s.split(",")]
+        if columns is None:
+            columns, col_line = cells, no
+        else:
+            data_lines.append(no)
+            data_rows.append(cells)
+    if columns is None:
+        raise MeasurementFileError(src, len(lines) or None, "no column row found (expected a line such as "
+                                   "'t_s,x_mm,...,reading_mm')")
+    meta = _parse_header(src, header)
+    layout = _parse_columns(src, col_line, columns)
+    if not data_rows:
+        raise MeasurementFileError(src, col_line, "no data rows after the column row")
+    ncol = len(columns)
+    for no, cells in zip(data_lines, data_rows):
+        if len(cells) != ncol:
+            raise MeasurementFileError(src, no, f"expected {ncol} values (as in the column row, line {col_line}), "
+                                       f"found {len(cells)}")
+    table = np.array(data_rows, dtype=object)
+    line_no = np.array(data_lines, dtype=np.int64)
+
+    def numeric(j: int) -> Array:
+        col = table[:, j]
+        try:
+            vals = np.array(col, dtype=float)
+        except ValueError:
+            vals = None
+        if vals is None:
+            for i, c in enumerate(col):
+                try:
+                    float(c)
+                except ValueError:
+                    raise MeasurementFileError(src, int(line_no[i]), f"expected a number, found {c!r}",
+                                               j + 1, columns[j]) from None
+        bad = ~np.isfinite(vals)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise MeasurementFileError(src, int(line_no[i]), f"expected a finite number, found {col[i]!r}",
+                                       j + 1, columns[j])
+        return vals
+
+    t = numeric(layout["t_s"])
+    back = np.flatnonzero(np.diff(t) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise MeasurementFileError(src, int(line_no[i]), f"time must not decrease: {t[i]:g} s after {t[i - 1]:g} s",
+                                   layout["t_s"] + 1, "t_s")
+    reading = numeric(layout["reading_mm"]) * 1e-3
+    poses = None
+    if "x_mm" in layout:
+        poses = np.column_stack([numeric(layout[c]) for c in POSE_COLUMNS]) * _POSE_SCALE
+    drives, drive_units = None, ()
+    dcols = layout.get("drives", [])
+    if dcols:
+        drive_units = tuple(u for _, u in dcols)
+        drives = np.column_stack([numeric(j) * (1e-3 if u == "mm" else math.pi / 180) for j, u in dcols])
+    feed = numeric(layout["feed_mm_min"]) / 60e3 if "feed_mm_min" in layout else None
+    temperature = numeric(layout["temperature_C"]) if "temperature_C" in layout else None
+    direction = None
+    if "direction" in layout:
+        j = layout["direction"]
+        direction = np.char.lower(table[:, j].astype(str))
+        bad = ~np.isin(direction, ("ccw", "cw"))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise MeasurementFileError(src, int(line_no[i]), f"expected 'ccw' or 'cw', found {table[i, j]!r}",
+                                       j + 1, "direction")
+    meas = BallbarMeasurement(t=t, reading=reading, poses=poses, drives=drives, drive_units=drive_units,
+                              feed=feed, direction=direction, temperature=temperature, notes=notes,
+                              lines=line_no, **meta)
+    if check_range:
+        bad = range_violations(meas)
+        if bad.size:
+            i = int(bad[0])
+            lo, hi = meas.range
+            more = f" ({bad.size} readings out of range, lines {line_no[bad[0]]}-{line_no[bad[-1]]})" \
+                if bad.size > 1 else ""
+            raise MeasurementFileError(src, int(line_no[i]), f"reading {reading[i] * 1e3:g} mm outside the "
+                                       f"instrument range [{lo * 1e3:g}, {hi * 1e3:g}] mm{more}",
+                                       layout["reading_mm"] + 1, "reading_mm")
+    return meas
+
+
+def _parse_header(src: str, header: dict[str, tuple[int, str]]) -> dict:
+    def get(key: str) -> tuple[int, str] | None:
+        return header.get(key)
+
+    if "format_version" in header:
+        no, v = header["format_version"]
+        if v != str(FORMAT_VERSION):
+            raise MeasurementFileError(src, no, f"header key 'format_version': expected {FORMAT_VERSION}, found {v!r}")
+    meta: dict = {}
+    if "bar_length_mm" not in header:
+        raise MeasurementFileError(src, None, "missing header key 'bar_length_mm' (e.g. '# bar_length_mm: 150')")
+    no, v = header["bar_length_mm"]
+    (L,) = _numbers(src, no, "bar_length_mm", v, 1)
+    if L <= 0:
+        raise MeasurementFileError(src, no, f"header key 'bar_length_mm': expected a positive length, found {v!r}")
+    meta["bar_length"] = L * 1e-3
+    if "fixed_ball_mm" not in header:
+        raise MeasurementFileError(src, None, "missing header key 'fixed_ball_mm' (e.g. '# fixed_ball_mm: 0, 0, 0')")
+    no, v = header["fixed_ball_mm"]
+    meta["fixed_ball"] = np.array(_numbers(src, no, "fixed_ball_mm", v, 3)) * 1e-3
+    if (h := get("ball_offset_mm")) is not None:
+        meta["ball_offset"] = np.array(_numbers(src, h[0], "ball_offset_mm", h[1], 3)) * 1e-3
+    if (h := get("range_mm")) is not None:
+        lo, hi = _numbers(src, h[0], "range_mm", h[1], 2)
+        if not lo < hi:
+            raise MeasurementFileError(src, h[0], f"header key 'range_mm': expected lower < upper, found {h[1]!r}")
+        meta["range"] = (lo * 1e-3, hi * 1e-3)
+    for key, attr, scale in (("resolution_um", "resolution", 1e-6), ("accuracy_um", "accuracy", 1e-6),
+                             ("sample_rate_hz", "sample_rate", 1.0)):
+        if (h := get(key)) is not None:
+            (x,) = _numbers(src, h[0], key, h[1], 1)
+            if x <= 0:
+                raise MeasurementFileError(src, h[0], f"header key '{key}': expected a positive number, "
+                                           f"found {h[1]!r}")
+            meta[attr] = x * scale
+    for key in ("machine", "instrument"):
+        if (h := get(key)) is not None:
+            meta[key] = h[1]
+    if (h := get("plane")) is not None:
+        if h[1].upper() not in ("XY", "YZ", "ZX", "XZ", "AUTO"):
+            raise MeasurementFileError(src, h[0], f"header key 'plane': expected XY, YZ, ZX, XZ or auto, "
+                                       f"found {h[1]!r}")
+        meta["plane"] = h[1].upper() if h[1].upper() != "AUTO" else "auto"
+    return meta
+
+
+def _parse_columns(src: str, line: int, columns: list[str]) -> dict:
+    layout: dict = {}
+    drives: list[tuple[int, int, str]] = []
+    allowed = ("t_s",) + POSE_COLUMNS + ("q<i>_mm", "q<i>_deg", "reading_mm") + _OPTIONAL
+    for j, name in enumerate(columns):
+        m = _DRIVE_RE.match(name)
+        if name in layout or (m and any(d[0] == int(m.group(1)) for d in drives)):
+            raise MeasurementFileError(src, line, f"duplicate column '{name}'", j + 1, name)
+        if m:
+            drives.append((int(m.group(1)), j, m.group(2)))
+        elif name in ("t_s", "reading_mm") + POSE_COLUMNS + _OPTIONAL:
+            layout[name] = j
+        else:
+            raise MeasurementFileError(src, line, f"unknown column '{name}'; expected one of {', '.join(allowed)}",
+                                       j + 1, name)
+    for req in ("t_s", "reading_mm"):
+        if req not in layout:
+            raise MeasurementFileError(src, line, f"missing column '{req}'")
+    have = [c for c in POSE_COLUMNS if c in layout]
+    if have and len(have) != 6:
+        missing = [c for c in POSE_COLUMNS if c not in layout]
+        raise MeasurementFileError(src, line, f"pose columns incomplete: missing {', '.join(missing)}")
+    if drives:
+        drives.sort()
+        idx = [d[0] for d in drives]
+        if idx != list(range(1, len(idx) + 1)):
+            raise MeasurementFileError(src, line, f"drive columns must be q1..q{len(idx)}, found "
+                                       f"{', '.join('q%d' % i for i in idx)}")
+        layout["drives"] = [(j, u) for _, j, u in drives]
+    if not have and not drives:
+        raise MeasurementFileError(src, line, "expected the commanded pose (x_mm,y_mm,z_mm,a_deg,b_deg,c_deg) or "
+                                   "drive values (q1_mm, ...) among the columns")
+    return layout
