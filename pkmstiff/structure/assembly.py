@@ -1,5 +1,5 @@
 """Assembly of the SDE model from layout, geometry and chain stiffness: bindings W, V, U
-(docs/theory/structure-model.md, Cobet eq. 3.6, 4.48-4.52).
+(docs/theory/structure.md, Cobet eq. 3.6, 4.48-4.52).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Bodies and layout of the PKM structure model: which bodies exist, their masses, the component roles
-(docs/theory/structure-model.md, Cobet §4.2).
+(docs/theory/structure.md, Cobet §4.2).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Mass matrices of the platform and of the moved bodies for the structure model and the dynamics
-(docs/theory/structure-model.md, Cobet §4.2, §4.7).
+(docs/theory/structure.md, Cobet §4.2, §4.7).
 """
 
 from __future__ import annotations

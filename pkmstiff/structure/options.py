@@ -1,4 +1,4 @@
-"""Options, status codes and the error of the PKM structure model (docs/theory/structure-model.md).
+"""Options, status codes and the error of the PKM structure model (docs/theory/structure.md).
 """
 
 from __future__ import annotations

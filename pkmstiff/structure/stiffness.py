@@ -1,5 +1,5 @@
 """Component stiffness per pose and chain: evaluation of the component models at the joint angles and drive
-positions of each pose, chain series stiffness k_V (docs/theory/structure-model.md, Cobet eq. 4.48-4.50).
+positions of each pose, chain series stiffness k_V (docs/theory/structure.md, Cobet eq. 4.48-4.50).
 """
 
 from __future__ import annotations
