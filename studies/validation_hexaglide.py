@@ -89,39 +89,51 @@ SETTINGS = {"default": {"step": 0.005, "eps": 0.003125, "cause_step": 0.005, "sh
 
 #: one-line explanations of deviations above 5 % (key: source, quantity); written from the model, never fitted
 EXPLANATIONS = {
-    ("Table 5.7 measurement", "k_x"): "joint, drive and guide data are the simulation inputs of the measured-joints "
-                                      "column; the model has no frame/bed compliance, so it may be stiffer than the "
-                                      "machine",
-    ("Table 5.7 measurement", "k_y"): "k_y (≈ 3 N/um) is set by the drive axial stiffness 25 N/um through a nearly "
-                                      "singular y transmission; a few % of geometry move it by tens of %",
-    ("Table 5.7 measurement", "k_z"): "k_z depends on the 3-DOF joint stiffness at the lower-edge tilt, where the "
-                                      "measured spline (component-data.md §1) falls steeply (262 -> 136 N/um over "
-                                      "15 deg)",
-    ("Table 5.7 FE-based joints", "k_x"): "the 3-DOF FE curve of the dissertation is unpublished; the toolkit's own "
-                                          "FE sweep is stiffer, so this column cannot be reproduced",
-    ("Table 5.7 FE-based joints", "k_y"): "the 3-DOF FE curve of the dissertation is unpublished (toolkit FE sweep "
-                                          "used); k_y is also sensitive to geometry (nearly singular y direction)",
-    ("Table 5.7 FE-based joints", "k_z"): "the 3-DOF FE curve of the dissertation is unpublished; the toolkit's FE "
-                                          "sweep is stiffer than the dissertation's at the lower-edge tilts",
-    ("Table 5.7 measured joints", "k_x"): "joint spline reconstructed from published points only (component-data.md "
-                                          "§1); platform/spindle CoG and K_U coupling point not published",
-    ("Table 5.7 measured joints", "k_y"): "k_y ≈ 3 N/um follows the drive stiffness through a nearly singular y "
-                                          "transmission: very sensitive to geometry and joint tilt (see sensitivity)",
-    ("Table 5.7 measured joints", "k_z"): "k_z depends on the 3-DOF joint stiffness near 0-15 deg tilt, where the "
-                                          "reconstructed spline is least certain; published value lies outside our "
-                                          "K_U / tool-length range",
-    ("Table 5.8", "f"): "eigenfrequencies depend on the unpublished split of the strut, joint and spindle masses and "
-                        "of the platform inertia (sensitivity column); no value of the split reproduces all three",
-    ("Table 5.1", "volume ratio"): "ratios only (machines.md §1.7 item 8); the variants' hulls are 3+3-point "
-                                   "guesses (uncertain, §1.7 item 7) and the drive-load limit moves with the "
-                                   "variants' strut masses",
-    ("Table 5.1", "U"): "U = kappa^(-1/2) (eq. 4.75 note); means depend on the admissible area (hull and "
-                        "drive-load limit of each configuration), maxima on the raster",
-    ("Table 5.1", "kx"): "x-stiffness with a 150 mm tool keeps K_U, whose rotational units are not printed "
-                         "(machines.md §1.4 note 3) and whose coupling point is unpublished; means depend on the "
-                         "admissible area",
-    ("Table 5.1", "vmax_y"): "v_max,y diverges near the y-singular edge of the workspace, so max and mean depend on "
-                             "where the admissible area ends (hull, drive load) and on the raster",
+    ("Table 5.7 measurement", "k_x"): "measurement vs model: the model has no frame, bed or guide-rail compliance "
+                                      "and idealised joints; within our K_U / tool-length range",
+    ("Table 5.7 measurement", "k_y"): "k_y ≈ 3 N/um is dominated by the drives' axial 25 N/um seen through a weak y "
+                                      "transmission; the dissertation's own simulations are 8 % above the "
+                                      "measurement too",
+    ("Table 5.7 measurement", "k_z"): "k_z is dominated by the 3-DOF drive joints (tilt 43-46 deg here); their "
+                                      "spline between the published support points (component-data.md §1) is "
+                                      "reconstructed",
+    ("Table 5.7 FE-based joints", "k_"): "drive-joint tilts are 43-46 deg at this pose; the toolkit's 3-DOF FE sweep "
+                                         "gives 46.6 N/um at 45 deg, the dissertation's only published 3-DOF FE "
+                                         "point 5000 N / 153.8 um = 32.5 N/um (component-data.md §3): ours is stiffer",
+    ("Table 5.7 measured joints", "k_x"): "within our K_U / tool-length range (Table 5.7 does not state either); "
+                                          "joint spline reconstructed from published points",
+    ("Table 5.7 measured joints", "k_y"): "k_y ≈ 3 N/um is dominated by the drives' axial 25 N/um seen through a weak "
+                                          "y transmission; cause of the remaining +23 % not identified",
+    ("Table 5.7 measured joints", "k_z"): "k_z is dominated by the 3-DOF drive joints (tilt 43-46 deg); their spline "
+                                          "between the published support points (component-data.md §1) is "
+                                          "reconstructed, not measured",
+    ("Table 5.8 FE-based joints", "f1"): "within our range over the unpublished strut-mass split (17.9-23.8 Hz)",
+    ("Table 5.8", "f1"): "our mode 1 is the y translation; with the published k_y (2.5-2.7 N/um) and the platform "
+                         "mass 117.24 kg alone a y translation is at most 23.2-24.2 Hz, so the published masses "
+                         "cannot give 26.3-27.5 Hz",
+    ("Table 5.8", "f"): "modes 2 and 3 rotate the platform about y and x: set by M_P's rotational entries (units not "
+                        "printed, read as kg m^2 about O') and the unpublished CoG; about 2.2x smaller inertias "
+                        "would be needed",
+    ("Table 5.1 variant 2", "volume ratio"): "ratio only (machines.md §1.7 item 8); the variants' hulls are 3+3-point "
+                                             "guesses (§1.7 item 7) and their strut masses (drive-load limit) are "
+                                             "assumed (EA/l, 12.13 kg/m)",
+    ("Table 5.1 variant 1", "U max"): "our U on variant 1 is almost constant (max 0.128, 95th percentile 0.127) "
+                                      "while the mean agrees (+1.6 %); cause not identified",
+    ("Table 5.1", "U max"): "maximum over our admissible Y-Z area (original: at y = -80, z = -960 mm); the "
+                            "published maximum needs a better-conditioned pose than any on our plane; cause not "
+                            "identified",
+    ("Table 5.1", "U mean"): "means depend on the admissible area; the variants' hulls (3+3 points) and drive-load "
+                             "limits (assumed strut masses) are uncertain",
+    ("Table 5.1 original", "kx max"): "our maximum lies at the lower workspace edge (y = 140, z = -1080 mm; 95th "
+                                      "percentile 34.8 N/um) where the drive joints are nearly vertical and stiff; "
+                                      "the mean agrees (+4.5 %)",
+    ("Table 5.1", "kx"): "variants: strut stiffness and mass assumed (EA/l, 12.13 kg/m; machines.md §1.3) and K_U's "
+                         "rotational unit unprinted (sensitivity column); cause of the variant differences not "
+                         "identified",
+    ("Table 5.1 variant 1", "vmax_y"): "our variant-1 admissible area (0.146 m^2 on the plane) lies in a region of "
+                                       "high y-speed; the published mean is 37 % lower; cause not identified",
+    ("Table 5.1", "vmax_y"): "v_max,y grows towards the y-singular edge, so max and mean depend on where the "
+                             "admissible area ends (hull, drive load) and on the raster",
 }
 
 
@@ -339,7 +351,8 @@ def plot_cause_map(res: SectionResult, boundary: np.ndarray, cause: np.ndarray, 
 
     pl = res.plane
     u, v = pl.u_values * 1e3, pl.v_values * 1e3
-    fig = MplFigure(figsize=(8.2, 5.2), constrained_layout=True)
+    aspect = (v[-1] - v[0]) / (u[-1] - u[0])
+    fig = MplFigure(figsize=(8.6, 1.2 + 5.4 * min(aspect, 1.2)), constrained_layout=True)
     ax = fig.add_subplot()
     ax.pcolormesh(u, v, np.where(res.ok, 1.0, np.nan), cmap="Greys", vmin=0, vmax=2.5, shading="nearest",
                   rasterized=True)
@@ -365,7 +378,7 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> 
     """Original Hexaglide at a = b = c = 0: YZ section at x = 0 and XZ section at y = 85 mm (report frame) with
     boundary causes, and the 3-D workspace (Cobet 5.1 shape)."""
     m = pkmstiff.load_machine("hexaglide")
-    planes = {"yz": ("yz", 0.0, (-0.70, 0.90), (-1.60, -0.15)), "xz": ("xz", 0.085, (-1.40, 1.40), (-1.60, -0.15))}
+    planes = {"yz": ("yz", 0.0, (-0.70, 0.90), (-1.40, -0.10)), "xz": ("xz", 0.085, (-1.10, 1.10), (-1.40, -0.10))}
     info: dict[str, Any] = {}
     figs: list[Figure] = []
     for key, (kind, at, ur, vr) in planes.items():
@@ -393,8 +406,8 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> 
         if figures:
             where = f"x = {at * 1e3:g} mm" if kind == "yz" else f"y = {at * 1e3:g} mm"
             p = plot_cause_map(res, b, c, out / f"hexaglide_boundary_causes_{kind}.png",
-                               f"Hexaglide (original), a = b = c = 0: {kind.upper()} section at {where}, "
-                               f"boundary coloured by the limiting check")
+                               f"Hexaglide (original), a = b = c = 0: {kind.upper()} section at {where}\n"
+                               f"boundary points coloured by the limiting check")
             figs.append(Figure(p, f"Boundary-cause map, {kind.upper()} section at {where} (report frame): grey = "
                                   "admissible; each boundary point coloured by the check failing at most of its "
                                   "inadmissible neighbours."))

@@ -132,7 +132,9 @@ def test_e_published_option_is_table_54():
     assert np.allclose(m.chains.drive_axis, unit, atol=1e-12)
     assert np.allclose(m.chains.drive_reference, PUBLISHED_B / np.linalg.norm(PUBLISHED_B, axis=1, keepdims=True),
                        atol=1e-12)
-    assert np.allclose(pkmstiff.load_machine("hexaglide").chains.drive_axis, [[-1.0, 0.0, 0.0]] * 6)
+    # the original: vertical axes by default (machines.md §1.7 item 1), Table C.1/5.4 as printed with printed_values
+    assert np.allclose(pkmstiff.load_machine("hexaglide").chains.drive_axis, [[0.0, 0.0, -1.0]] * 6)
+    assert np.allclose(pkmstiff.load_machine("hexaglide:printed_values").chains.drive_axis, [[-1.0, 0.0, 0.0]] * 6)
 
 
 def test_e_parametrisation_reproduces_table_54(study_e):
