@@ -101,7 +101,8 @@ def test_study_b_tilt_table_and_monotonicity(runs):
                                                       poses).ok
     ik = inverse_kinematics(m, poses[ok])
     u = ik.d[:, 0] / ik.length[:, 0, None]  # strut 1 direction at a = b = c = 0 (platform axes = machine axes)
-    tilts = {"drive joint 1 (3 DOF)": np.degrees(np.arccos(np.abs(u @ np.array([-1.0, 0.0, 0.0])))),
+    # drive-joint axis of the machine file: vertical (0, 0, -1) (machines.md §1.7 item 1)
+    tilts = {"drive joint 1 (3 DOF)": np.degrees(np.arccos(np.abs(u @ np.array([0.0, 0.0, -1.0])))),
              "platform joint 1 (2 DOF)": np.degrees(np.arccos(np.abs(u @ (np.array([1.0, 1.0, 0.0]) / np.sqrt(2)))))}
     splines = {"drive joint 1 (3 DOF)": spec_spline(SPEC_3DOF), "platform joint 1 (2 DOF)": spec_spline(SPEC_2DOF)}
     for joint, t in tilts.items():
