@@ -370,7 +370,7 @@ def plot_cause_map(res: SectionResult, boundary: np.ndarray, cause: np.ndarray, 
     ax.set_title(title, fontsize=10)
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="limiting check")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, bbox_inches="tight")  # the legend sits outside the axes
     return path
 
 
