@@ -35,10 +35,12 @@ def run(args: argparse.Namespace) -> int:
     from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
 
     machine = neglect_spindle(load_machine(MACHINE))  # K_U left out at tool length 0, as in the dissertation
-    plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.3, -0.4), step)
-    res = evaluate_section(machine, plane, QUANTITIES, tool_length=0.0, progress=False if quiet else None)
+    # report frame (origin at the middle guide, the dissertation's positions): covers the whole admissible region
+    plane = axis_plane("yz", 0.0, (-0.7, 0.6), (-1.3, -0.4), step)
+    res = evaluate_section(machine, plane, QUANTITIES, tool_length=0.0, progress=False if quiet else None,
+                           frame="report")
     files = write_section_outputs(res, out, ("png", "vtu", "csv"), "hexaglide_yz")
-    planes = three_planes((0.0, 0.1, -0.9), (0.5, 0.7, 0.35), max(step, 0.02))
+    planes = three_planes((0.0, 0.45, -0.9), (0.5, 0.7, 0.35), max(step, 0.02))  # machine frame
     three = evaluate_three_planes(machine, planes, ["kx"], tool_length=0.0, progress=False)
     from pkmstiff.plots.section_maps import plot_three_planes
 
@@ -51,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
     info = section_summary(res, seconds)
     _write_summary(out, machine.title, info, [f for f in files if f.suffix == ".png"] + [reasons_png, fig3],
                    machine.assumptions)
-    print(f"pkmstiff demo: {machine.title}, {plane.name}, {res.ok.sum()} of {res.ok.size} points admissible, "
+    print(f"pkmstiff demo: {machine.title}, {plane.name} (report frame), {res.ok.sum()} of {res.ok.size} points "
+          f"admissible, "
           f"{seconds:.1f} s")
     for n, st in info["statistics"].items():
         print(f"  {n:<4} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
@@ -70,7 +73,8 @@ def _write_summary(out: Path, title: str, info: dict, images: list[Path], assump
     rows = _table(info)
     reasons = ", ".join(f"{k} {v}" for k, v in info["inadmissible_reasons"].items()) or "none"
     md = [f"# pkmstiff demo — {title}", "",
-          f"{info['plane']} (machine frame), a = b = c = 0, tool length 0 mm, K_U neglected (platform and spindle "
+          f"{info['plane']} (report frame, origin at the middle guide), a = b = c = 0, tool length 0 mm, K_U "
+          f"neglected (platform and spindle "
           f"rigid, Cobet 4.2.4); {info['admissible_points']} of {info['points']} raster "
           f"points admissible ({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.", "",
           "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
