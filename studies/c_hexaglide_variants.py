@@ -10,7 +10,8 @@ original's, docs/user-guide/machines.md) the quantities of the dissertation's Ta
 * static x-stiffness k_x at the TCP with a tool length of 150 mm on the YZ plane: maximum and mean;
 * maximum tool velocity in y (eq. 4.79, drive speed 1 m/s) on the YZ plane: maximum and mean;
 * the rotational workspace projections "+a over (b, c)" and "+b over (a, c)" at the dissertation's points and, because
-  those points are not admissible with the data as given, at the centre of each configuration's YZ section.
+  those points are given in the dissertation's report frame (middle guide), also at the centre of each
+  configuration's YZ section.
 
 Table 5.1 layout: absolute values and % of the original. Also the workspace without the static drive-load check
 (B.13), since Kirchner's variants were optimised for the kinematics only.
@@ -32,6 +33,7 @@ from _study_common import (MapPanel, Stopwatch, machine_assumptions, parse_args,
                            shared_clim, write_outputs)
 
 import pkmstiff  # noqa: E402
+from pkmstiff.machine.frames import to_machine_frame  # noqa: E402
 import pkmstiff.admissibility.checks as adm  # noqa: E402
 from pkmstiff.machine.model import Machine  # noqa: E402
 from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
@@ -44,7 +46,7 @@ from pkmstiff.workspace.translational import WorkspaceResult, constant_orientati
 # (label, machine); the first is the baseline of every table
 VARIANTS = (("original", "hexaglide"), ("variant 1", "hexaglide_v1"), ("variant 2", "hexaglide_v2"))
 BASELINE = VARIANTS[0][0]
-# points of the rotational workspace in the dissertation (Cobet 5.1), m
+# points of the rotational workspace in the dissertation (Cobet 5.1), m, in its report frame (middle guide)
 DISSERTATION_POINTS = {"original": (0.0, 0.0, -0.900), "variant 1": (0.0, 0.0, -1.150),
                        "variant 2": (0.0, -0.200, -1.000)}
 TOOL_LENGTH = 0.150  # m, Cobet 5.1: x-stiffness with a 150 mm tool
@@ -52,7 +54,7 @@ QUANTITIES = ("U", "kx", "vmax_y")
 # YZ plane at x = 0 (m): covers the admissible regions of all three configurations (y -0.17…1.31 m) between the
 # machine bed (z = -1.1 m) and the frame's upper limit z = -0.34 m of hexaglide.toml
 Y_RANGE = (-0.30, 1.40)
-Z_RANGE = (-1.10, -0.34)
+Z_RANGE = (-1.30, -0.40)
 NO_DRIVE_LOAD = tuple(c for c in adm.ALL_CHECKS if c != "drive_load")
 SETTINGS = {
     # eps: octree resolution (m); step: section raster (m); rot: rotational-workspace raster (deg) and increment
@@ -70,9 +72,10 @@ STUDY_ASSUMPTIONS = {
                         "converges quadratically) and the divergence volume (signed tetrahedron sum, correct for "
                         "workspaces that are not star-shaped about the point-cloud centre, where the unsigned "
                         "tetrahedron sum over-counts). All three are listed; % of the original per method",
-    "workspace box": "octree start box = the chains' reach box cut to the frame limits of hexaglide.toml "
-                     "(machine bed z >= -1.1 m, O' z <= -0.34 m below the drive joints), inherited by the variants",
-    "section plane": "YZ plane at x = 0, y -300…1400 mm, z -1100…-340 mm: covers the admissible region of all "
+    "workspace box": "octree start box = the chains' reach box cut to the frame limit of hexaglide.toml "
+                     "(O' below the drive-joint plane z <= -0.15 m; no machine-bed cut, docs/user-guide/validation-hexaglide.md (reading 3)), "
+                     "inherited by the variants",
+    "section plane": "YZ plane at x = 0 (machine frame), y -300…1400 mm, z -1300…-400 mm: covers the admissible region of all "
                      "three "
                      "configurations; statistics over the admissible raster points only (raster not stated in "
                      "the dissertation)",
@@ -86,10 +89,11 @@ STUDY_ASSUMPTIONS = {
                        "vertices break the vertex pattern in one sign (docs/theory/kinematics.md note 3, option pattern_hull, "
                        "not used)",
     "rotational workspace points": "the dissertation's points (original x = 0, y = 0, z = -900 mm; variant 1 "
-                                   "z = -1150 mm; variant 2 y = -200, z = -1000 mm) are not admissible at "
-                                   "a = b = c = 0 with the data as given (reasons in the report); the projections "
-                                   "are also evaluated at the centroid of each configuration's admissible YZ "
-                                   "section (nearest admissible raster point)",
+                                   "z = -1150 mm; variant 2 y = -200, z = -1000 mm) are given in its report frame "
+                                   "(origin at each configuration's middle guide, docs/user-guide/validation-hexaglide.md (reading 2)) and "
+                                   "converted to the machine frame; the projections are also evaluated at the "
+                                   "centroid of each configuration's admissible YZ section (nearest admissible "
+                                   "raster point)",
     "rotational workspace raster": "+a over (b, c) and +b over (a, c) with b resp. a in -30…30 deg and c in "
                                    "-60…60 deg (the dissertation's ranges are not stated); search bound 90 deg",
 }
@@ -269,8 +273,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     secs_kin = {lab: kinematic_section(m, cfg["step"]) for lab, m in machines.items()}
     stats_kin = {lab: r.statistics() for lab, r in secs_kin.items()}
     sw.lap("sections")
-    points = {lab: {"dissertation": DISSERTATION_POINTS[lab], "centre": section_centre(secs[lab])} for lab in labels}
-    status = {lab: point_status(machines[lab], DISSERTATION_POINTS[lab]) for lab in labels}
+    diss = {lab: tuple(to_machine_frame(machines[lab], DISSERTATION_POINTS[lab], "report")) for lab in labels}
+    points = {lab: {"dissertation": diss[lab], "centre": section_centre(secs[lab])} for lab in labels}
+    status = {lab: point_status(machines[lab], diss[lab]) for lab in labels}
     rot = {lab: {where: rotational(machines[lab], p, cfg) for where, p in points[lab].items()} for lab in labels}
     rstats = {lab: {where: {d: rot_stats(r) for d, r in rot[lab][where].items()} for where in rot[lab]}
               for lab in labels}
@@ -357,7 +362,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         "Rotational workspace at a point",
         "Maximum admissible +a as a function of (b, c) and maximum +b as a function of (a, c) (Cobet 5.1, docs/theory/workspace.md). "
         "Status of the dissertation's points at a = b = c = 0: " + "; ".join(
-            f"{lab} {tuple(round(v * 1e3) for v in DISSERTATION_POINTS[lab])} mm: {status[lab]}" for lab in labels)
+            f"{lab} {tuple(round(v * 1e3) for v in DISSERTATION_POINTS[lab])} mm (report frame; machine frame "
+            f"{tuple(round(v * 1e3) for v in diss[lab])} mm): {status[lab]}" for lab in labels)
         + ". The second pair of columns uses the admissible raster point nearest to the centroid of each "
           "configuration's admissible YZ section: " + "; ".join(
             f"{lab} (0, {points[lab]['centre'][1] * 1e3:.0f}, {points[lab]['centre'][2] * 1e3:.0f}) mm"

@@ -30,6 +30,7 @@ from _study_common import (MapPanel, Stopwatch, add_stat_rows, common_mask, mach
                            write_outputs)
 
 import pkmstiff  # noqa: E402
+from pkmstiff.machine.frames import neglect_spindle, to_machine_frame  # noqa: E402
 from pkmstiff.analysis import modal_analysis  # noqa: E402
 from pkmstiff.machine.roles import machine_components  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
@@ -47,7 +48,7 @@ FREQ_VARIANTS = ((OLD, "hexaglide:old_joints_fe"), (STIFF_ONLY, "hexaglide:impro
                  (IMPROVED_FE, "hexaglide:improved_joints_fe"), (MEASURED, "hexaglide"))
 BASELINE = OLD
 Y_RANGE = (-0.25, 1.10)
-Z_RANGE = (-1.15, -0.35)
+Z_RANGE = (-1.30, -0.40)
 STEP = {"default": 0.005, "fast": 0.025}
 QUANTITIES = ("kx", "ky", "kz")
 POSES_MM = {"z = -1000 mm (Cobet 5.5)": (0.0, 0.0, -1000.0),
@@ -64,6 +65,9 @@ STUDY_ASSUMPTIONS = {
                     "the old joints are lighter by 2.35 kg (3-DOF, per drive) and 1.8 kg (2-DOF, removed as a point "
                     "mass at each platform joint, with the platform CoG and inertia updated) (docs/theory/components.md)",
     "tool": "tool length 0 (TCP = O') for the stiffness (Cobet 5.3 does not restate it; consistent with 4.2.4)",
+    "spindle coupling": "K_U neglected at tool length 0 (platform and spindle rigid), as the dissertation's stiffness maps (Cobet 4.2.4, Fig. 4.25; docs/user-guide/validation-hexaglide.md (reading 4))",
+    "modal poses": "positions of the dissertation, in its report frame (origin at the middle guide, docs/user-guide/validation-hexaglide.md "
+                   "item 2); the section plane is given in the machine frame",
     "frequencies": "undamped eigenfrequencies of the 30-DOF rigid-body model (docs/theory/structure.md); the dissertation's "
                    "Table 5.3 values are measured frequency-response peaks at z = -950 mm",
 }
@@ -79,14 +83,16 @@ def evaluate_sections(fast: bool) -> dict[str, tuple[Any, SectionResult]]:
     out = {}
     for label, spec in VARIANTS:
         m = pkmstiff.load_machine(spec)
-        out[label] = (m, evaluate_section(m, pl, list(QUANTITIES), tool_length=0.0, progress=False))
+        out[label] = (m, evaluate_section(neglect_spindle(m), pl, list(QUANTITIES), tool_length=0.0, progress=False))
     return out
 
 
 def evaluate_modes(spec: str) -> dict[str, Any]:
     """First three eigenfrequencies (Hz) and platform-motion descriptions at the poses of ``POSES_MM``."""
     m = pkmstiff.load_machine(spec)
-    poses = np.array([[x / 1e3, y / 1e3, z / 1e3, 0.0, 0.0, 0.0] for x, y, z in POSES_MM.values()])
+    # POSES_MM are the dissertation's positions, i.e. in the report frame (origin at the middle guide)
+    poses = to_machine_frame(m, np.array([[x / 1e3, y / 1e3, z / 1e3, 0.0, 0.0, 0.0] for x, y, z in POSES_MM.values()]),
+                             "report")
     ma = modal_analysis(build_structure(m, poses), N_MODES, shapes=False)
     return {pose: {"f_hz": [float(f) for f in ma.frequencies_hz[i]],
                    "description": [ma.description(i, k) for k in range(N_MODES)]}

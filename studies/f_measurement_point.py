@@ -29,6 +29,7 @@ from _study_common import (Stopwatch, machine_assumptions, parse_args, relative_
                            write_outputs)
 
 import pkmstiff  # noqa: E402
+from pkmstiff.machine.frames import to_machine_frame  # noqa: E402
 from pkmstiff.analysis import axis_stiffness, modal_analysis, tcp_compliance, weak_points  # noqa: E402
 from pkmstiff.kinematics.joint_angles import joint_angles  # noqa: E402
 from pkmstiff.kinematics import inverse_kinematics  # noqa: E402
@@ -40,7 +41,7 @@ MEASURED = "test-rig joints (measured)"
 FE = "FE-based joints"
 VARIANTS = ((MEASURED, "hexaglide"), (FE, "hexaglide:fe_based_joints"))
 BASELINE = MEASURED
-POSE = np.array([0.0, 0.0, -1.0, 0.0, 0.0, 0.0])  # x, y, z [m], a, b, c [rad]
+POSE = np.array([0.0, 0.0, -1.0, 0.0, 0.0, 0.0])  # x, y, z [m], a, b, c [rad] in the report frame (middle guide)
 TOOL_LENGTHS = (0.0, 0.150)  # m
 DIRECTIONS = ("x", "y", "z")
 N_MODES = 3
@@ -54,7 +55,10 @@ STUDY_ASSUMPTIONS = {
     "measured machine values": "Cobet Tables 5.7/5.8 also list measurements on the machine; the spec gives none, "
                                "so only the two simulations are compared",
     "tool length": "Cobet 5.5 does not state the tool length of the stiffness measurement: 0 and 150 mm are both "
-                   "given; the tool points along -z' from O'",
+                   "given; the tool points along -z' from O'; at tool length 0 K_U is neglected (platform and "
+                   "spindle rigid) as in the dissertation's stiffness maps (Cobet 4.2.4; docs/user-guide/validation-hexaglide.md (reading 4))",
+    "pose": "x = y = 0, z = -1000 mm in the dissertation's report frame (origin at the middle guide, y = 400 mm "
+            "in the machine frame; docs/user-guide/validation-hexaglide.md (reading 2))",
     "frequencies": "undamped eigenfrequencies of the 30-DOF rigid-body model (docs/theory/structure.md, meaningful below about "
                    "250 Hz); modes do not depend on the tool length (rigid tool, massless)",
 }
@@ -69,16 +73,17 @@ def _percent(shares: np.ndarray) -> list[float]:
 def analyse(spec: str) -> dict[str, Any]:
     """Stiffness, modes, weak points and joint angles/stiffness of ``spec`` at ``POSE`` (SI inside, display out)."""
     m = pkmstiff.load_machine(spec)
-    st = build_structure(m, POSE[None])
+    pose = to_machine_frame(m, POSE, "report")
+    st = build_structure(m, pose[None])
     if not bool(st.ok[0]):
         raise RuntimeError(f"{spec}: the measurement pose is not modelled: {st.failing(0)}")
     stiffness = {}
     weak = {}
     for L in TOOL_LENGTHS:
-        k = axis_stiffness(tcp_compliance(st, tool_length=L))[0]
+        k = axis_stiffness(tcp_compliance(st, tool_length=L, neglect_spindle=L == 0.0))[0]
         stiffness[L] = {d: float(k[i]) / 1e6 for i, d in enumerate(DIRECTIONS)}  # N/um
         for d in DIRECTIONS:
-            wp = weak_points(st, d, tool_length=L)
+            wp = weak_points(st, d, tool_length=L, neglect_spindle=L == 0.0)
             weak[(d, L)] = dict(zip(wp.component_labels, _percent(wp.component_shares[0])))
     ma = modal_analysis(st, N_MODES, shapes=False)
     drives = [i for i, b in enumerate(ma.body_labels) if b.startswith("drive")]
@@ -91,7 +96,7 @@ def analyse(spec: str) -> dict[str, Any]:
                                 "drives (sum)": 100.0 * float(kin[drives].sum())},
             "strain_percent": dict(zip(ma.component_labels, _percent(ma.component_strain[0, k]))),
         })
-    ik = inverse_kinematics(m, POSE[None])
+    ik = inverse_kinematics(m, pose[None])
     ja = joint_angles(m, ik)
     mc = machine_components(m)
     from components import ComponentState

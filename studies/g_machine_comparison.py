@@ -55,8 +55,8 @@ STUDY_ASSUMPTIONS = {
                        "'usable' = with the frame limits of the machine file: Linapod machine table at z = 0 "
                        "(Cobet 5.2, O' z >= 0 at tool length 0); 6X platform joints below the plane of the lower "
                        "drive joints, z <= 2.300 - 0.495 = 1.805 m (without it the data admit O' up to z = 3.2 m); "
-                       "Hexaglide between the machine bed z = -1.1 m and z = -0.34 m (without it the data admit a "
-                       "mirror workspace above the guides)",
+                       "Hexaglide O' below the drive-joint plane z <= -0.15 m (without it the data admit a mirror "
+                       "workspace above the guides; no machine-bed cut, docs/user-guide/validation-hexaglide.md (reading 3))",
     "rotation maps": "maximum admissible +a (rotation about x) from a = b = c = 0 in steps of the increment up to a "
                      "search bound of 90 deg (points at the bound are counted), YZ plane at x = 0 (Paralix "
                      "x = -2000 mm), raster = the workspace's bounding box in y and z plus 50 mm; mean over the "
@@ -68,8 +68,9 @@ STUDY_ASSUMPTIONS = {
                               "bounded by reach and strut collisions only and are upper bounds",
     "6X data": "the 6X has the INA coupled joint limit B.6 on the platform side, strut lengths 1.28-2.57 m, no hull "
                "(no strut-platform check) and the drive-load check with an assumed 250 kg platform (machine file)",
-    "Hexaglide data": "the Hexaglide includes every check of its file (frame: machine bed z >= -1.1 m, O' z <= "
-                      "-0.34 m; hull; drive spacing; 5 deg minimum drive-joint tilt; drive load)",
+    "Hexaglide data": "the Hexaglide includes every check of its file (frame: O' z <= -0.15 m, no bed cut; hull; "
+                      "drive spacing; 5 deg minimum drive-joint tilt with vertical drive-joint axes; drive load "
+                      "with platform and struts, docs/user-guide/validation-hexaglide.md)",
 }
 
 

@@ -173,10 +173,13 @@ def test_combine_reason_codes():
 
 
 def test_frame_limits(hexaglide):
-    # Hexaglide frame (machine file): -1.1 m <= z <= -0.34 m, x and y free
-    pos = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.1], [0.0, 0.0, -1.1001], [5.0, -3.0, -0.34], [0.0, 0.0, 0.3]])
-    res = adm.check_frame(hexaglide, pos)
+    # Hexaglide frame with option machine_bed: -1.1 m <= z <= -0.15 m, x and y free
+    bed = load_machine("hexaglide:machine_bed")
+    pos = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.1], [0.0, 0.0, -1.1001], [5.0, -3.0, -0.15], [0.0, 0.0, 0.3]])
+    res = adm.check_frame(bed, pos)
     np.testing.assert_array_equal(res.ok, [True, True, False, True, False])
     assert res.detail[2].tolist() == [False, False, True]
+    # default (machines.md §1.7 item 3): no bed cut, only O' below the drive-joint plane z <= -0.15 m
+    np.testing.assert_array_equal(adm.check_frame(hexaglide, pos).ok, [True, True, True, True, False])
     unlimited = adm.check_frame(load_machine("paralix"), pos)
     assert unlimited.skipped and unlimited.ok.all()

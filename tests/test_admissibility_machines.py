@@ -108,13 +108,14 @@ def test_static_drive_loads_balance_gravity(hexaglide):
     from pkmstiff.machine.roles import drive_load_data
 
     data = drive_load_data(hexaglide)
-    assert data is not None and data.moved_mass == pytest.approx(117.24)
+    # platform with spindle + the six struts (machines.md §1.7 item 5)
+    assert data is not None and data.moved_mass == pytest.approx(117.24 + 2 * 12.13 + 4 * 11.52)
     p = _yz_grid(ny=7, nz=5)
     p[:, 3] = 0.05  # tilted platform: the CoG moment term matters if the CoG is off O'
     ev = evaluate_poses(hexaglide, p)
     good = np.isfinite(ev.drive_loads).all(axis=1)
     wrench = np.einsum("nji,nj->ni", ev.jinv[good], ev.drive_loads[good])
-    expect_f = np.array([0.0, 0.0, 117.24 * 9.81])
+    expect_f = np.array([0.0, 0.0, data.moved_mass * 9.81])
     # relative 1e-9: J_C from a QR inverse of J_C^-1 (condition numbers < 1e3 here)
     np.testing.assert_allclose(wrench[:, :3], np.broadcast_to(expect_f, wrench[:, :3].shape), rtol=1e-9, atol=1e-6)
     np.testing.assert_allclose(wrench[:, 3:], 0.0, atol=1e-6)  # CoG at O' (assumption): no moment

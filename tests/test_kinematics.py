@@ -289,9 +289,11 @@ def test_transmission_quality_against_svd():
     assert w == pytest.approx(0.63 / (np.pi / 3))  # eq. 4.78
     WJ = np.linalg.inv(jinv) * np.array([1, 1, 1, w, w, w])[:, None]  # W J_C
     s = np.linalg.svd(WJ, compute_uv=False)
-    U = transmission_quality(m, jinv)
+    U = transmission_quality(m, jinv, form="inverse_kappa")
     np.testing.assert_allclose(U, s[:, -1] / s[:, 0], rtol=2e-4)  # certified rtol 1e-4 of κ, plus inv rounding
     assert np.all((U > 0) & (U <= 1))
+    # default form: the literal eq. 4.75 reading κ^(-1/2) (models.md §6.1 note); sqrt halves the relative error
+    np.testing.assert_allclose(transmission_quality(m, jinv), np.sqrt(s[:, -1] / s[:, 0]), rtol=2e-4)
 
 
 # ------------------------------------------------------------------------------------------------ forward kinematics

@@ -138,14 +138,15 @@ def test_pod_length_limits_validated(tmp_path):
 
 
 def test_frame_limits_validated(tmp_path):
-    m = load_machine("hexaglide")
-    np.testing.assert_allclose(m.limits.position_min, [-np.inf, -np.inf, -1.1])
-    np.testing.assert_allclose(m.limits.position_max, [np.inf, np.inf, -0.34])
+    m = load_machine("hexaglide")  # no bed cut (machines.md §1.7 item 3); O' below the drive-joint plane
+    np.testing.assert_allclose(m.limits.position_min, [-np.inf, -np.inf, -np.inf])
+    np.testing.assert_allclose(m.limits.position_max, [np.inf, np.inf, -0.15])
+    bed = load_machine("hexaglide:machine_bed")
+    np.testing.assert_allclose(bed.limits.position_min, [-np.inf, -np.inf, -1.1])
     text = (bundled_machine_dir() / "hexaglide.toml").read_text()
-    for bad, pattern in [('frame = { z_min = "-1100 mm", z_max = "-340 mm" }', r"limits\.frame\.z_min.*below z_max"),
+    for bad, pattern in [('frame = { z_min = "-100 mm", z_max = "-150 mm" }', r"limits\.frame\.z_min.*below z_max"),
                          ('frame = { z_low = "-1100 mm" }', r"limits\.frame\.z_low.*unknown key")]:
         p = tmp_path / "f.toml"
-        p.write_text(text.replace('frame = { z_min = "-1100 mm", z_max = "-340 mm" }',
-                                  bad.replace('"-1100 mm", z_max = "-340 mm"', '"-300 mm", z_max = "-340 mm"')))
+        p.write_text(text.replace('frame = { z_max = "-150 mm" }', bad))
         with pytest.raises(MachineFileError, match=pattern):
             load_machine(p)

@@ -183,7 +183,8 @@ def test_max_velocity_against_finite_difference_jacobian():
 def test_max_acceleration_is_the_largest_feasible_and_limits_one_drive():
     """Independent reference: required drive forces τ(α) = α M_q e + τ_g + C sign(J⁻¹e) with J⁻¹ from finite
     differences, J_C its inverse, M_P from the machine data (117.24 kg, inertia diag in PKS, CoG at O'), M_A =
-    102.17 kg; a_max is the largest α with |τ_i| ≤ 2500 − 300 N for all drives."""
+    102.17 kg, gravity load of platform + six struts (187.58 kg, machines.md §1.7 item 5); a_max is the largest α
+    with |τ_i| ≤ 2500 − 300 N for all drives."""
     ks = kinetostatics(HEXAGLIDE, POSES)
     coulomb = np.array([75.7, 106.4, 113.1, 153.0, 93.0, 66.4])
     ik = inverse_kinematics(HEXAGLIDE, POSES)
@@ -194,7 +195,7 @@ def test_max_acceleration_is_the_largest_feasible_and_limits_one_drive():
         mp = np.zeros((6, 6))
         mp[:3, :3] = 117.24 * np.eye(3)
         mp[3:, 3:] = R @ np.diag([7.42, 7.74, 2.87]) @ R.T
-        tau_g = jc.T @ np.r_[0, 0, 117.24 * 9.81, 0, 0, 0]
+        tau_g = jc.T @ np.r_[0, 0, (117.24 + 2 * 12.13 + 4 * 11.52) * 9.81, 0, 0, 0]
         np.testing.assert_allclose(ks.drive_loads[i], tau_g, rtol=1e-6, atol=1e-6)  # FD Jacobian accuracy
         for j, e in enumerate(ks.acceleration_directions):
             mu = 102.17 * (jinv @ e) + jc.T @ (mp @ e)

@@ -219,6 +219,14 @@ def kinetostatics(machine: Machine, poses: ArrayLike,
     g = float(np.linalg.norm(machine.gravity))
     if data.body.mass > 0:
         load_data = DriveLoadData(data.body.mass, data.body.cog, data.max_force, data.force_reserve, data.coulomb)
+        if not options.strut_mass_split and machine.limits.drive_load_strut_mass > 0:
+            # the admissibility check's moved mass (B.13, eq. 4.90: platform + the machine's strut share)
+            from pkmstiff.machine.roles import drive_load_data
+
+            dl = drive_load_data(machine)
+            if dl is not None:
+                load_data = DriveLoadData(dl.moved_mass, dl.cog_offset, data.max_force, data.force_reserve,
+                                          data.coulomb)
         with np.errstate(invalid="ignore"):
             tau_g = static_drive_loads(machine, jc_ok, R, load_data)
     else:

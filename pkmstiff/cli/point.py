@@ -48,8 +48,11 @@ def _is_planar(name: str) -> bool:
 
 
 def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None = None, n_modes: int = 6,
-                 neglect_spindle: bool = False) -> dict:
-    """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units."""
+                 neglect_spindle: bool = False, frame: str = "machine") -> dict:
+    """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units.
+
+    The pose is given in ``frame`` (:mod:`pkmstiff.machine.frames`; spatial machines only).
+    """
     if _is_planar(machine_name):
         return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"))
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
@@ -64,14 +67,20 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
     if n_modes < 0:
         raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
+    from pkmstiff.machine.frames import frame_metadata, to_machine_frame
+
     m = load_machine(machine_name)
+    given = pose
+    pose = to_machine_frame(m, given, frame)
     tl = None if tool_length_mm is None else tool_length_mm * 1e-3
     st = build_structure(m, pose[None])
     ks = kinetostatics(m, pose[None])
     rep: dict[str, Any] = {
         "machine": m.name, "machine_type": m.kind,
-        "pose": {"x_mm": pose[0] * 1e3, "y_mm": pose[1] * 1e3, "z_mm": pose[2] * 1e3,
-                 "a_deg": math.degrees(pose[3]), "b_deg": math.degrees(pose[4]), "c_deg": math.degrees(pose[5])},
+        **frame_metadata(m, frame),
+        "pose": {"x_mm": given[0] * 1e3, "y_mm": given[1] * 1e3, "z_mm": given[2] * 1e3,
+                 "a_deg": math.degrees(given[3]), "b_deg": math.degrees(given[4]), "c_deg": math.degrees(given[5])},
+        "pose_machine_frame": {"x_mm": pose[0] * 1e3, "y_mm": pose[1] * 1e3, "z_mm": pose[2] * 1e3},
         "tool_length_mm": (m.tool.length if tl is None else tl) * 1e3,
         "neglect_spindle": neglect_spindle,
         "modelled": bool(st.ok[0]), "reasons": st.failing(0),
@@ -154,8 +163,11 @@ def _f(v: Any, fmt: str = "8.3f") -> str:
 def _print_report(rep: dict) -> None:
     p = rep["pose"]
     where = ", ".join(f"{k.split('_')[0]}={v:.3f} {k.split('_')[1]}" for k, v in p.items())
-    print(f"{rep['machine']} ({rep['machine_type']}) at {where}"
-          + (f", tool length {rep['tool_length_mm']:.1f} mm" if "tool_length_mm" in rep else ""))
+    from pkmstiff.cli.pose import _frame_line
+
+    print(f"{rep['machine']} ({rep['machine_type']}) at {where} ({_frame_line(rep)})"
+          + (f", tool length {rep['tool_length_mm']:.1f} mm" if "tool_length_mm" in rep else "")
+          + (", K_U neglected (platform and spindle rigid)" if rep.get("neglect_spindle") else ""))
     if not rep["modelled"]:
         print("pose not modelled: " + "; ".join(rep["reasons"]))
     k = rep["k_N_per_um"]
@@ -194,7 +206,7 @@ def _print_report(rep: dict) -> None:
 
 def _cmd_point(args: argparse.Namespace) -> int:
     try:
-        rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle)
+        rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle, args.frame)
     except PointArgumentError as exc:
         from pkmstiff.cli import CliError
 
@@ -219,8 +231,10 @@ def _mode_figures(args: argparse.Namespace) -> list:
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
 
-    machine = load_machine(args.machine)
-    pose = parse_pose(args.pose)
+    from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
+
+    machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
+    pose = to_machine_frame(machine, parse_pose(args.pose), args.frame)
     out = Path(args.figures)
     stem = machine.name.replace(":", "_")
     files = [plot_mode_shape(machine, pose, out / f"{stem}_mode{k}.png", mode=k) for k in range(1, args.modes + 1)]
@@ -242,7 +256,10 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
                    help="tool length in mm (default: machine file)")
     p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")
-    p.add_argument("--neglect-spindle", action="store_true", help="load the platform at the TCP (K_U rigid)")
+    from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
+
+    add_spindle_argument(p)
+    add_frame_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--figures", metavar="DIR", default=None,
                    help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")

@@ -38,19 +38,22 @@ def _cmd_section(args: argparse.Namespace) -> int:
         plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], args.step * 1e-3)
     except (SectionArgumentError, SectionError, UnknownQuantityError) as exc:
         raise CliError(str(exc)) from None
-    machine = load_machine(args.machine)
+    from pkmstiff.machine.frames import frame_text, neglect_spindle
+
+    machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     t0 = time.perf_counter()
     res = evaluate_section(machine, plane, names, orientation=ori,
                            tool_length=None if args.tool_length is None else args.tool_length * 1e-3,
-                           n_jobs=args.jobs, progress=False if args.quiet else None)
+                           n_jobs=args.jobs, progress=False if args.quiet else None, frame=args.frame)
     seconds = time.perf_counter() - t0
     stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
     paths = write_section_outputs(res, Path(args.out), formats, stem) if args.out else []
     if args.json:
         print(json.dumps(section_summary(res, seconds), indent=2))
         return 0
-    print(f"{res.machine}: {res.plane.name}, {res.ok.sum()} of {res.ok.size} points admissible "
-          f"({float(res.ok.sum()) * plane.cell_area:.4g} m²), {seconds:.2f} s")
+    print(f"{res.machine}: {res.plane.name} ({frame_text(machine, args.frame)}), {res.ok.sum()} of {res.ok.size} "
+          f"points admissible ({float(res.ok.sum()) * plane.cell_area:.4g} m²), {seconds:.2f} s"
+          + (", K_U neglected (platform and spindle rigid)" if args.neglect_spindle else ""))
     for n, st in res.statistics().items():
         print(f"  {n:<16} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
     reasons = {k: v for k, v in res.reason_counts().items() if v}
@@ -84,6 +87,10 @@ def add_commands(sub) -> None:
     p.add_argument("--jobs", type=int, default=1, help="parallel processes (-1: all cores)")
     p.add_argument("--json", action="store_true", help="print per-quantity statistics as JSON (with units)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
+
+    add_frame_argument(p)
+    add_spindle_argument(p)
     p.set_defaults(func=_cmd_section)
     q = sub.add_parser("quantities", help="list the quantities that sections and requirements can use")
     q.set_defaults(func=_cmd_quantities)

@@ -93,6 +93,8 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
 
+    from pkmstiff.machine.frames import frame_text
+
     machine = load_machine(args.machine)
     eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
@@ -110,7 +112,8 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         rng = (parts[0], math.radians(lo), math.radians(hi))
     progress = _Progress(not args.quiet, "octree")
     try:
-        req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS)
+        req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
+                               neglect_spindle=args.neglect_spindle)
         res = req.evaluate(machine, orientation_range=rng,
                            range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
                            range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level,
@@ -132,8 +135,10 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
               f"{summary['evaluations']:,} evaluations); check --orientation, --require and --box")
         return 0
     lo, hi = summary["bounding_box_mm"]["min"], summary["bounding_box_mm"]["max"]
-    print(f"{machine.name}: workspace at a,b,c = {args.orientation} deg, resolution {args.resolution:g} mm "
-          f"(effective {', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
+    print(f"{machine.name}: workspace at a,b,c = {args.orientation} deg, positions in the "
+          f"{frame_text(machine, args.frame)}"
+          + (", K_U neglected (platform and spindle rigid)" if args.neglect_spindle else "")
+          + f"; resolution {args.resolution:g} mm (effective {', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
     print(f"volume: {res.volume:.5f} m^3 (surface nets); "
           + ", ".join(f"{k} {v:.5f}" for k, v in res.volumes.items() if k != "surface_nets") + " m^3")
     print("bounding box [mm]: " + ", ".join(f"{c} {a:.1f}..{b:.1f}" for c, a, b in zip("xyz", lo, hi)))
@@ -149,13 +154,13 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
 def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
     out.mkdir(parents=True, exist_ok=True)
     files: dict[str, str] = {}
-    pts = res.boundary_points * 1e3
-    p = out / "boundary_points.csv"
+    pts = (res.boundary_points - np.asarray(res.frame.get("frame_origin_mm", [0, 0, 0]), float) * 1e-3) * 1e3
+    p = out / "boundary_points.csv"  # positions in the result's frame (stated in workspace.json)
     with p.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["x_mm", "y_mm", "z_mm"])
         w.writerows(np.round(pts, 4).tolist())
-    files["boundary points (eq. 4.1, mm)"] = str(p)
+    files[f"boundary points (eq. 4.1, mm, {res.frame.get('frame', 'machine')} frame)"] = str(p)
     if res.surface is not None and res.surface.triangles.shape[0]:
         files["surface STL (mm)"] = str(res.surface.save(out / "workspace_surface.stl", scale=1e3))
         files["surface VTK (mm)"] = str(res.surface.save(out / "workspace_surface.vtp", scale=1e3))
@@ -182,7 +187,9 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.workspace.requests import RotationMapRequest
     from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
 
-    machine = load_machine(args.machine)
+    from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
+
+    machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
     amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
@@ -204,11 +211,13 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             v_lo, v_hi = _range(args.v_range or "-60,60", "--v-range", "deg")
             u = np.radians(_raster(u_lo, u_hi, math.degrees(step)))
             v = np.radians(_raster(v_lo, v_hi, math.degrees(step)))
-            res = rotational_workspace_map(machine, point, dirs[0], u, v, ori, inc, amax,
+            res = rotational_workspace_map(machine, to_machine_frame(machine, point, args.frame), dirs[0], u, v, ori,
+                                           inc, amax,
                                            requirements=_requirements(args), method=method, verify=args.verify)
             others = [c for c in "abc" if c != dirs[0][1]]
             labels, scale = (f"{others[0]} [deg]", f"{others[1]} [deg]"), (180 / math.pi, 180 / math.pi)
-            title = (f"{machine.name}: max. rotation {dirs[0]} at x,y,z = {args.point} mm")
+            title = (f"{machine.name}: max. rotation {dirs[0]} at x,y,z = {args.point} mm "
+                     f"({frame_text(machine, args.frame).split(' (')[0]})")
         else:
             if args.plane not in PLANES:
                 raise _cli_error(f"--plane: expected one of {', '.join(PLANES)}, found {args.plane!r}")
@@ -221,16 +230,18 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             u = _raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
             v = _raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
             req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
-                                     inc, amax, tuple(_requirements(args)), method)
+                                     inc, amax, tuple(_requirements(args)), method, frame=args.frame)
             res = req.evaluate(machine, verify=args.verify)
             labels = (f"{args.plane[0]} [mm]", f"{args.plane[1]} [mm]")
             scale = (1e3, 1e3)
-            title = f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at {args.at:g} mm"
+            title = (f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at {args.at:g} mm "
+                     f"({frame_text(machine, args.frame).split(' (')[0]})")
     except RotationMapError as exc:
         raise _cli_error(str(exc)) from None
     run = time.perf_counter() - t0
     summary = res.summary()
-    summary.update({"machine": machine.name, "run_time_s": run})
+    summary.update({"machine": machine.name, "run_time_s": run, **frame_metadata(machine, args.frame),
+                    "neglect_spindle": bool(args.neglect_spindle)})
     files: dict[str, str] = {}
     if args.out:
         out = Path(args.out)
@@ -297,6 +308,10 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
+
+    add_frame_argument(p)
+    add_spindle_argument(p)
     p.set_defaults(func=_cmd_workspace)
 
     p = sub.add_parser(
@@ -323,6 +338,10 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
+
+    add_frame_argument(p)
+    add_spindle_argument(p)
     p.set_defaults(func=_cmd_rotation_map)
 
 

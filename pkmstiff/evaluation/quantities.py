@@ -179,7 +179,7 @@ register_quantity(Quantity("drive_load_max", "largest static drive load |tau_g| 
 
 
 for _k, _axis in enumerate("xyz"):
-    register_quantity(Quantity(_axis, f"position {_axis} of O'", "mm", "m",
+    register_quantity(Quantity(_axis, f"position {_axis} of O' (machine frame)", "mm", "m",
                                (lambda k: lambda c: c.poses[:, k])(_k), group="pose"))
 
 

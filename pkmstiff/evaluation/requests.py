@@ -7,6 +7,10 @@ studies are thin front-ends that build requests from their own units (mm, degree
 * :class:`PointRequest` — quantities at one pose (:class:`PointResult`, with the failing checks if inadmissible);
 * :class:`pkmstiff.workspace.requests.WorkspaceRequest` and ``RotationMapRequest`` — the workspace layer's.
 
+Every request takes ``frame`` ("machine" or "report", :mod:`pkmstiff.machine.frames`): its positions are given in
+that frame and its results state it; and ``neglect_spindle`` (leave the platform-spindle stiffness K_U out, as the
+dissertation's tool-length-0 stiffness maps do; docs/user-guide/validation-hexaglide.md (reading 4)).
+
 :func:`statistic` is the one place that turns a section's per-quantity statistics into a named number.
 """
 
@@ -20,6 +24,7 @@ import numpy as np
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
 from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section
+from pkmstiff.machine.frames import check_frame, frame_origin, neglect_spindle, to_machine_frame
 from pkmstiff.machine.model import Machine
 
 #: statistics of a section quantity -> (label, unit override or None = the quantity's display unit)
@@ -52,11 +57,15 @@ class SectionRequest:
     quantities: tuple[str, ...]
     orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
     tool_length: float | None = None  # m; None = the machine file's
+    frame: str = "machine"  # frame of at / u_range / v_range and of the result's raster
+    neglect_spindle: bool = False  # leave K_U out
 
     def evaluate(self, machine: Machine, *, n_jobs: int = 1, progress: bool | None = False) -> SectionResult:
+        check_frame(self.frame)
         plane = axis_plane(self.plane, self.at, self.u_range, self.v_range, self.step)
-        return evaluate_section(machine, plane, self.quantities, orientation=self.orientation,
-                                tool_length=self.tool_length, n_jobs=n_jobs, progress=progress)
+        return evaluate_section(neglect_spindle(machine, self.neglect_spindle), plane, self.quantities,
+                                orientation=self.orientation, tool_length=self.tool_length, n_jobs=n_jobs,
+                                progress=progress, frame=self.frame)
 
 
 @dataclass(frozen=True)
@@ -65,6 +74,8 @@ class PointResult:
 
     values: dict[str, float]
     failing: list[str]
+    pose_machine: tuple[float, ...] = ()  # the pose in the machine frame (m, rad)
+    frame: str = "machine"  # frame in which the request's pose was given
 
     @property
     def admissible(self) -> bool:
@@ -78,13 +89,20 @@ class PointRequest:
     pose: tuple[float, ...]
     quantities: tuple[str, ...]
     tool_length: float | None = None  # m; None = the machine file's
+    frame: str = "machine"  # frame of the pose's position
+    neglect_spindle: bool = False  # leave K_U out
 
     def evaluate(self, machine: Machine) -> PointResult:
-        ev = evaluate_poses(machine, np.asarray(self.pose, float)[None, :])
+        check_frame(self.frame)
+        machine = neglect_spindle(machine, self.neglect_spindle)
+        x = to_machine_frame(machine, np.asarray(self.pose, float)[None, :], self.frame)
+        ev = evaluate_poses(machine, x)
+        pm = tuple(float(v) for v in x[0])
         if not ev.ok[0]:
-            return PointResult({}, ev.admissibility.failing(0))
+            return PointResult({}, ev.admissibility.failing(0), pm, self.frame)
         vals = evaluate_quantities(EvalContext(machine, ev, self.tool_length, {}), list(self.quantities))
-        return PointResult({n: float(get_quantity(n).to_display(vals[n])[0]) for n in self.quantities}, [])
+        return PointResult({n: float(get_quantity(n).to_display(vals[n])[0]) for n in self.quantities}, [], pm,
+                           self.frame)
 
 
 def check_quantity_names(names: Sequence[str]) -> tuple[str, ...]:

@@ -19,6 +19,7 @@ from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
+from pkmstiff.machine.frames import frame_metadata, frame_origin, spindle_neglected
 from pkmstiff.machine.model import Machine
 
 AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
@@ -132,6 +133,7 @@ class SectionResult:
     ok: np.ndarray  # (nv, nu) bool
     reasons: np.ndarray  # (nv, nu) uint32
     settings: dict[str, Any] = field(default_factory=dict)
+    frame: dict[str, Any] = field(default_factory=lambda: {"frame": "machine", "frame_origin_mm": [0.0, 0.0, 0.0]})
 
     def display(self, name: str) -> np.ndarray:
         """Values of ``name`` in its display unit."""
@@ -157,8 +159,9 @@ class SectionResult:
         return {"machine": self.machine, **self.plane.metadata(),
                 "orientation_deg": np.rad2deg(self.orientation).tolist(),
                 "tool_length_mm": None if self.tool_length is None else self.tool_length * 1e3,
-                "units": self.units, "settings": self.settings,
-                "note": "raster points are positions of O' in the machine frame; values NaN where inadmissible"}
+                "units": self.units, "settings": self.settings, **self.frame,
+                "note": f"raster points are positions of O' in the {self.frame['frame']} frame; values NaN where "
+                        "inadmissible"}
 
 
 def _evaluate_chunk(machine: Machine, poses: np.ndarray, names: Sequence[str], tool_length: float | None,
@@ -191,6 +194,7 @@ def evaluate_section(
     progress: bool | None = None,
     options: dict[str, Any] | None = None,
     checks: Sequence[str] = ALL_CHECKS,
+    frame: str = "machine",
 ) -> SectionResult:
     """Evaluate ``quantities`` (names, see :mod:`pkmstiff.evaluation.quantities`) on a plane, masked by admissibility.
 
@@ -198,11 +202,16 @@ def evaluate_section(
     ``n_jobs`` > 1 evaluates chunks in parallel processes (joblib); the result is identical to the serial one
     because chunks are independent. ``progress``: None = a progress bar only on a terminal when the section is large.
     ``checks``: the admissibility checks to apply (default all, see :data:`pkmstiff.admissibility.checks.ALL_CHECKS`).
+    ``frame``: the plane's points are positions of O' in this frame (``"machine"`` or ``"report"``,
+    :mod:`pkmstiff.machine.frames`); the result keeps them so and states the frame.
     """
     names = list(dict.fromkeys(quantities))
     qs = {n: get_quantity(n) for n in names}  # raises early for unknown names
     poses = section_poses(plane, orientation)
+    poses[:, :3] += frame_origin(machine, frame)
     opts = dict(options or {})
+    if spindle_neglected(machine):
+        opts["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
     if progress is None:
         import sys
@@ -226,6 +235,7 @@ def evaluate_section(
         values=values, units={n: q.unit for n, q in qs.items()}, si_units={n: q.si_unit for n, q in qs.items()},
         labels={n: q.label for n, q in qs.items()}, ok=ok, reasons=reasons,
         settings={"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks), **opts},
+        frame=frame_metadata(machine, frame),
     )
 
 
@@ -260,6 +270,7 @@ def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
          "admissible_area_m2": float(res.ok.sum()) * res.plane.cell_area,
          "orientation_deg": np.rad2deg(res.orientation).tolist(),
          "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
+         **res.frame, "neglect_spindle": bool(res.settings.get("neglect_spindle", False)),
          "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v}}
     if seconds is not None:
         d["run_time_s"] = seconds

@@ -357,15 +357,24 @@ def jacobian_and_singular(machine: Machine, jinv: ArrayLike, chunk_size: int = D
     return inv, _singular_from_bounds(machine, A, *bnd)  # type: ignore[misc]
 
 
-def transmission_quality(machine: Machine, jinv: ArrayLike, w: float | None = None, **kw) -> Array:
-    """Transmission quality U = σ_min(W J_C)/σ_max(W J_C) = 1/κ(J_C⁻¹ W⁻¹) ∈ [0, 1] (Cobet eq. 4.75, 4.77).
+def transmission_quality(machine: Machine, jinv: ArrayLike, w: float | None = None, form: str | None = None,
+                         **kw) -> Array:
+    """Transmission quality U ∈ [0, 1] (Cobet eq. 4.75, 4.77; docs/theory/kinetostatics.md and its eq. 4.75 note).
 
+    ``form`` (default ``machine.transmission_form``): ``"inverse_sqrt_kappa"`` U = κ(W J_C)^(-1/2) =
+    sqrt(σ_min/σ_max), the literal reading of the printed eq. 4.75 (λ read as singular values), which agrees with
+    the dissertation's published values; ``"inverse_kappa"`` U = σ_min(W J_C)/σ_max(W J_C) = 1/κ(J_C⁻¹ W⁻¹).
     W = diag(1, 1, 1, w, w, w) with ``w`` in m/rad (default ``machine.transmission_weight``); singular
     poses give 0.  Keyword arguments go to :func:`condition_number`.
     """
+    form = getattr(machine, "transmission_form", "inverse_sqrt_kappa") if form is None else form
+    if form not in ("inverse_sqrt_kappa", "inverse_kappa"):
+        raise KinematicsInputError(f"transmission_quality: form must be 'inverse_sqrt_kappa' or 'inverse_kappa', "
+                                   f"found {form!r}")
     w = machine.transmission_weight if w is None else float(w)
     if not (np.isfinite(w) and w > 0):
         raise KinematicsInputError(f"transmission_quality: weight w must be a positive number in m/rad, found {w!r}")
     A = np.array(_check_square_stack(jinv, "jinv"), copy=True)
     A[:, :, 3:] /= w
-    return 1.0 / condition_number(A, **kw)
+    inv_kappa = 1.0 / condition_number(A, **kw)
+    return np.sqrt(inv_kappa) if form == "inverse_sqrt_kappa" else inv_kappa

@@ -25,9 +25,11 @@ from pkmstiff.units import InputError, parse_quantity
 
 _TOP_KEYS = {"format_version", "machine", "limits", "tool", "joint_types", "guides", "chain_defaults", "chains",
              "hull", "components", "machine_components", "assumptions", "options"}
-_MACHINE_KEYS = {"name", "title", "type", "source", "extends", "gravity", "transmission_weight", "notes"}
+_MACHINE_KEYS = {"name", "title", "type", "source", "extends", "gravity", "transmission_weight", "notes",
+                 "report_origin", "report_origin_note", "transmission_form"}
+TRANSMISSION_FORMS = ("inverse_sqrt_kappa", "inverse_kappa")
 _LIMIT_KEYS = {"singularity_threshold", "strut_collision_mode", "platform_end_exclusion", "drive_load_include_coulomb",
-               "frame"}
+               "drive_load_strut_mass", "frame"}
 _FRAME_KEYS = {f"{a}_{m}" for a in "xyz" for m in ("min", "max")}
 _TOOL_KEYS = {"offset", "axis", "length"}
 _JOINT_KEYS = {"convention", "strut_direction", "swivel_min", "swivel_max", "tilt_min", "tilt_max", "ina_coupled",
@@ -173,6 +175,10 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     w = float(parse_quantity(mtab.get("transmission_weight", 1.0), "m/rad", source=src,
                              key="machine.transmission_weight", positive=True))
 
+    report_origin = _vec(mtab.get("report_origin", [0.0, 0.0, 0.0]), src, "machine.report_origin")
+    tform = mtab.get("transmission_form", "inverse_sqrt_kappa")
+    if tform not in TRANSMISSION_FORMS:
+        raise MachineFileError(src, "machine.transmission_form", f"one of {list(TRANSMISSION_FORMS)}", tform)
     limits = _limits(raw.get("limits", {}), src)
     tool = _tool(raw.get("tool", {}), src)
     components = _components(raw.get("components", {}), src)
@@ -203,6 +209,8 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
         transmission_weight=w, components=components, chain_components=chain_components,
         machine_components={k: str(v) for k, v in mcomp.items()}, assumptions=dict(assumptions),
         source=str(mtab.get("source", "")), path=src, built_components=built,
+        report_origin=report_origin, report_origin_note=str(mtab.get("report_origin_note", "")),
+        transmission_form=tform,
     )
 
 
@@ -224,6 +232,12 @@ def _limits(tab: Any, src: str) -> Limits:
             raise MachineFileError(src, "limits.drive_load_include_coulomb", "true or false",
                                    tab["drive_load_include_coulomb"])
         kw["drive_load_include_coulomb"] = tab["drive_load_include_coulomb"]
+    if "drive_load_strut_mass" in tab:
+        frac = float(parse_quantity(tab["drive_load_strut_mass"], "dimensionless", source=src,
+                                    key="limits.drive_load_strut_mass", min_value=0.0))
+        if frac > 1.0:
+            raise MachineFileError(src, "limits.drive_load_strut_mass", "a fraction in [0, 1]", frac)
+        kw["drive_load_strut_mass"] = frac
     if "frame" in tab:
         fr = check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.", error=MachineFileError)
         lo, hi = np.full(3, -np.inf), np.full(3, np.inf)

@@ -122,6 +122,9 @@ class Limits:
     strut_collision_mode: Literal["exact", "table_B2"] = "exact"
     platform_end_exclusion: float | None = None  # m excluded at the platform end of a strut; None = strut radius
     drive_load_include_coulomb: bool = True
+    # fraction of the strut masses that the static drive load (eq. 4.90, B.13) adds to the moved mass
+    # (docs/user-guide/validation-hexaglide.md (reading 5): the Hexaglide's drives carry platform + spindle + the six struts, i.e. 1.0)
+    drive_load_strut_mass: float = 0.0
     # frame: box for the position of O' in the MKS (m); -inf/+inf where not limited
     position_min: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     position_max: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
@@ -147,6 +150,13 @@ class Machine:
     assumptions: dict[str, str]  # key -> one-line reason for every value not given by the spec
     source: str = ""
     path: str = ""
+    # origin of the reporting frame in the MKS (m): positions quoted by the source are measured from it
+    # (docs/user-guide/validation-hexaglide.md (reading 2)); axes parallel to the MKS
+    report_origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    report_origin_note: str = ""
+    # transmission quality form (docs/theory/kinetostatics.md eq. 4.75 note): "inverse_sqrt_kappa" = κ(WJ_C)^(-1/2) (default),
+    # "inverse_kappa" = 1/κ(WJ_C)
+    transmission_form: str = "inverse_sqrt_kappa"
     # component instances built on load: name -> (raw parameter table it was built from, instance)
     built_components: dict[str, tuple[dict, Any]] = field(default_factory=dict, compare=False, repr=False)
 

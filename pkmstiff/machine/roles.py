@@ -89,8 +89,11 @@ def machine_components(machine: Machine) -> MachineComponents:
 def drive_load_data(machine: Machine) -> DriveLoadData | None:
     """Mass and drive-force data for the static drive-load check (eq. 4.90, B.13), or None if not given.
 
-    Moved mass = platform (+ spindle) mass; CoG = their combined CoG in the PKS. Needs a platform body and a
-    maximum force on every drive; missing force reserve / Coulomb friction count as 0.
+    Moved mass = platform (+ spindle) mass, plus ``limits.drive_load_strut_mass`` × the strut masses (eq. 4.90:
+    the sum of the moved masses carried by the platform; docs/user-guide/validation-hexaglide.md (reading 5) — for the Hexaglide all six
+    struts); CoG = the combined CoG of platform and spindle in the PKS (the strut share is added at that CoG:
+    eq. 4.90 sums the masses, their CoG is not given). Needs a platform body and a maximum force on every drive;
+    missing force reserve / Coulomb friction count as 0.
     """
     try:
         mc = machine_components(machine)
@@ -101,6 +104,9 @@ def drive_load_data(machine: Machine) -> DriveLoadData | None:
     bodies = [b for b in (mc.platform, mc.spindle) if b is not None]
     mass = sum(float(b.mass) for b in bodies)
     cog = sum(float(b.mass) * np.asarray(b.cog, float) for b in bodies) / mass
+    frac = machine.limits.drive_load_strut_mass
+    if frac > 0:
+        mass += frac * sum(float(getattr(s, "mass", 0.0) or 0.0) for s in mc.strut if s is not None)
     lim = [d.limits for d in mc.drive]
     return DriveLoadData(
         moved_mass=mass, cog_offset=cog,

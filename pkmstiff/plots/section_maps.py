@@ -33,7 +33,8 @@ def _plane_grid(res: SectionResult, in_3d: bool, pv):
 def _title(res: SectionResult) -> str:
     ori = ", ".join(f"{v:g}" for v in np.rad2deg(res.orientation))
     tool = "" if res.tool_length is None else f", tool {res.tool_length * MM:g} mm"
-    return f"{res.machine}: {res.plane.name}, a,b,c = {ori} deg{tool}"
+    frame = getattr(res, "frame", {}).get("frame", "machine")
+    return f"{res.machine}: {res.plane.name} ({frame} frame), a,b,c = {ori} deg{tool}"
 
 
 def quantity_title(res: SectionResult, name: str) -> str:

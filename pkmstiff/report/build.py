@@ -16,6 +16,7 @@ import numpy as np
 
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
+from pkmstiff.machine.frames import frame_origin, frame_text
 from pkmstiff.machine.model import Machine
 from pkmstiff.report.model import Figure, Report, Table
 from pkmstiff.report.spec import MACHINE_ROWS, PointSpec, ReportSpec, SectionSpec, Variant, fast_spec, load_spec
@@ -75,7 +76,9 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     report.summary = spec.summary
     base = f"; baseline: {spec.baseline}" if spec.baseline else ""
     variants_text = "\n\n".join(_variant_text(v, m) for v, m in pairs)
-    comparison = report.section("Comparison", f"Variants compared{base}.\n\n{variants_text}")
+    frames = "; ".join(sorted({f"{v.name}: {frame_text(m, spec.frame)}" for v, m in pairs}))
+    comparison = report.section("Comparison", f"Variants compared{base}.\n\n{variants_text}\n\n"
+                                              f"Positions are given in the {spec.frame} frame ({frames}).")
     table = Table(spec.title if len(spec.title) < 80 else "Comparison of the variants", [v.name for v in spec.variants],
                   baseline=spec.baseline, digits=spec.digits)
     comparison.tables.append(table)
@@ -85,9 +88,9 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     ws_figs = _workspace_rows(spec, pairs, table, notes, out, log) if spec.workspace is not None else []
     multi = len(spec.sections) > 1
     map_sections = [(sec, figs) for k, sec in enumerate(spec.sections)
-                    for figs in [_section(sec, k, pairs, table, multi, jobs, out, log)] if sec.maps]
+                    for figs in [_section(sec, k, pairs, table, multi, jobs, out, log, spec.frame)] if sec.maps]
     for pt in spec.points:
-        _point_rows(pt, pairs, table, notes)
+        _point_rows(pt, pairs, table, notes, spec.frame)
     for key in spec.machine_rows:
         label, unit, fn = MACHINE_ROWS[key]
         table.add(label, unit, [fn(m, v) for v, m in pairs])
@@ -119,7 +122,8 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
 
 def _variant_text(v: Variant, m: Machine) -> str:
     overrides = (", overrides " + ", ".join(f"{k} = {val!r}" for k, val in v.overrides.items())) if v.overrides else ""
-    return (f"{v.name}: {m.title} ({m.name}{overrides}), tool length {_tool_mm(m, v.tool_length):g} mm, "
+    ku = ", K_U neglected (platform and spindle rigid)" if v.neglect_spindle else ""
+    return (f"{v.name}: {m.title} ({m.name}{overrides}{ku}), tool length {_tool_mm(m, v.tool_length):g} mm, "
             f"orientation a, b, c = {_fmt_deg(v.orientation)} deg" + (f". {v.description}" if v.description else ""))
 
 
@@ -131,7 +135,8 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
     for v, m in pairs:
         t0 = time.perf_counter()
         ori = ws.orientation if ws.orientation is not None else v.orientation
-        res = WorkspaceRequest(ws.resolution, ws.box, ws.requirements, ori, ws.methods).evaluate(m)
+        res = WorkspaceRequest(ws.resolution, ws.box, ws.requirements, ori, ws.methods, frame=spec.frame,
+                               neglect_spindle=v.neglect_spindle).evaluate(m)
         for meth in ws.methods:
             vols[meth].append(res.volumes.get(meth))
         if res.octree.touches_box:
@@ -149,14 +154,15 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
 
 
 def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, jobs: int, out: Path,
-             log: Callable[[str], None]) -> list[Figure]:
+             log: Callable[[str], None], frame: str = "machine") -> list[Figure]:
     """Evaluate one section for every variant, add its rows; the maps' figures (one colour scale per quantity)."""
     results = []
     for v, m in pairs:
         t0 = time.perf_counter()
         req = SectionRequest(sec.plane, sec.at, sec.u_range, sec.v_range, sec.step, sec.quantities,
                              sec.orientation if sec.orientation is not None else v.orientation,
-                             sec.tool_length if sec.tool_length is not None else v.tool_length)
+                             sec.tool_length if sec.tool_length is not None else v.tool_length,
+                             frame=frame, neglect_spindle=v.neglect_spindle)
         res = req.evaluate(m, n_jobs=jobs)
         res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
         if res.tool_length is None:
@@ -183,11 +189,11 @@ def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, j
     return figs
 
 
-def _point_rows(pt: PointSpec, pairs: list, table: Table, notes: list[str]) -> None:
+def _point_rows(pt: PointSpec, pairs: list, table: Table, notes: list[str], frame: str = "machine") -> None:
     rows: dict[str, list[float | None]] = {q: [] for q in pt.quantities}
     for v, m in pairs:
         tl = pt.tool_length if pt.tool_length is not None else v.tool_length
-        res = PointRequest(pt.pose, pt.quantities, tl).evaluate(m)
+        res = PointRequest(pt.pose, pt.quantities, tl, frame=frame, neglect_spindle=v.neglect_spindle).evaluate(m)
         if not res.admissible:
             notes.append(f"{v.name} at {pt.name}: inadmissible ({'; '.join(res.failing)})")
         for q in pt.quantities:
@@ -197,13 +203,15 @@ def _point_rows(pt: PointSpec, pairs: list, table: Table, notes: list[str]) -> N
 
 
 def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) -> dict[str, Any]:
-    s: dict[str, Any] = {"spec": spec.source, "fast": fast, "jobs": jobs}
+    s: dict[str, Any] = {"spec": spec.source, "fast": fast, "jobs": jobs, "frame": spec.frame}
     if spec.baseline:
         s["baseline"] = spec.baseline
     for v, m in zip(spec.variants, machines):
         s[f"variant {v.name}"] = {"machine": m.name, "file": m.path, "options": list(v.options),
                                   "overrides": dict(v.overrides), "tool_length_mm": _tool_mm(m, v.tool_length),
-                                  "orientation_deg": [round(math.degrees(a), 9) for a in v.orientation]}
+                                  "orientation_deg": [round(math.degrees(a), 9) for a in v.orientation],
+                                  "neglect_spindle": v.neglect_spindle,
+                                  "frame_origin_mm": (frame_origin(m, spec.frame) * 1e3).tolist()}
     for k, sec in enumerate(spec.sections):
         s[f"section {k + 1}"] = {"plane": sec.name, "range_mm": sec.range_text, "step_mm": sec.step * 1e3,
                                  "quantities": list(sec.quantities), "statistics": list(sec.statistics),

@@ -1,6 +1,7 @@
 """``pkmstiff demo``: stiffness and first eigenfrequency maps of the bundled Hexaglide (Cobet Figs. 4.25, 4.30).
 
-YZ plane at x = 0, a = b = c = 0, tool length 0: maps of k_x, k_y, k_z [N/µm] and f1 [Hz], a three-plane figure of
+YZ plane at x = 0, a = b = c = 0, tool length 0 with the platform-spindle stiffness K_U neglected (as the
+dissertation's maps, Cobet 4.2.4; docs/user-guide/validation-hexaglide.md (reading 4)): maps of k_x, k_y, k_z [N/µm] and f1 [Hz], a three-plane figure of
 k_x with a sketch of the machine, VTU/CSV exports and a short Markdown + HTML summary, written to ``out/demo/``.
 """
 
@@ -23,7 +24,7 @@ from pkmstiff.report.outputs import write_section_outputs
 
 MACHINE = "hexaglide"
 QUANTITIES = ("kx", "ky", "kz", "f1")
-REFERENCE_POSE = (0.0, 0.0, -1.0, 0.0, 0.0, 0.0)  # the dissertation's measurement point
+REFERENCE_POSE = (0.0, 0.0, -1.0, 0.0, 0.0, 0.0)  # the dissertation's measurement point, in its report frame
 
 
 def run(args: argparse.Namespace) -> int:
@@ -31,15 +32,20 @@ def run(args: argparse.Namespace) -> int:
     quiet = bool(getattr(args, "quiet", False))
     step = float(getattr(args, "step", 10.0)) * 1e-3
     t0 = time.perf_counter()
-    machine = load_machine(MACHINE)
-    plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.2, -0.5), step)
-    res = evaluate_section(machine, plane, QUANTITIES, tool_length=0.0, progress=False if quiet else None)
+    from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
+
+    machine = neglect_spindle(load_machine(MACHINE))  # K_U left out at tool length 0, as in the dissertation
+    # report frame (origin at the middle guide, the dissertation's positions): covers the whole admissible region
+    plane = axis_plane("yz", 0.0, (-0.7, 0.6), (-1.3, -0.4), step)
+    res = evaluate_section(machine, plane, QUANTITIES, tool_length=0.0, progress=False if quiet else None,
+                           frame="report")
     files = write_section_outputs(res, out, ("png", "vtu", "csv"), "hexaglide_yz")
-    planes = three_planes((0.0, 0.1, -0.9), (0.5, 0.7, 0.35), max(step, 0.02))
+    planes = three_planes((0.0, 0.45, -0.9), (0.5, 0.7, 0.35), max(step, 0.02))  # machine frame
     three = evaluate_three_planes(machine, planes, ["kx"], tool_length=0.0, progress=False)
     from pkmstiff.plots.section_maps import plot_three_planes
 
-    fig3 = plot_three_planes(three, "kx", machine, REFERENCE_POSE, out / "hexaglide_three_planes_kx.png")
+    fig3 = plot_three_planes(three, "kx", machine, tuple(to_machine_frame(machine, REFERENCE_POSE, "report")),
+                             out / "hexaglide_three_planes_kx.png")
     from pkmstiff.plots.section_maps import plot_reasons
 
     reasons_png = plot_reasons(res, out / "hexaglide_yz_admissibility.png")
@@ -47,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
     info = section_summary(res, seconds)
     _write_summary(out, machine.title, info, [f for f in files if f.suffix == ".png"] + [reasons_png, fig3],
                    machine.assumptions)
-    print(f"pkmstiff demo: {machine.title}, {plane.name}, {res.ok.sum()} of {res.ok.size} points admissible, "
+    print(f"pkmstiff demo: {machine.title}, {plane.name} (report frame), {res.ok.sum()} of {res.ok.size} points "
+          f"admissible, "
           f"{seconds:.1f} s")
     for n, st in info["statistics"].items():
         print(f"  {n:<4} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
@@ -66,7 +73,9 @@ def _write_summary(out: Path, title: str, info: dict, images: list[Path], assump
     rows = _table(info)
     reasons = ", ".join(f"{k} {v}" for k, v in info["inadmissible_reasons"].items()) or "none"
     md = [f"# pkmstiff demo — {title}", "",
-          f"{info['plane']}, a = b = c = 0, tool length 0 mm; {info['admissible_points']} of {info['points']} raster "
+          f"{info['plane']} (report frame, origin at the middle guide), a = b = c = 0, tool length 0 mm, K_U "
+          f"neglected (platform and spindle "
+          f"rigid, Cobet 4.2.4); {info['admissible_points']} of {info['points']} raster "
           f"points admissible ({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.", "",
           "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
     md += ["| " + " | ".join(r) + " |" for r in rows[1:]]

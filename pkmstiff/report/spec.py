@@ -37,8 +37,9 @@ MACHINE_ROWS: dict[str, tuple[str, str, Callable[[Machine, "Variant"], float]]] 
                     lambda m, v: 1e3 * float(m.tool.length if v.tool_length is None else v.tool_length)),
 }
 
-_REPORT_KEYS = {"title", "summary", "baseline", "digits", "machine_rows", "assumptions"}
-_VARIANT_KEYS = {"name", "machine", "options", "overrides", "tool_length_mm", "orientation_deg", "description"}
+_REPORT_KEYS = {"title", "summary", "baseline", "digits", "machine_rows", "assumptions", "frame"}
+_VARIANT_KEYS = {"name", "machine", "options", "overrides", "tool_length_mm", "orientation_deg", "description",
+                 "neglect_spindle"}
 _SECTION_KEYS = {"plane", "at_mm", "range", "step_mm", "quantities", "statistics", "maps", "tool_length_mm",
                  "orientation_deg", "title"}
 _WORKSPACE_KEYS = {"resolution_mm", "box_mm", "requirements", "methods", "figures", "orientation_deg"}
@@ -58,6 +59,7 @@ class Variant:
     tool_length: float | None = None  # m; None = the machine file's
     orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
     description: str = ""
+    neglect_spindle: bool = False  # leave K_U out (docs/user-guide/validation-hexaglide.md (reading 4))
 
 
 @dataclass(frozen=True)
@@ -123,6 +125,7 @@ class ReportSpec:
     fast_resolution: float | None = None  # m
     jobs: int = 1
     source: str = ""
+    frame: str = "machine"  # frame of every position in the spec (sections, points, workspace box)
 
 
 # ---------------------------------------------------------------------------------------------------------- parsing
@@ -219,7 +222,8 @@ def _variant(r: _Reader, tab: Any, i: int, spec_dir: Path) -> Variant:
                    tool_length=None if "tool_length_mm" not in tab else
                    1e-3 * r.number(tab["tool_length_mm"], p + ".tool_length_mm"),
                    orientation=r.orientation(tab.get("orientation_deg", [0, 0, 0]), p + ".orientation_deg"),
-                   description=r.string(tab.get("description", ""), p + ".description"))
+                   description=r.string(tab.get("description", ""), p + ".description"),
+                   neglect_spindle=r.boolean(tab.get("neglect_spindle", False), p + ".neglect_spindle"))
 
 
 def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
@@ -330,6 +334,9 @@ def load_spec(path: str | Path) -> ReportSpec:
     digits = rep.get("digits", 4)
     if isinstance(digits, bool) or not isinstance(digits, int) or not 1 <= digits <= 12:
         raise r.error("report.digits", "an integer 1..12 (significant digits)", digits)
+    frame = rep.get("frame", "machine")
+    if frame not in ("machine", "report"):
+        raise r.error("report.frame", "'machine' or 'report' (frame of every position in the spec)", frame)
     jobs = opts.get("jobs", 1)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs == 0:
         raise r.error("options.jobs", "a non-zero integer (-1: all cores)", jobs)
@@ -344,7 +351,7 @@ def load_spec(path: str | Path) -> ReportSpec:
                                                                           "options.fast_step_mm", positive=True),
         fast_resolution=None if "fast_resolution_mm" not in opts else
         1e-3 * r.number(opts["fast_resolution_mm"], "options.fast_resolution_mm", positive=True),
-        jobs=jobs, source=src)
+        jobs=jobs, source=src, frame=frame)
     if not (spec.sections or spec.workspace or spec.points or spec.machine_rows):
         raise r.error("(file)", "at least one of [[sections]], [workspace], [[points]], report.machine_rows",
                       "nothing to compare")

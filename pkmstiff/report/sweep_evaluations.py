@@ -56,6 +56,11 @@ def _orientation(values: Sequence[float], where: str) -> tuple[float, float, flo
     return v  # type: ignore[return-value]
 
 
+def _check_frame(frame: str, where: str) -> None:
+    if frame not in ("machine", "report"):
+        raise SweepError(f"{where}: expected 'machine' or 'report', found {frame!r}")
+
+
 @dataclass(frozen=True)
 class SectionStatistics:
     """Statistics of ``quantities`` over the admissible points of a section plane (as ``pkmstiff section``).
@@ -72,8 +77,11 @@ class SectionStatistics:
     statistics: tuple[str, ...] = ("mean", "max")
     tool_length_mm: float | None = None
     orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    frame: str = "machine"  # frame of at_mm / range ("machine" or "report", pkmstiff.machine.frames)
+    neglect_spindle: bool = False  # leave K_U out (docs/user-guide/validation-hexaglide.md (reading 4))
 
     def __post_init__(self) -> None:
+        _check_frame(self.frame, "SectionStatistics.frame")
         object.__setattr__(self, "quantities", _check_quantities(self.quantities, "SectionStatistics.quantities"))
         object.__setattr__(self, "plane", str(self.plane).lower())
         if self.plane not in ("yz", "xz", "xy"):
@@ -98,7 +106,8 @@ class SectionStatistics:
         r = parse_ranges(self.range, self.plane)
         return SectionRequest(self.plane, self.at_mm * 1e-3, r[self.plane[0]], r[self.plane[1]], self.step_mm * 1e-3,
                               self.quantities, tuple(np.radians(self.orientation_deg)),
-                              None if self.tool_length_mm is None else self.tool_length_mm * 1e-3)
+                              None if self.tool_length_mm is None else self.tool_length_mm * 1e-3,
+                              frame=self.frame, neglect_spindle=self.neglect_spindle)
 
     def __call__(self, machine: Machine) -> dict[str, float]:
         res = self.request().evaluate(machine)
@@ -122,8 +131,11 @@ class PointValues:
     quantities: tuple[str, ...]
     tool_length_mm: float | None = None
     suffix: str = ""
+    frame: str = "machine"  # frame of the pose's position
+    neglect_spindle: bool = False  # leave K_U out
 
     def __post_init__(self) -> None:
+        _check_frame(self.frame, "PointValues.frame")
         p = tuple(float(x) for x in self.pose)
         if len(p) != 6 or not all(math.isfinite(x) for x in p):
             raise SweepError(f"PointValues.pose: expected x, y, z [mm], a, b, c [deg], found {self.pose!r}")
@@ -133,12 +145,13 @@ class PointValues:
     def request(self) -> PointRequest:
         """The SI evaluation request this sweep evaluation stands for."""
         pose = (*(v * 1e-3 for v in self.pose[:3]), *np.radians(self.pose[3:]))
-        return PointRequest(pose, self.quantities, None if self.tool_length_mm is None else self.tool_length_mm * 1e-3)
+        return PointRequest(pose, self.quantities, None if self.tool_length_mm is None else self.tool_length_mm * 1e-3,
+                            frame=self.frame, neglect_spindle=self.neglect_spindle)
 
     def __call__(self, machine: Machine) -> dict[str, float]:
         res = self.request().evaluate(machine)
         if not res.admissible:
-            raise InadmissiblePoseError(f"pose {list(self.pose)} (mm, deg) is inadmissible for {machine.name}: "
+            raise InadmissiblePoseError(f"pose {list(self.pose)} (mm, deg, {self.frame} frame) is inadmissible for {machine.name}: "
                                         + "; ".join(res.failing))
         return {f"{q} [{get_quantity(q).unit}]{self.suffix}": v for q, v in res.values.items()}
 
@@ -156,8 +169,11 @@ class WorkspaceVolume:
     requirements: tuple[str, ...] = ()
     orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     method: str = "surface_nets"
+    frame: str = "machine"  # frame of box_mm
+    neglect_spindle: bool = False  # leave K_U out (stiffness requirements)
 
     def __post_init__(self) -> None:
+        _check_frame(self.frame, "WorkspaceVolume.frame")
         from pkmstiff.workspace.requirements import RequirementError, parse_requirements
         from pkmstiff.workspace.volume import METHODS
 
@@ -187,7 +203,8 @@ class WorkspaceVolume:
             b = np.array(self.box_mm) * 1e-3
             box = (b[0::2], b[1::2])
         return WorkspaceRequest(self.resolution_mm * 1e-3, box, self.requirements,
-                                tuple(np.radians(self.orientation_deg)), (self.method,))
+                                tuple(np.radians(self.orientation_deg)), (self.method,), frame=self.frame,
+                                neglect_spindle=self.neglect_spindle)
 
     def __call__(self, machine: Machine) -> dict[str, float]:
         res = self.request().evaluate(machine)

@@ -36,9 +36,10 @@ _SWEEP_KEYS = {"machine", "mode", "samples", "seed", "overrides"}
 _PARAM_KEYS = {"path", "unit", "values", "distribution", "low", "high", "mean", "std"}
 _EVAL_KEYS = {
     "section": {"kind", "quantities", "plane", "at_mm", "range", "step_mm", "statistics", "tool_length_mm",
-                "orientation_deg"},
-    "point": {"kind", "pose", "quantities", "tool_length_mm", "suffix"},
-    "workspace": {"kind", "resolution_mm", "box_mm", "requirements", "orientation_deg", "method"},
+                "orientation_deg", "frame", "neglect_spindle"},
+    "point": {"kind", "pose", "quantities", "tool_length_mm", "suffix", "frame", "neglect_spindle"},
+    "workspace": {"kind", "resolution_mm", "box_mm", "requirements", "orientation_deg", "method", "frame",
+                  "neglect_spindle"},
 }
 
 

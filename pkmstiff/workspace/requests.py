@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from pkmstiff.machine.frames import check_frame, frame_metadata, neglect_spindle, to_machine_frame
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.rotation import RotationMapResult, rotation_angle_map
 from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace
@@ -27,13 +28,21 @@ class WorkspaceRequest:
     requirements: tuple[str, ...] = ()
     orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
     methods: tuple[str, ...] = ("surface_nets",)
+    frame: str = "machine"  # frame of ``box``; the result's summary gives positions in it too
+    neglect_spindle: bool = False  # leave K_U out (stiffness requirements)
 
     def evaluate(self, machine: Machine, **options: Any) -> WorkspaceResult:
         """``options`` are passed to :func:`constant_orientation_workspace` (progress, refine_steps, ...)."""
-        box = None if self.box is None else (np.asarray(self.box[0], float), np.asarray(self.box[1], float))
-        return constant_orientation_workspace(machine, self.resolution, self.orientation,
-                                              requirements=self.requirements, box=box, methods=self.methods,
-                                              **options)
+        check_frame(self.frame)
+        machine = neglect_spindle(machine, self.neglect_spindle)
+        box = None if self.box is None else (to_machine_frame(machine, self.box[0], self.frame),
+                                             to_machine_frame(machine, self.box[1], self.frame))
+        res = constant_orientation_workspace(machine, self.resolution, self.orientation,
+                                             requirements=self.requirements, box=box, methods=self.methods,
+                                             **options)
+        res.frame = frame_metadata(machine, self.frame)
+        res.settings["neglect_spindle"] = self.neglect_spindle
+        return res
 
 
 @dataclass(frozen=True)
@@ -51,8 +60,16 @@ class RotationMapRequest:
     max_angle: float = math.radians(90.0)  # rad
     requirements: tuple[str, ...] = ()
     method: str = "predictor_corrector"
+    frame: str = "machine"  # frame of ``origin`` (the raster's u, v values are offsets along the axes)
+    neglect_spindle: bool = False  # leave K_U out (stiffness requirements)
 
     def evaluate(self, machine: Machine, **options: Any) -> RotationMapResult:
-        return rotation_angle_map(machine, self.origin, self.u_axis, self.v_axis, self.u_values, self.v_values,
-                                  self.base_orientation, list(self.directions), self.increment, self.max_angle,
-                                  requirements=self.requirements, method=self.method, **options)
+        check_frame(self.frame)
+        machine = neglect_spindle(machine, self.neglect_spindle)
+        origin = to_machine_frame(machine, self.origin, self.frame)
+        res = rotation_angle_map(machine, origin, self.u_axis, self.v_axis, self.u_values, self.v_values,
+                                 self.base_orientation, list(self.directions), self.increment, self.max_angle,
+                                 requirements=self.requirements, method=self.method, **options)
+        res.settings.update(frame_metadata(machine, self.frame))
+        res.settings["neglect_spindle"] = self.neglect_spindle
+        return res

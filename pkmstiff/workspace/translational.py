@@ -68,6 +68,8 @@ class WorkspaceResult:
     surface: BoundarySurface | None  # closed mesh with crossing vertices (m)
     stats: dict[str, Any]
     settings: dict[str, Any] = field(default_factory=dict)
+    # frame of the positions in summary(): {"frame", "frame_origin_mm", "frame_note"} (pkmstiff.machine.frames)
+    frame: dict[str, Any] = field(default_factory=lambda: {"frame": "machine", "frame_origin_mm": [0.0, 0.0, 0.0]})
 
     @property
     def volume(self) -> float:
@@ -86,10 +88,11 @@ class WorkspaceResult:
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready summary; keys name their units."""
-        lo, hi = self.bounding_box()
+        off = np.asarray(self.frame.get("frame_origin_mm", [0.0, 0.0, 0.0]), float) * 1e-3
+        lo, hi = (b - off for b in self.bounding_box())
         o = self.octree
         return {
-            "machine": self.machine,
+            "machine": self.machine, **self.frame,
             "orientation_deg": np.rad2deg(self.orientation).tolist(),
             "resolution_mm": self.resolution * 1e3,
             "effective_resolution_mm": (o.spacing * 1e3).tolist(),
@@ -97,7 +100,7 @@ class WorkspaceResult:
             "volumes_m3": dict(self.volumes),
             "bounding_box_mm": None if not np.isfinite(lo).all() else {"min": (lo * 1e3).tolist(),
                                                                          "max": (hi * 1e3).tolist()},
-            "initial_box_mm": {"min": (o.lo * 1e3).tolist(), "max": (o.hi * 1e3).tolist()},
+            "initial_box_mm": {"min": ((o.lo - off) * 1e3).tolist(), "max": ((o.hi - off) * 1e3).tolist()},
             "boundary_points": int(o.leaf_index.shape[0]),
             "evaluations": int(self.stats["evaluations"]),
             "poses_evaluated": int(self.stats["poses_evaluated"]),
