@@ -21,3 +21,14 @@ class InputError(PkmstiffError, ValueError):
         self.source, self.key, self.expected, self.found = source, key, expected, found
         where = f"{source}: " if source else ""
         super().__init__(f"{where}key '{key}': expected {expected}, found {found!r}")
+
+
+# ------------------------------------------------------------------------------------------------------ calibration
+
+
+class CalibrationError(PkmstiffError):
+    """A calibration task cannot be carried out as set up (singular set-up, unreachable plan, failed simulation)."""
+
+
+class CalibrationInputError(CalibrationError, InputError):
+    """Invalid calibration input: unknown parameter names, malformed plan files, inconsistent instrument set-ups."""
