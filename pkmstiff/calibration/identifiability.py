@@ -147,6 +147,14 @@ def _orth(A: np.ndarray, tol: float = 1e-12) -> np.ndarray:
     return U[:, s > tol * max(s[0], 1e-300)] if s.size else U[:, :0]
 
 
+def _right_singular(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Singular values padded with zeros to the column count q and the q × q right singular vectors of A
+    (economy SVD when A has at least as many rows as columns: the left vectors are never formed in full)."""
+    m, q = A.shape
+    _, s, Vt = np.linalg.svd(A, full_matrices=m < q)
+    return np.concatenate([s, np.zeros(q - s.size)]), Vt.T
+
+
 def _describe_axes(C: np.ndarray, axes: tuple[str, ...]) -> str:
     """Text for a sub-space of a group's coordinates (columns of C, group coordinates) e.g. 'axis (0, 0, 1)'."""
     if len(axes) != 3 or C.shape[1] == 0:
@@ -196,9 +204,8 @@ def name_gauges(Js: np.ndarray, scale: np.ndarray, params: ParameterSet, candida
         Ug, sg, Vgt = np.linalg.svd(Gs, full_matrices=False)
         keep = sg > 1e-12 * sg[0]
         Q = Ug[:, keep]
-        _, sm, Vmt = np.linalg.svd(Js @ Q, full_matrices=True)
-        sm = np.concatenate([sm, np.zeros(Q.shape[1] - sm.size)])
-        null_c = Vmt.T[:, sm <= threshold]
+        sm, V = _right_singular(Js @ Q)
+        null_c = V[:, sm <= threshold]
         if null_c.shape[1] == 0:
             continue
         X = Q @ null_c
@@ -226,20 +233,24 @@ def analyse(jac: IdentificationJacobian, machine: Machine, setup: Setup | None) 
     params = jac.params
     Js = jac.scaled()
     m, n = Js.shape
-    _, sv, Vt = np.linalg.svd(Js, full_matrices=True)
+    # everything below depends on J_s only through JsᵀJs: work on its triangular factor R (Js = Q R), n × n
+    Rs = np.linalg.qr(Js, mode="r") if m > n else Js
+    sv_all, V = _right_singular(Rs)
+    sv = sv_all[:min(m, n)]
     rank, gap, thr = numerical_rank(sv, (m, n))
-    null_basis = Vt[rank:].T
+    null_basis = V[:, rank:]
     cands = gauge_candidates(machine, params, setup)
-    gauges = name_gauges(Js, params.scale, params, cands, null_basis, thr) if rank < n else ()
-    piv = qr(Js, pivoting=True, mode="r")[1] if n else np.zeros(0, int)
+    gauges = name_gauges(Rs, params.scale, params, cands, null_basis, thr) if rank < n else ()
+    # column pivoting depends on column norms of the updated residual only, which Q leaves unchanged
+    piv = qr(Rs, pivoting=True, mode="r")[1] if n else np.zeros(0, int)
     base = tuple(params.names[i] for i in sorted(piv[:rank]))
     if rank:
-        sb = np.linalg.svd(Js[:, piv[:rank]], compute_uv=False)
+        sb = np.linalg.svd(Rs[:, piv[:rank]], compute_uv=False)
         cond_base = float(sb[0] / sb[-1]) if sb[-1] > 0 else np.inf
         cond = float(sv[0] / sv[rank - 1])
     else:
         cond_base = cond = np.inf
-    O = orthogonality_matrix(jac.weighted())
+    O = orthogonality_matrix(Rs)  # column angles of R = those of J_s = those of W J (eq. 4.5 is scale-free)
     if n > 1:
         iu = np.triu_indices(n, 1)
         j = int(np.argmax(O[iu]))
