@@ -120,6 +120,15 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
         u_hat = rel / dist[:, None]
     H = _reading_twist(inst, u_hat, Rv)
     k = H.shape[1]
+    sj = np.linalg.svd(jinv, compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        kappa = sj[:, 0] / sj[:, -1]
+    sing = ~(kappa <= machine.limits.singularity_threshold)  # models.md §1.6, as the admissibility check
+    if sing.any():
+        i = int(np.flatnonzero(sing)[0])
+        raise CalibrationError(f"plan '{plan.name}': singular set-up, {int(sing.sum())} poses singular on "
+                               f"{machine.name} (condition number of J_C^-1 {kappa[i]:.3g} > "
+                               f"{machine.limits.singularity_threshold:g}), first pose {i + 1}")
     try:
         with np.errstate(all="raise"):
             LamT = np.linalg.solve(np.swapaxes(jinv, 1, 2), np.swapaxes(H, 1, 2))  # (N, n, k) = (H J_C)ᵀ
