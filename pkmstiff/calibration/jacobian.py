@@ -27,7 +27,7 @@ from pkmstiff.calibration.instruments import READINGS
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.errors import CalibrationError
-from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics
+from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics, singular_mask
 from pkmstiff.machine import Machine
 
 
@@ -120,14 +120,11 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
         u_hat = rel / dist[:, None]
     H = _reading_twist(inst, u_hat, Rv)
     k = H.shape[1]
-    sj = np.linalg.svd(jinv, compute_uv=False)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        kappa = sj[:, 0] / sj[:, -1]
-    sing = ~(kappa <= machine.limits.singularity_threshold)  # models.md §1.6, as the admissibility check
+    sing = singular_mask(machine, jinv)  # κ(J_C⁻¹) > threshold (models.md §1.6), as the admissibility check
     if sing.any():
         i = int(np.flatnonzero(sing)[0])
         raise CalibrationError(f"plan '{plan.name}': singular set-up, {int(sing.sum())} poses singular on "
-                               f"{machine.name} (condition number of J_C^-1 {kappa[i]:.3g} > "
+                               f"{machine.name} (condition number of J_C^-1 above "
                                f"{machine.limits.singularity_threshold:g}), first pose {i + 1}")
     try:
         with np.errstate(all="raise"):
