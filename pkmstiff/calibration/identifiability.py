@@ -161,11 +161,11 @@ def _describe_axes(C: np.ndarray, axes: tuple[str, ...]) -> str:
         return ""
     C = _orth(C)
     if C.shape[1] == 1:
-        v = C[:, 0] * np.sign(C[np.argmax(np.abs(C[:, 0])), 0])
+        v = np.round(C[:, 0] * np.sign(C[np.argmax(np.abs(C[:, 0])), 0]), 3) + 0.0  # no "-0.000"
         return "along (" + ", ".join(f"{x:.3f}" for x in v) + ")"
     if C.shape[1] == 2:
         nrm = np.cross(C[:, 0], C[:, 1])
-        nrm *= np.sign(nrm[np.argmax(np.abs(nrm))])
+        nrm = np.round(nrm * np.sign(nrm[np.argmax(np.abs(nrm))]), 3) + 0.0
         return "normal to (" + ", ".join(f"{x:.3f}" for x in nrm) + ")"
     return ""
 

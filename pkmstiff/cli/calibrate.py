@@ -60,6 +60,10 @@ def identifiability_report(machine_name: str, instrument: str, plan_path: str | 
     return out
 
 
+#: unnamed parameter combinations printed in the text output (all of them are in the JSON output)
+MAX_UNNAMED = 5
+
+
 def _print_identifiability(rep: dict) -> None:
     print(f"{rep['machine']}, {rep['instrument']}: plan '{rep['plan']['name']}' ({rep['plan']['n_poses']} poses, "
           f"{rep['n_readings']} readings), {rep['frame']} parameters")
@@ -67,8 +71,12 @@ def _print_identifiability(rep: dict) -> None:
           f"{rep['gap_ratio']:.3g})   not identifiable: {rep['null_dimension']}")
     if rep["gauge_freedoms"]:
         print("gauge freedoms (directions no reading sees):")
-        for g in rep["gauge_freedoms"]:
+        named = [g for g in rep["gauge_freedoms"] if g["kind"] != "unnamed"]
+        unnamed = [g for g in rep["gauge_freedoms"] if g["kind"] == "unnamed"]
+        for g in named + unnamed[:MAX_UNNAMED]:
             print(f"  - {g['label']}")
+        if len(unnamed) > MAX_UNNAMED:
+            print(f"  - ... and {len(unnamed) - MAX_UNNAMED} more parameter combinations (all in --json)")
     cn = rep["condition_number"]
     print(f"condition number (scaled Jacobian, identifiable part): {'inf' if cn is None else f'{cn:.4g}'}")
     cb = rep["condition_number_base"]
