@@ -128,3 +128,24 @@ def test_singular_setups_are_one_line_errors():
         identification_jacobian(m, error_model(m), singular)
     with pytest.raises(CalibrationInputError, match="fixed-ball position and a positive bar length"):
         Setup("ballbar", target=np.zeros(3))
+
+
+def test_pose_list_plan_and_concat(tmp_path):
+    path = tmp_path / "poses.toml"
+    path.write_text("""
+[plan]
+instrument = "tracker"
+[setup]
+target = ["0 mm", "0 mm", "-100 mm"]
+[[paths]]
+kind = "poses"
+positions = { value = [[0, 0, 300], [300, 0, 0]], unit = "mm" }
+angles = { value = [[0, 0, 0], [0, 10, 0]], unit = "deg" }
+""")
+    plan = read_plan(path)
+    np.testing.assert_allclose(plan.poses[1], [0.3, 0, 0, 0, np.radians(10), 0], rtol=1e-15)
+    np.testing.assert_allclose(plan.setup.target, [0, 0, -0.1], rtol=1e-15)
+    other = Plan("b", Setup("tracker", target=np.zeros(3)), plan.poses)
+    with pytest.raises(CalibrationInputError, match="same instrument set-up"):
+        plan.concat(other)
+    assert plan.concat(Plan("c", plan.setup, plan.poses)).n_poses == 4

@@ -62,7 +62,7 @@ class Plan:
 
     def concat(self, other: "Plan", name: str | None = None) -> "Plan":
         """Two plans with the same set-up as one."""
-        if other.setup != self.setup and not (_same_setup(self.setup, other.setup)):
+        if not _same_setup(self.setup, other.setup):
             raise CalibrationInputError(self.name, "setup", "plans with the same instrument set-up", other.name)
         off = self.n_poses
         segs = self.segments + tuple(Segment(s.label, s.start + off, s.stop + off) for s in other.segments)
