@@ -96,6 +96,9 @@ def test_glide_redundancies_are_named():
     assert names["guide start vs drive-joint offset per chain (only their sum acts)"] == 18
     assert names["guide start along the guide vs drive zero per chain"] == 6
     assert res.rank == 78 - 24  # a 6-D pose measurement sees everything else
+    # base parameters keep the drive zero and the guide start, never the redundant drive-joint offset
+    assert not any(".drive_joint." in b for b in res.base_parameters)
+    assert all(f"chain{i}.drive_zero" in res.base_parameters for i in range(1, 7))
 
 
 def test_pose_measurement_identifies_all_42(felix):

@@ -24,6 +24,8 @@ from pkmstiff.machine import Machine
 #: a (unit) candidate direction is new when more than this much of it lies outside the gauge directions already
 #: named (exact null directions agree to ~1e-10; anything independent leaves far more)
 _NEW_SHARE = 1e-6
+#: preference among exactly redundant parameters when choosing base parameters (higher = kept)
+_PREFERENCE = {"drive_joint": 0, "guide_start": 1}
 
 
 def numerical_rank(sv: np.ndarray, shape: tuple[int, int]) -> tuple[int, float, float]:
@@ -241,8 +243,11 @@ def analyse(jac: IdentificationJacobian, machine: Machine, setup: Setup | None) 
     null_basis = V[:, rank:]
     cands = gauge_candidates(machine, params, setup)
     gauges = name_gauges(Rs, params.scale, params, cands, null_basis, thr) if rank < n else ()
-    # column pivoting depends on column norms of the updated residual only, which Q leaves unchanged
-    piv = qr(Rs, pivoting=True, mode="r")[1] if n else np.zeros(0, int)
+    # column pivoting depends on column norms of the updated residual only, which Q leaves unchanged; among exactly
+    # redundant columns (glide: guide start = drive-joint offset; guide start along the guide = drive zero) a tiny
+    # weight prefers the parameter a user would keep (drive zero, then guide start, last the drive-joint offset)
+    pref = np.array([1.0 + 1e-9 * _PREFERENCE.get(b, 2) for b in params.blocks])
+    piv = qr(Rs * pref, pivoting=True, mode="r")[1] if n else np.zeros(0, int)
     base = tuple(params.names[i] for i in sorted(piv[:rank]))
     if rank:
         sb = np.linalg.svd(Rs[:, piv[:rank]], compute_uv=False)
