@@ -115,3 +115,18 @@ def test_perturbed_machine_reaches_another_pose(felix):
     np.testing.assert_allclose(inverse_kinematics(real, reached).drive, inverse_kinematics(felix, x).drive,
                                atol=1e-12)
     assert np.abs(reached - x).max() > 1e-5  # and differs from the commanded pose
+
+
+def test_error_table_with_units(felix, hexaglide):
+    from pkmstiff.calibration.parameters import parse_errors
+    p = error_model(felix)
+    d = parse_errors({"chain1.base_joint.x": "0.5 mm", "chain6.strut_offset": -2e-4}, p)
+    assert d[p.index("chain1.base_joint.x")] == pytest.approx(5e-4, rel=1e-15)
+    assert d[p.index("chain6.strut_offset")] == -2e-4 and np.count_nonzero(d) == 2
+    g = error_model(hexaglide)
+    d = parse_errors({"chain2.guide_direction.t1": "0.2 mrad"}, g)
+    assert d[g.index("chain2.guide_direction.t1")] == pytest.approx(2e-4, rel=1e-15)
+    with pytest.raises(CalibrationInputError, match="chain1.base_joint.x.*dimension of m"):
+        parse_errors({"chain1.base_joint.x": "3 deg"}, p)
+    with pytest.raises(CalibrationInputError, match="unknown parameter"):
+        parse_errors({"chain7.base_joint.x": 1e-3}, p)

@@ -17,7 +17,7 @@ from pkmstiff.calibration.identifiability import (GaugeFreedom, Identifiability,
 from pkmstiff.calibration.instruments import INSTRUMENTS, READINGS, Setup, SetupState, readings
 from pkmstiff.calibration.jacobian import IdentificationJacobian, identification_jacobian
 from pkmstiff.calibration.measurement import reached_poses, simulate_readings
-from pkmstiff.calibration.parameters import FRAMES, SETUP_TOKENS, ParameterSet, error_model, parse_with
+from pkmstiff.calibration.parameters import FRAMES, SETUP_TOKENS, ParameterSet, error_model, parse_errors, parse_with
 from pkmstiff.calibration.perturb import machine_file_text, perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import (Plan, Segment, check_plan, circle_plan, default_plan, default_setup, grid_plan,
                                         hemisphere_plan, read_plan, tilt_torsion_matrix, workspace_centre)
@@ -25,6 +25,6 @@ from pkmstiff.calibration.plans import (Plan, Segment, check_plan, circle_plan, 
 __all__ = ["GaugeCandidate", "GaugeFreedom", "Identifiability", "analyse", "gauge_candidates", "identifiability",
            "numerical_rank", "observability_indices", "orthogonality_matrix", "FRAMES", "INSTRUMENTS", "IdentificationJacobian", "ParameterSet", "Plan", "READINGS", "SETUP_TOKENS",
            "Segment", "Setup", "SetupState", "check_plan", "circle_plan", "default_plan", "default_setup",
-           "error_model", "grid_plan", "hemisphere_plan", "identification_jacobian", "machine_file_text",
+           "error_model", "parse_errors", "grid_plan", "hemisphere_plan", "identification_jacobian", "machine_file_text",
            "parse_with", "perturbed_machine", "perturbed_state", "reached_poses", "read_plan", "readings",
            "simulate_readings", "tilt_torsion_matrix", "workspace_centre"]

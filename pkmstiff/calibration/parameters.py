@@ -274,3 +274,24 @@ def error_model(machine: Machine, frame: str = "cartesian", setup: "object | Non
             raise CalibrationInputError(machine.path or machine.name, "setup_blocks",
                                         f"set-up blocks {sorted(v[0] for v in SETUP_TOKENS.values())}", blk)
     return b.build(machine.name, ch.kind, frame)
+
+
+def parse_errors(table: Mapping[str, object], params: ParameterSet, source: str = "errors") -> np.ndarray:
+    """Error vector Δp (SI) from a table name -> quantity (``"0.5 mm"``, ``"0.2 mrad"``, bare numbers SI), e.g. the
+    ``[errors]`` table of an error file; unknown names and wrong dimensions raise one-line errors."""
+    from pkmstiff.units import parse_quantity
+
+    if not isinstance(table, Mapping):
+        raise CalibrationInputError(source, "errors", "a table parameter name = value", table)
+    out = np.zeros(params.n)
+    for name, value in table.items():
+        k = params.index(str(name))
+        try:
+            out[k] = parse_quantity(value, params.units[k], source=source, key=str(name))
+        except CalibrationInputError:
+            raise
+        except ValueError as exc:  # the unit parser's InputError: same fields, calibration error type
+            raise CalibrationInputError(getattr(exc, "source", source), getattr(exc, "key", str(name)),
+                                        getattr(exc, "expected", f"a value in {params.units[k]}"),
+                                        getattr(exc, "found", value)) from None
+    return out
