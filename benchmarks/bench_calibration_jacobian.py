@@ -9,21 +9,21 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
     os.environ[_var] = "1"
 
-import sys  # noqa: E402
-import time  # noqa: E402
-from pathlib import Path  # noqa: E402
+import sys
+import time
+from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 try:
-    from threadpoolctl import threadpool_limits  # noqa: E402
+    from threadpoolctl import threadpool_limits
 except ImportError:  # the environment variables above already pin BLAS to one thread
     threadpool_limits = None
 
-import pkmstiff  # noqa: E402
-from pkmstiff.calibration import Setup, error_model, hemisphere_plan, identification_jacobian  # noqa: E402
+import pkmstiff
+from pkmstiff.calibration import Setup, error_model, hemisphere_plan, identification_jacobian
 
 TARGET_MS = 20.0
 

@@ -2,7 +2,7 @@
 matrix, observability indices; invariance to parameter scaling and to a rigid motion of the whole machine."""
 
 import dataclasses
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 import pytest
@@ -17,7 +17,7 @@ from pkmstiff.calibration import (Plan, Setup, circle_plan, default_plan, error_
 from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
 
 
-@lru_cache(maxsize=None)
+@cache
 def _machine_plan(name, instrument):
     """Machine and default plan, computed once per module (the default-plan search evaluates many poses)."""
     m = pkmstiff.load_machine(name)

@@ -60,7 +60,7 @@ class Setup:
     def n_readings(self) -> int:
         return len(READINGS[self.instrument][0])
 
-    def state(self) -> "SetupState":
+    def state(self) -> SetupState:
         return SetupState(target=self.target.copy(),
                           fixed_ball=None if self.fixed_ball is None else self.fixed_ball.copy())
 

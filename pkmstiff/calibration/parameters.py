@@ -25,7 +25,8 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass
-from typing import Iterable, Literal, Mapping, Sequence
+from typing import Literal
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -142,7 +143,7 @@ class ParameterSet:
             np.add.at(out, r, delta[m])
         return out
 
-    def scaled(self, scale: np.ndarray) -> "ParameterSet":
+    def scaled(self, scale: np.ndarray) -> ParameterSet:
         """The same parameters with other scales (SI, one per parameter, positive)."""
         s = np.asarray(scale, dtype=float)
         if s.shape != (self.n,) or not np.all(s > 0):
@@ -219,7 +220,7 @@ def parse_with(tokens: str | Iterable[str] | None, instrument: str, source: str 
     return tuple(out)
 
 
-def error_model(machine: Machine, frame: str = "cartesian", setup: "object | None" = None,
+def error_model(machine: Machine, frame: str = "cartesian", setup: object | None = None,
                 setup_blocks: Iterable[str] = (), length_scale: float = DEFAULT_LENGTH_SCALE,
                 angle_scale: float = DEFAULT_ANGLE_SCALE) -> ParameterSet:
     """The error parameters of ``machine`` (calibration.md §1, Szatmári §4.2.2) plus the set-up blocks asked for.

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -60,7 +60,7 @@ class Plan:
     def n_readings(self) -> int:
         return self.n_poses * self.setup.n_readings
 
-    def concat(self, other: "Plan", name: str | None = None) -> "Plan":
+    def concat(self, other: Plan, name: str | None = None) -> Plan:
         """Two plans with the same set-up as one."""
         if not _same_setup(self.setup, other.setup):
             raise CalibrationInputError(self.name, "setup", "plans with the same instrument set-up", other.name)
@@ -317,7 +317,7 @@ def read_plan(path: str | Path) -> Plan:
             return parse_quantity(table[key], unit, source=src, key=prefix + key, shape=shape, positive=positive)
         except CalibrationInputError:
             raise
-        except Exception as exc:  # InputError of the unit parser: same message, calibration error type
+        except ValueError as exc:  # InputError of the unit parser: same message, calibration error type
             raise CalibrationInputError(getattr(exc, "source", src), getattr(exc, "key", prefix + key),
                                         getattr(exc, "expected", f"a value in {unit}"),
                                         getattr(exc, "found", table[key])) from None
