@@ -11,9 +11,20 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import pkmstiff
-from pkmstiff.calibration import (Plan, Setup, circle_plan, default_plan, error_model, gauge_candidates,
-                                  hemisphere_plan, identifiability, identification_jacobian, numerical_rank,
-                                  observability_indices, orthogonality_matrix)
+from pkmstiff.calibration import (
+    Plan,
+    Setup,
+    circle_plan,
+    default_plan,
+    error_model,
+    gauge_candidates,
+    hemisphere_plan,
+    identifiability,
+    identification_jacobian,
+    numerical_rank,
+    observability_indices,
+    orthogonality_matrix,
+)
 from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
 
 

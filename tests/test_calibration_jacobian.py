@@ -4,8 +4,7 @@ import numpy as np
 import pytest
 
 import pkmstiff
-from pkmstiff.calibration import (Plan, default_plan, error_model, identification_jacobian, parse_with,
-                                  simulate_readings)
+from pkmstiff.calibration import Plan, default_plan, error_model, identification_jacobian, parse_with, simulate_readings
 
 #: finite-difference step (m, rad): central differences err by ~f''' h²/6 ≈ 3e-9 relative at 1e-5 (measured: 2.8e-7
 #: at 1e-4, 2.8e-9 at 1e-5, i.e. h²); rounding (FK solved to 1e-13 m) adds ~1e-8 absolute per unit sensitivity

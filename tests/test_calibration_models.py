@@ -4,8 +4,15 @@ import numpy as np
 import pytest
 
 import pkmstiff
-from pkmstiff.calibration import (Setup, circle_plan, error_model, machine_file_text, parse_with, perturbed_machine,
-                                  simulate_readings)
+from pkmstiff.calibration import (
+    Setup,
+    circle_plan,
+    error_model,
+    machine_file_text,
+    parse_with,
+    perturbed_machine,
+    simulate_readings,
+)
 from pkmstiff.calibration.plans import hemisphere_plan
 from pkmstiff.errors import CalibrationInputError
 from pkmstiff.kinematics import inverse_kinematics

@@ -12,15 +12,33 @@ The ball-bar circle/Fourier evaluation lives in :mod:`.ballbar` (imported on its
 """
 
 from pkmstiff.calibration.gauges import GaugeCandidate, gauge_candidates
-from pkmstiff.calibration.identifiability import (GaugeFreedom, Identifiability, analyse, identifiability,
-                                                  numerical_rank, observability_indices, orthogonality_matrix)
+from pkmstiff.calibration.identifiability import (
+                                                  GaugeFreedom,
+                                                  Identifiability,
+                                                  analyse,
+                                                  identifiability,
+                                                  numerical_rank,
+                                                  observability_indices,
+                                                  orthogonality_matrix,
+)
 from pkmstiff.calibration.instruments import INSTRUMENTS, READINGS, Setup, SetupState, readings
 from pkmstiff.calibration.jacobian import IdentificationJacobian, identification_jacobian
 from pkmstiff.calibration.measurement import reached_poses, simulate_readings
 from pkmstiff.calibration.parameters import FRAMES, SETUP_TOKENS, ParameterSet, error_model, parse_errors, parse_with
 from pkmstiff.calibration.perturb import machine_file_text, perturbed_machine, perturbed_state
-from pkmstiff.calibration.plans import (Plan, Segment, check_plan, circle_plan, default_plan, default_setup, grid_plan,
-                                        hemisphere_plan, read_plan, tilt_torsion_matrix, workspace_centre)
+from pkmstiff.calibration.plans import (
+                                                  Plan,
+                                                  Segment,
+                                                  check_plan,
+                                                  circle_plan,
+                                                  default_plan,
+                                                  default_setup,
+                                                  grid_plan,
+                                                  hemisphere_plan,
+                                                  read_plan,
+                                                  tilt_torsion_matrix,
+                                                  workspace_centre,
+)
 
 __all__ = [
                                                   "FRAMES",

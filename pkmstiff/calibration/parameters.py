@@ -24,9 +24,9 @@ block). The frame only rotates the three components of a point; it changes O and
 from __future__ import annotations
 
 import difflib
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
-from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 

@@ -32,8 +32,7 @@ def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namesp
 def identifiability_report(machine_name: str, instrument: str, plan_path: str | None = None,
                            with_: str | None = None, frame: str = "cartesian") -> dict:
     """Everything ``pkmstiff calibrate identifiability`` prints, as a JSON-ready dict (keys name their units)."""
-    from pkmstiff.calibration import (check_plan, default_plan, error_model, identifiability, parse_with,
-                                      read_plan)
+    from pkmstiff.calibration import check_plan, default_plan, error_model, identifiability, parse_with, read_plan
     from pkmstiff.calibration.instruments import check_instrument
     from pkmstiff.machine import load_machine
 
