@@ -1,6 +1,6 @@
 """Calibration layer: geometric error models, measurement models, the identification Jacobian, identifiability,
 measurement plans and Denkena's implicit double-pendulum example (Szatmári 2007 §4.2–4.4; Denkena et al. 2008
-§1.2–1.5; spec calibration.md).
+§1.2–1.5; the readings of calibration.md).
 
 Modules: :mod:`.parameters` (named error parameters, Cartesian/cylindrical frames), :mod:`.instruments` (ball bar,
 tracker, 6-D pose set-ups and readings), :mod:`.perturb` (perturbed machine, machine file that ``extends`` the
