@@ -212,3 +212,14 @@ class MeasurementFileError(BallbarError):
             where.append(f"column {column}" + (f" ({column_name})" if column_name else ""))
         prefix = ", ".join(where)
         super().__init__(f"{prefix}: {message}" if prefix else message, source)
+
+
+# -------------------- calibration (error models, plans, identifiability)
+
+
+class CalibrationError(PkmstiffError):
+    """A calibration task cannot be carried out as set up (singular set-up, unreachable plan, failed simulation)."""
+
+
+class CalibrationInputError(CalibrationError, InputError):
+    """Invalid calibration input: unknown parameter names, malformed plan files, inconsistent instrument set-ups."""

@@ -3,7 +3,7 @@
 What is computed (SI throughout: m, rad):
 
 * radial deviations ``d_k`` of the actual path from the commanded path, measured along the bar
-  (calibration.md §1: the reading is the distance between the two ball centres);
+  (docs/theory/calibration.md: the reading is the distance between the two ball centres);
 * a geometric least-squares circle fit in the plane of the run: centre offset, radius deviation, residuals;
 * the circular-test figures of ISO 230-4 as Szatmári §2.2.3.1 lists them: circular deviation G, radial
   deviation F (max / min), hysteresis H, per direction (CCW, CW);
@@ -302,7 +302,7 @@ def plane_frame(positions: ArrayLike, fixed_ball: ArrayLike, plane: str | ArrayL
 
 
 def radial_deviations(positions: ArrayLike, fixed_ball: ArrayLike, bar_length: float, reading: ArrayLike) -> Array:
-    """Deviation of the actual from the commanded path along the bar [m], vectorised (calibration.md §1).
+    """Deviation of the actual from the commanded path along the bar [m], vectorised (docs/theory/calibration.md).
 
     The measured ball distance is ``bar_length + reading``; the commanded distance is |P_k − s|.
     """
@@ -553,7 +553,7 @@ def evaluate_circular_test(positions: ArrayLike, reading: ArrayLike, fixed_ball:
 
 def ball_positions(poses: ArrayLike, ball_offset: ArrayLike) -> Array:
     """Commanded moving-ball centres (N, 3) [m] from poses (N, 6) (x, y, z [m], a, b, c [rad]) and the ball offset
-    in the pose frame (3,) [m]: p = o + R(a, b, c) v (calibration.md §1, with Δv = 0 for the commanded path)."""
+    in the pose frame (3,) [m]: p = o + R(a, b, c) v (docs/theory/calibration.md, with Δv = 0 for the commanded path)."""
     from pkmstiff.kinematics.rotation import cardan_matrix
 
     X = np.asarray(poses, dtype=float)

@@ -1,4 +1,4 @@
-"""Ball-bar measurement files: a CSV with a commented header (issue 16 item 5; instrument data calibration.md §1).
+"""Ball-bar measurement files: a CSV with a commented header (issue 16 item 5; instrument data docs/theory/calibration.md).
 
 Layout (one sample per row, comma separated, ``#`` starts a comment line)::
 
@@ -23,7 +23,7 @@ Header keys carry their unit in the name (as do the columns); ``units`` is writt
 Columns: ``t_s`` (required, non-decreasing), the commanded pose ``x_mm … c_deg`` (all six) and/or drive
 values ``q1_mm``/``q1_deg``, ``q2_…`` (consecutive), ``reading_mm`` (required: the transducer reading, i.e. the
 measured ball distance minus ``bar_length``), optional ``feed_mm_min``, ``direction`` (``ccw``/``cw``) and
-``temperature_C``. Instrument defaults are the QC10 class values of Szatmári Tab. 4.3 (calibration.md §1).
+``temperature_C``. Instrument defaults are the QC10 class values of Szatmári Tab. 4.3 (docs/theory/calibration.md).
 
 Every error is a :class:`~pkmstiff.errors.MeasurementFileError` whose one-line message names the file, the line
 and, for a cell, the column number and name. Readings outside the instrument range are an error on reading (the
@@ -53,7 +53,7 @@ _OPTIONAL = ("feed_mm_min", "direction", "temperature_C")
 UNITS_LINE = ("t_s s; x_mm y_mm z_mm mm; a_deg b_deg c_deg deg; q<i>_mm mm (linear drive); q<i>_deg deg (rotary "
               "drive); reading_mm mm (measured distance - bar_length); feed_mm_min mm/min; temperature_C degC")
 
-# QC10-class defaults (Szatmári Tab. 4.3, calibration.md §1)
+# QC10-class defaults (Szatmári Tab. 4.3, docs/theory/calibration.md)
 QC10_RANGE = (-1e-3, 1e-3)
 QC10_RESOLUTION = 0.1e-6
 QC10_ACCURACY = 0.5e-6

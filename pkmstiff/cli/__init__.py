@@ -15,7 +15,8 @@ from pkmstiff.errors import CliError, PkmstiffError  # noqa: F401 (CliError re-e
 # modules that add their own sub-commands with ``add_commands(subparsers)``
 _COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.components", "pkmstiff.cli.demo", "pkmstiff.cli.pose",
                     "pkmstiff.cli.point", "pkmstiff.cli.section", "pkmstiff.cli.workspace", "pkmstiff.cli.report",
-                    "pkmstiff.cli.sweep", "pkmstiff.cli.fe", "pkmstiff.cli.ballbar")
+                    "pkmstiff.cli.sweep", "pkmstiff.cli.fe", "pkmstiff.cli.ballbar",
+                    "pkmstiff.cli.calibrate")
 
 
 def build_parser() -> argparse.ArgumentParser:

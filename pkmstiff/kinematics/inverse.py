@@ -30,7 +30,7 @@ class IK:
     q: Array  #: (N, n, 3) m, drive-side joint points in the MKS
     d: Array  #: (N, n, 3) m, strut vectors d_i = p_i − q_i
     length: Array  #: (N, n) m, strut lengths |d_i|
-    drive: Array  #: (N, n) m, drive coordinates (glide: λ_i; pod: strut length l_i)
+    drive: Array  #: (N, n) m, drive coordinates (glide: λ_i; pod: strut length l_i), minus ``chains.drive_offset``
     reachable: Array  #: (N, n) bool (glide: discriminant ≥ 0; pod: True)
 
     @property
@@ -115,6 +115,9 @@ def _ik_soa(machine: Machine, x: Array, w: Array, R: Array) -> IK:
         reachable = np.ones((ch.n, N), dtype=bool)
     else:
         raise KinematicsInputError(f"machine '{machine.name}': chains.kind must be 'pod' or 'glide', found {ch.kind!r}")
+    off = ch.drive_offset
+    if off is not None and np.any(off != 0.0):  # calibrated drive zero: controller coordinate = geometric - offset
+        drive = drive - off[:, None]
     return IK(
         kind=ch.kind,
         poses=x,

@@ -39,7 +39,7 @@ _GLIDE_CHAIN_KEYS = {"guide_start", "guide_direction", "guide_length", "strut_le
 _POD_CHAIN_KEYS = {"length_min", "length_max"}
 _COMMON_CHAIN_KEYS = {"drive_joint", "drive_axis", "drive_reference", "platform_joint", "platform_axis",
                       "platform_reference", "strut_radius", "drive_joint_type", "platform_joint_type", "components",
-                      "label"}
+                      "label", "drive_offset"}
 _HULL_KEYS = {"vertices", "triangles", "source"}
 
 
@@ -395,6 +395,9 @@ def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
                 raise MachineFileError(src, p + "length_max", f"a length > length_min = {lmin} m", t["length_max"])
             cols["length_min"].append(lmin)
             cols["length_max"].append(lmax)
+        # drive zero offset (calibrated machines): controller drive coordinate = geometric one - drive_offset
+        cols["drive_offset"].append(float(parse_quantity(t.get("drive_offset", 0.0), "m", source=src,
+                                                         key=p + "drive_offset")))
         cc = t.get("components", {})
         if not isinstance(cc, dict):
             raise MachineFileError(src, p + "components", "a table role = component name", cc)
@@ -418,7 +421,7 @@ def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
         platform_axis=np.array(cols["platform_axis"]), platform_reference=np.array(cols["platform_reference"]),
         strut_radius=np.array(cols["strut_radius"]),
         drive_joint_type=tuple(cols["drive_joint_type"]), platform_joint_type=tuple(cols["platform_joint_type"]),
-        guide=tuple([None] * n),
+        guide=tuple([None] * n), drive_offset=np.array(cols["drive_offset"]),
     )
     return chains, tuple(comps)
 

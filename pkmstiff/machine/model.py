@@ -82,6 +82,14 @@ class Chains:
     drive_joint_type: tuple[str, ...]  # names into Machine.joint_types
     platform_joint_type: tuple[str, ...]
     guide: tuple[str | None, ...]  # name of the shared guide per chain (glide) or None
+    # drive zero offset o_i (m): the controller's drive coordinate is the geometric one minus o_i (pod: strut length
+    # l_i - o_i, glide: lambda_i - o_i), i.e. a commanded value u drives the geometry to u + o_i. Zero unless a
+    # calibrated machine file sets it (docs/theory/calibration.md: strut length offsets Δl_i; glide drive zero).
+    drive_offset: np.ndarray | None = None  # (n,); None on construction means zeros
+
+    def __post_init__(self) -> None:
+        if self.drive_offset is None:
+            object.__setattr__(self, "drive_offset", np.zeros(self.drive_joint.shape[0]))
 
     @property
     def n(self) -> int:

@@ -1,0 +1,51 @@
+"""Measurement models: commanded pose → nominal IK → forward kinematics of the perturbed machine → reading
+(Szatmári §4.2.4, Fig. 4.5: the simulated measurement; Denkena §1.3, Gl. 47–48), vectorised over poses.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pkmstiff.calibration.instruments import readings
+from pkmstiff.calibration.parameters import ParameterSet
+from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
+from pkmstiff.calibration.plans import Plan
+from pkmstiff.errors import CalibrationError
+from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
+from pkmstiff.kinematics.rotation import cardan_matrix
+from pkmstiff.machine import Machine
+
+
+def commanded_drives(machine: Machine, poses: np.ndarray) -> np.ndarray:
+    """Drive values (N, n) the nominal controller commands for the poses (nominal IK); unreachable -> error."""
+    ik = inverse_kinematics(machine, poses)
+    bad = np.flatnonzero(~ik.all_reachable)
+    if bad.size:
+        raise CalibrationError(f"machine '{machine.name}': {bad.size} commanded poses unreachable by the nominal "
+                               f"inverse kinematics, first pose {int(bad[0]) + 1}")
+    return ik.drive
+
+
+def reached_poses(machine: Machine, params: ParameterSet, delta: np.ndarray, poses: np.ndarray,
+                  tol: float = 1e-13) -> np.ndarray:
+    """The poses (N, 6) the machine with errors ``delta`` reaches for the nominal drive values of ``poses``
+    (forward kinematics started at the commanded pose; Newton to ``tol`` m in the drive residual)."""
+    x = as_poses(poses)
+    u = commanded_drives(machine, x)
+    real = perturbed_machine(machine, params, delta)
+    fk = forward_kinematics(real, u, x, tol_q=tol, tol_x=tol)
+    if not fk.converged.all():
+        raise CalibrationError(f"machine '{machine.name}' with errors: {fk.report(3).splitlines()[0]} "
+                               f"({'; '.join(fk.report(3).splitlines()[1:]).strip()})")
+    return fk.poses
+
+
+def simulate_readings(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Plan) -> np.ndarray:
+    """Readings (N, k) of the plan's instrument on the machine with errors ``delta`` (machine and set-up errors),
+    noise-free (Szatmári §4.2.4). A zero ``delta`` gives the nominal readings (ball bar: the bar length)."""
+    delta = params.check_vector(delta)
+    x = as_poses(plan.poses)
+    reached = x if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, x)
+    R = cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
+    Rc = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
+    return readings(plan.setup, perturbed_state(plan.setup, params, delta), reached[:, :3], R, Rc)

@@ -1,0 +1,378 @@
+"""Measurement plans: commanded platform poses plus the instrument set-up (Szatmári §4.3–4.4, Denkena §1.4).
+
+A :class:`Plan` is the minimal object the identification Jacobian needs: an instrument :class:`Setup`, commanded
+platform poses (N, 6) (x, y, z [m], a, b, c [rad]) and labelled segments. Builders make ball-bar circles, the
+hemisphere path of Szatmári §4.4 (Fig. 4.23) and point/pose sets; :func:`default_plan` chooses the plan a user
+would start with per instrument; :func:`read_plan` reads a small TOML plan format (documented in the docs page);
+:func:`check_plan` rejects plans with inadmissible poses (listing them with their failing checks) or readings
+outside the instrument range.
+
+Orientation convention (docs/theory/calibration.md, Assumption): tilt B (angle of the platform normal z' from the MKS z
+axis), azimuth L of the tilt and torsion D about the platform normal: R = R_z(L) R_y(B) R_z(D − L) (a
+tilt-and-torsion form without a singularity at B = 0).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pkmstiff.admissibility import evaluate_poses
+from pkmstiff.calibration.instruments import INSTRUMENTS, Setup, SetupState, readings
+from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.io import check_keys, read_toml, require
+from pkmstiff.kinematics import as_poses
+from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
+from pkmstiff.machine import Machine
+from pkmstiff.units import parse_quantity
+
+
+@dataclass(frozen=True)
+class Segment:
+    """A labelled run of consecutive poses of a plan (e.g. one circle)."""
+
+    label: str
+    start: int
+    stop: int
+
+
+@dataclass(frozen=True)
+class Plan:
+    """Commanded platform poses (N, 6) in SI with an instrument set-up (Szatmári §4.4)."""
+
+    name: str
+    setup: Setup
+    poses: np.ndarray
+    segments: tuple[Segment, ...] = field(default=())
+
+    @property
+    def instrument(self) -> str:
+        return self.setup.instrument
+
+    @property
+    def n_poses(self) -> int:
+        return int(self.poses.shape[0])
+
+    @property
+    def n_readings(self) -> int:
+        return self.n_poses * self.setup.n_readings
+
+    def concat(self, other: Plan, name: str | None = None) -> Plan:
+        """Two plans with the same set-up as one."""
+        if not _same_setup(self.setup, other.setup):
+            raise CalibrationInputError(self.name, "setup", "plans with the same instrument set-up", other.name)
+        off = self.n_poses
+        segs = self.segments + tuple(Segment(s.label, s.start + off, s.stop + off) for s in other.segments)
+        return Plan(name or f"{self.name} + {other.name}", self.setup, np.vstack([self.poses, other.poses]), segs)
+
+
+def _same_setup(a: Setup, b: Setup) -> bool:
+    return (a.instrument == b.instrument and np.array_equal(a.target, b.target)
+            and (a.fixed_ball is None) == (b.fixed_ball is None)
+            and (a.fixed_ball is None or np.array_equal(a.fixed_ball, b.fixed_ball)) and a.bar_length == b.bar_length)
+
+
+# ------------------------------------------------------------------------------------------------- orientations
+
+
+def tilt_torsion_matrix(B: np.ndarray, L: np.ndarray, D: np.ndarray) -> np.ndarray:
+    """R = R_z(L) R_y(B) R_z(D − L) (N, 3, 3): platform normal at polar angle B, azimuth L; torsion D (rad)."""
+    B, L, D = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (B, L, D)))
+
+    def rz(t):
+        c, s = np.cos(t), np.sin(t)
+        R = np.zeros(t.shape + (3, 3))
+        R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1], R[..., 2, 2] = c, -s, s, c, 1.0
+        return R
+
+    cb, sb = np.cos(B), np.sin(B)
+    Ry = np.zeros(B.shape + (3, 3))
+    Ry[..., 0, 0], Ry[..., 0, 2], Ry[..., 1, 1], Ry[..., 2, 0], Ry[..., 2, 2] = cb, sb, 1.0, -sb, cb
+    return rz(L) @ Ry @ rz(D - L)
+
+
+def poses_for_target(positions: np.ndarray, R: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Platform poses (N, 6) that put the PKS point ``target`` at ``positions`` (N, 3) with orientations R."""
+    o = positions - np.einsum("nij,j->ni", R, target)
+    return np.concatenate([o, cardan_angles(R)], axis=1)
+
+
+# ------------------------------------------------------------------------------------------------------ builders
+
+_PLANES = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}
+
+
+def circle_positions(centre: np.ndarray, radius: float, plane: str, n: int) -> np.ndarray:
+    if plane not in _PLANES:
+        raise CalibrationInputError("plan", "plane", "XY, XZ or YZ", plane)
+    t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    i, j = _PLANES[plane]
+    P = np.tile(np.asarray(centre, dtype=float), (n, 1))
+    P[:, i] += radius * np.cos(t)
+    P[:, j] += radius * np.sin(t)
+    return P
+
+
+def circle_plan(setup: Setup, plane: str = "XY", n: int = 72, centre: np.ndarray | None = None,
+                radius: float | None = None, tilt: float = 0.0, tilt_azimuth: float = 0.0, torsion: float = 0.0,
+                name: str | None = None) -> Plan:
+    """A circle of the target point (ball bar: centred on the fixed ball with the bar length as radius) at a
+    constant orientation (tilt B, azimuth L, torsion D in rad; untilted by default, Szatmári Fig. 4.15/4.16)."""
+    if centre is None:
+        if setup.fixed_ball is None:
+            raise CalibrationInputError("plan", "centre", "a circle centre (no fixed ball in the set-up)", None)
+        centre = setup.fixed_ball
+    radius = setup.bar_length if radius is None else radius
+    if radius is None or not radius > 0:
+        raise CalibrationInputError("plan", "radius", "a positive circle radius", radius)
+    P = circle_positions(np.asarray(centre, float), float(radius), plane, int(n))
+    R = tilt_torsion_matrix(np.full(n, tilt), np.full(n, tilt_azimuth), np.full(n, torsion))
+    label = name or f"circle {plane} r={radius * 1e3:g} mm"
+    return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, n),))
+
+
+def hemisphere_plan(setup: Setup, n: int = 360, turns: float = 4.0, polar: tuple[float, float] = (np.radians(10),
+                    np.radians(80)), tilt: float = np.radians(20), torsion: float = np.radians(15),
+                    side: float = 1.0, name: str | None = None) -> Plan:
+    """Szatmári's hemisphere path (§4.4, Fig. 4.23): the moving ball on a sphere of the bar length about the fixed
+    ball, along a spiral from polar angle ``polar[0]`` to ``polar[1]`` (from the pole of the side ``side`` = +1
+    above, −1 below the fixed ball) over ``turns`` turns; the platform tilted towards the direction of travel
+    (L = azimuth + 90°) by B = ``tilt`` · |sin(2.5 · azimuth)| with a torsion D = ``torsion`` · sin(3 · azimuth)
+    (Assumption: this smooth orientation schedule as the default start path; the thesis optimises the orientation
+    nodes, issue "Calibration 2"). A constant tilt towards the direction of travel is a poor choice: it leaves the
+    combination "platform joints along z' + cos B · base joints along z" unseen (the ball then moves normal to the
+    bar), which :func:`pkmstiff.calibration.identifiability.identifiability` reports."""
+    if setup.instrument != "ballbar":
+        raise CalibrationInputError("plan", "instrument", "a ball-bar set-up for a hemisphere path", setup.instrument)
+    s = np.linspace(0.0, 1.0, int(n))
+    pol = polar[1] + (polar[0] - polar[1]) * s  # from near the equator up to near the pole
+    az = 2 * np.pi * turns * s
+    dirs = np.c_[np.sin(pol) * np.cos(az), np.sin(pol) * np.sin(az), side * np.cos(pol)]
+    P = setup.fixed_ball + setup.bar_length * dirs
+    R = tilt_torsion_matrix(tilt * np.abs(np.sin(2.5 * az)), az + np.pi / 2, torsion * np.sin(3 * az))
+    label = name or f"hemisphere r={setup.bar_length * 1e3:g} mm"
+    return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, int(n)),))
+
+
+def grid_plan(setup: Setup, centre: np.ndarray, half_width: float, points: int = 3, tilt: float = np.radians(10),
+              torsion: float = np.radians(10), name: str | None = None) -> Plan:
+    """A tracker or 6-D pose set: a points³ grid of target positions about ``centre`` (± ``half_width``), each at
+    three orientations (tilted by ``tilt`` towards 0/120/240° with torsions −D, 0, +D)."""
+    g = np.linspace(-half_width, half_width, points)
+    X = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3) + np.asarray(centre, float)
+    k = np.arange(3)
+    P = np.repeat(X, 3, axis=0)
+    L = np.tile(np.radians(120.0) * k, len(X))
+    D = np.tile(torsion * (k - 1.0), len(X))
+    R = tilt_torsion_matrix(np.full(len(P), tilt), L, D)
+    label = name or f"grid {points}^3 ±{half_width * 1e3:g} mm"
+    return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, len(P)),))
+
+
+# --------------------------------------------------------------------------------------------------- checking
+
+
+def _fmt_pose(p: np.ndarray) -> str:
+    return ("(" + ", ".join(f"{v * 1e3:.1f}" for v in p[:3]) + " mm, "
+            + ", ".join(f"{np.degrees(v):.1f}" for v in p[3:]) + " deg)")
+
+
+def check_plan(machine: Machine, plan: Plan, max_list: int = 3) -> None:
+    """Raise a one-line :class:`CalibrationError` if a pose of the plan is not admissible on ``machine`` (every
+    App. B check; the poses are listed with their failing checks) or a nominal reading lies outside the
+    instrument's range."""
+    poses = as_poses(plan.poses, f"plan '{plan.name}'")
+    ev = evaluate_poses(machine, poses)
+    bad = np.flatnonzero(~ev.ok)
+    if bad.size:
+        items = [f"pose {i + 1} {_fmt_pose(poses[i])}: {', '.join(ev.admissibility.failing(int(i)))}"
+                 for i in bad[:max_list]]
+        more = f"; ... ({bad.size - max_list} more)" if bad.size > max_list else ""
+        raise CalibrationError(f"plan '{plan.name}': {bad.size} of {len(poses)} poses not admissible on "
+                               f"{machine.name}: " + "; ".join(items) + more)
+    if plan.instrument == "ballbar":
+        R = cardan_matrix(poses[:, 3], poses[:, 4], poses[:, 5])
+        r = readings(plan.setup, plan.setup.state(), poses[:, :3], R, R)[:, 0]
+        off = np.flatnonzero(np.abs(r - plan.setup.bar_length) > plan.setup.measuring_range)
+        if off.size:
+            i = int(off[0])
+            raise CalibrationError(
+                f"plan '{plan.name}': {off.size} of {len(poses)} poses put the ball bar outside its range "
+                f"{plan.setup.bar_length * 1e3:g} ± {plan.setup.measuring_range * 1e3:g} mm, first pose {i + 1} "
+                f"{_fmt_pose(poses[i])} at {r[i] * 1e3:.3f} mm")
+
+
+# ------------------------------------------------------------------------------------------- default plans
+
+
+def workspace_centre(machine: Machine, points: int = 17) -> np.ndarray:
+    """The middle of the constant-orientation workspace (m): the admissible point of a grid over the reach box
+    farthest from any inadmissible one (the origin if it is admissible and at least 80 % as deep)."""
+    from scipy.ndimage import distance_transform_edt
+
+    from pkmstiff.workspace import reach_box
+
+    lo, hi = reach_box(machine)
+    axes = [np.linspace(a, b, points) for a, b in zip(lo, hi)]
+    X = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+    ok = evaluate_poses(machine, np.c_[X, np.zeros((len(X), 3))]).ok.reshape((points,) * 3)
+    if not ok.any():
+        raise CalibrationError(f"machine '{machine.name}': no admissible pose at zero orientation on a "
+                               f"{points}^3 grid of the reach box: cannot choose a default plan")
+    step = (hi - lo) / (points - 1)
+    depth = distance_transform_edt(np.pad(ok, 1), sampling=step)[1:-1, 1:-1, 1:-1]
+    best = np.unravel_index(np.argmax(depth), depth.shape)
+    centre = np.array([axes[k][best[k]] for k in range(3)])
+    origin_ok = evaluate_poses(machine, np.zeros((1, 6))).ok[0]
+    if origin_ok and np.all((lo < 0) & (hi > 0)):
+        idx = tuple(int(np.argmin(np.abs(a))) for a in axes)
+        if depth[idx] >= 0.8 * depth.max():
+            return np.zeros(3)
+    return centre
+
+
+def default_setup(machine: Machine, instrument: str, centre: np.ndarray | None = None,
+                  bar_length: float = 0.3) -> Setup:
+    """The set-up a user starts with: target at the TCP (machine ``[tool]``); ball bar of 300 mm with the fixed
+    ball at the workspace centre (Szatmári §5.1: hemisphere of R = 300 mm about the origin of Felix)."""
+    c = workspace_centre(machine) if centre is None else np.asarray(centre, float)
+    tip = machine.tool.tip()
+    if instrument == "ballbar":
+        return Setup("ballbar", target=tip, fixed_ball=c, bar_length=bar_length)
+    return Setup(instrument, target=tip)
+
+
+def _admissible(machine: Machine, plan: Plan) -> bool:
+    return bool(evaluate_poses(machine, plan.poses).ok.all())
+
+
+def default_plan(machine: Machine, instrument: str) -> Plan:
+    """The default plan per instrument (an admissible one is searched by reducing tilt and size):
+
+    * ballbar: Szatmári's tilted hemisphere path of R = 300 mm about the workspace centre (§4.4, §5.1), the ball
+      above the fixed ball when the tool points down (−z'), else below; where it is not admissible the fixed
+      ball is moved (±100 mm in y, ±150/300 mm in z), the tilt reduced (20, 15, 10, 5 deg) and then the shorter
+      QC10 bars (150, 100 mm) are tried, in that order;
+    * tracker / pose: a 3×3×3 grid of ±150 mm about the workspace centre, three orientations per point.
+    """
+    centre = workspace_centre(machine)
+    setup = default_setup(machine, instrument, centre)
+    tried = []
+    if instrument == "ballbar":
+        side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
+        offsets = [np.array([0.0, dy, dz * side]) for dz in (0.0, -0.15, 0.15, -0.3) for dy in (0.0, -0.1, 0.1)]
+        for bar in (0.3, 0.15, 0.1):  # QC10 bar lengths (Szatmári Tab. 4.3)
+            for tilt in (20.0, 15.0, 10.0, 5.0):
+                torsion = min(tilt, 15.0)
+                for off in offsets:
+                    st = Setup("ballbar", target=setup.target, fixed_ball=centre + off, bar_length=bar)
+                    p = hemisphere_plan(st, tilt=np.radians(tilt), torsion=np.radians(torsion), side=side,
+                                        name=f"default hemisphere R={bar * 1e3:g} mm, tilt {tilt:g} deg")
+                    tried.append(p)
+                    if _admissible(machine, p):
+                        return p
+    else:
+        for hw in (0.15, 0.1, 0.05):
+            for tilt in (10.0, 5.0):
+                p = grid_plan(setup, centre, hw, tilt=np.radians(tilt), torsion=np.radians(tilt),
+                              name=f"default grid 3^3 ±{hw * 1e3:g} mm, tilt {tilt:g} deg")
+                tried.append(p)
+                if _admissible(machine, p):
+                    return p
+    check_plan(machine, tried[-1])  # raises with the failing poses of the most modest candidate
+    return tried[-1]
+
+
+# ---------------------------------------------------------------------------------------------- TOML plans
+
+_PLAN_KEYS = {"plan", "setup", "paths"}
+_PLAN_TABLE = {"name", "instrument", "description"}
+_SETUP_KEYS = {"target", "fixed_ball", "bar_length", "measuring_range"}
+_PATH_KEYS = {"circle": {"kind", "label", "plane", "points", "centre", "radius", "tilt", "tilt_azimuth", "torsion"},
+              "hemisphere": {"kind", "label", "points", "turns", "polar_min", "polar_max", "tilt", "torsion", "side"},
+              "poses": {"kind", "label", "positions", "angles"}}
+
+
+def read_plan(path: str | Path) -> Plan:
+    """Read a TOML plan (format in docs/user-guide/calibration-identifiability.md); SI for bare numbers."""
+    src = str(path)
+    raw = check_keys(read_toml(path, CalibrationInputError, "plan file"), _PLAN_KEYS, src, "",
+                     CalibrationInputError)
+    pt = check_keys(require(raw, "plan", src, "", "a [plan] table", CalibrationInputError), _PLAN_TABLE, src,
+                    "plan.", CalibrationInputError)
+    instrument = require(pt, "instrument", src, "plan.", f"one of {', '.join(INSTRUMENTS)}", CalibrationInputError)
+    if instrument not in INSTRUMENTS:
+        raise CalibrationInputError(src, "plan.instrument", f"one of {', '.join(INSTRUMENTS)}", instrument)
+    st = check_keys(raw.get("setup", {}), _SETUP_KEYS, src, "setup.", CalibrationInputError)
+
+    def q(table, key, unit, prefix, default=None, shape=None, positive=False):
+        if key not in table:
+            if default is None:
+                raise CalibrationInputError(src, prefix + key, f"a value in {unit}", "missing key")
+            return default
+        try:
+            return parse_quantity(table[key], unit, source=src, key=prefix + key, shape=shape, positive=positive)
+        except CalibrationInputError:
+            raise
+        except ValueError as exc:  # InputError of the unit parser: same message, calibration error type
+            raise CalibrationInputError(getattr(exc, "source", src), getattr(exc, "key", prefix + key),
+                                        getattr(exc, "expected", f"a value in {unit}"),
+                                        getattr(exc, "found", table[key])) from None
+
+    target = q(st, "target", "m", "setup.", np.zeros(3), (3,))
+    if instrument == "ballbar":
+        setup = Setup("ballbar", target=target, fixed_ball=q(st, "fixed_ball", "m", "setup.", shape=(3,)),
+                      bar_length=q(st, "bar_length", "m", "setup.", positive=True),
+                      measuring_range=q(st, "measuring_range", "m", "setup.", 1e-3, positive=True))
+    else:
+        setup = Setup(instrument, target=target)
+    paths = raw.get("paths")
+    if not isinstance(paths, list) or not paths:
+        raise CalibrationInputError(src, "paths", "at least one [[paths]] table", paths)
+    plan: Plan | None = None
+    for i, p in enumerate(paths):
+        pre = f"paths[{i + 1}]."
+        kind = require(p, "kind", src, pre, "circle, hemisphere or poses", CalibrationInputError) \
+            if isinstance(p, dict) else None
+        if kind not in _PATH_KEYS:
+            raise CalibrationInputError(src, pre + "kind", "circle, hemisphere or poses", kind)
+        check_keys(p, _PATH_KEYS[kind], src, pre, CalibrationInputError)
+        label = p.get("label")
+        if kind == "circle":
+            n = int(q(p, "points", "dimensionless", pre, 72.0, positive=True))
+            part = circle_plan(setup, plane=str(p.get("plane", "XY")), n=n,
+                               centre=q(p, "centre", "m", pre, setup.fixed_ball, (3,)),
+                               radius=q(p, "radius", "m", pre, setup.bar_length, positive=True),
+                               tilt=q(p, "tilt", "rad", pre, 0.0), tilt_azimuth=q(p, "tilt_azimuth", "rad", pre, 0.0),
+                               torsion=q(p, "torsion", "rad", pre, 0.0), name=label)
+        elif kind == "hemisphere":
+            part = hemisphere_plan(setup, n=int(q(p, "points", "dimensionless", pre, 360.0, positive=True)),
+                                   turns=q(p, "turns", "dimensionless", pre, 4.0, positive=True),
+                                   polar=(q(p, "polar_min", "rad", pre, np.radians(10)),
+                                          q(p, "polar_max", "rad", pre, np.radians(80))),
+                                   tilt=q(p, "tilt", "rad", pre, np.radians(20)),
+                                   torsion=q(p, "torsion", "rad", pre, np.radians(15)),
+                                   side=q(p, "side", "dimensionless", pre, 1.0), name=label)
+        else:
+            pos = q(p, "positions", "m", pre, shape=(None, 3))
+            ang = q(p, "angles", "rad", pre, np.zeros_like(pos), shape=(None, 3))
+            if ang.shape != pos.shape:
+                raise CalibrationInputError(src, pre + "angles", f"{len(pos)} rows like positions",
+                                            f"{len(ang)} rows")
+            lab = label or f"poses ({len(pos)})"
+            part = Plan(lab, setup, np.c_[pos, ang], (Segment(lab, 0, len(pos)),))
+        plan = part if plan is None else plan.concat(part)
+    assert plan is not None
+    return Plan(str(pt.get("name", Path(src).stem)), setup, plan.poses, plan.segments)
+
+
+def setup_state(plan: Plan) -> SetupState:
+    return plan.setup.state()
+
+
+__all__: Sequence[str] = ("Plan", "Segment", "check_plan", "circle_plan", "default_plan", "default_setup",
+                          "grid_plan", "hemisphere_plan", "poses_for_target", "read_plan", "tilt_torsion_matrix",
+                          "workspace_centre")

@@ -1,0 +1,126 @@
+"""``pkmstiff calibrate …``: kinematic calibration (lengths in mm, angles in degrees on the command line).
+
+Sub-commands are registered in :data:`SUBCOMMANDS` (name -> function adding its parser), so that ``simulate``,
+``plan``, ``identify``, ``check`` and ``report`` can be added next to ``identifiability``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable
+
+import numpy as np
+
+from pkmstiff.errors import PkmstiffError
+
+
+def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+    """Run a sub-command; toolkit errors become the CLI's one-line errors (exit status 2)."""
+    def wrapped(args: argparse.Namespace) -> int:
+        from pkmstiff.cli import CliError
+
+        try:
+            return func(args)
+        except PkmstiffError as exc:
+            if isinstance(exc, ValueError):  # input errors: the CLI already prints them in one line
+                raise
+            raise CliError(str(exc)) from None
+    return wrapped
+
+
+def identifiability_report(machine_name: str, instrument: str, plan_path: str | None = None,
+                           with_: str | None = None, frame: str = "cartesian") -> dict:
+    """Everything ``pkmstiff calibrate identifiability`` prints, as a JSON-ready dict (keys name their units)."""
+    from pkmstiff.calibration import check_plan, default_plan, error_model, identifiability, parse_with, read_plan
+    from pkmstiff.calibration.instruments import check_instrument
+    from pkmstiff.machine import load_machine
+
+    check_instrument(instrument)
+    machine = load_machine(machine_name)
+    if plan_path:
+        plan = read_plan(plan_path)
+        if plan.instrument != instrument:
+            from pkmstiff.errors import CalibrationInputError
+            raise CalibrationInputError(plan_path, "plan.instrument", f"'{instrument}' (as --instrument)",
+                                        plan.instrument)
+    else:
+        plan = default_plan(machine, instrument)
+    check_plan(machine, plan)
+    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=parse_with(with_, instrument))
+    res = identifiability(machine, params, plan)
+    out = {"machine": machine.name, "instrument": instrument,
+           "plan": {"name": plan.name, "n_poses": plan.n_poses, "source": plan_path or "default"},
+           "setup": {"target_mm": (plan.setup.target * 1e3).tolist()}}
+    if plan.setup.fixed_ball is not None:
+        out["setup"].update({"fixed_ball_mm": (plan.setup.fixed_ball * 1e3).tolist(),
+                             "bar_length_mm": plan.setup.bar_length * 1e3})
+    out.update(res.to_dict())
+    return out
+
+
+#: unnamed parameter combinations printed in the text output (all of them are in the JSON output)
+MAX_UNNAMED = 5
+
+
+def _print_identifiability(rep: dict) -> None:
+    print(f"{rep['machine']}, {rep['instrument']}: plan '{rep['plan']['name']}' ({rep['plan']['n_poses']} poses, "
+          f"{rep['n_readings']} readings), {rep['frame']} parameters")
+    print(f"parameters: {rep['n_parameters']}   rank: {rep['rank']} (singular-value gap "
+          f"{rep['gap_ratio']:.3g})   not identifiable: {rep['null_dimension']}")
+    if rep["gauge_freedoms"]:
+        print("gauge freedoms (directions no reading sees):")
+        named = [g for g in rep["gauge_freedoms"] if g["kind"] != "unnamed"]
+        unnamed = [g for g in rep["gauge_freedoms"] if g["kind"] == "unnamed"]
+        for g in named + unnamed[:MAX_UNNAMED]:
+            print(f"  - {g['label']}")
+        if len(unnamed) > MAX_UNNAMED:
+            print(f"  - ... and {len(unnamed) - MAX_UNNAMED} more parameter combinations (all in --json)")
+    cn = rep["condition_number"]
+    print(f"condition number (scaled Jacobian, identifiable part): {'inf' if cn is None else f'{cn:.4g}'}")
+    cb = rep["condition_number_base"]
+    print(f"condition number of the base-parameter columns: {'inf' if cb is None else f'{cb:.4g}'}")
+    a, b = rep["max_orthogonality_pair"]
+    print(f"largest orthogonality entry: {rep['max_orthogonality']:.6f} ({a} / {b})")
+    print("observability: " + "  ".join(f"{k} = {v:.4g}" for k, v in rep["observability"].items()))
+    print(f"base parameters ({len(rep['base_parameters'])}): " + ", ".join(rep["base_parameters"]))
+
+
+def _cmd_identifiability(args: argparse.Namespace) -> int:
+    rep = identifiability_report(args.machine, args.instrument, args.plan, args.with_, args.frame)
+    if args.json:
+        print(json.dumps(rep, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o)))
+    else:
+        _print_identifiability(rep)
+    return 0
+
+
+def _add_identifiability(sub) -> None:
+    p = sub.add_parser("identifiability", help="rank, gauge freedoms, condition and orthogonality of a plan",
+                       description="What an instrument can identify on a machine: parameter count, rank (gap in "
+                                   "the singular values), base parameters, named gauge freedoms, condition "
+                                   "number, largest orthogonality entry and O1-O5 (Szatmari 4.4.2).")
+    p.add_argument("machine", help="bundled machine name or machine file")
+    p.add_argument("--instrument", required=True, choices=("ballbar", "tracker", "pose"))
+    p.add_argument("--plan", help="plan file (TOML); default: the instrument's default plan")
+    p.add_argument("--with", dest="with_", metavar="LIST",
+                   help="set-up parameters to include: ball-offset,fixed-ball,bar-offset (ball bar), "
+                        "target-offset,instrument-frame (tracker, pose)")
+    p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian",
+                   help="frame of the joint-position parameters (default cartesian)")
+    p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.set_defaults(func=_run(_cmd_identifiability))
+
+
+#: calibrate sub-commands: name -> parser builder (later: simulate, plan, identify, check, report)
+SUBCOMMANDS: dict[str, Callable] = {"identifiability": _add_identifiability}
+
+
+def add_commands(sub) -> None:
+    p = sub.add_parser("calibrate", help="kinematic calibration: identifiability (more to come)",
+                       description="Kinematic calibration of parallel machines (Szatmari 2007, Denkena et al. "
+                                   "2008). Units on the command line: mm and degrees.")
+    csub = p.add_subparsers(dest="calibrate_command", metavar="SUBCOMMAND")
+    for add in SUBCOMMANDS.values():
+        add(csub)
+    p.set_defaults(func=lambda args: (p.print_help(), 0)[1])
