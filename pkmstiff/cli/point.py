@@ -14,10 +14,14 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import PointArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InadmissiblePoseRefused, PointArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.machine.loader import bundled_machines, load_machine
 
 WEAK_POINT_DIRECTIONS = ("x", "y", "z")
+#: identifier of the JSON document ``pkmstiff point --json`` prints (pkmstiff/schemas/point.schema.json)
+SCHEMA = "pkmstiff/point/1"
+#: units of the rows/columns of ``stiffness_matrix_SI`` (twist ux, uy, uz, rx, ry, rz at the TCP)
+STIFFNESS_MATRIX_UNITS = "K[0:3,0:3] N/m, K[0:3,3:6] N/rad, K[3:6,0:3] N*m/m, K[3:6,3:6] N*m/rad"
 
 
 
@@ -47,11 +51,27 @@ def _is_planar(name: str) -> bool:
     return name in bundled_planar() and name not in bundled_machines()
 
 
+def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissiblePoseRefused:
+    return InadmissiblePoseRefused(
+        f"{machine} at {where} is not admissible: {'; '.join(reasons) or 'not modelled'}; "
+        f"nothing analysed (--allow-inadmissible analyses it anyway and marks the results)")
+
+
 def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None = None, n_modes: int = 6,
-                 neglect_spindle: bool = False) -> dict:
-    """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units."""
+                 neglect_spindle: bool = False, allow_inadmissible: bool = True) -> dict:
+    """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units
+    (schema ``pkmstiff/schemas/point.schema.json``).
+
+    Admissibility (every check of models.md §8) comes first; with ``allow_inadmissible=False`` an inadmissible pose
+    raises :class:`~pkmstiff.errors.InadmissiblePoseRefused` (exit status 3) before any analysis.
+    """
+    if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
+        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
+    if n_modes < 0:
+        raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
     if _is_planar(machine_name):
-        return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"))
+        return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
+    from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.cli.pose import PoseArgumentError, parse_pose
     from pkmstiff.structure import build_structure
@@ -60,27 +80,38 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         pose = parse_pose(pose_text)
     except PoseArgumentError as exc:
         raise PointArgumentError(str(exc)) from None
-    if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
-        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
-    if n_modes < 0:
-        raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
     m = load_machine(machine_name)
+    adm = evaluate_poses(m, pose[None]).admissibility
+    admissible, reasons = bool(adm.ok[0]), adm.failing(0)
+    pose_out = {"x_mm": pose[0] * 1e3, "y_mm": pose[1] * 1e3, "z_mm": pose[2] * 1e3,
+                "a_deg": math.degrees(pose[3]), "b_deg": math.degrees(pose[4]), "c_deg": math.degrees(pose[5])}
+    if not admissible and not allow_inadmissible:
+        raise _refuse(m.name, ", ".join(f"{k.split('_')[0]} = {v:g} {k.split('_')[1]}" for k, v in pose_out.items()),
+                      reasons)
     tl = None if tool_length_mm is None else tool_length_mm * 1e-3
     st = build_structure(m, pose[None])
     ks = kinetostatics(m, pose[None])
     rep: dict[str, Any] = {
+        "schema": SCHEMA,
         "machine": m.name, "machine_type": m.kind,
-        "pose": {"x_mm": pose[0] * 1e3, "y_mm": pose[1] * 1e3, "z_mm": pose[2] * 1e3,
-                 "a_deg": math.degrees(pose[3]), "b_deg": math.degrees(pose[4]), "c_deg": math.degrees(pose[5])},
+        "pose": pose_out,
+        "admissible": admissible, "reasons": reasons,
+        "analysed_although_inadmissible": not admissible,
+        "skipped_checks": adm.skipped(),
         "tool_length_mm": (m.tool.length if tl is None else tl) * 1e3,
         "neglect_spindle": neglect_spindle,
-        "modelled": bool(st.ok[0]), "reasons": st.failing(0),
+        "modelled": bool(st.ok[0]), "model_reasons": st.failing(0),
         "model": {"bodies": [] if st.empty else st.model.body_names, "dof": 0 if st.empty else st.model.n_dof,
                   "tcp_body": st.tcp_body},
     }
     comp = tcp_compliance(st, tl, neglect_spindle)[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         diag = 1.0 / np.diagonal(comp)
+    if np.all(np.isfinite(comp)):
+        rep["stiffness_matrix_SI"] = _num(np.linalg.inv(comp))
+    else:
+        rep["stiffness_matrix_SI"] = None
+    rep["stiffness_matrix_SI_units"] = STIFFNESS_MATRIX_UNITS
     rep["k_N_per_um"] = {ax: _num(diag[i] / 1e6) for i, ax in enumerate("xyz")}
     rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(diag[3 + i] / 1e6) for i, ax in enumerate("xyz")}
     rep["weak_points_percent"] = {}
@@ -92,10 +123,10 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         n_dyn = st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs)
         k = min(n_modes, n_dyn)
         ma = modal_analysis(st, k, shapes=False)
-        rep["frequencies_hz"] = _num(ma.frequencies_hz[0])
+        rep["frequencies_Hz"] = _num(ma.frequencies_hz[0])
         rep["mode_descriptions"] = [ma.description(0, i) for i in range(k)]
     else:
-        rep["frequencies_hz"], rep["mode_descriptions"] = [], []
+        rep["frequencies_Hz"], rep["mode_descriptions"] = [], []
     rep["transmission_quality"] = _num(ks.transmission_quality[0])
     rep["transmission_weight_m_per_rad"] = ks.weight
     rep["v_max_m_per_s"] = {lab: _num(ks.v_max[0, i]) for i, lab in enumerate(ks.velocity_labels)}
@@ -113,7 +144,7 @@ def _drive(i: Any) -> int | None:
     return None if int(i) < 0 else int(i) + 1  # 1-based drive numbers in the output
 
 
-def _planar_report(name: str, xy_mm: list[float]) -> dict:
+def _planar_report(name: str, xy_mm: list[float], allow_inadmissible: bool = True) -> dict:
     from pkmstiff.analysis.planar import (
         load_planar,
         planar_kinetostatics,
@@ -131,13 +162,20 @@ def _planar_report(name: str, xy_mm: list[float]) -> dict:
     from pkmstiff.admissibility.checks import reason_names
 
     labels = ["x", "y", "-x", "-y"]
+    modelled, reasons = bool(ps.index.size), reason_names(int(ps.reasons[0]))
+    if not modelled and not allow_inadmissible:
+        raise _refuse(pm.name, f"x = {xy_mm[0]:g} mm, y = {xy_mm[1]:g} mm", reasons)
     return {
+        "schema": SCHEMA,
         "machine": pm.name, "machine_type": f"planar {pm.kind}",
         "pose": {"x_mm": xy_mm[0], "y_mm": xy_mm[1]},
-        "modelled": bool(ps.index.size), "reasons": reason_names(int(ps.reasons[0])),
+        "admissible": modelled, "reasons": reasons, "analysed_although_inadmissible": not modelled,
+        "modelled": modelled, "model_reasons": reasons,
         "k_N_per_um": {"x": _num(k[0, 0] / 1e6), "y": _num(k[1, 1] / 1e6)},
+        "stiffness_matrix_SI": _num(k),
+        "stiffness_matrix_SI_units": "N/m (planar x, y)",
         "stiffness_matrix_N_per_um": _num(k / 1e6),
-        "frequencies_hz": _num(md.frequencies_hz[0]),
+        "frequencies_Hz": _num(md.frequencies_hz[0]),
         "transmission_quality": _num(kin.transmission_quality[0]),
         "v_max_m_per_s": {lab: _num(kin.v_max[0, i]) for i, lab in enumerate(labels[:2])},
         "v_max_m_per_min": {lab: _num(60 * kin.v_max[0, i]) for i, lab in enumerate(labels[:2])},
@@ -152,21 +190,34 @@ def _f(v: Any, fmt: str = "8.3f") -> str:
 
 
 def _print_report(rep: dict) -> None:
+    import builtins
+
     p = rep["pose"]
     where = ", ".join(f"{k.split('_')[0]}={v:.3f} {k.split('_')[1]}" for k, v in p.items())
-    print(f"{rep['machine']} ({rep['machine_type']}) at {where}"
-          + (f", tool length {rep['tool_length_mm']:.1f} mm" if "tool_length_mm" in rep else ""))
+    builtins.print(f"{rep['machine']} ({rep['machine_type']}) at {where}"
+                   + (f", tool length {rep['tool_length_mm']:.1f} mm" if "tool_length_mm" in rep else ""))
+    if rep["admissible"]:
+        builtins.print("admissible: yes")
+    else:
+        builtins.print("admissible: NO (analysed anyway: --allow-inadmissible; every result line is marked)")
+        for r in rep["reasons"]:
+            builtins.print(f"  - {r}")
+    mark = "" if rep["admissible"] else "[INADMISSIBLE] "
+
+    def print(text: str = "") -> None:  # noqa: A001 (marks every result line of an inadmissible pose)
+        builtins.print(mark + text)
+
     if not rep["modelled"]:
-        print("pose not modelled: " + "; ".join(rep["reasons"]))
+        print("pose not modelled: " + "; ".join(rep["model_reasons"]))
     k = rep["k_N_per_um"]
     print("static stiffness at the TCP:  " + "   ".join(f"k_{a} = {_f(v, '.3f')} N/um" for a, v in k.items()))
     if "rotational_stiffness_Nm_per_urad" in rep:
         r = rep["rotational_stiffness_Nm_per_urad"]
         print("rotational stiffness:         " + "   ".join(f"k_r{a} = {_f(v, '.3f')} N*m/urad" for a, v in r.items()))
-    if rep.get("frequencies_hz"):
+    if rep.get("frequencies_Hz"):
         print("natural frequencies:")
-        descr = rep.get("mode_descriptions") or [""] * len(rep["frequencies_hz"])
-        for i, (f, d) in enumerate(zip(rep["frequencies_hz"], descr)):
+        descr = rep.get("mode_descriptions") or [""] * len(rep["frequencies_Hz"])
+        for i, (f, d) in enumerate(zip(rep["frequencies_Hz"], descr)):
             print(f"  {i + 1:2d}  {_f(f, '8.2f')} Hz  {d}")
     if rep.get("weak_points_percent"):
         wp = rep["weak_points_percent"]
@@ -194,7 +245,8 @@ def _print_report(rep: dict) -> None:
 
 def _cmd_point(args: argparse.Namespace) -> int:
     try:
-        rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle)
+        rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
+                           allow_inadmissible=args.allow_inadmissible)
     except PointArgumentError as exc:
         from pkmstiff.cli import CliError
 
@@ -247,4 +299,6 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--figures", metavar="DIR", default=None,
                    help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")
     p.add_argument("--gif", action="store_true", help="with --figures: also an animated GIF of mode 1")
+    p.add_argument("--allow-inadmissible", action="store_true",
+                   help="analyse an inadmissible pose anyway (every result is marked); default: refuse, exit 3")
     p.set_defaults(func=_cmd_point)

@@ -150,6 +150,22 @@ class SectionResult:
                          "admissible_points": int(self.ok.sum()), "admissible_area_m2": area}
         return out
 
+    def touching_edges(self) -> list[str]:
+        """Edges of the window that admissible points touch (e.g. ``['y max', 'z min']``): there the window clips the
+        admissible region, and statistics over the section do not describe the whole region."""
+        ok = np.asarray(self.ok, bool)
+        u, v = self.plane.u_name, self.plane.v_name
+        edges = [(f"{u} min", ok[:, 0]), (f"{u} max", ok[:, -1]), (f"{v} min", ok[0, :]), (f"{v} max", ok[-1, :])]
+        return [name for name, line in edges if line.any()]
+
+    def clipping_warning(self) -> str | None:
+        """One line warning when the window clips the admissible region (None otherwise)."""
+        edges = self.touching_edges()
+        if not edges:
+            return None
+        return (f"the admissible region touches the window edge(s) {', '.join(edges)}: it is clipped there "
+                f"(widen --range or omit it to fit the window to the workspace)")
+
     def reason_counts(self) -> dict[str, int]:
         return {r.name: int(np.count_nonzero(self.reasons & int(r))) for r in Reason}  # type: ignore[misc]
 
@@ -260,7 +276,13 @@ def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
          "admissible_area_m2": float(res.ok.sum()) * res.plane.cell_area,
          "orientation_deg": np.rad2deg(res.orientation).tolist(),
          "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
-         "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v}}
+         "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v},
+         "window_mm": {res.plane.u_name: [float(res.plane.u_values[0]) * 1e3, float(res.plane.u_values[-1]) * 1e3],
+                       res.plane.v_name: [float(res.plane.v_values[0]) * 1e3, float(res.plane.v_values[-1]) * 1e3]},
+         "window_touches_admissible_region": res.touching_edges(), "warnings": []}
+    w = res.clipping_warning()
+    if w:
+        d["warnings"].append(w)
     if seconds is not None:
         d["run_time_s"] = seconds
     return d

@@ -32,8 +32,13 @@ def run(args: argparse.Namespace) -> int:
     step = float(getattr(args, "step", 10.0)) * 1e-3
     t0 = time.perf_counter()
     machine = load_machine(MACHINE)
-    plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.2, -0.5), step)
+    # the window is fitted to the admissible YZ region (coarse pass + margin), so the maps show all of it
+    from pkmstiff.workspace.windows import window_for
+
+    plane = window_for(machine, "yz", 0.0, step)
     res = evaluate_section(machine, plane, QUANTITIES, tool_length=0.0, progress=False if quiet else None)
+    if res.clipping_warning():  # pragma: no cover (the fitted window has a margin of inadmissible points)
+        print(f"  warning: {res.clipping_warning()}")
     files = write_section_outputs(res, out, ("png", "vtu", "csv"), "hexaglide_yz")
     planes = three_planes((0.0, 0.1, -0.9), (0.5, 0.7, 0.35), max(step, 0.02))
     three = evaluate_three_planes(machine, planes, ["kx"], tool_length=0.0, progress=False)
@@ -51,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
           f"{seconds:.1f} s")
     for n, st in info["statistics"].items():
         print(f"  {n:<4} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
-    print(f"  wrote {out / 'summary.md'}, {out / 'summary.html'} and {len(files) + 1} figure/data files")
+    print(f"  wrote {out / 'summary.md'}, {out / 'summary.html'} and {len(files) + 2} figure/data files")
     return 0
 
 
