@@ -48,6 +48,7 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument("--png", default=None, help="PNG image of the deformed joint at --png-angle")
     p.add_argument("--png-angle", type=float, default=45.0, help="tilt angle in deg for --png (default 45)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no result table")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.set_defaults(func=cmd_fe_joint)
 
     p = subparsers.add_parser(
@@ -61,6 +62,7 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument("--mesh-size", type=_positive_mm, default=None, help="element size in mm (default: from PARAMS)")
     p.add_argument("--vtu", default=None, help="VTU file of the platform deformed by a unit load case")
     p.add_argument("--quiet", action="store_true", help="no progress output and no result table")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.set_defaults(func=cmd_fe_platform)
 
 
@@ -84,6 +86,11 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     from pkmstiff.fe.export import field_mesh, write_sweep_table, write_vtu
     from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
 
+    from pkmstiff.cli.edges import check_output_dir, check_output_file
+
+    check_output_file(args.out, "--out", args.force, (".csv",))
+    check_output_dir(args.vtu, "--vtu", True)
+    check_output_file(args.png, "--png", args.force, (".png",))
     angles = parse_angles(args.angles)
     if len(angles) < 2:
         raise InputError("--angles", "angles", "at least 2 tilt angles (a joint table needs 2 support points)",
@@ -142,9 +149,13 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     from pkmstiff.fe.export import field_mesh, write_vtu
     from pkmstiff.fe.platform import component_toml, load_platform_parameters, platform_stiffness, to_dissertation_units
 
+    from pkmstiff.cli.edges import check_output_file
+
     out = Path(args.out)
     if out.suffix not in (".toml", ".csv"):
         raise InputError("--out", "out", "a file name ending in .toml or .csv", args.out)
+    check_output_file(args.out, "--out", args.force, (".toml", ".csv"))
+    check_output_file(args.vtu, "--vtu", args.force, (".vtu",))
     p = load_platform_parameters(args.params)
     if args.mesh_size:
         p = p.with_mesh(size=args.mesh_size * 1e-3)

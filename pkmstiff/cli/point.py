@@ -210,10 +210,10 @@ def _print_report(rep: dict) -> None:
     if not rep["modelled"]:
         print("pose not modelled: " + "; ".join(rep["model_reasons"]))
     k = rep["k_N_per_um"]
-    print("static stiffness at the TCP:  " + "   ".join(f"k_{a} = {_f(v, '.3f')} N/um" for a, v in k.items()))
+    print("static stiffness at the TCP:  " + "   ".join(f"k_{a} = {_f(v, '.3f')} N/µm" for a, v in k.items()))
     if "rotational_stiffness_Nm_per_urad" in rep:
         r = rep["rotational_stiffness_Nm_per_urad"]
-        print("rotational stiffness:         " + "   ".join(f"k_r{a} = {_f(v, '.3f')} N*m/urad" for a, v in r.items()))
+        print("rotational stiffness:         " + "   ".join(f"k_r{a} = {_f(v, '.3f')} N·m/µrad" for a, v in r.items()))
     if rep.get("frequencies_Hz"):
         print("natural frequencies:")
         descr = rep.get("mode_descriptions") or [""] * len(rep["frequencies_Hz"])
@@ -235,7 +235,7 @@ def _print_report(rep: dict) -> None:
                                             for d in vs))
     am, lim = rep["a_max_m_per_s2"], rep["a_limiting_drive"]
     print("maximum acceleration: " + "   ".join(
-        f"{d}: {_f(am[d], '.2f')} m/s^2" + (f" (drive {lim[d]})" if lim.get(d) else "") for d in am))
+        f"{d}: {_f(am[d], '.2f')} m/s²" + (f" (drive {lim[d]})" if lim.get(d) else "") for d in am))
     loads = rep["static_drive_loads_N"]
     if loads is not None:
         print("static drive loads:   " + "  ".join(_f(v, '.1f') for v in loads) + " N")
@@ -243,7 +243,73 @@ def _print_report(rep: dict) -> None:
         print(f"  note: {note}")
 
 
+def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | None = None,
+               n_modes: int = 1) -> tuple[list[str], list[list]]:
+    """CSV header and rows of a point batch (one structure batch over all poses): pose (mm, deg), admissibility and
+    reasons, TCP stiffness k_x, k_y, k_z (N/µm) and the lowest ``n_modes`` natural frequencies (Hz). Inadmissible
+    poses get empty result cells (never a silent number)."""
+    from pkmstiff.admissibility.pipeline import evaluate_poses
+    from pkmstiff.analysis import natural_frequencies, tcp_compliance
+    from pkmstiff.structure import build_structure
+
+    m = load_machine(machine_name)
+    adm = evaluate_poses(m, poses_si).admissibility
+    ok = adm.ok
+    n = len(poses_si)
+    k = np.full((n, 3), np.nan)
+    f = np.full((n, n_modes), np.nan)
+    if ok.any():
+        st = build_structure(m, poses_si[ok])
+        comp = tcp_compliance(st, None if tool_length_mm is None else tool_length_mm * 1e-3)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k[ok] = 1.0 / np.diagonal(comp, axis1=1, axis2=2)[:, :3] / 1e6
+        if n_modes:
+            f[ok] = natural_frequencies(st, n_modes)
+    head = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg", "admissible", "reasons", "kx_N_per_um",
+            "ky_N_per_um", "kz_N_per_um"] + [f"f{i + 1}_Hz" for i in range(n_modes)]
+    pose_out = np.column_stack([poses_si[:, :3] * 1e3, np.rad2deg(poses_si[:, 3:])])
+    rows = [[*pose_out[i], bool(ok[i]), "; ".join(adm.failing(i)), *k[i], *f[i]] for i in range(n)]
+    return head, rows
+
+
+def _point_batch(args: argparse.Namespace) -> int:
+    import csv
+    import sys
+
+    from pkmstiff.cli.edges import check_output_file
+    from pkmstiff.cli.pose import read_pose_file
+
+    if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
+        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
+    if args.modes < 0:
+        raise PointArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
+    out = check_output_file(args.out, "--out", args.force, (".csv",)) if args.out else None
+    poses = read_pose_file(args.poses)
+    head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
+    fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
+    try:
+        w = csv.writer(fh)
+        w.writerow(head)
+        w.writerows([["" if isinstance(v, float) and not math.isfinite(v) else
+                      (f"{v:.6g}" if isinstance(v, float) else v) for v in r] for r in rows])
+    finally:
+        if out:
+            fh.close()
+    if out:
+        print(f"pkmstiff point: {len(rows)} poses ({sum(r[6] for r in rows)} admissible, analysed); wrote {out}")
+    return 0
+
+
 def _cmd_point(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import check_output_dir
+    from pkmstiff.errors import CliError
+
+    if (args.pose is None) == (args.poses is None):
+        raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
+    if args.poses is not None:
+        return _point_batch(args)
+    if args.figures is not None:
+        check_output_dir(args.figures, "--figures", True)
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
                            allow_inadmissible=args.allow_inadmissible)
@@ -289,8 +355,13 @@ def add_commands(sub: Any) -> None:
                                    "degrees.")
     p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines'), machine file, or a planar "
                                    "example ('biglide', 'bipod')")
-    p.add_argument("--pose", required=True, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0 "
-                                                 "(planar examples: x,y in mm)")
+    p.add_argument("--pose", default=None, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0 "
+                                                "(planar examples: x,y in mm)")
+    p.add_argument("--poses", default=None, metavar="FILE",
+                   help="a batch: CSV file with one pose x,y,z,a,b,c (mm, deg) per line; prints CSV (k_x, k_y, k_z, "
+                        "f1..; empty cells for inadmissible poses)")
+    p.add_argument("--out", default=None, metavar="FILE.csv", help="with --poses: write the CSV here")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
                    help="tool length in mm (default: machine file)")
     p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")

@@ -67,6 +67,13 @@ def _cmd_section(args: argparse.Namespace) -> int:
     check_jobs(args.jobs)
     budget = parse_budget(args.memory_budget)
     machine = load_machine(args.machine)
+    from pkmstiff.evaluation.quantities import check_quantity
+
+    try:
+        for n in names:
+            check_quantity(n, machine.n_chains)
+    except UnknownQuantityError as exc:
+        raise CliError(str(exc)) from None
     stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
     check_output_dir(args.out, "--out", args.force, _output_names(stem, names, formats, args.reasons_map))
     step = args.step * 1e-3

@@ -93,8 +93,17 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
 
-    machine = load_machine(args.machine)
+    from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
+
     eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
+    if args.refine < 0 or args.refine > 20:
+        raise _cli_error(f"--refine: expected 0..20 bisection steps, found {args.refine}")
+    if not 1 <= args.min_level <= 8:
+        raise _cli_error(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
+    budget = parse_budget(args.memory_budget)
+    _requirements(args)
+    check_output_dir(args.out, "--out", args.force, ("workspace.json", "boundary_points.csv"))
+    machine = load_machine(args.machine)
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
     box = None
     if args.box:
@@ -108,6 +117,18 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
                              f"found {args.range!r}")
         lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE,MIN,MAX (deg)")
         rng = (parts[0], math.radians(lo), math.radians(hi))
+    from pkmstiff.workspace.translational import reach_box
+
+    lo_box, hi_box = (box if box is not None else reach_box(machine))
+    ext = np.maximum(np.asarray(hi_box) - np.asarray(lo_box), eps)
+    # the octree evaluates boundary voxels: ~ surface / eps² points, each ~ 3 kB of pose pipeline state and
+    # ~ 30 µs (bench_workspace.py); the full lattice bounds it from above
+    surface_pts = 2.0 * (ext[0] * ext[1] + ext[1] * ext[2] + ext[0] * ext[2]) / eps ** 2 * 8
+    lattice = float(np.prod(ext / eps + 1))
+    n_est = int(min(surface_pts, lattice))
+    n_ori = 1 if rng is None else max(1, int((rng[2] - rng[1]) / math.radians(max(args.range_step, 1e-9))) + 1)
+    announce_cost("workspace", f"octree at resolution {args.resolution:g} mm", n_est * n_ori,
+                  n_est * n_ori * 3000.0 + (64 << 20), n_est * n_ori * 30e-6, budget, quiet=args.quiet or args.json)
     progress = _Progress(not args.quiet, "octree")
     try:
         req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS)
@@ -132,7 +153,9 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
               f"{summary['evaluations']:,} evaluations); check --orientation, --require and --box")
         return 0
     lo, hi = summary["bounding_box_mm"]["min"], summary["bounding_box_mm"]["max"]
-    print(f"{machine.name}: workspace at a,b,c = {args.orientation} deg, resolution {args.resolution:g} mm "
+    varying = "" if rng is None else (f" with {rng[0]} varying over {math.degrees(rng[1]):g}..{math.degrees(rng[2]):g} "
+                                      f"deg ({args.range_mode})")
+    print(f"{machine.name}: workspace at a,b,c = {args.orientation} deg{varying}, resolution {args.resolution:g} mm "
           f"(effective {', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
     print(f"volume: {res.volume:.5f} m^3 (surface nets); "
           + ", ".join(f"{k} {v:.5f}" for k, v in res.volumes.items() if k != "surface_nets") + " m^3")
@@ -182,8 +205,12 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.workspace.requests import RotationMapRequest
     from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
 
-    machine = load_machine(args.machine)
+    from pkmstiff.cli.edges import check_output_dir
+
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
+    check_output_dir(args.out, "--out", args.force, ("rotation_map.json",))
+    _requirements(args)
+    machine = load_machine(args.machine)
     amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
     dirs = [d.strip() for d in args.directions.split(",") if d.strip()]
@@ -297,6 +324,9 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--memory-budget", default=None, metavar="SIZE",
+                   help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory)")
+    p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
     p.set_defaults(func=_cmd_workspace)
 
     p = sub.add_parser(
@@ -323,6 +353,7 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
     p.set_defaults(func=_cmd_rotation_map)
 
 
