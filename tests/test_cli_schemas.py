@@ -10,8 +10,17 @@ import pytest
 
 jsonschema = pytest.importorskip("jsonschema")
 
+from pathlib import Path  # noqa: E402
+
+import pkmstiff  # noqa: E402
 from pkmstiff.cli import main  # noqa: E402
-from pkmstiff.schemas import load_schema  # noqa: E402
+
+#: the schemas are package data (pyproject: pkmstiff/schemas/*.json); every document names its schema in "schema"
+SCHEMAS = Path(pkmstiff.__file__).resolve().parent / "schemas"
+
+
+def load_schema(command: str) -> dict:
+    return json.loads((SCHEMAS / f"{command}.schema.json").read_text(encoding="utf-8"))
 
 
 def _json(capsys, *argv) -> dict:

@@ -88,9 +88,9 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
 
     from pkmstiff.cli.edges import check_output_dir, check_output_file
 
-    check_output_file(args.out, "--out", args.force, (".csv",))
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
     check_output_dir(args.vtu, "--vtu", True)
-    check_output_file(args.png, "--png", args.force, (".png",))
+    check_output_file(args.png, "--png", getattr(args, "force", False), (".png",))
     angles = parse_angles(args.angles)
     if len(angles) < 2:
         raise InputError("--angles", "angles", "at least 2 tilt angles (a joint table needs 2 support points)",
@@ -154,8 +154,8 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.suffix not in (".toml", ".csv"):
         raise InputError("--out", "out", "a file name ending in .toml or .csv", args.out)
-    check_output_file(args.out, "--out", args.force, (".toml", ".csv"))
-    check_output_file(args.vtu, "--vtu", args.force, (".vtu",))
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".toml", ".csv"))
+    check_output_file(args.vtu, "--vtu", getattr(args, "force", False), (".vtu",))
     p = load_platform_parameters(args.params)
     if args.mesh_size:
         p = p.with_mesh(size=args.mesh_size * 1e-3)

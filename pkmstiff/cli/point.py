@@ -283,7 +283,7 @@ def _point_batch(args: argparse.Namespace) -> int:
         raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
     if args.modes < 0:
         raise PointArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
-    out = check_output_file(args.out, "--out", args.force, (".csv",)) if args.out else None
+    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
     fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
@@ -304,15 +304,15 @@ def _cmd_point(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import check_output_dir
     from pkmstiff.errors import CliError
 
-    if (args.pose is None) == (args.poses is None):
+    if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
-    if args.poses is not None:
+    if getattr(args, "poses", None) is not None:
         return _point_batch(args)
     if args.figures is not None:
         check_output_dir(args.figures, "--figures", True)
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
-                           allow_inadmissible=args.allow_inadmissible)
+                           allow_inadmissible=getattr(args, "allow_inadmissible", False))
     except PointArgumentError as exc:
         from pkmstiff.cli import CliError
 

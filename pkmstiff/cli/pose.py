@@ -123,9 +123,9 @@ def _fmt(values, scale=1.0, digits=2):
 def _cmd_pose(args: argparse.Namespace) -> int:
     from pkmstiff.errors import CliError
 
-    if (args.pose is None) == (args.poses is None):
+    if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
-    if args.poses is not None:
+    if getattr(args, "poses", None) is not None:
         return _pose_batch(args)
     try:
         pose = parse_pose(args.pose)
@@ -171,7 +171,7 @@ def _pose_batch(args: argparse.Namespace) -> int:
 
     from pkmstiff.cli.edges import check_output_file
 
-    out = check_output_file(args.out, "--out", args.force, (".csv",)) if args.out else None
+    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
     poses = read_pose_file(args.poses)
     head, rows = pose_rows(args.machine, poses)
     fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout

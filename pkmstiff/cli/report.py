@@ -13,7 +13,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from pkmstiff.report.build import run_spec
 
     check_jobs(args.jobs)
-    check_output_dir(args.out, "--out", args.force, ("report.html", "report.md"))
+    check_output_dir(args.out, "--out", getattr(args, "force", False), ("report.html", "report.md"))
     t0 = time.perf_counter()
 
     def log(msg: str) -> None:

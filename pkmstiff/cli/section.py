@@ -8,12 +8,10 @@ import math
 import time
 from pathlib import Path
 
-from pkmstiff.errors import SectionArgumentError  # noqa: F401 (re-exported)
-from pkmstiff.evaluation.quantities import UnknownQuantityError, available_quantities, get_quantity
-from pkmstiff.evaluation.sections import SectionError, axis_plane, evaluate_section, section_summary
-from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
-from pkmstiff.machine.loader import load_machine
-from pkmstiff.report.outputs import write_section_outputs
+from pkmstiff.errors import SectionArgumentError, SectionError, UnknownQuantityError  # noqa: F401 (re-exported)
+
+# the evaluation modules are imported inside the command functions: building the parser for another command
+# (``pkmstiff pose``) must not pay for them
 
 FORMATS = ("png", "vtu", "csv", "npz")
 
@@ -43,6 +41,11 @@ def _raster_count(lo: float, hi: float, step: float) -> int:
 def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget
     from pkmstiff.errors import CliError
+    from pkmstiff.evaluation.quantities import get_quantity
+    from pkmstiff.evaluation.sections import axis_plane, evaluate_section, section_summary
+    from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.report.outputs import write_section_outputs
 
     plane_kind = args.plane.lower()
     try:
@@ -61,11 +64,11 @@ def _cmd_section(args: argparse.Namespace) -> int:
             raise SectionArgumentError(f"--at: expected a finite position in mm, found {args.at}")
         if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
             raise SectionArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length}")
-        requirements = _requirements(args.require)
+        requirements = _requirements(getattr(args, "require", None))
     except (SectionArgumentError, SectionError, UnknownQuantityError) as exc:
         raise CliError(str(exc)) from None
     check_jobs(args.jobs)
-    budget = parse_budget(args.memory_budget)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     machine = load_machine(args.machine)
     from pkmstiff.evaluation.quantities import check_quantity
 
@@ -75,7 +78,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     except UnknownQuantityError as exc:
         raise CliError(str(exc)) from None
     stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
-    check_output_dir(args.out, "--out", args.force, _output_names(stem, names, formats, args.reasons_map))
+    check_output_dir(args.out, "--out", getattr(args, "force", False), _output_names(stem, names, formats, getattr(args, "reasons_map", False)))
     step = args.step * 1e-3
     if ranges is None:
         from pkmstiff.workspace.windows import fit_window
@@ -109,7 +112,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     res.settings["window_fitted_to_workspace"] = fitted
     seconds = time.perf_counter() - t0
     paths = write_section_outputs(res, Path(args.out), formats, stem) if args.out else []
-    if args.out and args.reasons_map:
+    if args.out and getattr(args, "reasons_map", False):
         from pkmstiff.plots.section_maps import plot_reasons
 
         paths.append(plot_reasons(res, Path(args.out) / f"{stem}_admissibility.png"))
@@ -180,6 +183,8 @@ def _apply_requirements(res, requirements: list) -> int:
 
 
 def _cmd_quantities(args: argparse.Namespace) -> int:
+    from pkmstiff.evaluation.quantities import available_quantities
+
     for name, desc in available_quantities().items():
         print(f"{name:<20} {desc}")
     return 0

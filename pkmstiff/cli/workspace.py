@@ -100,9 +100,9 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         raise _cli_error(f"--refine: expected 0..20 bisection steps, found {args.refine}")
     if not 1 <= args.min_level <= 8:
         raise _cli_error(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
-    budget = parse_budget(args.memory_budget)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     _requirements(args)
-    check_output_dir(args.out, "--out", args.force, ("workspace.json", "boundary_points.csv"))
+    check_output_dir(args.out, "--out", getattr(args, "force", False), ("workspace.json", "boundary_points.csv"))
     machine = load_machine(args.machine)
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
     box = None
@@ -208,7 +208,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import check_output_dir
 
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
-    check_output_dir(args.out, "--out", args.force, ("rotation_map.json",))
+    check_output_dir(args.out, "--out", getattr(args, "force", False), ("rotation_map.json",))
     _requirements(args)
     machine = load_machine(args.machine)
     amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
