@@ -62,17 +62,29 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
         add_sketch(pl, machine, x)
     lo, hi = res.bounding_box()
     s = res.summary()
-    title = (f"{machine.name}: workspace at a,b,c = {', '.join(f'{d:g}' for d in s['orientation_deg'])} deg, "
-             f"eps = {s['resolution_mm']:g} mm\nV = {res.volume:.4f} m^3, "
-             f"{s['boundary_points']:,} boundary points, {s['evaluations']:,} evaluations")
-    pl.add_text(title, font_size=10, color="black")
+    ori = s["orientation_deg"]
+    rng = (res.settings or {}).get("orientation_range")
+    if rng:  # one angle varies: say so instead of printing the base orientation as if it were fixed
+        k = "abc".index(rng[0])
+        parts = [f"{c} = {rng[1]:g}…{rng[2]:g}° ({(res.settings or {}).get('range_mode', 'all')})" if i == k
+                 else f"{c} = {ori[i]:g}°" for i, c in enumerate("abc")]
+        orientation = ", ".join(parts)
+    else:
+        orientation = f"a, b, c = {', '.join(f'{d:g}°' for d in ori)}"
+    extent = "" if not np.isfinite(lo).all() else ("; " + ", ".join(
+        f"{c} {a * 1e3:.0f}…{b * 1e3:.0f} mm" for c, a, b in zip("xyz", lo, hi)))
+    title = (f"{machine.name}: workspace (machine frame) at {orientation}, resolution {s["resolution_mm"]:g} mm\n"
+             f"V = {res.volume:.4f} m³{extent}; {s['boundary_points']:,} boundary points")
+    pl.add_text(title, font_size=11, color="black")
     if np.isfinite(lo).all():
-        pl.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", color="black", font_size=9,
+        pl.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", color="black", font_size=14,
+                       n_xlabels=3, n_ylabels=3, n_zlabels=3, fmt="%.0f",
                        bounds=np.ravel(np.column_stack([lo, hi]) * 1e3).tolist())
     pl.camera_position = "iso" if view is None else None
     if view is not None:
         pl.view_vector(list(view))
-    pl.camera.zoom(1.1)
+    pl.reset_camera()
+    pl.camera.zoom(1.45)
     pl.screenshot(str(path))
     pl.close()
     return path
