@@ -73,7 +73,7 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
         orientation = f"a, b, c = {', '.join(f'{d:g}°' for d in ori)}"
     extent = "" if not np.isfinite(lo).all() else ("; " + ", ".join(
         f"{c} {a * 1e3:.0f}…{b * 1e3:.0f} mm" for c, a, b in zip("xyz", lo, hi)))
-    title = (f"{machine.name}: workspace (machine frame) at {orientation}, resolution {s["resolution_mm"]:g} mm\n"
+    title = (f"{machine.name}: workspace (machine frame) at {orientation}, resolution {s['resolution_mm']:g} mm\n"
              f"V = {res.volume:.4f} m³{extent}; {s['boundary_points']:,} boundary points")
     pl.add_text(title, font_size=11, color="black")
     if np.isfinite(lo).all():
