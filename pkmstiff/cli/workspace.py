@@ -252,7 +252,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             res = req.evaluate(machine, verify=args.verify)
             labels = (f"{args.plane[0]} [mm]", f"{args.plane[1]} [mm]")
             scale = (1e3, 1e3)
-            title = f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at {args.at:g} mm"
+            title = (f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at "
+                     f"{'xyz'[normal]} = {args.at:g} mm (machine frame), base a, b, c = {args.orientation} deg")
     except RotationMapError as exc:
         raise _cli_error(str(exc)) from None
     run = time.perf_counter() - t0

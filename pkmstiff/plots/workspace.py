@@ -120,9 +120,9 @@ def plot_rotation_maps(res: RotationMapResult, path: str | Path, labels: tuple[s
         ax.set_facecolor(INADMISSIBLE)
         if np.isfinite(a).any():
             cs = ax.contourf(U, V, np.ma.masked_invalid(a), levels=levels, cmap=cmap, extend="neither")
-            fig.colorbar(cs, ax=ax, label="max. angle [deg]")
-        ax.set_title(f"{d}: max {np.nanmax(a) if np.isfinite(a).any() else float('nan'):.0f} deg, "
-                     f"mean {np.nanmean(a) if np.isfinite(a).any() else float('nan'):.1f} deg", fontsize=9)
+            fig.colorbar(cs, ax=ax, label="max. angle [°]")
+        ax.set_title(f"{d}: max {np.nanmax(a) if np.isfinite(a).any() else float('nan'):.0f}°, "
+                     f"mean {np.nanmean(a) if np.isfinite(a).any() else float('nan'):.1f}°", fontsize=9)
         ax.set_xlabel(labels[0])
         ax.set_ylabel(labels[1])
         ax.set_aspect("equal" if scale[0] == scale[1] else "auto")
@@ -144,7 +144,7 @@ def plot_volume_vs_orientation(angles_rad: np.ndarray, volumes: Mapping[str, np.
     ax = fig.subplots()
     for ax_name, vols in volumes.items():
         ax.plot(np.degrees(angles_rad), vols, marker="o", ms=3, label=f"rotation about {ax_name}")
-    ax.set_xlabel("tool angle [deg] (other angles 0)")
+    ax.set_xlabel("tool angle [°] (other angles 0)")
     ax.set_ylabel("workspace volume [m$^3$]")
     ax.grid(True, alpha=0.3)
     ax.legend()
@@ -192,9 +192,9 @@ def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | 
         U, V = np.meshgrid(np.degrees(res.u_values), np.degrees(res.v_values))
         if np.isfinite(a).any():
             cs = ax.contourf(U, V, np.ma.masked_invalid(a), levels=18, cmap=cmap)
-            fig.colorbar(cs, ax=ax, label=f"max. rotation {d} [deg]")
-        ax.set_xlabel(f"{res.settings.get('u_angle', 'u')} [deg]")
-        ax.set_ylabel(f"{res.settings.get('v_angle', 'v')} [deg]")
+            fig.colorbar(cs, ax=ax, label=f"max. rotation {d} [°]")
+        ax.set_xlabel(f"{res.settings.get('u_angle', 'u')} [°]")
+        ax.set_ylabel(f"{res.settings.get('v_angle', 'v')} [°]")
         ax.set_title(f"max. {d} over ({res.settings.get('u_angle')}, {res.settings.get('v_angle')})", fontsize=10)
     if title:
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
