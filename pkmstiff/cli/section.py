@@ -183,10 +183,11 @@ def _apply_requirements(res, requirements: list) -> int:
 
 
 def _cmd_quantities(args: argparse.Namespace) -> int:
-    from pkmstiff.evaluation.quantities import available_quantities
+    from pkmstiff.evaluation.quantities import _FAMILIES, available_quantities
 
+    examples = {ex: pat.pattern.removesuffix("\\Z") for pat, _, ex in _FAMILIES}
     for name, desc in available_quantities().items():
-        print(f"{name:<20} {desc}")
+        print(f"{name:<20} {desc}" + (f"  (family {examples[name]})" if name in examples else ""))
     return 0
 
 
