@@ -21,6 +21,12 @@ from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.model import Machine
 
+#: below this many raster points ``n_jobs`` > 1 runs serially. Measured by benchmarks/bench_parallel_section.py on
+#: the 2-core machine (quantity kx): serial 44-65 µs per point; starting two workers (interpreter, imports, compiled
+#: kernels, pickled machine) ~9.5 s, warm workers break even at 40k-160k points. Halving 55 µs/point pays back the
+#: start-up from ~350k points; 250k is the measured break-even rounded down (an idle machine starts workers faster).
+PARALLEL_MIN_POINTS = 250_000
+
 AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
 
 
@@ -211,8 +217,9 @@ def evaluate_section(
     """Evaluate ``quantities`` (names, see :mod:`pkmstiff.evaluation.quantities`) on a plane, masked by admissibility.
 
     ``orientation`` = (a, b, c) in rad, fixed over the plane; ``tool_length`` in m (None: the machine's).
-    ``n_jobs`` > 1 evaluates chunks in parallel processes (joblib); the result is identical to the serial one
-    because chunks are independent. ``progress``: None = a progress bar only on a terminal when the section is large.
+    ``n_jobs`` > 1 evaluates chunks in parallel processes (joblib) for sections of at least
+    :data:`PARALLEL_MIN_POINTS` points (smaller ones run serially: there the workers' start-up dominates); the result
+    is identical to the serial one because chunks are independent. ``progress``: None = a progress bar only on a terminal when the section is large.
     ``checks``: the admissibility checks to apply (default all, see :data:`pkmstiff.admissibility.checks.ALL_CHECKS`).
     """
     names = list(dict.fromkeys(quantities))
@@ -225,7 +232,7 @@ def evaluate_section(
 
         progress = sys.stderr.isatty() and len(poses) * (1 + len(names)) > 20_000
     jobs = [poses[s:s + chunk_size] for s in starts]
-    if n_jobs != 1 and len(jobs) > 1:
+    if n_jobs != 1 and len(jobs) > 1 and len(poses) >= PARALLEL_MIN_POINTS:
         from joblib import Parallel, delayed
 
         n = os.cpu_count() or 1 if n_jobs < 0 else n_jobs
