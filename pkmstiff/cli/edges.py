@@ -1,5 +1,5 @@
-"""Checks the command line runs before any work: output paths, ``--jobs``, the memory budget, and the progress
-reporter (a bar on a terminal, periodic one-line progress when stderr is redirected).
+"""Checks the command line runs before any work: output paths, ``--jobs`` and the memory budget (with the cost line
+printed before long work).
 
 Every check raises a :class:`~pkmstiff.errors.CliError` subclass with one line naming the option, what was expected
 and what was found, so that a command fails in seconds instead of after the computation (issue 12, item 4).
@@ -9,16 +9,12 @@ from __future__ import annotations
 
 import os
 import sys
-import time
 from pathlib import Path
-from typing import Any, Callable
 
 from pkmstiff.errors import CliError, CostLimitError, OutputPathError
 
 #: default memory budget: this fraction of the available memory (MemAvailable), overridable with --memory-budget
 DEFAULT_BUDGET_FRACTION = 0.5
-#: seconds between two progress lines when stderr is not a terminal
-PROGRESS_INTERVAL_S = 10.0
 
 
 # ------------------------------------------------------------------------------------------------------ outputs
@@ -167,43 +163,3 @@ def announce_cost(command: str, what: str, points: int, bytes_needed: float, sec
     if not quiet:
         print(f"pkmstiff {command}: {what}: {points:,} points, about {human_bytes(bytes_needed)} and "
               f"{human_seconds(seconds)}", file=sys.stderr, flush=True)
-
-
-# ----------------------------------------------------------------------------------------------------- progress
-
-
-class Progress:
-    """Progress of ``total`` steps: a tqdm bar when stderr is a terminal; otherwise one line every
-    :data:`PROGRESS_INTERVAL_S` seconds (``label: 40 % (400/1,000), 12 s``); nothing when ``quiet``."""
-
-    def __init__(self, total: int, label: str, quiet: bool = False, interval: float = PROGRESS_INTERVAL_S,
-                 stream: Any = None):
-        self.total, self.label, self.done = max(int(total), 1), label, 0
-        self.stream = stream or sys.stderr
-        self.quiet, self.interval = quiet, interval
-        self.t0 = self.last = time.perf_counter()
-        self.bar = None
-        if not quiet and getattr(self.stream, "isatty", lambda: False)():
-            from tqdm import tqdm
-
-            self.bar = tqdm(total=self.total, desc=label, file=self.stream, leave=False)
-
-    def update(self, n: int = 1) -> None:
-        self.done += n
-        if self.quiet:
-            return
-        if self.bar is not None:
-            self.bar.update(n)
-            return
-        now = time.perf_counter()
-        if now - self.last >= self.interval:
-            self.last = now
-            print(f"{self.label}: {100 * self.done / self.total:.0f} % ({self.done:,}/{self.total:,}), "
-                  f"{now - self.t0:.0f} s", file=self.stream, flush=True)
-
-    def close(self) -> None:
-        if self.bar is not None:
-            self.bar.close()
-
-    def callback(self) -> Callable[[int], None]:
-        return self.update

@@ -81,10 +81,11 @@ def _cmd_section(args: argparse.Namespace) -> int:
     check_output_dir(args.out, "--out", getattr(args, "force", False), _output_names(stem, names, formats, getattr(args, "reasons_map", False)))
     step = args.step * 1e-3
     if ranges is None:
-        from pkmstiff.workspace.windows import fit_window
+        from pkmstiff.workspace.windows import fit_window, snap_to_step
 
         try:
-            ranges = dict(zip(plane_kind, fit_window(machine, plane_kind, args.at * 1e-3, ori)))
+            ranges = dict(zip(plane_kind, (snap_to_step(r, args.step * 1e-3)
+                                           for r in fit_window(machine, plane_kind, args.at * 1e-3, ori))))
         except SectionError as exc:
             raise CliError(str(exc)) from None
         fitted = True

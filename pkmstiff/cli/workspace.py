@@ -52,14 +52,24 @@ def _positive(value: float, option: str, unit: str) -> float:
 
 
 class _Progress:
-    """tqdm bar over octree levels, only on a terminal and without --quiet."""
+    """tqdm bar over octree levels on a terminal; one line per level (at most every 10 s) when stderr is redirected;
+    nothing with --quiet."""
 
     def __init__(self, enabled: bool, desc: str):
         self.bar = None
         self.enabled = enabled and sys.stderr.isatty()
+        self.lines = enabled and not sys.stderr.isatty()
         self.desc = desc
+        self.t0 = self.last = time.perf_counter()
 
     def __call__(self, level: int, lmax: int, evals: int) -> None:
+        if self.lines:
+            now = time.perf_counter()
+            if now - self.last >= 10.0:
+                self.last = now
+                print(f"{self.desc}: level {level}/{lmax}, {evals:,} evaluations, {now - self.t0:.0f} s",
+                      file=sys.stderr, flush=True)
+            return
         if not self.enabled:
             return
         if self.bar is None:

@@ -227,10 +227,8 @@ def evaluate_section(
     poses = section_poses(plane, orientation)
     opts = dict(options or {})
     starts = list(range(0, len(poses), chunk_size))
-    if progress is None:
-        import sys
-
-        progress = sys.stderr.isatty() and len(poses) * (1 + len(names)) > 20_000
+    if progress is None:  # a bar on a terminal, periodic lines otherwise (see _progress)
+        progress = len(poses) * (1 + len(names)) > 20_000
     jobs = [poses[s:s + chunk_size] for s in starts]
     if n_jobs != 1 and len(jobs) > 1 and len(poses) >= PARALLEL_MIN_POINTS:
         from joblib import Parallel, delayed
@@ -252,12 +250,35 @@ def evaluate_section(
     )
 
 
+#: seconds between two progress lines when stderr is not a terminal
+PROGRESS_INTERVAL_S = 10.0
+
+
 def _progress(items: list, enabled: bool):
+    """A tqdm bar on a terminal; one line every :data:`PROGRESS_INTERVAL_S` s when stderr is redirected."""
+    import sys
+
     if not enabled:
         return items
-    from tqdm import tqdm
+    if sys.stderr.isatty():
+        from tqdm import tqdm
 
-    return tqdm(items, desc="section", unit="chunk", leave=False)
+        return tqdm(items, desc="section", unit="chunk", leave=False)
+    return _progress_lines(items)
+
+
+def _progress_lines(items: list):
+    import sys
+    import time
+
+    t0 = last = time.perf_counter()
+    for k, item in enumerate(items):
+        now = time.perf_counter()
+        if now - last >= PROGRESS_INTERVAL_S:
+            last = now
+            print(f"section: {100 * k / len(items):.0f} % ({k}/{len(items)} chunks), {now - t0:.0f} s",
+                  file=sys.stderr, flush=True)
+        yield item
 
 
 def three_planes(centre: Iterable[float], half_extent: Iterable[float], step: float) -> list[Plane]:

@@ -56,6 +56,16 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
 
 def window_for(machine: Machine, kind: str, at: float, step: float,
                orientation: Iterable[float] = (0.0, 0.0, 0.0)):
-    """The fitted :class:`~pkmstiff.evaluation.sections.Plane` (raster ``step`` in m) of :func:`fit_window`."""
+    """The fitted :class:`~pkmstiff.evaluation.sections.Plane` (raster ``step`` in m) of :func:`fit_window`, its upper
+    ends extended to whole raster steps (:func:`snap_to_step`) so that the raster's last row and column lie outside the
+    admissible region too."""
     ur, vr = fit_window(machine, kind, at, orientation)
-    return axis_plane(kind, at, ur, vr, step)
+    return axis_plane(kind, at, snap_to_step(ur, step), snap_to_step(vr, step), step)
+
+
+def snap_to_step(rng: tuple[float, float], step: float) -> tuple[float, float]:
+    """(lo, hi) -> (lo, lo + k·step) with the smallest k for which lo + k·step >= hi: a raster from lo with ``step``
+    then ends at or beyond hi instead of up to one step short of it."""
+    lo, hi = rng
+    k = math.ceil((hi - lo) / step - 1e-9)
+    return lo, lo + k * step
