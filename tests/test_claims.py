@@ -6,13 +6,13 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from pkmstiff.report.claims import CLAIMS_FILE, ROOT, collect_claims, readme_block, render_markdown
+from pkmstiff.cli.claims import CLAIMS_FILE, ROOT, collect_claims, readme_block, render_markdown
 
 
 def test_claims_file_is_up_to_date():
     stored = json.loads(CLAIMS_FILE.read_text(encoding="utf-8"))
     assert collect_claims() == stored, ("docs/claims.json is out of date: check the change, then run "
-                                        "'python -m pkmstiff.report.claims --write' and update the README block")
+                                        "'python -m pkmstiff.cli.claims --write' and update the README block")
 
 
 def test_readme_block_matches_when_present():

@@ -4,7 +4,8 @@
 quantities with every family, the CLI commands, the demo's output files, the JSON schemas); ``render_markdown()``
 renders the README's generated block. ``tests/test_claims.py`` compares the facts with ``docs/claims.json`` and the
 README's block (between ``<!-- claims:start -->`` and ``<!-- claims:end -->``) with ``render_markdown()``; after a
-deliberate change run ``python -m pkmstiff.report.claims --write`` and commit both.
+deliberate change run ``python -m pkmstiff.cli.claims --write`` and commit both. (It lives in the command-line
+package because it counts the commands.)
 """
 
 from __future__ import annotations
@@ -71,7 +72,7 @@ def readme_block(text: str) -> str | None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m pkmstiff.report.claims", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="python -m pkmstiff.cli.claims", description=__doc__.splitlines()[0])
     ap.add_argument("--write", action="store_true", help="rewrite docs/claims.json (after a deliberate change)")
     args = ap.parse_args(argv)
     claims = collect_claims()
