@@ -121,6 +121,7 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["fe-joint", JOINT, "--out", "{dir}"], 2, "--out"),
         (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "-1"], 2, "--mesh-size"),
         (["fe-joint", JOINT, "--out", "t.csv", "--angles", "5"], 2, "angles"),
+        (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "1"], 2, "memory budget"),
     ],
     "fe-platform": [
         (["fe-platform", PLATFORM, "--out", "k.txt"], 2, ".toml or .csv"),

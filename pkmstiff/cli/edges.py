@@ -154,12 +154,12 @@ def human_seconds(s: float) -> str:
 
 
 def announce_cost(command: str, what: str, points: int, bytes_needed: float, seconds: float, budget: int,
-                  quiet: bool = False) -> None:
+                  quiet: bool = False, unit: str = "points") -> None:
     """Print what the command will compute (one line on stderr) and refuse above the memory budget."""
     if bytes_needed > budget:
-        raise CostLimitError(f"{what}: {points:,} points need about {human_bytes(bytes_needed)}, more than the memory "
+        raise CostLimitError(f"{what}: {points:,} {unit} need about {human_bytes(bytes_needed)}, more than the memory "
                              f"budget of {human_bytes(budget)}; use a coarser step/resolution or a smaller region, or "
                              f"raise --memory-budget")
     if not quiet:
-        print(f"pkmstiff {command}: {what}: {points:,} points, about {human_bytes(bytes_needed)} and "
+        print(f"pkmstiff {command}: {what}: {points:,} {unit}, about {human_bytes(bytes_needed)} and "
               f"{human_seconds(seconds)}", file=sys.stderr, flush=True)

@@ -49,6 +49,8 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument("--png-angle", type=float, default=45.0, help="tilt angle in deg for --png (default 45)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no result table")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("--memory-budget", default=None, metavar="SIZE",
+                   help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory)")
     p.set_defaults(func=cmd_fe_joint)
 
     p = subparsers.add_parser(
@@ -81,6 +83,29 @@ def _progress(total: int, quiet: bool, desc: str) -> tuple[Callable[[float], Non
     return step, bar.close
 
 
+#: memory per FE degree of freedom of the sparse direct solve (assumption: fill-in of 3-D hex meshes at ~1e5 DOFs,
+#: rounded up; the fill grows like n^(4/3), so finer meshes are underestimated rather than over-refused)
+FE_BYTES_PER_DOF = 4096
+#: seconds per DOF and tilt angle (assumption of the same kind: a 1e5-DOF factorisation takes a few seconds)
+FE_SECONDS_PER_DOF = 5e-5
+
+
+def _check_fe_cost(p: Any, args: argparse.Namespace) -> None:
+    """Refuse a mesh whose estimated memory exceeds the budget, before meshing it: the DOFs of the file's own mesh
+    size (built once, < 1 s) scaled by (h_file / h)³ for a finer ``--mesh-size``."""
+    if not args.mesh_size or args.mesh_size * 1e-3 >= p.mesh_size:
+        return
+    from pkmstiff.cli.edges import announce_cost, parse_budget
+    from pkmstiff.fe.joints import build_joint_model, parse_angles
+
+    n0 = build_joint_model(p).model.n_fe
+    n = int(n0 * (p.mesh_size / (args.mesh_size * 1e-3)) ** 3)
+    angles = max(len(parse_angles(args.angles)), 1)
+    announce_cost("fe-joint", f"{p.name} at mesh size {args.mesh_size:g} mm", n, n * FE_BYTES_PER_DOF,
+                  n * FE_SECONDS_PER_DOF * angles, parse_budget(getattr(args, "memory_budget", None)),
+                  quiet=args.quiet, unit="degrees of freedom")
+
+
 def cmd_fe_joint(args: argparse.Namespace) -> int:
     """``pkmstiff fe-joint``: tilt sweep -> CSV joint table (+ optional VTU/PNG of the deformed joint)."""
     from pkmstiff.fe.export import field_mesh, write_sweep_table, write_vtu
@@ -96,6 +121,7 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
         raise InputError("--angles", "angles", "at least 2 tilt angles (a joint table needs 2 support points)",
                          args.angles)
     p = load_joint_parameters(args.params)
+    _check_fe_cost(p, args)
     if args.mesh_size or args.n_phi or args.element:
         if args.n_phi is not None and args.n_phi < 8:
             raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
