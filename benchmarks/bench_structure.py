@@ -6,8 +6,12 @@ struts, drives, guides) + assembly of the 30-DOF model + TCP compliance + 6 lowe
 y 0…0.4 m, z −1.0…−0.85 m, a, b, c ±3°).  Prints CPU-time and wall-time poses/s (on a machine shared with other
 jobs the CPU time is the fairer figure) and, for the large batch, the peak resident memory of a fresh process.
 
-Usage: ``python benchmarks/bench_structure.py [n_poses ...] [--chunk N] [--million]``
+Usage: ``python benchmarks/bench_structure.py [n_poses ...] [--chunk N] [--million] [--floor N]``
 (default 10000 100000; ``--million`` runs a 1,000,000-pose batch in a subprocess and reports its peak RSS).
+
+``--floor N`` (default 20000) times, side by side in one run, the batch structure analysis of N poses
+(stiffness + 6 lowest frequencies) and the numpy floor of the same linear algebra: a stacked (N, 24, 24) ``solve``
+with 6 right-hand sides and a stacked ``eigvalsh`` of (N, 24, 24) matrices; it prints their ratio (target ≤ 1.15).
 """
 
 from __future__ import annotations
@@ -55,6 +59,32 @@ def run(n_poses: int, chunk: int) -> None:
           f"f1 {np.nanmedian(res.frequencies_hz[:, 0]):6.2f} Hz")
 
 
+def floor_ratio(n_poses: int, chunk: int, repeat: int = 3) -> float:
+    """Best-of-``repeat`` CPU time of :func:`evaluate_structure` over the numpy floor (stacked 24×24 solve + eigvalsh),
+    both on ``n_poses`` and measured alternately in the same process."""
+    machine = load_machine("hexaglide")
+    poses = hexaglide_poses(n_poses)
+    rng = np.random.default_rng(1)
+    a = rng.standard_normal((n_poses, 24, 24))
+    spd = a @ np.swapaxes(a, 1, 2) + 24 * np.eye(24)
+    rhs = rng.standard_normal((n_poses, 24, 6))
+    evaluate_structure(machine, poses[:100])
+    t_model, t_floor = float("inf"), float("inf")
+    for _ in range(repeat):
+        c0 = time.process_time()
+        evaluate_structure(machine, poses, tool_length=0.0, n_modes=6, chunk_size=chunk)
+        t_model = min(t_model, time.process_time() - c0)
+        c0 = time.process_time()
+        for s in range(0, n_poses, chunk):
+            np.linalg.solve(spd[s:s + chunk], rhs[s:s + chunk])
+            np.linalg.eigvalsh(spd[s:s + chunk])
+        t_floor = min(t_floor, time.process_time() - c0)
+    ratio = t_model / t_floor
+    print(f"{n_poses:>9d} poses: structure analysis CPU {t_model:6.2f} s, numpy floor (24x24 solve + eigvalsh) "
+          f"{t_floor:6.2f} s, batch/floor ratio {ratio:5.2f} (target 1.15)")
+    return ratio
+
+
 def million(chunk: int) -> None:
     """1e6 poses in a fresh interpreter so that its peak RSS is the batch's own footprint."""
     code = ("import sys; sys.argv = ['bench', '1000000', '--chunk', '%d']; "
@@ -67,9 +97,13 @@ def main() -> None:
     ap.add_argument("poses", nargs="*", type=int, default=[10_000, 100_000])
     ap.add_argument("--chunk", type=int, default=2048)
     ap.add_argument("--million", action="store_true", help="also run 1,000,000 poses in a subprocess (peak RSS)")
+    ap.add_argument("--floor", type=int, default=20_000, metavar="N",
+                    help="poses of the batch/floor comparison (0: skip; default 20000)")
     args = ap.parse_args()
     for n in args.poses:
         run(n, args.chunk)
+    if args.floor:
+        floor_ratio(args.floor, args.chunk)
     if args.million:
         million(args.chunk)
 

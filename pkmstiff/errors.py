@@ -11,7 +11,12 @@ from typing import Any
 
 
 class PkmstiffError(Exception):
-    """Root of every error the toolkit raises on purpose."""
+    """Root of every error the toolkit raises on purpose.
+
+    ``exit_status`` is the command line's exit status for this error (2: bad input; 3: a refused inadmissible pose).
+    """
+
+    exit_status = 2
 
 
 class InputError(PkmstiffError, ValueError):
@@ -186,6 +191,33 @@ class PoseArgumentError(PkmstiffError, ValueError):
 
 class PointArgumentError(PkmstiffError, ValueError):
     """An invalid option of ``pkmstiff point``."""
+
+
+# -------------------- cli (edges: refused poses, outputs, cost)
+
+
+class InadmissiblePoseRefused(PkmstiffError):
+    """``pkmstiff point`` refuses to analyse an inadmissible pose (exit status 3); the message names every failing
+    check and the ``--allow-inadmissible`` switch."""
+
+    exit_status = 3
+
+
+class OutputPathError(CliError):
+    """An output path that cannot be written (a file where a directory is needed, an unwritable parent, an existing
+    output without ``--force``); raised before any computation."""
+
+
+class CostLimitError(CliError):
+    """The estimated memory of a command exceeds the memory budget (``--memory-budget``); raised before the work."""
+
+
+class PlausibilityError(InputError):
+    """A magnitude outside the documented plausible range of its quantity kind (e.g. a length of 1e300 m)."""
+
+
+class FormatVersionError(InputError):
+    """An input file whose ``format_version`` this version of pkmstiff does not know."""
 
 
 # -------------------- calibration (ball-bar evaluation and measurement files)

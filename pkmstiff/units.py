@@ -20,12 +20,39 @@ from typing import Any
 import numpy as np
 import pint
 
-from pkmstiff.errors import InputError
+from pkmstiff.errors import InputError, PlausibilityError
+
+#: Plausible magnitudes per quantity kind (SI), checked by :func:`parse_quantity` so that typos such as a length of
+#: 1e300 m or a stiffness in N/µm written as N/m × 1e12 are rejected with one line. Keys are pint dimensionalities,
+#: values (kind, largest plausible absolute SI magnitude). The bounds are generous (a factor of ~100 beyond the largest
+#: machine tools, spindles and FE models in the spec) and documented in docs/user-guide/cli-output.md.
+PLAUSIBLE_RANGES: dict[str, tuple[str, float]] = {
+    "[length]": ("length", 1.0e3),                                  # 1 km: machine frames are a few metres
+    "[mass]": ("mass", 1.0e6),                                      # 1000 t
+    "[length] ** 2 * [mass]": ("moment of inertia", 1.0e6),         # kg·m²
+    "[length] * [mass] / [time] ** 2": ("force", 1.0e9),            # N
+    "[mass] / [time] ** 2": ("translational stiffness", 1.0e15),    # N/m (1e9 N/µm)
+    "[length] ** 2 * [mass] / [time] ** 2": ("torque or rotational stiffness", 1.0e15),  # N·m, N·m/rad
+    "[mass] / [length] / [time] ** 2": ("pressure or elastic modulus", 1.0e13),  # Pa (diamond: 1.2e12)
+    "[mass] / [length] ** 3": ("density", 1.0e5),                   # kg/m³ (osmium: 2.3e4)
+    "[length] / [time]": ("velocity", 1.0e3),                       # m/s
+    "[length] / [time] ** 2": ("acceleration", 1.0e5),              # m/s²
+    "[time]": ("time", 1.0e9),                                      # s
+    "1 / [time]": ("frequency", 1.0e9),                             # Hz
+    "[mass] / [time]": ("damping", 1.0e12),                         # N·s/m
+}
+#: any other dimensional quantity: |value| <= this (SI)
+PLAUSIBLE_DEFAULT = 1.0e20
 
 
 @lru_cache(maxsize=1)
 def ureg() -> pint.UnitRegistry:
-    reg = pint.UnitRegistry()
+    # pint's on-disk cache of its parsed definitions (the user cache directory) cuts the registry's start-up from
+    # ~0.35 s to ~0.07 s CPU (benchmarks/bench_startup.py); the definitions, hence every conversion, are the same
+    try:
+        reg = pint.UnitRegistry(cache_folder=":auto:")
+    except Exception:  # noqa: BLE001 (no writable cache directory: parse the definitions every time)
+        reg = pint.UnitRegistry()
     # the field writes micrometres as "um" (pint knows "um" and "µm"); nothing else to add
     return reg
 
@@ -66,12 +93,14 @@ def parse_quantity(
     min_value: float | None = None,
     positive: bool = False,
     allow_nan: bool = False,
+    plausible: bool = True,
 ) -> float | np.ndarray:
     """Parse ``value`` as a quantity of the dimension of ``unit`` and return its magnitude in ``unit``.
 
     ``unit`` should be the SI unit (then the result is SI). ``shape`` (``None`` entries are free) is
     checked for array values; a scalar is expected when ``shape`` is ``None``. ``min_value`` and
-    ``positive`` check the range; NaN/inf are rejected unless ``allow_nan``.
+    ``positive`` check the range; NaN/inf are rejected unless ``allow_nan``. Unless ``plausible=False`` the magnitude
+    must lie in the plausible range of its quantity kind (:data:`PLAUSIBLE_RANGES`, :class:`PlausibilityError`).
     """
     if isinstance(value, dict):
         if set(value) != {"value", "unit"}:
@@ -117,7 +146,27 @@ def parse_quantity(
         raise InputError(source, key, f"positive values in {unit}", value)
     if min_value is not None and np.any(arr < min_value):
         raise InputError(source, key, f"values >= {min_value:g} {unit}", value)
+    if plausible and unit != "dimensionless" and arr.size:
+        check_plausible(arr, unit, source, key, value)
     return float(arr) if arr.ndim == 0 else arr
+
+
+def plausible_range(unit: str) -> tuple[str, float]:
+    """(kind, largest plausible absolute magnitude in ``unit``) of the quantity kind of ``unit``."""
+    factor, dim = _si_factor(unit)
+    kind, limit = PLAUSIBLE_RANGES.get(str(dim), (f"quantity in {unit}", PLAUSIBLE_DEFAULT))
+    return kind, limit / factor if factor else limit
+
+
+def check_plausible(arr: np.ndarray, unit: str, source: str, key: str, found: Any) -> None:
+    """Reject magnitudes beyond the documented plausible range of their kind (:data:`PLAUSIBLE_RANGES`)."""
+    if str(_si_factor(unit)[1]) == "dimensionless":
+        return
+    kind, limit = plausible_range(unit)
+    finite = np.asarray(arr, dtype=float)
+    finite = finite[np.isfinite(finite)]
+    if finite.size and np.max(np.abs(finite)) > limit:
+        raise PlausibilityError(source, key, f"a plausible {kind} (|value| <= {limit:.3g} {unit})", found)
 
 
 def _nested(value: Any, unit: str, source: str, key: str) -> Any:

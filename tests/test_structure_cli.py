@@ -30,7 +30,7 @@ def test_point_json_matches_the_analyses(capsys):
     for i, ax in enumerate("xyz"):  # N/µm and N·m/µrad: SI / 1e6
         assert rep["k_N_per_um"][ax] == pytest.approx(1.0 / c[i, i] / 1e6, rel=1e-12)
         assert rep["rotational_stiffness_Nm_per_urad"][ax] == pytest.approx(1.0 / c[3 + i, 3 + i] / 1e6, rel=1e-12)
-    np.testing.assert_allclose(rep["frequencies_hz"], natural_frequencies(st, 3)[0], rtol=1e-9)
+    np.testing.assert_allclose(rep["frequencies_Hz"], natural_frequencies(st, 3)[0], rtol=1e-9)
     assert len(rep["mode_descriptions"]) == 3 and all("%" in d for d in rep["mode_descriptions"])
     for d in "xyz":
         assert sum(rep["weak_points_percent"][d].values()) == pytest.approx(100.0, rel=1e-9)
@@ -45,11 +45,14 @@ def test_point_json_matches_the_analyses(capsys):
 def test_point_text_and_unreachable_pose(capsys):
     code, out, _ = run(capsys, "point", "hexaglide", "--pose", "0,0,-1000,0,0,0")
     assert code == 0
-    for text in ("k_x =", "N/um", "N*m/urad", "Hz", "weak points", "m/min", "m/s^2", "static drive loads"):
+    for text in ("k_x =", "N/µm", "N·m/µrad", "Hz", "weak points", "m/min", "m/s²", "static drive loads"):
         assert text in out
-    code, out, _ = run(capsys, "point", "hexaglide", "--pose", "0,0,500,0,0,0", "--json")
+    code, out, err = run(capsys, "point", "hexaglide", "--pose", "0,0,500,0,0,0", "--json")
+    assert code == 3 and out == "" and "guide" in err and len(err.strip().splitlines()) == 1  # refused
+    code, out, _ = run(capsys, "point", "hexaglide", "--pose", "0,0,500,0,0,0", "--json", "--allow-inadmissible")
     rep = json.loads(out)
-    assert code == 0 and rep["modelled"] is False and "guide" in rep["reasons"][0]
+    assert code == 0 and rep["modelled"] is False and "guide" in rep["model_reasons"][0]
+    assert rep["admissible"] is False and rep["analysed_although_inadmissible"] is True
     assert rep["k_N_per_um"]["x"] is None  # NaN becomes null
 
 
@@ -59,7 +62,7 @@ def test_point_planar_example(capsys):
     assert code == 0 and rep["machine_type"] == "planar pod"
     n = np.array([1.0, -0.707]) / np.hypot(1.0, 0.707)
     assert rep["k_N_per_um"]["x"] == pytest.approx(2 * n[0] ** 2, rel=1e-9)  # K = Σ k n nᵀ, k = 1 N/µm
-    assert len(rep["frequencies_hz"]) == 2
+    assert len(rep["frequencies_Hz"]) == 2
 
 
 @pytest.mark.parametrize("args, msg", [

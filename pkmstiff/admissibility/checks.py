@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
-from typing import Callable, Iterable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 
@@ -215,9 +215,7 @@ def check_strut_collision(machine: Machine, p: np.ndarray, q: np.ndarray) -> Che
     evaluated for every pair of every pose in one compiled loop (:func:`pkmstiff.kinematics.kernels.strut_collision`).
     """
     ch = machine.chains
-    pairs = [(i, j) for i, j in strut_pairs(ch.n)
-             if not np.allclose(ch.platform_joint[i], ch.platform_joint[j])
-             and not (ch.kind == "pod" and np.allclose(ch.drive_joint[i], ch.drive_joint[j]))]
+    pairs = _collision_pairs(ch)
     if not pairs:
         return CheckResult(np.ones(p.shape[0], bool), Reason.STRUT_COLLISION, skipped="no strut pairs")
     mode = machine.limits.strut_collision_mode
@@ -231,6 +229,21 @@ def check_strut_collision(machine: Machine, p: np.ndarray, q: np.ndarray) -> Che
     _kernels.strut_collision(_soa_points(p), _soa_points(q), ii, jj, rsum, mode == "table_B2", bad)
     labels = [f"struts {a + 1}-{b + 1}" for a, b in pairs]
     return CheckResult(~bad.any(axis=1), Reason.STRUT_COLLISION, bad, labels)
+
+
+_PAIR_CACHE: dict[int, tuple[Any, list[tuple[int, int]]]] = {}
+
+
+def _collision_pairs(ch: Any) -> list[tuple[int, int]]:
+    """Strut pairs that do not share a joint point, cached per chain table (the small-N path of the pipeline paid
+    ~15 ``np.allclose`` calls per evaluation for this constant list)."""
+    hit = _PAIR_CACHE.get(id(ch))
+    if hit is None or hit[0] is not ch:  # the entry keeps the table alive: its id cannot be reused meanwhile
+        pairs = [(i, j) for i, j in strut_pairs(ch.n)
+                 if not np.allclose(ch.platform_joint[i], ch.platform_joint[j])
+                 and not (ch.kind == "pod" and np.allclose(ch.drive_joint[i], ch.drive_joint[j]))]
+        hit = _PAIR_CACHE[id(ch)] = (ch, pairs)
+    return hit[1]
 
 
 @dataclass(frozen=True)

@@ -48,6 +48,9 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument("--png", default=None, help="PNG image of the deformed joint at --png-angle")
     p.add_argument("--png-angle", type=float, default=45.0, help="tilt angle in deg for --png (default 45)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no result table")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("--memory-budget", default=None, metavar="SIZE",
+                   help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory)")
     p.set_defaults(func=cmd_fe_joint)
 
     p = subparsers.add_parser(
@@ -61,6 +64,7 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument("--mesh-size", type=_positive_mm, default=None, help="element size in mm (default: from PARAMS)")
     p.add_argument("--vtu", default=None, help="VTU file of the platform deformed by a unit load case")
     p.add_argument("--quiet", action="store_true", help="no progress output and no result table")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.set_defaults(func=cmd_fe_platform)
 
 
@@ -79,16 +83,45 @@ def _progress(total: int, quiet: bool, desc: str) -> tuple[Callable[[float], Non
     return step, bar.close
 
 
+#: memory per FE degree of freedom of the sparse direct solve (assumption: fill-in of 3-D hex meshes at ~1e5 DOFs,
+#: rounded up; the fill grows like n^(4/3), so finer meshes are underestimated rather than over-refused)
+FE_BYTES_PER_DOF = 4096
+#: seconds per DOF and tilt angle (assumption of the same kind: a 1e5-DOF factorisation takes a few seconds)
+FE_SECONDS_PER_DOF = 5e-5
+
+
+def _check_fe_cost(p: Any, args: argparse.Namespace) -> None:
+    """Refuse a mesh whose estimated memory exceeds the budget, before meshing it: the DOFs of the file's own mesh
+    size (built once, < 1 s) scaled by (h_file / h)³ for a finer ``--mesh-size``."""
+    if not args.mesh_size or args.mesh_size * 1e-3 >= p.mesh_size:
+        return
+    from pkmstiff.cli.edges import announce_cost, parse_budget
+    from pkmstiff.fe.joints import build_joint_model, parse_angles
+
+    n0 = build_joint_model(p).model.n_fe
+    n = int(n0 * (p.mesh_size / (args.mesh_size * 1e-3)) ** 3)
+    angles = max(len(parse_angles(args.angles)), 1)
+    announce_cost("fe-joint", f"{p.name} at mesh size {args.mesh_size:g} mm", n, n * FE_BYTES_PER_DOF,
+                  n * FE_SECONDS_PER_DOF * angles, parse_budget(getattr(args, "memory_budget", None)),
+                  quiet=args.quiet, unit="degrees of freedom")
+
+
 def cmd_fe_joint(args: argparse.Namespace) -> int:
     """``pkmstiff fe-joint``: tilt sweep -> CSV joint table (+ optional VTU/PNG of the deformed joint)."""
     from pkmstiff.fe.export import field_mesh, write_sweep_table, write_vtu
     from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
 
+    from pkmstiff.cli.edges import check_output_dir, check_output_file
+
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    check_output_dir(args.vtu, "--vtu", True)
+    check_output_file(args.png, "--png", getattr(args, "force", False), (".png",))
     angles = parse_angles(args.angles)
     if len(angles) < 2:
         raise InputError("--angles", "angles", "at least 2 tilt angles (a joint table needs 2 support points)",
                          args.angles)
     p = load_joint_parameters(args.params)
+    _check_fe_cost(p, args)
     if args.mesh_size or args.n_phi or args.element:
         if args.n_phi is not None and args.n_phi < 8:
             raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
@@ -142,9 +175,13 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     from pkmstiff.fe.export import field_mesh, write_vtu
     from pkmstiff.fe.platform import component_toml, load_platform_parameters, platform_stiffness, to_dissertation_units
 
+    from pkmstiff.cli.edges import check_output_file
+
     out = Path(args.out)
     if out.suffix not in (".toml", ".csv"):
         raise InputError("--out", "out", "a file name ending in .toml or .csv", args.out)
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".toml", ".csv"))
+    check_output_file(args.vtu, "--vtu", getattr(args, "force", False), (".vtu",))
     p = load_platform_parameters(args.params)
     if args.mesh_size:
         p = p.with_mesh(size=args.mesh_size * 1e-3)

@@ -14,10 +14,14 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import PointArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InadmissiblePoseRefused, PointArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.machine.loader import bundled_machines, load_machine
 
 WEAK_POINT_DIRECTIONS = ("x", "y", "z")
+#: identifier of the JSON document ``pkmstiff point --json`` prints (pkmstiff/schemas/point.schema.json)
+SCHEMA = "pkmstiff/point/1"
+#: units of the rows/columns of ``stiffness_matrix_SI`` (twist ux, uy, uz, rx, ry, rz at the TCP)
+STIFFNESS_MATRIX_UNITS = "K[0:3,0:3] N/m, K[0:3,3:6] N/rad, K[3:6,0:3] N*m/m, K[3:6,3:6] N*m/rad"
 
 
 
@@ -47,14 +51,28 @@ def _is_planar(name: str) -> bool:
     return name in bundled_planar() and name not in bundled_machines()
 
 
-def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None = None, n_modes: int = 6,
-                 neglect_spindle: bool = False, frame: str = "machine") -> dict:
-    """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units.
+def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissiblePoseRefused:
+    return InadmissiblePoseRefused(
+        f"{machine} at {where} is not admissible: {'; '.join(reasons) or 'not modelled'}; "
+        f"nothing analysed (--allow-inadmissible analyses it anyway and marks the results)")
 
-    The pose is given in ``frame`` (:mod:`pkmstiff.machine.frames`; spatial machines only).
+
+def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None = None, n_modes: int = 6,
+                 neglect_spindle: bool = False, frame: str = "machine", allow_inadmissible: bool = True) -> dict:
+    """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units
+    (schema ``pkmstiff/schemas/point.schema.json``).
+
+    The pose is given in ``frame`` (:mod:`pkmstiff.machine.frames`; spatial machines only). Admissibility (every
+    check of docs/theory/admissibility.md) comes first; with ``allow_inadmissible=False`` an inadmissible pose raises
+    :class:`~pkmstiff.errors.InadmissiblePoseRefused` (exit status 3) before any analysis.
     """
+    if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
+        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
+    if n_modes < 0:
+        raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
     if _is_planar(machine_name):
-        return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"))
+        return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
+    from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.cli.pose import PoseArgumentError, parse_pose
     from pkmstiff.structure import build_structure
@@ -63,33 +81,44 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         pose = parse_pose(pose_text)
     except PoseArgumentError as exc:
         raise PointArgumentError(str(exc)) from None
-    if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
-        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
-    if n_modes < 0:
-        raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
     from pkmstiff.machine.frames import frame_metadata, to_machine_frame
 
     m = load_machine(machine_name)
     given = pose
     pose = to_machine_frame(m, given, frame)
+    adm = evaluate_poses(m, pose[None]).admissibility
+    admissible, reasons = bool(adm.ok[0]), adm.failing(0)
+    pose_out = {"x_mm": given[0] * 1e3, "y_mm": given[1] * 1e3, "z_mm": given[2] * 1e3,
+                "a_deg": math.degrees(given[3]), "b_deg": math.degrees(given[4]), "c_deg": math.degrees(given[5])}
+    if not admissible and not allow_inadmissible:
+        raise _refuse(m.name, ", ".join(f"{k.split('_')[0]} = {v:g} {k.split('_')[1]}" for k, v in pose_out.items())
+                      + f" ({frame} frame)", reasons)
     tl = None if tool_length_mm is None else tool_length_mm * 1e-3
     st = build_structure(m, pose[None])
     ks = kinetostatics(m, pose[None])
     rep: dict[str, Any] = {
+        "schema": SCHEMA,
         "machine": m.name, "machine_type": m.kind,
         **frame_metadata(m, frame),
-        "pose": {"x_mm": given[0] * 1e3, "y_mm": given[1] * 1e3, "z_mm": given[2] * 1e3,
-                 "a_deg": math.degrees(given[3]), "b_deg": math.degrees(given[4]), "c_deg": math.degrees(given[5])},
+        "pose": pose_out,
         "pose_machine_frame": {"x_mm": pose[0] * 1e3, "y_mm": pose[1] * 1e3, "z_mm": pose[2] * 1e3},
+        "admissible": admissible, "reasons": reasons,
+        "analysed_although_inadmissible": not admissible,
+        "skipped_checks": adm.skipped(),
         "tool_length_mm": (m.tool.length if tl is None else tl) * 1e3,
         "neglect_spindle": neglect_spindle,
-        "modelled": bool(st.ok[0]), "reasons": st.failing(0),
+        "modelled": bool(st.ok[0]), "model_reasons": st.failing(0),
         "model": {"bodies": [] if st.empty else st.model.body_names, "dof": 0 if st.empty else st.model.n_dof,
                   "tcp_body": st.tcp_body},
     }
     comp = tcp_compliance(st, tl, neglect_spindle)[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         diag = 1.0 / np.diagonal(comp)
+    if np.all(np.isfinite(comp)):
+        rep["stiffness_matrix_SI"] = _num(np.linalg.inv(comp))
+    else:
+        rep["stiffness_matrix_SI"] = None
+    rep["stiffness_matrix_SI_units"] = STIFFNESS_MATRIX_UNITS
     rep["k_N_per_um"] = {ax: _num(diag[i] / 1e6) for i, ax in enumerate("xyz")}
     rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(diag[3 + i] / 1e6) for i, ax in enumerate("xyz")}
     rep["weak_points_percent"] = {}
@@ -101,10 +130,10 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         n_dyn = st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs)
         k = min(n_modes, n_dyn)
         ma = modal_analysis(st, k, shapes=False)
-        rep["frequencies_hz"] = _num(ma.frequencies_hz[0])
+        rep["frequencies_Hz"] = _num(ma.frequencies_hz[0])
         rep["mode_descriptions"] = [ma.description(0, i) for i in range(k)]
     else:
-        rep["frequencies_hz"], rep["mode_descriptions"] = [], []
+        rep["frequencies_Hz"], rep["mode_descriptions"] = [], []
     rep["transmission_quality"] = _num(ks.transmission_quality[0])
     rep["transmission_weight_m_per_rad"] = ks.weight
     rep["v_max_m_per_s"] = {lab: _num(ks.v_max[0, i]) for i, lab in enumerate(ks.velocity_labels)}
@@ -122,7 +151,7 @@ def _drive(i: Any) -> int | None:
     return None if int(i) < 0 else int(i) + 1  # 1-based drive numbers in the output
 
 
-def _planar_report(name: str, xy_mm: list[float]) -> dict:
+def _planar_report(name: str, xy_mm: list[float], allow_inadmissible: bool = True) -> dict:
     from pkmstiff.analysis.planar import (
         load_planar,
         planar_kinetostatics,
@@ -140,13 +169,20 @@ def _planar_report(name: str, xy_mm: list[float]) -> dict:
     from pkmstiff.admissibility.checks import reason_names
 
     labels = ["x", "y", "-x", "-y"]
+    modelled, reasons = bool(ps.index.size), reason_names(int(ps.reasons[0]))
+    if not modelled and not allow_inadmissible:
+        raise _refuse(pm.name, f"x = {xy_mm[0]:g} mm, y = {xy_mm[1]:g} mm", reasons)
     return {
+        "schema": SCHEMA,
         "machine": pm.name, "machine_type": f"planar {pm.kind}",
         "pose": {"x_mm": xy_mm[0], "y_mm": xy_mm[1]},
-        "modelled": bool(ps.index.size), "reasons": reason_names(int(ps.reasons[0])),
+        "admissible": modelled, "reasons": reasons, "analysed_although_inadmissible": not modelled,
+        "modelled": modelled, "model_reasons": reasons,
         "k_N_per_um": {"x": _num(k[0, 0] / 1e6), "y": _num(k[1, 1] / 1e6)},
+        "stiffness_matrix_SI": _num(k),
+        "stiffness_matrix_SI_units": "N/m (planar x, y)",
         "stiffness_matrix_N_per_um": _num(k / 1e6),
-        "frequencies_hz": _num(md.frequencies_hz[0]),
+        "frequencies_Hz": _num(md.frequencies_hz[0]),
         "transmission_quality": _num(kin.transmission_quality[0]),
         "v_max_m_per_s": {lab: _num(kin.v_max[0, i]) for i, lab in enumerate(labels[:2])},
         "v_max_m_per_min": {lab: _num(60 * kin.v_max[0, i]) for i, lab in enumerate(labels[:2])},
@@ -161,24 +197,37 @@ def _f(v: Any, fmt: str = "8.3f") -> str:
 
 
 def _print_report(rep: dict) -> None:
+    import builtins
+
     p = rep["pose"]
     where = ", ".join(f"{k.split('_')[0]}={v:.3f} {k.split('_')[1]}" for k, v in p.items())
     from pkmstiff.cli.pose import _frame_line
 
-    print(f"{rep['machine']} ({rep['machine_type']}) at {where} ({_frame_line(rep)})"
-          + (f", tool length {rep['tool_length_mm']:.1f} mm" if "tool_length_mm" in rep else "")
-          + (", K_U neglected (platform and spindle rigid)" if rep.get("neglect_spindle") else ""))
+    builtins.print(f"{rep['machine']} ({rep['machine_type']}) at {where} ({_frame_line(rep)})"
+                   + (f", tool length {rep['tool_length_mm']:.1f} mm" if "tool_length_mm" in rep else "")
+                   + (", K_U neglected (platform and spindle rigid)" if rep.get("neglect_spindle") else ""))
+    if rep["admissible"]:
+        builtins.print("admissible: yes")
+    else:
+        builtins.print("admissible: NO (analysed anyway: --allow-inadmissible; every result line is marked)")
+        for r in rep["reasons"]:
+            builtins.print(f"  - {r}")
+    mark = "" if rep["admissible"] else "[INADMISSIBLE] "
+
+    def print(text: str = "") -> None:  # noqa: A001 (marks every result line of an inadmissible pose)
+        builtins.print(mark + text)
+
     if not rep["modelled"]:
-        print("pose not modelled: " + "; ".join(rep["reasons"]))
+        print("pose not modelled: " + "; ".join(rep["model_reasons"]))
     k = rep["k_N_per_um"]
-    print("static stiffness at the TCP:  " + "   ".join(f"k_{a} = {_f(v, '.3f')} N/um" for a, v in k.items()))
+    print("static stiffness at the TCP:  " + "   ".join(f"k_{a} = {_f(v, '.3f')} N/µm" for a, v in k.items()))
     if "rotational_stiffness_Nm_per_urad" in rep:
         r = rep["rotational_stiffness_Nm_per_urad"]
-        print("rotational stiffness:         " + "   ".join(f"k_r{a} = {_f(v, '.3f')} N*m/urad" for a, v in r.items()))
-    if rep.get("frequencies_hz"):
+        print("rotational stiffness:         " + "   ".join(f"k_r{a} = {_f(v, '.3f')} N·m/µrad" for a, v in r.items()))
+    if rep.get("frequencies_Hz"):
         print("natural frequencies:")
-        descr = rep.get("mode_descriptions") or [""] * len(rep["frequencies_hz"])
-        for i, (f, d) in enumerate(zip(rep["frequencies_hz"], descr)):
+        descr = rep.get("mode_descriptions") or [""] * len(rep["frequencies_Hz"])
+        for i, (f, d) in enumerate(zip(rep["frequencies_Hz"], descr)):
             print(f"  {i + 1:2d}  {_f(f, '8.2f')} Hz  {d}")
     if rep.get("weak_points_percent"):
         wp = rep["weak_points_percent"]
@@ -196,7 +245,7 @@ def _print_report(rep: dict) -> None:
                                             for d in vs))
     am, lim = rep["a_max_m_per_s2"], rep["a_limiting_drive"]
     print("maximum acceleration: " + "   ".join(
-        f"{d}: {_f(am[d], '.2f')} m/s^2" + (f" (drive {lim[d]})" if lim.get(d) else "") for d in am))
+        f"{d}: {_f(am[d], '.2f')} m/s²" + (f" (drive {lim[d]})" if lim.get(d) else "") for d in am))
     loads = rep["static_drive_loads_N"]
     if loads is not None:
         print("static drive loads:   " + "  ".join(_f(v, '.1f') for v in loads) + " N")
@@ -204,9 +253,76 @@ def _print_report(rep: dict) -> None:
         print(f"  note: {note}")
 
 
-def _cmd_point(args: argparse.Namespace) -> int:
+def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | None = None,
+               n_modes: int = 1) -> tuple[list[str], list[list]]:
+    """CSV header and rows of a point batch (one structure batch over all poses): pose (mm, deg), admissibility and
+    reasons, TCP stiffness k_x, k_y, k_z (N/µm) and the lowest ``n_modes`` natural frequencies (Hz). Inadmissible
+    poses get empty result cells (never a silent number)."""
+    from pkmstiff.admissibility.pipeline import evaluate_poses
+    from pkmstiff.analysis import natural_frequencies, tcp_compliance
+    from pkmstiff.structure import build_structure
+
+    m = load_machine(machine_name)
+    adm = evaluate_poses(m, poses_si).admissibility
+    ok = adm.ok
+    n = len(poses_si)
+    k = np.full((n, 3), np.nan)
+    f = np.full((n, n_modes), np.nan)
+    if ok.any():
+        st = build_structure(m, poses_si[ok])
+        comp = tcp_compliance(st, None if tool_length_mm is None else tool_length_mm * 1e-3)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            k[ok] = 1.0 / np.diagonal(comp, axis1=1, axis2=2)[:, :3] / 1e6
+        if n_modes:
+            f[ok] = natural_frequencies(st, n_modes)
+    head = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg", "admissible", "reasons", "kx_N_per_um",
+            "ky_N_per_um", "kz_N_per_um"] + [f"f{i + 1}_Hz" for i in range(n_modes)]
+    pose_out = np.column_stack([poses_si[:, :3] * 1e3, np.rad2deg(poses_si[:, 3:])])
+    rows = [[*pose_out[i], bool(ok[i]), "; ".join(adm.failing(i)), *k[i], *f[i]] for i in range(n)]
+    return head, rows
+
+
+def _point_batch(args: argparse.Namespace) -> int:
+    import csv
+    import sys
+
+    from pkmstiff.cli.edges import check_output_file
+    from pkmstiff.cli.pose import read_pose_file
+
+    if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
+        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
+    if args.modes < 0:
+        raise PointArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
+    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
+    poses = read_pose_file(args.poses)
+    head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
+    fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
     try:
-        rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle, args.frame)
+        w = csv.writer(fh)
+        w.writerow(head)
+        w.writerows([["" if isinstance(v, float) and not math.isfinite(v) else
+                      (f"{v:.6g}" if isinstance(v, float) else v) for v in r] for r in rows])
+    finally:
+        if out:
+            fh.close()
+    if out:
+        print(f"pkmstiff point: {len(rows)} poses ({sum(r[6] for r in rows)} admissible, analysed); wrote {out}")
+    return 0
+
+
+def _cmd_point(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import check_output_dir
+    from pkmstiff.errors import CliError
+
+    if (args.pose is None) == (getattr(args, "poses", None) is None):
+        raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
+    if getattr(args, "poses", None) is not None:
+        return _point_batch(args)
+    if args.figures is not None:
+        check_output_dir(args.figures, "--figures", True)
+    try:
+        rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
+                           args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False))
     except PointArgumentError as exc:
         from pkmstiff.cli import CliError
 
@@ -251,8 +367,13 @@ def add_commands(sub: Any) -> None:
                                    "degrees.")
     p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines'), machine file, or a planar "
                                    "example ('biglide', 'bipod')")
-    p.add_argument("--pose", required=True, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0 "
-                                                 "(planar examples: x,y in mm)")
+    p.add_argument("--pose", default=None, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0 "
+                                                "(planar examples: x,y in mm)")
+    p.add_argument("--poses", default=None, metavar="FILE",
+                   help="a batch: CSV file with one pose x,y,z,a,b,c (mm, deg) per line; prints CSV (k_x, k_y, k_z, "
+                        "f1..; empty cells for inadmissible poses)")
+    p.add_argument("--out", default=None, metavar="FILE.csv", help="with --poses: write the CSV here")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
                    help="tool length in mm (default: machine file)")
     p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")
@@ -264,4 +385,6 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--figures", metavar="DIR", default=None,
                    help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")
     p.add_argument("--gif", action="store_true", help="with --figures: also an animated GIF of mode 1")
+    p.add_argument("--allow-inadmissible", action="store_true",
+                   help="analyse an inadmissible pose anyway (every result is marked); default: refuse, exit 3")
     p.set_defaults(func=_cmd_point)

@@ -31,6 +31,58 @@ def _finite(x):
         (None if not math.isfinite(float(arr)) else float(arr))
 
 
+#: identifier of the JSON document ``pkmstiff pose --json`` prints (pkmstiff/schemas/pose.schema.json)
+SCHEMA = "pkmstiff/pose/1"
+
+
+def read_pose_file(path: str) -> np.ndarray:
+    """Poses from a CSV file: one pose per line ``x,y,z,a,b,c`` (mm, deg); a header line and '#' comments are
+    skipped. Returns (N, 6) SI poses; errors name the file and line."""
+    from pkmstiff.errors import InputError
+
+    poses = []
+    try:
+        with open(path, encoding="utf-8") as fh:
+            lines = fh.read().splitlines()
+    except FileNotFoundError:
+        raise InputError(path, "(file)", "an existing pose file (CSV x,y,z,a,b,c in mm and deg)", "no such file") \
+            from None
+    except IsADirectoryError:
+        raise InputError(path, "(file)", "a pose file", "a directory") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(path, "(file)", "a UTF-8 text pose file",
+                         f"non-UTF-8 byte 0x{exc.object[exc.start]:02x} at offset {exc.start}") from None
+    for i, line in enumerate(lines, 1):
+        text = line.split("#", 1)[0].strip()
+        if not text or (i == 1 and any(c.isalpha() for c in text)):
+            continue
+        try:
+            poses.append(parse_pose(text))
+        except PoseArgumentError:
+            raise InputError(path, f"line {i}", "six finite numbers x,y,z,a,b,c (mm, deg)", text) from None
+    if not poses:
+        raise InputError(path, "(file)", "at least one pose line x,y,z,a,b,c (mm, deg)", "no pose")
+    return np.array(poses)
+
+
+def pose_rows(machine_name: str, poses_si: np.ndarray) -> tuple[list[str], list[list]]:
+    """CSV header and rows of a pose batch: pose (mm, deg), drive coordinates and strut lengths (mm), condition
+    number, admissibility and reasons; vectorised over the poses (one pipeline call)."""
+    m = load_machine(machine_name)
+    ev = evaluate_poses(m, poses_si)
+    a = ev.admissibility
+    n = m.n_chains
+    head = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"] + [f"drive{i + 1}_mm" for i in range(n)] \
+        + [f"strut{i + 1}_mm" for i in range(n)] + ["condition_number", "admissible", "reasons"]
+    pose_out = np.column_stack([poses_si[:, :3] * 1e3, np.rad2deg(poses_si[:, 3:])])
+    kappa = ev.kappa
+    rows = []
+    for i in range(len(poses_si)):
+        rows.append([*pose_out[i], *(ev.drive[i] * 1e3), *(ev.strut_length[i] * 1e3), kappa[i], bool(a.ok[i]),
+                     "; ".join(a.failing(i))])
+    return head, rows
+
+
 def pose_report(machine_name: str, pose_si: np.ndarray, frame: str = "machine") -> dict:
     """Everything ``pkmstiff pose`` prints, as a JSON-ready dict whose keys name their units.
 
@@ -45,6 +97,7 @@ def pose_report(machine_name: str, pose_si: np.ndarray, frame: str = "machine") 
     a = ev.admissibility
     deg = np.rad2deg
     rep = {
+        "schema": SCHEMA,
         "machine": m.name,
         "machine_type": m.kind,
         **frame_metadata(m, frame),
@@ -84,10 +137,15 @@ def _fmt(values, scale=1.0, digits=2):
 
 
 def _cmd_pose(args: argparse.Namespace) -> int:
+    from pkmstiff.errors import CliError
+
+    if (args.pose is None) == (getattr(args, "poses", None) is None):
+        raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
+    if getattr(args, "poses", None) is not None:
+        return _pose_batch(args)
     try:
         pose = parse_pose(args.pose)
     except PoseArgumentError as exc:
-        from pkmstiff.cli import CliError
         raise CliError(str(exc)) from None
     rep = pose_report(args.machine, pose, args.frame)
     if args.json:
@@ -123,13 +181,40 @@ def _cmd_pose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _pose_batch(args: argparse.Namespace) -> int:
+    """``--poses FILE``: one CSV row per pose to stdout or ``--out``."""
+    import csv
+    import sys
+
+    from pkmstiff.cli.edges import check_output_file
+
+    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
+    poses = read_pose_file(args.poses)
+    head, rows = pose_rows(args.machine, poses)
+    fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
+    try:
+        w = csv.writer(fh)
+        w.writerow(head)
+        w.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in r] for r in rows])
+    finally:
+        if out:
+            fh.close()
+    if out:
+        print(f"pkmstiff pose: {len(rows)} poses ({sum(r[-2] for r in rows)} admissible); wrote {out}")
+    return 0
+
+
 def add_commands(sub) -> None:
     p = sub.add_parser("pose", help="kinematics and admissibility of one pose",
                        description="Drive coordinates, strut lengths, joint angles, condition number and "
                                    "admissibility of one pose. Units on the command line: mm and degrees.")
     p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines') or path to a machine file")
-    p.add_argument("--pose", required=True, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0")
+    p.add_argument("--pose", default=None, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.add_argument("--poses", default=None, metavar="FILE",
+                   help="a batch: CSV file with one pose x,y,z,a,b,c (mm, deg) per line; prints CSV")
+    p.add_argument("--out", default=None, metavar="FILE.csv", help="with --poses: write the CSV here")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     from pkmstiff.cli.frame_options import add_frame_argument
 
     add_frame_argument(p)

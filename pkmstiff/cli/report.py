@@ -9,8 +9,11 @@ from pathlib import Path
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import check_jobs, check_output_dir
     from pkmstiff.report.build import run_spec
 
+    check_jobs(args.jobs)
+    check_output_dir(args.out, "--out", getattr(args, "force", False), ("report.html", "report.md"))
     t0 = time.perf_counter()
 
     def log(msg: str) -> None:
@@ -33,4 +36,5 @@ def add_commands(sub) -> None:
                    help="coarse raster/resolution from the spec's [options] fast_step_mm / fast_resolution_mm")
     p.add_argument("--jobs", type=int, default=None, help="parallel processes for the sections (default: spec)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--force", action="store_true", help="overwrite an existing report in --out")
     p.set_defaults(func=_cmd_report)

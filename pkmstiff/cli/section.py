@@ -4,26 +4,52 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import time
 from pathlib import Path
 
-from pkmstiff.errors import SectionArgumentError  # noqa: F401 (re-exported)
-from pkmstiff.evaluation.quantities import UnknownQuantityError, available_quantities, get_quantity
-from pkmstiff.evaluation.sections import SectionError, axis_plane, evaluate_section, section_summary
-from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
-from pkmstiff.machine.loader import load_machine
-from pkmstiff.report.outputs import write_section_outputs
+from pkmstiff.errors import SectionArgumentError, SectionError, UnknownQuantityError  # noqa: F401 (re-exported)
+
+# the evaluation modules are imported inside the command functions: building the parser for another command
+# (``pkmstiff pose``) must not pay for them
 
 FORMATS = ("png", "vtu", "csv", "npz")
 
 
 
 
-def _cmd_section(args: argparse.Namespace) -> int:
-    from pkmstiff.errors import CliError
+#: cost model of a section (measured by benchmarks/bench_section.py on the CI machine, rounded up): bytes per raster
+#: point (pose, mask, reasons, coordinates, VTU/CSV export) plus per quantity, and the chunk working set
+BYTES_PER_POINT = 400
+BYTES_PER_POINT_QUANTITY = 40
+CHUNK_WORKING_SET = 64 << 20
+#: seconds per point: admissibility, and per structural quantity (a 24×24 solve / eigenproblem per point)
+SECONDS_PER_POINT = 20e-6
+SECONDS_PER_POINT_QUANTITY = 60e-6
 
+
+def section_cost(n_points: int, n_quantities: int) -> tuple[float, float]:
+    """(bytes, seconds) estimated for a section of ``n_points`` raster points and ``n_quantities`` quantities."""
+    mem = n_points * (BYTES_PER_POINT + BYTES_PER_POINT_QUANTITY * n_quantities) + CHUNK_WORKING_SET
+    return mem, n_points * (SECONDS_PER_POINT + SECONDS_PER_POINT_QUANTITY * n_quantities)
+
+
+def _raster_count(lo: float, hi: float, step: float) -> int:
+    return int((hi - lo) / step + 1e-9) + 1
+
+
+def _cmd_section(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget
+    from pkmstiff.errors import CliError
+    from pkmstiff.evaluation.quantities import get_quantity
+    from pkmstiff.evaluation.sections import axis_plane, evaluate_section, section_summary
+    from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.report.outputs import write_section_outputs
+
+    plane_kind = args.plane.lower()
     try:
-        ranges = parse_ranges(args.range, args.plane.lower())
+        ranges = parse_ranges(args.range, plane_kind) if args.range else None
         ori = parse_triple_deg(args.orientation, "--orientation")
         names = [q.strip() for q in args.quantities.split(",") if q.strip()]
         for n in names:
@@ -32,28 +58,84 @@ def _cmd_section(args: argparse.Namespace) -> int:
         bad = set(formats) - set(FORMATS)
         if bad:
             raise SectionArgumentError(f"--formats: expected a subset of {','.join(FORMATS)}, found {sorted(bad)}")
-        if not (args.step > 0):
+        if not (args.step > 0 and math.isfinite(args.step)):
             raise SectionArgumentError(f"--step: expected a positive step in mm, found {args.step}")
-        plane_kind = args.plane.lower()
-        plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], args.step * 1e-3)
+        if not math.isfinite(args.at):
+            raise SectionArgumentError(f"--at: expected a finite position in mm, found {args.at}")
+        if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
+            raise SectionArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length}")
+        requirements = _requirements(getattr(args, "require", None))
     except (SectionArgumentError, SectionError, UnknownQuantityError) as exc:
         raise CliError(str(exc)) from None
+    check_jobs(args.jobs)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     from pkmstiff.machine.frames import frame_text, neglect_spindle
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
+    from pkmstiff.evaluation.quantities import check_quantity
+
+    try:
+        for n in names:
+            check_quantity(n, machine.n_chains)
+    except UnknownQuantityError as exc:
+        raise CliError(str(exc)) from None
+    stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
+    check_output_dir(args.out, "--out", getattr(args, "force", False), _output_names(stem, names, formats, getattr(args, "reasons_map", False)))
+    step = args.step * 1e-3
+    if ranges is None:
+        from pkmstiff.workspace.windows import window_ranges
+
+        try:
+            ranges = dict(zip(plane_kind, window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori,
+                                                        args.frame)))
+        except SectionError as exc:
+            raise CliError(str(exc)) from None
+        fitted = True
+    else:
+        fitted = False
+    (u0, u1), (v0, v1) = ranges[plane_kind[0]], ranges[plane_kind[1]]
+    n_points = _raster_count(u0, u1, step) * _raster_count(v0, v1, step)
+    all_names = list(dict.fromkeys(names + [r.quantity for r in requirements]))
+    mem, secs = section_cost(n_points, len(all_names))
+    window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())
+    announce_cost("section", f"{plane_kind.upper()} window {window}{' (fitted to the workspace)' if fitted else ''}",
+                  n_points, mem, secs, budget, quiet=args.quiet or args.json)
+    try:
+        plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step)
+    except SectionError as exc:
+        raise CliError(str(exc)) from None
     t0 = time.perf_counter()
-    res = evaluate_section(machine, plane, names, orientation=ori,
+    res = evaluate_section(machine, plane, all_names, orientation=ori,
                            tool_length=None if args.tool_length is None else args.tool_length * 1e-3,
                            n_jobs=args.jobs, progress=False if args.quiet else None, frame=args.frame)
+    failed_requirements = _apply_requirements(res, requirements)
+    for extra in set(all_names) - set(names):
+        for d in (res.values, res.units, res.si_units, res.labels):
+            d.pop(extra, None)
+    res.settings["window_fitted_to_workspace"] = fitted
     seconds = time.perf_counter() - t0
-    stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
     paths = write_section_outputs(res, Path(args.out), formats, stem) if args.out else []
+    if args.out and getattr(args, "reasons_map", False):
+        from pkmstiff.plots.section_maps import plot_reasons
+
+        paths.append(plot_reasons(res, Path(args.out) / f"{stem}_admissibility.png"))
+    summary = section_summary(res, seconds)
+    summary["window_fitted_to_workspace"] = fitted
+    if requirements:
+        summary["requirements"] = {"texts": [r.text for r in requirements], "points_failing": failed_requirements}
     if args.json:
-        print(json.dumps(section_summary(res, seconds), indent=2))
+        summary["files"] = [str(p) for p in paths]
+        print(json.dumps(summary, indent=2))
         return 0
-    print(f"{res.machine}: {res.plane.name} ({frame_text(machine, args.frame)}), {res.ok.sum()} of {res.ok.size} "
-          f"points admissible ({float(res.ok.sum()) * plane.cell_area:.4g} m²), {seconds:.2f} s"
+    print(f"{res.machine}: {res.plane.name} ({frame_text(machine, args.frame)}), window {window}"
+          f"{' (fitted)' if fitted else ''}: {res.ok.sum()} of {res.ok.size} points admissible "
+          f"({float(res.ok.sum()) * plane.cell_area:.4g} m²), {seconds:.2f} s"
           + (", K_U neglected (platform and spindle rigid)" if args.neglect_spindle else ""))
+    for w in summary["warnings"]:
+        print(f"  warning: {w}")
+    if requirements:
+        print(f"  requirements {', '.join(r.text for r in requirements)}: {failed_requirements} admissible points "
+              f"fail them (masked)")
     for n, st in res.statistics().items():
         print(f"  {n:<16} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
     reasons = {k: v for k, v in res.reason_counts().items() if v}
@@ -64,9 +146,53 @@ def _cmd_section(args: argparse.Namespace) -> int:
     return 0
 
 
+def _output_names(stem: str, names: list[str], formats: list[str], reasons_map: bool) -> tuple[str, ...]:
+    """The files a section writes into --out (checked for overwriting before the work)."""
+    out = [f"{stem}_{n}.png" for n in names] if "png" in formats else []
+    out += [f"{stem}.{f}" for f in ("vtu", "csv", "npz") if f in formats] + [f"{stem}_statistics.json"]
+    if reasons_map:
+        out.append(f"{stem}_admissibility.png")
+    return tuple(out)
+
+
+def _requirements(texts: list[str] | None) -> list:
+    if not texts:
+        return []
+    from pkmstiff.errors import CliError
+    from pkmstiff.workspace.requirements import RequirementError, parse_requirements
+
+    try:
+        return parse_requirements(texts)
+    except RequirementError as exc:
+        raise CliError(f"--require: {exc}") from None
+
+
+def _apply_requirements(res, requirements: list) -> int:
+    """Mask the points that fail a requirement (they become inadmissible, values NaN); return their number."""
+    if not requirements:
+        return 0
+    import numpy as np
+
+    from pkmstiff.workspace.requirements import _OPS
+
+    meets = np.ones(res.ok.shape, bool)
+    for r in requirements:
+        vals = res.values[r.quantity]
+        with np.errstate(invalid="ignore"):
+            meets &= _OPS[r.op](vals, r.limit_si) & np.isfinite(vals)
+    failing = res.ok & ~meets
+    res.ok = res.ok & meets
+    for v in res.values.values():
+        v[failing] = np.nan
+    return int(failing.sum())
+
+
 def _cmd_quantities(args: argparse.Namespace) -> int:
+    from pkmstiff.evaluation.quantities import _FAMILIES, available_quantities
+
+    examples = {ex: pat.pattern.removesuffix("\\Z") for pat, _, ex in _FAMILIES}
     for name, desc in available_quantities().items():
-        print(f"{name:<20} {desc}")
+        print(f"{name:<20} {desc}" + (f"  (family {examples[name]})" if name in examples else ""))
     return 0
 
 
@@ -77,7 +203,9 @@ def add_commands(sub) -> None:
     p.add_argument("machine", help="bundled machine name or machine file")
     p.add_argument("--plane", default="yz", choices=["yz", "xz", "xy", "YZ", "XZ", "XY"], help="section plane")
     p.add_argument("--at", type=float, default=0.0, help="position of the plane along its normal axis [mm]")
-    p.add_argument("--range", required=True, help="in-plane ranges in mm, e.g. y=-600:800,z=-1200:-500")
+    p.add_argument("--range", default=None,
+                   help="in-plane ranges in mm, e.g. y=-600:800,z=-1200:-500 (default: fitted to the admissible "
+                        "region by a coarse pass, plus a margin)")
     p.add_argument("--step", type=float, default=10.0, help="raster step [mm] (default 10)")
     p.add_argument("--orientation", default="0,0,0", help="tool orientation a,b,c [deg] (default 0,0,0)")
     p.add_argument("--tool-length", type=float, default=None, help="tool length [mm] (default: machine file)")
@@ -86,7 +214,15 @@ def add_commands(sub) -> None:
     p.add_argument("--formats", default="png,vtu,csv,npz", help="output formats (default png,vtu,csv,npz)")
     p.add_argument("--jobs", type=int, default=1, help="parallel processes (-1: all cores)")
     p.add_argument("--json", action="store_true", help="print per-quantity statistics as JSON (with units)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no cost line")
+    p.add_argument("--require", action="append", metavar="REQ",
+                   help="mask points failing a requirement, e.g. 'U>=0.2', 'kx>=20 N/um' (repeatable)")
+    p.add_argument("--reasons-map", action="store_true",
+                   help="with --out: also a PNG map of the admissibility reasons")
+    p.add_argument("--memory-budget", default=None, metavar="SIZE",
+                   help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory; "
+                        "default 0.5)")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files in --out")
     from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
 
     add_frame_argument(p)

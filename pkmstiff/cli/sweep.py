@@ -7,12 +7,20 @@ import time
 from pathlib import Path
 
 
+#: exit status when some (not all) sweep tasks failed; all failed: 2 like any other input error
+EXIT_SOME_TASKS_FAILED = 4
+
+
 def _cmd_sweep(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import check_jobs, check_output_file
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.sweep import SweepError, run_sweep
     from pkmstiff.report.sweep_file import load_sweep
 
+    check_jobs(args.jobs)
+    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
     sweep = load_sweep(args.sweep_file)
+    _check_sweep_quantities(sweep, args.sweep_file)
     n = len(sweep.points())
     where = f"Dask scheduler {args.scheduler}" if args.scheduler else (
         "serial" if args.jobs == 1 else f"{args.jobs if args.jobs > 0 else 'all'} local processes")
@@ -23,15 +31,40 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         res = run_sweep(sweep, n_jobs=args.jobs, scheduler=args.scheduler or None, progress=not args.quiet)
     except SweepError as exc:
         raise CliError(str(exc)) from None
-    path = res.to_csv(Path(args.out))
     failed = res.failed
+    distinct: dict[str, list[int]] = {}
+    for r in failed:
+        distinct.setdefault(str(r["error"]), []).append(int(r["task"]))
+    if failed and len(failed) == len(res.rows):
+        first = next(iter(distinct))
+        more = f" (and {len(distinct) - 1} other error(s))" if len(distinct) > 1 else ""
+        raise CliError(f"all {len(res.rows)} tasks failed: {first}{more}; nothing written")
+    path = res.to_csv(Path(out))
     print(f"pkmstiff sweep: {len(res.rows) - len(failed)} of {len(res.rows)} tasks ok, "
           f"{time.perf_counter() - t0:.1f} s; wrote {path}")
-    for r in failed[:5]:
-        print(f"  task {r['task']} failed: {r['error']}")
-    if len(failed) > 5:
-        print(f"  ... and {len(failed) - 5} more (column 'error' of the CSV)")
-    return 0
+    for err, tasks in distinct.items():  # one line per distinct error
+        ids = ", ".join(map(str, tasks[:8])) + (", ..." if len(tasks) > 8 else "")
+        print(f"  {len(tasks)} task(s) failed ({ids}): {err}")
+    return EXIT_SOME_TASKS_FAILED if failed else 0
+
+
+def _check_sweep_quantities(sweep, source: str) -> None:
+    """Quantity names of every evaluation against the base machine, before any task runs (one error, not one per
+    task)."""
+    from pkmstiff.errors import CliError
+    from pkmstiff.evaluation.quantities import UnknownQuantityError, check_quantity
+    from pkmstiff.machine.loader import load_machine
+
+    n_chains = load_machine(sweep.machine).n_chains
+    stack = [sweep.evaluation]
+    while stack:
+        ev = stack.pop()
+        stack.extend(getattr(ev, "parts", ()))
+        for name in getattr(ev, "quantities", ()) or ():
+            try:
+                check_quantity(name, n_chains)
+            except UnknownQuantityError as exc:
+                raise CliError(f"{source}: evaluations: {exc}") from None
 
 
 def add_commands(sub) -> None:
@@ -45,4 +78,5 @@ def add_commands(sub) -> None:
     p.add_argument("--scheduler", default=None,
                    help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (needs pip install 'pkmstiff[dask]')")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.set_defaults(func=_cmd_sweep)

@@ -52,14 +52,24 @@ def _positive(value: float, option: str, unit: str) -> float:
 
 
 class _Progress:
-    """tqdm bar over octree levels, only on a terminal and without --quiet."""
+    """tqdm bar over octree levels on a terminal; one line per level (at most every 10 s) when stderr is redirected;
+    nothing with --quiet."""
 
     def __init__(self, enabled: bool, desc: str):
         self.bar = None
         self.enabled = enabled and sys.stderr.isatty()
+        self.lines = enabled and not sys.stderr.isatty()
         self.desc = desc
+        self.t0 = self.last = time.perf_counter()
 
     def __call__(self, level: int, lmax: int, evals: int) -> None:
+        if self.lines:
+            now = time.perf_counter()
+            if now - self.last >= 10.0:
+                self.last = now
+                print(f"{self.desc}: level {level}/{lmax}, {evals:,} evaluations, {now - self.t0:.0f} s",
+                      file=sys.stderr, flush=True)
+            return
         if not self.enabled:
             return
         if self.bar is None:
@@ -93,10 +103,20 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
 
+    from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
+
     from pkmstiff.machine.frames import frame_text
 
     machine = load_machine(args.machine)
     eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
+    if args.refine < 0 or args.refine > 20:
+        raise _cli_error(f"--refine: expected 0..20 bisection steps, found {args.refine}")
+    if not 1 <= args.min_level <= 8:
+        raise _cli_error(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
+    budget = parse_budget(getattr(args, "memory_budget", None))
+    _requirements(args)
+    check_output_dir(args.out, "--out", getattr(args, "force", False), ("workspace.json", "boundary_points.csv"))
+    machine = load_machine(args.machine)
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
     box = None
     if args.box:
@@ -110,6 +130,18 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
                              f"found {args.range!r}")
         lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE,MIN,MAX (deg)")
         rng = (parts[0], math.radians(lo), math.radians(hi))
+    from pkmstiff.workspace.translational import reach_box
+
+    lo_box, hi_box = (box if box is not None else reach_box(machine))
+    ext = np.maximum(np.asarray(hi_box) - np.asarray(lo_box), eps)
+    # the octree evaluates boundary voxels: ~ surface / eps² points, each ~ 3 kB of pose pipeline state and
+    # ~ 30 µs (bench_workspace.py); the full lattice bounds it from above
+    surface_pts = 2.0 * (ext[0] * ext[1] + ext[1] * ext[2] + ext[0] * ext[2]) / eps ** 2 * 8
+    lattice = float(np.prod(ext / eps + 1))
+    n_est = int(min(surface_pts, lattice))
+    n_ori = 1 if rng is None else max(1, int((rng[2] - rng[1]) / math.radians(max(args.range_step, 1e-9))) + 1)
+    announce_cost("workspace", f"octree at resolution {args.resolution:g} mm", n_est * n_ori,
+                  n_est * n_ori * 3000.0 + (64 << 20), n_est * n_ori * 30e-6, budget, quiet=args.quiet or args.json)
     progress = _Progress(not args.quiet, "octree")
     try:
         req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
@@ -135,10 +167,13 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
               f"{summary['evaluations']:,} evaluations); check --orientation, --require and --box")
         return 0
     lo, hi = summary["bounding_box_mm"]["min"], summary["bounding_box_mm"]["max"]
-    print(f"{machine.name}: workspace at a,b,c = {args.orientation} deg, positions in the "
+    varying = "" if rng is None else (f" with {rng[0]} varying over {math.degrees(rng[1]):g}..{math.degrees(rng[2]):g} "
+                                      f"deg ({args.range_mode})")
+    print(f"{machine.name}: workspace at a,b,c = {args.orientation} deg{varying}, positions in the "
           f"{frame_text(machine, args.frame)}"
           + (", K_U neglected (platform and spindle rigid)" if args.neglect_spindle else "")
-          + f"; resolution {args.resolution:g} mm (effective {', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
+          + f"; resolution {args.resolution:g} mm (effective "
+          f"{', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
     print(f"volume: {res.volume:.5f} m^3 (surface nets); "
           + ", ".join(f"{k} {v:.5f}" for k, v in res.volumes.items() if k != "surface_nets") + " m^3")
     print("bounding box [mm]: " + ", ".join(f"{c} {a:.1f}..{b:.1f}" for c, a, b in zip("xyz", lo, hi)))
@@ -187,10 +222,15 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.workspace.requests import RotationMapRequest
     from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
 
+    from pkmstiff.cli.edges import check_output_dir
+
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
+    check_output_dir(args.out, "--out", getattr(args, "force", False), ("rotation_map.json",))
+    _requirements(args)
+    machine = load_machine(args.machine)
     amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
     dirs = [d.strip() for d in args.directions.split(",") if d.strip()]
@@ -234,8 +274,9 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             res = req.evaluate(machine, verify=args.verify)
             labels = (f"{args.plane[0]} [mm]", f"{args.plane[1]} [mm]")
             scale = (1e3, 1e3)
-            title = (f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at {args.at:g} mm "
-                     f"({frame_text(machine, args.frame).split(' (')[0]})")
+            title = (f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at "
+                     f"{'xyz'[normal]} = {args.at:g} mm ({frame_text(machine, args.frame).split(' (')[0]}), "
+                     f"base a, b, c = {args.orientation} deg")
     except RotationMapError as exc:
         raise _cli_error(str(exc)) from None
     run = time.perf_counter() - t0
@@ -308,6 +349,9 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--memory-budget", default=None, metavar="SIZE",
+                   help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory)")
+    p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
     from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
 
     add_frame_argument(p)
@@ -338,6 +382,7 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
     from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
 
     add_frame_argument(p)

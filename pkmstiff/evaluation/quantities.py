@@ -86,6 +86,23 @@ def get_quantity(name: str) -> Quantity:
         f"{', '.join(ex for _, _, ex in _FAMILIES)}")
 
 
+#: families indexed by a 1-based chain number (the last group of the name)
+_CHAIN_FAMILIES = re.compile(r"((swivel|tilt|tilt_axis|tilt_normal)_(drive|platform)|drive|drive_load)_(\d+)\Z")
+
+
+def check_quantity(name: str, n_chains: int | None = None) -> Quantity:
+    """:func:`get_quantity` plus, for chain-indexed families (``tilt_drive_7``, ``drive_3``), the check that the
+    chain exists on a machine with ``n_chains`` chains, so that a bad name fails before any computation."""
+    q = get_quantity(name)
+    m = _CHAIN_FAMILIES.match(name)
+    if m and n_chains is not None and not (1 <= int(m.group(4)) <= n_chains):
+        raise UnknownQuantityError(f"unknown quantity {name!r}: chain {int(m.group(4))} does not exist (the machine "
+                                   f"has chains 1..{n_chains})")
+    if re.fullmatch(r"f(\d+)", name) and int(name[1:]) < 1:
+        raise UnknownQuantityError(f"unknown quantity {name!r}: natural frequencies are numbered from f1")
+    return q
+
+
 def available_quantities() -> dict[str, str]:
     """Name (or family example) -> 'label [unit]'."""
     out = {n: f"{q.label} [{q.unit}]" for n, q in sorted(_REGISTRY.items())}

@@ -22,6 +22,12 @@ from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin, spindle_neglected
 from pkmstiff.machine.model import Machine
 
+#: below this many raster points ``n_jobs`` > 1 runs serially. Measured by benchmarks/bench_parallel_section.py on
+#: the 2-core machine (quantity kx): serial 44-65 µs per point; starting two workers (interpreter, imports, compiled
+#: kernels, pickled machine) ~9.5 s, warm workers break even at 40k-160k points. Halving 55 µs/point pays back the
+#: start-up from ~350k points; 250k is the measured break-even rounded down (an idle machine starts workers faster).
+PARALLEL_MIN_POINTS = 250_000
+
 AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
 
 
@@ -152,6 +158,22 @@ class SectionResult:
                          "admissible_points": int(self.ok.sum()), "admissible_area_m2": area}
         return out
 
+    def touching_edges(self) -> list[str]:
+        """Edges of the window that admissible points touch (e.g. ``['y max', 'z min']``): there the window clips the
+        admissible region, and statistics over the section do not describe the whole region."""
+        ok = np.asarray(self.ok, bool)
+        u, v = self.plane.u_name, self.plane.v_name
+        edges = [(f"{u} min", ok[:, 0]), (f"{u} max", ok[:, -1]), (f"{v} min", ok[0, :]), (f"{v} max", ok[-1, :])]
+        return [name for name, line in edges if line.any()]
+
+    def clipping_warning(self) -> str | None:
+        """One line warning when the window clips the admissible region (None otherwise)."""
+        edges = self.touching_edges()
+        if not edges:
+            return None
+        return (f"the admissible region touches the window edge(s) {', '.join(edges)}: it is clipped there "
+                f"(widen --range or omit it to fit the window to the workspace)")
+
     def reason_counts(self) -> dict[str, int]:
         return {r.name: int(np.count_nonzero(self.reasons & int(r))) for r in Reason}  # type: ignore[misc]
 
@@ -199,8 +221,9 @@ def evaluate_section(
     """Evaluate ``quantities`` (names, see :mod:`pkmstiff.evaluation.quantities`) on a plane, masked by admissibility.
 
     ``orientation`` = (a, b, c) in rad, fixed over the plane; ``tool_length`` in m (None: the machine's).
-    ``n_jobs`` > 1 evaluates chunks in parallel processes (joblib); the result is identical to the serial one
-    because chunks are independent. ``progress``: None = a progress bar only on a terminal when the section is large.
+    ``n_jobs`` > 1 evaluates chunks in parallel processes (joblib) for sections of at least
+    :data:`PARALLEL_MIN_POINTS` points (smaller ones run serially: there the workers' start-up dominates); the result
+    is identical to the serial one because chunks are independent. ``progress``: None = a progress bar only on a terminal when the section is large.
     ``checks``: the admissibility checks to apply (default all, see :data:`pkmstiff.admissibility.checks.ALL_CHECKS`).
     ``frame``: the plane's points are positions of O' in this frame (``"machine"`` or ``"report"``,
     :mod:`pkmstiff.machine.frames`); the result keeps them so and states the frame.
@@ -213,12 +236,10 @@ def evaluate_section(
     if spindle_neglected(machine):
         opts["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
-    if progress is None:
-        import sys
-
-        progress = sys.stderr.isatty() and len(poses) * (1 + len(names)) > 20_000
+    if progress is None:  # a bar on a terminal, periodic lines otherwise (see _progress)
+        progress = len(poses) * (1 + len(names)) > 20_000
     jobs = [poses[s:s + chunk_size] for s in starts]
-    if n_jobs != 1 and len(jobs) > 1:
+    if n_jobs != 1 and len(jobs) > 1 and len(poses) >= PARALLEL_MIN_POINTS:
         from joblib import Parallel, delayed
 
         n = os.cpu_count() or 1 if n_jobs < 0 else n_jobs
@@ -239,12 +260,35 @@ def evaluate_section(
     )
 
 
+#: seconds between two progress lines when stderr is not a terminal
+PROGRESS_INTERVAL_S = 10.0
+
+
 def _progress(items: list, enabled: bool):
+    """A tqdm bar on a terminal; one line every :data:`PROGRESS_INTERVAL_S` s when stderr is redirected."""
+    import sys
+
     if not enabled:
         return items
-    from tqdm import tqdm
+    if sys.stderr.isatty():
+        from tqdm import tqdm
 
-    return tqdm(items, desc="section", unit="chunk", leave=False)
+        return tqdm(items, desc="section", unit="chunk", leave=False)
+    return _progress_lines(items)
+
+
+def _progress_lines(items: list):
+    import sys
+    import time
+
+    t0 = last = time.perf_counter()
+    for k, item in enumerate(items):
+        now = time.perf_counter()
+        if now - last >= PROGRESS_INTERVAL_S:
+            last = now
+            print(f"section: {100 * k / len(items):.0f} % ({k}/{len(items)} chunks), {now - t0:.0f} s",
+                  file=sys.stderr, flush=True)
+        yield item
 
 
 def three_planes(centre: Iterable[float], half_extent: Iterable[float], step: float) -> list[Plane]:
@@ -271,7 +315,13 @@ def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
          "orientation_deg": np.rad2deg(res.orientation).tolist(),
          "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
          **res.frame, "neglect_spindle": bool(res.settings.get("neglect_spindle", False)),
-         "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v}}
+         "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v},
+         "window_mm": {res.plane.u_name: [float(res.plane.u_values[0]) * 1e3, float(res.plane.u_values[-1]) * 1e3],
+                       res.plane.v_name: [float(res.plane.v_values[0]) * 1e3, float(res.plane.v_values[-1]) * 1e3]},
+         "window_touches_admissible_region": res.touching_edges(), "warnings": []}
+    w = res.clipping_warning()
+    if w:
+        d["warnings"].append(w)
     if seconds is not None:
         d["run_time_s"] = seconds
     return d

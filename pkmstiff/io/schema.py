@@ -30,3 +30,18 @@ def require(table: dict[str, Any], key: str, source: str, prefix: str = "", what
     if key not in table:
         raise error(source, f"{prefix}{key}", f"{what} (the key is required)", "missing key")
     return table[key]
+
+
+def check_format_version(raw: dict[str, Any], source: str, supported: Iterable[int] = (1,),
+                         error: type[InputError] | None = None) -> int:
+    """Return the file's ``format_version`` (default 1 when absent); an unknown version raises ``error`` (default
+    :class:`~pkmstiff.errors.FormatVersionError`) naming the file, the versions this pkmstiff reads and the finding."""
+    from pkmstiff.errors import FormatVersionError
+
+    supported = tuple(supported)
+    v = raw.get("format_version", 1)
+    if isinstance(v, bool) or not isinstance(v, int) or v not in supported:
+        err = error or FormatVersionError
+        raise err(source, "format_version", "one of " + ", ".join(map(str, supported))
+                  + " (a newer file needs a newer pkmstiff)", v)
+    return v

@@ -17,5 +17,12 @@ def read_toml(path: str | Path, error: type[InputError] = InputError, what: str 
             return tomllib.load(fh)
     except FileNotFoundError:
         raise error(src, "(file)", f"an existing {what}", "no such file") from None
+    except IsADirectoryError:
+        raise error(src, "(file)", f"a {what}", "a directory") from None
+    except PermissionError:
+        raise error(src, "(file)", f"a readable {what}", "permission denied") from None
+    except UnicodeDecodeError as exc:
+        raise error(src, "(file)", f"a UTF-8 text {what}",
+                    f"non-UTF-8 byte 0x{exc.object[exc.start]:02x} at offset {exc.start}") from None
     except tomllib.TOMLDecodeError as exc:
         raise error(src, "(file)", "valid TOML", str(exc)) from None

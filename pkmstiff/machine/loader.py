@@ -19,7 +19,7 @@ import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
 from pkmstiff.errors import MachineFileError, UnknownMachineError  # noqa: F401 (re-exported)
-from pkmstiff.io import check_keys, read_toml, require
+from pkmstiff.io import check_format_version, check_keys, read_toml, require
 from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
 from pkmstiff.units import InputError, parse_quantity
 
@@ -165,6 +165,7 @@ def _length(value: Any, src: str, key: str, *, positive: bool = True) -> float:
 
 def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     check_keys(raw, _TOP_KEYS, src, "", error=MachineFileError)
+    check_format_version(raw, src)
     mtab = check_keys(require(raw, "machine", src, "", "a [machine] table", error=MachineFileError), _MACHINE_KEYS, src,
                       "machine.", error=MachineFileError)
     name = str(require(mtab, "name", src, "machine.", "the machine's short name", error=MachineFileError))

@@ -77,16 +77,43 @@ def _deformed(machine: Machine, ms: ModeShape, factor: float):
                               None if ms.hull is None else ms.hull + factor * ms.dhull)
 
 
-def _camera(p, ms: ModeShape) -> None:
+def _camera(p, ms: ModeShape, zoom: float = 1.0) -> None:
     pts = np.concatenate([ms.q, ms.p]) * 1e3
     focus = np.nanmean(pts, axis=0)
     size = float(np.nanmax(np.ptp(pts, axis=0)))
     direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])
     p.camera_position = [tuple(focus + 2.6 * size * direction), tuple(focus), (0.0, 0.0, 1.0)]
+    if zoom != 1.0:  # fit everything drawn (guides, triad) along the same view direction, then fill the canvas
+        p.reset_camera()
+        p.camera.zoom(zoom)
+        pos, foc, up = (np.asarray(v, float) for v in p.camera_position)
+        shift = -0.06 * size * up  # the title takes the top rows: move the drawing down into the empty bottom
+        p.camera_position = [tuple(pos - shift), tuple(foc - shift), tuple(up)]
+
+
+def add_axis_triad(p, ms: ModeShape) -> None:
+    """Machine-frame axes x, y, z (red, green, blue arrows with labels) at the lower corner of the machine's
+    bounding box, a tenth of its size long (pyvista's orientation widget needs an interactor, so the triad is
+    drawn as geometry)."""
+    pv = offscreen()
+    pts = np.concatenate([ms.q, ms.p]) * 1e3
+    lo = np.nanmin(pts, axis=0)
+    size = float(np.nanmax(np.ptp(pts, axis=0)))
+    length = 0.15 * size
+    origin = lo - 0.05 * size
+    tips = []
+    for k, colour in enumerate(("red", "green", "blue")):
+        d = np.zeros(3)
+        d[k] = 1.0
+        p.add_mesh(pv.Arrow(start=origin, direction=d, scale=length, tip_length=0.25, tip_radius=0.08,
+                            shaft_radius=0.03), color=colour)
+        tips.append(origin + 1.15 * length * d)
+    p.add_point_labels(np.array(tips), ["x", "y", "z"], font_size=20, text_color="black", shape=None,
+                       show_points=False, always_visible=True)
 
 
 def plot_mode_shape(machine: Machine, pose, path: str | Path, mode: int = 1, amplitude: float = 0.08,
-                    window_size=(1000, 800)) -> Path:
+                    window_size=(1000, 580)) -> Path:
     """PNG of the undeformed machine (grey, transparent) and mode ``mode`` scaled to ``amplitude`` (m) peak."""
     pv = offscreen()
     ms = mode_shape(machine, pose, mode)
@@ -94,12 +121,14 @@ def plot_mode_shape(machine: Machine, pose, path: str | Path, mode: int = 1, amp
     p = pv.Plotter(off_screen=True, window_size=window_size)
     add_sketch(p, machine, pose, opacity=0.25, colour="gray")
     add_sketch(p, machine, pose, sketch=_deformed(machine, ms, factor))
+    add_axis_triad(p, ms)
+    ori = ", ".join(f"{np.degrees(v):g}°" for v in np.asarray(pose)[3:6])
     p.add_text(f"{machine.name}: mode {mode}, {ms.frequency_hz:.2f} Hz, {ms.description}\n"
-               f"pose x, y, z = {', '.join(f'{v * 1e3:g}' for v in np.asarray(pose)[:3])} mm; "
-               f"grey: undeformed, displacements scaled to {amplitude * 1e3:g} mm peak",
-               position="upper_left", font_size=11, color="black")
+               f"pose x, y, z = {', '.join(f'{v * 1e3:g}' for v in np.asarray(pose)[:3])} mm, a, b, c = {ori} "
+               f"(machine frame); grey: undeformed, displacements scaled to {amplitude * 1e3:g} mm peak",
+               position="upper_left", font_size=10, color="black")
     p.set_background("white")
-    _camera(p, ms)
+    _camera(p, ms, zoom=1.75)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     p.screenshot(str(path))

@@ -58,33 +58,86 @@ def _finish_plane_plot(p, res: SectionResult, subtitle: str, path: str | Path) -
     return path
 
 
-def plot_section(res: SectionResult, name: str, path: str | Path, window_size=(1000, 760), cmap: str = "viridis",
-                 clim: tuple[float, float] | None = None) -> Path:
-    """Write a PNG of quantity ``name`` on its plane: colour map, admissible outline, axes in mm, colour bar.
+#: display spellings of the units the quantities carry in ASCII (figures show µm, µrad, °, ·, ²)
+_PRETTY_UNITS = (("N*m/urad", "N·m/µrad"), ("N*m", "N·m"), ("um", "µm"), ("urad", "µrad"), ("m/s^2", "m/s²"),
+                 ("deg", "°"), ("^2", "²"), ("^3", "³"))
 
-    Inadmissible points are transparent; the black line is the boundary of the admissible region.
+
+def pretty_unit(unit: str) -> str:
+    """'N/um' -> 'N/µm', 'N*m/urad' -> 'N·m/µrad', 'deg' -> '°' (labels in figures)."""
+    for a, b in _PRETTY_UNITS:
+        unit = unit.replace(a, b)
+    return unit
+
+
+def _map_title(res: SectionResult) -> str:
+    """Machine, plane, the window's real ranges, orientation and tool length; a clipping warning if any."""
+    pl = res.plane
+    ori = ", ".join(f"{v:g}°" for v in np.rad2deg(res.orientation))
+    tool = "" if res.tool_length is None else f", tool {res.tool_length * MM:g} mm"
+    rng = (f"{pl.u_name} {pl.u_values[0] * MM:g}…{pl.u_values[-1] * MM:g} mm, "
+           f"{pl.v_name} {pl.v_values[0] * MM:g}…{pl.v_values[-1] * MM:g} mm")
+    title = f"{res.machine}: {pl.name} (machine frame), {rng}\na, b, c = {ori}{tool}"
+    edges = res.touching_edges()
+    if edges:
+        title += f"\nwarning: the window clips the admissible region at {', '.join(edges)}"
+    return title
+
+
+def _map_figure(res: SectionResult, window_size: tuple[int, int] | None, legend_width: float):
+    """A matplotlib Figure sized to the plane's aspect (unless ``window_size`` in px is given) and its axes."""
+    from matplotlib.figure import Figure
+
+    pl = res.plane
+    if window_size is None:
+        du = float(pl.u_values[-1] - pl.u_values[0]) or 1.0
+        dv = float(pl.v_values[-1] - pl.v_values[0]) or 1.0
+        width = 9.0
+        height = float(np.clip((width - 1.2 - legend_width) * dv / du + 1.6, 3.5, 10.0))
+        figsize = (width, height)
+    else:
+        figsize = (window_size[0] / 100, window_size[1] / 100)
+    fig = Figure(figsize=figsize, dpi=100, layout="constrained")
+    ax = fig.add_subplot()
+    ax.set_aspect("equal", adjustable="box")
+    ax.set_xlabel(f"{pl.u_name} [mm]")
+    ax.set_ylabel(f"{pl.v_name} [mm]")
+    ax.set_xlim(pl.u_values[0] * MM, pl.u_values[-1] * MM)
+    ax.set_ylim(pl.v_values[0] * MM, pl.v_values[-1] * MM)
+    return fig, ax
+
+
+def _save(fig, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=100, facecolor="white")
+    return path
+
+
+def plot_section(res: SectionResult, name: str, path: str | Path, window_size: tuple[int, int] | None = None,
+                 cmap: str = "viridis", clim: tuple[float, float] | None = None) -> Path:
+    """Write a PNG of quantity ``name`` on its plane: colour map, admissible outline, axes in mm at round steps,
+    colour bar outside the data, title with the real window ranges, orientation and frame.
+
+    Inadmissible points are white; the black line is the boundary of the admissible region. ``window_size`` (px) fixes
+    the canvas; by default it follows the plane's aspect so that the map fills the figure.
     """
-    pv = offscreen()
-    grid = _plane_grid(res, in_3d=False, pv=pv)
+    u, v = res.plane.u_values * MM, res.plane.v_values * MM
     values = res.display(name)
-    grid.point_data[name] = values.ravel()
-    grid.point_data["admissible"] = res.ok.astype(float).ravel()
-    p = pv.Plotter(off_screen=True, window_size=window_size)
     finite = values[np.isfinite(values)]
     if clim is None and finite.size:
         clim = (float(finite.min()), float(finite.max())) if finite.max() > finite.min() else \
             (float(finite.min()) - 0.5, float(finite.max()) + 0.5)
-    p.add_mesh(grid, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0, show_scalar_bar=True,
-               scalar_bar_args={"title": quantity_title(res, name), "vertical": True, "position_x": 0.86,
-                                "position_y": 0.15, "height": 0.7, "width": 0.08, "title_font_size": 16,
-                                "label_font_size": 14, "fmt": "%.4g"})
+    fig, ax = _map_figure(res, window_size, 1.3)
+    mesh = ax.pcolormesh(u, v, np.ma.masked_invalid(values), shading="nearest", cmap=cmap,
+                         vmin=None if clim is None else clim[0], vmax=None if clim is None else clim[1])
     if res.ok.any() and not res.ok.all():
-        outline = grid.contour([0.5], scalars="admissible")
-        if outline.n_points:
-            p.add_mesh(outline, color="black", line_width=3)
-    border = grid.outline()
-    p.add_mesh(border, color="gray", line_width=1)
-    return _finish_plane_plot(p, res, f"{res.labels[name]} [{res.units[name]}]", path)
+        ax.contour(u, v, res.ok.astype(float), levels=[0.5], colors="black", linewidths=1.2)
+    unit = pretty_unit(res.units[name])
+    fig.colorbar(mesh, ax=ax, label=f"{name} [{unit}]", fraction=0.06, pad=0.02)
+    ax.set_title(f"{res.labels[name]} [{unit}]", fontsize=10)
+    fig.suptitle(_map_title(res), fontsize=9)
+    return _save(fig, path)
 
 
 def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Machine, reference_pose, path: str | Path,
@@ -119,12 +172,14 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
     return path
 
 
-def plot_reasons(res: SectionResult, path: str | Path, window_size=(1000, 760)) -> Path:
-    """Write a PNG showing, per raster point, the first failing admissibility check (categorical colours)."""
+def plot_reasons(res: SectionResult, path: str | Path, window_size: tuple[int, int] | None = None) -> Path:
+    """Write a PNG showing, per raster point, the first failing admissibility check (categorical colours; the legend
+    sits outside the data)."""
+    from matplotlib.colors import ListedColormap
+    from matplotlib.patches import Patch
+
     from pkmstiff.admissibility.checks import Reason
 
-    pv = offscreen()
-    grid = _plane_grid(res, in_3d=False, pv=pv)
     reasons = list(Reason)
     code = np.zeros(res.reasons.shape)  # 0 = admissible, k = first failing reason (bit order)
     for k, r in reversed(list(enumerate(reasons, start=1))):
@@ -132,12 +187,13 @@ def plot_reasons(res: SectionResult, path: str | Path, window_size=(1000, 760)) 
     present = [0] + sorted({int(c) for c in np.unique(code) if c > 0})
     names = ["admissible"] + [reasons[k - 1].name.lower().replace("_", " ") for k in present[1:]]
     index = np.searchsorted(present, code)  # compact categories 0..len(present)-1
-    grid.point_data["reason"] = index.ravel().astype(float)
     colours = ["#2ca02c", "#d62728", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
-               "#1f77b4", "#000000"]
-    p = pv.Plotter(off_screen=True, window_size=window_size)
-    p.add_mesh(grid, scalars="reason", cmap=colours[:len(present)], clim=(-0.5, len(present) - 0.5),
-               show_scalar_bar=False, interpolate_before_map=False)
-    p.add_legend([[n, colours[i]] for i, n in enumerate(names)], bcolor="white", face="rectangle", size=(0.28, 0.3),
-                 loc="upper right")
-    return _finish_plane_plot(p, res, "admissibility: first failing check per point", path)
+               "#1f77b4", "#000000"][:len(present)]
+    fig, ax = _map_figure(res, window_size, 1.8)
+    ax.pcolormesh(res.plane.u_values * MM, res.plane.v_values * MM, index, shading="nearest",
+                  cmap=ListedColormap(colours), vmin=-0.5, vmax=len(present) - 0.5)
+    fig.legend(handles=[Patch(color=c, label=n) for c, n in zip(colours, names)], loc="outside right center",
+               fontsize=9, frameon=False)
+    ax.set_title("admissibility: first failing check per point", fontsize=10)
+    fig.suptitle(_map_title(res), fontsize=9)
+    return _save(fig, path)

@@ -62,17 +62,29 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
         add_sketch(pl, machine, x)
     lo, hi = res.bounding_box()
     s = res.summary()
-    title = (f"{machine.name}: workspace at a,b,c = {', '.join(f'{d:g}' for d in s['orientation_deg'])} deg, "
-             f"eps = {s['resolution_mm']:g} mm\nV = {res.volume:.4f} m^3, "
-             f"{s['boundary_points']:,} boundary points, {s['evaluations']:,} evaluations")
-    pl.add_text(title, font_size=10, color="black")
+    ori = s["orientation_deg"]
+    rng = (res.settings or {}).get("orientation_range")
+    if rng:  # one angle varies: say so instead of printing the base orientation as if it were fixed
+        k = "abc".index(rng[0])
+        parts = [f"{c} = {rng[1]:g}…{rng[2]:g}° ({(res.settings or {}).get('range_mode', 'all')})" if i == k
+                 else f"{c} = {ori[i]:g}°" for i, c in enumerate("abc")]
+        orientation = ", ".join(parts)
+    else:
+        orientation = f"a, b, c = {', '.join(f'{d:g}°' for d in ori)}"
+    extent = "" if not np.isfinite(lo).all() else ("; " + ", ".join(
+        f"{c} {a * 1e3:.0f}…{b * 1e3:.0f} mm" for c, a, b in zip("xyz", lo, hi)))
+    title = (f"{machine.name}: workspace (machine frame) at {orientation}, resolution {s['resolution_mm']:g} mm\n"
+             f"V = {res.volume:.4f} m³{extent}; {s['boundary_points']:,} boundary points")
+    pl.add_text(title, font_size=11, color="black")
     if np.isfinite(lo).all():
-        pl.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", color="black", font_size=9,
+        pl.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", color="black", font_size=14,
+                       n_xlabels=3, n_ylabels=3, n_zlabels=3, fmt="%.0f",
                        bounds=np.ravel(np.column_stack([lo, hi]) * 1e3).tolist())
     pl.camera_position = "iso" if view is None else None
     if view is not None:
         pl.view_vector(list(view))
-    pl.camera.zoom(1.1)
+    pl.reset_camera()
+    pl.camera.zoom(1.45)
     pl.screenshot(str(path))
     pl.close()
     return path
@@ -108,9 +120,9 @@ def plot_rotation_maps(res: RotationMapResult, path: str | Path, labels: tuple[s
         ax.set_facecolor(INADMISSIBLE)
         if np.isfinite(a).any():
             cs = ax.contourf(U, V, np.ma.masked_invalid(a), levels=levels, cmap=cmap, extend="neither")
-            fig.colorbar(cs, ax=ax, label="max. angle [deg]")
-        ax.set_title(f"{d}: max {np.nanmax(a) if np.isfinite(a).any() else float('nan'):.0f} deg, "
-                     f"mean {np.nanmean(a) if np.isfinite(a).any() else float('nan'):.1f} deg", fontsize=9)
+            fig.colorbar(cs, ax=ax, label="max. angle [°]")
+        ax.set_title(f"{d}: max {np.nanmax(a) if np.isfinite(a).any() else float('nan'):.0f}°, "
+                     f"mean {np.nanmean(a) if np.isfinite(a).any() else float('nan'):.1f}°", fontsize=9)
         ax.set_xlabel(labels[0])
         ax.set_ylabel(labels[1])
         ax.set_aspect("equal" if scale[0] == scale[1] else "auto")
@@ -132,7 +144,7 @@ def plot_volume_vs_orientation(angles_rad: np.ndarray, volumes: Mapping[str, np.
     ax = fig.subplots()
     for ax_name, vols in volumes.items():
         ax.plot(np.degrees(angles_rad), vols, marker="o", ms=3, label=f"rotation about {ax_name}")
-    ax.set_xlabel("tool angle [deg] (other angles 0)")
+    ax.set_xlabel("tool angle [°] (other angles 0)")
     ax.set_ylabel("workspace volume [m$^3$]")
     ax.grid(True, alpha=0.3)
     ax.legend()
@@ -180,9 +192,9 @@ def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | 
         U, V = np.meshgrid(np.degrees(res.u_values), np.degrees(res.v_values))
         if np.isfinite(a).any():
             cs = ax.contourf(U, V, np.ma.masked_invalid(a), levels=18, cmap=cmap)
-            fig.colorbar(cs, ax=ax, label=f"max. rotation {d} [deg]")
-        ax.set_xlabel(f"{res.settings.get('u_angle', 'u')} [deg]")
-        ax.set_ylabel(f"{res.settings.get('v_angle', 'v')} [deg]")
+            fig.colorbar(cs, ax=ax, label=f"max. rotation {d} [°]")
+        ax.set_xlabel(f"{res.settings.get('u_angle', 'u')} [°]")
+        ax.set_ylabel(f"{res.settings.get('v_angle', 'v')} [°]")
         ax.set_title(f"max. {d} over ({res.settings.get('u_angle')}, {res.settings.get('v_angle')})", fontsize=10)
     if title:
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)

@@ -27,18 +27,31 @@ QUANTITIES = ("kx", "ky", "kz", "f1")
 REFERENCE_POSE = (0.0, 0.0, -1.0, 0.0, 0.0, 0.0)  # the dissertation's measurement point, in its report frame
 
 
+def output_files() -> list[str]:
+    """Every file the demo writes into its output directory (README claims and the --force check use this list)."""
+    stem = "hexaglide_yz"
+    return ([f"{stem}_{q}.png" for q in QUANTITIES] + [f"{stem}.vtu", f"{stem}.csv", f"{stem}.json",
+                                                       f"{stem}_statistics.json",
+                                                       f"{stem}_admissibility.png", "hexaglide_three_planes_kx.png",
+                                                       "summary.md", "summary.html"])
+
+
 def run(args: argparse.Namespace) -> int:
     out = Path(getattr(args, "out", "out/demo"))
     quiet = bool(getattr(args, "quiet", False))
     step = float(getattr(args, "step", 10.0)) * 1e-3
     t0 = time.perf_counter()
     from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
+    from pkmstiff.workspace.windows import window_for
 
     machine = neglect_spindle(load_machine(MACHINE))  # K_U left out at tool length 0, as in the dissertation
-    # report frame (origin at the middle guide, the dissertation's positions): covers the whole admissible region
-    plane = axis_plane("yz", 0.0, (-0.7, 0.6), (-1.3, -0.4), step)
+    # report frame (origin at the middle guide, the dissertation's positions); the window is fitted to the admissible
+    # YZ region (coarse pass + margin), so the maps show all of it
+    plane = window_for(machine, "yz", 0.0, step, frame="report")
     res = evaluate_section(machine, plane, QUANTITIES, tool_length=0.0, progress=False if quiet else None,
                            frame="report")
+    if res.clipping_warning():  # pragma: no cover (the fitted window has a margin of inadmissible points)
+        print(f"  warning: {res.clipping_warning()}")
     files = write_section_outputs(res, out, ("png", "vtu", "csv"), "hexaglide_yz")
     planes = three_planes((0.0, 0.45, -0.9), (0.5, 0.7, 0.35), max(step, 0.02))  # machine frame
     three = evaluate_three_planes(machine, planes, ["kx"], tool_length=0.0, progress=False)
@@ -58,7 +71,8 @@ def run(args: argparse.Namespace) -> int:
           f"{seconds:.1f} s")
     for n, st in info["statistics"].items():
         print(f"  {n:<4} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
-    print(f"  wrote {out / 'summary.md'}, {out / 'summary.html'} and {len(files) + 1} figure/data files")
+    n_data = len(output_files()) - 2  # besides summary.md and summary.html (the list is checked by a test)
+    print(f"  wrote {out / 'summary.md'}, {out / 'summary.html'} and {n_data} figure/data files")
     return 0
 
 

@@ -1,0 +1,165 @@
+"""Checks the command line runs before any work: output paths, ``--jobs`` and the memory budget (with the cost line
+printed before long work).
+
+Every check raises a :class:`~pkmstiff.errors.CliError` subclass with one line naming the option, what was expected
+and what was found, so that a command fails in seconds instead of after the computation (issue 12, item 4).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+from pkmstiff.errors import CliError, CostLimitError, OutputPathError
+
+#: default memory budget: this fraction of the available memory (MemAvailable), overridable with --memory-budget
+DEFAULT_BUDGET_FRACTION = 0.5
+
+
+# ------------------------------------------------------------------------------------------------------ outputs
+
+
+def _nearest_existing(path: Path) -> Path:
+    p = path
+    while not p.exists() and p != p.parent:
+        p = p.parent
+    return p
+
+
+def _check_parent_writable(path: Path, option: str) -> None:
+    anc = _nearest_existing(path.parent if path.parent != Path("") else Path("."))
+    if not anc.is_dir():
+        raise OutputPathError(f"{option}: expected a path below a directory, found {str(path)!r} "
+                              f"({str(anc)!r} is a file)")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise OutputPathError(f"{option}: expected a writable location, found {str(path)!r} "
+                              f"({str(anc)!r} is not writable)")
+
+
+def check_output_dir(path: str | Path | None, option: str = "--out", force: bool = False,
+                     names: tuple[str, ...] = ()) -> Path | None:
+    """Check an output directory before the work: it must be a directory (or creatable) and writable; any of the
+    files ``names`` that already exist there are overwritten only with ``--force``. Nothing is created."""
+    if path is None:
+        return None
+    p = Path(path)
+    if str(path).strip() == "":
+        raise OutputPathError(f"{option}: expected a directory, found an empty path")
+    if p.exists() and not p.is_dir():
+        raise OutputPathError(f"{option}: expected a directory, found {str(p)!r} (an existing file)")
+    if p.exists():
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise OutputPathError(f"{option}: expected a writable directory, found {str(p)!r} (not writable)")
+        clash = [n for n in names if (p / n).exists()]
+        if clash and not force:
+            raise OutputPathError(f"{option}: {str(p / clash[0])!r} exists ({len(clash)} output file(s) would be "
+                                  f"overwritten); use --force or another directory")
+    else:
+        _check_parent_writable(p, option)
+    return p
+
+
+def check_output_file(path: str | Path | None, option: str = "--out", force: bool = False,
+                      suffixes: tuple[str, ...] = ()) -> Path | None:
+    """Check an output file before the work: not a directory, a known suffix, a writable parent, and not an existing
+    file unless ``--force``. Nothing is created."""
+    if path is None:
+        return None
+    p = Path(path)
+    if str(path).strip() == "":
+        raise OutputPathError(f"{option}: expected a file name, found an empty path")
+    if p.is_dir():
+        raise OutputPathError(f"{option}: expected a file name, found {str(p)!r} (a directory)")
+    if suffixes and p.suffix.lower() not in suffixes:
+        raise OutputPathError(f"{option}: expected a file name ending in {' or '.join(suffixes)}, found {str(p)!r}")
+    if p.exists() and not force:
+        raise OutputPathError(f"{option}: {str(p)!r} exists; use --force to overwrite it")
+    _check_parent_writable(p, option)
+    return p
+
+
+# ------------------------------------------------------------------------------------------------------ --jobs
+
+
+def check_jobs(jobs: int | None, option: str = "--jobs") -> int | None:
+    """``--jobs``: a positive number of processes up to 4× the cores, or -1 (all cores); ``None`` passes."""
+    if jobs is None:
+        return None
+    cores = os.cpu_count() or 1
+    if jobs == -1 or 1 <= jobs <= 4 * cores:
+        return jobs
+    raise CliError(f"{option}: expected -1 (all cores) or 1..{4 * cores} processes ({cores} cores here), "
+                   f"found {jobs}")
+
+
+# ------------------------------------------------------------------------------------------------ memory budget
+
+
+def available_memory() -> int:
+    """Available memory in bytes (``MemAvailable`` of /proc/meminfo; else physical memory; else 4 GiB)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 4 << 30
+
+
+def parse_budget(text: str | None) -> int:
+    """``--memory-budget``: '2GB', '500 MB', '0.25' (a fraction of the available memory); None: the default."""
+    if text is None:
+        return int(DEFAULT_BUDGET_FRACTION * available_memory())
+    t = str(text).strip().upper().replace(" ", "").replace("IB", "B")
+    units = {"KB": 1 << 10, "MB": 1 << 20, "GB": 1 << 30, "TB": 1 << 40, "B": 1}
+    for suf, fac in units.items():
+        if t.endswith(suf):
+            try:
+                val = float(t[: -len(suf)])
+            except ValueError:
+                break
+            if val > 0:
+                return int(val * fac)
+            break
+    else:
+        try:
+            frac = float(t)
+        except ValueError:
+            frac = -1.0
+        if 0 < frac <= 1:
+            return int(frac * available_memory())
+    raise CliError(f"--memory-budget: expected a size such as '2GB' or '500MB', or a fraction 0..1 of the available "
+                   f"memory, found {text!r}")
+
+
+def human_bytes(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB", "TB"):
+        if abs(n) < 1024 or unit == "TB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1024
+    return f"{n:.1f} TB"  # pragma: no cover
+
+
+def human_seconds(s: float) -> str:
+    if s < 120:
+        return f"{s:.0f} s"
+    if s < 7200:
+        return f"{s / 60:.0f} min"
+    return f"{s / 3600:.1f} h"
+
+
+def announce_cost(command: str, what: str, points: int, bytes_needed: float, seconds: float, budget: int,
+                  quiet: bool = False, unit: str = "points") -> None:
+    """Print what the command will compute (one line on stderr) and refuse above the memory budget."""
+    if bytes_needed > budget:
+        raise CostLimitError(f"{what}: {points:,} {unit} need about {human_bytes(bytes_needed)}, more than the memory "
+                             f"budget of {human_bytes(budget)}; use a coarser step/resolution or a smaller region, or "
+                             f"raise --memory-budget")
+    if not quiet:
+        print(f"pkmstiff {command}: {what}: {points:,} {unit}, about {human_bytes(bytes_needed)} and "
+              f"{human_seconds(seconds)}", file=sys.stderr, flush=True)

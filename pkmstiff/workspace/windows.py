@@ -1,0 +1,84 @@
+"""Section windows that fit the workspace (issue 12, item 2): a coarse admissibility pass over the chains' reach box
+gives the in-plane extent of the admissible region, so that a default section never clips the workspace.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Iterable
+
+import numpy as np
+
+from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.errors import SectionError
+from pkmstiff.evaluation.sections import axis_plane, section_poses
+from pkmstiff.machine.model import Machine
+from pkmstiff.workspace.translational import reach_box
+
+#: coarse raster points along the longer in-plane side of the reach box
+COARSE_POINTS = 120
+#: windows are rounded outward to multiples of this length (m), so that titles and ticks show round numbers
+ROUND_TO = 0.01
+
+
+def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[float] = (0.0, 0.0, 0.0),
+               margin_steps: float = 1.5) -> tuple[tuple[float, float], tuple[float, float]]:
+    """In-plane ranges (m) of plane ``kind`` ('yz', 'xz', 'xy') at ``at`` (m) that contain the admissible region.
+
+    A raster of :data:`COARSE_POINTS` points along the longer side of the chains' reach box
+    (:func:`~pkmstiff.workspace.translational.reach_box`, which contains every reachable position) is checked for
+    admissibility; the bounding box of its admissible points grows by ``margin_steps`` coarse steps (the boundary lies
+    within one coarse step of the outermost admissible point, plus a visible margin) and is rounded outward to
+    :data:`ROUND_TO`. It is not clipped to the reach box: where the region ends at a frame limit, the margin shows
+    inadmissible points, so the window's edge never cuts the region. Raises :class:`SectionError` when no coarse point is admissible.
+    """
+    kind = kind.lower()
+    lo, hi = reach_box(machine)
+    iu, iv = "xyz".index(kind[0]), "xyz".index(kind[1])
+    step = max(hi[iu] - lo[iu], hi[iv] - lo[iv]) / COARSE_POINTS
+    plane = axis_plane(kind, at, (lo[iu], hi[iu]), (lo[iv], hi[iv]), step)
+    ok = evaluate_poses(machine, section_poses(plane, orientation)).ok.reshape(plane.shape)
+    if not ok.any():
+        raise SectionError(f"{machine.name}: no admissible point on the {kind.upper()} plane at "
+                           f"{'xyz'[3 - iu - iv]} = {at * 1e3:g} mm in the chains' reach box (coarse step "
+                           f"{step * 1e3:.0f} mm); check the orientation and the plane position")
+    rows, cols = np.nonzero(ok)
+    u, v = plane.u_values, plane.v_values
+    pad = margin_steps * step
+
+    def rng(vals: np.ndarray, idx: np.ndarray) -> tuple[float, float]:
+        lo_, hi_ = vals[idx.min()] - pad, vals[idx.max()] + pad
+        return (round(math.floor(lo_ / ROUND_TO + 1e-9) * ROUND_TO, 9),
+                round(math.ceil(hi_ / ROUND_TO - 1e-9) * ROUND_TO, 9))
+
+    return rng(u, cols), rng(v, rows)
+
+
+def window_ranges(machine: Machine, kind: str, at: float, step: float, orientation: Iterable[float] = (0.0, 0.0, 0.0),
+                  frame: str = "machine") -> tuple[tuple[float, float], tuple[float, float]]:
+    """The in-plane ranges (m) of :func:`fit_window`, upper ends extended to whole raster steps (:func:`snap_to_step`)
+    so that the raster's last row and column lie outside the admissible region too. ``at`` and the ranges are in
+    ``frame`` (:mod:`pkmstiff.machine.frames`); the fit itself runs in the machine frame."""
+    from pkmstiff.machine.frames import frame_origin
+
+    kind = kind.lower()
+    o = frame_origin(machine, frame)
+    normal = "xyz".index(({"x", "y", "z"} - set(kind)).pop())
+    ur, vr = fit_window(machine, kind, at + o[normal], orientation)
+    iu, iv = "xyz".index(kind[0]), "xyz".index(kind[1])
+    return (snap_to_step((ur[0] - o[iu], ur[1] - o[iu]), step), snap_to_step((vr[0] - o[iv], vr[1] - o[iv]), step))
+
+
+def window_for(machine: Machine, kind: str, at: float, step: float,
+               orientation: Iterable[float] = (0.0, 0.0, 0.0), frame: str = "machine"):
+    """The fitted :class:`~pkmstiff.evaluation.sections.Plane` (raster ``step`` in m) of :func:`window_ranges`."""
+    ur, vr = window_ranges(machine, kind, at, step, orientation, frame)
+    return axis_plane(kind, at, ur, vr, step)
+
+
+def snap_to_step(rng: tuple[float, float], step: float) -> tuple[float, float]:
+    """(lo, hi) -> (lo, lo + k·step) with the smallest k for which lo + k·step >= hi: a raster from lo with ``step``
+    then ends at or beyond hi instead of up to one step short of it."""
+    lo, hi = rng
+    k = math.ceil((hi - lo) / step - 1e-9)
+    return lo, lo + k * step

@@ -1,0 +1,226 @@
+"""Every CLI command against the classes of bad input of issue 12 (item 4).
+
+For each case: exit status 2 (or 3 for a refused inadmissible pose), exactly one error line on stderr that names the
+problem, no traceback, and nothing written (the working directory is unchanged). A command without a case here fails
+:func:`test_every_command_has_fuzz_cases`, so a new command must add its own.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+from pkmstiff.cli import _value_options, build_parser, join_negative_values, main
+from pkmstiff.machine.loader import bundled_machine_dir
+
+HEX = str(bundled_machine_dir() / "hexaglide.toml")
+POSE = "0,0,-1000,0,0,0"
+SPEC = "studies/specs/hexaglide_variants.toml"
+SWEEP = "studies/sweeps/hexaglide_strut_sweep.toml"
+JOINT = "pkmstiff/fe/params/iwf_3dof_improved.toml"
+PLATFORM = "pkmstiff/fe/params/hexaglide_platform.toml"
+ROOT = Path(__file__).resolve().parents[1]
+
+# (argv, exit status, text the error line must contain); placeholders in braces are files made by ``bad_files``.
+CASES: dict[str, list[tuple[list[str], int, str]]] = {
+    "components": [
+        (["components", "no_such_model"], 2, "no_such_model"),
+        (["components", "--bogus"], 2, "--bogus"),
+    ],
+    "machines": [
+        (["machines", "no_such_machine"], 2, "no_such_machine"),
+        (["machines", "{nonutf8}"], 2, "UTF-8"),
+        (["machines", "{v7}"], 2, "format_version"),
+        (["machines", "{absurd}"], 2, "plausible"),
+    ],
+    "demo": [
+        (["demo", "--step", "0"], 2, "--step"),
+        (["demo", "--step", "-5"], 2, "--step"),
+        (["demo", "--out", "{file}"], 2, "--out"),
+        (["demo", "--out", "{file}/sub"], 2, "--out"),
+    ],
+    "pose": [
+        (["pose", "hexaglide", "--pose", "1,2"], 2, "six"),
+        (["pose", "hexaglide", "--pose", "nan,0,-1000,0,0,0"], 2, "finite"),
+        (["pose", "hexaglide", "--pose", "1e400,0,-1000,0,0,0"], 2, "finite"),
+        (["pose", "{nonutf8}", "--pose", POSE], 2, "UTF-8"),
+        (["pose", "{v7}", "--pose", POSE], 2, "format_version"),
+        (["pose", "{absurd}", "--pose", POSE], 2, "plausible"),
+        (["pose", "no_such_machine", "--pose", POSE], 2, "no_such_machine"),
+        (["pose", "hexaglide"], 2, "--pose"),
+        (["pose", "hexaglide", "--poses", "{nonutf8}"], 2, "UTF-8"),
+        (["pose", "hexaglide", "--poses", "missing.csv"], 2, "missing.csv"),
+        (["pose", "hexaglide", "--poses", "{poses}", "--out", "{dir}"], 2, "--out"),
+        (["pose", "hexaglide", "--poses", "{poses}", "--out", "{existing_csv}"], 2, "--force"),
+    ],
+    "point": [
+        (["point", "hexaglide", "--pose", "2000,0,-1000,0,0,0"], 3, "chain 1"),
+        (["point", "hexaglide", "--pose", "0,0,-900,0,0,0"], 3, "collision"),
+        (["point", "hexaglide", "--pose", "-100,300,-1000"], 2, "six"),
+        (["point", "hexaglide", "--pose", POSE, "--modes", "-1"], 2, "--modes"),
+        (["point", "hexaglide", "--pose", POSE, "--tool-length", "-5"], 2, "--tool-length"),
+        (["point", "hexaglide", "--pose", POSE, "--figures", "{file}"], 2, "--figures"),
+        (["point", "{nonutf8}", "--pose", POSE], 2, "UTF-8"),
+        (["point", "{v7}", "--pose", POSE], 2, "format_version"),
+        (["point", "hexaglide", "--poses", "{nonutf8}"], 2, "UTF-8"),
+        (["point", "hexaglide", "--pose", POSE, "--modes", "two"], 2, "--modes"),
+    ],
+    "section": [
+        (["section", "hexaglide", "--step", "0"], 2, "--step"),
+        (["section", "hexaglide", "--step", "1e-6"], 2, "memory budget"),
+        (["section", "hexaglide", "--jobs", "0"], 2, "--jobs"),
+        (["section", "hexaglide", "--jobs", "1000"], 2, "--jobs"),
+        (["section", "hexaglide", "--quantities", "tilt_drive_7"], 2, "tilt_drive_7"),
+        (["section", "hexaglide", "--quantities", "no_such_quantity"], 2, "no_such_quantity"),
+        (["section", "hexaglide", "--range", "y=5:1,z=-1200:-500"], 2, "--range"),
+        (["section", "hexaglide", "--formats", "gif"], 2, "--formats"),
+        (["section", "hexaglide", "--require", "U>>0.2"], 2, "--require"),
+        (["section", "hexaglide", "--out", "{file}"], 2, "--out"),
+        (["section", "hexaglide", "--out", "{section_out}", "--quantities", "kx"], 2, "--force"),
+        (["section", "{nonutf8}"], 2, "UTF-8"),
+        (["section", "hexaglide", "--orientation", "0,0"], 2, "--orientation"),
+    ],
+    "quantities": [
+        (["quantities", "--bogus"], 2, "--bogus"),
+    ],
+    "workspace": [
+        (["workspace", "hexaglide", "--resolution", "0"], 2, "--resolution"),
+        (["workspace", "hexaglide", "--resolution", "0.01"], 2, "memory budget"),
+        (["workspace", "hexaglide", "--resolution", "20", "--refine", "-1"], 2, "--refine"),
+        (["workspace", "hexaglide", "--resolution", "20", "--out", "{file}"], 2, "--out"),
+        (["workspace", "hexaglide", "--resolution", "20", "--require", "nosuch>=1"], 2, "nosuch"),
+        (["workspace", "hexaglide", "--resolution", "20", "--range", "q,1,2"], 2, "--range"),
+        (["workspace", "{nonutf8}", "--resolution", "20"], 2, "UTF-8"),
+    ],
+    "rotation-map": [
+        (["rotation-map", "hexaglide", "--increment", "0"], 2, "--increment"),
+        (["rotation-map", "hexaglide", "--out", "{file}"], 2, "--out"),
+        (["rotation-map", "hexaglide", "--directions", "+q", "--u-range", "-100,100", "--v-range", "-1000,-900"],
+         2, "--directions"),
+        (["rotation-map", "{nonutf8}"], 2, "UTF-8"),
+    ],
+    "report": [
+        (["report", "{nonutf8}", "--out", "rep"], 2, "UTF-8"),
+        (["report", "missing.toml", "--out", "rep"], 2, "missing.toml"),
+        (["report", SPEC, "--out", "{file}"], 2, "--out"),
+        (["report", SPEC, "--out", "rep", "--jobs", "0"], 2, "--jobs"),
+    ],
+    "sweep": [
+        (["sweep", "{nonutf8}", "--out", "r.csv"], 2, "UTF-8"),
+        (["sweep", "{bad_quantity_sweep}", "--out", "r.csv"], 2, "tilt_drive_7"),
+        (["sweep", SWEEP, "--out", "{dir}"], 2, "--out"),
+        (["sweep", SWEEP, "--out", "{existing_csv}"], 2, "--force"),
+        (["sweep", SWEEP, "--out", "r.csv", "--jobs", "0"], 2, "--jobs"),
+    ],
+    "fe-joint": [
+        (["fe-joint", "{nonutf8}", "--out", "t.csv"], 2, "UTF-8"),
+        (["fe-joint", JOINT, "--out", "{dir}"], 2, "--out"),
+        (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "-1"], 2, "--mesh-size"),
+        (["fe-joint", JOINT, "--out", "t.csv", "--angles", "5"], 2, "angles"),
+        (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "1"], 2, "memory budget"),
+    ],
+    "fe-platform": [
+        (["fe-platform", PLATFORM, "--out", "k.txt"], 2, ".toml or .csv"),
+        (["fe-platform", "{nonutf8}", "--out", "k.toml"], 2, "UTF-8"),
+        (["fe-platform", PLATFORM, "--out", "{existing_csv}"], 2, "--force"),
+    ],
+}
+
+
+def _commands() -> list[str]:
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    return list(sub.choices)
+
+
+def test_every_command_has_fuzz_cases():
+    missing = [c for c in _commands() if not CASES.get(c)]
+    assert not missing, f"commands without fuzz cases in tests/test_cli_fuzz.py: {missing}"
+
+
+@pytest.fixture
+def bad_files(tmp_path, monkeypatch):
+    """Bad input files in a fresh working directory (repository paths resolved from the repo root)."""
+    monkeypatch.chdir(tmp_path)
+    for rel in ("studies", "pkmstiff"):
+        os.symlink(ROOT / rel, tmp_path / rel)
+    f = {}
+    (tmp_path / "latin1.toml").write_bytes("name = 'Zürich'\n".encode("latin-1"))
+    f["nonutf8"] = "latin1.toml"
+    text = Path(HEX).read_text(encoding="utf-8")
+    (tmp_path / "v7.toml").write_text(text.replace("format_version = 1", "format_version = 7"), encoding="utf-8")
+    f["v7"] = "v7.toml"
+    (tmp_path / "absurd.toml").write_text(text.replace('length = "0 mm"', "length = 1e300"), encoding="utf-8")
+    f["absurd"] = "absurd.toml"
+    (tmp_path / "a_file").write_text("x")
+    f["file"] = "a_file"
+    (tmp_path / "a_dir").mkdir()
+    f["dir"] = "a_dir"
+    (tmp_path / "poses.csv").write_text("0,0,-1000,0,0,0\n")
+    f["poses"] = "poses.csv"
+    (tmp_path / "old.csv").write_text("old result\n")
+    f["existing_csv"] = "old.csv"
+    (tmp_path / "sec").mkdir()
+    (tmp_path / "sec" / "hexaglide_yz_statistics.json").write_text("{}")
+    f["section_out"] = "sec"
+    sweep = (ROOT / SWEEP).read_text(encoding="utf-8").replace('"kx", "ky"', '"tilt_drive_7", "ky"')
+    (tmp_path / "badq.toml").write_text(sweep, encoding="utf-8")
+    f["bad_quantity_sweep"] = "badq.toml"
+    return tmp_path, f
+
+
+def _snapshot(root: Path) -> dict[str, tuple[int, float]]:
+    return {str(p.relative_to(root)): (p.stat().st_size, p.stat().st_mtime)
+            for p in root.rglob("*") if not p.is_symlink() and "pkmstiff" not in p.parts and "studies" not in p.parts}
+
+
+@pytest.mark.parametrize("command, argv, status, text",
+                         [(c, a, s, t) for c, cases in CASES.items() for a, s, t in cases],
+                         ids=lambda v: " ".join(v) if isinstance(v, list) else str(v))
+def test_bad_input_gives_one_line_and_writes_nothing(bad_files, capsys, command, argv, status, text):
+    root, files = bad_files
+    argv = [a.format(**files) for a in argv]
+    before = _snapshot(root)
+    code = main(argv)
+    out, err = capsys.readouterr()
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert "Traceback" not in err + out
+    assert code == status, (code, err)
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"pkmstiff {command}: error: "), lines[0]
+    assert text.lower() in lines[0].lower(), lines[0]
+    assert _snapshot(root) == before, "a failed command wrote files"
+
+
+def test_negative_values_accepted_by_every_vector_option():
+    """``--OPTION -1,2,3`` is never 'expected one argument': every value option takes a leading minus sign."""
+    parser = build_parser()
+    opts = _value_options(parser)
+    assert "--pose" in opts and "--u-range" in opts
+    joined = join_negative_values(["pose", "hexaglide", "--pose", "-100,300,-1000,0,0,0"], opts)
+    assert joined[-1] == "--pose=-100,300,-1000,0,0,0"
+    args = parser.parse_args(joined)
+    assert args.pose == "-100,300,-1000,0,0,0"
+    args = parser.parse_args(join_negative_values(
+        ["rotation-map", "hexaglide", "--u-range", "-30,30", "--v-range", "-1000,-900", "--at", "-5"], opts))
+    assert (args.u_range, args.v_range, args.at) == ("-30,30", "-1000,-900", -5.0)
+
+
+def test_negative_pose_runs(capsys):
+    assert main(["pose", "hexaglide", "--pose", "-100,300,-1000,0,0,0"]) == 0
+    assert "admissible: yes" in capsys.readouterr().out
+
+
+def test_broken_pipe_is_quiet(monkeypatch, capsys):
+    class Closed(io.StringIO):
+        def write(self, s):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(sys, "stdout", Closed())
+    code = main(["machines"])
+    assert code == 141
+    assert "Traceback" not in capsys.readouterr().err
