@@ -123,6 +123,20 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["fe-joint", JOINT, "--out", "t.csv", "--angles", "5"], 2, "angles"),
         (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "1"], 2, "memory budget"),
     ],
+    "ballbar": [
+        (["ballbar", "analyse", "missing.csv"], 2, "missing.csv"),
+        (["ballbar", "analyse", "{nonutf8}"], 2, "UTF-8"),
+        (["ballbar", "analyse", "{file}"], 2, "bar_length_mm"),
+        (["ballbar", "analyse", "{file}", "--harmonics", "-3"], 2, "--harmonics"),
+    ],
+    "calibrate": [
+        (["calibrate", "identifiability", "no_such_machine", "--instrument", "ballbar"], 2, "no_such_machine"),
+        (["calibrate", "identifiability", "felix", "--instrument", "laser"], 2, "--instrument"),
+        (["calibrate", "identifiability", "felix", "--instrument", "ballbar", "--with", "bogus"], 2, "bogus"),
+        (["calibrate", "identifiability", "felix", "--instrument", "ballbar", "--plan", "missing.toml"], 2,
+         "missing.toml"),
+        (["calibrate", "identifiability", "felix", "--instrument", "ballbar", "--plan", "{nonutf8}"], 2, "UTF-8"),
+    ],
     "fe-platform": [
         (["fe-platform", PLATFORM, "--out", "k.txt"], 2, ".toml or .csv"),
         (["fe-platform", "{nonutf8}", "--out", "k.toml"], 2, "UTF-8"),

@@ -215,7 +215,10 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise MeasurementFileError(src, None, "file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise MeasurementFileError(src, None, f"expected a UTF-8 text file, found the non-UTF-8 byte "
+                                              f"0x{exc.object[exc.start]:02x} at offset {exc.start}") from None
+    except OSError as exc:
         raise MeasurementFileError(src, None, f"cannot read the file ({exc.__class__.__name__})") from None
     lines = text.splitlines()
     header: dict[str, tuple[int, str]] = {}
