@@ -21,3 +21,18 @@ class InputError(PkmstiffError, ValueError):
         self.source, self.key, self.expected, self.found = source, key, expected, found
         where = f"{source}: " if source else ""
         super().__init__(f"{where}key '{key}': expected {expected}, found {found!r}")
+
+
+# ---- mechanisms (generic link-and-joint kinematics, pkmstiff.mechanisms) ----
+
+
+class MechanismFileError(InputError):
+    """A mechanism file is invalid: names file, key (the joint, where one is at fault), expectation and finding."""
+
+
+class UnknownMechanismError(PkmstiffError, ValueError):
+    """No bundled mechanism of that name and no file at that path."""
+
+
+class MechanismInputError(PkmstiffError, ValueError):
+    """Invalid argument of a mechanism function (poses, drive values, parameter names); the message says which."""

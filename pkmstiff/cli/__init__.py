@@ -14,7 +14,7 @@ from pkmstiff.units import InputError
 
 # modules that add their own sub-commands with ``add_commands(subparsers)``
 _COMMAND_MODULES = ("pkmstiff.cli.pose", "pkmstiff.cli.point", "pkmstiff.cli.section", "pkmstiff.cli.workspace", "pkmstiff.cli.report", "pkmstiff.cli.sweep",
-                    "pkmstiff.cli.fe")
+                    "pkmstiff.cli.fe", "pkmstiff.cli.mechanism")
 
 
 class CliError(Exception):
