@@ -369,6 +369,8 @@ class System:
         self.free = np.setdiff1d(np.arange(self.n), self.fixed_cols)
         self.solve_rows = np.setdiff1d(np.arange(self.m), np.array(fixed_rows, dtype=int))
         self.n_fixed_rows = len(fixed_rows)
+        if fixed_rows and max(fixed_rows) != len(fixed_rows) - 1:
+            raise ValueError("System: the fixed-coordinate block must come first")
 
     def row_joint(self) -> np.ndarray:
         """(m,) index of the joint behind each row (−1: ground / control)."""
@@ -377,24 +379,38 @@ class System:
             out[b.row0:b.row0 + b.rows] = np.repeat(b.joint, b.nrows)
         return out
 
-    def evaluate(self, q: Array, target: Array | None = None, jac: bool = True) -> tuple[Array, Array | None]:
-        """Residual F (N, m) and Jacobian F_q (N, m, L·d) at configurations q (N, L, d)."""
+    def evaluate(self, q: Array, target: Array | None = None, jac: bool = True,
+                 reduced: bool = False) -> tuple[Array, Array | None]:
+        """Residual F (N, m) and Jacobian F_q (N, m, L·d) at configurations q (N, L, d).
+
+        ``reduced=True``: only the rows and columns the solver uses — without the fixed-coordinate rows and the
+        fixed coordinates — F (N, m_s) and F_q (N, m_s, n_free) (a view of a slightly wider array).
+        """
         N = q.shape[0]
         d = self.mech.dof_per_link
         F = Frames(q, self.mech.dim)
         r = np.empty((N, self.m))
-        J = np.zeros((N, self.m, self.n)) if jac else None
+        if reduced:
+            cmap = np.full(self.n, self.free.size)  # fixed columns go to a scratch column that is cut off
+            cmap[self.free] = np.arange(self.free.size)
+            roff = self.n_fixed_rows
+            J = np.zeros((N, self.m - roff, self.free.size + 1)) if jac else None
+        else:
+            cmap, roff = np.arange(self.n), 0
+            J = np.zeros((N, self.m, self.n)) if jac else None
         for b in self.blocks:
             rb, Jj, Jk = block_eval(b, F, target)
             r[:, b.row0:b.row0 + b.rows] = rb.reshape(N, -1)
-            if jac:
-                rows = (b.row0 + np.arange(b.rows)).reshape(b.n, b.nrows)
-                cj = b.j[:, None] * d + np.arange(d)
+            if jac and not (reduced and b.kind == "fixed"):
+                rows = (b.row0 - roff + np.arange(b.rows)).reshape(b.n, b.nrows)
+                cj = cmap[b.j[:, None] * d + np.arange(d)]
                 J[:, rows[:, :, None], cj[:, None, :]] = Jj
                 if Jk is not None:
                     has = b.k >= 0
-                    ck = b.k[has, None] * d + np.arange(d)
+                    ck = cmap[b.k[has, None] * d + np.arange(d)]
                     J[:, rows[has][:, :, None], ck[:, None, :]] = Jk[:, has]
+        if reduced:
+            return r[:, roff:], (J[:, :, :-1] if jac else None)
         return r, J
 
 

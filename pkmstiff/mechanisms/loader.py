@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import MechanismFileError, UnknownMechanismError
+from pkmstiff.errors import InputError, MechanismFileError, UnknownMechanismError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.mechanisms.model import (COORDINATES, JOINT_TYPES_2D, JOINT_TYPES_3D, NOMINAL_RANK, Drive, Joint,
                                        Mechanism, Output)
@@ -81,6 +81,15 @@ def _vec(v: Any, unit: str, dim: int, src: str, key: str, unitvec: bool = False)
 
 def mechanism_from_dict(raw: dict[str, Any], src: str = "") -> Mechanism:
     """Build and validate a :class:`Mechanism` from the parsed TOML table of a mechanism file."""
+    try:
+        return _from_dict(raw, src)
+    except MechanismFileError:
+        raise
+    except InputError as exc:  # from parse_quantity: same message, the mechanism file's error class
+        raise MechanismFileError(exc.source, exc.key, exc.expected, exc.found) from None
+
+
+def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
     check_keys(raw, _TOP, src, error=MechanismFileError)
     fv = raw.get("format_version", 1)
     if fv != 1:

@@ -142,8 +142,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
     shape = (L, d)
 
     def ev(idx, qq, jac=True):
-        r, J = system.evaluate(qq.reshape(-1, *shape), None if target is None else target[idx], jac)
-        return r[:, rows], (np.ascontiguousarray(J[:, rows][:, :, free]) if jac else None)
+        return system.evaluate(qq.reshape(-1, *shape), None if target is None else target[idx], jac, reduced=True)
 
     act = np.arange(N)
     r, J = ev(act, q)
@@ -159,7 +158,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
         if it == max_iter:
             status[act] = "max_iter"
             break
-        dx, diag, rk = lstsq_pivoted(J, np.ascontiguousarray(r), GAP_FLOOR, GAP_FACTOR)
+        dx, diag, rk = lstsq_pivoted(J, r, GAP_FLOOR, GAP_FACTOR)
         rank[act] = rk
         with np.errstate(divide="ignore", invalid="ignore"):
             rcond[act] = diag[:, -1] / diag[:, 0]
@@ -171,7 +170,8 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
         ok = np.isfinite(rt2) & ((rt2 <= (1.0 - _ARMIJO) ** 2 * r2) | (np.abs(rt).max(axis=1) <= tol))
         q[act[ok]] = qt[ok]
         iters[act[ok]] += 1
-        r[ok], J[ok] = rt[ok], Jt[ok]
+        r = np.where(ok[:, None], rt, r)
+        J = np.where(ok[:, None, None], Jt, J)
         bad = np.flatnonzero(~ok)
         alpha = np.full(bad.size, 0.5)
         accepted = np.zeros(bad.size, dtype=bool)
@@ -201,18 +201,26 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
 
 
 def _finish(system: System, q: Array, status: Array, iters, resid, rank, rcond, target, singular_tol) -> Solution:
+    """Rank of the final Jacobian of every converged pose (pivoted-QR diagonal; exact singular values where it
+    shows a gap or a small ratio) and the status ``singular`` where the rank is deficient."""
     n_free = system.free.size
     sig = np.full(q.shape[0], np.nan)
-    ok = status == "converged"
-    sus = np.flatnonzero(ok & ((rank < n_free) | ~(rcond > _SUSPECT_RCOND)))
-    if sus.size:
-        _, J = system.evaluate(q[sus], None if target is None else target[sus])
-        s = singular_values(J[:, system.solve_rows][:, :, system.free])
-        rank[sus] = gap_rank(s)
-        sig[sus] = s[:, -1] / s[:, 0]
-        bad = (rank[sus] < n_free) | (sig[sus] < singular_tol)
-        status = status.copy()
-        status[sus[bad]] = "singular"
+    ok = np.flatnonzero(status == "converged")
+    status = status.copy()
+    if ok.size:
+        r, J = system.evaluate(q[ok], None if target is None else target[ok], reduced=True)
+        _, diag, rk = lstsq_pivoted(J, r, GAP_FLOOR, GAP_FACTOR)
+        rank[ok] = rk
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rcond[ok] = diag[:, -1] / diag[:, 0]
+        sus = np.flatnonzero((rk < n_free) | ~(rcond[ok] > _SUSPECT_RCOND))
+        if sus.size:
+            s = singular_values(np.ascontiguousarray(J[sus]))
+            idx = ok[sus]
+            rank[idx] = gap_rank(s)
+            sig[idx] = s[:, -1] / s[:, 0]
+            bad = (rank[idx] < n_free) | (sig[idx] < singular_tol)
+            status[idx[bad]] = "singular"
     return Solution(system.mech, q, status, iters, resid, rank, n_free, rcond, sig)
 
 
