@@ -46,8 +46,7 @@ def numerical_rank(A: Array) -> int:
     return int(gap_rank(np.linalg.svd(A, compute_uv=False)))
 
 
-@numba.njit(cache=True, parallel=True, nogil=True, fastmath={"reassoc", "contract", "nsz"})
-def lstsq_pivoted(J, r, floor, factor):  # pragma: no cover - compiled
+def _lstsq_impl(J, r, floor, factor):  # pragma: no cover - compiled
     """Least-squares steps dx (N, n) minimising ‖J dx + r‖ by Householder QR with column pivoting per pose.
 
     Returns dx, the absolute pivoted R diagonal (N, n) and the rank used (gap rule on that diagonal: the basic
@@ -141,6 +140,37 @@ def lstsq_pivoted(J, r, floor, factor):  # pragma: no cover - compiled
         for k in range(rk):
             dx[p, perm[k]] = z[k]
     return dx, diag, ranks
+
+
+_FM = {"reassoc", "contract", "nsz"}
+_lstsq_parallel = numba.njit(cache=True, parallel=True, nogil=True, fastmath=_FM)(_lstsq_impl)
+
+
+
+def _renamed(fn, name):
+    """A copy of ``fn`` under another name: numba's on-disk cache is keyed by the function, and two dispatchers of
+    one function (parallel and serial) would evict each other's entries on every call."""
+    import types
+
+    code = fn.__code__.replace(co_name=name, co_qualname=name) if hasattr(fn.__code__, "co_qualname") else \
+        fn.__code__.replace(co_name=name)
+    out = types.FunctionType(code, fn.__globals__, name, fn.__defaults__, fn.__closure__)
+    out.__qualname__ = name
+    return out
+
+
+_lstsq_serial = numba.njit(cache=True, nogil=True, fastmath=_FM)(_renamed(_lstsq_impl, "_lstsq_serial_impl"))
+#: below this many poses the serial kernel is used (thread start-up costs more than it saves)
+PARALLEL_MIN = 64
+
+
+def lstsq_pivoted(J: Array, r: Array, floor: float = GAP_FLOOR, factor: float = GAP_FACTOR
+                  ) -> tuple[Array, Array, Array]:
+    """Least-squares steps dx (N, n) minimising ‖J dx + r‖ (J (N, m, n), r (N, m)) by Householder QR with column
+    pivoting per pose (compiled; parallel over poses for large N).  Returns dx, |R_kk| in pivot order (N, n) and
+    the rank used (first gap of ``factor`` below ``floor``·|R_00| in that diagonal: basic solution)."""
+    kern = _lstsq_parallel if J.shape[0] >= PARALLEL_MIN else _lstsq_serial
+    return kern(J, r, floor, factor)
 
 
 def singular_values(A: Array, chunk: int = 2048) -> Array:

@@ -258,6 +258,7 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
         t0 = np.broadcast_to(start_target, target.shape)[todo]
         t1 = target[todo]
         alive = np.ones(todo.size, dtype=bool)
+        final_miss = np.zeros(todo.size, dtype=bool)
         st = np.full(todo.size, "converged", dtype=object)
         for s in range(1, n + 1):
             idx = np.flatnonzero(alive)
@@ -273,7 +274,9 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
             alive[idx[fail]] = False
             if last:
                 resid[todo[idx]], rank[todo[idx]], rcond[todo[idx]] = res, rk, rc
-        good = alive
+                final_miss[idx[fail & (sts == "no_solution")]] = True
+        # a target missed only at the last step after a converged path is unreachable: no smaller steps needed
+        good = alive | final_miss
         q_out[todo] = q
         status[todo] = st
         todo = todo[~good]
