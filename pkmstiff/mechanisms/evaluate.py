@@ -58,6 +58,5 @@ def evaluate(mech: Mechanism, poses: ArrayLike, **solve_kw) -> MechanismEvaluati
     violated = ok[:, None] & ((vals < lo) | (vals > hi))
     reasons = np.where(ok, 0, REASONS["NO_SOLUTION"]) | np.where(sol.status == "singular", REASONS["SINGULAR"], 0) \
         | np.where(violated.any(axis=1), REASONS["JOINT_LIMIT"], 0)
-    return MechanismEvaluation(np.asarray(sol.poses if False else np.atleast_2d(np.asarray(poses, dtype=float))), sol,
-                               sol.drives, mech.drive_names, tuple(mech.joints[i].name for i in limited), vals,
-                               violated, reasons.astype(int))
+    return MechanismEvaluation(np.atleast_2d(np.asarray(poses, dtype=float)), sol, sol.drives, mech.drive_names,
+                               tuple(mech.joints[i].name for i in limited), vals, violated, reasons.astype(int))

@@ -133,7 +133,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
     for b in system.blocks:
         if b.kind == "fixed":
             q[:, b.j * d + b.coord] = b.value
-    free, rows = system.free, system.solve_rows
+    free = system.free
     status = np.full(N, "running", dtype=object)
     iters = np.zeros(N, dtype=int)
     resid = np.full(N, np.inf)
