@@ -31,6 +31,11 @@ def mech():
     return mm.load_mechanism("slider_crank")
 
 
+@pytest.fixture(scope="module")
+def s_range(mech):
+    return mm.drive_ranges(mech)["s"]
+
+
 def test_equations_rank_mobility(mech):
     inf = mm.info(mech)
     # 4 links × 3 coordinates; 3 revolutes × 2 (eq. 10-12) + prismatic 1E + 1B (eq. 13, 14) + ground 3 (eq. 15, 16)
@@ -53,8 +58,8 @@ def test_forward_matches_closed_form(mech):
     assert np.abs(sol.drives[:, 0] - s).max() < 1e-13
 
 
-def test_drive_interval_equals_dead_centres(mech):
-    r = mm.drive_ranges(mech)["s"]
+def test_drive_interval_equals_dead_centres(s_range):
+    r = s_range
     half = np.sqrt((R_CRANK + L_ROD) ** 2 - E**2)  # crank and rod stretched in line: |AC| = r + l
     s_max, s_min = A[0] + half - C[0], A[0] - half - C[0]
     assert r.max.kind == r.min.kind == "singular"
@@ -64,8 +69,8 @@ def test_drive_interval_equals_dead_centres(mech):
     assert r.max.sigma_ratio < 1e-6 and r.min.sigma_ratio < 1e-6  # smallest singular value vanishes at the ends
 
 
-def test_beyond_interval_is_unreachable(mech):
-    r = mm.drive_ranges(mech)["s"]
+def test_beyond_interval_is_unreachable(mech, s_range):
+    r = s_range
     sol = mm.forward(mech, [[r.max.value + 1e-4], [r.min.value - 1e-3], [r.max.value - 1e-3]], steps=20)
     assert list(sol.status) == ["no_solution", "no_solution", "converged"]
     assert np.isnan(sol.drives[:2]).all() and np.isnan(sol.poses[:2]).all()  # no wrong answer, NaN instead
