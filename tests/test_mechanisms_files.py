@@ -147,3 +147,11 @@ def test_cli_errors_are_one_line(capsys):
     assert main(["mechanism", "solve", "slider_crank", "--drives", "1,2"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 2 and all(line.startswith("pkmstiff mechanism: error:") for line in err)
+
+
+def test_is_mechanism(tmp_path):
+    assert mm.is_mechanism("slider_crank") and not mm.is_mechanism("hexaglide")
+    assert mm.is_mechanism(_write(tmp_path, BASE))
+    other = tmp_path / "machine.toml"
+    other.write_text("[machine]\nname = 'x'\n")
+    assert not mm.is_mechanism(other)

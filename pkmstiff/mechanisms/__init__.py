@@ -21,11 +21,11 @@ from pkmstiff.mechanisms.derivatives import Rates, rates
 from pkmstiff.mechanisms.evaluate import REASONS, MechanismEvaluation, evaluate, reason_names
 from pkmstiff.mechanisms.identification import identification_jacobian, parameters, with_parameters
 from pkmstiff.mechanisms.info import MechanismInfo, info
-from pkmstiff.mechanisms.loader import bundled_mechanisms, load_mechanism, mechanism_from_dict
+from pkmstiff.mechanisms.loader import bundled_mechanisms, is_mechanism, load_mechanism, mechanism_from_dict
 from pkmstiff.mechanisms.model import Joint, Mechanism, Output
 from pkmstiff.mechanisms.solver import STATUS, Solution, forward, home, inverse, joint_values, output_pose
 
 __all__ = ["DriveRange", "Joint", "Mechanism", "MechanismEvaluation", "MechanismInfo", "Output", "REASONS",
            "RangeEnd", "Rates", "STATUS", "Solution", "bundled_mechanisms", "drive_ranges", "evaluate", "forward",
-           "home", "identification_jacobian", "info", "inverse", "joint_values", "load_mechanism",
+           "home", "identification_jacobian", "info", "inverse", "is_mechanism", "joint_values", "load_mechanism",
            "mechanism_from_dict", "output_pose", "parameters", "rates", "reason_names", "with_parameters"]

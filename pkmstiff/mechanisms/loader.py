@@ -307,3 +307,15 @@ def check_redundancy(mech: Mechanism, src: str = "") -> None:
             raise _err(src, f"joint '{jt.name}'", "constraints that are not redundant (over-constrained rigid "
                        "structure)", f"rank gain {gain} of {nom}: links {mech.links[a]!r} and {mech.links[b]!r} are "
                        "already rigidly connected")
+
+
+def is_mechanism(name_or_path: str | Path) -> bool:
+    """True for a bundled mechanism name or a TOML file with a ``[mechanism]`` table (the dispatch hook for
+    commands that take a machine or a mechanism, e.g. ``pkmstiff section``)."""
+    p = Path(name_or_path)
+    if p.suffix == ".toml" and p.exists():
+        try:
+            return "mechanism" in read_toml(p, MechanismFileError, "mechanism file")
+        except MechanismFileError:
+            return False
+    return (bundled_mechanism_dir() / f"{name_or_path}.toml").exists()
