@@ -68,6 +68,7 @@ def _lstsq_impl(J, r, floor, factor):  # pragma: no cover - compiled
                 acc += A[c, i] * A[c, i]
             cn[c] = acc
         v = np.zeros(m)
+        nz = np.zeros(m, dtype=np.int64)
         for k in range(kmax):
             best = k
             for c in range(k + 1, n):
@@ -96,15 +97,21 @@ def _lstsq_impl(J, r, floor, factor):  # pragma: no cover - compiled
             for i in range(k, m):
                 v[i] = A[k, i]
             v[k] -= alpha
+            # constraint Jacobians are sparse (a row touches two links): work on the nonzero rows of v only
+            nnz = 0
             for i in range(k, m):
-                vn2 += v[i] * v[i]
+                if v[i] != 0.0:
+                    nz[nnz] = i
+                    nnz += 1
+                    vn2 += v[i] * v[i]
             for c in range(k + 1, n):
                 acc = 0.0
-                for i in range(k, m):
-                    acc += v[i] * A[c, i]
-                f = 2.0 * acc / vn2
-                for i in range(k, m):
-                    A[c, i] -= f * v[i]
+                for t_ in range(nnz):
+                    acc += v[nz[t_]] * A[c, nz[t_]]
+                if acc != 0.0:
+                    f = 2.0 * acc / vn2
+                    for t_ in range(nnz):
+                        A[c, nz[t_]] -= f * v[nz[t_]]
                 # downdate the remaining column norm; recompute when cancellation makes it unreliable
                 nc = cn[c] - A[c, k] * A[c, k]
                 if nc < 1e-8 * cn[c]:
@@ -113,11 +120,11 @@ def _lstsq_impl(J, r, floor, factor):  # pragma: no cover - compiled
                         nc += A[c, i] * A[c, i]
                 cn[c] = nc
             acc = 0.0
-            for i in range(k, m):
-                acc += v[i] * b[i]
+            for t_ in range(nnz):
+                acc += v[nz[t_]] * b[nz[t_]]
             f = 2.0 * acc / vn2
-            for i in range(k, m):
-                b[i] -= f * v[i]
+            for t_ in range(nnz):
+                b[nz[t_]] -= f * v[nz[t_]]
             A[k, k] = alpha
             diag[p, k] = abs(alpha)
         rk = kmax
