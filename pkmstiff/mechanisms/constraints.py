@@ -231,9 +231,16 @@ def _skew_cols(u: Array) -> Array:
     return M
 
 
+def _cross(a: Array, b: Array) -> Array:
+    """a × b over the last axis (length 3), broadcasting; cheaper than numpy's cross for small arrays."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def _cross_cols(A: Array, u: Array) -> Array:
     """Columns A[..., :, c] × u for A (…, 3, nc) and u (…, 3)."""
-    return np.cross(np.moveaxis(A, -1, -2), u[..., None, :]).swapaxes(-1, -2)
+    return _cross(np.swapaxes(A, -1, -2), u[..., None, :]).swapaxes(-1, -2)
 
 
 def _cross2(a: Array, b: Array) -> Array:
@@ -284,9 +291,9 @@ def block_eval(bl: Block, F: Frames, target: Array | None) -> tuple[Array, Array
         if D == 3:
             M = _skew_cols(u)  # e_c × u
             Jj[..., :D], Jk[..., :D] = M, -M
-            Jj[..., D:] = _cross_cols(Dwj, u) + np.cross(delta[..., None, :], np.moveaxis(Du, -1, -2)).swapaxes(-1, -2)
+            Jj[..., D:] = _cross_cols(Dwj, u) + _cross(delta[..., None, :], np.swapaxes(Du, -1, -2)).swapaxes(-1, -2)
             Jk[..., D:] = -_cross_cols(Dwk, u)
-            return np.cross(delta, u), Jj, Jk
+            return _cross(delta, u), Jj, Jk
         g = np.stack([u[..., 1], -u[..., 0]], axis=-1)  # ∂(Δ×u)/∂Δ
         Jj[..., 0, :D], Jk[..., 0, :D] = g, -g
         Jj[..., 0, D] = _cross2(Dwj[..., 0], u) + _cross2(delta, Du[..., 0])
@@ -310,10 +317,10 @@ def block_eval(bl: Block, F: Frames, target: Array | None) -> tuple[Array, Array
         A, DA = F.vector(bl.j, bl.a)
         U, DU = F.vector(bl.j, bl.b)
         V, DV = F.vector(bl.k, bl.b)
-        S = np.einsum("nka,nka->nk", A, np.cross(U, V))
+        S = np.einsum("nka,nka->nk", A, _cross(U, V))
         C = np.einsum("nka,nka->nk", U, V)
-        dS_j = np.einsum("nkac,nka->nkc", DA, np.cross(U, V)) + np.einsum("nkac,nka->nkc", DU, np.cross(V, A))
-        dS_k = np.einsum("nkac,nka->nkc", DV, np.cross(A, U))
+        dS_j = np.einsum("nkac,nka->nkc", DA, _cross(U, V)) + np.einsum("nkac,nka->nkc", DU, _cross(V, A))
+        dS_k = np.einsum("nkac,nka->nkc", DV, _cross(A, U))
         dC_j = np.einsum("nkac,nka->nkc", DU, V)
         dC_k = np.einsum("nkac,nka->nkc", DV, U)
         c0, s0 = np.cos(th)[..., None], np.sin(th)[..., None]
