@@ -255,3 +255,18 @@ class CalibrationError(PkmstiffError):
 
 class CalibrationInputError(CalibrationError, InputError):
     """Invalid calibration input: unknown parameter names, malformed plan files, inconsistent instrument set-ups."""
+
+
+# -------------------- mechanisms (generic link-and-joint kinematics)
+
+
+class MechanismFileError(InputError):
+    """A mechanism file is invalid: names file, key (the joint, where one is at fault), expectation and finding."""
+
+
+class UnknownMechanismError(PkmstiffError, ValueError):
+    """No bundled mechanism of that name and no file at that path."""
+
+
+class MechanismInputError(PkmstiffError, ValueError):
+    """Invalid argument of a mechanism function (poses, drive values, parameter names); the message says which."""

@@ -137,6 +137,13 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
          "missing.toml"),
         (["calibrate", "identifiability", "felix", "--instrument", "ballbar", "--plan", "{nonutf8}"], 2, "UTF-8"),
     ],
+    "mechanism": [
+        (["mechanism", "solve", "no_such", "--drives", "1"], 2, "no_such"),
+        (["mechanism", "solve", "slider_crank", "--drives", "abc"], 2, "--drives"),
+        (["mechanism", "solve", "slider_crank"], 2, "--pose"),
+        (["mechanism", "info", "{nonutf8}"], 2, "UTF-8"),
+        (["mechanism", "range", "no_such"], 2, "no_such"),
+    ],
     "fe-platform": [
         (["fe-platform", PLATFORM, "--out", "k.txt"], 2, ".toml or .csv"),
         (["fe-platform", "{nonutf8}", "--out", "k.toml"], 2, "UTF-8"),

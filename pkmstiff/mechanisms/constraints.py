@@ -1,0 +1,433 @@
+"""Residuals and analytic Jacobians of the elementary constraints, vectorised over poses (DE 10 2004 026 707 A1).
+
+Unknowns ``q`` have shape (N, L, d): per link the frame position t and the angles φ (d = 6 in space with
+R = Rz(φz) Ry(φy) Rx(φx), eq. 2; d = 3 in the plane, eq. 9).  A :class:`System` is a mechanism's model equations
+(eq. 3–7, fixed coordinates eq. 15–16) plus control equations: drive equations (eq. 8, its projection on the axis;
+relative angles for revolute drives) for forward kinematics, or output equations (link coordinates set,
+patent [0017]) for inverse kinematics.  Every constraint kind is evaluated for all its instances and all poses
+at once; Jacobian blocks are scattered into a dense (N, m, L·d) matrix.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pkmstiff.mechanisms.model import ROWS, Joint, Mechanism
+from pkmstiff.mechanisms.model import JOINT_TYPES_2D, JOINT_TYPES_3D
+
+Array = NDArray[np.float64]
+
+
+# ----------------------------------------------------------------------------------------------------------
+# link rotations (eq. 2, eq. 9) and their derivatives
+# ----------------------------------------------------------------------------------------------------------
+
+
+def link_rotations(phi: Array, dim: int) -> tuple[Array, Array]:
+    """R (…, D, D) and ∂R/∂φ_c (…, nr, D, D) of link angles ``phi`` (…, nr): eq. 2 (R = Rz Ry Rx) or eq. 9."""
+    if dim == 2:
+        c, s = np.cos(phi[..., 0]), np.sin(phi[..., 0])
+        R = np.empty(phi.shape[:-1] + (2, 2))
+        R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1] = c, -s, s, c
+        dR = np.empty(phi.shape[:-1] + (1, 2, 2))
+        dR[..., 0, 0, 0], dR[..., 0, 0, 1], dR[..., 0, 1, 0], dR[..., 0, 1, 1] = -s, -c, c, -s
+        return R, dR
+    sh = phi.shape[:-1]
+    cx, sx = np.cos(phi[..., 0]), np.sin(phi[..., 0])
+    cy, sy = np.cos(phi[..., 1]), np.sin(phi[..., 1])
+    cz, sz = np.cos(phi[..., 2]), np.sin(phi[..., 2])
+    z0, o1 = np.zeros(sh), np.ones(sh)
+
+    def m(*e):
+        return np.stack(e, axis=-1).reshape(sh + (3, 3))
+
+    Rx, dRx = m(o1, z0, z0, z0, cx, -sx, z0, sx, cx), m(z0, z0, z0, z0, -sx, -cx, z0, cx, -sx)
+    Ry, dRy = m(cy, z0, sy, z0, o1, z0, -sy, z0, cy), m(-sy, z0, cy, z0, z0, z0, -cy, z0, -sy)
+    Rz, dRz = m(cz, -sz, z0, sz, cz, z0, z0, z0, o1), m(-sz, -cz, z0, cz, -sz, z0, z0, z0, z0)
+    RzRy = Rz @ Ry
+    R = RzRy @ Rx
+    dR = np.stack([RzRy @ dRx, Rz @ dRy @ Rx, dRz @ Ry @ Rx], axis=-3)
+    return R, dR
+
+
+def link_angles(R: Array) -> Array:
+    """Angles (φx, φy, φz) of R = Rz Ry Rx (…, 3, 3) for |φy| < 90° (inverse of eq. 2)."""
+    out = np.empty(R.shape[:-2] + (3,))
+    out[..., 0] = np.arctan2(R[..., 2, 1], R[..., 2, 2])
+    out[..., 1] = np.arctan2(-R[..., 2, 0], np.hypot(R[..., 0, 0], R[..., 1, 0]))
+    out[..., 2] = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    return out
+
+
+def wrap(a: Array) -> Array:
+    """Angles wrapped to (−π, π]."""
+    return np.pi - np.mod(np.pi - a, 2.0 * np.pi)
+
+
+def cardan_pose_rotation(angles: Array) -> Array:
+    """Rotation of pose angles a, b, c (N, 3) in pkmstiff's Cardan convention R = R_a R_b R_c (models.md §1.1)."""
+    from pkmstiff.kinematics.rotation import cardan_matrix
+
+    return cardan_matrix(angles[:, 0], angles[:, 1], angles[:, 2])
+
+
+# ----------------------------------------------------------------------------------------------------------
+# compiled constraint blocks
+# ----------------------------------------------------------------------------------------------------------
+
+
+@dataclass
+class Block:
+    """All instances of one constraint kind: links j, k (k = −1: the world), points, axes, rows."""
+
+    kind: str
+    joint: np.ndarray  #: (nc,) index of the joint each instance comes from (−1: output/control)
+    j: np.ndarray  #: (nc,) link index
+    k: np.ndarray  #: (nc,) link index or −1
+    p: np.ndarray  #: (nc, D)
+    a: np.ndarray  #: (nc, D) axis (1C, 1D on link j, 1E, 1F normal, drives)
+    b: np.ndarray  #: (nc, D) second axis (1D on link k; revolute drive reference vector ⊥ a)
+    nrows: int  #: rows per instance
+    row0: int = 0  #: first row of the block in the system
+    coord: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))  #: fixed / output coordinates
+    value: np.ndarray = field(default_factory=lambda: np.zeros(0))  #: fixed values / drive offsets
+
+    @property
+    def n(self) -> int:
+        return int(self.j.size)
+
+    @property
+    def rows(self) -> int:
+        return self.n * self.nrows
+
+
+def _perp(a: np.ndarray) -> np.ndarray:
+    """A unit vector ⊥ a (the coordinate axis least aligned with a, orthogonalised)."""
+    e = np.zeros(3)
+    e[int(np.argmin(np.abs(a)))] = 1.0
+    u = np.cross(a, e)
+    return u / np.linalg.norm(u)
+
+
+def _elementaries(mech: Mechanism, jt: Joint) -> tuple[str, ...]:
+    return (JOINT_TYPES_3D if mech.dim == 3 else JOINT_TYPES_2D)[jt.type]
+
+
+def model_blocks(mech: Mechanism, joints: list[int] | None = None, ground: bool = True) -> list[Block]:
+    """Blocks of the model equations: every joint's elementary constraints and the ground's fixed coordinates."""
+    D = mech.dim
+    nr = 3 if D == 3 else 1
+    acc: dict[str, list] = {}
+    zero = np.zeros(D)
+
+    def add(kind, ji, j, k, p=zero, a=zero, b=zero, coord=-1, value=0.0):
+        acc.setdefault(kind, []).append((ji, j, k, p, a, b, coord, value))
+
+    for ji in range(len(mech.joints)) if joints is None else joints:
+        jt = mech.joints[ji]
+        j, k = jt.links
+        for e in _elementaries(mech, jt):
+            if e == "fixed":
+                for c, v in zip(jt.coordinates, jt.values):
+                    add("fixed", ji, j, -1, coord=c, value=v)
+            elif e == "1D":
+                add("1D", ji, j, k, jt.point, jt.axis, jt.axis2)
+            elif e == "1F" or (e == "1C" and jt.type == "planar"):
+                add(e, ji, j, k, jt.point, jt.axis)
+            else:
+                add(e, ji, j, k, jt.point, jt.axis if jt.axis is not None else zero)
+    if ground:
+        for g in mech.ground:
+            for c in range(D + nr):
+                add("fixed", -1, g, -1, coord=c, value=0.0)
+    order = ("fixed", "1A", "1B", "1C", "1D", "1E", "1F")
+    return [_block(kind, acc[kind], ROWS[D][kind]) for kind in order if kind in acc]
+
+
+def _block(kind: str, items: list, nrows: int) -> Block:
+    ji, j, k, p, a, b, coord, value = zip(*items)
+    return Block(kind, np.array(ji), np.array(j), np.array(k), np.array(p, dtype=float), np.array(a, dtype=float),
+                 np.array(b, dtype=float), nrows, coord=np.array(coord, dtype=int), value=np.array(value, dtype=float))
+
+
+def drive_blocks(mech: Mechanism) -> list[Block]:
+    """Drive equations of the active joints, in file order (eq. 8 projected on the axis; relative angles)."""
+    out = []
+    for i, ji in enumerate(ji for ji, jt in enumerate(mech.joints) if jt.drive is not None):
+        jt = mech.joints[ji]
+        j, k = jt.links
+        if jt.variable == "linear":
+            out.append(Block("drive_lin", np.array([ji]), np.array([j]), np.array([k]), jt.point[None],
+                             jt.axis[None], np.zeros((1, mech.dim)), 1, coord=np.array([i]),
+                             value=np.array([jt.drive.offset])))
+        else:
+            b = _perp(jt.axis) if mech.dim == 3 else np.zeros(2)
+            out.append(Block("drive_rot", np.array([ji]), np.array([j]), np.array([k]), jt.point[None],
+                             (jt.axis if mech.dim == 3 else np.zeros(2))[None], b[None], 1,
+                             coord=np.array([i]), value=np.array([jt.drive.offset])))
+    return _merge(out)
+
+
+def _merge(blocks: list[Block]) -> list[Block]:
+    by: dict[str, list[Block]] = {}
+    for b in blocks:
+        by.setdefault(b.kind, []).append(b)
+    out = []
+    for kind, bs in by.items():
+        out.append(Block(kind, np.concatenate([b.joint for b in bs]), np.concatenate([b.j for b in bs]),
+                         np.concatenate([b.k for b in bs]), np.concatenate([b.p for b in bs]),
+                         np.concatenate([b.a for b in bs]), np.concatenate([b.b for b in bs]), bs[0].nrows,
+                         coord=np.concatenate([b.coord for b in bs]), value=np.concatenate([b.value for b in bs])))
+    return out
+
+
+def output_blocks(mech: Mechanism) -> list[Block]:
+    """Output equations for inverse kinematics: point coordinates, then orientation (full angles or axis)."""
+    o = mech.output
+    D = mech.dim
+    one = lambda v: np.asarray(v, dtype=float)[None]  # noqa: E731
+    z = np.zeros((1, D))
+    blocks = [Block("out_point", np.array([-1]), np.array([o.link]), np.array([-1]), one(o.point), z, z,
+                    len(o.coordinates), coord=np.array(o.coordinates))]
+    if o.orientation == "full":
+        blocks.append(Block("out_full", np.array([-1]), np.array([o.link]), np.array([-1]), z, z, z, 3 if D == 3 else 1))
+    elif o.orientation == "axis":
+        blocks.append(Block("out_axis", np.array([-1]), np.array([o.link]), np.array([-1]), z, one(o.axis), z, 3))
+    return blocks
+
+
+# ----------------------------------------------------------------------------------------------------------
+# evaluation
+# ----------------------------------------------------------------------------------------------------------
+
+
+class Frames:
+    """Link frames of N configurations: t (N, L, D), R (N, L, D, D), dR (N, L, nr, D, D)."""
+
+    def __init__(self, q: Array, dim: int):
+        self.q, self.dim = q, dim
+        self.t = q[..., :dim]
+        self.R, self.dR = link_rotations(q[..., dim:], dim)
+
+    def point(self, li: np.ndarray, p: Array) -> tuple[Array, Array]:
+        """World points w = t + R p (N, nc, D) and ∂w/∂φ (N, nc, D, nr) of local points p (nc, D) on links li."""
+        w = self.t[:, li] + np.einsum("nkab,kb->nka", self.R[:, li], p)
+        return w, np.einsum("nkcab,kb->nkac", self.dR[:, li], p)
+
+    def vector(self, li: np.ndarray, a: Array) -> tuple[Array, Array]:
+        """World vectors U = R a (N, nc, D) and ∂U/∂φ (N, nc, D, nr)."""
+        return np.einsum("nkab,kb->nka", self.R[:, li], a), np.einsum("nkcab,kb->nkac", self.dR[:, li], a)
+
+
+def _skew_cols(u: Array) -> Array:
+    """Matrix M (…, 3, 3) with M e_c = e_c × u."""
+    M = np.zeros(u.shape + (3,))
+    M[..., 0, 1], M[..., 0, 2] = u[..., 2], -u[..., 1]
+    M[..., 1, 0], M[..., 1, 2] = -u[..., 2], u[..., 0]
+    M[..., 2, 0], M[..., 2, 1] = u[..., 1], -u[..., 0]
+    return M
+
+
+def _cross(a: Array, b: Array) -> Array:
+    """a × b over the last axis (length 3), broadcasting; cheaper than numpy's cross for small arrays."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
+def _cross_cols(A: Array, u: Array) -> Array:
+    """Columns A[..., :, c] × u for A (…, 3, nc) and u (…, 3)."""
+    return _cross(np.swapaxes(A, -1, -2), u[..., None, :]).swapaxes(-1, -2)
+
+
+def _cross2(a: Array, b: Array) -> Array:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def block_eval(bl: Block, F: Frames, target: Array | None) -> tuple[Array, Array | None, Array | None]:
+    """Residual (N, nc, rows) and Jacobian blocks wrt link j and link k (N, nc, rows, d) of one block."""
+    D = F.dim
+    N = F.q.shape[0]
+    nr = 3 if D == 3 else 1
+    d = D + nr
+    nc, rows = bl.n, bl.nrows
+    Jj = np.zeros((N, nc, rows, d))
+    Jk = np.zeros((N, nc, rows, d)) if (bl.k >= 0).any() else None
+    I = np.eye(D)
+    kind = bl.kind
+    if kind == "fixed":
+        r = (F.q[:, bl.j, bl.coord] - bl.value)[..., None]
+        Jj[:, np.arange(nc), 0, bl.coord] = 1.0
+        return r, Jj, None
+    if kind in ("1A", "1E", "1F", "drive_lin"):
+        wj, Dwj = F.point(bl.j, bl.p)
+        wk, Dwk = F.point(bl.k, bl.p)
+        delta = wj - wk
+    if kind == "1A":
+        Jj[..., :D], Jj[..., D:] = I, Dwj
+        Jk[..., :D], Jk[..., D:] = -I, -Dwk
+        return delta, Jj, Jk
+    if kind == "1B":
+        r = F.q[:, bl.j, D:] - F.q[:, bl.k, D:]
+        Jj[..., D:] = np.eye(nr)
+        Jk[..., D:] = -np.eye(nr)
+        return r, Jj, Jk
+    if kind == "1C":
+        Uj, DUj = F.vector(bl.j, bl.a)
+        Uk, DUk = F.vector(bl.k, bl.a)
+        Jj[..., D:], Jk[..., D:] = DUj, -DUk
+        return Uj - Uk, Jj, Jk
+    if kind == "1D":
+        Uj, DUj = F.vector(bl.j, bl.a)
+        Uk, DUk = F.vector(bl.k, bl.b)
+        Jj[..., 0, D:] = np.einsum("nkac,nka->nkc", DUj, Uk)
+        Jk[..., 0, D:] = np.einsum("nkac,nka->nkc", DUk, Uj)
+        return np.einsum("nka,nka->nk", Uj, Uk)[..., None], Jj, Jk
+    if kind == "1E":
+        u, Du = F.vector(bl.j, bl.a)
+        if D == 3:
+            M = _skew_cols(u)  # e_c × u
+            Jj[..., :D], Jk[..., :D] = M, -M
+            Jj[..., D:] = _cross_cols(Dwj, u) + _cross(delta[..., None, :], np.swapaxes(Du, -1, -2)).swapaxes(-1, -2)
+            Jk[..., D:] = -_cross_cols(Dwk, u)
+            return _cross(delta, u), Jj, Jk
+        g = np.stack([u[..., 1], -u[..., 0]], axis=-1)  # ∂(Δ×u)/∂Δ
+        Jj[..., 0, :D], Jk[..., 0, :D] = g, -g
+        Jj[..., 0, D] = _cross2(Dwj[..., 0], u) + _cross2(delta, Du[..., 0])
+        Jk[..., 0, D] = -_cross2(Dwk[..., 0], u)
+        return _cross2(delta, u)[..., None], Jj, Jk
+    if kind in ("1F", "drive_lin"):
+        u, Du = F.vector(bl.j, bl.a)
+        sgn = 1.0 if kind == "1F" else -1.0  # 1F: u·(w_j − w_k); drive: u·(w_k − w_j) + offset − s
+        Jj[..., 0, :D], Jk[..., 0, :D] = sgn * u, -sgn * u
+        Jj[..., 0, D:] = sgn * (np.einsum("nkac,nka->nkc", Dwj, u) + np.einsum("nka,nkac->nkc", delta, Du))
+        Jk[..., 0, D:] = -sgn * np.einsum("nkac,nka->nkc", Dwk, u)
+        r = sgn * np.einsum("nka,nka->nk", delta, u)
+        if kind == "drive_lin":
+            r = r + bl.value - target[:, bl.coord]
+        return r[..., None], Jj, Jk
+    if kind == "drive_rot":
+        th = target[:, bl.coord] - bl.value
+        if D == 2:
+            Jj[..., 0, D], Jk[..., 0, D] = -1.0, 1.0
+            return (F.q[:, bl.k, D] - F.q[:, bl.j, D] - th)[..., None], Jj, Jk
+        A, DA = F.vector(bl.j, bl.a)
+        U, DU = F.vector(bl.j, bl.b)
+        V, DV = F.vector(bl.k, bl.b)
+        S = np.einsum("nka,nka->nk", A, _cross(U, V))
+        C = np.einsum("nka,nka->nk", U, V)
+        dS_j = np.einsum("nkac,nka->nkc", DA, _cross(U, V)) + np.einsum("nkac,nka->nkc", DU, _cross(V, A))
+        dS_k = np.einsum("nkac,nka->nkc", DV, _cross(A, U))
+        dC_j = np.einsum("nkac,nka->nkc", DU, V)
+        dC_k = np.einsum("nkac,nka->nkc", DV, U)
+        c0, s0 = np.cos(th)[..., None], np.sin(th)[..., None]
+        Jj[..., 0, D:] = c0 * dS_j - s0 * dC_j
+        Jk[..., 0, D:] = c0 * dS_k - s0 * dC_k
+        return (c0[..., 0] * S - s0[..., 0] * C)[..., None], Jj, Jk
+    if kind == "out_point":
+        w, Dw = F.point(bl.j, bl.p)
+        c = bl.coord
+        Jj[..., :D] = I[c]
+        Jj[..., D:] = Dw[:, :, c]
+        return w[:, :, c] - target[:, None, c], Jj, None
+    if kind == "out_full":
+        phi_t = target_angles(target, D)
+        Jj[..., D:] = np.eye(nr)
+        return wrap(F.q[:, bl.j, D:] - phi_t[:, None]), Jj, None
+    if kind == "out_axis":
+        U, DU = F.vector(bl.j, bl.a)
+        Rt = cardan_pose_rotation(target[:, 3:6])
+        Jj[..., D:] = DU
+        return U - np.einsum("nab,kb->nka", Rt, bl.a), Jj, None
+    raise ValueError(f"unknown constraint kind {kind!r}")
+
+
+def target_angles(pose: Array, dim: int) -> Array:
+    """Link angles of the output link for target poses: planar φ; spatial (φx, φy, φz) of R = cardan(a, b, c)."""
+    if dim == 2:
+        return pose[:, 2:3]
+    return link_angles(cardan_pose_rotation(pose[:, 3:6]))
+
+
+@dataclass
+class System:
+    """Model equations (+ control equations) of a mechanism over the unknowns q (L, d)."""
+
+    mech: Mechanism
+    blocks: list[Block]
+
+    def __post_init__(self):
+        row = 0
+        for b in self.blocks:
+            b.row0 = row
+            row += b.rows
+        self.m = row
+        L, d = len(self.mech.links), self.mech.dof_per_link
+        self.n = L * d
+        fixed_cols, fixed_rows = [], []
+        for b in self.blocks:
+            if b.kind == "fixed":
+                fixed_cols += list(b.j * d + b.coord)
+                fixed_rows += list(b.row0 + np.arange(b.n))
+        self.fixed_cols = np.array(sorted(set(fixed_cols)), dtype=int)
+        self.free = np.setdiff1d(np.arange(self.n), self.fixed_cols)
+        self.solve_rows = np.setdiff1d(np.arange(self.m), np.array(fixed_rows, dtype=int))
+        self.n_fixed_rows = len(fixed_rows)
+        if fixed_rows and max(fixed_rows) != len(fixed_rows) - 1:
+            raise ValueError("System: the fixed-coordinate block must come first")
+
+    def row_joint(self) -> np.ndarray:
+        """(m,) index of the joint behind each row (−1: ground / control)."""
+        out = np.empty(self.m, dtype=int)
+        for b in self.blocks:
+            out[b.row0:b.row0 + b.rows] = np.repeat(b.joint, b.nrows)
+        return out
+
+    def evaluate(self, q: Array, target: Array | None = None, jac: bool = True,
+                 reduced: bool = False) -> tuple[Array, Array | None]:
+        """Residual F (N, m) and Jacobian F_q (N, m, L·d) at configurations q (N, L, d).
+
+        ``reduced=True``: only the rows and columns the solver uses — without the fixed-coordinate rows and the
+        fixed coordinates — F (N, m_s) and F_q (N, m_s, n_free) (a view of a slightly wider array).
+        """
+        N = q.shape[0]
+        d = self.mech.dof_per_link
+        F = Frames(q, self.mech.dim)
+        r = np.empty((N, self.m))
+        if reduced:
+            cmap = np.full(self.n, self.free.size)  # fixed columns go to a scratch column that is cut off
+            cmap[self.free] = np.arange(self.free.size)
+            roff = self.n_fixed_rows
+            J = np.zeros((N, self.m - roff, self.free.size + 1)) if jac else None
+        else:
+            cmap, roff = np.arange(self.n), 0
+            J = np.zeros((N, self.m, self.n)) if jac else None
+        for b in self.blocks:
+            rb, Jj, Jk = block_eval(b, F, target)
+            r[:, b.row0:b.row0 + b.rows] = rb.reshape(N, -1)
+            if jac and not (reduced and b.kind == "fixed"):
+                rows = (b.row0 - roff + np.arange(b.rows)).reshape(b.n, b.nrows)
+                cj = cmap[b.j[:, None] * d + np.arange(d)]
+                J[:, rows[:, :, None], cj[:, None, :]] = Jj
+                if Jk is not None:
+                    has = b.k >= 0
+                    ck = cmap[b.k[has, None] * d + np.arange(d)]
+                    J[:, rows[has][:, :, None], ck[:, None, :]] = Jk[:, has]
+        if reduced:
+            return r[:, roff:], (J[:, :, :-1] if jac else None)
+        return r, J
+
+
+def model_system(mech: Mechanism) -> System:
+    return System(mech, model_blocks(mech))
+
+
+def fk_system(mech: Mechanism) -> System:
+    return System(mech, model_blocks(mech) + drive_blocks(mech))
+
+
+def ik_system(mech: Mechanism) -> System:
+    return System(mech, model_blocks(mech) + output_blocks(mech))

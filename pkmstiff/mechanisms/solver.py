@@ -1,0 +1,337 @@
+"""Damped Newton on model + control equations; inverse and forward kinematics with continuation from home.
+
+DE 10 2004 026 707 A1 [0019], [0051]: the total system (model equations, control equations) is a root-finding
+problem solved by the damped Newton method with Householder steps.  Here each step is the least-squares
+solution by pivoted Householder QR (:func:`pkmstiff.mechanisms.linalg.lstsq_pivoted`), damped by halving until the
+residual norm drops (Armijo).  Continuation ([0018]: small steps from a known configuration) goes from home (or a
+given start) to the target in equal steps; poses that fail are retried with twice as many steps (step control).
+
+Status per pose: ``converged``; ``singular`` (converged, but the Jacobian is rank deficient by the singular-value
+gap or σ_min/σ_max < ``singular_tol``); ``no_solution`` (the residual stalls above the tolerance: outside the
+reachable set); ``max_iter``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from pkmstiff.errors import MechanismInputError
+from pkmstiff.kinematics.rotation import cardan_angles
+from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system
+from pkmstiff.mechanisms.linalg import GAP_FACTOR, GAP_FLOOR, gap_rank, lstsq_pivoted, singular_values
+from pkmstiff.mechanisms.model import Mechanism
+
+Array = NDArray[np.float64]
+
+STATUS = ("converged", "singular", "no_solution", "max_iter")
+#: QR-diagonal ratio below which the exact singular values are computed for the status
+_SUSPECT_RCOND = 1e-5
+_ARMIJO = 1e-4
+
+
+@dataclass
+class Solution:
+    """Configurations of N solves (SI): link coordinates, drive values, output pose and status per pose."""
+
+    mech: Mechanism
+    q: Array  #: (N, L, d) link frame coordinates t [m], φ [rad]
+    status: Array  #: (N,) str, one of STATUS
+    iterations: Array  #: (N,) int, Newton steps (all continuation steps)
+    residual: Array  #: (N,) max |F| of the solved equations (m, rad)
+    rank: Array  #: (N,) rank of the solve Jacobian (free coordinates) by the singular-value gap
+    n_free: int  #: number of free coordinates (full rank)
+    rcond: Array  #: (N,) min/max |R_kk| of the pivoted QR at the last iterate
+    sigma_ratio: Array  #: (N,) σ_min/σ_max where computed (suspect poses), else NaN
+
+    @property
+    def converged(self) -> Array:
+        return self.status == "converged"
+
+    @property
+    def ok(self) -> Array:
+        """Converged, singular or not (a configuration was found)."""
+        return (self.status == "converged") | (self.status == "singular")
+
+    @property
+    def drives(self) -> Array:
+        """(N, n_drives) drive values (m or rad, see ``mech.drive_units``); NaN where no configuration was found."""
+        v = joint_values(self.mech, self.q, [i for i, j in enumerate(self.mech.joints) if j.drive is not None])
+        return np.where(self.ok[:, None], v, np.nan)
+
+    @property
+    def poses(self) -> Array:
+        """(N, 6) output poses x, y, z [m], a, b, c [rad] (Cardan, pkmstiff convention) or (N, 3) planar."""
+        return np.where(self.ok[:, None], output_pose(self.mech, self.q), np.nan)
+
+    def summary(self) -> dict[str, int]:
+        return {s: int(np.sum(self.status == s)) for s in STATUS}
+
+
+def joint_values(mech: Mechanism, q: Array, joints: list[int]) -> Array:
+    """Joint variables (N, len(joints)): linear displacement along the axis + offset (eq. 8) [m], relative angle
+    about the axis + offset [rad], or tilt between the axis on both links [rad] (spherical/cardan)."""
+    F = Frames(q, mech.dim)
+    D = mech.dim
+    out = np.empty((q.shape[0], len(joints)))
+    for c, ji in enumerate(joints):
+        jt = mech.joints[ji]
+        j, k = np.array([jt.links[0]]), np.array([jt.links[1]])
+        off = jt.drive.offset if jt.drive is not None else 0.0
+        if jt.variable == "linear":
+            wj, _ = F.point(j, jt.point[None])
+            wk, _ = F.point(k, jt.point[None])
+            u, _ = F.vector(j, jt.axis[None])
+            out[:, c] = np.einsum("na,na->n", (wk - wj)[:, 0], u[:, 0]) + off
+        elif jt.variable == "angle":
+            if D == 2:
+                out[:, c] = q[:, k[0], 2] - q[:, j[0], 2] + off
+            else:
+                from pkmstiff.mechanisms.constraints import _perp
+
+                b = _perp(jt.axis)[None]
+                A, _ = F.vector(j, jt.axis[None])
+                U, _ = F.vector(j, b)
+                V, _ = F.vector(k, b)
+                S = np.einsum("na,na->n", A[:, 0], np.cross(U[:, 0], V[:, 0]))
+                out[:, c] = np.arctan2(S, np.einsum("na,na->n", U[:, 0], V[:, 0])) + off
+        elif jt.variable == "tilt":
+            Uj, _ = F.vector(j, jt.axis[None])
+            Uk, _ = F.vector(k, jt.axis[None])
+            out[:, c] = np.arccos(np.clip(np.einsum("na,na->n", Uj[:, 0], Uk[:, 0]), -1.0, 1.0))
+        else:
+            out[:, c] = np.nan
+    return out
+
+
+def output_pose(mech: Mechanism, q: Array) -> Array:
+    """Output pose of configurations q: world position of the output point and the link's rotation relative to
+    home as Cardan angles a, b, c (pkmstiff convention; planar φ)."""
+    o = mech.output
+    if o is None:
+        raise MechanismInputError(f"mechanism '{mech.name}' has no [output]: no pose defined")
+    F = Frames(q, mech.dim)
+    w, _ = F.point(np.array([o.link]), o.point[None])
+    if mech.dim == 2:
+        return np.concatenate([w[:, 0], q[:, o.link, 2:3]], axis=1)
+    return np.concatenate([w[:, 0], cardan_angles(F.R[:, o.link])], axis=1)
+
+
+def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter: int = 30,
+           max_backtrack: int = 30) -> tuple[Array, Array, Array, Array, Array, Array]:
+    """Damped Newton with pivoted-QR least-squares steps, vectorised over N (q0 (N, L, d)).
+
+    Converged when max |F| ≤ ``tol``.  A full step is tried first, its residual and Jacobian are kept for the
+    next iteration when it reduces ‖F‖ (Armijo); otherwise the step is halved.  Returns q, status (str:
+    converged/no_solution/max_iter), iterations, residual (max |F|), rank and rcond of the pivoted QR at the last
+    factorised iterate.  Fixed coordinates are held at their values (their rows drop out).
+    """
+    N, L, d = q0.shape
+    q = q0.reshape(N, L * d).copy()
+    for b in system.blocks:
+        if b.kind == "fixed":
+            q[:, b.j * d + b.coord] = b.value
+    free = system.free
+    status = np.full(N, "running", dtype=object)
+    iters = np.zeros(N, dtype=int)
+    resid = np.full(N, np.inf)
+    rank = np.full(N, free.size, dtype=int)
+    rcond = np.full(N, np.nan)
+    shape = (L, d)
+
+    def ev(idx, qq, jac=True):
+        return system.evaluate(qq.reshape(-1, *shape), None if target is None else target[idx], jac, reduced=True)
+
+    act = np.arange(N)
+    r, J = ev(act, q)
+    for it in range(max_iter + 1):
+        rn = np.abs(r).max(axis=1)
+        resid[act] = rn
+        done = rn <= tol
+        status[act[done]] = "converged"
+        keep = ~done
+        act, r, J, rn = act[keep], r[keep], J[keep], rn[keep]
+        if act.size == 0:
+            break
+        if it == max_iter:
+            status[act] = "max_iter"
+            break
+        dx, diag, rk = lstsq_pivoted(J, r, GAP_FLOOR, GAP_FACTOR)
+        rank[act] = rk
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rcond[act] = diag[:, -1] / diag[:, 0]
+        r2 = np.einsum("nm,nm->n", r, r)
+        qt = q[act].copy()
+        qt[:, free] += dx
+        rt, Jt = ev(act, qt)
+        rt2 = np.einsum("nm,nm->n", rt, rt)
+        ok = np.isfinite(rt2) & ((rt2 <= (1.0 - _ARMIJO) ** 2 * r2) | (np.abs(rt).max(axis=1) <= tol))
+        q[act[ok]] = qt[ok]
+        iters[act[ok]] += 1
+        r = np.where(ok[:, None], rt, r)
+        J = np.where(ok[:, None, None], Jt, J)
+        bad = np.flatnonzero(~ok)
+        alpha = np.full(bad.size, 0.5)
+        accepted = np.zeros(bad.size, dtype=bool)
+        for _ in range(max_backtrack):
+            tr = np.flatnonzero(~accepted)
+            if tr.size == 0:
+                break
+            qb = q[act[bad[tr]]].copy()
+            qb[:, free] += alpha[tr, None] * dx[bad[tr]]
+            rb, _ = ev(act[bad[tr]], qb, jac=False)
+            rb2 = np.einsum("nm,nm->n", rb, rb)
+            okb = np.isfinite(rb2) & (rb2 <= (1.0 - _ARMIJO * alpha[tr]) ** 2 * r2[bad[tr]])
+            q[act[bad[tr[okb]]]] = qb[okb]
+            accepted[tr[okb]] = True
+            alpha[tr[~okb]] *= 0.5
+        if bad.size:
+            iters[act[bad[accepted]]] += 1
+            upd = bad[accepted]
+            if upd.size:
+                r[upd], J[upd] = ev(act[upd], q[act[upd]])
+            stalled = bad[~accepted]
+            status[act[stalled]] = np.where(rn[stalled] <= 10.0 * tol, "converged", "no_solution")
+            alive = np.ones(act.size, dtype=bool)
+            alive[stalled] = False
+            act, r, J = act[alive], r[alive], J[alive]
+    return q.reshape(N, L, d), status.astype(str), iters, resid, rank, rcond
+
+
+def _finish(system: System, q: Array, status: Array, iters, resid, rank, rcond, target, singular_tol) -> Solution:
+    """Rank of the final Jacobian of every converged pose (pivoted-QR diagonal; exact singular values where it
+    shows a gap or a small ratio) and the status ``singular`` where the rank is deficient."""
+    n_free = system.free.size
+    sig = np.full(q.shape[0], np.nan)
+    ok = np.flatnonzero(status == "converged")
+    status = status.copy()
+    if ok.size:
+        r, J = system.evaluate(q[ok], None if target is None else target[ok], reduced=True)
+        _, diag, rk = lstsq_pivoted(J, r, GAP_FLOOR, GAP_FACTOR)
+        rank[ok] = rk
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rcond[ok] = diag[:, -1] / diag[:, 0]
+        sus = np.flatnonzero((rk < n_free) | ~(rcond[ok] > _SUSPECT_RCOND))
+        if sus.size:
+            s = singular_values(np.ascontiguousarray(J[sus]))
+            idx = ok[sus]
+            rank[idx] = gap_rank(s)
+            sig[idx] = s[:, -1] / s[:, 0]
+            bad = (rank[idx] < n_free) | (sig[idx] < singular_tol)
+            status[idx[bad]] = "singular"
+    return Solution(system.mech, q, status, iters, resid, rank, n_free, rcond, sig)
+
+
+def _as_targets(values: ArrayLike, width: int, what: str, unit: str) -> Array:
+    try:
+        arr = np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise MechanismInputError(f"{what}: expected numbers of shape ({width},) or (N, {width}) [{unit}], "
+                                  f"found {values!r}") from None
+    if arr.ndim == 1:
+        arr = arr[None]
+    if arr.ndim != 2 or arr.shape[1] != width:
+        raise MechanismInputError(f"{what}: expected shape ({width},) or (N, {width}) [{unit}], found shape "
+                                  f"{np.shape(values)}")
+    if not np.isfinite(arr).all():
+        raise MechanismInputError(f"{what}: expected finite values [{unit}], found NaN/inf")
+    return arr
+
+
+def _continuation(system: System, target: Array, start_q: Array, start_target: Array, steps: int, tol: float,
+                  max_iter: int, max_refine: int) -> tuple:
+    """Equal steps from (start_q, start_target) to target; failing poses are redone with 2×, 4×, … steps."""
+    N = target.shape[0]
+    L, d = start_q.shape[-2:]
+    q_out = np.empty((N, L, d))
+    status = np.full(N, "no_solution", dtype=object)
+    iters = np.zeros(N, dtype=int)
+    resid = np.full(N, np.nan)
+    rank = np.zeros(N, dtype=int)
+    rcond = np.full(N, np.nan)
+    todo = np.arange(N)
+    n = max(1, int(steps))
+    for _ in range(max_refine + 1):
+        q = np.broadcast_to(start_q, (N, L, d))[todo].copy()
+        t0 = np.broadcast_to(start_target, target.shape)[todo]
+        t1 = target[todo]
+        alive = np.ones(todo.size, dtype=bool)
+        final_miss = np.zeros(todo.size, dtype=bool)
+        st = np.full(todo.size, "converged", dtype=object)
+        for s in range(1, n + 1):
+            idx = np.flatnonzero(alive)
+            if idx.size == 0:
+                break
+            tg = t0[idx] + (s / n) * (t1[idx] - t0[idx])
+            last = s == n
+            qs, sts, its, res, rk, rc = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter)
+            q[idx] = qs
+            iters[todo[idx]] += its
+            fail = sts != "converged"
+            st[idx[fail]] = sts[fail]
+            alive[idx[fail]] = False
+            if last:
+                resid[todo[idx]], rank[todo[idx]], rcond[todo[idx]] = res, rk, rc
+                final_miss[idx[fail & (sts == "no_solution")]] = True
+        # a target missed only at the last step after a converged path is unreachable: no smaller steps needed
+        good = alive | final_miss
+        q_out[todo] = q
+        status[todo] = st
+        todo = todo[~good]
+        if todo.size == 0:
+            break
+        n *= 2
+    return q_out, status.astype(str), iters, resid, rank, rcond
+
+
+def home(mech: Mechanism, n: int = 1) -> Array:
+    """Home configuration: every link frame = world frame (patent claim 4), shape (n, L, d)."""
+    return np.zeros((n, len(mech.links), mech.dof_per_link))
+
+
+def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
+            tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
+            singular_tol: float = 1e-7) -> Solution:
+    """Forward kinematics: configurations for drive values (N, n_drives) [m or rad] (patent claim 12).
+
+    Starts at home (drive values = offsets) or at ``start`` (a Solution or q (N, L, d)) and continues in
+    ``steps`` equal steps; ``tol`` defaults to 1e-13·length scale.  Never raises for unreachable targets:
+    see ``Solution.status``.
+    """
+    nd = len(mech.drives)
+    if nd == 0:
+        raise MechanismInputError(f"mechanism '{mech.name}' has no driven joint: forward kinematics undefined")
+    tg = _as_targets(drives, nd, "drives", ", ".join(mech.drive_units))
+    system = fk_system(mech)
+    tol = 1e-13 * mech.length_scale if tol is None else tol
+    if start is None:
+        q0 = home(mech)
+        t0 = np.array([[j.drive.offset for j in mech.drives]])
+    else:
+        q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
+        t0 = joint_values(mech, q0, [i for i, j in enumerate(mech.joints) if j.drive is not None])
+    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine)
+    return _finish(system, *out, tg, singular_tol)
+
+
+def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
+            tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
+            singular_tol: float = 1e-7) -> Solution:
+    """Inverse kinematics: configurations (and drive values) for output poses (N, 6) x, y, z [m], a, b, c [rad]
+    (planar (N, 3) x, y [m], φ [rad]) (patent claim 11).  Continuation from home or ``start`` as in
+    :func:`forward`."""
+    if mech.output is None:
+        raise MechanismInputError(f"mechanism '{mech.name}' has no [output]: inverse kinematics undefined")
+    units = "m, m, m, rad, rad, rad" if mech.dim == 3 else "m, m, rad"
+    tg = _as_targets(poses, mech.pose_size, "poses", units)
+    system = ik_system(mech)
+    tol = 1e-13 * mech.length_scale if tol is None else tol
+    if start is None:
+        q0, t0 = home(mech), mech.home_output_pose[None]
+    else:
+        q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
+        t0 = output_pose(mech, q0)
+    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine)
+    return _finish(system, *out, tg, singular_tol)

@@ -1,0 +1,94 @@
+"""Pictures of generic mechanisms (matplotlib, off-screen: ``Figure`` + ``savefig``, no backend chosen).
+
+Every link is drawn as the polygon through the world positions of its joint points (and the output point); joints
+are dots, driven joints squares, guide axes of the ground (prismatic, point-on-axis joints) thin lines.  Several
+configurations can be overlaid (the first one solid, the others faded).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pkmstiff.mechanisms.constraints import Frames
+from pkmstiff.mechanisms.model import Mechanism
+
+MM = 1e3
+
+
+def _link_points(mech: Mechanism) -> dict[int, list[np.ndarray]]:
+    pts: dict[int, list[np.ndarray]] = {i: [] for i in range(len(mech.links))}
+    for jt in mech.joints:
+        if jt.type in ("fixed", "equal_orientation", "common_axis", "perpendicular_axes"):
+            continue
+        for li in set(jt.links):
+            pts[li].append(jt.point)
+    if mech.output is not None:
+        pts[mech.output.link].append(mech.output.point)
+    return pts
+
+
+def mechanism_figure(mech: Mechanism, q: np.ndarray, path: str | Path | None = None, title: str | None = None,
+                     labels: list[str] | None = None, guide_length: float = 0.3, elev: float = 20.0,
+                     azim: float = -60.0):
+    """Figure of configurations q (K, L, d) (or one (L, d)); saved as PNG to ``path`` if given. Axes in mm."""
+    from matplotlib.figure import Figure
+
+    q = np.asarray(q, dtype=float)
+    q = q[None] if q.ndim == 2 else q
+    D = mech.dim
+    fig = Figure(figsize=(7.0, 5.6) if D == 3 else (7.0, 4.6))
+    ax = fig.add_subplot(111, projection="3d" if D == 3 else None)
+    F = Frames(q, D)
+    pts = _link_points(mech)
+    colours = [f"C{i % 10}" for i in range(len(mech.links))]
+    for kk in range(q.shape[0]):
+        alpha = 1.0 if kk == 0 else 0.35
+        for li, plist in pts.items():
+            if not plist or li in mech.ground:
+                continue
+            P = np.array(plist)
+            w = (F.t[kk, li][None] + P @ F.R[kk, li].T) * MM
+            if len(w) > 2 and D == 2:
+                w = np.vstack([w, w[:1]])
+            ax.plot(*w.T, "-", color=colours[li], lw=2.2, alpha=alpha,
+                    label=mech.links[li] if kk == 0 else None)
+        for jt in mech.joints:
+            if jt.type in ("fixed", "equal_orientation", "common_axis", "perpendicular_axes"):
+                continue
+            j = jt.links[0]
+            w = (F.t[kk, j] + F.R[kk, j] @ jt.point) * MM
+            ax.plot(*w[:, None], "s" if jt.drive is not None else "o", color="k", ms=5 if jt.drive else 4,
+                    alpha=alpha)
+            if kk == 0 and j in mech.ground and jt.axis is not None and jt.variable == "linear":
+                seg = np.array([jt.point - guide_length * jt.axis, jt.point + guide_length * jt.axis]) * MM
+                ax.plot(*seg.T, ":", color="0.4", lw=1.0)
+        if mech.output is not None:
+            o = mech.output
+            w = (F.t[kk, o.link] + F.R[kk, o.link] @ o.point) * MM
+            ax.plot(*w[:, None], "*", color="crimson", ms=10, alpha=alpha, label="output" if kk == 0 else None)
+            if labels:
+                if D == 3:
+                    ax.text(*w, f" {labels[kk]}", fontsize=8, alpha=alpha)
+                else:
+                    ax.annotate(labels[kk], w, fontsize=8, alpha=alpha, xytext=(4, 4), textcoords="offset points")
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    if D == 3:
+        ax.set_zlabel("z [mm]")
+        ax.view_init(elev=elev, azim=azim)
+        lims = np.array([ax.get_xlim3d(), ax.get_ylim3d(), ax.get_zlim3d()])
+        c, r = lims.mean(axis=1), (lims[:, 1] - lims[:, 0]).max() / 2
+        ax.set_xlim3d(c[0] - r, c[0] + r)
+        ax.set_ylim3d(c[1] - r, c[1] + r)
+        ax.set_zlim3d(c[2] - r, c[2] + r)
+    else:
+        ax.set_aspect("equal")
+        ax.grid(True, lw=0.3)
+    ax.set_title(title or mech.title, fontsize=10)
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    if path is not None:
+        fig.savefig(path, dpi=110)
+    return fig
