@@ -160,8 +160,8 @@ def test_cli_frame_and_spindle_options(capsys):
                  "--quantities", "kx", "--tool-length", "0", "--neglect-spindle", "--json", "--quiet"]) == 0
     rep = json.loads(capsys.readouterr().out)
     assert rep["frame"] == "report" and rep["neglect_spindle"] and rep["admissible_points"] > 0
-    with pytest.raises(SystemExit):  # argparse rejects an unknown frame (choices)
-        main(["section", "hexaglide", "--frame", "bed", "--range", "y=0:1,z=-1:0"])
+    # argparse rejects an unknown frame (choices): one error line, exit status 2
+    assert main(["section", "hexaglide", "--frame", "bed", "--range", "y=0:1,z=-1:0"]) == 2
 
 
 def test_report_spec_frame_key(tmp_path):

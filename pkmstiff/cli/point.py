@@ -175,6 +175,7 @@ def _planar_report(name: str, xy_mm: list[float], allow_inadmissible: bool = Tru
     return {
         "schema": SCHEMA,
         "machine": pm.name, "machine_type": f"planar {pm.kind}",
+        "frame": "machine", "frame_origin_mm": [0.0, 0.0, 0.0],  # planar machines have only their own frame
         "pose": {"x_mm": xy_mm[0], "y_mm": xy_mm[1]},
         "admissible": modelled, "reasons": reasons, "analysed_although_inadmissible": not modelled,
         "modelled": modelled, "model_reasons": reasons,
