@@ -38,7 +38,7 @@ def _title(res: SectionResult) -> str:
 
 
 def quantity_title(res: SectionResult, name: str) -> str:
-    return f"{name} [{res.units[name]}]"
+    return f"{name} [{pretty_unit(res.units[name])}]"
 
 
 def _finish_plane_plot(p, res: SectionResult, subtitle: str, path: str | Path) -> Path:
@@ -77,7 +77,8 @@ def _map_title(res: SectionResult) -> str:
     tool = "" if res.tool_length is None else f", tool {res.tool_length * MM:g} mm"
     rng = (f"{pl.u_name} {pl.u_values[0] * MM:g}…{pl.u_values[-1] * MM:g} mm, "
            f"{pl.v_name} {pl.v_values[0] * MM:g}…{pl.v_values[-1] * MM:g} mm")
-    title = f"{res.machine}: {pl.name} (machine frame), {rng}\na, b, c = {ori}{tool}"
+    frame = getattr(res, "frame", {}).get("frame", "machine")
+    title = f"{res.machine}: {pl.name} ({frame} frame), {rng}\na, b, c = {ori}{tool}"
     edges = res.touching_edges()
     if edges:
         title += f"\nwarning: the window clips the admissible region at {', '.join(edges)}"
@@ -155,7 +156,8 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
                    scalar_bar_args={"title": quantity_title(results[0], name), "vertical": True,
                                     "position_x": 0.87, "position_y": 0.2, "height": 0.6, "fmt": "%.4g"})
     add_sketch(p, machine, reference_pose, opacity=0.9)
-    p.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", grid=False, location="outer", font_size=10)
+    p.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", grid=False, location="outer", font_size=12,
+                  n_xlabels=3, n_ylabels=3, n_zlabels=3, fmt="%.0f")
     p.add_text(f"{results[0].machine}: {name} on three section planes", position="upper_left", font_size=11,
                color="black")
     p.set_background("white")
