@@ -153,12 +153,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     # ---------------------------------------------------------------------------------------------- figures
     from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
 
-    mode_figs = [plot_mode_shape(base["machine"], POSE, out / f"f_mode{k + 1}.png", mode=k + 1)
+    # the figures take machine-frame poses; POSE is given in the report frame
+    pose_b = to_machine_frame(base["machine"], POSE, "report")
+    mode_figs = [plot_mode_shape(base["machine"], pose_b, out / f"f_mode{k + 1}.png", mode=k + 1)
                  for k in range(N_MODES)]
-    fe_mode1 = plot_mode_shape(fe["machine"], POSE, out / "f_mode1_fe_joints.png", mode=1)
+    fe_mode1 = plot_mode_shape(fe["machine"], to_machine_frame(fe["machine"], POSE, "report"),
+                               out / "f_mode1_fe_joints.png", mode=1)
     gif = None
     if not args.fast:
-        gif = animate_mode_shape(base["machine"], POSE, out / "f_mode1.gif", mode=1, frames=16)
+        gif = animate_mode_shape(base["machine"], pose_b, out / "f_mode1.gif", mode=1, frames=16)
     fig_weak = plot_weak_points(res, out / "f_weak_points.png")
     sw.lap("figures")
 
