@@ -20,10 +20,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from pkmstiff import load_machine  # noqa: E402
-from pkmstiff.calibration import default_plan, error_model, hemisphere_plan, identifiability, simulate_readings  # noqa: E402
-from pkmstiff.calibration.identification import identify  # noqa: E402
-from pkmstiff.calibration.uncertainty import uncertainty  # noqa: E402
+from pkmstiff import load_machine
+from pkmstiff.calibration import default_plan, error_model, hemisphere_plan, identifiability, simulate_readings
+from pkmstiff.calibration.identification import identify
+from pkmstiff.calibration.uncertainty import uncertainty
 
 TARGETS = {1000: 1.0, 10000: 5.0}
 

@@ -123,7 +123,7 @@ def test_global_stage_then_polish_matches_lm(felix):
 
 def test_predictions_invariant_under_gauge_freedoms(felix):
     m, params, plan, base = felix
-    true, y = _noisy(felix, 13)
+    _, y = _noisy(felix, 13)
     res = identify(m, params, plan, y, "lm")
     y0 = simulate_readings(m, params, res.delta, plan)
     eps = 1e-5  # 10 µm along a gauge direction
@@ -155,7 +155,7 @@ def test_coverage_of_95_percent_intervals(felix):
     for _ in range(200):
         y = J @ x_true + rng.normal(0, 1e-6, J.shape[0])
         x = np.linalg.lstsq(J, y, rcond=None)[0]
-        Sigma, s, dof = covariance(J, y - J @ x)
+        Sigma, _, _ = covariance(J, y - J @ x)
         hits += int(np.sum(np.abs(x - x_true) <= t * np.sqrt(np.diag(Sigma))))
         total += base.size
     assert 0.92 <= hits / total <= 0.98
@@ -176,7 +176,7 @@ def test_uncertainty_monte_carlo_matches_sigma(felix):
 
 
 def test_robust_loss_and_outlier_report(felix):
-    m, params, plan, base = felix
+    m, params, plan, _ = felix
     true, y = _noisy(felix, 19)
     y[40, 0] += 60e-6  # one gross outlier (60 × noise)
     ls = identify(m, params, plan, y, "lm")

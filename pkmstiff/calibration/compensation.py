@@ -55,7 +55,7 @@ def provenance(res: Identification, unc: Uncertainty | None = None, measurement:
            "n_readings": res.n_readings, "condition_number": float(res.condition_number),
            "rms_before_um": r0["rms_um"], "rms_after_um": r1["rms_um"], "max_before_um": r0["max_abs_um"],
            "max_after_um": r1["max_abs_um"], "s_um": noise_estimate(res.residual_after, res.rank) * 1e6,
-           "date": date or _dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+           "date": date or _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
            "toolkit_version": pkmstiff.__version__, "scaling": res.scaling,
            "gauge_freedoms": [g.label() for g in res.gauge_freedoms]}
     if measurement is not None:

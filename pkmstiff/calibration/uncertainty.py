@@ -75,7 +75,7 @@ def covariance(J: np.ndarray, r: np.ndarray, rank: int | None = None) -> tuple[n
     if m <= rank:
         raise CalibrationError(f"{m} readings for {rank} identified parameters: no degrees of freedom are left to "
                                "estimate the noise; measure more poses")
-    U, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
     if sv[-1] <= sv[0] * 1e-13 * max(m, n):
         raise CalibrationError("the Jacobian of the identified parameters is rank deficient; identify the base "
                                "parameters only (their gauge freedoms fixed)")

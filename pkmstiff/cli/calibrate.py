@@ -125,6 +125,8 @@ def add_commands(sub) -> None:
         add(csub)
     p.set_defaults(func=lambda args: (p.print_help(), 0)[1])
 
-from pkmstiff.cli.calibrate_identify import SUBCOMMANDS as _IDENTIFY_COMMANDS  # noqa: E402 (identify, check)
+from pkmstiff.cli.calibrate_identify import (
+    SUBCOMMANDS as _IDENTIFY_COMMANDS,  # identify, check (after SUBCOMMANDS exists)
+)
 
 SUBCOMMANDS.update(_IDENTIFY_COMMANDS)
