@@ -136,6 +136,10 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["calibrate", "identifiability", "felix", "--instrument", "ballbar", "--plan", "missing.toml"], 2,
          "missing.toml"),
         (["calibrate", "identifiability", "felix", "--instrument", "ballbar", "--plan", "{nonutf8}"], 2, "UTF-8"),
+        (["calibrate", "identify", "felix", "--measurements", "missing.csv"], 2, "missing.csv"),
+        (["calibrate", "identify", "felix", "--measurements", "{nonutf8}"], 2, "UTF-8"),
+        (["calibrate", "identify", "felix", "--measurements", "{file}", "--method", "bogus"], 2, "--method"),
+        (["calibrate", "check", "felix", "--measurements", "missing.csv"], 2, "missing.csv"),
     ],
     "mechanism": [
         (["mechanism", "solve", "no_such", "--drives", "1"], 2, "no_such"),

@@ -124,3 +124,9 @@ def add_commands(sub) -> None:
     for add in SUBCOMMANDS.values():
         add(csub)
     p.set_defaults(func=lambda args: (p.print_help(), 0)[1])
+
+from pkmstiff.cli.calibrate_identify import (
+    SUBCOMMANDS as _IDENTIFY_COMMANDS,  # identify, check (after SUBCOMMANDS exists)
+)
+
+SUBCOMMANDS.update(_IDENTIFY_COMMANDS)

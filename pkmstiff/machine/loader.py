@@ -24,7 +24,7 @@ from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machi
 from pkmstiff.units import InputError, parse_quantity
 
 _TOP_KEYS = {"format_version", "machine", "limits", "tool", "joint_types", "guides", "chain_defaults", "chains",
-             "hull", "components", "machine_components", "assumptions", "options"}
+             "hull", "components", "machine_components", "assumptions", "options", "calibration"}
 _MACHINE_KEYS = {"name", "title", "type", "source", "extends", "gravity", "transmission_weight", "notes",
                  "report_origin", "report_origin_note", "transmission_form"}
 TRANSMISSION_FORMS = ("inverse_sqrt_kappa", "inverse_kappa")
@@ -211,8 +211,54 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
         machine_components={k: str(v) for k, v in mcomp.items()}, assumptions=dict(assumptions),
         source=str(mtab.get("source", "")), path=src, built_components=built,
         report_origin=report_origin, report_origin_note=str(mtab.get("report_origin_note", "")),
-        transmission_form=tform,
+        transmission_form=tform, calibration=_calibration(raw.get("calibration"), src),
     )
+
+
+#: [calibration] provenance block of a calibrated machine file (written by ``pkmstiff calibrate identify``):
+#: key -> kind of value
+_CALIBRATION_KEYS = {"nominal_machine": "str", "measurement_file": "str", "measurement_sha256": "sha256",
+                     "method": "str", "loss": "str", "rank": "count", "n_readings": "count",
+                     "condition_number": "number", "rms_before_um": "number", "rms_after_um": "number",
+                     "max_before_um": "number", "max_after_um": "number", "s_um": "number", "date": "str",
+                     "toolkit_version": "str", "scaling": "str", "gauge_freedoms": "strings", "identified": "table",
+                     "sigma": "table"}
+
+
+def _calibration(tab: Any, src: str) -> dict[str, Any]:
+    """Validate the ``[calibration]`` provenance table (keys above; ``identified``/``sigma``: parameter name ->
+    quantity such as "0.012 mm"; σ must be non-negative). Returns it as a plain dict ({} when absent)."""
+    if tab is None:
+        return {}
+    check_keys(tab, _CALIBRATION_KEYS, src, "calibration.", error=MachineFileError)
+    for key, value in tab.items():
+        kind, k = _CALIBRATION_KEYS[key], f"calibration.{key}"
+        if kind == "str" and not isinstance(value, str):
+            raise MachineFileError(src, k, "a string", value)
+        if kind == "sha256" and not (isinstance(value, str) and len(value) == 64
+                                     and all(c in "0123456789abcdef" for c in value)):
+            raise MachineFileError(src, k, "a SHA-256 hex digest (64 lower-case hex digits)", value)
+        if kind == "count" and not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
+            raise MachineFileError(src, k, "a non-negative integer", value)
+        if kind == "number" and not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                                     and value >= 0 and np.isfinite(value)):
+            raise MachineFileError(src, k, "a non-negative finite number", value)
+        if kind == "strings" and not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
+            raise MachineFileError(src, k, "a list of strings", value)
+        if kind == "table":
+            if not isinstance(value, dict):
+                raise MachineFileError(src, k, "a table parameter name = quantity", value)
+            for name, q in value.items():
+                if not isinstance(q, str):
+                    raise MachineFileError(src, f"{k}.{name}", "a quantity with its unit, e.g. \"0.012 mm\"", q)
+                try:
+                    unit = "rad" if any(u in q for u in ("rad", "deg")) else "m"
+                    v = parse_quantity(q, unit, source=src, key=f"{k}.{name}")
+                except InputError:
+                    raise MachineFileError(src, f"{k}.{name}", "a length or angle with its unit", q) from None
+                if key == "sigma" and v < 0:
+                    raise MachineFileError(src, f"{k}.{name}", "a non-negative standard deviation", q)
+    return dict(tab)
 
 
 def _limits(tab: Any, src: str) -> Limits:

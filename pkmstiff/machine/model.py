@@ -167,6 +167,8 @@ class Machine:
     transmission_form: str = "inverse_sqrt_kappa"
     # component instances built on load: name -> (raw parameter table it was built from, instance)
     built_components: dict[str, tuple[dict, Any]] = field(default_factory=dict, compare=False, repr=False)
+    # provenance of a calibrated machine file (its [calibration] table, validated on load; empty otherwise)
+    calibration: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
     def kind(self) -> ChainKind:

@@ -1,0 +1,188 @@
+"""Compensation: the calibrated machine file, residual checks of any machine file against a measurement, and the
+TCP error of a controller model on a real machine (issue 17 item 3; Szatmári §5.4; Denkena §1.3, Table 1).
+
+The calibrated machine is a machine file that ``extends`` the nominal one with the identified chain geometry
+(:func:`~pkmstiff.calibration.perturb.machine_file_text`) and a ``[calibration]`` provenance table (validated by
+the machine loader). The corrected inverse kinematics is then simply the calibrated machine's IK. Set-up
+parameters (ball offset, fixed ball, ...) belong to the measurement, not to the machine, and are not written.
+
+Check (validation on any data): the readings are predicted as the machine under test moving to the drive values
+the *nominal* controller commanded for the measurement's poses (the controller that took the measurement), with
+the nominal instrument set-up of the measurement file.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats
+from pkmstiff.calibration.instruments import Setup, readings
+from pkmstiff.calibration.measurement import commanded_drives
+from pkmstiff.calibration.perturb import machine_file_text
+from pkmstiff.calibration.plans import Plan
+from pkmstiff.calibration.uncertainty import Uncertainty
+from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
+from pkmstiff.kinematics.rotation import cardan_matrix
+from pkmstiff.machine import Machine
+
+
+def file_sha256(path: str | Path) -> str:
+    """SHA-256 hex digest of a file's bytes (the measurement file of the provenance block)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def _q(value: float, unit: str) -> str:
+    return f'"{value * 1e3:.9g} mm"' if unit == "m" else f'"{value * 1e3:.9g} mrad"'
+
+
+def provenance(res: Identification, unc: Uncertainty | None = None, measurement: str | Path | None = None,
+               date: str | None = None) -> dict:
+    """The ``[calibration]`` table of a calibrated machine file (units in the key names or values)."""
+    import pkmstiff
+
+    r0, r1 = residual_stats(res.residual_before), residual_stats(res.residual_after)
+    out = {"nominal_machine": res.machine.name, "method": res.method, "loss": res.loss, "rank": res.rank,
+           "n_readings": res.n_readings, "condition_number": float(res.condition_number),
+           "rms_before_um": r0["rms_um"], "rms_after_um": r1["rms_um"], "max_before_um": r0["max_abs_um"],
+           "max_after_um": r1["max_abs_um"], "s_um": noise_estimate(res.residual_after, res.rank) * 1e6,
+           "date": date or _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+           "toolkit_version": pkmstiff.__version__, "scaling": res.scaling,
+           "gauge_freedoms": [g.label() for g in res.gauge_freedoms]}
+    if measurement is not None:
+        out["measurement_file"] = str(Path(measurement).name)
+        out["measurement_sha256"] = file_sha256(measurement)
+    out["identified"] = {nm: float(res.delta[i]) for nm, i in zip(res.base_names, res.base)}
+    if unc is not None:
+        out["sigma"] = {nm: float(s) for nm, s in zip(unc.names, unc.sigma)}
+    return out
+
+
+def _toml_scalar(v: object) -> str:
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return repr(v) if np.isfinite(v) else "1e308"
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_scalar(x) for x in v) + "]"
+    raise TypeError(type(v))
+
+
+def calibrated_machine_text(res: Identification, unc: Uncertainty | None = None,
+                            measurement: str | Path | None = None, name: str | None = None,
+                            date: str | None = None) -> str:
+    """TOML of the calibrated machine: ``extends`` the nominal machine, the identified chain geometry and the
+    ``[calibration]`` provenance block (identified values and σ as quantities in mm / mrad)."""
+    machine, params = res.machine, res.params
+    delta = res.delta.copy()
+    delta[params.chain < 0] = 0.0  # set-up errors belong to the measurement, not to the machine
+    text = machine_file_text(machine, params, delta, name=name or machine.name + "_calibrated",
+                             title=machine.title + " (calibrated)")
+    prov = provenance(res, unc, measurement, date)
+    lines = [text.rstrip("\n"), "", "[calibration]"]
+    for k, v in prov.items():
+        if k not in ("identified", "sigma"):
+            lines.append(f"{k} = {_toml_scalar(v)}")
+    for table in ("identified", "sigma"):
+        if table in prov:
+            lines += ["", f"[calibration.{table}]"]
+            for nm, v in prov[table].items():
+                lines.append(f'"{nm}" = {_q(v, params.units[params.index(nm)])}')
+    return "\n".join(lines) + "\n"
+
+
+def write_calibrated_machine(path: str | Path, res: Identification, unc: Uncertainty | None = None,
+                             measurement: str | Path | None = None, name: str | None = None) -> Path:
+    p = Path(path)
+    p.write_text(calibrated_machine_text(res, unc, measurement, name), encoding="utf-8")
+    return p
+
+
+def moved_poses(real: Machine, drives: np.ndarray, start: np.ndarray, tol: float = 1e-13) -> np.ndarray:
+    """Poses (N, 6) ``real`` reaches for drive values (N, n), forward kinematics started at ``start`` (N, 6)."""
+    fk = forward_kinematics(real, drives, start, tol_q=tol, tol_x=tol)
+    if not fk.converged.all():
+        raise CalibrationError(f"machine '{real.name}': the forward kinematics did not converge for "
+                               f"{int((~fk.converged).sum())} poses; is the machine file the one measured?")
+    return fk.poses
+
+
+def predicted_readings(machine: Machine, controller: Machine, plan: Plan) -> np.ndarray:
+    """Readings (N, k) predicted by ``machine`` for the drive values ``controller`` commands for the plan's poses
+    (nominal set-up of the plan)."""
+    x = as_poses(plan.poses)
+    reached = moved_poses(machine, commanded_drives(controller, x), x)
+    R = cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
+    Rc = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
+    return readings(plan.setup, plan.setup.state(), reached[:, :3], R, Rc)
+
+
+@dataclass(frozen=True)
+class Check:
+    """Residuals y_meas − y_predicted (m, flattened) of a machine file against a measurement."""
+
+    machine: str
+    controller: str
+    residual: np.ndarray
+
+    def to_dict(self) -> dict:
+        return {"machine": self.machine, "controller": self.controller, "n_readings": int(self.residual.size),
+                **residual_stats(self.residual)}
+
+
+def check(machine: Machine, controller: Machine, plan: Plan, measured: np.ndarray) -> Check:
+    """Residuals of ``machine`` against readings ``measured`` (N, k) taken with ``controller`` commanding
+    ``plan`` (validation of a calibrated machine on data not used for identification)."""
+    y = np.asarray(measured, dtype=float).reshape(plan.n_poses, -1)
+    if y.shape[1] != plan.setup.n_readings:
+        raise CalibrationInputError(plan.name, "readings", f"{plan.setup.n_readings} readings per pose",
+                                    y.shape[1])
+    return Check(machine.name, controller.name, (y - predicted_readings(machine, controller, plan)).reshape(-1))
+
+
+def tcp_errors(real: Machine, controller: Machine, poses: np.ndarray, point: np.ndarray | None = None) -> np.ndarray:
+    """Position errors (N,) in m of a platform point (default: the pose origin, PKS) when ``controller``'s inverse
+    kinematics commands ``poses`` and the ``real`` machine moves (compensation = controller is the calibrated
+    machine; Denkena Table 1)."""
+    x = as_poses(poses)
+    ik = inverse_kinematics(controller, x)
+    if not ik.all_reachable.all():
+        raise CalibrationError(f"machine '{controller.name}' cannot reach every pose of the plan")
+    reached = moved_poses(real, ik.drive, x)
+    v = np.zeros(3) if point is None else np.asarray(point, dtype=float)
+    R = cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
+    Rc = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
+    return np.linalg.norm(reached[:, :3] + R @ v - x[:, :3] - Rc @ v, axis=1)
+
+
+def setup_from_ballbar(meas: object) -> Setup:
+    """Nominal ball-bar set-up of a :class:`~pkmstiff.calibration.measurement_file.BallbarMeasurement`."""
+    return Setup("ballbar", target=meas.ball_offset, fixed_ball=meas.fixed_ball, bar_length=meas.bar_length,
+                 measuring_range=max(abs(meas.range[0]), abs(meas.range[1])))
+
+
+def measurement_plan(meas: object, machine_name: str, source: str) -> tuple[Plan, np.ndarray]:
+    """Plan (commanded poses + nominal set-up) and readings (N, 1) in m (the full ball distance: the file's
+    reading + bar length) of a ball-bar measurement taken on the machine ``machine_name``; a file of another
+    machine or without commanded poses is a one-line error saying what to do."""
+    if meas.machine and meas.machine != machine_name.split(":")[0]:
+        raise CalibrationInputError(source, "machine", f"a measurement taken on '{machine_name}' (give the machine "
+                                    f"the file was measured on, '{meas.machine}', or the right file)", meas.machine)
+    if meas.poses is None:
+        raise CalibrationInputError(source, "x_mm ... c_deg", "the commanded pose columns (identification needs the "
+                                    "commanded poses; export them with the readings)", "drive columns only")
+    plan = Plan(f"measurement {Path(source).name}", setup_from_ballbar(meas), np.asarray(meas.poses, dtype=float))
+    return plan, (np.asarray(meas.reading, dtype=float) + meas.bar_length)[:, None]

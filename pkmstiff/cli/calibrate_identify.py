@@ -1,0 +1,142 @@
+"""``pkmstiff calibrate identify`` and ``pkmstiff calibrate check`` (issue 17 items 1–3): identification from a
+ball-bar measurement file, uncertainty, the calibrated machine file, and residuals of any machine file against a
+measurement. Registered in :data:`pkmstiff.cli.calibrate.SUBCOMMANDS`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+
+def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
+                    out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
+                    outlier_threshold: float = 3.0, instrument: str = "ballbar") -> dict:
+    """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict."""
+    from pkmstiff.calibration import error_model
+    from pkmstiff.calibration.compensation import measurement_plan, write_calibrated_machine
+    from pkmstiff.calibration.identification import identify
+    from pkmstiff.calibration.measurement_file import read_measurement
+    from pkmstiff.calibration.uncertainty import uncertainty
+    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.machine import load_machine
+
+    if instrument != "ballbar":
+        raise CalibrationInputError(measurements, "instrument", "ballbar (measurement files hold ball-bar readings)",
+                                    instrument)
+    machine = load_machine(machine_name)
+    meas = read_measurement(measurements)
+    plan, y = measurement_plan(meas, machine.name, measurements)
+    params = error_model(machine, frame=frame, setup=plan.setup)
+    res = identify(machine, params, plan, y, method, loss=loss, outlier_threshold=outlier_threshold,
+                   source=measurements)
+    unc = uncertainty(res, monte_carlo=monte_carlo)
+    rep = res.to_dict()
+    rep["measurement_file"] = measurements
+    rep["uncertainty"] = unc.to_dict()
+    if out:
+        write_calibrated_machine(out, res, unc, measurements)
+        rep["calibrated_machine_file"] = out
+    return rep
+
+
+def _print_identify(rep: dict) -> None:
+    b, a = rep["residual_before"], rep["residual_after"]
+    print(f"{rep['machine']}: {rep['n_readings']} readings from {rep['measurement_file']}, method {rep['method']} "
+          f"(loss {rep['loss']}), {rep['iterations']} evaluations")
+    print(f"identified {rep['rank']} base parameters of {rep['n_parameters']} (condition number "
+          f"{rep['condition_number'] or float('inf'):.4g}); scaling: {rep['scaling']}")
+    if rep["gauge_freedoms"]:
+        print("held fixed (gauge freedoms): " + "; ".join(rep["gauge_freedoms"]))
+    print(f"residual RMS {b['rms_um']:.4g} -> {a['rms_um']:.4g} um, max {b['max_abs_um']:.4g} -> "
+          f"{a['max_abs_um']:.4g} um")
+    sig = {p["name"]: p for p in rep["uncertainty"]["parameters"]}
+    for row in rep["identified"]:
+        key = "value_mm" if "value_mm" in row else "value_mrad"
+        s = sig[row["name"]]
+        skey = "sigma_um" if "sigma_um" in s else "sigma_urad"
+        unit = "mm" if key == "value_mm" else "mrad"
+        print(f"  {row['name']:32s} {row[key]:+.6f} {unit}  sigma {s[skey] * 1e-3:.3g} {unit}")
+    c = rep["uncertainty"]["max_correlation"]
+    print(f"largest correlation: {c['value']:.3f} ({' / '.join(c['pair'])})")
+    if rep["outliers"]:
+        print(f"outliers (|r| > threshold x s): {len(rep['outliers'])}, first at pose {rep['outliers'][0]['pose']}")
+    if "calibrated_machine_file" in rep:
+        print(f"calibrated machine written to {rep['calibrated_machine_file']}")
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    rep = identify_report(args.machine, args.measurements, args.method, args.loss, args.out, args.monte_carlo,
+                          args.frame, args.outlier_threshold, args.instrument)
+    if args.json:
+        print(json.dumps(rep, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o)))
+    else:
+        _print_identify(rep)
+    return 0
+
+
+def check_report(machine_name: str, measurements: str, controller: str | None = None) -> dict:
+    """Residuals of a machine file against a measurement (JSON-ready dict, µm)."""
+    from pkmstiff.calibration.compensation import check, measurement_plan
+    from pkmstiff.calibration.measurement_file import read_measurement
+    from pkmstiff.machine import load_machine
+
+    machine = load_machine(machine_name)
+    meas = read_measurement(measurements)
+    ctrl_name = controller or machine.calibration.get("nominal_machine") or meas.machine or machine_name
+    ctrl = load_machine(ctrl_name)
+    plan, y = measurement_plan(meas, ctrl.name, measurements)
+    return {"measurement_file": measurements, **check(machine, ctrl, plan, y).to_dict()}
+
+
+def _cmd_check(args: argparse.Namespace) -> int:
+    rep = check_report(args.machine, args.measurements, args.controller)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        print(f"{rep['machine']} against {rep['measurement_file']} ({rep['n_readings']} readings, commanded by "
+              f"{rep['controller']}): residual RMS {rep['rms_um']:.4g} um, max {rep['max_abs_um']:.4g} um, "
+              f"mean {rep['mean_um']:.4g} um")
+    return 0
+
+
+def _add_identify(sub) -> None:
+    from pkmstiff.calibration.identification import LOSSES, METHODS
+    from pkmstiff.cli.calibrate import _run
+
+    p = sub.add_parser("identify", help="identify the base parameters from a measurement",
+                       description="Identify the machine's base error parameters from a ball-bar measurement "
+                                   "(Szatmari 4.6): Gauss-Newton, Levenberg-Marquardt, minimax (eq. 4.12) or a "
+                                   "global stage with LM polish; sigma and correlations; optionally the "
+                                   "calibrated machine file.")
+    p.add_argument("machine", help="nominal machine (bundled name or machine file)")
+    p.add_argument("--measurements", required=True, metavar="MEAS.csv", help="ball-bar measurement file")
+    p.add_argument("--method", choices=METHODS, default="lm")
+    p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
+    p.add_argument("--out", metavar="CALIBRATED.toml", help="write the calibrated machine file")
+    p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check with N runs")
+    p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
+    p.add_argument("--instrument", default="ballbar", help="instrument of the measurement (ballbar)")
+    p.add_argument("--outlier-threshold", type=float, default=3.0, metavar="K",
+                   help="report readings with |residual| > K s (default 3)")
+    p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.set_defaults(func=_run(_cmd_identify))
+
+
+def _add_check(sub) -> None:
+    from pkmstiff.cli.calibrate import _run
+
+    p = sub.add_parser("check", help="residuals of a machine file against a measurement",
+                       description="Residuals of any machine file against a measurement: the readings it predicts "
+                                   "for the drive values the nominal controller commanded.")
+    p.add_argument("machine", help="machine file or bundled name (e.g. a calibrated machine)")
+    p.add_argument("--measurements", required=True, metavar="MEAS.csv")
+    p.add_argument("--controller", help="machine whose IK commanded the measurement (default: the nominal machine "
+                                        "of a calibrated file, else the file's machine)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_run(_cmd_check))
+
+
+SUBCOMMANDS = {"identify": _add_identify, "check": _add_check}
