@@ -32,11 +32,13 @@ from pkmstiff.units import parse_quantity
 
 @dataclass(frozen=True)
 class Segment:
-    """A labelled run of consecutive poses of a plan (e.g. one circle)."""
+    """A labelled run of consecutive poses of a plan (e.g. one circle); ``kind`` "path" (a continuous path,
+    sampled at the instrument's rate when simulated) or "points" (static poses, one reading each)."""
 
     label: str
     start: int
     stop: int
+    kind: str = "path"
 
 
 @dataclass(frozen=True)
@@ -65,7 +67,7 @@ class Plan:
         if not _same_setup(self.setup, other.setup):
             raise CalibrationInputError(self.name, "setup", "plans with the same instrument set-up", other.name)
         off = self.n_poses
-        segs = self.segments + tuple(Segment(s.label, s.start + off, s.stop + off) for s in other.segments)
+        segs = self.segments + tuple(Segment(s.label, s.start + off, s.stop + off, s.kind) for s in other.segments)
         return Plan(name or f"{self.name} + {other.name}", self.setup, np.vstack([self.poses, other.poses]), segs)
 
 
@@ -169,7 +171,7 @@ def grid_plan(setup: Setup, centre: np.ndarray, half_width: float, points: int =
     D = np.tile(torsion * (k - 1.0), len(X))
     R = tilt_torsion_matrix(np.full(len(P), tilt), L, D)
     label = name or f"grid {points}^3 ±{half_width * 1e3:g} mm"
-    return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, len(P)),))
+    return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, len(P), "points"),))
 
 
 # --------------------------------------------------------------------------------------------------- checking
@@ -363,7 +365,7 @@ def read_plan(path: str | Path) -> Plan:
                 raise CalibrationInputError(src, pre + "angles", f"{len(pos)} rows like positions",
                                             f"{len(ang)} rows")
             lab = label or f"poses ({len(pos)})"
-            part = Plan(lab, setup, np.c_[pos, ang], (Segment(lab, 0, len(pos)),))
+            part = Plan(lab, setup, np.c_[pos, ang], (Segment(lab, 0, len(pos), "points"),))
         plan = part if plan is None else plan.concat(part)
     assert plan is not None
     return Plan(str(pt.get("name", Path(src).stem)), setup, plan.poses, plan.segments)

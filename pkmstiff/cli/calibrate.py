@@ -116,6 +116,14 @@ def _add_identifiability(sub) -> None:
 SUBCOMMANDS: dict[str, Callable] = {"identifiability": _add_identifiability}
 
 
+def _simulation_commands() -> dict[str, Callable]:
+    from pkmstiff.cli.calibrate_sim import SUBCOMMANDS as sim  # simulate, plan (issue 16)
+    return sim
+
+
+SUBCOMMANDS.update(_simulation_commands())
+
+
 def add_commands(sub) -> None:
     p = sub.add_parser("calibrate", help="kinematic calibration: identifiability (more to come)",
                        description="Kinematic calibration of parallel machines (Szatmari 2007, Denkena et al. "
