@@ -144,4 +144,114 @@ def _add_simulate(sub) -> None:
     p.set_defaults(func=_run(_cmd_simulate))
 
 
-SUBCOMMANDS: dict[str, Callable] = {"simulate": _add_simulate}
+def plan_command(args: argparse.Namespace) -> dict:
+    """Everything ``calibrate plan`` does; writes the optimised plan and returns the JSON-ready summary."""
+    from pathlib import Path
+
+    from pkmstiff.calibration import default_plan, error_model, read_plan
+    from pkmstiff.calibration.instruments import check_instrument
+    from pkmstiff.calibration.planning import (
+        HemisphereSpec,
+        objective_label,
+        optimise_hemisphere,
+        optimise_pose_set,
+        plan_toml,
+        start_nodes,
+    )
+    from pkmstiff.errors import CalibrationError, CalibrationInputError
+    from pkmstiff.machine import load_machine
+
+    check_instrument(args.instrument)
+    machine = load_machine(args.machine)
+    for key in ("starts", "iterations", "nodes", "points"):
+        if getattr(args, key) < 1:
+            raise CalibrationInputError(f"--{key}", key, "a positive integer", getattr(args, key))
+    max_tilt = np.radians(args.max_tilt)
+    if args.instrument == "ballbar":
+        if args.start:
+            raise CalibrationInputError("--start", "start", "no start plan for a ball bar (the hemisphere path of "
+                                        "the default plan is used; its nodes are optimised)", args.start)
+        d = default_plan(machine, "ballbar")
+        side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
+        spec = HemisphereSpec(d.setup, n=args.points, turns=args.turns, side=side, max_tilt=max_tilt,
+                              max_torsion=max_tilt)
+        params = error_model(machine, frame=args.frame)
+        res = None
+        for f in (0.6, 0.3, 0.15):  # a start whose every pose is admissible (tilt reduced until it is)
+            nodes0 = start_nodes(args.nodes, f * max_tilt, 0.25 * f * max_tilt)
+            try:
+                res = optimise_hemisphere(machine, params, spec, nodes0, args.objective, starts=args.starts,
+                                          seed=args.seed, max_iter=args.iterations)
+                break
+            except CalibrationError:
+                continue
+        if res is None:
+            raise CalibrationError(f"machine '{machine.name}': no admissible start hemisphere path with "
+                                   f"{args.nodes} nodes up to {args.max_tilt:g} deg tilt")
+        text = plan_toml(res.best_plan, f"{machine.name} hemisphere, optimised ({args.objective})",
+                         f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}",
+                         hemisphere=spec, nodes=res.best.x)
+    else:
+        plan0 = read_plan(args.start) if args.start else default_plan(machine, args.instrument)
+        if plan0.instrument != args.instrument:
+            raise CalibrationInputError(args.start, "plan.instrument", f"'{args.instrument}'", plan0.instrument)
+        params = error_model(machine, frame=args.frame, setup=plan0.setup)
+        res = optimise_pose_set(machine, params, plan0, args.objective, starts=args.starts, seed=args.seed,
+                                max_iter=args.iterations, max_tilt=max_tilt)
+        text = plan_toml(res.best_plan, f"{machine.name} pose set, optimised ({args.objective})",
+                         f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}")
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(text, encoding="utf-8")
+    lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
+    start = objective_label(args.objective, res.start_value)
+    return {"machine": machine.name, "instrument": args.instrument, "objective": args.objective,
+            "out": str(args.out), "seed": args.seed, "starts": args.starts,
+            f"start_{lab}": start,
+            f"best_{lab}": objective_label(args.objective, res.best.value),
+            "distinct_optima": [{lab: objective_label(args.objective, o.value), "start": o.start,
+                                 "iterations": o.iterations} for o in res.distinct],
+            "lower_is_better": not args.objective.startswith("O")}
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    rep = plan_command(args)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+        return 0
+    lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
+    a, b = rep[f"start_{lab}"], rep[f"best_{lab}"]
+    better = "lower" if rep["lower_is_better"] else "higher"
+    print(f"{rep['machine']}, {rep['instrument']}: {lab} {a:.6g} (start plan) -> {b:.6g} (best of "
+          f"{rep['starts']} starts, seed {rep['seed']}; {better} is better) -> {rep['out']}")
+    print(f"distinct optima ({len(rep['distinct_optima'])}): "
+          + ", ".join(f"{o[lab]:.6g} (start {o['start']})" for o in rep["distinct_optima"]))
+    return 0
+
+
+def _add_plan(sub) -> None:
+    from pkmstiff.calibration.planning import OBJECTIVES
+
+    p = sub.add_parser("plan", help="optimise a measurement plan (hemisphere nodes or a pose set)",
+                       description="Ball bar: optimise the orientation nodes (B, L, D) of the hemisphere path "
+                                   "(Szatmari 4.4.3, eq. 4.8). Tracker / pose: optimise the poses of a pose set "
+                                   "(Denkena Gl. 90-92). Gradient method with Armijo steps on a barrier-augmented "
+                                   "objective, admissibility as constraints, seeded multi-start.")
+    p.add_argument("machine", help="bundled machine name or machine file")
+    p.add_argument("--instrument", required=True, choices=("ballbar", "tracker", "pose"))
+    p.add_argument("--objective", default="orthogonality", choices=OBJECTIVES,
+                   help="cond (min), orthogonality (largest entry, min; eq. 4.8), O1..O5 (max)")
+    p.add_argument("--out", required=True, help="plan file (TOML) to write")
+    p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
+    p.add_argument("--nodes", type=int, default=6, help="orientation nodes of the hemisphere path (default 6)")
+    p.add_argument("--points", type=int, default=240, help="poses of the hemisphere path (default 240)")
+    p.add_argument("--turns", type=float, default=4.0, help="turns of the hemisphere spiral (default 4)")
+    p.add_argument("--max-tilt", type=float, default=20.0, help="largest tilt B and torsion in deg (default 20)")
+    p.add_argument("--starts", type=int, default=3, help="optimiser starts (default 3)")
+    p.add_argument("--iterations", type=int, default=10, help="gradient iterations per start (default 10)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the starts (default 0)")
+    p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_run(_cmd_plan))
+
+
+SUBCOMMANDS: dict[str, Callable] = {"simulate": _add_simulate, "plan": _add_plan}
