@@ -6,8 +6,16 @@ import pytest
 
 import pkmstiff
 from pkmstiff.calibration import Plan, Segment, check_plan, default_plan, error_model, read_plan
-from pkmstiff.calibration.planning import (HemisphereSpec, armijo_minimise, optimise_hemisphere, optimise_pendulum,
-                                           optimise_pose_set, pendulum_cond, plan_objective, start_nodes)
+from pkmstiff.calibration.planning import (
+    HemisphereSpec,
+    armijo_minimise,
+    optimise_hemisphere,
+    optimise_pendulum,
+    optimise_pose_set,
+    pendulum_cond,
+    plan_objective,
+    start_nodes,
+)
 from pkmstiff.cli import main
 
 
