@@ -61,12 +61,14 @@ def _noise(text: str) -> str | float:
 
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
+    from pkmstiff.admissibility import evaluate_poses
     from pkmstiff.calibration import check_plan, read_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
         InstrumentModel,
         SimulationOptions,
         range_error,
+        sample_plan,
         simulate,
         to_measurement,
     )
@@ -79,14 +81,23 @@ def simulate_command(args: argparse.Namespace) -> dict:
         raise CalibrationInputError(args.plan, "plan.instrument", "a ball-bar plan (the measurement CSV is a "
                                     "ball-bar file)", plan.instrument)
     check_plan(machine, plan)
-    inst = InstrumentModel(sample_rate=args.sample_rate, range=(-args.range * 1e-3, args.range * 1e-3),
+    rng = plan.setup.measuring_range if args.range is None else args.range * 1e-3
+    inst = InstrumentModel(sample_rate=args.sample_rate, range=(-rng, rng),
                            resolution=args.resolution * 1e-6, accuracy=args.accuracy * 1e-6)
     dirs = tuple(d.strip() for d in args.directions.split(",") if d.strip())
     opts = SimulationOptions(feed=args.feed / 60e3, directions=dirs, noise=_noise(args.noise),
                              quantise=not args.no_quantise, backlash=args.backlash * 1e-6, drift_dT=args.drift,
                              drift_tau=args.drift_tau, seed=args.seed)
     params, delta = read_errors(args.errors, machine, plan)
-    res = simulate(machine, params, delta, plan, inst, opts)
+    smp = sample_plan(plan, inst, opts)
+    ev = evaluate_poses(machine, smp.poses)  # the poses between the plan's nodes, too
+    bad = np.flatnonzero(~ev.ok)
+    if bad.size:
+        i = int(bad[0])
+        raise CalibrationError(f"plan '{plan.name}': {bad.size} of {len(smp.poses)} sampled poses not admissible on "
+                               f"{machine.name}, first sample {i + 1} (t = {smp.t[i]:.3f} s): "
+                               f"{', '.join(ev.admissibility.failing(i))}")
+    res = simulate(machine, params, delta, plan, inst, opts, samples=smp)
     msg = range_error(plan, res, inst)
     if msg and not args.saturate:
         raise CalibrationError(msg + " (use --saturate to write them clipped at the range limits)")
@@ -134,7 +145,8 @@ def _add_simulate(sub) -> None:
                    help="thermal warm-up of the struts in K (Assumption: steel, first order; default 0)")
     p.add_argument("--drift-tau", type=float, default=1800.0, help="warm-up time constant in s (default 1800)")
     p.add_argument("--sample-rate", type=float, default=250.0, help="instrument sample rate in Hz (default 250)")
-    p.add_argument("--range", type=float, default=1.0, help="instrument range +- in mm (default 1)")
+    p.add_argument("--range", type=float, default=None,
+                   help="instrument range +- in mm (default: the plan's measuring_range, 1 mm for a QC10)")
     p.add_argument("--resolution", type=float, default=0.1, help="resolution in um (default 0.1)")
     p.add_argument("--accuracy", type=float, default=0.5, help="accuracy +- in um (default 0.5)")
     p.add_argument("--no-quantise", action="store_true", help="do not round readings to the resolution")
