@@ -106,3 +106,14 @@ def test_plan_command_bad_input(tmp_path, capsys):
     assert code == 2 and "--nodes" in err and err.count("\n") == 1
     with pytest.raises(SystemExit):
         main(["calibrate", "plan", "felix", "--instrument", "ballbar", "--objective", "O9", "--out", "x.toml"])
+
+
+def test_plan_command_for_a_tracker_pose_set(tmp_path, capsys):
+    out = tmp_path / "t.toml"
+    code = main(["calibrate", "plan", "felix", "--instrument", "tracker", "--objective", "cond", "--poses", "4",
+                 "--starts", "1", "--iterations", "1", "--out", str(out), "--json"])
+    import json
+    rep = json.loads(capsys.readouterr().out)
+    assert code == 0 and rep["best_cond"] <= rep["start_cond"]  # Armijo steps never increase Ω + μ b
+    plan = read_plan(out)
+    assert plan.n_poses == 4 and plan.instrument == "tracker"

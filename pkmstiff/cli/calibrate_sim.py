@@ -160,7 +160,7 @@ def plan_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate plan`` does; writes the optimised plan and returns the JSON-ready summary."""
     from pathlib import Path
 
-    from pkmstiff.calibration import default_plan, error_model, read_plan
+    from pkmstiff.calibration import Plan, Segment, default_plan, error_model, read_plan
     from pkmstiff.calibration.instruments import check_instrument
     from pkmstiff.calibration.planning import (
         HemisphereSpec,
@@ -175,7 +175,7 @@ def plan_command(args: argparse.Namespace) -> dict:
 
     check_instrument(args.instrument)
     machine = load_machine(args.machine)
-    for key in ("starts", "iterations", "nodes", "points"):
+    for key in ("starts", "iterations", "nodes", "points", "poses"):
         if getattr(args, key) < 1:
             raise CalibrationInputError(f"--{key}", key, "a positive integer", getattr(args, key))
     max_tilt = np.radians(args.max_tilt)
@@ -205,6 +205,10 @@ def plan_command(args: argparse.Namespace) -> dict:
                          hemisphere=spec, nodes=res.best.x)
     else:
         plan0 = read_plan(args.start) if args.start else default_plan(machine, args.instrument)
+        if not args.start:  # a subset of the default grid: the gradient costs 12 plan evaluations per pose
+            idx = np.unique(np.linspace(0, plan0.n_poses - 1, min(args.poses, plan0.n_poses)).round().astype(int))
+            plan0 = Plan(f"{plan0.name}, {len(idx)} poses", plan0.setup, plan0.poses[idx],
+                         (Segment("poses", 0, len(idx), "points"),))
         if plan0.instrument != args.instrument:
             raise CalibrationInputError(args.start, "plan.instrument", f"'{args.instrument}'", plan0.instrument)
         params = error_model(machine, frame=args.frame, setup=plan0.setup)
@@ -254,6 +258,8 @@ def _add_plan(sub) -> None:
                    help="cond (min), orthogonality (largest entry, min; eq. 4.8), O1..O5 (max)")
     p.add_argument("--out", required=True, help="plan file (TOML) to write")
     p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
+    p.add_argument("--poses", type=int, default=12,
+                   help="tracker/pose without --start: poses taken from the default grid (default 12)")
     p.add_argument("--nodes", type=int, default=6, help="orientation nodes of the hemisphere path (default 6)")
     p.add_argument("--points", type=int, default=240, help="poses of the hemisphere path (default 240)")
     p.add_argument("--turns", type=float, default=4.0, help="turns of the hemisphere spiral (default 4)")
