@@ -273,7 +273,7 @@ def optimise_hemisphere(machine: Machine, params: ParameterSet, spec: Hemisphere
     runs, f0 = multistart(f, nodes0.ravel(), sample, starts, seed, barrier=barrier, feasible=feasible,
                           step_max=step_max, max_iter=max_iter, h=1e-5, mu=mu)
     start_value = f0
-    distinct = _distinct(runs)
+    distinct = _distinct(runs, rtol=1e-6)  # entries of O near 1 differ in the 4th to 6th digit
     best = spec.plan(distinct[0].x, name=f"hemisphere, optimised nodes ({objective})")
     return PlanOptimisation(objective, start_value, runs, distinct, best)
 
@@ -335,7 +335,7 @@ def optimise_pose_set(machine: Machine, params: ParameterSet, plan0: Plan, objec
         raise CalibrationError(f"plan '{plan0.name}': start pose set tilts beyond {np.degrees(max_tilt):g} deg")
     runs, f0 = multistart(f, x0, sample, starts, seed, barrier=barrier, feasible=feasible, step_max=step_max,
                           max_iter=max_iter, h=1e-6, mu=mu)
-    distinct = _distinct(runs)
+    distinct = _distinct(runs, rtol=1e-6)  # entries of O near 1 differ in the 4th to 6th digit
     return PlanOptimisation(objective, f0, runs, distinct, mk(distinct[0].x, f"pose set, optimised ({objective})"))
 
 
