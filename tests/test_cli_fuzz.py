@@ -140,6 +140,12 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["calibrate", "identify", "felix", "--measurements", "{nonutf8}"], 2, "UTF-8"),
         (["calibrate", "identify", "felix", "--measurements", "{file}", "--method", "bogus"], 2, "--method"),
         (["calibrate", "check", "felix", "--measurements", "missing.csv"], 2, "missing.csv"),
+        (["calibrate", "simulate", "felix", "--plan", "missing.toml", "--errors", "e.toml", "--out", "m.csv"], 2,
+         "missing.toml"),
+        (["calibrate", "simulate", "felix", "--plan", "{nonutf8}", "--errors", "e.toml", "--out", "m.csv"], 2, "UTF-8"),
+        (["calibrate", "plan", "felix", "--instrument", "ballbar", "--objective", "bogus", "--out", "p.toml"], 2,
+         "--objective"),
+        (["calibrate", "plan", "no_such", "--instrument", "ballbar", "--out", "p.toml"], 2, "no_such"),
     ],
     "mechanism": [
         (["mechanism", "solve", "no_such", "--drives", "1"], 2, "no_such"),

@@ -39,13 +39,16 @@ def check_instrument(instrument: str, source: str = "--instrument") -> str:
 @dataclass(frozen=True)
 class Setup:
     """Nominal instrument set-up: ``target`` v in the PKS (m); ball bar: ``fixed_ball`` s_7 in the MKS (m) and
-    the nominal ``bar_length`` (m); ``measuring_range`` (m) about it (QC10: ±1 mm)."""
+    the nominal ``bar_length`` (m); ``measuring_range`` (m) about it (QC10: ±1 mm); ``max_mount_angle`` (rad,
+    optional) the largest angle between the bar (moving ball → fixed ball) and the tool axis that the magnetic
+    cup permits (Szatmári §4.4.3, collision check; no value given there, so unchecked unless set)."""
 
     instrument: str
     target: np.ndarray = field(default_factory=lambda: np.zeros(3))
     fixed_ball: np.ndarray | None = None
     bar_length: float | None = None
     measuring_range: float = BALLBAR_RANGE
+    max_mount_angle: float | None = None
 
     def __post_init__(self) -> None:
         check_instrument(self.instrument, "setup")

@@ -32,11 +32,13 @@ from pkmstiff.units import parse_quantity
 
 @dataclass(frozen=True)
 class Segment:
-    """A labelled run of consecutive poses of a plan (e.g. one circle)."""
+    """A labelled run of consecutive poses of a plan (e.g. one circle); ``kind`` "path" (a continuous path,
+    sampled at the instrument's rate when simulated) or "points" (static poses, one reading each)."""
 
     label: str
     start: int
     stop: int
+    kind: str = "path"
 
 
 @dataclass(frozen=True)
@@ -65,7 +67,7 @@ class Plan:
         if not _same_setup(self.setup, other.setup):
             raise CalibrationInputError(self.name, "setup", "plans with the same instrument set-up", other.name)
         off = self.n_poses
-        segs = self.segments + tuple(Segment(s.label, s.start + off, s.stop + off) for s in other.segments)
+        segs = self.segments + tuple(Segment(s.label, s.start + off, s.stop + off, s.kind) for s in other.segments)
         return Plan(name or f"{self.name} + {other.name}", self.setup, np.vstack([self.poses, other.poses]), segs)
 
 
@@ -105,22 +107,68 @@ def poses_for_target(positions: np.ndarray, R: np.ndarray, target: np.ndarray) -
 _PLANES = {"XY": (0, 1), "XZ": (0, 2), "YZ": (1, 2)}
 
 
-def circle_positions(centre: np.ndarray, radius: float, plane: str, n: int) -> np.ndarray:
-    if plane not in _PLANES:
-        raise CalibrationInputError("plan", "plane", "XY, XZ or YZ", plane)
+def plane_axes(plane: str | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """In-plane unit vectors (e1, e2) of a circle plane: "XY", "XZ", "YZ" (e1, e2 along the named axes) or a
+    normal vector n (e1 = the projection of x, or of y when n ∥ x, onto the plane; e2 = n × e1, so the circle runs
+    counter-clockwise about n)."""
+    E = np.eye(3)
+    if isinstance(plane, str):
+        if plane not in _PLANES:
+            raise CalibrationInputError("plan", "plane", "XY, XZ, YZ or a normal vector", plane)
+        i, j = _PLANES[plane]
+        return E[i], E[j]
+    n = np.asarray(plane, dtype=float).reshape(3)
+    if not np.linalg.norm(n) > 0:
+        raise CalibrationInputError("plan", "normal", "a non-zero normal vector", n.tolist())
+    n = n / np.linalg.norm(n)
+    ref = E[0] if abs(n[0]) < 0.9 else E[1]
+    e1 = ref - (ref @ n) * n
+    e1 /= np.linalg.norm(e1)
+    return e1, np.cross(n, e1)
+
+
+def circle_positions(centre: np.ndarray, radius: float, plane: str | np.ndarray, n: int) -> np.ndarray:
+    """``n`` points on a circle (counter-clockwise from e1, see :func:`plane_axes`)."""
+    e1, e2 = plane_axes(plane)
     t = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
-    i, j = _PLANES[plane]
-    P = np.tile(np.asarray(centre, dtype=float), (n, 1))
-    P[:, i] += radius * np.cos(t)
-    P[:, j] += radius * np.sin(t)
-    return P
+    return np.asarray(centre, dtype=float) + radius * (np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2)
 
 
-def circle_plan(setup: Setup, plane: str = "XY", n: int = 72, centre: np.ndarray | None = None,
+def spline_orientations(nodes: np.ndarray, s: np.ndarray, periodic: bool) -> np.ndarray:
+    """Orientation schedule (len(s), 3) of B, L, D [rad] from ``nodes`` (k, 3) at equally spaced parameters in
+    [0, 1] (periodic: [0, 1) and closed) interpolated by cubic splines (Szatmári §4.4.3: a continuous, smooth
+    measuring motion between the optimised orientation nodes). One node: constant; two or three: a spline of
+    the highest order they allow. L and D are unwrapped (consecutive nodes, and for a closed path the last and
+    the first, differ by at most 180°), so a schedule may turn the tilt azimuth once around a circle."""
+    from scipy.interpolate import CubicSpline, make_interp_spline
+
+    nodes = np.atleast_2d(np.asarray(nodes, dtype=float))
+    if nodes.ndim != 2 or nodes.shape[1] != 3 or not np.all(np.isfinite(nodes)):
+        raise CalibrationInputError("plan", "nodes", "orientation nodes (k, 3): B, L, D", nodes.shape)
+    k = len(nodes)
+    if k == 1:
+        return np.repeat(nodes, len(s), axis=0)
+    if periodic:
+        u = np.linspace(0.0, 1.0, k + 1)
+        ext = np.vstack([nodes, nodes[:1]])
+        ext[:, 1:] = np.unwrap(ext[:, 1:], axis=0)
+        wind = ext[-1] - ext[0]  # 2π w for L and D (whole turns), 0 for B
+        base = CubicSpline(u, ext - np.outer(u, wind), bc_type="periodic")
+        sm = np.mod(s, 1.0)
+        return base(sm) + np.outer(sm, wind)
+    nodes = nodes.copy()
+    nodes[:, 1:] = np.unwrap(nodes[:, 1:], axis=0)
+    u = np.linspace(0.0, 1.0, k)
+    return make_interp_spline(u, nodes, k=min(3, k - 1))(s)
+
+
+def circle_plan(setup: Setup, plane: str | np.ndarray = "XY", n: int = 72, centre: np.ndarray | None = None,
                 radius: float | None = None, tilt: float = 0.0, tilt_azimuth: float = 0.0, torsion: float = 0.0,
-                name: str | None = None) -> Plan:
-    """A circle of the target point (ball bar: centred on the fixed ball with the bar length as radius) at a
-    constant orientation (tilt B, azimuth L, torsion D in rad; untilted by default, Szatmári Fig. 4.15/4.16)."""
+                name: str | None = None, nodes: np.ndarray | None = None) -> Plan:
+    """A circle of the target point (ball bar: centred on the fixed ball with the bar length as radius) in a
+    named plane or the plane of a normal vector, at a constant orientation (tilt B, azimuth L, torsion D in rad;
+    untilted by default, Szatmári Fig. 4.15/4.16) or with a tilt schedule: orientation ``nodes`` (k, 3) of B, L, D
+    at k equally spaced circle angles from e1, interpolated by periodic cubic splines."""
     if centre is None:
         if setup.fixed_ball is None:
             raise CalibrationInputError("plan", "centre", "a circle centre (no fixed ball in the set-up)", None)
@@ -129,14 +177,19 @@ def circle_plan(setup: Setup, plane: str = "XY", n: int = 72, centre: np.ndarray
     if radius is None or not radius > 0:
         raise CalibrationInputError("plan", "radius", "a positive circle radius", radius)
     P = circle_positions(np.asarray(centre, float), float(radius), plane, int(n))
-    R = tilt_torsion_matrix(np.full(n, tilt), np.full(n, tilt_azimuth), np.full(n, torsion))
-    label = name or f"circle {plane} r={radius * 1e3:g} mm"
+    if nodes is None:
+        R = tilt_torsion_matrix(np.full(n, tilt), np.full(n, tilt_azimuth), np.full(n, torsion))
+    else:
+        BLD = spline_orientations(nodes, np.arange(n) / n, periodic=True)
+        R = tilt_torsion_matrix(BLD[:, 0], BLD[:, 1], BLD[:, 2])
+    pname = plane if isinstance(plane, str) else "n=(" + ", ".join(f"{v:g}" for v in np.ravel(plane)) + ")"
+    label = name or f"circle {pname} r={radius * 1e3:g} mm"
     return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, n),))
 
 
 def hemisphere_plan(setup: Setup, n: int = 360, turns: float = 4.0, polar: tuple[float, float] = (np.radians(10),
                     np.radians(80)), tilt: float = np.radians(20), torsion: float = np.radians(15),
-                    side: float = 1.0, name: str | None = None) -> Plan:
+                    side: float = 1.0, name: str | None = None, nodes: np.ndarray | None = None) -> Plan:
     """Szatmári's hemisphere path (§4.4, Fig. 4.23): the moving ball on a sphere of the bar length about the fixed
     ball, along a spiral from polar angle ``polar[0]`` to ``polar[1]`` (from the pole of the side ``side`` = +1
     above, −1 below the fixed ball) over ``turns`` turns; the platform tilted towards the direction of travel
@@ -144,7 +197,11 @@ def hemisphere_plan(setup: Setup, n: int = 360, turns: float = 4.0, polar: tuple
     (Assumption: this smooth orientation schedule as the default start path; the thesis optimises the orientation
     nodes, issue "Calibration 2"). A constant tilt towards the direction of travel is a poor choice: it leaves the
     combination "platform joints along z' + cos B · base joints along z" unseen (the ball then moves normal to the
-    bar), which :func:`pkmstiff.calibration.identifiability.identifiability` reports."""
+    bar), which :func:`pkmstiff.calibration.identifiability.identifiability` reports.
+
+    ``nodes`` (k, 3): orientation nodes B, L, D [rad] (absolute, calibration.md §1 reading) at k equally spaced
+    values of the path parameter, interpolated by cubic splines (Szatmári §4.4.3); they replace the default
+    schedule. The simulation runs the path at constant feed (:mod:`pkmstiff.calibration.simulation`)."""
     if setup.instrument != "ballbar":
         raise CalibrationInputError("plan", "instrument", "a ball-bar set-up for a hemisphere path", setup.instrument)
     s = np.linspace(0.0, 1.0, int(n))
@@ -152,7 +209,11 @@ def hemisphere_plan(setup: Setup, n: int = 360, turns: float = 4.0, polar: tuple
     az = 2 * np.pi * turns * s
     dirs = np.c_[np.sin(pol) * np.cos(az), np.sin(pol) * np.sin(az), side * np.cos(pol)]
     P = setup.fixed_ball + setup.bar_length * dirs
-    R = tilt_torsion_matrix(tilt * np.abs(np.sin(2.5 * az)), az + np.pi / 2, torsion * np.sin(3 * az))
+    if nodes is None:
+        R = tilt_torsion_matrix(tilt * np.abs(np.sin(2.5 * az)), az + np.pi / 2, torsion * np.sin(3 * az))
+    else:
+        BLD = spline_orientations(nodes, s, periodic=False)
+        R = tilt_torsion_matrix(BLD[:, 0], BLD[:, 1], BLD[:, 2])
     label = name or f"hemisphere r={setup.bar_length * 1e3:g} mm"
     return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, int(n)),))
 
@@ -169,7 +230,7 @@ def grid_plan(setup: Setup, centre: np.ndarray, half_width: float, points: int =
     D = np.tile(torsion * (k - 1.0), len(X))
     R = tilt_torsion_matrix(np.full(len(P), tilt), L, D)
     label = name or f"grid {points}^3 ±{half_width * 1e3:g} mm"
-    return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, len(P)),))
+    return Plan(label, setup, poses_for_target(P, R, setup.target), (Segment(label, 0, len(P), "points"),))
 
 
 # --------------------------------------------------------------------------------------------------- checking
@@ -195,6 +256,19 @@ def check_plan(machine: Machine, plan: Plan, max_list: int = 3) -> None:
                                f"{machine.name}: " + "; ".join(items) + more)
     if plan.instrument == "ballbar":
         R = cardan_matrix(poses[:, 3], poses[:, 4], poses[:, 5])
+        if plan.setup.max_mount_angle is not None:
+            m = poses[:, :3] + np.einsum("nij,j->ni", R, plan.setup.target)
+            bar = plan.setup.fixed_ball - m
+            axis = np.einsum("nij,j->ni", R, machine.tool.axis)
+            cos = np.einsum("ni,ni->n", bar, axis) / np.linalg.norm(bar, axis=1) / np.linalg.norm(axis, axis=1)
+            ang = np.arccos(np.clip(cos, -1.0, 1.0))
+            off = np.flatnonzero(ang > plan.setup.max_mount_angle)
+            if off.size:
+                i = int(off[0])
+                raise CalibrationError(
+                    f"plan '{plan.name}': {off.size} of {len(poses)} poses tilt the ball bar beyond the cup's "
+                    f"{np.degrees(plan.setup.max_mount_angle):g} deg to the tool axis, first pose {i + 1} "
+                    f"{_fmt_pose(poses[i])} at {np.degrees(ang[i]):.1f} deg")
         r = readings(plan.setup, plan.setup.state(), poses[:, :3], R, R)[:, 0]
         off = np.flatnonzero(np.abs(r - plan.setup.bar_length) > plan.setup.measuring_range)
         if off.size:
@@ -290,10 +364,14 @@ def default_plan(machine: Machine, instrument: str) -> Plan:
 
 _PLAN_KEYS = {"plan", "setup", "paths"}
 _PLAN_TABLE = {"name", "instrument", "description"}
-_SETUP_KEYS = {"target", "fixed_ball", "bar_length", "measuring_range"}
-_PATH_KEYS = {"circle": {"kind", "label", "plane", "points", "centre", "radius", "tilt", "tilt_azimuth", "torsion"},
-              "hemisphere": {"kind", "label", "points", "turns", "polar_min", "polar_max", "tilt", "torsion", "side"},
+_SETUP_KEYS = {"target", "fixed_ball", "bar_length", "measuring_range", "max_mount_angle"}
+_PATH_KEYS = {"circle": {"kind", "label", "plane", "normal", "points", "centre", "radius", "tilt", "tilt_azimuth",
+                         "torsion", "nodes"},
+              "hemisphere": {"kind", "label", "points", "turns", "polar_min", "polar_max", "tilt", "torsion", "side",
+                             "nodes"},
+              "grid": {"kind", "label", "centre", "half_width", "points", "tilt", "torsion"},
               "poses": {"kind", "label", "positions", "angles"}}
+_KINDS = "circle, hemisphere, grid or poses"
 
 
 def read_plan(path: str | Path) -> Plan:
@@ -326,7 +404,9 @@ def read_plan(path: str | Path) -> Plan:
     if instrument == "ballbar":
         setup = Setup("ballbar", target=target, fixed_ball=q(st, "fixed_ball", "m", "setup.", shape=(3,)),
                       bar_length=q(st, "bar_length", "m", "setup.", positive=True),
-                      measuring_range=q(st, "measuring_range", "m", "setup.", 1e-3, positive=True))
+                      measuring_range=q(st, "measuring_range", "m", "setup.", 1e-3, positive=True),
+                      max_mount_angle=(q(st, "max_mount_angle", "rad", "setup.", positive=True)
+                                       if "max_mount_angle" in st else None))
     else:
         setup = Setup(instrument, target=target)
     paths = raw.get("paths")
@@ -335,15 +415,24 @@ def read_plan(path: str | Path) -> Plan:
     plan: Plan | None = None
     for i, p in enumerate(paths):
         pre = f"paths[{i + 1}]."
-        kind = require(p, "kind", src, pre, "circle, hemisphere or poses", CalibrationInputError) \
-            if isinstance(p, dict) else None
+        kind = require(p, "kind", src, pre, _KINDS, CalibrationInputError) if isinstance(p, dict) else None
         if kind not in _PATH_KEYS:
-            raise CalibrationInputError(src, pre + "kind", "circle, hemisphere or poses", kind)
+            raise CalibrationInputError(src, pre + "kind", _KINDS, kind)
         check_keys(p, _PATH_KEYS[kind], src, pre, CalibrationInputError)
         label = p.get("label")
+        nodes = q(p, "nodes", "rad", pre, shape=(None, 3)) if "nodes" in p else None
+        if nodes is not None and len(nodes) < 1:
+            raise CalibrationInputError(src, pre + "nodes", "at least one [B, L, D] node", "an empty list")
         if kind == "circle":
             n = int(q(p, "points", "dimensionless", pre, 72.0, positive=True))
-            part = circle_plan(setup, plane=str(p.get("plane", "XY")), n=n,
+            if "normal" in p and "plane" in p:
+                raise CalibrationInputError(src, pre + "normal", "either plane or normal", "both")
+            plane = q(p, "normal", "dimensionless", pre, shape=(3,)) if "normal" in p else str(p.get("plane", "XY"))
+            if not isinstance(plane, str) and not np.linalg.norm(plane) > 0:
+                raise CalibrationInputError(src, pre + "normal", "a non-zero normal vector", plane.tolist())
+            if isinstance(plane, str) and plane not in _PLANES:
+                raise CalibrationInputError(src, pre + "plane", "XY, XZ or YZ (or a normal vector)", plane)
+            part = circle_plan(setup, plane=plane, n=n, nodes=nodes,
                                centre=q(p, "centre", "m", pre, setup.fixed_ball, (3,)),
                                radius=q(p, "radius", "m", pre, setup.bar_length, positive=True),
                                tilt=q(p, "tilt", "rad", pre, 0.0), tilt_azimuth=q(p, "tilt_azimuth", "rad", pre, 0.0),
@@ -355,7 +444,14 @@ def read_plan(path: str | Path) -> Plan:
                                           q(p, "polar_max", "rad", pre, np.radians(80))),
                                    tilt=q(p, "tilt", "rad", pre, np.radians(20)),
                                    torsion=q(p, "torsion", "rad", pre, np.radians(15)),
-                                   side=q(p, "side", "dimensionless", pre, 1.0), name=label)
+                                   side=q(p, "side", "dimensionless", pre, 1.0), name=label, nodes=nodes)
+        elif kind == "grid":
+            part = grid_plan(setup, q(p, "centre", "m", pre, setup.fixed_ball if setup.fixed_ball is not None
+                                      else np.zeros(3), (3,)),
+                             q(p, "half_width", "m", pre, positive=True),
+                             points=int(q(p, "points", "dimensionless", pre, 3.0, positive=True)),
+                             tilt=q(p, "tilt", "rad", pre, np.radians(10)),
+                             torsion=q(p, "torsion", "rad", pre, np.radians(10)), name=label)
         else:
             pos = q(p, "positions", "m", pre, shape=(None, 3))
             ang = q(p, "angles", "rad", pre, np.zeros_like(pos), shape=(None, 3))
@@ -363,7 +459,7 @@ def read_plan(path: str | Path) -> Plan:
                 raise CalibrationInputError(src, pre + "angles", f"{len(pos)} rows like positions",
                                             f"{len(ang)} rows")
             lab = label or f"poses ({len(pos)})"
-            part = Plan(lab, setup, np.c_[pos, ang], (Segment(lab, 0, len(pos)),))
+            part = Plan(lab, setup, np.c_[pos, ang], (Segment(lab, 0, len(pos), "points"),))
         plan = part if plan is None else plan.concat(part)
     assert plan is not None
     return Plan(str(pt.get("name", Path(src).stem)), setup, plan.poses, plan.segments)
@@ -373,6 +469,19 @@ def setup_state(plan: Plan) -> SetupState:
     return plan.setup.state()
 
 
-__all__: Sequence[str] = ("Plan", "Segment", "check_plan", "circle_plan", "default_plan", "default_setup",
-                          "grid_plan", "hemisphere_plan", "poses_for_target", "read_plan", "tilt_torsion_matrix",
-                          "workspace_centre")
+__all__: Sequence[str] = (
+    "Plan",
+    "Segment",
+    "check_plan",
+    "circle_plan",
+    "default_plan",
+    "default_setup",
+    "grid_plan",
+    "hemisphere_plan",
+    "plane_axes",
+    "poses_for_target",
+    "read_plan",
+    "spline_orientations",
+    "tilt_torsion_matrix",
+    "workspace_centre",
+)

@@ -112,21 +112,19 @@ def _add_identifiability(sub) -> None:
     p.set_defaults(func=_run(_cmd_identifiability))
 
 
-#: calibrate sub-commands: name -> parser builder (later: simulate, plan, identify, check, report)
-SUBCOMMANDS: dict[str, Callable] = {"identifiability": _add_identifiability}
+def subcommands() -> dict[str, Callable]:
+    """The ``calibrate`` sub-commands, name -> parser builder, in the order a calibration runs."""
+    from pkmstiff.cli.calibrate_identify import SUBCOMMANDS as identify  # identify, check (issue 17)
+    from pkmstiff.cli.calibrate_sim import SUBCOMMANDS as simulation  # simulate, plan (issue 16)
+
+    return {"identifiability": _add_identifiability, **simulation, **identify}
 
 
 def add_commands(sub) -> None:
-    p = sub.add_parser("calibrate", help="kinematic calibration: identifiability (more to come)",
+    p = sub.add_parser("calibrate", help="kinematic calibration: identifiability, planning, simulation, identification",
                        description="Kinematic calibration of parallel machines (Szatmari 2007, Denkena et al. "
                                    "2008). Units on the command line: mm and degrees.")
     csub = p.add_subparsers(dest="calibrate_command", metavar="SUBCOMMAND")
-    for add in SUBCOMMANDS.values():
+    for add in subcommands().values():
         add(csub)
     p.set_defaults(func=lambda args: (p.print_help(), 0)[1])
-
-from pkmstiff.cli.calibrate_identify import (
-    SUBCOMMANDS as _IDENTIFY_COMMANDS,  # identify, check (after SUBCOMMANDS exists)
-)
-
-SUBCOMMANDS.update(_IDENTIFY_COMMANDS)

@@ -1,6 +1,6 @@
 """``pkmstiff calibrate identify`` and ``pkmstiff calibrate check`` (issue 17 items 1–3): identification from a
 ball-bar measurement file, uncertainty, the calibrated machine file, and residuals of any machine file against a
-measurement. Registered in :data:`pkmstiff.cli.calibrate.SUBCOMMANDS`.
+measurement. Registered in :func:`pkmstiff.cli.calibrate.subcommands`.
 """
 
 from __future__ import annotations

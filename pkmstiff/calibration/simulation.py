@@ -1,0 +1,366 @@
+"""Simulated ball-bar (and tracker / pose) measurements with an instrument model (Szatmári §4.3, Tab. 4.3–4.5).
+
+Chain of effects per sample (all SI):
+
+1. the plan's paths are sampled at the instrument's rate at a constant feed (continuous measurement, Szatmári
+   §4.3.3.2); static point sets give one sample per pose after a dwell time;
+2. commanded pose → nominal IK → forward kinematics of the machine with errors Δp (:mod:`.measurement`);
+3. drive-space disturbances, moving the reached platform frame to first order through the inverse Jacobian
+   (twist = J_C⁻¹⁺ Δq; the reading is then evaluated exactly):
+   reversal backlash Δq_i = −b/2 · sign(q̇_i) (the drive lags by half the backlash in its direction of motion;
+   Szatmári §4.3.3.1, Fig. 4.12, Tab. 4.6) and slow thermal strut growth
+   Δl_i(t) = α · l_i · ΔT (1 − exp(−t/τ)) — **Assumption** (no source gives a thermal model): a first-order
+   warm-up of every strut by ΔT with time constant τ, steel α = 11.5e-6 /K; a pod's strut growth acts as a drive
+   offset, a glide's as Δq_i = Δl_i · |d_i| / (d_i · r_i);
+4. white noise (σ from the instrument accuracy or the feed-dependent procedure uncertainty of Tab. 4.5) and
+   quantisation to the resolution; range violations are reported.
+
+**Assumption:** the ±0.5 µm accuracy and the Tab. 4.5 procedure uncertainties are read as 2σ bounds (k = 2), i.e.
+σ = accuracy / 2 resp. U(feed) / 2, with U interpolated linearly in the feed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from pkmstiff.calibration.instruments import Setup, readings, target_points
+from pkmstiff.calibration.measurement import reached_poses
+from pkmstiff.calibration.parameters import ParameterSet
+from pkmstiff.calibration.perturb import perturbed_state
+from pkmstiff.calibration.plans import Plan, poses_for_target
+from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics
+from pkmstiff.kinematics.rotation import cardan_matrix
+from pkmstiff.machine import Machine
+
+#: Szatmári Tab. 4.5: uncertainty of the whole measuring procedure on Felix vs. path feed (mm/min -> µm)
+TAB_4_5_FEED = np.array([0.0, 100.0, 500.0, 1000.0, 2000.0]) / 60e3  # m/s
+TAB_4_5_UNCERTAINTY = np.array([15.0, 22.0, 22.0, 36.0, 54.0]) * 1e-6  # m
+NOISE_MODELS = ("none", "instrument", "procedure")
+STEEL_ALPHA = 11.5e-6  # 1/K, Assumption: steel struts
+
+
+@dataclass(frozen=True)
+class InstrumentModel:
+    """A ball-bar class instrument (defaults: QC10, Szatmári Tab. 4.3): ``sample_rate`` [Hz], reading ``range``
+    (lo, hi) about the nominal bar length [m], ``resolution`` and ``accuracy`` [m]; the procedure uncertainty
+    table U(feed) (Tab. 4.5) as ``procedure_feed`` [m/s] / ``procedure_uncertainty`` [m]."""
+
+    name: str = "QC10"
+    sample_rate: float = 250.0
+    range: tuple[float, float] = (-1e-3, 1e-3)
+    resolution: float = 0.1e-6
+    accuracy: float = 0.5e-6
+    procedure_feed: tuple[float, ...] = tuple(TAB_4_5_FEED)
+    procedure_uncertainty: tuple[float, ...] = tuple(TAB_4_5_UNCERTAINTY)
+
+    def __post_init__(self) -> None:
+        for key in ("sample_rate", "resolution", "accuracy"):
+            v = getattr(self, key)
+            if not (np.isfinite(v) and v >= 0) or (key == "sample_rate" and v <= 0):
+                raise CalibrationInputError("instrument", key, "a positive number", v)
+        if not self.range[0] < 0 < self.range[1]:
+            raise CalibrationInputError("instrument", "range", "lo < 0 < hi (m, about the bar length)", self.range)
+
+    def uncertainty(self, feed: np.ndarray | float) -> np.ndarray:
+        """Procedure uncertainty U(feed) [m] (Tab. 4.5, linear interpolation, constant beyond the table)."""
+        return np.interp(np.abs(feed), self.procedure_feed, self.procedure_uncertainty)
+
+    def sigma(self, noise: str | float, feed: np.ndarray | float) -> np.ndarray:
+        """White-noise standard deviation [m]: ``none``, ``instrument`` (accuracy / 2), ``procedure`` (U / 2) or
+        a number (σ in m)."""
+        f = np.asarray(feed, dtype=float)
+        if isinstance(noise, str):
+            if noise == "none":
+                return np.zeros_like(f)
+            if noise == "instrument":
+                return np.full_like(f, self.accuracy / 2.0)
+            if noise == "procedure":
+                return self.uncertainty(f) / 2.0
+            raise CalibrationInputError("--noise", "noise", f"one of {', '.join(NOISE_MODELS)} or a σ", noise)
+        return np.full_like(f, float(noise))
+
+
+@dataclass(frozen=True)
+class SimulationOptions:
+    """How the measurement is run: path ``feed`` [m/s] (default 500 mm/min, Szatmári's quasi-static limit for
+    Felix, §4.3.3.2), ``directions`` ("ccw", "cw" or both, "cw" being the plan's paths reversed), ``noise`` (see
+    :meth:`InstrumentModel.sigma`), ``quantise`` to the resolution, ``backlash`` b [m] per drive, thermal drift
+    ``drift_dT`` [K] with time constant ``drift_tau`` [s] and expansion coefficient ``alpha`` [1/K] (Assumption,
+    see the module docstring), start temperature ``T0`` [°C], ``dwell`` [s] per static pose."""
+
+    feed: float = 500.0 / 60e3
+    directions: tuple[str, ...] = ("ccw", "cw")
+    noise: str | float = "instrument"
+    quantise: bool = True
+    backlash: float = 0.0
+    drift_dT: float = 0.0
+    drift_tau: float = 1800.0
+    alpha: float = STEEL_ALPHA
+    T0: float = 20.0
+    dwell: float = 1.0
+    seed: int | None = None
+
+    def __post_init__(self) -> None:
+        if not self.feed > 0:
+            raise CalibrationInputError("simulation", "feed", "a positive feed", self.feed)
+        for d in self.directions:
+            if d not in ("ccw", "cw"):
+                raise CalibrationInputError("simulation", "directions", "ccw and/or cw", d)
+        for key in ("backlash", "drift_tau", "dwell"):
+            v = getattr(self, key)
+            if not v >= 0:
+                raise CalibrationInputError("simulation", key, "a non-negative number", v)
+
+
+@dataclass
+class Samples:
+    """The sampled measurement: commanded poses (N, 6), time [s], feed [m/s] (0 for static), direction labels,
+    segment index per sample."""
+
+    poses: np.ndarray
+    t: np.ndarray
+    feed: np.ndarray
+    direction: np.ndarray
+    segment: np.ndarray
+
+
+@dataclass
+class SimulationResult:
+    """Simulated readings (N, k) [m, rad] with the samples; ``violations`` are sample indices whose ball-bar
+    reading leaves the instrument range; ``sigma`` the noise σ per sample [m]; ``temperature`` [°C]."""
+
+    samples: Samples
+    readings: np.ndarray
+    clean: np.ndarray
+    sigma: np.ndarray
+    temperature: np.ndarray
+    violations: np.ndarray
+    notes: list[str] = field(default_factory=list)
+    deviation: np.ndarray | None = None  #: ball bar: reading − bar length [m], quantised like the readings
+
+
+# --------------------------------------------------------------------------------------------------- sampling
+
+
+def _slerp_pairs(R: np.ndarray, k: np.ndarray, w: np.ndarray) -> np.ndarray:
+    rot = Rotation.from_matrix(R)
+    rel = (rot[k].inv() * rot[k + 1]).as_rotvec()
+    return (rot[k] * Rotation.from_rotvec(rel * w[:, None])).as_matrix()
+
+
+def resample_path(setup: Setup, poses: np.ndarray, step: float, closed: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Poses along a path at a constant arc-length ``step`` of the target point (m) and their arc length (m):
+    positions interpolated linearly and, for a ball bar, put back on the sphere about the fixed ball (radius
+    interpolated between the nodes), orientations by slerp. Returns (poses (M, 6), s (M,))."""
+    x = as_poses(poses)
+    if closed:
+        x = np.vstack([x, x[:1]])
+    R = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
+    P = target_points(setup.state(), x[:, :3], R)
+    ds = np.linalg.norm(np.diff(P, axis=0), axis=1)
+    s = np.r_[0.0, np.cumsum(ds)]
+    if len(x) < 2 or s[-1] <= 0:
+        return x[:1].copy(), np.zeros(1)
+    sq = np.arange(0.0, s[-1] * (1 - 1e-12), step) if not closed else np.arange(0.0, s[-1] - 0.5 * step, step)
+    if not closed and s[-1] - sq[-1] > 1e-12:
+        sq = np.r_[sq, s[-1]]
+    k = np.clip(np.searchsorted(s, sq, side="right") - 1, 0, len(s) - 2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.where(ds[k] > 0, (sq - s[k]) / ds[k], 0.0)
+    Pq = P[k] + w[:, None] * (P[k + 1] - P[k])
+    if setup.instrument == "ballbar":
+        c = setup.fixed_ball
+        rad = np.linalg.norm(P - c, axis=1)
+        rq = rad[k] + w * (rad[k + 1] - rad[k])
+        Pq = c + (Pq - c) * (rq / np.linalg.norm(Pq - c, axis=1))[:, None]
+    Rq = _slerp_pairs(R, k, w)
+    return poses_for_target(Pq, Rq, setup.target), sq
+
+
+def _is_closed(P: np.ndarray) -> bool:
+    if len(P) < 3:
+        return False
+    step = np.median(np.linalg.norm(np.diff(P, axis=0), axis=1))
+    return bool(np.linalg.norm(P[-1] - P[0]) < 1.5 * step)
+
+
+def sample_plan(plan: Plan, instrument: InstrumentModel, options: SimulationOptions) -> Samples:
+    """The samples of a measurement along ``plan``: path segments at ``options.feed`` and the instrument's sample
+    rate (one run per direction, ``cw`` reversed), point segments one sample per pose after ``options.dwell``."""
+    step = options.feed / instrument.sample_rate
+    parts, t0 = [], 0.0
+    segs = plan.segments or ()
+    for j, seg in enumerate(segs):
+        x = plan.poses[seg.start:seg.stop]
+        if getattr(seg, "kind", "path") == "points":
+            t = t0 + options.dwell * np.arange(1, len(x) + 1)
+            parts.append((x, t, np.zeros(len(x)), np.full(len(x), "ccw"), np.full(len(x), j)))
+            t0 = t[-1]
+            continue
+        R = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
+        closed = _is_closed(target_points(plan.setup.state(), x[:, :3], R))
+        for d in options.directions:
+            xx = x if d == "ccw" else x[::-1]
+            if closed and d == "cw":
+                xx = np.roll(xx, 1, axis=0)  # the cw run starts where the ccw run started
+            q, s = resample_path(plan.setup, xx, step, closed)
+            t = t0 + s / options.feed
+            parts.append((q, t, np.full(len(q), options.feed), np.full(len(q), d), np.full(len(q), j)))
+            t0 = t[-1] + 1.0 / instrument.sample_rate
+    if not parts:
+        raise CalibrationInputError(plan.name, "segments", "at least one path or point set", 0)
+    cols = list(zip(*parts))
+    return Samples(*(np.concatenate(c) for c in cols))
+
+
+# ------------------------------------------------------------------------------------------------- disturbances
+
+
+def backlash_offsets(drives: np.ndarray, segment: np.ndarray, direction: np.ndarray, b: float) -> np.ndarray:
+    """Δq (N, n) = −b/2 · sign(q̇): the direction of motion of each drive from the commanded drive values of
+    consecutive samples of one run, held through standstill; samples before a drive's first motion in a run take
+    the sign of that first motion (loop over runs only, vectorised within a run)."""
+    out = np.zeros_like(drives)
+    if b == 0 or len(drives) == 0:
+        return out
+    cut = np.flatnonzero((segment[1:] != segment[:-1]) | (direction[1:] != direction[:-1])) + 1
+    for a, e in zip(np.r_[0, cut], np.r_[cut, len(drives)]):
+        sgn = np.sign(np.diff(drives[a:e], axis=0, prepend=drives[a:a + 1]))
+        m = len(sgn)
+        idx = np.maximum.accumulate(np.where(sgn != 0, np.arange(m)[:, None], 0), axis=0)
+        held = np.take_along_axis(sgn, idx, axis=0)
+        first = np.argmax(sgn != 0, axis=0)
+        lead = np.arange(m)[:, None] < first[None, :]
+        held = np.where(lead, sgn[first, np.arange(sgn.shape[1])][None, :], held)
+        out[a:e] = -0.5 * b * held
+    return out
+
+
+def thermal_growth(t: np.ndarray, dT: float, tau: float) -> np.ndarray:
+    """Temperature rise ΔT (1 − exp(−t/τ)) [K] (Assumption: first-order warm-up, module docstring)."""
+    if dT == 0:
+        return np.zeros_like(t)
+    return dT * (1.0 - np.exp(-t / tau)) if tau > 0 else np.full_like(t, dT)
+
+
+def drift_offsets(machine: Machine, ik, rise: np.ndarray, alpha: float) -> np.ndarray:
+    """Drive-equivalent offsets (N, n) of a strut growth Δl_i = α l_i ΔT(t): pod Δq = Δl; glide
+    Δq = Δl |d| / (d · r) (first order: the slider that keeps the grown strut's platform joint in place)."""
+    dl = alpha * ik.length * rise[:, None]
+    if ik.kind == "glide":
+        r = machine.chains.guide_direction
+        dr = np.einsum("nij,ij->ni", ik.d, r)
+        return dl * ik.length / dr
+    return dl
+
+
+def displaced_frames(o: np.ndarray, R: np.ndarray, Jinv: np.ndarray, dq: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Platform frames moved by drive offsets dq (N, n) to first order: twist (v, ω) = J_C⁻¹⁺ dq (at O'), then
+    o + v and exp(ω) R. The reading itself is then evaluated exactly (a ball bar sees a motion normal to the bar in
+    second order, which a linearised reading would lose)."""
+    tw = np.einsum("nij,nj->ni", np.linalg.pinv(Jinv), dq)
+    return o + tw[:, :3], np.einsum("nij,njk->nik", Rotation.from_rotvec(tw[:, 3:]).as_matrix(), R)
+
+
+# --------------------------------------------------------------------------------------------------- simulate
+
+
+def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Plan,
+             instrument: InstrumentModel | None = None, options: SimulationOptions | None = None,
+             samples: Samples | None = None) -> SimulationResult:
+    """Simulate a measurement along ``plan`` on ``machine`` with errors ``delta`` (module docstring)."""
+    instrument = instrument or InstrumentModel()
+    options = options or SimulationOptions()
+    delta = params.check_vector(delta)
+    smp = samples or sample_plan(plan, instrument, options)
+    x = smp.poses
+    ik = inverse_kinematics(machine, x)
+    bad = np.flatnonzero(~ik.all_reachable)
+    if bad.size:
+        raise CalibrationError(f"plan '{plan.name}': {bad.size} sampled poses unreachable by the nominal inverse "
+                               f"kinematics, first sample {int(bad[0]) + 1}")
+    reached = x if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, x)
+    o, R = reached[:, :3], cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
+    Rc = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
+    rise = thermal_growth(smp.t, options.drift_dT, options.drift_tau)
+    notes = []
+    if options.backlash > 0 or options.drift_dT != 0:
+        dq = backlash_offsets(ik.drive, smp.segment, smp.direction, options.backlash)
+        if options.drift_dT != 0:
+            dq = dq + drift_offsets(machine, ik, rise, options.alpha)
+            notes.append(f"Assumption: thermal strut growth alpha = {options.alpha:g} /K, dT = {options.drift_dT:g} K, "
+                         f"tau = {options.drift_tau:g} s")
+        if options.backlash > 0:
+            notes.append(f"reversal backlash {options.backlash * 1e6:g} um per drive")
+        o, R = displaced_frames(o, R, inverse_jacobian(machine, ik), dq)
+    clean = readings(plan.setup, perturbed_state(plan.setup, params, delta), o, R, Rc)
+    sigma = instrument.sigma(options.noise, smp.feed)
+    rng = np.random.default_rng(options.seed)
+    out = clean + (rng.standard_normal(clean.shape) * sigma[:, None] if np.any(sigma > 0) else 0.0)
+    violations, dev = np.zeros(0, dtype=int), None
+    if plan.instrument == "ballbar":
+        dev = out[:, 0] - plan.setup.bar_length
+        if options.quantise and instrument.resolution > 0:
+            dev = np.round(dev / instrument.resolution) * instrument.resolution
+            out = (plan.setup.bar_length + dev)[:, None]
+        violations = np.flatnonzero((dev < instrument.range[0]) | (dev > instrument.range[1]))
+    return SimulationResult(smp, out, clean, sigma, options.T0 + rise, violations, notes, dev)
+
+
+def range_error(plan: Plan, res: SimulationResult, instrument: InstrumentModel) -> str:
+    """The one-line report of range violations (empty when there are none)."""
+    v = res.violations
+    if not v.size:
+        return ""
+    i = int(v[0])
+    dev = (res.readings[i, 0] - plan.setup.bar_length) * 1e3
+    return (f"plan '{plan.name}': {v.size} of {len(res.readings)} simulated readings outside the {instrument.name} "
+            f"range [{instrument.range[0] * 1e3:g}, {instrument.range[1] * 1e3:g}] mm, first at sample {i + 1} "
+            f"(t = {res.samples.t[i]:.3f} s, reading {dev:+.4f} mm)")
+
+
+def to_measurement(machine: Machine, plan: Plan, res: SimulationResult, instrument: InstrumentModel,
+                   saturate: bool = False):
+    """The simulated ball-bar run as a :class:`~pkmstiff.calibration.measurement_file.BallbarMeasurement`
+    (reading = distance − bar length; ``saturate`` clips out-of-range readings at the range limits, as the
+    transducer would)."""
+    from pkmstiff.calibration.measurement_file import BallbarMeasurement
+
+    if plan.instrument != "ballbar":
+        raise CalibrationInputError(plan.name, "plan.instrument", "a ball-bar plan for a measurement CSV",
+                                    plan.instrument)
+    dev = res.readings[:, 0] - plan.setup.bar_length if res.deviation is None else res.deviation
+    if saturate:
+        dev = np.clip(dev, *instrument.range)
+    plane = plan.segments[0].label.split()[1] if plan.segments and plan.segments[0].label.startswith("circle ") \
+        and len(plan.segments) == 1 else "auto"
+    return BallbarMeasurement(bar_length=float(plan.setup.bar_length), fixed_ball=plan.setup.fixed_ball.copy(),
+                              t=res.samples.t, reading=dev, poses=res.samples.poses,
+                              feed=res.samples.feed, direction=res.samples.direction.astype(str),
+                              temperature=res.temperature, ball_offset=plan.setup.target.copy(),
+                              machine=machine.name, instrument=instrument.name, range=instrument.range,
+                              resolution=instrument.resolution, accuracy=instrument.accuracy,
+                              sample_rate=instrument.sample_rate,
+                              plane=plane if plane in ("XY", "XZ", "YZ") else "auto",
+                              notes=[f"simulated by pkmstiff from plan '{plan.name}'"] + res.notes)
+
+
+__all__ = (
+    "InstrumentModel",
+    "Samples",
+    "SimulationOptions",
+    "SimulationResult",
+    "backlash_offsets",
+    "displaced_frames",
+    "drift_offsets",
+    "range_error",
+    "resample_path",
+    "sample_plan",
+    "simulate",
+    "thermal_growth",
+    "to_measurement",
+)

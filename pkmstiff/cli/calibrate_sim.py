@@ -1,0 +1,275 @@
+"""``pkmstiff calibrate simulate`` and ``pkmstiff calibrate plan`` (registered by
+:func:`pkmstiff.cli.calibrate.subcommands`); lengths in mm, angles in degrees, feeds in mm/min on the command line, SI inside."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable
+
+import numpy as np
+
+from pkmstiff.errors import PkmstiffError
+
+
+def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+    def wrapped(args: argparse.Namespace) -> int:
+        from pkmstiff.cli import CliError
+
+        try:
+            return func(args)
+        except PkmstiffError as exc:
+            if isinstance(exc, ValueError):  # input errors: printed in one line by the CLI
+                raise
+            raise CliError(str(exc)) from None
+    return wrapped
+
+
+def read_errors(path: str | None, machine, plan):
+    """Parameter set (with every set-up block of the plan's instrument) and the error vector of an error file:
+    ``frame = "cartesian"|"cylindrical"`` (optional) and an ``[errors]`` table name = quantity."""
+    from pkmstiff.calibration import error_model, parse_errors
+    from pkmstiff.calibration.parameters import SETUP_TOKENS
+    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.io import check_keys, read_toml
+
+    blocks = tuple(b for b, inst in SETUP_TOKENS.values() if plan.instrument in inst)
+    if path is None:
+        params = error_model(machine, setup=plan.setup, setup_blocks=blocks)
+        return params, np.zeros(params.n)
+    raw = check_keys(read_toml(path, CalibrationInputError, "error file"), {"frame", "errors", "description"}, path,
+                     "", CalibrationInputError)
+    params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
+    return params, parse_errors(raw.get("errors", {}), params, source=path)
+
+
+def _noise(text: str) -> str | float:
+    from pkmstiff.calibration.simulation import NOISE_MODELS
+    from pkmstiff.errors import CalibrationInputError
+
+    if text in NOISE_MODELS:
+        return text
+    try:
+        v = float(text) * 1e-6
+    except ValueError:
+        raise CalibrationInputError("--noise", "noise", f"one of {', '.join(NOISE_MODELS)} or sigma in um",
+                                    text) from None
+    if not v >= 0:
+        raise CalibrationInputError("--noise", "noise", "a non-negative sigma in um", text)
+    return v
+
+
+def simulate_command(args: argparse.Namespace) -> dict:
+    """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
+    from pkmstiff.admissibility import evaluate_poses
+    from pkmstiff.calibration import check_plan, read_plan
+    from pkmstiff.calibration.measurement_file import write_measurement
+    from pkmstiff.calibration.simulation import (
+        InstrumentModel,
+        SimulationOptions,
+        range_error,
+        sample_plan,
+        simulate,
+        to_measurement,
+    )
+    from pkmstiff.errors import CalibrationError, CalibrationInputError
+    from pkmstiff.machine import load_machine
+
+    machine = load_machine(args.machine)
+    plan = read_plan(args.plan)
+    if plan.instrument != "ballbar":
+        raise CalibrationInputError(args.plan, "plan.instrument", "a ball-bar plan (the measurement CSV is a "
+                                    "ball-bar file)", plan.instrument)
+    check_plan(machine, plan)
+    rng = plan.setup.measuring_range if args.range is None else args.range * 1e-3
+    inst = InstrumentModel(sample_rate=args.sample_rate, range=(-rng, rng),
+                           resolution=args.resolution * 1e-6, accuracy=args.accuracy * 1e-6)
+    dirs = tuple(d.strip() for d in args.directions.split(",") if d.strip())
+    opts = SimulationOptions(feed=args.feed / 60e3, directions=dirs, noise=_noise(args.noise),
+                             quantise=not args.no_quantise, backlash=args.backlash * 1e-6, drift_dT=args.drift,
+                             drift_tau=args.drift_tau, seed=args.seed)
+    params, delta = read_errors(args.errors, machine, plan)
+    smp = sample_plan(plan, inst, opts)
+    ev = evaluate_poses(machine, smp.poses)  # the poses between the plan's nodes, too
+    bad = np.flatnonzero(~ev.ok)
+    if bad.size:
+        i = int(bad[0])
+        raise CalibrationError(f"plan '{plan.name}': {bad.size} of {len(smp.poses)} sampled poses not admissible on "
+                               f"{machine.name}, first sample {i + 1} (t = {smp.t[i]:.3f} s): "
+                               f"{', '.join(ev.admissibility.failing(i))}")
+    res = simulate(machine, params, delta, plan, inst, opts, samples=smp)
+    msg = range_error(plan, res, inst)
+    if msg and not args.saturate:
+        raise CalibrationError(msg + " (use --saturate to write them clipped at the range limits)")
+    meas = to_measurement(machine, plan, res, inst, saturate=args.saturate)
+    write_measurement(args.out, meas)
+    dev = res.readings[:, 0] - plan.setup.bar_length
+    return {"machine": machine.name, "plan": plan.name, "out": str(args.out), "n_samples": len(dev),
+            "duration_s": float(res.samples.t[-1]), "reading_min_um": float(dev.min() * 1e6),
+            "reading_max_um": float(dev.max() * 1e6), "range_violations": int(res.violations.size),
+            "noise_sigma_um": float(res.sigma.max() * 1e6), "notes": res.notes}
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    rep = simulate_command(args)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        print(f"{rep['machine']}: plan '{rep['plan']}' -> {rep['out']}: {rep['n_samples']} samples over "
+              f"{rep['duration_s']:.1f} s, readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} um "
+              f"(noise sigma {rep['noise_sigma_um']:.3g} um)"
+              + (f", {rep['range_violations']} range violations clipped" if rep["range_violations"] else ""))
+        for n in rep["notes"]:
+            print("  " + n)
+    return 0
+
+
+def _add_simulate(sub) -> None:
+    p = sub.add_parser("simulate", help="simulate a ball-bar measurement along a plan (writes a measurement CSV)",
+                       description="Readings of the machine with the errors of --errors along a ball-bar plan: "
+                                   "continuous runs at constant feed sampled at the instrument rate, white noise, "
+                                   "quantisation, reversal backlash, thermal drift (Assumption), range check "
+                                   "(Szatmari 4.3, Tab. 4.3-4.5). Defaults: QC10.")
+    p.add_argument("machine", help="bundled machine name or machine file")
+    p.add_argument("--plan", required=True, help="plan file (TOML, ball bar)")
+    p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"); default: nominal machine")
+    p.add_argument("--out", required=True, help="measurement CSV to write")
+    p.add_argument("--noise", default="instrument",
+                   help="none | instrument (sigma = accuracy/2) | procedure (Tab. 4.5 vs feed, sigma = U/2) | "
+                        "sigma in um (default instrument)")
+    p.add_argument("--seed", type=int, default=None, help="random seed (reproducible noise)")
+    p.add_argument("--feed", type=float, default=500.0, help="path feed in mm/min (default 500)")
+    p.add_argument("--directions", default="ccw,cw", help="runs: ccw, cw or ccw,cw (default)")
+    p.add_argument("--backlash", type=float, default=0.0, help="reversal backlash per drive in um (default 0)")
+    p.add_argument("--drift", type=float, default=0.0,
+                   help="thermal warm-up of the struts in K (Assumption: steel, first order; default 0)")
+    p.add_argument("--drift-tau", type=float, default=1800.0, help="warm-up time constant in s (default 1800)")
+    p.add_argument("--sample-rate", type=float, default=250.0, help="instrument sample rate in Hz (default 250)")
+    p.add_argument("--range", type=float, default=None,
+                   help="instrument range +- in mm (default: the plan's measuring_range, 1 mm for a QC10)")
+    p.add_argument("--resolution", type=float, default=0.1, help="resolution in um (default 0.1)")
+    p.add_argument("--accuracy", type=float, default=0.5, help="accuracy +- in um (default 0.5)")
+    p.add_argument("--no-quantise", action="store_true", help="do not round readings to the resolution")
+    p.add_argument("--saturate", action="store_true",
+                   help="write out-of-range readings clipped at the range limits instead of failing")
+    p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.set_defaults(func=_run(_cmd_simulate))
+
+
+def plan_command(args: argparse.Namespace) -> dict:
+    """Everything ``calibrate plan`` does; writes the optimised plan and returns the JSON-ready summary."""
+    from pathlib import Path
+
+    from pkmstiff.calibration import Plan, Segment, default_plan, error_model, read_plan
+    from pkmstiff.calibration.instruments import check_instrument
+    from pkmstiff.calibration.planning import (
+        HemisphereSpec,
+        objective_label,
+        optimise_hemisphere,
+        optimise_pose_set,
+        plan_toml,
+        start_nodes,
+    )
+    from pkmstiff.errors import CalibrationError, CalibrationInputError
+    from pkmstiff.machine import load_machine
+
+    check_instrument(args.instrument)
+    machine = load_machine(args.machine)
+    for key in ("starts", "iterations", "nodes", "points", "poses"):
+        if getattr(args, key) < 1:
+            raise CalibrationInputError(f"--{key}", key, "a positive integer", getattr(args, key))
+    max_tilt = np.radians(args.max_tilt)
+    if args.instrument == "ballbar":
+        if args.start:
+            raise CalibrationInputError("--start", "start", "no start plan for a ball bar (the hemisphere path of "
+                                        "the default plan is used; its nodes are optimised)", args.start)
+        d = default_plan(machine, "ballbar")
+        side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
+        spec = HemisphereSpec(d.setup, n=args.points, turns=args.turns, side=side, max_tilt=max_tilt,
+                              max_torsion=max_tilt)
+        params = error_model(machine, frame=args.frame)
+        res = None
+        for f in (0.6, 0.3, 0.15):  # a start whose every pose is admissible (tilt reduced until it is)
+            nodes0 = start_nodes(args.nodes, f * max_tilt, 0.25 * f * max_tilt)
+            try:
+                res = optimise_hemisphere(machine, params, spec, nodes0, args.objective, starts=args.starts,
+                                          seed=args.seed, max_iter=args.iterations)
+                break
+            except CalibrationError:
+                continue
+        if res is None:
+            raise CalibrationError(f"machine '{machine.name}': no admissible start hemisphere path with "
+                                   f"{args.nodes} nodes up to {args.max_tilt:g} deg tilt")
+        text = plan_toml(res.best_plan, f"{machine.name} hemisphere, optimised ({args.objective})",
+                         f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}",
+                         hemisphere=spec, nodes=res.best.x)
+    else:
+        plan0 = read_plan(args.start) if args.start else default_plan(machine, args.instrument)
+        if not args.start:  # a subset of the default grid: the gradient costs 12 plan evaluations per pose
+            idx = np.unique(np.linspace(0, plan0.n_poses - 1, min(args.poses, plan0.n_poses)).round().astype(int))
+            plan0 = Plan(f"{plan0.name}, {len(idx)} poses", plan0.setup, plan0.poses[idx],
+                         (Segment("poses", 0, len(idx), "points"),))
+        if plan0.instrument != args.instrument:
+            raise CalibrationInputError(args.start, "plan.instrument", f"'{args.instrument}'", plan0.instrument)
+        params = error_model(machine, frame=args.frame, setup=plan0.setup)
+        res = optimise_pose_set(machine, params, plan0, args.objective, starts=args.starts, seed=args.seed,
+                                max_iter=args.iterations, max_tilt=max_tilt)
+        text = plan_toml(res.best_plan, f"{machine.name} pose set, optimised ({args.objective})",
+                         f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}")
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(text, encoding="utf-8")
+    lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
+    start = objective_label(args.objective, res.start_value)
+    return {"machine": machine.name, "instrument": args.instrument, "objective": args.objective,
+            "out": str(args.out), "seed": args.seed, "starts": args.starts,
+            f"start_{lab}": start,
+            f"best_{lab}": objective_label(args.objective, res.best.value),
+            "distinct_optima": [{lab: objective_label(args.objective, o.value), "start": o.start,
+                                 "iterations": o.iterations} for o in res.distinct],
+            "lower_is_better": not args.objective.startswith("O")}
+
+
+def _cmd_plan(args: argparse.Namespace) -> int:
+    rep = plan_command(args)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+        return 0
+    lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
+    a, b = rep[f"start_{lab}"], rep[f"best_{lab}"]
+    better = "lower" if rep["lower_is_better"] else "higher"
+    print(f"{rep['machine']}, {rep['instrument']}: {lab} {a:.6g} (start plan) -> {b:.6g} (best of "
+          f"{rep['starts']} starts, seed {rep['seed']}; {better} is better) -> {rep['out']}")
+    print(f"distinct optima ({len(rep['distinct_optima'])}): "
+          + ", ".join(f"{o[lab]:.6g} (start {o['start']})" for o in rep["distinct_optima"]))
+    return 0
+
+
+def _add_plan(sub) -> None:
+    from pkmstiff.calibration.planning import OBJECTIVES
+
+    p = sub.add_parser("plan", help="optimise a measurement plan (hemisphere nodes or a pose set)",
+                       description="Ball bar: optimise the orientation nodes (B, L, D) of the hemisphere path "
+                                   "(Szatmari 4.4.3, eq. 4.8). Tracker / pose: optimise the poses of a pose set "
+                                   "(Denkena Gl. 90-92). Gradient method with Armijo steps on a barrier-augmented "
+                                   "objective, admissibility as constraints, seeded multi-start.")
+    p.add_argument("machine", help="bundled machine name or machine file")
+    p.add_argument("--instrument", required=True, choices=("ballbar", "tracker", "pose"))
+    p.add_argument("--objective", default="orthogonality", choices=OBJECTIVES,
+                   help="cond (min), orthogonality (largest entry, min; eq. 4.8), O1..O5 (max)")
+    p.add_argument("--out", required=True, help="plan file (TOML) to write")
+    p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
+    p.add_argument("--poses", type=int, default=12,
+                   help="tracker/pose without --start: poses taken from the default grid (default 12)")
+    p.add_argument("--nodes", type=int, default=6, help="orientation nodes of the hemisphere path (default 6)")
+    p.add_argument("--points", type=int, default=240, help="poses of the hemisphere path (default 240)")
+    p.add_argument("--turns", type=float, default=4.0, help="turns of the hemisphere spiral (default 4)")
+    p.add_argument("--max-tilt", type=float, default=20.0, help="largest tilt B and torsion in deg (default 20)")
+    p.add_argument("--starts", type=int, default=3, help="optimiser starts (default 3)")
+    p.add_argument("--iterations", type=int, default=10, help="gradient iterations per start (default 10)")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the starts (default 0)")
+    p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(func=_run(_cmd_plan))
+
+
+SUBCOMMANDS: dict[str, Callable] = {"simulate": _add_simulate, "plan": _add_plan}

@@ -1,0 +1,121 @@
+"""Plan optimisation (issue 16 item 3): Armijo gradient method on a barrier-augmented objective, hemisphere nodes
+(Szatmári eq. 4.8), pose sets (Denkena Gl. 90–92), Denkena's double pendulum; seeded and reproducible."""
+
+import numpy as np
+import pytest
+
+import pkmstiff
+from pkmstiff.calibration import Plan, Segment, check_plan, default_plan, error_model, read_plan
+from pkmstiff.calibration.planning import (
+    HemisphereSpec,
+    armijo_minimise,
+    optimise_hemisphere,
+    optimise_pendulum,
+    optimise_pose_set,
+    pendulum_cond,
+    plan_objective,
+    start_nodes,
+)
+from pkmstiff.cli import main
+
+
+def test_armijo_with_a_barrier_stops_at_the_bound():
+    # minimise (x − 2)² subject to x < 1 (log barrier, μ = 1e-4): the minimiser of (x−2)² − μ log(1 − x) is
+    # 1 − μ / (2 (2 − x)) ≈ 1 − 5e-5; the optimiser gets within 1e-3 of it in 200 iterations
+    x, fx, _ = armijo_minimise(lambda v: float((v[0] - 2.0) ** 2), np.array([0.0]),
+                               barrier=lambda v: -np.log(1 - v[0]) if v[0] < 1 else np.inf, mu=1e-4,
+                               step_max=0.5, max_iter=200)
+    assert x[0] < 1 and x[0] == pytest.approx(1 - 5e-5, abs=1e-3)
+    assert fx == pytest.approx(1.0, abs=3e-3)
+
+
+def test_double_pendulum_multistart_finds_several_optima_in_the_reported_range():
+    res = optimise_pendulum(starts=8, seed=0, max_iter=40)
+    good = [o for o in res.distinct if 2.0 <= o.value <= 4.0]
+    # Denkena Bild 1-11: four optima with cond₂ 2.23 … 3.23 and considerably different strategies
+    assert len(good) >= 2
+    wrap = [np.r_[np.angle(np.exp(1j * o.x[:4])), o.x[4:]] for o in good]
+    assert min(np.linalg.norm(a - b) for i, a in enumerate(wrap) for b in wrap[:i]) > 0.05  # distinct strategies
+    assert min(o.value for o in res.runs) < res.start_value  # the optimiser improves on its first start
+    for o in res.distinct[:2]:
+        assert pendulum_cond(o.x, np.array([1.0, 1.0])) == pytest.approx(o.value, rel=1e-12)
+
+
+@pytest.fixture(scope="module")
+def felix():
+    return pkmstiff.load_machine("felix")
+
+
+@pytest.fixture(scope="module")
+def hexaglide():
+    return pkmstiff.load_machine("hexaglide")
+
+
+def _hemi(m, max_tilt):
+    d = default_plan(m, "ballbar")
+    side = 1.0 if m.tool.axis[2] <= 0 else -1.0
+    return HemisphereSpec(d.setup, n=80, turns=2.0, side=side, max_tilt=max_tilt, max_torsion=max_tilt)
+
+
+def test_felix_hemisphere_nodes_lower_the_largest_orthogonality_entry_reproducibly(felix):
+    spec = _hemi(felix, np.radians(20))
+    params = error_model(felix)
+    nodes0 = start_nodes(4, np.radians(12), np.radians(3))
+    a = optimise_hemisphere(felix, params, spec, nodes0, "orthogonality", starts=2, seed=3, max_iter=3)
+    assert a.best.value < a.start_value  # eq. 4.8 objective lowered
+    check_plan(felix, a.best_plan)  # stays admissible (raises otherwise)
+    b = optimise_hemisphere(felix, params, spec, nodes0, "orthogonality", starts=2, seed=3, max_iter=3)
+    assert np.array_equal(a.best.x, b.best.x) and a.best.value == b.best.value  # same seed, same plan
+
+
+def test_hexaglide_hemisphere_nodes_lower_cond(hexaglide):
+    spec = _hemi(hexaglide, np.radians(6))
+    params = error_model(hexaglide)
+    res = optimise_hemisphere(hexaglide, params, spec, start_nodes(4, np.radians(3), np.radians(1)), "cond",
+                              starts=1, seed=0, max_iter=3)
+    assert res.best.value < res.start_value
+    check_plan(hexaglide, res.best_plan)
+
+
+def test_pose_set_lowers_cond(felix):
+    d = default_plan(felix, "tracker")
+    plan0 = Plan("six", d.setup, d.poses[::5][:8], (Segment("six", 0, 8, "points"),))
+    params = error_model(felix, setup=plan0.setup)
+    res = optimise_pose_set(felix, params, plan0, "cond", starts=1, seed=0, max_iter=2)
+    assert res.best.value < res.start_value
+    assert plan_objective(felix, params, res.best_plan, "cond", None) > 0
+    check_plan(felix, res.best_plan)
+
+
+def test_plan_command_writes_a_plan_the_simulation_reads(tmp_path, capsys):
+    out = tmp_path / "opt.toml"
+    code = main(["calibrate", "plan", "felix", "--instrument", "ballbar", "--objective", "orthogonality",
+                 "--nodes", "4", "--points", "60", "--turns", "1", "--starts", "1", "--iterations", "2",
+                 "--out", str(out)])
+    text = capsys.readouterr().out
+    assert code == 0 and "(start plan) ->" in text and "distinct optima" in text
+    plan = read_plan(out)
+    assert plan.n_poses == 60
+    code = main(["calibrate", "simulate", "felix", "--plan", str(out), "--feed", "6000", "--out",
+                 str(tmp_path / "m.csv")])
+    assert code == 0
+
+
+def test_plan_command_bad_input(tmp_path, capsys):
+    code = main(["calibrate", "plan", "felix", "--instrument", "ballbar", "--nodes", "0", "--out",
+                 str(tmp_path / "p.toml")])
+    err = capsys.readouterr().err
+    assert code == 2 and "--nodes" in err and err.count("\n") == 1
+    with pytest.raises(SystemExit):
+        main(["calibrate", "plan", "felix", "--instrument", "ballbar", "--objective", "O9", "--out", "x.toml"])
+
+
+def test_plan_command_for_a_tracker_pose_set(tmp_path, capsys):
+    out = tmp_path / "t.toml"
+    code = main(["calibrate", "plan", "felix", "--instrument", "tracker", "--objective", "cond", "--poses", "4",
+                 "--starts", "1", "--iterations", "1", "--out", str(out), "--json"])
+    import json
+    rep = json.loads(capsys.readouterr().out)
+    assert code == 0 and rep["best_cond"] <= rep["start_cond"]  # Armijo steps never increase Ω + μ b
+    plan = read_plan(out)
+    assert plan.n_poses == 4 and plan.instrument == "tracker"
