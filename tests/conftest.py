@@ -36,6 +36,11 @@ def hexapod():
     return load_machine("hexapod_6x")
 
 
+@pytest.fixture(scope="module")
+def felix():
+    return load_machine("felix")
+
+
 # ------------------------------------------------------------------------------------------------------ kinematics
 BUNDLED = ("hexaglide", "hexaglide_v1", "hexaglide_v2", "hexapod_6x", "linapod", "paralix")
 

@@ -10,11 +10,6 @@ from pkmstiff.calibration import Setup, hemisphere_plan
 from pkmstiff.calibration.plans import circle_positions
 
 
-@pytest.fixture(scope="module")
-def felix():
-    return pkmstiff.load_machine("felix")
-
-
 def test_given_data(felix):
     ch = felix.chains
     assert felix.kind == "pod" and felix.n_chains == 6

@@ -36,11 +36,6 @@ def _machine_plan(name, instrument):
 
 
 @pytest.fixture(scope="module")
-def felix():
-    return pkmstiff.load_machine("felix")
-
-
-@pytest.fixture(scope="module")
 def ballbar_setup():
     return Setup("ballbar", target=np.zeros(3), fixed_ball=np.zeros(3), bar_length=0.3)
 

@@ -18,16 +18,6 @@ from pkmstiff.errors import CalibrationInputError
 from pkmstiff.kinematics import inverse_kinematics
 
 
-@pytest.fixture(scope="module")
-def felix():
-    return pkmstiff.load_machine("felix")
-
-
-@pytest.fixture(scope="module")
-def hexaglide():
-    return pkmstiff.load_machine("hexaglide")
-
-
 def test_parameter_counts_and_names(felix, hexaglide):
     p = error_model(felix)
     assert p.n == 42  # Szatmári §4.2.2: 3 x 6 + 3 x 6 + 6

@@ -6,17 +6,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import pkmstiff
 from pkmstiff.calibration import Setup, check_plan, circle_plan, error_model, hemisphere_plan, read_plan
 from pkmstiff.calibration.plans import plane_axes, spline_orientations, tilt_torsion_matrix
 from pkmstiff.calibration.simulation import SimulationOptions, simulate
 from pkmstiff.errors import CalibrationError, CalibrationInputError
 from pkmstiff.kinematics.rotation import cardan_matrix
-
-
-@pytest.fixture(scope="module")
-def felix():
-    return pkmstiff.load_machine("felix")
 
 
 @settings(max_examples=40, deadline=None)

@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from pkmstiff import load_machine
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.workspace.rotation import (
     SIX_DIRECTIONS,
@@ -18,11 +17,6 @@ from pkmstiff.workspace.rotation import (
 )
 
 INC = math.radians(2.0)
-
-
-@pytest.fixture(scope="module")
-def hexaglide():
-    return load_machine("hexaglide")
 
 
 @pytest.fixture(scope="module")
