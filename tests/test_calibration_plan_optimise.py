@@ -29,10 +29,14 @@ def test_armijo_with_a_barrier_stops_at_the_bound():
 
 
 def test_double_pendulum_multistart_finds_several_optima_in_the_reported_range():
-    res = optimise_pendulum(starts=8, seed=0, max_iter=40)
+    res = optimise_pendulum(starts=24, seed=0, max_iter=60)
     good = [o for o in res.distinct if 2.0 <= o.value <= 4.0]
     # Denkena Bild 1-11: four optima with cond₂ 2.23 … 3.23 and considerably different strategies
     assert len(good) >= 2
+    # not only rotated/mirrored copies of one strategy (cond₂ is invariant to those): at least two different optimal
+    # values in the reported range, 1 % apart (the distinctness tolerance of the optimiser's report)
+    values = sorted(o.value for o in good)
+    assert values[-1] > 1.01 * values[0], values
     wrap = [np.r_[np.angle(np.exp(1j * o.x[:4])), o.x[4:]] for o in good]
     assert min(np.linalg.norm(a - b) for i, a in enumerate(wrap) for b in wrap[:i]) > 0.05  # distinct strategies
     assert min(o.value for o in res.runs) < res.start_value  # the optimiser improves on its first start
