@@ -108,10 +108,9 @@ def _check_fe_cost(p: Any, args: argparse.Namespace) -> None:
 
 def cmd_fe_joint(args: argparse.Namespace) -> int:
     """``pkmstiff fe-joint``: tilt sweep -> CSV joint table (+ optional VTU/PNG of the deformed joint)."""
+    from pkmstiff.cli.edges import check_output_dir, check_output_file
     from pkmstiff.fe.export import field_mesh, write_sweep_table, write_vtu
     from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
-
-    from pkmstiff.cli.edges import check_output_dir, check_output_file
 
     check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
     check_output_dir(args.vtu, "--vtu", True)
@@ -172,10 +171,9 @@ def joint_image(jm: Any, tilt_deg: float, path: str | Path) -> Path:
 
 def cmd_fe_platform(args: argparse.Namespace) -> int:
     """``pkmstiff fe-platform``: 6x6 platform stiffness at the spindle reference point -> TOML or CSV."""
+    from pkmstiff.cli.edges import check_output_file
     from pkmstiff.fe.export import field_mesh, write_vtu
     from pkmstiff.fe.platform import component_toml, load_platform_parameters, platform_stiffness, to_dissertation_units
-
-    from pkmstiff.cli.edges import check_output_file
 
     out = Path(args.out)
     if out.suffix not in (".toml", ".csv"):

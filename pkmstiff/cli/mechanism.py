@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import PkmstiffError
+from pkmstiff.io.ranges import parse_numbers
 
 
 def _cli_error(msg: str):
@@ -30,13 +31,9 @@ def _num(x: float) -> float | None:
 
 
 def _values(text: str, count: int, what: str, opt: str) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise _cli_error(f"{opt}: expected {count} numbers {what}, found {text!r}") from None
-    if len(vals) != count or not all(math.isfinite(v) for v in vals):
-        raise _cli_error(f"{opt}: expected {count} finite numbers {what}, found {text!r}")
-    return vals
+    from pkmstiff.errors import CliError
+
+    return parse_numbers(text, count, opt, what, CliError)
 
 
 def _unit_scale(unit: str) -> tuple[str, float]:

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import InadmissiblePoseRefused, PointArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import bundled_machines, load_machine
 
 WEAK_POINT_DIRECTIONS = ("x", "y", "z")
@@ -36,13 +37,7 @@ def _num(x: Any) -> Any:
 
 
 def parse_values(text: str, count: int, what: str) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise PointArgumentError(f"--pose: expected {count} numbers {what}, found {text!r}") from None
-    if len(vals) != count or not all(math.isfinite(v) for v in vals):
-        raise PointArgumentError(f"--pose: expected {count} finite numbers {what}, found {text!r}")
-    return vals
+    return parse_numbers(text, count, "--pose", what, PointArgumentError)
 
 
 def _is_planar(name: str) -> bool:
@@ -345,10 +340,9 @@ def _mode_figures(args: argparse.Namespace) -> list:
     from pathlib import Path
 
     from pkmstiff.cli.pose import parse_pose
+    from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
-
-    from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     pose = to_machine_frame(machine, parse_pose(args.pose), args.frame)

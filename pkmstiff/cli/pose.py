@@ -10,17 +10,13 @@ import numpy as np
 
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import PoseArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import load_machine
 
 
 def parse_pose(text: str) -> np.ndarray:
     """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad)."""
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise PoseArgumentError(f"--pose: expected six numbers x,y,z,a,b,c (mm, deg), found {text!r}") from None
-    if len(vals) != 6 or not all(math.isfinite(v) for v in vals):
-        raise PoseArgumentError(f"--pose: expected six finite numbers x,y,z,a,b,c (mm, deg), found {text!r}")
+    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", PoseArgumentError, count_text="six")
     return np.array([v * 1e-3 for v in vals[:3]] + [math.radians(v) for v in vals[3:]])
 
 

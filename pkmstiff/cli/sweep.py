@@ -6,7 +6,6 @@ import argparse
 import time
 from pathlib import Path
 
-
 #: exit status when some (not all) sweep tasks failed; all failed: 2 like any other input error
 EXIT_SOME_TASKS_FAILED = 4
 

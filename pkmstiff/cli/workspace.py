@@ -98,14 +98,12 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 
 
 def _cmd_workspace(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
+    from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.octree import OctreeInputError
     from pkmstiff.workspace.oracle import OracleInputError
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
-
-    from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
-
-    from pkmstiff.machine.frames import frame_text
 
     machine = load_machine(args.machine)
     eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
@@ -219,12 +217,10 @@ def _raster(lo: float, hi: float, step: float) -> np.ndarray:
 
 
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import check_output_dir
+    from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
     from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
-
-    from pkmstiff.cli.edges import check_output_dir
-
-    from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))

@@ -24,7 +24,7 @@ import numpy as np
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
 from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section
-from pkmstiff.machine.frames import check_frame, frame_origin, neglect_spindle, to_machine_frame
+from pkmstiff.machine.frames import check_frame, neglect_spindle, to_machine_frame
 from pkmstiff.machine.model import Machine
 
 #: statistics of a section quantity -> (label, unit override or None = the quantity's display unit)

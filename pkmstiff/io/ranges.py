@@ -32,12 +32,20 @@ def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
     return out
 
 
-def parse_triple_deg(text: str, what: str) -> np.ndarray:
-    """``"a,b,c"`` in degrees -> (3,) array in rad; ``what`` names the option in the error."""
+def parse_numbers(text: str, count: int, option: str, what: str,
+                  error: type[Exception] = SectionArgumentError, count_text: str | None = None) -> list[float]:
+    """``"1,-2,3.5"`` -> ``count`` finite floats; otherwise ``error`` with one line naming ``option``, the expected
+    count and meaning ``what`` (e.g. ``"x,y,z,a,b,c (mm, deg)"``) and the text found."""
+    n = count_text or str(count)
     try:
         vals = [float(v) for v in text.split(",")]
     except ValueError:
-        vals = []
-    if len(vals) != 3 or not all(math.isfinite(v) for v in vals):
-        raise SectionArgumentError(f"{what}: expected three numbers a,b,c in degrees, found {text!r}")
-    return np.deg2rad(vals)
+        raise error(f"{option}: expected {n} numbers {what}, found {text!r}") from None
+    if len(vals) != count or not all(math.isfinite(v) for v in vals):
+        raise error(f"{option}: expected {n} finite numbers {what}, found {text!r}")
+    return vals
+
+
+def parse_triple_deg(text: str, what: str) -> np.ndarray:
+    """``"a,b,c"`` in degrees -> (3,) array in rad; ``what`` names the option in the error."""
+    return np.deg2rad(parse_numbers(text, 3, what, "a,b,c in degrees", count_text="three"))

@@ -13,7 +13,6 @@ import time
 from pathlib import Path
 
 from pkmstiff.evaluation.sections import (
-    axis_plane,
     evaluate_section,
     evaluate_three_planes,
     section_summary,

@@ -7,7 +7,6 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
 
 from pkmstiff.machine.frames import check_frame, frame_metadata, neglect_spindle, to_machine_frame
 from pkmstiff.machine.model import Machine
