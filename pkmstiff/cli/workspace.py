@@ -28,14 +28,11 @@ def _cli_error(msg: str) -> Exception:
     return CliError(msg)
 
 
-def _floats(text: str, n: int | None, option: str, what: str) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise _cli_error(f"{option}: expected {what}, found {text!r}") from None
-    if (n is not None and len(vals) != n) or not all(math.isfinite(v) for v in vals):
-        raise _cli_error(f"{option}: expected {what}, found {text!r}")
-    return vals
+def _floats(text: str, n: int, option: str, what: str) -> list[float]:
+    from pkmstiff.errors import CliError
+    from pkmstiff.io.ranges import parse_numbers
+
+    return parse_numbers(text, n, option, f"({what})", error=CliError)
 
 
 def _range(text: str, option: str, unit: str) -> tuple[float, float]:
