@@ -114,4 +114,4 @@ def gravity_deflection(machine: Machine, poses: ArrayLike, tool_length: float | 
     return out
 
 
-__all__ = ["gravity_load", "gravity_deflection", "structure_deflection"]
+__all__ = ["gravity_deflection", "gravity_load", "structure_deflection"]

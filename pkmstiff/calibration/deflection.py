@@ -256,8 +256,8 @@ def deflection_analysis(machine: Machine, params: ParameterSet, plan: Plan, meas
     actual = uncorrected.delta[corrected.base] - corrected.delta[corrected.base]
     tv = plan.setup.target
     tcp = gravity_deflection(machine, plan.poses, load, tool_length=tv, gravity=g)
-    notes = ["deflection subtracted at the identified machine (first at nominal, then re-evaluated at the "
-             f"estimate, up to {refine} times)",
+    how = f"first at nominal, then re-evaluated at the estimate, up to {refine} times"
+    notes = [f"deflection subtracted at the identified machine ({how})",
              "Assumption: struts lumped half at either joint; masses at rigidly suspended drives carried by the frame"]
     return DeflectionAnalysis(corrected, uncorrected, dr, tcp, predicted, actual, split_load(load), g, notes)
 

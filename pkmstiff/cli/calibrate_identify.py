@@ -130,16 +130,20 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
     from pkmstiff.calibration.deflection import check_deflection, readings_change
     from pkmstiff.calibration.measurement import commanded_drives
     from pkmstiff.calibration.measurement_file import read_measurement
+    from pkmstiff.errors import CalibrationInputError
     from pkmstiff.machine import load_machine
 
+    if check_deflection(deflection) == "none" and load is not None:
+        raise CalibrationInputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
+    wrench = parse_load(load)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)
     ctrl_name = controller or machine.calibration.get("nominal_machine") or meas.machine or machine_name
     ctrl = load_machine(ctrl_name)
     plan, y = measurement_plan(meas, ctrl.name, measurements)
-    if check_deflection(deflection) == "gravity":
+    if deflection == "gravity":
         reached = moved_poses(machine, commanded_drives(ctrl, plan.poses), plan.poses)
-        dr = readings_change(machine, plan.setup, plan.setup.state(), reached, plan.poses, parse_load(load))
+        dr = readings_change(machine, plan.setup, plan.setup.state(), reached, plan.poses, wrench)
         rep = check(machine, ctrl, plan, y - dr).to_dict()
         rep["deflection"] = {"model": deflection, "rms_reading_um": float(np.sqrt(np.mean(dr ** 2))) * 1e6,
                              "max_reading_um": float(np.max(np.abs(dr))) * 1e6}
