@@ -178,3 +178,17 @@ def test_cli_simulate_identify_check_with_deflection(tmp_path, capsys):
     assert chk["rms_um"] <= 1e-3 and chk["deflection"]["rms_reading_um"] > 1.0
     assert main(["calibrate", "check", str(cal), "--measurements", str(meas), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["rms_um"] > 1.0  # without the subtraction the deflection remains
+
+
+def test_tracker_and_pose_readings_see_the_tcp_deflection():
+    """Tracker (nominal frame = machine frame): the reading change is the target's displacement; 6-D pose: also the
+    rotation vector of exp(θ) is θ. Both exact (the deflection is a rigid motion of the tool body)."""
+    m = load_machine("hexapod_6x")
+    for inst in ("tracker", "pose"):
+        plan = default_plan(m, inst)
+        dr = reading_deflection(m, plan).reshape(plan.n_poses, -1)
+        d = calib_deflection(m, plan.poses, tool_length=plan.setup.target)
+        # rounding of the subtraction of two readings of ~1 m: 1e-15 m; rotations: rotvec(exp(θ)) = θ to 1e-15
+        np.testing.assert_allclose(dr[:, :3], d[:, :3], rtol=0, atol=1e-14)
+        if inst == "pose":
+            np.testing.assert_allclose(dr[:, 3:], d[:, 3:], rtol=0, atol=1e-14)
