@@ -90,7 +90,9 @@ class SimulationOptions:
     Felix, §4.3.3.2), ``directions`` ("ccw", "cw" or both, "cw" being the plan's paths reversed), ``noise`` (see
     :meth:`InstrumentModel.sigma`), ``quantise`` to the resolution, ``backlash`` b [m] per drive, thermal drift
     ``drift_dT`` [K] with time constant ``drift_tau`` [s] and expansion coefficient ``alpha`` [1/K] (Assumption,
-    see the module docstring), start temperature ``T0`` [°C], ``dwell`` [s] per static pose."""
+    see the module docstring), start temperature ``T0`` [°C], ``dwell`` [s] per static pose; ``deflection``
+    ``"gravity"`` adds the elastic deflection of the perturbed machine under its weight (and ``deflection_load`` at
+    the target) at the reached poses (:mod:`.deflection`, issue 17 item 4)."""
 
     feed: float = 500.0 / 60e3
     directions: tuple[str, ...] = ("ccw", "cw")
