@@ -90,7 +90,9 @@ class SimulationOptions:
     Felix, §4.3.3.2), ``directions`` ("ccw", "cw" or both, "cw" being the plan's paths reversed), ``noise`` (see
     :meth:`InstrumentModel.sigma`), ``quantise`` to the resolution, ``backlash`` b [m] per drive, thermal drift
     ``drift_dT`` [K] with time constant ``drift_tau`` [s] and expansion coefficient ``alpha`` [1/K] (Assumption,
-    see the module docstring), start temperature ``T0`` [°C], ``dwell`` [s] per static pose."""
+    see the module docstring), start temperature ``T0`` [°C], ``dwell`` [s] per static pose; ``deflection``
+    ``"gravity"`` adds the elastic deflection of the perturbed machine under its weight (and ``deflection_load`` at
+    the target) at the reached poses (:mod:`.deflection`, issue 17 item 4)."""
 
     feed: float = 500.0 / 60e3
     directions: tuple[str, ...] = ("ccw", "cw")
@@ -103,6 +105,8 @@ class SimulationOptions:
     T0: float = 20.0
     dwell: float = 1.0
     seed: int | None = None
+    deflection: str = "none"  #: "gravity": add the structure model's deflection (issue 17 item 4, :mod:`.deflection`)
+    deflection_load: tuple[float, ...] | None = None  #: user load at the target, (3,) N or (6,) N, N m
 
     def __post_init__(self) -> None:
         if not self.feed > 0:
@@ -114,6 +118,8 @@ class SimulationOptions:
             v = getattr(self, key)
             if not v >= 0:
                 raise CalibrationInputError("simulation", key, "a non-negative number", v)
+        if self.deflection not in ("none", "gravity"):
+            raise CalibrationInputError("simulation", "deflection", "none or gravity", self.deflection)
 
 
 @dataclass
@@ -297,7 +303,17 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
         if options.backlash > 0:
             notes.append(f"reversal backlash {options.backlash * 1e6:g} um per drive")
         o, R = displaced_frames(o, R, inverse_jacobian(machine, ik), dq)
-    clean = readings(plan.setup, perturbed_state(plan.setup, params, delta), o, R, Rc)
+    state = perturbed_state(plan.setup, params, delta)
+    if options.deflection == "gravity":  # the real (perturbed) machine deflects under its weight at reached poses
+        from pkmstiff.calibration.deflection import deflect_frames, frame_deflection
+        from pkmstiff.calibration.perturb import perturbed_machine
+
+        tw = frame_deflection(perturbed_machine(machine, params, delta), reached, state.target,
+                              options.deflection_load)
+        o, R = deflect_frames(o, R, tw)
+        notes.append("gravity deflection of the structure model added (Assumption: struts lumped half at either "
+                     "joint)")
+    clean = readings(plan.setup, state, o, R, Rc)
     sigma = instrument.sigma(options.noise, smp.feed)
     rng = np.random.default_rng(options.seed)
     out = clean + (rng.standard_normal(clean.shape) * sigma[:, None] if np.any(sigma > 0) else 0.0)

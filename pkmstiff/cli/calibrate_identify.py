@@ -13,10 +13,14 @@ import numpy as np
 
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
                     out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
-                    outlier_threshold: float = 3.0, instrument: str = "ballbar") -> dict:
-    """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict."""
+                    outlier_threshold: float = 3.0, instrument: str = "ballbar", deflection: str = "none",
+                    load: str | None = None) -> dict:
+    """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict.
+    ``deflection="gravity"``: the predicted deflection is subtracted from the readings and the bias an
+    identification without it would have is reported (key ``deflection``, :mod:`pkmstiff.calibration.deflection`)."""
     from pkmstiff.calibration import error_model
     from pkmstiff.calibration.compensation import measurement_plan, write_calibrated_machine
+    from pkmstiff.calibration.deflection import check_deflection, deflection_analysis
     from pkmstiff.calibration.identification import identify
     from pkmstiff.calibration.measurement_file import read_measurement
     from pkmstiff.calibration.uncertainty import uncertainty
@@ -26,20 +30,59 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     if instrument != "ballbar":
         raise CalibrationInputError(measurements, "instrument", "ballbar (measurement files hold ball-bar readings)",
                                     instrument)
+    if check_deflection(deflection) == "none" and load is not None:
+        raise CalibrationInputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
+    wrench = parse_load(load)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)
     plan, y = measurement_plan(meas, machine.name, measurements)
     params = error_model(machine, frame=frame, setup=plan.setup)
-    res = identify(machine, params, plan, y, method, loss=loss, outlier_threshold=outlier_threshold,
-                   source=measurements)
+    defl = None
+    if deflection == "gravity":
+        defl = deflection_analysis(machine, params, plan, y, method, load=wrench, loss=loss,
+                                   outlier_threshold=outlier_threshold, source=measurements)
+        res = defl.corrected
+    else:
+        res = identify(machine, params, plan, y, method, loss=loss, outlier_threshold=outlier_threshold,
+                       source=measurements)
     unc = uncertainty(res, monte_carlo=monte_carlo)
     rep = res.to_dict()
+    if defl is not None:
+        rep["deflection"] = defl.report()
     rep["measurement_file"] = measurements
     rep["uncertainty"] = unc.to_dict()
     if out:
         write_calibrated_machine(out, res, unc, measurements)
         rep["calibrated_machine_file"] = out
     return rep
+
+
+def parse_load(text: str | None):
+    """``--load "Fx,Fy,Fz[,Mx,My,Mz]"`` (N, N m) -> array (3,) or (6,), or None."""
+    from pkmstiff.errors import CalibrationInputError
+
+    if text is None:
+        return None
+    try:
+        vals = [float(v) for v in text.split(",")]
+    except ValueError:
+        vals = []
+    if len(vals) not in (3, 6) or not all(np.isfinite(vals)):
+        raise CalibrationInputError("--load", "load", "Fx,Fy,Fz in N or Fx,Fy,Fz,Mx,My,Mz in N, N m", text)
+    return np.array(vals)
+
+
+def _print_deflection(d: dict) -> None:
+    print(f"deflection ({d['model']}, subtracted): readings changed by RMS {d['rms_reading_um']:.4g} um, max "
+          f"{d['max_reading_um']:.4g} um; TCP deflection up to {d['tcp_max_um']:.4g} um, "
+          f"{d['tcp_rotation_max_urad']:.4g} urad")
+    print(f"bias without the subtraction (predicted (J'J)^-1 J' dr / actual difference of the two "
+          f"identifications), relative deviation {d['bias_relative_deviation'] * 100:.3g} %:")
+    for b in d["bias"]:
+        unit = "mm" if "predicted_mm" in b else "urad"
+        print(f"  {b['name']:32s} {b['predicted_' + unit]:+.6f} / {b['actual_' + unit]:+.6f} {unit}")
+    print(f"residual RMS without / with the subtraction: {d['rms_after_uncorrected_um']:.4g} / "
+          f"{d['rms_after_corrected_um']:.4g} um")
 
 
 def _print_identify(rep: dict) -> None:
@@ -63,13 +106,15 @@ def _print_identify(rep: dict) -> None:
     print(f"largest correlation: {c['value']:.3f} ({' / '.join(c['pair'])})")
     if rep["outliers"]:
         print(f"outliers (|r| > threshold x s): {len(rep['outliers'])}, first at pose {rep['outliers'][0]['pose']}")
+    if "deflection" in rep:
+        _print_deflection(rep["deflection"])
     if "calibrated_machine_file" in rep:
         print(f"calibrated machine written to {rep['calibrated_machine_file']}")
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     rep = identify_report(args.machine, args.measurements, args.method, args.loss, args.out, args.monte_carlo,
-                          args.frame, args.outlier_threshold, args.instrument)
+                          args.frame, args.outlier_threshold, args.instrument, args.deflection, args.load)
     if args.json:
         print(json.dumps(rep, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o)))
     else:
@@ -77,28 +122,45 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     return 0
 
 
-def check_report(machine_name: str, measurements: str, controller: str | None = None) -> dict:
-    """Residuals of a machine file against a measurement (JSON-ready dict, µm)."""
-    from pkmstiff.calibration.compensation import check, measurement_plan
+def check_report(machine_name: str, measurements: str, controller: str | None = None, deflection: str = "none",
+                 load: str | None = None) -> dict:
+    """Residuals of a machine file against a measurement (JSON-ready dict, µm); ``deflection="gravity"``
+    subtracts the deflection of the machine under test at the poses it reaches from the readings first."""
+    from pkmstiff.calibration.compensation import check, measurement_plan, moved_poses
+    from pkmstiff.calibration.deflection import check_deflection, readings_change
+    from pkmstiff.calibration.measurement import commanded_drives
     from pkmstiff.calibration.measurement_file import read_measurement
+    from pkmstiff.errors import CalibrationInputError
     from pkmstiff.machine import load_machine
 
+    if check_deflection(deflection) == "none" and load is not None:
+        raise CalibrationInputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
+    wrench = parse_load(load)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)
     ctrl_name = controller or machine.calibration.get("nominal_machine") or meas.machine or machine_name
     ctrl = load_machine(ctrl_name)
     plan, y = measurement_plan(meas, ctrl.name, measurements)
+    if deflection == "gravity":
+        reached = moved_poses(machine, commanded_drives(ctrl, plan.poses), plan.poses)
+        dr = readings_change(machine, plan.setup, plan.setup.state(), reached, plan.poses, wrench)
+        rep = check(machine, ctrl, plan, y - dr).to_dict()
+        rep["deflection"] = {"model": deflection, "rms_reading_um": float(np.sqrt(np.mean(dr ** 2))) * 1e6,
+                             "max_reading_um": float(np.max(np.abs(dr))) * 1e6}
+        return {"measurement_file": measurements, **rep}
     return {"measurement_file": measurements, **check(machine, ctrl, plan, y).to_dict()}
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    rep = check_report(args.machine, args.measurements, args.controller)
+    rep = check_report(args.machine, args.measurements, args.controller, args.deflection, args.load)
     if args.json:
         print(json.dumps(rep, indent=2))
     else:
         print(f"{rep['machine']} against {rep['measurement_file']} ({rep['n_readings']} readings, commanded by "
               f"{rep['controller']}): residual RMS {rep['rms_um']:.4g} um, max {rep['max_abs_um']:.4g} um, "
-              f"mean {rep['mean_um']:.4g} um")
+              f"mean {rep['mean_um']:.4g} um"
+              + (f" (gravity deflection subtracted: RMS {rep['deflection']['rms_reading_um']:.4g} um)"
+                 if "deflection" in rep else ""))
     return 0
 
 
@@ -119,6 +181,11 @@ def _add_identify(sub) -> None:
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check with N runs")
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
     p.add_argument("--instrument", default="ballbar", help="instrument of the measurement (ballbar)")
+    p.add_argument("--deflection", choices=("none", "gravity"), default="none",
+                   help="gravity: subtract the predicted elastic deflection under the machine's weight (structure "
+                        "model) from the readings and report the bias it would cause otherwise (default none)")
+    p.add_argument("--load", metavar="FX,FY,FZ[,MX,MY,MZ]",
+                   help="with --deflection gravity: an extra load at the ball / target in N (and N m)")
     p.add_argument("--outlier-threshold", type=float, default=3.0, metavar="K",
                    help="report readings with |residual| > K s (default 3)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
@@ -135,6 +202,11 @@ def _add_check(sub) -> None:
     p.add_argument("--measurements", required=True, metavar="MEAS.csv")
     p.add_argument("--controller", help="machine whose IK commanded the measurement (default: the nominal machine "
                                         "of a calibrated file, else the file's machine)")
+    p.add_argument("--deflection", choices=("none", "gravity"), default="none",
+                   help="gravity: subtract the predicted elastic deflection under the machine's weight (structure "
+                        "model) from the readings (default none)")
+    p.add_argument("--load", metavar="FX,FY,FZ[,MX,MY,MZ]",
+                   help="with --deflection gravity: an extra load at the ball / target in N (and N m)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_run(_cmd_check))
 

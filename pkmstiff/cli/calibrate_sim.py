@@ -87,7 +87,7 @@ def simulate_command(args: argparse.Namespace) -> dict:
     dirs = tuple(d.strip() for d in args.directions.split(",") if d.strip())
     opts = SimulationOptions(feed=args.feed / 60e3, directions=dirs, noise=_noise(args.noise),
                              quantise=not args.no_quantise, backlash=args.backlash * 1e-6, drift_dT=args.drift,
-                             drift_tau=args.drift_tau, seed=args.seed)
+                             drift_tau=args.drift_tau, seed=args.seed, deflection=args.deflection)
     params, delta = read_errors(args.errors, machine, plan)
     smp = sample_plan(plan, inst, opts)
     ev = evaluate_poses(machine, smp.poses)  # the poses between the plan's nodes, too
@@ -149,6 +149,9 @@ def _add_simulate(sub) -> None:
                    help="instrument range +- in mm (default: the plan's measuring_range, 1 mm for a QC10)")
     p.add_argument("--resolution", type=float, default=0.1, help="resolution in um (default 0.1)")
     p.add_argument("--accuracy", type=float, default=0.5, help="accuracy +- in um (default 0.5)")
+    p.add_argument("--deflection", choices=("none", "gravity"), default="none",
+                   help="gravity: add the machine's elastic deflection under its weight (structure model; needs "
+                        "stiffness data) to the readings (default none)")
     p.add_argument("--no-quantise", action="store_true", help="do not round readings to the resolution")
     p.add_argument("--saturate", action="store_true",
                    help="write out-of-range readings clipped at the range limits instead of failing")

@@ -301,3 +301,31 @@ def _share_family(m: re.Match) -> Quantity:
 
 register_family(r"share_(drive|guide|drive_suspension|drive_joint|strut|platform_joint|platform_spindle)_([xyz])",
                 _share_family, "share_drive_joint_x")
+
+
+# ------------------------------------------------------------------------------- deflection under gravity
+# The TCP's static deflection under the weight of the structure model (pkmstiff.analysis.gravity: which masses are
+# loaded), the error source next to the stiffness maps (issue 17 item 4); one stacked solve per chunk, cached.
+
+
+def _gravity(c: EvalContext) -> np.ndarray:
+    from pkmstiff.analysis.gravity import gravity_deflection
+
+    return c.cached("gravity", lambda: gravity_deflection(
+        c.machine, c.poses, tool_length=c.tool_length, neglect_spindle=bool(c.options.get("neglect_spindle", False))))
+
+
+register_quantity(Quantity("deflection_gravity", "TCP deflection under gravity (magnitude of the translation)", "um",
+                           "m", lambda c: np.linalg.norm(_gravity(c)[:, :3], axis=1), "deflection", True))
+register_quantity(Quantity("deflection_gravity_rot", "TCP rotation under gravity (magnitude)", "urad", "rad",
+                           lambda c: np.linalg.norm(_gravity(c)[:, 3:], axis=1), "deflection", True))
+
+
+def _deflection_family(m: re.Match) -> Quantity:
+    k = ("x", "y", "z", "rx", "ry", "rz").index(m.group(1))
+    what = f"translation along {m.group(1)}" if k < 3 else f"rotation about {m.group(1)[1]}"
+    return Quantity(m.group(0), f"TCP deflection under gravity, {what}", "um" if k < 3 else "urad",
+                    "m" if k < 3 else "rad", lambda c: _gravity(c)[:, k], "deflection", True)
+
+
+register_family(r"deflection_gravity_(x|y|z|rx|ry|rz)", _deflection_family, "deflection_gravity_z")
