@@ -172,6 +172,7 @@ def test_cli_simulate_identify_check_with_deflection(tmp_path, capsys):
     assert d["rms_reading_um"] > 1.0 and d["bias_relative_deviation"] <= 0.05
     assert rep["residual_after"]["rms_um"] <= 1e-3  # noise-free: the deflection is fully accounted for
     assert all(("predicted_mm" in b) != ("predicted_urad" in b) for b in d["bias"])
+    assert load_machine(cal).calibration["deflection"] == "gravity"  # provenance records the subtraction
     assert main(["calibrate", "check", str(cal), "--measurements", str(meas), "--deflection", "gravity",
                  "--json"]) == 0
     chk = json.loads(capsys.readouterr().out)

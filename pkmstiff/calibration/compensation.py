@@ -46,8 +46,9 @@ def _q(value: float, unit: str) -> str:
 
 
 def provenance(res: Identification, unc: Uncertainty | None = None, measurement: str | Path | None = None,
-               date: str | None = None) -> dict:
-    """The ``[calibration]`` table of a calibrated machine file (units in the key names or values)."""
+               date: str | None = None, deflection: str = "none") -> dict:
+    """The ``[calibration]`` table of a calibrated machine file (units in the key names or values); ``deflection``
+    records what was subtracted from the readings before identification ("none", "gravity", "gravity + load …")."""
     import pkmstiff
 
     r0, r1 = residual_stats(res.residual_before), residual_stats(res.residual_after)
@@ -57,7 +58,7 @@ def provenance(res: Identification, unc: Uncertainty | None = None, measurement:
            "max_after_um": r1["max_abs_um"], "s_um": noise_estimate(res.residual_after, res.rank) * 1e6,
            "date": date or _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
            "toolkit_version": pkmstiff.__version__, "scaling": res.scaling,
-           "gauge_freedoms": [g.label() for g in res.gauge_freedoms]}
+           "gauge_freedoms": [g.label() for g in res.gauge_freedoms], "deflection": deflection}
     if measurement is not None:
         out["measurement_file"] = str(Path(measurement).name)
         out["measurement_sha256"] = file_sha256(measurement)
@@ -83,7 +84,7 @@ def _toml_scalar(v: object) -> str:
 
 def calibrated_machine_text(res: Identification, unc: Uncertainty | None = None,
                             measurement: str | Path | None = None, name: str | None = None,
-                            date: str | None = None) -> str:
+                            date: str | None = None, deflection: str = "none") -> str:
     """TOML of the calibrated machine: ``extends`` the nominal machine, the identified chain geometry and the
     ``[calibration]`` provenance block (identified values and σ as quantities in mm / mrad)."""
     machine, params = res.machine, res.params
@@ -91,7 +92,7 @@ def calibrated_machine_text(res: Identification, unc: Uncertainty | None = None,
     delta[params.chain < 0] = 0.0  # set-up errors belong to the measurement, not to the machine
     text = machine_file_text(machine, params, delta, name=name or machine.name + "_calibrated",
                              title=machine.title + " (calibrated)")
-    prov = provenance(res, unc, measurement, date)
+    prov = provenance(res, unc, measurement, date, deflection)
     lines = [text.rstrip("\n"), "", "[calibration]"]
     for k, v in prov.items():
         if k not in ("identified", "sigma"):
@@ -105,9 +106,10 @@ def calibrated_machine_text(res: Identification, unc: Uncertainty | None = None,
 
 
 def write_calibrated_machine(path: str | Path, res: Identification, unc: Uncertainty | None = None,
-                             measurement: str | Path | None = None, name: str | None = None) -> Path:
+                             measurement: str | Path | None = None, name: str | None = None,
+                             deflection: str = "none") -> Path:
     p = Path(path)
-    p.write_text(calibrated_machine_text(res, unc, measurement, name), encoding="utf-8")
+    p.write_text(calibrated_machine_text(res, unc, measurement, name, deflection=deflection), encoding="utf-8")
     return p
 
 

@@ -52,7 +52,8 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     rep["measurement_file"] = measurements
     rep["uncertainty"] = unc.to_dict()
     if out:
-        write_calibrated_machine(out, res, unc, measurements)
+        subtracted = "none" if defl is None else "gravity" + ("" if load is None else f" + load {load} (N, N m)")
+        write_calibrated_machine(out, res, unc, measurements, deflection=subtracted)
         rep["calibrated_machine_file"] = out
     return rep
 

@@ -221,7 +221,7 @@ _CALIBRATION_KEYS = {"nominal_machine": "str", "measurement_file": "str", "measu
                      "method": "str", "loss": "str", "rank": "count", "n_readings": "count",
                      "condition_number": "number", "rms_before_um": "number", "rms_after_um": "number",
                      "max_before_um": "number", "max_after_um": "number", "s_um": "number", "date": "str",
-                     "toolkit_version": "str", "scaling": "str", "gauge_freedoms": "strings", "identified": "table",
+                     "toolkit_version": "str", "scaling": "str", "gauge_freedoms": "strings", "deflection": "str", "identified": "table",
                      "sigma": "table"}
 
 
