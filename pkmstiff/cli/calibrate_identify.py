@@ -13,7 +13,7 @@ import numpy as np
 
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
                     out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
-                    outlier_threshold: float = 3.0, instrument: str = "ballbar") -> dict:
+                    outlier_threshold: float = 3.0, instrument: str | None = None) -> dict:
     """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict."""
     from pkmstiff.calibration import error_model
     from pkmstiff.calibration.compensation import measurement_plan, write_calibrated_machine
@@ -23,11 +23,12 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     from pkmstiff.errors import CalibrationInputError
     from pkmstiff.machine import load_machine
 
-    if instrument != "ballbar":
-        raise CalibrationInputError(measurements, "instrument", "ballbar (measurement files hold ball-bar readings)",
-                                    instrument)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)
+    kind = getattr(meas, "kind", "ballbar")
+    if instrument is not None and instrument != kind:
+        raise CalibrationInputError(measurements, "instrument", f"'{instrument}' (--instrument), but the file holds "
+                                    f"{kind} readings (header instrument_type)", kind)
     plan, y = measurement_plan(meas, machine.name, measurements)
     params = error_model(machine, frame=frame, setup=plan.setup)
     res = identify(machine, params, plan, y, method, loss=loss, outlier_threshold=outlier_threshold,
@@ -107,18 +108,21 @@ def _add_identify(sub) -> None:
     from pkmstiff.cli.calibrate import _run
 
     p = sub.add_parser("identify", help="identify the base parameters from a measurement",
-                       description="Identify the machine's base error parameters from a ball-bar measurement "
+                       description="Identify the machine's base error parameters from a ball-bar, laser-tracker or "
+                                   "6-D pose measurement "
                                    "(Szatmari 4.6): Gauss-Newton, Levenberg-Marquardt, minimax (eq. 4.12) or a "
                                    "global stage with LM polish; sigma and correlations; optionally the "
                                    "calibrated machine file.")
     p.add_argument("machine", help="nominal machine (bundled name or machine file)")
-    p.add_argument("--measurements", required=True, metavar="MEAS.csv", help="ball-bar measurement file")
+    p.add_argument("--measurements", required=True, metavar="MEAS.csv",
+                   help="measurement file (ball bar, tracker or pose; docs/user-guide/calibration-simulation.md)")
     p.add_argument("--method", choices=METHODS, default="lm")
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
     p.add_argument("--out", metavar="CALIBRATED.toml", help="write the calibrated machine file")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check with N runs")
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
-    p.add_argument("--instrument", default="ballbar", help="instrument of the measurement (ballbar)")
+    p.add_argument("--instrument", choices=("ballbar", "tracker", "pose"), default=None,
+                   help="expected instrument of the measurement (default: the file's instrument_type)")
     p.add_argument("--outlier-threshold", type=float, default=3.0, metavar="K",
                    help="report readings with |residual| > K s (default 3)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
