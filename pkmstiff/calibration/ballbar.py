@@ -373,6 +373,37 @@ def _zone(q: Array, c: Array) -> tuple[float, float]:
     return float(rho.max()), float(rho.min())
 
 
+def _zone_lp(u: Array, rs: Array, t: float, source: str) -> Any:
+    """The linearised zone LP in scaled unknowns z = (δ1, δ2, R', r'): min R' − r' s.t. rs_k − u_k·δ ≤ R',
+    rs_k − u_k·δ ≥ r', |δ_i| ≤ t; by constraint generation (exact): solved on the 32 outermost and innermost
+    points, then the constraints the solution violates are added until none is (a ball-bar run has a handful
+    of active points among thousands of samples)."""
+    from scipy.optimize import linprog
+
+    m = min(32, rs.size)
+    order = np.argsort(rs)
+    out_k, in_k = order[-m:], order[:m]
+    c = np.array([0.0, 0.0, 1.0, -1.0])
+    bounds = [(-t, t), (-t, t), (None, None), (None, None)]
+    for _ in range(100):
+        zo, zi = np.zeros((out_k.size, 1)), np.zeros((in_k.size, 1))
+        A_ub = np.vstack([np.hstack([-u[out_k], -np.ones_like(zo), zo]), np.hstack([u[in_k], zi, np.ones_like(zi)])])
+        b_ub = np.concatenate([-rs[out_k], rs[in_k]])
+        lp = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs-ds",
+                     options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10})
+        if lp.status != 0:
+            raise BallbarError(f"minimum-zone circle: the linear program failed ({lp.message})", source)
+        v = rs - u @ lp.x[:2]
+        tol = 1e-9  # of the zone width (the solver's tolerances are 1e-10)
+        vo = np.setdiff1d(np.flatnonzero(v > lp.x[2] + tol), out_k)
+        vi = np.setdiff1d(np.flatnonzero(v < lp.x[3] - tol), in_k)
+        if not vo.size and not vi.size:
+            return lp
+        out_k = np.union1d(out_k, vo[np.argsort(v[vo])[-m:]])
+        in_k = np.union1d(in_k, vi[np.argsort(v[vi])[:m]])
+    raise BallbarError("minimum-zone circle: constraint generation did not converge", source)
+
+
 def min_zone_circle(points: ArrayLike, *, start: ArrayLike | None = None, max_iter: int = 30,
                     source: str = "") -> MinimumZone:
     """Minimum-zone (Chebyshev) circle of in-plane points (N, 2) [m]: min over centres c of max|q_k − c| − min|q_k − c|.
@@ -380,15 +411,14 @@ def min_zone_circle(points: ArrayLike, *, start: ArrayLike | None = None, max_it
     Method (toolkit's choice): sequential linear programming. About the current centre c0 the distances are
     linearised, ρ_k(c0 + δ) ≈ ρ_k − u_k·δ (u_k the unit vector c0 → q_k); the LP in (δ, R, r)
         min R − r   s.t.   ρ_k − u_k·δ ≤ R,   ρ_k − u_k·δ ≥ r,   |δ| ≤ trust
-    (HiGHS dual simplex: a vertex solution, exact up to rounding) gives the step; c0 ← c0 + δ while the exact
+    (HiGHS dual simplex: a vertex solution, exact up to rounding; by constraint generation, :func:`_zone_lp`)
+    gives the step; c0 ← c0 + δ while the exact
     zone width decreases, else the trust region is halved. The linearisation error is ≤ |δ|²/(2 min ρ), so for
     ball-bar profiles (µm deviations on ≥ 50 mm radii) two or three steps reach rounding level. The start is the
     least-squares centre (``start`` or :func:`fit_circle`); as every accepted step lowers the exact width, the
     result never exceeds the least-squares circularity. The LP is scaled to the current width (unknowns of
     order one) so the solver's tolerances are relative to the zone, not to the radius.
     """
-    from scipy.optimize import linprog
-
     q = np.asarray(points, dtype=float)
     if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 3 or not np.all(np.isfinite(q)):
         raise BallbarError(f"a minimum-zone circle needs finite points of shape (N >= 3, 2), found {q.shape}", source)
@@ -398,7 +428,6 @@ def min_zone_circle(points: ArrayLike, *, start: ArrayLike | None = None, max_it
     R, r = _zone(qr, c)
     width = R - r
     trust = max(width, 1e-15 * max(R, 1e-300))
-    one = np.ones((len(qr), 1))
     it = 0
     for it in range(1, max_iter + 1):
         if width <= 1e-15 * R:
@@ -407,15 +436,10 @@ def min_zone_circle(points: ArrayLike, *, start: ArrayLike | None = None, max_it
         rho = np.linalg.norm(diff, axis=1)
         u = diff / rho[:, None]
         s = width  # scale: unknowns in units of the current zone width
-        rs = (rho - r) / s  # shifted so that the inner radius starts at 0 (well-conditioned LP)
-        # unknowns z = (δ1, δ2, R', r') in units of s; constraints  rs − u·δ − R' ≤ 0,  −rs + u·δ + r' ≤ 0
-        A_ub = np.vstack([np.hstack([-u, -one, 0 * one]), np.hstack([u, 0 * one, one])])
-        b_ub = np.concatenate([-rs, rs])
-        t = trust / s
-        lp = linprog(np.array([0.0, 0.0, 1.0, -1.0]), A_ub=A_ub, b_ub=b_ub,
-                     bounds=[(-t, t), (-t, t), (None, None), (None, None)], method="highs-ds")
-        if lp.status != 0:
-            raise BallbarError(f"minimum-zone circle: the linear program failed ({lp.message})", source)
+        rs = (rho - r) / s  # radii shifted by the inner radius (a well-conditioned LP)
+        lp = _zone_lp(u, rs, trust / s, source)
+        if (lp.x[2] - lp.x[3]) >= 1.0 - 1e-12:  # the linearised zone cannot shrink: c is optimal (convex LP)
+            break
         cn = c + s * lp.x[:2]
         Rn, rn = _zone(qr, cn)
         if Rn - rn < width:
