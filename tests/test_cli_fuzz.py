@@ -128,6 +128,7 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["ballbar", "analyse", "{nonutf8}"], 2, "UTF-8"),
         (["ballbar", "analyse", "{file}"], 2, "bar_length_mm"),
         (["ballbar", "analyse", "{file}", "--harmonics", "-3"], 2, "--harmonics"),
+        (["ballbar", "analyse", "{tracker_file}"], 2, "needs a ball-bar measurement, found a tracker file"),
     ],
     "calibrate": [
         (["calibrate", "identifiability", "no_such_machine", "--instrument", "ballbar"], 2, "no_such_machine"),
@@ -222,6 +223,9 @@ def bad_files(tmp_path, monkeypatch):
     (tmp_path / "tracker_bar.csv").write_text("# instrument_type: tracker\n# bar_length_mm: 150\n"
                                               "t_s,px_mm,py_mm,pz_mm\n1,0,0,0\n")
     f["tracker_with_bar"] = "tracker_bar.csv"
+    (tmp_path / "tracker.csv").write_text("# instrument_type: tracker\nt_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,px_mm,py_mm,"
+                                          "pz_mm\n1,0,0,0,0,0,0,0,0,0\n")
+    f["tracker_file"] = "tracker.csv"
     (tmp_path / "tracker_plan.toml").write_text('[plan]\ninstrument = "tracker"\n[[paths]]\nkind = "poses"\n'
                                                 'positions = [[0, 0, 0]]\n')
     f["tracker_plan"] = "tracker_plan.toml"
