@@ -416,10 +416,9 @@ def _point_readings(instrument: TrackerModel, options: SimulationOptions, clean:
     """Tracker / pose readings: orientation noise added to ``out`` (position noise is already in), quantisation
     to the position / angle resolution, and the samples beyond the measuring volume."""
     out = out.copy()
-    if out.shape[1] == 6:
+    if out.shape[1] == 6:  # the orientation columns get the angle noise, not the position σ drawn for all columns
         sa = instrument.angle_sigma(options.noise)
-        if sa > 0:
-            out[:, 3:] = clean[:, 3:] + rng.standard_normal((len(out), 3)) * sa
+        out[:, 3:] = clean[:, 3:] + (rng.standard_normal((len(out), 3)) * sa if sa > 0 else 0.0)
     if options.quantise:
         for cols, res in ((slice(0, 3), instrument.resolution), (slice(3, 6), instrument.angle_resolution)):
             if res > 0:
