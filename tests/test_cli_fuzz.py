@@ -151,8 +151,8 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["calibrate", "identify", "felix", "--measurements", "{bad_tracker}"], 2, "line 5, column 3 (py_mm)"),
         (["calibrate", "check", "felix", "--measurements", "{bad_tracker}"], 2, "line 5, column 3 (py_mm)"),
         (["calibrate", "identify", "felix", "--measurements", "{bad_pose}"], 2, "line 4, column 7 (rz_mrad)"),
-        (["calibrate", "identify", "felix", "--measurements", "{tracker_with_bar}"], 2, "line 2: header key "
-         "'bar_length_mm' does not belong to a tracker file"),
+        (["calibrate", "identify", "felix", "--measurements", "{tracker_with_bar}"], 2,
+         "line 2: header key 'bar_length_mm' does not belong to a tracker file"),
         (["calibrate", "simulate", "felix", "--plan", "{tracker_plan}", "--noise", "procedure", "--out", "m.csv"], 2,
          "procedure"),
         (["calibrate", "simulate", "felix", "--plan", "{tracker_plan}", "--angle-accuracy", "100", "--out",
