@@ -64,7 +64,7 @@ def test_nominal_tracker_reads_the_commanded_target(machines):
     s = Setup("tracker", target=m.tool.tip())
     plan = grid_plan(s, np.zeros(3), 0.05, points=2)
     params = error_model(m, setup=s)
-    res = simulate(m, params, np.zeros(params.n), plan, options=SimulationOptions(noise="none"))
+    res = simulate(m, params, np.zeros(params.n), plan, options=SimulationOptions(noise="none", quantise=False))
     from pkmstiff.kinematics.rotation import cardan_matrix
     x = plan.poses
     tgt = x[:, :3] + np.einsum("nij,j->ni", cardan_matrix(x[:, 3], x[:, 4], x[:, 5]), s.target)

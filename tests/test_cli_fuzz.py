@@ -128,6 +128,7 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["ballbar", "analyse", "{nonutf8}"], 2, "UTF-8"),
         (["ballbar", "analyse", "{file}"], 2, "bar_length_mm"),
         (["ballbar", "analyse", "{file}", "--harmonics", "-3"], 2, "--harmonics"),
+        (["ballbar", "analyse", "{tracker_file}"], 2, "needs a ball-bar measurement, found a tracker file"),
     ],
     "calibrate": [
         (["calibrate", "identifiability", "no_such_machine", "--instrument", "ballbar"], 2, "no_such_machine"),
@@ -154,6 +155,16 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["calibrate", "plan", "felix", "--instrument", "ballbar", "--objective", "bogus", "--out", "p.toml"], 2,
          "--objective"),
         (["calibrate", "plan", "no_such", "--instrument", "ballbar", "--out", "p.toml"], 2, "no_such"),
+        # tracker / 6-D pose measurement files and plans
+        (["calibrate", "identify", "felix", "--measurements", "{bad_tracker}"], 2, "line 5, column 3 (py_mm)"),
+        (["calibrate", "check", "felix", "--measurements", "{bad_tracker}"], 2, "line 5, column 3 (py_mm)"),
+        (["calibrate", "identify", "felix", "--measurements", "{bad_pose}"], 2, "line 4, column 7 (rz_mrad)"),
+        (["calibrate", "identify", "felix", "--measurements", "{tracker_with_bar}"], 2,
+         "line 2: header key 'bar_length_mm' does not belong to a tracker file"),
+        (["calibrate", "simulate", "felix", "--plan", "{tracker_plan}", "--noise", "procedure", "--out", "m.csv"], 2,
+         "procedure"),
+        (["calibrate", "simulate", "felix", "--plan", "{tracker_plan}", "--angle-accuracy", "100", "--out",
+          "m.csv"], 2, "--angle-accuracy"),
     ],
     "mechanism": [
         (["mechanism", "solve", "no_such", "--drives", "1"], 2, "no_such"),
@@ -209,6 +220,23 @@ def bad_files(tmp_path, monkeypatch):
     sweep = (ROOT / SWEEP).read_text(encoding="utf-8").replace('"kx", "ky"', '"tilt_drive_7", "ky"')
     (tmp_path / "badq.toml").write_text(sweep, encoding="utf-8")
     f["bad_quantity_sweep"] = "badq.toml"
+    head = "# instrument_type: tracker\n# machine: felix\n"
+    (tmp_path / "bad_tracker.csv").write_text(head + "t_s,px_mm,py_mm,pz_mm,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg\n"
+                                              "1,0,0,0,0,0,0,0,0,0\n2,0,zero,0,0,0,0,0,0,0\n")
+    f["bad_tracker"] = "bad_tracker.csv"
+    (tmp_path / "bad_pose.csv").write_text("# instrument_type: pose\n# machine: felix\n# target_mm: 0, 0, 0\n"
+                                           "t_s,px_mm,py_mm,pz_mm,rx_urad,ry_urad,rz_mrad,x_mm,y_mm,z_mm,a_deg,"
+                                           "b_deg,c_deg\n1,0,0,0,0,0,0,0,0,0,0,0,0\n")
+    f["bad_pose"] = "bad_pose.csv"
+    (tmp_path / "tracker_bar.csv").write_text("# instrument_type: tracker\n# bar_length_mm: 150\n"
+                                              "t_s,px_mm,py_mm,pz_mm\n1,0,0,0\n")
+    f["tracker_with_bar"] = "tracker_bar.csv"
+    (tmp_path / "tracker.csv").write_text("# instrument_type: tracker\nt_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,px_mm,py_mm,"
+                                          "pz_mm\n1,0,0,0,0,0,0,0,0,0\n")
+    f["tracker_file"] = "tracker.csv"
+    (tmp_path / "tracker_plan.toml").write_text('[plan]\ninstrument = "tracker"\n[[paths]]\nkind = "poses"\n'
+                                                'positions = [[0, 0, 0]]\n')
+    f["tracker_plan"] = "tracker_plan.toml"
     return tmp_path, f
 
 

@@ -5,6 +5,7 @@ What is computed (SI throughout: m, rad):
 * radial deviations ``d_k`` of the actual path from the commanded path, measured along the bar
   (docs/theory/calibration.md: the reading is the distance between the two ball centres);
 * a geometric least-squares circle fit in the plane of the run: centre offset, radius deviation, residuals;
+* the minimum-zone circle (ISO 12181-2 MZCI) and the circularity about it (:func:`min_zone_circle`);
 * the circular-test figures of ISO 230-4 as Szatmári §2.2.3.1 lists them: circular deviation G, radial
   deviation F (max / min), hysteresis H, per direction (CCW, CW);
 * Fourier harmonics A0…An with phases (Szatmári eq. 4.9/4.10), the automatic choice of n (the region-B rule
@@ -354,6 +355,106 @@ def fit_circle(points: ArrayLike, *, max_iter: int = 20, source: str = "") -> Ci
     return CircleFit(centre=c + ref, radius=float(r), residual=residual, iterations=it)
 
 
+@dataclass(frozen=True)
+class MinimumZone:
+    """Minimum-zone circle (ISO 12181-2 MZCI, the reference ISO 230-4 permits): ``centre`` (2,) [m] of the two
+    concentric circles of least radial separation that enclose the points, ``outer``/``inner`` radii [m],
+    ``circularity`` = outer − inner [m], ``iterations`` of the linearised LP."""
+
+    centre: Array
+    outer: float
+    inner: float
+    circularity: float
+    iterations: int
+
+
+def _zone(q: Array, c: Array) -> tuple[float, float]:
+    rho = np.linalg.norm(q - c, axis=1)
+    return float(rho.max()), float(rho.min())
+
+
+def _zone_lp(u: Array, rs: Array, t: float, source: str) -> Any:
+    """The linearised zone LP in scaled unknowns z = (δ1, δ2, R', r'): min R' − r' s.t. rs_k − u_k·δ ≤ R',
+    rs_k − u_k·δ ≥ r', |δ_i| ≤ t; by constraint generation (exact): solved on the 32 outermost and innermost
+    points, then the constraints the solution violates are added until none is (a ball-bar run has a handful
+    of active points among thousands of samples)."""
+    from scipy.optimize import linprog
+
+    m = min(32, rs.size)
+    order = np.argsort(rs)
+    out_k, in_k = order[-m:], order[:m]
+    c = np.array([0.0, 0.0, 1.0, -1.0])
+    bounds = [(-t, t), (-t, t), (None, None), (None, None)]
+    for _ in range(100):
+        zo, zi = np.zeros((out_k.size, 1)), np.zeros((in_k.size, 1))
+        A_ub = np.vstack([np.hstack([-u[out_k], -np.ones_like(zo), zo]), np.hstack([u[in_k], zi, np.ones_like(zi)])])
+        b_ub = np.concatenate([-rs[out_k], rs[in_k]])
+        lp = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs-ds",
+                     options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10})
+        if lp.status != 0:
+            raise BallbarError(f"minimum-zone circle: the linear program failed ({lp.message})", source)
+        v = rs - u @ lp.x[:2]
+        tol = 1e-9  # of the zone width (the solver's tolerances are 1e-10)
+        vo = np.setdiff1d(np.flatnonzero(v > lp.x[2] + tol), out_k)
+        vi = np.setdiff1d(np.flatnonzero(v < lp.x[3] - tol), in_k)
+        if not vo.size and not vi.size:
+            return lp
+        out_k = np.union1d(out_k, vo[np.argsort(v[vo])[-m:]])
+        in_k = np.union1d(in_k, vi[np.argsort(v[vi])[:m]])
+    raise BallbarError("minimum-zone circle: constraint generation did not converge", source)
+
+
+def min_zone_circle(points: ArrayLike, *, start: ArrayLike | None = None, max_iter: int = 30,
+                    source: str = "") -> MinimumZone:
+    """Minimum-zone (Chebyshev) circle of in-plane points (N, 2) [m]: min over centres c of max|q_k − c| − min|q_k − c|.
+
+    Method (toolkit's choice): sequential linear programming. About the current centre c0 the distances are
+    linearised, ρ_k(c0 + δ) ≈ ρ_k − u_k·δ (u_k the unit vector c0 → q_k); the LP in (δ, R, r)
+        min R − r   s.t.   ρ_k − u_k·δ ≤ R,   ρ_k − u_k·δ ≥ r,   |δ| ≤ trust
+    (HiGHS dual simplex: a vertex solution, exact up to rounding; by constraint generation, :func:`_zone_lp`)
+    gives the step; c0 ← c0 + δ while the exact
+    zone width decreases, else the trust region is halved. The linearisation error is ≤ |δ|²/(2 min ρ), so for
+    ball-bar profiles (µm deviations on ≥ 50 mm radii) two or three steps reach rounding level. The start is the
+    least-squares centre (``start`` or :func:`fit_circle`); as every accepted step lowers the exact width, the
+    result never exceeds the least-squares circularity. The LP is scaled to the current width (unknowns of
+    order one) so the solver's tolerances are relative to the zone, not to the radius.
+    """
+    q = np.asarray(points, dtype=float)
+    if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 3 or not np.all(np.isfinite(q)):
+        raise BallbarError(f"a minimum-zone circle needs finite points of shape (N >= 3, 2), found {q.shape}", source)
+    ref = q.mean(axis=0)
+    qr = q - ref
+    c = (fit_circle(q, source=source).centre if start is None else np.asarray(start, dtype=float)) - ref
+    R, r = _zone(qr, c)
+    width = R - r
+    trust = max(width, 1e-15 * max(R, 1e-300))
+    it = 0
+    for it in range(1, max_iter + 1):
+        if width <= 1e-15 * R:
+            break
+        diff = qr - c
+        rho = np.linalg.norm(diff, axis=1)
+        u = diff / rho[:, None]
+        s = width  # scale: unknowns in units of the current zone width
+        rs = (rho - r) / s  # radii shifted by the inner radius (a well-conditioned LP)
+        lp = _zone_lp(u, rs, trust / s, source)
+        if (lp.x[2] - lp.x[3]) >= 1.0 - 1e-12:  # the linearised zone cannot shrink: c is optimal (convex LP)
+            break
+        cn = c + s * lp.x[:2]
+        Rn, rn = _zone(qr, cn)
+        if Rn - rn < width:
+            step = float(np.linalg.norm(cn - c))
+            c, R, r, width = cn, Rn, rn, Rn - rn
+            if step <= 1e-15 * R:
+                break
+            trust = max(2.0 * step, 1e-15 * R)
+        else:
+            trust *= 0.25
+            if trust <= 1e-15 * R:
+                break
+    return MinimumZone(centre=c + ref, outer=R, inner=r, circularity=width, iterations=it)
+
+
 # ------------------------------------------------------------------------------------------ circular test
 
 @dataclass(frozen=True)
@@ -382,6 +483,7 @@ class RunEvaluation:
     harmonics: Harmonics
     choice: HarmonicChoice
     filtered: Array
+    circular_deviation_min_zone: float = float("nan")
 
     def to_dict(self, n_report: int | None = None) -> dict[str, Any]:
         """JSON-ready summary; lengths in µm (keys name units), angles in degrees."""
@@ -392,6 +494,7 @@ class RunEvaluation:
             "direction": self.direction,
             "samples": int(self.theta.size),
             "circular_deviation_G_um": self.circular_deviation * um,
+            "circular_deviation_G_min_zone_um": self.circular_deviation_min_zone * um,
             "radial_deviation_F_max_um": self.radial_deviation_max * um,
             "radial_deviation_F_min_um": self.radial_deviation_min * um,
             "centre_offset_um": (self.centre_offset * um).tolist(),
@@ -423,7 +526,8 @@ def evaluate_run(theta: ArrayLike, deviation: ArrayLike, radius_nominal: ArrayLi
     Reading (ISO 230-4 as cited by Szatmári §2.2.3.1, not defined in the thesis):
 
     * circular deviation G = max − min of the radial distances of the actual points from the least-squares
-      circle (ISO 230-4 allows the LSQ centre; the minimum-zone centre would give a value ≤ this one);
+      circle (ISO 230-4 allows the LSQ centre), and ``circular_deviation_min_zone`` the same about the
+      minimum-zone centre (:func:`min_zone_circle`, ISO 12181-2 MZCI; never larger than G);
     * radial deviation F = the largest positive (F_max) and negative (F_min) deviation of the actual path from
       the nominal path, whose centre is the fixed ball (the ball bar is centred on the nominal centre);
     * centre offset and radius deviation from the same LSQ circle; to first order they equal (a1, b1) and A0
@@ -440,13 +544,14 @@ def evaluate_run(theta: ArrayLike, deviation: ArrayLike, radius_nominal: ArrayLi
     rho = rn + d
     pts = np.column_stack([rho * np.cos(th), rho * np.sin(th)])
     fit = fit_circle(pts, source=source)
+    mz = min_zone_circle(pts, start=fit.centre, source=source)
     r_nom = float(np.mean(rn))
     return RunEvaluation(
         direction=direction, theta=th, deviation=d, fit=fit, centre_offset=fit.centre,
         centre_offset_xyz=np.full(3, np.nan), radius_nominal=r_nom, radius_deviation=fit.radius - r_nom,
         circular_deviation=float(fit.residual.max() - fit.residual.min()),
         radial_deviation_max=float(d.max()), radial_deviation_min=float(d.min()),
-        harmonics=h, choice=choice, filtered=reconstruct(h, th, choice.n))
+        harmonics=h, choice=choice, filtered=reconstruct(h, th, choice.n), circular_deviation_min_zone=mz.circularity)
 
 
 def hysteresis(theta_a: ArrayLike, dev_a: ArrayLike, theta_b: ArrayLike, dev_b: ArrayLike,
@@ -469,7 +574,8 @@ def hysteresis(theta_a: ArrayLike, dev_a: ArrayLike, theta_b: ArrayLike, dev_b: 
 class BallbarEvaluation:
     """Evaluation of a circular ball-bar test: one :class:`RunEvaluation` per direction present ("ccw", "cw"),
     hysteresis H (None unless both directions), circularity of all samples together about one LSQ circle [m],
-    the plane frame and the bar length [m]."""
+    the plane frame, the bar length [m] and ``circularity_min_zone``: all samples about the minimum-zone centre
+    (:func:`min_zone_circle`) [m], ≤ ``circularity``."""
 
     runs: dict[str, RunEvaluation]
     hysteresis: float | None
@@ -477,6 +583,7 @@ class BallbarEvaluation:
     plane: PlaneFrame
     bar_length: float
     notes: list[str] = field(default_factory=list)
+    circularity_min_zone: float = float("nan")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict; keys name their units (µm, mm, deg)."""
@@ -486,6 +593,7 @@ class BallbarEvaluation:
             "bar_length_mm": self.bar_length * 1e3,
             "hysteresis_H_um": None if self.hysteresis is None else self.hysteresis * 1e6,
             "circularity_um": self.circularity * 1e6,
+            "circularity_min_zone_um": self.circularity_min_zone * 1e6,
             "runs": {k: r.to_dict() for k, r in self.runs.items()},
             "notes": list(self.notes),
         }
@@ -546,9 +654,12 @@ def evaluate_circular_test(positions: ArrayLike, reading: ArrayLike, fixed_ball:
     if len(runs) == 2:
         H = hysteresis(runs["ccw"].theta, runs["ccw"].deviation, runs["cw"].theta, runs["cw"].deviation)
     rho = r_nom + d_plane
-    allfit = fit_circle(np.column_stack([rho * np.cos(theta), rho * np.sin(theta)]), source=source)
+    pts = np.column_stack([rho * np.cos(theta), rho * np.sin(theta)])
+    allfit = fit_circle(pts, source=source)
     circ = float(allfit.residual.max() - allfit.residual.min())
-    return BallbarEvaluation(runs=runs, hysteresis=H, circularity=circ, plane=frame, bar_length=float(bar_length))
+    mz = min_zone_circle(pts, start=allfit.centre, source=source)
+    return BallbarEvaluation(runs=runs, hysteresis=H, circularity=circ, plane=frame, bar_length=float(bar_length),
+                             circularity_min_zone=mz.circularity)
 
 
 def ball_positions(poses: ArrayLike, ball_offset: ArrayLike) -> Array:
@@ -598,6 +709,10 @@ def evaluate_measurement(meas: Any, *, harmonics: int | Literal["auto"] = "auto"
     forward kinematics of ``machine`` from ``start_pose`` for a drive-only file) and the header's ball offset.
     ``plane`` overrides the file's ``plane`` header.
     """
+    kind = getattr(meas, "kind", "ballbar")
+    if kind != "ballbar":
+        raise BallbarError(f"a circular-test evaluation needs a ball-bar measurement, found a {kind} file "
+                           f"(instrument_type: {kind}); identify from it with 'pkmstiff calibrate identify'", source)
     P = ball_positions(commanded_poses(meas, machine, start_pose, source), meas.ball_offset)
     return evaluate_circular_test(P, meas.reading, meas.fixed_ball, meas.bar_length, direction=meas.direction,
                                   plane=meas.plane if plane is None else plane, harmonics=harmonics, alpha=alpha,

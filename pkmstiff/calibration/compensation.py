@@ -177,14 +177,21 @@ def setup_from_ballbar(meas: object) -> Setup:
 
 
 def measurement_plan(meas: object, machine_name: str, source: str) -> tuple[Plan, np.ndarray]:
-    """Plan (commanded poses + nominal set-up) and readings (N, 1) in m (the full ball distance: the file's
-    reading + bar length) of a ball-bar measurement taken on the machine ``machine_name``; a file of another
-    machine or without commanded poses is a one-line error saying what to do."""
+    """Plan (commanded poses + nominal set-up) and readings of a measurement taken on the machine
+    ``machine_name``: ball bar (N, 1) in m (the full ball distance: the file's reading + bar length); tracker
+    (N, 3) target positions in m; pose (N, 6) positions in m and orientation errors in rad (the order of
+    :data:`~pkmstiff.calibration.instruments.READINGS`). A file of another machine or without commanded poses is
+    a one-line error saying what to do."""
     if meas.machine and meas.machine != machine_name.split(":")[0]:
         raise CalibrationInputError(source, "machine", f"a measurement taken on '{machine_name}' (give the machine "
                                     f"the file was measured on, '{meas.machine}', or the right file)", meas.machine)
     if meas.poses is None:
         raise CalibrationInputError(source, "x_mm ... c_deg", "the commanded pose columns (identification needs the "
                                     "commanded poses; export them with the readings)", "drive columns only")
+    kind = getattr(meas, "kind", "ballbar")
+    if kind != "ballbar":
+        setup = Setup(kind, target=np.asarray(meas.target, dtype=float))
+        return (Plan(f"measurement {Path(source).name}", setup, np.asarray(meas.poses, dtype=float)),
+                np.asarray(meas.readings, dtype=float))
     plan = Plan(f"measurement {Path(source).name}", setup_from_ballbar(meas), np.asarray(meas.poses, dtype=float))
     return plan, (np.asarray(meas.reading, dtype=float) + meas.bar_length)[:, None]

@@ -25,6 +25,31 @@ values ``q1_mm``/``q1_deg``, ``q2_…`` (consecutive), ``reading_mm`` (required:
 measured ball distance minus ``bar_length``), optional ``feed_mm_min``, ``direction`` (``ccw``/``cw``) and
 ``temperature_C``. Instrument defaults are the QC10 class values of Szatmári Tab. 4.3 (docs/theory/calibration.md).
 
+**Tracker and 6-D pose files** (same layout, header ``instrument_type: tracker`` or ``pose``; without that key a
+file is a ball-bar file, so older files read unchanged)::
+
+    # pkmstiff tracker measurement
+    # format_version: 1
+    # instrument_type: tracker
+    # machine: felix
+    # instrument: laser tracker (AT960 class, assumed)
+    # target_mm: 0, 0, -100
+    # volume_radius_mm: 20000
+    # resolution_um: 0.1
+    # accuracy_um: 15
+    # accuracy_um_per_m: 6
+    # standoff_mm: 2000
+    # sample_rate_hz: 1000
+    t_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,px_mm,py_mm,pz_mm
+    1,-150,-150,-250,0,0,0,-150.0012,-149.9987,-350.0003
+
+``px_mm,py_mm,pz_mm`` (required) are the measured target position in the instrument frame (nominally the
+machine frame), ``target_mm`` the target in the platform frame; a pose file adds ``rx_urad,ry_urad,rz_urad``
+(required), the measured orientation error as a rotation vector φ = log(Qᵀ R R_cᵀ) (R reached, R_c commanded
+orientation; :mod:`~pkmstiff.calibration.instruments`) and may give ``angle_resolution_urad`` and
+``angle_accuracy_urad``. Readings farther than ``volume_radius_mm`` from the instrument-frame origin are out of
+range. Ball-bar header keys (``bar_length_mm`` ...) are errors in these files and vice versa.
+
 Every error is a :class:`~pkmstiff.errors.MeasurementFileError` whose one-line message names the file, the line
 and, for a cell, the column number and name. Readings outside the instrument range are an error on reading (the
 first offending line is named, with the count); :func:`range_violations` lists them for a writer's report.
@@ -50,6 +75,14 @@ POSE_COLUMNS = ("x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg")
 _POSE_SCALE = np.array([1e-3, 1e-3, 1e-3, math.pi / 180, math.pi / 180, math.pi / 180])
 _DRIVE_RE = re.compile(r"^q(\d+)_(mm|deg)$")
 _OPTIONAL = ("feed_mm_min", "direction", "temperature_C")
+KINDS = ("ballbar", "tracker", "pose")
+POSITION_COLUMNS = ("px_mm", "py_mm", "pz_mm")
+ROTATION_COLUMNS = ("rx_urad", "ry_urad", "rz_urad")
+#: reading columns per instrument type
+READING_COLUMNS = {"ballbar": ("reading_mm",), "tracker": POSITION_COLUMNS, "pose": POSITION_COLUMNS + ROTATION_COLUMNS}
+POINT_UNITS_LINE = ("t_s s; x_mm y_mm z_mm mm; a_deg b_deg c_deg deg (commanded pose); px_mm py_mm pz_mm mm "
+                    "(measured target position, instrument frame); rx_urad ry_urad rz_urad urad (measured "
+                    "orientation error, rotation vector); feed_mm_min mm/min; temperature_C degC")
 UNITS_LINE = ("t_s s; x_mm y_mm z_mm mm; a_deg b_deg c_deg deg; q<i>_mm mm (linear drive); q<i>_deg deg (rotary "
               "drive); reading_mm mm (measured distance - bar_length); feed_mm_min mm/min; temperature_C degC")
 
@@ -98,8 +131,58 @@ class BallbarMeasurement:
         return int(self.t.size)
 
 
-def range_violations(meas: BallbarMeasurement) -> NDArray[np.int64]:
-    """Indices of samples whose reading lies outside the instrument range ``meas.range``."""
+@dataclass
+class PointMeasurement:
+    """One laser-tracker (``kind`` "tracker") or 6-D pose (``kind`` "pose") measurement in SI units.
+
+    Header: ``target`` (3,) [m] (the target / reference point in the platform frame), ``volume_radius`` [m]
+    (largest distance of a reading from the instrument-frame origin), ``resolution`` [m], the position MPE
+    ``accuracy`` + ``accuracy_per_m`` · distance [m, m/m] at the ``standoff`` distance [m], ``angle_resolution``
+    and ``angle_accuracy`` [rad] (pose), ``sample_rate`` [Hz], ``notes``. Samples (N,): ``t`` [s], ``position``
+    (N, 3) [m] measured target positions in the instrument frame, ``rotation`` (N, 3) [rad] measured orientation
+    errors (rotation vectors; pose only, else None), commanded ``poses`` (N, 6) / ``drives`` as for the ball bar,
+    ``feed`` [m/s], ``direction``, ``temperature`` [°C], ``lines`` (file line per sample when read).
+    """
+
+    kind: str
+    t: Array
+    position: Array
+    rotation: Array | None = None
+    poses: Array | None = None
+    drives: Array | None = None
+    drive_units: tuple[str, ...] = ()
+    feed: Array | None = None
+    direction: NDArray[np.str_] | None = None
+    temperature: Array | None = None
+    target: Array = field(default_factory=lambda: np.zeros(3))
+    machine: str = ""
+    instrument: str = ""
+    volume_radius: float = 20.0
+    resolution: float = 0.1e-6
+    accuracy: float = 15e-6
+    accuracy_per_m: float = 6e-6
+    standoff: float = 2.0
+    angle_resolution: float = 1e-6
+    angle_accuracy: float = 175e-6
+    sample_rate: float = 1000.0
+    notes: list[str] = field(default_factory=list)
+    lines: NDArray[np.int64] | None = None
+
+    @property
+    def n_samples(self) -> int:
+        return int(self.t.size)
+
+    @property
+    def readings(self) -> Array:
+        """Readings (N, 3) or (N, 6) [m, rad] in the order of :data:`pkmstiff.calibration.instruments.READINGS`."""
+        return self.position if self.rotation is None else np.hstack([self.position, self.rotation])
+
+
+def range_violations(meas: BallbarMeasurement | PointMeasurement) -> NDArray[np.int64]:
+    """Indices of samples whose reading lies outside the instrument range (ball bar: ``meas.range`` about the bar
+    length; tracker / pose: farther than ``meas.volume_radius`` from the instrument-frame origin)."""
+    if isinstance(meas, PointMeasurement):
+        return np.flatnonzero(np.linalg.norm(meas.position, axis=1) > meas.volume_radius)
     lo, hi = meas.range
     return np.flatnonzero((meas.reading < lo) | (meas.reading > hi))
 
@@ -123,6 +206,8 @@ def write_measurement(path: str | Path, meas: BallbarMeasurement, *, allow_out_o
     """
     path = Path(path)
     src = str(path)
+    if isinstance(meas, PointMeasurement):
+        return _write_points(path, meas, allow_out_of_range)
     n = meas.n_samples
     _check_lengths(meas, src)
     bad = range_violations(meas)
@@ -161,6 +246,10 @@ def write_measurement(path: str | Path, meas: BallbarMeasurement, *, allow_out_o
         f"# plane: {meas.plane}",
         f"# units: {UNITS_LINE}",
     ] + [f"# note: {note}" for note in meas.notes]
+    return _write_table(path, head, cols, n)
+
+
+def _write_table(path: Path, head: list[str], cols: list, n: int) -> Path:
     text_cols = []
     for name, values in cols:
         if name == "direction":
@@ -173,10 +262,69 @@ def write_measurement(path: str | Path, meas: BallbarMeasurement, *, allow_out_o
     return path
 
 
-def _check_lengths(meas: BallbarMeasurement, src: str) -> None:
+def _command_cols(meas: BallbarMeasurement | PointMeasurement) -> list:
+    cols: list = [("t_s", meas.t)]
+    if meas.poses is not None:
+        for j, name in enumerate(POSE_COLUMNS):
+            cols.append((name, meas.poses[:, j] / _POSE_SCALE[j]))
+    if meas.drives is not None:
+        units = meas.drive_units or ("mm",) * meas.drives.shape[1]
+        for j, u in enumerate(units):
+            cols.append((f"q{j + 1}_{u}", meas.drives[:, j] / (1e-3 if u == "mm" else math.pi / 180)))
+    return cols
+
+
+def _write_points(path: Path, meas: PointMeasurement, allow_out_of_range: bool) -> Path:
+    src = str(path)
+    if meas.kind not in ("tracker", "pose"):
+        raise MeasurementFileError(src, None, f"instrument type must be 'tracker' or 'pose', found {meas.kind!r}")
+    if (meas.rotation is None) != (meas.kind == "tracker"):
+        raise MeasurementFileError(src, None, "a pose measurement needs orientation readings, a tracker "
+                                   "measurement none")
     n = meas.n_samples
-    for name in ("reading", "poses", "drives", "feed", "direction", "temperature"):
-        v = getattr(meas, name)
+    _check_lengths(meas, src)
+    bad = range_violations(meas)
+    if bad.size and not allow_out_of_range:
+        i = int(bad[0])
+        raise MeasurementFileError(src, None, f"{bad.size} reading(s) farther than the instrument's "
+                                   f"{meas.volume_radius * 1e3:g} mm from its origin, first at sample {i} "
+                                   f"(t = {meas.t[i]:g} s)")
+    cols = _command_cols(meas)
+    for j, name in enumerate(POSITION_COLUMNS):
+        cols.append((name, meas.position[:, j] / 1e-3))
+    if meas.rotation is not None:
+        for j, name in enumerate(ROTATION_COLUMNS):
+            cols.append((name, meas.rotation[:, j] / 1e-6))
+    for name, attr, scale in (("feed_mm_min", "feed", 1 / 60e3), ("direction", "direction", None),
+                              ("temperature_C", "temperature", 1.0)):
+        v = getattr(meas, attr)
+        if v is not None:
+            cols.append((name, np.asarray(v) if scale is None else v / scale))
+    head = [
+        f"# pkmstiff {meas.kind} measurement",
+        f"# format_version: {FORMAT_VERSION}",
+        f"# instrument_type: {meas.kind}",
+        f"# machine: {meas.machine}",
+        f"# instrument: {meas.instrument}",
+        f"# target_mm: {_vec(np.asarray(meas.target), 1e-3)}",
+        f"# volume_radius_mm: {_fmt(meas.volume_radius / 1e-3)}",
+        f"# resolution_um: {_fmt(meas.resolution / 1e-6)}",
+        f"# accuracy_um: {_fmt(meas.accuracy / 1e-6)}",
+        f"# accuracy_um_per_m: {_fmt(meas.accuracy_per_m / 1e-6)}",
+        f"# standoff_mm: {_fmt(meas.standoff / 1e-3)}",
+    ]
+    if meas.kind == "pose":
+        head += [f"# angle_resolution_urad: {_fmt(meas.angle_resolution / 1e-6)}",
+                 f"# angle_accuracy_urad: {_fmt(meas.angle_accuracy / 1e-6)}"]
+    head += [f"# sample_rate_hz: {_fmt(meas.sample_rate)}", f"# units: {POINT_UNITS_LINE}"]
+    head += [f"# note: {note}" for note in meas.notes]
+    return _write_table(path, head, cols, n)
+
+
+def _check_lengths(meas: BallbarMeasurement | PointMeasurement, src: str) -> None:
+    n = meas.n_samples
+    for name in ("reading", "position", "rotation", "poses", "drives", "feed", "direction", "temperature"):
+        v = getattr(meas, name, None)
         if v is not None and len(v) != n:
             raise MeasurementFileError(src, None, f"'{name}' has {len(v)} samples, expected {n} (as 't')")
     if meas.poses is None and meas.drives is None:
@@ -185,8 +333,11 @@ def _check_lengths(meas: BallbarMeasurement, src: str) -> None:
 
 # ------------------------------------------------------------------------------------------------- reading
 
-_HEADER_KEYS = ("format_version", "machine", "instrument", "bar_length_mm", "fixed_ball_mm", "ball_offset_mm",
-                "range_mm", "resolution_um", "accuracy_um", "sample_rate_hz", "plane", "units", "note")
+_BALLBAR_KEYS = ("bar_length_mm", "fixed_ball_mm", "ball_offset_mm", "range_mm", "plane")
+_POINT_KEYS = ("target_mm", "volume_radius_mm", "accuracy_um_per_m", "standoff_mm", "angle_resolution_urad",
+               "angle_accuracy_urad")
+_HEADER_KEYS = ("format_version", "instrument_type", "machine", "instrument", "resolution_um", "accuracy_um",
+                "sample_rate_hz", "units", "note") + _BALLBAR_KEYS + _POINT_KEYS
 
 
 def _numbers(src: str, line: int, key: str, text: str, count: int) -> list[float]:
@@ -201,8 +352,9 @@ def _numbers(src: str, line: int, key: str, text: str, count: int) -> list[float
     return vals
 
 
-def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMeasurement:
-    """Read a measurement CSV (format in the module docstring) into SI units.
+def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMeasurement | PointMeasurement:
+    """Read a measurement CSV (format in the module docstring) into SI units: a :class:`BallbarMeasurement`, or
+    a :class:`PointMeasurement` for a file with ``instrument_type: tracker`` / ``pose``.
 
     Raises :class:`MeasurementFileError` (one line: file, line, column) for: a missing file, unknown or repeated
     header keys, bad header values, a missing column row, unknown/duplicate/missing columns, rows with the wrong
@@ -257,8 +409,19 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     if columns is None:
         raise MeasurementFileError(src, len(lines) or None, "no column row found (expected a line such as "
                                    "'t_s,x_mm,...,reading_mm')")
-    meta = _parse_header(src, header)
-    layout = _parse_columns(src, col_line, columns)
+    kind = "ballbar"
+    if "instrument_type" in header:
+        no, kind = header["instrument_type"]
+        if kind not in KINDS:
+            raise MeasurementFileError(src, no, f"header key 'instrument_type': expected one of {', '.join(KINDS)}, "
+                                       f"found {kind!r}")
+    foreign = _POINT_KEYS if kind == "ballbar" else _BALLBAR_KEYS
+    for key in foreign:
+        if key in header:
+            raise MeasurementFileError(src, header[key][0], f"header key '{key}' does not belong to a {kind} file "
+                                       f"(instrument_type: {kind})")
+    meta = _parse_header(src, header) if kind == "ballbar" else _parse_point_header(src, header, kind)
+    layout = _parse_columns(src, col_line, columns, kind)
     if not data_rows:
         raise MeasurementFileError(src, col_line, "no data rows after the column row")
     ncol = len(columns)
@@ -295,7 +458,7 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
         i = int(back[0]) + 1
         raise MeasurementFileError(src, int(line_no[i]), f"time must not decrease: {t[i]:g} s after {t[i - 1]:g} s",
                                    layout["t_s"] + 1, "t_s")
-    reading = numeric(layout["reading_mm"]) * 1e-3
+    reading = numeric(layout["reading_mm"]) * 1e-3 if kind == "ballbar" else None
     poses = None
     if "x_mm" in layout:
         poses = np.column_stack([numeric(layout[c]) for c in POSE_COLUMNS]) * _POSE_SCALE
@@ -315,9 +478,23 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
             i = int(np.argmax(bad))
             raise MeasurementFileError(src, int(line_no[i]), f"expected 'ccw' or 'cw', found {table[i, j]!r}",
                                        j + 1, "direction")
-    meas = BallbarMeasurement(t=t, reading=reading, poses=poses, drives=drives, drive_units=drive_units,
-                              feed=feed, direction=direction, temperature=temperature, notes=notes,
-                              lines=line_no, **meta)
+    common = dict(t=t, poses=poses, drives=drives, drive_units=drive_units, feed=feed, direction=direction,
+                  temperature=temperature, notes=notes, lines=line_no, **meta)
+    if kind != "ballbar":
+        position = np.column_stack([numeric(layout[c]) for c in POSITION_COLUMNS]) * 1e-3
+        rotation = (np.column_stack([numeric(layout[c]) for c in ROTATION_COLUMNS]) * 1e-6 if kind == "pose"
+                    else None)
+        pm = PointMeasurement(kind=kind, position=position, rotation=rotation, **common)
+        if check_range:
+            bad = range_violations(pm)
+            if bad.size:
+                i = int(bad[0])
+                raise MeasurementFileError(src, int(line_no[i]), f"reading at {np.linalg.norm(position[i]) * 1e3:g} "
+                                           f"mm from the instrument origin, beyond its measuring volume of radius "
+                                           f"{pm.volume_radius * 1e3:g} mm ({bad.size} such readings)",
+                                           layout["px_mm"] + 1, "px_mm")
+        return pm
+    meas = BallbarMeasurement(reading=reading, **common)
     if check_range:
         bad = range_violations(meas)
         if bad.size:
@@ -377,24 +554,63 @@ def _parse_header(src: str, header: dict[str, tuple[int, str]]) -> dict:
     return meta
 
 
-def _parse_columns(src: str, line: int, columns: list[str]) -> dict:
+def _parse_point_header(src: str, header: dict[str, tuple[int, str]], kind: str) -> dict:
+    """Header of a tracker / pose file (module docstring); every key optional (defaults: the assumed AT960-class
+    figures of :class:`PointMeasurement`)."""
+    if "format_version" in header:
+        no, v = header["format_version"]
+        if v != str(FORMAT_VERSION):
+            raise MeasurementFileError(src, no, f"header key 'format_version': expected {FORMAT_VERSION}, found {v!r}")
+    meta: dict = {}
+    if (h := header.get("target_mm")) is not None:
+        meta["target"] = np.array(_numbers(src, h[0], "target_mm", h[1], 3)) * 1e-3
+    if kind == "tracker":
+        for key in ("angle_resolution_urad", "angle_accuracy_urad"):
+            if key in header:
+                raise MeasurementFileError(src, header[key][0], f"header key '{key}' belongs to a pose file, not to "
+                                           "a tracker file (instrument_type: tracker)")
+    for key, attr, scale, zero_ok in (("volume_radius_mm", "volume_radius", 1e-3, False),
+                                      ("resolution_um", "resolution", 1e-6, True),
+                                      ("accuracy_um", "accuracy", 1e-6, True),
+                                      ("accuracy_um_per_m", "accuracy_per_m", 1e-6, True),
+                                      ("standoff_mm", "standoff", 1e-3, True),
+                                      ("angle_resolution_urad", "angle_resolution", 1e-6, True),
+                                      ("angle_accuracy_urad", "angle_accuracy", 1e-6, True),
+                                      ("sample_rate_hz", "sample_rate", 1.0, False)):
+        if (h := header.get(key)) is not None:
+            (x,) = _numbers(src, h[0], key, h[1], 1)
+            if x < 0 or (x == 0 and not zero_ok):
+                what = "a non-negative" if zero_ok else "a positive"
+                raise MeasurementFileError(src, h[0], f"header key '{key}': expected {what} number, found {h[1]!r}")
+            meta[attr] = x * scale
+    for key in ("machine", "instrument"):
+        if (h := header.get(key)) is not None:
+            meta[key] = h[1]
+    return meta
+
+
+def _parse_columns(src: str, line: int, columns: list[str], kind: str = "ballbar") -> dict:
     layout: dict = {}
     drives: list[tuple[int, int, str]] = []
-    allowed = ("t_s",) + POSE_COLUMNS + ("q<i>_mm", "q<i>_deg", "reading_mm") + _OPTIONAL
+    reads = READING_COLUMNS[kind]
+    allowed = ("t_s",) + POSE_COLUMNS + ("q<i>_mm", "q<i>_deg") + reads + _OPTIONAL
     for j, name in enumerate(columns):
         m = _DRIVE_RE.match(name)
         if name in layout or (m and any(d[0] == int(m.group(1)) for d in drives)):
             raise MeasurementFileError(src, line, f"duplicate column '{name}'", j + 1, name)
         if m:
             drives.append((int(m.group(1)), j, m.group(2)))
-        elif name in ("t_s", "reading_mm") + POSE_COLUMNS + _OPTIONAL:
+        elif name in ("t_s",) + reads + POSE_COLUMNS + _OPTIONAL:
             layout[name] = j
         else:
-            raise MeasurementFileError(src, line, f"unknown column '{name}'; expected one of {', '.join(allowed)}",
-                                       j + 1, name)
-    for req in ("t_s", "reading_mm"):
+            other = [k for k, cols in READING_COLUMNS.items() if name in cols and k != kind]
+            hint = (f" ('{name}' is a reading of a {other[-1]} file; set the header key 'instrument_type')"
+                    if other else "")
+            raise MeasurementFileError(src, line, f"unknown column '{name}' in a {kind} file{hint}; expected one "
+                                       f"of {', '.join(allowed)}", j + 1, name)
+    for req in ("t_s",) + reads:
         if req not in layout:
-            raise MeasurementFileError(src, line, f"missing column '{req}'")
+            raise MeasurementFileError(src, line, f"missing column '{req}' (a {kind} file)")
     have = [c for c in POSE_COLUMNS if c in layout]
     if have and len(have) != 6:
         missing = [c for c in POSE_COLUMNS if c not in layout]

@@ -17,6 +17,11 @@ Chain of effects per sample (all SI):
 
 **Assumption:** the ±0.5 µm accuracy and the Tab. 4.5 procedure uncertainties are read as 2σ bounds (k = 2), i.e.
 σ = accuracy / 2 resp. U(feed) / 2, with U interpolated linearly in the feed.
+
+Laser tracker and 6-D pose instrument (:class:`TrackerModel`): the readings of
+:func:`~pkmstiff.calibration.instruments.readings` with white noise per coordinate (σ = MPE / 2, the same k = 2
+reading) and quantisation to the resolution; the instrument figures are **assumptions** for a typical
+AT960-class tracker with a 6-D probe (no source of the project gives them; see :class:`TrackerModel`).
 """
 
 from __future__ import annotations
@@ -85,6 +90,71 @@ class InstrumentModel:
 
 
 @dataclass(frozen=True)
+class TrackerModel:
+    """A laser tracker (``kind`` "tracker": 3-D target position) or a 6-D pose instrument (``kind`` "pose": a
+    tracker with a 6-DoF probe, position + orientation). Every figure is an **Assumption** (typical data-sheet
+    values of an AT960-class tracker; the project's sources give none), one reason each:
+
+    * ``sample_rate`` 1000 Hz: the output rate such trackers offer for dynamic measurement;
+    * ``resolution`` 0.1 µm: the distance (ADM/IFM) display resolution;
+    * position MPE = ``mpe_constant`` 15 µm + ``mpe_per_m`` 6 µm/m × distance: the usual form and size of a
+      tracker's ISO 10360-10 maximum permissible error;
+    * ``standoff`` 2 m: the tracker stands beside the machine, about 2 m from the workspace, so the MPE is
+      evaluated at 2 m (27 µm);
+    * ``volume_radius`` 20 m: the 6-DoF probe range of such trackers (readings beyond are out of range);
+    * ``angle_accuracy`` 175 µrad (0.01°) MPE and ``angle_resolution`` 1 µrad: 6-DoF probe (T-Mac class) data.
+
+    σ = MPE / 2 per coordinate (k = 2, as for the ball bar)."""
+
+    kind: str = "tracker"
+    name: str = "laser tracker (AT960 class, assumed)"
+    sample_rate: float = 1000.0
+    resolution: float = 0.1e-6
+    mpe_constant: float = 15e-6
+    mpe_per_m: float = 6e-6
+    standoff: float = 2.0
+    volume_radius: float = 20.0
+    angle_resolution: float = 1e-6
+    angle_accuracy: float = 175e-6
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("tracker", "pose"):
+            raise CalibrationInputError("instrument", "kind", "tracker or pose", self.kind)
+        for key in ("sample_rate", "resolution", "mpe_constant", "mpe_per_m", "standoff", "volume_radius",
+                    "angle_resolution", "angle_accuracy"):
+            v = getattr(self, key)
+            if not (np.isfinite(v) and v >= 0) or (key in ("sample_rate", "volume_radius") and v <= 0):
+                raise CalibrationInputError("instrument", key, "a positive number", v)
+
+    @property
+    def accuracy(self) -> float:
+        """Position MPE at the standoff distance [m]."""
+        return self.mpe_constant + self.mpe_per_m * self.standoff
+
+    def sigma(self, noise: str | float, feed: np.ndarray | float) -> np.ndarray:
+        """Position σ per sample [m]: ``none``, ``instrument`` (MPE / 2) or a number (σ in m); the ball-bar
+        ``procedure`` model (Szatmári Tab. 4.5) does not apply to a tracker."""
+        f = np.asarray(feed, dtype=float)
+        if isinstance(noise, str):
+            if noise == "none":
+                return np.zeros_like(f)
+            if noise == "instrument":
+                return np.full_like(f, self.accuracy / 2.0)
+            raise CalibrationInputError("--noise", "noise", "none, instrument or a sigma for a tracker / pose "
+                                        "instrument (procedure is the ball-bar model of Szatmari Tab. 4.5)", noise)
+        return np.full_like(f, float(noise))
+
+    def angle_sigma(self, noise: str | float) -> float:
+        """Orientation σ [rad]: 0 for ``none``, angle MPE / 2 otherwise (a numeric σ sets the position only)."""
+        return 0.0 if noise == "none" else self.angle_accuracy / 2.0
+
+
+def default_instrument(kind: str) -> InstrumentModel | TrackerModel:
+    """The default instrument model of a plan's instrument: QC10 ball bar, or the assumed tracker / 6-D model."""
+    return InstrumentModel() if kind == "ballbar" else TrackerModel(kind=kind)
+
+
+@dataclass(frozen=True)
 class SimulationOptions:
     """How the measurement is run: path ``feed`` [m/s] (default 500 mm/min, Szatmári's quasi-static limit for
     Felix, §4.3.3.2), ``directions`` ("ccw", "cw" or both, "cw" being the plan's paths reversed), ``noise`` (see
@@ -136,8 +206,9 @@ class Samples:
 
 @dataclass
 class SimulationResult:
-    """Simulated readings (N, k) [m, rad] with the samples; ``violations`` are sample indices whose ball-bar
-    reading leaves the instrument range; ``sigma`` the noise σ per sample [m]; ``temperature`` [°C]."""
+    """Simulated readings (N, k) [m, rad] with the samples; ``violations`` are sample indices whose reading
+    leaves the instrument range (ball bar: the range about the bar length; tracker / pose: the measuring
+    volume); ``sigma`` the (position) noise σ per sample [m]; ``temperature`` [°C]."""
 
     samples: Samples
     readings: np.ndarray
@@ -276,10 +347,11 @@ def displaced_frames(o: np.ndarray, R: np.ndarray, Jinv: np.ndarray, dq: np.ndar
 
 
 def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Plan,
-             instrument: InstrumentModel | None = None, options: SimulationOptions | None = None,
+             instrument: InstrumentModel | TrackerModel | None = None, options: SimulationOptions | None = None,
              samples: Samples | None = None) -> SimulationResult:
     """Simulate a measurement along ``plan`` on ``machine`` with errors ``delta`` (module docstring)."""
-    instrument = instrument or InstrumentModel()
+    instrument = instrument or default_instrument(plan.instrument)
+    _check_match(plan, instrument)
     options = options or SimulationOptions()
     delta = params.check_vector(delta)
     smp = samples or sample_plan(plan, instrument, options)
@@ -318,7 +390,9 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
     rng = np.random.default_rng(options.seed)
     out = clean + (rng.standard_normal(clean.shape) * sigma[:, None] if np.any(sigma > 0) else 0.0)
     violations, dev = np.zeros(0, dtype=int), None
-    if plan.instrument == "ballbar":
+    if plan.instrument != "ballbar":
+        out, violations = _point_readings(instrument, options, clean, out, rng)
+    else:
         dev = out[:, 0] - plan.setup.bar_length
         if options.quantise and instrument.resolution > 0:
             dev = np.round(dev / instrument.resolution) * instrument.resolution
@@ -327,28 +401,82 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
     return SimulationResult(smp, out, clean, sigma, options.T0 + rise, violations, notes, dev)
 
 
-def range_error(plan: Plan, res: SimulationResult, instrument: InstrumentModel) -> str:
+def check_samples(machine: Machine, plan: Plan, samples: Samples, max_list: int = 3) -> None:
+    """Refuse a plan whose *sampled* poses (the spline / slerp interpolated poses between its nodes at constant
+    feed, :func:`sample_plan`) leave the admissible region: a one-line :class:`CalibrationError` listing the
+    first ``max_list`` offending samples with their time, pose and failing App. B checks (as
+    :func:`~pkmstiff.calibration.plans.check_plan` does for the nodes)."""
+    from pkmstiff.admissibility import evaluate_poses
+    from pkmstiff.calibration.plans import _fmt_pose
+
+    ev = evaluate_poses(machine, samples.poses)
+    bad = np.flatnonzero(~ev.ok)
+    if not bad.size:
+        return
+    items = [f"sample {i + 1} (t = {samples.t[i]:.3f} s) {_fmt_pose(samples.poses[i])}: "
+             f"{', '.join(ev.admissibility.failing(int(i)))}" for i in bad[:max_list]]
+    more = f"; ... ({bad.size - max_list} more)" if bad.size > max_list else ""
+    raise CalibrationError(f"plan '{plan.name}': {bad.size} of {len(samples.poses)} sampled poses not admissible "
+                           f"on {machine.name}: " + "; ".join(items) + more)
+
+
+def _check_match(plan: Plan, instrument: InstrumentModel | TrackerModel) -> None:
+    kind = getattr(instrument, "kind", "ballbar")
+    if kind != plan.instrument:
+        raise CalibrationInputError(plan.name, "instrument", f"a {plan.instrument} instrument model for a "
+                                    f"{plan.instrument} plan", kind)
+
+
+def _point_readings(instrument: TrackerModel, options: SimulationOptions, clean: np.ndarray, out: np.ndarray,
+                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Tracker / pose readings: orientation noise added to ``out`` (position noise is already in), quantisation
+    to the position / angle resolution, and the samples beyond the measuring volume."""
+    out = out.copy()
+    if out.shape[1] == 6:  # the orientation columns get the angle noise, not the position σ drawn for all columns
+        sa = instrument.angle_sigma(options.noise)
+        out[:, 3:] = clean[:, 3:] + (rng.standard_normal((len(out), 3)) * sa if sa > 0 else 0.0)
+    if options.quantise:
+        for cols, res in ((slice(0, 3), instrument.resolution), (slice(3, 6), instrument.angle_resolution)):
+            if res > 0:
+                out[:, cols] = np.round(out[:, cols] / res) * res
+    return out, np.flatnonzero(np.linalg.norm(out[:, :3], axis=1) > instrument.volume_radius)
+
+
+def range_error(plan: Plan, res: SimulationResult, instrument: InstrumentModel | TrackerModel) -> str:
     """The one-line report of range violations (empty when there are none)."""
     v = res.violations
     if not v.size:
         return ""
     i = int(v[0])
+    if plan.instrument != "ballbar":
+        return (f"plan '{plan.name}': {v.size} of {len(res.readings)} simulated readings beyond the {instrument.name}'s "
+                f"measuring volume of radius {instrument.volume_radius * 1e3:g} mm, first at sample {i + 1} "
+                f"(t = {res.samples.t[i]:.3f} s, {np.linalg.norm(res.readings[i, :3]) * 1e3:.1f} mm)")
     dev = (res.readings[i, 0] - plan.setup.bar_length) * 1e3
     return (f"plan '{plan.name}': {v.size} of {len(res.readings)} simulated readings outside the {instrument.name} "
             f"range [{instrument.range[0] * 1e3:g}, {instrument.range[1] * 1e3:g}] mm, first at sample {i + 1} "
             f"(t = {res.samples.t[i]:.3f} s, reading {dev:+.4f} mm)")
 
 
-def to_measurement(machine: Machine, plan: Plan, res: SimulationResult, instrument: InstrumentModel,
+def to_measurement(machine: Machine, plan: Plan, res: SimulationResult, instrument: InstrumentModel | TrackerModel,
                    saturate: bool = False):
-    """The simulated ball-bar run as a :class:`~pkmstiff.calibration.measurement_file.BallbarMeasurement`
-    (reading = distance − bar length; ``saturate`` clips out-of-range readings at the range limits, as the
-    transducer would)."""
-    from pkmstiff.calibration.measurement_file import BallbarMeasurement
+    """The simulated run as a :class:`~pkmstiff.calibration.measurement_file.BallbarMeasurement` (reading =
+    distance − bar length; ``saturate`` clips out-of-range readings at the range limits, as the transducer would)
+    or, for a tracker / pose plan, a :class:`~pkmstiff.calibration.measurement_file.PointMeasurement`."""
+    from pkmstiff.calibration.measurement_file import BallbarMeasurement, PointMeasurement
 
+    _check_match(plan, instrument)
     if plan.instrument != "ballbar":
-        raise CalibrationInputError(plan.name, "plan.instrument", "a ball-bar plan for a measurement CSV",
-                                    plan.instrument)
+        return PointMeasurement(kind=plan.instrument, t=res.samples.t, position=res.readings[:, :3],
+                                rotation=res.readings[:, 3:6] if plan.instrument == "pose" else None,
+                                poses=res.samples.poses, feed=res.samples.feed,
+                                direction=res.samples.direction.astype(str), temperature=res.temperature,
+                                target=plan.setup.target.copy(), machine=machine.name, instrument=instrument.name,
+                                volume_radius=instrument.volume_radius, resolution=instrument.resolution,
+                                accuracy=instrument.mpe_constant, accuracy_per_m=instrument.mpe_per_m,
+                                standoff=instrument.standoff, angle_resolution=instrument.angle_resolution,
+                                angle_accuracy=instrument.angle_accuracy, sample_rate=instrument.sample_rate,
+                                notes=[f"simulated by pkmstiff from plan '{plan.name}'"] + res.notes)
     dev = res.readings[:, 0] - plan.setup.bar_length if res.deviation is None else res.deviation
     if saturate:
         dev = np.clip(dev, *instrument.range)
@@ -370,7 +498,10 @@ __all__ = (
     "Samples",
     "SimulationOptions",
     "SimulationResult",
+    "TrackerModel",
     "backlash_offsets",
+    "check_samples",
+    "default_instrument",
     "displaced_frames",
     "drift_offsets",
     "range_error",

@@ -1,6 +1,7 @@
 """``pkmstiff ballbar analyse MEAS.csv``: circular-test evaluation of a ball-bar measurement file.
 
-Prints the ISO 230-4 style figures (G, F, H), centre offset, radius deviation, circularity and the Fourier
+Prints the ISO 230-4 style figures (G, F, H), centre offset, radius deviation, circularity (least-squares and
+minimum-zone centre) and the Fourier
 harmonics (Szatmári eq. 4.9/4.10) per direction; ``--json`` prints one object whose keys name their units (µm, mm,
 deg); ``--plot DIR`` writes the polar deviation plot and the harmonic spectrum as PNG.
 """
@@ -83,7 +84,8 @@ def _print_text(rep: dict[str, Any]) -> None:
           f"{rep['instrument']}, bar {rep['bar_length_mm']:g} mm, plane {rep['plane']}")
     for lab, r in rep["runs"].items():
         h = r["harmonics"]
-        print(f"  {lab.upper():>3}: G {r['circular_deviation_G_um']:8.3f} um   F max {r['radial_deviation_F_max_um']:+8.3f}"
+        print(f"  {lab.upper():>3}: G {r['circular_deviation_G_um']:8.3f} um (min zone "
+              f"{r['circular_deviation_G_min_zone_um']:.3f} um)   F max {r['radial_deviation_F_max_um']:+8.3f}"
               f" um  F min {r['radial_deviation_F_min_um']:+8.3f} um")
         off = r["centre_offset_um"]
         print(f"       centre offset ({off[0]:+.3f}, {off[1]:+.3f}) um = {r['centre_offset_magnitude_um']:.3f} um,"
@@ -96,9 +98,11 @@ def _print_text(rep: dict[str, Any]) -> None:
             amp = f"{a:+10.4f}".replace("-0.0000", "+0.0000")  # no negative zero for a rounded-away A0
             print(f"         A{k:<2} {amp} um   phi {p:7.2f} deg")
     if rep["hysteresis_H_um"] is not None:
-        print(f"  hysteresis H {rep['hysteresis_H_um']:.3f} um, circularity {rep['circularity_um']:.3f} um")
+        print(f"  hysteresis H {rep['hysteresis_H_um']:.3f} um, circularity {rep['circularity_um']:.3f} um "
+              f"(least squares), {rep['circularity_min_zone_um']:.3f} um (minimum zone)")
     else:
-        print(f"  circularity {rep['circularity_um']:.3f} um (one direction only: no hysteresis)")
+        print(f"  circularity {rep['circularity_um']:.3f} um (least squares), {rep['circularity_min_zone_um']:.3f} um "
+              "(minimum zone; one direction only: no hysteresis)")
     for p in rep.get("plots", []):
         print(f"  wrote {p}")
 

@@ -13,7 +13,7 @@ import numpy as np
 
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
                     out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
-                    outlier_threshold: float = 3.0, instrument: str = "ballbar", deflection: str = "none",
+                    outlier_threshold: float = 3.0, instrument: str | None = None, deflection: str = "none",
                     load: str | None = None) -> dict:
     """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict.
     ``deflection="gravity"``: the predicted deflection is subtracted from the readings and the bias an
@@ -27,14 +27,15 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     from pkmstiff.errors import CalibrationInputError
     from pkmstiff.machine import load_machine
 
-    if instrument != "ballbar":
-        raise CalibrationInputError(measurements, "instrument", "ballbar (measurement files hold ball-bar readings)",
-                                    instrument)
     if check_deflection(deflection) == "none" and load is not None:
         raise CalibrationInputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
     wrench = parse_load(load)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)
+    kind = getattr(meas, "kind", "ballbar")
+    if instrument is not None and instrument != kind:
+        raise CalibrationInputError(measurements, "instrument", f"'{instrument}' (--instrument), but the file holds "
+                                    f"{kind} readings (header instrument_type)", kind)
     plan, y = measurement_plan(meas, machine.name, measurements)
     params = error_model(machine, frame=frame, setup=plan.setup)
     defl = None
@@ -170,18 +171,21 @@ def _add_identify(sub) -> None:
     from pkmstiff.cli.calibrate import _run
 
     p = sub.add_parser("identify", help="identify the base parameters from a measurement",
-                       description="Identify the machine's base error parameters from a ball-bar measurement "
+                       description="Identify the machine's base error parameters from a ball-bar, laser-tracker or "
+                                   "6-D pose measurement "
                                    "(Szatmari 4.6): Gauss-Newton, Levenberg-Marquardt, minimax (eq. 4.12) or a "
                                    "global stage with LM polish; sigma and correlations; optionally the "
                                    "calibrated machine file.")
     p.add_argument("machine", help="nominal machine (bundled name or machine file)")
-    p.add_argument("--measurements", required=True, metavar="MEAS.csv", help="ball-bar measurement file")
+    p.add_argument("--measurements", required=True, metavar="MEAS.csv",
+                   help="measurement file (ball bar, tracker or pose; docs/user-guide/calibration-simulation.md)")
     p.add_argument("--method", choices=METHODS, default="lm")
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
     p.add_argument("--out", metavar="CALIBRATED.toml", help="write the calibrated machine file")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check with N runs")
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
-    p.add_argument("--instrument", default="ballbar", help="instrument of the measurement (ballbar)")
+    p.add_argument("--instrument", choices=("ballbar", "tracker", "pose"), default=None,
+                   help="expected instrument of the measurement (default: the file's instrument_type)")
     p.add_argument("--deflection", choices=("none", "gravity"), default="none",
                    help="gravity: subtract the predicted elastic deflection under the machine's weight (structure "
                         "model) from the readings and report the bias it would cause otherwise (default none)")

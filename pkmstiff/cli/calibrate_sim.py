@@ -61,53 +61,76 @@ def _noise(text: str) -> str | float:
 
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
-    from pkmstiff.admissibility import evaluate_poses
     from pkmstiff.calibration import check_plan, read_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
-        InstrumentModel,
         SimulationOptions,
+        check_samples,
         range_error,
         sample_plan,
         simulate,
         to_measurement,
     )
-    from pkmstiff.errors import CalibrationError, CalibrationInputError
+    from pkmstiff.errors import CalibrationError
     from pkmstiff.machine import load_machine
 
     machine = load_machine(args.machine)
     plan = read_plan(args.plan)
-    if plan.instrument != "ballbar":
-        raise CalibrationInputError(args.plan, "plan.instrument", "a ball-bar plan (the measurement CSV is a "
-                                    "ball-bar file)", plan.instrument)
     check_plan(machine, plan)
-    rng = plan.setup.measuring_range if args.range is None else args.range * 1e-3
-    inst = InstrumentModel(sample_rate=args.sample_rate, range=(-rng, rng),
-                           resolution=args.resolution * 1e-6, accuracy=args.accuracy * 1e-6)
+    inst = _instrument(args, plan)
     dirs = tuple(d.strip() for d in args.directions.split(",") if d.strip())
     opts = SimulationOptions(feed=args.feed / 60e3, directions=dirs, noise=_noise(args.noise),
                              quantise=not args.no_quantise, backlash=args.backlash * 1e-6, drift_dT=args.drift,
                              drift_tau=args.drift_tau, seed=args.seed, deflection=args.deflection)
     params, delta = read_errors(args.errors, machine, plan)
     smp = sample_plan(plan, inst, opts)
-    ev = evaluate_poses(machine, smp.poses)  # the poses between the plan's nodes, too
-    bad = np.flatnonzero(~ev.ok)
-    if bad.size:
-        i = int(bad[0])
-        raise CalibrationError(f"plan '{plan.name}': {bad.size} of {len(smp.poses)} sampled poses not admissible on "
-                               f"{machine.name}, first sample {i + 1} (t = {smp.t[i]:.3f} s): "
-                               f"{', '.join(ev.admissibility.failing(i))}")
+    check_samples(machine, plan, smp)  # the poses between the plan's nodes, too
     res = simulate(machine, params, delta, plan, inst, opts, samples=smp)
     msg = range_error(plan, res, inst)
-    if msg and not args.saturate:
-        raise CalibrationError(msg + " (use --saturate to write them clipped at the range limits)")
+    if msg and (not args.saturate or plan.instrument != "ballbar"):
+        raise CalibrationError(msg + (" (use --saturate to write them clipped at the range limits)"
+                                      if plan.instrument == "ballbar" else ""))
     meas = to_measurement(machine, plan, res, inst, saturate=args.saturate)
     write_measurement(args.out, meas)
-    dev = res.readings[:, 0] - plan.setup.bar_length
-    return {"machine": machine.name, "plan": plan.name, "out": str(args.out), "n_samples": len(dev),
-            "duration_s": float(res.samples.t[-1]), "reading_min_um": float(dev.min() * 1e6),
-            "reading_max_um": float(dev.max() * 1e6), "range_violations": int(res.violations.size),
-            "noise_sigma_um": float(res.sigma.max() * 1e6), "notes": res.notes}
+    rep = {"machine": machine.name, "plan": plan.name, "instrument": plan.instrument, "out": str(args.out),
+           "n_samples": len(res.readings), "duration_s": float(res.samples.t[-1])}
+    if plan.instrument == "ballbar":
+        dev = res.readings[:, 0] - plan.setup.bar_length
+        rep.update({"reading_min_um": float(dev.min() * 1e6), "reading_max_um": float(dev.max() * 1e6)})
+    else:  # deviation of the reading from the commanded target position / orientation
+        from pkmstiff.calibration.instruments import target_points
+        from pkmstiff.kinematics.rotation import cardan_matrix
+
+        x = res.samples.poses
+        cmd = target_points(plan.setup.state(), x[:, :3], cardan_matrix(x[:, 3], x[:, 4], x[:, 5]))
+        rep["position_error_max_um"] = float(np.linalg.norm(res.readings[:, :3] - cmd, axis=1).max() * 1e6)
+        if plan.instrument == "pose":
+            rep["orientation_error_max_urad"] = float(np.linalg.norm(res.readings[:, 3:], axis=1).max() * 1e6)
+    rep.update({"range_violations": int(res.violations.size), "noise_sigma_um": float(res.sigma.max() * 1e6),
+                "notes": res.notes})
+    return rep
+
+
+def _instrument(args: argparse.Namespace, plan):
+    """The instrument model of the plan's instrument with the command-line figures (defaults: QC10 ball bar;
+    the assumed AT960-class tracker / 6-D instrument of :class:`~pkmstiff.calibration.simulation.TrackerModel`)."""
+    from pkmstiff.calibration.simulation import InstrumentModel, TrackerModel
+    from pkmstiff.errors import CalibrationInputError
+
+    if plan.instrument == "ballbar":
+        rng = plan.setup.measuring_range if args.range is None else args.range * 1e-3
+        return InstrumentModel(sample_rate=250.0 if args.sample_rate is None else args.sample_rate, range=(-rng, rng),
+                               resolution=(0.1 if args.resolution is None else args.resolution) * 1e-6,
+                               accuracy=(0.5 if args.accuracy is None else args.accuracy) * 1e-6)
+    if args.angle_accuracy is not None and plan.instrument != "pose":
+        raise CalibrationInputError("--angle-accuracy", "angle_accuracy", "a pose (6-D) plan", plan.instrument)
+    d = TrackerModel(kind=plan.instrument)
+    return TrackerModel(kind=plan.instrument,
+                        sample_rate=d.sample_rate if args.sample_rate is None else args.sample_rate,
+                        volume_radius=d.volume_radius if args.range is None else args.range * 1e-3,
+                        resolution=d.resolution if args.resolution is None else args.resolution * 1e-6,
+                        mpe_constant=d.mpe_constant if args.accuracy is None else args.accuracy * 1e-6,
+                        angle_accuracy=d.angle_accuracy if args.angle_accuracy is None else args.angle_accuracy * 1e-6)
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -115,9 +138,14 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(rep, indent=2))
     else:
+        if "reading_min_um" in rep:
+            what = f"readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} um"
+        else:
+            what = f"position error up to {rep['position_error_max_um']:.2f} um" + (
+                f", orientation error up to {rep['orientation_error_max_urad']:.2f} urad"
+                if "orientation_error_max_urad" in rep else "")
         print(f"{rep['machine']}: plan '{rep['plan']}' -> {rep['out']}: {rep['n_samples']} samples over "
-              f"{rep['duration_s']:.1f} s, readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} um "
-              f"(noise sigma {rep['noise_sigma_um']:.3g} um)"
+              f"{rep['duration_s']:.1f} s, {what} (noise sigma {rep['noise_sigma_um']:.3g} um)"
               + (f", {rep['range_violations']} range violations clipped" if rep["range_violations"] else ""))
         for n in rep["notes"]:
             print("  " + n)
@@ -125,13 +153,16 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _add_simulate(sub) -> None:
-    p = sub.add_parser("simulate", help="simulate a ball-bar measurement along a plan (writes a measurement CSV)",
-                       description="Readings of the machine with the errors of --errors along a ball-bar plan: "
-                                   "continuous runs at constant feed sampled at the instrument rate, white noise, "
-                                   "quantisation, reversal backlash, thermal drift (Assumption), range check "
-                                   "(Szatmari 4.3, Tab. 4.3-4.5). Defaults: QC10.")
+    p = sub.add_parser("simulate", help="simulate a ball-bar, tracker or 6-D pose measurement along a plan (writes "
+                                        "a measurement CSV)",
+                       description="Readings of the machine with the errors of --errors along a plan: "
+                                   "continuous runs at constant feed sampled at the instrument rate (point sets: one "
+                                   "reading per pose), white noise, quantisation, reversal backlash, thermal drift "
+                                   "(Assumption), range check (Szatmari 4.3, Tab. 4.3-4.5). Defaults: QC10 ball bar; "
+                                   "tracker / pose: assumed AT960-class figures (MPE 15 um + 6 um/m at 2 m, 1000 Hz, "
+                                   "0.1 um; 6-D: 175 urad).")
     p.add_argument("machine", help="bundled machine name or machine file")
-    p.add_argument("--plan", required=True, help="plan file (TOML, ball bar)")
+    p.add_argument("--plan", required=True, help="plan file (TOML; ball bar, tracker or pose)")
     p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"); default: nominal machine")
     p.add_argument("--out", required=True, help="measurement CSV to write")
     p.add_argument("--noise", default="instrument",
@@ -144,11 +175,16 @@ def _add_simulate(sub) -> None:
     p.add_argument("--drift", type=float, default=0.0,
                    help="thermal warm-up of the struts in K (Assumption: steel, first order; default 0)")
     p.add_argument("--drift-tau", type=float, default=1800.0, help="warm-up time constant in s (default 1800)")
-    p.add_argument("--sample-rate", type=float, default=250.0, help="instrument sample rate in Hz (default 250)")
+    p.add_argument("--sample-rate", type=float, default=None,
+                   help="instrument sample rate in Hz (default 250; tracker / pose 1000)")
     p.add_argument("--range", type=float, default=None,
-                   help="instrument range +- in mm (default: the plan's measuring_range, 1 mm for a QC10)")
-    p.add_argument("--resolution", type=float, default=0.1, help="resolution in um (default 0.1)")
-    p.add_argument("--accuracy", type=float, default=0.5, help="accuracy +- in um (default 0.5)")
+                   help="instrument range +- in mm (default: the plan's measuring_range, 1 mm for a QC10); tracker / "
+                        "pose: radius of the measuring volume in mm (default 20000)")
+    p.add_argument("--resolution", type=float, default=None, help="resolution in um (default 0.1)")
+    p.add_argument("--accuracy", type=float, default=None,
+                   help="accuracy +- in um (default 0.5); tracker / pose: constant part of the MPE (default 15)")
+    p.add_argument("--angle-accuracy", type=float, default=None,
+                   help="pose (6-D) instrument: orientation MPE in urad (default 175 = 0.01 deg)")
     p.add_argument("--deflection", choices=("none", "gravity"), default="none",
                    help="gravity: add the machine's elastic deflection under its weight (structure model; needs "
                         "stiffness data) to the readings (default none)")

@@ -83,7 +83,8 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
                   f"     ΔR     {run.radius_deviation * 1e6:+8.2f} µm", ""]
     if ev.hysteresis is not None:
         lines.append(f"hysteresis H {ev.hysteresis * 1e6:.2f} µm")
-    lines.append(f"circularity  {ev.circularity * 1e6:.2f} µm")
+    lines.append(f"circularity  {ev.circularity * 1e6:.2f} µm (LSQ)")
+    lines.append(f"  min zone   {ev.circularity_min_zone * 1e6:.2f} µm")
     fig.suptitle(title or "Ball-bar circular test: radial deviation [µm]", fontsize=12, x=0.35)
     fig.legend(*ax.get_legend_handles_labels(), loc="upper left", bbox_to_anchor=(0.68, 0.9), fontsize=8,
                frameon=False)
