@@ -37,6 +37,9 @@ def read_errors(path: str | None, machine, plan):
     if path is None:
         params = error_model(machine, setup=plan.setup, setup_blocks=blocks)
         return params, np.zeros(params.n)
+    from pkmstiff.calibration.examples import resolve
+
+    path = str(resolve(path))  # example:NAME -> a bundled error file
     raw = check_keys(read_toml(path, CalibrationInputError, "error file"), {"frame", "errors", "description"}, path,
                      "", CalibrationInputError)
     params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
@@ -131,8 +134,9 @@ def _add_simulate(sub) -> None:
                                    "quantisation, reversal backlash, thermal drift (Assumption), range check "
                                    "(Szatmari 4.3, Tab. 4.3-4.5). Defaults: QC10.")
     p.add_argument("machine", help="bundled machine name or machine file")
-    p.add_argument("--plan", required=True, help="plan file (TOML, ball bar)")
-    p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"); default: nominal machine")
+    p.add_argument("--plan", required=True, help="plan file (TOML, ball bar), or example:NAME (bundled example)")
+    p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"), or example:NAME (bundled "
+                                    "example); default: nominal machine")
     p.add_argument("--out", required=True, help="measurement CSV to write")
     p.add_argument("--noise", default="instrument",
                    help="none | instrument (sigma = accuracy/2) | procedure (Tab. 4.5 vs feed, sigma = U/2) | "
