@@ -191,18 +191,30 @@ def test_existing_report_needs_force(files, report, capsys):
 
 # ------------------------------------------------------------------------------------------------ deflection
 def test_deflection_section_renders_a_plain_dict(tmp_path):
+    """The dict of ``pkmstiff.calibration.deflection.deflection_contribution`` (keys with unit suffixes, vectors,
+    per-parameter biases in SI with their unit, notes) becomes tables in the report's units."""
     from pkmstiff.report.calibration import deflection_section
     from pkmstiff.report.model import Report
     from pkmstiff.report.render import write_report
 
     rep = Report("t")
-    deflection_section(rep, {"rms_reading_um": 1.25, "max_reading_um": 3.5, "load": "gravity",
-                             "bias": [{"name": "chain1.strut_offset", "predicted_um": 2.0, "actual_um": 2.04}]})
+    deflection_section(rep, {"model": "gravity", "gravity_m_s2": [0.0, 0.0, -9.81], "load_N": [0.0, 0.0, -50.0], "load_N_m": [0.0, 0.0, 2.0],
+                             "n_readings": 2000, "rms_reading_um": 1.25, "max_reading_um": 3.5,
+                             "tcp_mean_um": [0.5, -0.25, -12.0], "bias_relative_deviation": 0.012,
+                             "bias": [{"name": "chain1.strut_offset", "unit": "m", "predicted": 2.0e-6,
+                                       "actual": 2.04e-6},
+                                      {"name": "chain1.guide_direction.t1", "unit": "rad", "predicted": 1.5e-6,
+                                       "actual": 1.5e-6}],
+                             "notes": ["readings corrected by the predicted deflection"]})
     deflection_section(rep, None)
     paths = write_report(rep, tmp_path, run={"date": "x"})
     md = paths["md"].read_text(encoding="utf-8")
-    assert "| rms reading | µm | 1.250 |" in md and "| max reading | µm | 3.500 |" in md
-    assert "| chain1.strut_offset | µm | 2.000 | 2.040 |" in md and "load: gravity" in md
+    for row in ("| rms reading | µm | 1.250 |", "| max reading | µm | 3.500 |", "| n readings | count | 2000 |",
+                "| gravity z | m/s² | -9.810 |", "| load z | N | -50.00 |", "| load (N m) z | N m | 2.000 |", "| tcp mean z | µm | -12.00 |",
+                "| bias relative deviation | – | 0.01200 |", "| chain1.strut_offset | µm | 2.000 | 2.040 |",
+                "| chain1.guide_direction.t1 | µrad | 1.500 | 1.500 |"):
+        assert row in md, row
+    assert "model: gravity" in md and "notes: readings corrected by the predicted deflection" in md
     assert "Not computed — run with --deflection gravity." in md
 
 
@@ -211,8 +223,8 @@ def test_deflection_option_calls_the_hook(files, tmp_path, capsys, monkeypatch):
     (machine, params, plan, measured) and renders its dict (a stand-in module here)."""
     calls = []
 
-    def fake(machine, params, plan, measured, *args, **kwargs):
-        calls.append((machine.name, params.n, plan.n_poses, measured.shape))
+    def fake(machine, params, plan, measured, method="lm", **kwargs):
+        calls.append((machine.name, params.n, plan.n_poses, measured.shape, method))
         return {"rms_reading_um": 0.5, "max_reading_um": 1.5}
 
     mod = types.ModuleType("pkmstiff.calibration.deflection")
@@ -222,7 +234,7 @@ def test_deflection_option_calls_the_hook(files, tmp_path, capsys, monkeypatch):
     code, _, err = _run(capsys, "calibrate", "report", "felix", "--measurements", files / "meas.csv", "--out", out,
                         "--deflection", "gravity")
     assert code == 0, err
-    assert len(calls) == 1 and calls[0][0] == "felix" and calls[0][3][1] == 1
+    assert len(calls) == 1 and calls[0][0] == "felix" and calls[0][3][1] == 1 and calls[0][4] == "lm"
     md = (out / "report.md").read_text(encoding="utf-8")
     assert "| rms reading | µm | 0.5000 |" in md and "Not computed" not in md
 

@@ -244,14 +244,15 @@ def deflection_contribution(run: CalibrationRun, load: str = "gravity") -> dict:
         raise CalibrationError("--deflection gravity: the deflection model (pkmstiff.calibration.deflection) is not "
                                "part of this installation; run without --deflection") from None
     # ---- deflection hook: the only call into the deflection model (wire its extra options here) ----
-    out = contribution(run.machine, run.params, run.plan, run.measured)
+    out = contribution(run.machine, run.params, run.plan, run.measured, method=run.res.method)
     # ----------------------------------------------------------------------------------------------
     return dict(out)
 
 
 # --------------------------------------------------------------------------------------------------- rendering
-_SUFFIX_UNITS = (("_um", "µm"), ("_urad", "µrad"), ("_mrad", "mrad"), ("_mm", "mm"), ("_deg", "deg"),
-                 ("_rad", "rad"), ("_m", "m"), ("_n", "N"), ("_s", "s"), ("_percent", "%"), ("_pct", "%"))
+_SUFFIX_UNITS = (("_m_s2", "m/s²"), ("_n_m", "N m"), ("_um", "µm"), ("_urad", "µrad"), ("_mrad", "mrad"), ("_mm", "mm"),
+                 ("_deg", "deg"), ("_rad", "rad"), ("_m", "m"), ("_n", "N"), ("_s", "s"), ("_percent", "%"),
+                 ("_pct", "%"))  # longest first: "load_N_m" is N m, not m
 
 
 def _key_unit(key: str) -> tuple[str, str]:
@@ -281,10 +282,44 @@ def _param_rows(value: Any) -> list[tuple[str, dict]] | None:
     return None
 
 
+def _vector(value: Any) -> list[float] | None:
+    """A short numeric vector (list/array of 2–6 numbers), e.g. a mean TCP displacement (x, y, z)."""
+    if isinstance(value, (list, tuple, np.ndarray)) and 2 <= len(value) <= 6:
+        nums = [_number(v) for v in value]
+        if all(v is not None for v in nums):
+            return nums  # type: ignore[return-value]
+    return None
+
+
+#: SI unit of a per-parameter entry ("unit": "m" | "rad") -> report unit and factor (bias values are small: µm, µrad)
+_ENTRY_UNITS = {"m": ("µm", 1e6), "rad": ("µrad", 1e6)}
+
+
+def _param_table(key: str, rows: list[tuple[str, dict]]) -> Table | None:
+    """Table of per-parameter entries: columns = their numeric keys. Entries with ``"unit": "m"|"rad"`` hold SI
+    values (shown in µm / µrad); otherwise the unit comes from the column keys' suffixes (one unit for the table)."""
+    cols: list[str] = []
+    for _, entry in rows:
+        cols += [c for c, v in entry.items() if c != "unit" and _number(v) is not None and c not in cols]
+    if not cols:
+        return None
+    suffix_units = {_key_unit(c)[1] for c in cols}
+    common = suffix_units.pop() if len(suffix_units) == 1 else "see column"
+    labels = [_key_unit(c)[0] if common != "see column" else c for c in cols]
+    t = Table(key.replace("_", " "), labels, digits=4)
+    for name, entry in rows:
+        unit, f = common, 1.0
+        if entry.get("unit") in _ENTRY_UNITS and common == "–":
+            unit, f = _ENTRY_UNITS[entry["unit"]]
+        t.add(name, unit, [None if _number(entry.get(c)) is None else _number(entry.get(c)) * f for c in cols])
+    return t
+
+
 def deflection_section(report: Report, d: dict | None) -> None:
-    """The "Deflection contribution" section from a plain dict (:func:`deflection_contribution`); scalars become a
-    table (units from the key suffixes), per-parameter entries a second table, strings the text. ``None``: the
-    section says it was not computed."""
+    """The "Deflection contribution" section from a plain dict (:func:`deflection_contribution`): numbers and short
+    vectors become a table (units from the key suffixes: ``_um`` µm, ``_urad`` µrad, ``_N`` N, ...; ``n_*`` counts),
+    per-parameter entries (a list of ``{"name", "unit", "predicted", "actual"}``, SI) a second table in µm / µrad,
+    strings and lists of strings (notes) the text. ``None``: the section says it was not computed."""
     sec = report.section("Deflection contribution")
     if d is None:
         sec.text = ("Not computed — run with --deflection gravity.\n\nThe elastic deflection of the machine under the "
@@ -294,33 +329,36 @@ def deflection_section(report: Report, d: dict | None) -> None:
         return
     scal = Table("Deflection at the measured poses", ["value"], digits=4)
     texts = []
-    per: list[tuple[str, list[tuple[str, dict]]]] = []
+    tables = []
+    used: set[str] = set()
     for k, v in d.items():
-        num = _number(v)
-        rows = _param_rows(v)
+        num, vec, rows = _number(v), _vector(v), _param_rows(v)
+        label, unit = _key_unit(k)
+        if label in used:  # e.g. load_N and load_N_m: the unit tells them apart
+            label = f"{label} ({unit})"
+        used.add(label)
         if num is not None:
-            label, unit = _key_unit(k)
+            if k.startswith("n_") and float(num).is_integer():
+                unit = "count"
             scal.add(label, unit, [num])
+        elif vec is not None:
+            axes = "xyz" if len(vec) == 3 else [str(i + 1) for i in range(len(vec))]
+            for ax, x in zip(axes, vec):
+                scal.add(f"{label} {ax}", unit, [x])
         elif rows is not None:
-            per.append((k, rows))
+            t = _param_table(k, rows)
+            if t is not None:
+                tables.append(t)
         elif isinstance(v, str):
             texts.append(f"{k.replace('_', ' ')}: {v}")
+        elif isinstance(v, (list, tuple)) and all(isinstance(x, str) for x in v):
+            texts += [f"{k.replace('_', ' ')}: {x}" for x in v]
     sec.text = "\n\n".join(["Deflection of the structure model at the measured poses and its effect on the "
-                            "identified parameters."] + texts)
+                             "identified parameters (bias = identified without − with the deflection subtracted)."]
+                            + texts)
     if scal.rows:
         sec.tables.append(scal)
-    for k, rows in per:
-        cols: list[str] = []
-        for _, entry in rows:
-            cols += [c for c, v in entry.items() if _number(v) is not None and c not in cols]
-        if not cols:
-            continue
-        units = {_key_unit(c)[1] for c in cols}
-        unit = units.pop() if len(units) == 1 else "see column"
-        t = Table(k.replace("_", " "), [_key_unit(c)[0] if unit != "see column" else c for c in cols], digits=4)
-        for name, entry in rows:
-            t.add(name, unit, [_number(entry.get(c)) for c in cols])
-        sec.tables.append(t)
+    sec.tables.extend(tables)
 
 
 def _fmt(v: float, digits: int = 4) -> str:
