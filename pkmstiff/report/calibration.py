@@ -553,7 +553,6 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path, deflection: dic
     res, unc = run.res, run.unc
     b, a = residual_stats(res.residual_before), residual_stats(res.residual_after)
     rep = Report(f"Calibration of {run.machine.title or run.machine.name}")
-    lo, hi = float(np.min(unc.sigma)), float(np.max(unc.sigma))
     summary = [f"Machine {run.machine.name}, ball-bar measurement {Path(run.measurements).name} "
                f"({res.n_readings} readings), method {res.method}: residual RMS {_fmt(b['rms_um'])} µm before, "
                f"{_fmt(a['rms_um'])} µm after; {res.rank} of {run.params.n} parameters identified "
@@ -562,9 +561,13 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path, deflection: dic
         summary.append("Cross-validation: " + "; ".join(
             f"{Path(v.path).name} RMS {_fmt(residual_stats(v.before)['rms_um'])} → "
             f"{_fmt(residual_stats(v.after)['rms_um'])} µm" for v in run.validations) + ".")
-    units = {run.params.units[i] for i in res.base}
-    if units == {"m"}:
-        summary.append(f"σ of the identified parameters: {_fmt(lo * 1e3)} … {_fmt(hi * 1e3)} mm.")
+    units = np.array([run.params.units[i] for i in res.base])
+    parts = []
+    for u, f, name in (("m", 1e3, "mm (lengths)"), ("rad", 1e6, "µrad (angles)")):
+        sel = unc.sigma[units == u]
+        if sel.size:
+            parts.append(f"{_fmt(float(sel.min()) * f)} … {_fmt(float(sel.max()) * f)} {name}")
+    summary.append("σ of the identified parameters: " + ", ".join(parts) + ".")
     rep.summary = "\n\n".join(summary)
     _plan_section(rep, run, fig_dir)
     _identifiability_section(rep, run)
