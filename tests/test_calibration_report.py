@@ -3,6 +3,7 @@ to the identification's, well-formed HTML, figures; the deflection section from 
 
 from __future__ import annotations
 
+import json
 import re
 import sys
 import types
@@ -231,9 +232,11 @@ def test_deflection_option_calls_the_hook(files, tmp_path, capsys, monkeypatch):
     mod.deflection_contribution = fake
     monkeypatch.setitem(sys.modules, "pkmstiff.calibration.deflection", mod)
     out = tmp_path / "rep"
-    code, _, err = _run(capsys, "calibrate", "report", "felix", "--measurements", files / "meas.csv", "--out", out,
-                        "--deflection", "gravity")
+    code, text, err = _run(capsys, "calibrate", "report", "felix", "--measurements", files / "meas.csv", "--out", out,
+                           "--deflection", "gravity", "--json")
     assert code == 0, err
+    doc = json.loads(text)
+    assert doc["rank"] == 36 and doc["figures"] == 4 and Path(doc["html"]).is_file()  # path, parameters, 1 circle
     assert len(calls) == 1 and calls[0][0] == "felix" and calls[0][3][1] == 1 and calls[0][4] == "lm"
     md = (out / "report.md").read_text(encoding="utf-8")
     assert "| rms reading | µm | 0.5000 |" in md and "Not computed" not in md
