@@ -242,6 +242,13 @@ def test_deflection_option_calls_the_hook(files, tmp_path, capsys, monkeypatch):
     assert "| rms reading | µm | 0.5000 |" in md and "Not computed" not in md
 
 
+def test_deflection_loads_match_the_library():
+    from pkmstiff.cli.calibrate_report import DEFLECTION_LOADS as cli
+    from pkmstiff.report.calibration import DEFLECTION_LOADS as lib
+
+    assert cli == lib
+
+
 def test_deflection_without_the_model_is_one_line(files, tmp_path, capsys, monkeypatch):
     monkeypatch.setitem(sys.modules, "pkmstiff.calibration.deflection", None)  # import fails as if not installed
     out = tmp_path / "rep"

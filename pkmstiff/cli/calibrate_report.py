@@ -9,7 +9,7 @@ from pathlib import Path
 
 #: ``--deflection`` loads (= :data:`pkmstiff.report.calibration.DEFLECTION_LOADS`; not imported here so that building
 #: the parser stays cheap)
-DEFLECTION_LOADS = ("gravity",)
+DEFLECTION_LOADS = ("none", "gravity")
 
 
 def report_command(args: argparse.Namespace) -> dict:
@@ -29,14 +29,15 @@ def report_command(args: argparse.Namespace) -> dict:
     check_output_dir(args.out, "--out", args.force, REPORT_FILES)
     if args.monte_carlo < 0:
         raise CalibrationInputError("--monte-carlo", "monte_carlo", "a number of runs >= 0", args.monte_carlo)
-    if args.deflection and not deflection_available():  # fail before the identification, write nothing
+    wants_deflection = args.deflection != "none"
+    if wants_deflection and not deflection_available():  # fail before the identification, write nothing
         raise CalibrationError(f"--deflection {args.deflection}: the deflection model "
                                "(pkmstiff.calibration.deflection) is not part of this installation; run without "
                                "--deflection")
     machine = load_machine(args.machine)
     run = run_calibration(machine, args.measurements, plan_path=args.plan, validate=args.validate or (),
                           method=args.method, loss=args.loss, frame=args.frame, monte_carlo=args.monte_carlo)
-    deflection = deflection_contribution(run, args.deflection) if args.deflection else None
+    deflection = deflection_contribution(run, args.deflection) if wants_deflection else None
     paths = write_calibration_report(run, args.out, deflection)
     b, a = residual_stats(run.res.residual_before), residual_stats(run.res.residual_after)
     return {"machine": machine.name, "measurement_file": args.measurements, "n_readings": run.res.n_readings,
@@ -85,9 +86,9 @@ def _add_report(sub) -> None:
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check of sigma with N runs")
-    p.add_argument("--deflection", choices=DEFLECTION_LOADS,
-                   help="deflection contribution of the structure model under this load (section 'Deflection "
-                        "contribution'; default: not computed)")
+    p.add_argument("--deflection", choices=DEFLECTION_LOADS, default="none",
+                   help="gravity: the deflection contribution of the structure model (section 'Deflection "
+                        "contribution'; needs a machine with stiffness data); default none: not computed")
     p.add_argument("--force", action="store_true", help="overwrite an existing report in --out")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_run(_cmd_report))

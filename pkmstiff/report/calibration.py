@@ -46,8 +46,8 @@ __all__ = ["CalibrationRun", "CircleRun", "Validation", "calibration_report", "c
 
 #: files ``calibrate report`` writes into its output directory (``--force`` to overwrite)
 REPORT_FILES = ("report.html", "report.md")
-#: loads of ``--deflection``
-DEFLECTION_LOADS = ("gravity",)
+#: ``--deflection`` values ("none": the section says "not computed"), as ``calibrate identify --deflection``
+DEFLECTION_LOADS = ("none", "gravity")
 
 #: a run of samples is a circle when its ball centres leave their best-fit plane by less than this fraction of the
 #: run's extent (the simulator interpolates between plan nodes on the bar's sphere, which bends a circle that is not
@@ -236,8 +236,8 @@ def deflection_contribution(run: CalibrationRun, load: str = "gravity") -> dict:
     """The "Deflection contribution" section's data: THE one call into the deflection model
     (:func:`pkmstiff.calibration.deflection.deflection_contribution`, issue 17 item 4). Returns its plain dict
     (keys name their units, e.g. ``rms_reading_um``, ``max_reading_um``, per-parameter predicted/actual bias)."""
-    if load not in DEFLECTION_LOADS:
-        raise CalibrationInputError("--deflection", "deflection", f"one of {', '.join(DEFLECTION_LOADS)}", load)
+    if load not in DEFLECTION_LOADS[1:]:
+        raise CalibrationInputError("--deflection", "deflection", f"one of {', '.join(DEFLECTION_LOADS[1:])}", load)
     try:
         from pkmstiff.calibration.deflection import deflection_contribution as contribution
     except ImportError:
