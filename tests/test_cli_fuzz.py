@@ -165,6 +165,27 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
          "procedure"),
         (["calibrate", "simulate", "felix", "--plan", "{tracker_plan}", "--angle-accuracy", "100", "--out",
           "m.csv"], 2, "--angle-accuracy"),
+        (["calibrate", "report", "felix", "--measurements", "missing.csv", "--out", "rep"], 2, "missing.csv"),
+        (["calibrate", "report", "felix", "--measurements", "{nonutf8}", "--out", "rep"], 2, "UTF-8"),
+        (["calibrate", "report", "felix", "--measurements", "{file}", "--out", "rep"], 2, "a_file"),
+        (["calibrate", "report", "felix", "--measurements", "{file}", "--out", "rep", "--method", "bogus"], 2,
+         "--method"),
+        (["calibrate", "report", "felix", "--measurements", "{file}", "--out", "{file}"], 2, "--out"),
+        (["calibrate", "report", "felix", "--measurements", "{file}", "--out", "{calreport}"], 2, "--force"),
+        (["calibrate", "report", "felix", "--measurements", "{file}"], 2, "--out"),
+        (["calibrate", "report", "no_such_machine", "--measurements", "{file}", "--out", "rep"], 2,
+         "no_such_machine"),
+        (["calibrate", "report", "felix", "--measurements", "{file}", "--out", "rep", "--plan", "missing.toml"], 2,
+         "missing.toml"),
+        (["calibrate", "report", "felix", "--measurements", "{file}", "--out", "rep", "--plan", "example:no.toml"],
+         2, "example:felix_plan.toml"),
+        (["calibrate", "report", "felix", "--measurements", "{file}", "--out", "rep", "--deflection", "wind"], 2,
+         "--deflection"),
+        (["calibrate", "report", "felix", "--measurements", "{file}", "--out", "rep", "--monte-carlo", "-3"], 2,
+         "--monte-carlo"),
+        (["calibrate", "simulate", "felix", "--plan", "example:no.toml", "--out", "m.csv"], 2, "example:"),
+        (["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--errors", "example:", "--out",
+          "m.csv"], 2, "example"),
     ],
     "mechanism": [
         (["mechanism", "solve", "no_such", "--drives", "1"], 2, "no_such"),
@@ -217,6 +238,9 @@ def bad_files(tmp_path, monkeypatch):
     (tmp_path / "sec").mkdir()
     (tmp_path / "sec" / "hexaglide_yz_statistics.json").write_text("{}")
     f["section_out"] = "sec"
+    (tmp_path / "calrep").mkdir()
+    (tmp_path / "calrep" / "report.html").write_text("old report")
+    f["calreport"] = "calrep"
     sweep = (ROOT / SWEEP).read_text(encoding="utf-8").replace('"kx", "ky"', '"tilt_drive_7", "ky"')
     (tmp_path / "badq.toml").write_text(sweep, encoding="utf-8")
     f["bad_quantity_sweep"] = "badq.toml"

@@ -134,10 +134,17 @@ def _matches(expected: list[str], actual: list[str]) -> bool:
 CONSOLE = [(p, line, argv, expected) for p in PAGES for lang, line, code, skip in fenced_blocks(p)
            if lang == "console" and not skip for argv, expected in console_commands(code)]
 
+#: a page with this line runs its console commands in order in one working directory, so that a command can read
+#: the files an earlier one wrote (the calibration walkthrough: plan -> simulate -> identify -> check -> report)
+CHAIN_MARK = "<!-- docs-test: one working directory -->"
+_CHAIN_DIRS: dict[Path, tuple[Path, int]] = {}  # page -> (its working directory, commands run there so far)
 
-@pytest.mark.parametrize("page,line,argv,expected", CONSOLE,
-                         ids=[f"{_page_id(c[0])}:{c[1]}:{' '.join(c[2][:2])}" for c in CONSOLE])
-def test_console_commands_run(page: Path, line: int, argv: list[str], expected: list[str], isolated) -> None:
+
+def _chained(page: Path) -> bool:
+    return CHAIN_MARK in page.read_text(encoding="utf-8")
+
+
+def _run_cli(argv: list[str]) -> tuple[int, str]:
     from pkmstiff.cli import main
 
     buf = io.StringIO()
@@ -146,6 +153,35 @@ def test_console_commands_run(page: Path, line: int, argv: list[str], expected: 
             status = main(argv)
         except SystemExit as exc:  # --help exits through argparse
             status = exc.code or 0
+    return status, buf.getvalue()
+
+
+def _chain_dir(page: Path, line: int, argv: list[str], factory) -> Path:
+    """The page's shared working directory with every earlier command of the page run in it (also when this test
+    runs alone, e.g. with -k)."""
+    cmds = [(ln, a) for p, ln, a, _ in CONSOLE if p == page]
+    k = cmds.index((line, argv))
+    d, done = _CHAIN_DIRS.get(page) or (factory.mktemp("chain"), 0)
+    cwd = os.getcwd()
+    os.chdir(d)
+    try:
+        for ln, a in cmds[done:k]:
+            status, _ = _run_cli(a)
+            assert status == 0, f"{_page_id(page)}:{ln}: earlier command 'pkmstiff {' '.join(a)}' exited {status}"
+    finally:
+        os.chdir(cwd)
+    _CHAIN_DIRS[page] = (d, k + 1)
+    return d
+
+
+@pytest.mark.parametrize("page,line,argv,expected", CONSOLE,
+                         ids=[f"{_page_id(c[0])}:{c[1]}:{' '.join(c[2][:2])}" for c in CONSOLE])
+def test_console_commands_run(page: Path, line: int, argv: list[str], expected: list[str], isolated, monkeypatch,
+                              tmp_path_factory) -> None:
+    if _chained(page):
+        monkeypatch.chdir(_chain_dir(page, line, argv, tmp_path_factory))
+    status, out = _run_cli(argv)
+    buf = io.StringIO(out)
     assert status == 0, f"{_page_id(page)}:{line}: 'pkmstiff {' '.join(argv)}' exited with {status}"
     assert _matches(expected, buf.getvalue().splitlines()), (
         f"{_page_id(page)}:{line}: output of 'pkmstiff {' '.join(argv)}' differs from the page:\n{buf.getvalue()}")

@@ -64,6 +64,22 @@ def split_load(load: Any | None, source: str = "load") -> tuple[np.ndarray, np.n
     return w[:3].copy(), (w[3:] if w.size == 6 else np.zeros(3)).copy()
 
 
+def _no_structure_model(machine: Machine, exc: StructureModelError) -> CalibrationInputError:
+    return CalibrationInputError(machine.name, "components", "stiffness and mass data (a structure model) for the "
+                                 "deflection; use --deflection none or a machine file with components",
+                                 f"none usable ({exc.expected})")
+
+
+def require_structure_model(machine: Machine) -> None:
+    """One-line error before any work when ``machine`` has no structure model (e.g. Felix: kinematics only)."""
+    from pkmstiff.structure.layout import structure_layout
+
+    try:
+        structure_layout(machine)
+    except StructureModelError as exc:
+        raise _no_structure_model(machine, exc) from None
+
+
 def gravity_deflection(machine: Machine, poses: np.ndarray, load: Any | None = None,
                        tool_length: float | np.ndarray | None = None, gravity: np.ndarray | None = None,
                        weight: bool = True) -> np.ndarray:
@@ -79,9 +95,7 @@ def gravity_deflection(machine: Machine, poses: np.ndarray, load: Any | None = N
     try:
         d = _solve(machine, x, tool_length=tool_length, gravity=gravity, force=force, moment=moment, weight=weight)
     except StructureModelError as exc:
-        raise CalibrationInputError(machine.name, "components", "stiffness and mass data (a structure model) for "
-                                    "the deflection; use --deflection none or a machine file with components",
-                                    f"none usable ({exc.expected})") from None
+        raise _no_structure_model(machine, exc) from None
     bad = np.flatnonzero(~np.isfinite(d).all(axis=1))
     if bad.size:
         raise CalibrationError(f"machine '{machine.name}': the structure model cannot take {bad.size} of {len(x)} "
@@ -262,6 +276,19 @@ def deflection_analysis(machine: Machine, params: ParameterSet, plan: Plan, meas
     return DeflectionAnalysis(corrected, uncorrected, dr, tcp, predicted, actual, split_load(load), g, notes)
 
 
+def subtract_deflection(machine: Machine, controller: Machine, plan: Plan, measured: np.ndarray,
+                        load: Any | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Readings of ``machine`` (the machine under test, e.g. a calibrated file) with its predicted deflection
+    removed: the drive values ``controller`` commanded for ``plan``'s poses move ``machine`` to the poses it
+    reaches, where its deflection changes the readings by Δr.  Returns (measured − Δr, Δr) [m, rad]."""
+    from pkmstiff.calibration.compensation import moved_poses
+    from pkmstiff.calibration.measurement import commanded_drives
+
+    reached = moved_poses(machine, commanded_drives(controller, plan.poses), plan.poses)
+    dr = readings_change(machine, plan.setup, plan.setup.state(), reached, plan.poses, load)
+    return measured - dr.reshape(measured.shape), dr
+
+
 def deflection_contribution(machine: Machine, params: ParameterSet, plan: Plan, measured: np.ndarray,
                             method: str = "lm", *, load: Any | None = None, gravity: np.ndarray | None = None,
                             refine: int = 8, **kwargs: Any) -> dict:
@@ -292,6 +319,8 @@ __all__ = (
     "deflect_frames",
     "deflection_analysis",
     "deflection_contribution",
+    "require_structure_model",
+    "subtract_deflection",
     "frame_deflection",
     "gravity_deflection",
     "identify_with_deflection",

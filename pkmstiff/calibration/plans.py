@@ -375,7 +375,11 @@ _KINDS = "circle, hemisphere, grid or poses"
 
 
 def read_plan(path: str | Path) -> Plan:
-    """Read a TOML plan (format in docs/user-guide/calibration-identifiability.md); SI for bare numbers."""
+    """Read a TOML plan (format in docs/user-guide/calibration-identifiability.md); SI for bare numbers.
+    ``example:NAME`` reads a bundled example plan (:mod:`pkmstiff.calibration.examples`)."""
+    from pkmstiff.calibration.examples import resolve
+
+    path = resolve(path)
     src = str(path)
     raw = check_keys(read_toml(path, CalibrationInputError, "plan file"), _PLAN_KEYS, src, "",
                      CalibrationInputError)

@@ -115,9 +115,10 @@ def _add_identifiability(sub) -> None:
 def subcommands() -> dict[str, Callable]:
     """The ``calibrate`` sub-commands, name -> parser builder, in the order a calibration runs."""
     from pkmstiff.cli.calibrate_identify import SUBCOMMANDS as identify  # identify, check (issue 17)
+    from pkmstiff.cli.calibrate_report import SUBCOMMANDS as report  # report (issue 17 item 5)
     from pkmstiff.cli.calibrate_sim import SUBCOMMANDS as simulation  # simulate, plan (issue 16)
 
-    return {"identifiability": _add_identifiability, **simulation, **identify}
+    return {"identifiability": _add_identifiability, **simulation, **identify, **report}
 
 
 def add_commands(sub) -> None:

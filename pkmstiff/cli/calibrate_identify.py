@@ -128,9 +128,8 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
                  load: str | None = None) -> dict:
     """Residuals of a machine file against a measurement (JSON-ready dict, µm); ``deflection="gravity"``
     subtracts the deflection of the machine under test at the poses it reaches from the readings first."""
-    from pkmstiff.calibration.compensation import check, measurement_plan, moved_poses
-    from pkmstiff.calibration.deflection import check_deflection, readings_change
-    from pkmstiff.calibration.measurement import commanded_drives
+    from pkmstiff.calibration.compensation import check, measurement_plan
+    from pkmstiff.calibration.deflection import check_deflection, subtract_deflection
     from pkmstiff.calibration.measurement_file import read_measurement
     from pkmstiff.errors import CalibrationInputError
     from pkmstiff.machine import load_machine
@@ -144,9 +143,8 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
     ctrl = load_machine(ctrl_name)
     plan, y = measurement_plan(meas, ctrl.name, measurements)
     if deflection == "gravity":
-        reached = moved_poses(machine, commanded_drives(ctrl, plan.poses), plan.poses)
-        dr = readings_change(machine, plan.setup, plan.setup.state(), reached, plan.poses, wrench)
-        rep = check(machine, ctrl, plan, y - dr).to_dict()
+        yc, dr = subtract_deflection(machine, ctrl, plan, y, wrench)
+        rep = check(machine, ctrl, plan, yc).to_dict()
         rep["deflection"] = {"model": deflection, "rms_reading_um": float(np.sqrt(np.mean(dr ** 2))) * 1e6,
                              "max_reading_um": float(np.max(np.abs(dr))) * 1e6}
         return {"measurement_file": measurements, **rep}

@@ -37,6 +37,9 @@ def read_errors(path: str | None, machine, plan):
     if path is None:
         params = error_model(machine, setup=plan.setup, setup_blocks=blocks)
         return params, np.zeros(params.n)
+    from pkmstiff.calibration.examples import resolve
+
+    path = str(resolve(path))  # example:NAME -> a bundled error file
     raw = check_keys(read_toml(path, CalibrationInputError, "error file"), {"frame", "errors", "description"}, path,
                      "", CalibrationInputError)
     params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
@@ -162,8 +165,10 @@ def _add_simulate(sub) -> None:
                                    "tracker / pose: assumed AT960-class figures (MPE 15 um + 6 um/m at 2 m, 1000 Hz, "
                                    "0.1 um; 6-D: 175 urad).")
     p.add_argument("machine", help="bundled machine name or machine file")
-    p.add_argument("--plan", required=True, help="plan file (TOML; ball bar, tracker or pose)")
-    p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"); default: nominal machine")
+    p.add_argument("--plan", required=True,
+                   help="plan file (TOML; ball bar, tracker or pose), or example:NAME (bundled example)")
+    p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"), or example:NAME (bundled "
+                                    "example); default: nominal machine")
     p.add_argument("--out", required=True, help="measurement CSV to write")
     p.add_argument("--noise", default="instrument",
                    help="none | instrument (sigma = accuracy/2) | procedure (Tab. 4.5 vs feed, sigma = U/2) | "

@@ -1,0 +1,96 @@
+"""``pkmstiff calibrate report`` (issue 17 item 5): identification, uncertainty, residuals, cross-validation and the
+deflection contribution as an HTML + Markdown report (:mod:`pkmstiff.report.calibration`). Registered in
+:func:`pkmstiff.cli.calibrate.subcommands`."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+#: ``--deflection`` loads (= :data:`pkmstiff.report.calibration.DEFLECTION_LOADS`; not imported here so that building
+#: the parser stays cheap)
+DEFLECTION_LOADS = ("none", "gravity")
+
+
+def report_command(args: argparse.Namespace) -> dict:
+    """Everything ``calibrate report`` does; returns a JSON-ready summary (keys name their units)."""
+    from pkmstiff.calibration.identification import residual_stats
+    from pkmstiff.cli.edges import check_output_dir
+    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.calibration.deflection import require_structure_model
+    from pkmstiff.machine import load_machine
+    from pkmstiff.report.calibration import (
+        REPORT_FILES,
+        run_calibration,
+        write_calibration_report,
+    )
+
+    check_output_dir(args.out, "--out", args.force, REPORT_FILES)
+    if args.monte_carlo < 0:
+        raise CalibrationInputError("--monte-carlo", "monte_carlo", "a number of runs >= 0", args.monte_carlo)
+    wants_deflection = args.deflection != "none"
+    machine = load_machine(args.machine)
+    if wants_deflection:  # fail before the identification, write nothing
+        require_structure_model(machine)
+    run = run_calibration(machine, args.measurements, plan_path=args.plan, validate=args.validate or (),
+                          method=args.method, loss=args.loss, frame=args.frame, monte_carlo=args.monte_carlo,
+                          deflection=args.deflection)
+    paths = write_calibration_report(run, args.out, run.deflection)
+    b, a = residual_stats(run.res.residual_before), residual_stats(run.res.residual_after)
+    return {"machine": machine.name, "measurement_file": args.measurements, "n_readings": run.res.n_readings,
+            "rank": run.res.rank, "n_parameters": run.params.n, "rms_before_um": b["rms_um"],
+            "rms_after_um": a["rms_um"], "circles": len(run.circles),
+            "validation": [{"file": v.path, "rms_nominal_um": residual_stats(v.before)["rms_um"],
+                            "rms_calibrated_um": residual_stats(v.after)["rms_um"]} for v in run.validations],
+            "html": str(paths["html"]), "md": str(paths["md"]), "figures": len(paths["figures"])}
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    import json
+
+    rep = report_command(args)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+        return 0
+    print(f"{rep['machine']}: {rep['n_readings']} readings, rank {rep['rank']} of {rep['n_parameters']}, residual "
+          f"RMS {rep['rms_before_um']:.4g} -> {rep['rms_after_um']:.4g} um ({rep['circles']} circle"
+          f"{'' if rep['circles'] == 1 else 's'} evaluated)")
+    for v in rep["validation"]:
+        print(f"  validation {Path(v['file']).name}: RMS {v['rms_nominal_um']:.4g} -> {v['rms_calibrated_um']:.4g} um")
+    print(f"wrote {rep['html']} and {rep['md']} ({rep['figures']} figures)")
+    return 0
+
+
+def _add_report(sub) -> None:
+    from pkmstiff.calibration.identification import LOSSES, METHODS
+    from pkmstiff.cli.calibrate import _run
+
+    p = sub.add_parser("report", help="calibration report (HTML + Markdown): plan, identifiability, parameters, "
+                                      "residuals, cross-validation",
+                       description="Identify the machine from a ball-bar measurement (as calibrate identify) and "
+                                   "write a self-contained HTML report and a Markdown twin with figures: the plan "
+                                   "and its path, identifiability (rank, gauge freedoms, condition, O1-O5), the "
+                                   "identified parameters with sigma, residuals before/after with polar plots per "
+                                   "circle, residuals on validation measurements, and the deflection contribution.")
+    p.add_argument("machine", help="nominal machine (bundled name or machine file)")
+    p.add_argument("--measurements", required=True, metavar="MEAS.csv", help="ball-bar measurement file")
+    p.add_argument("--out", required=True, metavar="DIR", help="output directory (report.html, report.md, figures/)")
+    p.add_argument("--plan", metavar="PLAN.toml", help="plan file of the measurement (described and drawn; "
+                                                       "example:NAME for a bundled example)")
+    p.add_argument("--validate", nargs="+", metavar="VALIDATION.csv",
+                   help="measurement files not used for the identification (cross-validation)")
+    p.add_argument("--method", choices=METHODS, default="lm")
+    p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
+    p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
+    p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check of sigma with N runs")
+    p.add_argument("--deflection", choices=DEFLECTION_LOADS, default="none",
+                   help="gravity: subtract the structure model's gravity deflection from the readings before "
+                        "identification and validation (as calibrate identify/check --deflection gravity) and report "
+                        "its contribution and the bias it would cause (needs a machine with stiffness data); "
+                        "default none: not computed")
+    p.add_argument("--force", action="store_true", help="overwrite an existing report in --out")
+    p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    p.set_defaults(func=_run(_cmd_report))
+
+
+SUBCOMMANDS = {"report": _add_report}
