@@ -11,10 +11,12 @@ Assumption; ``"error"`` raises :class:`~components.protocol.ComponentRangeError`
 
 from __future__ import annotations
 
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-from scipy.interpolate import CubicSpline
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
 
 from pkmstiff.errors import ComponentDataError, ComponentRangeError
 
@@ -46,6 +48,8 @@ def clamped_spline(x: np.ndarray, y: np.ndarray, what: str = "spline") -> CubicS
     if y.shape[0] != x.size:
         raise ComponentDataError(f"{what}: {x.size} abscissae but {y.shape[0]} values")
     s0, sn = secant_end_slopes(x, y)
+    from scipy.interpolate import CubicSpline  # here, not at import: scipy.interpolate takes ~0.5 s to import
+
     return CubicSpline(x, y, axis=0, bc_type=((1, s0), (1, sn)), extrapolate=True)
 
 

@@ -57,9 +57,17 @@ class ProductJoint(base.JointModel):
         if self.extrapolation == "clamp":
             self._add_assumption("extrapolation", base.CLAMP_NOTE)
 
+    def __getstate__(self) -> dict:
+        # the splines are not pickled, so that unpickling a machine does not import scipy.interpolate
+        return {**self.__dict__, "_splines": None}
+
     def stiffness(self, state: ComponentState) -> np.ndarray:
         table = f"joint '{self.name}'"
         sw, ti = base.swivel_tilt_in_range(self, state, table)
+        if self._splines is None:  # dropped when pickled (the machine cache): rebuilt from the same nodes
+            object.__setattr__(self, "_splines", (
+                clamped_spline(self.swivel_nodes, self.g_swivel, what=f"joint '{self.name}' swivel curve"),
+                clamped_spline(self.tilt_nodes, self.g_tilt, what=f"joint '{self.name}' tilt curve")))
         s_sw, s_ti = self._splines
         return self.k_ref * s_sw(sw) * s_ti(ti)
 

@@ -108,6 +108,17 @@ class Hull:
     def empty(self) -> bool:
         return self.vertices.shape[0] == 0
 
+    def convex_hull_equations(self) -> np.ndarray:
+        """(F, 4) plane equations ``n . x + d <= 0`` (inside) of the convex hull of the vertices (scipy's Qhull),
+        computed once per hull and kept with it (so that a cached machine needs no scipy at start-up)."""
+        eq = self.__dict__.get("_equations")
+        if eq is None:
+            from scipy.spatial import ConvexHull
+
+            eq = ConvexHull(self.vertices).equations
+            object.__setattr__(self, "_equations", eq)
+        return eq
+
 
 @dataclass(frozen=True)
 class Tool:
