@@ -53,6 +53,56 @@ def clamped_spline(x: np.ndarray, y: np.ndarray, what: str = "spline") -> CubicS
     return CubicSpline(x, y, axis=0, bc_type=((1, s0), (1, sn)), extrapolate=True)
 
 
+class PiecewiseCubic:
+    """A cubic spline as its breakpoints ``x`` (m + 1,) and coefficients ``c`` (4, m, ...) in scipy's PPoly layout
+    (``c[0]`` the cubic term), evaluated in numpy with the arithmetic of scipy's ``PPoly`` evaluation (interval by
+    ``x[i] <= x < x[i+1]``, the last interval closed, the end intervals extrapolated; powers of the local coordinate
+    accumulated from the constant term up), so the values equal scipy's bit for bit (tests/test_components_joints.py).
+
+    Holding only arrays, it is pickled without scipy: a cached machine (:mod:`pkmstiff.machine.cache`) is read and
+    evaluated without importing scipy.interpolate (~0.5 s of start-up).
+    """
+
+    __slots__ = ("x", "c")
+
+    def __init__(self, x: np.ndarray, c: np.ndarray) -> None:
+        self.x = np.ascontiguousarray(x, dtype=float)
+        self.c = np.ascontiguousarray(c, dtype=float)
+
+    def __getstate__(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.x, self.c
+
+    def __setstate__(self, state: tuple[np.ndarray, np.ndarray]) -> None:
+        self.x, self.c = state
+
+    def __call__(self, xq: np.ndarray, nu: int = 0) -> np.ndarray:
+        """Value (``nu=0``) or ``nu``-th derivative at ``xq``; NaN at NaN."""
+        xq = np.asarray(xq, dtype=float)
+        xf = xq.ravel()
+        x, c = self.x, self.c
+        k = c.shape[0]
+        i = np.clip(np.searchsorted(x, xf, side="right") - 1, 0, x.size - 2)
+        s = xf - x[i]
+        cc = c.reshape(k, c.shape[1], -1)[:, i]  # (k, len(xq), P)
+        res = np.zeros(cc.shape[1:])
+        z = np.ones(xf.size)
+        for kp in range(k):
+            prefactor = 1.0
+            for j in range(kp, kp - nu, -1):
+                prefactor *= j
+            res = res + cc[k - kp - 1] * z[:, None] * prefactor
+            if kp < k - 1 and kp >= nu:
+                z = z * s
+        res[np.isnan(xf)] = np.nan
+        return res.reshape(xq.shape + c.shape[2:])
+
+
+def clamped_cubic(x: np.ndarray, y: np.ndarray, what: str = "spline") -> PiecewiseCubic:
+    """:func:`clamped_spline` as a :class:`PiecewiseCubic` (built by scipy, evaluated without it)."""
+    sp = clamped_spline(x, y, what)
+    return PiecewiseCubic(sp.x, sp.c)
+
+
 def apply_range_policy(
     value: np.ndarray, lo: float, hi: float, policy: str, *, angle: str, table: str, unit: str = "deg"
 ) -> np.ndarray:

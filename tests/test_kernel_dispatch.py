@@ -75,3 +75,20 @@ def test_damaged_cache_file_falls_back_to_loading(tmp_path, monkeypatch):
     assert load_machine("hexaglide").name == "hexaglide"
     monkeypatch.setenv("PKMSTIFF_CACHE", "0")
     assert load_machine("hexaglide").name == "hexaglide"
+
+
+@pytest.mark.parametrize("trailing", [(), (3,)])
+def test_piecewise_cubic_equals_scipy_bit_for_bit(trailing):
+    # same operations in the same order as scipy's PPoly evaluation: values and first derivatives identical,
+    # at nodes, inside, outside (extrapolated), at both ends and at NaN
+    from components.spline import clamped_cubic, clamped_spline
+
+    rng = np.random.default_rng(7)
+    x = np.cumsum(rng.uniform(0.05, 0.3, 9))
+    y = rng.uniform(1e7, 9e7, (9,) + trailing)
+    ref, fast = clamped_spline(x, y), clamped_cubic(x, y)
+    xq = np.concatenate([x, rng.uniform(x[0] - 0.5, x[-1] + 0.5, 2000), [np.nan, x[0] - 1e-15, x[-1] + 1e-15]])
+    for nu in (0, 1):
+        np.testing.assert_array_equal(fast(xq, nu), ref(xq, nu))
+    np.testing.assert_array_equal(fast(xq.reshape(-1, 1)), ref(xq.reshape(-1, 1)))
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(fast))(x[3]), ref(x[3]))

@@ -12,7 +12,7 @@ from components.joint_tables import JointTable, load_joint_table
 from components.joints import base
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
-from components.spline import apply_range_policy, clamped_spline, spline_weights
+from components.spline import apply_range_policy, clamped_cubic, clamped_spline, spline_weights
 from pkmstiff.errors import ComponentDataError, InputError, JointTableNotFound
 
 if TYPE_CHECKING:
@@ -37,30 +37,20 @@ class TiltTableJoint(base.JointModel):
         base.positive_finite(self.name, "tabulated stiffness", k)
         object.__setattr__(self, "tilt_nodes", tilt)
         object.__setattr__(self, "k_nodes", k)
-        object.__setattr__(self, "_spline", clamped_spline(tilt, k, what=f"joint '{self.name}' tilt table"))
+        object.__setattr__(self, "_spline", clamped_cubic(tilt, k, what=f"joint '{self.name}' tilt table"))
         if self.extrapolation == "clamp":
             self._add_assumption("extrapolation", base.CLAMP_NOTE)
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         tilt = apply_range_policy(state.require("tilt", self.name), self.tilt_nodes[0], self.tilt_nodes[-1],
                                   self.extrapolation, angle="tilt", table=f"joint '{self.name}' ({self.table_name})")
-        return self._tilt_spline()(tilt)
-
-    def _tilt_spline(self) -> Any:
-        if self._spline is None:  # dropped when pickled (the machine cache): rebuilt from the same nodes
-            object.__setattr__(self, "_spline", clamped_spline(self.tilt_nodes, self.k_nodes,
-                                                               what=f"joint '{self.name}' tilt table"))
-        return self._spline
-
-    def __getstate__(self) -> dict:
-        # the spline is not pickled, so that unpickling a machine does not import scipy.interpolate
-        return {**self.__dict__, "_spline": None}
+        return self._spline(tilt)
 
     def derivative(self, state: ComponentState) -> np.ndarray:
         """dk/dθ [N/m per rad] of the spline (zero where clamped)."""
         tilt = state.require("tilt", self.name)
         inside = (tilt >= self.tilt_nodes[0]) & (tilt <= self.tilt_nodes[-1])
-        d = self._tilt_spline()(np.clip(tilt, self.tilt_nodes[0], self.tilt_nodes[-1]), 1)
+        d = self._spline(np.clip(tilt, self.tilt_nodes[0], self.tilt_nodes[-1]), 1)
         return np.where(inside | np.isnan(tilt), d, 0.0)
 
 
