@@ -261,7 +261,7 @@ def _hull_cache(machine: Machine) -> _HullCache:
     h = machine.hull
     hit = _HULL_CACHE.get(id(h))
     if hit is None or hit[0] is not h:  # keep the hull alive with its entry: its id cannot be reused meanwhile
-        eq = np.unique(np.round(h.convex_hull_equations(), 12), axis=0)  # coplanar triangles share a plane
+        eq = h.face_planes()  # coplanar triangles share a plane
         hc = _HullCache(*(_kernel_array(x) for x in (h.vertices[h.triangles], h.vertices[unique_edges(h.triangles)],
                                                      eq[:, :3], -eq[:, 3])))
         hit = _HULL_CACHE[id(h)] = (h, hc)

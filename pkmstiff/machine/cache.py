@@ -4,7 +4,7 @@ Loading a machine parses TOML, converts every quantity with pint and builds the 
 one-pose command's start-up, mostly imports. A bundled machine (by name, with or without options) is therefore stored
 after its first load as a pickle in the user cache directory and read back in well under a millisecond.
 
-The key is a hash of the package version, the Python/numpy versions, the machine name and options and the size and
+The key is a hash of the Python/numpy versions, the machine name and options and the size and
 modification time of every file the result can depend on (the bundled machine files, the machine/unit/io code and the
 component library with its data). Machines loaded from a path are never cached (their component data may live
 anywhere). Any problem with the cache (no writable directory, a damaged or foreign file) falls back to the ordinary
@@ -55,10 +55,8 @@ def _dependency_files() -> list[Path]:
 def cache_key(name: str, options: list[str]) -> str:
     import numpy
 
-    from pkmstiff import __version__
-
-    h = hashlib.sha256()
-    h.update(repr((__version__, sys.version, numpy.__version__, name, list(options), str(_PKG))).encode())
+    h = hashlib.sha256()  # the package version is covered by the stat of pkmstiff/__init__.py, which defines it
+    h.update(repr((sys.version, numpy.__version__, name, list(options), str(_PKG))).encode())
     for f in _dependency_files():
         try:
             st = f.stat()

@@ -523,7 +523,7 @@ def _hull(tab: Any, src: str) -> Hull:
                                    tab["triangles"])
         hull = Hull(vertices=verts, triangles=tri.astype(int))
         try:
-            hull.convex_hull_equations()  # computed at load, kept in the machine cache
+            hull.face_planes()  # computed at load, kept in the machine cache
         except Exception:  # noqa: BLE001 (a flat vertex set: the platform check reports it when it needs the hull)
             pass
         return hull
@@ -538,7 +538,8 @@ def _hull(tab: Any, src: str) -> Hull:
         raise MachineFileError(src, "hull.vertices", "vertices spanning a volume (convex hull)", "degenerate set") \
             from exc
     hull = Hull(vertices=verts, triangles=_oriented(verts, ch.simplices), convex=True)
-    object.__setattr__(hull, "_equations", ch.equations)  # = hull.convex_hull_equations(), kept in the cache
+    object.__setattr__(hull, "_equations", ch.equations)  # = hull.convex_hull_equations()
+    hull.face_planes()  # computed at load, kept in the machine cache
     return hull
 
 

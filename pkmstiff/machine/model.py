@@ -119,6 +119,16 @@ class Hull:
             object.__setattr__(self, "_equations", eq)
         return eq
 
+    def face_planes(self) -> np.ndarray:
+        """The distinct planes of :meth:`convex_hull_equations` (rounded to 1e-12: coplanar triangles share one),
+        computed once per hull and kept with it."""
+        planes = self.__dict__.get("_planes")
+        if planes is None:
+            # return_index: the same sorted rows without numpy's masked-array check (which imports numpy.ma)
+            planes = np.unique(np.round(self.convex_hull_equations(), 12), axis=0, return_index=True)[0]
+            object.__setattr__(self, "_planes", planes)
+        return planes
+
 
 @dataclass(frozen=True)
 class Tool:
