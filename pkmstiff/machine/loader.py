@@ -94,6 +94,13 @@ def _raw_with_extends(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]
     if parent_path.resolve() in seen:
         raise MachineFileError(str(path), "machine.extends", "no circular 'extends'", parent)
     base = _raw_with_extends(parent_path, seen + (path.resolve(),))
+    # a component the child defines with its own 'model' replaces the parent's as a whole (a pasted
+    # [components.NAME] table, e.g. from 'pkmstiff fe-platform', must not inherit parameters of the old definition:
+    # a 'matrix' next to the parent's 'diagonal' would be contradictory); without 'model' its keys override
+    own = raw.get("components") if isinstance(raw.get("components"), dict) else {}
+    if own and isinstance(base.get("components"), dict):
+        base = {**base, "components": {k: v for k, v in base["components"].items()
+                                       if not (isinstance(own.get(k), dict) and "model" in own[k])}}
     # the child's own assumptions/options add to the parent's; 'extends' itself is not inherited
     merged = _merge(base, raw)
     merged["machine"].pop("extends", None)
