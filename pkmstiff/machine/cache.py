@@ -66,6 +66,22 @@ def cache_key(name: str, options: list[str]) -> str:
     return h.hexdigest()[:32]
 
 
+#: cache files not read or written for this long are removed when a new one is written (old package versions)
+MAX_AGE_S = 30 * 24 * 3600
+
+
+def _prune(d: Path) -> None:
+    import time
+
+    now = time.time()
+    for f in d.glob("machine-*.pickle"):
+        try:
+            if now - max(f.stat().st_mtime, f.stat().st_atime) > MAX_AGE_S:
+                f.unlink()
+        except OSError:
+            pass
+
+
 def cached_load(name: str, options: list[str], load: Callable[[], Any]) -> Any:
     """``load()`` through the cache (``name`` a bundled machine name, ``options`` its selected options)."""
     d = cache_dir()
@@ -87,6 +103,7 @@ def cached_load(name: str, options: list[str], load: Callable[[], Any]) -> Any:
         with open(tmp, "wb") as fh:
             pickle.dump(machine, fh, protocol=pickle.HIGHEST_PROTOCOL)
         os.replace(tmp, path)
+        _prune(d)
     except Exception:  # noqa: BLE001 (read-only home, full disk, unpicklable user component: no cache)
         try:
             tmp.unlink()  # type: ignore[possibly-undefined]
