@@ -11,6 +11,7 @@ Assumption; ``"error"`` raises :class:`~components.protocol.ComponentRangeError`
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
@@ -55,28 +56,45 @@ def clamped_spline(x: np.ndarray, y: np.ndarray, what: str = "spline") -> CubicS
 
 class PiecewiseCubic:
     """A cubic spline as its breakpoints ``x`` (m + 1,) and coefficients ``c`` (4, m, ...) in scipy's PPoly layout
-    (``c[0]`` the cubic term), evaluated in numpy with the arithmetic of scipy's ``PPoly`` evaluation (interval by
-    ``x[i] <= x < x[i+1]``, the last interval closed, the end intervals extrapolated; powers of the local coordinate
-    accumulated from the constant term up), so the values equal scipy's bit for bit (tests/test_components_joints.py).
+    (``c[0]`` the cubic term). Holding only arrays, it is pickled without scipy: a cached machine
+    (:mod:`pkmstiff.machine.cache`) is read and evaluated without importing scipy.interpolate (~0.5 s of start-up).
 
-    Holding only arrays, it is pickled without scipy: a cached machine (:mod:`pkmstiff.machine.cache`) is read and
-    evaluated without importing scipy.interpolate (~0.5 s of start-up).
+    Few points (below ``SCIPY_FROM``, while scipy.interpolate is not imported yet) are evaluated in numpy with the
+    arithmetic of scipy's ``PPoly`` evaluation (interval by ``x[i] <= x < x[i+1]``, the last interval closed, the end
+    intervals extrapolated; powers of the local coordinate accumulated from the constant term up), so the values
+    equal scipy's bit for bit (tests/test_kernel_dispatch.py); batches go through scipy's compiled ``PPoly``.
     """
 
-    __slots__ = ("x", "c")
+    __slots__ = ("x", "c", "_pp")
+
+    #: evaluations of at least this many points use scipy's compiled PPoly (numpy's path is ~2x slower per point)
+    SCIPY_FROM = 256
 
     def __init__(self, x: np.ndarray, c: np.ndarray) -> None:
         self.x = np.ascontiguousarray(x, dtype=float)
         self.c = np.ascontiguousarray(c, dtype=float)
+        self._pp = None
 
     def __getstate__(self) -> tuple[np.ndarray, np.ndarray]:
         return self.x, self.c
 
     def __setstate__(self, state: tuple[np.ndarray, np.ndarray]) -> None:
         self.x, self.c = state
+        self._pp = None
 
     def __call__(self, xq: np.ndarray, nu: int = 0) -> np.ndarray:
         """Value (``nu=0``) or ``nu``-th derivative at ``xq``; NaN at NaN."""
+        xq = np.asarray(xq, dtype=float)
+        if xq.size >= self.SCIPY_FROM or self._pp is not None or "scipy.interpolate" in sys.modules:
+            if self._pp is None:
+                from scipy.interpolate import PPoly
+
+                self._pp = PPoly.construct_fast(self.c, self.x, extrapolate=True, axis=0)
+            return self._pp(xq, nu)
+        return self.evaluate_numpy(xq, nu)
+
+    def evaluate_numpy(self, xq: np.ndarray, nu: int = 0) -> np.ndarray:
+        """:meth:`__call__` in numpy (the arithmetic of scipy's PPoly evaluation, equal bit for bit)."""
         xq = np.asarray(xq, dtype=float)
         xf = xq.ravel()
         x, c = self.x, self.c
