@@ -11,10 +11,13 @@ Assumption; ``"error"`` raises :class:`~components.protocol.ComponentRangeError`
 
 from __future__ import annotations
 
-from typing import Literal
+import sys
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
-from scipy.interpolate import CubicSpline
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
 
 from pkmstiff.errors import ComponentDataError, ComponentRangeError
 
@@ -46,7 +49,76 @@ def clamped_spline(x: np.ndarray, y: np.ndarray, what: str = "spline") -> CubicS
     if y.shape[0] != x.size:
         raise ComponentDataError(f"{what}: {x.size} abscissae but {y.shape[0]} values")
     s0, sn = secant_end_slopes(x, y)
+    from scipy.interpolate import CubicSpline  # here, not at import: scipy.interpolate takes ~0.5 s to import
+
     return CubicSpline(x, y, axis=0, bc_type=((1, s0), (1, sn)), extrapolate=True)
+
+
+class PiecewiseCubic:
+    """A cubic spline as its breakpoints ``x`` (m + 1,) and coefficients ``c`` (4, m, ...) in scipy's PPoly layout
+    (``c[0]`` the cubic term). Holding only arrays, it is pickled without scipy: a cached machine
+    (:mod:`pkmstiff.machine.cache`) is read and evaluated without importing scipy.interpolate (~0.5 s of start-up).
+
+    Few points (below ``SCIPY_FROM``, while scipy.interpolate is not imported yet) are evaluated in numpy with the
+    arithmetic of scipy's ``PPoly`` evaluation (interval by ``x[i] <= x < x[i+1]``, the last interval closed, the end
+    intervals extrapolated; powers of the local coordinate accumulated from the constant term up), so the values
+    equal scipy's bit for bit (tests/test_kernel_dispatch.py); batches go through scipy's compiled ``PPoly``.
+    """
+
+    __slots__ = ("x", "c", "_pp")
+
+    #: evaluations of at least this many points use scipy's compiled PPoly (numpy's path is ~2x slower per point)
+    SCIPY_FROM = 256
+
+    def __init__(self, x: np.ndarray, c: np.ndarray) -> None:
+        self.x = np.ascontiguousarray(x, dtype=float)
+        self.c = np.ascontiguousarray(c, dtype=float)
+        self._pp = None
+
+    def __getstate__(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.x, self.c
+
+    def __setstate__(self, state: tuple[np.ndarray, np.ndarray]) -> None:
+        self.x, self.c = state
+        self._pp = None
+
+    def __call__(self, xq: np.ndarray, nu: int = 0) -> np.ndarray:
+        """Value (``nu=0``) or ``nu``-th derivative at ``xq``; NaN at NaN."""
+        xq = np.asarray(xq, dtype=float)
+        if xq.size >= self.SCIPY_FROM or self._pp is not None or "scipy.interpolate" in sys.modules:
+            if self._pp is None:
+                from scipy.interpolate import PPoly
+
+                self._pp = PPoly.construct_fast(self.c, self.x, extrapolate=True, axis=0)
+            return self._pp(xq, nu)
+        return self.evaluate_numpy(xq, nu)
+
+    def evaluate_numpy(self, xq: np.ndarray, nu: int = 0) -> np.ndarray:
+        """:meth:`__call__` in numpy (the arithmetic of scipy's PPoly evaluation, equal bit for bit)."""
+        xq = np.asarray(xq, dtype=float)
+        xf = xq.ravel()
+        x, c = self.x, self.c
+        k = c.shape[0]
+        i = np.clip(np.searchsorted(x, xf, side="right") - 1, 0, x.size - 2)
+        s = xf - x[i]
+        cc = c.reshape(k, c.shape[1], -1)[:, i]  # (k, len(xq), P)
+        res = np.zeros(cc.shape[1:])
+        z = np.ones(xf.size)
+        for kp in range(k):
+            prefactor = 1.0
+            for j in range(kp, kp - nu, -1):
+                prefactor *= j
+            res = res + cc[k - kp - 1] * z[:, None] * prefactor
+            if kp < k - 1 and kp >= nu:
+                z = z * s
+        res[np.isnan(xf)] = np.nan
+        return res.reshape(xq.shape + c.shape[2:])
+
+
+def clamped_cubic(x: np.ndarray, y: np.ndarray, what: str = "spline") -> PiecewiseCubic:
+    """:func:`clamped_spline` as a :class:`PiecewiseCubic` (built by scipy, evaluated without it)."""
+    sp = clamped_spline(x, y, what)
+    return PiecewiseCubic(sp.x, sp.c)
 
 
 def apply_range_policy(

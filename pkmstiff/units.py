@@ -18,7 +18,6 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
-import pint
 
 from pkmstiff.errors import InputError, PlausibilityError
 
@@ -46,7 +45,9 @@ PLAUSIBLE_DEFAULT = 1.0e20
 
 
 @lru_cache(maxsize=1)
-def ureg() -> pint.UnitRegistry:
+def ureg() -> "pint.UnitRegistry":  # noqa: F821 (pint is imported here, on first use: ~0.3 s of start-up)
+    import pint
+
     # pint's on-disk cache of its parsed definitions (the user cache directory) cuts the registry's start-up from
     # ~0.35 s to ~0.07 s CPU (benchmarks/bench_startup.py); the definitions, hence every conversion, are the same
     try:
@@ -60,7 +61,7 @@ def ureg() -> pint.UnitRegistry:
 @lru_cache(maxsize=256)
 def _si_factor(unit: str) -> tuple[float, Any]:
     q = ureg()(unit)
-    q = q if isinstance(q, pint.Quantity) else ureg().Quantity(q)
+    q = q if isinstance(q, ureg().Quantity) else ureg().Quantity(q)
     return float(q.to_base_units().magnitude), q.dimensionality
 
 
@@ -74,7 +75,7 @@ def _scalar(value: Any, unit: str, source: str, key: str) -> float:
             q = ureg()(value)
         except Exception as exc:  # pint raises several kinds
             raise InputError(source, key, f"a quantity in {unit} (e.g. '1.5 {unit}')", value) from exc
-        if not isinstance(q, pint.Quantity):
+        if not isinstance(q, ureg().Quantity):
             return float(q)  # dimensionless string like "2.5"
         factor, dim = _si_factor(unit)
         if q.dimensionality != dim:

@@ -84,3 +84,17 @@ def test_rotation_map_fills_the_canvas(tmp_path, hexaglide):
     res = req.evaluate(hexaglide)
     path = plot_rotation_maps(res, tmp_path / "rot.png", ("y [mm]", "z [mm]"), (1e3, 1e3), "hexaglide: test")
     assert fill_fraction(path) >= MIN_FILL
+
+
+def test_3d_axes_ticks_are_round_and_inside():
+    # readable 3-D axes (issue 12 item 5): 3-6 ticks at a step of 1, 2, 2.5 or 5 x 10^k within the range
+    from pkmstiff.plots.axes3d import nice_ticks
+
+    for lo, hi in [(-158.0, 917.0), (-1224.0, -499.0), (-900.0, 900.0), (0.1, 0.37), (-250.0, 1150.0)]:
+        t = nice_ticks(lo, hi)
+        assert 3 <= t.size <= 6 and t[0] >= lo and t[-1] <= hi
+        step = float(t[1] - t[0])
+        mantissa = step / 10 ** np.floor(np.log10(step))
+        assert np.isclose(mantissa, [1, 2, 2.5, 5]).any()
+        np.testing.assert_allclose(np.diff(t), step, rtol=1e-12)  # evenly spaced up to round-off
+        np.testing.assert_allclose(t / step, np.round(t / step), atol=1e-9)  # multiples of the step

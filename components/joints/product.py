@@ -10,7 +10,7 @@ import numpy as np
 from components.joints import base
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
-from components.spline import clamped_spline
+from components.spline import clamped_cubic
 from pkmstiff.errors import ComponentDataError
 
 if TYPE_CHECKING:
@@ -50,8 +50,8 @@ class ProductJoint(base.JointModel):
         (sw, gs), (ti, gt) = curves
         for key, value in (("swivel_nodes", sw), ("g_swivel", gs), ("tilt_nodes", ti), ("g_tilt", gt)):
             object.__setattr__(self, key, value)
-        object.__setattr__(self, "_splines", (clamped_spline(sw, gs, what=f"joint '{self.name}' swivel curve"),
-                                              clamped_spline(ti, gt, what=f"joint '{self.name}' tilt curve")))
+        object.__setattr__(self, "_splines", (clamped_cubic(sw, gs, what=f"joint '{self.name}' swivel curve"),
+                                              clamped_cubic(ti, gt, what=f"joint '{self.name}' tilt curve")))
         self._add_assumption("interpolation", "k = k_ref g_swivel(swivel) g_tilt(tilt), curves normalised to "
                                               "their maxima (docs/theory/components.md Assumption)")
         if self.extrapolation == "clamp":

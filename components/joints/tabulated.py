@@ -12,7 +12,7 @@ from components.joint_tables import JointTable, load_joint_table
 from components.joints import base
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
-from components.spline import apply_range_policy, clamped_spline, spline_weights
+from components.spline import apply_range_policy, clamped_cubic, clamped_spline, spline_weights
 from pkmstiff.errors import ComponentDataError, InputError, JointTableNotFound
 
 if TYPE_CHECKING:
@@ -37,7 +37,7 @@ class TiltTableJoint(base.JointModel):
         base.positive_finite(self.name, "tabulated stiffness", k)
         object.__setattr__(self, "tilt_nodes", tilt)
         object.__setattr__(self, "k_nodes", k)
-        object.__setattr__(self, "_spline", clamped_spline(tilt, k, what=f"joint '{self.name}' tilt table"))
+        object.__setattr__(self, "_spline", clamped_cubic(tilt, k, what=f"joint '{self.name}' tilt table"))
         if self.extrapolation == "clamp":
             self._add_assumption("extrapolation", base.CLAMP_NOTE)
 

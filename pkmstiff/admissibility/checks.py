@@ -18,7 +18,7 @@ from typing import Any, Callable, Iterable
 
 import numpy as np
 
-import pkmstiff.kinematics.kernels as _kernels
+from pkmstiff.kinematics import dispatch as _dispatch
 from pkmstiff.admissibility.collision import unique_edges
 from pkmstiff.machine.model import Hull, Machine
 from pkmstiff.machine.roles import DriveLoadData
@@ -226,7 +226,7 @@ def check_strut_collision(machine: Machine, p: np.ndarray, q: np.ndarray) -> Che
     jj = np.array([b for _, b in pairs], dtype=np.int64)
     rsum = _kernel_array(ch.strut_radius[ii] + ch.strut_radius[jj])
     bad = np.empty((p.shape[0], len(pairs)), bool)
-    _kernels.strut_collision(_soa_points(p), _soa_points(q), ii, jj, rsum, mode == "table_B2", bad)
+    _dispatch.run("strut_collision", p.shape[0], _soa_points(p), _soa_points(q), ii, jj, rsum, mode == "table_B2", bad)
     labels = [f"struts {a + 1}-{b + 1}" for a, b in pairs]
     return CheckResult(~bad.any(axis=1), Reason.STRUT_COLLISION, bad, labels)
 
@@ -261,9 +261,7 @@ def _hull_cache(machine: Machine) -> _HullCache:
     h = machine.hull
     hit = _HULL_CACHE.get(id(h))
     if hit is None or hit[0] is not h:  # keep the hull alive with its entry: its id cannot be reused meanwhile
-        from scipy.spatial import ConvexHull
-
-        eq = np.unique(np.round(ConvexHull(h.vertices).equations, 12), axis=0)  # coplanar triangles share a plane
+        eq = h.face_planes()  # coplanar triangles share a plane
         hc = _HullCache(*(_kernel_array(x) for x in (h.vertices[h.triangles], h.vertices[unique_edges(h.triangles)],
                                                      eq[:, :3], -eq[:, 3])))
         hit = _HULL_CACHE[id(h)] = (h, hc)
@@ -292,8 +290,8 @@ def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w
     excl = ch.strut_radius if machine.limits.platform_end_exclusion is None else \
         np.full(ch.n, machine.limits.platform_end_exclusion)
     bad = np.empty((n_pose, ch.n), bool)
-    _kernels.platform_collision(
-        _soa_points(q), _kernel_array(np.moveaxis(np.asarray(rot, dtype=np.float64), 0, 2)),
+    _dispatch.run(
+        "platform_collision", n_pose, _soa_points(q), _kernel_array(np.moveaxis(np.asarray(rot, dtype=np.float64), 0, 2)),
         _kernel_array(np.asarray(w, dtype=np.float64).T), _kernel_array(ch.platform_joint), _kernel_array(excl),
         _kernel_array(ch.strut_radius), hc.normals, hc.offsets, hc.tri, hc.edges, bool(machine.hull.convex), bad)
     labels = [f"strut {i + 1}" for i in range(ch.n)]

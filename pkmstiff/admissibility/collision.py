@@ -12,9 +12,9 @@ from typing import Literal
 
 import numpy as np
 
-import pkmstiff.kinematics.kernels as _kernels
+from pkmstiff.kinematics import dispatch as _dispatch
 
-_EPS = _kernels.EPS
+_EPS = _dispatch.pure_kernels().EPS
 
 
 def _many(name: str, *points: np.ndarray) -> np.ndarray:
@@ -28,8 +28,9 @@ def _many(name: str, *points: np.ndarray) -> np.ndarray:
     for k, a in enumerate(arrs):
         pts[..., k, :] = a
     out = np.empty(shape[:-1])
-    code = _kernels.PRIMITIVES[name][0]
-    _kernels.primitive_many(code, pts.reshape(-1, len(arrs), 3), out.reshape(-1))
+    rows = pts.reshape(-1, len(arrs), 3)
+    code = _dispatch.pure_kernels().PRIMITIVES[name][0]
+    _dispatch.run("primitive_many", rows.shape[0], code, rows, out.reshape(-1))
     return out if out.ndim else out[()]
 
 
@@ -106,4 +107,5 @@ def segment_triangle_distance(
 def unique_edges(triangles: np.ndarray) -> np.ndarray:
     """Unique undirected edges (E, 2) of a triangle list (T, 3)."""
     e = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
-    return np.unique(np.sort(e, axis=1), axis=0)
+    # return_index: the same sorted rows, without numpy's masked-array check (which imports numpy.ma, ~60 ms)
+    return np.unique(np.sort(e, axis=1), axis=0, return_index=True)[0]

@@ -67,7 +67,10 @@ def join_negative_values(argv: Sequence[str], value_options: set[str]) -> list[s
     return out
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``pkmstiff`` parser with every command, or (``command`` given and a command module of that name exists)
+    only that command's module: ``pkmstiff pose ...`` then imports neither the FE, calibration nor plotting commands'
+    modules (start-up time, issue 12 item 6)."""
     parser = _Parser(
         prog="pkmstiff",
         description="Stiffness, vibration and workspace analysis of parallel-kinematic machines "
@@ -75,7 +78,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"pkmstiff {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for modname in _COMMAND_MODULES:
+    modules = _COMMAND_MODULES
+    if command and f"pkmstiff.cli.{command}" in _COMMAND_MODULES:
+        modules = (f"pkmstiff.cli.{command}",)
+    for modname in modules:
         try:
             mod = importlib.import_module(modname)
         except ModuleNotFoundError as exc:
@@ -84,6 +90,10 @@ def build_parser() -> argparse.ArgumentParser:
             raise
         mod.add_commands(sub)
     return parser
+
+
+def _subcommands(parser: argparse.ArgumentParser) -> set[str]:
+    return {name for a in parser._actions if isinstance(a, argparse._SubParsersAction) for name in a.choices}
 
 
 def _headless() -> None:
@@ -112,7 +122,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     command = _command_of(argv)
     try:
-        parser = build_parser()
+        parser = build_parser(command)
+        if command and command not in _subcommands(parser):  # a module registering other names: all of them
+            parser = build_parser()
         args = parser.parse_args(join_negative_values(argv, _value_options(parser)))
         command = getattr(args, "command", None) or command
         if not getattr(args, "func", None):

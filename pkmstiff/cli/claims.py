@@ -1,7 +1,8 @@
 """Facts the README and the docs state, computed from the code and data so that they cannot drift (issue 12, item 7).
 
 ``collect_claims()`` returns the countable facts (bundled machines with their assumption and option counts, the
-quantities with every family, the CLI commands, the demo's output files, the JSON schemas); ``render_markdown()``
+quantities with every family, the CLI commands, the demo's output files, the JSON schemas, the evaluation counts of
+the rotation map quoted in docs/user-guide/workspace.md); ``render_markdown()``
 renders the README's generated block. ``tests/test_claims.py`` compares the facts with ``docs/claims.json`` and the
 README's block (between ``<!-- claims:start -->`` and ``<!-- claims:end -->``) with ``render_markdown()``; after a
 deliberate change run ``python -m pkmstiff.cli.claims --write`` and commit both. (It lives in the command-line
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -44,7 +46,40 @@ def collect_claims() -> dict[str, Any]:
         "demo_files": sorted(output_files()),
         "demo_figure_and_data_files": len(output_files()) - 2,
         "json_schemas": schemas,
+        "rotation_map_yz": dict(rotation_map_yz_evaluations()),
     }
+
+
+#: the rotation-map run docs/user-guide/workspace.md quotes (Hexaglide Y-Z plane, 25 mm raster, 1 deg, six directions)
+ROTATION_MAP_YZ = ["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--u-range=-200,1100",
+                   "--v-range=-1250,-400", "--step", "25", "--increment", "1", "--json"]
+
+
+@lru_cache(maxsize=1)
+def rotation_map_yz_evaluations() -> dict[str, int]:
+    """Evaluations of the documented rotation-map run (predictor-corrector) and of the plain incremental search,
+    summed over the six directions (deterministic counts; ~3 s)."""
+    import contextlib
+    import io
+
+    from pkmstiff.cli import main
+
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        status = main(ROTATION_MAP_YZ)
+    if status != 0:
+        raise RuntimeError(f"pkmstiff {' '.join(ROTATION_MAP_YZ)} exited with {status}")
+    ev = json.loads(buf.getvalue())["evaluations"]
+    used = sum(int(d["evaluations"]) for d in ev.values())
+    plain = sum(int(d["plain_sequential"]) for d in ev.values())
+    return {"evaluations": used, "plain_sequential": plain, "saved_percent": round(100 * (plain - used) / plain)}
+
+
+def rotation_map_sentence(c: dict[str, Any]) -> str:
+    """The sentence of docs/user-guide/workspace.md that quotes the counts."""
+    r = c["rotation_map_yz"]
+    return (f"it needs {r['evaluations']:,} evaluations instead of {r['plain_sequential']:,} "
+            f"(−{r['saved_percent']} %;")
 
 
 def render_markdown(claims: dict[str, Any] | None = None) -> str:

@@ -36,7 +36,8 @@ def add_commands(subparsers: Any) -> None:
         "fe-joint", help="FE sweep of a parametric joint over tilt angles -> joint stiffness table (CSV)",
         description="Mesh the joint of PARAMS.toml, compute its axial stiffness along the strut at each tilt angle "
                     "(scikit-fem, RBE2 + Guyan) and write a joint table (tilt_deg, k_N_per_um) with provenance.")
-    p.add_argument("params", help="joint parameter file (TOML), e.g. pkmstiff/fe/params/iwf_3dof_improved.toml")
+    p.add_argument("params", help="joint parameter file (TOML) or the name of a shipped one, e.g. "
+                                   "iwf_3dof_improved (pkmstiff/fe/params/)")
     p.add_argument("--angles", default=DEFAULT_ANGLES,
                    help="tilt angles in deg: 'start:stop:step' (stop included) or 'a,b,c' (default 0:90:15)")
     p.add_argument("--out", required=True, help="output CSV table")
@@ -57,7 +58,8 @@ def add_commands(subparsers: Any) -> None:
         "fe-platform", help="FE model of a platform plate -> 6x6 stiffness at the spindle reference point",
         description="Mesh the platform of PARAMS.toml, couple the joint pads (supports) and the spindle bore (RBE2) "
                     "and condense (Guyan) to the 6x6 stiffness at the spindle reference point.")
-    p.add_argument("params", help="platform parameter file (TOML), e.g. pkmstiff/fe/params/hexaglide_platform.toml")
+    p.add_argument("params", help="platform parameter file (TOML) or the name of a shipped one, e.g. "
+                                   "hexaglide_platform (pkmstiff/fe/params/)")
     p.add_argument("--out", required=True,
                    help="output: .toml (a [components.NAME] body_stiffness table for a machine file) or .csv (6x6)")
     p.add_argument("--name", default="platform_stiffness", help="component name in the TOML output")

@@ -41,6 +41,8 @@ def parse_values(text: str, count: int, what: str) -> list[float]:
 
 
 def _is_planar(name: str) -> bool:
+    if name in bundled_machines():  # spatial: decided without importing the planar module
+        return False
     from pkmstiff.analysis.planar import bundled_planar
 
     return name in bundled_planar() and name not in bundled_machines()

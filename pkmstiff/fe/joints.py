@@ -40,7 +40,7 @@ from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Solut
 from pkmstiff.fe.coupling import stiffness_along
 from pkmstiff.fe.elasticity import ELEMENTS, element_type_label
 from pkmstiff.fe.materials import CubicCylindrical, Material
-from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section
+from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section, resolve_parameter_file
 from pkmstiff.units import InputError
 
 KINDS = ("2dof", "3dof")
@@ -119,6 +119,7 @@ def _check_element(element: str, source: str) -> None:
 
 def load_joint_parameters(path: str | Path) -> JointParameters:
     """Read a joint parameter TOML file (see ``pkmstiff/fe/params/*.toml``) into SI values."""
+    path = resolve_parameter_file(path)
     source = str(path)
     raw = load_toml(path)
     head = read_section(raw, "joint", SCHEMA["joint"], source)

@@ -18,6 +18,29 @@ from pkmstiff.units import InputError, parse_quantity
 Schema = Mapping[str, Mapping[str, str]]
 
 
+#: the parameter files shipped with the package (pkmstiff/fe/params/*.toml)
+PARAMS_DIR = Path(__file__).resolve().with_name("params")
+
+
+def bundled_parameter_files() -> list[str]:
+    """Names of the shipped FE parameter files (``iwf_3dof_improved``, ``hexaglide_platform``, ...)."""
+    return sorted(p.stem for p in PARAMS_DIR.glob("*.toml"))
+
+
+def resolve_parameter_file(path: str | Path) -> Path:
+    """An existing file as given; otherwise a shipped parameter file of that name, so that the documented examples
+    work from any directory: ``iwf_3dof_improved``, ``iwf_3dof_improved.toml`` and the path in the clone,
+    ``pkmstiff/fe/params/iwf_3dof_improved.toml``, all name the shipped file."""
+    p = Path(path)
+    if p.exists():
+        return p
+    name = p.name if p.suffix == ".toml" else f"{p.name}.toml"
+    shipped = PARAMS_DIR / name
+    if shipped.is_file() and (len(p.parts) == 1 or p.parts[-3:-1] == ("fe", "params")):
+        return shipped
+    return p
+
+
 def load_toml(path: str | Path) -> dict[str, Any]:
     """Parse a TOML parameter file; a missing file or a syntax error becomes an InputError naming the file."""
     return read_toml(path, InputError, "TOML parameter file")

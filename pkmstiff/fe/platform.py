@@ -23,7 +23,7 @@ from pkmstiff.fe import mesh as fm
 from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Solution, Tie
 from pkmstiff.fe.elasticity import ELEMENTS, element_type_label
 from pkmstiff.fe.materials import Isotropic, Material
-from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section
+from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section, resolve_parameter_file
 from pkmstiff.units import InputError, parse_quantity
 
 SUPPORTS = ("pinned", "clamped")
@@ -72,6 +72,7 @@ class PlatformParameters:
 
 def load_platform_parameters(path: str | Path) -> PlatformParameters:
     """Read a platform parameter TOML file (see ``pkmstiff/fe/params/hexaglide_platform.toml``)."""
+    path = resolve_parameter_file(path)
     source = str(path)
     raw = load_toml(path)
     known = set(SCHEMA) | {"materials", "assumptions", "spindle"}

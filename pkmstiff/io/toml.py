@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +10,8 @@ from pkmstiff.errors import InputError
 
 def read_toml(path: str | Path, error: type[InputError] = InputError, what: str = "TOML file") -> dict[str, Any]:
     """Parse ``path``; a missing file or invalid TOML raises ``error(file, "(file)", expected, found)``."""
+    import tomllib  # here: a cached bundled machine needs no TOML parser (start-up time)
+
     src = str(path)
     try:
         with open(path, "rb") as fh:

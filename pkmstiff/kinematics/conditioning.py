@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-import pkmstiff.kinematics.kernels as _kernels
+from pkmstiff.kinematics import dispatch as _dispatch
 from pkmstiff.kinematics.arrays import DEFAULT_CHUNK, Array, KinematicsInputError, chunk_slices
 from pkmstiff.machine.model import Machine
 
@@ -194,7 +194,7 @@ def _qr_chunk(
     r = np.empty((n, n, m)) if rt else _NO3
     t = np.empty((n, n, m)) if rt else _NO3
     ok = np.empty(m, dtype=np.bool_)
-    _kernels.qr_inverse(As, s.start, s.stop, rt, inv is not None, bnd is not None, r, t,
+    _dispatch.run("qr_inverse", m, As, s.start, s.stop, rt, inv is not None, bnd is not None, r, t,
                         _NO3 if inv is None else inv, _NO1 if bnd is None else bnd[0],
                         _NO1 if bnd is None else bnd[1], ok)
     return r, t, ok

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-import pkmstiff.kinematics.kernels as _kernels
+from pkmstiff.kinematics import dispatch as _dispatch
 from pkmstiff.kinematics.arrays import _to_soa, _vec_soa
 from pkmstiff.kinematics.inverse import IK
 from pkmstiff.machine.model import Machine
@@ -72,7 +72,7 @@ def _side_angles(
     out = np.empty((5 if signed else 4, n, N))
     swivel, tilt, tilt_axis, tilt_normal = out[0], out[1], out[2], out[3]
     swivel_signed = out[4] if signed else out[0]  # not written unless ``signed``
-    _kernels.side_angles(d, R, np.ascontiguousarray(axis0, dtype=np.float64),
+    _dispatch.run("side_angles", N, d, R, np.ascontiguousarray(axis0, dtype=np.float64),
                          np.ascontiguousarray(ref0, dtype=np.float64), rotate,
                          np.ascontiguousarray(sign, dtype=np.float64), np.ascontiguousarray(normal, dtype=np.bool_),
                          np.ascontiguousarray(ref_par, dtype=np.bool_), float(tol), signed,

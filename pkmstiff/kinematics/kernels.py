@@ -16,19 +16,28 @@ Conventions:
 * ``cache=True``: compiled code is stored next to this file (``__pycache__``), so only the first run on a
   machine pays the compile time (a few seconds, measured by ``benchmarks/bench_admissibility.py``).
   All kernels live in this one module because numba's cache is invalidated per source file.
+
+Callers take the kernels from :func:`pkmstiff.kinematics.dispatch.kernels_for`: the same source runs interpreted
+(without importing numba) for the first few poses of a process, and compiled after that (start-up time of one-pose
+commands, issue 12 item 6).
 """
 
 from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
 #: relative tolerance of the parallel / degenerate-segment tests of the collision primitives
 EPS = 1e-12
 
-_jit = numba.njit(cache=True, nogil=True, error_model="numpy")
+if globals().get("_PURE_PYTHON"):  # the interpreted twin (pkmstiff.kinematics.dispatch): the same source, no numba
+    def _jit(fn):
+        return fn
+else:
+    import numba
+
+    _jit = numba.njit(cache=True, nogil=True, error_model="numpy")
 
 
 # ------------------------------------------------------------------------------------------------ 3-vector helpers

@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Any, Iterable
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
 
 from pkmstiff.errors import MachineFileError, UnknownMachineError  # noqa: F401 (re-exported)
 from pkmstiff.io import check_format_version, check_keys, read_toml, require
@@ -95,6 +94,13 @@ def _raw_with_extends(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]
     if parent_path.resolve() in seen:
         raise MachineFileError(str(path), "machine.extends", "no circular 'extends'", parent)
     base = _raw_with_extends(parent_path, seen + (path.resolve(),))
+    # a component the child defines with its own 'model' replaces the parent's as a whole (a pasted
+    # [components.NAME] table, e.g. from 'pkmstiff fe-platform', must not inherit parameters of the old definition:
+    # a 'matrix' next to the parent's 'diagonal' would be contradictory); without 'model' its keys override
+    own = raw.get("components") if isinstance(raw.get("components"), dict) else {}
+    if own and isinstance(base.get("components"), dict):
+        base = {**base, "components": {k: v for k, v in base["components"].items()
+                                       if not (isinstance(own.get(k), dict) and "model" in own[k])}}
     # the child's own assumptions/options add to the parent's; 'extends' itself is not inherited
     merged = _merge(base, raw)
     merged["machine"].pop("extends", None)
@@ -129,7 +135,18 @@ def load_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> Machi
     """Load and validate a machine by bundled name (``"hexaglide"``, ``"linapod:printed_values"``) or path.
 
     ``options`` (or the ``:opt1,opt2`` suffix of the name) selects ``[options.NAME]`` override tables of the file.
+    Bundled machines are cached on disk after their first load (:mod:`pkmstiff.machine.cache`).
     """
+    spec, opts = split_machine_spec(name_or_path, options)
+    p = Path(spec)
+    if p.suffix != ".toml" and not p.exists() and (bundled_machine_dir() / f"{spec}.toml").is_file():
+        from pkmstiff.machine.cache import cached_load
+
+        return cached_load(spec, opts, lambda: _load_uncached(spec, opts))
+    return _load_uncached(name_or_path, options)
+
+
+def _load_uncached(name_or_path: str | Path, options: Iterable[str] = ()) -> Machine:
     raw, src, options = raw_machine(name_or_path, options)
     try:
         return _build(raw, src, options)
@@ -511,16 +528,26 @@ def _hull(tab: Any, src: str) -> Hull:
         if np.any(tri != np.round(tri)) or tri.min() < 0 or tri.max() >= len(verts):
             raise MachineFileError(src, "hull.triangles", f"integer vertex indices 0..{len(verts) - 1}",
                                    tab["triangles"])
-        return Hull(vertices=verts, triangles=tri.astype(int))
+        hull = Hull(vertices=verts, triangles=tri.astype(int))
+        try:
+            hull.face_planes()  # computed at load, kept in the machine cache
+        except Exception:  # noqa: BLE001 (a flat vertex set: the platform check reports it when it needs the hull)
+            pass
+        return hull
     if len(verts) < 4:
         raise MachineFileError(src, "hull.vertices", "at least 4 vertices spanning a volume (or give 'triangles')",
                                f"{len(verts)} vertices")
+    from scipy.spatial import ConvexHull, QhullError
+
     try:
         ch = ConvexHull(verts)
     except QhullError as exc:
         raise MachineFileError(src, "hull.vertices", "vertices spanning a volume (convex hull)", "degenerate set") \
             from exc
-    return Hull(vertices=verts, triangles=_oriented(verts, ch.simplices), convex=True)
+    hull = Hull(vertices=verts, triangles=_oriented(verts, ch.simplices), convex=True)
+    object.__setattr__(hull, "_equations", ch.equations)  # = hull.convex_hull_equations()
+    hull.face_planes()  # computed at load, kept in the machine cache
+    return hull
 
 
 def _oriented(verts: np.ndarray, tris: np.ndarray) -> np.ndarray:

@@ -108,6 +108,27 @@ class Hull:
     def empty(self) -> bool:
         return self.vertices.shape[0] == 0
 
+    def convex_hull_equations(self) -> np.ndarray:
+        """(F, 4) plane equations ``n . x + d <= 0`` (inside) of the convex hull of the vertices (scipy's Qhull),
+        computed once per hull and kept with it (so that a cached machine needs no scipy at start-up)."""
+        eq = self.__dict__.get("_equations")
+        if eq is None:
+            from scipy.spatial import ConvexHull
+
+            eq = ConvexHull(self.vertices).equations
+            object.__setattr__(self, "_equations", eq)
+        return eq
+
+    def face_planes(self) -> np.ndarray:
+        """The distinct planes of :meth:`convex_hull_equations` (rounded to 1e-12: coplanar triangles share one),
+        computed once per hull and kept with it."""
+        planes = self.__dict__.get("_planes")
+        if planes is None:
+            # return_index: the same sorted rows without numpy's masked-array check (which imports numpy.ma)
+            planes = np.unique(np.round(self.convex_hull_equations(), 12), axis=0, return_index=True)[0]
+            object.__setattr__(self, "_planes", planes)
+        return planes
+
 
 @dataclass(frozen=True)
 class Tool:

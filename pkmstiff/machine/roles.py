@@ -93,8 +93,20 @@ def drive_load_data(machine: Machine) -> DriveLoadData | None:
     the sum of the moved masses carried by the platform; docs/user-guide/validation-hexaglide.md (reading 5) — for the Hexaglide all six
     struts); CoG = the combined CoG of platform and spindle in the PKS (the strut share is added at that CoG:
     eq. 4.90 sums the masses, their CoG is not given). Needs a platform body and a maximum force on every drive;
-    missing force reserve / Coulomb friction count as 0.
+    missing force reserve / Coulomb friction count as 0. Computed once per machine object (it depends on the
+    machine's data only; ~10 % of a one-pose evaluation).
     """
+    memo = machine.__dict__.get("_drive_load_data", _NOT_YET)
+    if memo is _NOT_YET:
+        memo = _drive_load_data(machine)
+        object.__setattr__(machine, "_drive_load_data", memo)
+    return memo
+
+
+_NOT_YET = object()
+
+
+def _drive_load_data(machine: Machine) -> DriveLoadData | None:
     try:
         mc = machine_components(machine)
     except ImportError:

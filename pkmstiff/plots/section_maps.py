@@ -149,22 +149,29 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
     vals = [r.display(name) for r in results]
     finite = np.concatenate([v[np.isfinite(v)] for v in vals]) if vals else np.array([])
     clim = (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min() else None
+    data_bounds = []
     for k, (r, v) in enumerate(zip(results, vals)):
         grid = _plane_grid(r, in_3d=True, pv=pv)
+        data_bounds.append(np.reshape(grid.bounds, (3, 2)))
         grid.point_data[name] = v.ravel()
         p.add_mesh(grid, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0, show_scalar_bar=(k == 0),
                    scalar_bar_args={"title": quantity_title(results[0], name), "vertical": True,
-                                    "position_x": 0.87, "position_y": 0.2, "height": 0.6, "fmt": "%.4g"})
+                                    "position_x": 0.87, "position_y": 0.2, "height": 0.6,
+                                    "fmt": "%.1f" if clim and clim[1] >= 10 else "%.4g"})
     add_sketch(p, machine, reference_pose, opacity=0.9)
-    p.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", grid=False, location="outer", font_size=12,
-                  n_xlabels=3, n_ylabels=3, n_zlabels=3, fmt="%.0f")
+    direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])  # front right, from above
+    from pkmstiff.plots.axes3d import add_mm_axes
+
+    if data_bounds:  # axes around the section planes (the machine sketch reaches far beyond them)
+        box = np.column_stack([np.min([b[:, 0] for b in data_bounds], axis=0),
+                               np.max([b[:, 1] for b in data_bounds], axis=0)])
+        add_mm_axes(p, box.ravel(), direction)
     p.add_text(f"{results[0].machine}: {name} on three section planes", position="upper_left", font_size=11,
                color="black")
     p.set_background("white")
     bounds = np.array(p.bounds).reshape(3, 2)
     focus = bounds.mean(axis=1)
     dist = 2.2 * float(np.linalg.norm(bounds[:, 1] - bounds[:, 0]))
-    direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])  # front right, from above
     p.camera_position = [tuple(focus + dist * direction), tuple(focus), (0.0, 0.0, 1.0)]
     p.camera.zoom(1.5)
     path = Path(path)

@@ -77,9 +77,9 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
              f"V = {res.volume:.4f} m³{extent}; {s['boundary_points']:,} boundary points")
     pl.add_text(title, font_size=11, color="black")
     if np.isfinite(lo).all():
-        pl.show_bounds(xtitle="x [mm]", ytitle="y [mm]", ztitle="z [mm]", color="black", font_size=14,
-                       n_xlabels=3, n_ylabels=3, n_zlabels=3, fmt="%.0f",
-                       bounds=np.ravel(np.column_stack([lo, hi]) * 1e3).tolist())
+        from pkmstiff.plots.axes3d import add_mm_axes
+
+        add_mm_axes(pl, np.ravel(np.column_stack([lo, hi]) * 1e3), (1.0, 1.0, 1.0) if view is None else view)
     pl.camera_position = "iso" if view is None else None
     if view is not None:
         pl.view_vector(list(view))
