@@ -145,11 +145,8 @@ def segment_distance(p1, q1, p2, q2, table_b2):
         s = _clip01(-d / a_safe)
     elif t > 1.0:
         s = _clip01((b - d) / a_safe)
-    t = _clip01(t)
-    if c <= EPS * _maximum(a, EPS):  # degenerate second segment (a point): project it onto the first
-        s = _clip01(-d / a_safe)
-        t = 0.0
-    return _norm(_combine(w, s, u, t, v))
+    t = _clip01(t)  # a point-like second segment (c = 0) took the parallel branch above; a merely short one is
+    return _norm(_combine(w, s, u, t, v))  # well conditioned here (t ~ |w|/|v|), so no special case is needed
 
 
 @_jit
