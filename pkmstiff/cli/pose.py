@@ -137,6 +137,21 @@ def _cmd_pose(args: argparse.Namespace) -> int:
 
     if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
+    from pkmstiff.mechanisms.loader import is_mechanism
+
+    if is_mechanism(args.machine):  # a generic mechanism evaluated like a machine (issue 14)
+        from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
+        from pkmstiff.cli.mechanism import print_pose
+
+        if args.pose is None:
+            raise CliError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
+                           "'pkmstiff mechanism solve' with several --pose)")
+        rep = mechanism_pose_report(args.machine, args.pose)
+        if args.json:
+            print(json.dumps(rep, indent=2))
+        else:
+            print_pose(rep)
+        return 0
     if getattr(args, "poses", None) is not None:
         return _pose_batch(args)
     try:

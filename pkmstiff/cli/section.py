@@ -47,6 +47,17 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
 
+    from pkmstiff.mechanisms.loader import is_mechanism
+
+    if is_mechanism(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
+        from pkmstiff.cli.mechanism import print_section, section_report
+
+        rep = section_report(args)
+        if args.json:
+            print(json.dumps(rep, indent=2))
+        else:
+            print_section(rep)
+        return 0
     plane_kind = args.plane.lower()
     try:
         ranges = parse_ranges(args.range, plane_kind) if args.range else None

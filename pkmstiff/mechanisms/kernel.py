@@ -338,8 +338,9 @@ def _renamed(fn, name):
 
 _eval_parallel = numba.njit(parallel=True, **_OPTS)(_eval_impl)
 _eval_serial = numba.njit(**_OPTS)(_renamed(_eval_impl, "_eval_serial_impl"))
-#: below this many poses the serial kernel is used
-PARALLEL_MIN = 64
+#: below this many poses the serial kernel is used (a parallel region costs more than it saves for small
+#: batches, and much more on a loaded machine)
+PARALLEL_MIN = 2048
 
 
 def evaluate(plan: Plan, q: Array, target: Array | None, phi_t: Array | None, Rt: Array | None, m: int, roff: int,

@@ -257,7 +257,7 @@ def _as_targets(values: ArrayLike, width: int, what: str, unit: str) -> Array:
 
 
 def _continuation(system: System, target: Array, start_q: Array, start_target: Array, steps: int, tol: float,
-                  max_iter: int, max_refine: int) -> tuple:
+                  max_iter: int, max_refine: int, max_backtrack: int = 30) -> tuple:
     """Equal steps from (start_q, start_target) to target; failing poses are redone with 2×, 4×, … steps."""
     N = target.shape[0]
     L, d = start_q.shape[-2:]
@@ -282,7 +282,8 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
                 break
             tg = t0[idx] + (s / n) * (t1[idx] - t0[idx])
             last = s == n
-            qs, sts, its, res, rk, rc = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter)
+            qs, sts, its, res, rk, rc = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter,
+                                               max_backtrack)
             q[idx] = qs
             iters[todo[idx]] += its
             fail = sts != "converged"
@@ -309,12 +310,13 @@ def home(mech: Mechanism, n: int = 1) -> Array:
 
 def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
             tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
-            singular_tol: float = 1e-7) -> Solution:
+            singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
     """Forward kinematics: configurations for drive values (N, n_drives) [m or rad] (patent claim 12).
 
     Starts at home (drive values = offsets) or at ``start`` (a Solution or q (N, L, d)) and continues in
     ``steps`` equal steps; ``tol`` defaults to 1e-13·length scale.  Never raises for unreachable targets:
-    see ``Solution.status``.
+    see ``Solution.status``.  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
+    targets are given up sooner, as a section raster needs).
     """
     nd = len(mech.drives)
     if nd == 0:
@@ -328,13 +330,13 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = joint_values(mech, q0, [i for i, j in enumerate(mech.joints) if j.drive is not None])
-    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine)
+    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine, max_backtrack)
     return _finish(system, *out, tg, singular_tol)
 
 
 def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
             tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
-            singular_tol: float = 1e-7) -> Solution:
+            singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
     """Inverse kinematics: configurations (and drive values) for output poses (N, 6) x, y, z [m], a, b, c [rad]
     (planar (N, 3) x, y [m], φ [rad]) (patent claim 11).  Continuation from home or ``start`` as in
     :func:`forward`."""
@@ -349,5 +351,5 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = output_pose(mech, q0)
-    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine)
+    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine, max_backtrack)
     return _finish(system, *out, tg, singular_tol)
