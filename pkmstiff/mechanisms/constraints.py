@@ -391,6 +391,25 @@ class System:
         self._has_full = any(b.kind == "out_full" for b in self.blocks)
         self._has_axis = any(b.kind == "out_axis" for b in self.blocks)
         self.plan = make_plan(self.blocks) if self.mech.dim == 3 else None
+        self._sparsity = None
+
+    @property
+    def sparsity(self) -> tuple[np.ndarray, np.ndarray]:
+        """Nonzero columns per row of the reduced Jacobian (every coordinate of the links a row's constraint joins)
+        as (cols, cnt) for :func:`pkmstiff.mechanisms.linalg.lstsq_step`; built once."""
+        if self._sparsity is None:
+            from pkmstiff.mechanisms.linalg import sparsity
+
+            d = self.mech.dof_per_link
+            pat = np.zeros((self.m, self.n), dtype=bool)
+            for b in self.blocks:
+                rows = (b.row0 + np.arange(b.rows)).reshape(b.n, b.nrows)
+                for links in (b.j, b.k):
+                    for i, li in enumerate(links):
+                        if li >= 0:
+                            pat[rows[i][:, None], li * d + np.arange(d)] = True
+            self._sparsity = sparsity(pat[self.n_fixed_rows:][:, self.free])
+        return self._sparsity
 
     def row_joint(self) -> np.ndarray:
         """(m,) index of the joint behind each row (−1: ground / control)."""

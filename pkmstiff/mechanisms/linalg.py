@@ -180,11 +180,12 @@ def lstsq_pivoted(J: Array, r: Array, floor: float = GAP_FLOOR, factor: float = 
     return kern(J, r, floor, factor)
 
 
-def _normal_impl(J, r, screen, sweeps):  # pragma: no cover - compiled
+def _normal_impl(J, r, cols, cnt, screen, sweeps):  # pragma: no cover - compiled
     """Least-squares steps dx (N, n) minimising ‖J dx + r‖ by the normal equations JᵀJ dx = −Jᵀr (Cholesky), with a
     condition estimate per pose.
 
-    JᵀJ is accumulated row by row over the nonzero columns (a constraint row touches at most two links); the
+    JᵀJ is accumulated row by row over the structural nonzero columns ``cols[i, :cnt[i]]`` (ascending; a
+    constraint row touches at most two links); the
     Cholesky factor keeps the envelope of JᵀJ (no fill-in before a row's first nonzero), so the zeros between
     unconnected links are skipped.  The estimate of σ_min/σ_max is √(λ/trace JᵀJ) with λ from four steps of
     inverse iteration on JᵀJ (two triangular solves each) from a fixed generic start vector: inverse iteration
@@ -198,15 +199,14 @@ def _normal_impl(J, r, screen, sweeps):  # pragma: no cover - compiled
     ok = np.zeros(N, dtype=np.bool_)
     nchunk = (N + 127) // 128
     for ch in numba.prange(nchunk):  # scratch arrays once per chunk of poses
-        _normal_chunk(J, r, screen, sweeps, dx, est, ok, ch * 128, min(N, (ch + 1) * 128))
+        _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, ch * 128, min(N, (ch + 1) * 128))
     return dx, est, ok
 
 
-def _normal_chunk(J, r, screen, sweeps, dx, est, ok, p0, p1):  # pragma: no cover - compiled
+def _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, p0, p1):  # pragma: no cover - compiled
     N, m, n = J.shape
     A = np.empty((n, n))
     g = np.empty(n)
-    nzc = np.empty(n, dtype=np.int64)
     first = np.empty(n, dtype=np.int64)
     y = np.empty(n)
     x = np.empty(n)
@@ -214,18 +214,15 @@ def _normal_chunk(J, r, screen, sweeps, dx, est, ok, p0, p1):  # pragma: no cove
         A[:] = 0.0
         g[:] = 0.0
         for i in range(m):
-            cnt = 0
-            for c in range(n):
-                if J[p, i, c] != 0.0:
-                    nzc[cnt] = c
-                    cnt += 1
             ri = r[p, i]
-            for a_ in range(cnt):
-                ca = nzc[a_]
+            for a_ in range(cnt[i]):
+                ca = cols[i, a_]
                 va = J[p, i, ca]
+                if va == 0.0:
+                    continue
                 g[ca] += va * ri
                 for b_ in range(a_ + 1):
-                    cb = nzc[b_]
+                    cb = cols[i, b_]
                     A[ca, cb] += va * J[p, i, cb]
         tr = 0.0
         for i in range(n):
@@ -309,19 +306,35 @@ NORMAL_PARALLEL_MIN = 2048
 NORMAL_SCREEN = 1e-6
 
 
+def sparsity(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of a (m, n) bool nonzero pattern: its nonzero columns, ascending (m, max count), and their count."""
+    pattern = np.asarray(pattern, dtype=bool)
+    cnt = pattern.sum(axis=1).astype(np.int64)
+    cols = np.zeros((pattern.shape[0], max(1, int(cnt.max(initial=0)))), dtype=np.int64)
+    for i in range(pattern.shape[0]):
+        c = np.flatnonzero(pattern[i])
+        cols[i, :c.size] = c
+    return cols, cnt
+
+
 def lstsq_step(J: Array, r: Array, screen: float = NORMAL_SCREEN, sweeps: int = 2, floor: float = GAP_FLOOR,
-               factor: float = GAP_FACTOR) -> tuple[Array, Array, Array, Array]:
+               factor: float = GAP_FACTOR, pattern: np.ndarray | None = None) -> tuple[Array, Array, Array, Array]:
     """Newton steps dx (N, n) minimising ‖J dx + r‖: normal equations with Cholesky for the poses whose condition
     estimate (``sweeps`` inverse-iteration steps) is at least ``screen`` (well-conditioned, full column rank),
     pivoted Householder QR
     (:func:`lstsq_pivoted`, the patent's step) for the rest.
 
+    ``pattern`` (m, n) bool: the structural nonzeros of J (default: where any pose has a nonzero), or its
+    :func:`sparsity` (cols, cnt) computed once (:attr:`pkmstiff.mechanisms.constraints.System.sparsity`).
     Returns dx, rank (n for the Cholesky poses; gap rule of the QR diagonal otherwise), rcond (the σ-ratio
     estimate, or min/max |R_kk| of the pivoted QR) and ``qr`` (N,) bool: which poses took the QR step.
     """
     N, m, n = J.shape
+    if pattern is None:
+        pattern = (J != 0.0).any(axis=0)
+    cols, cnt = pattern if isinstance(pattern, tuple) else sparsity(pattern)
     kern = _normal_parallel if N >= NORMAL_PARALLEL_MIN else _normal_serial
-    dx, est, ok = kern(np.ascontiguousarray(J), np.ascontiguousarray(r), screen, sweeps)
+    dx, est, ok = kern(np.ascontiguousarray(J), np.ascontiguousarray(r), cols, cnt, screen, sweeps)
     rank = np.full(N, n, dtype=int)
     rcond = est
     qr = ~ok

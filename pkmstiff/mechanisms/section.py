@@ -55,7 +55,7 @@ def kinematic_jacobian(sol: Solution, h: float = 1e-6) -> Array:
         for i, c in enumerate(b.coord):
             rhs = np.zeros((N, J.shape[1]))
             rhs[:, b.row0 - roff + i] = -1.0  # the step solves J dq = −rhs: F_q q_s = −F_s = +1 on this drive row
-            dq, _, _, _ = lstsq_step(J, rhs)
+            dq, _, _, _ = lstsq_step(J, rhs, pattern=system.sparsity)
             qs = np.zeros((N, L * d))
             qs[:, free] = dq
             eps = h * mech.length_scale / np.maximum(np.abs(qs).max(axis=1, keepdims=True), 1e-300)

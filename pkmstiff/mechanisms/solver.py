@@ -148,6 +148,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
     resid = np.full(N, np.inf)
     rank = np.full(N, free.size, dtype=int)
     rcond = np.full(N, np.nan)
+    chol = np.zeros(N, dtype=bool)  # the last step was the normal-equation one (rcond = its σ-ratio estimate)
     shape = (L, d)
 
     def ev(idx, qq, jac=True):
@@ -168,9 +169,10 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
         if it == max_iter:
             status[act] = "max_iter"
             break
-        dx, rk, rc, _ = lstsq_step(J, r)
+        dx, rk, rc, used_qr = lstsq_step(J, r, pattern=system.sparsity)
         rank[act] = rk
         rcond[act] = rc
+        chol[act] = ~used_qr
         r2 = np.einsum("nm,nm->n", r, r)
         qt = q[act]
         qt[:, free] += dx
@@ -211,22 +213,28 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
             alive = np.ones(act.size, dtype=bool)
             alive[stalled] = False
             act, r, J = act[alive], r[alive], J[alive]
-    return q.reshape(N, L, d), status.astype(str), iters, resid, rank, rcond
+    return q.reshape(N, L, d), status.astype(str), iters, resid, rank, rcond, chol
 
 
-def _finish(system: System, q: Array, status: Array, iters, resid, rank, rcond, target, singular_tol) -> Solution:
+def _finish(system: System, q: Array, status: Array, iters, resid, rank, rcond, chol, target,
+            singular_tol) -> Solution:
     """Rank of the final Jacobian of every converged pose and the status ``singular`` where it is deficient.
 
     Screen: poses whose σ_min/σ_max estimate from the Cholesky factor of JᵀJ is at least ``_FINISH_SCREEN`` are
     regular (full rank).  The others get the pivoted-QR diagonal and, where that shows a gap or a small ratio,
-    the exact singular values (rank by the singular-value gap, σ_min/σ_max against ``singular_tol``)."""
+    the exact singular values (rank by the singular-value gap, σ_min/σ_max against ``singular_tol``).
+    A pose whose last Newton step was the normal-equation one with an estimate ≥ ``_FINISH_SCREEN`` is regular
+    without a new factorisation: that step was taken a converging Newton step (≲ 1e-6 relative) before the
+    final iterate, which moves σ_min/σ_max by far less than the screen's margin of 10³ over the suspect bound."""
     n_free = system.free.size
     sig = np.full(q.shape[0], np.nan)
-    ok = np.flatnonzero(status == "converged")
+    with np.errstate(invalid="ignore"):
+        regular = chol & (rcond >= _FINISH_SCREEN)
+    ok = np.flatnonzero((status == "converged") & ~regular)
     status = status.copy()
     if ok.size:
         r, J = system.evaluate(q[ok], None if target is None else target[ok], reduced=True)
-        _, rk, rc, qr = lstsq_step(J, r, screen=_FINISH_SCREEN, sweeps=4)
+        _, rk, rc, qr = lstsq_step(J, r, screen=_FINISH_SCREEN, sweeps=4, pattern=system.sparsity)
         rank[ok] = rk
         rcond[ok] = rc
         sus = np.flatnonzero(qr & ((rk < n_free) | ~(rc > _SUSPECT_RCOND)))
@@ -267,6 +275,7 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
     resid = np.full(N, np.nan)
     rank = np.zeros(N, dtype=int)
     rcond = np.full(N, np.nan)
+    chol = np.zeros(N, dtype=bool)
     todo = np.arange(N)
     n = max(1, int(steps))
     for _ in range(max_refine + 1):
@@ -282,15 +291,15 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
                 break
             tg = t0[idx] + (s / n) * (t1[idx] - t0[idx])
             last = s == n
-            qs, sts, its, res, rk, rc = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter,
-                                               max_backtrack)
+            qs, sts, its, res, rk, rc, ch = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter,
+                                                   max_backtrack)
             q[idx] = qs
             iters[todo[idx]] += its
             fail = sts != "converged"
             st[idx[fail]] = sts[fail]
             alive[idx[fail]] = False
             if last:
-                resid[todo[idx]], rank[todo[idx]], rcond[todo[idx]] = res, rk, rc
+                resid[todo[idx]], rank[todo[idx]], rcond[todo[idx]], chol[todo[idx]] = res, rk, rc, ch
                 final_miss[idx[fail & (sts == "no_solution")]] = True
         # a target missed only at the last step after a converged path is unreachable: no smaller steps needed
         good = alive | final_miss
@@ -300,7 +309,7 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
         if todo.size == 0:
             break
         n *= 2
-    return q_out, status.astype(str), iters, resid, rank, rcond
+    return q_out, status.astype(str), iters, resid, rank, rcond, chol
 
 
 def home(mech: Mechanism, n: int = 1) -> Array:

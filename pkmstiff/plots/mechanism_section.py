@@ -66,7 +66,7 @@ def plot_mechanism_quantity(sec, name: str, path: str | Path) -> Path:
     """PNG of one quantity over the admissible points (colour bar in its display unit); others light grey."""
     vals = sec.display(name)
     fig, ax = _axes(sec, f"{name} [{sec.units[name]}]")
-    ax.pcolormesh(sec.u_values * MM, sec.v_values * MM, np.where(sec.ok, np.nan, 0.0), shading="nearest",
+    ax.pcolormesh(sec.u_values * MM, sec.v_values * MM, np.where(sec.ok, np.nan, 1.0), shading="nearest",
                   cmap="Greys", vmin=0.0, vmax=4.0)
     finite = np.isfinite(vals)
     if finite.any():
