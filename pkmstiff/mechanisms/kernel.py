@@ -40,6 +40,7 @@ class Plan:
     b: np.ndarray  #: (ni, 3)
     has_full: bool
     has_axis: bool
+    needs_target: bool  #: drive or output equations present
 
 
 def make_plan(blocks) -> Plan:
@@ -60,7 +61,8 @@ def make_plan(blocks) -> Plan:
     f3 = lambda v: np.array(v, dtype=float).reshape(-1, 3)  # noqa: E731
     kinds = {bl.kind for bl in blocks}
     return Plan(i64(kind), i64(j), i64(k), i64(row), i64(coord), np.array(value, dtype=float), f3(p), f3(a), f3(b),
-                "out_full" in kinds, "out_axis" in kinds)
+                "out_full" in kinds, "out_axis" in kinds,
+                bool(kinds & {"drive_lin", "drive_rot", "out_point", "out_full", "out_axis"}))
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -348,6 +350,8 @@ def evaluate(plan: Plan, q: Array, target: Array | None, phi_t: Array | None, Rt
     """Residual (N, m) and Jacobian (N, m − roff, ncol) (columns through ``cmap``, −1 = dropped) of the plan."""
     N = q.shape[0]
     qf = np.ascontiguousarray(q.reshape(N, -1), dtype=float)
+    if target is None and plan.needs_target:
+        raise ValueError("kernel.evaluate: drive/output equations need target values")  # no bounds checks inside
     tg = np.zeros((N, 1)) if target is None else np.ascontiguousarray(target, dtype=float)
     ph = np.zeros((1, 3)) if phi_t is None else np.ascontiguousarray(phi_t)
     rt = np.zeros((1, 3, 3)) if Rt is None else np.ascontiguousarray(Rt)
