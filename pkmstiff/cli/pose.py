@@ -219,8 +219,10 @@ def add_commands(sub) -> None:
     p = sub.add_parser("pose", help="kinematics and admissibility of one pose",
                        description="Drive coordinates, strut lengths, joint angles, condition number and "
                                    "admissibility of one pose. Units on the command line: mm and degrees.")
-    p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines') or path to a machine file")
-    p.add_argument("--pose", default=None, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0")
+    p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines') or path to a machine file; or a "
+                                   "mechanism name or file (status, drives, condition number, joint limits)")
+    p.add_argument("--pose", default=None, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0 (planar "
+                                                "mechanism: x,y,phi)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--poses", default=None, metavar="FILE",
                    help="a batch: CSV file with one pose x,y,z,a,b,c (mm, deg) per line; prints CSV")
