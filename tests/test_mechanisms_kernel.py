@@ -9,6 +9,7 @@ import pytest
 
 import pkmstiff.mechanisms as mm
 from pkmstiff.mechanisms.constraints import fk_system, ik_system, model_system
+from pkmstiff.mechanisms import kernel, linalg
 from pkmstiff.mechanisms.linalg import lstsq_pivoted, lstsq_step
 from pkmstiff.mechanisms.model import Mechanism, Output
 
@@ -23,13 +24,14 @@ def _spatial_mechanisms():
 
 
 @pytest.mark.parametrize("reduced", [False, True])
-def test_compiled_evaluation_equals_numpy_reference(reduced):
+def test_compiled_evaluation_equals_numpy_reference(reduced, monkeypatch):
+    monkeypatch.setattr(kernel, "PARALLEL_MIN", 64)  # 300 poses = two chunks on the parallel kernel
     rng = np.random.default_rng(11)
     for mech in _spatial_mechanisms():
         for sysm, width in ((fk_system(mech), len(mech.drives)), (ik_system(mech), 6), (model_system(mech), 0)):
-            q = rng.uniform(-0.6, 0.6, (70, len(mech.links), 6))  # 70 ≥ PARALLEL_MIN: the parallel kernel
-            tg = rng.uniform(-1.0, 1.0, (70, width)) if width else None
-            for n in (70, 1):  # and the serial one
+            q = rng.uniform(-0.6, 0.6, (300, len(mech.links), 6))
+            tg = rng.uniform(-1.0, 1.0, (300, width)) if width else None
+            for n in (300, 1):  # parallel and serial kernel
                 r1, J1 = sysm.evaluate(q[:n], None if tg is None else tg[:n], reduced=reduced)
                 r2, J2 = sysm.evaluate_reference(q[:n], None if tg is None else tg[:n], reduced=reduced)
                 assert J1.shape == J2.shape
@@ -37,15 +39,19 @@ def test_compiled_evaluation_equals_numpy_reference(reduced):
                 assert np.abs(r1 - r2).max() < 1e-13 and np.abs(J1 - J2).max() < 1e-13, mech.name
 
 
-def test_normal_equation_step_equals_pivoted_qr_when_well_conditioned():
+@pytest.mark.parametrize("parallel", [False, True])
+def test_normal_equation_step_equals_pivoted_qr_when_well_conditioned(parallel, monkeypatch):
+    if parallel:
+        monkeypatch.setattr(linalg, "NORMAL_PARALLEL_MIN", 16)  # 200 poses = two chunks of 128
     mech = mm.load_mechanism("hybrid_tripod_wrist")
     rng = np.random.default_rng(2)
-    d = np.column_stack([rng.uniform(-0.1, 0.1, (50, 3)), rng.uniform(-1, 1, 50), np.radians(rng.uniform(20, 60, 50))])
+    n = 200
+    d = np.column_stack([rng.uniform(-0.1, 0.1, (n, 3)), rng.uniform(-1, 1, n), np.radians(rng.uniform(20, 60, n))])
     sol = mm.forward(mech, d, steps=2)
     sysm = ik_system(mech)
     q = sol.q + rng.normal(0, 1e-3, sol.q.shape)  # a Newton step away from the solution
     r, J = sysm.evaluate(q, sol.poses, reduced=True)
-    dx, rank, rcond, qr = lstsq_step(J, r)
+    dx, rank, rcond, qr = lstsq_step(J, r, pattern=sysm.sparsity if parallel else None)
     dq, diag, rk = lstsq_pivoted(J, r)
     assert not qr.any() and (rank == J.shape[2]).all() and (rk == J.shape[2]).all()
     # σ ratio here ~1e-2: the normal equations lose ~cond² ε ~ 1e-12 relative
