@@ -151,6 +151,181 @@ def _cmd(args) -> int:
     return 0
 
 
+def pose_report(name: str, pose_text: str) -> dict[str, Any]:
+    """``pkmstiff pose MECHANISM --pose …``: the mechanism evaluated like a machine at one pose — status, drive
+    values, condition number of ∂x/∂s, every limited joint's value against its limits, admissibility."""
+    import pkmstiff.mechanisms as mm
+    from pkmstiff.mechanisms.section import condition_numbers, kinematic_jacobian
+
+    rep = solve_report(name, [pose_text])
+    mech = _load(name)
+    r = rep["results"][0]
+    P = np.array([[v * (1e-3 if k.endswith("_mm") else math.pi / 180) for k, v in r["pose"].items()]])
+    ev = mm.evaluate(mech, P)
+    kap = condition_numbers(kinematic_jacobian(ev.solution))[0]
+    joints = {}
+    for i, jn in enumerate(ev.joint_names):
+        jt = mech.joint(jn)
+        u, s = _unit_scale("m" if jt.variable == "linear" else "rad")
+        joints[jn] = {f"value_{u}": _num(ev.joint_values[0, i] * s), f"min_{u}": _num(jt.limits[0] * s),
+                      f"max_{u}": _num(jt.limits[1] * s), "violated": bool(ev.violated[0, i])}
+    r.update({"condition_number": _num(kap), "joints": joints})
+    return {"mechanism": mech.name, "title": mech.title, **r}
+
+
+def print_pose(rep: dict[str, Any]) -> None:
+    ps = ", ".join(f"{k.rsplit('_', 1)[0]}={v:.3f} {k.rsplit('_', 1)[1]}" for k, v in rep["pose"].items())
+    print(f"{rep['mechanism']} (mechanism) at {ps}: {rep['status']} ({rep['iterations']} Newton steps)")
+    dr = ", ".join(f"{k.rsplit('_', 1)[0]} = {'-' if v is None else f'{v:.3f}'} {k.rsplit('_', 1)[1]}"
+                   for k, v in rep["drives"].items())
+    print(f"drives: {dr}")
+    k = rep["condition_number"]
+    print(f"condition number of dx/ds: {'inf' if k is None else f'{k:.4g}'}")
+    for jn, j in rep["joints"].items():
+        u = "mm" if "value_mm" in j else "deg"
+        v, lo, hi = j[f"value_{u}"], j[f"min_{u}"], j[f"max_{u}"]
+        lo_t = "-inf" if lo is None else f"{lo:g}"
+        hi_t = "inf" if hi is None else f"{hi:g}"
+        print(f"  joint {jn:<14} {'-' if v is None else f'{v:9.3f}'} {u}  limits {lo_t} .. {hi_t} {u}"
+              f"{'  VIOLATED' if j['violated'] else ''}")
+    if rep["admissible"]:
+        print("admissible: yes")
+    else:
+        print("admissible: NO")
+        for reason in rep["reasons"]:
+            extra = f": {', '.join(rep['violated_joints'])}" if reason == "JOINT_LIMIT" else ""
+            print(f"  - {reason}{extra}")
+
+
+#: most raster points a mechanism section evaluates (each is an inverse kinematics by continuation from home)
+SECTION_MAX_POINTS = 200_000
+
+
+def section_report(args) -> dict[str, Any]:
+    """``pkmstiff section MECHANISM …``: kinematic quantities and joint-limit admissibility on a plane, files
+    written to ``--out``; returns the JSON-ready summary (lengths mm, angles deg, areas m²)."""
+    import time
+    from pathlib import Path
+
+    from pkmstiff.errors import SectionArgumentError, SectionError
+    from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
+    from pkmstiff.mechanisms.section import evaluate_section, fit_window, quantity_names
+
+    mech = _load(args.machine)
+    plane = args.plane.lower()
+    for opt, given in (("--tool-length", args.tool_length is not None), ("--require", bool(args.require)),
+                       ("--frame", args.frame != "machine"), ("--neglect-spindle", args.neglect_spindle)):
+        if given:
+            raise _cli_error(f"{opt}: not available for a mechanism ('{mech.name}'): a mechanism section has the "
+                             f"kinematic quantities {', '.join(quantity_names(mech))}")
+    try:
+        ranges = parse_ranges(args.range, plane) if args.range else None
+        ori = parse_triple_deg(args.orientation, "--orientation")
+    except (SectionArgumentError, SectionError, PkmstiffError) as exc:
+        raise _cli_error(str(exc)) from None
+    if not (args.step > 0 and math.isfinite(args.step)):
+        raise _cli_error(f"--step: expected a positive step in mm, found {args.step}")
+    if not math.isfinite(args.at):
+        raise _cli_error(f"--at: expected a finite position in mm, found {args.at}")
+    names = [q.strip() for q in args.quantities.split(",") if q.strip()]
+    formats = [f.strip() for f in args.formats.split(",") if f.strip()]
+    bad = set(formats) - {"png", "vtu", "csv", "npz"}
+    if bad:
+        raise _cli_error(f"--formats: expected a subset of png,vtu,csv,npz, found {sorted(bad)}")
+    step, at = args.step * 1e-3, args.at * 1e-3
+    stem = f"{mech.name}_{plane}"
+    from pkmstiff.cli.edges import check_output_dir
+
+    outs = ([f"{stem}_{n}.png" for n in names] + [f"{stem}_admissibility.png"] if "png" in formats else []) \
+        + [f"{stem}.{f}" for f in ("csv", "npz") if f in formats]
+    check_output_dir(args.out, "--out", getattr(args, "force", False), tuple(outs))
+    if mech.dim == 2 and plane != "xy":
+        raise _cli_error(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
+    t0 = time.process_time()
+    try:
+        known = quantity_names(mech)
+        unknown = [n for n in names if n not in known]
+        if unknown:
+            raise _cli_error(f"--quantities: expected names from {', '.join(known)} for mechanism '{mech.name}', "
+                             f"found {', '.join(unknown)}")
+        fitted = ranges is None
+        if fitted:
+            (u0, u1), (v0, v1) = fit_window(mech, plane, at, ori, step)
+        else:
+            (u0, u1), (v0, v1) = ranges[plane[0]], ranges[plane[1]]
+        n_points = (int((u1 - u0) / step + 1e-9) + 1) * (int((v1 - v0) / step + 1e-9) + 1)
+        if n_points > SECTION_MAX_POINTS:
+            raise _cli_error(f"--step: {n_points} raster points, expected at most {SECTION_MAX_POINTS} for a "
+                             f"mechanism section (a larger step or a smaller --range)")
+        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names)
+    except PkmstiffError as exc:
+        raise _cli_error(str(exc)) from None
+    cpu = time.process_time() - t0
+    files = _write_section(sec, Path(args.out), stem, formats) if args.out else []
+    stats = sec.statistics()
+    return {"mechanism": mech.name, "plane": plane, "at_mm": None if mech.dim == 2 else args.at,
+            "orientation_deg": [float(np.degrees(a)) for a in ori],
+            "window_mm": {plane[0]: [u0 * 1e3, sec.u_values[-1] * 1e3], plane[1]: [v0 * 1e3, sec.v_values[-1] * 1e3]},
+            "window_fitted_to_workspace": fitted, "points": int(sec.ok.size),
+            "admissible_points": int(sec.ok.sum()), "admissible_area_m2": float(sec.ok.sum()) * sec.cell_area,
+            "statistics": stats, "inadmissible_reasons": {k: v for k, v in sec.reason_counts().items() if v},
+            "cpu_seconds": cpu, "files": [str(p) for p in files]}
+
+
+def _write_section(sec, out, stem: str, formats: list[str]) -> list:
+    """PNG maps (each quantity and the admissibility reasons), CSV and NPZ of a mechanism section in ``out``."""
+    import csv
+
+    paths = []
+    out.mkdir(parents=True, exist_ok=True)
+    if "png" in formats:
+        from pkmstiff.plots.mechanism_section import plot_mechanism_quantity, plot_mechanism_reasons
+
+        paths += [plot_mechanism_quantity(sec, n, out / f"{stem}_{n}.png") for n in sec.values]
+        paths.append(plot_mechanism_reasons(sec, out / f"{stem}_admissibility.png"))
+    U, V = np.meshgrid(sec.u_values, sec.v_values)
+    u, v = sec.plane[0], sec.plane[1]
+    if "csv" in formats:
+        p = out / f"{stem}.csv"
+        with open(p, "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow([f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
+                       + [f"{n}_{sec.units[n]}" for n in sec.values])
+            cols = [sec.display(n).ravel() for n in sec.values]
+            for i in range(U.size):
+                w.writerow([f"{U.flat[i] * 1e3:.6g}", f"{V.flat[i] * 1e3:.6g}", sec.status.flat[i],
+                            int(sec.reasons.flat[i]), int(sec.ok.flat[i])]
+                           + ["" if not np.isfinite(c[i]) else f"{c[i]:.6g}" for c in cols])
+        paths.append(p)
+    if "npz" in formats:
+        p = out / f"{stem}.npz"
+        np.savez_compressed(p, **{f"{u}_m": sec.u_values, f"{v}_m": sec.v_values, "reasons": sec.reasons,
+                                  "admissible": sec.ok}, **{f"{n}_si": sec.values[n] for n in sec.values})
+        paths.append(p)
+    return paths
+
+
+def print_section(rep: dict[str, Any]) -> None:
+    """The text output of a mechanism section (no timings: the lines are reproducible)."""
+    win = ", ".join(f"{a} {lo:g}..{hi:g} mm" for a, (lo, hi) in rep["window_mm"].items())
+    where = "plane of motion" if rep["at_mm"] is None else \
+        f"{rep['plane']} plane at {({'x', 'y', 'z'} - set(rep['plane'])).pop()} = {rep['at_mm']:g} mm"
+    ori = ",".join(f"{a:g}" for a in rep["orientation_deg"])
+    print(f"{rep['mechanism']} (mechanism): {where}, orientation {ori} deg, window {win}"
+          f"{' (fitted)' if rep['window_fitted_to_workspace'] else ''}: {rep['admissible_points']} of "
+          f"{rep['points']} points admissible ({rep['admissible_area_m2']:.4g} m²)")
+    for n, st in rep["statistics"].items():
+        if st["count"]:
+            print(f"  {n:<16} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
+        else:
+            print(f"  {n:<16} [{st['unit']}]  no admissible point")
+    if rep["inadmissible_reasons"]:
+        print("  inadmissible points by reason: "
+              + ", ".join(f"{k} {v}" for k, v in rep["inadmissible_reasons"].items()))
+    for p in rep["files"]:
+        print(f"  wrote {p}")
+
+
 def add_commands(sub: Any) -> None:
     p = sub.add_parser("mechanism", help="generic link-and-joint mechanisms: solve, drive ranges, structure",
                        description="Generic mechanisms (DE 10 2004 026 707 A1): inverse kinematics of poses "

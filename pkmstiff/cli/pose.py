@@ -137,6 +137,21 @@ def _cmd_pose(args: argparse.Namespace) -> int:
 
     if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
+    from pkmstiff.mechanisms.loader import is_mechanism
+
+    if is_mechanism(args.machine):  # a generic mechanism evaluated like a machine (issue 14)
+        from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
+        from pkmstiff.cli.mechanism import print_pose
+
+        if args.pose is None:
+            raise CliError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
+                           "'pkmstiff mechanism solve' with several --pose)")
+        rep = mechanism_pose_report(args.machine, args.pose)
+        if args.json:
+            print(json.dumps(rep, indent=2))
+        else:
+            print_pose(rep)
+        return 0
     if getattr(args, "poses", None) is not None:
         return _pose_batch(args)
     try:
@@ -204,8 +219,10 @@ def add_commands(sub) -> None:
     p = sub.add_parser("pose", help="kinematics and admissibility of one pose",
                        description="Drive coordinates, strut lengths, joint angles, condition number and "
                                    "admissibility of one pose. Units on the command line: mm and degrees.")
-    p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines') or path to a machine file")
-    p.add_argument("--pose", default=None, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0")
+    p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines') or path to a machine file; or a "
+                                   "mechanism name or file (status, drives, condition number, joint limits)")
+    p.add_argument("--pose", default=None, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0 (planar "
+                                                "mechanism: x,y,phi)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--poses", default=None, metavar="FILE",
                    help="a batch: CSV file with one pose x,y,z,a,b,c (mm, deg) per line; prints CSV")

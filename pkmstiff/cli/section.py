@@ -47,6 +47,17 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
 
+    from pkmstiff.mechanisms.loader import is_mechanism
+
+    if is_mechanism(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
+        from pkmstiff.cli.mechanism import print_section, section_report
+
+        rep = section_report(args)
+        if args.json:
+            print(json.dumps(rep, indent=2))
+        else:
+            print_section(rep)
+        return 0
     plane_kind = args.plane.lower()
     try:
         ranges = parse_ranges(args.range, plane_kind) if args.range else None
@@ -200,7 +211,8 @@ def add_commands(sub) -> None:
     p = sub.add_parser("section", help="evaluate quantities on a workspace section plane",
                        description="Quantities on a section plane, masked by all admissibility checks. "
                                    "Lengths in mm, angles in degrees. See 'pkmstiff quantities' for names.")
-    p.add_argument("machine", help="bundled machine name or machine file")
+    p.add_argument("machine", help="bundled machine name or machine file; or a mechanism (name or file): then the "
+                                   "quantities are kappa and the drive names (see 'pkmstiff mechanism')")
     p.add_argument("--plane", default="yz", choices=["yz", "xz", "xy", "YZ", "XZ", "XY"], help="section plane")
     p.add_argument("--at", type=float, default=0.0, help="position of the plane along its normal axis [mm]")
     p.add_argument("--range", default=None,

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from pkmstiff.mechanisms import kernel
+from pkmstiff.mechanisms.kernel import make_plan
 from pkmstiff.mechanisms.model import ROWS, Joint, Mechanism
 from pkmstiff.mechanisms.model import JOINT_TYPES_2D, JOINT_TYPES_3D
 
@@ -207,19 +209,23 @@ def output_blocks(mech: Mechanism) -> list[Block]:
 class Frames:
     """Link frames of N configurations: t (N, L, D), R (N, L, D, D), dR (N, L, nr, D, D)."""
 
-    def __init__(self, q: Array, dim: int):
+    def __init__(self, q: Array, dim: int, derivatives: bool = True):
         self.q, self.dim = q, dim
         self.t = q[..., :dim]
         self.R, self.dR = link_rotations(q[..., dim:], dim)
+        if not derivatives:
+            self.dR = None
 
-    def point(self, li: np.ndarray, p: Array) -> tuple[Array, Array]:
-        """World points w = t + R p (N, nc, D) and ∂w/∂φ (N, nc, D, nr) of local points p (nc, D) on links li."""
+    def point(self, li: np.ndarray, p: Array) -> tuple[Array, Array | None]:
+        """World points w = t + R p (N, nc, D) and ∂w/∂φ (N, nc, D, nr) of local points p (nc, D) on links li
+        (None if the frames were built without derivatives)."""
         w = self.t[:, li] + np.einsum("nkab,kb->nka", self.R[:, li], p)
-        return w, np.einsum("nkcab,kb->nkac", self.dR[:, li], p)
+        return w, None if self.dR is None else np.einsum("nkcab,kb->nkac", self.dR[:, li], p)
 
-    def vector(self, li: np.ndarray, a: Array) -> tuple[Array, Array]:
-        """World vectors U = R a (N, nc, D) and ∂U/∂φ (N, nc, D, nr)."""
-        return np.einsum("nkab,kb->nka", self.R[:, li], a), np.einsum("nkcab,kb->nkac", self.dR[:, li], a)
+    def vector(self, li: np.ndarray, a: Array) -> tuple[Array, Array | None]:
+        """World vectors U = R a (N, nc, D) and ∂U/∂φ (N, nc, D, nr) (None without derivatives)."""
+        U = np.einsum("nkab,kb->nka", self.R[:, li], a)
+        return U, None if self.dR is None else np.einsum("nkcab,kb->nkac", self.dR[:, li], a)
 
 
 def _skew_cols(u: Array) -> Array:
@@ -378,6 +384,32 @@ class System:
         self.n_fixed_rows = len(fixed_rows)
         if fixed_rows and max(fixed_rows) != len(fixed_rows) - 1:
             raise ValueError("System: the fixed-coordinate block must come first")
+        # index maps built once per system (the Newton loop evaluates many times)
+        self._cmap_full = np.arange(self.n, dtype=np.int64)
+        self._cmap_reduced = np.full(self.n, -1, dtype=np.int64)
+        self._cmap_reduced[self.free] = np.arange(self.free.size)
+        self._has_full = any(b.kind == "out_full" for b in self.blocks)
+        self._has_axis = any(b.kind == "out_axis" for b in self.blocks)
+        self.plan = make_plan(self.blocks) if self.mech.dim == 3 else None
+        self._sparsity = None
+
+    @property
+    def sparsity(self) -> tuple[np.ndarray, np.ndarray]:
+        """Nonzero columns per row of the reduced Jacobian (every coordinate of the links a row's constraint joins)
+        as (cols, cnt) for :func:`pkmstiff.mechanisms.linalg.lstsq_step`; built once."""
+        if self._sparsity is None:
+            from pkmstiff.mechanisms.linalg import sparsity
+
+            d = self.mech.dof_per_link
+            pat = np.zeros((self.m, self.n), dtype=bool)
+            for b in self.blocks:
+                rows = (b.row0 + np.arange(b.rows)).reshape(b.n, b.nrows)
+                for links in (b.j, b.k):
+                    for i, li in enumerate(links):
+                        if li >= 0:
+                            pat[rows[i][:, None], li * d + np.arange(d)] = True
+            self._sparsity = sparsity(pat[self.n_fixed_rows:][:, self.free])
+        return self._sparsity
 
     def row_joint(self) -> np.ndarray:
         """(m,) index of the joint behind each row (−1: ground / control)."""
@@ -391,8 +423,24 @@ class System:
         """Residual F (N, m) and Jacobian F_q (N, m, L·d) at configurations q (N, L, d).
 
         ``reduced=True``: only the rows and columns the solver uses — without the fixed-coordinate rows and the
-        fixed coordinates — F (N, m_s) and F_q (N, m_s, n_free) (a view of a slightly wider array).
+        fixed coordinates — F (N, m_s) and F_q (N, m_s, n_free).  Spatial systems run the compiled loop of
+        :mod:`pkmstiff.mechanisms.kernel` (one call for all constraints and poses), planar ones
+        :meth:`evaluate_reference`.
         """
+        if self.plan is None:
+            return self.evaluate_reference(q, target, jac, reduced)
+        phi_t = target_angles(np.asarray(target, dtype=float), 3) if self._has_full else None
+        Rt = cardan_pose_rotation(np.asarray(target, dtype=float)[:, 3:6]) if self._has_axis else None
+        roff = self.n_fixed_rows if reduced else 0
+        cmap = self._cmap_reduced if reduced else self._cmap_full
+        r, J = kernel.evaluate(self.plan, q, target, phi_t, Rt, self.m, roff, cmap,
+                               self.free.size if reduced else self.n, jac)
+        return (r[:, roff:] if reduced else r), J
+
+    def evaluate_reference(self, q: Array, target: Array | None = None, jac: bool = True,
+                           reduced: bool = False) -> tuple[Array, Array | None]:
+        """:meth:`evaluate` by one vectorised numpy call per constraint kind (:func:`block_eval`): the reference
+        the compiled loop is tested against, and the planar path."""
         N = q.shape[0]
         d = self.mech.dof_per_link
         F = Frames(q, self.mech.dim)
@@ -421,13 +469,23 @@ class System:
         return r, J
 
 
+def _cached(mech: Mechanism, key: str, build) -> System:
+    """The system ``key`` of ``mech``, built once per mechanism (kept in the frozen dataclass's __dict__, like
+    functools.cached_property does): solving one pose at a time must not rebuild blocks and index maps."""
+    sysm = mech.__dict__.get(key)
+    if sysm is None:
+        sysm = build()
+        mech.__dict__[key] = sysm
+    return sysm
+
+
 def model_system(mech: Mechanism) -> System:
-    return System(mech, model_blocks(mech))
+    return _cached(mech, "_model_system", lambda: System(mech, model_blocks(mech)))
 
 
 def fk_system(mech: Mechanism) -> System:
-    return System(mech, model_blocks(mech) + drive_blocks(mech))
+    return _cached(mech, "_fk_system", lambda: System(mech, model_blocks(mech) + drive_blocks(mech)))
 
 
 def ik_system(mech: Mechanism) -> System:
-    return System(mech, model_blocks(mech) + output_blocks(mech))
+    return _cached(mech, "_ik_system", lambda: System(mech, model_blocks(mech) + output_blocks(mech)))

@@ -180,6 +180,173 @@ def lstsq_pivoted(J: Array, r: Array, floor: float = GAP_FLOOR, factor: float = 
     return kern(J, r, floor, factor)
 
 
+def _normal_impl(J, r, cols, cnt, screen, sweeps):  # pragma: no cover - compiled
+    """Least-squares steps dx (N, n) minimising ‖J dx + r‖ by the normal equations JᵀJ dx = −Jᵀr (Cholesky), with a
+    condition estimate per pose.
+
+    JᵀJ is accumulated row by row over the structural nonzero columns ``cols[i, :cnt[i]]`` (ascending; a
+    constraint row touches at most two links); the
+    Cholesky factor keeps the envelope of JᵀJ (no fill-in before a row's first nonzero), so the zeros between
+    unconnected links are skipped.  The estimate of σ_min/σ_max is √(λ/trace JᵀJ) with λ from four steps of
+    inverse iteration on JᵀJ (two triangular solves each) from a fixed generic start vector: inverse iteration
+    approaches λ_min from above and √trace ≥ σ_max, so the estimate is the closer to the truth the more isolated
+    the small singular value is (the near-singular case it has to catch).  ``ok`` is False where the factor
+    breaks down or the estimate is below ``screen``: those poses need the rank-revealing step.
+    """
+    N, m, n = J.shape
+    dx = np.zeros((N, n))
+    est = np.zeros(N)
+    ok = np.zeros(N, dtype=np.bool_)
+    nchunk = (N + 127) // 128
+    for ch in numba.prange(nchunk):  # scratch arrays once per chunk of poses
+        _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, ch * 128, min(N, (ch + 1) * 128))
+    return dx, est, ok
+
+
+def _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, p0, p1):  # pragma: no cover - compiled
+    N, m, n = J.shape
+    A = np.empty((n, n))
+    g = np.empty(n)
+    first = np.empty(n, dtype=np.int64)
+    y = np.empty(n)
+    x = np.empty(n)
+    for p in range(p0, p1):
+        A[:] = 0.0
+        g[:] = 0.0
+        for i in range(m):
+            ri = r[p, i]
+            for a_ in range(cnt[i]):
+                ca = cols[i, a_]
+                va = J[p, i, ca]
+                if va == 0.0:
+                    continue
+                g[ca] += va * ri
+                for b_ in range(a_ + 1):
+                    cb = cols[i, b_]
+                    A[ca, cb] += va * J[p, i, cb]
+        tr = 0.0
+        for i in range(n):
+            tr += A[i, i]
+            f = i
+            for c in range(i):
+                if A[i, c] != 0.0:
+                    f = c
+                    break
+            first[i] = f
+        if not tr > 0.0:
+            continue
+        good = True
+        for k in range(n):
+            s = A[k, k]
+            for t in range(first[k], k):
+                s -= A[k, t] * A[k, t]
+            if not s > 1e-15 * tr:
+                good = False
+                break
+            lkk = math.sqrt(s)
+            A[k, k] = lkk
+            for i in range(k + 1, n):
+                if first[i] > k:
+                    continue
+                s = A[i, k]
+                for t in range(max(first[i], first[k]), k):
+                    s -= A[i, t] * A[k, t]
+                A[i, k] = s / lkk
+        if not good:
+            continue
+        # solve L y = −g, Lᵀ x = y
+        for i in range(n):
+            s = -g[i]
+            for t in range(first[i], i):
+                s -= A[i, t] * y[t]
+            y[i] = s / A[i, i]
+        for i in range(n - 1, -1, -1):
+            y[i] /= A[i, i]
+            for t in range(first[i], i):
+                y[t] -= A[i, t] * y[i]
+        for i in range(n):
+            dx[p, i] = y[i]
+        # inverse iteration for λ_min(JᵀJ)
+        nx = 0.0
+        for i in range(n):
+            x[i] = 1.0 + 0.5 * math.sin(1.7 * i + 0.3)
+            nx += x[i] * x[i]
+        nx = math.sqrt(nx)
+        lam = tr
+        for _ in range(sweeps):
+            for i in range(n):
+                x[i] /= nx
+            for i in range(n):
+                s = x[i]
+                for t in range(first[i], i):
+                    s -= A[i, t] * x[t]
+                x[i] = s / A[i, i]
+            for i in range(n - 1, -1, -1):
+                x[i] /= A[i, i]
+                for t in range(first[i], i):
+                    x[t] -= A[i, t] * x[i]
+            nx = 0.0
+            for i in range(n):
+                nx += x[i] * x[i]
+            nx = math.sqrt(nx)
+            lam = 1.0 / nx
+        est[p] = math.sqrt(lam / tr)
+        ok[p] = est[p] >= screen
+
+
+_normal_chunk = numba.njit(cache=True, nogil=True, fastmath=_FM)(_normal_chunk)
+_normal_parallel = numba.njit(cache=True, parallel=True, nogil=True, fastmath=_FM)(_normal_impl)
+_normal_serial = numba.njit(cache=True, nogil=True, fastmath=_FM)(_renamed(_normal_impl, "_normal_serial_impl"))
+
+#: below this many poses the serial normal-equation kernel is used (it is ~5× cheaper per pose than the QR)
+NORMAL_PARALLEL_MIN = 2048
+#: σ_min/σ_max estimate above which the normal-equation step is used (below: pivoted QR).  Squaring the condition
+#: number costs at most ~1e12·ε ≈ 1e-4 relative accuracy of the step at this bound, which only slows the last
+#: Newton step slightly; the converged residual is evaluated exactly either way.
+NORMAL_SCREEN = 1e-6
+
+
+def sparsity(pattern: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per row of a (m, n) bool nonzero pattern: its nonzero columns, ascending (m, max count), and their count."""
+    pattern = np.asarray(pattern, dtype=bool)
+    cnt = pattern.sum(axis=1).astype(np.int64)
+    cols = np.zeros((pattern.shape[0], max(1, int(cnt.max(initial=0)))), dtype=np.int64)
+    for i in range(pattern.shape[0]):
+        c = np.flatnonzero(pattern[i])
+        cols[i, :c.size] = c
+    return cols, cnt
+
+
+def lstsq_step(J: Array, r: Array, screen: float = NORMAL_SCREEN, sweeps: int = 2, floor: float = GAP_FLOOR,
+               factor: float = GAP_FACTOR, pattern: np.ndarray | None = None) -> tuple[Array, Array, Array, Array]:
+    """Newton steps dx (N, n) minimising ‖J dx + r‖: normal equations with Cholesky for the poses whose condition
+    estimate (``sweeps`` inverse-iteration steps) is at least ``screen`` (well-conditioned, full column rank),
+    pivoted Householder QR
+    (:func:`lstsq_pivoted`, the patent's step) for the rest.
+
+    ``pattern`` (m, n) bool: the structural nonzeros of J (default: where any pose has a nonzero), or its
+    :func:`sparsity` (cols, cnt) computed once (:attr:`pkmstiff.mechanisms.constraints.System.sparsity`).
+    Returns dx, rank (n for the Cholesky poses; gap rule of the QR diagonal otherwise), rcond (the σ-ratio
+    estimate, or min/max |R_kk| of the pivoted QR) and ``qr`` (N,) bool: which poses took the QR step.
+    """
+    N, m, n = J.shape
+    if pattern is None:
+        pattern = (J != 0.0).any(axis=0)
+    cols, cnt = pattern if isinstance(pattern, tuple) else sparsity(pattern)
+    kern = _normal_parallel if N >= NORMAL_PARALLEL_MIN else _normal_serial
+    dx, est, ok = kern(np.ascontiguousarray(J), np.ascontiguousarray(r), cols, cnt, screen, sweeps)
+    rank = np.full(N, n, dtype=int)
+    rcond = est
+    qr = ~ok
+    if qr.any():
+        idx = np.flatnonzero(qr)
+        dq, diag, rk = lstsq_pivoted(np.ascontiguousarray(J[idx]), np.ascontiguousarray(r[idx]), floor, factor)
+        dx[idx], rank[idx] = dq, rk
+        with np.errstate(divide="ignore", invalid="ignore"):
+            rcond[idx] = diag[:, -1] / diag[:, 0]
+    return dx, rank, rcond, qr
+
+
 def singular_values(A: Array, chunk: int = 2048) -> Array:
     """Singular values (N, min(m, n)) of a stack of matrices, descending, in chunks."""
     out = np.empty((A.shape[0], min(A.shape[1:])))

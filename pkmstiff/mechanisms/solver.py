@@ -21,7 +21,8 @@ from numpy.typing import ArrayLike, NDArray
 from pkmstiff.errors import MechanismInputError
 from pkmstiff.kinematics.rotation import cardan_angles
 from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system
-from pkmstiff.mechanisms.linalg import GAP_FACTOR, GAP_FLOOR, gap_rank, lstsq_pivoted, singular_values
+from pkmstiff.mechanisms.linalg import (GAP_FACTOR, GAP_FLOOR, gap_rank, lstsq_pivoted, lstsq_step,
+                                        singular_values)
 from pkmstiff.mechanisms.model import Mechanism
 
 Array = NDArray[np.float64]
@@ -29,6 +30,9 @@ Array = NDArray[np.float64]
 STATUS = ("converged", "singular", "no_solution", "max_iter")
 #: QR-diagonal ratio below which the exact singular values are computed for the status
 _SUSPECT_RCOND = 1e-5
+#: σ-ratio estimate (Cholesky of JᵀJ, :func:`~pkmstiff.mechanisms.linalg.lstsq_step`) above which a converged
+#: pose counts as regular without a QR/SVD: 1e3 above the suspect bound and 1e3 above ``singular_tol``
+_FINISH_SCREEN = 1e-4
 _ARMIJO = 1e-4
 
 
@@ -43,7 +47,8 @@ class Solution:
     residual: Array  #: (N,) max |F| of the solved equations (m, rad)
     rank: Array  #: (N,) rank of the solve Jacobian (free coordinates) by the singular-value gap
     n_free: int  #: number of free coordinates (full rank)
-    rcond: Array  #: (N,) min/max |R_kk| of the pivoted QR at the last iterate
+    rcond: Array  #: (N,) reciprocal condition estimate at the last iterate: σ_min/σ_max estimate of the normal-equation
+    #: step, or min/max |R_kk| where the pivoted QR was used (see linalg.lstsq_step)
     sigma_ratio: Array  #: (N,) σ_min/σ_max where computed (suspect poses), else NaN
 
     @property
@@ -72,37 +77,41 @@ class Solution:
 
 def joint_values(mech: Mechanism, q: Array, joints: list[int]) -> Array:
     """Joint variables (N, len(joints)): linear displacement along the axis + offset (eq. 8) [m], relative angle
-    about the axis + offset [rad], or tilt between the axis on both links [rad] (spherical/cardan)."""
+    about the axis + offset [rad], or tilt between the axis on both links [rad] (spherical/cardan).
+
+    Joints of one kind of variable are evaluated together (one vectorised call per kind)."""
     F = Frames(q, mech.dim)
     D = mech.dim
-    out = np.empty((q.shape[0], len(joints)))
+    out = np.full((q.shape[0], len(joints)), np.nan)
+    groups: dict[str, list[int]] = {}
     for c, ji in enumerate(joints):
-        jt = mech.joints[ji]
-        j, k = np.array([jt.links[0]]), np.array([jt.links[1]])
-        off = jt.drive.offset if jt.drive is not None else 0.0
-        if jt.variable == "linear":
-            wj, _ = F.point(j, jt.point[None])
-            wk, _ = F.point(k, jt.point[None])
-            u, _ = F.vector(j, jt.axis[None])
-            out[:, c] = np.einsum("na,na->n", (wk - wj)[:, 0], u[:, 0]) + off
-        elif jt.variable == "angle":
+        groups.setdefault(mech.joints[ji].variable or "", []).append(c)
+    for var, cols in groups.items():
+        jts = [mech.joints[joints[c]] for c in cols]
+        j = np.array([jt.links[0] for jt in jts])
+        k = np.array([jt.links[1] for jt in jts])
+        off = np.array([jt.drive.offset if jt.drive is not None else 0.0 for jt in jts])
+        if var == "linear":
+            P = np.array([jt.point for jt in jts])
+            u, _ = F.vector(j, np.array([jt.axis for jt in jts]))
+            out[:, cols] = np.einsum("nca,nca->nc", F.point(k, P)[0] - F.point(j, P)[0], u) + off
+        elif var == "angle":
             if D == 2:
-                out[:, c] = q[:, k[0], 2] - q[:, j[0], 2] + off
+                out[:, cols] = q[:, k, 2] - q[:, j, 2] + off
             else:
                 from pkmstiff.mechanisms.constraints import _perp
 
-                b = _perp(jt.axis)[None]
-                A, _ = F.vector(j, jt.axis[None])
+                b = np.array([_perp(jt.axis) for jt in jts])
+                A, _ = F.vector(j, np.array([jt.axis for jt in jts]))
                 U, _ = F.vector(j, b)
                 V, _ = F.vector(k, b)
-                S = np.einsum("na,na->n", A[:, 0], np.cross(U[:, 0], V[:, 0]))
-                out[:, c] = np.arctan2(S, np.einsum("na,na->n", U[:, 0], V[:, 0])) + off
-        elif jt.variable == "tilt":
-            Uj, _ = F.vector(j, jt.axis[None])
-            Uk, _ = F.vector(k, jt.axis[None])
-            out[:, c] = np.arccos(np.clip(np.einsum("na,na->n", Uj[:, 0], Uk[:, 0]), -1.0, 1.0))
-        else:
-            out[:, c] = np.nan
+                S = np.einsum("nca,nca->nc", A, np.cross(U, V))
+                out[:, cols] = np.arctan2(S, np.einsum("nca,nca->nc", U, V)) + off
+        elif var == "tilt":
+            ax = np.array([jt.axis for jt in jts])
+            Uj, _ = F.vector(j, ax)
+            Uk, _ = F.vector(k, ax)
+            out[:, cols] = np.arccos(np.clip(np.einsum("nca,nca->nc", Uj, Uk), -1.0, 1.0))
     return out
 
 
@@ -112,7 +121,7 @@ def output_pose(mech: Mechanism, q: Array) -> Array:
     o = mech.output
     if o is None:
         raise MechanismInputError(f"mechanism '{mech.name}' has no [output]: no pose defined")
-    F = Frames(q, mech.dim)
+    F = Frames(q, mech.dim, derivatives=False)
     w, _ = F.point(np.array([o.link]), o.point[None])
     if mech.dim == 2:
         return np.concatenate([w[:, 0], q[:, o.link, 2:3]], axis=1)
@@ -139,6 +148,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
     resid = np.full(N, np.inf)
     rank = np.full(N, free.size, dtype=int)
     rcond = np.full(N, np.nan)
+    chol = np.zeros(N, dtype=bool)  # the last step was the normal-equation one (rcond = its σ-ratio estimate)
     shape = (L, d)
 
     def ev(idx, qq, jac=True):
@@ -151,28 +161,34 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
         resid[act] = rn
         done = rn <= tol
         status[act[done]] = "converged"
-        keep = ~done
-        act, r, J, rn = act[keep], r[keep], J[keep], rn[keep]
+        if done.any():
+            keep = ~done
+            act, r, J, rn = act[keep], r[keep], J[keep], rn[keep]
         if act.size == 0:
             break
         if it == max_iter:
             status[act] = "max_iter"
             break
-        dx, diag, rk = lstsq_pivoted(J, r, GAP_FLOOR, GAP_FACTOR)
+        dx, rk, rc, used_qr = lstsq_step(J, r, pattern=system.sparsity)
         rank[act] = rk
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rcond[act] = diag[:, -1] / diag[:, 0]
+        rcond[act] = rc
+        chol[act] = ~used_qr
         r2 = np.einsum("nm,nm->n", r, r)
-        qt = q[act].copy()
+        qt = q[act]
         qt[:, free] += dx
         rt, Jt = ev(act, qt)
         rt2 = np.einsum("nm,nm->n", rt, rt)
         ok = np.isfinite(rt2) & ((rt2 <= (1.0 - _ARMIJO) ** 2 * r2) | (np.abs(rt).max(axis=1) <= tol))
+        bad = np.flatnonzero(~ok)
+        if bad.size == 0:  # the usual case: every full step accepted, no copies
+            q[act] = qt
+            iters[act] += 1
+            r, J = rt, Jt
+            continue
         q[act[ok]] = qt[ok]
         iters[act[ok]] += 1
-        r = np.where(ok[:, None], rt, r)
-        J = np.where(ok[:, None, None], Jt, J)
-        bad = np.flatnonzero(~ok)
+        rt[bad], Jt[bad] = r[bad], J[bad]
+        r, J = rt, Jt
         alpha = np.full(bad.size, 0.5)
         accepted = np.zeros(bad.size, dtype=bool)
         for _ in range(max_backtrack):
@@ -197,23 +213,31 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
             alive = np.ones(act.size, dtype=bool)
             alive[stalled] = False
             act, r, J = act[alive], r[alive], J[alive]
-    return q.reshape(N, L, d), status.astype(str), iters, resid, rank, rcond
+    return q.reshape(N, L, d), status.astype(str), iters, resid, rank, rcond, chol
 
 
-def _finish(system: System, q: Array, status: Array, iters, resid, rank, rcond, target, singular_tol) -> Solution:
-    """Rank of the final Jacobian of every converged pose (pivoted-QR diagonal; exact singular values where it
-    shows a gap or a small ratio) and the status ``singular`` where the rank is deficient."""
+def _finish(system: System, q: Array, status: Array, iters, resid, rank, rcond, chol, target,
+            singular_tol) -> Solution:
+    """Rank of the final Jacobian of every converged pose and the status ``singular`` where it is deficient.
+
+    Screen: poses whose σ_min/σ_max estimate from the Cholesky factor of JᵀJ is at least ``_FINISH_SCREEN`` are
+    regular (full rank).  The others get the pivoted-QR diagonal and, where that shows a gap or a small ratio,
+    the exact singular values (rank by the singular-value gap, σ_min/σ_max against ``singular_tol``).
+    A pose whose last Newton step was the normal-equation one with an estimate ≥ ``_FINISH_SCREEN`` is regular
+    without a new factorisation: that step was taken a converging Newton step (≲ 1e-6 relative) before the
+    final iterate, which moves σ_min/σ_max by far less than the screen's margin of 10³ over the suspect bound."""
     n_free = system.free.size
     sig = np.full(q.shape[0], np.nan)
-    ok = np.flatnonzero(status == "converged")
+    with np.errstate(invalid="ignore"):
+        regular = chol & (rcond >= _FINISH_SCREEN)
+    ok = np.flatnonzero((status == "converged") & ~regular)
     status = status.copy()
     if ok.size:
         r, J = system.evaluate(q[ok], None if target is None else target[ok], reduced=True)
-        _, diag, rk = lstsq_pivoted(J, r, GAP_FLOOR, GAP_FACTOR)
+        _, rk, rc, qr = lstsq_step(J, r, screen=_FINISH_SCREEN, sweeps=4, pattern=system.sparsity)
         rank[ok] = rk
-        with np.errstate(divide="ignore", invalid="ignore"):
-            rcond[ok] = diag[:, -1] / diag[:, 0]
-        sus = np.flatnonzero((rk < n_free) | ~(rcond[ok] > _SUSPECT_RCOND))
+        rcond[ok] = rc
+        sus = np.flatnonzero(qr & ((rk < n_free) | ~(rc > _SUSPECT_RCOND)))
         if sus.size:
             s = singular_values(np.ascontiguousarray(J[sus]))
             idx = ok[sus]
@@ -241,7 +265,7 @@ def _as_targets(values: ArrayLike, width: int, what: str, unit: str) -> Array:
 
 
 def _continuation(system: System, target: Array, start_q: Array, start_target: Array, steps: int, tol: float,
-                  max_iter: int, max_refine: int) -> tuple:
+                  max_iter: int, max_refine: int, max_backtrack: int = 30) -> tuple:
     """Equal steps from (start_q, start_target) to target; failing poses are redone with 2×, 4×, … steps."""
     N = target.shape[0]
     L, d = start_q.shape[-2:]
@@ -251,6 +275,7 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
     resid = np.full(N, np.nan)
     rank = np.zeros(N, dtype=int)
     rcond = np.full(N, np.nan)
+    chol = np.zeros(N, dtype=bool)
     todo = np.arange(N)
     n = max(1, int(steps))
     for _ in range(max_refine + 1):
@@ -266,14 +291,15 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
                 break
             tg = t0[idx] + (s / n) * (t1[idx] - t0[idx])
             last = s == n
-            qs, sts, its, res, rk, rc = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter)
+            qs, sts, its, res, rk, rc, ch = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter,
+                                                   max_backtrack)
             q[idx] = qs
             iters[todo[idx]] += its
             fail = sts != "converged"
             st[idx[fail]] = sts[fail]
             alive[idx[fail]] = False
             if last:
-                resid[todo[idx]], rank[todo[idx]], rcond[todo[idx]] = res, rk, rc
+                resid[todo[idx]], rank[todo[idx]], rcond[todo[idx]], chol[todo[idx]] = res, rk, rc, ch
                 final_miss[idx[fail & (sts == "no_solution")]] = True
         # a target missed only at the last step after a converged path is unreachable: no smaller steps needed
         good = alive | final_miss
@@ -283,7 +309,7 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
         if todo.size == 0:
             break
         n *= 2
-    return q_out, status.astype(str), iters, resid, rank, rcond
+    return q_out, status.astype(str), iters, resid, rank, rcond, chol
 
 
 def home(mech: Mechanism, n: int = 1) -> Array:
@@ -293,12 +319,13 @@ def home(mech: Mechanism, n: int = 1) -> Array:
 
 def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
             tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
-            singular_tol: float = 1e-7) -> Solution:
+            singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
     """Forward kinematics: configurations for drive values (N, n_drives) [m or rad] (patent claim 12).
 
     Starts at home (drive values = offsets) or at ``start`` (a Solution or q (N, L, d)) and continues in
     ``steps`` equal steps; ``tol`` defaults to 1e-13·length scale.  Never raises for unreachable targets:
-    see ``Solution.status``.
+    see ``Solution.status``.  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
+    targets are given up sooner, as a section raster needs).
     """
     nd = len(mech.drives)
     if nd == 0:
@@ -312,13 +339,13 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = joint_values(mech, q0, [i for i, j in enumerate(mech.joints) if j.drive is not None])
-    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine)
+    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine, max_backtrack)
     return _finish(system, *out, tg, singular_tol)
 
 
 def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
             tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
-            singular_tol: float = 1e-7) -> Solution:
+            singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
     """Inverse kinematics: configurations (and drive values) for output poses (N, 6) x, y, z [m], a, b, c [rad]
     (planar (N, 3) x, y [m], φ [rad]) (patent claim 11).  Continuation from home or ``start`` as in
     :func:`forward`."""
@@ -333,5 +360,5 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = output_pose(mech, q0)
-    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine)
+    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine, max_backtrack)
     return _finish(system, *out, tg, singular_tol)

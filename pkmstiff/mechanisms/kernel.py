@@ -1,0 +1,363 @@
+"""Compiled residuals and analytic Jacobians of a spatial constraint system (the hot path of the Newton solver).
+
+The same equations as :func:`pkmstiff.mechanisms.constraints.block_eval` (DE 10 2004 026 707 A1 eq. 2–8, fixed
+coordinates eq. 15–16, output equations [0017]), evaluated constraint instance by constraint instance in one
+compiled loop per pose instead of one numpy call per constraint kind.  A :class:`Plan` flattens a system's blocks
+once (kind code, links, points, axes, first row) so that an evaluation is a single call without Python work per
+constraint; the numpy version stays the reference (tests compare both to rounding).  Spatial systems only
+(planar mechanisms are small and keep the numpy path).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+Array = NDArray[np.float64]
+
+_CHUNK = 256
+#: kind codes of the compiled loop (block kinds of :mod:`pkmstiff.mechanisms.constraints`)
+KIND = {"fixed": 0, "1A": 1, "1B": 2, "1C": 3, "1D": 4, "1E": 5, "1F": 6, "drive_lin": 7, "drive_rot": 8,
+        "out_point": 9, "out_full": 10, "out_axis": 11}
+
+
+@dataclass
+class Plan:
+    """A system's constraint instances as flat arrays (one entry per instance; ``out_point`` one per row)."""
+
+    kind: np.ndarray  #: (ni,) int64 kind code
+    j: np.ndarray  #: (ni,) int64 link j
+    k: np.ndarray  #: (ni,) int64 link k (−1: world)
+    row: np.ndarray  #: (ni,) int64 first row in the full system
+    coord: np.ndarray  #: (ni,) int64 fixed / drive / output coordinate
+    value: np.ndarray  #: (ni,) fixed value / drive offset
+    p: np.ndarray  #: (ni, 3)
+    a: np.ndarray  #: (ni, 3)
+    b: np.ndarray  #: (ni, 3)
+    has_full: bool
+    has_axis: bool
+    needs_target: bool  #: drive or output equations present
+
+
+def make_plan(blocks) -> Plan:
+    kind, j, k, row, coord, value, p, a, b = ([] for _ in range(9))
+    for bl in blocks:
+        code = KIND[bl.kind]
+        for i in range(bl.n):
+            if bl.kind == "out_point":
+                for c_i, c in enumerate(bl.coord):
+                    kind.append(code), j.append(bl.j[i]), k.append(-1), row.append(bl.row0 + c_i)
+                    coord.append(int(c)), value.append(0.0), p.append(bl.p[i]), a.append(bl.a[i]), b.append(bl.b[i])
+                continue
+            kind.append(code), j.append(bl.j[i]), k.append(bl.k[i]), row.append(bl.row0 + i * bl.nrows)
+            coord.append(int(bl.coord[i]) if bl.coord.size else 0)
+            value.append(float(bl.value[i]) if bl.value.size else 0.0)
+            p.append(bl.p[i]), a.append(bl.a[i]), b.append(bl.b[i])
+    i64 = lambda v: np.array(v, dtype=np.int64)  # noqa: E731
+    f3 = lambda v: np.array(v, dtype=float).reshape(-1, 3)  # noqa: E731
+    kinds = {bl.kind for bl in blocks}
+    return Plan(i64(kind), i64(j), i64(k), i64(row), i64(coord), np.array(value, dtype=float), f3(p), f3(a), f3(b),
+                "out_full" in kinds, "out_axis" in kinds,
+                bool(kinds & {"drive_lin", "drive_rot", "out_point", "out_full", "out_axis"}))
+
+
+# ----------------------------------------------------------------------------------------------------------
+# compiled kernel
+# ----------------------------------------------------------------------------------------------------------
+
+
+def _mm3(X, Y, out):  # pragma: no cover - compiled
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = X[r, 0] * Y[0, c] + X[r, 1] * Y[1, c] + X[r, 2] * Y[2, c]
+
+
+def _rotations(q, L, R, dR):  # pragma: no cover - compiled
+    """R = Rz(φz) Ry(φy) Rx(φx) (eq. 2) of every link and dR[l, c] = ∂R/∂φ_c."""
+    Rx = np.zeros((3, 3))
+    Ry = np.zeros((3, 3))
+    Rz = np.zeros((3, 3))
+    dX = np.zeros((3, 3))
+    dY = np.zeros((3, 3))
+    dZ = np.zeros((3, 3))
+    T = np.zeros((3, 3))
+    for l in range(L):
+        x, y, z = q[6 * l + 3], q[6 * l + 4], q[6 * l + 5]
+        cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+        Rx[0, 0] = 1.0
+        Rx[1, 1], Rx[1, 2], Rx[2, 1], Rx[2, 2] = cx, -sx, sx, cx
+        dX[1, 1], dX[1, 2], dX[2, 1], dX[2, 2] = -sx, -cx, cx, -sx
+        Ry[1, 1] = 1.0
+        Ry[0, 0], Ry[0, 2], Ry[2, 0], Ry[2, 2] = cy, sy, -sy, cy
+        dY[0, 0], dY[0, 2], dY[2, 0], dY[2, 2] = -sy, cy, -cy, -sy
+        Rz[2, 2] = 1.0
+        Rz[0, 0], Rz[0, 1], Rz[1, 0], Rz[1, 1] = cz, -sz, sz, cz
+        dZ[0, 0], dZ[0, 1], dZ[1, 0], dZ[1, 1] = -sz, -cz, cz, -sz
+        _mm3(Rz, Ry, T)
+        _mm3(T, Rx, R[l])
+        _mm3(T, dX, dR[l, 0])
+        _mm3(Rz, dY, T)
+        _mm3(T, Rx, dR[l, 1])
+        _mm3(dZ, Ry, T)
+        _mm3(T, Rx, dR[l, 2])
+
+
+def _point(q, R, dR, l, p, w, Dw):  # pragma: no cover - compiled
+    """w = t_l + R_l p and Dw[a, c] = ∂w_a/∂φ_c."""
+    for a in range(3):
+        w[a] = q[6 * l + a] + R[l, a, 0] * p[0] + R[l, a, 1] * p[1] + R[l, a, 2] * p[2]
+        for c in range(3):
+            Dw[a, c] = dR[l, c, a, 0] * p[0] + dR[l, c, a, 1] * p[1] + dR[l, c, a, 2] * p[2]
+
+
+def _vector(R, dR, l, v, U, DU):  # pragma: no cover - compiled
+    """U = R_l v and DU[a, c] = ∂U_a/∂φ_c."""
+    for a in range(3):
+        U[a] = R[l, a, 0] * v[0] + R[l, a, 1] * v[1] + R[l, a, 2] * v[2]
+        for c in range(3):
+            DU[a, c] = dR[l, c, a, 0] * v[0] + dR[l, c, a, 1] * v[1] + dR[l, c, a, 2] * v[2]
+
+
+def _cross(x, y, out):  # pragma: no cover - compiled
+    out[0] = x[1] * y[2] - x[2] * y[1]
+    out[1] = x[2] * y[0] - x[0] * y[2]
+    out[2] = x[0] * y[1] - x[1] * y[0]
+
+
+def _put(J, n, row, col, val, roff, cmap):  # pragma: no cover - compiled
+    rr = row - roff
+    if rr >= 0:
+        cc = cmap[col]
+        if cc >= 0:
+            J[n, rr, cc] = val
+
+
+def _eval_impl(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J):
+    # pragma: no cover - compiled
+    N = q.shape[0]
+    L = q.shape[1] // 6
+    ni = kind.shape[0]
+    nchunk = (N + _CHUNK - 1) // _CHUNK
+    for ch in numba.prange(nchunk):  # scratch arrays once per chunk of poses, not per pose
+        _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J, L, ni,
+                    ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
+
+
+def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J, L, ni,
+                n0, n1):  # pragma: no cover - compiled
+    R = np.empty((L, 3, 3))
+    dR = np.empty((L, 3, 3, 3))
+    wj = np.empty(3)
+    wk = np.empty(3)
+    Dwj = np.empty((3, 3))
+    Dwk = np.empty((3, 3))
+    U = np.empty(3)
+    V = np.empty(3)
+    W = np.empty(3)
+    DU = np.empty((3, 3))
+    DV = np.empty((3, 3))
+    DW = np.empty((3, 3))
+    d = np.empty(3)
+    x1 = np.empty(3)
+    x2 = np.empty(3)
+    x3 = np.empty(3)
+    for n in range(n0, n1):
+        qn = q[n]
+        _rotations(qn, L, R, dR)
+        for i in range(ni):
+            kd = kind[i]
+            j = lj[i]
+            k = lk[i]
+            r0 = row[i]
+            cj = 6 * j
+            ck = 6 * k
+            if kd == 0:  # fixed coordinate (eq. 15-16)
+                r[n, r0] = qn[cj + coord[i]] - value[i]
+                if jac:
+                    _put(J, n, r0, cj + coord[i], 1.0, roff, cmap)
+            elif kd == 1:  # 1A common point (eq. 3)
+                _point(qn, R, dR, j, P[i], wj, Dwj)
+                _point(qn, R, dR, k, P[i], wk, Dwk)
+                for a in range(3):
+                    r[n, r0 + a] = wj[a] - wk[a]
+                    if jac:
+                        _put(J, n, r0 + a, cj + a, 1.0, roff, cmap)
+                        _put(J, n, r0 + a, ck + a, -1.0, roff, cmap)
+                        for c in range(3):
+                            _put(J, n, r0 + a, cj + 3 + c, Dwj[a, c], roff, cmap)
+                            _put(J, n, r0 + a, ck + 3 + c, -Dwk[a, c], roff, cmap)
+            elif kd == 2:  # 1B equal orientation (eq. 4)
+                for a in range(3):
+                    r[n, r0 + a] = qn[cj + 3 + a] - qn[ck + 3 + a]
+                    if jac:
+                        _put(J, n, r0 + a, cj + 3 + a, 1.0, roff, cmap)
+                        _put(J, n, r0 + a, ck + 3 + a, -1.0, roff, cmap)
+            elif kd == 3:  # 1C common axis direction (eq. 5)
+                _vector(R, dR, j, A[i], U, DU)
+                _vector(R, dR, k, A[i], V, DV)
+                for a in range(3):
+                    r[n, r0 + a] = U[a] - V[a]
+                    if jac:
+                        for c in range(3):
+                            _put(J, n, r0 + a, cj + 3 + c, DU[a, c], roff, cmap)
+                            _put(J, n, r0 + a, ck + 3 + c, -DV[a, c], roff, cmap)
+            elif kd == 4:  # 1D perpendicular axes (eq. 6)
+                _vector(R, dR, j, A[i], U, DU)
+                _vector(R, dR, k, B[i], V, DV)
+                r[n, r0] = U[0] * V[0] + U[1] * V[1] + U[2] * V[2]
+                if jac:
+                    for c in range(3):
+                        _put(J, n, r0, cj + 3 + c, DU[0, c] * V[0] + DU[1, c] * V[1] + DU[2, c] * V[2], roff, cmap)
+                        _put(J, n, r0, ck + 3 + c, DV[0, c] * U[0] + DV[1, c] * U[1] + DV[2, c] * U[2], roff, cmap)
+            elif kd == 5:  # 1E point on axis (eq. 7): (w_j − w_k) × u_j
+                _point(qn, R, dR, j, P[i], wj, Dwj)
+                _point(qn, R, dR, k, P[i], wk, Dwk)
+                _vector(R, dR, j, A[i], U, DU)
+                for a in range(3):
+                    d[a] = wj[a] - wk[a]
+                _cross(d, U, x1)
+                for a in range(3):
+                    r[n, r0 + a] = x1[a]
+                if jac:
+                    # ∂/∂t_j: e_c × u (columns), ∂/∂t_k the negative
+                    _put(J, n, r0 + 0, cj + 1, U[2], roff, cmap)
+                    _put(J, n, r0 + 0, cj + 2, -U[1], roff, cmap)
+                    _put(J, n, r0 + 1, cj + 0, -U[2], roff, cmap)
+                    _put(J, n, r0 + 1, cj + 2, U[0], roff, cmap)
+                    _put(J, n, r0 + 2, cj + 0, U[1], roff, cmap)
+                    _put(J, n, r0 + 2, cj + 1, -U[0], roff, cmap)
+                    _put(J, n, r0 + 0, ck + 1, -U[2], roff, cmap)
+                    _put(J, n, r0 + 0, ck + 2, U[1], roff, cmap)
+                    _put(J, n, r0 + 1, ck + 0, U[2], roff, cmap)
+                    _put(J, n, r0 + 1, ck + 2, -U[0], roff, cmap)
+                    _put(J, n, r0 + 2, ck + 0, -U[1], roff, cmap)
+                    _put(J, n, r0 + 2, ck + 1, U[0], roff, cmap)
+                    for c in range(3):
+                        for a in range(3):
+                            x2[a] = Dwj[a, c]
+                            x3[a] = DU[a, c]
+                        _cross(x2, U, W)
+                        _cross(d, x3, x1)
+                        for a in range(3):
+                            _put(J, n, r0 + a, cj + 3 + c, W[a] + x1[a], roff, cmap)
+                        for a in range(3):
+                            x2[a] = Dwk[a, c]
+                        _cross(x2, U, W)
+                        for a in range(3):
+                            _put(J, n, r0 + a, ck + 3 + c, -W[a], roff, cmap)
+            elif kd == 6 or kd == 7:  # 1F point in plane u_j·(w_j − w_k); drive (eq. 8) u·(w_k − w_j) + off − s
+                sg = 1.0 if kd == 6 else -1.0
+                _point(qn, R, dR, j, P[i], wj, Dwj)
+                _point(qn, R, dR, k, P[i], wk, Dwk)
+                _vector(R, dR, j, A[i], U, DU)
+                for a in range(3):
+                    d[a] = wj[a] - wk[a]
+                res = sg * (d[0] * U[0] + d[1] * U[1] + d[2] * U[2])
+                if kd == 7:
+                    res += value[i] - target[n, coord[i]]
+                r[n, r0] = res
+                if jac:
+                    for a in range(3):
+                        _put(J, n, r0, cj + a, sg * U[a], roff, cmap)
+                        _put(J, n, r0, ck + a, -sg * U[a], roff, cmap)
+                    for c in range(3):
+                        gj = 0.0
+                        gk = 0.0
+                        for a in range(3):
+                            gj += Dwj[a, c] * U[a] + d[a] * DU[a, c]
+                            gk += Dwk[a, c] * U[a]
+                        _put(J, n, r0, cj + 3 + c, sg * gj, roff, cmap)
+                        _put(J, n, r0, ck + 3 + c, -sg * gk, roff, cmap)
+            elif kd == 8:  # revolute drive: relative angle about the axis a (sin form, see block_eval)
+                th = target[n, coord[i]] - value[i]
+                c0, s0 = math.cos(th), math.sin(th)
+                _vector(R, dR, j, A[i], W, DW)  # A
+                _vector(R, dR, j, B[i], U, DU)  # U
+                _vector(R, dR, k, B[i], V, DV)  # V
+                _cross(U, V, x1)
+                S = W[0] * x1[0] + W[1] * x1[1] + W[2] * x1[2]
+                C = U[0] * V[0] + U[1] * V[1] + U[2] * V[2]
+                r[n, r0] = c0 * S - s0 * C
+                if jac:
+                    _cross(V, W, x2)
+                    _cross(W, U, x3)
+                    for c in range(3):
+                        dSj = 0.0
+                        dSk = 0.0
+                        dCj = 0.0
+                        dCk = 0.0
+                        for a in range(3):
+                            dSj += DW[a, c] * x1[a] + DU[a, c] * x2[a]
+                            dSk += DV[a, c] * x3[a]
+                            dCj += DU[a, c] * V[a]
+                            dCk += DV[a, c] * U[a]
+                        _put(J, n, r0, cj + 3 + c, c0 * dSj - s0 * dCj, roff, cmap)
+                        _put(J, n, r0, ck + 3 + c, c0 * dSk - s0 * dCk, roff, cmap)
+            elif kd == 9:  # output point coordinate
+                _point(qn, R, dR, j, P[i], wj, Dwj)
+                c_ = coord[i]
+                r[n, r0] = wj[c_] - target[n, c_]
+                if jac:
+                    _put(J, n, r0, cj + c_, 1.0, roff, cmap)
+                    for c in range(3):
+                        _put(J, n, r0, cj + 3 + c, Dwj[c_, c], roff, cmap)
+            elif kd == 10:  # output orientation: link angles = target angles (wrapped)
+                for a in range(3):
+                    e = qn[cj + 3 + a] - phi_t[n, a]
+                    r[n, r0 + a] = math.pi - ((math.pi - e) % (2.0 * math.pi))
+                    if jac:
+                        _put(J, n, r0 + a, cj + 3 + a, 1.0, roff, cmap)
+            else:  # output axis: R_j a = R(target) a
+                _vector(R, dR, j, A[i], U, DU)
+                for a in range(3):
+                    r[n, r0 + a] = U[a] - (Rt[n, a, 0] * A[i, 0] + Rt[n, a, 1] * A[i, 1] + Rt[n, a, 2] * A[i, 2])
+                    if jac:
+                        for c in range(3):
+                            _put(J, n, r0 + a, cj + 3 + c, DU[a, c], roff, cmap)
+
+
+_OPTS = dict(cache=True, nogil=True, error_model="numpy")
+_helpers = {}
+for _f in (_mm3, _rotations, _point, _vector, _cross, _put, _eval_chunk):
+    _helpers[_f.__name__] = numba.njit(**_OPTS)(_f)
+    globals()[_f.__name__] = _helpers[_f.__name__]
+
+
+def _renamed(fn, name):
+    """A copy of ``fn`` under another name (numba's disk cache is keyed by the function; see linalg)."""
+    import types
+
+    code = fn.__code__.replace(co_name=name, co_qualname=name) if hasattr(fn.__code__, "co_qualname") else \
+        fn.__code__.replace(co_name=name)
+    out = types.FunctionType(code, fn.__globals__, name, fn.__defaults__, fn.__closure__)
+    out.__qualname__ = name
+    return out
+
+
+_eval_parallel = numba.njit(parallel=True, **_OPTS)(_eval_impl)
+_eval_serial = numba.njit(**_OPTS)(_renamed(_eval_impl, "_eval_serial_impl"))
+#: below this many poses the serial kernel is used (a parallel region costs more than it saves for small
+#: batches, and much more on a loaded machine)
+PARALLEL_MIN = 2048
+
+
+def evaluate(plan: Plan, q: Array, target: Array | None, phi_t: Array | None, Rt: Array | None, m: int, roff: int,
+             cmap: np.ndarray, ncol: int, jac: bool) -> tuple[Array, Array | None]:
+    """Residual (N, m) and Jacobian (N, m − roff, ncol) (columns through ``cmap``, −1 = dropped) of the plan."""
+    N = q.shape[0]
+    qf = np.ascontiguousarray(q.reshape(N, -1), dtype=float)
+    if target is None and plan.needs_target:
+        raise ValueError("kernel.evaluate: drive/output equations need target values")  # no bounds checks inside
+    tg = np.zeros((N, 1)) if target is None else np.ascontiguousarray(target, dtype=float)
+    ph = np.zeros((1, 3)) if phi_t is None else np.ascontiguousarray(phi_t)
+    rt = np.zeros((1, 3, 3)) if Rt is None else np.ascontiguousarray(Rt)
+    r = np.empty((N, m))
+    J = np.zeros((N, m - roff, ncol)) if jac else np.zeros((1, 1, 1))
+    kern = _eval_parallel if N >= PARALLEL_MIN else _eval_serial
+    kern(qf, tg, ph, rt, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b,
+         roff, cmap, jac, r, J)
+    return r, (J if jac else None)

@@ -1,0 +1,208 @@
+"""A mechanism on a workspace section plane: kinematic quantities and joint-limit admissibility (issue 14, item 5).
+
+The mechanism counterpart of :func:`pkmstiff.evaluation.sections.evaluate_section`: every raster point of an axis
+plane is an output pose (position = the point, orientation fixed), solved by the inverse kinematics
+(:func:`pkmstiff.mechanisms.evaluate`, continuation from home) and classified by the reason bits of
+:data:`pkmstiff.mechanisms.REASONS` (no solution, singular, a joint outside its limits).  Quantities:
+
+``kappa``
+    condition number σ_1/σ_k of the kinematic Jacobian ∂x/∂s (output pose rates per drive rate, SI: m and rad
+    per m or rad; k = number of drives), from implicit differentiation of the forward kinematics
+    (:func:`kinematic_jacobian`).  For six drives and six pose coordinates this is κ of J⁻¹ = (∂x/∂s)⁻¹, the
+    machines' ``kappa`` (Cobet eq. A.18); ∞ where the Jacobian loses rank (a singular configuration).
+``<drive name>``
+    a drive value (m or rad inside; mm or deg displayed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from pkmstiff.errors import MechanismInputError
+from pkmstiff.mechanisms.constraints import fk_system
+from pkmstiff.mechanisms.evaluate import REASONS, evaluate
+from pkmstiff.mechanisms.linalg import lstsq_step
+from pkmstiff.mechanisms.model import Mechanism
+from pkmstiff.mechanisms.solver import Solution, output_pose
+
+Array = NDArray[np.float64]
+
+
+def kinematic_jacobian(sol: Solution, h: float = 1e-6) -> Array:
+    """∂x/∂s (N, pose_size, n_drives) at the configurations of ``sol`` (SI).
+
+    Implicit differentiation of the forward kinematics F(q, s) = 0 (patent claim 9): F_q q_s = −F_s with
+    F_s = −1 on each drive row, solved by the Newton step of :func:`~pkmstiff.mechanisms.linalg.lstsq_step`; the
+    pose rates are central differences of the output pose along q_s (step h·length scale: truncation
+    O(h²) ≈ 1e-12 relative).  NaN where ``sol`` found no configuration.
+    """
+    mech = sol.mech
+    system = fk_system(mech)
+    N, L, d = sol.q.shape
+    nd = len(mech.drives)
+    drv = np.where(sol.ok[:, None], sol.drives, 0.0)
+    r, J = system.evaluate(sol.q, drv, reduced=True)
+    roff = system.n_fixed_rows
+    out = np.full((N, mech.pose_size, nd), np.nan)
+    qf = sol.q.reshape(N, -1)
+    free = system.free
+    for b in system.blocks:
+        if not b.kind.startswith("drive"):
+            continue
+        for i, c in enumerate(b.coord):
+            rhs = np.zeros((N, J.shape[1]))
+            rhs[:, b.row0 - roff + i] = -1.0  # the step solves J dq = −rhs: F_q q_s = −F_s = +1 on this drive row
+            dq, _, _, _ = lstsq_step(J, rhs, pattern=system.sparsity)
+            qs = np.zeros((N, L * d))
+            qs[:, free] = dq
+            eps = h * mech.length_scale / np.maximum(np.abs(qs).max(axis=1, keepdims=True), 1e-300)
+            pp = output_pose(mech, (qf + eps * qs).reshape(N, L, d))
+            pm = output_pose(mech, (qf - eps * qs).reshape(N, L, d))
+            dp = pp - pm
+            if mech.dim == 3:
+                dp[:, 3:] = (dp[:, 3:] + np.pi) % (2.0 * np.pi) - np.pi  # angle differences across ±π
+            out[:, :, c] = dp / (2.0 * eps)
+    out[~sol.ok] = np.nan
+    return out
+
+
+def condition_numbers(Jx: Array) -> Array:
+    """σ_1/σ_k of each ∂x/∂s (N, p, k) over its k largest singular values; ∞ where singular or NaN."""
+    out = np.full(Jx.shape[0], np.inf)
+    good = np.isfinite(Jx).all(axis=(1, 2))
+    if good.any():
+        s = np.linalg.svd(Jx[good], compute_uv=False)[:, : Jx.shape[2]]
+        with np.errstate(divide="ignore"):
+            out[good] = np.where(s[:, -1] > 1e-14 * s[:, 0], s[:, 0] / s[:, -1], np.inf)
+    return out
+
+
+def quantity_names(mech: Mechanism) -> tuple[str, ...]:
+    """Quantities a mechanism section offers: ``kappa`` and every drive name."""
+    return ("kappa",) + mech.drive_names
+
+
+@dataclass
+class MechanismSection:
+    """Values on a plane (SI, NaN where inadmissible), reasons (bits of REASONS) and the raster (m)."""
+
+    mechanism: str
+    plane: str  #: "yz", "xz" or "xy"
+    at: float  #: m, position along the plane normal
+    u_values: Array  #: (nu,) m
+    v_values: Array  #: (nv,) m
+    orientation: Array  #: (3,) rad (a, b, c) or planar (φ, 0, 0)
+    values: dict[str, Array]  #: name → (nv, nu) SI
+    units: dict[str, str]  #: name → display unit
+    scales: dict[str, float]  #: name → SI-to-display factor
+    reasons: Array  #: (nv, nu) int
+    status: Array  #: (nv, nu) str (solver status)
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> Array:
+        return self.reasons == 0
+
+    @property
+    def cell_area(self) -> float:
+        return float((self.u_values[1] - self.u_values[0]) * (self.v_values[1] - self.v_values[0]))
+
+    def display(self, name: str) -> Array:
+        return self.values[name] * self.scales[name]
+
+    def statistics(self) -> dict[str, dict]:
+        out = {}
+        for n in self.values:
+            v = self.display(n)[self.ok]
+            v = v[np.isfinite(v)]
+            out[n] = {"unit": self.units[n], "min": float(v.min()) if v.size else None,
+                      "mean": float(v.mean()) if v.size else None, "max": float(v.max()) if v.size else None,
+                      "count": int(v.size)}
+        return out
+
+    def reason_counts(self) -> dict[str, int]:
+        return {k: int(np.count_nonzero(self.reasons & b)) for k, b in REASONS.items()}
+
+
+def plane_poses(mech: Mechanism, plane: str, at: float, u_values: Array, v_values: Array,
+                orientation: Array) -> Array:
+    """Output poses (nv·nu, pose_size) of the raster points (row-major over v, then u)."""
+    plane = plane.lower()
+    if mech.dim == 2 and plane != "xy":
+        raise MechanismInputError(f"mechanism '{mech.name}' is planar: its section plane is xy, found {plane!r}")
+    U, V = np.meshgrid(u_values, v_values)
+    axes = {"x": 0, "y": 1, "z": 2}
+    P = np.zeros((U.size, mech.pose_size))
+    if mech.dim == 2:
+        P[:, 0], P[:, 1], P[:, 2] = U.ravel(), V.ravel(), orientation[0]
+        return P
+    normal = ({"x", "y", "z"} - set(plane)).pop()
+    P[:, axes[plane[0]]], P[:, axes[plane[1]]], P[:, axes[normal]] = U.ravel(), V.ravel(), at
+    P[:, 3:6] = orientation
+    return P
+
+
+def _raster(lo: float, hi: float, step: float) -> Array:
+    n = int((hi - lo) / step + 1e-9) + 1
+    return lo + step * np.arange(n)
+
+
+#: solver options of a section raster: continuation in 4 steps from home, one refinement (8 steps), and at most 6
+#: step halvings — most raster points of a section are unreachable, and they must be given up quickly
+SOLVE = {"steps": 4, "max_refine": 1, "max_backtrack": 6}
+
+
+def fit_window(mech: Mechanism, plane: str, at: float, orientation: Array, step: float,
+               extent: float | None = None, n: int = 25) -> tuple[tuple[float, float], ...]:
+    """In-plane ranges (m) covering the admissible points of a coarse n×n pass over home ± ``extent`` (default
+    the mechanism's length scale), widened by one coarse cell and snapped to ``step``."""
+    plane = plane.lower()
+    home = mech.home_output_pose
+    ax = {"x": 0, "y": 1, "z": 2}
+    extent = mech.length_scale if extent is None else extent
+    cu, cv = home[ax[plane[0]]], home[ax[plane[1]]]
+    uu = np.linspace(cu - extent, cu + extent, n)
+    vv = np.linspace(cv - extent, cv + extent, n)
+    ev = evaluate(mech, plane_poses(mech, plane, at, uu, vv, orientation), **SOLVE)
+    ok = ev.admissible.reshape(n, n)
+    if not ok.any():
+        raise MechanismInputError(f"section of '{mech.name}': no admissible point on the {plane} plane at "
+                                  f"{at * 1e3:g} mm within ±{extent * 1e3:g} mm of home (give --range)")
+    cell = 2.0 * extent / (n - 1)
+    iu, iv = np.flatnonzero(ok.any(axis=0)), np.flatnonzero(ok.any(axis=1))
+    snap = lambda lo, hi: (np.floor((lo - cell) / step) * step, np.ceil((hi + cell) / step) * step)  # noqa: E731
+    return snap(uu[iu[0]], uu[iu[-1]]), snap(vv[iv[0]], vv[iv[-1]])
+
+
+def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[float, float],
+                     v_range: tuple[float, float], step: float, orientation=(0.0, 0.0, 0.0),
+                     names=("kappa",)) -> MechanismSection:
+    """Quantities ``names`` and admissibility on an axis plane (ranges, step, ``at`` in m; orientation rad)."""
+    known = quantity_names(mech)
+    bad = [n for n in names if n not in known]
+    if bad:
+        raise MechanismInputError(f"quantities: expected names from {', '.join(known)} for mechanism "
+                                  f"'{mech.name}', found {', '.join(bad)}")
+    ori = np.asarray(orientation, dtype=float)
+    uu, vv = _raster(*u_range, step), _raster(*v_range, step)
+    if uu.size < 2 or vv.size < 2:
+        raise MechanismInputError("section: the window must span at least two raster steps along each axis")
+    P = plane_poses(mech, plane, at, uu, vv, ori)
+    ev = evaluate(mech, P, **SOLVE)
+    shape = (vv.size, uu.size)
+    values, units, scales = {}, {}, {}
+    if "kappa" in names:
+        kap = condition_numbers(kinematic_jacobian(ev.solution))
+        values["kappa"], units["kappa"], scales["kappa"] = kap, "1", 1.0
+    for i, (dn, du) in enumerate(zip(mech.drive_names, mech.drive_units)):
+        if dn in names:
+            values[dn] = ev.drives[:, i]
+            units[dn], scales[dn] = ("mm", 1e3) if du == "m" else ("deg", 180.0 / np.pi)
+    ok = ev.admissible
+    values = {n: np.where(ok, values[n], np.nan).reshape(shape) for n in names}
+    return MechanismSection(mech.name, plane.lower(), at, uu, vv, ori, values, units, scales,
+                            ev.reasons.reshape(shape), ev.status.reshape(shape),
+                            {"solver": dict(SOLVE), "planar": mech.dim == 2})

@@ -1,0 +1,73 @@
+"""The compiled constraint loop and the normal-equation Newton step against their references (issue 14 speed work):
+compiled residuals/Jacobians = the numpy block evaluation, Cholesky step = pivoted-QR step where well-conditioned,
+and the QR fallback where the Jacobian is (near) singular."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pkmstiff.mechanisms as mm
+from pkmstiff.mechanisms.constraints import fk_system, ik_system, model_system
+from pkmstiff.mechanisms import kernel, linalg
+from pkmstiff.mechanisms.linalg import lstsq_pivoted, lstsq_step
+from pkmstiff.mechanisms.model import Mechanism, Output
+
+from tests.test_mechanisms_jacobians import _u, spatial_all_kinds
+
+
+def _spatial_mechanisms():
+    m = spatial_all_kinds()
+    axis = Mechanism("ax", "ax", 3, m.links, (0,), m.joints,
+                     Output(1, np.array([0.1, 0.2, 0.3]), "axis", _u([0, 1, -2]), (0, 2)))
+    return [m, axis] + [mm.load_mechanism(n) for n in ("hybrid_tripod_wrist", "hexapod_6ups", "hexaglide_generic")]
+
+
+@pytest.mark.parametrize("reduced", [False, True])
+def test_compiled_evaluation_equals_numpy_reference(reduced, monkeypatch):
+    monkeypatch.setattr(kernel, "PARALLEL_MIN", 64)  # 300 poses = two chunks on the parallel kernel
+    rng = np.random.default_rng(11)
+    for mech in _spatial_mechanisms():
+        for sysm, width in ((fk_system(mech), len(mech.drives)), (ik_system(mech), 6), (model_system(mech), 0)):
+            q = rng.uniform(-0.6, 0.6, (300, len(mech.links), 6))
+            tg = rng.uniform(-1.0, 1.0, (300, width)) if width else None
+            for n in (300, 1):  # parallel and serial kernel
+                r1, J1 = sysm.evaluate(q[:n], None if tg is None else tg[:n], reduced=reduced)
+                r2, J2 = sysm.evaluate_reference(q[:n], None if tg is None else tg[:n], reduced=reduced)
+                assert J1.shape == J2.shape
+                # same formulas, different summation order: rounding only (entries are O(1))
+                assert np.abs(r1 - r2).max() < 1e-13 and np.abs(J1 - J2).max() < 1e-13, mech.name
+
+
+@pytest.mark.parametrize("parallel", [False, True])
+def test_normal_equation_step_equals_pivoted_qr_when_well_conditioned(parallel, monkeypatch):
+    if parallel:
+        monkeypatch.setattr(linalg, "NORMAL_PARALLEL_MIN", 16)  # 200 poses = two chunks of 128
+    mech = mm.load_mechanism("hybrid_tripod_wrist")
+    rng = np.random.default_rng(2)
+    n = 200
+    d = np.column_stack([rng.uniform(-0.1, 0.1, (n, 3)), rng.uniform(-1, 1, n), np.radians(rng.uniform(20, 60, n))])
+    sol = mm.forward(mech, d, steps=2)
+    sysm = ik_system(mech)
+    q = sol.q + rng.normal(0, 1e-3, sol.q.shape)  # a Newton step away from the solution
+    r, J = sysm.evaluate(q, sol.poses, reduced=True)
+    dx, rank, rcond, qr = lstsq_step(J, r, pattern=sysm.sparsity if parallel else None)
+    dq, diag, rk = lstsq_pivoted(J, r)
+    assert not qr.any() and (rank == J.shape[2]).all() and (rk == J.shape[2]).all()
+    # σ ratio here ~1e-2: the normal equations lose ~cond² ε ~ 1e-12 relative
+    assert np.abs(dx - dq).max() < 1e-9 * np.abs(dq).max()
+    s = np.linalg.svd(J, compute_uv=False)
+    ratio = s[:, -1] / s[:, 0]
+    # the estimate is a lower bound through √trace ≥ σ_max and at most a few times off (inverse iteration)
+    assert (rcond <= ratio * (1 + 1e-9)).all() and (rcond > 0.05 * ratio).all()
+
+
+def test_singular_jacobian_takes_the_pivoted_qr_step():
+    mech = mm.load_mechanism("hybrid_tripod_wrist")
+    fk = mm.forward(mech, [[0.05, -0.02, 0.01, 0.4, 0.0]], steps=4)  # wrist singularity V2 = 0
+    sysm = ik_system(mech)
+    r, J = sysm.evaluate(fk.q, fk.poses, reduced=True)
+    dx, rank, rcond, qr = lstsq_step(J, r + 1e-6)
+    assert qr.all() and rank[0] == J.shape[2] - 1  # rank by the QR diagonal's gap, as before
+    dq, _, rk = lstsq_pivoted(J, r + 1e-6)
+    assert np.array_equal(dx, dq) and rk[0] == rank[0]
