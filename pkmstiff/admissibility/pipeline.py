@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
+import pkmstiff.admissibility.fastpath as _fast
 from pkmstiff.kinematics import (
     IK,
     as_poses,
@@ -126,6 +127,21 @@ def evaluate_chunk(
         raise ValueError(f"unknown admissibility checks {sorted(unknown)}; expected a subset of {adm.ALL_CHECKS}")
     if not with_angles and "joint_angles" in checks:
         raise ValueError("evaluate_chunk: the joint-angle check needs the joint angles (with_angles=True)")
+    if ik is None and with_angles:
+        poses = as_poses(poses)
+    if ik is None and with_angles and _fast.usable(machine, len(poses)):  # small N: one fused compiled kernel
+        fast = _fast.evaluate_small(machine, poses, checks, drive_load_data)
+        if fast is not None:
+            fields, reach_pose = fast
+            ev = PoseEvaluation(**fields)
+            reqs = list(requirements)
+            if reqs:
+                ok = np.ones(len(poses), bool)
+                for req in reqs:
+                    ok &= np.asarray(req(ev), bool)
+                results = [*ev.admissibility.checks.values(), adm.CheckResult(ok, adm.Reason.REQUIREMENT)]
+                ev.admissibility = adm.combine(len(poses), results, reach_pose)
+            return ev
     ik = inverse_kinematics(machine, poses) if ik is None else ik
     jinv = inverse_jacobian(machine, ik)
     jc, singular = jacobian_and_singular(machine, jinv)
