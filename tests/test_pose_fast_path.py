@@ -112,3 +112,13 @@ def test_fast_path_hands_back_near_threshold(monkeypatch):
     assert fastpath.evaluate_small(m2, p, ALL_CHECKS, None) is None
     fast, general = _both(m2, p, monkeypatch)
     _assert_same(fast, general)
+
+
+def test_fast_path_machine_variants(monkeypatch):
+    """Drive offsets (calibrated machines), Table B.2 strut distances and a set platform-end exclusion."""
+    m = load_machine("felix")
+    m2 = dataclasses.replace(
+        m, chains=dataclasses.replace(m.chains, drive_offset=np.linspace(-0.01, 0.02, m.n_chains)),
+        limits=dataclasses.replace(m.limits, strut_collision_mode="table_B2", platform_end_exclusion=0.01))
+    fast, general = _both(m2, _poses(20, 9), monkeypatch)
+    _assert_same(fast, general)

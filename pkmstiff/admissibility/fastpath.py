@@ -131,7 +131,20 @@ class _Constants:
         self.include_coulomb = bool(lim.drive_load_include_coulomb)
         self.gravity = machine.gravity
         self.load_key: Any = None
+        self._active: dict[tuple[tuple[str, ...], bool], np.ndarray] = {}
         self.load: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def active(self, checks: Sequence[str], has_load: bool) -> np.ndarray:
+        """(9,) int64: the reason bit of each row of ``ok_rows`` that counts (requested, not skipped), else 0."""
+        key = (tuple(checks), has_load)
+        hit = self._active.get(key)
+        if hit is None:
+            skipped = (self.frame_skipped, False, self.si.shape[0] == 0, False, False, False, self.ii.shape[0] == 0,
+                       not self.has_hull, not has_load)
+            hit = np.array([int(reason) if name in checks and not skipped[r] else 0
+                            for r, (name, reason) in enumerate(_ROWS)], dtype=np.int64)
+            self._active[key] = hit
+        return hit
 
     def load_arrays(self, data: DriveLoadData) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(force (3,), CoG offset (3,), available force (n,)) of checks.static_drive_loads / check_drive_load."""
@@ -200,12 +213,7 @@ def evaluate_small(machine: Machine, x: np.ndarray, checks: Sequence[str],
     tau = np.empty((N, n))
     ok_rows = np.empty((9, N), dtype=np.bool_)
     reasons = np.empty(N, dtype=np.uint32)
-    active = np.zeros(9, dtype=np.int64)
-    skipped = (c.frame_skipped, False, c.si.shape[0] == 0, False, False, False, n_pairs == 0, not c.has_hull,
-               not has_load)
-    for r, (name, reason) in enumerate(_ROWS):
-        if name in checks and not skipped[r]:
-            active[r] = int(reason)
+    active = c.active(checks, has_load)
     sd, sp = c.side["drive"], c.side["platform"]
     n_amb = K.evaluate_small(
         pt, rot, rho, c.glide, c.cf, c.croot, c.off, c.has_off,
