@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
+import pkmstiff.admissibility.fastpath as _fast
 from pkmstiff.kinematics import (
     IK,
     as_poses,
@@ -32,6 +33,7 @@ from pkmstiff.kinematics import (
 from pkmstiff.kinematics.joint_angles import joint_angles
 from pkmstiff.machine.model import Machine
 from pkmstiff.machine.roles import DriveLoadData
+from pkmstiff.machine.roles import drive_load_data as _dld
 
 #: poses per chunk: bounds the temporaries (≈ 3 kB per pose) and keeps them cache- and allocator-friendly
 #: (measured fastest between 8k and 16k poses on the CI machine; 50k was ~25 % slower)
@@ -114,18 +116,34 @@ def evaluate_chunk(
     *,
     ik: IK | None = None,
     with_angles: bool = True,
+    _valid: bool = False,
 ) -> PoseEvaluation:
     """Evaluate one chunk of poses (see :func:`evaluate_poses`).
 
     ``ik``: the inverse kinematics of ``poses`` if the caller has it already (the structure model), so it is not
     repeated. ``with_angles=False`` skips the joint angles (``angles`` is then empty), allowed only without the
-    joint-angle check.
+    joint-angle check. ``_valid``: ``poses`` already passed :func:`pkmstiff.kinematics.as_poses` (internal).
     """
     unknown = set(checks) - set(adm.ALL_CHECKS)
     if unknown:
         raise ValueError(f"unknown admissibility checks {sorted(unknown)}; expected a subset of {adm.ALL_CHECKS}")
     if not with_angles and "joint_angles" in checks:
         raise ValueError("evaluate_chunk: the joint-angle check needs the joint angles (with_angles=True)")
+    if ik is None and with_angles and not _valid:
+        poses = as_poses(poses)
+    if ik is None and with_angles and _fast.usable(machine, len(poses)):  # small N: one fused compiled kernel
+        fast = _fast.evaluate_small(machine, poses, checks, drive_load_data)
+        if fast is not None:
+            fields, reach_pose = fast
+            ev = PoseEvaluation(**fields)
+            reqs = list(requirements)
+            if reqs:
+                ok = np.ones(len(poses), bool)
+                for req in reqs:
+                    ok &= np.asarray(req(ev), bool)
+                results = [*ev.admissibility.checks.values(), adm.CheckResult(ok, adm.Reason.REQUIREMENT)]
+                ev.admissibility = adm.combine(len(poses), results, reach_pose)
+            return ev
     ik = inverse_kinematics(machine, poses) if ik is None else ik
     jinv = inverse_jacobian(machine, ik)
     jc, singular = jacobian_and_singular(machine, jinv)
@@ -193,20 +211,18 @@ def evaluate_poses(
     x = as_poses(poses)
     reqs = list(requirements)
     if drive_load_data == "auto":
-        from pkmstiff.machine.roles import drive_load_data as _dld
-
         drive_load_data = _dld(machine)
     if not len(x):
         raise ValueError("evaluate_poses: expected at least one pose, found an empty array")
     if chunk_size < 1:
         raise ValueError(f"evaluate_poses: chunk_size must be a positive integer, found {chunk_size!r}")
     if len(x) <= chunk_size:
-        return evaluate_chunk(machine, x, checks, drive_load_data, reqs)
+        return evaluate_chunk(machine, x, checks, drive_load_data, reqs, _valid=True)
     out: PoseEvaluation | None = None
     kappas: list[np.ndarray | None] = []
     for start in range(0, len(x), chunk_size):
         sl = slice(start, min(start + chunk_size, len(x)))
-        ev = evaluate_chunk(machine, x[sl], checks, drive_load_data, reqs)
+        ev = evaluate_chunk(machine, x[sl], checks, drive_load_data, reqs, _valid=True)
         if out is None:
             out = _allocate(ev, len(x))
         _put(out, sl, ev)

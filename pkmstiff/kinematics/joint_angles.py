@@ -56,6 +56,17 @@ class JointAngles:
         return {"drive": (self.drive.swivel, self.drive.tilt), "platform": (self.platform.swivel, self.platform.tilt)}
 
 
+def _ref_parallel(axis0: Array, ref0: Array, tol: float) -> Array:
+    """(n,) bool: swivel reference ∥ joint axis, |n × m| ≤ tol |n||m| (swivel undefined); ``axis0``, ``ref0`` (n, 3).
+
+    Norms and the angle between them do not change under the rotation R, so the test needs no pose."""
+    m_norm = np.linalg.norm(axis0, axis=1)
+    n_norm = np.linalg.norm(ref0, axis=1)
+    # the cross product written out (same arithmetic as np.cross, without its per-call overhead on (n, 3) arrays)
+    cross = ref0[:, [1, 2, 0]] * axis0[:, [2, 0, 1]] - ref0[:, [2, 0, 1]] * axis0[:, [1, 2, 0]]
+    return np.linalg.norm(cross, axis=1) <= tol * n_norm * m_norm
+
+
 def _side_angles(
     d: Array, R: Array, axis0: Array, ref0: Array, rotate: bool, sign: Array, normal: Array, tol: float, signed: bool
 ) -> SideAngles:
@@ -63,12 +74,7 @@ def _side_angles(
     ``axis0``, ``ref0`` (n, 3) the joint axis and swivel reference in their own frame (rotated by R if
     ``rotate``); u = sign_i d̂.  The per-pose arithmetic runs in :func:`pkmstiff.kinematics.kernels.side_angles`."""
     n, N = d.shape[1], d.shape[2]
-    m_norm = np.linalg.norm(axis0, axis=1)
-    n_norm = np.linalg.norm(ref0, axis=1)
-    # n ∥ m: norms and the angle between them do not change under the rotation R
-    # the cross product written out (same arithmetic as np.cross, without its per-call overhead on (n, 3) arrays)
-    cross = ref0[:, [1, 2, 0]] * axis0[:, [2, 0, 1]] - ref0[:, [2, 0, 1]] * axis0[:, [1, 2, 0]]
-    ref_par = np.linalg.norm(cross, axis=1) <= tol * n_norm * m_norm
+    ref_par = _ref_parallel(axis0, ref0, tol)
     out = np.empty((5 if signed else 4, n, N))
     swivel, tilt, tilt_axis, tilt_normal = out[0], out[1], out[2], out[3]
     swivel_signed = out[4] if signed else out[0]  # not written unless ``signed``

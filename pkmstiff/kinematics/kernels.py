@@ -499,3 +499,212 @@ def side_angles(d, rot, axis0, ref0, rotate, sign, normal, ref_par, tol, signed,
             swivel[i, k] = math.nan if undefined else math.atan2(_norm(nxu), nu)
             if signed:
                 swivel_signed[i, k] = math.nan if undefined else math.atan2(_dot(mv, nxu) / m_norm, nu)
+
+
+# ------------------------------------------------------------------------- fused small-N pose evaluation
+
+
+@_jit
+def cardan_soa(pt, rot):
+    """R = R_a R_b R_c (docs/theory/kinematics.md, eq. A.1-A.4) of the poses ``pt`` (6, N) into ``rot`` (3, 3, N),
+    with the arithmetic of :func:`pkmstiff.kinematics.rotation.cardan_matrix` term by term (identical results)."""
+    for k in range(pt.shape[1]):
+        sa, ca = math.sin(pt[3, k]), math.cos(pt[3, k])
+        sb, cb = math.sin(pt[4, k]), math.cos(pt[4, k])
+        sc, cc = math.sin(pt[5, k]), math.cos(pt[5, k])
+        rot[0, 0, k] = cb * cc
+        rot[0, 1, k] = -cb * sc
+        rot[0, 2, k] = sb
+        rot[1, 0, k] = sa * sb * cc + ca * sc
+        rot[1, 1, k] = -sa * sb * sc + ca * cc
+        rot[1, 2, k] = -sa * cb
+        rot[2, 0, k] = -ca * sb * cc + sa * sc
+        rot[2, 1, k] = ca * sb * sc + sa * cc
+        rot[2, 2, k] = ca * cb
+
+
+@_jit
+def evaluate_small(pt, rot, rho, glide, cf, croot, off, has_off,
+                   p, q, d, length, drive, reach, jac, jc, lo, hi,
+                   ax_d, ref_d, sign_d, normal_d, refpar_d, ax_p, ref_p, sign_p, normal_p, refpar_p, tol,
+                   ang_d, ang_p, jlim, ina75, frame_lim, si, sj, space_lim, ii, jj, rsum, table_b2,
+                   pj, excl, radius, normals, offsets, tri, edges, convex, has_hull,
+                   force, rho_cog, avail, has_load, thr, active,
+                   frame_bad, range_bad, space_bad, lim_bad, ina_bad, strut_bad, plat_bad, tau, load_bad,
+                   ok_rows, reasons):
+    """The whole pose pipeline of :func:`pkmstiff.admissibility.pipeline.evaluate_chunk` for N poses in one compiled
+    call: inverse kinematics (docs/theory/kinematics.md eq. A.6-A.11), J_C^-1 (§1.4), J_C and the κ bounds by
+    :func:`qr_inverse`, the joint angles by :func:`side_angles`, every App. B check and their combination. Each step
+    repeats the arithmetic of the array code it replaces operation by operation (the results are identical;
+    tests/test_pose_fast_path.py), and the compiled kernels of the general path are called unchanged.
+
+    Inputs (component-first, pose axis last): ``pt`` (6, N) poses, ``rot`` (3, 3, N) from :func:`cardan_soa`,
+    ``rho`` (3, n, N) = R p'_i. Per-chain constants ``cf`` (n, 10): guide direction r (3), s_i + q_off_i (glide) or
+    the drive joint (pod) (3), r·r, l², strut length (glide) / l_min (pod), guide length (glide) / l_max (pod);
+    ``croot`` (n,) ±1 root sign. Outputs: IK ``p``, ``q``, ``d`` (3, n, N), ``length``, ``drive``, ``reach`` (n, N),
+    ``jac`` (n, 6, N), ``jc`` (N, n, n), κ bounds ``lo``, ``hi`` (N,), angles ``ang_d``/``ang_p`` (5, n, N) as in
+    :func:`pkmstiff.kinematics.joint_angles._side_angles`, the per-check details (N, ·) and ``ok_rows`` (9, N) in the
+    order FRAME, DRIVE_RANGE, DRIVE_SPACING, JOINT_ANGLE, INA_LIMIT, SINGULAR, STRUT_COLLISION, PLATFORM_COLLISION,
+    DRIVE_LOAD; ``reasons`` (N,) the combined code, where ``active`` (9,) marks the checks that count.
+    Returns the number of poses whose κ bounds straddle ``thr`` (the caller then needs an exact κ).
+    """
+    n = p.shape[1]
+    N = p.shape[2]
+    for k in range(N):
+        for i in range(n):
+            ln = 0.0
+            dr = 0.0
+            p0 = rho[0, i, k] + pt[0, k]
+            p1 = rho[1, i, k] + pt[1, k]
+            p2 = rho[2, i, k] + pt[2, k]
+            p[0, i, k] = p0
+            p[1, i, k] = p1
+            p[2, i, k] = p2
+            if glide:
+                c0 = cf[i, 3] - p0
+                c1 = cf[i, 4] - p1
+                c2 = cf[i, 5] - p2
+                rc = cf[i, 0] * c0 + cf[i, 1] * c1 + cf[i, 2] * c2
+                cc = c0 * c0 + c1 * c1 + c2 * c2
+                disc = rc * rc - cf[i, 6] * (cc - cf[i, 7])
+                ok = disc >= 0.0
+                root = math.sqrt(disc) if ok else math.nan
+                lam = (-rc + croot[i] * root) / cf[i, 6]
+                q0 = cf[i, 3] + lam * cf[i, 0]
+                q1 = cf[i, 4] + lam * cf[i, 1]
+                q2 = cf[i, 5] + lam * cf[i, 2]
+                ln = cf[i, 8] if ok else math.nan
+                dr = lam
+            else:
+                q0 = cf[i, 3]
+                q1 = cf[i, 4]
+                q2 = cf[i, 5]
+                ok = True
+            d0 = p0 - q0
+            d1 = p1 - q1
+            d2 = p2 - q2
+            if not glide:
+                ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                dr = ln
+            if has_off:
+                dr = dr - off[i]
+            q[0, i, k] = q0
+            q[1, i, k] = q1
+            q[2, i, k] = q2
+            d[0, i, k] = d0
+            d[1, i, k] = d1
+            d[2, i, k] = d2
+            length[i, k] = ln
+            drive[i, k] = dr
+            reach[i, k] = ok
+            # J_C^-1 row (pkmstiff.kinematics.jacobians.inverse_jacobian)
+            if glide:
+                scale = 1.0 / (d0 * cf[i, 0] + d1 * cf[i, 1] + d2 * cf[i, 2])
+            else:
+                scale = 1.0 / ln
+            u0 = d0 * scale
+            u1 = d1 * scale
+            u2 = d2 * scale
+            r0, r1, r2 = rho[0, i, k], rho[1, i, k], rho[2, i, k]
+            jac[i, 0, k] = u0
+            jac[i, 1, k] = u1
+            jac[i, 2, k] = u2
+            jac[i, 3, k] = r1 * u2 - r2 * u1
+            jac[i, 4, k] = r2 * u0 - r0 * u2
+            jac[i, 5, k] = r0 * u1 - r1 * u0
+    no3 = np.empty((0, 0, 0))
+    okq = np.empty(N, dtype=np.bool_)
+    qr_inverse(jac, 0, N, False, True, True, no3, no3, jc, lo, hi, okq)
+    side_angles(d, rot, ax_d, ref_d, False, sign_d, normal_d, refpar_d, tol, True,
+                ang_d[0], ang_d[4], ang_d[1], ang_d[2], ang_d[3])
+    side_angles(d, rot, ax_p, ref_p, True, sign_p, normal_p, refpar_p, tol, True,
+                ang_p[0], ang_p[4], ang_p[1], ang_p[2], ang_p[3])
+    if ii.shape[0] > 0:
+        strut_collision(p, q, ii, jj, rsum, table_b2, strut_bad)
+    if has_hull:
+        platform_collision(q, rot, pt[:3], pj, excl, radius, normals, offsets, tri, edges, convex, plat_bad)
+    n_amb = 0
+    for k in range(N):
+        okr = np.ones(9, dtype=np.bool_)
+        for c in range(3):  # frame
+            w = pt[c, k]
+            b = w < frame_lim[0, c] or w > frame_lim[1, c]
+            frame_bad[k, c] = b
+            if b:
+                okr[0] = False
+        all_reach = True
+        for i in range(n):  # drive range B.1/B.2
+            dr = drive[i, k]
+            if not reach[i, k]:
+                all_reach = False
+            if glide:
+                b = not reach[i, k] or dr < 0.0 or dr > cf[i, 9]
+            else:
+                b = dr < cf[i, 8] or dr > cf[i, 9] or not math.isfinite(dr)
+            range_bad[k, i] = b
+            if b:
+                okr[1] = False
+        for c in range(si.shape[0]):  # drive spacing B.3/B.4 (np.linalg.norm: ((x0² + x1²) + x2²))
+            i, j = si[c], sj[c]
+            e0 = q[0, i, k] - q[0, j, k]
+            e1 = q[1, i, k] - q[1, j, k]
+            e2 = q[2, i, k] - q[2, j, k]
+            dist = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+            b = dist <= space_lim[0, c] or dist >= space_lim[1, c]
+            space_bad[k, c] = b
+            if b:
+                okr[2] = False
+        for s in range(2):  # joint angles B.5, INA limit B.6; jlim rows: tilt min/max, swivel min/max, ina
+            ang = ang_d if s == 0 else ang_p
+            for i in range(n):
+                col = s * n + i
+                sw = ang[0, i, k]
+                tl = ang[1, i, k]
+                defined = math.isfinite(sw)
+                b = tl < jlim[0, col] or tl > jlim[1, col]
+                b = b or (defined and (sw < jlim[2, col] or sw > jlim[3, col]))
+                lim_bad[k, col] = b
+                if b:
+                    okr[3] = False
+                bi = jlim[4, col] != 0.0 and defined and abs(tl) > ina75 - 2.0 / 3.0 * abs(sw)
+                ina_bad[k, col] = bi
+                if bi:
+                    okr[4] = False
+        # singularity (pkmstiff.kinematics.conditioning._singular_from_bounds)
+        okr[5] = hi[k] <= thr
+        if lo[k] <= thr and hi[k] > thr and math.isfinite(hi[k]):
+            n_amb += 1
+        for c in range(ii.shape[0]):
+            if strut_bad[k, c]:
+                okr[6] = False
+        if has_hull:
+            for i in range(n):
+                if plat_bad[k, i]:
+                    okr[7] = False
+        if has_load:  # static drive loads tau_g = J_C^T g_P (eq. 4.90) and B.13
+            m0 = rho_cog[k, 1] * force[2] - rho_cog[k, 2] * force[1]
+            m1 = rho_cog[k, 2] * force[0] - rho_cog[k, 0] * force[2]
+            m2 = rho_cog[k, 0] * force[1] - rho_cog[k, 1] * force[0]
+            for i in range(n):
+                t = jc[k, 0, i] * force[0]
+                t += jc[k, 1, i] * force[1]
+                t += jc[k, 2, i] * force[2]
+                t += jc[k, 3, i] * m0
+                t += jc[k, 4, i] * m1
+                t += jc[k, 5, i] * m2
+                tau[k, i] = t
+                b = not (abs(t) <= avail[i])
+                load_bad[k, i] = b
+                if b:
+                    okr[8] = False
+        code = 0
+        if not all_reach:
+            code = 1
+        else:
+            for c in range(9):
+                if active[c] != 0 and not okr[c]:
+                    code |= active[c]
+        reasons[k] = code
+        for c in range(9):
+            ok_rows[c, k] = okr[c]
+    return n_amb
