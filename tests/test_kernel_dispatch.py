@@ -93,3 +93,22 @@ def test_piecewise_cubic_equals_scipy_bit_for_bit(trailing):
         np.testing.assert_array_equal(fast(xq, nu), ref(xq, nu))  # whichever path __call__ takes
     np.testing.assert_array_equal(fast.evaluate_numpy(xq.reshape(-1, 1)), ref(xq.reshape(-1, 1)))
     np.testing.assert_array_equal(pickle.loads(pickle.dumps(fast))(x[3]), ref(x[3]))
+
+
+@pytest.mark.parametrize("command", ["pose", "point"])
+def test_one_pose_commands_do_not_import_heavy_modules(command):
+    """The start-up target of ``pkmstiff pose``/``point`` (issue 12 item 6, ≤ 0.6 s) rests on not importing numba,
+    scipy's heavy parts, matplotlib or pyvista for one pose; a fresh interpreter shows what the command loaded."""
+    import json
+    import subprocess
+    import sys
+
+    code = ("import sys, io, contextlib\n"
+            "from pkmstiff.cli import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            f"    main(['{command}', 'hexaglide', '--pose', '0,300,-900,0,0,0', '--json'])\n"
+            "print(__import__('json').dumps(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('numba', 'matplotlib', 'pyvista', 'skfem', 'pint'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                         env={**__import__("os").environ, "PKMSTIFF_JIT": ""})
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == []
