@@ -137,9 +137,9 @@ def _cmd_pose(args: argparse.Namespace) -> int:
 
     if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
-    from pkmstiff.mechanisms.loader import is_mechanism
+    from pkmstiff.cli.mechanism import is_mechanism_target
 
-    if is_mechanism(args.machine):  # a generic mechanism evaluated like a machine (issue 14)
+    if is_mechanism_target(args.machine):  # a generic mechanism evaluated like a machine (issue 14)
         from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
         from pkmstiff.cli.mechanism import print_pose
 

@@ -47,9 +47,9 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
 
-    from pkmstiff.mechanisms.loader import is_mechanism
+    from pkmstiff.cli.mechanism import is_mechanism_target
 
-    if is_mechanism(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
+    if is_mechanism_target(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
         from pkmstiff.cli.mechanism import print_section, section_report
 
         rep = section_report(args)

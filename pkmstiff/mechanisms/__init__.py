@@ -16,51 +16,14 @@ accelerations), :mod:`~pkmstiff.mechanisms.evaluate` (machine-like evaluation, j
 :mod:`~pkmstiff.mechanisms.generate` (generic mechanisms of the closed-form machines), :mod:`~pkmstiff.mechanisms.info`.
 """
 
-#: public name -> module (imported on first use, so that ``pkmstiff pose``/``section`` can ask
-#: :func:`is_mechanism` without loading the compiled solver and numba)
-_FACADE = {
-    "DriveRange": "pkmstiff.mechanisms.continuation",
-    "RangeEnd": "pkmstiff.mechanisms.continuation",
-    "drive_ranges": "pkmstiff.mechanisms.continuation",
-    "Rates": "pkmstiff.mechanisms.derivatives",
-    "rates": "pkmstiff.mechanisms.derivatives",
-    "REASONS": "pkmstiff.mechanisms.evaluate",
-    "MechanismEvaluation": "pkmstiff.mechanisms.evaluate",
-    "evaluate": "pkmstiff.mechanisms.evaluate",
-    "reason_names": "pkmstiff.mechanisms.evaluate",
-    "identification_jacobian": "pkmstiff.mechanisms.identification",
-    "parameters": "pkmstiff.mechanisms.identification",
-    "with_parameters": "pkmstiff.mechanisms.identification",
-    "MechanismInfo": "pkmstiff.mechanisms.info",
-    "info": "pkmstiff.mechanisms.info",
-    "bundled_mechanisms": "pkmstiff.mechanisms.loader",
-    "is_mechanism": "pkmstiff.mechanisms.loader",
-    "load_mechanism": "pkmstiff.mechanisms.loader",
-    "mechanism_from_dict": "pkmstiff.mechanisms.loader",
-    "Joint": "pkmstiff.mechanisms.model",
-    "Mechanism": "pkmstiff.mechanisms.model",
-    "Output": "pkmstiff.mechanisms.model",
-    "STATUS": "pkmstiff.mechanisms.solver",
-    "Solution": "pkmstiff.mechanisms.solver",
-    "forward": "pkmstiff.mechanisms.solver",
-    "home": "pkmstiff.mechanisms.solver",
-    "inverse": "pkmstiff.mechanisms.solver",
-    "joint_values": "pkmstiff.mechanisms.solver",
-    "output_pose": "pkmstiff.mechanisms.solver",
-}
-
-
-def __getattr__(name: str):
-    if name in _FACADE:
-        import importlib
-
-        return getattr(importlib.import_module(_FACADE[name]), name)
-    raise AttributeError(f"module 'pkmstiff.mechanisms' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(list(globals()) + list(_FACADE))
-
+from pkmstiff.mechanisms.continuation import DriveRange, RangeEnd, drive_ranges
+from pkmstiff.mechanisms.derivatives import Rates, rates
+from pkmstiff.mechanisms.evaluate import REASONS, MechanismEvaluation, evaluate, reason_names
+from pkmstiff.mechanisms.identification import identification_jacobian, parameters, with_parameters
+from pkmstiff.mechanisms.info import MechanismInfo, info
+from pkmstiff.mechanisms.loader import bundled_mechanisms, is_mechanism, load_mechanism, mechanism_from_dict
+from pkmstiff.mechanisms.model import Joint, Mechanism, Output
+from pkmstiff.mechanisms.solver import STATUS, Solution, forward, home, inverse, joint_values, output_pose
 
 __all__ = ["DriveRange", "Joint", "Mechanism", "MechanismEvaluation", "MechanismInfo", "Output", "REASONS",
            "RangeEnd", "Rates", "STATUS", "Solution", "bundled_mechanisms", "drive_ranges", "evaluate", "forward",
