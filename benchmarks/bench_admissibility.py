@@ -13,6 +13,9 @@ includes compiling the numba kernels (first run on a machine) or loading them fr
 """
 
 import os
+import sys as _sys
+
+_sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))  # run from a clone
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # one core: must be set before numpy is imported
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

@@ -6,6 +6,11 @@ wall-clock times per model and the resulting poses per second.
 
 from __future__ import annotations
 
+import os as _os
+import sys as _sys
+
+_sys.path.insert(0, _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), ".."))  # run from a clone
+
 import sys
 import time
 from typing import Callable

@@ -11,6 +11,11 @@ time includes waiting for the CPU).
 
 from __future__ import annotations
 
+import os as _os
+import sys as _sys
+
+_sys.path.insert(0, _os.path.join(_os.path.dirname(_os.path.abspath(__file__)), ".."))  # run from a clone
+
 import os
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")  # single thread: must be set before numpy is imported

@@ -4,6 +4,9 @@ Target: <= 8 s. Run: ``python benchmarks/bench_section.py [n]`` (n x n raster, d
 """
 
 import os
+import sys as _sys
+
+_sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))  # run from a clone
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
