@@ -373,7 +373,7 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
             notes.append(f"Assumption: thermal strut growth alpha = {options.alpha:g} /K, dT = {options.drift_dT:g} K, "
                          f"tau = {options.drift_tau:g} s")
         if options.backlash > 0:
-            notes.append(f"reversal backlash {options.backlash * 1e6:g} um per drive")
+            notes.append(f"reversal backlash {options.backlash * 1e6:g} µm per drive")
         o, R = displaced_frames(o, R, inverse_jacobian(machine, ik), dq)
     state = perturbed_state(plan.setup, params, delta)
     if options.deflection == "gravity":  # the real (perturbed) machine deflects under its weight at reached poses

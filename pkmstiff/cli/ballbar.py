@@ -84,24 +84,24 @@ def _print_text(rep: dict[str, Any]) -> None:
           f"{rep['instrument']}, bar {rep['bar_length_mm']:g} mm, plane {rep['plane']}")
     for lab, r in rep["runs"].items():
         h = r["harmonics"]
-        print(f"  {lab.upper():>3}: G {r['circular_deviation_G_um']:8.3f} um (min zone "
-              f"{r['circular_deviation_G_min_zone_um']:.3f} um)   F max {r['radial_deviation_F_max_um']:+8.3f}"
-              f" um  F min {r['radial_deviation_F_min_um']:+8.3f} um")
+        print(f"  {lab.upper():>3}: G {r['circular_deviation_G_um']:8.3f} µm (min zone "
+              f"{r['circular_deviation_G_min_zone_um']:.3f} µm)   F max {r['radial_deviation_F_max_um']:+8.3f}"
+              f" µm  F min {r['radial_deviation_F_min_um']:+8.3f} µm")
         off = r["centre_offset_um"]
-        print(f"       centre offset ({off[0]:+.3f}, {off[1]:+.3f}) um = {r['centre_offset_magnitude_um']:.3f} um,"
-              f" radius deviation {r['radius_deviation_um']:+.3f} um, fit rms {r['fit_rms_um']:.3f} um")
+        print(f"       centre offset ({off[0]:+.3f}, {off[1]:+.3f}) µm = {r['centre_offset_magnitude_um']:.3f} µm,"
+              f" radius deviation {r['radius_deviation_um']:+.3f} µm, fit rms {r['fit_rms_um']:.3f} µm")
         rule = h["rule"]
-        extra = (f", noise sd {h['noise_sd_um']:.3f} um, threshold {h['threshold_um']:.3f} um"
+        extra = (f", noise sd {h['noise_sd_um']:.3f} µm, threshold {h['threshold_um']:.3f} µm"
                  if rule == "auto" else "")
-        print(f"       harmonics: n = {h['n']} ({rule}{extra}); residual rms {r['filtered_rms_residual_um']:.3f} um")
+        print(f"       harmonics: n = {h['n']} ({rule}{extra}); residual rms {r['filtered_rms_residual_um']:.3f} µm")
         for k, (a, p) in enumerate(zip(h["amplitude_um"], h["phase_deg"])):
             amp = f"{a:+10.4f}".replace("-0.0000", "+0.0000")  # no negative zero for a rounded-away A0
-            print(f"         A{k:<2} {amp} um   phi {p:7.2f} deg")
+            print(f"         A{k:<2} {amp} µm   phi {p:7.2f} deg")
     if rep["hysteresis_H_um"] is not None:
-        print(f"  hysteresis H {rep['hysteresis_H_um']:.3f} um, circularity {rep['circularity_um']:.3f} um "
-              f"(least squares), {rep['circularity_min_zone_um']:.3f} um (minimum zone)")
+        print(f"  hysteresis H {rep['hysteresis_H_um']:.3f} µm, circularity {rep['circularity_um']:.3f} µm "
+              f"(least squares), {rep['circularity_min_zone_um']:.3f} µm (minimum zone)")
     else:
-        print(f"  circularity {rep['circularity_um']:.3f} um (least squares), {rep['circularity_min_zone_um']:.3f} um "
+        print(f"  circularity {rep['circularity_um']:.3f} µm (least squares), {rep['circularity_min_zone_um']:.3f} µm "
               "(minimum zone; one direction only: no hysteresis)")
     for p in rep.get("plots", []):
         print(f"  wrote {p}")

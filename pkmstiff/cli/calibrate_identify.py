@@ -75,16 +75,16 @@ def parse_load(text: str | None):
 
 
 def _print_deflection(d: dict) -> None:
-    print(f"deflection ({d['model']}, subtracted): readings changed by RMS {d['rms_reading_um']:.4g} um, max "
-          f"{d['max_reading_um']:.4g} um; TCP deflection up to {d['tcp_max_um']:.4g} um, "
-          f"{d['tcp_rotation_max_urad']:.4g} urad")
+    print(f"deflection ({d['model']}, subtracted): readings changed by RMS {d['rms_reading_um']:.4g} µm, max "
+          f"{d['max_reading_um']:.4g} µm; TCP deflection up to {d['tcp_max_um']:.4g} µm, "
+          f"{d['tcp_rotation_max_urad']:.4g} µrad")
     print(f"bias without the subtraction (predicted (J'J)^-1 J' dr / actual difference of the two "
           f"identifications), relative deviation {d['bias_relative_deviation'] * 100:.3g} %:")
     for b in d["bias"]:
-        unit = "mm" if "predicted_mm" in b else "urad"
-        print(f"  {b['name']:32s} {b['predicted_' + unit]:+.6f} / {b['actual_' + unit]:+.6f} {unit}")
+        key, unit = ("mm", "mm") if "predicted_mm" in b else ("urad", "µrad")
+        print(f"  {b['name']:32s} {b['predicted_' + key]:+.6f} / {b['actual_' + key]:+.6f} {unit}")
     print(f"residual RMS without / with the subtraction: {d['rms_after_uncorrected_um']:.4g} / "
-          f"{d['rms_after_corrected_um']:.4g} um")
+          f"{d['rms_after_corrected_um']:.4g} µm")
 
 
 def _print_identify(rep: dict) -> None:
@@ -95,8 +95,8 @@ def _print_identify(rep: dict) -> None:
           f"{rep['condition_number'] or float('inf'):.4g}); scaling: {rep['scaling']}")
     if rep["gauge_freedoms"]:
         print("held fixed (gauge freedoms): " + "; ".join(rep["gauge_freedoms"]))
-    print(f"residual RMS {b['rms_um']:.4g} -> {a['rms_um']:.4g} um, max {b['max_abs_um']:.4g} -> "
-          f"{a['max_abs_um']:.4g} um")
+    print(f"residual RMS {b['rms_um']:.4g} -> {a['rms_um']:.4g} µm, max {b['max_abs_um']:.4g} -> "
+          f"{a['max_abs_um']:.4g} µm")
     sig = {p["name"]: p for p in rep["uncertainty"]["parameters"]}
     for row in rep["identified"]:
         key = "value_mm" if "value_mm" in row else "value_mrad"
@@ -157,9 +157,9 @@ def _cmd_check(args: argparse.Namespace) -> int:
         print(json.dumps(rep, indent=2))
     else:
         print(f"{rep['machine']} against {rep['measurement_file']} ({rep['n_readings']} readings, commanded by "
-              f"{rep['controller']}): residual RMS {rep['rms_um']:.4g} um, max {rep['max_abs_um']:.4g} um, "
-              f"mean {rep['mean_um']:.4g} um"
-              + (f" (gravity deflection subtracted: RMS {rep['deflection']['rms_reading_um']:.4g} um)"
+              f"{rep['controller']}): residual RMS {rep['rms_um']:.4g} µm, max {rep['max_abs_um']:.4g} µm, "
+              f"mean {rep['mean_um']:.4g} µm"
+              + (f" (gravity deflection subtracted: RMS {rep['deflection']['rms_reading_um']:.4g} µm)"
                  if "deflection" in rep else ""))
     return 0
 

@@ -53,10 +53,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
         print(json.dumps(rep, indent=2))
         return 0
     print(f"{rep['machine']}: {rep['n_readings']} readings, rank {rep['rank']} of {rep['n_parameters']}, residual "
-          f"RMS {rep['rms_before_um']:.4g} -> {rep['rms_after_um']:.4g} um ({rep['circles']} circle"
+          f"RMS {rep['rms_before_um']:.4g} -> {rep['rms_after_um']:.4g} µm ({rep['circles']} circle"
           f"{'' if rep['circles'] == 1 else 's'} evaluated)")
     for v in rep["validation"]:
-        print(f"  validation {Path(v['file']).name}: RMS {v['rms_nominal_um']:.4g} -> {v['rms_calibrated_um']:.4g} um")
+        print(f"  validation {Path(v['file']).name}: RMS {v['rms_nominal_um']:.4g} -> {v['rms_calibrated_um']:.4g} µm")
     print(f"wrote {rep['html']} and {rep['md']} ({rep['figures']} figures)")
     return 0
 

@@ -142,13 +142,13 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         print(json.dumps(rep, indent=2))
     else:
         if "reading_min_um" in rep:
-            what = f"readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} um"
+            what = f"readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} µm"
         else:
-            what = f"position error up to {rep['position_error_max_um']:.2f} um" + (
-                f", orientation error up to {rep['orientation_error_max_urad']:.2f} urad"
+            what = f"position error up to {rep['position_error_max_um']:.2f} µm" + (
+                f", orientation error up to {rep['orientation_error_max_urad']:.2f} µrad"
                 if "orientation_error_max_urad" in rep else "")
         print(f"{rep['machine']}: plan '{rep['plan']}' -> {rep['out']}: {rep['n_samples']} samples over "
-              f"{rep['duration_s']:.1f} s, {what} (noise sigma {rep['noise_sigma_um']:.3g} um)"
+              f"{rep['duration_s']:.1f} s, {what} (noise sigma {rep['noise_sigma_um']:.3g} µm)"
               + (f", {rep['range_violations']} range violations clipped" if rep["range_violations"] else ""))
         for n in rep["notes"]:
             print("  " + n)
