@@ -64,6 +64,21 @@ def _side_matrix(g, col, kind, dx, dy, dz, d):
 
 
 @_jit
+def _rank_one_row(h, col, kind, n0, n1, n2, dx, dy, dz, sign):
+    """``h = sign nᵀ G`` of one side into h[col…] (kinds as :func:`_side_matrix`); the products with the 0/1
+    entries of G are left out (exact, so the result equals the full product bit for bit)."""
+    if kind == 0:
+        return 0
+    h[col], h[col + 1], h[col + 2] = sign * n0, sign * n1, sign * n2
+    if kind == 1:
+        return 3
+    h[col + 3] = sign * (n1 * -dz + n2 * dy)
+    h[col + 4] = sign * (n0 * dz + n2 * -dx)
+    h[col + 5] = sign * (n0 * -dy + n1 * dx)
+    return 6
+
+
+@_jit
 def assemble_set(out, start_a, kind_a, start_b, kind_b, delta_a, delta_b, k, axis, mat, rank_one):
     """Add ``G_abᵀ K_e G_ab`` of every element of one SDE set to ``out`` (P, n, n) (Cobet eq. 4.58-4.69).
 
@@ -75,46 +90,66 @@ def assemble_set(out, start_a, kind_a, start_b, kind_b, delta_a, delta_b, k, axi
     d = 3 if rank_one else mat.shape[2]
     g = np.zeros((d, 12))
     h = np.zeros((d, 12))
+    hv = np.zeros(12)
     blk = np.zeros((12, 12))
+    idx = np.zeros(12, np.int64)
     for p in range(n_p):
         pa = p if delta_a.shape[0] > 1 else 0
         pb = p if delta_b.shape[0] > 1 else 0
         for e in range(n_el):
-            ma = _side_matrix(g, 0, kind_a[e], delta_a[pa, e, 0], delta_a[pa, e, 1], delta_a[pa, e, 2], d)
-            mb = _side_matrix(g, ma, kind_b[e], delta_b[pb, e, 0], delta_b[pb, e, 1], delta_b[pb, e, 2], d)
-            m = ma + mb
-            for r in range(d):
-                for c in range(ma, m):
-                    g[r, c] = -g[r, c]
+            m = 0
+            for c in range(0 if kind_a[e] == 0 else (3 if kind_a[e] == 1 else 6)):
+                idx[m] = start_a[e] + c
+                m += 1
+            ma = m
+            for c in range(0 if kind_b[e] == 0 else (3 if kind_b[e] == 1 else 6)):
+                idx[m] = start_b[e] + c
+                m += 1
             if rank_one:
                 pk = p if k.shape[0] > 1 else 0
                 pn = p if axis.shape[0] > 1 else 0
                 kk = k[pk, e]
-                for c in range(m):  # h = nᵀ G_ab
-                    h[0, c] = axis[pn, e, 0] * g[0, c] + axis[pn, e, 1] * g[1, c] + axis[pn, e, 2] * g[2, c]
+                n0, n1, n2 = axis[pn, e, 0], axis[pn, e, 1], axis[pn, e, 2]
+                _rank_one_row(hv, 0, kind_a[e], n0, n1, n2, delta_a[pa, e, 0], delta_a[pa, e, 1],
+                              delta_a[pa, e, 2], 1.0)
+                _rank_one_row(hv, ma, kind_b[e], n0, n1, n2, delta_b[pb, e, 0], delta_b[pb, e, 1],
+                              delta_b[pb, e, 2], -1.0)
                 for r in range(m):
-                    kr = kk * h[0, r]
+                    kr = kk * hv[r]
+                    row = idx[r]
                     for c in range(m):
-                        blk[r, c] = kr * h[0, c]
-            else:
-                pm = p if mat.shape[0] > 1 else 0
-                for r in range(d):  # h = K G_ab
+                        out[p, row, idx[c]] += kr * hv[c]
+                continue
+            pm = p if mat.shape[0] > 1 else 0
+            if kind_a[e] != 2 and kind_b[e] != 2:  # G = [I3, -I3] (or one of them): the block is ±K_e, exact
+                for r in range(m):
+                    sr = 1.0 if r < ma else -1.0
+                    row = idx[r]
                     for c in range(m):
-                        s = 0.0
-                        for l in range(d):
-                            s += mat[pm, e, r, l] * g[l, c]
-                        h[r, c] = s
-                for r in range(m):  # G_abᵀ h
-                    for c in range(m):
-                        s = 0.0
-                        for l in range(d):
-                            s += g[l, r] * h[l, c]
-                        blk[r, c] = s
-            for r in range(m):
-                gr = start_a[e] + r if r < ma else start_b[e] + r - ma
+                        sc = 1.0 if c < ma else -1.0
+                        out[p, row, idx[c]] += (sr * sc) * mat[pm, e, r % 3, c % 3]
+                continue
+            _side_matrix(g, 0, kind_a[e], delta_a[pa, e, 0], delta_a[pa, e, 1], delta_a[pa, e, 2], d)
+            _side_matrix(g, ma, kind_b[e], delta_b[pb, e, 0], delta_b[pb, e, 1], delta_b[pb, e, 2], d)
+            for r in range(d):
+                for c in range(ma, m):
+                    g[r, c] = -g[r, c]
+            for r in range(d):  # h = K G_ab
                 for c in range(m):
-                    gc = start_a[e] + c if c < ma else start_b[e] + c - ma
-                    out[p, gr, gc] += blk[r, c]
+                    s = 0.0
+                    for l in range(d):
+                        s += mat[pm, e, r, l] * g[l, c]
+                    h[r, c] = s
+            for r in range(m):  # G_abᵀ h
+                for c in range(m):
+                    s = 0.0
+                    for l in range(d):
+                        s += g[l, r] * h[l, c]
+                    blk[r, c] = s
+            for r in range(m):
+                row = idx[r]
+                for c in range(m):
+                    out[p, row, idx[c]] += blk[r, c]
 
 
 @_jit
@@ -153,20 +188,31 @@ def condensed_compliance(k, order, n_elim, right, comp, ok):
             piv = math.sqrt(piv)
             w[j, j] = piv
             m = 0
+            m_e = 0  # non-zero rows of column j among the eliminated DOFs (they come first)
             for i in range(j + 1, n):
                 if w[i, j] != 0.0:
                     w[i, j] /= piv
                     nz[m] = i
                     m += 1
-            for a in range(m):  # rank-one update restricted to the non-zero rows of column j
+                    if i < n_elim:
+                        m_e = m
+            # rank-one update restricted to the non-zero rows of column j; kept-kept entries of an eliminated
+            # column are summed in upd first (the Schur complement update of BlockFactor)
+            for a in range(m):
                 i = nz[a]
                 lij = w[i, j]
-                for b in range(a + 1):
+                for b in range(min(a + 1, m_e)):
                     c = nz[b]
-                    if j < n_elim and c >= n_elim:
-                        upd[i - n_elim, c - n_elim] += lij * w[c, j]
+                    w[i, c] -= lij * w[c, j]
+                if a >= m_e:
+                    if j < n_elim:
+                        for b in range(m_e, a + 1):
+                            c = nz[b]
+                            upd[i - n_elim, c - n_elim] += lij * w[c, j]
                     else:
-                        w[i, c] -= lij * w[c, j]
+                        for b in range(m_e, a + 1):
+                            c = nz[b]
+                            w[i, c] -= lij * w[c, j]
         ok[p] = good
         if not good:
             for i in range(r_cols):
