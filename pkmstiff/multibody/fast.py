@@ -117,6 +117,11 @@ def compiled_chunk(model: SDEModel, body: str, transform: np.ndarray, n_modes: i
     kept = [d for i in plan.kept for d in range(sl[i].start, sl[i].stop)]
     order = np.array(elim + kept, np.int64)
     right = np.ascontiguousarray(np.swapaxes(transform, -1, -2))
+    star = None  # one elimination step whose bodies couple only to the kept body (PKM drives): dense kernel
+    if len(plan.steps) == 0 or (len(plan.steps) == 1 and plan.steps[0][1] == plan.kept):
+        members = plan.steps[0][0] if plan.steps else ()
+        d = sl[members[0]].stop - sl[members[0]].start if members else 3
+        star = (np.array([sl[i].start for i in members], np.int64), d, np.array(kept, np.int64))
     sets = _set_arrays(model)
     dynamic = n_modes > 0 and model.massless_dofs.size == 0
     if dynamic:
@@ -136,7 +141,10 @@ def compiled_chunk(model: SDEModel, body: str, transform: np.ndarray, n_modes: i
         for sa, ka, sb, kb, da, db, kk, ax, mat, rank_one in sets:
             kernels.assemble_set(k, sa, ka, sb, kb, _block(da, bl), _block(db, bl), _block(kk, bl),
                                  _block(ax, bl), _block(mat, bl), rank_one)
-        kernels.condensed_compliance(k, order, len(elim), _block(right, bl), comp[bl], ok[bl])
+        if star is None:
+            kernels.condensed_compliance(k, order, len(elim), _block(right, bl), comp[bl], ok[bl])
+        else:
+            kernels.condensed_star(k, star[0], star[1], star[2], _block(right, bl), comp[bl], ok[bl])
         if dynamic:
             a = a_buf[:m]
             kernels.mass_normalised(k, _block(scale, bl), starts, _block(linv, bl), a)

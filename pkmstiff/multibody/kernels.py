@@ -236,6 +236,96 @@ def condensed_compliance(k, order, n_elim, right, comp, ok):
 
 
 @_jit
+def _compliance_from_factor(lk, right, pr, y, comp, p):
+    """comp[p] = (L⁻¹R)ᵀ (L⁻¹R) for the lower Cholesky factor ``lk`` of the condensed stiffness."""
+    nk, r_cols = lk.shape[0], right.shape[2]
+    for c in range(r_cols):  # y = L⁻¹ R
+        for i in range(nk):
+            s = right[pr, i, c]
+            for l in range(i):
+                s -= lk[i, l] * y[l, c]
+            y[i, c] = s / lk[i, i]
+    for a in range(r_cols):  # yᵀ y
+        for b in range(a + 1):
+            s = 0.0
+            for i in range(nk):
+                s += y[i, a] * y[i, b]
+            comp[p, a, b] = s
+            comp[p, b, a] = s
+
+
+@_jit
+def condensed_star(k, starts, d, kept, right, comp, ok):
+    """:func:`condensed_compliance` for the common body graph of a PKM: bodies of ``d`` DOFs starting at
+    ``starts`` (G,) that are coupled only to the kept DOFs ``kept`` (n_k,) (e.g. six drives and the platform),
+    eliminated block by block with dense small loops (BlockFactor's single elimination step: ``L = chol(K_ii)``,
+    ``Y = L⁻¹ K_ik``, ``K_kk −= Σ YᵀY``; then ``chol(K_kk)``)."""
+    n_p, n_g, nk = k.shape[0], starts.shape[0], kept.shape[0]
+    r_cols = right.shape[2]
+    lm = np.empty((d, d))
+    ym = np.empty((d, nk))
+    upd = np.empty((nk, nk))
+    lk = np.empty((nk, nk))
+    y = np.empty((nk, r_cols))
+    for p in range(n_p):
+        for a in range(nk):
+            for b in range(a + 1):
+                upd[a, b] = 0.0
+        good = True
+        for gi in range(n_g):
+            s0 = starts[gi]
+            for j in range(d):  # Cholesky of the member block (lower triangle)
+                v = k[p, s0 + j, s0 + j]
+                for l in range(j):
+                    v -= lm[j, l] * lm[j, l]
+                if not v > 0.0:
+                    good = False
+                    break
+                lm[j, j] = math.sqrt(v)
+                for i in range(j + 1, d):
+                    v = k[p, s0 + i, s0 + j]
+                    for l in range(j):
+                        v -= lm[i, l] * lm[j, l]
+                    lm[i, j] = v / lm[j, j]
+            if not good:
+                break
+            for c in range(nk):  # Y = L⁻¹ K_ik
+                kc = kept[c]
+                for i in range(d):
+                    v = k[p, s0 + i, kc]
+                    for l in range(i):
+                        v -= lm[i, l] * ym[l, c]
+                    ym[i, c] = v / lm[i, i]
+            for a in range(nk):  # Σ YᵀY
+                for b in range(a + 1):
+                    v = 0.0
+                    for i in range(d):
+                        v += ym[i, a] * ym[i, b]
+                    upd[a, b] += v
+        if good:
+            for j in range(nk):  # Cholesky of the condensed stiffness K_kk − Σ YᵀY
+                v = k[p, kept[j], kept[j]] - upd[j, j]
+                for l in range(j):
+                    v -= lk[j, l] * lk[j, l]
+                if not v > 0.0:
+                    good = False
+                    break
+                lk[j, j] = math.sqrt(v)
+                for i in range(j + 1, nk):
+                    v = k[p, kept[i], kept[j]] - upd[i, j]
+                    for l in range(j):
+                        v -= lk[i, l] * lk[j, l]
+                    lk[i, j] = v / lk[j, j]
+        ok[p] = good
+        if not good:
+            for a in range(r_cols):
+                for b in range(r_cols):
+                    comp[p, a, b] = np.nan
+            continue
+        _compliance_from_factor(lk, right, p if right.shape[0] > 1 else 0, y, comp, p)
+
+
+@_jit
 def mass_normalised(k, scale, rot_start, linv, a):
     """``a[p] = S k[p] Sᵀ`` (P, n, n), S = diag(scale) with the 3×3 blocks ``L⁻¹`` (I_cg = L Lᵀ) of the rotation
     DOFs starting at ``rot_start`` (B,) (docs/theory/structure.md: mass normalisation, same order of operations as
