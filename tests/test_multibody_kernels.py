@@ -7,9 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import pkmstiff.analysis.batch as batch
 import pkmstiff.multibody as sde
-from pkmstiff.analysis import evaluate_structure
+from pkmstiff.analysis import batch, evaluate_structure
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.multibody.assembly import stiffness_matrix
 from pkmstiff.multibody.fast import compiled_chunk
