@@ -7,14 +7,14 @@ Same quantities as :func:`pkmstiff.multibody.assembly.stiffness_matrix`,
 bindings; the eigenproblem matrix additionally needs every DOF to carry mass (no static condensation), else
 :func:`compiled_chunk` returns None for it and the caller uses the numpy path.  Used for chunks of at least
 :data:`MIN_POSES` poses (importing numba and loading the compiled kernels costs ~1 s once per process, so small
-calls, e.g. one pose through the API, stay on the numpy path); ``PKMSTIFF_JIT=0`` disables it,
+calls, e.g. one pose through the API, stay on the numpy path; the choice depends on the chunk size only, so results
+are reproducible bit for bit across processes); ``PKMSTIFF_JIT=0`` disables it,
 ``PKMSTIFF_JIT=1`` forces it.
 """
 
 from __future__ import annotations
 
 import os
-import sys
 
 import numpy as np
 
@@ -35,7 +35,9 @@ def use_compiled(model: SDEModel) -> bool:
     mode = os.environ.get("PKMSTIFF_JIT", "")
     if mode == "0" or model.bindings:
         return False
-    return mode == "1" or model.n_poses >= MIN_POSES or "pkmstiff.multibody.kernels" in sys.modules
+    # by the chunk size alone (not by whether numba is already loaded), so that a pose gives the same bits in every
+    # process (sweeps compare serial, process-pool and dask results bit for bit)
+    return mode == "1" or model.n_poses >= MIN_POSES
 
 
 def _side(model: SDEModel, names: tuple[str, ...], point: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
