@@ -59,7 +59,7 @@ def run(n_poses: int, chunk: int) -> None:
           f"f1 {np.nanmedian(res.frequencies_hz[:, 0]):6.2f} Hz")
 
 
-def floor_ratio(n_poses: int, chunk: int, repeat: int = 3) -> float:
+def floor_ratio(n_poses: int, chunk: int, repeat: int = 5) -> float:
     """Best-of-``repeat`` CPU time of :func:`evaluate_structure` over the numpy floor (stacked 24×24 solve + eigvalsh),
     both on ``n_poses`` and measured alternately in the same process."""
     machine = load_machine("hexaglide")

@@ -22,6 +22,7 @@ from pkmstiff.analysis._common import Array, load_body
 from pkmstiff.kinematics import as_poses
 from pkmstiff.machine.model import Machine
 from pkmstiff.multibody.assembly import stiffness_matrix
+from pkmstiff.multibody.fast import compiled_chunk, use_compiled
 from pkmstiff.multibody.modal import modal_chunk
 from pkmstiff.multibody.solver import StaticSystem
 from pkmstiff.multibody.static import point_transform
@@ -91,22 +92,36 @@ def _chunk_results(st: PKMStructure, tool_length: float | ArrayLike | None, n_mo
         # the spindle hangs on U alone: C_TCP = N(Δ) [C_P(r_U) + (H K_U Hᵀ)⁻¹] N(Δ)ᵀ, Δ = TCP − r_U (series
         # connection, exact); the 24-DOF model without the spindle serves the static and the modal solve
         model = st.dynamic_model
-        k = stiffness_matrix(model)
         r_u = _coupling_point(st)
-        comp = StaticSystem(model, k).body_compliance("platform", point_transform(model, "platform", r_u))
+        comp, lam = _compliance(model, "platform", r_u, n_modes)
         if not neglect_spindle:
             comp = comp + _u_compliance(st)
         n = sde.linalg.reference_matrix(tcp - r_u)
         comp = n @ comp @ np.swapaxes(n, 1, 2)
     else:
         model = st.model
-        body = load_body(st, neglect_spindle)
-        k = stiffness_matrix(model)
-        comp = StaticSystem(model, k).body_compliance(body, point_transform(model, body, tcp))
+        comp, lam = _compliance(model, load_body(st, neglect_spindle), tcp, n_modes)
     freq = np.zeros((comp.shape[0], n_modes))
     if n_modes:
-        freq = modal_chunk(model, n_modes, False, k).frequencies_hz
+        freq = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)  # as modal_chunk
     return comp, freq
+
+
+def _compliance(model: sde.SDEModel, body: str, point: Array, n_modes: int) -> tuple[Array, Array | None]:
+    """Compliance of ``body`` at ``point`` and the ``n_modes`` lowest eigenvalues (None if 0) of one chunk:
+    compiled kernels for large chunks (:mod:`pkmstiff.multibody.fast`), the numpy solver otherwise (identical to
+    round-off, eigenvalues bit for bit)."""
+    transform = point_transform(model, body, point)
+    lam = None
+    if use_compiled(model):
+        comp, lam = compiled_chunk(model, body, transform, n_modes)
+        if lam is not None or not n_modes:
+            return comp, lam
+        k = stiffness_matrix(model)
+    else:
+        k = stiffness_matrix(model)
+        comp = StaticSystem(model, k).body_compliance(body, transform)
+    return comp, (modal_chunk(model, n_modes, False, k).eigenvalues if n_modes else None)
 
 
 def _coupling_point(st: PKMStructure) -> Array:
