@@ -40,14 +40,11 @@ def _clean(x: Any) -> Any:
 
 
 def _start_pose(text: str | None) -> list[float] | None:
+    from pkmstiff.io.ranges import parse_numbers
+
     if text is None:
         return None
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        vals = []
-    if len(vals) != 6 or not all(math.isfinite(v) for v in vals):
-        raise BallbarError(f"--start-pose: expected 6 numbers x,y,z,a,b,c (mm, deg), found {text!r}")
+    vals = parse_numbers(text, 6, "--start-pose", "x,y,z,a,b,c (mm, deg)", error=BallbarError)
     return [v * 1e-3 for v in vals[:3]] + [math.radians(v) for v in vals[3:]]
 
 

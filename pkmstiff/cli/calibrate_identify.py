@@ -61,17 +61,14 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
 
 def parse_load(text: str | None):
     """``--load "Fx,Fy,Fz[,Mx,My,Mz]"`` (N, N m) -> array (3,) or (6,), or None."""
-    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.errors import CliError
+    from pkmstiff.io.ranges import parse_numbers
 
     if text is None:
         return None
-    try:
-        vals = [float(v) for v in text.split(",")]
-    except ValueError:
-        vals = []
-    if len(vals) not in (3, 6) or not all(np.isfinite(vals)):
-        raise CalibrationInputError("--load", "load", "Fx,Fy,Fz in N or Fx,Fy,Fz,Mx,My,Mz in N, N m", text)
-    return np.array(vals)
+    n = text.count(",") + 1
+    return np.array(parse_numbers(text, n if n in (3, 6) else 3, "--load", "Fx,Fy,Fz [N] or Fx,Fy,Fz,Mx,My,Mz "
+                                  "[N, N m]", error=CliError, count_text="3 or 6"))
 
 
 def _print_deflection(d: dict) -> None:
