@@ -287,6 +287,7 @@ def test_example_files_resolve_and_their_plans_are_admissible():
         for kind in ("plan", "validation"):
             check_plan(machine, read_plan(f"example:{m}_{kind}.toml"))  # raises if a pose is not admissible
     assert Path(resolve("example:felix_errors.toml")).is_file()
+    assert resolve("example:felix_errors") == resolve("example:felix_errors.toml")  # the suffix may be left out
     assert resolve("plain.toml") == "plain.toml"
     with pytest.raises(CalibrationInputError, match="example:felix_plan.toml"):
         resolve("example:nope.toml")

@@ -1,6 +1,6 @@
 """Example data shipped with the package: plans and error files of the calibration walkthrough
 (docs/user-guide/calibration-walkthrough.md). A path ``example:NAME`` given to a plan or error-file option resolves
-to the file ``NAME`` of this folder, so the walkthrough's commands run from any directory.
+to the file ``NAME`` (or ``NAME.toml``) of this folder, so the walkthrough's commands run from any directory.
 """
 
 from __future__ import annotations
@@ -31,6 +31,8 @@ def resolve(path: str | Path) -> str | Path:
         return path
     name = text[len(PREFIX):]
     p = example_dir() / name
+    if not p.suffix and name:
+        p = p.with_suffix(".toml")
     if not name or "/" in name or "\\" in name or not p.is_file():
         raise CalibrationInputError(text, "example", f"one of {', '.join(PREFIX + n for n in example_names())}",
                                     name or "an empty name")
