@@ -215,24 +215,9 @@ def condensed_compliance(k, order, n_elim, right, comp, ok):
                             w[i, c] -= lij * w[c, j]
         ok[p] = good
         if not good:
-            for i in range(r_cols):
-                for j in range(r_cols):
-                    comp[p, i, j] = np.nan
+            comp[p] = np.nan
             continue
-        pr = p if right.shape[0] > 1 else 0
-        for c in range(r_cols):  # y = L_kk⁻¹ R
-            for i in range(nk):
-                s = right[pr, i, c]
-                for l in range(i):
-                    s -= w[n_elim + i, n_elim + l] * y[l, c]
-                y[i, c] = s / w[n_elim + i, n_elim + i]
-        for a in range(r_cols):  # yᵀ y
-            for b in range(a + 1):
-                s = 0.0
-                for i in range(nk):
-                    s += y[i, a] * y[i, b]
-                comp[p, a, b] = s
-                comp[p, b, a] = s
+        _compliance_from_factor(w[n_elim:, n_elim:], right, p if right.shape[0] > 1 else 0, y, comp, p)
 
 
 @_jit
@@ -318,9 +303,7 @@ def condensed_star(k, starts, d, kept, right, comp, ok):
                     lk[i, j] = v / lk[j, j]
         ok[p] = good
         if not good:
-            for a in range(r_cols):
-                for b in range(r_cols):
-                    comp[p, a, b] = np.nan
+            comp[p] = np.nan
             continue
         _compliance_from_factor(lk, right, p if right.shape[0] > 1 else 0, y, comp, p)
 
