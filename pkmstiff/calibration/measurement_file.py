@@ -216,21 +216,7 @@ def write_measurement(path: str | Path, meas: BallbarMeasurement, *, allow_out_o
         raise MeasurementFileError(src, None, f"{bad.size} reading(s) outside the instrument range "
                                    f"[{meas.range[0] * 1e3:g}, {meas.range[1] * 1e3:g}] mm, first at sample {i} "
                                    f"(t = {meas.t[i]:g} s, reading {meas.reading[i] * 1e3:g} mm)")
-    cols: list[tuple[str, Array | NDArray[np.str_]]] = [("t_s", meas.t)]
-    if meas.poses is not None:
-        for j, name in enumerate(POSE_COLUMNS):
-            cols.append((name, meas.poses[:, j] / _POSE_SCALE[j]))
-    if meas.drives is not None:
-        units = meas.drive_units or ("mm",) * meas.drives.shape[1]
-        for j, u in enumerate(units):
-            cols.append((f"q{j + 1}_{u}", meas.drives[:, j] / (1e-3 if u == "mm" else math.pi / 180)))
-    cols.append(("reading_mm", meas.reading / 1e-3))
-    if meas.feed is not None:
-        cols.append(("feed_mm_min", meas.feed * 60e3))
-    if meas.direction is not None:
-        cols.append(("direction", np.asarray(meas.direction)))
-    if meas.temperature is not None:
-        cols.append(("temperature_C", meas.temperature))
+    cols = _command_cols(meas) + [("reading_mm", meas.reading / 1e-3)] + _optional_cols(meas)
     head = [
         f"# {SIGNATURE}",
         f"# format_version: {FORMAT_VERSION}",
@@ -263,6 +249,7 @@ def _write_table(path: Path, head: list[str], cols: list, n: int) -> Path:
 
 
 def _command_cols(meas: BallbarMeasurement | PointMeasurement) -> list:
+    """Columns before the readings: time and the commanded poses and/or drive values (file units)."""
     cols: list = [("t_s", meas.t)]
     if meas.poses is not None:
         for j, name in enumerate(POSE_COLUMNS):
@@ -271,6 +258,18 @@ def _command_cols(meas: BallbarMeasurement | PointMeasurement) -> list:
         units = meas.drive_units or ("mm",) * meas.drives.shape[1]
         for j, u in enumerate(units):
             cols.append((f"q{j + 1}_{u}", meas.drives[:, j] / (1e-3 if u == "mm" else math.pi / 180)))
+    return cols
+
+
+def _optional_cols(meas: BallbarMeasurement | PointMeasurement) -> list:
+    """Columns after the readings, where given: feed, direction, temperature (file units)."""
+    cols: list = []
+    if meas.feed is not None:
+        cols.append(("feed_mm_min", meas.feed * 60e3))
+    if meas.direction is not None:
+        cols.append(("direction", np.asarray(meas.direction)))
+    if meas.temperature is not None:
+        cols.append(("temperature_C", meas.temperature))
     return cols
 
 
@@ -295,11 +294,7 @@ def _write_points(path: Path, meas: PointMeasurement, allow_out_of_range: bool) 
     if meas.rotation is not None:
         for j, name in enumerate(ROTATION_COLUMNS):
             cols.append((name, meas.rotation[:, j] / 1e-6))
-    for name, attr, scale in (("feed_mm_min", "feed", 1 / 60e3), ("direction", "direction", None),
-                              ("temperature_C", "temperature", 1.0)):
-        v = getattr(meas, attr)
-        if v is not None:
-            cols.append((name, np.asarray(v) if scale is None else v / scale))
+    cols += _optional_cols(meas)
     head = [
         f"# pkmstiff {meas.kind} measurement",
         f"# format_version: {FORMAT_VERSION}",
