@@ -203,6 +203,23 @@ def _normal_impl(J, r, cols, cnt, screen, sweeps):  # pragma: no cover - compile
     return dx, est, ok
 
 
+def _skyline_solve(A, first, v):  # pragma: no cover - compiled
+    """v ← (L Lᵀ)⁻¹ v in place for the lower Cholesky factor L in ``A`` whose row i starts at column ``first[i]``."""
+    n = v.shape[0]
+    for i in range(n):
+        s = v[i]
+        for t in range(first[i], i):
+            s -= A[i, t] * v[t]
+        v[i] = s / A[i, i]
+    for i in range(n - 1, -1, -1):
+        v[i] /= A[i, i]
+        for t in range(first[i], i):
+            v[t] -= A[i, t] * v[i]
+
+
+_skyline_solve = numba.njit(cache=True, nogil=True, fastmath=_FM)(_skyline_solve)
+
+
 def _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, p0, p1):  # pragma: no cover - compiled
     N, m, n = J.shape
     A = np.empty((n, n))
@@ -254,16 +271,9 @@ def _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, p0, p1):  # prag
                 A[i, k] = s / lkk
         if not good:
             continue
-        # solve L y = −g, Lᵀ x = y
-        for i in range(n):
-            s = -g[i]
-            for t in range(first[i], i):
-                s -= A[i, t] * y[t]
-            y[i] = s / A[i, i]
-        for i in range(n - 1, -1, -1):
-            y[i] /= A[i, i]
-            for t in range(first[i], i):
-                y[t] -= A[i, t] * y[i]
+        for i in range(n):  # solve L Lᵀ dx = −g
+            y[i] = -g[i]
+        _skyline_solve(A, first, y)
         for i in range(n):
             dx[p, i] = y[i]
         # inverse iteration for λ_min(JᵀJ)
@@ -276,15 +286,7 @@ def _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, p0, p1):  # prag
         for _ in range(sweeps):
             for i in range(n):
                 x[i] /= nx
-            for i in range(n):
-                s = x[i]
-                for t in range(first[i], i):
-                    s -= A[i, t] * x[t]
-                x[i] = s / A[i, i]
-            for i in range(n - 1, -1, -1):
-                x[i] /= A[i, i]
-                for t in range(first[i], i):
-                    x[t] -= A[i, t] * x[i]
+            _skyline_solve(A, first, x)
             nx = 0.0
             for i in range(n):
                 nx += x[i] * x[i]
