@@ -124,7 +124,7 @@ def add_commands(sub: Any) -> None:
     a = bsub.add_parser("analyse", help="evaluate a measurement CSV: G, F, H, centre offset, Fourier harmonics",
                         description="Least-squares circle, centre offset, radius deviation, circularity, circular "
                                     "deviation G, radial deviation F, hysteresis H and Fourier harmonics A0..An with "
-                                    "phases per direction. Output lengths in um (text) or with unit-suffixed keys "
+                                    "phases per direction. Output lengths in µm (text) or with unit-suffixed keys "
                                     "(--json).")
     a.add_argument("file", help="measurement CSV (format: docs/user-guide/ballbar.md)")
     a.add_argument("--harmonics", default="auto",
