@@ -20,7 +20,7 @@ import numpy as np
 
 from pkmstiff.kinematics import dispatch as _dispatch
 from pkmstiff.admissibility.collision import unique_edges
-from pkmstiff.machine.model import Hull, Machine
+from pkmstiff.machine.model import Machine, memo
 from pkmstiff.machine.roles import DriveLoadData
 
 
@@ -254,18 +254,17 @@ class _HullCache:
     offsets: np.ndarray  # (F,) n . x <= offset inside the convex hull
 
 
-_HULL_CACHE: dict[int, tuple[Hull, _HullCache]] = {}
-
-
 def _hull_cache(machine: Machine) -> _HullCache:
+    """Kernel arrays of the platform hull (triangles, edges, face planes), computed once per hull object."""
     h = machine.hull
-    hit = _HULL_CACHE.get(id(h))
-    if hit is None or hit[0] is not h:  # keep the hull alive with its entry: its id cannot be reused meanwhile
+
+    def arrays() -> _HullCache:
         eq = h.face_planes()  # coplanar triangles share a plane
-        hc = _HullCache(*(_kernel_array(x) for x in (h.vertices[h.triangles], h.vertices[unique_edges(h.triangles)],
-                                                     eq[:, :3], -eq[:, 3])))
-        hit = _HULL_CACHE[id(h)] = (h, hc)
-    return hit[1]
+        return _HullCache(*(_kernel_array(x) for x in (h.vertices[h.triangles],
+                                                       h.vertices[unique_edges(h.triangles)], eq[:, :3],
+                                                       -eq[:, 3])))
+
+    return memo(h, "_kernel_arrays", arrays)
 
 
 def check_platform_collision(machine: Machine, q: np.ndarray, rot: np.ndarray, w: np.ndarray) -> CheckResult:

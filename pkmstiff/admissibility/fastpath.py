@@ -21,7 +21,7 @@ import numpy as np
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.kinematics.joint_angles import PARALLEL_TOL, _ref_parallel
-from pkmstiff.machine.model import Machine
+from pkmstiff.machine.model import Machine, memo
 from pkmstiff.machine.roles import DriveLoadData
 
 #: largest number of poses that takes the fused kernel (the general path's array code wins for large batches)
@@ -158,11 +158,7 @@ class _Constants:
 
 
 def _constants(machine: Machine) -> _Constants:
-    memo = machine.__dict__.get("_fastpath_constants")
-    if memo is None:
-        memo = _Constants(machine)
-        object.__setattr__(machine, "_fastpath_constants", memo)
-    return memo
+    return memo(machine, "_fastpath_constants", lambda: _Constants(machine))
 
 
 def usable(machine: Machine, n_poses: int) -> bool:

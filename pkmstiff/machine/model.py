@@ -96,6 +96,15 @@ class Chains:
         return int(self.drive_joint.shape[0])
 
 
+def memo(obj: Any, key: str, compute: Any) -> Any:
+    """``compute()`` once per (frozen) object, kept in the object's ``__dict__`` under ``key`` (derived data such
+    as hull planes or per-machine kernel constants; a changed copy from ``dataclasses.replace`` starts afresh)."""
+    d = obj.__dict__
+    if key not in d:
+        object.__setattr__(obj, key, compute())
+    return d[key]
+
+
 @dataclass(frozen=True)
 class Hull:
     """Platform hull polyhedron in the PKS: vertices (m) and triangles (vertex indices)."""
@@ -111,23 +120,19 @@ class Hull:
     def convex_hull_equations(self) -> np.ndarray:
         """(F, 4) plane equations ``n . x + d <= 0`` (inside) of the convex hull of the vertices (scipy's Qhull),
         computed once per hull and kept with it (so that a cached machine needs no scipy at start-up)."""
-        eq = self.__dict__.get("_equations")
-        if eq is None:
+        def qhull() -> np.ndarray:
             from scipy.spatial import ConvexHull
 
-            eq = ConvexHull(self.vertices).equations
-            object.__setattr__(self, "_equations", eq)
-        return eq
+            return ConvexHull(self.vertices).equations
+
+        return memo(self, "_equations", qhull)
 
     def face_planes(self) -> np.ndarray:
         """The distinct planes of :meth:`convex_hull_equations` (rounded to 1e-12: coplanar triangles share one),
         computed once per hull and kept with it."""
-        planes = self.__dict__.get("_planes")
-        if planes is None:
-            # return_index: the same sorted rows without numpy's masked-array check (which imports numpy.ma)
-            planes = np.unique(np.round(self.convex_hull_equations(), 12), axis=0, return_index=True)[0]
-            object.__setattr__(self, "_planes", planes)
-        return planes
+        # return_index: the same sorted rows without numpy's masked-array check (which imports numpy.ma)
+        return memo(self, "_planes", lambda: np.unique(np.round(self.convex_hull_equations(), 12), axis=0,
+                                                       return_index=True)[0])
 
 
 @dataclass(frozen=True)

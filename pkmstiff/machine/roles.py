@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.machine.model import Machine
+from pkmstiff.machine.model import Machine, memo
 
 CHAIN_ROLES = ("drive", "guide", "strut", "drive_suspension")
 MACHINE_ROLES = ("platform", "spindle", "platform_spindle")
@@ -96,14 +96,9 @@ def drive_load_data(machine: Machine) -> DriveLoadData | None:
     missing force reserve / Coulomb friction count as 0. Computed once per machine object (it depends on the
     machine's data only; ~10 % of a one-pose evaluation).
     """
-    memo = machine.__dict__.get("_drive_load_data", _NOT_YET)
-    if memo is _NOT_YET:
-        memo = _drive_load_data(machine)
-        object.__setattr__(machine, "_drive_load_data", memo)
-    return memo
+    return memo(machine, "_drive_load_data", lambda: _drive_load_data(machine))
 
 
-_NOT_YET = object()
 
 
 def _drive_load_data(machine: Machine) -> DriveLoadData | None:
