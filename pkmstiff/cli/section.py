@@ -34,15 +34,11 @@ def section_cost(n_points: int, n_quantities: int) -> tuple[float, float]:
     return mem, n_points * (SECONDS_PER_POINT + SECONDS_PER_POINT_QUANTITY * n_quantities)
 
 
-def _raster_count(lo: float, hi: float, step: float) -> int:
-    return int((hi - lo) / step + 1e-9) + 1
-
-
 def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
-    from pkmstiff.evaluation.sections import axis_plane, evaluate_section, section_summary
+    from pkmstiff.evaluation.sections import axis_plane, evaluate_section, raster_count, section_summary
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
@@ -105,7 +101,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     else:
         fitted = False
     (u0, u1), (v0, v1) = ranges[plane_kind[0]], ranges[plane_kind[1]]
-    n_points = _raster_count(u0, u1, step) * _raster_count(v0, v1, step)
+    n_points = raster_count(u0, u1, step) * raster_count(v0, v1, step)
     all_names = list(dict.fromkeys(names + [r.quantity for r in requirements]))
     mem, secs = section_cost(n_points, len(all_names))
     window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())

@@ -208,13 +208,9 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
 # ---------------------------------------------------------------------------------------------------- rotation map
 
 
-def _raster(lo: float, hi: float, step: float) -> np.ndarray:
-    n = int(math.floor((hi - lo) / step + 1e-9))
-    return lo + step * np.arange(n + 1)
-
-
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import check_output_dir
+    from pkmstiff.evaluation.sections import raster
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
     from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
@@ -242,8 +238,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             step = math.radians(_positive(args.step, "--step", "deg"))
             u_lo, u_hi = _range(args.u_range or "-30,30", "--u-range", "deg")
             v_lo, v_hi = _range(args.v_range or "-60,60", "--v-range", "deg")
-            u = np.radians(_raster(u_lo, u_hi, math.degrees(step)))
-            v = np.radians(_raster(v_lo, v_hi, math.degrees(step)))
+            u = np.radians(raster(u_lo, u_hi, math.degrees(step)))
+            v = np.radians(raster(v_lo, v_hi, math.degrees(step)))
             res = rotational_workspace_map(machine, to_machine_frame(machine, point, args.frame), dirs[0], u, v, ori,
                                            inc, amax,
                                            requirements=_requirements(args), method=method, verify=args.verify)
@@ -260,8 +256,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             if not (args.u_range and args.v_range):
                 raise _cli_error("--u-range and --v-range (mm) are required for a section plane")
             step = _positive(args.step, "--step", "mm")
-            u = _raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
-            v = _raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
+            u = raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
+            v = raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
             req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
                                      inc, amax, tuple(_requirements(args)), method, frame=args.frame)
             res = req.evaluate(machine, verify=args.verify)

@@ -87,11 +87,16 @@ class Plane:
                 "shape_nv_nu": list(self.shape)}
 
 
-def _raster(lo: float, hi: float, step: float) -> np.ndarray:
+def raster_count(lo: float, hi: float, step: float) -> int:
+    """Number of raster values lo, lo + step, … ≤ hi (a step that lands on hi within 1e-9 steps counts)."""
+    return int(np.floor((hi - lo) / step + 1e-9)) + 1
+
+
+def raster(lo: float, hi: float, step: float) -> np.ndarray:
+    """The raster values of :func:`raster_count` (the one raster of sections, mechanisms and rotation maps)."""
     if not (hi > lo and step > 0):
         raise SectionError(f"range {lo}:{hi} with step {step}: expected lo < hi and step > 0")
-    n = int(np.floor((hi - lo) / step + 1e-9)) + 1
-    return lo + step * np.arange(n)
+    return lo + step * np.arange(raster_count(lo, hi, step))
 
 
 def axis_plane(kind: str, at: float, u_range: tuple[float, float], v_range: tuple[float, float],
@@ -106,8 +111,8 @@ def axis_plane(kind: str, at: float, u_range: tuple[float, float], v_range: tupl
     su, sv = (step, step) if np.isscalar(step) else step
     normal_axis = ({"x", "y", "z"} - set(kind)).pop()
     origin = AXES[normal_axis] * at
-    return Plane(origin=origin, u_axis=AXES[kind[0]], v_axis=AXES[kind[1]], u_values=_raster(*u_range, su),
-                 v_values=_raster(*v_range, sv), u_name=kind[0], v_name=kind[1],
+    return Plane(origin=origin, u_axis=AXES[kind[0]], v_axis=AXES[kind[1]], u_values=raster(*u_range, su),
+                 v_values=raster(*v_range, sv), u_name=kind[0], v_name=kind[1],
                  name=f"{kind.upper()} plane at {normal_axis} = {at * 1e3:g} mm")
 
 
@@ -121,7 +126,7 @@ def general_plane(origin, u_axis, v_axis, u_range, v_range, step, name="plane") 
         raise SectionError("plane axes must not be parallel")
     v = v / np.linalg.norm(v)
     su, sv = (step, step) if np.isscalar(step) else step
-    return Plane(np.asarray(origin, float), u, v, _raster(*u_range, su), _raster(*v_range, sv), name=name)
+    return Plane(np.asarray(origin, float), u, v, raster(*u_range, su), raster(*v_range, sv), name=name)
 
 
 @dataclass

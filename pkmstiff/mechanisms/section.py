@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pkmstiff.errors import MechanismInputError
+from pkmstiff.evaluation.sections import raster
 from pkmstiff.mechanisms.constraints import fk_system
 from pkmstiff.mechanisms.evaluate import REASONS, evaluate
 from pkmstiff.mechanisms.linalg import lstsq_step
@@ -145,11 +146,6 @@ def plane_poses(mech: Mechanism, plane: str, at: float, u_values: Array, v_value
     return P
 
 
-def _raster(lo: float, hi: float, step: float) -> Array:
-    n = int((hi - lo) / step + 1e-9) + 1
-    return lo + step * np.arange(n)
-
-
 #: solver options of a section raster: continuation in 4 steps from home, one refinement (8 steps), and at most 6
 #: step halvings — most raster points of a section are unreachable, and they must be given up quickly
 SOLVE = {"steps": 4, "max_refine": 1, "max_backtrack": 6}
@@ -187,7 +183,7 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
         raise MechanismInputError(f"quantities: expected names from {', '.join(known)} for mechanism "
                                   f"'{mech.name}', found {', '.join(bad)}")
     ori = np.asarray(orientation, dtype=float)
-    uu, vv = _raster(*u_range, step), _raster(*v_range, step)
+    uu, vv = raster(*u_range, step), raster(*v_range, step)
     if uu.size < 2 or vv.size < 2:
         raise MechanismInputError("section: the window must span at least two raster steps along each axis")
     P = plane_poses(mech, plane, at, uu, vv, ori)
