@@ -15,7 +15,7 @@ import numpy as np
 
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 if TYPE_CHECKING:
     from components.reader import Params
@@ -54,15 +54,15 @@ class TaperedRollerBearing(Component):
 
     def __post_init__(self) -> None:
         if int(self.n_rollers) != self.n_rollers or self.n_rollers < 3:
-            raise ComponentDataError(f"bearing '{self.name}': n_rollers must be an integer >= 3, found "
+            raise ArgumentError(f"bearing '{self.name}': n_rollers must be an integer >= 3, found "
                                      f"{self.n_rollers!r}")
         if not self.k_roller > 0:
-            raise ComponentDataError(f"bearing '{self.name}': k_roller must be positive, found {self.k_roller!r}")
+            raise ArgumentError(f"bearing '{self.name}': k_roller must be positive, found {self.k_roller!r}")
         if not 0 < self.contact_angle < np.pi / 2:
-            raise ComponentDataError(f"bearing '{self.name}': contact_angle must lie in (0, 90) deg, found "
+            raise ArgumentError(f"bearing '{self.name}': contact_angle must lie in (0, 90) deg, found "
                                      f"{np.rad2deg(self.contact_angle)!r} deg")
         if not self.pitch_radius >= 0:
-            raise ComponentDataError(f"bearing '{self.name}': pitch_radius must be >= 0, found {self.pitch_radius!r}")
+            raise ArgumentError(f"bearing '{self.name}': pitch_radius must be >= 0, found {self.pitch_radius!r}")
         if self.roller_angles is None:
             phi = roller_positions(int(self.n_rollers))
             if "roller_angles" not in self.assumptions:
@@ -71,7 +71,7 @@ class TaperedRollerBearing(Component):
         else:
             phi = np.asarray(self.roller_angles, dtype=float)
             if phi.shape != (int(self.n_rollers),):
-                raise ComponentDataError(f"bearing '{self.name}': roller_angles must have {self.n_rollers} entries, "
+                raise ArgumentError(f"bearing '{self.name}': roller_angles must have {self.n_rollers} entries, "
                                          f"found {phi.shape}")
         object.__setattr__(self, "_K", dietl_stiffness_matrix(self.k_roller, self.contact_angle, phi,
                                                                self.pitch_radius))

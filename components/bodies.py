@@ -14,7 +14,7 @@ import numpy as np
 
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState, _full
-from pkmstiff.errors import ComponentDataError, InputError
+from pkmstiff.errors import ArgumentError, InputError
 from pkmstiff.units import parse_quantity, si
 
 if TYPE_CHECKING:
@@ -50,7 +50,7 @@ def shift_mass_matrix(M_cg: Any, rho: Any) -> np.ndarray:
 def _check_symmetric(K: np.ndarray, what: str) -> None:
     scale = max(float(np.max(np.abs(K))), np.finfo(float).tiny)
     if np.max(np.abs(K - K.T)) > _SYM_TOL * scale:
-        raise ComponentDataError(f"{what}: the matrix must be symmetric, found max |K - K^T| = "
+        raise ArgumentError(f"{what}: the matrix must be symmetric, found max |K - K^T| = "
                                  f"{np.max(np.abs(K - K.T)):.3g} (max |K| = {scale:.3g})")
 
 
@@ -59,7 +59,7 @@ def _check_positive_definite(K: np.ndarray, what: str, semi: bool = False) -> No
     bad = eig.min() < 0 if semi else eig.min() <= 0
     if bad:
         kind = "positive semi-definite" if semi else "positive definite"
-        raise ComponentDataError(f"{what}: the matrix must be {kind}, found smallest eigenvalue {eig.min():.6g}")
+        raise ArgumentError(f"{what}: the matrix must be {kind}, found smallest eigenvalue {eig.min():.6g}")
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -80,10 +80,10 @@ class RigidBody(Component):
             inertia = np.diag(inertia)
         cog = np.zeros(3) if self.cog is None else np.asarray(self.cog, dtype=float)
         if inertia.shape != (3, 3) or cog.shape != (3,):
-            raise ComponentDataError(f"body '{self.name}': inertia must be (3, 3) or (3,), cog (3,); found "
+            raise ArgumentError(f"body '{self.name}': inertia must be (3, 3) or (3,), cog (3,); found "
                                      f"{inertia.shape}, {cog.shape}")
         if not self.mass >= 0:
-            raise ComponentDataError(f"body '{self.name}': mass must be >= 0, found {self.mass!r}")
+            raise ArgumentError(f"body '{self.name}': mass must be >= 0, found {self.mass!r}")
         _check_symmetric(inertia, f"body '{self.name}' inertia")
         _check_positive_definite(inertia, f"body '{self.name}' inertia", semi=True)
         object.__setattr__(self, "inertia", 0.5 * (inertia + inertia.T))
@@ -124,7 +124,7 @@ class BodyStiffness(Component):
     def __post_init__(self) -> None:
         K = np.asarray(self.matrix, dtype=float)
         if K.shape != (6, 6) or not np.all(np.isfinite(K)):
-            raise ComponentDataError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape "
+            raise ArgumentError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape "
                                      f"{K.shape}")
         _check_symmetric(K, f"body stiffness '{self.name}'")
         _check_positive_definite(K, f"body stiffness '{self.name}'")
@@ -147,7 +147,7 @@ class BodyStiffness(Component):
         v = np.asarray(values, dtype=float)
         K = np.diag(v) if v.shape == (6,) else v.copy()
         if K.shape != (6, 6):
-            raise ComponentDataError(f"body stiffness: expected 6 diagonal values or a (6, 6) matrix, found shape "
+            raise ArgumentError(f"body stiffness: expected 6 diagonal values or a (6, 6) matrix, found shape "
                                      f"{v.shape}")
         K[:3, :3] = si(K[:3, :3], translational_unit)
         K[3:, 3:] = si(K[3:, 3:], rotational_unit)

@@ -16,7 +16,7 @@ import numpy as np
 from components.limits import DRIVE_LIMITS, drive_limits
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState, _full
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 if TYPE_CHECKING:
     from components.reader import Params
@@ -35,10 +35,10 @@ def joint_space_mass_diagonal(J_C: Any, M_A: Any, M_P: Any) -> np.ndarray:
     MP = np.asarray(M_P, dtype=float)
     MA = np.asarray(M_A, dtype=float)
     if J.ndim != 3 or J.shape[1] != J.shape[2]:
-        raise ComponentDataError(f"joint_space_mass_diagonal: J_C must have shape (N, n, n), found {J.shape}")
+        raise ArgumentError(f"joint_space_mass_diagonal: J_C must have shape (N, n, n), found {J.shape}")
     n = J.shape[-1]
     if MP.shape[-2:] != (n, n) or MA.shape[-1] != n:
-        raise ComponentDataError(f"joint_space_mass_diagonal: M_A must end in ({n},) and M_P in ({n}, {n}), "
+        raise ArgumentError(f"joint_space_mass_diagonal: M_A must end in ({n},) and M_P in ({n}, {n}), "
                                  f"found {MA.shape} and {MP.shape}")
     MP = np.broadcast_to(MP, (J.shape[0], n, n))
     return MA + np.einsum("nki,nkl,nli->ni", J, MP, J)
@@ -60,17 +60,17 @@ class LinearDirectDrive(Component):
 
     def __post_init__(self) -> None:
         if self.axial_stiffness not in AXIAL_MODES:
-            raise ComponentDataError(f"drive '{self.name}': axial_stiffness must be one of {AXIAL_MODES}, "
+            raise ArgumentError(f"drive '{self.name}': axial_stiffness must be one of {AXIAL_MODES}, "
                                      f"found {self.axial_stiffness!r}")
         if self.axial_stiffness == "constant" and not (self.k_axial is not None and self.k_axial > 0):
-            raise ComponentDataError(f"drive '{self.name}': axial_stiffness='constant' needs a positive k_axial, "
+            raise ArgumentError(f"drive '{self.name}': axial_stiffness='constant' needs a positive k_axial, "
                                      f"found {self.k_axial!r}")
         if self.axial_stiffness == "pole_placement" and not (self.pole_distance is not None and self.pole_distance > 0):
-            raise ComponentDataError(f"drive '{self.name}': axial_stiffness='pole_placement' needs a positive "
+            raise ArgumentError(f"drive '{self.name}': axial_stiffness='pole_placement' needs a positive "
                                      f"pole_distance (rad/s), found {self.pole_distance!r}")
         for key, value in self.limits.items():
             if not value >= 0:
-                raise ComponentDataError(f"drive '{self.name}': limit {key} must be >= 0, found {value!r}")
+                raise ArgumentError(f"drive '{self.name}': limit {key} must be >= 0, found {value!r}")
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         if self.axial_stiffness == "constant":
@@ -86,7 +86,7 @@ class LinearDirectDrive(Component):
     def available_force(self) -> float:
         """T = τ_q,max − τ_q,min [N] (docs/theory/kinetostatics.md); needs limits max_force (reserve defaults to 0)."""
         if "max_force" not in self.limits:
-            raise ComponentDataError(f"drive '{self.name}': no max_force limit given")
+            raise ArgumentError(f"drive '{self.name}': no max_force limit given")
         return self.limits["max_force"] - self.limits.get("force_reserve", 0.0)
 
 

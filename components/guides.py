@@ -18,7 +18,7 @@ import numpy as np
 
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 _PARALLEL_TOL = 1e-6  # |component of the vertical orthogonal to x'| below which the guide counts as vertical
 
@@ -38,7 +38,7 @@ def drive_frame(
     x = np.asarray(guide_direction, dtype=float)
     norm = np.linalg.norm(x, axis=-1, keepdims=True)
     if np.any(norm == 0) or not np.all(np.isfinite(norm)):
-        raise ComponentDataError(f"drive_frame: guide directions must be finite non-zero vectors, found {x.tolist()}")
+        raise ArgumentError(f"drive_frame: guide directions must be finite non-zero vectors, found {x.tolist()}")
     x = x / norm
 
     def orthogonal(ref: np.ndarray) -> np.ndarray:
@@ -50,7 +50,7 @@ def drive_frame(
     if np.any(is_vertical):
         zf = orthogonal(np.broadcast_to(np.asarray(fallback, dtype=float), x.shape))
         if np.any(is_vertical & (np.linalg.norm(zf, axis=-1, keepdims=True) < _PARALLEL_TOL)):
-            raise ComponentDataError("drive_frame: the fallback reference is parallel to a vertical guide direction")
+            raise ArgumentError("drive_frame: the fallback reference is parallel to a vertical guide direction")
         z = np.where(is_vertical, zf, z)
         zn = np.linalg.norm(z, axis=-1, keepdims=True)
     z = z / zn
@@ -91,10 +91,10 @@ class GuideCarriages(Component):
 
     def __post_init__(self) -> None:
         if not (self.k_horizontal > 0 and self.k_vertical > 0):
-            raise ComponentDataError(f"guide '{self.name}': carriage stiffnesses must be positive, found "
+            raise ArgumentError(f"guide '{self.name}': carriage stiffnesses must be positive, found "
                                      f"{self.k_horizontal!r}, {self.k_vertical!r}")
         if int(self.count) != self.count or self.count < 1:
-            raise ComponentDataError(f"guide '{self.name}': count must be a positive integer, found {self.count!r}")
+            raise ArgumentError(f"guide '{self.name}': count must be a positive integer, found {self.count!r}")
 
     @property
     def k_y(self) -> float:

@@ -22,7 +22,7 @@ import numpy as np
 
 from components.limits import DRIVE_LIMITS, drive_limits
 from components.params import ModelSpec, Param
-from pkmstiff.errors import ComponentDataError, ComponentRangeError  # noqa: F401 (re-exported: components.protocol.*)
+from pkmstiff.errors import ArgumentError, ComponentRangeError  # noqa: F401 (re-exported: components.protocol.*)
 
 StiffnessKind = Literal["axial", "matrix3", "matrix6", "body"]
 
@@ -78,17 +78,17 @@ class ComponentState:
                 continue
             arr = np.atleast_1d(np.asarray(value, dtype=float))
             if arr.ndim != 1:
-                raise ComponentDataError(f"ComponentState.{name}: expected a 1-D array of shape (N,), found shape "
+                raise ArgumentError(f"ComponentState.{name}: expected a 1-D array of shape (N,), found shape "
                                          f"{arr.shape}")
             object.__setattr__(self, name, arr)
         sizes = {name: getattr(self, name).shape[0] for name in self._ARRAYS if getattr(self, name) is not None}
         if len(set(sizes.values())) > 1:
-            raise ComponentDataError(f"ComponentState: all arrays must have the same length N, found {sizes}")
+            raise ArgumentError(f"ComponentState: all arrays must have the same length N, found {sizes}")
         if self.n_poses is not None:
             if int(self.n_poses) < 1:
-                raise ComponentDataError(f"ComponentState.n_poses: expected an integer >= 1, found {self.n_poses!r}")
+                raise ArgumentError(f"ComponentState.n_poses: expected an integer >= 1, found {self.n_poses!r}")
             if sizes and next(iter(sizes.values())) != int(self.n_poses):
-                raise ComponentDataError(f"ComponentState: n_poses={self.n_poses} does not match the array lengths "
+                raise ArgumentError(f"ComponentState: n_poses={self.n_poses} does not match the array lengths "
                                          f"{sizes}")
 
     @property
@@ -101,10 +101,10 @@ class ComponentState:
         return int(self.n_poses) if self.n_poses is not None else 1
 
     def require(self, name: str, component: str) -> np.ndarray:
-        """Return the array ``name`` or raise a :class:`ComponentDataError` naming the component that needs it."""
+        """Return the array ``name`` or raise a :class:`ArgumentError` naming the component that needs it."""
         value = getattr(self, name)
         if value is None:
-            raise ComponentDataError(f"component '{component}': ComponentState.{name} is required but was not given")
+            raise ArgumentError(f"component '{component}': ComponentState.{name} is required but was not given")
         return value
 
     def replace(self, **changes: Any) -> "ComponentState":
@@ -163,7 +163,7 @@ def parallel(*k: Any) -> np.ndarray:
     ``np.inf`` (rigid) makes the sum rigid.
     """
     if not k:
-        raise ComponentDataError("parallel() needs at least one stiffness")
+        raise ArgumentError("parallel() needs at least one stiffness")
     total = np.asarray(k[0], dtype=float)
     for kj in k[1:]:
         total = total + np.asarray(kj, dtype=float)
@@ -182,7 +182,7 @@ def series(*k: Any, matrix: bool | None = None) -> np.ndarray:
     Pass ``matrix=False`` to force the elementwise rule for arrays whose last two axes happen to be square.
     """
     if not k:
-        raise ComponentDataError("series() needs at least one stiffness")
+        raise ArgumentError("series() needs at least one stiffness")
     if matrix is None:
         matrix = any(_is_matrix(kj) for kj in k)
     if not matrix:
@@ -194,14 +194,14 @@ def series(*k: Any, matrix: bool | None = None) -> np.ndarray:
         return np.asarray(np.inf)
     for j, m in enumerate(mats):
         if not _is_matrix(m):
-            raise ComponentDataError(f"series(matrix=True): operand {j} has shape {m.shape}, expected (..., n, n) or "
+            raise ArgumentError(f"series(matrix=True): operand {j} has shape {m.shape}, expected (..., n, n) or "
                                      f"np.inf")
     result = mats[0]
     for m in mats[1:]:
         try:
             result = result @ np.linalg.solve(result + m, m)
         except np.linalg.LinAlgError as exc:
-            raise ComponentDataError("series of matrices: the sum of two consecutive stiffness matrices is singular; "
+            raise ArgumentError("series of matrices: the sum of two consecutive stiffness matrices is singular; "
                                      "series needs positive-definite stiffness matrices") from exc
     return 0.5 * (result + np.swapaxes(result, -1, -2))
 
@@ -215,7 +215,7 @@ class ConstantAxial(Component):
 
     def __post_init__(self) -> None:
         if not self.k > 0:
-            raise ComponentDataError(f"component '{self.name}': k must be positive, found {self.k!r}")
+            raise ArgumentError(f"component '{self.name}': k must be positive, found {self.k!r}")
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         return _full(state, self.k)

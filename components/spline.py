@@ -19,7 +19,7 @@ import numpy as np
 if TYPE_CHECKING:
     from scipy.interpolate import CubicSpline
 
-from pkmstiff.errors import ComponentDataError, ComponentRangeError
+from pkmstiff.errors import ArgumentError, ComponentRangeError
 
 Extrapolation = Literal["clamp", "error"]
 EXTRAPOLATION_POLICIES: tuple[str, ...] = ("clamp", "error")
@@ -28,9 +28,9 @@ _RANGE_TOL = 1e-12  # rad; absorbs round-off of angles computed exactly at a tab
 
 def _check_nodes(x: np.ndarray, what: str) -> None:
     if x.ndim != 1 or x.size < 2:
-        raise ComponentDataError(f"{what}: expected at least 2 support points in a 1-D array, found shape {x.shape}")
+        raise ArgumentError(f"{what}: expected at least 2 support points in a 1-D array, found shape {x.shape}")
     if not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
-        raise ComponentDataError(f"{what}: support abscissae must be finite and strictly increasing, found "
+        raise ArgumentError(f"{what}: support abscissae must be finite and strictly increasing, found "
                                  f"{x.tolist()}")
 
 
@@ -47,7 +47,7 @@ def clamped_spline(x: np.ndarray, y: np.ndarray, what: str = "spline") -> CubicS
     y = np.asarray(y, dtype=float)
     _check_nodes(x, what)
     if y.shape[0] != x.size:
-        raise ComponentDataError(f"{what}: {x.size} abscissae but {y.shape[0]} values")
+        raise ArgumentError(f"{what}: {x.size} abscissae but {y.shape[0]} values")
     s0, sn = secant_end_slopes(x, y)
     from scipy.interpolate import CubicSpline  # here, not at import: scipy.interpolate takes ~0.5 s to import
 
@@ -141,7 +141,7 @@ def apply_range_policy(
                 f"{table}: {angle} = {conv(value.ravel()[idx]):.6g} {unit} (pose {idx}) lies outside the table range "
                 f"[{conv(lo):.6g}, {conv(hi):.6g}] {unit} (extrapolation='error'; use 'clamp' to hold the end values)")
         return np.clip(value, lo, hi)  # only round-off excursions remain
-    raise ComponentDataError(f"{table}: unknown extrapolation policy {policy!r}, expected one of "
+    raise ArgumentError(f"{table}: unknown extrapolation policy {policy!r}, expected one of "
                              f"{EXTRAPOLATION_POLICIES}")
 
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState, _full
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 if TYPE_CHECKING:
     from components.reader import Params
@@ -44,11 +44,11 @@ class Strut(Component):
 
     def __post_init__(self) -> None:
         if (self.k is None) == (self.axial_rigidity is None):
-            raise ComponentDataError(f"strut '{self.name}': give either k or axial_rigidity (EA), not both or neither")
+            raise ArgumentError(f"strut '{self.name}': give either k or axial_rigidity (EA), not both or neither")
         for key in ("k", "axial_rigidity", "length"):
             value = getattr(self, key)
             if value is not None and not value > 0:
-                raise ComponentDataError(f"strut '{self.name}': {key} must be positive, found {value!r}")
+                raise ArgumentError(f"strut '{self.name}': {key} must be positive, found {value!r}")
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         if self.k is not None:
@@ -70,11 +70,11 @@ class StrutSections(Component):
     def __post_init__(self) -> None:
         arrays = [np.atleast_1d(np.asarray(getattr(self, key), dtype=float)) for key in ("E", "area", "length")]
         if len({a.shape for a in arrays}) != 1 or arrays[0].ndim != 1:
-            raise ComponentDataError(f"strut '{self.name}': E, area and length must be 1-D arrays of equal length, "
+            raise ArgumentError(f"strut '{self.name}': E, area and length must be 1-D arrays of equal length, "
                                      f"found shapes {[a.shape for a in arrays]}")
         for key, a in zip(("E", "area", "length"), arrays):
             if np.any(~(a > 0)):
-                raise ComponentDataError(f"strut '{self.name}': {key} must be positive, found {a.tolist()}")
+                raise ArgumentError(f"strut '{self.name}': {key} must be positive, found {a.tolist()}")
             object.__setattr__(self, key, tuple(a.tolist()))
 
     @property

@@ -15,8 +15,8 @@ __version__ = "0.1.0"
 
 #: the facade: name -> layer module that defines it (imported on first use, so ``import pkmstiff.errors`` stays light)
 _FACADE = {
-    "InputError": "pkmstiff.errors", "PkmstiffError": "pkmstiff.errors",
-    "Machine": "pkmstiff.machine", "MachineFileError": "pkmstiff.machine", "UnknownMachineError": "pkmstiff.machine",
+    "InputError": "pkmstiff.errors", "PkmstiffError": "pkmstiff.errors", "ArgumentError": "pkmstiff.errors",
+    "Machine": "pkmstiff.machine", "UnknownMachineError": "pkmstiff.machine",
     "bundled_machines": "pkmstiff.machine", "load_machine": "pkmstiff.machine",
     "inverse_kinematics": "pkmstiff.kinematics", "forward_kinematics": "pkmstiff.kinematics",
 }
@@ -34,5 +34,5 @@ def __dir__() -> list[str]:
     return sorted(list(globals()) + list(_FACADE))
 
 
-__all__ = ["InputError", "Machine", "MachineFileError", "PkmstiffError", "UnknownMachineError", "bundled_machines",
+__all__ = ["ArgumentError", "InputError", "Machine", "PkmstiffError", "UnknownMachineError", "bundled_machines",
            "forward_kinematics", "inverse_kinematics", "load_machine", "__version__"]

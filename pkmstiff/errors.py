@@ -1,8 +1,24 @@
-"""The toolkit's exceptions, with one root.
+"""The toolkit's exceptions: one root and a handful of kinds, sorted by what went wrong, not by the module that
+noticed it (the pint style).
 
-Every error pkmstiff raises on purpose derives from :class:`PkmstiffError`; the command line catches the root and prints
-one line (exit status 2). Input errors additionally derive from :class:`ValueError` so that code written against the
-standard library's conventions keeps working.
+Every error pkmstiff raises on purpose is one of the kinds below, or a subclass of one kept only where a caller must
+tell it apart. Each kind keeps the facts as fields and builds its one-line message from them; the command line prints
+that line and maps the kind to its exit status in one place (:data:`pkmstiff.cli.EXIT_STATUS`).
+
+===========================  ===========================================================================  ====
+kind                         what went wrong (fields)                                                     exit
+===========================  ===========================================================================  ====
+:class:`InputError`          a value in an input file or data set (file, line, column, key, expected,     2
+                             found)
+:class:`ArgumentError`       an argument or option (option, expected, found)                              2
+:class:`ResourceError`       an estimate beyond a budget; a missing optional dependency (reason)          2
+:class:`NumericalError`      an iteration that did not converge, a singular system (reason)               2
+:class:`InadmissibleError`   a pose, path or plan the machine cannot reach or admit (reason)              3
+===========================  ===========================================================================  ====
+
+Where a finding is not one value, the ``reason`` field says it in words. Input, argument, numerical and
+admissibility errors also derive from :class:`ValueError`, so code written against the standard library's
+conventions keeps working.
 """
 
 from __future__ import annotations
@@ -10,263 +26,116 @@ from __future__ import annotations
 from typing import Any
 
 
+class _Unset:
+    def __repr__(self) -> str:
+        return "<unset>"
+
+
+#: "no value given" for a ``found`` field (``None`` is a legitimate finding)
+UNSET: Any = _Unset()
+
+
+def _rebuild(cls: type[PkmstiffError], state: dict[str, Any]) -> PkmstiffError:
+    exc = cls.__new__(cls)
+    exc.__dict__.update(state)
+    exc.args = (str(exc),)
+    return exc
+
+
 class PkmstiffError(Exception):
-    """Root of every error the toolkit raises on purpose.
+    """Root of every error the toolkit raises on purpose; ``reason`` is the message in words."""
 
-    ``exit_status`` is the command line's exit status for this error (2: bad input; 3: a refused inadmissible pose).
-    """
+    def __init__(self, reason: str = ""):
+        self.reason = reason
+        super().__init__(str(self))
 
-    exit_status = 2
+    def __str__(self) -> str:
+        return self.reason
+
+    def __reduce__(self):  # the fields travel (a worker process rebuilds the same error and message)
+        return _rebuild, (type(self), self.__dict__)
 
 
 class InputError(PkmstiffError, ValueError):
-    """Invalid input data; the message names file, key, expectation and finding."""
+    """A value in an input file or data set: ``file``, ``line`` and ``column`` (where known), the ``key`` (or column
+    name), what was ``expected`` and what was ``found``; or, where the finding is not one value, the ``reason``.
 
-    def __init__(self, source: str, key: str, expected: str, found: Any):
-        self.source, self.key, self.expected, self.found = source, key, expected, found
-        where = f"{source}: " if source else ""
-        super().__init__(f"{where}key '{key}': expected {expected}, found {found!r}")
+    ``raise InputError("m.toml", "chains.kind", "'pod' or 'glide'", "hexapod")`` prints
+    ``m.toml: key 'chains.kind': expected 'pod' or 'glide', found 'hexapod'``;
+    ``raise InputError("m.csv", "reading_mm", line=9, column=8, reason="expected a number, found 'x'")`` prints
+    ``m.csv: line 9, column 8 (reading_mm): expected a number, found 'x'``.
+    """
+
+    def __init__(self, file: str = "", key: str = "", expected: str = "", found: Any = None, *,
+                 line: int | None = None, column: int | None = None, reason: str = ""):
+        self.file, self.key, self.expected, self.found = file, key, expected, found
+        self.line, self.column = line, column
+        super().__init__(reason)
+
+    def __str__(self) -> str:
+        where = [f"line {self.line}"] if self.line is not None else []
+        if self.column is not None:
+            where.append(f"column {self.column}" + (f" ({self.key})" if self.key and self.reason else ""))
+        body = self.reason or f"key '{self.key}': expected {self.expected}, found {self.found!r}"
+        return ": ".join(p for p in (self.file, ", ".join(where), body) if p)
+
+    def in_file(self, file: str) -> InputError:
+        """This error, naming ``file`` where it names none yet (a unit parser or a component model does not know
+        the file it reads from)."""
+        if not self.file:
+            self.file = file
+            self.args = (str(self),)
+        return self
 
 
-# -------------------- components
+class ArgumentError(PkmstiffError, ValueError):
+    """An argument or command-line option: ``option``, what was ``expected`` and what was ``found``; or the
+    ``reason`` in words (after ``option``, where one is given).
+
+    ``raise ArgumentError(option="--alpha", expected="a probability in (0, 1)", found=1.5)`` prints
+    ``--alpha: expected a probability in (0, 1), found 1.5``.
+    """
+
+    def __init__(self, reason: str = "", *, option: str = "", expected: str = "", found: Any = UNSET):
+        self.option, self.expected, self.found = option, expected, found
+        super().__init__(reason)
+
+    def __str__(self) -> str:
+        body = self.reason if self.found is UNSET else f"expected {self.expected}, found {self.found!r}"
+        return f"{self.option}: {body}" if self.option else body
 
 
-class ComponentDataError(PkmstiffError, ValueError):
-    """Data a component cannot use: invalid constructor arguments or a state array it needs but was not given."""
+class ResourceError(PkmstiffError):
+    """A computation refused before it starts: its estimate exceeds a budget (memory, time), or an optional
+    dependency it needs is not installed; the ``reason`` names the estimate, the budget and the way out."""
 
 
-class ComponentRangeError(PkmstiffError, ValueError):
-    """A state value (angle, position) lies outside the range a component can evaluate."""
+class NumericalError(PkmstiffError, ValueError):
+    """A computation that failed on its numbers: an iteration that did not converge, a singular (under-restrained,
+    rank-deficient) system, a solver that gave up; the ``reason`` names the computation and what to try."""
 
 
-class ComponentModelError(PkmstiffError, ValueError):
-    """A component model is registered or declared inconsistently (name taken, parameter read but not declared)."""
+class InadmissibleError(PkmstiffError, ValueError):
+    """A pose, path or plan the machine cannot reach or admit (exit status 3 on the command line); the ``reason``
+    names the failing poses and checks."""
+
+
+# -------------------- the few subclasses that a caller must tell apart from their kind
+
+
+class ComponentRangeError(ArgumentError):
+    """A state value (angle, position) outside the range a component can evaluate: the structure model marks the
+    pose instead of failing (:mod:`pkmstiff.structure.stiffness`)."""
 
 
 class JointTableNotFound(InputError):
-    """The named joint table is neither a bundled table nor an existing file."""
+    """The named joint table is neither a bundled table nor an existing file (the tabulated joint then names the
+    machine key that referred to it)."""
 
 
-# -------------------- machine
+class UnknownMachineError(ArgumentError):
+    """No bundled machine of that name and no file at that path (``extends`` reports it as a machine-file error)."""
 
 
-class MachineFileError(InputError):
-    """A machine file is invalid (names file, key, what was expected and what was found)."""
-
-
-class UnknownMachineError(PkmstiffError, ValueError):
-    """No bundled machine of that name and no file at that path."""
-
-
-class OverrideError(MachineFileError):
-    """An override path that does not lead into the machine file (names the override and what is there)."""
-
-
-# -------------------- kinematics
-
-
-class KinematicsInputError(PkmstiffError, ValueError):
-    """Invalid argument of a kinematics function; the message names the argument, expectation and finding."""
-
-
-# -------------------- multibody
-
-
-class SDEInputError(InputError):
-    """Invalid input to the SDE model; the message names the object, the key, the expectation and the finding."""
-
-
-class SingularModelError(PkmstiffError, ValueError):
-    """The stiffness matrix (or a pivot block of it) is not positive definite: the model is under-restrained."""
-
-
-# -------------------- structure
-
-
-class StructureModelError(InputError):
-    """The machine's data do not define a structure model (names machine, key, expectation and finding)."""
-
-
-# -------------------- analysis
-
-
-class PlanarFileError(InputError):
-    """A planar machine file is invalid (names file, key, expectation and finding)."""
-
-
-# -------------------- evaluation
-
-
-class SectionError(PkmstiffError, ValueError):
-    pass
-
-
-class SweepError(PkmstiffError, ValueError):
-    """An invalid sweep definition (names the parameter or setting, what was expected and what was found)."""
-
-
-class UnknownQuantityError(PkmstiffError, ValueError):
-    pass
-
-
-# -------------------- workspace
-
-
-class PlotDependencyError(PkmstiffError, ImportError):
-    """matplotlib (2-D maps and curves) is not installed."""
-
-
-class RequirementError(PkmstiffError, ValueError):
-    """A requirement string that cannot be parsed; the message names the text, the expectation and the finding."""
-
-
-class OracleInputError(PkmstiffError, ValueError):
-    """Invalid oracle settings; the message names the argument, the expectation and the finding."""
-
-
-class VolumeError(PkmstiffError, ValueError):
-    """Unknown volume method or unusable input."""
-
-
-class RotationMapError(PkmstiffError, ValueError):
-    """Invalid rotation-map argument; the message names the argument, the expectation and the finding."""
-
-
-class OctreeInputError(PkmstiffError, ValueError):
-    """Invalid octree argument; the message names the argument, the expectation and the finding."""
-
-
-class SurfaceError(PkmstiffError, ValueError):
-    """The octree result cannot be meshed (e.g. it was computed without the closure step)."""
-
-
-# -------------------- fe
-
-
-class MeshGeometryError(PkmstiffError, ValueError):
-    """A primitive was asked for an impossible geometry (names the primitive, expectation and finding)."""
-
-
-class MaterialError(PkmstiffError, ValueError):
-    """Invalid material constants (names the material, the constant, the expectation and the value)."""
-
-
-class ConstraintError(PkmstiffError, ValueError):
-    """Inconsistent constraints (cyclic ties, singular reduced system); the message names the cause."""
-
-
-# -------------------- report
-
-
-class ReportError(PkmstiffError, ValueError):
-    """A report cannot be rendered (bad baseline, missing or non-PNG figure); names the table/figure."""
-
-
-class SpecError(InputError):
-    """An invalid report spec (names file, key, what was expected and what was found)."""
-
-
-class SweepFileError(InputError):
-    """An invalid sweep file (names file, key, what was expected and what was found)."""
-
-
-class InadmissiblePoseError(PkmstiffError, ValueError):
-    """The pose of a :class:`PointValues` evaluation is not admissible for this machine variant."""
-
-
-# -------------------- cli
-
-
-class SectionArgumentError(PkmstiffError, ValueError):
-    """A range or angle text (``"y=-600:800,z=-1200:-500"``, ``"a,b,c"``) that cannot be read."""
-
-
-class CliError(PkmstiffError):
-    """A user error on the command line; printed without traceback, exit code 2."""
-
-
-class PoseArgumentError(PkmstiffError, ValueError):
-    """A ``--pose`` value that is not six finite numbers x,y,z [mm], a,b,c [deg]."""
-
-
-class PointArgumentError(PkmstiffError, ValueError):
-    """An invalid option of ``pkmstiff point``."""
-
-
-# -------------------- cli (edges: refused poses, outputs, cost)
-
-
-class InadmissiblePoseRefused(PkmstiffError):
-    """``pkmstiff point`` refuses to analyse an inadmissible pose (exit status 3); the message names every failing
-    check and the ``--allow-inadmissible`` switch."""
-
-    exit_status = 3
-
-
-class OutputPathError(CliError):
-    """An output path that cannot be written (a file where a directory is needed, an unwritable parent, an existing
-    output without ``--force``); raised before any computation."""
-
-
-class CostLimitError(CliError):
-    """The estimated memory of a command exceeds the memory budget (``--memory-budget``); raised before the work."""
-
-
-class PlausibilityError(InputError):
-    """A magnitude outside the documented plausible range of its quantity kind (e.g. a length of 1e300 m)."""
-
-
-class FormatVersionError(InputError):
-    """An input file whose ``format_version`` this version of pkmstiff does not know."""
-
-
-# -------------------- calibration (ball-bar evaluation and measurement files)
-
-
-class BallbarError(InputError):
-    """Ball-bar data that cannot be evaluated (too few samples, an incomplete revolution, a non-planar run, ...)."""
-
-    def __init__(self, message: str, source: str = ""):
-        self.source, self.key, self.expected, self.found = source, "", "", None
-        Exception.__init__(self, f"{source}: {message}" if source else message)
-
-
-class MeasurementFileError(BallbarError):
-    """A malformed measurement CSV; the one-line message names file, line (1-based) and column (1-based, name)."""
-
-    def __init__(self, source: str, line: int | None, message: str, column: int | None = None,
-                 column_name: str | None = None):
-        self.line, self.column, self.column_name = line, column, column_name
-        where = []
-        if line is not None:
-            where.append(f"line {line}")
-        if column is not None:
-            where.append(f"column {column}" + (f" ({column_name})" if column_name else ""))
-        prefix = ", ".join(where)
-        super().__init__(f"{prefix}: {message}" if prefix else message, source)
-
-
-# -------------------- calibration (error models, plans, identifiability)
-
-
-class CalibrationError(PkmstiffError):
-    """A calibration task cannot be carried out as set up (singular set-up, unreachable plan, failed simulation)."""
-
-
-class CalibrationInputError(CalibrationError, InputError):
-    """Invalid calibration input: unknown parameter names, malformed plan files, inconsistent instrument set-ups."""
-
-
-# -------------------- mechanisms (generic link-and-joint kinematics)
-
-
-class MechanismFileError(InputError):
-    """A mechanism file is invalid: names file, key (the joint, where one is at fault), expectation and finding."""
-
-
-class UnknownMechanismError(PkmstiffError, ValueError):
-    """No bundled mechanism of that name and no file at that path."""
-
-
-class MechanismInputError(PkmstiffError, ValueError):
-    """Invalid argument of a mechanism function (poses, drive values, parameter names); the message says which."""
+class PlotDependencyError(ResourceError, ImportError):
+    """matplotlib (2-D maps and curves) is not installed: the command writes its data files and skips the plots."""

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import InputError, PlausibilityError
+from pkmstiff.errors import InputError
 
 #: Plausible magnitudes per quantity kind (SI), checked by :func:`parse_quantity` so that typos such as a length of
 #: 1e300 m or a stiffness in N/µm written as N/m × 1e12 are rejected with one line. Keys are pint dimensionalities,
@@ -101,7 +101,7 @@ def parse_quantity(
     ``unit`` should be the SI unit (then the result is SI). ``shape`` (``None`` entries are free) is
     checked for array values; a scalar is expected when ``shape`` is ``None``. ``min_value`` and
     ``positive`` check the range; NaN/inf are rejected unless ``allow_nan``. Unless ``plausible=False`` the magnitude
-    must lie in the plausible range of its quantity kind (:data:`PLAUSIBLE_RANGES`, :class:`PlausibilityError`).
+    must lie in the plausible range of its quantity kind (:data:`PLAUSIBLE_RANGES`, :class:`InputError`).
     """
     if isinstance(value, dict):
         if set(value) != {"value", "unit"}:
@@ -167,7 +167,7 @@ def check_plausible(arr: np.ndarray, unit: str, source: str, key: str, found: An
     finite = np.asarray(arr, dtype=float)
     finite = finite[np.isfinite(finite)]
     if finite.size and np.max(np.abs(finite)) > limit:
-        raise PlausibilityError(source, key, f"a plausible {kind} (|value| <= {limit:.3g} {unit})", found)
+        raise InputError(source, key, f"a plausible {kind} (|value| <= {limit:.3g} {unit})", found)
 
 
 def _nested(value: Any, unit: str, source: str, key: str) -> Any:

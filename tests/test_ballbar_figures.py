@@ -7,7 +7,7 @@ import pytest
 
 from pkmstiff.calibration.ballbar import (ball_positions, evaluate_circular_test, fit_circle, hysteresis,
                                           plane_frame)
-from pkmstiff.errors import BallbarError
+from pkmstiff.errors import InputError
 from tests.ballbar_synth import circle_run
 
 R = 0.15
@@ -117,9 +117,9 @@ def test_non_planar_positions_rejected():
     run = circle_run(R, 400)
     P = run.positions.copy()
     P[:, 2] = 0.01 * np.sin(2 * run.theta)  # saddle: 10 mm out of plane
-    with pytest.raises(BallbarError, match="not in the"):
+    with pytest.raises(InputError, match="not in the"):
         evaluate_circular_test(P, run.reading, (0, 0, 0), R, plane="XY")
-    with pytest.raises(BallbarError, match="plane must be"):
+    with pytest.raises(InputError, match="plane must be"):
         plane_frame(run.positions, (0, 0, 0), "QQ")
 
 

@@ -12,7 +12,7 @@ from pkmstiff.calibration.ballbar import evaluate_measurement
 from pkmstiff.calibration.measurement_file import (BallbarMeasurement, range_violations, read_measurement,
                                                    write_measurement)
 from pkmstiff.cli import main
-from pkmstiff.errors import BallbarError, MeasurementFileError
+from pkmstiff.errors import InputError
 from tests.ballbar_synth import QC10_NOISE, QC10_RESOLUTION, circle_run, measurement_from_runs
 
 R = 0.15
@@ -52,7 +52,7 @@ def test_round_trip_drives_and_tiny_readings(tmp_path):
     assert np.allclose(back.reading, m.reading, rtol=1e-14, atol=1e-25)
     assert np.allclose(back.drives, m.drives, rtol=1e-14) and back.drive_units == ("mm", "deg")
     assert back.poses is None and back.direction is None
-    with pytest.raises(BallbarError, match="no commanded pose"):
+    with pytest.raises(InputError, match="no commanded pose"):
         evaluate_measurement(back)
 
 
@@ -60,10 +60,10 @@ def test_writer_reports_range_violations(tmp_path):
     m = _meas(n=100)
     m.reading[[10, 20, 30]] = [1.2e-3, -1.5e-3, 2e-3]
     assert list(range_violations(m)) == [10, 20, 30]
-    with pytest.raises(MeasurementFileError, match=r"3 reading\(s\) outside .* first at sample 10"):
+    with pytest.raises(InputError, match=r"3 reading\(s\) outside .* first at sample 10"):
         write_measurement(tmp_path / "x.csv", m)
     write_measurement(tmp_path / "x.csv", m, allow_out_of_range=True)
-    with pytest.raises(MeasurementFileError) as exc:
+    with pytest.raises(InputError) as exc:
         read_measurement(tmp_path / "x.csv")
     msg = str(exc.value)
     # sample 10 is on file line 14 + 1 + 11 = 26 (header 14 lines incl. one note, column row 15)
@@ -113,7 +113,7 @@ MALFORMED = [
 def test_malformed_files_give_one_line_errors(tmp_path, text, where, what):
     path = tmp_path / "bad.csv"
     path.write_text(text)
-    with pytest.raises(MeasurementFileError) as exc:
+    with pytest.raises(InputError) as exc:
         read_measurement(path)
     msg = str(exc.value)
     assert "\n" not in msg and str(path) in msg and what in msg
@@ -130,7 +130,7 @@ def test_good_file_reads(tmp_path):
 
 
 def test_missing_file():
-    with pytest.raises(MeasurementFileError, match="file not found"):
+    with pytest.raises(InputError, match="file not found"):
         read_measurement("/nonexistent/x.csv")
 
 
@@ -172,7 +172,7 @@ def test_blank_and_comment_lines_keep_line_numbers(tmp_path):
     text = text.replace("-150,0,0,0,0,0,0.001", "-150,0,0,0,0,0,x")
     path = tmp_path / "c.csv"
     path.write_text(text)
-    with pytest.raises(MeasurementFileError, match=r"line 9, column 8 \(reading_mm\)"):
+    with pytest.raises(InputError, match=r"line 9, column 8 \(reading_mm\)"):
         read_measurement(path)
 
 

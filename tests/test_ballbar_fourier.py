@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from pkmstiff.calibration.ballbar import (choose_harmonics, evaluate_circular_test, evaluate_run, fourier_harmonics,
                                           reconstruct)
-from pkmstiff.errors import BallbarError
+from pkmstiff.errors import InputError
 from tests.ballbar_synth import QC10_NOISE, QC10_RESOLUTION, circle_run
 
 R = 0.15  # 150 mm bar (Szatmári Tab. 4.3 nominal lengths)
@@ -129,16 +129,16 @@ def test_nonuniform_samples_are_interpolated():
 def test_incomplete_revolution_is_an_error():
     run = circle_run(R, 1000)
     keep = np.mod(run.theta, 2 * np.pi) < math.radians(300)
-    with pytest.raises(BallbarError, match="full revolution"):
+    with pytest.raises(InputError, match="full revolution"):
         fourier_harmonics(run.theta[keep], run.reading[keep])
 
 
 def test_too_few_samples_for_auto():
     th = np.linspace(0, 2 * np.pi, 32, endpoint=False)
     h = fourier_harmonics(th, np.cos(th))
-    with pytest.raises(BallbarError, match="at least 64 samples"):
+    with pytest.raises(InputError, match="at least 64 samples"):
         choose_harmonics(h)
-    with pytest.raises(BallbarError, match="0..15"):
+    with pytest.raises(InputError, match="0..15"):
         evaluate_run(th, np.cos(th), R, harmonics=16)
 
 

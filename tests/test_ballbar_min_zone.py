@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from scipy.optimize import minimize
 
 from pkmstiff.calibration.ballbar import evaluate_circular_test, fit_circle, min_zone_circle
-from pkmstiff.errors import BallbarError
+from pkmstiff.errors import InputError
 
 UM = 1e-6
 
@@ -111,7 +111,7 @@ def test_evaluation_reports_min_zone_next_to_least_squares():
 
 
 def test_bad_points_one_line_error():
-    with pytest.raises(BallbarError, match="minimum-zone"):
+    with pytest.raises(InputError, match="minimum-zone"):
         min_zone_circle(np.zeros((2, 2)))
-    with pytest.raises(BallbarError, match="minimum-zone"):
+    with pytest.raises(InputError, match="minimum-zone"):
         min_zone_circle(np.array([[0.0, 1.0], [1.0, np.nan], [0.0, -1.0]]))

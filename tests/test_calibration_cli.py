@@ -8,7 +8,7 @@ import pytest
 import pkmstiff
 from pkmstiff.calibration import Plan, Setup, check_plan, error_model, identification_jacobian, read_plan
 from pkmstiff.cli import main
-from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.errors import InadmissibleError, InputError
 
 PLAN = """
 [plan]
@@ -109,24 +109,24 @@ def test_plan_outside_the_ballbar_range():
     m = pkmstiff.load_machine("felix")
     setup = Setup("ballbar", target=np.zeros(3), fixed_ball=np.zeros(3), bar_length=0.3)
     poses = np.array([[0.3, 0.0, 0.0, 0, 0, 0], [0.3021, 0.0, 0.0, 0, 0, 0]])  # 2.1 mm too long: > ±1 mm
-    with pytest.raises(CalibrationError, match=r"outside its range 300 ± 1 mm, first pose 2"):
+    with pytest.raises(InadmissibleError, match=r"outside its range 300 ± 1 mm, first pose 2"):
         check_plan(m, Plan("p", setup, poses))
 
 
 def test_singular_setups_are_one_line_errors():
     m = pkmstiff.load_machine("felix")
     setup = Setup("ballbar", target=np.zeros(3), fixed_ball=np.zeros(3), bar_length=0.3)
-    with pytest.raises(CalibrationError, match="moving ball coincides with the fixed ball"):
+    with pytest.raises(InadmissibleError, match="moving ball coincides with the fixed ball"):
         identification_jacobian(m, error_model(m), Plan("p", setup, np.zeros((1, 6))))
     # a platform turned so far that the inverse Jacobian is singular (struts in a common plane): the plan check
     # names the singularity
     singular = Plan("p", setup, np.array([[0.3, 0, 0, 0, 0, np.pi / 2]]))
-    with pytest.raises(CalibrationError) as err:
+    with pytest.raises(InadmissibleError) as err:
         check_plan(m, singular)
     assert "\n" not in str(err.value) and "singular pose" in str(err.value)
-    with pytest.raises(CalibrationError, match="singular set-up, 1 poses singular on felix"):
+    with pytest.raises(InadmissibleError, match="singular set-up, 1 poses singular on felix"):
         identification_jacobian(m, error_model(m), singular)
-    with pytest.raises(CalibrationInputError, match="fixed-ball position and a positive bar length"):
+    with pytest.raises(InputError, match="fixed-ball position and a positive bar length"):
         Setup("ballbar", target=np.zeros(3))
 
 
@@ -146,6 +146,6 @@ angles = { value = [[0, 0, 0], [0, 10, 0]], unit = "deg" }
     np.testing.assert_allclose(plan.poses[1], [0.3, 0, 0, 0, np.radians(10), 0], rtol=1e-15)
     np.testing.assert_allclose(plan.setup.target, [0, 0, -0.1], rtol=1e-15)
     other = Plan("b", Setup("tracker", target=np.zeros(3)), plan.poses)
-    with pytest.raises(CalibrationInputError, match="same instrument set-up"):
+    with pytest.raises(InputError, match="same instrument set-up"):
         plan.concat(other)
     assert plan.concat(Plan("c", plan.setup, plan.poses)).n_poses == 4

@@ -16,7 +16,7 @@ from pkmstiff.calibration import default_plan, error_model, identifiability, wor
 from pkmstiff.calibration.deflection import deflection_analysis, deflection_contribution, reading_deflection
 from pkmstiff.calibration.deflection import gravity_deflection as calib_deflection
 from pkmstiff.calibration.simulation import Samples, SimulationOptions, simulate
-from pkmstiff.errors import CalibrationInputError
+from pkmstiff.errors import InputError
 from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities
 from pkmstiff.structure import build_structure
 
@@ -115,7 +115,7 @@ def test_evaluation_quantities(hexaglide):
 
 def test_machine_without_stiffness_data_is_a_one_line_error():
     felix = load_machine("felix")
-    with pytest.raises(CalibrationInputError, match="stiffness and mass data"):
+    with pytest.raises(InputError, match="stiffness and mass data"):
         reading_deflection(felix, default_plan(felix, "ballbar"))
 
 

@@ -14,7 +14,7 @@ from pkmstiff.calibration import (
     simulate_readings,
 )
 from pkmstiff.calibration.plans import hemisphere_plan
-from pkmstiff.errors import CalibrationInputError
+from pkmstiff.errors import InputError
 from pkmstiff.kinematics import inverse_kinematics
 
 
@@ -41,13 +41,13 @@ def test_parameter_counts_and_names(felix, hexaglide):
 
 def test_unknown_parameter_name_is_one_line(felix):
     p = error_model(felix)
-    with pytest.raises(CalibrationInputError) as err:
+    with pytest.raises(InputError) as err:
         p.vector({"chain1.base_joint.q": 1e-3})
     msg = str(err.value)
     assert "\n" not in msg and "chain1.base_joint.q" in msg and "did you mean" in msg
-    with pytest.raises(CalibrationInputError, match="unknown set-up parameter"):
+    with pytest.raises(InputError, match="unknown set-up parameter"):
         parse_with("ball-offset,bogus", "ballbar")
-    with pytest.raises(CalibrationInputError, match="set-up parameter of the tracker"):
+    with pytest.raises(InputError, match="set-up parameter of the tracker"):
         parse_with("fixed-ball", "tracker")
 
 
@@ -123,7 +123,7 @@ def test_error_table_with_units(felix, hexaglide):
     g = error_model(hexaglide)
     d = parse_errors({"chain2.guide_direction.t1": "0.2 mrad"}, g)
     assert d[g.index("chain2.guide_direction.t1")] == pytest.approx(2e-4, rel=1e-15)
-    with pytest.raises(CalibrationInputError, match="chain1.base_joint.x.*dimension of m"):
+    with pytest.raises(InputError, match="chain1.base_joint.x.*dimension of m"):
         parse_errors({"chain1.base_joint.x": "3 deg"}, p)
-    with pytest.raises(CalibrationInputError, match="unknown parameter"):
+    with pytest.raises(InputError, match="unknown parameter"):
         parse_errors({"chain7.base_joint.x": 1e-3}, p)

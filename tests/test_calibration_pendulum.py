@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from pkmstiff.calibration import pendulum as P
 from pkmstiff.calibration.implicit import implicit_sensitivity
-from pkmstiff.errors import CalibrationError
+from pkmstiff.errors import InadmissibleError
 
 angles = st.floats(-np.pi, np.pi)
 
@@ -82,7 +82,7 @@ def test_reduced_jacobian_by_the_implicit_function_theorem_matches_explicit_fk()
 
 
 def test_implicit_sensitivity_rejects_a_singular_state_jacobian():
-    with pytest.raises(CalibrationError, match="rank deficient"):
+    with pytest.raises(InadmissibleError, match="rank deficient"):
         implicit_sensitivity(np.array([[1.0, 2.0], [2.0, 4.0], [0.0, 0.0]]), np.eye(3)[:, :1])
     # square, regular case: −F_s⁻¹ F_p exactly (solve of a 2 × 2 system, rounding 1e-16)
     Fs = np.array([[2.0, 1.0], [0.0, 3.0]])

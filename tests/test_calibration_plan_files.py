@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from pkmstiff.calibration import Setup, check_plan, circle_plan, error_model, hemisphere_plan, read_plan
 from pkmstiff.calibration.plans import plane_axes, spline_orientations, tilt_torsion_matrix
 from pkmstiff.calibration.simulation import SimulationOptions, simulate
-from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.errors import InadmissibleError, InputError
 from pkmstiff.kinematics.rotation import cardan_matrix
 
 
@@ -95,7 +95,7 @@ def test_toml_plan_with_nodes_reads_and_checks(tmp_path, felix):
     assert plan.n_poses == 172 and [s.kind for s in plan.segments] == ["path", "path"]
     check_plan(felix, plan)
     p.write_text(PLAN.replace('"150 deg"', '"30 deg"'))
-    with pytest.raises(CalibrationError, match=r"poses tilt the ball bar beyond the cup's 30 deg .* first pose"):
+    with pytest.raises(InadmissibleError, match=r"poses tilt the ball bar beyond the cup's 30 deg .* first pose"):
         check_plan(felix, read_plan(p))
 
 
@@ -118,13 +118,13 @@ def test_tracker_grid_from_toml(tmp_path, felix):
 def test_malformed_plan_files(tmp_path, patch, needle):
     p = tmp_path / "p.toml"
     p.write_text(PLAN.replace(*patch))
-    with pytest.raises(CalibrationInputError) as exc:
+    with pytest.raises(InputError) as exc:
         read_plan(p)
     assert needle in str(exc.value) and "\n" not in str(exc.value)
 
 
 def test_plan_outside_the_workspace_names_first_pose_and_count(felix):
     setup = Setup("ballbar", target=np.zeros(3), fixed_ball=np.array([0.0, 0.0, 3.0]), bar_length=0.15)
-    with pytest.raises(CalibrationError, match=r"72 of 72 poses not admissible on felix: pose 1 \(") as exc:
+    with pytest.raises(InadmissibleError, match=r"72 of 72 poses not admissible on felix: pose 1 \(") as exc:
         check_plan(felix, circle_plan(setup, "XY", 72))
     assert "\n" not in str(exc.value)

@@ -278,7 +278,7 @@ def test_example_files_resolve_and_their_plans_are_admissible():
     from pkmstiff import load_machine
     from pkmstiff.calibration import check_plan, read_plan
     from pkmstiff.calibration.examples import example_names, resolve
-    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.errors import InputError
 
     names = example_names()
     assert {"felix_plan.toml", "felix_errors.toml", "hexaglide_plan.toml", "hexaglide_validation.toml"} <= set(names)
@@ -289,5 +289,5 @@ def test_example_files_resolve_and_their_plans_are_admissible():
     assert Path(resolve("example:felix_errors.toml")).is_file()
     assert resolve("example:felix_errors") == resolve("example:felix_errors.toml")  # the suffix may be left out
     assert resolve("plain.toml") == "plain.toml"
-    with pytest.raises(CalibrationInputError, match="example:felix_plan.toml"):
+    with pytest.raises(InputError, match="example:felix_plan.toml"):
         resolve("example:nope.toml")

@@ -18,7 +18,7 @@ from pkmstiff.calibration.simulation import (
     sample_plan,
     simulate,
 )
-from pkmstiff.errors import CalibrationInputError
+from pkmstiff.errors import InputError
 
 FAST = 5000.0 / 60e3  # 5000 mm/min keeps the sample counts small in tests
 
@@ -115,7 +115,7 @@ def test_procedure_uncertainty_follows_tab_4_5():
     # midway 1000 -> 2000 mm/min: (36 + 54) / 2 µm; σ = U / 2 (k = 2 reading)
     assert inst.sigma("procedure", 1500 / 60e3) == pytest.approx(45e-6 / 2, rel=1e-12)
     assert inst.sigma("instrument", 0.01) == pytest.approx(0.25e-6, rel=1e-12)
-    with pytest.raises(CalibrationInputError):
+    with pytest.raises(InputError):
         inst.sigma("loud", 0.01)
 
 

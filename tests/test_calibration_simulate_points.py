@@ -22,7 +22,7 @@ from pkmstiff.calibration.simulation import (
     to_measurement,
 )
 from pkmstiff.cli import main
-from pkmstiff.errors import CalibrationError, CalibrationInputError, MeasurementFileError
+from pkmstiff.errors import InadmissibleError, InputError
 from pkmstiff.kinematics.rotation import cardan_matrix
 
 FAST = 5000.0 / 60e3  # 5000 mm/min: few samples per path
@@ -105,7 +105,7 @@ def test_tracker_noise_quantisation_and_instrument_figures(felix):
     # Assumption figures: MPE 15 µm + 6 µm/m at 2 m = 27 µm, σ = MPE / 2 (k = 2)
     assert m.accuracy == pytest.approx(27e-6, rel=1e-12)
     assert m.sigma("instrument", 0.0) == pytest.approx(13.5e-6, rel=1e-12)
-    with pytest.raises(CalibrationInputError, match="procedure"):
+    with pytest.raises(InputError, match="procedure"):
         m.sigma("procedure", 0.0)
     s = Setup("pose", target=felix.tool.tip())
     plan = grid_plan(s, np.zeros(3), 0.05, points=3, tilt=np.radians(5), torsion=np.radians(5))
@@ -126,7 +126,7 @@ def test_instrument_must_match_the_plan(felix):
     s = Setup("tracker", target=np.zeros(3))
     plan = grid_plan(s, np.zeros(3), 0.05, points=2)
     params = error_model(felix, setup=s)
-    with pytest.raises(CalibrationInputError, match="tracker"):
+    with pytest.raises(InputError, match="tracker"):
         simulate(felix, params, np.zeros(params.n), plan, default_instrument("ballbar"))
 
 
@@ -146,7 +146,7 @@ def test_plan_whose_sampled_poses_leave_the_admissible_region_is_refused(felix):
     plan = _outside_circle(felix)
     check_plan(felix, plan)  # the nodes pass ...
     smp = sample_plan(plan, InstrumentModel(), SimulationOptions(feed=FAST))
-    with pytest.raises(CalibrationError) as exc:  # ... the sampled poses do not
+    with pytest.raises(InadmissibleError) as exc:  # ... the sampled poses do not
         check_samples(felix, plan, smp)
     msg = str(exc.value)
     assert "\n" not in msg and "sampled poses not admissible on felix" in msg
@@ -215,7 +215,7 @@ def _good(tmp_path, kind="tracker"):
 def _bad(tmp_path, lines):
     p = tmp_path / "bad.csv"
     p.write_text("\n".join(lines) + "\n")
-    with pytest.raises(MeasurementFileError) as exc:
+    with pytest.raises(InputError) as exc:
         read_measurement(p)
     msg = str(exc.value)
     assert "\n" not in msg

@@ -96,5 +96,5 @@ def test_box_and_rotation_helpers():
     (lambda: fm.disk2d(1.0, 10, 2), "multiple of 4"),
 ])
 def test_impossible_geometry_is_rejected(call, match):
-    with pytest.raises(fm.MeshGeometryError, match=match):
+    with pytest.raises(fm.ArgumentError, match=match):
         call()

@@ -132,7 +132,7 @@ def test_previous_readings_are_options():
 
 
 def test_bad_machine_keys(tmp_path):
-    from pkmstiff.errors import MachineFileError
+    from pkmstiff.errors import InputError
 
     for extra, key in (('[machine]\ntransmission_form = "sqrt"', "transmission_form"),
                        ('[limits]\ndrive_load_strut_mass = 2.0', "drive_load_strut_mass")):
@@ -142,7 +142,7 @@ def test_bad_machine_keys(tmp_path):
         text = f'format_version = 1\n[machine]\nname = "x"\nextends = "hexaglide"\n'
         text += (table + "\n") if sect == "machine" else f"[limits]\n{table}\n"
         f.write_text(text)
-        with pytest.raises(MachineFileError, match=key):
+        with pytest.raises(InputError, match=key):
             pkmstiff.load_machine(f)
 
 

@@ -5,7 +5,8 @@ import re
 import numpy as np
 import pytest
 
-from pkmstiff import MachineFileError, UnknownMachineError, bundled_machines, load_machine
+from pkmstiff import UnknownMachineError, bundled_machines, load_machine
+from pkmstiff.errors import InputError
 from pkmstiff.machine.loader import bundled_machine_dir
 
 EXPECTED = {"hexaglide", "hexaglide_v1", "hexaglide_v2", "hexapod_6x", "linapod", "paralix"}
@@ -109,7 +110,7 @@ BAD_INPUTS = [
 @pytest.mark.parametrize("desc,repl,pattern", BAD_INPUTS, ids=[b[0] for b in BAD_INPUTS])
 def test_invalid_machine_files(tmp_path, desc, repl, pattern):
     p = _bad(tmp_path, *repl)
-    with pytest.raises(MachineFileError) as exc:
+    with pytest.raises(InputError) as exc:
         load_machine(p)
     msg = str(exc.value)
     assert str(p) in msg, msg  # names the file
@@ -125,7 +126,7 @@ def test_unknown_machine():
 
 
 def test_unknown_option():
-    with pytest.raises(MachineFileError, match=r"key 'options'.*printed_values.*not_an_option"):
+    with pytest.raises(InputError, match=r"key 'options'.*printed_values.*not_an_option"):
         load_machine("hexapod_6x:not_an_option")
 
 
@@ -133,7 +134,7 @@ def test_pod_length_limits_validated(tmp_path):
     text = (bundled_machine_dir() / "hexapod_6x.toml").read_text().replace("length_max = 2.57", "length_max = 1.0")
     p = tmp_path / "pod.toml"
     p.write_text(text)
-    with pytest.raises(MachineFileError, match=r"length_max.*> length_min"):
+    with pytest.raises(InputError, match=r"length_max.*> length_min"):
         load_machine(p)
 
 
@@ -148,5 +149,5 @@ def test_frame_limits_validated(tmp_path):
                          ('frame = { z_low = "-1100 mm" }', r"limits\.frame\.z_low.*unknown key")]:
         p = tmp_path / "f.toml"
         p.write_text(text.replace('frame = { z_max = "-150 mm" }', bad))
-        with pytest.raises(MachineFileError, match=pattern):
+        with pytest.raises(InputError, match=pattern):
             load_machine(p)

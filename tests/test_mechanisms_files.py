@@ -8,7 +8,7 @@ import pytest
 
 import pkmstiff.mechanisms as mm
 from pkmstiff.cli import main
-from pkmstiff.errors import MechanismFileError
+from pkmstiff.errors import InputError
 
 BASE = """
 format_version = 1
@@ -49,7 +49,7 @@ def _write(tmp_path, text):
 
 
 def _error(tmp_path, text) -> str:
-    with pytest.raises(MechanismFileError) as ei:
+    with pytest.raises(InputError) as ei:
         mm.load_mechanism(_write(tmp_path, text))
     msg = str(ei.value)
     assert "\n" not in msg  # one line

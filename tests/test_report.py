@@ -14,7 +14,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pkmstiff.report import Figure, Report, ReportError, Table, write_report
+from pkmstiff.report import Figure, Report, Table, write_report
+from pkmstiff.errors import ArgumentError
 from pkmstiff.report.render import format_value, percent_of_baseline
 
 RUN = {"date": "2024-01-01T00:00:00+00:00", "python": "3.11", "pkmstiff": "0.1.0"}
@@ -169,16 +170,16 @@ def test_run_section_lists_versions(tmp_path, monkeypatch):
 def test_bad_input_is_rejected_before_writing(tmp_path):
     r = Report("t")
     r.section("s").tables.append(Table("cap", ["a", "b"], baseline="c").add("x", "1", [1, 2]))
-    with pytest.raises(ReportError, match="table 'cap': baseline 'c'"):
+    with pytest.raises(ArgumentError, match="table 'cap': baseline 'c'"):
         write_report(r, tmp_path / "o")
     assert not (tmp_path / "o").exists()
     r = Report("t")
     (tmp_path / "x.png").write_text("not a png")
     r.section("s").figures.append(Figure(tmp_path / "x.png", "fake"))
-    with pytest.raises(ReportError, match="expected a PNG file"):
+    with pytest.raises(ArgumentError, match="expected a PNG file"):
         write_report(r, tmp_path / "o")
     r.sections[0].figures[0] = Figure(tmp_path / "missing.png", "gone")
-    with pytest.raises(ReportError, match="does not exist"):
+    with pytest.raises(ArgumentError, match="does not exist"):
         write_report(r, tmp_path / "o")
 
 
@@ -203,7 +204,8 @@ def test_percent_round_trip(base, v):
 import math  # noqa: E402
 
 from pkmstiff.report.build import build_report  # noqa: E402
-from pkmstiff.report.spec import SpecError, fast_spec, load_spec  # noqa: E402
+from pkmstiff.report.spec import fast_spec, load_spec  # noqa: E402
+from pkmstiff.errors import InputError
 
 SPECS = Path(__file__).resolve().parents[1] / "studies" / "specs"
 
@@ -328,19 +330,19 @@ def test_fast_spec_defaults(tmp_path):
 def test_spec_errors_name_the_key(tmp_path, edit, key):
     p = tmp_path / "bad.toml"
     p.write_text(MINI.replace("MAPS", "false").replace(*edit))
-    with pytest.raises(SpecError) as exc:
+    with pytest.raises(InputError) as exc:
         load_spec(p)
     assert f"key '{key}" in str(exc.value) and str(p) in str(exc.value)
 
 
 def test_bad_override_is_a_machine_file_error(tmp_path):
     from pkmstiff.cli import main
-    from pkmstiff.machine.loader import MachineFileError
+    from pkmstiff.errors import InputError
 
     p = tmp_path / "bad.toml"
     p.write_text(MINI.replace("MAPS", "false").replace('"components.strut_950.k" = "100 N/um"',
                                                        '"components.strut_950.k" = "100 kg"'))
-    with pytest.raises(MachineFileError, match=r"key 'components.strut_950.k': expected a quantity with the "
+    with pytest.raises(InputError, match=r"key 'components.strut_950.k': expected a quantity with the "
                                                r"dimension of N/m"):
         build_report(load_spec(p), tmp_path / "out")
     assert main(["report", str(p), "--out", str(tmp_path / "o2"), "--quiet"]) == 2  # clean CLI error, no traceback

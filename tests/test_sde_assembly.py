@@ -228,5 +228,5 @@ def test_skew_and_reference_matrix():
 def test_bad_input_is_reported(call, match):
     m = sde.SDEModel()
     m.add_point_mass("p", np.ones(4), np.zeros((4, 3)))
-    with pytest.raises(sde.SDEInputError, match=match):
+    with pytest.raises(sde.InputError, match=match):
         call(m)

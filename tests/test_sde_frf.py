@@ -117,9 +117,9 @@ def test_static_limit_equals_compliance():
 def test_bad_frf_input():
     m = oscillator(1e6, 1.0, 0.0)
     x = sde.PointDirection("m", [1.0, 0, 0])
-    with pytest.raises(sde.SDEInputError, match="freq_hz"):
+    with pytest.raises(sde.InputError, match="freq_hz"):
         sde.receptance(m, [-1.0], x, x)
-    with pytest.raises(sde.SDEInputError, match="zeta"):
+    with pytest.raises(sde.InputError, match="zeta"):
         sde.receptance(m, [1.0], x, x, zeta=[0.1, 0.2])
-    with pytest.raises(sde.SDEInputError, match="moment"):
+    with pytest.raises(sde.InputError, match="moment"):
         sde.receptance(m, [1.0], x, sde.PointDirection("m", [1.0, 0, 0], rotation=True))

@@ -10,7 +10,8 @@ import pkmstiff.evaluation.quantities as quantities
 from pkmstiff.admissibility.checks import Reason
 from pkmstiff.evaluation.export import to_csv, to_npz, to_vtk
 from pkmstiff.evaluation.quantities import EvalContext, Quantity, register_quantity
-from pkmstiff.evaluation.sections import SectionError, axis_plane, evaluate_section, general_plane
+from pkmstiff.evaluation.sections import axis_plane, evaluate_section, general_plane
+from pkmstiff.errors import ArgumentError
 
 
 @pytest.fixture(scope="module")
@@ -50,9 +51,9 @@ def test_xz_and_general_planes(hexaglide):
     pts = g.points()
     # every raster point lies in the plane through the origin spanned by the two axes
     np.testing.assert_allclose((pts - [0, 0.2, -1.0]) @ np.cross(g.u_axis, g.v_axis), 0.0, atol=1e-15)
-    with pytest.raises(SectionError, match="'yz', 'xz' or 'xy'"):
+    with pytest.raises(ArgumentError, match="'yz', 'xz' or 'xy'"):
         axis_plane("ab", 0.0, (0, 1), (0, 1), 0.1)
-    with pytest.raises(SectionError, match="lo < hi"):
+    with pytest.raises(ArgumentError, match="lo < hi"):
         axis_plane("yz", 0.0, (1, 0), (0, 1), 0.1)
 
 
@@ -137,10 +138,10 @@ def test_png_written_and_not_blank(tmp_path, yz, hexaglide):
 
 
 def test_unknown_quantity(hexaglide):
-    from pkmstiff.evaluation.quantities import UnknownQuantityError
+    from pkmstiff.errors import ArgumentError
 
     plane = axis_plane("yz", 0.0, (0, 0.1), (-1.0, -0.9), 0.1)
-    with pytest.raises(UnknownQuantityError, match="unknown quantity 'kq'.*tilt_drive_1"):
+    with pytest.raises(ArgumentError, match="unknown quantity 'kq'.*tilt_drive_1"):
         evaluate_section(hexaglide, plane, ["kq"])
 
 

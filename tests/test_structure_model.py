@@ -23,11 +23,11 @@ from pkmstiff.multibody.linalg import rotation_about_axis
 from pkmstiff.structure import (
     COMPONENT_FAILED,
     NOT_POSITIVE_DEFINITE,
-    StructureModelError,
     StructureOptions,
     build_structure,
     structure_from_ik,
 )
+from pkmstiff.errors import InputError
 
 HEXAGLIDE = load_machine("hexaglide")
 HEX_6X = load_machine("hexapod_6x")
@@ -260,7 +260,7 @@ def test_non_positive_definite_pose_is_removed_from_the_chunk():
 
 
 def test_machine_without_stiffness_data_is_a_clear_error():
-    with pytest.raises(StructureModelError, match="chains"):
+    with pytest.raises(InputError, match="chains"):
         build_structure(load_machine("linapod"), [0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
 
 

@@ -8,7 +8,6 @@ import pytest
 import scipy.linalg
 
 from pkmstiff.analysis.planar import (
-    PlanarFileError,
     bundled_planar,
     load_planar,
     planar_compliance,
@@ -19,6 +18,7 @@ from pkmstiff.analysis.planar import (
     planar_stiffness,
     planar_structure,
 )
+from pkmstiff.errors import InputError
 
 BIGLIDE, BIPOD = load_planar("biglide"), load_planar("bipod")
 POS = np.array([[0.0, -0.707], [0.15, -0.6], [-0.2, -0.8]])  # m; x = 0, y = -707 mm is Cobet's mode-shape point
@@ -151,5 +151,5 @@ def test_unreachable_and_singular_positions_give_nan():
 def test_file_errors_name_the_key(tmp_path, text, key):
     f = tmp_path / "bad.toml"
     f.write_text(text)
-    with pytest.raises(PlanarFileError, match=key.replace(".", r"\.")):
+    with pytest.raises(InputError, match=key.replace(".", r"\.")):
         load_planar(f)

@@ -18,14 +18,14 @@ from pkmstiff.evaluation.sweep import (
     Normal,
     Parameter,
     Sweep,
-    SweepError,
     Uniform,
     grid_points,
     random_points,
     run_sweep,
 )
-from pkmstiff.machine.loader import MachineFileError
-from pkmstiff.machine.variants import OverrideError, machine_with, parse_override_path
+from pkmstiff.errors import ArgumentError
+from pkmstiff.errors import InputError
+from pkmstiff.machine.variants import machine_with, parse_override_path
 from pkmstiff.report.sweep_evaluations import Combined, PointValues, SectionStatistics
 
 POSE = np.array([[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]])
@@ -81,15 +81,15 @@ def test_wildcard_sets_every_chain():
 
 
 @pytest.mark.parametrize("overrides, exc, pattern", [
-    ({"components.strut_95.k": 1}, OverrideError, r"key 'components.strut_95.k': expected an existing table "
+    ({"components.strut_95.k": 1}, InputError, r"key 'components.strut_95.k': expected an existing table "
                                                   r"'components.strut_95' \(keys at 'components': \[.*'strut_950'"),
-    ({"components.strut_950.kk": 1}, MachineFileError, r"key 'components.strut_950.kk'.*unknown parameter 'kk'"),
-    ({"components.strut_950.k": "3 kg"}, MachineFileError, r"key 'components.strut_950.k': expected a quantity with "
+    ({"components.strut_950.kk": 1}, InputError, r"key 'components.strut_950.kk'.*unknown parameter 'kk'"),
+    ({"components.strut_950.k": "3 kg"}, InputError, r"key 'components.strut_950.k': expected a quantity with "
                                                            r"the dimension of N/m"),
-    ({"chains[7].strut_radius": 0.1}, OverrideError, r"key 'chains\[7\].strut_radius': expected a 1-based index 1..6"),
-    ({"joint_types.iwf_3dof.tilt_mni": 1}, MachineFileError, r"key 'joint_types.iwf_3dof.tilt_mni': expected one of "
+    ({"chains[7].strut_radius": 0.1}, InputError, r"key 'chains\[7\].strut_radius': expected a 1-based index 1..6"),
+    ({"joint_types.iwf_3dof.tilt_mni": 1}, InputError, r"key 'joint_types.iwf_3dof.tilt_mni': expected one of "
                                                              r"the keys"),
-    ({"components..k": 1}, OverrideError, r"dotted keys"),
+    ({"components..k": 1}, InputError, r"dotted keys"),
 ])
 def test_invalid_override_gives_a_clear_error(overrides, exc, pattern):
     with pytest.raises(exc, match=pattern) as info:
@@ -107,7 +107,7 @@ def test_grid_is_the_cartesian_product_first_slowest():
     pts = grid_points([Parameter("a.x", values=(1, 2)), Parameter("b.y", values=("p", "q", "r"))])
     assert pts == [{"a.x": a, "b.y": b} for a, b in itertools.product((1, 2), ("p", "q", "r"))]
     assert grid_points({"a.x": [1, 2, 3]}) == [{"a.x": 1}, {"a.x": 2}, {"a.x": 3}]
-    with pytest.raises(SweepError, match="parameter 'a.x': a grid sweep needs a list of values"):
+    with pytest.raises(ArgumentError, match="parameter 'a.x': a grid sweep needs a list of values"):
         grid_points([Parameter("a.x", distribution=Uniform(0, 1))])
 
 
@@ -136,13 +136,13 @@ def test_parameter_units_and_columns():
     p = Parameter("components.strut_950.k", values=(300,), unit="N/um")
     assert p.column == "components.strut_950.k [N/um]" and p.override(300) == "300.0 N/um"
     assert Parameter("chains[1].label", values=("x",)).override("x") == "x"
-    with pytest.raises(SweepError, match="with unit 'N/um' the values must be numbers"):
+    with pytest.raises(ArgumentError, match="with unit 'N/um' the values must be numbers"):
         Parameter("components.strut_950.k", values=("300 N/um",), unit="N/um")
-    with pytest.raises(SweepError, match="expected a unit"):
+    with pytest.raises(ArgumentError, match="expected a unit"):
         Parameter("components.strut_950.k", values=(1,), unit="furlongs per parsec^7 x")
-    with pytest.raises(SweepError, match="a random sweep needs a positive number of samples"):
+    with pytest.raises(ArgumentError, match="a random sweep needs a positive number of samples"):
         Sweep("hexaglide", [Parameter("a.b", values=(1,))], _kx_eval, mode="random")
-    with pytest.raises(SweepError, match="each path at most once"):
+    with pytest.raises(ArgumentError, match="each path at most once"):
         Sweep("hexaglide", [Parameter("a.b", values=(1,)), Parameter("a.b", values=(2,))], _kx_eval)
 
 
@@ -199,7 +199,8 @@ def test_sweep_file_and_cli(tmp_path):
     import argparse
 
     import pkmstiff.cli.sweep as cli_sweep
-    from pkmstiff.report.sweep_file import SweepFileError, load_sweep
+    from pkmstiff.report.sweep_file import load_sweep
+    from pkmstiff.errors import InputError
 
     s = load_sweep(SWEEPS / "hexaglide_strut_sweep.toml")
     assert len(s.tasks()) == 12 and s.tasks()[0].overrides == {"components.strut_950.k": "150.0 N/um",
@@ -230,8 +231,8 @@ quantities = ["kx"]
     assert len(rows) == 3 and all(200 <= float(r["components.strut_950.k [N/um]"]) <= 400 for r in rows)
     assert all(r["error"] == "" and float(r["kx [N/um]"]) > 0 for r in rows)
     f.write_text(f.read_text().replace('distribution = "uniform"', 'distribution = "gaussian"'))
-    with pytest.raises(SweepFileError, match=r"key 'parameters\[1\].distribution'"):
+    with pytest.raises(InputError, match=r"key 'parameters\[1\].distribution'"):
         load_sweep(f)
     f.write_text(f.read_text().replace('kind = "point"', 'kind = "point"\ncolour = 2'))
-    with pytest.raises(SweepFileError, match=r"key 'parameters\[1\].distribution'|key 'evaluations\[1\].colour'"):
+    with pytest.raises(InputError, match=r"key 'parameters\[1\].distribution'|key 'evaluations\[1\].colour'"):
         load_sweep(f)

@@ -7,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pkmstiff.workspace.octree import CORNER_OFFSETS, OctreeInputError, levels_for, octree_boundary
+from pkmstiff.workspace.octree import CORNER_OFFSETS, levels_for, octree_boundary
+from pkmstiff.errors import ArgumentError
 from pkmstiff.workspace.surface import boundary_surface
 from pkmstiff.workspace.volume import pyramid_volume, tetrahedron_volume, workspace_volume
 
@@ -218,9 +219,9 @@ def test_stl_and_vtk_round_trip(tmp_path, bodies_6mm):
 
 
 def test_bad_input_names_the_argument():
-    with pytest.raises(OctreeInputError, match="hi > lo"):
+    with pytest.raises(ArgumentError, match="hi > lo"):
         octree_boundary(sphere, [0, 0, 0], [1, -1, 1], 0.1)
-    with pytest.raises(OctreeInputError, match="eps"):
+    with pytest.raises(ArgumentError, match="eps"):
         octree_boundary(sphere, [0, 0, 0], [1, 1, 1], -1.0)
-    with pytest.raises(OctreeInputError, match="shape"):
+    with pytest.raises(ArgumentError, match="shape"):
         octree_boundary(lambda p: np.ones(3, bool), [0, 0, 0], [1, 1, 1], 0.5)

@@ -10,11 +10,11 @@ import pytest
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.workspace.rotation import (
     SIX_DIRECTIONS,
-    RotationMapError,
     _prediction,
     rotation_angle_map,
     rotational_workspace_map,
 )
+from pkmstiff.errors import ArgumentError
 
 INC = math.radians(2.0)
 
@@ -109,11 +109,11 @@ def test_rotational_workspace_maps_equal_plain(hexaglide):
 
 def test_bad_arguments(hexaglide):
     kw = dict(origin=[0, 0, 0], u_axis=[0, 1, 0], v_axis=[0, 0, 1], u_values=[0.0, 0.1], v_values=[-1.0, -0.9])
-    with pytest.raises(RotationMapError, match="direction"):
+    with pytest.raises(ArgumentError, match="direction"):
         rotation_angle_map(hexaglide, **kw, direction="+x")
-    with pytest.raises(RotationMapError, match="increment"):
+    with pytest.raises(ArgumentError, match="increment"):
         rotation_angle_map(hexaglide, **kw, increment=0.0)
-    with pytest.raises(RotationMapError, match="u_values"):
+    with pytest.raises(ArgumentError, match="u_values"):
         rotation_angle_map(hexaglide, **{**kw, "u_values": [0.1, 0.0]})
-    with pytest.raises(RotationMapError, match="method"):
+    with pytest.raises(ArgumentError, match="method"):
         rotation_angle_map(hexaglide, **kw, method="fast")

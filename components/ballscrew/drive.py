@@ -13,7 +13,7 @@ from components.ballscrew.stroke_fit import StrokeFit, fit_stroke_polynomial
 from components.limits import DRIVE_LIMITS
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState, series
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 if TYPE_CHECKING:
     from components.reader import Params
@@ -44,18 +44,18 @@ class BallScrewDrive(Component):
 
     def __post_init__(self) -> None:
         if self.arrangement not in ARRANGEMENTS:
-            raise ComponentDataError(f"drive '{self.name}': arrangement must be one of {ARRANGEMENTS}, found "
+            raise ArgumentError(f"drive '{self.name}': arrangement must be one of {ARRANGEMENTS}, found "
                                      f"{self.arrangement!r}")
         _check_drive_data(self)
         if self.arrangement != "fixed_floating" and self.spindle_length is None:
-            raise ComponentDataError(f"drive '{self.name}': spindle_length is required for the {self.arrangement} "
+            raise ArgumentError(f"drive '{self.name}': spindle_length is required for the {self.arrangement} "
                                      f"arrangement")
         if self.spindle_length is not None and not self.spindle_length > 0:
-            raise ComponentDataError(f"drive '{self.name}': spindle_length must be positive, found "
+            raise ArgumentError(f"drive '{self.name}': spindle_length must be positive, found "
                                      f"{self.spindle_length!r}")
         hi = self.l_eff_max if self.l_eff_max is not None else (self.spindle_length or np.inf)
         if not 0 <= self.l_eff_min < hi:
-            raise ComponentDataError(f"drive '{self.name}': need 0 <= l_eff_min < l_eff_max, found {self.l_eff_min}, "
+            raise ArgumentError(f"drive '{self.name}': need 0 <= l_eff_min < l_eff_max, found {self.l_eff_min}, "
                                      f"{hi}")
         object.__setattr__(self, "l_eff_max", hi)
         limits = {"l_eff_min": self.l_eff_min, "l_eff_max": hi, **self.limits}

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from components.protocol import parallel, series
-from pkmstiff.errors import ComponentDataError, ComponentRangeError
+from pkmstiff.errors import ArgumentError, ComponentRangeError
 
 ARRANGEMENTS: tuple[str, ...] = ("fixed_fixed", "fixed_floating", "floating_fixed")
 RANGE_POLICIES: tuple[str, ...] = ("clamp", "error")
@@ -18,11 +18,11 @@ DRIVE_MODELS: tuple[str, ...] = ("fit_3_22", "exact_3_3")
 def _check_drive_data(drive) -> None:
     """Range policy and positive stiffness data common to the ball-screw drives (eq. 3.2, 3.3)."""
     if drive.out_of_range not in RANGE_POLICIES:
-        raise ComponentDataError(f"drive '{drive.name}': out_of_range must be one of {RANGE_POLICIES}, "
+        raise ArgumentError(f"drive '{drive.name}': out_of_range must be one of {RANGE_POLICIES}, "
                                  f"found {drive.out_of_range!r}")
     for key in ("k_al", "spindle_ea", "k_m", "k_tm"):
         if not getattr(drive, key) > 0:
-            raise ComponentDataError(f"drive '{drive.name}': {key} must be positive, found {getattr(drive, key)!r}")
+            raise ArgumentError(f"drive '{drive.name}': {key} must be positive, found {getattr(drive, key)!r}")
 
 
 

@@ -7,7 +7,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 from pkmstiff.units import to_unit
 
 
@@ -49,7 +49,7 @@ def fit_stroke_polynomial(
     """
     lo, hi = (float(v) for v in l_eff_range)
     if not (0 < lo < hi) or degree < 0 or n_samples < degree + 2:
-        raise ComponentDataError("fit_stroke_polynomial: need 0 < l_min < l_max, degree >= 0 and "
+        raise ArgumentError("fit_stroke_polynomial: need 0 < l_min < l_max, degree >= 0 and "
                                  f"n_samples >= degree + 2, "
                                  f"found range {l_eff_range}, degree {degree}, n_samples {n_samples}")
     x = np.linspace(lo, hi, n_samples)

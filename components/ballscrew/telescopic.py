@@ -14,7 +14,7 @@ from components.ballscrew.stroke_fit import StrokeFit, fit_stroke_polynomial
 from components.limits import DRIVE_LIMITS
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 if TYPE_CHECKING:
     from components.reader import Params
@@ -44,19 +44,19 @@ class TelescopicBallScrew(Component):
 
     def __post_init__(self) -> None:
         if self.drive_model not in DRIVE_MODELS:
-            raise ComponentDataError(f"drive '{self.name}': drive_model must be one of {DRIVE_MODELS}, found "
+            raise ArgumentError(f"drive '{self.name}': drive_model must be one of {DRIVE_MODELS}, found "
                                      f"{self.drive_model!r}")
         _check_drive_data(self)
         if not 0 < self.l_eff_min < self.l_eff_max:
-            raise ComponentDataError(f"drive '{self.name}': need 0 < l_eff_min < l_eff_max, found "
+            raise ArgumentError(f"drive '{self.name}': need 0 < l_eff_min < l_eff_max, found "
                                      f"{self.l_eff_min}, {self.l_eff_max}")
         if self.drive_model == "fit_3_22":
             c = np.asarray(self.fit_coefficients, dtype=float)
             if c.ndim != 1 or c.size == 0:
-                raise ComponentDataError(f"drive '{self.name}': drive_model 'fit_3_22' needs fit_coefficients")
+                raise ArgumentError(f"drive '{self.name}': drive_model 'fit_3_22' needs fit_coefficients")
             x = np.linspace(self.l_eff_min, self.l_eff_max, 101)
             if np.any(np.polyval(c, x) <= 0):
-                raise ComponentDataError(f"drive '{self.name}': the fit polynomial is not positive over "
+                raise ArgumentError(f"drive '{self.name}': the fit polynomial is not positive over "
                                          f"[{self.l_eff_min}, {self.l_eff_max}] m")
         object.__setattr__(self, "fit_coefficients", tuple(float(v) for v in self.fit_coefficients))
         object.__setattr__(self, "limits", {"l_eff_min": self.l_eff_min, "l_eff_max": self.l_eff_max, **self.limits})

@@ -11,7 +11,7 @@ import numpy as np
 from components.params import Param
 from components.protocol import Component, ComponentState
 from components.spline import EXTRAPOLATION_POLICIES, apply_range_policy
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 if TYPE_CHECKING:
     from components.reader import Params
@@ -28,7 +28,7 @@ class JointModel(Component):
 
     def __post_init__(self) -> None:
         if self.angle_convention not in (None, "axis", "normal"):
-            raise ComponentDataError(f"joint '{self.name}': angle_convention must be 'axis', 'normal' or None, "
+            raise ArgumentError(f"joint '{self.name}': angle_convention must be 'axis', 'normal' or None, "
                                      f"found {self.angle_convention!r}")
 
     def within_limits(self, state: ComponentState) -> np.ndarray:
@@ -49,13 +49,13 @@ class JointModel(Component):
 
 def check_policy(name: str, policy: str) -> None:
     if policy not in EXTRAPOLATION_POLICIES:
-        raise ComponentDataError(f"joint '{name}': extrapolation must be one of {EXTRAPOLATION_POLICIES}, found "
+        raise ArgumentError(f"joint '{name}': extrapolation must be one of {EXTRAPOLATION_POLICIES}, found "
                                  f"{policy!r}")
 
 
 def positive_finite(name: str, what: str, values: np.ndarray) -> None:
     if not np.all(np.isfinite(values)) or np.any(values <= 0):
-        raise ComponentDataError(f"joint '{name}': {what} must be positive and finite, found "
+        raise ArgumentError(f"joint '{name}': {what} must be positive and finite, found "
                                  f"{np.asarray(values).tolist()}")
 
 
@@ -78,7 +78,7 @@ def swivel_tilt_in_range(joint: Any, state: ComponentState, table: str) -> tuple
 
 def check_undefined(name: str, undefined_swivel: Any) -> None:
     if undefined_swivel != "nan" and not isinstance(undefined_swivel, (int, float)):
-        raise ComponentDataError(f"joint '{name}': undefined_swivel must be 'nan' or a swivel angle in rad, "
+        raise ArgumentError(f"joint '{name}': undefined_swivel must be 'nan' or a swivel angle in rad, "
                                  f"found {undefined_swivel!r}")
 
 

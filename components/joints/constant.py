@@ -10,7 +10,7 @@ import numpy as np
 from components.joints.base import JOINT_COMMON, JointModel, read_joint_common
 from components.params import ModelSpec, Param
 from components.protocol import ComponentState, _full
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -22,7 +22,7 @@ class ConstantJoint(JointModel):
     def __post_init__(self) -> None:
         super().__post_init__()
         if not self.k > 0:
-            raise ComponentDataError(f"joint '{self.name}': k must be positive, found {self.k!r}")
+            raise ArgumentError(f"joint '{self.name}': k must be positive, found {self.k!r}")
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         return _full(state, self.k)
@@ -52,7 +52,7 @@ class AnalyticJoint330(JointModel):
         super().__post_init__()
         for key in ("k_AaL", "k_BrL", "k_CrL", "k_CaL"):
             if not getattr(self, key) > 0:
-                raise ComponentDataError(f"joint '{self.name}': {key} must be positive, found {getattr(self, key)!r}")
+                raise ArgumentError(f"joint '{self.name}': {key} must be positive, found {getattr(self, key)!r}")
 
     def stiffness(self, state: ComponentState) -> np.ndarray:
         tilt = state.require("tilt", self.name)

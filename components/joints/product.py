@@ -11,7 +11,7 @@ from components.joints import base
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
 from components.spline import clamped_cubic
-from pkmstiff.errors import ComponentDataError
+from pkmstiff.errors import ArgumentError
 
 if TYPE_CHECKING:
     from components.reader import Params
@@ -39,7 +39,7 @@ class ProductJoint(base.JointModel):
         base.check_policy(self.name, self.extrapolation)
         base.check_undefined(self.name, self.undefined_swivel)
         if not self.k_ref > 0:
-            raise ComponentDataError(f"joint '{self.name}': k_ref must be positive, found {self.k_ref!r}")
+            raise ArgumentError(f"joint '{self.name}': k_ref must be positive, found {self.k_ref!r}")
         curves = []
         for nodes, values, axis in ((self.swivel_nodes, self.g_swivel, "swivel"),
                                     (self.tilt_nodes, self.g_tilt, "tilt")):

@@ -13,7 +13,7 @@ from components.joints import base
 from components.params import ModelSpec, Param
 from components.protocol import Component, ComponentState
 from components.spline import apply_range_policy, clamped_cubic, clamped_spline, spline_weights
-from pkmstiff.errors import ComponentDataError, InputError, JointTableNotFound
+from pkmstiff.errors import ArgumentError, InputError, JointTableNotFound
 
 if TYPE_CHECKING:
     from components.reader import Params
@@ -76,7 +76,7 @@ class SwivelTiltTableJoint(base.JointModel):
         ti = np.asarray(self.tilt_nodes, dtype=float)
         k = np.asarray(self.k_grid, dtype=float)
         if k.shape != (sw.size, ti.size):
-            raise ComponentDataError(f"joint '{self.name}': k_grid must have shape ({sw.size}, {ti.size}) = (swivel, "
+            raise ArgumentError(f"joint '{self.name}': k_grid must have shape ({sw.size}, {ti.size}) = (swivel, "
                                      f"tilt), found {k.shape}")
         base.positive_finite(self.name, "tabulated stiffness", k)
         clamped_spline(sw, k, what=f"joint '{self.name}' swivel axis")  # validates the nodes
@@ -102,7 +102,7 @@ def joint_from_table(table: JointTable, **kwargs: Any) -> TiltTableJoint | Swive
     kwargs.setdefault("angle_convention", table.angle_convention)
     kwargs.setdefault("provenance", table.provenance)
     if table.angle_convention != kwargs["angle_convention"]:
-        raise ComponentDataError(f"joint '{kwargs['name']}': table {table.path} is tabulated in the "
+        raise ArgumentError(f"joint '{kwargs['name']}': table {table.path} is tabulated in the "
                                  f"'{table.angle_convention}' convention, not '{kwargs['angle_convention']}'")
     if table.swivel is None:
         kwargs.pop("undefined_swivel", None)
@@ -123,7 +123,7 @@ def _load_table(p: "Params", swivel: bool) -> Component:
         except JointTableNotFound as exc:
             raise p.error("table", exc.expected, f"{ref!r} ({exc.found})") from exc
         except InputError as exc:  # content error: keep file/line/column, add who referenced the table
-            where = f"{exc.source} (table of {p.key('table')} in {p.source or 'input'})"
+            where = f"{exc.file} (table of {p.key('table')} in {p.source or 'input'})"
             raise InputError(where, exc.key, exc.expected, exc.found) from exc
         if (table.swivel is not None) != swivel:
             want = ("a swivel-tilt table (swivel_deg,tilt_deg,k_N_per_um)" if swivel

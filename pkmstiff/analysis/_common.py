@@ -8,7 +8,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 import pkmstiff.multibody as sde
-from pkmstiff.structure import PKMStructure, StructureModelError
+from pkmstiff.structure import PKMStructure
+from pkmstiff.errors import InputError
 
 Array = NDArray[np.float64]
 
@@ -27,7 +28,7 @@ def parse_direction(direction: Any, what: str = "direction") -> tuple[np.ndarray
         sign = -1.0 if text.startswith("-") else 1.0
         key = text.lstrip("+-")
         if key not in AXIS_NAMES:
-            raise StructureModelError("analysis", what, f"one of {sorted(AXIS_NAMES)} (optionally signed) or a "
+            raise InputError("analysis", what, f"one of {sorted(AXIS_NAMES)} (optionally signed) or a "
                                       "vector (3,)", direction)
         axis, rot = AXIS_NAMES[key]
         e = np.zeros(3)
@@ -35,7 +36,7 @@ def parse_direction(direction: Any, what: str = "direction") -> tuple[np.ndarray
         return e, rot
     e = np.asarray(direction, dtype=float)
     if e.shape != (3,) or not np.all(np.isfinite(e)) or not np.linalg.norm(e) > 0:
-        raise StructureModelError("analysis", what, "a non-zero finite vector (3,) or an axis name", direction)
+        raise InputError("analysis", what, "a non-zero finite vector (3,) or an axis name", direction)
     return e / np.linalg.norm(e), False
 
 

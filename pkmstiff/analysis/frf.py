@@ -38,9 +38,9 @@ def tcp_frf(st: PKMStructure, freq_hz: Any, response: Any = "x", excitation: Any
             neglect_spindle: bool = False, max_peaks: int = 6) -> FRFResult:
     """FRF between two directions at the TCP (``"x"``, ``"-y"``, ``"rz"`` or vectors) over ``freq_hz`` (Hz)."""
     if kind not in ("receptance", "accelerance"):
-        from pkmstiff.structure import StructureModelError
+        from pkmstiff.errors import InputError
 
-        raise StructureModelError("tcp_frf", "kind", "'receptance' or 'accelerance'", kind)
+        raise InputError("tcp_frf", "kind", "'receptance' or 'accelerance'", kind)
     f = np.asarray(freq_hz, dtype=float).ravel()
     if st.empty:
         nan = st.scatter(np.zeros((0, f.size), complex))

@@ -38,17 +38,17 @@ from pkmstiff.structure import (
     DEFAULT_CHUNK,
     NOT_POSITIVE_DEFINITE,
     PKMStructure,
-    StructureModelError,
     StructureOptions,
     build_structure,
     structure_layout,
 )
+from pkmstiff.errors import InputError
 
 
 def _gravity_vector(machine: Machine, gravity: ArrayLike | None) -> np.ndarray:
     g = np.asarray(machine.gravity if gravity is None else gravity, dtype=float)
     if g.shape != (3,) or not np.all(np.isfinite(g)):
-        raise StructureModelError("gravity", "gravity", "a finite vector (3,) in m/s^2", gravity)
+        raise InputError("gravity", "gravity", "a finite vector (3,) in m/s^2", gravity)
     return g
 
 
@@ -95,7 +95,7 @@ def gravity_deflection(machine: Machine, poses: ArrayLike, tool_length: float | 
     structure model (module docstring) plus an optional force [N] / moment [N m] at the TCP, at poses (N, 6).
 
     Chunked over poses (memory ∝ chunk · n_dof²); NaN where a pose cannot be modelled (unreachable, singular,
-    component out of range, stiffness not positive definite).  Raises :class:`StructureModelError` when the
+    component out of range, stiffness not positive definite).  Raises :class:`InputError` when the
     machine has no stiffness data.
     """
     x = as_poses(poses)
@@ -109,7 +109,7 @@ def gravity_deflection(machine: Machine, poses: ArrayLike, tool_length: float | 
             try:
                 out[sl] = structure_deflection(st, tool_length, gravity, force, moment, neglect_spindle, weight)
                 break
-            except sde.SingularModelError:
+            except sde.NumericalError:
                 st = st.without(_not_pd(np.ascontiguousarray(stiffness_matrix(st.model))), NOT_POSITIVE_DEFINITE)
     return out
 

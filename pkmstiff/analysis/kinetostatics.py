@@ -35,11 +35,11 @@ from pkmstiff.machine.model import Machine
 from pkmstiff.machine.roles import DriveLoadData, machine_components
 from pkmstiff.structure import (
     PKSBody,
-    StructureModelError,
     dynamics_masses,
     mass_matrix_about_origin,
     vertical_direction,
 )
+from pkmstiff.errors import InputError
 
 DEFAULT_VELOCITY_DIRECTIONS = ("x", "y", "z")
 DEFAULT_ACCELERATION_DIRECTIONS = ("x", "-x", "y", "-y", "z", "-z")
@@ -97,7 +97,7 @@ def twist_directions(directions: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
             key = d.strip().lower()
             sign = -1.0 if key.startswith("-") else 1.0
             if key.lstrip("+-") not in AXIS_NAMES:
-                raise StructureModelError("kinetostatics", "direction", f"one of {sorted(AXIS_NAMES)} "
+                raise InputError("kinetostatics", "direction", f"one of {sorted(AXIS_NAMES)} "
                                           "(optionally signed), a vector (3,) or a twist (6,)", d)
             axis, rot = AXIS_NAMES[key.lstrip("+-")]
             e = np.zeros(6)
@@ -108,7 +108,7 @@ def twist_directions(directions: Sequence[Any]) -> tuple[np.ndarray, list[str]]:
             if v.shape == (3,):
                 v = np.concatenate([v, np.zeros(3)])
             if v.shape != (6,) or not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:
-                raise StructureModelError("kinetostatics", "direction", "a non-zero vector (3,) or twist (6,)", d)
+                raise InputError("kinetostatics", "direction", "a non-zero vector (3,) or twist (6,)", d)
             e = v / np.linalg.norm(v)
             labels.append(np.array2string(e, precision=3, separator=","))
         out.append(e)

@@ -44,9 +44,9 @@ from numpy.typing import ArrayLike, NDArray
 
 import pkmstiff.multibody as sde
 from pkmstiff.admissibility.checks import Reason
-from pkmstiff.errors import PlanarFileError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError  # noqa: F401 (re-exported)
 from pkmstiff.io import check_keys, read_toml, require
-from pkmstiff.units import InputError, parse_quantity
+from pkmstiff.units import parse_quantity
 
 Array = NDArray[np.float64]
 
@@ -124,57 +124,55 @@ def load_planar(name_or_path: str | Path) -> PlanarMachine:
     if p.suffix != ".toml" and not p.exists():
         p = planar_machine_dir() / f"{name_or_path}.toml"
         if not p.is_file():
-            raise PlanarFileError(str(name_or_path), "(file)", f"a bundled planar machine {bundled_planar()} or "
+            raise InputError(str(name_or_path), "(file)", f"a bundled planar machine {bundled_planar()} or "
                                   "a path to a .toml file", "no such machine")
     src = str(p)
-    raw = read_toml(p, PlanarFileError, "planar machine file")
+    raw = read_toml(p, "planar machine file")
     try:
         return _build(raw, src)
-    except PlanarFileError:
-        raise
-    except InputError as exc:  # from the unit parser: report as a planar-file error
-        raise PlanarFileError(exc.source or src, exc.key, exc.expected, exc.found) from None
+    except InputError as exc:  # from the unit parser: name the planar machine file
+        raise exc.in_file(src) from None
 
 
 def _build(raw: dict, src: str) -> PlanarMachine:
-    check_keys(raw, _TOP, src, "", error=PlanarFileError)
+    check_keys(raw, _TOP, src, "", error=InputError)
     if raw.get("format_version", 1) != 1:
-        raise PlanarFileError(src, "format_version", "1", raw.get("format_version"))
-    mt = check_keys(require(raw, "machine", src, "", "a [machine] table", error=PlanarFileError), _MACHINE, src,
-                    "machine.", error=PlanarFileError)
-    kind = require(mt, "type", src, "machine.", "'glide' or 'pod'", error=PlanarFileError)
+        raise InputError(src, "format_version", "1", raw.get("format_version"))
+    mt = check_keys(require(raw, "machine", src, "", "a [machine] table", error=InputError), _MACHINE, src,
+                    "machine.", error=InputError)
+    kind = require(mt, "type", src, "machine.", "'glide' or 'pod'", error=InputError)
     if kind not in ("glide", "pod"):
-        raise PlanarFileError(src, "machine.type", "'glide' or 'pod'", kind)
-    name = str(require(mt, "name", src, "machine.", "the machine's short name", error=PlanarFileError))
+        raise InputError(src, "machine.type", "'glide' or 'pod'", kind)
+    name = str(require(mt, "name", src, "machine.", "the machine's short name", error=InputError))
     gravity = parse_quantity(mt.get("gravity", [0.0, -9.81]), "m/s^2", source=src, key="machine.gravity",
                              shape=(2,))
-    plat = check_keys(require(raw, "platform", src, "", "a [platform] table with the mass", error=PlanarFileError),
-                      {"mass"}, src, "platform.", error=PlanarFileError)
-    mass = require(plat, "mass", src, "platform.", "the platform mass", error=PlanarFileError)
+    plat = check_keys(require(raw, "platform", src, "", "a [platform] table with the mass", error=InputError),
+                      {"mass"}, src, "platform.", error=InputError)
+    mass = require(plat, "mass", src, "platform.", "the platform mass", error=InputError)
     m_p = float(parse_quantity(mass, "kg", source=src,
                                key="platform.mass", positive=True))
     allowed = _COMMON | (_GLIDE if kind == "glide" else _POD)
-    defaults = check_keys(raw.get("chain_defaults", {}), allowed, src, "chain_defaults.", error=PlanarFileError)
-    chains = require(raw, "chains", src, "", "two [[chains]] tables", error=PlanarFileError)
+    defaults = check_keys(raw.get("chain_defaults", {}), allowed, src, "chain_defaults.", error=InputError)
+    chains = require(raw, "chains", src, "", "two [[chains]] tables", error=InputError)
     if not isinstance(chains, list) or len(chains) != 2:
-        raise PlanarFileError(src, "chains", "exactly two [[chains]] tables", chains)
+        raise InputError(src, "chains", "exactly two [[chains]] tables", chains)
     cols: dict[str, list] = {}
     for i, ch in enumerate(chains):
         pre = f"chains[{i + 1}]."
-        t = {**defaults, **check_keys(ch, allowed, src, pre, error=PlanarFileError)}
+        t = {**defaults, **check_keys(ch, allowed, src, pre, error=InputError)}
 
         def q(key: str, unit: str, what: str, *, shape: Any = None, positive: bool = False, default: Any = None,
               min_value: float | None = None) -> Any:
             value = t.get(key, default)
             if value is None:
-                raise PlanarFileError(src, pre + key, what + " (the key is required)", "missing key")
+                raise InputError(src, pre + key, what + " (the key is required)", "missing key")
             return parse_quantity(value, unit, source=src, key=pre + key, shape=shape, positive=positive,
                                   min_value=min_value)
 
         def k(key: str, required: bool) -> float:
             if key not in t:
                 if required:
-                    raise PlanarFileError(src, pre + key, "a stiffness in N/m (or 'rigid')", "missing key")
+                    raise InputError(src, pre + key, "a stiffness in N/m (or 'rigid')", "missing key")
                 return np.inf
             return _stiffness(t[key], src, pre + key)
 
@@ -183,13 +181,13 @@ def _build(raw: dict, src: str) -> PlanarMachine:
             row["guide_start"] = q("guide_start", "m", "the guide start point [x, y]", shape=(2,))
             d = q("guide_direction", "dimensionless", "the guide direction [x, y]", shape=(2,))
             if not np.linalg.norm(d) > 1e-9:
-                raise PlanarFileError(src, pre + "guide_direction", "a non-zero direction", list(d))
+                raise InputError(src, pre + "guide_direction", "a non-zero direction", list(d))
             row["guide_direction"] = d / np.linalg.norm(d)
             row["guide_length"] = q("guide_length", "m", "the usable guide length", positive=True)
             row["strut_length"] = q("strut_length", "m", "the strut length", positive=True)
             root = t.get("root", "smaller")
             if root not in ("smaller", "larger"):
-                raise PlanarFileError(src, pre + "root", "'smaller' or 'larger'", root)
+                raise InputError(src, pre + "root", "'smaller' or 'larger'", root)
             row["larger_root"] = root == "larger"
             row["drive_stiffness"] = k("drive_stiffness", True)
             row["guide_stiffness"] = k("guide_stiffness", True)
@@ -200,7 +198,7 @@ def _build(raw: dict, src: str) -> PlanarMachine:
             row["length_min"] = q("length_min", "m", "the minimum strut length", positive=True)
             row["length_max"] = q("length_max", "m", "the maximum strut length", positive=True)
             if row["length_max"] <= row["length_min"]:
-                raise PlanarFileError(src, pre + "length_max", f"a length > length_min = {row['length_min']} m",
+                raise InputError(src, pre + "length_max", f"a length > length_min = {row['length_min']} m",
                                       t["length_max"])
             row["strut_stiffness"] = k("strut_stiffness", True)
             row["drive_stiffness"] = k("drive_stiffness", False)
@@ -214,11 +212,11 @@ def _build(raw: dict, src: str) -> PlanarMachine:
             cols.setdefault(key, []).append(value)
     if kind == "pod" and np.any(np.isinf(np.array(cols["strut_stiffness"])) &
                                 np.isinf(np.array(cols["drive_stiffness"]))):
-        raise PlanarFileError(src, "chains[*].strut_stiffness", "an elastic strut or drive per bipod chain",
+        raise InputError(src, "chains[*].strut_stiffness", "an elastic strut or drive per bipod chain",
                               "both rigid")
     assumptions = raw.get("assumptions", {})
     if not isinstance(assumptions, dict) or not all(isinstance(v, str) for v in assumptions.values()):
-        raise PlanarFileError(src, "assumptions", "a table key = one-line reason", assumptions)
+        raise InputError(src, "assumptions", "a table key = one-line reason", assumptions)
     nan2, nan22 = np.full(2, np.nan), np.full((2, 2), np.nan)
 
     def col(key: str, fallback: np.ndarray) -> np.ndarray:
@@ -456,7 +454,7 @@ def planar_kinetostatics(pm: PlanarMachine, positions: ArrayLike, directions: Ar
 
 
 __all__ = [
-    "PlanarMachine", "PlanarFileError", "PlanarIK", "PlanarStructure", "PlanarKinetostatics", "load_planar",
+    "PlanarMachine", "PlanarIK", "PlanarStructure", "PlanarKinetostatics", "load_planar",
     "bundled_planar", "planar_inverse_kinematics", "planar_inverse_jacobian", "planar_reasons", "planar_structure",
     "planar_compliance", "planar_stiffness", "planar_modes", "planar_kinetostatics",
 ]

@@ -24,7 +24,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pkmstiff.errors import BallbarError
+from pkmstiff.errors import InputError
 
 Array = NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
@@ -104,19 +104,19 @@ def fourier_harmonics(theta: ArrayLike, deviation: ArrayLike, *, max_gap: float 
     th = np.asarray(theta, dtype=float).ravel()
     d = np.asarray(deviation, dtype=float).ravel()
     if th.shape != d.shape:
-        raise BallbarError(f"angles and deviations differ in length ({th.size} vs {d.size})", source)
+        raise InputError(reason=f"angles and deviations differ in length ({th.size} vs {d.size})", file=source)
     n = th.size
     if n < 3:
-        raise BallbarError(f"a Fourier evaluation needs at least 3 samples, found {n}", source)
+        raise InputError(reason=f"a Fourier evaluation needs at least 3 samples, found {n}", file=source)
     if not (np.all(np.isfinite(th)) and np.all(np.isfinite(d))):
-        raise BallbarError("angles and deviations must be finite numbers (found NaN or inf)", source)
+        raise InputError(reason="angles and deviations must be finite numbers (found NaN or inf)", file=source)
     ts, ds = _sorted_periodic(th, d)
     gap, at = _largest_gap(ts)
     step = TWO_PI / n
     if gap > max(max_gap, 1.5 * step):
-        raise BallbarError(f"the samples do not cover a full revolution: gap of {math.degrees(gap):.3g} deg after "
+        raise InputError(reason=f"the samples do not cover a full revolution: gap of {math.degrees(gap):.3g} deg after "
                            f"{math.degrees(at):.4g} deg (allowed {math.degrees(max(max_gap, 1.5 * step)):.3g} deg)",
-                           source)
+                           file=source)
     spacing = np.diff(ts)
     uniform = bool(np.all(np.abs(spacing - step) <= 1e-9 * step)) and abs(ts[0] + TWO_PI - ts[-1] - step) <= 1e-9 * step
     if uniform:
@@ -141,7 +141,7 @@ def fourier_harmonics(theta: ArrayLike, deviation: ArrayLike, *, max_gap: float 
 def reconstruct(harmonics: Harmonics, theta: ArrayLike, n: int) -> Array:
     """A0 + Σ_{k=1..n} A_k cos(kθ − φ_k) (Szatmári eq. 4.9 truncated after n terms), vectorised over ``theta``."""
     if not 0 <= n <= harmonics.n_max:
-        raise BallbarError(f"number of harmonics must be in 0..{harmonics.n_max}, found {n}")
+        raise InputError(reason=f"number of harmonics must be in 0..{harmonics.n_max}, found {n}")
     th = np.asarray(theta, dtype=float)
     out = np.full(th.shape, harmonics.amplitude[0])
     if n:
@@ -193,10 +193,10 @@ def choose_harmonics(harmonics: Harmonics, *, alpha: float = 0.01, min_relative:
     Needs at least ``MIN_SAMPLES_AUTO`` samples (else give n explicitly).
     """
     if not 0.0 < alpha < 1.0:
-        raise BallbarError(f"alpha must be in (0, 1), found {alpha}", source)
+        raise InputError(reason=f"alpha must be in (0, 1), found {alpha}", file=source)
     if harmonics.n_samples < MIN_SAMPLES_AUTO:
-        raise BallbarError(f"automatic choice of harmonics needs at least {MIN_SAMPLES_AUTO} samples, found "
-                           f"{harmonics.n_samples}; give the number of harmonics explicitly", source)
+        raise InputError(reason=f"automatic choice of harmonics needs at least {MIN_SAMPLES_AUTO} samples, found "
+                           f"{harmonics.n_samples}; give the number of harmonics explicitly", file=source)
     K = harmonics.n_max
     n_cand = max(K // 4, 1)
     band = harmonics.amplitude[n_cand + 1: K // 2 + 1]
@@ -216,8 +216,8 @@ def choose_harmonics(harmonics: Harmonics, *, alpha: float = 0.01, min_relative:
 def fixed_harmonics(harmonics: Harmonics, n: int, source: str = "") -> HarmonicChoice:
     """A user-given number of harmonics, checked against the spectrum length."""
     if not 0 <= n <= harmonics.n_max:
-        raise BallbarError(f"number of harmonics must be in 0..{harmonics.n_max} for {harmonics.n_samples} "
-                           f"samples, found {n}", source)
+        raise InputError(reason=f"number of harmonics must be in 0..{harmonics.n_max} for {harmonics.n_samples} "
+                           f"samples, found {n}", file=source)
     return HarmonicChoice(n=n, rule="fixed")
 
 
@@ -257,7 +257,7 @@ def plane_frame(positions: ArrayLike, fixed_ball: ArrayLike, plane: str | ArrayL
     P = np.asarray(positions, dtype=float)
     s = np.asarray(fixed_ball, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or P.shape[0] < 3:
-        raise BallbarError(f"expected ball positions of shape (N >= 3, 3), found {P.shape}", source)
+        raise InputError(reason=f"expected ball positions of shape (N >= 3, 3), found {P.shape}", file=source)
     centroid = P.mean(axis=0)
     if isinstance(plane, str):
         key = plane.upper()
@@ -279,12 +279,12 @@ def plane_frame(positions: ArrayLike, fixed_ball: ArrayLike, plane: str | ArrayL
             e1, e2 = (np.array(v) for v in _PLANES[key])
             name = key
         else:
-            raise BallbarError(f"plane must be one of XY, YZ, ZX, XZ, auto or a normal vector, found {plane!r}",
-                               source)
+            raise InputError(reason=f"plane must be one of XY, YZ, ZX, XZ, auto or a normal vector, found {plane!r}",
+                               file=source)
     else:
         nrm = np.asarray(plane, dtype=float)
         if nrm.shape != (3,) or not np.linalg.norm(nrm) > 0:
-            raise BallbarError(f"plane normal must be a non-zero 3-vector, found {plane!r}", source)
+            raise InputError(reason=f"plane normal must be a non-zero 3-vector, found {plane!r}", file=source)
         nrm = nrm / np.linalg.norm(nrm)
         r0 = P[0] - centroid
         e1 = r0 - (r0 @ nrm) * nrm
@@ -296,8 +296,8 @@ def plane_frame(positions: ArrayLike, fixed_ball: ArrayLike, plane: str | ArrayL
     radius = float(np.mean(np.linalg.norm((P - centroid) - np.outer(height, normal), axis=1)))
     spread = float(np.max(np.abs(height)))
     if spread > planar_tol * max(radius, 1e-12):
-        raise BallbarError(f"the commanded ball positions are not in the {name} plane: out-of-plane spread "
-                           f"{spread * 1e3:.4g} mm on a radius of {radius * 1e3:.4g} mm", source)
+        raise InputError(reason=f"the commanded ball positions are not in the {name} plane: out-of-plane spread "
+                           f"{spread * 1e3:.4g} mm on a radius of {radius * 1e3:.4g} mm", file=source)
     origin = s + ((centroid - s) @ normal) * normal
     return PlaneFrame(origin=origin, e1=e1, e2=e2, normal=normal, name=name)
 
@@ -331,7 +331,7 @@ def fit_circle(points: ArrayLike, *, max_iter: int = 20, source: str = "") -> Ci
     """
     q = np.asarray(points, dtype=float)
     if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 3:
-        raise BallbarError(f"a circle fit needs points of shape (N >= 3, 2), found {q.shape}", source)
+        raise InputError(reason=f"a circle fit needs points of shape (N >= 3, 2), found {q.shape}", file=source)
     ref = q.mean(axis=0)
     qr = q - ref  # fit about the centroid for conditioning
     A = np.column_stack([2.0 * qr, np.ones(len(qr))])
@@ -343,7 +343,7 @@ def fit_circle(points: ArrayLike, *, max_iter: int = 20, source: str = "") -> Ci
         diff = qr - c
         dist = np.linalg.norm(diff, axis=1)
         if np.any(dist == 0):
-            raise BallbarError("circle fit failed: a point coincides with the centre", source)
+            raise InputError(reason="circle fit failed: a point coincides with the centre", file=source)
         res = dist - r
         J = np.column_stack([-diff / dist[:, None], -np.ones(len(qr))])
         step, *_ = np.linalg.lstsq(J, -res, rcond=None)
@@ -392,7 +392,7 @@ def _zone_lp(u: Array, rs: Array, t: float, source: str) -> Any:
         lp = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs-ds",
                      options={"primal_feasibility_tolerance": 1e-10, "dual_feasibility_tolerance": 1e-10})
         if lp.status != 0:
-            raise BallbarError(f"minimum-zone circle: the linear program failed ({lp.message})", source)
+            raise InputError(reason=f"minimum-zone circle: the linear program failed ({lp.message})", file=source)
         v = rs - u @ lp.x[:2]
         tol = 1e-9  # of the zone width (the solver's tolerances are 1e-10)
         vo = np.setdiff1d(np.flatnonzero(v > lp.x[2] + tol), out_k)
@@ -401,7 +401,7 @@ def _zone_lp(u: Array, rs: Array, t: float, source: str) -> Any:
             return lp
         out_k = np.union1d(out_k, vo[np.argsort(v[vo])[-m:]])
         in_k = np.union1d(in_k, vi[np.argsort(v[vi])[:m]])
-    raise BallbarError("minimum-zone circle: constraint generation did not converge", source)
+    raise InputError(reason="minimum-zone circle: constraint generation did not converge", file=source)
 
 
 def min_zone_circle(points: ArrayLike, *, start: ArrayLike | None = None, max_iter: int = 30,
@@ -421,7 +421,7 @@ def min_zone_circle(points: ArrayLike, *, start: ArrayLike | None = None, max_it
     """
     q = np.asarray(points, dtype=float)
     if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 3 or not np.all(np.isfinite(q)):
-        raise BallbarError(f"a minimum-zone circle needs finite points of shape (N >= 3, 2), found {q.shape}", source)
+        raise InputError(reason=f"a minimum-zone circle needs finite points of shape (N >= 3, 2), found {q.shape}", file=source)
     ref = q.mean(axis=0)
     qr = q - ref
     c = (fit_circle(q, source=source).centre if start is None else np.asarray(start, dtype=float)) - ref
@@ -620,7 +620,7 @@ def evaluate_circular_test(positions: ArrayLike, reading: ArrayLike, fixed_ball:
     s = np.asarray(fixed_ball, dtype=float)
     r = np.asarray(reading, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or r.shape != (P.shape[0],):
-        raise BallbarError(f"expected positions (N, 3) and readings (N,), found {P.shape} and {r.shape}", source)
+        raise InputError(reason=f"expected positions (N, 3) and readings (N,), found {P.shape} and {r.shape}", file=source)
     frame = plane_frame(P, s, plane, source=source)
     d = radial_deviations(P, s, bar_length, r)
     uv = frame.coordinates(P)
@@ -639,8 +639,8 @@ def evaluate_circular_test(positions: ArrayLike, reading: ArrayLike, fixed_ball:
             labels = np.char.lower(raw.astype(str))
         bad = ~np.isin(labels, ("ccw", "cw"))
         if bad.any():
-            raise BallbarError(f"direction must be 'ccw' or 'cw', found {raw[np.argmax(bad)]!r} at sample "
-                               f"{int(np.argmax(bad))}", source)
+            raise InputError(reason=f"direction must be 'ccw' or 'cw', found {raw[np.argmax(bad)]!r} at sample "
+                               f"{int(np.argmax(bad))}", file=source)
     runs: dict[str, RunEvaluation] = {}
     for lab in ("ccw", "cw"):
         sel = labels == lab
@@ -680,23 +680,23 @@ def commanded_poses(meas: Any, machine: Any = None, start_pose: ArrayLike | None
     if meas.poses is not None:
         return np.asarray(meas.poses, dtype=float)
     if machine is None or start_pose is None:
-        raise BallbarError("the file has drive values but no commanded pose columns (x_mm … c_deg); give a machine "
-                           "and a start pose for the forward kinematics (--machine, --start-pose)", source)
+        raise InputError(reason="the file has drive values but no commanded pose columns (x_mm … c_deg); give a machine "
+                           "and a start pose for the forward kinematics (--machine, --start-pose)", file=source)
     from pkmstiff.kinematics import forward_kinematics
 
     q = np.asarray(meas.drives, dtype=float)
     if q.shape[1] != machine.n_chains:
-        raise BallbarError(f"the file has {q.shape[1]} drive columns, machine '{machine.name}' has "
-                           f"{machine.n_chains} drives", source)
+        raise InputError(reason=f"the file has {q.shape[1]} drive columns, machine '{machine.name}' has "
+                           f"{machine.n_chains} drives", file=source)
     x0 = np.asarray(start_pose, dtype=float)
     if x0.shape != (6,) or not np.all(np.isfinite(x0)):
-        raise BallbarError(f"start pose must be 6 finite numbers, found {start_pose!r}", source)
+        raise InputError(reason=f"start pose must be 6 finite numbers, found {start_pose!r}", file=source)
     fk = forward_kinematics(machine, q, x0)
     if not fk.converged.all():
         bad = int(np.flatnonzero(~fk.converged)[0])
-        raise BallbarError(f"forward kinematics did not converge for {int((~fk.converged).sum())} of {len(q)} "
+        raise InputError(reason=f"forward kinematics did not converge for {int((~fk.converged).sum())} of {len(q)} "
                            f"samples (first: sample {bad}, status {fk.status[bad]}); try a start pose nearer the "
-                           f"path", source)
+                           f"path", file=source)
     return fk.poses
 
 
@@ -711,8 +711,8 @@ def evaluate_measurement(meas: Any, *, harmonics: int | Literal["auto"] = "auto"
     """
     kind = getattr(meas, "kind", "ballbar")
     if kind != "ballbar":
-        raise BallbarError(f"a circular-test evaluation needs a ball-bar measurement, found a {kind} file "
-                           f"(instrument_type: {kind}); identify from it with 'pkmstiff calibrate identify'", source)
+        raise InputError(reason=f"a circular-test evaluation needs a ball-bar measurement, found a {kind} file "
+                           f"(instrument_type: {kind}); identify from it with 'pkmstiff calibrate identify'", file=source)
     P = ball_positions(commanded_poses(meas, machine, start_pose, source), meas.ball_offset)
     return evaluate_circular_test(P, meas.reading, meas.fixed_ball, meas.bar_length, direction=meas.direction,
                                   plane=meas.plane if plane is None else plane, harmonics=harmonics, alpha=alpha,

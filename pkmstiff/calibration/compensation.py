@@ -26,7 +26,7 @@ from pkmstiff.calibration.measurement import commanded_drives
 from pkmstiff.calibration.perturb import machine_file_text
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.calibration.uncertainty import Uncertainty
-from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.errors import InputError, NumericalError, InadmissibleError
 from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
@@ -117,7 +117,7 @@ def moved_poses(real: Machine, drives: np.ndarray, start: np.ndarray, tol: float
     """Poses (N, 6) ``real`` reaches for drive values (N, n), forward kinematics started at ``start`` (N, 6)."""
     fk = forward_kinematics(real, drives, start, tol_q=tol, tol_x=tol)
     if not fk.converged.all():
-        raise CalibrationError(f"machine '{real.name}': the forward kinematics did not converge for "
+        raise NumericalError(f"machine '{real.name}': the forward kinematics did not converge for "
                                f"{int((~fk.converged).sum())} poses; is the machine file the one measured?")
     return fk.poses
 
@@ -150,7 +150,7 @@ def check(machine: Machine, controller: Machine, plan: Plan, measured: np.ndarra
     ``plan`` (validation of a calibrated machine on data not used for identification)."""
     y = np.asarray(measured, dtype=float).reshape(plan.n_poses, -1)
     if y.shape[1] != plan.setup.n_readings:
-        raise CalibrationInputError(plan.name, "readings", f"{plan.setup.n_readings} readings per pose",
+        raise InputError(plan.name, "readings", f"{plan.setup.n_readings} readings per pose",
                                     y.shape[1])
     return Check(machine.name, controller.name, (y - predicted_readings(machine, controller, plan)).reshape(-1))
 
@@ -162,7 +162,7 @@ def tcp_errors(real: Machine, controller: Machine, poses: np.ndarray, point: np.
     x = as_poses(poses)
     ik = inverse_kinematics(controller, x)
     if not ik.all_reachable.all():
-        raise CalibrationError(f"machine '{controller.name}' cannot reach every pose of the plan")
+        raise InadmissibleError(f"machine '{controller.name}' cannot reach every pose of the plan")
     reached = moved_poses(real, ik.drive, x)
     v = np.zeros(3) if point is None else np.asarray(point, dtype=float)
     R = cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
@@ -183,10 +183,10 @@ def measurement_plan(meas: object, machine_name: str, source: str) -> tuple[Plan
     :data:`~pkmstiff.calibration.instruments.READINGS`). A file of another machine or without commanded poses is
     a one-line error saying what to do."""
     if meas.machine and meas.machine != machine_name.split(":")[0]:
-        raise CalibrationInputError(source, "machine", f"a measurement taken on '{machine_name}' (give the machine "
+        raise InputError(source, "machine", f"a measurement taken on '{machine_name}' (give the machine "
                                     f"the file was measured on, '{meas.machine}', or the right file)", meas.machine)
     if meas.poses is None:
-        raise CalibrationInputError(source, "x_mm ... c_deg", "the commanded pose columns (identification needs the "
+        raise InputError(source, "x_mm ... c_deg", "the commanded pose columns (identification needs the "
                                     "commanded poses; export them with the readings)", "drive columns only")
     kind = getattr(meas, "kind", "ballbar")
     if kind != "ballbar":

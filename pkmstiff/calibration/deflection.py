@@ -39,7 +39,7 @@ from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import Plan
-from pkmstiff.errors import CalibrationError, CalibrationInputError, StructureModelError
+from pkmstiff.errors import InputError, InadmissibleError
 from pkmstiff.kinematics import as_poses
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
@@ -50,7 +50,7 @@ DEFLECTION_MODELS = ("none", "gravity")
 def check_deflection(model: str, source: str = "--deflection") -> str:
     """The deflection model name (``none`` or ``gravity``), else a one-line error."""
     if model not in DEFLECTION_MODELS:
-        raise CalibrationInputError(source, "deflection", f"one of {', '.join(DEFLECTION_MODELS)}", model)
+        raise InputError(source, "deflection", f"one of {', '.join(DEFLECTION_MODELS)}", model)
     return model
 
 
@@ -60,12 +60,12 @@ def split_load(load: Any | None, source: str = "load") -> tuple[np.ndarray, np.n
         return np.zeros(3), np.zeros(3)
     w = np.asarray(load, dtype=float).reshape(-1)
     if w.size not in (3, 6) or not np.all(np.isfinite(w)):
-        raise CalibrationInputError(source, "load", "a force Fx,Fy,Fz [N] or Fx,Fy,Fz,Mx,My,Mz [N, N m]", load)
+        raise InputError(source, "load", "a force Fx,Fy,Fz [N] or Fx,Fy,Fz,Mx,My,Mz [N, N m]", load)
     return w[:3].copy(), (w[3:] if w.size == 6 else np.zeros(3)).copy()
 
 
-def _no_structure_model(machine: Machine, exc: StructureModelError) -> CalibrationInputError:
-    return CalibrationInputError(machine.name, "components", "stiffness and mass data (a structure model) for the "
+def _no_structure_model(machine: Machine, exc: InputError) -> InputError:
+    return InputError(machine.name, "components", "stiffness and mass data (a structure model) for the "
                                  "deflection; use --deflection none or a machine file with components",
                                  f"none usable ({exc.expected})")
 
@@ -76,7 +76,7 @@ def require_structure_model(machine: Machine) -> None:
 
     try:
         structure_layout(machine)
-    except StructureModelError as exc:
+    except InputError as exc:
         raise _no_structure_model(machine, exc) from None
 
 
@@ -87,18 +87,18 @@ def gravity_deflection(machine: Machine, poses: np.ndarray, load: Any | None = N
     (force (3,) [N] or force and moment (6,) [N, N m], acting at the TCP) at poses (N, 6); the TCP is the machine's
     tool tip, ``tool_length`` [m] or a tool vector (3,) [m, PKS] (the calibration set-up's target v).  Cobet's
     structure model (module docstring of :mod:`pkmstiff.analysis.gravity`: which masses are loaded); issue 17
-    item 4.  A pose the structure model cannot take is a one-line :class:`CalibrationError`."""
+    item 4.  A pose the structure model cannot take is a one-line :class:`InadmissibleError`."""
     from pkmstiff.analysis.gravity import gravity_deflection as _solve
 
     force, moment = split_load(load)
     x = as_poses(poses)
     try:
         d = _solve(machine, x, tool_length=tool_length, gravity=gravity, force=force, moment=moment, weight=weight)
-    except StructureModelError as exc:
+    except InputError as exc:
         raise _no_structure_model(machine, exc) from None
     bad = np.flatnonzero(~np.isfinite(d).all(axis=1))
     if bad.size:
-        raise CalibrationError(f"machine '{machine.name}': the structure model cannot take {bad.size} of {len(x)} "
+        raise InadmissibleError(f"machine '{machine.name}': the structure model cannot take {bad.size} of {len(x)} "
                                f"poses (singular or a component out of range), first pose {int(bad[0]) + 1}; "
                                "the deflection is undefined there")
     return d

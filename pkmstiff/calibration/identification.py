@@ -39,7 +39,7 @@ from pkmstiff.calibration.measurement import reached_poses, simulate_readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import Plan
-from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.errors import PkmstiffError, InputError, NumericalError
 from pkmstiff.machine import Machine
 
 METHODS = ("lm", "gauss-newton", "minimax", "ga+lm")
@@ -169,10 +169,10 @@ def _check_measured(plan: Plan, measured: np.ndarray, source: str) -> np.ndarray
     if y.ndim == 1 and k == 1:
         y = y[:, None]
     if y.shape != (plan.n_poses, k):
-        raise CalibrationInputError(source, "readings", f"{plan.n_poses} x {k} readings (one row per pose of plan "
+        raise InputError(source, "readings", f"{plan.n_poses} x {k} readings (one row per pose of plan "
                                     f"'{plan.name}')", f"shape {y.shape}")
     if not np.all(np.isfinite(y)):
-        raise CalibrationInputError(source, "readings", "finite readings", "NaN or inf")
+        raise InputError(source, "readings", "finite readings", "NaN or inf")
     return y
 
 
@@ -192,7 +192,7 @@ def _gauss_newton(model: _Model, x: np.ndarray, max_iter: int, tol: float) -> tu
         if np.linalg.norm(dx) <= tol * (1.0 + np.linalg.norm(x)) or (small and new >= cost * (1 - 1e-9)):
             return x, it
         cost = new
-    raise CalibrationError(f"Gauss-Newton did not converge in {max_iter} iterations (last step "
+    raise NumericalError(f"Gauss-Newton did not converge in {max_iter} iterations (last step "
                            f"{np.linalg.norm(dx):.3g} scales); try --method lm or ga+lm, or check that the "
                            "measurement belongs to this machine and plan")
 
@@ -201,7 +201,7 @@ def _lm(model: _Model, x: np.ndarray, tol: float, max_nfev: int) -> tuple[np.nda
     res = least_squares(model.residual, x, jac=model.jac, method="lm", xtol=tol, ftol=tol, gtol=tol,
                         max_nfev=max_nfev)
     if res.status <= 0:
-        raise CalibrationError(f"Levenberg-Marquardt did not converge ({res.message.strip()}); try --method ga+lm, "
+        raise NumericalError(f"Levenberg-Marquardt did not converge ({res.message.strip()}); try --method ga+lm, "
                                "or check that the measurement belongs to this machine and plan")
     return res.x, int(res.nfev)
 
@@ -215,7 +215,7 @@ def _robust(model: _Model, x: np.ndarray, loss: str, f_scale: float | None, tol:
     res = least_squares(model.residual, x, jac=model.jac, method="trf", loss=loss, f_scale=f_scale, xtol=tol,
                         ftol=tol, gtol=tol, max_nfev=max_nfev, x_scale=1.0)
     if res.status <= 0:
-        raise CalibrationError(f"robust identification (loss {loss}) did not converge ({res.message.strip()}); "
+        raise NumericalError(f"robust identification (loss {loss}) did not converge ({res.message.strip()}); "
                                "try another --loss or a larger f_scale")
     return res.x, int(res.nfev)
 
@@ -240,7 +240,7 @@ def _minimax(model: _Model, x: np.ndarray, max_iter: int = 30, radius: float = 0
         bounds = [(-radius, radius)] * n + [(0, None)]
         lp = linprog(c, A_ub=A_ub, b_ub=b_ub, bounds=bounds, method="highs", options={"time_limit": 30.0})
         if lp.status != 0:
-            raise CalibrationError(f"minimax identification: the linear program failed ({lp.message}); try "
+            raise NumericalError(f"minimax identification: the linear program failed ({lp.message}); try "
                                    "--method lm")
         dx = lp.x[:n]
         r_new = model.residual(x + dx)
@@ -283,16 +283,16 @@ def identify(machine: Machine, params: ParameterSet, plan: Plan, measured: np.nd
     §4.6; see the module docstring). ``base`` (indices) overrides the base parameters of the identifiability
     analysis; ``delta0`` is the start (default zero), also the value of the parameters held fixed."""
     if method not in METHODS:
-        raise CalibrationInputError(source, "method", f"one of {', '.join(METHODS)}", method)
+        raise InputError(source, "method", f"one of {', '.join(METHODS)}", method)
     if loss not in LOSSES:
-        raise CalibrationInputError(source, "loss", f"one of {', '.join(LOSSES)}", loss)
+        raise InputError(source, "loss", f"one of {', '.join(LOSSES)}", loss)
     y = _check_measured(plan, measured, source)
     ident = identifiability(machine, params, plan)
     b = np.array([params.index(nm) for nm in ident.base_parameters], dtype=int) if base is None else \
         np.asarray(base, dtype=int)
     m = y.size
     if m <= b.size:
-        raise CalibrationInputError(source, "readings", f"more than {b.size} readings (the rank of the plan) to "
+        raise InputError(source, "readings", f"more than {b.size} readings (the rank of the plan) to "
                                     "identify and estimate the noise; measure more poses",
                                     f"{m} readings")
     d0 = np.zeros(params.n) if delta0 is None else params.check_vector(delta0, "start vector")
@@ -315,16 +315,16 @@ def identify(machine: Machine, params: ParameterSet, plan: Plan, measured: np.nd
         else:
             xg = _global(model, x0, bounds, seed, de_maxiter)
             x, it = _lm(model, xg, tol, max_iter * (b.size + 1))
-    except CalibrationError as exc:
-        if "converge" in str(exc) or "linear program" in str(exc):
-            raise
-        raise CalibrationError(f"identification failed at an estimate the model cannot evaluate ({exc}); the "
+    except NumericalError:  # the solver's own failure: its message says what to try
+        raise
+    except PkmstiffError as exc:
+        raise NumericalError(f"identification failed at an estimate the model cannot evaluate ({exc}); the "
                                "measurement probably does not belong to this machine/plan, or try --method ga+lm"
                                ) from None
     delta = model.delta(x)
     r_after = model.residual(x)
     if not np.all(np.isfinite(x)) or np.max(np.abs(params.scale[b] * x)) > 0.1:
-        raise CalibrationError("identification diverged (a parameter error above 100 mm / 100 mrad); check that the "
+        raise NumericalError("identification diverged (a parameter error above 100 mm / 100 mrad); check that the "
                                "measurement belongs to this machine and plan, or try --method ga+lm")
     Jw = -model.jac(x) / model.s[None, :]
     sv = np.linalg.svd(Jw * model.s[None, :], compute_uv=False)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pkmstiff.errors import CalibrationError
+from pkmstiff.errors import InadmissibleError
 
 
 def implicit_sensitivity(F_s: np.ndarray, F_p: np.ndarray) -> np.ndarray:
@@ -23,6 +23,6 @@ def implicit_sensitivity(F_s: np.ndarray, F_p: np.ndarray) -> np.ndarray:
     Q, R = np.linalg.qr(F_s)  # (B, n_F, n_s), (B, n_s, n_s)
     d = np.abs(np.diagonal(R, axis1=1, axis2=2))
     if np.any(d.min(axis=1) <= 1e-12 * d.max(axis=1)):
-        raise CalibrationError("implicit model: F_s is rank deficient (the state is not determined by the model "
+        raise InadmissibleError("implicit model: F_s is rank deficient (the state is not determined by the model "
                                "equations: singular configuration)")
     return -np.linalg.solve(R, np.swapaxes(Q, 1, 2) @ F_p)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pkmstiff.errors import CalibrationInputError
+from pkmstiff.errors import InputError
 
 INSTRUMENTS = ("ballbar", "tracker", "pose")
 #: readings per pose and their names/units
@@ -32,7 +32,7 @@ BALLBAR_RANGE = 1e-3
 
 def check_instrument(instrument: str, source: str = "--instrument") -> str:
     if instrument not in INSTRUMENTS:
-        raise CalibrationInputError(source, "instrument", f"one of {', '.join(INSTRUMENTS)}", instrument)
+        raise InputError(source, "instrument", f"one of {', '.join(INSTRUMENTS)}", instrument)
     return instrument
 
 
@@ -55,7 +55,7 @@ class Setup:
         object.__setattr__(self, "target", np.asarray(self.target, dtype=float).reshape(3))
         if self.instrument == "ballbar":
             if self.fixed_ball is None or self.bar_length is None or not self.bar_length > 0:
-                raise CalibrationInputError("setup", "fixed_ball/bar_length", "a fixed-ball position and a positive "
+                raise InputError("setup", "fixed_ball/bar_length", "a fixed-ball position and a positive "
                                             "bar length for a ball bar", (self.fixed_ball, self.bar_length))
             object.__setattr__(self, "fixed_ball", np.asarray(self.fixed_ball, dtype=float).reshape(3))
 

@@ -26,7 +26,7 @@ import numpy as np
 from pkmstiff.calibration.instruments import READINGS
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.plans import Plan
-from pkmstiff.errors import CalibrationError
+from pkmstiff.errors import ArgumentError, InadmissibleError
 from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics, singular_mask
 from pkmstiff.machine import Machine
 
@@ -95,14 +95,14 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
     """Analytic identification Jacobian of ``plan`` on ``machine`` for the parameters ``params`` at the nominal
     geometry (see the module docstring), shape (N k, n); k readings per pose."""
     if params.machine != machine.name or params.kind != machine.kind:
-        raise CalibrationError(f"error model of '{params.machine}' used with machine '{machine.name}'")
+        raise ArgumentError(f"error model of '{params.machine}' used with machine '{machine.name}'")
     x = as_poses(plan.poses, f"plan '{plan.name}'")
     N, n_ch = x.shape[0], machine.n_chains
     inst = plan.instrument
     ik = inverse_kinematics(machine, x)
     if not ik.all_reachable.all():
         i = int(np.flatnonzero(~ik.all_reachable)[0])
-        raise CalibrationError(f"plan '{plan.name}': pose {i + 1} is unreachable on {machine.name} (a strut cannot "
+        raise InadmissibleError(f"plan '{plan.name}': pose {i + 1} is unreachable on {machine.name} (a strut cannot "
                                "reach its guide)")
     jinv = inverse_jacobian(machine, ik)  # (N, n, 6)
     R = ik.R
@@ -115,7 +115,7 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
         rel = m - setup.fixed_ball
         dist = np.linalg.norm(rel, axis=1)
         if np.any(dist < 1e-9):
-            raise CalibrationError(f"plan '{plan.name}': the moving ball coincides with the fixed ball (singular "
+            raise InadmissibleError(f"plan '{plan.name}': the moving ball coincides with the fixed ball (singular "
                                    "ball-bar set-up)")
         u_hat = rel / dist[:, None]
     H = _reading_twist(inst, u_hat, Rv)
@@ -123,7 +123,7 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
     sing = singular_mask(machine, jinv)  # κ(J_C⁻¹) > threshold (models.md §1.6), as the admissibility check
     if sing.any():
         i = int(np.flatnonzero(sing)[0])
-        raise CalibrationError(f"plan '{plan.name}': singular set-up, {int(sing.sum())} poses singular on "
+        raise InadmissibleError(f"plan '{plan.name}': singular set-up, {int(sing.sum())} poses singular on "
                                f"{machine.name} (condition number of J_C^-1 above "
                                f"{machine.limits.singularity_threshold:g}), first pose {i + 1}")
     try:
@@ -133,7 +133,7 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
         LamT = np.full((N, n_ch, k), np.nan)
     bad = ~np.isfinite(LamT).all(axis=(1, 2))
     if bad.any():
-        raise CalibrationError(f"plan '{plan.name}': singular set-up, the inverse Jacobian is singular at "
+        raise InadmissibleError(f"plan '{plan.name}': singular set-up, the inverse Jacobian is singular at "
                                f"{int(bad.sum())} poses, first pose {int(np.flatnonzero(bad)[0]) + 1}")
 
     ch = machine.chains

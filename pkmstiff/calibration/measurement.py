@@ -10,7 +10,7 @@ from pkmstiff.calibration.instruments import readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import Plan
-from pkmstiff.errors import CalibrationError
+from pkmstiff.errors import NumericalError, InadmissibleError
 from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
@@ -21,7 +21,7 @@ def commanded_drives(machine: Machine, poses: np.ndarray) -> np.ndarray:
     ik = inverse_kinematics(machine, poses)
     bad = np.flatnonzero(~ik.all_reachable)
     if bad.size:
-        raise CalibrationError(f"machine '{machine.name}': {bad.size} commanded poses unreachable by the nominal "
+        raise InadmissibleError(f"machine '{machine.name}': {bad.size} commanded poses unreachable by the nominal "
                                f"inverse kinematics, first pose {int(bad[0]) + 1}")
     return ik.drive
 
@@ -35,7 +35,7 @@ def reached_poses(machine: Machine, params: ParameterSet, delta: np.ndarray, pos
     real = perturbed_machine(machine, params, delta)
     fk = forward_kinematics(real, u, x, tol_q=tol, tol_x=tol)
     if not fk.converged.all():
-        raise CalibrationError(f"machine '{machine.name}' with errors: {fk.report(3).splitlines()[0]} "
+        raise NumericalError(f"machine '{machine.name}' with errors: {fk.report(3).splitlines()[0]} "
                                f"({'; '.join(fk.report(3).splitlines()[1:]).strip()})")
     return fk.poses
 

@@ -50,7 +50,7 @@ orientation; :mod:`~pkmstiff.calibration.instruments`) and may give ``angle_reso
 ``angle_accuracy_urad``. Readings farther than ``volume_radius_mm`` from the instrument-frame origin are out of
 range. Ball-bar header keys (``bar_length_mm`` ...) are errors in these files and vice versa.
 
-Every error is a :class:`~pkmstiff.errors.MeasurementFileError` whose one-line message names the file, the line
+Every error is a :class:`~pkmstiff.errors.InputError` whose one-line message names the file, the line
 and, for a cell, the column number and name. Readings outside the instrument range are an error on reading (the
 first offending line is named, with the count); :func:`range_violations` lists them for a writer's report.
 """
@@ -65,7 +65,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from pkmstiff.errors import MeasurementFileError
+from pkmstiff.errors import InputError
 
 Array = NDArray[np.float64]
 
@@ -201,7 +201,7 @@ def write_measurement(path: str | Path, meas: BallbarMeasurement, *, allow_out_o
     """Write ``meas`` as a measurement CSV (format above); values are printed with the shortest round-trip repr of
     their value in the file unit, so reading back reproduces them to one unit in the last place.
 
-    Readings outside the instrument range raise :class:`MeasurementFileError` naming the first sample and the
+    Readings outside the instrument range raise :class:`InputError` naming the first sample and the
     count, unless ``allow_out_of_range`` (the file then fails to read, as a real instrument's would).
     """
     path = Path(path)
@@ -213,7 +213,7 @@ def write_measurement(path: str | Path, meas: BallbarMeasurement, *, allow_out_o
     bad = range_violations(meas)
     if bad.size and not allow_out_of_range:
         i = int(bad[0])
-        raise MeasurementFileError(src, None, f"{bad.size} reading(s) outside the instrument range "
+        raise InputError(src, reason=f"{bad.size} reading(s) outside the instrument range "
                                    f"[{meas.range[0] * 1e3:g}, {meas.range[1] * 1e3:g}] mm, first at sample {i} "
                                    f"(t = {meas.t[i]:g} s, reading {meas.reading[i] * 1e3:g} mm)")
     cols = _command_cols(meas) + [("reading_mm", meas.reading / 1e-3)] + _optional_cols(meas)
@@ -276,16 +276,16 @@ def _optional_cols(meas: BallbarMeasurement | PointMeasurement) -> list:
 def _write_points(path: Path, meas: PointMeasurement, allow_out_of_range: bool) -> Path:
     src = str(path)
     if meas.kind not in ("tracker", "pose"):
-        raise MeasurementFileError(src, None, f"instrument type must be 'tracker' or 'pose', found {meas.kind!r}")
+        raise InputError(src, reason=f"instrument type must be 'tracker' or 'pose', found {meas.kind!r}")
     if (meas.rotation is None) != (meas.kind == "tracker"):
-        raise MeasurementFileError(src, None, "a pose measurement needs orientation readings, a tracker "
+        raise InputError(src, reason="a pose measurement needs orientation readings, a tracker "
                                    "measurement none")
     n = meas.n_samples
     _check_lengths(meas, src)
     bad = range_violations(meas)
     if bad.size and not allow_out_of_range:
         i = int(bad[0])
-        raise MeasurementFileError(src, None, f"{bad.size} reading(s) farther than the instrument's "
+        raise InputError(src, reason=f"{bad.size} reading(s) farther than the instrument's "
                                    f"{meas.volume_radius * 1e3:g} mm from its origin, first at sample {i} "
                                    f"(t = {meas.t[i]:g} s)")
     cols = _command_cols(meas)
@@ -321,9 +321,9 @@ def _check_lengths(meas: BallbarMeasurement | PointMeasurement, src: str) -> Non
     for name in ("reading", "position", "rotation", "poses", "drives", "feed", "direction", "temperature"):
         v = getattr(meas, name, None)
         if v is not None and len(v) != n:
-            raise MeasurementFileError(src, None, f"'{name}' has {len(v)} samples, expected {n} (as 't')")
+            raise InputError(src, reason=f"'{name}' has {len(v)} samples, expected {n} (as 't')")
     if meas.poses is None and meas.drives is None:
-        raise MeasurementFileError(src, None, "a measurement needs commanded poses or drive values")
+        raise InputError(src, reason="a measurement needs commanded poses or drive values")
 
 
 # ------------------------------------------------------------------------------------------------- reading
@@ -343,7 +343,7 @@ def _numbers(src: str, line: int, key: str, text: str, count: int) -> list[float
         vals = []
     if len(vals) != count or not all(math.isfinite(v) for v in vals):
         what = "a number" if count == 1 else f"{count} comma-separated numbers"
-        raise MeasurementFileError(src, line, f"header key '{key}': expected {what}, found {text!r}")
+        raise InputError(src, line=line, reason=f"header key '{key}': expected {what}, found {text!r}")
     return vals
 
 
@@ -351,7 +351,7 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     """Read a measurement CSV (format in the module docstring) into SI units: a :class:`BallbarMeasurement`, or
     a :class:`PointMeasurement` for a file with ``instrument_type: tracker`` / ``pose``.
 
-    Raises :class:`MeasurementFileError` (one line: file, line, column) for: a missing file, unknown or repeated
+    Raises :class:`InputError` (one line: file, line, column) for: a missing file, unknown or repeated
     header keys, bad header values, a missing column row, unknown/duplicate/missing columns, rows with the wrong
     number of cells, cells that are not finite numbers (or not ccw/cw), time running backwards, and — with
     ``check_range`` — readings outside the instrument range.
@@ -361,12 +361,12 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise MeasurementFileError(src, None, "file not found") from None
+        raise InputError(src, reason="file not found") from None
     except UnicodeDecodeError as exc:
-        raise MeasurementFileError(src, None, f"expected a UTF-8 text file, found the non-UTF-8 byte "
+        raise InputError(src, reason=f"expected a UTF-8 text file, found the non-UTF-8 byte "
                                               f"0x{exc.object[exc.start]:02x} at offset {exc.start}") from None
     except OSError as exc:
-        raise MeasurementFileError(src, None, f"cannot read the file ({exc.__class__.__name__})") from None
+        raise InputError(src, reason=f"cannot read the file ({exc.__class__.__name__})") from None
     lines = text.splitlines()
     header: dict[str, tuple[int, str]] = {}
     notes: list[str] = []
@@ -386,13 +386,13 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
                 continue  # free comment (e.g. the signature line)
             key, value = (p.strip() for p in body.split(":", 1))
             if key not in _HEADER_KEYS:
-                raise MeasurementFileError(src, no, f"unknown header key '{key}'; expected one of "
+                raise InputError(src, line=no, reason=f"unknown header key '{key}'; expected one of "
                                            f"{', '.join(_HEADER_KEYS)}")
             if key == "note":
                 notes.append(value)
                 continue
             if key in header:
-                raise MeasurementFileError(src, no, f"header key '{key}' repeated (first on line {header[key][0]})")
+                raise InputError(src, line=no, reason=f"header key '{key}' repeated (first on line {header[key][0]})")
             header[key] = (no, value)
             continue
         cells = [c.strip() for c in s.split(",")]
@@ -402,27 +402,27 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
             data_lines.append(no)
             data_rows.append(cells)
     if columns is None:
-        raise MeasurementFileError(src, len(lines) or None, "no column row found (expected a line such as "
+        raise InputError(src, line=len(lines) or None, reason="no column row found (expected a line such as "
                                    "'t_s,x_mm,...,reading_mm')")
     kind = "ballbar"
     if "instrument_type" in header:
         no, kind = header["instrument_type"]
         if kind not in KINDS:
-            raise MeasurementFileError(src, no, f"header key 'instrument_type': expected one of {', '.join(KINDS)}, "
+            raise InputError(src, line=no, reason=f"header key 'instrument_type': expected one of {', '.join(KINDS)}, "
                                        f"found {kind!r}")
     foreign = _POINT_KEYS if kind == "ballbar" else _BALLBAR_KEYS
     for key in foreign:
         if key in header:
-            raise MeasurementFileError(src, header[key][0], f"header key '{key}' does not belong to a {kind} file "
+            raise InputError(src, line=header[key][0], reason=f"header key '{key}' does not belong to a {kind} file "
                                        f"(instrument_type: {kind})")
     meta = _parse_header(src, header) if kind == "ballbar" else _parse_point_header(src, header, kind)
     layout = _parse_columns(src, col_line, columns, kind)
     if not data_rows:
-        raise MeasurementFileError(src, col_line, "no data rows after the column row")
+        raise InputError(src, line=col_line, reason="no data rows after the column row")
     ncol = len(columns)
     for no, cells in zip(data_lines, data_rows):
         if len(cells) != ncol:
-            raise MeasurementFileError(src, no, f"expected {ncol} values (as in the column row, line {col_line}), "
+            raise InputError(src, line=no, reason=f"expected {ncol} values (as in the column row, line {col_line}), "
                                        f"found {len(cells)}")
     table = np.array(data_rows, dtype=object)
     line_no = np.array(data_lines, dtype=np.int64)
@@ -438,21 +438,21 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
                 try:
                     float(c)
                 except ValueError:
-                    raise MeasurementFileError(src, int(line_no[i]), f"expected a number, found {c!r}",
-                                               j + 1, columns[j]) from None
+                    raise InputError(src, line=int(line_no[i]), reason=f"expected a number, found {c!r}",
+                                               column=j + 1, key=columns[j]) from None
         bad = ~np.isfinite(vals)
         if bad.any():
             i = int(np.argmax(bad))
-            raise MeasurementFileError(src, int(line_no[i]), f"expected a finite number, found {col[i]!r}",
-                                       j + 1, columns[j])
+            raise InputError(src, line=int(line_no[i]), reason=f"expected a finite number, found {col[i]!r}",
+                                       column=j + 1, key=columns[j])
         return vals
 
     t = numeric(layout["t_s"])
     back = np.flatnonzero(np.diff(t) < 0)
     if back.size:
         i = int(back[0]) + 1
-        raise MeasurementFileError(src, int(line_no[i]), f"time must not decrease: {t[i]:g} s after {t[i - 1]:g} s",
-                                   layout["t_s"] + 1, "t_s")
+        raise InputError(src, line=int(line_no[i]), reason=f"time must not decrease: {t[i]:g} s after {t[i - 1]:g} s",
+                                   column=layout["t_s"] + 1, key="t_s")
     reading = numeric(layout["reading_mm"]) * 1e-3 if kind == "ballbar" else None
     poses = None
     if "x_mm" in layout:
@@ -471,8 +471,8 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
         bad = ~np.isin(direction, ("ccw", "cw"))
         if bad.any():
             i = int(np.argmax(bad))
-            raise MeasurementFileError(src, int(line_no[i]), f"expected 'ccw' or 'cw', found {table[i, j]!r}",
-                                       j + 1, "direction")
+            raise InputError(src, line=int(line_no[i]), reason=f"expected 'ccw' or 'cw', found {table[i, j]!r}",
+                                       column=j + 1, key="direction")
     common = dict(t=t, poses=poses, drives=drives, drive_units=drive_units, feed=feed, direction=direction,
                   temperature=temperature, notes=notes, lines=line_no, **meta)
     if kind != "ballbar":
@@ -484,10 +484,10 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
             bad = range_violations(pm)
             if bad.size:
                 i = int(bad[0])
-                raise MeasurementFileError(src, int(line_no[i]), f"reading at {np.linalg.norm(position[i]) * 1e3:g} "
+                raise InputError(src, line=int(line_no[i]), reason=f"reading at {np.linalg.norm(position[i]) * 1e3:g} "
                                            f"mm from the instrument origin, beyond its measuring volume of radius "
                                            f"{pm.volume_radius * 1e3:g} mm ({bad.size} such readings)",
-                                           layout["px_mm"] + 1, "px_mm")
+                                           column=layout["px_mm"] + 1, key="px_mm")
         return pm
     meas = BallbarMeasurement(reading=reading, **common)
     if check_range:
@@ -497,9 +497,9 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
             lo, hi = meas.range
             more = f" ({bad.size} readings out of range, lines {line_no[bad[0]]}-{line_no[bad[-1]]})" \
                 if bad.size > 1 else ""
-            raise MeasurementFileError(src, int(line_no[i]), f"reading {reading[i] * 1e3:g} mm outside the "
+            raise InputError(src, line=int(line_no[i]), reason=f"reading {reading[i] * 1e3:g} mm outside the "
                                        f"instrument range [{lo * 1e3:g}, {hi * 1e3:g}] mm{more}",
-                                       layout["reading_mm"] + 1, "reading_mm")
+                                       column=layout["reading_mm"] + 1, key="reading_mm")
     return meas
 
 
@@ -510,17 +510,17 @@ def _parse_header(src: str, header: dict[str, tuple[int, str]]) -> dict:
     if "format_version" in header:
         no, v = header["format_version"]
         if v != str(FORMAT_VERSION):
-            raise MeasurementFileError(src, no, f"header key 'format_version': expected {FORMAT_VERSION}, found {v!r}")
+            raise InputError(src, line=no, reason=f"header key 'format_version': expected {FORMAT_VERSION}, found {v!r}")
     meta: dict = {}
     if "bar_length_mm" not in header:
-        raise MeasurementFileError(src, None, "missing header key 'bar_length_mm' (e.g. '# bar_length_mm: 150')")
+        raise InputError(src, reason="missing header key 'bar_length_mm' (e.g. '# bar_length_mm: 150')")
     no, v = header["bar_length_mm"]
     (L,) = _numbers(src, no, "bar_length_mm", v, 1)
     if L <= 0:
-        raise MeasurementFileError(src, no, f"header key 'bar_length_mm': expected a positive length, found {v!r}")
+        raise InputError(src, line=no, reason=f"header key 'bar_length_mm': expected a positive length, found {v!r}")
     meta["bar_length"] = L * 1e-3
     if "fixed_ball_mm" not in header:
-        raise MeasurementFileError(src, None, "missing header key 'fixed_ball_mm' (e.g. '# fixed_ball_mm: 0, 0, 0')")
+        raise InputError(src, reason="missing header key 'fixed_ball_mm' (e.g. '# fixed_ball_mm: 0, 0, 0')")
     no, v = header["fixed_ball_mm"]
     meta["fixed_ball"] = np.array(_numbers(src, no, "fixed_ball_mm", v, 3)) * 1e-3
     if (h := get("ball_offset_mm")) is not None:
@@ -528,14 +528,14 @@ def _parse_header(src: str, header: dict[str, tuple[int, str]]) -> dict:
     if (h := get("range_mm")) is not None:
         lo, hi = _numbers(src, h[0], "range_mm", h[1], 2)
         if not lo < hi:
-            raise MeasurementFileError(src, h[0], f"header key 'range_mm': expected lower < upper, found {h[1]!r}")
+            raise InputError(src, line=h[0], reason=f"header key 'range_mm': expected lower < upper, found {h[1]!r}")
         meta["range"] = (lo * 1e-3, hi * 1e-3)
     for key, attr, scale in (("resolution_um", "resolution", 1e-6), ("accuracy_um", "accuracy", 1e-6),
                              ("sample_rate_hz", "sample_rate", 1.0)):
         if (h := get(key)) is not None:
             (x,) = _numbers(src, h[0], key, h[1], 1)
             if x <= 0:
-                raise MeasurementFileError(src, h[0], f"header key '{key}': expected a positive number, "
+                raise InputError(src, line=h[0], reason=f"header key '{key}': expected a positive number, "
                                            f"found {h[1]!r}")
             meta[attr] = x * scale
     for key in ("machine", "instrument"):
@@ -543,7 +543,7 @@ def _parse_header(src: str, header: dict[str, tuple[int, str]]) -> dict:
             meta[key] = h[1]
     if (h := get("plane")) is not None:
         if h[1].upper() not in ("XY", "YZ", "ZX", "XZ", "AUTO"):
-            raise MeasurementFileError(src, h[0], f"header key 'plane': expected XY, YZ, ZX, XZ or auto, "
+            raise InputError(src, line=h[0], reason=f"header key 'plane': expected XY, YZ, ZX, XZ or auto, "
                                        f"found {h[1]!r}")
         meta["plane"] = h[1].upper() if h[1].upper() != "AUTO" else "auto"
     return meta
@@ -555,14 +555,14 @@ def _parse_point_header(src: str, header: dict[str, tuple[int, str]], kind: str)
     if "format_version" in header:
         no, v = header["format_version"]
         if v != str(FORMAT_VERSION):
-            raise MeasurementFileError(src, no, f"header key 'format_version': expected {FORMAT_VERSION}, found {v!r}")
+            raise InputError(src, line=no, reason=f"header key 'format_version': expected {FORMAT_VERSION}, found {v!r}")
     meta: dict = {}
     if (h := header.get("target_mm")) is not None:
         meta["target"] = np.array(_numbers(src, h[0], "target_mm", h[1], 3)) * 1e-3
     if kind == "tracker":
         for key in ("angle_resolution_urad", "angle_accuracy_urad"):
             if key in header:
-                raise MeasurementFileError(src, header[key][0], f"header key '{key}' belongs to a pose file, not to "
+                raise InputError(src, line=header[key][0], reason=f"header key '{key}' belongs to a pose file, not to "
                                            "a tracker file (instrument_type: tracker)")
     for key, attr, scale, zero_ok in (("volume_radius_mm", "volume_radius", 1e-3, False),
                                       ("resolution_um", "resolution", 1e-6, True),
@@ -576,7 +576,7 @@ def _parse_point_header(src: str, header: dict[str, tuple[int, str]], kind: str)
             (x,) = _numbers(src, h[0], key, h[1], 1)
             if x < 0 or (x == 0 and not zero_ok):
                 what = "a non-negative" if zero_ok else "a positive"
-                raise MeasurementFileError(src, h[0], f"header key '{key}': expected {what} number, found {h[1]!r}")
+                raise InputError(src, line=h[0], reason=f"header key '{key}': expected {what} number, found {h[1]!r}")
             meta[attr] = x * scale
     for key in ("machine", "instrument"):
         if (h := header.get(key)) is not None:
@@ -592,7 +592,7 @@ def _parse_columns(src: str, line: int, columns: list[str], kind: str = "ballbar
     for j, name in enumerate(columns):
         m = _DRIVE_RE.match(name)
         if name in layout or (m and any(d[0] == int(m.group(1)) for d in drives)):
-            raise MeasurementFileError(src, line, f"duplicate column '{name}'", j + 1, name)
+            raise InputError(src, line=line, reason=f"duplicate column '{name}'", column=j + 1, key=name)
         if m:
             drives.append((int(m.group(1)), j, m.group(2)))
         elif name in ("t_s",) + reads + POSE_COLUMNS + _OPTIONAL:
@@ -601,23 +601,23 @@ def _parse_columns(src: str, line: int, columns: list[str], kind: str = "ballbar
             other = [k for k, cols in READING_COLUMNS.items() if name in cols and k != kind]
             hint = (f" ('{name}' is a reading of a {other[-1]} file; set the header key 'instrument_type')"
                     if other else "")
-            raise MeasurementFileError(src, line, f"unknown column '{name}' in a {kind} file{hint}; expected one "
-                                       f"of {', '.join(allowed)}", j + 1, name)
+            raise InputError(src, line=line, reason=f"unknown column '{name}' in a {kind} file{hint}; expected one "
+                                       f"of {', '.join(allowed)}", column=j + 1, key=name)
     for req in ("t_s",) + reads:
         if req not in layout:
-            raise MeasurementFileError(src, line, f"missing column '{req}' (a {kind} file)")
+            raise InputError(src, line=line, reason=f"missing column '{req}' (a {kind} file)")
     have = [c for c in POSE_COLUMNS if c in layout]
     if have and len(have) != 6:
         missing = [c for c in POSE_COLUMNS if c not in layout]
-        raise MeasurementFileError(src, line, f"pose columns incomplete: missing {', '.join(missing)}")
+        raise InputError(src, line=line, reason=f"pose columns incomplete: missing {', '.join(missing)}")
     if drives:
         drives.sort()
         idx = [d[0] for d in drives]
         if idx != list(range(1, len(idx) + 1)):
-            raise MeasurementFileError(src, line, f"drive columns must be q1..q{len(idx)}, found "
+            raise InputError(src, line=line, reason=f"drive columns must be q1..q{len(idx)}, found "
                                        f"{', '.join('q%d' % i for i in idx)}")
         layout["drives"] = [(j, u) for _, j, u in drives]
     if not have and not drives:
-        raise MeasurementFileError(src, line, "expected the commanded pose (x_mm,y_mm,z_mm,a_deg,b_deg,c_deg) or "
+        raise InputError(src, line=line, reason="expected the commanded pose (x_mm,y_mm,z_mm,a_deg,b_deg,c_deg) or "
                                    "drive values (q1_mm, ...) among the columns")
     return layout

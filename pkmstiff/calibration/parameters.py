@@ -30,7 +30,7 @@ from typing import Literal
 
 import numpy as np
 
-from pkmstiff.errors import CalibrationInputError
+from pkmstiff.errors import InputError
 from pkmstiff.machine.model import Machine
 
 Frame = Literal["cartesian", "cylindrical"]
@@ -96,7 +96,7 @@ class ParameterSet:
         except ValueError:
             close = difflib.get_close_matches(name, self.names, n=3)
             hint = f" (did you mean {', '.join(close)}?)" if close else ""
-            raise CalibrationInputError(self.machine, name, f"a parameter name of this error model{hint}",
+            raise InputError(self.machine, name, f"a parameter name of this error model{hint}",
                                         "unknown parameter") from None
 
     def indices(self, names: Iterable[str]) -> np.ndarray:
@@ -122,7 +122,7 @@ class ParameterSet:
     def check_vector(self, delta: np.ndarray, what: str = "error vector") -> np.ndarray:
         d = np.asarray(delta, dtype=float)
         if d.shape != (self.n,) or not np.all(np.isfinite(d)):
-            raise CalibrationInputError(self.machine, what, f"{self.n} finite values (one per parameter, SI)",
+            raise InputError(self.machine, what, f"{self.n} finite values (one per parameter, SI)",
                                         f"shape {d.shape}")
         return d
 
@@ -147,7 +147,7 @@ class ParameterSet:
         """The same parameters with other scales (SI, one per parameter, positive)."""
         s = np.asarray(scale, dtype=float)
         if s.shape != (self.n,) or not np.all(s > 0):
-            raise CalibrationInputError(self.machine, "scale", f"{self.n} positive scales", f"shape {s.shape}")
+            raise InputError(self.machine, "scale", f"{self.n} positive scales", f"shape {s.shape}")
         return ParameterSet(**{**self.__dict__, "scale": s})
 
 
@@ -209,10 +209,10 @@ def parse_with(tokens: str | Iterable[str] | None, instrument: str, source: str 
     out = []
     for t in items:
         if t not in SETUP_TOKENS:
-            raise CalibrationInputError(source, t, f"one of {', '.join(SETUP_TOKENS)}", "unknown set-up parameter")
+            raise InputError(source, t, f"one of {', '.join(SETUP_TOKENS)}", "unknown set-up parameter")
         block, instruments = SETUP_TOKENS[t]
         if instrument not in instruments:
-            raise CalibrationInputError(source, t, f"a set-up parameter of the {instrument} "
+            raise InputError(source, t, f"a set-up parameter of the {instrument} "
                                         f"({', '.join(k for k, v in SETUP_TOKENS.items() if instrument in v[1])})",
                                         f"a {'/'.join(instruments)} parameter")
         if block not in out:
@@ -230,7 +230,7 @@ def error_model(machine: Machine, frame: str = "cartesian", setup: object | None
     ``instrument_frame``), e.g. from :func:`parse_with`.
     """
     if frame not in FRAMES:
-        raise CalibrationInputError(machine.path or machine.name, "frame", "'cartesian' or 'cylindrical'", frame)
+        raise InputError(machine.path or machine.name, "frame", "'cartesian' or 'cylindrical'", frame)
     ch = machine.chains
     b = _Builder()
     labels = ("x", "y", "z") if frame == "cartesian" else ("r", "t", "z")
@@ -257,7 +257,7 @@ def error_model(machine: Machine, frame: str = "cartesian", setup: object | None
             b.scalar(pre + "drive_zero", "drive_zero", i, "m", ch.drive_offset[i], L)
     blocks = tuple(setup_blocks)
     if blocks and setup is None:
-        raise CalibrationInputError(machine.path or machine.name, "setup", "an instrument set-up for set-up "
+        raise InputError(machine.path or machine.name, "setup", "an instrument set-up for set-up "
                                     "parameters", None)
     for blk in blocks:
         if blk in ("ball_offset", "target_offset"):
@@ -272,7 +272,7 @@ def error_model(machine: Machine, frame: str = "cartesian", setup: object | None
             for k, c in enumerate("xyz"):
                 b.rows.append((f"instrument_frame.r{c}", "rad", blk, f"r{c}", -1, _E[k], 0.0, A))
         else:
-            raise CalibrationInputError(machine.path or machine.name, "setup_blocks",
+            raise InputError(machine.path or machine.name, "setup_blocks",
                                         f"set-up blocks {sorted(v[0] for v in SETUP_TOKENS.values())}", blk)
     return b.build(machine.name, ch.kind, frame)
 
@@ -283,16 +283,16 @@ def parse_errors(table: Mapping[str, object], params: ParameterSet, source: str 
     from pkmstiff.units import parse_quantity
 
     if not isinstance(table, Mapping):
-        raise CalibrationInputError(source, "errors", "a table parameter name = value", table)
+        raise InputError(source, "errors", "a table parameter name = value", table)
     out = np.zeros(params.n)
     for name, value in table.items():
         k = params.index(str(name))
         try:
             out[k] = parse_quantity(value, params.units[k], source=source, key=str(name))
-        except CalibrationInputError:
+        except InputError:
             raise
-        except ValueError as exc:  # the unit parser's InputError: same fields, calibration error type
-            raise CalibrationInputError(getattr(exc, "source", source), getattr(exc, "key", str(name)),
+        except ValueError as exc:  # another ValueError (a component or numpy): name the parameter
+            raise InputError(getattr(exc, "file", source), getattr(exc, "key", str(name)),
                                         getattr(exc, "expected", f"a value in {params.units[k]}"),
                                         getattr(exc, "found", value)) from None
     return out

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from pkmstiff.calibration.implicit import implicit_sensitivity
-from pkmstiff.errors import CalibrationInputError
+from pkmstiff.errors import InputError
 
 N_F, N_X, N_PSI, N_P = 6, 2, 1, 2
 
@@ -31,7 +31,7 @@ N_F, N_X, N_PSI, N_P = 6, 2, 1, 2
 def _uv(u: np.ndarray) -> tuple[np.ndarray, ...]:
     u = np.atleast_2d(np.asarray(u, dtype=float))
     if u.shape[-1] != 2:
-        raise CalibrationInputError("double pendulum", "u", "controls (phi1, phi2) in rad, shape (m, 2)", u.shape)
+        raise InputError("double pendulum", "u", "controls (phi1, phi2) in rad, shape (m, 2)", u.shape)
     p1, p2 = u[:, 0], u[:, 1]
     return np.cos(p1), np.sin(p1), np.cos(p1 + p2), np.sin(p1 + p2)
 

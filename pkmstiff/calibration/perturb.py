@@ -16,7 +16,7 @@ from scipy.spatial.transform import Rotation
 
 from pkmstiff.calibration.instruments import Setup, SetupState
 from pkmstiff.calibration.parameters import ParameterSet
-from pkmstiff.errors import CalibrationError
+from pkmstiff.errors import ArgumentError
 from pkmstiff.machine import Machine, bundled_machine_dir
 
 #: machine-file key of each chain parameter block
@@ -49,7 +49,7 @@ def perturbed_machine(machine: Machine, params: ParameterSet, delta: np.ndarray)
     """The machine with the errors ``delta`` applied to its geometry (a new :class:`Machine`)."""
     geo = chain_geometry(machine, params, delta)
     if machine.kind == "glide" and np.any(geo["strut_length"] <= 0):
-        raise CalibrationError(f"machine '{machine.name}': the errors make a strut length non-positive")
+        raise ArgumentError(f"machine '{machine.name}': the errors make a strut length non-positive")
     return dataclasses.replace(machine, chains=dataclasses.replace(machine.chains, **geo),
                                title=machine.title + " (perturbed)")
 
@@ -78,7 +78,7 @@ def _toml_value(v: np.ndarray | float) -> str:
 
 def _extends_target(machine: Machine) -> str:
     if ":" in machine.name:
-        raise CalibrationError(f"machine '{machine.name}' was loaded with options: a file that 'extends' it cannot "
+        raise ArgumentError(f"machine '{machine.name}' was loaded with options: a file that 'extends' it cannot "
                                "select them; write the options into a machine file first")
     path = Path(machine.path)
     if path.parent.resolve() == bundled_machine_dir().resolve():

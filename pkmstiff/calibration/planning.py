@@ -31,7 +31,7 @@ from pkmstiff.calibration.identifiability import analyse, orthogonality_matrix
 from pkmstiff.calibration.jacobian import identification_jacobian
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.plans import Plan, Segment, check_plan, hemisphere_plan, poses_for_target, tilt_torsion_matrix
-from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.errors import InputError, InadmissibleError
 from pkmstiff.machine import Machine
 
 OBJECTIVES = ("cond", "orthogonality", "O1", "O2", "O3", "O4", "O5")
@@ -189,7 +189,7 @@ def plan_objective(machine: Machine, params: ParameterSet, plan: Plan, objective
                    columns: np.ndarray | None = None) -> float:
     """Ω of a plan (module docstring); ``columns`` the parameter columns to judge (default: all)."""
     if objective not in OBJECTIVES:
-        raise CalibrationInputError("--objective", "objective", f"one of {', '.join(OBJECTIVES)}", objective)
+        raise InputError("--objective", "objective", f"one of {', '.join(OBJECTIVES)}", objective)
     Js = identification_jacobian(machine, params, plan).scaled()
     if columns is not None:
         Js = Js[:, columns]
@@ -238,7 +238,7 @@ def start_nodes(k: int, tilt: float, torsion: float) -> np.ndarray:
 def _admissible(machine: Machine, plan: Plan) -> bool:
     try:
         check_plan(machine, plan)
-    except CalibrationError:
+    except InadmissibleError:
         return False
     return True
 
@@ -332,7 +332,7 @@ def optimise_pose_set(machine: Machine, params: ParameterSet, plan0: Plan, objec
 
     if not feasible(x0):
         check_plan(machine, plan0)
-        raise CalibrationError(f"plan '{plan0.name}': start pose set tilts beyond {np.degrees(max_tilt):g} deg")
+        raise InadmissibleError(f"plan '{plan0.name}': start pose set tilts beyond {np.degrees(max_tilt):g} deg")
     runs, f0 = multistart(f, x0, sample, starts, seed, barrier=barrier, feasible=feasible, step_max=step_max,
                           max_iter=max_iter, h=1e-6, mu=mu)
     distinct = _distinct(runs, rtol=1e-6)  # entries of O near 1 differ in the 4th to 6th digit

@@ -22,7 +22,7 @@ import numpy as np
 
 from pkmstiff.admissibility import evaluate_poses
 from pkmstiff.calibration.instruments import INSTRUMENTS, Setup, SetupState, readings
-from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.errors import InputError, InadmissibleError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.kinematics import as_poses
 from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
@@ -65,7 +65,7 @@ class Plan:
     def concat(self, other: Plan, name: str | None = None) -> Plan:
         """Two plans with the same set-up as one."""
         if not _same_setup(self.setup, other.setup):
-            raise CalibrationInputError(self.name, "setup", "plans with the same instrument set-up", other.name)
+            raise InputError(self.name, "setup", "plans with the same instrument set-up", other.name)
         off = self.n_poses
         segs = self.segments + tuple(Segment(s.label, s.start + off, s.stop + off, s.kind) for s in other.segments)
         return Plan(name or f"{self.name} + {other.name}", self.setup, np.vstack([self.poses, other.poses]), segs)
@@ -114,12 +114,12 @@ def plane_axes(plane: str | np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     E = np.eye(3)
     if isinstance(plane, str):
         if plane not in _PLANES:
-            raise CalibrationInputError("plan", "plane", "XY, XZ, YZ or a normal vector", plane)
+            raise InputError("plan", "plane", "XY, XZ, YZ or a normal vector", plane)
         i, j = _PLANES[plane]
         return E[i], E[j]
     n = np.asarray(plane, dtype=float).reshape(3)
     if not np.linalg.norm(n) > 0:
-        raise CalibrationInputError("plan", "normal", "a non-zero normal vector", n.tolist())
+        raise InputError("plan", "normal", "a non-zero normal vector", n.tolist())
     n = n / np.linalg.norm(n)
     ref = E[0] if abs(n[0]) < 0.9 else E[1]
     e1 = ref - (ref @ n) * n
@@ -144,7 +144,7 @@ def spline_orientations(nodes: np.ndarray, s: np.ndarray, periodic: bool) -> np.
 
     nodes = np.atleast_2d(np.asarray(nodes, dtype=float))
     if nodes.ndim != 2 or nodes.shape[1] != 3 or not np.all(np.isfinite(nodes)):
-        raise CalibrationInputError("plan", "nodes", "orientation nodes (k, 3): B, L, D", nodes.shape)
+        raise InputError("plan", "nodes", "orientation nodes (k, 3): B, L, D", nodes.shape)
     k = len(nodes)
     if k == 1:
         return np.repeat(nodes, len(s), axis=0)
@@ -171,11 +171,11 @@ def circle_plan(setup: Setup, plane: str | np.ndarray = "XY", n: int = 72, centr
     at k equally spaced circle angles from e1, interpolated by periodic cubic splines."""
     if centre is None:
         if setup.fixed_ball is None:
-            raise CalibrationInputError("plan", "centre", "a circle centre (no fixed ball in the set-up)", None)
+            raise InputError("plan", "centre", "a circle centre (no fixed ball in the set-up)", None)
         centre = setup.fixed_ball
     radius = setup.bar_length if radius is None else radius
     if radius is None or not radius > 0:
-        raise CalibrationInputError("plan", "radius", "a positive circle radius", radius)
+        raise InputError("plan", "radius", "a positive circle radius", radius)
     P = circle_positions(np.asarray(centre, float), float(radius), plane, int(n))
     if nodes is None:
         R = tilt_torsion_matrix(np.full(n, tilt), np.full(n, tilt_azimuth), np.full(n, torsion))
@@ -203,7 +203,7 @@ def hemisphere_plan(setup: Setup, n: int = 360, turns: float = 4.0, polar: tuple
     values of the path parameter, interpolated by cubic splines (Szatmári §4.4.3); they replace the default
     schedule. The simulation runs the path at constant feed (:mod:`pkmstiff.calibration.simulation`)."""
     if setup.instrument != "ballbar":
-        raise CalibrationInputError("plan", "instrument", "a ball-bar set-up for a hemisphere path", setup.instrument)
+        raise InputError("plan", "instrument", "a ball-bar set-up for a hemisphere path", setup.instrument)
     s = np.linspace(0.0, 1.0, int(n))
     pol = polar[1] + (polar[0] - polar[1]) * s  # from near the equator up to near the pole
     az = 2 * np.pi * turns * s
@@ -242,7 +242,7 @@ def _fmt_pose(p: np.ndarray) -> str:
 
 
 def check_plan(machine: Machine, plan: Plan, max_list: int = 3) -> None:
-    """Raise a one-line :class:`CalibrationError` if a pose of the plan is not admissible on ``machine`` (every
+    """Raise a one-line :class:`InadmissibleError` if a pose of the plan is not admissible on ``machine`` (every
     App. B check; the poses are listed with their failing checks) or a nominal reading lies outside the
     instrument's range."""
     poses = as_poses(plan.poses, f"plan '{plan.name}'")
@@ -252,7 +252,7 @@ def check_plan(machine: Machine, plan: Plan, max_list: int = 3) -> None:
         items = [f"pose {i + 1} {_fmt_pose(poses[i])}: {', '.join(ev.admissibility.failing(int(i)))}"
                  for i in bad[:max_list]]
         more = f"; ... ({bad.size - max_list} more)" if bad.size > max_list else ""
-        raise CalibrationError(f"plan '{plan.name}': {bad.size} of {len(poses)} poses not admissible on "
+        raise InadmissibleError(f"plan '{plan.name}': {bad.size} of {len(poses)} poses not admissible on "
                                f"{machine.name}: " + "; ".join(items) + more)
     if plan.instrument == "ballbar":
         R = cardan_matrix(poses[:, 3], poses[:, 4], poses[:, 5])
@@ -265,7 +265,7 @@ def check_plan(machine: Machine, plan: Plan, max_list: int = 3) -> None:
             off = np.flatnonzero(ang > plan.setup.max_mount_angle)
             if off.size:
                 i = int(off[0])
-                raise CalibrationError(
+                raise InadmissibleError(
                     f"plan '{plan.name}': {off.size} of {len(poses)} poses tilt the ball bar beyond the cup's "
                     f"{np.degrees(plan.setup.max_mount_angle):g} deg to the tool axis, first pose {i + 1} "
                     f"{_fmt_pose(poses[i])} at {np.degrees(ang[i]):.1f} deg")
@@ -273,7 +273,7 @@ def check_plan(machine: Machine, plan: Plan, max_list: int = 3) -> None:
         off = np.flatnonzero(np.abs(r - plan.setup.bar_length) > plan.setup.measuring_range)
         if off.size:
             i = int(off[0])
-            raise CalibrationError(
+            raise InadmissibleError(
                 f"plan '{plan.name}': {off.size} of {len(poses)} poses put the ball bar outside its range "
                 f"{plan.setup.bar_length * 1e3:g} ± {plan.setup.measuring_range * 1e3:g} mm, first pose {i + 1} "
                 f"{_fmt_pose(poses[i])} at {r[i] * 1e3:.3f} mm")
@@ -294,7 +294,7 @@ def workspace_centre(machine: Machine, points: int = 17) -> np.ndarray:
     X = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
     ok = evaluate_poses(machine, np.c_[X, np.zeros((len(X), 3))]).ok.reshape((points,) * 3)
     if not ok.any():
-        raise CalibrationError(f"machine '{machine.name}': no admissible pose at zero orientation on a "
+        raise InadmissibleError(f"machine '{machine.name}': no admissible pose at zero orientation on a "
                                f"{points}^3 grid of the reach box: cannot choose a default plan")
     step = (hi - lo) / (points - 1)
     depth = distance_transform_edt(np.pad(ok, 1), sampling=step)[1:-1, 1:-1, 1:-1]
@@ -381,26 +381,26 @@ def read_plan(path: str | Path) -> Plan:
 
     path = resolve(path)
     src = str(path)
-    raw = check_keys(read_toml(path, CalibrationInputError, "plan file"), _PLAN_KEYS, src, "",
-                     CalibrationInputError)
-    pt = check_keys(require(raw, "plan", src, "", "a [plan] table", CalibrationInputError), _PLAN_TABLE, src,
-                    "plan.", CalibrationInputError)
-    instrument = require(pt, "instrument", src, "plan.", f"one of {', '.join(INSTRUMENTS)}", CalibrationInputError)
+    raw = check_keys(read_toml(path, "plan file"), _PLAN_KEYS, src, "",
+                     InputError)
+    pt = check_keys(require(raw, "plan", src, "", "a [plan] table", InputError), _PLAN_TABLE, src,
+                    "plan.", InputError)
+    instrument = require(pt, "instrument", src, "plan.", f"one of {', '.join(INSTRUMENTS)}", InputError)
     if instrument not in INSTRUMENTS:
-        raise CalibrationInputError(src, "plan.instrument", f"one of {', '.join(INSTRUMENTS)}", instrument)
-    st = check_keys(raw.get("setup", {}), _SETUP_KEYS, src, "setup.", CalibrationInputError)
+        raise InputError(src, "plan.instrument", f"one of {', '.join(INSTRUMENTS)}", instrument)
+    st = check_keys(raw.get("setup", {}), _SETUP_KEYS, src, "setup.", InputError)
 
     def q(table, key, unit, prefix, default=None, shape=None, positive=False):
         if key not in table:
             if default is None:
-                raise CalibrationInputError(src, prefix + key, f"a value in {unit}", "missing key")
+                raise InputError(src, prefix + key, f"a value in {unit}", "missing key")
             return default
         try:
             return parse_quantity(table[key], unit, source=src, key=prefix + key, shape=shape, positive=positive)
-        except CalibrationInputError:
+        except InputError:
             raise
-        except ValueError as exc:  # InputError of the unit parser: same message, calibration error type
-            raise CalibrationInputError(getattr(exc, "source", src), getattr(exc, "key", prefix + key),
+        except ValueError as exc:  # another ValueError (e.g. of numpy): name the key
+            raise InputError(getattr(exc, "file", src), getattr(exc, "key", prefix + key),
                                         getattr(exc, "expected", f"a value in {unit}"),
                                         getattr(exc, "found", table[key])) from None
 
@@ -415,27 +415,27 @@ def read_plan(path: str | Path) -> Plan:
         setup = Setup(instrument, target=target)
     paths = raw.get("paths")
     if not isinstance(paths, list) or not paths:
-        raise CalibrationInputError(src, "paths", "at least one [[paths]] table", paths)
+        raise InputError(src, "paths", "at least one [[paths]] table", paths)
     plan: Plan | None = None
     for i, p in enumerate(paths):
         pre = f"paths[{i + 1}]."
-        kind = require(p, "kind", src, pre, _KINDS, CalibrationInputError) if isinstance(p, dict) else None
+        kind = require(p, "kind", src, pre, _KINDS, InputError) if isinstance(p, dict) else None
         if kind not in _PATH_KEYS:
-            raise CalibrationInputError(src, pre + "kind", _KINDS, kind)
-        check_keys(p, _PATH_KEYS[kind], src, pre, CalibrationInputError)
+            raise InputError(src, pre + "kind", _KINDS, kind)
+        check_keys(p, _PATH_KEYS[kind], src, pre, InputError)
         label = p.get("label")
         nodes = q(p, "nodes", "rad", pre, shape=(None, 3)) if "nodes" in p else None
         if nodes is not None and len(nodes) < 1:
-            raise CalibrationInputError(src, pre + "nodes", "at least one [B, L, D] node", "an empty list")
+            raise InputError(src, pre + "nodes", "at least one [B, L, D] node", "an empty list")
         if kind == "circle":
             n = int(q(p, "points", "dimensionless", pre, 72.0, positive=True))
             if "normal" in p and "plane" in p:
-                raise CalibrationInputError(src, pre + "normal", "either plane or normal", "both")
+                raise InputError(src, pre + "normal", "either plane or normal", "both")
             plane = q(p, "normal", "dimensionless", pre, shape=(3,)) if "normal" in p else str(p.get("plane", "XY"))
             if not isinstance(plane, str) and not np.linalg.norm(plane) > 0:
-                raise CalibrationInputError(src, pre + "normal", "a non-zero normal vector", plane.tolist())
+                raise InputError(src, pre + "normal", "a non-zero normal vector", plane.tolist())
             if isinstance(plane, str) and plane not in _PLANES:
-                raise CalibrationInputError(src, pre + "plane", "XY, XZ or YZ (or a normal vector)", plane)
+                raise InputError(src, pre + "plane", "XY, XZ or YZ (or a normal vector)", plane)
             part = circle_plan(setup, plane=plane, n=n, nodes=nodes,
                                centre=q(p, "centre", "m", pre, setup.fixed_ball, (3,)),
                                radius=q(p, "radius", "m", pre, setup.bar_length, positive=True),
@@ -460,7 +460,7 @@ def read_plan(path: str | Path) -> Plan:
             pos = q(p, "positions", "m", pre, shape=(None, 3))
             ang = q(p, "angles", "rad", pre, np.zeros_like(pos), shape=(None, 3))
             if ang.shape != pos.shape:
-                raise CalibrationInputError(src, pre + "angles", f"{len(pos)} rows like positions",
+                raise InputError(src, pre + "angles", f"{len(pos)} rows like positions",
                                             f"{len(ang)} rows")
             lab = label or f"poses ({len(pos)})"
             part = Plan(lab, setup, np.c_[pos, ang], (Segment(lab, 0, len(pos), "points"),))

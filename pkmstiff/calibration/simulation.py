@@ -36,7 +36,7 @@ from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_state
 from pkmstiff.calibration.plans import Plan, poses_for_target
-from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.errors import InputError, InadmissibleError
 from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
@@ -66,9 +66,9 @@ class InstrumentModel:
         for key in ("sample_rate", "resolution", "accuracy"):
             v = getattr(self, key)
             if not (np.isfinite(v) and v >= 0) or (key == "sample_rate" and v <= 0):
-                raise CalibrationInputError("instrument", key, "a positive number", v)
+                raise InputError("instrument", key, "a positive number", v)
         if not self.range[0] < 0 < self.range[1]:
-            raise CalibrationInputError("instrument", "range", "lo < 0 < hi (m, about the bar length)", self.range)
+            raise InputError("instrument", "range", "lo < 0 < hi (m, about the bar length)", self.range)
 
     def uncertainty(self, feed: np.ndarray | float) -> np.ndarray:
         """Procedure uncertainty U(feed) [m] (Tab. 4.5, linear interpolation, constant beyond the table)."""
@@ -85,7 +85,7 @@ class InstrumentModel:
                 return np.full_like(f, self.accuracy / 2.0)
             if noise == "procedure":
                 return self.uncertainty(f) / 2.0
-            raise CalibrationInputError("--noise", "noise", f"one of {', '.join(NOISE_MODELS)} or a σ", noise)
+            raise InputError("--noise", "noise", f"one of {', '.join(NOISE_MODELS)} or a σ", noise)
         return np.full_like(f, float(noise))
 
 
@@ -119,12 +119,12 @@ class TrackerModel:
 
     def __post_init__(self) -> None:
         if self.kind not in ("tracker", "pose"):
-            raise CalibrationInputError("instrument", "kind", "tracker or pose", self.kind)
+            raise InputError("instrument", "kind", "tracker or pose", self.kind)
         for key in ("sample_rate", "resolution", "mpe_constant", "mpe_per_m", "standoff", "volume_radius",
                     "angle_resolution", "angle_accuracy"):
             v = getattr(self, key)
             if not (np.isfinite(v) and v >= 0) or (key in ("sample_rate", "volume_radius") and v <= 0):
-                raise CalibrationInputError("instrument", key, "a positive number", v)
+                raise InputError("instrument", key, "a positive number", v)
 
     @property
     def accuracy(self) -> float:
@@ -140,7 +140,7 @@ class TrackerModel:
                 return np.zeros_like(f)
             if noise == "instrument":
                 return np.full_like(f, self.accuracy / 2.0)
-            raise CalibrationInputError("--noise", "noise", "none, instrument or a sigma for a tracker / pose "
+            raise InputError("--noise", "noise", "none, instrument or a sigma for a tracker / pose "
                                         "instrument (procedure is the ball-bar model of Szatmari Tab. 4.5)", noise)
         return np.full_like(f, float(noise))
 
@@ -180,16 +180,16 @@ class SimulationOptions:
 
     def __post_init__(self) -> None:
         if not self.feed > 0:
-            raise CalibrationInputError("simulation", "feed", "a positive feed", self.feed)
+            raise InputError("simulation", "feed", "a positive feed", self.feed)
         for d in self.directions:
             if d not in ("ccw", "cw"):
-                raise CalibrationInputError("simulation", "directions", "ccw and/or cw", d)
+                raise InputError("simulation", "directions", "ccw and/or cw", d)
         for key in ("backlash", "drift_tau", "dwell"):
             v = getattr(self, key)
             if not v >= 0:
-                raise CalibrationInputError("simulation", key, "a non-negative number", v)
+                raise InputError("simulation", key, "a non-negative number", v)
         if self.deflection not in ("none", "gravity"):
-            raise CalibrationInputError("simulation", "deflection", "none or gravity", self.deflection)
+            raise InputError("simulation", "deflection", "none or gravity", self.deflection)
 
 
 @dataclass
@@ -289,7 +289,7 @@ def sample_plan(plan: Plan, instrument: InstrumentModel, options: SimulationOpti
             parts.append((q, t, np.full(len(q), options.feed), np.full(len(q), d), np.full(len(q), j)))
             t0 = t[-1] + 1.0 / instrument.sample_rate
     if not parts:
-        raise CalibrationInputError(plan.name, "segments", "at least one path or point set", 0)
+        raise InputError(plan.name, "segments", "at least one path or point set", 0)
     cols = list(zip(*parts))
     return Samples(*(np.concatenate(c) for c in cols))
 
@@ -359,7 +359,7 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
     ik = inverse_kinematics(machine, x)
     bad = np.flatnonzero(~ik.all_reachable)
     if bad.size:
-        raise CalibrationError(f"plan '{plan.name}': {bad.size} sampled poses unreachable by the nominal inverse "
+        raise InadmissibleError(f"plan '{plan.name}': {bad.size} sampled poses unreachable by the nominal inverse "
                                f"kinematics, first sample {int(bad[0]) + 1}")
     reached = x if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, x)
     o, R = reached[:, :3], cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
@@ -403,7 +403,7 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
 
 def check_samples(machine: Machine, plan: Plan, samples: Samples, max_list: int = 3) -> None:
     """Refuse a plan whose *sampled* poses (the spline / slerp interpolated poses between its nodes at constant
-    feed, :func:`sample_plan`) leave the admissible region: a one-line :class:`CalibrationError` listing the
+    feed, :func:`sample_plan`) leave the admissible region: a one-line :class:`InadmissibleError` listing the
     first ``max_list`` offending samples with their time, pose and failing App. B checks (as
     :func:`~pkmstiff.calibration.plans.check_plan` does for the nodes)."""
     from pkmstiff.admissibility import evaluate_poses
@@ -416,14 +416,14 @@ def check_samples(machine: Machine, plan: Plan, samples: Samples, max_list: int 
     items = [f"sample {i + 1} (t = {samples.t[i]:.3f} s) {_fmt_pose(samples.poses[i])}: "
              f"{', '.join(ev.admissibility.failing(int(i)))}" for i in bad[:max_list]]
     more = f"; ... ({bad.size - max_list} more)" if bad.size > max_list else ""
-    raise CalibrationError(f"plan '{plan.name}': {bad.size} of {len(samples.poses)} sampled poses not admissible "
+    raise InadmissibleError(f"plan '{plan.name}': {bad.size} of {len(samples.poses)} sampled poses not admissible "
                            f"on {machine.name}: " + "; ".join(items) + more)
 
 
 def _check_match(plan: Plan, instrument: InstrumentModel | TrackerModel) -> None:
     kind = getattr(instrument, "kind", "ballbar")
     if kind != plan.instrument:
-        raise CalibrationInputError(plan.name, "instrument", f"a {plan.instrument} instrument model for a "
+        raise InputError(plan.name, "instrument", f"a {plan.instrument} instrument model for a "
                                     f"{plan.instrument} plan", kind)
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from scipy import stats
 
 from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats
-from pkmstiff.errors import CalibrationError
+from pkmstiff.errors import ArgumentError, NumericalError
 
 
 @dataclass(frozen=True)
@@ -73,11 +73,11 @@ def covariance(J: np.ndarray, r: np.ndarray, rank: int | None = None) -> tuple[n
     m, n = J.shape
     rank = n if rank is None else int(rank)
     if m <= rank:
-        raise CalibrationError(f"{m} readings for {rank} identified parameters: no degrees of freedom are left to "
+        raise ArgumentError(f"{m} readings for {rank} identified parameters: no degrees of freedom are left to "
                                "estimate the noise; measure more poses")
     _, sv, Vt = np.linalg.svd(J, full_matrices=False)
     if sv[-1] <= sv[0] * 1e-13 * max(m, n):
-        raise CalibrationError("the Jacobian of the identified parameters is rank deficient; identify the base "
+        raise NumericalError("the Jacobian of the identified parameters is rank deficient; identify the base "
                                "parameters only (their gauge freedoms fixed)")
     s = noise_estimate(np.asarray(r, dtype=float), rank)
     Vs = Vt.T / sv[None, :]

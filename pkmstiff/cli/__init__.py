@@ -10,7 +10,8 @@ import sys
 from typing import Sequence
 
 from pkmstiff import __version__
-from pkmstiff.errors import CliError, PkmstiffError  # noqa: F401 (CliError re-exported)
+from pkmstiff.errors import (ArgumentError, InadmissibleError, InputError, NumericalError, PkmstiffError,
+                             ResourceError)
 
 # modules that add their own sub-commands with ``add_commands(subparsers)``
 _COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.components", "pkmstiff.cli.demo", "pkmstiff.cli.pose",
@@ -19,7 +20,7 @@ _COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.components", "pkmstif
                     "pkmstiff.cli.calibrate", "pkmstiff.cli.mechanism")
 
 
-class UsageError(CliError):
+class ArgumentError(ArgumentError):
     """A command line argparse cannot parse (printed as one line, exit status 2)."""
 
 
@@ -32,7 +33,7 @@ class _Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):  # type: ignore[override]
-        raise UsageError(f"{message} (see '{self.prog} --help')")
+        raise ArgumentError(f"{message} (see '{self.prog} --help')")
 
 
 #: a value that starts like a negative number: "-100", "-.5", "-100,300,-1000,0,0,0", "-30,30"
@@ -107,6 +108,16 @@ def _headless() -> None:
 EXIT_BROKEN_PIPE = 141
 
 
+#: the command line's exit status for each error kind (the one place that maps kinds to statuses)
+EXIT_STATUS: dict[type[PkmstiffError], int] = {InputError: 2, ArgumentError: 2, ResourceError: 2, NumericalError: 2,
+                                               InadmissibleError: 3, PkmstiffError: 2}
+
+
+def exit_status(exc: PkmstiffError) -> int:
+    """The exit status of ``exc``: that of its nearest kind in :data:`EXIT_STATUS`."""
+    return next(EXIT_STATUS[k] for k in type(exc).__mro__ if k in EXIT_STATUS)
+
+
 def _command_of(argv: Sequence[str]) -> str:
     return next((a for a in argv if not a.startswith("-")), "")
 
@@ -115,8 +126,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``pkmstiff ARGS`` and return the exit status.
 
     0 success; 2 bad input or a usage error (one line ``pkmstiff COMMAND: error: ...`` on stderr, no traceback);
-    3 a refused inadmissible pose (:class:`~pkmstiff.errors.InadmissiblePoseRefused`); 1 an internal error (a bug:
-    one line, the traceback with ``PKMSTIFF_TRACEBACK=1``); 130 interrupted; 141 output pipe closed.
+    3 an inadmissible or unreachable pose or plan (:class:`~pkmstiff.errors.InadmissibleError`); 1 an internal error
+    (a bug: one line, the traceback with ``PKMSTIFF_TRACEBACK=1``); 130 interrupted; 141 output pipe closed. The
+    statuses of the error kinds are :data:`EXIT_STATUS`.
     """
     _headless()
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -132,7 +144,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         return int(args.func(args) or 0)
     except PkmstiffError as exc:
-        return _fail(command, str(exc), exc.exit_status)
+        return _fail(command, str(exc), exit_status(exc))
     except BrokenPipeError:
         _silence_stdout()
         return EXIT_BROKEN_PIPE

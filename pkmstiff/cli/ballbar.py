@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from pkmstiff.errors import BallbarError
+from pkmstiff.errors import ArgumentError, InputError
 
 
 def _harmonics_arg(text: str) -> int | str:
@@ -23,9 +23,9 @@ def _harmonics_arg(text: str) -> int | str:
     try:
         n = int(text)
     except ValueError:
-        raise BallbarError(f"--harmonics: expected a non-negative integer or 'auto', found {text!r}") from None
+        raise ArgumentError(option="--harmonics", expected="a non-negative integer or 'auto'", found=text) from None
     if n < 0:
-        raise BallbarError(f"--harmonics: expected a non-negative integer or 'auto', found {text!r}")
+        raise ArgumentError(option="--harmonics", expected="a non-negative integer or 'auto'", found=text)
     return n
 
 
@@ -44,7 +44,7 @@ def _start_pose(text: str | None) -> list[float] | None:
 
     if text is None:
         return None
-    vals = parse_numbers(text, 6, "--start-pose", "x,y,z,a,b,c (mm, deg)", error=BallbarError)
+    vals = parse_numbers(text, 6, "--start-pose", "x,y,z,a,b,c (mm, deg)")
     return [v * 1e-3 for v in vals[:3]] + [math.radians(v) for v in vals[3:]]
 
 
@@ -62,8 +62,8 @@ def analyse_file(path: str, harmonics: int | str = "auto", plot_dir: str | None 
 
         name = machine or meas.machine
         if not name:
-            raise BallbarError("a drive-only file needs a machine: give --machine or the header key 'machine'",
-                               str(path))
+            raise InputError(reason="a drive-only file needs a machine: give --machine or the header key 'machine'",
+                               file=str(path))
         model = load_machine(name)
     ev = evaluate_measurement(meas, harmonics=harmonics, alpha=alpha, machine=model, start_pose=x0,
                               source=str(path))
@@ -107,7 +107,7 @@ def _print_text(rep: dict[str, Any]) -> None:
 def _cmd_analyse(args: argparse.Namespace) -> int:
     harmonics = _harmonics_arg(args.harmonics)
     if not 0.0 < args.alpha < 1.0:
-        raise BallbarError(f"--alpha: expected a probability in (0, 1), found {args.alpha}")
+        raise ArgumentError(option="--alpha", expected="a probability in (0, 1)", found=args.alpha)
     rep = analyse_file(args.file, harmonics=harmonics, plot_dir=args.plot, alpha=args.alpha, machine=args.machine,
                        start_pose=args.start_pose)
     if args.json:

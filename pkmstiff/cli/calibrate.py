@@ -18,14 +18,14 @@ from pkmstiff.errors import PkmstiffError
 def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
     """Run a sub-command; toolkit errors become the CLI's one-line errors (exit status 2)."""
     def wrapped(args: argparse.Namespace) -> int:
-        from pkmstiff.cli import CliError
+        from pkmstiff.errors import ArgumentError
 
         try:
             return func(args)
         except PkmstiffError as exc:
             if isinstance(exc, ValueError):  # input errors: the CLI already prints them in one line
                 raise
-            raise CliError(str(exc)) from None
+            raise ArgumentError(str(exc)) from None
     return wrapped
 
 
@@ -41,8 +41,8 @@ def identifiability_report(machine_name: str, instrument: str, plan_path: str | 
     if plan_path:
         plan = read_plan(plan_path)
         if plan.instrument != instrument:
-            from pkmstiff.errors import CalibrationInputError
-            raise CalibrationInputError(plan_path, "plan.instrument", f"'{instrument}' (as --instrument)",
+            from pkmstiff.errors import InputError
+            raise InputError(plan_path, "plan.instrument", f"'{instrument}' (as --instrument)",
                                         plan.instrument)
     else:
         plan = default_plan(machine, instrument)

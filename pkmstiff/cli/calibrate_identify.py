@@ -24,17 +24,17 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     from pkmstiff.calibration.identification import identify
     from pkmstiff.calibration.measurement_file import read_measurement
     from pkmstiff.calibration.uncertainty import uncertainty
-    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.errors import InputError
     from pkmstiff.machine import load_machine
 
     if check_deflection(deflection) == "none" and load is not None:
-        raise CalibrationInputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
+        raise InputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
     wrench = parse_load(load)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)
     kind = getattr(meas, "kind", "ballbar")
     if instrument is not None and instrument != kind:
-        raise CalibrationInputError(measurements, "instrument", f"'{instrument}' (--instrument), but the file holds "
+        raise InputError(measurements, "instrument", f"'{instrument}' (--instrument), but the file holds "
                                     f"{kind} readings (header instrument_type)", kind)
     plan, y = measurement_plan(meas, machine.name, measurements)
     params = error_model(machine, frame=frame, setup=plan.setup)
@@ -61,14 +61,13 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
 
 def parse_load(text: str | None):
     """``--load "Fx,Fy,Fz[,Mx,My,Mz]"`` (N, N m) -> array (3,) or (6,), or None."""
-    from pkmstiff.errors import CliError
     from pkmstiff.io.ranges import parse_numbers
 
     if text is None:
         return None
     n = text.count(",") + 1
     return np.array(parse_numbers(text, n if n in (3, 6) else 3, "--load", "Fx,Fy,Fz [N] or Fx,Fy,Fz,Mx,My,Mz "
-                                  "[N, N m]", error=CliError, count_text="3 or 6"))
+                                  "[N, N m]", count_text="3 or 6"))
 
 
 def _print_deflection(d: dict) -> None:
@@ -128,11 +127,11 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
     from pkmstiff.calibration.compensation import check, measurement_plan
     from pkmstiff.calibration.deflection import check_deflection, subtract_deflection
     from pkmstiff.calibration.measurement_file import read_measurement
-    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.errors import InputError
     from pkmstiff.machine import load_machine
 
     if check_deflection(deflection) == "none" and load is not None:
-        raise CalibrationInputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
+        raise InputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
     wrench = parse_load(load)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)

@@ -16,7 +16,7 @@ def report_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate report`` does; returns a JSON-ready summary (keys name their units)."""
     from pkmstiff.calibration.identification import residual_stats
     from pkmstiff.cli.edges import check_output_dir
-    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.errors import InputError
     from pkmstiff.calibration.deflection import require_structure_model
     from pkmstiff.machine import load_machine
     from pkmstiff.report.calibration import (
@@ -27,7 +27,7 @@ def report_command(args: argparse.Namespace) -> dict:
 
     check_output_dir(args.out, "--out", args.force, REPORT_FILES)
     if args.monte_carlo < 0:
-        raise CalibrationInputError("--monte-carlo", "monte_carlo", "a number of runs >= 0", args.monte_carlo)
+        raise InputError("--monte-carlo", "monte_carlo", "a number of runs >= 0", args.monte_carlo)
     wants_deflection = args.deflection != "none"
     machine = load_machine(args.machine)
     if wants_deflection:  # fail before the identification, write nothing

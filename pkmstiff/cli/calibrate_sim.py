@@ -14,14 +14,14 @@ from pkmstiff.errors import PkmstiffError
 
 def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
     def wrapped(args: argparse.Namespace) -> int:
-        from pkmstiff.cli import CliError
+        from pkmstiff.errors import ArgumentError
 
         try:
             return func(args)
         except PkmstiffError as exc:
             if isinstance(exc, ValueError):  # input errors: printed in one line by the CLI
                 raise
-            raise CliError(str(exc)) from None
+            raise ArgumentError(str(exc)) from None
     return wrapped
 
 
@@ -30,7 +30,7 @@ def read_errors(path: str | None, machine, plan):
     ``frame = "cartesian"|"cylindrical"`` (optional) and an ``[errors]`` table name = quantity."""
     from pkmstiff.calibration import error_model, parse_errors
     from pkmstiff.calibration.parameters import SETUP_TOKENS
-    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.errors import InputError
     from pkmstiff.io import check_keys, read_toml
 
     blocks = tuple(b for b, inst in SETUP_TOKENS.values() if plan.instrument in inst)
@@ -40,25 +40,25 @@ def read_errors(path: str | None, machine, plan):
     from pkmstiff.calibration.examples import resolve
 
     path = str(resolve(path))  # example:NAME -> a bundled error file
-    raw = check_keys(read_toml(path, CalibrationInputError, "error file"), {"frame", "errors", "description"}, path,
-                     "", CalibrationInputError)
+    raw = check_keys(read_toml(path, "error file"), {"frame", "errors", "description"}, path,
+                     "", InputError)
     params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
     return params, parse_errors(raw.get("errors", {}), params, source=path)
 
 
 def _noise(text: str) -> str | float:
     from pkmstiff.calibration.simulation import NOISE_MODELS
-    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.errors import InputError
 
     if text in NOISE_MODELS:
         return text
     try:
         v = float(text) * 1e-6
     except ValueError:
-        raise CalibrationInputError("--noise", "noise", f"one of {', '.join(NOISE_MODELS)} or sigma in um",
+        raise InputError("--noise", "noise", f"one of {', '.join(NOISE_MODELS)} or sigma in um",
                                     text) from None
     if not v >= 0:
-        raise CalibrationInputError("--noise", "noise", "a non-negative sigma in um", text)
+        raise InputError("--noise", "noise", "a non-negative sigma in um", text)
     return v
 
 
@@ -74,7 +74,7 @@ def simulate_command(args: argparse.Namespace) -> dict:
         simulate,
         to_measurement,
     )
-    from pkmstiff.errors import CalibrationError
+    from pkmstiff.errors import ArgumentError
     from pkmstiff.machine import load_machine
 
     machine = load_machine(args.machine)
@@ -91,7 +91,7 @@ def simulate_command(args: argparse.Namespace) -> dict:
     res = simulate(machine, params, delta, plan, inst, opts, samples=smp)
     msg = range_error(plan, res, inst)
     if msg and (not args.saturate or plan.instrument != "ballbar"):
-        raise CalibrationError(msg + (" (use --saturate to write them clipped at the range limits)"
+        raise ArgumentError(msg + (" (use --saturate to write them clipped at the range limits)"
                                       if plan.instrument == "ballbar" else ""))
     meas = to_measurement(machine, plan, res, inst, saturate=args.saturate)
     write_measurement(args.out, meas)
@@ -118,7 +118,7 @@ def _instrument(args: argparse.Namespace, plan):
     """The instrument model of the plan's instrument with the command-line figures (defaults: QC10 ball bar;
     the assumed AT960-class tracker / 6-D instrument of :class:`~pkmstiff.calibration.simulation.TrackerModel`)."""
     from pkmstiff.calibration.simulation import InstrumentModel, TrackerModel
-    from pkmstiff.errors import CalibrationInputError
+    from pkmstiff.errors import InputError
 
     if plan.instrument == "ballbar":
         rng = plan.setup.measuring_range if args.range is None else args.range * 1e-3
@@ -126,7 +126,7 @@ def _instrument(args: argparse.Namespace, plan):
                                resolution=(0.1 if args.resolution is None else args.resolution) * 1e-6,
                                accuracy=(0.5 if args.accuracy is None else args.accuracy) * 1e-6)
     if args.angle_accuracy is not None and plan.instrument != "pose":
-        raise CalibrationInputError("--angle-accuracy", "angle_accuracy", "a pose (6-D) plan", plan.instrument)
+        raise InputError("--angle-accuracy", "angle_accuracy", "a pose (6-D) plan", plan.instrument)
     d = TrackerModel(kind=plan.instrument)
     return TrackerModel(kind=plan.instrument,
                         sample_rate=d.sample_rate if args.sample_rate is None else args.sample_rate,
@@ -214,18 +214,18 @@ def plan_command(args: argparse.Namespace) -> dict:
         plan_toml,
         start_nodes,
     )
-    from pkmstiff.errors import CalibrationError, CalibrationInputError
+    from pkmstiff.errors import InputError, InadmissibleError
     from pkmstiff.machine import load_machine
 
     check_instrument(args.instrument)
     machine = load_machine(args.machine)
     for key in ("starts", "iterations", "nodes", "points", "poses"):
         if getattr(args, key) < 1:
-            raise CalibrationInputError(f"--{key}", key, "a positive integer", getattr(args, key))
+            raise InputError(f"--{key}", key, "a positive integer", getattr(args, key))
     max_tilt = np.radians(args.max_tilt)
     if args.instrument == "ballbar":
         if args.start:
-            raise CalibrationInputError("--start", "start", "no start plan for a ball bar (the hemisphere path of "
+            raise InputError("--start", "start", "no start plan for a ball bar (the hemisphere path of "
                                         "the default plan is used; its nodes are optimised)", args.start)
         d = default_plan(machine, "ballbar")
         side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
@@ -239,10 +239,10 @@ def plan_command(args: argparse.Namespace) -> dict:
                 res = optimise_hemisphere(machine, params, spec, nodes0, args.objective, starts=args.starts,
                                           seed=args.seed, max_iter=args.iterations)
                 break
-            except CalibrationError:
+            except InadmissibleError:
                 continue
         if res is None:
-            raise CalibrationError(f"machine '{machine.name}': no admissible start hemisphere path with "
+            raise InadmissibleError(f"machine '{machine.name}': no admissible start hemisphere path with "
                                    f"{args.nodes} nodes up to {args.max_tilt:g} deg tilt")
         text = plan_toml(res.best_plan, f"{machine.name} hemisphere, optimised ({args.objective})",
                          f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}",
@@ -254,7 +254,7 @@ def plan_command(args: argparse.Namespace) -> dict:
             plan0 = Plan(f"{plan0.name}, {len(idx)} poses", plan0.setup, plan0.poses[idx],
                          (Segment("poses", 0, len(idx), "points"),))
         if plan0.instrument != args.instrument:
-            raise CalibrationInputError(args.start, "plan.instrument", f"'{args.instrument}'", plan0.instrument)
+            raise InputError(args.start, "plan.instrument", f"'{args.instrument}'", plan0.instrument)
         params = error_model(machine, frame=args.frame, setup=plan0.setup)
         res = optimise_pose_set(machine, params, plan0, args.objective, starts=args.starts, seed=args.seed,
                                 max_iter=args.iterations, max_tilt=max_tilt)

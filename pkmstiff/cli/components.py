@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from pkmstiff.errors import CliError
+from pkmstiff.errors import ArgumentError
 
 
 def _cmd_components(args: argparse.Namespace) -> int:
@@ -13,7 +13,7 @@ def _cmd_components(args: argparse.Namespace) -> int:
     from components.registry import available_models
 
     if args.model and args.model not in available_models():
-        raise CliError(f"unknown component model {args.model!r}; expected one of "
+        raise ArgumentError(f"unknown component model {args.model!r}; expected one of "
                        f"{', '.join(sorted(available_models()))}")
     if args.json:
         print(json.dumps(catalogue.as_json(args.model), indent=2))

@@ -9,11 +9,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     import math
 
     from pkmstiff.cli.edges import check_output_dir
-    from pkmstiff.errors import CliError
+    from pkmstiff.errors import ArgumentError
     from pkmstiff.report import demo
 
     if not (math.isfinite(args.step) and 1.0 <= args.step <= 100.0):
-        raise CliError(f"--step: expected a raster step of 1 to 100 mm, found {args.step:g}")
+        raise ArgumentError(f"--step: expected a raster step of 1 to 100 mm, found {args.step:g}")
     check_output_dir(args.out, "--out", getattr(args, "force", False), tuple(demo.output_files()))
 
     return int(demo.run(args))

@@ -1,7 +1,7 @@
 """Checks the command line runs before any work: output paths, ``--jobs`` and the memory budget (with the cost line
 printed before long work).
 
-Every check raises a :class:`~pkmstiff.errors.CliError` subclass with one line naming the option, what was expected
+Every check raises a :class:`~pkmstiff.errors.ArgumentError` subclass with one line naming the option, what was expected
 and what was found, so that a command fails in seconds instead of after the computation (issue 12, item 4).
 """
 
@@ -11,7 +11,7 @@ import os
 import sys
 from pathlib import Path
 
-from pkmstiff.errors import CliError, CostLimitError, OutputPathError
+from pkmstiff.errors import ArgumentError, ResourceError
 
 #: default memory budget: this fraction of the available memory (MemAvailable), overridable with --memory-budget
 DEFAULT_BUDGET_FRACTION = 0.5
@@ -30,10 +30,10 @@ def _nearest_existing(path: Path) -> Path:
 def _check_parent_writable(path: Path, option: str) -> None:
     anc = _nearest_existing(path.parent if path.parent != Path("") else Path("."))
     if not anc.is_dir():
-        raise OutputPathError(f"{option}: expected a path below a directory, found {str(path)!r} "
+        raise ArgumentError(f"{option}: expected a path below a directory, found {str(path)!r} "
                               f"({str(anc)!r} is a file)")
     if not os.access(anc, os.W_OK | os.X_OK):
-        raise OutputPathError(f"{option}: expected a writable location, found {str(path)!r} "
+        raise ArgumentError(f"{option}: expected a writable location, found {str(path)!r} "
                               f"({str(anc)!r} is not writable)")
 
 
@@ -45,15 +45,15 @@ def check_output_dir(path: str | Path | None, option: str = "--out", force: bool
         return None
     p = Path(path)
     if str(path).strip() == "":
-        raise OutputPathError(f"{option}: expected a directory, found an empty path")
+        raise ArgumentError(f"{option}: expected a directory, found an empty path")
     if p.exists() and not p.is_dir():
-        raise OutputPathError(f"{option}: expected a directory, found {str(p)!r} (an existing file)")
+        raise ArgumentError(f"{option}: expected a directory, found {str(p)!r} (an existing file)")
     if p.exists():
         if not os.access(p, os.W_OK | os.X_OK):
-            raise OutputPathError(f"{option}: expected a writable directory, found {str(p)!r} (not writable)")
+            raise ArgumentError(f"{option}: expected a writable directory, found {str(p)!r} (not writable)")
         clash = [n for n in names if (p / n).exists()]
         if clash and not force:
-            raise OutputPathError(f"{option}: {str(p / clash[0])!r} exists ({len(clash)} output file(s) would be "
+            raise ArgumentError(f"{option}: {str(p / clash[0])!r} exists ({len(clash)} output file(s) would be "
                                   f"overwritten); use --force or another directory")
     else:
         _check_parent_writable(p, option)
@@ -68,13 +68,13 @@ def check_output_file(path: str | Path | None, option: str = "--out", force: boo
         return None
     p = Path(path)
     if str(path).strip() == "":
-        raise OutputPathError(f"{option}: expected a file name, found an empty path")
+        raise ArgumentError(f"{option}: expected a file name, found an empty path")
     if p.is_dir():
-        raise OutputPathError(f"{option}: expected a file name, found {str(p)!r} (a directory)")
+        raise ArgumentError(f"{option}: expected a file name, found {str(p)!r} (a directory)")
     if suffixes and p.suffix.lower() not in suffixes:
-        raise OutputPathError(f"{option}: expected a file name ending in {' or '.join(suffixes)}, found {str(p)!r}")
+        raise ArgumentError(f"{option}: expected a file name ending in {' or '.join(suffixes)}, found {str(p)!r}")
     if p.exists() and not force:
-        raise OutputPathError(f"{option}: {str(p)!r} exists; use --force to overwrite it")
+        raise ArgumentError(f"{option}: {str(p)!r} exists; use --force to overwrite it")
     _check_parent_writable(p, option)
     return p
 
@@ -89,7 +89,7 @@ def check_jobs(jobs: int | None, option: str = "--jobs") -> int | None:
     cores = os.cpu_count() or 1
     if jobs == -1 or 1 <= jobs <= 4 * cores:
         return jobs
-    raise CliError(f"{option}: expected -1 (all cores) or 1..{4 * cores} processes ({cores} cores here), "
+    raise ArgumentError(f"{option}: expected -1 (all cores) or 1..{4 * cores} processes ({cores} cores here), "
                    f"found {jobs}")
 
 
@@ -133,7 +133,7 @@ def parse_budget(text: str | None) -> int:
             frac = -1.0
         if 0 < frac <= 1:
             return int(frac * available_memory())
-    raise CliError(f"--memory-budget: expected a size such as '2GB' or '500MB', or a fraction 0..1 of the available "
+    raise ArgumentError(f"--memory-budget: expected a size such as '2GB' or '500MB', or a fraction 0..1 of the available "
                    f"memory, found {text!r}")
 
 
@@ -157,7 +157,7 @@ def announce_cost(command: str, what: str, points: int, bytes_needed: float, sec
                   quiet: bool = False, unit: str = "points") -> None:
     """Print what the command will compute (one line on stderr) and refuse above the memory budget."""
     if bytes_needed > budget:
-        raise CostLimitError(f"{what}: {points:,} {unit} need about {human_bytes(bytes_needed)}, more than the memory "
+        raise ResourceError(f"{what}: {points:,} {unit} need about {human_bytes(bytes_needed)}, more than the memory "
                              f"budget of {human_bytes(budget)}; use a coarser step/resolution or a smaller region, or "
                              f"raise --memory-budget")
     if not quiet:

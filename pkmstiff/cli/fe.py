@@ -15,7 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from pkmstiff.units import InputError
+from pkmstiff.errors import InputError
 
 DEFAULT_ANGLES = "0:90:15"
 

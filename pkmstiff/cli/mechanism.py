@@ -35,7 +35,7 @@ def is_mechanism_target(name: str) -> bool:
     p = Path(name)
     if p.suffix == ".toml" and p.is_file():
         try:
-            return "mechanism" in read_toml(p, InputError, "machine or mechanism file")
+            return "mechanism" in read_toml(p, "machine or mechanism file")
         except InputError:
             return False  # the machine loader reports what is wrong with the file
     from pkmstiff.mechanisms.loader import is_mechanism
@@ -44,9 +44,9 @@ def is_mechanism_target(name: str) -> bool:
 
 
 def _cli_error(msg: str):
-    from pkmstiff.cli import CliError
+    from pkmstiff.errors import ArgumentError
 
-    return CliError(msg)
+    return ArgumentError(msg)
 
 
 def _num(x: float) -> float | None:
@@ -55,9 +55,8 @@ def _num(x: float) -> float | None:
 
 
 def _values(text: str, count: int, what: str, opt: str) -> list[float]:
-    from pkmstiff.errors import CliError
 
-    return parse_numbers(text, count, opt, what, CliError)
+    return parse_numbers(text, count, opt, what)
 
 
 def _unit_scale(unit: str) -> tuple[str, float]:
@@ -231,7 +230,7 @@ def section_report(args) -> dict[str, Any]:
     import time
     from pathlib import Path
 
-    from pkmstiff.errors import SectionArgumentError, SectionError
+    from pkmstiff.errors import ArgumentError
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.mechanisms.section import evaluate_section, fit_window, quantity_names
 
@@ -245,7 +244,7 @@ def section_report(args) -> dict[str, Any]:
     try:
         ranges = parse_ranges(args.range, plane) if args.range else None
         ori = parse_triple_deg(args.orientation, "--orientation")
-    except (SectionArgumentError, SectionError, PkmstiffError) as exc:
+    except (ArgumentError, ArgumentError, PkmstiffError) as exc:
         raise _cli_error(str(exc)) from None
     if not (args.step > 0 and math.isfinite(args.step)):
         raise _cli_error(f"--step: expected a positive step in mm, found {args.step}")

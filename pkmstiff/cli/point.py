@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import InadmissiblePoseRefused, PointArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError, InadmissibleError  # noqa: F401 (re-exported)
 from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import bundled_machines, load_machine
 
@@ -37,7 +37,7 @@ def _num(x: Any) -> Any:
 
 
 def parse_values(text: str, count: int, what: str) -> list[float]:
-    return parse_numbers(text, count, "--pose", what, PointArgumentError)
+    return parse_numbers(text, count, "--pose", what)
 
 
 def _is_planar(name: str) -> bool:
@@ -48,8 +48,8 @@ def _is_planar(name: str) -> bool:
     return name in bundled_planar() and name not in bundled_machines()
 
 
-def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissiblePoseRefused:
-    return InadmissiblePoseRefused(
+def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissibleError:
+    return InadmissibleError(
         f"{machine} at {where} is not admissible: {'; '.join(reasons) or 'not modelled'}; "
         f"nothing analysed (--allow-inadmissible analyses it anyway and marks the results)")
 
@@ -61,23 +61,20 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
 
     The pose is given in ``frame`` (:mod:`pkmstiff.machine.frames`; spatial machines only). Admissibility (every
     check of docs/theory/admissibility.md) comes first; with ``allow_inadmissible=False`` an inadmissible pose raises
-    :class:`~pkmstiff.errors.InadmissiblePoseRefused` (exit status 3) before any analysis.
+    :class:`~pkmstiff.errors.InadmissibleError` (exit status 3) before any analysis.
     """
     if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
-        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
+        raise ArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
     if n_modes < 0:
-        raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
+        raise ArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
     if _is_planar(machine_name):
         return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
-    from pkmstiff.cli.pose import PoseArgumentError, parse_pose
+    from pkmstiff.cli.pose import parse_pose
     from pkmstiff.structure import build_structure
 
-    try:
-        pose = parse_pose(pose_text)
-    except PoseArgumentError as exc:
-        raise PointArgumentError(str(exc)) from None
+    pose = parse_pose(pose_text)
     from pkmstiff.machine.frames import frame_metadata, to_machine_frame
 
     m = load_machine(machine_name)
@@ -288,9 +285,9 @@ def _point_batch(args: argparse.Namespace) -> int:
     from pkmstiff.cli.pose import read_pose_file
 
     if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
-        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
+        raise ArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
     if args.modes < 0:
-        raise PointArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
+        raise ArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
@@ -310,10 +307,10 @@ def _point_batch(args: argparse.Namespace) -> int:
 
 def _cmd_point(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import check_output_dir
-    from pkmstiff.errors import CliError
+    from pkmstiff.errors import ArgumentError
 
     if (args.pose is None) == (getattr(args, "poses", None) is None):
-        raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
+        raise ArgumentError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
     if getattr(args, "poses", None) is not None:
         return _point_batch(args)
     if args.figures is not None:
@@ -321,10 +318,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
                            args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False))
-    except PointArgumentError as exc:
-        from pkmstiff.cli import CliError
-
-        raise CliError(str(exc)) from None
+    except ArgumentError as exc:
+        raise ArgumentError(str(exc)) from None
     figures = _mode_figures(args) if args.figures else []
     if figures:
         rep["figures"] = [str(f) for f in figures]

@@ -9,14 +9,14 @@ import math
 import numpy as np
 
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.errors import PoseArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import load_machine
 
 
 def parse_pose(text: str) -> np.ndarray:
     """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad)."""
-    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", PoseArgumentError, count_text="six")
+    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", count_text="six")
     return np.array([v * 1e-3 for v in vals[:3]] + [math.radians(v) for v in vals[3:]])
 
 
@@ -54,7 +54,7 @@ def read_pose_file(path: str) -> np.ndarray:
             continue
         try:
             poses.append(parse_pose(text))
-        except PoseArgumentError:
+        except ArgumentError:
             raise InputError(path, f"line {i}", "six finite numbers x,y,z,a,b,c (mm, deg)", text) from None
     if not poses:
         raise InputError(path, "(file)", "at least one pose line x,y,z,a,b,c (mm, deg)", "no pose")
@@ -133,10 +133,10 @@ def _fmt(values, scale=1.0, digits=2):
 
 
 def _cmd_pose(args: argparse.Namespace) -> int:
-    from pkmstiff.errors import CliError
+    from pkmstiff.errors import ArgumentError
 
     if (args.pose is None) == (getattr(args, "poses", None) is None):
-        raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
+        raise ArgumentError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
     from pkmstiff.cli.mechanism import is_mechanism_target
 
     if is_mechanism_target(args.machine):  # a generic mechanism evaluated like a machine (issue 14)
@@ -144,7 +144,7 @@ def _cmd_pose(args: argparse.Namespace) -> int:
         from pkmstiff.cli.mechanism import print_pose
 
         if args.pose is None:
-            raise CliError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
+            raise ArgumentError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
                            "'pkmstiff mechanism solve' with several --pose)")
         rep = mechanism_pose_report(args.machine, args.pose)
         if args.json:
@@ -156,8 +156,8 @@ def _cmd_pose(args: argparse.Namespace) -> int:
         return _pose_batch(args)
     try:
         pose = parse_pose(args.pose)
-    except PoseArgumentError as exc:
-        raise CliError(str(exc)) from None
+    except ArgumentError as exc:
+        raise ArgumentError(str(exc)) from None
     rep = pose_report(args.machine, pose, args.frame)
     if args.json:
         print(json.dumps(rep, indent=2))

@@ -8,7 +8,7 @@ import math
 import time
 from pathlib import Path
 
-from pkmstiff.errors import SectionArgumentError, SectionError, UnknownQuantityError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 
 # the evaluation modules are imported inside the command functions: building the parser for another command
 # (``pkmstiff pose``) must not pay for them
@@ -36,7 +36,6 @@ def section_cost(n_points: int, n_quantities: int) -> tuple[float, float]:
 
 def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget
-    from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.evaluation.sections import axis_plane, evaluate_section, raster_count, section_summary
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
@@ -64,16 +63,16 @@ def _cmd_section(args: argparse.Namespace) -> int:
         formats = [f.strip() for f in args.formats.split(",") if f.strip()]
         bad = set(formats) - set(FORMATS)
         if bad:
-            raise SectionArgumentError(f"--formats: expected a subset of {','.join(FORMATS)}, found {sorted(bad)}")
+            raise ArgumentError(f"--formats: expected a subset of {','.join(FORMATS)}, found {sorted(bad)}")
         if not (args.step > 0 and math.isfinite(args.step)):
-            raise SectionArgumentError(f"--step: expected a positive step in mm, found {args.step}")
+            raise ArgumentError(f"--step: expected a positive step in mm, found {args.step}")
         if not math.isfinite(args.at):
-            raise SectionArgumentError(f"--at: expected a finite position in mm, found {args.at}")
+            raise ArgumentError(f"--at: expected a finite position in mm, found {args.at}")
         if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
-            raise SectionArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length}")
+            raise ArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length}")
         requirements = _requirements(getattr(args, "require", None))
-    except (SectionArgumentError, SectionError, UnknownQuantityError) as exc:
-        raise CliError(str(exc)) from None
+    except (ArgumentError, ArgumentError, ArgumentError) as exc:
+        raise ArgumentError(str(exc)) from None
     check_jobs(args.jobs)
     budget = parse_budget(getattr(args, "memory_budget", None))
     from pkmstiff.machine.frames import frame_text, neglect_spindle
@@ -84,8 +83,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
     try:
         for n in names:
             check_quantity(n, machine.n_chains)
-    except UnknownQuantityError as exc:
-        raise CliError(str(exc)) from None
+    except ArgumentError as exc:
+        raise ArgumentError(str(exc)) from None
     stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
     check_output_dir(args.out, "--out", getattr(args, "force", False), _output_names(stem, names, formats, getattr(args, "reasons_map", False)))
     step = args.step * 1e-3
@@ -95,8 +94,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
         try:
             ranges = dict(zip(plane_kind, window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori,
                                                         args.frame)))
-        except SectionError as exc:
-            raise CliError(str(exc)) from None
+        except ArgumentError as exc:
+            raise ArgumentError(str(exc)) from None
         fitted = True
     else:
         fitted = False
@@ -109,8 +108,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
                   n_points, mem, secs, budget, quiet=args.quiet or args.json)
     try:
         plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step)
-    except SectionError as exc:
-        raise CliError(str(exc)) from None
+    except ArgumentError as exc:
+        raise ArgumentError(str(exc)) from None
     t0 = time.perf_counter()
     res = evaluate_section(machine, plane, all_names, orientation=ori,
                            tool_length=None if args.tool_length is None else args.tool_length * 1e-3,
@@ -165,13 +164,13 @@ def _output_names(stem: str, names: list[str], formats: list[str], reasons_map: 
 def _requirements(texts: list[str] | None) -> list:
     if not texts:
         return []
-    from pkmstiff.errors import CliError
-    from pkmstiff.workspace.requirements import RequirementError, parse_requirements
+    from pkmstiff.workspace.requirements import parse_requirements
+    from pkmstiff.errors import ArgumentError
 
     try:
         return parse_requirements(texts)
-    except RequirementError as exc:
-        raise CliError(f"--require: {exc}") from None
+    except ArgumentError as exc:
+        raise ArgumentError(f"--require: {exc}") from None
 
 
 def _apply_requirements(res, requirements: list) -> int:

@@ -12,8 +12,8 @@ EXIT_SOME_TASKS_FAILED = 4
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import check_jobs, check_output_file
-    from pkmstiff.errors import CliError
-    from pkmstiff.evaluation.sweep import SweepError, run_sweep
+    from pkmstiff.errors import ArgumentError
+    from pkmstiff.evaluation.sweep import run_sweep
     from pkmstiff.report.sweep_file import load_sweep
 
     check_jobs(args.jobs)
@@ -28,8 +28,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     try:
         res = run_sweep(sweep, n_jobs=args.jobs, scheduler=args.scheduler or None, progress=not args.quiet)
-    except SweepError as exc:
-        raise CliError(str(exc)) from None
+    except ArgumentError as exc:
+        raise ArgumentError(str(exc)) from None
     failed = res.failed
     distinct: dict[str, list[int]] = {}
     for r in failed:
@@ -37,7 +37,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if failed and len(failed) == len(res.rows):
         first = next(iter(distinct))
         more = f" (and {len(distinct) - 1} other error(s))" if len(distinct) > 1 else ""
-        raise CliError(f"all {len(res.rows)} tasks failed: {first}{more}; nothing written")
+        raise ArgumentError(f"all {len(res.rows)} tasks failed: {first}{more}; nothing written")
     path = res.to_csv(Path(out))
     print(f"pkmstiff sweep: {len(res.rows) - len(failed)} of {len(res.rows)} tasks ok, "
           f"{time.perf_counter() - t0:.1f} s; wrote {path}")
@@ -50,8 +50,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 def _check_sweep_quantities(sweep, source: str) -> None:
     """Quantity names of every evaluation against the base machine, before any task runs (one error, not one per
     task)."""
-    from pkmstiff.errors import CliError
-    from pkmstiff.evaluation.quantities import UnknownQuantityError, check_quantity
+    from pkmstiff.errors import ArgumentError
+    from pkmstiff.evaluation.quantities import check_quantity
     from pkmstiff.machine.loader import load_machine
 
     n_chains = load_machine(sweep.machine).n_chains
@@ -62,8 +62,8 @@ def _check_sweep_quantities(sweep, source: str) -> None:
         for name in getattr(ev, "quantities", ()) or ():
             try:
                 check_quantity(name, n_chains)
-            except UnknownQuantityError as exc:
-                raise CliError(f"{source}: evaluations: {exc}") from None
+            except ArgumentError as exc:
+                raise ArgumentError(f"{source}: evaluations: {exc}") from None
 
 
 def add_commands(sub) -> None:

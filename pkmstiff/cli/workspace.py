@@ -23,16 +23,15 @@ PLANES = {  # name -> (u axis, v axis, normal axis)
 
 
 def _cli_error(msg: str) -> Exception:
-    from pkmstiff.errors import CliError
+    from pkmstiff.errors import ArgumentError
 
-    return CliError(msg)
+    return ArgumentError(msg)
 
 
 def _floats(text: str, n: int, option: str, what: str) -> list[float]:
-    from pkmstiff.errors import CliError
     from pkmstiff.io.ranges import parse_numbers
 
-    return parse_numbers(text, n, option, f"({what})", error=CliError)
+    return parse_numbers(text, n, option, f"({what})")
 
 
 def _range(text: str, option: str, unit: str) -> tuple[float, float]:
@@ -83,11 +82,12 @@ class _Progress:
 
 
 def _requirements(args: argparse.Namespace) -> list[Any]:
-    from pkmstiff.workspace.requirements import RequirementError, parse_requirements
+    from pkmstiff.workspace.requirements import parse_requirements
+    from pkmstiff.errors import ArgumentError
 
     try:
         return parse_requirements(args.require or [])
-    except RequirementError as exc:
+    except ArgumentError as exc:
         raise _cli_error(f"--require: {exc}") from None
 
 
@@ -97,8 +97,6 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
     from pkmstiff.machine.frames import frame_text
-    from pkmstiff.workspace.octree import OctreeInputError
-    from pkmstiff.workspace.oracle import OracleInputError
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
 
@@ -145,10 +143,6 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
                            range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
                            range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level,
                            progress=progress)
-    except (OctreeInputError, OracleInputError, ValueError) as exc:
-        if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
-            raise _cli_error(str(exc)) from None
-        raise
     finally:
         progress.close()
     summary = res.summary()
@@ -213,7 +207,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.evaluation.sections import raster
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
-    from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
+    from pkmstiff.workspace.rotation import DIRECTIONS, rotational_workspace_map
+    from pkmstiff.errors import ArgumentError
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
@@ -266,7 +261,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             title = (f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at "
                      f"{'xyz'[normal]} = {args.at:g} mm ({frame_text(machine, args.frame).split(' (')[0]}), "
                      f"base a, b, c = {args.orientation} deg")
-    except RotationMapError as exc:
+    except ArgumentError as exc:
         raise _cli_error(str(exc)) from None
     run = time.perf_counter() - t0
     summary = res.summary()

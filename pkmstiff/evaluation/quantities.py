@@ -15,7 +15,7 @@ from typing import Any, Callable
 import numpy as np
 
 from pkmstiff.admissibility.pipeline import PoseEvaluation
-from pkmstiff.errors import UnknownQuantityError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.machine.model import Machine
 from pkmstiff.units import to_unit
 
@@ -81,7 +81,7 @@ def get_quantity(name: str) -> Quantity:
         m = pat.match(name)
         if m:
             return factory(m)
-    raise UnknownQuantityError(
+    raise ArgumentError(
         f"unknown quantity {name!r}; known: {', '.join(sorted(_REGISTRY))} and the families "
         f"{', '.join(ex for _, _, ex in _FAMILIES)}")
 
@@ -96,10 +96,10 @@ def check_quantity(name: str, n_chains: int | None = None) -> Quantity:
     q = get_quantity(name)
     m = _CHAIN_FAMILIES.match(name)
     if m and n_chains is not None and not (1 <= int(m.group(4)) <= n_chains):
-        raise UnknownQuantityError(f"unknown quantity {name!r}: chain {int(m.group(4))} does not exist (the machine "
+        raise ArgumentError(f"unknown quantity {name!r}: chain {int(m.group(4))} does not exist (the machine "
                                    f"has chains 1..{n_chains})")
     if re.fullmatch(r"f(\d+)", name) and int(name[1:]) < 1:
-        raise UnknownQuantityError(f"unknown quantity {name!r}: natural frequencies are numbered from f1")
+        raise ArgumentError(f"unknown quantity {name!r}: natural frequencies are numbered from f1")
     return q
 
 
@@ -122,7 +122,7 @@ def evaluate_quantities(ctx: EvalContext, names: list[str]) -> dict[str, np.ndar
 
 def _chain_column(arr: np.ndarray, i: int, name: str) -> np.ndarray:
     if i >= arr.shape[1]:
-        raise UnknownQuantityError(f"{name}: the machine has only {arr.shape[1]} chains")
+        raise ArgumentError(f"{name}: the machine has only {arr.shape[1]} chains")
     return arr[:, i]
 
 
@@ -244,7 +244,7 @@ register_quantity(Quantity("kmin", "minimum translational TCP stiffness (weakest
 def _freq_family(m: re.Match) -> Quantity:
     n = int(m.group(1))
     if n < 1:
-        raise UnknownQuantityError(f"eigenfrequencies are numbered from 1, found {m.group(0)!r}")
+        raise ArgumentError(f"eigenfrequencies are numbered from 1, found {m.group(0)!r}")
     return Quantity(m.group(0), f"eigenfrequency {n}", "Hz", "Hz",
                     lambda c: _structure(c, n).frequencies_hz[:, n - 1], "modal", True)
 

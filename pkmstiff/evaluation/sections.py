@@ -17,7 +17,7 @@ import numpy as np
 
 from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin, spindle_neglected
 from pkmstiff.machine.model import Machine
@@ -50,13 +50,13 @@ class Plane:
         for key in ("u_axis", "v_axis"):
             a = np.asarray(getattr(self, key), float)
             if a.shape != (3,) or not np.isclose(np.linalg.norm(a), 1.0, atol=1e-9):
-                raise SectionError(f"plane {key}: expected a unit 3-vector, found {a}")
+                raise ArgumentError(f"plane {key}: expected a unit 3-vector, found {a}")
         if abs(float(np.dot(self.u_axis, self.v_axis))) > 1e-9:
-            raise SectionError("plane axes must be orthogonal")
+            raise ArgumentError("plane axes must be orthogonal")
         for key in ("u_values", "v_values"):
             vals = np.asarray(getattr(self, key), float)
             if vals.ndim != 1 or vals.size < 2 or not np.all(np.diff(vals) > 0):
-                raise SectionError(f"plane {key}: expected at least 2 increasing values, found {vals}")
+                raise ArgumentError(f"plane {key}: expected at least 2 increasing values, found {vals}")
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -95,7 +95,7 @@ def raster_count(lo: float, hi: float, step: float) -> int:
 def raster(lo: float, hi: float, step: float) -> np.ndarray:
     """The raster values of :func:`raster_count` (the one raster of sections, mechanisms and rotation maps)."""
     if not (hi > lo and step > 0):
-        raise SectionError(f"range {lo}:{hi} with step {step}: expected lo < hi and step > 0")
+        raise ArgumentError(f"range {lo}:{hi} with step {step}: expected lo < hi and step > 0")
     return lo + step * np.arange(raster_count(lo, hi, step))
 
 
@@ -107,7 +107,7 @@ def axis_plane(kind: str, at: float, u_range: tuple[float, float], v_range: tupl
     """
     kind = kind.lower()
     if kind not in ("yz", "xz", "xy"):
-        raise SectionError(f"plane: expected 'yz', 'xz' or 'xy', found {kind!r}")
+        raise ArgumentError(f"plane: expected 'yz', 'xz' or 'xy', found {kind!r}")
     su, sv = (step, step) if np.isscalar(step) else step
     normal_axis = ({"x", "y", "z"} - set(kind)).pop()
     origin = AXES[normal_axis] * at
@@ -123,7 +123,7 @@ def general_plane(origin, u_axis, v_axis, u_range, v_range, step, name="plane") 
     v = np.asarray(v_axis, float)
     v = v - np.dot(v, u) * u
     if np.linalg.norm(v) < 1e-9:
-        raise SectionError("plane axes must not be parallel")
+        raise ArgumentError("plane axes must not be parallel")
     v = v / np.linalg.norm(v)
     su, sv = (step, step) if np.isscalar(step) else step
     return Plane(np.asarray(origin, float), u, v, raster(*u_range, su), raster(*v_range, sv), name=name)

@@ -30,10 +30,10 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from pkmstiff.errors import SweepError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.machine.model import Machine
 
-__all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
+__all__ = ["Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
            "SweepResult", "grid_points", "random_points", "run_task", "run_sweep"]
 
 
@@ -49,7 +49,7 @@ class Uniform:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.low) and math.isfinite(self.high) and self.high > self.low):
-            raise SweepError(f"Uniform: expected finite low < high, found low={self.low!r}, high={self.high!r}")
+            raise ArgumentError(f"Uniform: expected finite low < high, found low={self.low!r}, high={self.high!r}")
 
     def sample(self, rng: np.random.Generator, n: int) -> list[float]:
         return [float(v) for v in rng.uniform(self.low, self.high, n)]
@@ -64,7 +64,7 @@ class LogUniform:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.low) and math.isfinite(self.high) and 0 < self.low < self.high):
-            raise SweepError(f"LogUniform: expected 0 < low < high, found low={self.low!r}, high={self.high!r}")
+            raise ArgumentError(f"LogUniform: expected 0 < low < high, found low={self.low!r}, high={self.high!r}")
 
     def sample(self, rng: np.random.Generator, n: int) -> list[float]:
         return [float(v) for v in np.exp(rng.uniform(math.log(self.low), math.log(self.high), n))]
@@ -81,7 +81,7 @@ class Normal:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.mean) and math.isfinite(self.std) and self.std > 0 and self.high > self.low):
-            raise SweepError(f"Normal: expected a finite mean, std > 0 and low < high, found mean={self.mean!r}, "
+            raise ArgumentError(f"Normal: expected a finite mean, std > 0 and low < high, found mean={self.mean!r}, "
                              f"std={self.std!r}, low={self.low!r}, high={self.high!r}")
 
     def sample(self, rng: np.random.Generator, n: int) -> list[float]:
@@ -96,7 +96,7 @@ class Choice:
 
     def __post_init__(self) -> None:
         if len(self.values) == 0:
-            raise SweepError("Choice: expected at least one value, found none")
+            raise ArgumentError("Choice: expected at least one value, found none")
 
     def sample(self, rng: np.random.Generator, n: int) -> list[Any]:
         return [self.values[int(i)] for i in rng.integers(0, len(self.values), n)]
@@ -125,7 +125,7 @@ class Parameter:
     def __post_init__(self) -> None:
         from pkmstiff.machine.variants import parse_override_path
 
-        parse_override_path(self.path)  # raises OverrideError for a malformed path
+        parse_override_path(self.path)  # raises InputError for a malformed path
         object.__setattr__(self, "values", tuple(self.values))
         if self.unit is not None:
             from pkmstiff.units import ureg
@@ -133,11 +133,11 @@ class Parameter:
             try:
                 ureg()(self.unit)
             except Exception:
-                raise SweepError(f"parameter '{self.path}': expected a unit such as 'N/um' or 'deg', "
+                raise ArgumentError(f"parameter '{self.path}': expected a unit such as 'N/um' or 'deg', "
                                  f"found unit={self.unit!r}") from None
             bad = [v for v in self.values if isinstance(v, bool) or not isinstance(v, (int, float))]
             if bad:
-                raise SweepError(f"parameter '{self.path}': with unit {self.unit!r} the values must be numbers, "
+                raise ArgumentError(f"parameter '{self.path}': with unit {self.unit!r} the values must be numbers, "
                                  f"found {bad[0]!r}")
 
     @property
@@ -163,7 +163,7 @@ def _as_parameters(parameters: Iterable[Parameter] | Mapping[str, Any]) -> tuple
         return tuple(out)
     params = tuple(parameters)
     if not all(isinstance(p, Parameter) for p in params):
-        raise SweepError("parameters: expected Parameter objects or a mapping path -> values/distribution")
+        raise ArgumentError("parameters: expected Parameter objects or a mapping path -> values/distribution")
     return params
 
 
@@ -172,7 +172,7 @@ def grid_points(parameters: Iterable[Parameter] | Mapping[str, Any]) -> list[dic
     params = _as_parameters(parameters)
     for p in params:
         if not p.values:
-            raise SweepError(f"parameter '{p.path}': a grid sweep needs a list of values, found none"
+            raise ArgumentError(f"parameter '{p.path}': a grid sweep needs a list of values, found none"
                              + (" (it has a distribution: use mode 'random')" if p.distribution else ""))
     return [dict(zip((p.path for p in params), combo)) for combo in itertools.product(*(p.values for p in params))]
 
@@ -182,13 +182,13 @@ def random_points(parameters: Iterable[Parameter] | Mapping[str, Any], n: int, s
     ``numpy.random.default_rng(seed)``, parameter by parameter in order (the same seed gives the same points)."""
     params = _as_parameters(parameters)
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise SweepError(f"n_samples: expected a positive integer, found {n!r}")
+        raise ArgumentError(f"n_samples: expected a positive integer, found {n!r}")
     rng = np.random.default_rng(seed)
     cols = []
     for p in params:
         dist = p.distribution if p.distribution is not None else (Choice(p.values) if p.values else None)
         if dist is None:
-            raise SweepError(f"parameter '{p.path}': a random sweep needs a distribution or values, found neither")
+            raise ArgumentError(f"parameter '{p.path}': a random sweep needs a distribution or values, found neither")
         cols.append(dist.sample(rng, n))
     return [{p.path: col[i] for p, col in zip(params, cols)} for i in range(n)]
 
@@ -223,10 +223,10 @@ def run_task(task: SweepTask) -> dict[str, Any]:
         machine = machine_with(task.machine, task.overrides)
         out = task.evaluation(machine)
         if not isinstance(out, Mapping):
-            raise SweepError(f"the evaluation returned {type(out).__name__}, expected a mapping name -> number")
+            raise ArgumentError(f"the evaluation returned {type(out).__name__}, expected a mapping name -> number")
         for name, value in out.items():
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-                raise SweepError(f"output {name!r}: expected a number, found {value!r}")
+                raise ArgumentError(f"output {name!r}: expected a number, found {value!r}")
             row[str(name)] = float(value)
         row["error"] = ""
     except Exception as exc:  # noqa: BLE001 - one bad variant must not stop the sweep; the row names the error
@@ -249,16 +249,16 @@ class Sweep:
     def __post_init__(self) -> None:
         object.__setattr__(self, "parameters", _as_parameters(self.parameters))
         if self.mode not in ("grid", "random"):
-            raise SweepError(f"mode: expected 'grid' or 'random', found {self.mode!r}")
+            raise ArgumentError(f"mode: expected 'grid' or 'random', found {self.mode!r}")
         if self.mode == "random" and (isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int)
                                       or self.n_samples < 1):
-            raise SweepError(f"n_samples: a random sweep needs a positive number of samples, found {self.n_samples!r}")
+            raise ArgumentError(f"n_samples: a random sweep needs a positive number of samples, found {self.n_samples!r}")
         paths = [p.path for p in self.parameters]
         dup = sorted({p for p in paths if paths.count(p) > 1})
         if dup:
-            raise SweepError(f"parameters: each path at most once, found {dup[0]!r} twice")
+            raise ArgumentError(f"parameters: each path at most once, found {dup[0]!r} twice")
         if not callable(self.evaluation):
-            raise SweepError(f"evaluation: expected a function of the machine, found {self.evaluation!r}")
+            raise ArgumentError(f"evaluation: expected a function of the machine, found {self.evaluation!r}")
 
     def points(self) -> list[dict[str, Any]]:
         """Parameter values per task: [{path: value}]."""
@@ -354,7 +354,7 @@ def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: bool) -> lis
     try:
         from dask.distributed import Client, as_completed
     except ImportError:
-        raise SweepError("scheduler: Dask execution needs dask.distributed (pip install 'pkmstiff[dask]')") from None
+        raise ArgumentError("scheduler: Dask execution needs dask.distributed (pip install 'pkmstiff[dask]')") from None
     own = not isinstance(scheduler, Client)
     client = Client(scheduler) if own else scheduler
     try:
@@ -380,7 +380,7 @@ def run_sweep(sweep: Sweep | Sequence[SweepTask], *, n_jobs: int = 1, scheduler:
     """
     tasks = sweep.tasks() if isinstance(sweep, Sweep) else list(sweep)
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs == 0:
-        raise SweepError(f"n_jobs: expected a non-zero integer (-1: all cores), found {n_jobs!r}")
+        raise ArgumentError(f"n_jobs: expected a non-zero integer (-1: all cores), found {n_jobs!r}")
     t0 = time.perf_counter()
     if scheduler is not None:
         rows = _run_dask(tasks, scheduler, progress)

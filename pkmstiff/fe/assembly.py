@@ -16,7 +16,8 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import CellBasis, MeshHex
 
-from pkmstiff.fe.coupling import Condensation, ConstraintError, ConstraintSet, guyan, rbe2_rows
+from pkmstiff.fe.coupling import Condensation, ConstraintSet, guyan, rbe2_rows
+from pkmstiff.errors import NumericalError
 from pkmstiff.fe.elasticity import ElementName, rotate_stiffness, scalar_basis, stiffness_matrix
 from pkmstiff.fe.materials import Material
 from pkmstiff.fe.ties import tie
@@ -139,7 +140,7 @@ class PartModel:
                 todo.append(nb)
         loose = sorted(set(self.parts) - seen)
         if loose:
-            raise ConstraintError(f"part(s) {', '.join(loose)} not connected by ties to any support "
+            raise NumericalError(f"part(s) {', '.join(loose)} not connected by ties to any support "
                                   "(clamp or reference point with fixed DOFs): the FE system would be singular")
 
     @property
@@ -228,7 +229,7 @@ class PartModel:
         scale = np.array([1.0 if d < 3 else 1.0 / size for _, d in labels])
         w = np.linalg.eigvalsh(scale[:, None] * K * scale[None, :])
         if w.min() <= 1e-10 * w.max():
-            raise ConstraintError("FE system is singular: the supports leave a rigid-body motion of the reference "
+            raise NumericalError("FE system is singular: the supports leave a rigid-body motion of the reference "
                                   "point(s) free (condensed stiffness not positive definite)")
 
     def _reference_position(self, r: ReferencePoint, placements: Mapping[str, Placement]) -> np.ndarray:
@@ -248,7 +249,7 @@ class PartModel:
             if self.parts[t.slave].group == self.parts[t.master].group:
                 self._tie_cache[key] = (hit, W)
         if hit.size == 0:
-            raise ConstraintError(
+            raise NumericalError(
                 f"tie {t.slave}->{t.master}: no node of '{t.slave}' lies within {t.tol * 1e3:g} mm of "
                 f"'{t.master}' (parts not touching?)")
         m = hit.size

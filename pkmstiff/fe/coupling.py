@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from pkmstiff.errors import ConstraintError  # noqa: F401 (re-exported)
+from pkmstiff.errors import NumericalError  # noqa: F401 (re-exported)
 
 
 def rbe2_rows(slave_points: np.ndarray, ref_point: np.ndarray) -> np.ndarray:
@@ -91,7 +91,7 @@ class ConstraintSet:
             A = (A @ A).tocsr()
             A.eliminate_zeros()
         else:
-            raise ConstraintError(f"constraint chains deeper than {max_depth} levels or cyclic (tie loops)")
+            raise NumericalError(f"constraint chains deeper than {max_depth} levels or cyclic (tie loops)")
         A.data[np.abs(A.data) < 1e-14] = 0.0
         A.eliminate_zeros()
         free = indep[~self.fixed[indep]]
@@ -127,15 +127,15 @@ def guyan(Kq: sp.spmatrix, retained: np.ndarray, permc_spec: str = "MMD_AT_PLUS_
         lu = spla.splu(Koo, permc_spec=permc_spec, diag_pivot_thresh=0.0, options={"SymmetricMode": True})
         X = lu.solve(Koa)
     except RuntimeError as exc:
-        raise ConstraintError(
+        raise NumericalError(
             "FE system is singular after coupling: a part is not connected (check the ties) or not supported"
         ) from exc
     pivots = np.abs(lu.U.diagonal())
     if pivots.size and pivots.min() <= 1e-12 * pivots.max():
-        raise ConstraintError(
+        raise NumericalError(
             "FE system is singular after coupling (zero pivot): the supports leave a rigid-body motion free")
     if not np.all(np.isfinite(X)):
-        raise ConstraintError("FE system is singular after coupling (non-finite condensation)")
+        raise NumericalError("FE system is singular after coupling (non-finite condensation)")
     Kc = Kaa - Koa.T @ X
     Kc = 0.5 * (Kc + Kc.T)
     rec = np.zeros((n, retained.size))

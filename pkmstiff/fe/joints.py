@@ -40,8 +40,9 @@ from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Solut
 from pkmstiff.fe.coupling import stiffness_along
 from pkmstiff.fe.elasticity import ELEMENTS, element_type_label
 from pkmstiff.fe.materials import CubicCylindrical, Material
-from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section, resolve_parameter_file
-from pkmstiff.units import InputError
+from pkmstiff.fe.params import material, read_assumptions, read_materials, read_section, resolve_parameter_file
+from pkmstiff.io import read_toml
+from pkmstiff.errors import InputError
 
 KINDS = ("2dof", "3dof")
 DEFAULT_ANGLES_DEG = tuple(range(0, 91, 15))
@@ -121,7 +122,7 @@ def load_joint_parameters(path: str | Path) -> JointParameters:
     """Read a joint parameter TOML file (see ``pkmstiff/fe/params/*.toml``) into SI values."""
     path = resolve_parameter_file(path)
     source = str(path)
-    raw = load_toml(path)
+    raw = read_toml(path, "TOML parameter file")
     head = read_section(raw, "joint", SCHEMA["joint"], source)
     kind = head["kind"]
     if kind not in KINDS:

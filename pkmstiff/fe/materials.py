@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pkmstiff.errors import MaterialError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 
 
 @dataclass(frozen=True)
@@ -31,9 +31,9 @@ class Isotropic:
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.E) and self.E > 0):
-            raise MaterialError(f"material '{self.name}': E must be a positive modulus in Pa, found {self.E!r}")
+            raise ArgumentError(f"material '{self.name}': E must be a positive modulus in Pa, found {self.E!r}")
         if not -1.0 < self.nu < 0.5:
-            raise MaterialError(f"material '{self.name}': nu must lie in (-1, 0.5), found {self.nu!r}")
+            raise ArgumentError(f"material '{self.name}': nu must lie in (-1, 0.5), found {self.nu!r}")
 
     @property
     def G(self) -> float:
@@ -66,12 +66,12 @@ class CubicCylindrical:
         for key in ("E", "G"):
             v = getattr(self, key)
             if not (np.isfinite(v) and v > 0):
-                raise MaterialError(f"material '{self.name}': {key} must be a positive modulus in Pa, found {v!r}")
+                raise ArgumentError(f"material '{self.name}': {key} must be a positive modulus in Pa, found {v!r}")
         if not -1.0 < self.nu < 0.5:
-            raise MaterialError(f"material '{self.name}': nu must lie in (-1, 0.5), found {self.nu!r}")
+            raise ArgumentError(f"material '{self.name}': nu must lie in (-1, 0.5), found {self.nu!r}")
         n = np.linalg.norm(self.axis_dir)
         if not n > 0:
-            raise MaterialError(f"material '{self.name}': axis_dir must be a non-zero vector, found {self.axis_dir}")
+            raise ArgumentError(f"material '{self.name}': axis_dir must be a non-zero vector, found {self.axis_dir}")
 
     def cubic_constants(self) -> tuple[float, float, float]:
         """Stiffness constants (C11, C12, C44) [Pa] of the cubic law (inverse of S11, S12, S44)."""
@@ -97,7 +97,7 @@ class CubicCylindrical:
         radial = d - np.sum(d * ez_b, axis=0) * ez_b
         norm = np.linalg.norm(radial, axis=0)
         if np.any(norm <= 0):
-            raise MaterialError(f"material '{self.name}': points on the ring axis have no radial direction")
+            raise ArgumentError(f"material '{self.name}': points on the ring axis have no radial direction")
         er = radial / norm
         ephi = np.cross(ez_b, er, axis=0)
         return np.stack([er, ephi, np.broadcast_to(ez_b, er.shape)])

@@ -19,7 +19,7 @@ from typing import Literal, Sequence
 import numpy as np
 from skfem import MeshHex
 
-from pkmstiff.errors import MeshGeometryError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 
 Axis = Literal["x", "y", "z"]
 
@@ -92,9 +92,9 @@ def disk2d(radius: float, n_phi: int, n_rad: int, core: float = 0.45) -> QuadMes
     so a tube built with :func:`annulus2d` and ``phase = -pi/4`` has matching nodes.
     """
     if n_phi % 4 or n_phi < 4:
-        raise MeshGeometryError(f"disk2d: n_phi must be a positive multiple of 4, found {n_phi}")
+        raise ArgumentError(f"disk2d: n_phi must be a positive multiple of 4, found {n_phi}")
     if not 0.1 <= core <= 0.65:
-        raise MeshGeometryError(f"disk2d: core fraction must lie in [0.1, 0.65], found {core}")
+        raise ArgumentError(f"disk2d: core fraction must lie in [0.1, 0.65], found {core}")
     ns = n_phi // 4
     a = core * radius
     c = a * np.tan(-np.pi / 4 + np.arange(ns + 1) * (np.pi / 2) / ns)
@@ -117,7 +117,7 @@ def disk2d(radius: float, n_phi: int, n_rad: int, core: float = 0.45) -> QuadMes
 def annulus2d(r_inner: float, r_outer: float, n_phi: int, n_rad: int, phase: float = -np.pi / 4) -> QuadMesh2D:
     """Annulus with ``n_phi`` uniform angular and ``n_rad`` radial divisions (first node at ``phase``)."""
     if not 0.0 < r_inner < r_outer:
-        raise MeshGeometryError(f"annulus2d: expected 0 < r_inner < r_outer, found {r_inner}, {r_outer}")
+        raise ArgumentError(f"annulus2d: expected 0 < r_inner < r_outer, found {r_inner}, {r_outer}")
     phi = phase + 2 * np.pi * np.arange(n_phi) / n_phi
     u = np.stack([np.cos(phi), np.sin(phi)])
     new, quads = _ring_layers(r_inner * u, r_outer * u, n_rad, None)
@@ -131,7 +131,7 @@ def rect_with_hole2d(hx: float, hy: float, radius: float, nx: int, ny: int, n_ra
     of the side nodes.
     """
     if not 0.0 < radius < min(hx, hy):
-        raise MeshGeometryError(
+        raise ArgumentError(
             f"rect_with_hole2d: expected 0 < hole radius < half-widths ({hx:g}, {hy:g}) m, found {radius:g} m")
     ty = np.linspace(-hy, hy, ny + 1)[:-1]
     tx = np.linspace(hx, -hx, nx + 1)[:-1]
@@ -147,7 +147,7 @@ def extrude(q: QuadMesh2D, z: Sequence[float] | np.ndarray) -> MeshHex:
     """Extrude a planar quad mesh along local z through the increasing coordinates ``z``."""
     z = np.asarray(z, dtype=float)
     if z.ndim != 1 or z.size < 2 or np.any(np.diff(z) <= 0):
-        raise MeshGeometryError(f"extrude: expected at least 2 increasing z values, found {z}")
+        raise ArgumentError(f"extrude: expected at least 2 increasing z values, found {z}")
     n2, nz = q.points.shape[1], z.size
     p = np.vstack([np.tile(q.points, nz), np.repeat(z, n2)])
     v = q.quads  # (4, m): (0,0), (1,0), (1,1), (0,1) in the quad's (xi, eta)
@@ -170,7 +170,7 @@ def _axis_of(p0: np.ndarray, p1: np.ndarray, what: str) -> tuple[Axis, np.ndarra
     d = np.asarray(p1, float) - np.asarray(p0, float)
     k = int(np.argmax(np.abs(d)))
     if abs(d[k]) == 0 or np.count_nonzero(np.abs(d) > 1e-12 * abs(d[k])) != 1:
-        raise MeshGeometryError(f"{what}: end points must differ along exactly one coordinate axis, found {p0} -> {p1}")
+        raise ArgumentError(f"{what}: end points must differ along exactly one coordinate axis, found {p0} -> {p1}")
     axis = "xyz"[k]
     a, b = np.asarray(p0, float), np.asarray(p1, float)
     return (axis, a, b) if d[k] > 0 else (axis, b, a)  # type: ignore[return-value]
@@ -184,7 +184,7 @@ def box(lo: Sequence[float], hi: Sequence[float], h: float, n: Sequence[int] | N
     """Axis-aligned box between the corners ``lo`` and ``hi``, element edges at most ``h``."""
     lo_, hi_ = np.asarray(lo, float), np.asarray(hi, float)
     if np.any(hi_ <= lo_):
-        raise MeshGeometryError(f"box: expected hi > lo in every coordinate, found lo={lo_}, hi={hi_}")
+        raise ArgumentError(f"box: expected hi > lo in every coordinate, found lo={lo_}, hi={hi_}")
     counts = n if n is not None else [divisions(hi_[k] - lo_[k], h) for k in range(3)]
     return MeshHex.init_tensor(*(np.linspace(lo_[k], hi_[k], counts[k] + 1) for k in range(3)))
 
@@ -194,7 +194,7 @@ def cylinder(p0: Sequence[float], p1: Sequence[float], radius: float, h: float, 
     """Solid circular cylinder (O-grid) with axis from ``p0`` to ``p1`` (parallel to a coordinate axis)."""
     axis, a, b = _axis_of(np.asarray(p0), np.asarray(p1), "cylinder")
     if radius <= 0:
-        raise MeshGeometryError(f"cylinder: radius must be positive, found {radius}")
+        raise ArgumentError(f"cylinder: radius must be positive, found {radius}")
     n_phi = n_phi or n_phi_for(radius, h)
     core = 0.45
     n_rad = divisions(radius * (1 - core), h)
@@ -221,14 +221,14 @@ def block_with_bore(lo: Sequence[float], hi: Sequence[float], axis: Axis, radius
     """
     lo_, hi_ = np.asarray(lo, float), np.asarray(hi, float)
     if np.any(hi_ <= lo_):
-        raise MeshGeometryError(f"block_with_bore: expected hi > lo, found lo={lo_}, hi={hi_}")
+        raise ArgumentError(f"block_with_bore: expected hi > lo, found lo={lo_}, hi={hi_}")
     P = _PERM[axis]
     # local extents: local = P^T global
     llo, lhi = P.T @ lo_, P.T @ hi_
     hx, hy = (lhi[0] - llo[0]) / 2, (lhi[1] - llo[1]) / 2
     wall = min(hx, hy) - radius
     if wall <= 0:
-        raise MeshGeometryError(
+        raise ArgumentError(
             f"block_with_bore: bore radius {radius:g} m must be smaller than the half-widths ({hx:g}, {hy:g}) m")
     n_rad = n_rad or divisions(wall, h)
     if n_phi:

@@ -9,9 +9,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
-from pkmstiff.fe.materials import CubicCylindrical, Isotropic, Material, MaterialError
-from pkmstiff.io import check_keys, read_toml
-from pkmstiff.units import InputError, parse_quantity
+from pkmstiff.fe.materials import CubicCylindrical, Isotropic, Material
+from pkmstiff.errors import ArgumentError
+from pkmstiff.io import check_keys
+from pkmstiff.units import parse_quantity
+from pkmstiff.errors import InputError
 
 # schema: section -> key -> unit ("m", "Pa", "N", ... positive; "m0" non-negative; "m~" any sign; "str" text,
 # "int" count, "-" dimensionless)
@@ -39,11 +41,6 @@ def resolve_parameter_file(path: str | Path) -> Path:
     if shipped.is_file() and (len(p.parts) == 1 or p.parts[-3:-1] == ("fe", "params")):
         return shipped
     return p
-
-
-def load_toml(path: str | Path) -> dict[str, Any]:
-    """Parse a TOML parameter file; a missing file or a syntax error becomes an InputError naming the file."""
-    return read_toml(path, InputError, "TOML parameter file")
 
 
 def read_section(raw: Mapping[str, Any], section: str, spec: Mapping[str, str], source: str,
@@ -104,7 +101,7 @@ def read_materials(raw: Mapping[str, Any], source: str) -> dict[str, Material]:
                 raise InputError(source, f"{key}.law", "'isotropic' or 'cubic_cylindrical'", law)
         except InputError as exc:
             raise InputError(source, exc.key.replace("m.", f"{key}.", 1), exc.expected, exc.found) from None
-        except MaterialError as exc:
+        except ArgumentError as exc:
             raise InputError(source, key, "valid material constants", str(exc)) from None
     return out
 

@@ -23,8 +23,10 @@ from pkmstiff.fe import mesh as fm
 from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Solution, Tie
 from pkmstiff.fe.elasticity import ELEMENTS, element_type_label
 from pkmstiff.fe.materials import Isotropic, Material
-from pkmstiff.fe.params import load_toml, material, read_assumptions, read_materials, read_section, resolve_parameter_file
-from pkmstiff.units import InputError, parse_quantity
+from pkmstiff.fe.params import material, read_assumptions, read_materials, read_section, resolve_parameter_file
+from pkmstiff.io import read_toml
+from pkmstiff.units import parse_quantity
+from pkmstiff.errors import InputError
 
 SUPPORTS = ("pinned", "clamped")
 SCHEMA: dict[str, dict[str, str]] = {
@@ -74,7 +76,7 @@ def load_platform_parameters(path: str | Path) -> PlatformParameters:
     """Read a platform parameter TOML file (see ``pkmstiff/fe/params/hexaglide_platform.toml``)."""
     path = resolve_parameter_file(path)
     source = str(path)
-    raw = load_toml(path)
+    raw = read_toml(path, "TOML parameter file")
     known = set(SCHEMA) | {"materials", "assumptions", "spindle"}
     unknown = sorted(set(raw) - known)
     if unknown:

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from pkmstiff.errors import SectionArgumentError
+from pkmstiff.errors import ArgumentError
 
 
 def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
@@ -18,31 +18,30 @@ def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
             axis, rng = part.split("=")
             lo, hi = (float(v) for v in rng.split(":"))
         except ValueError:
-            raise SectionArgumentError(f"--range: expected AXIS=LO:HI pairs in mm separated by commas, "
+            raise ArgumentError(f"--range: expected AXIS=LO:HI pairs in mm separated by commas, "
                                        f"found {part!r}") from None
         axis = axis.strip().lower()
         if axis not in plane:
-            raise SectionArgumentError(f"--range: axis {axis!r} is not in the {plane.upper()} plane")
+            raise ArgumentError(f"--range: axis {axis!r} is not in the {plane.upper()} plane")
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-            raise SectionArgumentError(f"--range {axis}: expected LO < HI (mm), found {lo:g}:{hi:g}")
+            raise ArgumentError(f"--range {axis}: expected LO < HI (mm), found {lo:g}:{hi:g}")
         out[axis] = (lo * 1e-3, hi * 1e-3)
     missing = [a for a in plane if a not in out]
     if missing:
-        raise SectionArgumentError(f"--range: missing the range of {', '.join(missing)} for the {plane.upper()} plane")
+        raise ArgumentError(f"--range: missing the range of {', '.join(missing)} for the {plane.upper()} plane")
     return out
 
 
-def parse_numbers(text: str, count: int, option: str, what: str,
-                  error: type[Exception] = SectionArgumentError, count_text: str | None = None) -> list[float]:
-    """``"1,-2,3.5"`` -> ``count`` finite floats; otherwise ``error`` with one line naming ``option``, the expected
+def parse_numbers(text: str, count: int, option: str, what: str, count_text: str | None = None) -> list[float]:
+    """``"1,-2,3.5"`` -> ``count`` finite floats; otherwise an :class:`ArgumentError` naming ``option``, the expected
     count and meaning ``what`` (e.g. ``"x,y,z,a,b,c (mm, deg)"``) and the text found."""
     n = count_text or str(count)
     try:
         vals = [float(v) for v in text.split(",")]
     except ValueError:
-        raise error(f"{option}: expected {n} numbers {what}, found {text!r}") from None
+        raise ArgumentError(option=option, expected=f"{n} numbers {what}", found=text) from None
     if len(vals) != count or not all(math.isfinite(v) for v in vals):
-        raise error(f"{option}: expected {n} finite numbers {what}, found {text!r}")
+        raise ArgumentError(option=option, expected=f"{n} finite numbers {what}", found=text)
     return vals
 
 

@@ -35,13 +35,13 @@ def require(table: dict[str, Any], key: str, source: str, prefix: str = "", what
 def check_format_version(raw: dict[str, Any], source: str, supported: Iterable[int] = (1,),
                          error: type[InputError] | None = None) -> int:
     """Return the file's ``format_version`` (default 1 when absent); an unknown version raises ``error`` (default
-    :class:`~pkmstiff.errors.FormatVersionError`) naming the file, the versions this pkmstiff reads and the finding."""
-    from pkmstiff.errors import FormatVersionError
+    :class:`~pkmstiff.errors.InputError`) naming the file, the versions this pkmstiff reads and the finding."""
+    from pkmstiff.errors import InputError
 
     supported = tuple(supported)
     v = raw.get("format_version", 1)
     if isinstance(v, bool) or not isinstance(v, int) or v not in supported:
-        err = error or FormatVersionError
+        err = error or InputError
         raise err(source, "format_version", "one of " + ", ".join(map(str, supported))
                   + " (a newer file needs a newer pkmstiff)", v)
     return v

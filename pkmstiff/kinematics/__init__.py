@@ -9,7 +9,6 @@ from pkmstiff.kinematics.arrays import (
     DEFAULT_CHUNK,
     POSE_COLUMNS,
     POSE_UNITS,
-    KinematicsInputError,
     as_poses,
     chunk_slices,
 )
@@ -27,7 +26,7 @@ from pkmstiff.kinematics.forward import FK_STATUS, FKResult, forward_kinematics
 from pkmstiff.kinematics.inverse import IK, inverse_kinematics, inverse_kinematics_frames
 from pkmstiff.kinematics.jacobians import cardan_inverse_jacobian, inverse_jacobian, relative_inverse_jacobian
 
-__all__ = ["DEFAULT_CHUNK", "FKResult", "FK_STATUS", "IK", "KinematicsInputError", "POSE_COLUMNS", "POSE_UNITS",
+__all__ = ["DEFAULT_CHUNK", "FKResult", "FK_STATUS", "IK", "POSE_COLUMNS", "POSE_UNITS",
            "as_poses", "cardan_inverse_jacobian", "chunk_slices", "condition_bounds", "condition_number",
            "forward_kinematics", "inverse_jacobian", "inverse_kinematics", "inverse_kinematics_frames",
            "is_singular", "jacobian_and_condition", "jacobian_and_singular", "kinematic_jacobian",

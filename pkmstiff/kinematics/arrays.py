@@ -12,7 +12,7 @@ from typing import Iterator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pkmstiff.errors import KinematicsInputError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 
 Array = NDArray[np.float64]
 
@@ -35,19 +35,19 @@ def as_poses(poses: ArrayLike, name: str = "poses") -> Array:
     try:
         arr = np.asarray(poses, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise KinematicsInputError(
+        raise ArgumentError(
             f"{name}: expected numbers of shape (6,) or (N, 6) [x, y, z in m, a, b, c in rad], found {poses!r}"
         ) from exc
     if arr.ndim == 1:
         arr = arr[None, :]
     if arr.ndim != 2 or arr.shape[1] != 6:
-        raise KinematicsInputError(
+        raise ArgumentError(
             f"{name}: expected shape (6,) or (N, 6) [x, y, z in m, a, b, c in rad], found shape {np.shape(poses)}"
         )
     bad = ~np.isfinite(arr).all(axis=1)
     if bad.any():
         rows = np.flatnonzero(bad)
-        raise KinematicsInputError(
+        raise ArgumentError(
             f"{name}: expected finite values, found NaN/inf in {rows.size} pose(s), first rows {rows[:5].tolist()}"
         )
     return arr
@@ -56,7 +56,7 @@ def as_poses(poses: ArrayLike, name: str = "poses") -> Array:
 def chunk_slices(n: int, chunk_size: int = DEFAULT_CHUNK) -> Iterator[slice]:
     """Slices ``[0:c], [c:2c], …`` covering ``range(n)``, for processing many poses in bounded memory."""
     if chunk_size < 1:
-        raise KinematicsInputError(f"chunk_size: expected a positive integer, found {chunk_size!r}")
+        raise ArgumentError(f"chunk_size: expected a positive integer, found {chunk_size!r}")
     for start in range(0, n, chunk_size):
         yield slice(start, min(start + chunk_size, n))
 

@@ -11,7 +11,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.kinematics import dispatch as _dispatch
-from pkmstiff.kinematics.arrays import DEFAULT_CHUNK, Array, KinematicsInputError, chunk_slices
+from pkmstiff.kinematics.arrays import DEFAULT_CHUNK, Array, chunk_slices
+from pkmstiff.errors import ArgumentError
 from pkmstiff.machine.model import Machine
 
 
@@ -231,7 +232,7 @@ def _check_square_stack(A: ArrayLike, name: str) -> Array:
     if A.ndim == 2:
         A = A[None]
     if A.ndim != 3 or A.shape[1] != A.shape[2] or A.shape[1] < 3:
-        raise KinematicsInputError(
+        raise ArgumentError(
             f"{name}: expected a stack of square matrices (N, n, n), n ≥ 3, found shape {A.shape}"
         )
     return A
@@ -248,9 +249,9 @@ def _run_chunked(
 ) -> tuple[Array | None, Array | None, tuple[Array, Array] | None, int]:
     A = _check_square_stack(jinv, "jinv")
     if not 0.0 <= rtol < 1.0:
-        raise KinematicsInputError(f"rtol: expected a relative tolerance in [0, 1), found {rtol!r}")
+        raise ArgumentError(f"rtol: expected a relative tolerance in [0, 1), found {rtol!r}")
     if kappa and A.shape[1] != 6:
-        raise KinematicsInputError(f"jinv: the fast condition number needs 6×6 matrices, found {A.shape[1:]}")
+        raise ArgumentError(f"jinv: the fast condition number needs 6×6 matrices, found {A.shape[1:]}")
     N, n, _ = A.shape
     # component-first (n, n, N): no copy if jinv came from inverse_jacobian
     As = np.require(np.moveaxis(A, 0, 2), dtype=np.float64, requirements=("C", "W"))
@@ -300,7 +301,7 @@ def condition_number(
         parts = [_svd_condition(A[s]) for s in chunk_slices(A.shape[0], chunk_size)]
         return np.concatenate(parts) if parts else np.empty(0)
     if method != "fast":
-        raise KinematicsInputError(f"condition_number: method must be 'fast' or 'svd', found {method!r}")
+        raise ArgumentError(f"condition_number: method must be 'fast' or 'svd', found {method!r}")
     return _run_chunked(jinv, kappa=True, rtol=rtol, chunk_size=chunk_size, max_iter=max_iter)[1]  # type: ignore
 
 
@@ -369,11 +370,11 @@ def transmission_quality(machine: Machine, jinv: ArrayLike, w: float | None = No
     """
     form = getattr(machine, "transmission_form", "inverse_sqrt_kappa") if form is None else form
     if form not in ("inverse_sqrt_kappa", "inverse_kappa"):
-        raise KinematicsInputError(f"transmission_quality: form must be 'inverse_sqrt_kappa' or 'inverse_kappa', "
+        raise ArgumentError(f"transmission_quality: form must be 'inverse_sqrt_kappa' or 'inverse_kappa', "
                                    f"found {form!r}")
     w = machine.transmission_weight if w is None else float(w)
     if not (np.isfinite(w) and w > 0):
-        raise KinematicsInputError(f"transmission_quality: weight w must be a positive number in m/rad, found {w!r}")
+        raise ArgumentError(f"transmission_quality: weight w must be a positive number in m/rad, found {w!r}")
     A = np.array(_check_square_stack(jinv, "jinv"), copy=True)
     A[:, :, 3:] /= w
     inv_kappa = 1.0 / condition_number(A, **kw)

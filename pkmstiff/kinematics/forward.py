@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.kinematics.arrays import Array, KinematicsInputError, as_poses
+from pkmstiff.kinematics.arrays import Array, as_poses
+from pkmstiff.errors import ArgumentError
 from pkmstiff.kinematics.inverse import IK, inverse_kinematics
 from pkmstiff.kinematics.jacobians import cardan_inverse_jacobian, inverse_jacobian
 from pkmstiff.machine.model import Machine
@@ -110,18 +111,18 @@ def forward_kinematics(
     if q_target.ndim == 1:
         q_target = q_target[None]
     if q_target.ndim != 2 or q_target.shape[1] != n:
-        raise KinematicsInputError(
+        raise ArgumentError(
             f"drive_coords: expected shape ({n},) or (N, {n}) in m, found {np.shape(drive_coords)}"
         )
     if not np.isfinite(q_target).all():
-        raise KinematicsInputError("drive_coords: expected finite values in m, found NaN/inf")
+        raise ArgumentError("drive_coords: expected finite values in m, found NaN/inf")
     x0a = as_poses(x0, "x0")
     N = max(q_target.shape[0], x0a.shape[0])
     try:
         q_target = np.broadcast_to(q_target, (N, n)).copy()
         x = np.broadcast_to(x0a, (N, 6)).copy()
     except ValueError as exc:
-        raise KinematicsInputError(
+        raise ArgumentError(
             f"forward_kinematics: drive_coords ({q_target.shape[0]} rows) and x0 ({x0a.shape[0]} rows) "
             "must have the same number of rows or one of them a single row"
         ) from exc

@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.kinematics.arrays import Array, KinematicsInputError, _to_soa, _vec_aos, as_poses
+from pkmstiff.kinematics.arrays import Array, _to_soa, _vec_aos, as_poses
+from pkmstiff.errors import ArgumentError
 from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
 from pkmstiff.machine.model import Machine
 
@@ -72,12 +73,12 @@ def inverse_kinematics_frames(machine: Machine, w: ArrayLike, R: ArrayLike) -> I
     if R.ndim == 2:
         R = R[None]
     if w.ndim != 2 or w.shape[1] != 3 or R.shape != (w.shape[0], 3, 3):
-        raise KinematicsInputError(
+        raise ArgumentError(
             f"inverse_kinematics_frames: expected w of shape (N, 3) [m] and R of shape (N, 3, 3), "
             f"found {w.shape} and {R.shape}"
         )
     if not (np.isfinite(w).all() and np.isfinite(R).all()):
-        raise KinematicsInputError("inverse_kinematics_frames: expected finite w and R, found NaN/inf")
+        raise ArgumentError("inverse_kinematics_frames: expected finite w and R, found NaN/inf")
     x = np.concatenate([w, cardan_angles(R)], axis=1)
     return _ik_soa(machine, x, np.ascontiguousarray(w.T), _to_soa(R, 2))
 
@@ -114,7 +115,7 @@ def _ik_soa(machine: Machine, x: Array, w: Array, R: Array) -> IK:
         drive = length
         reachable = np.ones((ch.n, N), dtype=bool)
     else:
-        raise KinematicsInputError(f"machine '{machine.name}': chains.kind must be 'pod' or 'glide', found {ch.kind!r}")
+        raise ArgumentError(f"machine '{machine.name}': chains.kind must be 'pod' or 'glide', found {ch.kind!r}")
     off = ch.drive_offset
     if off is not None and np.any(off != 0.0):  # calibrated drive zero: controller coordinate = geometric - offset
         drive = drive - off[:, None]

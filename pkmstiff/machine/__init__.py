@@ -1,7 +1,6 @@
 """Machine layer: the machine model, machine files (loading, validation, variants) and component roles."""
 
 from pkmstiff.machine.loader import (
-                                     MachineFileError,
                                      UnknownMachineError,
                                      bundled_machine_dir,
                                      bundled_machines,
@@ -12,6 +11,6 @@ from pkmstiff.machine.loader import (
 )
 from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
 
-__all__ = ["Chains", "Guide", "Hull", "JointType", "Limits", "Machine", "MachineFileError", "Tool",
+__all__ = ["Chains", "Guide", "Hull", "JointType", "Limits", "Machine", "Tool",
            "UnknownMachineError", "bundled_machine_dir", "bundled_machines", "load_machine", "raw_machine",
            "resolve_machine_path", "split_machine_spec"]

@@ -3,7 +3,7 @@
 A machine is loaded by bundled name (``"hexaglide"``), by name with options (``"linapod:printed_values"``) or by
 path. A file may ``extends`` another machine and override parts of it (tables are merged key by key, the
 ``chains`` array element by element); ``[options.NAME]`` tables are optional overrides selected at load time.
-Every value is validated; errors are :class:`MachineFileError` naming file, key, expectation and finding.
+Every value is validated; errors are :class:`InputError` naming file, key, expectation and finding.
 """
 
 from __future__ import annotations
@@ -17,10 +17,10 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from pkmstiff.errors import MachineFileError, UnknownMachineError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError, UnknownMachineError  # noqa: F401 (re-exported)
 from pkmstiff.io import check_format_version, check_keys, read_toml, require
 from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
-from pkmstiff.units import InputError, parse_quantity
+from pkmstiff.units import parse_quantity
 
 _TOP_KEYS = {"format_version", "machine", "limits", "tool", "joint_types", "guides", "chain_defaults", "chains",
              "hull", "components", "machine_components", "assumptions", "options", "calibration"}
@@ -65,10 +65,6 @@ def resolve_machine_path(name_or_path: str | Path) -> Path:
     )
 
 
-def _read_toml(path: Path) -> dict[str, Any]:
-    return read_toml(path, MachineFileError, "machine file")
-
-
 def _merge(base: Any, over: Any) -> Any:
     """Deep merge: tables key by key, equally long arrays of tables element by element, everything else replaced."""
     if isinstance(base, dict) and isinstance(over, dict):
@@ -83,16 +79,16 @@ def _merge(base: Any, over: Any) -> Any:
 
 
 def _raw_with_extends(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
-    raw = _read_toml(path)
+    raw = read_toml(path, "machine file")
     parent = raw.get("machine", {}).get("extends") if isinstance(raw.get("machine"), dict) else None
     if parent is None:
         return raw
     try:
         parent_path = resolve_machine_path(parent if not str(parent).endswith(".toml") else path.parent / parent)
     except UnknownMachineError as exc:
-        raise MachineFileError(str(path), "machine.extends", "a bundled machine name or a path", parent) from exc
+        raise InputError(str(path), "machine.extends", "a bundled machine name or a path", parent) from exc
     if parent_path.resolve() in seen:
-        raise MachineFileError(str(path), "machine.extends", "no circular 'extends'", parent)
+        raise InputError(str(path), "machine.extends", "no circular 'extends'", parent)
     base = _raw_with_extends(parent_path, seen + (path.resolve(),))
     # a component the child defines with its own 'model' replaces the parent's as a whole (a pasted
     # [components.NAME] table, e.g. from 'pkmstiff fe-platform', must not inherit parameters of the old definition:
@@ -126,7 +122,7 @@ def raw_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> tuple[
     available = raw.get("options", {})
     for opt in opts:
         if opt not in available:
-            raise MachineFileError(src, "options", f"one of {sorted(available)}", opt)
+            raise InputError(src, "options", f"one of {sorted(available)}", opt)
         raw = _merge(raw, available[opt])
     return raw, src, opts
 
@@ -150,10 +146,8 @@ def _load_uncached(name_or_path: str | Path, options: Iterable[str] = ()) -> Mac
     raw, src, options = raw_machine(name_or_path, options)
     try:
         return _build(raw, src, options)
-    except MachineFileError:
-        raise
-    except InputError as exc:  # raised by the unit parser or a component model: report as a machine-file error
-        raise MachineFileError(exc.source or src, exc.key, exc.expected, exc.found) from None
+    except InputError as exc:  # raised by the unit parser or a component model: name the machine file
+        raise exc.in_file(src) from None
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -168,7 +162,7 @@ def _direction(value: Any, src: str, key: str) -> np.ndarray:
     v = _vec(value, src, key, "dimensionless")
     norm = float(np.linalg.norm(v))
     if norm < 1e-9:
-        raise MachineFileError(src, key, "a non-zero direction vector", list(v))
+        raise InputError(src, key, "a non-zero direction vector", list(v))
     return v / norm
 
 
@@ -181,14 +175,14 @@ def _length(value: Any, src: str, key: str, *, positive: bool = True) -> float:
 
 
 def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
-    check_keys(raw, _TOP_KEYS, src, "", error=MachineFileError)
+    check_keys(raw, _TOP_KEYS, src, "", error=InputError)
     check_format_version(raw, src)
-    mtab = check_keys(require(raw, "machine", src, "", "a [machine] table", error=MachineFileError), _MACHINE_KEYS, src,
-                      "machine.", error=MachineFileError)
-    name = str(require(mtab, "name", src, "machine.", "the machine's short name", error=MachineFileError))
-    kind = require(mtab, "type", src, "machine.", "'pod' or 'glide'", error=MachineFileError)
+    mtab = check_keys(require(raw, "machine", src, "", "a [machine] table", error=InputError), _MACHINE_KEYS, src,
+                      "machine.", error=InputError)
+    name = str(require(mtab, "name", src, "machine.", "the machine's short name", error=InputError))
+    kind = require(mtab, "type", src, "machine.", "'pod' or 'glide'", error=InputError)
     if kind not in ("pod", "glide"):
-        raise MachineFileError(src, "machine.type", "'pod' or 'glide'", kind)
+        raise InputError(src, "machine.type", "'pod' or 'glide'", kind)
     gravity = _vec(mtab.get("gravity", [0.0, 0.0, -9.81]), src, "machine.gravity", "m/s^2")
     w = float(parse_quantity(mtab.get("transmission_weight", 1.0), "m/rad", source=src,
                              key="machine.transmission_weight", positive=True))
@@ -196,14 +190,14 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     report_origin = _vec(mtab.get("report_origin", [0.0, 0.0, 0.0]), src, "machine.report_origin")
     tform = mtab.get("transmission_form", "inverse_sqrt_kappa")
     if tform not in TRANSMISSION_FORMS:
-        raise MachineFileError(src, "machine.transmission_form", f"one of {list(TRANSMISSION_FORMS)}", tform)
+        raise InputError(src, "machine.transmission_form", f"one of {list(TRANSMISSION_FORMS)}", tform)
     limits = _limits(raw.get("limits", {}), src)
     tool = _tool(raw.get("tool", {}), src)
     components = _components(raw.get("components", {}), src)
     joint_types = _joint_types(raw.get("joint_types", {}), src, components)
-    chain_tables = require(raw, "chains", src, "", "an array of [[chains]] tables", error=MachineFileError)
+    chain_tables = require(raw, "chains", src, "", "an array of [[chains]] tables", error=InputError)
     if not isinstance(chain_tables, list) or len(chain_tables) < 2:
-        raise MachineFileError(src, "chains", "an array of at least 2 [[chains]] tables", chain_tables)
+        raise InputError(src, "chains", "an array of at least 2 [[chains]] tables", chain_tables)
     defaults = raw.get("chain_defaults", {})
     chains, chain_components = _chains(kind, chain_tables, defaults, src, joint_types, components)
     guides = _guides(raw.get("guides", {}), src, chains.n, kind)
@@ -212,12 +206,12 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     hull = _hull(raw.get("hull", {}), src)
     mcomp = raw.get("machine_components", {})
     if not isinstance(mcomp, dict):
-        raise MachineFileError(src, "machine_components", "a table role = component name", mcomp)
+        raise InputError(src, "machine_components", "a table role = component name", mcomp)
     for role, ref in mcomp.items():
         _check_ref(ref, components, src, f"machine_components.{role}")
     assumptions = raw.get("assumptions", {})
     if not isinstance(assumptions, dict) or not all(isinstance(v, str) for v in assumptions.values()):
-        raise MachineFileError(src, "assumptions", "a table key = one-line reason (strings)", assumptions)
+        raise InputError(src, "assumptions", "a table key = one-line reason (strings)", assumptions)
     built = _build_components(components, src)
     _check_joint_conventions(joint_types, built, src)
     title = str(mtab.get("title", name)) + (f" [{', '.join(options)}]" if options else "")
@@ -247,63 +241,63 @@ def _calibration(tab: Any, src: str) -> dict[str, Any]:
     quantity such as "0.012 mm"; σ must be non-negative). Returns it as a plain dict ({} when absent)."""
     if tab is None:
         return {}
-    check_keys(tab, _CALIBRATION_KEYS, src, "calibration.", error=MachineFileError)
+    check_keys(tab, _CALIBRATION_KEYS, src, "calibration.", error=InputError)
     for key, value in tab.items():
         kind, k = _CALIBRATION_KEYS[key], f"calibration.{key}"
         if kind == "str" and not isinstance(value, str):
-            raise MachineFileError(src, k, "a string", value)
+            raise InputError(src, k, "a string", value)
         if kind == "sha256" and not (isinstance(value, str) and len(value) == 64
                                      and all(c in "0123456789abcdef" for c in value)):
-            raise MachineFileError(src, k, "a SHA-256 hex digest (64 lower-case hex digits)", value)
+            raise InputError(src, k, "a SHA-256 hex digest (64 lower-case hex digits)", value)
         if kind == "count" and not (isinstance(value, int) and not isinstance(value, bool) and value >= 0):
-            raise MachineFileError(src, k, "a non-negative integer", value)
+            raise InputError(src, k, "a non-negative integer", value)
         if kind == "number" and not (isinstance(value, (int, float)) and not isinstance(value, bool)
                                      and value >= 0 and np.isfinite(value)):
-            raise MachineFileError(src, k, "a non-negative finite number", value)
+            raise InputError(src, k, "a non-negative finite number", value)
         if kind == "strings" and not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
-            raise MachineFileError(src, k, "a list of strings", value)
+            raise InputError(src, k, "a list of strings", value)
         if kind == "table":
             if not isinstance(value, dict):
-                raise MachineFileError(src, k, "a table parameter name = quantity", value)
+                raise InputError(src, k, "a table parameter name = quantity", value)
             for name, q in value.items():
                 if not isinstance(q, str):
-                    raise MachineFileError(src, f"{k}.{name}", "a quantity with its unit, e.g. \"0.012 mm\"", q)
+                    raise InputError(src, f"{k}.{name}", "a quantity with its unit, e.g. \"0.012 mm\"", q)
                 try:
                     unit = "rad" if any(u in q for u in ("rad", "deg")) else "m"
                     v = parse_quantity(q, unit, source=src, key=f"{k}.{name}")
                 except InputError:
-                    raise MachineFileError(src, f"{k}.{name}", "a length or angle with its unit", q) from None
+                    raise InputError(src, f"{k}.{name}", "a length or angle with its unit", q) from None
                 if key == "sigma" and v < 0:
-                    raise MachineFileError(src, f"{k}.{name}", "a non-negative standard deviation", q)
+                    raise InputError(src, f"{k}.{name}", "a non-negative standard deviation", q)
     return dict(tab)
 
 
 def _limits(tab: Any, src: str) -> Limits:
-    check_keys(tab, _LIMIT_KEYS, src, "limits.", error=MachineFileError)
+    check_keys(tab, _LIMIT_KEYS, src, "limits.", error=InputError)
     kw: dict[str, Any] = {}
     if "singularity_threshold" in tab:
         kw["singularity_threshold"] = float(parse_quantity(tab["singularity_threshold"], "dimensionless", source=src,
                                                            key="limits.singularity_threshold", min_value=1.0))
     if "strut_collision_mode" in tab:
         if tab["strut_collision_mode"] not in ("exact", "table_B2"):
-            raise MachineFileError(src, "limits.strut_collision_mode", "'exact' or 'table_B2'", tab["strut_collision_mode"])
+            raise InputError(src, "limits.strut_collision_mode", "'exact' or 'table_B2'", tab["strut_collision_mode"])
         kw["strut_collision_mode"] = tab["strut_collision_mode"]
     if "platform_end_exclusion" in tab:
         kw["platform_end_exclusion"] = _length(tab["platform_end_exclusion"], src, "limits.platform_end_exclusion",
                                                positive=False)
     if "drive_load_include_coulomb" in tab:
         if not isinstance(tab["drive_load_include_coulomb"], bool):
-            raise MachineFileError(src, "limits.drive_load_include_coulomb", "true or false",
+            raise InputError(src, "limits.drive_load_include_coulomb", "true or false",
                                    tab["drive_load_include_coulomb"])
         kw["drive_load_include_coulomb"] = tab["drive_load_include_coulomb"]
     if "drive_load_strut_mass" in tab:
         frac = float(parse_quantity(tab["drive_load_strut_mass"], "dimensionless", source=src,
                                     key="limits.drive_load_strut_mass", min_value=0.0))
         if frac > 1.0:
-            raise MachineFileError(src, "limits.drive_load_strut_mass", "a fraction in [0, 1]", frac)
+            raise InputError(src, "limits.drive_load_strut_mass", "a fraction in [0, 1]", frac)
         kw["drive_load_strut_mass"] = frac
     if "frame" in tab:
-        fr = check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.", error=MachineFileError)
+        fr = check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.", error=InputError)
         lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
         for k, v in fr.items():
             (lo if k.endswith("min") else hi)["xyz".index(k[0])] = float(
@@ -311,14 +305,14 @@ def _limits(tab: Any, src: str) -> Limits:
         bad = np.nonzero(lo >= hi)[0]
         if bad.size:
             a = "xyz"[bad[0]]
-            raise MachineFileError(src, f"limits.frame.{a}_min", f"a value below {a}_max = {hi[bad[0]]} m",
+            raise InputError(src, f"limits.frame.{a}_min", f"a value below {a}_max = {hi[bad[0]]} m",
                                    fr.get(f"{a}_min"))
         kw["position_min"], kw["position_max"] = lo, hi
     return Limits(**kw)
 
 
 def _tool(tab: Any, src: str) -> Tool:
-    check_keys(tab, _TOOL_KEYS, src, "tool.", error=MachineFileError)
+    check_keys(tab, _TOOL_KEYS, src, "tool.", error=InputError)
     return Tool(
         offset=_vec(tab.get("offset", [0, 0, 0]), src, "tool.offset"),
         axis=_direction(tab.get("axis", [0, 0, -1]), src, "tool.axis"),
@@ -328,7 +322,7 @@ def _tool(tab: Any, src: str) -> Tool:
 
 def _components(tab: Any, src: str) -> dict[str, dict[str, Any]]:
     if not isinstance(tab, dict):
-        raise MachineFileError(src, "components", "a table of named component tables", tab)
+        raise InputError(src, "components", "a table of named component tables", tab)
     out = {}
     try:
         from components.registry import available_models  # the component library validates the parameters
@@ -338,10 +332,10 @@ def _components(tab: Any, src: str) -> dict[str, dict[str, Any]]:
     for cname, params in tab.items():
         key = f"components.{cname}"
         if not isinstance(params, dict):
-            raise MachineFileError(src, key, "a table with at least the key 'model'", params)
-        model = require(params, "model", src, key + ".", "the name of a component model", error=MachineFileError)
+            raise InputError(src, key, "a table with at least the key 'model'", params)
+        model = require(params, "model", src, key + ".", "the name of a component model", error=InputError)
         if models is not None and model not in models:
-            raise MachineFileError(src, key + ".model", f"one of the component models {sorted(models)}", model)
+            raise InputError(src, key + ".model", f"one of the component models {sorted(models)}", model)
         out[cname] = dict(params)
     return out
 
@@ -363,37 +357,37 @@ def _check_joint_conventions(joint_types: dict[str, JointType], built: dict, src
             continue
         conv = getattr(built[jt.stiffness][1], "angle_convention", None)
         if conv is not None and conv != jt.convention:
-            raise MachineFileError(src, f"joint_types.{jt.name}.stiffness",
+            raise InputError(src, f"joint_types.{jt.name}.stiffness",
                                    f"stiffness data in the joint type's '{jt.convention}' tilt convention",
                                    f"component '{jt.stiffness}' with angle_convention '{conv}'")
 
 
 def _check_ref(ref: Any, components: dict, src: str, key: str) -> None:
     if not isinstance(ref, str) or ref not in components:
-        raise MachineFileError(src, key, f"the name of a component defined under [components] ({sorted(components)})",
+        raise InputError(src, key, f"the name of a component defined under [components] ({sorted(components)})",
                                ref)
 
 
 def _joint_types(tab: Any, src: str, components: dict) -> dict[str, JointType]:
     if not isinstance(tab, dict) or not tab:
-        raise MachineFileError(src, "joint_types", "at least one [joint_types.NAME] table", tab)
+        raise InputError(src, "joint_types", "at least one [joint_types.NAME] table", tab)
     out = {}
     for jname, jt in tab.items():
         p = f"joint_types.{jname}."
-        check_keys(jt, _JOINT_KEYS, src, p, error=MachineFileError)
+        check_keys(jt, _JOINT_KEYS, src, p, error=InputError)
         conv = jt.get("convention", "axis")
         if conv not in ("axis", "normal"):
-            raise MachineFileError(src, p + "convention", "'axis' or 'normal'", conv)
+            raise InputError(src, p + "convention", "'axis' or 'normal'", conv)
         sdir = jt.get("strut_direction", "outward")
         if sdir not in ("outward", "drive_to_platform"):
-            raise MachineFileError(src, p + "strut_direction", "'outward' or 'drive_to_platform'", sdir)
+            raise InputError(src, p + "strut_direction", "'outward' or 'drive_to_platform'", sdir)
         kw = {k: _angle(jt[k], src, p + k) for k in ("swivel_min", "swivel_max", "tilt_min", "tilt_max") if k in jt}
         for lo, hi in (("swivel_min", "swivel_max"), ("tilt_min", "tilt_max")):
             if lo in kw and hi in kw and kw[lo] > kw[hi]:
-                raise MachineFileError(src, p + lo, f"a value <= {hi}", jt[lo])
+                raise InputError(src, p + lo, f"a value <= {hi}", jt[lo])
         ina = jt.get("ina_coupled", False)
         if not isinstance(ina, bool):
-            raise MachineFileError(src, p + "ina_coupled", "true or false", ina)
+            raise InputError(src, p + "ina_coupled", "true or false", ina)
         stiff = jt.get("stiffness")
         if stiff is not None:
             _check_ref(stiff, components, src, p + "stiffness")
@@ -406,18 +400,18 @@ def _joint_types(tab: Any, src: str, components: dict) -> dict[str, JointType]:
 def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
             components: dict) -> tuple[Chains, tuple[dict[str, str], ...]]:
     allowed = _COMMON_CHAIN_KEYS | (_GLIDE_CHAIN_KEYS if kind == "glide" else _POD_CHAIN_KEYS)
-    check_keys(defaults, allowed, src, "chain_defaults.", error=MachineFileError)
+    check_keys(defaults, allowed, src, "chain_defaults.", error=InputError)
     n = len(tables)
     cols: dict[str, list] = {k: [] for k in allowed}
     comps: list[dict[str, str]] = []
     for i, tab in enumerate(tables):
         p = f"chains[{i + 1}]."
-        check_keys(tab, allowed, src, p, error=MachineFileError)
+        check_keys(tab, allowed, src, p, error=InputError)
         t = _merge(defaults, tab)
 
         def need(key: str, what: str) -> Any:
             if key not in t:
-                raise MachineFileError(src, p + key, f"{what} (required for a {kind} chain)", "missing key")
+                raise InputError(src, p + key, f"{what} (required for a {kind} chain)", "missing key")
             return t[key]
 
         cols["drive_joint"].append(_vec(t.get("drive_joint", [0, 0, 0]) if kind == "glide"
@@ -439,7 +433,7 @@ def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
         for side in ("drive_joint_type", "platform_joint_type"):
             jt = need(side, "the name of a [joint_types.NAME] table")
             if jt not in joint_types:
-                raise MachineFileError(src, p + side, f"one of the joint types {sorted(joint_types)}", jt)
+                raise InputError(src, p + side, f"one of the joint types {sorted(joint_types)}", jt)
             cols[side].append(jt)
         if kind == "glide":
             cols["guide_start"].append(_vec(need("guide_start", "the guide start point s_i"), src, p + "guide_start"))
@@ -450,13 +444,13 @@ def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
             cols["strut_length"].append(_length(need("strut_length", "the strut length l_i"), src, p + "strut_length"))
             root = t.get("root", "smaller")
             if root not in ("smaller", "larger"):
-                raise MachineFileError(src, p + "root", "'smaller' or 'larger'", root)
+                raise InputError(src, p + "root", "'smaller' or 'larger'", root)
             cols["root"].append(root == "larger")
         else:
             lmin = _length(need("length_min", "the minimum strut length"), src, p + "length_min")
             lmax = _length(need("length_max", "the maximum strut length"), src, p + "length_max")
             if lmax <= lmin:
-                raise MachineFileError(src, p + "length_max", f"a length > length_min = {lmin} m", t["length_max"])
+                raise InputError(src, p + "length_max", f"a length > length_min = {lmin} m", t["length_max"])
             cols["length_min"].append(lmin)
             cols["length_max"].append(lmax)
         # drive zero offset (calibrated machines): controller drive coordinate = geometric one - drive_offset
@@ -464,7 +458,7 @@ def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
                                                          key=p + "drive_offset")))
         cc = t.get("components", {})
         if not isinstance(cc, dict):
-            raise MachineFileError(src, p + "components", "a table role = component name", cc)
+            raise InputError(src, p + "components", "a table role = component name", cc)
         for role, ref in cc.items():
             _check_ref(ref, components, src, f"{p}components.{role}")
         comps.append({k: str(v) for k, v in cc.items()})
@@ -492,20 +486,20 @@ def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
 
 def _guides(tab: Any, src: str, n: int, kind: str) -> dict[str, Guide]:
     if not isinstance(tab, dict):
-        raise MachineFileError(src, "guides", "a table of [guides.NAME] tables", tab)
+        raise InputError(src, "guides", "a table of [guides.NAME] tables", tab)
     out = {}
     used: set[int] = set()
     for gname, g in tab.items():
         p = f"guides.{gname}."
-        check_keys(g, _GUIDE_KEYS, src, p, error=MachineFileError)
+        check_keys(g, _GUIDE_KEYS, src, p, error=InputError)
         if kind != "glide":
-            raise MachineFileError(src, f"guides.{gname}", "shared guides only for glide machines", "a guide table")
-        members = require(g, "chains", src, p, "the 1-based chain numbers on this guide", error=MachineFileError)
+            raise InputError(src, f"guides.{gname}", "shared guides only for glide machines", "a guide table")
+        members = require(g, "chains", src, p, "the 1-based chain numbers on this guide", error=InputError)
         if (not isinstance(members, list) or len(members) < 2
                 or not all(isinstance(c, int) and not isinstance(c, bool) and 1 <= c <= n for c in members)):
-            raise MachineFileError(src, p + "chains", f"a list of at least two chain numbers 1..{n}", members)
+            raise InputError(src, p + "chains", f"a list of at least two chain numbers 1..{n}", members)
         if used & set(members):
-            raise MachineFileError(src, p + "chains", "each chain on at most one guide", members)
+            raise InputError(src, p + "chains", "each chain on at most one guide", members)
         used |= set(members)
         out[gname] = Guide(
             name=gname, chains=tuple(c - 1 for c in members),
@@ -518,7 +512,7 @@ def _guides(tab: Any, src: str, n: int, kind: str) -> dict[str, Guide]:
 
 
 def _hull(tab: Any, src: str) -> Hull:
-    check_keys(tab, _HULL_KEYS, src, "hull.", error=MachineFileError)
+    check_keys(tab, _HULL_KEYS, src, "hull.", error=InputError)
     if "vertices" not in tab:
         return Hull(vertices=np.zeros((0, 3)), triangles=np.zeros((0, 3), dtype=int))
     verts = np.asarray(parse_quantity(tab["vertices"], "m", source=src, key="hull.vertices", shape=(None, 3)))
@@ -526,7 +520,7 @@ def _hull(tab: Any, src: str) -> Hull:
         tri = np.asarray(parse_quantity(tab["triangles"], "dimensionless", source=src, key="hull.triangles",
                                         shape=(None, 3)))
         if np.any(tri != np.round(tri)) or tri.min() < 0 or tri.max() >= len(verts):
-            raise MachineFileError(src, "hull.triangles", f"integer vertex indices 0..{len(verts) - 1}",
+            raise InputError(src, "hull.triangles", f"integer vertex indices 0..{len(verts) - 1}",
                                    tab["triangles"])
         hull = Hull(vertices=verts, triangles=tri.astype(int))
         try:
@@ -535,14 +529,14 @@ def _hull(tab: Any, src: str) -> Hull:
             pass
         return hull
     if len(verts) < 4:
-        raise MachineFileError(src, "hull.vertices", "at least 4 vertices spanning a volume (or give 'triangles')",
+        raise InputError(src, "hull.vertices", "at least 4 vertices spanning a volume (or give 'triangles')",
                                f"{len(verts)} vertices")
     from scipy.spatial import ConvexHull, QhullError
 
     try:
         ch = ConvexHull(verts)
     except QhullError as exc:
-        raise MachineFileError(src, "hull.vertices", "vertices spanning a volume (convex hull)", "degenerate set") \
+        raise InputError(src, "hull.vertices", "vertices spanning a volume (convex hull)", "degenerate set") \
             from exc
     hull = Hull(vertices=verts, triangles=_oriented(verts, ch.simplices), convex=True)
     object.__setattr__(hull, "_equations", ch.equations)  # = hull.convex_hull_equations()

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from pkmstiff.errors import MechanismInputError
+from pkmstiff.errors import ArgumentError
 from pkmstiff.mechanisms.constraints import System, drive_blocks, model_blocks
 from pkmstiff.mechanisms.linalg import gap_rank
 from pkmstiff.mechanisms.model import Mechanism
@@ -175,11 +175,11 @@ def drive_ranges(mech: Mechanism, drives: list[str] | None = None, start: Array 
     """
     names = list(mech.drive_names)
     if not names:
-        raise MechanismInputError(f"mechanism '{mech.name}' has no driven joint: no drive range")
+        raise ArgumentError(f"mechanism '{mech.name}' has no driven joint: no drive range")
     sel = names if drives is None else drives
     for d in sel:
         if d not in names:
-            raise MechanismInputError(f"drive {d!r}: expected one of {names}")
+            raise ArgumentError(f"drive {d!r}: expected one of {names}")
     q0 = home(mech)[0] if start is None else np.asarray(start, dtype=float)
     tol = 1e-13 * mech.length_scale if tol is None else tol
     h0 = 0.02 * mech.length_scale if step is None else step
@@ -192,7 +192,7 @@ def drive_ranges(mech: Mechanism, drives: list[str] | None = None, start: Array 
         x0 = q0.reshape(-1)[c.free]
         rk = gap_rank(np.linalg.svd(c.fun(x0, target)[1], compute_uv=False))
         if c.free.size - rk != 1:
-            raise MechanismInputError(f"drive {name!r}: the mechanism with the other drives held has "
+            raise ArgumentError(f"drive {name!r}: the mechanism with the other drives held has "
                                       f"{c.free.size - rk} degrees of freedom at the start (need 1)")
         jt = mech.joints[c.ji]
         travel = (10.0 * mech.length_scale if units[i] == "m" else 2 * np.pi) if max_travel is None else max_travel

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pkmstiff.errors import MechanismInputError
+from pkmstiff.errors import ArgumentError
 from pkmstiff.mechanisms.constraints import fk_system
 from pkmstiff.mechanisms.linalg import GAP_FACTOR, GAP_FLOOR, lstsq_pivoted
 from pkmstiff.mechanisms.solver import Solution, output_pose
@@ -41,7 +41,7 @@ def rates(sol: Solution, drive_rates: ArrayLike, drive_accelerations: ArrayLike 
     sdd = np.zeros((N, nd)) if drive_accelerations is None else np.broadcast_to(
         np.asarray(drive_accelerations, dtype=float), (N, nd))
     if sd is None or sd.shape != (N, nd):
-        raise MechanismInputError(f"drive_rates: expected shape ({nd},) or ({N}, {nd})")
+        raise ArgumentError(f"drive_rates: expected shape ({nd},) or ({N}, {nd})")
     system = fk_system(mech)
     rows, free = system.solve_rows, system.free
     L, d = sol.q.shape[1:]

@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pkmstiff.errors import MechanismInputError
+from pkmstiff.errors import ArgumentError
 from pkmstiff.mechanisms.constraints import fk_system
 from pkmstiff.mechanisms.linalg import gap_rank
 from pkmstiff.mechanisms.model import Drive, Mechanism
@@ -53,7 +53,7 @@ def with_parameters(mech: Mechanism, values: ArrayLike) -> Mechanism:
     names, _, nominal = parameters(mech)
     values = np.asarray(values, dtype=float)
     if values.shape != nominal.shape:
-        raise MechanismInputError(f"values: expected {nominal.size} parameters (see parameters()), "
+        raise ArgumentError(f"values: expected {nominal.size} parameters (see parameters()), "
                                   f"found shape {values.shape}")
     it = iter(values)
     D = mech.dim
@@ -126,4 +126,4 @@ def identification_jacobian(mech: Mechanism, drives: ArrayLike, start: Solution 
 
 
 def _bad(n: str, names: list[str]) -> int:
-    raise MechanismInputError(f"parameter {n!r}: expected one of the names of parameters(), e.g. {names[:3]}")
+    raise ArgumentError(f"parameter {n!r}: expected one of the names of parameters(), e.g. {names[:3]}")

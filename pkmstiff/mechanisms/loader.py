@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import InputError, MechanismFileError, UnknownMechanismError
+from pkmstiff.errors import ArgumentError, InputError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.mechanisms.model import (COORDINATES, JOINT_TYPES_2D, JOINT_TYPES_3D, NOMINAL_RANK, Drive, Joint,
                                        Mechanism, Output)
@@ -57,16 +57,16 @@ def load_mechanism(name_or_path: str | Path) -> Mechanism:
     """Load a bundled mechanism by name (``"slider_crank"``) or a mechanism file by path; validated."""
     p = Path(name_or_path)
     if p.suffix == ".toml" or p.exists():
-        return mechanism_from_dict(read_toml(p, MechanismFileError, "mechanism file"), str(p))
+        return mechanism_from_dict(read_toml(p, "mechanism file"), str(p))
     cand = bundled_mechanism_dir() / f"{name_or_path}.toml"
     if cand.exists():
-        return mechanism_from_dict(read_toml(cand, MechanismFileError, "mechanism file"), str(cand))
-    raise UnknownMechanismError(f"no bundled mechanism {str(name_or_path)!r} and no such file; bundled: "
+        return mechanism_from_dict(read_toml(cand, "mechanism file"), str(cand))
+    raise ArgumentError(f"no bundled mechanism {str(name_or_path)!r} and no such file; bundled: "
                                 f"{', '.join(bundled_mechanisms())}")
 
 
 def _err(src, key, expected, found):
-    return MechanismFileError(src, key, expected, found)
+    return InputError(src, key, expected, found)
 
 
 def _vec(v: Any, unit: str, dim: int, src: str, key: str, unitvec: bool = False) -> np.ndarray:
@@ -81,26 +81,21 @@ def _vec(v: Any, unit: str, dim: int, src: str, key: str, unitvec: bool = False)
 
 def mechanism_from_dict(raw: dict[str, Any], src: str = "") -> Mechanism:
     """Build and validate a :class:`Mechanism` from the parsed TOML table of a mechanism file."""
-    try:
-        return _from_dict(raw, src)
-    except MechanismFileError:
-        raise
-    except InputError as exc:  # from parse_quantity: same message, the mechanism file's error class
-        raise MechanismFileError(exc.source, exc.key, exc.expected, exc.found) from None
+    return _from_dict(raw, src)
 
 
 def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
-    check_keys(raw, _TOP, src, error=MechanismFileError)
+    check_keys(raw, _TOP, src, error=InputError)
     fv = raw.get("format_version", 1)
     if fv != 1:
         raise _err(src, "format_version", "1", fv)
-    mt = check_keys(require(raw, "mechanism", src, what="a [mechanism] table", error=MechanismFileError), _MECH, src,
-                    "mechanism.", MechanismFileError)
-    name = str(require(mt, "name", src, "mechanism.", "a name", MechanismFileError))
+    mt = check_keys(require(raw, "mechanism", src, what="a [mechanism] table", error=InputError), _MECH, src,
+                    "mechanism.", InputError)
+    name = str(require(mt, "name", src, "mechanism.", "a name", InputError))
     dim = mt.get("dimension", 3)
     if dim not in (2, 3):
         raise _err(src, "mechanism.dimension", "2 (planar) or 3 (spatial)", dim)
-    links = require(mt, "links", src, "mechanism.", "a list of link names", MechanismFileError)
+    links = require(mt, "links", src, "mechanism.", "a list of link names", InputError)
     if not isinstance(links, list) or not links or not all(isinstance(x, str) and x for x in links):
         raise _err(src, "mechanism.links", "a non-empty list of link names (strings)", links)
     if len(set(links)) != len(links):
@@ -112,7 +107,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
         if g not in links:
             raise _err(src, "mechanism.ground", f"one of the links {links}", g)
     types = JOINT_TYPES_3D if dim == 3 else JOINT_TYPES_2D
-    rawj = require(raw, "joints", src, what="an array of [[joints]] tables", error=MechanismFileError)
+    rawj = require(raw, "joints", src, what="an array of [[joints]] tables", error=InputError)
     if not isinstance(rawj, list) or not rawj:
         raise _err(src, "joints", "a non-empty array of [[joints]] tables", rawj)
     joints: list[Joint] = []
@@ -120,17 +115,17 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
     drive_names: set[str] = set()
     for i, jr in enumerate(rawj):
         pre = f"joints[{i}]."
-        check_keys(jr, _JOINT, src, pre, MechanismFileError)
+        check_keys(jr, _JOINT, src, pre, InputError)
         jname = str(jr.get("name", f"J{i}"))
         pre = f"joints[{i}] ({jname})."
         if jname in names:
             raise _err(src, pre + "name", "a unique joint name", jname)
         names.add(jname)
-        jtype = require(jr, "type", src, pre, f"a joint type: one of {sorted(types)}", MechanismFileError)
+        jtype = require(jr, "type", src, pre, f"a joint type: one of {sorted(types)}", InputError)
         if jtype not in types:
             raise _err(src, pre + "type", f"a {'spatial' if dim == 3 else 'planar'} joint type, one of "
                        f"{sorted(types)}", jtype)
-        jl = require(jr, "links", src, pre, "the two links the joint joins", MechanismFileError)
+        jl = require(jr, "links", src, pre, "the two links the joint joins", InputError)
         nl = 1 if jtype == "fixed" else 2
         if not isinstance(jl, list) or len(jl) != nl:
             raise _err(src, pre + "links", f"a list of {nl} link name(s)", jl)
@@ -147,7 +142,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
         axis = axis2 = None
         if jtype == "cardan" or jtype == "perpendicular_axes":
             ax = require(jr, "axes", src, pre, "two axes [[on the first link], [on the second link]]",
-                         MechanismFileError)
+                         InputError)
             if not isinstance(ax, list) or len(ax) != 2:
                 raise _err(src, pre + "axes", "two axis vectors", ax)
             axis = _vec(ax[0], "dimensionless", 3, src, pre + "axes[0]", True)
@@ -180,7 +175,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
             dr = jr["drive"]
             if isinstance(dr, str):
                 dr = {"name": dr}
-            check_keys(dr, {"name", "offset"}, src, pre + "drive.", MechanismFileError)
+            check_keys(dr, {"name", "offset"}, src, pre + "drive.", InputError)
             if var not in ("linear", "angle"):
                 raise _err(src, pre + "drive", "a drive on a revolute, prismatic, cylindrical or point-on-axis joint",
                            f"a {jtype} joint")
@@ -193,7 +188,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
             drive = Drive(dn, float(parse_quantity(dr.get("offset", 0.0), unit, source=src, key=pre + "drive.offset")))
         limits = (-np.inf, np.inf)
         if "limits" in jr:
-            lt = check_keys(jr["limits"], {"min", "max"}, src, pre + "limits.", MechanismFileError)
+            lt = check_keys(jr["limits"], {"min", "max"}, src, pre + "limits.", InputError)
             if var is None:
                 raise _err(src, pre + "limits", "limits only on joints with a joint variable "
                            "(revolute, prismatic, cylindrical, point_on_axis, spherical, cardan)", jtype)
@@ -208,18 +203,18 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
         joints.append(Joint(jname, jtype, li, point, axis, axis2, drive, limits, coords, values))
     output = None
     if "output" in raw:
-        ot = check_keys(raw["output"], _OUTPUT, src, "output.", MechanismFileError)
-        ol = require(ot, "link", src, "output.", "the output link", MechanismFileError)
+        ot = check_keys(raw["output"], _OUTPUT, src, "output.", InputError)
+        ol = require(ot, "link", src, "output.", "the output link", InputError)
         if ol not in links:
             raise _err(src, "output.link", f"one of the links {links}", ol)
-        opoint = _vec(require(ot, "point", src, "output.", "the output point at home", MechanismFileError), "m", dim,
+        opoint = _vec(require(ot, "point", src, "output.", "the output point at home", InputError), "m", dim,
                       src, "output.point")
         orient = ot.get("orientation", "full")
         if orient not in ("full", "axis", "none") or (dim == 2 and orient == "axis"):
             raise _err(src, "output.orientation", "'full', 'axis' (spatial) or 'none'", orient)
         oaxis = None
         if orient == "axis":
-            oaxis = _vec(require(ot, "axis", src, "output.", "the tool axis at home", MechanismFileError),
+            oaxis = _vec(require(ot, "axis", src, "output.", "the tool axis at home", InputError),
                          "dimensionless", 3, src, "output.axis", True)
         cn = ot.get("coordinates", list("xyz"[:dim]))
         if not isinstance(cn, list) or not cn or not all(c in "xyz"[:dim] for c in cn) or len(set(cn)) != len(cn):
@@ -315,7 +310,7 @@ def is_mechanism(name_or_path: str | Path) -> bool:
     p = Path(name_or_path)
     if p.suffix == ".toml" and p.exists():
         try:
-            return "mechanism" in read_toml(p, MechanismFileError, "mechanism file")
-        except MechanismFileError:
+            return "mechanism" in read_toml(p, "mechanism file")
+        except InputError:
             return False
     return (bundled_mechanism_dir() / f"{name_or_path}.toml").exists()

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from pkmstiff.errors import MechanismInputError
+from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation.sections import raster
 from pkmstiff.mechanisms.constraints import fk_system
 from pkmstiff.mechanisms.evaluate import REASONS, evaluate
@@ -133,7 +133,7 @@ def plane_poses(mech: Mechanism, plane: str, at: float, u_values: Array, v_value
     """Output poses (nv·nu, pose_size) of the raster points (row-major over v, then u)."""
     plane = plane.lower()
     if mech.dim == 2 and plane != "xy":
-        raise MechanismInputError(f"mechanism '{mech.name}' is planar: its section plane is xy, found {plane!r}")
+        raise ArgumentError(f"mechanism '{mech.name}' is planar: its section plane is xy, found {plane!r}")
     U, V = np.meshgrid(u_values, v_values)
     axes = {"x": 0, "y": 1, "z": 2}
     P = np.zeros((U.size, mech.pose_size))
@@ -165,7 +165,7 @@ def fit_window(mech: Mechanism, plane: str, at: float, orientation: Array, step:
     ev = evaluate(mech, plane_poses(mech, plane, at, uu, vv, orientation), **SOLVE)
     ok = ev.admissible.reshape(n, n)
     if not ok.any():
-        raise MechanismInputError(f"section of '{mech.name}': no admissible point on the {plane} plane at "
+        raise ArgumentError(f"section of '{mech.name}': no admissible point on the {plane} plane at "
                                   f"{at * 1e3:g} mm within ±{extent * 1e3:g} mm of home (give --range)")
     cell = 2.0 * extent / (n - 1)
     iu, iv = np.flatnonzero(ok.any(axis=0)), np.flatnonzero(ok.any(axis=1))
@@ -180,12 +180,12 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
     known = quantity_names(mech)
     bad = [n for n in names if n not in known]
     if bad:
-        raise MechanismInputError(f"quantities: expected names from {', '.join(known)} for mechanism "
+        raise ArgumentError(f"quantities: expected names from {', '.join(known)} for mechanism "
                                   f"'{mech.name}', found {', '.join(bad)}")
     ori = np.asarray(orientation, dtype=float)
     uu, vv = raster(*u_range, step), raster(*v_range, step)
     if uu.size < 2 or vv.size < 2:
-        raise MechanismInputError("section: the window must span at least two raster steps along each axis")
+        raise ArgumentError("section: the window must span at least two raster steps along each axis")
     P = plane_poses(mech, plane, at, uu, vv, ori)
     ev = evaluate(mech, P, **SOLVE)
     shape = (vv.size, uu.size)

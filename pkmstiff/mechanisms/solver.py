@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pkmstiff.errors import MechanismInputError
+from pkmstiff.errors import ArgumentError
 from pkmstiff.kinematics.rotation import cardan_angles
 from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system
 from pkmstiff.mechanisms.linalg import (GAP_FACTOR, GAP_FLOOR, gap_rank, lstsq_pivoted, lstsq_step,
@@ -120,7 +120,7 @@ def output_pose(mech: Mechanism, q: Array) -> Array:
     home as Cardan angles a, b, c (pkmstiff convention; planar φ)."""
     o = mech.output
     if o is None:
-        raise MechanismInputError(f"mechanism '{mech.name}' has no [output]: no pose defined")
+        raise ArgumentError(f"mechanism '{mech.name}' has no [output]: no pose defined")
     F = Frames(q, mech.dim, derivatives=False)
     w, _ = F.point(np.array([o.link]), o.point[None])
     if mech.dim == 2:
@@ -252,15 +252,15 @@ def _as_targets(values: ArrayLike, width: int, what: str, unit: str) -> Array:
     try:
         arr = np.asarray(values, dtype=float)
     except (TypeError, ValueError):
-        raise MechanismInputError(f"{what}: expected numbers of shape ({width},) or (N, {width}) [{unit}], "
+        raise ArgumentError(f"{what}: expected numbers of shape ({width},) or (N, {width}) [{unit}], "
                                   f"found {values!r}") from None
     if arr.ndim == 1:
         arr = arr[None]
     if arr.ndim != 2 or arr.shape[1] != width:
-        raise MechanismInputError(f"{what}: expected shape ({width},) or (N, {width}) [{unit}], found shape "
+        raise ArgumentError(f"{what}: expected shape ({width},) or (N, {width}) [{unit}], found shape "
                                   f"{np.shape(values)}")
     if not np.isfinite(arr).all():
-        raise MechanismInputError(f"{what}: expected finite values [{unit}], found NaN/inf")
+        raise ArgumentError(f"{what}: expected finite values [{unit}], found NaN/inf")
     return arr
 
 
@@ -329,7 +329,7 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     """
     nd = len(mech.drives)
     if nd == 0:
-        raise MechanismInputError(f"mechanism '{mech.name}' has no driven joint: forward kinematics undefined")
+        raise ArgumentError(f"mechanism '{mech.name}' has no driven joint: forward kinematics undefined")
     tg = _as_targets(drives, nd, "drives", ", ".join(mech.drive_units))
     system = fk_system(mech)
     tol = 1e-13 * mech.length_scale if tol is None else tol
@@ -350,7 +350,7 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
     (planar (N, 3) x, y [m], φ [rad]) (patent claim 11).  Continuation from home or ``start`` as in
     :func:`forward`."""
     if mech.output is None:
-        raise MechanismInputError(f"mechanism '{mech.name}' has no [output]: inverse kinematics undefined")
+        raise ArgumentError(f"mechanism '{mech.name}' has no [output]: inverse kinematics undefined")
     units = "m, m, m, rad, rad, rad" if mech.dim == 3 else "m, m, rad"
     tg = _as_targets(poses, mech.pose_size, "poses", units)
     system = ik_system(mech)

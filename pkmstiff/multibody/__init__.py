@@ -16,7 +16,6 @@ from pkmstiff.multibody.batch import PointEvaluation, evaluate_point
 from pkmstiff.multibody.bodies import FRAME, PointMass, RigidBody, combine_rigid, make_point_mass, make_rigid_body
 from pkmstiff.multibody.constraints import constraint_matrix, null_space_basis
 from pkmstiff.multibody.frf import PointDirection, accelerance, find_peaks, load_vector, receptance
-from pkmstiff.multibody.inputs import SDEInputError, SingularModelError
 from pkmstiff.multibody.modal import (
                        MOTION_LABELS,
                        ModalResult,
@@ -47,8 +46,7 @@ from pkmstiff.multibody.system import DOF_NAMES, SDEModel
 
 __all__ = [
     "FRAME", "DOF_NAMES", "MOTION_LABELS", "SDEModel", "PointMass", "RigidBody", "make_point_mass", "make_rigid_body",
-    "combine_rigid", "SDEInputError", "SingularModelError",
-    "stiffness_matrix", "mass_matrix", "damping_matrix", "element_deformations", "element_forces",
+    "combine_rigid", "stiffness_matrix", "mass_matrix", "damping_matrix", "element_deformations", "element_forces",
     "element_energies", "constraint_matrix", "null_space_basis",
     "point_load", "point_motion", "solve_static", "point_compliance", "point_stiffness", "directional_stiffness",
     "axis_stiffness", "body_displacements", "sde_deformations", "sde_forces", "energy_shares", "group_matrix",

@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.multibody.inputs import SDEInputError, pose_array, take
+from pkmstiff.multibody.inputs import pose_array, take
+from pkmstiff.errors import InputError
 
 FRAME = "frame"
 """Name of the fixed frame (0 DOF); may be used as ``body_a``/``body_b`` of any element."""
@@ -64,9 +65,9 @@ Body = PointMass | RigidBody
 def _mass(value: Any, source: str) -> np.ndarray:
     mass = pose_array(value, (), source, "mass")
     if np.any(mass < 0):
-        raise SDEInputError(source, "mass", "mass >= 0 kg", f"min {mass.min()}")
+        raise InputError(source, "mass", "mass >= 0 kg", f"min {mass.min()}")
     if np.any(mass == 0) and not np.all(mass == 0):
-        raise SDEInputError(source, "mass", "zero at all poses or positive at all poses", "mixed zero/positive")
+        raise InputError(source, "mass", "zero at all poses or positive at all poses", "mixed zero/positive")
     return mass
 
 
@@ -91,16 +92,16 @@ def make_rigid_body(
         inertia_arr = np.diag(inertia_arr)
     tensor = pose_array(inertia_arr, (3, 3), source, "inertia")
     if not np.allclose(tensor, np.swapaxes(tensor, 1, 2), rtol=1e-9, atol=1e-12 * max(1.0, np.abs(tensor).max())):
-        raise SDEInputError(source, "inertia", "symmetric 3x3 tensor (kg m^2)", "asymmetric tensor")
+        raise InputError(source, "inertia", "symmetric 3x3 tensor (kg m^2)", "asymmetric tensor")
     eig = np.linalg.eigvalsh(0.5 * (tensor + np.swapaxes(tensor, 1, 2)))  # before rotating: usually one tensor
     scale = max(1.0, float(np.abs(eig).max()))
     if np.any(eig < -1e-12 * scale):
-        raise SDEInputError(source, "inertia", "positive semi-definite tensor", f"eigenvalue {eig.min():.3e}")
+        raise InputError(source, "inertia", "positive semi-definite tensor", f"eigenvalue {eig.min():.3e}")
     if rotation is not None:
         rot = pose_array(rotation, (3, 3), source, "rotation")
         err = np.abs(np.swapaxes(rot, 1, 2) @ rot - np.eye(3)).max()
         if err > 1e-8:
-            raise SDEInputError(source, "rotation", "orthonormal 3x3 rotation matrix", f"|RᵀR - I| = {err:.2e}")
+            raise InputError(source, "rotation", "orthonormal 3x3 rotation matrix", f"|RᵀR - I| = {err:.2e}")
         tensor = rot @ tensor @ np.swapaxes(rot, 1, 2)
     return RigidBody(name, _mass(mass, source), pose_array(position, (3,), source, "position"), tensor)
 
@@ -111,10 +112,10 @@ def combine_rigid(name: str, bodies: list[RigidBody | PointMass]) -> RigidBody:
     Useful for an ideally rigid connection (e.g. platform + spindle of a machine with a rigid platform).
     """
     if not bodies:
-        raise SDEInputError(f"combine_rigid('{name}')", "bodies", "at least one body", "none")
+        raise InputError(f"combine_rigid('{name}')", "bodies", "at least one body", "none")
     total = sum(b.mass for b in bodies)
     if np.any(total <= 0):
-        raise SDEInputError(f"combine_rigid('{name}')", "mass", "positive total mass", "zero")
+        raise InputError(f"combine_rigid('{name}')", "mass", "positive total mass", "zero")
     cog = sum(b.mass[:, None] * b.position for b in bodies) / total[:, None]
     inertia = 0.0
     for b in bodies:

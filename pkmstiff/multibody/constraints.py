@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from pkmstiff.multibody.bodies import FRAME, RigidBody
-from pkmstiff.multibody.inputs import SDEInputError
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.linalg import reference_matrix, translation_matrix
 from pkmstiff.multibody.system import SDEModel
 
@@ -58,6 +58,6 @@ def null_space_basis(model: SDEModel) -> np.ndarray | None:
     scale = np.abs(phi).max(axis=(1, 2))
     bad = np.nonzero(diag.min(axis=1) < 1e-10 * scale)[0]
     if bad.size:
-        raise SDEInputError("SDEModel", "rigid bindings", "independent constraints (no redundant rigid binding)",
+        raise InputError("SDEModel", "rigid bindings", "independent constraints (no redundant rigid binding)",
                             f"dependent constraints at poses {bad[:10].tolist()}")
     return q[:, :, n_c:]

@@ -18,7 +18,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from pkmstiff.multibody.inputs import SDEInputError, pose_array, take
+from pkmstiff.multibody.inputs import pose_array, take
+from pkmstiff.errors import InputError
 
 BindingKind = Literal["axial", "point", "full"]
 
@@ -60,42 +61,42 @@ def matrix_spec(
     Matrices must be symmetric and (if ``check_psd``) positive semi-definite; ``k >= 0``.
     """
     if (k is None) == (matrix is None):
-        raise SDEInputError(source, what, "either a scalar along an axis (k + axis) or a matrix", "both or none")
+        raise InputError(source, what, "either a scalar along an axis (k + axis) or a matrix", "both or none")
     if matrix is not None:
         arr = np.asarray(matrix, dtype=float)
         d = arr.shape[-1] if arr.ndim >= 2 else -1
         if d not in (3, 6) or arr.shape[-2] != d:
-            raise SDEInputError(source, what, "3x3 or 6x6 matrices", f"shape {arr.shape}")
+            raise InputError(source, what, "3x3 or 6x6 matrices", f"shape {arr.shape}")
         if arr.shape == (d, d):
             arr = np.broadcast_to(arr, (n_el, d, d))  # one matrix for all elements
         mat = pose_array(arr, (n_el, d, d), source, what)
         scale = max(float(np.abs(mat).max()), 1e-300)
         asym = float(np.abs(mat - np.swapaxes(mat, -1, -2)).max())
         if asym > 1e-9 * scale:
-            raise SDEInputError(source, what, "symmetric matrices",
+            raise InputError(source, what, "symmetric matrices",
                                 f"max |K - Kᵀ| = {asym:.3e} (max |K| = {scale:.3e})")
         mat = 0.5 * (mat + np.swapaxes(mat, -1, -2))
         if check_psd:
             eig = np.linalg.eigvalsh(mat)
             if np.any(eig[..., 0] < -1e-9 * np.maximum(eig[..., -1], 1e-300)):
-                raise SDEInputError(source, what, "positive semi-definite matrices",
+                raise InputError(source, what, "positive semi-definite matrices",
                                     f"eigenvalue {eig[..., 0].min():.3e}")
         return MatrixSpec(dim=d, matrix=mat)
     if axis is None:
-        raise SDEInputError(source, "axis", f"a direction (3,) per element for the scalar {what}", None)
+        raise InputError(source, "axis", f"a direction (3,) per element for the scalar {what}", None)
     k_arr = np.asarray(k, dtype=float)
     if k_arr.ndim == 0:
         k_arr = np.full(n_el, float(k_arr))
     kk = pose_array(k_arr, (n_el,), source, what)
     if np.any(kk < 0):
-        raise SDEInputError(source, what, "scalar >= 0", f"min {kk.min()}")
+        raise InputError(source, what, "scalar >= 0", f"min {kk.min()}")
     ax_in = np.asarray(axis, dtype=float)
     if ax_in.shape == (3,):
         ax_in = np.broadcast_to(ax_in, (n_el, 3))  # one direction for all elements
     ax = pose_array(ax_in, (n_el, 3), source, "axis")
     norm = np.linalg.norm(ax, axis=-1)
     if np.any(norm < 1e-12):
-        raise SDEInputError(source, "axis", "non-zero direction vectors", "zero vector")
+        raise InputError(source, "axis", "non-zero direction vectors", "zero vector")
     return MatrixSpec(dim=3, k=kk, axis=ax / norm[..., None])
 
 

@@ -19,7 +19,7 @@ import os
 import numpy as np
 
 from pkmstiff.multibody.bodies import FRAME, RigidBody
-from pkmstiff.multibody.inputs import SDEInputError, SingularModelError
+from pkmstiff.errors import InputError, NumericalError
 from pkmstiff.multibody.solver import UNDER_RESTRAINED, cholesky_checked, elimination_plan
 from pkmstiff.multibody.system import SDEModel
 
@@ -106,7 +106,7 @@ def compiled_chunk(model: SDEModel, body: str, transform: np.ndarray, n_modes: i
 
     Works through blocks of :data:`BLOCK` poses so that K and the eigenproblem matrices stay in cache between the
     kernels and LAPACK (``eigvalsh``, the same call as :func:`~pkmstiff.multibody.modal.modal_chunk`).
-    Raises :class:`SingularModelError` naming the poses where K is not positive definite (as the numpy path).
+    Raises :class:`NumericalError` naming the poses where K is not positive definite (as the numpy path).
     """
     from pkmstiff.multibody import kernels
 
@@ -126,7 +126,7 @@ def compiled_chunk(model: SDEModel, body: str, transform: np.ndarray, n_modes: i
     dynamic = n_modes > 0 and model.massless_dofs.size == 0
     if dynamic:
         if not 1 <= n_modes <= n:
-            raise SDEInputError("modes", "n_modes", f"1..{n} (dynamic DOFs of the model)", n_modes)
+            raise InputError("modes", "n_modes", f"1..{n} (dynamic DOFs of the model)", n_modes)
         scale, starts, linv = _mass_layout(model)
         lam = np.empty((n_p, n_modes))
     comp = np.empty((n_p, right.shape[2], right.shape[2]))
@@ -151,6 +151,6 @@ def compiled_chunk(model: SDEModel, body: str, transform: np.ndarray, n_modes: i
             lam[bl] = np.linalg.eigvalsh(a)[:, :n_modes]
     if not ok.all():
         bad = np.flatnonzero(~ok)
-        raise SingularModelError(f"matrix not positive definite (block elimination) at poses {bad[:10].tolist()}"
+        raise NumericalError(f"matrix not positive definite (block elimination) at poses {bad[:10].tolist()}"
                                  f"{' ...' if bad.size > 10 else ''}: {UNDER_RESTRAINED}")
     return comp, (lam if dynamic else None)

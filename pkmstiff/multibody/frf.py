@@ -21,7 +21,7 @@ import numpy as np
 
 from pkmstiff.multibody.assembly import damping_matrix, has_damping, mass_matrix, stiffness_matrix
 from pkmstiff.multibody.constraints import null_space_basis
-from pkmstiff.multibody.inputs import SDEInputError
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.modal import dynamic_system
 from pkmstiff.multibody.solver import StaticSystem
 from pkmstiff.multibody.static import DEFAULT_CHUNK, _n_total, chunk_point, point_load
@@ -43,7 +43,7 @@ def load_vector(model: SDEModel, pd: PointDirection) -> np.ndarray:
     """Generalized vector b (N, n) of a unit force/moment along ``pd.direction`` at ``pd.point`` (unit vector)."""
     e = np.asarray(pd.direction, dtype=float)
     if e.shape != (3,) or not np.linalg.norm(e) > 0:
-        raise SDEInputError("PointDirection", "direction", "a non-zero vector (3,)", pd.direction)
+        raise InputError("PointDirection", "direction", "a non-zero vector (3,)", pd.direction)
     e = e / np.linalg.norm(e)
     if pd.rotation:
         return point_load(model, pd.body, pd.point, moment=e)
@@ -55,7 +55,7 @@ def _zeta(zeta: Any, r: int) -> np.ndarray:
         return np.zeros(r)
     z = np.broadcast_to(np.asarray(zeta, dtype=float), (r,)) if np.ndim(zeta) == 0 else np.asarray(zeta, float)
     if z.shape != (r,) or np.any(z < 0):
-        raise SDEInputError("receptance", "zeta", f"a ratio >= 0, scalar or one per mode ({r})", np.shape(zeta))
+        raise InputError("receptance", "zeta", f"a ratio >= 0, scalar or one per mode ({r})", np.shape(zeta))
     return z
 
 
@@ -109,9 +109,9 @@ def receptance(model: SDEModel, freq_hz: Any, response: PointDirection, excitati
     """Complex receptance (N, n_freq) at frequencies ``freq_hz`` (Hz) (see module docstring for units/damping)."""
     f = np.asarray(freq_hz, dtype=float).ravel()
     if f.size == 0 or np.any(f < 0) or not np.all(np.isfinite(f)):
-        raise SDEInputError("receptance", "freq_hz", "finite frequencies >= 0 Hz", freq_hz)
+        raise InputError("receptance", "freq_hz", "finite frequencies >= 0 Hz", freq_hz)
     if method not in ("modal", "direct"):
-        raise SDEInputError("receptance", "method", "'modal' or 'direct'", method)
+        raise InputError("receptance", "method", "'modal' or 'direct'", method)
     omega = 2.0 * np.pi * f
     n_p = max(_n_total(model, response.point, response.body), _n_total(model, excitation.point, excitation.body))
     out = np.zeros((n_p, f.size), dtype=complex)
@@ -139,7 +139,7 @@ def find_peaks(freq_hz: Any, h: np.ndarray, max_peaks: int = 6, min_rel_height: 
     f = np.asarray(freq_hz, dtype=float).ravel()
     mag = np.abs(np.atleast_2d(h))
     if mag.shape[-1] != f.size or f.size < 3:
-        raise SDEInputError("find_peaks", "h", f"(N, {f.size}) values with >= 3 frequencies", mag.shape)
+        raise InputError("find_peaks", "h", f"(N, {f.size}) values with >= 3 frequencies", mag.shape)
     inner = (mag[:, 1:-1] > mag[:, :-2]) & (mag[:, 1:-1] >= mag[:, 2:])
     inner &= mag[:, 1:-1] >= min_rel_height * mag.max(axis=1, keepdims=True)
     score = np.where(inner, mag[:, 1:-1], -np.inf)

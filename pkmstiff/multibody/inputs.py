@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import SDEInputError, SingularModelError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError, NumericalError  # noqa: F401 (re-exported)
 
 
 def pose_array(value: Any, core: tuple[int, ...], source: str, key: str, *, extra: int | None = None) -> np.ndarray:
@@ -22,13 +22,13 @@ def pose_array(value: Any, core: tuple[int, ...], source: str, key: str, *, extr
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
-        raise SDEInputError(source, key, f"numeric array of shape {core} or (N, *{core})", value) from exc
+        raise InputError(source, key, f"numeric array of shape {core} or (N, *{core})", value) from exc
     if arr.shape == core:
         arr = arr[None, ...]
     elif arr.ndim != len(core) + 1 or arr.shape[1:] != core or arr.shape[0] < 1:
-        raise SDEInputError(source, key, f"shape {core} or (N, *{core}) (N = poses)", f"shape {arr.shape}")
+        raise InputError(source, key, f"shape {core} or (N, *{core}) (N = poses)", f"shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise SDEInputError(source, key, "finite values", "NaN or inf")
+        raise InputError(source, key, "finite values", "NaN or inf")
     return arr
 
 
@@ -36,7 +36,7 @@ def common_poses(sizes: list[int], source: str) -> int:
     """Number of poses N implied by leading axes of length 1 or N; raise if two different N>1 occur."""
     big = sorted({s for s in sizes if s != 1})
     if len(big) > 1:
-        raise SDEInputError(source, "pose axis", "leading pose axes of length 1 or one common N", f"lengths {big}")
+        raise InputError(source, "pose axis", "leading pose axes of length 1 or one common N", f"lengths {big}")
     return big[0] if big else 1
 
 

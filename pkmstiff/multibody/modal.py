@@ -19,7 +19,7 @@ import numpy as np
 from pkmstiff.multibody.assembly import element_energies, mass_blocks, mass_matrix, stiffness_matrix
 from pkmstiff.multibody.bodies import RigidBody
 from pkmstiff.multibody.constraints import null_space_basis
-from pkmstiff.multibody.inputs import SDEInputError
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.linalg import cholesky_inverse_factor
 from pkmstiff.multibody.solver import check_positive_definite
 from pkmstiff.multibody.static import DEFAULT_CHUNK, Groups, group_matrix
@@ -98,7 +98,7 @@ def dynamic_system(model: SDEModel, k: np.ndarray | None = None) -> DynamicSyste
     tol = 1e-12 * mu[:, -1:]
     n0 = (mu <= tol).sum(axis=1)
     if np.any(n0 != n0[0]):
-        raise SDEInputError("SDEModel", "mass", "the same number of massless directions at all poses",
+        raise InputError("SDEModel", "mass", "the same number of massless directions at all poses",
                             f"between {n0.min()} and {n0.max()}")
     n0 = int(n0[0])
     ky = np.swapaxes(u, 1, 2) @ kr @ u
@@ -134,7 +134,7 @@ def modal_chunk(model: SDEModel, n_modes: int, shapes: bool, k: np.ndarray | Non
     dyn = dynamic_system(model, k)
     r = dyn.a.shape[1]
     if not 1 <= n_modes <= r:
-        raise SDEInputError("modes", "n_modes", f"1..{r} (dynamic DOFs of the model)", n_modes)
+        raise InputError("modes", "n_modes", f"1..{r} (dynamic DOFs of the model)", n_modes)
     if shapes:
         lam, y = np.linalg.eigh(dyn.a)
         lam, y = lam[:, :n_modes], y[:, :, :n_modes]

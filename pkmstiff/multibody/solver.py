@@ -4,7 +4,7 @@ Without rigid bindings the solver eliminates bodies one at a time (a block LDL�
 minimum-degree order; e.g. in the PKM model every drive only couples to the platform), so a solve costs a few
 small batched 3×3/6×6 solves per body instead of a dense n×n factorisation.  With rigid bindings the reduced
 dense system ``Zᵀ K Z`` is solved directly.  Every pivot is checked for positive definiteness: an
-under-restrained model raises :class:`SingularModelError` naming the poses and body.
+under-restrained model raises :class:`NumericalError` naming the poses and body.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import numpy as np
 from pkmstiff.multibody.assembly import stiffness_matrix
 from pkmstiff.multibody.bodies import FRAME
 from pkmstiff.multibody.constraints import null_space_basis
-from pkmstiff.multibody.inputs import SingularModelError
+from pkmstiff.errors import NumericalError
 from pkmstiff.multibody.linalg import solve_lower, solve_upper_t
 from pkmstiff.multibody.system import SDEModel
 
@@ -24,7 +24,7 @@ UNDER_RESTRAINED = "the model is under-restrained (missing SDE or frame binding)
 
 
 def cholesky_checked(a: np.ndarray, what: str, hint: str = UNDER_RESTRAINED) -> np.ndarray:
-    """Lower Cholesky factor of (N, …, d, d) matrices; :class:`SingularModelError` naming the poses if any is
+    """Lower Cholesky factor of (N, …, d, d) matrices; :class:`NumericalError` naming the poses if any is
     not positive definite."""
     try:
         return np.linalg.cholesky(a)
@@ -35,14 +35,14 @@ def cholesky_checked(a: np.ndarray, what: str, hint: str = UNDER_RESTRAINED) -> 
         if bad.size == 0:  # failed on round-off: report the worst pose
             rel = eig[..., 0] / np.maximum(np.abs(eig[..., -1]), 1e-300)
             bad = np.array([int(np.argmin(rel.min(axis=1)))])
-        raise SingularModelError(
+        raise NumericalError(
             f"matrix not positive definite ({what}) at poses {bad[:10].tolist()}{' ...' if bad.size > 10 else ''}: "
             f"{hint}; min eigenvalue {eig[bad[0]].min():.3e}"
         ) from None
 
 
 def check_positive_definite(a: np.ndarray, what: str, hint: str = UNDER_RESTRAINED) -> None:
-    """Raise :class:`SingularModelError` if any of the (N, …, d, d) matrices is not positive definite."""
+    """Raise :class:`NumericalError` if any of the (N, …, d, d) matrices is not positive definite."""
     cholesky_checked(a, what, hint)
 
 

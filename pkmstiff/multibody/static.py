@@ -12,7 +12,8 @@ import numpy as np
 
 from pkmstiff.multibody.assembly import element_deformations, element_energies, element_forces
 from pkmstiff.multibody.bodies import RigidBody
-from pkmstiff.multibody.inputs import SDEInputError, common_poses, pose_array, take
+from pkmstiff.multibody.inputs import common_poses, pose_array, take
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.linalg import reference_matrix
 from pkmstiff.multibody.solver import StaticSystem
 from pkmstiff.multibody.system import SDEModel
@@ -64,7 +65,7 @@ def point_load(model: SDEModel, body: str, point: Any | None, force: Any = (0.0,
         out[:, s] = np.einsum("nji,nj->ni", np.broadcast_to(nmat, (n_p, 6, 6)), np.broadcast_to(wrench, (n_p, 6)))
     else:
         if np.any(mv != 0):
-            raise SDEInputError(source, "moment", "zero moment on a point mass (3 translational DOF)", "non-zero")
+            raise InputError(source, "moment", "zero moment on a point mass (3 translational DOF)", "non-zero")
         out[:, s] = fv
     return out
 
@@ -140,11 +141,11 @@ def directional_stiffness(compliance: np.ndarray, direction: Any, rotational: bo
     e = np.atleast_2d(e)
     norm = np.linalg.norm(e, axis=1)
     if np.any(norm == 0) or e.shape[1] != 3:
-        raise SDEInputError("directional_stiffness", "direction", "non-zero vectors of shape (3,) or (k, 3)", e.shape)
+        raise InputError("directional_stiffness", "direction", "non-zero vectors of shape (3,) or (k, 3)", e.shape)
     e = e / norm[:, None]
     block = compliance[:, 3:, 3:] if rotational else compliance[:, :3, :3]
     if rotational and compliance.shape[-1] != 6:
-        raise SDEInputError("directional_stiffness", "rotational", "a 6x6 compliance", compliance.shape)
+        raise InputError("directional_stiffness", "rotational", "a 6x6 compliance", compliance.shape)
     k = 1.0 / np.einsum("ki,nij,kj->nk", e, block, e)
     return k[:, 0] if single else k
 
@@ -195,16 +196,16 @@ def group_matrix(model: SDEModel, groups: Groups) -> tuple[list[str], np.ndarray
         mat = np.array([[g == lab for lab in labels] for g in model.element_groups], dtype=float)
         return labels, mat
     if isinstance(groups, str):
-        raise SDEInputError("groups", "groups", "None, 'group' or a mapping label -> element names", groups)
+        raise InputError("groups", "groups", "None, 'group' or a mapping label -> element names", groups)
     labels = list(groups)
     index = {n: i for i, n in enumerate(names)}
     mat = np.zeros((len(names), len(labels) + 1))
     for j, lab in enumerate(labels):
         for n in groups[lab]:
             if n not in index:
-                raise SDEInputError("groups", lab, f"element names from {names}", n)
+                raise InputError("groups", lab, f"element names from {names}", n)
             if mat[index[n]].any():
-                raise SDEInputError("groups", lab, "each element in at most one group", n)
+                raise InputError("groups", lab, "each element in at most one group", n)
             mat[index[n], j] = 1.0
     rest = mat.sum(axis=1) == 0
     mat[rest, -1] = 1.0

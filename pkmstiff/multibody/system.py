@@ -14,7 +14,8 @@ import numpy as np
 
 from pkmstiff.multibody.bodies import FRAME, Body, RigidBody, make_point_mass, make_rigid_body
 from pkmstiff.multibody.elements import BindingKind, MatrixSpec, RigidBinding, SDESet, matrix_spec
-from pkmstiff.multibody.inputs import SDEInputError, common_poses, pose_array
+from pkmstiff.multibody.inputs import common_poses, pose_array
+from pkmstiff.errors import InputError
 
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
 
@@ -38,7 +39,7 @@ class SDEModel:
     # ------------------------------------------------------------------ building
     def _check_mutable(self) -> None:
         if self._view:
-            raise SDEInputError("SDEModel", "poses view", "a full model (views are read-only)", "a view")
+            raise InputError("SDEModel", "poses view", "a full model (views are read-only)", "a view")
         self._cache.clear()
 
     def _update_poses(self, arrays: Iterable[np.ndarray], source: str) -> None:
@@ -48,7 +49,7 @@ class SDEModel:
         """Add a pre-built :class:`PointMass` or :class:`RigidBody`; returns its DOF slice."""
         self._check_mutable()
         if body.name == FRAME or body.name in self._bodies:
-            raise SDEInputError("SDEModel", "body name", f"a new name other than '{FRAME}'", body.name)
+            raise InputError("SDEModel", "body name", f"a new name other than '{FRAME}'", body.name)
         arrays = [body.mass, body.position] + ([body.inertia] if isinstance(body, RigidBody) else [])
         self._update_poses(arrays, f"body '{body.name}'")
         self._bodies[body.name] = body
@@ -66,7 +67,7 @@ class SDEModel:
         if name == FRAME:
             return "frame"
         if name not in self._bodies:
-            raise SDEInputError(source, "body", f"an existing body or '{FRAME}' (known: {list(self._bodies)})", name)
+            raise InputError(source, "body", f"an existing body or '{FRAME}' (known: {list(self._bodies)})", name)
         return "rigid" if isinstance(self._bodies[name], RigidBody) else "point"
 
     def add_sde_set(
@@ -96,33 +97,33 @@ class SDEModel:
         n_el = len(names)
         source = f"SDE set {list(names)[:3]}{'...' if n_el > 3 else ''}"
         if n_el == 0:
-            raise SDEInputError(source, "names", "at least one element", "none")
+            raise InputError(source, "names", "at least one element", "none")
         dupl = [n for n in names if n in self._element_names] + [n for i, n in enumerate(names) if n in names[:i]]
         if dupl:
-            raise SDEInputError(source, "names", "unique element names", f"duplicates {dupl}")
+            raise InputError(source, "names", "unique element names", f"duplicates {dupl}")
         side_a = (body_a,) * n_el if isinstance(body_a, str) else tuple(body_a)
         side_b = (body_b,) * n_el if isinstance(body_b, str) else tuple(body_b)
         if len(side_a) != n_el or len(side_b) != n_el:
-            raise SDEInputError(source, "body_a/body_b", f"{n_el} body names", f"{len(side_a)}/{len(side_b)}")
+            raise InputError(source, "body_a/body_b", f"{n_el} body names", f"{len(side_a)}/{len(side_b)}")
         kinds_a = {self._side_kind(b, source) for b in side_a}
         kinds_b = {self._side_kind(b, source) for b in side_b}
         if len(kinds_a) != 1 or len(kinds_b) != 1:
-            raise SDEInputError(source, "body_a/body_b", "one kind of body per side within a set",
+            raise InputError(source, "body_a/body_b", "one kind of body per side within a set",
                                 f"{kinds_a}/{kinds_b}")
         for a, b in zip(side_a, side_b):
             if a == b:
-                raise SDEInputError(source, "body_a/body_b", "two different bodies", f"'{a}' twice")
+                raise InputError(source, "body_a/body_b", "two different bodies", f"'{a}' twice")
         stiff = matrix_spec(source, "stiffness", n_el, k=k, axis=axis, matrix=stiffness, check_psd=check_psd)
         if stiff.dim == 6 and ({"point"} & (kinds_a | kinds_b)):
-            raise SDEInputError(source, "stiffness", "3x3 stiffness for elements on point masses", "6x6")
+            raise InputError(source, "stiffness", "3x3 stiffness for elements on point masses", "6x6")
         if "frame" in kinds_a and "frame" in kinds_b:
-            raise SDEInputError(source, "body_a/body_b", "at least one moving body", "frame on both sides")
+            raise InputError(source, "body_a/body_b", "at least one moving body", "frame on both sides")
         damp: MatrixSpec | None = None
         if c is not None or damping is not None:
             damp = matrix_spec(source, "damping", n_el, k=c, axis=axis if c is not None else None, matrix=damping,
                                check_psd=check_psd)
             if damp.dim != stiff.dim:
-                raise SDEInputError(source, "damping", f"{stiff.dim}x{stiff.dim} like the stiffness",
+                raise InputError(source, "damping", f"{stiff.dim}x{stiff.dim} like the stiffness",
                                     f"{damp.dim}x{damp.dim}")
         pts = pose_array(point, (n_el, 3), source, "point")
         if groups is None:
@@ -132,7 +133,7 @@ class SDEModel:
         else:
             grp = tuple(groups)
             if len(grp) != n_el:
-                raise SDEInputError(source, "groups", f"{n_el} group names", len(grp))
+                raise InputError(source, "groups", f"{n_el} group names", len(grp))
         arrays = [pts, stiff.matrix if stiff.matrix is not None else stiff.k]
         if stiff.axis is not None:
             arrays.append(stiff.axis)
@@ -185,24 +186,24 @@ class SDEModel:
         self._check_mutable()
         source = f"rigid binding '{name}'"
         if name in self._element_names or any(b.name == name for b in self._bindings):
-            raise SDEInputError(source, "name", "a new name", name)
+            raise InputError(source, "name", "a new name", name)
         ka, kb = self._side_kind(body_a, source), self._side_kind(body_b, source)
         if body_a == body_b or (ka == "frame" and kb == "frame"):
-            raise SDEInputError(source, "body_a/body_b", "two different bodies, at least one moving", (body_a, body_b))
+            raise InputError(source, "body_a/body_b", "two different bodies, at least one moving", (body_a, body_b))
         if kind is None:
             kind = "axial" if axis is not None else ("point" if "point" in (ka, kb) else "full")
         if kind not in ("axial", "point", "full"):
-            raise SDEInputError(source, "kind", "'axial', 'point' or 'full'", kind)
+            raise InputError(source, "kind", "'axial', 'point' or 'full'", kind)
         if kind == "full" and "point" in (ka, kb):
-            raise SDEInputError(source, "kind", "'point' or 'axial' for a point mass", kind)
+            raise InputError(source, "kind", "'point' or 'axial' for a point mass", kind)
         ax = None
         if kind == "axial":
             if axis is None:
-                raise SDEInputError(source, "axis", "a direction (3,) for an axial binding", None)
+                raise InputError(source, "axis", "a direction (3,) for an axial binding", None)
             ax = pose_array(axis, (3,), source, "axis")
             norm = np.linalg.norm(ax, axis=-1)
             if np.any(norm < 1e-12):
-                raise SDEInputError(source, "axis", "a non-zero direction", "zero vector")
+                raise InputError(source, "axis", "a non-zero direction", "zero vector")
             ax = ax / norm[:, None]
         pts = pose_array(point, (3,), source, "point")
         self._update_poses([pts] + ([ax] if ax is not None else []), source)
@@ -224,7 +225,7 @@ class SDEModel:
 
     def body(self, name: str) -> Body:
         if name not in self._bodies:
-            raise SDEInputError("SDEModel", "body", f"one of {list(self._bodies)}", name)
+            raise InputError("SDEModel", "body", f"one of {list(self._bodies)}", name)
         return self._bodies[name]
 
     @property
@@ -246,7 +247,7 @@ class SDEModel:
             if b.name == name:
                 return slice(start, start + b.n_dof)
             start += b.n_dof
-        raise SDEInputError("SDEModel", "body", f"one of {list(self._bodies)}", name)
+        raise InputError("SDEModel", "body", f"one of {list(self._bodies)}", name)
 
     @property
     def dof_labels(self) -> list[str]:
@@ -299,7 +300,7 @@ class SDEModel:
         than a pose-independent model (the model is then broadcast); it must equal the model's N otherwise.
         """
         if chunk_size < 1:
-            raise SDEInputError("SDEModel.chunks", "chunk_size", "integer >= 1", chunk_size)
+            raise InputError("SDEModel.chunks", "chunk_size", "integer >= 1", chunk_size)
         total = self._n_poses if n_poses is None else common_poses([self._n_poses, n_poses], "analysis input")
         for start in range(0, total, chunk_size):
             sl = slice(start, min(start + chunk_size, total))

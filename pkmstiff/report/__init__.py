@@ -2,6 +2,6 @@
 and report specs in TOML (:mod:`.spec`, the ``pkmstiff report`` command)."""
 
 from pkmstiff.report.model import Figure, Report, Row, Section, Table
-from pkmstiff.report.render import ReportError, run_info, write_report
+from pkmstiff.report.render import run_info, write_report
 
-__all__ = ["Figure", "Report", "ReportError", "Row", "Section", "Table", "run_info", "write_report"]
+__all__ = ["Figure", "Report", "Row", "Section", "Table", "run_info", "write_report"]

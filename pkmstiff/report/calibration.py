@@ -39,7 +39,7 @@ from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
 from pkmstiff.calibration.uncertainty import Uncertainty, uncertainty
-from pkmstiff.errors import BallbarError, CalibrationInputError
+from pkmstiff.errors import InputError
 from pkmstiff.machine import Machine
 from pkmstiff.report.model import Figure, Report, Table
 
@@ -139,7 +139,7 @@ def _circles(P: np.ndarray, direction: np.ndarray | None, fixed_ball: np.ndarray
             Q = _ideal_circle(P[idx], fixed_ball, bar_length, source)
             ev0 = evaluate_circular_test(Q, before[idx], fixed_ball, bar_length, direction=d, source=source)
             ev1 = evaluate_circular_test(Q, after[idx], fixed_ball, bar_length, direction=d, source=source)
-        except BallbarError:  # an arc, not a full circle (gaps): no circular-test figures
+        except InputError:  # an arc, not a full circle (gaps): no circular-test figures
             continue
         centre = P[idx].mean(axis=0) * 1e3
         label = (f"circle {k}: {ev0.plane.name} plane, centre ({', '.join(f'{v:.0f}' for v in centre)}) mm, "
@@ -193,7 +193,7 @@ def _ballbar_file(path: str) -> BallbarMeasurement:
     meas = read_measurement(path)
     kind = getattr(meas, "kind", "ballbar")
     if kind != "ballbar":
-        raise CalibrationInputError(path, "instrument", "a ball-bar measurement file (calibrate report evaluates "
+        raise InputError(path, "instrument", "a ball-bar measurement file (calibrate report evaluates "
                                     "ball-bar circles; use calibrate identify / check for this file)", kind)
     return meas
 
@@ -211,7 +211,7 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
 
     plan_file = read_plan(plan_path) if plan_path else None
     if plan_file is not None and plan_file.instrument != "ballbar":
-        raise CalibrationInputError(plan_path, "plan.instrument", "a ball-bar plan (the measurement is a ball-bar "
+        raise InputError(plan_path, "plan.instrument", "a ball-bar plan (the measurement is a ball-bar "
                                     "file)", plan_file.instrument)
     meas = _ballbar_file(measurements)
     plan, y = measurement_plan(meas, machine.name, measurements)

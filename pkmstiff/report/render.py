@@ -24,10 +24,10 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from pkmstiff.errors import ReportError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.report.model import Figure, Report, Table
 
-__all__ = ["ReportError", "write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]
+__all__ = ["write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]
 
 # distributions whose versions the "Run" section lists (importlib.metadata names)
 VERSION_PACKAGES = ("pkmstiff", "numpy", "scipy", "numba", "scikit-fem", "pyvista", "matplotlib")
@@ -121,11 +121,11 @@ class _Cell:
 def _table_grid(table: Table) -> tuple[list[tuple[str, str]], list[tuple[str, str, list[_Cell]]]]:
     """Header [(text, kind)] and rows [(label, unit, cells)]; with a baseline each column is followed by its %."""
     if table.baseline is not None and table.baseline not in table.columns:
-        raise ReportError(f"table '{table.caption}': baseline {table.baseline!r} is not one of its columns "
+        raise ArgumentError(f"table '{table.caption}': baseline {table.baseline!r} is not one of its columns "
                           f"{table.columns}")
     for row in table.rows:
         if len(row.values) != len(table.columns):
-            raise ReportError(f"table '{table.caption}': row '{row.label}' has {len(row.values)} values for "
+            raise ArgumentError(f"table '{table.caption}': row '{row.label}' has {len(row.values)} values for "
                               f"{len(table.columns)} columns")
     ib = None if table.baseline is None else table.columns.index(table.baseline)
     header: list[tuple[str, str]] = [("Metric", "head"), ("Unit", "head")]
@@ -189,10 +189,10 @@ def _setting_text(value: Any) -> str:
 def _check_png(fig: Figure, where: str) -> bytes:
     path = Path(fig.path)
     if not path.is_file():
-        raise ReportError(f"{where} ('{fig.caption}'): figure file {path} does not exist")
+        raise ArgumentError(f"{where} ('{fig.caption}'): figure file {path} does not exist")
     data = path.read_bytes()
     if not data.startswith(_PNG_MAGIC):
-        raise ReportError(f"{where} ('{fig.caption}'): expected a PNG file, found {path} "
+        raise ArgumentError(f"{where} ('{fig.caption}'): expected a PNG file, found {path} "
                           f"(starts with {data[:8]!r})")
     return data
 
@@ -371,7 +371,7 @@ def write_report(report: Report, out_dir: str | Path, *, stem: str = "report",
     stem : file name stem of both files.
     run : the "Run" section (name -> text); default :func:`run_info` (versions, platform, date).
 
-    Returns ``{"html": Path, "md": Path}``. Raises :class:`ReportError` for a baseline that is not a column, a row
+    Returns ``{"html": Path, "md": Path}``. Raises :class:`ArgumentError` for a baseline that is not a column, a row
     with the wrong number of values, or a figure that is missing or not a PNG — before anything is written.
     """
     out = Path(out_dir)

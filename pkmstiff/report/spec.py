@@ -5,7 +5,7 @@ orientation), the section planes and their quantities and statistics, the worksp
 values to compare. :func:`pkmstiff.report.build.build_report` evaluates everything and returns one comparison
 table (rows = metric and statistic, columns = variants, "% of baseline"), section maps (one figure per variant and
 quantity, a shared colour scale per quantity), workspace figures, the machine files' assumptions (prefixed with the variant) and the settings.
-Every key is validated; errors are :class:`SpecError` naming the file, the key, what was expected and what was found.
+Every key is validated; errors are :class:`InputError` naming the file, the key, what was expected and what was found.
 Lengths are in mm and angles in degrees in the spec (keys ``*_mm``, ``*_deg``); SI inside.
 """
 
@@ -17,16 +17,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
-from pkmstiff.errors import (
-    SectionArgumentError,
-    SpecError,  # noqa: F401 (re-exported)
-)
+from pkmstiff.errors import ArgumentError, InputError
 from pkmstiff.evaluation.requests import STATISTICS
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.io.ranges import parse_ranges
 from pkmstiff.machine.model import Machine
 
-__all__ = ["SpecError", "Variant", "SectionSpec", "WorkspaceSpec", "PointSpec", "ReportSpec", "load_spec",
+__all__ = ["Variant", "SectionSpec", "WorkspaceSpec", "PointSpec", "ReportSpec", "load_spec",
            "fast_spec", "STATISTICS", "MACHINE_ROWS"]
 
 # machine value -> (row label, unit, function of (machine, variant) in that unit)
@@ -135,16 +132,16 @@ class _Reader:
     def __init__(self, src: str):
         self.src = src
 
-    def error(self, key: str, expected: str, found: Any) -> SpecError:
-        return SpecError(self.src, key, expected, found)
+    def error(self, key: str, expected: str, found: Any) -> InputError:
+        return InputError(self.src, key, expected, found)
 
     def table(self, value: Any, key: str, allowed: set[str]) -> dict[str, Any]:
         if not isinstance(value, dict):
             raise self.error(key or "(top level)", "a table", value)
-        return check_keys(value, allowed, self.src, f"{key}." if key else "", SpecError)
+        return check_keys(value, allowed, self.src, f"{key}." if key else "", InputError)
 
     def req(self, tab: dict, key: str, prefix: str, what: str) -> Any:
-        return require(tab, key, self.src, prefix, what, SpecError)
+        return require(tab, key, self.src, prefix, what, InputError)
 
     def number(self, value: Any, key: str, *, positive: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
@@ -178,13 +175,14 @@ class _Reader:
         return (math.radians(a), math.radians(b), math.radians(c))
 
     def quantities(self, value: Any, key: str) -> tuple[str, ...]:
-        from pkmstiff.evaluation.quantities import UnknownQuantityError, get_quantity
+        from pkmstiff.evaluation.quantities import get_quantity
+        from pkmstiff.errors import ArgumentError
 
         names = self.strings(value, key)
         for n in names:
             try:
                 get_quantity(n)
-            except UnknownQuantityError as exc:
+            except ArgumentError as exc:
                 raise self.error(key, "quantity names (see 'pkmstiff quantities')", f"{n!r}: {exc}") from None
         return names
 
@@ -236,7 +234,7 @@ def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
                    p + ".range")
     try:
         ranges = parse_ranges(rng, plane)
-    except SectionArgumentError as exc:
+    except ArgumentError as exc:
         raise r.error(p + ".range", f"AXIS=LO:HI pairs in mm for both axes of the {plane.upper()} plane",
                       f"{rng!r} ({str(exc).removeprefix('--range: ')})") from None
     stats = r.strings(tab.get("statistics", ["min", "mean", "max"]), p + ".statistics")
@@ -257,7 +255,8 @@ def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
 
 
 def _workspace(r: _Reader, tab: Any) -> WorkspaceSpec:
-    from pkmstiff.workspace.requirements import RequirementError, parse_requirements
+    from pkmstiff.workspace.requirements import parse_requirements
+    from pkmstiff.errors import ArgumentError
     from pkmstiff.workspace.volume import METHODS
 
     tab = r.table(tab, "workspace", _WORKSPACE_KEYS)
@@ -271,7 +270,7 @@ def _workspace(r: _Reader, tab: Any) -> WorkspaceSpec:
     reqs = r.strings(tab.get("requirements", []), "workspace.requirements", nonempty=False)
     try:
         parse_requirements(reqs)
-    except RequirementError as exc:
+    except ArgumentError as exc:
         raise r.error("workspace.requirements", "requirements such as 'U>=0.2' or 'kx>=20 N/um'", str(exc)) from None
     methods = r.strings(tab.get("methods", ["surface_nets"]), "workspace.methods")
     bad = [m for m in methods if m not in METHODS]
@@ -302,7 +301,7 @@ def load_spec(path: str | Path) -> ReportSpec:
     """Read and validate a report spec (see the README, "Report specs", for every key)."""
     path = Path(path)
     src = str(path)
-    raw = read_toml(path, SpecError, "report spec file")
+    raw = read_toml(path, "report spec file")
     r = _Reader(src)
     r.table(raw, "", _TOP_KEYS)
     rep = r.table(r.req(raw, "report", "", "a [report] table with at least 'title'"), "report", _REPORT_KEYS)

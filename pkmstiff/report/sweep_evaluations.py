@@ -20,15 +20,14 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from pkmstiff.errors import InadmissiblePoseError, SectionArgumentError
+from pkmstiff.errors import ArgumentError, InadmissibleError
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
-from pkmstiff.evaluation.sweep import SweepError
 from pkmstiff.io.ranges import parse_ranges
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.requests import WorkspaceRequest
 
-__all__ = ["SectionStatistics", "PointValues", "WorkspaceVolume", "Combined", "InadmissiblePoseError"]
+__all__ = ["SectionStatistics", "PointValues", "WorkspaceVolume", "Combined"]
 
 SECTION_STATISTICS = tuple(STATISTICS)
 
@@ -36,29 +35,30 @@ SECTION_STATISTICS = tuple(STATISTICS)
 
 
 def _check_quantities(names: Sequence[str], where: str) -> tuple[str, ...]:
-    from pkmstiff.evaluation.quantities import UnknownQuantityError, get_quantity
+    from pkmstiff.evaluation.quantities import get_quantity
+    from pkmstiff.errors import ArgumentError
 
     names = tuple(names)
     if not names or not all(isinstance(n, str) for n in names):
-        raise SweepError(f"{where}: expected a non-empty list of quantity names, found {names!r}")
+        raise ArgumentError(f"{where}: expected a non-empty list of quantity names, found {names!r}")
     for n in names:
         try:
             get_quantity(n)
-        except UnknownQuantityError as exc:
-            raise SweepError(f"{where}: {exc}") from None
+        except ArgumentError as exc:
+            raise ArgumentError(f"{where}: {exc}") from None
     return names
 
 
 def _orientation(values: Sequence[float], where: str) -> tuple[float, float, float]:
     v = tuple(float(x) for x in values)
     if len(v) != 3 or not all(math.isfinite(x) for x in v):
-        raise SweepError(f"{where}: expected three angles a, b, c in deg, found {values!r}")
+        raise ArgumentError(f"{where}: expected three angles a, b, c in deg, found {values!r}")
     return v  # type: ignore[return-value]
 
 
 def _check_frame(frame: str, where: str) -> None:
     if frame not in ("machine", "report"):
-        raise SweepError(f"{where}: expected 'machine' or 'report', found {frame!r}")
+        raise ArgumentError(f"{where}: expected 'machine' or 'report', found {frame!r}")
 
 
 @dataclass(frozen=True)
@@ -85,17 +85,17 @@ class SectionStatistics:
         object.__setattr__(self, "quantities", _check_quantities(self.quantities, "SectionStatistics.quantities"))
         object.__setattr__(self, "plane", str(self.plane).lower())
         if self.plane not in ("yz", "xz", "xy"):
-            raise SweepError(f"SectionStatistics.plane: expected 'yz', 'xz' or 'xy', found {self.plane!r}")
+            raise ArgumentError(f"SectionStatistics.plane: expected 'yz', 'xz' or 'xy', found {self.plane!r}")
         try:
             parse_ranges(self.range, self.plane)
-        except SectionArgumentError as exc:
-            raise SweepError(f"SectionStatistics.range: {exc}") from None
+        except ArgumentError as exc:
+            raise ArgumentError(f"SectionStatistics.range: {exc}") from None
         if not (isinstance(self.step_mm, (int, float)) and self.step_mm > 0):
-            raise SweepError(f"SectionStatistics.step_mm: expected a positive step in mm, found {self.step_mm!r}")
+            raise ArgumentError(f"SectionStatistics.step_mm: expected a positive step in mm, found {self.step_mm!r}")
         stats = tuple(self.statistics)
         bad = [s for s in stats if s not in SECTION_STATISTICS]
         if bad or not stats:
-            raise SweepError(f"SectionStatistics.statistics: expected a list of {list(SECTION_STATISTICS)}, "
+            raise ArgumentError(f"SectionStatistics.statistics: expected a list of {list(SECTION_STATISTICS)}, "
                              f"found {list(stats)!r}")
         object.__setattr__(self, "statistics", stats)
         object.__setattr__(self, "orientation_deg", _orientation(self.orientation_deg,
@@ -123,7 +123,7 @@ class SectionStatistics:
 class PointValues:
     """Quantities at one pose ``(x, y, z [mm], a, b, c [deg])``: outputs ``"<q> [<unit>]"``.
 
-    An inadmissible pose raises :class:`InadmissiblePoseError` with the failing checks (recorded as the task's
+    An inadmissible pose raises :class:`InadmissibleError` with the failing checks (recorded as the task's
     error); ``suffix`` is appended to the output names (e.g. ``" @z-1000"``) to combine several points.
     """
 
@@ -138,7 +138,7 @@ class PointValues:
         _check_frame(self.frame, "PointValues.frame")
         p = tuple(float(x) for x in self.pose)
         if len(p) != 6 or not all(math.isfinite(x) for x in p):
-            raise SweepError(f"PointValues.pose: expected x, y, z [mm], a, b, c [deg], found {self.pose!r}")
+            raise ArgumentError(f"PointValues.pose: expected x, y, z [mm], a, b, c [deg], found {self.pose!r}")
         object.__setattr__(self, "pose", p)
         object.__setattr__(self, "quantities", _check_quantities(self.quantities, "PointValues.quantities"))
 
@@ -151,7 +151,7 @@ class PointValues:
     def __call__(self, machine: Machine) -> dict[str, float]:
         res = self.request().evaluate(machine)
         if not res.admissible:
-            raise InadmissiblePoseError(f"pose {list(self.pose)} (mm, deg, {self.frame} frame) is inadmissible for {machine.name}: "
+            raise InadmissibleError(f"pose {list(self.pose)} (mm, deg, {self.frame} frame) is inadmissible for {machine.name}: "
                                         + "; ".join(res.failing))
         return {f"{q} [{get_quantity(q).unit}]{self.suffix}": v for q, v in res.values.items()}
 
@@ -174,25 +174,26 @@ class WorkspaceVolume:
 
     def __post_init__(self) -> None:
         _check_frame(self.frame, "WorkspaceVolume.frame")
-        from pkmstiff.workspace.requirements import RequirementError, parse_requirements
+        from pkmstiff.workspace.requirements import parse_requirements
+        from pkmstiff.errors import ArgumentError
         from pkmstiff.workspace.volume import METHODS
 
         if not (isinstance(self.resolution_mm, (int, float)) and self.resolution_mm > 0):
-            raise SweepError(f"WorkspaceVolume.resolution_mm: expected a positive length in mm, "
+            raise ArgumentError(f"WorkspaceVolume.resolution_mm: expected a positive length in mm, "
                              f"found {self.resolution_mm!r}")
         if self.box_mm is not None:
             b = tuple(float(v) for v in self.box_mm)
             if len(b) != 6 or not all(hi > lo for lo, hi in zip(b[0::2], b[1::2])):
-                raise SweepError(f"WorkspaceVolume.box_mm: expected xmin, xmax, ymin, ymax, zmin, zmax (mm) with "
+                raise ArgumentError(f"WorkspaceVolume.box_mm: expected xmin, xmax, ymin, ymax, zmin, zmax (mm) with "
                                  f"min < max, found {self.box_mm!r}")
             object.__setattr__(self, "box_mm", b)
         if self.method not in METHODS:
-            raise SweepError(f"WorkspaceVolume.method: expected one of {list(METHODS)}, found {self.method!r}")
+            raise ArgumentError(f"WorkspaceVolume.method: expected one of {list(METHODS)}, found {self.method!r}")
         object.__setattr__(self, "requirements", tuple(self.requirements))
         try:
             parse_requirements(self.requirements)
-        except RequirementError as exc:
-            raise SweepError(f"WorkspaceVolume.requirements: {exc}") from None
+        except ArgumentError as exc:
+            raise ArgumentError(f"WorkspaceVolume.requirements: {exc}") from None
         object.__setattr__(self, "orientation_deg", _orientation(self.orientation_deg,
                                                                  "WorkspaceVolume.orientation_deg"))
 
@@ -220,7 +221,7 @@ class Combined:
     def __post_init__(self) -> None:
         object.__setattr__(self, "parts", tuple(self.parts))
         if not self.parts or not all(callable(p) for p in self.parts):
-            raise SweepError(f"Combined.parts: expected at least one evaluation, found {self.parts!r}")
+            raise ArgumentError(f"Combined.parts: expected at least one evaluation, found {self.parts!r}")
 
     def __call__(self, machine: Machine) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -228,6 +229,6 @@ class Combined:
             d = p(machine)
             clash = sorted(set(d) & set(out))
             if clash:
-                raise SweepError(f"Combined: output {clash[0]!r} is produced twice; give PointValues a suffix")
+                raise ArgumentError(f"Combined: output {clash[0]!r} is produced twice; give PointValues a suffix")
             out.update(d)
         return out

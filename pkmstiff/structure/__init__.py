@@ -47,13 +47,12 @@ from pkmstiff.structure.options import (
                                        DEFAULT_CHUNK,
                                        NOT_POSITIVE_DEFINITE,
                                        STATUS_TEXT,
-                                       StructureModelError,
                                        StructureOptions,
 )
 from pkmstiff.structure.stiffness import ChainStiffness, chain_stiffness
 
 __all__ = [
-    "StructureOptions", "StructureLayout", "StructureModelError", "PKMStructure", "ChainStiffness",
+    "StructureOptions", "StructureLayout", "PKMStructure", "ChainStiffness",
     "structure_layout", "build_structure", "structure_from_ik", "iter_structures", "chain_stiffness",
     "platform_mass_matrix", "mass_matrix_about_origin", "PKSBody", "combine_bodies", "component_body",
     "vertical_direction", "platform_spindle_matrix", "dynamics_masses", "structure_summary", "DEFAULT_CHUNK",

@@ -14,7 +14,8 @@ from pkmstiff.kinematics.joint_angles import joint_angles
 from pkmstiff.machine.model import Machine
 from pkmstiff.structure.layout import StructureLayout, structure_layout
 from pkmstiff.structure.model import PKMStructure
-from pkmstiff.structure.options import COMPONENT_FAILED, DEFAULT_CHUNK, Array, StructureModelError, StructureOptions
+from pkmstiff.structure.options import COMPONENT_FAILED, DEFAULT_CHUNK, Array, StructureOptions
+from pkmstiff.errors import InputError
 from pkmstiff.structure.stiffness import chain_stiffness
 
 
@@ -62,7 +63,7 @@ def iter_structures(machine: Machine, poses: ArrayLike, options: StructureOption
     """``(slice, structure)`` for consecutive chunks of at most ``chunk_size`` poses (bounded memory)."""
     x = as_poses(poses)
     if chunk_size < 1:
-        raise StructureModelError("iter_structures", "chunk_size", "an integer >= 1", chunk_size)
+        raise InputError("iter_structures", "chunk_size", "an integer >= 1", chunk_size)
     layout = structure_layout(machine, options)
     for start in range(0, x.shape[0], chunk_size):
         sl = slice(start, min(start + chunk_size, x.shape[0]))

@@ -11,7 +11,8 @@ import numpy as np
 
 from pkmstiff.machine.model import Machine
 from pkmstiff.machine.roles import MachineComponents, machine_components
-from pkmstiff.structure.options import StructureModelError, StructureOptions
+from pkmstiff.structure.options import StructureOptions
+from pkmstiff.errors import InputError
 
 
 @dataclass(frozen=True)
@@ -87,16 +88,16 @@ def structure_layout(machine: Machine, options: StructureOptions | None = None) 
     try:
         mc = machine_components(machine)
     except ImportError as exc:  # pragma: no cover - the component library is part of the package
-        raise StructureModelError(machine.path, "components", "the component library 'components'", exc) from exc
+        raise InputError(machine.path, "components", "the component library 'components'", exc) from exc
     n = machine.n_chains
     glide = machine.kind == "glide"
     if glide and all(d is None for d in mc.drive) and all(g is None for g in mc.guide) \
             and all(s is None for s in mc.strut):
-        raise StructureModelError(machine.path, "chains[*].components",
+        raise InputError(machine.path, "chains[*].components",
                                   "drive/guide/strut components (a structure model needs stiffness data)",
                                   "no component roles for any chain")
     if not glide and all(d is None for d in mc.drive) and all(s is None for s in mc.strut):
-        raise StructureModelError(machine.path, "chains[*].components.drive",
+        raise InputError(machine.path, "chains[*].components.drive",
                                   "a telescopic drive or strut stiffness per chain", "none given")
     jt_d = [machine.joint_types[t] for t in machine.chains.drive_joint_type]
     jt_p = [machine.joint_types[t] for t in machine.chains.platform_joint_type]

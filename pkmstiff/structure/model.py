@@ -15,7 +15,8 @@ from pkmstiff.admissibility.checks import Reason
 from pkmstiff.machine.model import Machine
 from pkmstiff.structure.assembly import drive_names, rigid_chains, sde_model
 from pkmstiff.structure.layout import StructureLayout
-from pkmstiff.structure.options import NOT_POSITIVE_DEFINITE, STATUS_TEXT, Array, StructureModelError, StructureOptions
+from pkmstiff.structure.options import NOT_POSITIVE_DEFINITE, STATUS_TEXT, Array, StructureOptions
+from pkmstiff.errors import InputError
 from pkmstiff.structure.stiffness import ChainStiffness
 
 
@@ -97,11 +98,11 @@ class PKMStructure:
         if tool_length is not None and np.ndim(tool_length) == 1:
             tip = np.asarray(tool_length, dtype=float)
             if tip.shape != (3,) or not np.all(np.isfinite(tip)):
-                raise StructureModelError("tcp", "tool_length", "a length >= 0 m or a tool vector (3,) in m (PKS)",
+                raise InputError("tcp", "tool_length", "a length >= 0 m or a tool vector (3,) in m (PKS)",
                                           tool_length)
         else:
             if tool_length is not None and not (np.isfinite(tool_length) and tool_length >= 0):
-                raise StructureModelError("tcp", "tool_length", "a length >= 0 m or a tool vector (3,) in m (PKS)",
+                raise InputError("tcp", "tool_length", "a length >= 0 m or a tool vector (3,) in m (PKS)",
                                           tool_length)
             tip = tool.tip(tool_length)
         return self.w + self.R @ tip

@@ -9,7 +9,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from pkmstiff.errors import StructureModelError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError  # noqa: F401 (re-exported)
 
 Array = NDArray[np.float64]
 
@@ -60,14 +60,14 @@ class StructureOptions:
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.strut_mass_to_drive <= 1.0:
-            raise StructureModelError("StructureOptions", "strut_mass_to_drive", "a fraction in [0, 1]",
+            raise InputError("StructureOptions", "strut_mass_to_drive", "a fraction in [0, 1]",
                                       self.strut_mass_to_drive)
         if self.k_u_axes not in ("platform", "machine"):
-            raise StructureModelError("StructureOptions", "k_u_axes", "'platform' or 'machine'", self.k_u_axes)
+            raise InputError("StructureOptions", "k_u_axes", "'platform' or 'machine'", self.k_u_axes)
         if self.check not in ("kinematic", "full"):
-            raise StructureModelError("StructureOptions", "check", "'kinematic' or 'full'", self.check)
+            raise InputError("StructureOptions", "check", "'kinematic' or 'full'", self.check)
         if not (np.isfinite(self.damping_beta) and self.damping_beta >= 0):
-            raise StructureModelError("StructureOptions", "damping_beta", "a time >= 0 s", self.damping_beta)
+            raise InputError("StructureOptions", "damping_beta", "a time >= 0 s", self.damping_beta)
         if np.shape(self.coupling_point) != (3,):
-            raise StructureModelError("StructureOptions", "coupling_point", "a point (3,) in m (PKS)",
+            raise InputError("StructureOptions", "coupling_point", "a point (3,) in m (PKS)",
                                       self.coupling_point)

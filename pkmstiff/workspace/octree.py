@@ -37,7 +37,7 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.errors import OctreeInputError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)
@@ -203,14 +203,14 @@ def levels_for(lo: np.ndarray, hi: np.ndarray, eps: float) -> np.ndarray:
 def _check_box(lo: ArrayLike, hi: ArrayLike, eps: float) -> tuple[np.ndarray, np.ndarray, float]:
     lo_a, hi_a = np.asarray(lo, float), np.asarray(hi, float)
     if lo_a.shape != (3,) or hi_a.shape != (3,) or not (np.isfinite(lo_a).all() and np.isfinite(hi_a).all()):
-        raise OctreeInputError(f"octree box: expected lo and hi of shape (3,) with finite values, found {lo!r}, {hi!r}")
+        raise ArgumentError(f"octree box: expected lo and hi of shape (3,) with finite values, found {lo!r}, {hi!r}")
     if np.any(hi_a <= lo_a):
-        raise OctreeInputError(f"octree box: expected hi > lo on every axis, found lo={lo_a.tolist()}, "
+        raise ArgumentError(f"octree box: expected hi > lo on every axis, found lo={lo_a.tolist()}, "
                                f"hi={hi_a.tolist()}")
     if not (math.isfinite(eps) and eps > 0):
-        raise OctreeInputError(f"octree resolution eps: expected a positive number, found {eps!r}")
+        raise ArgumentError(f"octree resolution eps: expected a positive number, found {eps!r}")
     if np.max((hi_a - lo_a) / eps) > 2.0 ** 20:
-        raise OctreeInputError(f"octree resolution eps={eps!r}: more than 2**20 cells along an axis of the box "
+        raise ArgumentError(f"octree resolution eps={eps!r}: more than 2**20 cells along an axis of the box "
                                f"{(hi_a - lo_a).tolist()}; choose a coarser resolution")
     return lo_a, hi_a, float(eps)
 
@@ -232,7 +232,7 @@ class _Evaluator:
             val = np.asarray(self.fn(pts), bool)
             self.time += time.perf_counter() - t0
             if val.shape != (pts.shape[0],):
-                raise OctreeInputError(f"admissibility predicate: expected a bool array of shape ({pts.shape[0]},), "
+                raise ArgumentError(f"admissibility predicate: expected a bool array of shape ({pts.shape[0]},), "
                                        f"found shape {val.shape}")
             out[ins] = val
             self.count += int(pts.shape[0])

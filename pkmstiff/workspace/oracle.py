@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.errors import OracleInputError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
@@ -123,14 +123,14 @@ class PoseOracle:
     ):
         base = np.asarray(base_pose, float)
         if base.shape != (6,) or not np.isfinite(base).all():
-            raise OracleInputError(f"base_pose: expected 6 finite numbers (x, y, z [m], a, b, c [rad]), "
+            raise ArgumentError(f"base_pose: expected 6 finite numbers (x, y, z [m], a, b, c [rad]), "
                                    f"found {base_pose!r}")
         self.free = tuple(int(f) for f in free)
         if not self.free or any(f < 0 or f > 5 for f in self.free) or len(set(self.free)) != len(self.free):
-            raise OracleInputError(f"free: expected distinct pose columns in 0..5, found {free!r}")
+            raise ArgumentError(f"free: expected distinct pose columns in 0..5, found {free!r}")
         unknown = set(checks) - set(adm.ALL_CHECKS)
         if unknown:
-            raise OracleInputError(f"checks: unknown {sorted(unknown)}; expected a subset of {adm.ALL_CHECKS}")
+            raise ArgumentError(f"checks: unknown {sorted(unknown)}; expected a subset of {adm.ALL_CHECKS}")
         self.machine, self.base, self.checks = machine, base, tuple(checks)
         self.requirements = parse_requirements(requirements)
         self.prefilter, self.chunk_size = prefilter, chunk_size
@@ -142,17 +142,17 @@ class PoseOracle:
         if rng is None:
             return None
         if mode not in ("all", "any"):
-            raise OracleInputError(f"range_mode: expected 'all' or 'any', found {mode!r}")
+            raise ArgumentError(f"range_mode: expected 'all' or 'any', found {mode!r}")
         try:
             name, lo, hi = rng
             col = ANGLE_INDEX[str(name)]
         except (KeyError, TypeError, ValueError):
-            raise OracleInputError(f"orientation_range: expected (angle 'a'|'b'|'c', lo [rad], hi [rad]), "
+            raise ArgumentError(f"orientation_range: expected (angle 'a'|'b'|'c', lo [rad], hi [rad]), "
                                    f"found {rng!r}") from None
         if col in self.free:
-            raise OracleInputError(f"orientation_range: angle {name!r} is a free coordinate of the oracle")
+            raise ArgumentError(f"orientation_range: angle {name!r} is a free coordinate of the oracle")
         if not (np.isfinite(lo) and np.isfinite(hi) and hi >= lo and step > 0):
-            raise OracleInputError(f"orientation_range: expected finite lo <= hi and a positive step, "
+            raise ArgumentError(f"orientation_range: expected finite lo <= hi and a positive step, "
                                    f"found {rng!r}, step {step!r}")
         n = max(1, math.ceil((hi - lo) / step - 1e-9)) + 1
         return col, np.linspace(lo, hi, n)
@@ -160,7 +160,7 @@ class PoseOracle:
     def poses(self, points: np.ndarray) -> np.ndarray:
         pts = np.asarray(points, float).reshape(len(points), -1)
         if pts.shape[1] != len(self.free):
-            raise OracleInputError(f"points: expected shape (N, {len(self.free)}), found {np.shape(points)}")
+            raise ArgumentError(f"points: expected shape (N, {len(self.free)}), found {np.shape(points)}")
         x = np.repeat(self.base[None], len(pts), axis=0)
         x[:, list(self.free)] = pts
         return x

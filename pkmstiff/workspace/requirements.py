@@ -18,8 +18,8 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from pkmstiff.errors import RequirementError  # noqa: F401 (re-exported)
-from pkmstiff.evaluation.quantities import EvalContext, UnknownQuantityError, get_quantity
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.units import ureg
 
 _OPS: dict[str, Callable[[np.ndarray, float], np.ndarray]] = {
@@ -54,34 +54,34 @@ def parse_requirement(text: str) -> Requirement:
     """
     m = _PATTERN.match(text or "")
     if not m:
-        raise RequirementError(f"requirement {text!r}: expected 'NAME OP VALUE [UNIT]' with OP one of >=, <=, >, <, "
+        raise ArgumentError(f"requirement {text!r}: expected 'NAME OP VALUE [UNIT]' with OP one of >=, <=, >, <, "
                                "e.g. 'kx>=20 N/um' or 'U>=0.2'")
     name, op, value = m.group(1), m.group(2), m.group(3)
     op = {"=>": ">=", "=<": "<="}.get(op, op)
     try:
         q = get_quantity(name)
-    except UnknownQuantityError as exc:
-        raise RequirementError(f"requirement {text!r}: {exc}") from None
+    except ArgumentError as exc:
+        raise ArgumentError(f"requirement {text!r}: {exc}") from None
     try:
         parsed = ureg()(value)
     except Exception:
-        raise RequirementError(f"requirement {text!r}: expected a number with a unit of {q.unit}, "
+        raise ArgumentError(f"requirement {text!r}: expected a number with a unit of {q.unit}, "
                                f"found {value!r}") from None
     dimensionless = not hasattr(parsed, "units") or parsed.dimensionless and str(parsed.units) == "dimensionless"
     if dimensionless:
         if q.si_unit not in ("1", "dimensionless"):
-            raise RequirementError(f"requirement {text!r}: quantity {name!r} needs a unit (e.g. "
+            raise ArgumentError(f"requirement {text!r}: quantity {name!r} needs a unit (e.g. "
                                    f"'{name}{op}{value} {q.unit}'), found a bare number")
         limit = float(getattr(parsed, "magnitude", parsed))
     else:
         target = ureg()("dimensionless" if q.si_unit == "1" else q.si_unit)
         target = target if hasattr(target, "units") else ureg().Quantity(target)
         if parsed.dimensionality != target.dimensionality:
-            raise RequirementError(f"requirement {text!r}: expected a value in {q.unit} (or another unit of the "
+            raise ArgumentError(f"requirement {text!r}: expected a value in {q.unit} (or another unit of the "
                                    f"same dimension), found {value!r}")
         limit = float(parsed.to(target.units).magnitude) / float(target.magnitude)
     if not np.isfinite(limit):
-        raise RequirementError(f"requirement {text!r}: expected a finite limit, found {value!r}")
+        raise ArgumentError(f"requirement {text!r}: expected a finite limit, found {value!r}")
     return Requirement(name, op, limit, text.strip())
 
 

@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
-from pkmstiff.errors import RotationMapError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.oracle import EvaluationStats, staged_admissible
 from pkmstiff.workspace.requirements import Requirement, parse_requirements
@@ -78,7 +78,7 @@ class RotationMapResult:
     def angle(self) -> np.ndarray:
         """The map of the only direction (error if there are several)."""
         if len(self.angles) != 1:
-            raise RotationMapError(f"result holds {len(self.angles)} directions; use .angles[direction]")
+            raise ArgumentError(f"result holds {len(self.angles)} directions; use .angles[direction]")
         return next(iter(self.angles.values()))
 
     def savings(self) -> dict[str, dict[str, float]]:
@@ -111,14 +111,14 @@ def _directions(direction: str | Sequence[str]) -> list[str]:
     dirs = [direction] if isinstance(direction, str) else list(direction)
     bad = [d for d in dirs if d not in DIRECTIONS]
     if bad or not dirs or len(set(dirs)) != len(dirs):
-        raise RotationMapError(f"direction: expected distinct names among {list(DIRECTIONS)}, found {direction!r}")
+        raise ArgumentError(f"direction: expected distinct names among {list(DIRECTIONS)}, found {direction!r}")
     return dirs
 
 
 def _values(v: ArrayLike, name: str) -> np.ndarray:
     arr = np.asarray(v, float).ravel()
     if arr.size == 0 or not np.isfinite(arr).all() or (arr.size > 1 and np.any(np.diff(arr) <= 0)):
-        raise RotationMapError(f"{name}: expected a non-empty strictly increasing list of finite numbers, found {v!r}")
+        raise ArgumentError(f"{name}: expected a non-empty strictly increasing list of finite numbers, found {v!r}")
     return arr
 
 
@@ -152,14 +152,14 @@ def angle_search(
     u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
     base = np.asarray(base_poses, float)
     if base.shape != (v.size, u.size, 6) or not np.isfinite(base).all():
-        raise RotationMapError(f"base_poses: expected finite values of shape ({v.size}, {u.size}, 6), "
+        raise ArgumentError(f"base_poses: expected finite values of shape ({v.size}, {u.size}, 6), "
                                f"found {base.shape}")
     if not (math.isfinite(increment) and increment > 0):
-        raise RotationMapError(f"increment: expected a positive angle in rad, found {increment!r}")
+        raise ArgumentError(f"increment: expected a positive angle in rad, found {increment!r}")
     if not (math.isfinite(max_angle) and max_angle >= increment):
-        raise RotationMapError(f"max_angle: expected a finite angle >= increment (rad), found {max_angle!r}")
+        raise ArgumentError(f"max_angle: expected a finite angle >= increment (rad), found {max_angle!r}")
     if method not in ("predictor_corrector", "plain"):
-        raise RotationMapError(f"method: expected 'predictor_corrector' or 'plain', found {method!r}")
+        raise ArgumentError(f"method: expected 'predictor_corrector' or 'plain', found {method!r}")
     dirs = _directions(direction)
     reqs = parse_requirements(requirements)
     K = int(math.floor(max_angle / increment + 1e-9))
@@ -334,7 +334,7 @@ def _raster_points(origin: ArrayLike, u_axis: ArrayLike, v_axis: ArrayLike, u: n
     o, a, b = (np.asarray(x, float) for x in (origin, u_axis, v_axis))
     for arr, nm in ((o, names[0]), (a, names[1]), (b, names[2])):
         if arr.shape != (3,) or not np.isfinite(arr).all():
-            raise RotationMapError(f"{nm}: expected 3 finite numbers, found {arr.tolist()}")
+            raise ArgumentError(f"{nm}: expected 3 finite numbers, found {arr.tolist()}")
     return o + u[None, :, None] * a + v[:, None, None] * b  # (nv, nu, 3)
 
 
@@ -363,7 +363,7 @@ def rotation_angle_map(
     pos = _raster_points(origin, u_axis, v_axis, u, v, ("origin", "u_axis", "v_axis"))
     ori = np.asarray(base_orientation, float)
     if ori.shape != (3,) or not np.isfinite(ori).all():
-        raise RotationMapError(f"base_orientation: expected three finite angles in rad, found {base_orientation!r}")
+        raise ArgumentError(f"base_orientation: expected three finite angles in rad, found {base_orientation!r}")
     base = np.concatenate([pos, np.broadcast_to(ori, pos.shape)], axis=-1)
     res = angle_search(machine, base, u, v, direction, increment, max_angle, requirements=requirements,
                        method=method, verify=verify, **kw)
@@ -391,14 +391,14 @@ def rotational_workspace_map(
     """
     dirs = _directions(direction)
     if len(dirs) != 1 or len(direction) != 2:
-        raise RotationMapError(f"direction: expected one single-axis direction such as '+a' or '-b', "
+        raise ArgumentError(f"direction: expected one single-axis direction such as '+a' or '-b', "
                                f"found {direction!r}")
     axis = "abc".index(direction[1])
     others = [i for i in range(3) if i != axis]
     u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
     p = np.asarray(point, float)
     if p.shape != (3,) or not np.isfinite(p).all():
-        raise RotationMapError(f"point: expected x, y, z (3 finite numbers, m), found {point!r}")
+        raise ArgumentError(f"point: expected x, y, z (3 finite numbers, m), found {point!r}")
     base = np.zeros((v.size, u.size, 6))
     base[..., :3] = p
     base[..., 3:] = np.asarray(base_orientation, float)

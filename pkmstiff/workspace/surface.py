@@ -24,7 +24,7 @@ from typing import Callable, Literal
 
 import numpy as np
 
-from pkmstiff.errors import SurfaceError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.workspace.octree import Lattice, OctreeResult
 
 VertexMode = Literal["centroid", "crossing"]
@@ -71,7 +71,7 @@ class BoundarySurface:
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in (".stl", ".vtk", ".vtp", ".ply"):
-            raise SurfaceError(f"{path}: expected a file name ending in .stl, .vtk, .vtp or .ply, found {suffix!r}")
+            raise ArgumentError(f"{path}: expected a file name ending in .stl, .vtk, .vtp or .ply, found {suffix!r}")
         mesh = BoundarySurface(self.vertices * scale, self.triangles, self.vertex_mode).to_pyvista()
         mesh.save(str(path), binary=True)
         return path
@@ -86,7 +86,7 @@ def _edge_midpoints(res: OctreeResult, lat: Lattice, start: np.ndarray, axis: np
     evals = 0
     if refine_steps > 0:
         if admissible is None:
-            raise SurfaceError("refine_steps > 0 needs the admissibility predicate (argument 'admissible')")
+            raise ArgumentError("refine_steps > 0 needs the admissibility predicate (argument 'admissible')")
         base = lat.point(start)
         dirv = np.zeros_like(base)
         dirv[np.arange(start.shape[0]), axis] = lat.h[axis]
@@ -118,9 +118,9 @@ def boundary_surface(
 ) -> BoundarySurface:
     """Closed triangle mesh of the octree boundary (see the module docstring for ``vertices``)."""
     if vertices not in ("centroid", "crossing"):
-        raise SurfaceError(f"vertices: expected 'centroid' or 'crossing', found {vertices!r}")
+        raise ArgumentError(f"vertices: expected 'centroid' or 'crossing', found {vertices!r}")
     if refine_steps < 0:
-        raise SurfaceError(f"refine_steps: expected an integer >= 0, found {refine_steps!r}")
+        raise ArgumentError(f"refine_steps: expected an integer >= 0, found {refine_steps!r}")
     lat = res.lattice
     vox = res.leaf_index
     if vox.shape[0] == 0:
@@ -128,7 +128,7 @@ def boundary_surface(
     start, axis, low_adm = res.sign_change_edges()
     vid = res.edge_rings
     if np.any(vid < 0):
-        raise SurfaceError("octree result is not closed (a voxel around a sign-change edge is missing); "
+        raise ArgumentError("octree result is not closed (a voxel around a sign-change edge is missing); "
                            "run octree_boundary(..., closure=True)")
     extra = 0
     if vertices == "centroid":
@@ -148,4 +148,4 @@ def boundary_surface(
     return BoundarySurface(verts, tris, vertices, refine_evaluations=extra)
 
 
-__all__ = ["BoundarySurface", "boundary_surface", "SurfaceError"]
+__all__ = ["BoundarySurface", "boundary_surface"]

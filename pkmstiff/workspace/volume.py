@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.errors import VolumeError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.workspace.octree import OctreeResult
 from pkmstiff.workspace.surface import BoundarySurface, boundary_surface
 
@@ -88,7 +88,7 @@ def workspace_volume(
     """Volumes of the octree result by the requested methods (see the module docstring)."""
     bad = [m for m in methods if m not in METHODS]
     if bad:
-        raise VolumeError(f"volume methods {bad}: expected a subset of {METHODS}")
+        raise ArgumentError(f"volume methods {bad}: expected a subset of {METHODS}")
     out: dict[str, float] = {}
     cmesh = xmesh = None
     if {"tetrahedron", "divergence"} & set(methods):

@@ -10,7 +10,7 @@ from typing import Iterable
 import numpy as np
 
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.errors import SectionError
+from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation.sections import axis_plane, section_poses
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.translational import reach_box
@@ -30,7 +30,7 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
     admissibility; the bounding box of its admissible points grows by ``margin_steps`` coarse steps (the boundary lies
     within one coarse step of the outermost admissible point, plus a visible margin) and is rounded outward to
     :data:`ROUND_TO`. It is not clipped to the reach box: where the region ends at a frame limit, the margin shows
-    inadmissible points, so the window's edge never cuts the region. Raises :class:`SectionError` when no coarse point is admissible.
+    inadmissible points, so the window's edge never cuts the region. Raises :class:`ArgumentError` when no coarse point is admissible.
     """
     kind = kind.lower()
     lo, hi = reach_box(machine)
@@ -39,7 +39,7 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
     plane = axis_plane(kind, at, (lo[iu], hi[iu]), (lo[iv], hi[iv]), step)
     ok = evaluate_poses(machine, section_poses(plane, orientation)).ok.reshape(plane.shape)
     if not ok.any():
-        raise SectionError(f"{machine.name}: no admissible point on the {kind.upper()} plane at "
+        raise ArgumentError(f"{machine.name}: no admissible point on the {kind.upper()} plane at "
                            f"{'xyz'[3 - iu - iv]} = {at * 1e3:g} mm in the chains' reach box (coarse step "
                            f"{step * 1e3:.0f} mm); check the orientation and the plane position")
     rows, cols = np.nonzero(ok)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pkmstiff.errors import CalibrationInputError
+from pkmstiff.errors import InputError
 
 #: prefix of a path that names a bundled example file
 PREFIX = "example:"
@@ -34,6 +34,6 @@ def resolve(path: str | Path) -> str | Path:
     if not p.suffix and name:
         p = p.with_suffix(".toml")
     if not name or "/" in name or "\\" in name or not p.is_file():
-        raise CalibrationInputError(text, "example", f"one of {', '.join(PREFIX + n for n in example_names())}",
+        raise InputError(text, "example", f"one of {', '.join(PREFIX + n for n in example_names())}",
                                     name or "an empty name")
     return p
