@@ -95,7 +95,7 @@ def test_unreachable_plan_lists_poses_and_checks(tmp_path, capsys):
     path.write_text(PLAN.replace('fixed_ball = ["0 mm", "0 mm", "0 mm"]', 'fixed_ball = ["900 mm", "0 mm", "0 mm"]'))
     code, _, err = _run(capsys, "calibrate", "identifiability", "felix", "--instrument", "ballbar", "--plan",
                         str(path))
-    assert code == 2 and err.count("\n") == 1
+    assert code == 3 and err.count("\n") == 1
     assert "not admissible on felix" in err and "pose " in err and "strut length outside its range" in err
 
 

@@ -160,7 +160,7 @@ def test_cli_refuses_the_plan_before_simulating(tmp_path, capsys):
                     '"0 mm"]\nbar_length = "300 mm"\n[[paths]]\nkind = "circle"\nplane = "XY"\npoints = 3\n')
     code = main(["calibrate", "simulate", "felix", "--plan", str(plan), "--out", str(tmp_path / "m.csv")])
     err = capsys.readouterr().err
-    assert code == 2 and err.count("\n") == 1 and "sampled poses not admissible" in err and "chain 6" in err
+    assert code == 3 and err.count("\n") == 1 and "sampled poses not admissible" in err and "chain 6" in err
     assert not (tmp_path / "m.csv").exists()
 
 

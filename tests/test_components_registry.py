@@ -137,7 +137,7 @@ def test_units_are_parsed():
 def test_invalid_parameters_raise_input_error_naming_source_and_key(params, key, pattern):
     with pytest.raises(InputError, match=pattern) as info:
         build_component("c", params, source=SRC)
-    assert info.value.source == SRC
+    assert info.value.file == SRC
     assert info.value.key.startswith(key)
 
 
@@ -146,7 +146,7 @@ def test_component_level_validation_is_reported_with_source():
     with pytest.raises(InputError, match="not positive") as info:
         build_component("c", {"model": "telescopic_ballscrew_6x", "fit_coefficients": ["1 N/um", "-10 N/um", "1 N/um"]},
                         source=SRC)
-    assert info.value.source == SRC and info.value.key == "components.c"
+    assert info.value.file == SRC and info.value.key == "components.c"
 
 
 def test_joint_table_path_relative_to_machine_file(tmp_path):
@@ -161,7 +161,7 @@ def test_joint_table_path_relative_to_machine_file(tmp_path):
         build_component("drive_joint", {"model": "joint_table", "table": "data/missing.csv"},
                         source=str(tmp_path / "m.toml"), base_dir=tmp_path)
     assert info.value.key == "components.drive_joint.table"
-    assert info.value.source == str(tmp_path / "m.toml")
+    assert info.value.file == str(tmp_path / "m.toml")
     (tmp_path / "data" / "broken.csv").write_text((tmp_path / "data" / "my_joint.csv").read_text().replace("90.0,", "30.0,"))
     with pytest.raises(InputError, match=r"broken\.csv \(table of components\.drive_joint\.table in .*m\.toml\).*"
                                          r"line \d+, column tilt_deg.*strictly increasing"):

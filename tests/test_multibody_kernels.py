@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import pkmstiff.multibody as sde
+from pkmstiff.errors import InputError, NumericalError
 from pkmstiff.analysis import batch, evaluate_structure
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.multibody.assembly import stiffness_matrix
@@ -111,7 +112,7 @@ def test_compiled_chunk_defers_massless_models_and_rejects_too_many_modes():
     ev = np.linalg.eigvalsh(np.ascontiguousarray(stiffness_matrix(model)))
     tol = np.maximum(1e-12, np.finfo(float).eps * ev[:, -1] / ev[:, 0]) * np.abs(ref).max(axis=(1, 2))
     assert (np.abs(comp - ref).max(axis=(1, 2)) <= tol).all()
-    with pytest.raises(sde.InputError, match="n_modes"):
+    with pytest.raises(InputError, match="n_modes"):
         compiled_chunk(st_.dynamic_model, "platform", point_transform(st_.dynamic_model, "platform", None), 25)
 
 
@@ -122,7 +123,7 @@ def test_non_positive_definite_pose_is_flagged_by_the_compiled_path(monkeypatch)
     st_ = build_structure(machine, poses)
     st_.stiffness.chain[1] = 0.0  # platform held by five chains only: K singular at pose 1
     broken = st_.without(np.zeros(3, bool))
-    with pytest.raises(sde.NumericalError, match=r"poses \[1\]"):
+    with pytest.raises(NumericalError, match=r"poses \[1\]"):
         compiled_chunk(broken.dynamic_model, "platform", point_transform(broken.dynamic_model, "platform", None), 6)
     for flag in (False, True):
         monkeypatch.setattr(batch, "use_compiled", lambda model, f=flag: f)

@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pkmstiff.multibody as sde
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.linalg import reference_matrix, rotation_about_axis, skew, translation_matrix
 
 
@@ -228,5 +229,5 @@ def test_skew_and_reference_matrix():
 def test_bad_input_is_reported(call, match):
     m = sde.SDEModel()
     m.add_point_mass("p", np.ones(4), np.zeros((4, 3)))
-    with pytest.raises(sde.InputError, match=match):
+    with pytest.raises(InputError, match=match):
         call(m)

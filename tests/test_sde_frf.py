@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import pkmstiff.multibody as sde
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.linalg import rotation_about_axis
 
 
@@ -117,9 +118,9 @@ def test_static_limit_equals_compliance():
 def test_bad_frf_input():
     m = oscillator(1e6, 1.0, 0.0)
     x = sde.PointDirection("m", [1.0, 0, 0])
-    with pytest.raises(sde.InputError, match="freq_hz"):
+    with pytest.raises(InputError, match="freq_hz"):
         sde.receptance(m, [-1.0], x, x)
-    with pytest.raises(sde.InputError, match="zeta"):
+    with pytest.raises(InputError, match="zeta"):
         sde.receptance(m, [1.0], x, x, zeta=[0.1, 0.2])
-    with pytest.raises(sde.InputError, match="moment"):
+    with pytest.raises(InputError, match="moment"):
         sde.receptance(m, [1.0], x, sde.PointDirection("m", [1.0, 0, 0], rotation=True))

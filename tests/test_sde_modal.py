@@ -7,6 +7,7 @@ import pytest
 import scipy.linalg
 
 import pkmstiff.multibody as sde
+from pkmstiff.errors import InputError
 
 
 def chain(n_mass: int, k: float, m: float, k_t: float) -> sde.SDEModel:
@@ -88,7 +89,7 @@ def test_massless_bodies_are_condensed():
     res = sde.modes(m, 3, shapes=True)
     np.testing.assert_allclose(res.eigenvalues[0], ref, rtol=1e-13)
     np.testing.assert_allclose(res.shapes[0][:, :3], res.shapes[0][:, 3:] * k2 / (k1 + k2), atol=1e-14)
-    with pytest.raises(sde.InputError, match="n_modes"):
+    with pytest.raises(InputError, match="n_modes"):
         sde.modes(m, 4)  # only three dynamic DOFs
     r = sde.SDEModel()
     r.add_rigid_body("lever", 0.0, [0, 0, 0], np.zeros((3, 3)))

@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pkmstiff.multibody as sde
+from pkmstiff.errors import NumericalError
 from pkmstiff.multibody.linalg import reference_matrix
 
 
@@ -283,7 +284,7 @@ def test_under_restrained_model_is_reported():
     m.add_rigid_body("B", 1.0, np.zeros((3, 3)), [1.0, 1.0, 1.0])
     m.add_sde_set(["a", "b", "c"], "B", sde.FRAME, [[1, 0, 0], [0, 1, 0], [0, 0, 1]], k=1e6,
                   axis=[[1, 0, 0], [0, 1, 0], [0, 0, 1]])  # three springs cannot hold six DOF
-    with pytest.raises(sde.NumericalError, match="under-restrained"):
+    with pytest.raises(NumericalError, match="under-restrained"):
         sde.point_compliance(m, "B")
 
 

@@ -42,7 +42,7 @@ from pkmstiff.structure import (
     build_structure,
     structure_layout,
 )
-from pkmstiff.errors import InputError
+from pkmstiff.errors import InputError, NumericalError
 
 
 def _gravity_vector(machine: Machine, gravity: ArrayLike | None) -> np.ndarray:
@@ -109,7 +109,7 @@ def gravity_deflection(machine: Machine, poses: ArrayLike, tool_length: float | 
             try:
                 out[sl] = structure_deflection(st, tool_length, gravity, force, moment, neglect_spindle, weight)
                 break
-            except sde.NumericalError:
+            except NumericalError:
                 st = st.without(_not_pd(np.ascontiguousarray(stiffness_matrix(st.model))), NOT_POSITIVE_DEFINITE)
     return out
 

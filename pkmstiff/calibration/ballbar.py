@@ -331,7 +331,8 @@ def fit_circle(points: ArrayLike, *, max_iter: int = 20, source: str = "") -> Ci
     """
     q = np.asarray(points, dtype=float)
     if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 3:
-        raise InputError(reason=f"a circle fit needs points of shape (N >= 3, 2), found {q.shape}", file=source)
+        raise InputError(reason=f"a circle fit needs points of shape (N >= 3, 2), found {q.shape}",
+                         file=source)
     ref = q.mean(axis=0)
     qr = q - ref  # fit about the centroid for conditioning
     A = np.column_stack([2.0 * qr, np.ones(len(qr))])
@@ -421,7 +422,8 @@ def min_zone_circle(points: ArrayLike, *, start: ArrayLike | None = None, max_it
     """
     q = np.asarray(points, dtype=float)
     if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 3 or not np.all(np.isfinite(q)):
-        raise InputError(reason=f"a minimum-zone circle needs finite points of shape (N >= 3, 2), found {q.shape}", file=source)
+        raise InputError(reason=f"a minimum-zone circle needs finite points of shape (N >= 3, 2), found {q.shape}",
+                         file=source)
     ref = q.mean(axis=0)
     qr = q - ref
     c = (fit_circle(q, source=source).centre if start is None else np.asarray(start, dtype=float)) - ref
@@ -620,7 +622,8 @@ def evaluate_circular_test(positions: ArrayLike, reading: ArrayLike, fixed_ball:
     s = np.asarray(fixed_ball, dtype=float)
     r = np.asarray(reading, dtype=float)
     if P.ndim != 2 or P.shape[1] != 3 or r.shape != (P.shape[0],):
-        raise InputError(reason=f"expected positions (N, 3) and readings (N,), found {P.shape} and {r.shape}", file=source)
+        raise InputError(reason=f"expected positions (N, 3) and readings (N,), found {P.shape} and {r.shape}",
+                         file=source)
     frame = plane_frame(P, s, plane, source=source)
     d = radial_deviations(P, s, bar_length, r)
     uv = frame.coordinates(P)
@@ -680,8 +683,8 @@ def commanded_poses(meas: Any, machine: Any = None, start_pose: ArrayLike | None
     if meas.poses is not None:
         return np.asarray(meas.poses, dtype=float)
     if machine is None or start_pose is None:
-        raise InputError(reason="the file has drive values but no commanded pose columns (x_mm … c_deg); give a machine "
-                           "and a start pose for the forward kinematics (--machine, --start-pose)", file=source)
+        raise InputError(reason="the file has drive values but no commanded pose columns (x_mm … c_deg); give a "
+                           "machine and a start pose for the forward kinematics (--machine, --start-pose)", file=source)
     from pkmstiff.kinematics import forward_kinematics
 
     q = np.asarray(meas.drives, dtype=float)
@@ -712,7 +715,8 @@ def evaluate_measurement(meas: Any, *, harmonics: int | Literal["auto"] = "auto"
     kind = getattr(meas, "kind", "ballbar")
     if kind != "ballbar":
         raise InputError(reason=f"a circular-test evaluation needs a ball-bar measurement, found a {kind} file "
-                           f"(instrument_type: {kind}); identify from it with 'pkmstiff calibrate identify'", file=source)
+                           f"(instrument_type: {kind}); identify from it with 'pkmstiff calibrate identify'",
+                         file=source)
     P = ball_positions(commanded_poses(meas, machine, start_pose, source), meas.ball_offset)
     return evaluate_circular_test(P, meas.reading, meas.fixed_ball, meas.bar_length, direction=meas.direction,
                                   plane=meas.plane if plane is None else plane, harmonics=harmonics, alpha=alpha,

@@ -510,7 +510,8 @@ def _parse_header(src: str, header: dict[str, tuple[int, str]]) -> dict:
     if "format_version" in header:
         no, v = header["format_version"]
         if v != str(FORMAT_VERSION):
-            raise InputError(src, line=no, reason=f"header key 'format_version': expected {FORMAT_VERSION}, found {v!r}")
+            raise InputError(src, line=no, reason=f"header key 'format_version': expected {FORMAT_VERSION}, "
+                                                  f"found {v!r}")
     meta: dict = {}
     if "bar_length_mm" not in header:
         raise InputError(src, reason="missing header key 'bar_length_mm' (e.g. '# bar_length_mm: 150')")
@@ -555,7 +556,8 @@ def _parse_point_header(src: str, header: dict[str, tuple[int, str]], kind: str)
     if "format_version" in header:
         no, v = header["format_version"]
         if v != str(FORMAT_VERSION):
-            raise InputError(src, line=no, reason=f"header key 'format_version': expected {FORMAT_VERSION}, found {v!r}")
+            raise InputError(src, line=no, reason=f"header key 'format_version': expected {FORMAT_VERSION}, "
+                                                  f"found {v!r}")
     meta: dict = {}
     if (h := header.get("target_mm")) is not None:
         meta["target"] = np.array(_numbers(src, h[0], "target_mm", h[1], 3)) * 1e-3

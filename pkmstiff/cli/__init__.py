@@ -20,10 +20,6 @@ _COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.components", "pkmstif
                     "pkmstiff.cli.calibrate", "pkmstiff.cli.mechanism")
 
 
-class ArgumentError(ArgumentError):
-    """A command line argparse cannot parse (printed as one line, exit status 2)."""
-
-
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (the usage is not repeated: ``pkmstiff COMMAND --help`` shows it) and without
     option abbreviations (``--pos`` for ``--pose`` would change meaning whenever an option is added)."""

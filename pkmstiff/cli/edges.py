@@ -133,8 +133,8 @@ def parse_budget(text: str | None) -> int:
             frac = -1.0
         if 0 < frac <= 1:
             return int(frac * available_memory())
-    raise ArgumentError(f"--memory-budget: expected a size such as '2GB' or '500MB', or a fraction 0..1 of the available "
-                   f"memory, found {text!r}")
+    raise ArgumentError(option="--memory-budget", found=text,
+                        expected="a size such as '2GB' or '500MB', or a fraction 0..1 of the available memory")
 
 
 def human_bytes(n: float) -> str:

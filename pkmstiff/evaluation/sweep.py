@@ -252,7 +252,8 @@ class Sweep:
             raise ArgumentError(f"mode: expected 'grid' or 'random', found {self.mode!r}")
         if self.mode == "random" and (isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int)
                                       or self.n_samples < 1):
-            raise ArgumentError(f"n_samples: a random sweep needs a positive number of samples, found {self.n_samples!r}")
+            raise ArgumentError(f"n_samples: a random sweep needs a positive number of samples, "
+                                f"found {self.n_samples!r}")
         paths = [p.path for p in self.parameters]
         dup = sorted({p for p in paths if paths.count(p) > 1})
         if dup:

@@ -151,8 +151,8 @@ class PointValues:
     def __call__(self, machine: Machine) -> dict[str, float]:
         res = self.request().evaluate(machine)
         if not res.admissible:
-            raise InadmissibleError(f"pose {list(self.pose)} (mm, deg, {self.frame} frame) is inadmissible for {machine.name}: "
-                                        + "; ".join(res.failing))
+            raise InadmissibleError(f"pose {list(self.pose)} (mm, deg, {self.frame} frame) is inadmissible for "
+                                    f"{machine.name}: " + "; ".join(res.failing))
         return {f"{q} [{get_quantity(q).unit}]{self.suffix}": v for q, v in res.values.items()}
 
 

@@ -30,7 +30,8 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
     admissibility; the bounding box of its admissible points grows by ``margin_steps`` coarse steps (the boundary lies
     within one coarse step of the outermost admissible point, plus a visible margin) and is rounded outward to
     :data:`ROUND_TO`. It is not clipped to the reach box: where the region ends at a frame limit, the margin shows
-    inadmissible points, so the window's edge never cuts the region. Raises :class:`ArgumentError` when no coarse point is admissible.
+    inadmissible points, so the window's edge never cuts the region. Raises :class:`ArgumentError` when no coarse
+    point is admissible.
     """
     kind = kind.lower()
     lo, hi = reach_box(machine)
