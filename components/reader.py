@@ -16,7 +16,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from components.params import Param
-from pkmstiff.errors import ArgumentError, InputError
+from pkmstiff.errors import ComponentModelError, InputError
 from pkmstiff.units import parse_quantity, si
 
 _MISSING = object()
@@ -62,7 +62,7 @@ class Params:
         that depends on another parameter)."""
         decl = self._declared.get(key)
         if decl is None:
-            raise ArgumentError(f"component model '{self.model}' reads parameter '{key}' without declaring it")
+            raise ComponentModelError(f"component model '{self.model}' reads parameter '{key}' without declaring it")
         if overrides:
             decl = dataclasses.replace(decl, **overrides)
         default = _MISSING if decl.required is True else decl.default

@@ -20,7 +20,7 @@ from components import ballscrew, bearings, bodies, direct_drive, guides, joints
 from components.params import ModelInfo, ModelSpec, Param
 from components.protocol import Component
 from components.reader import COMMON_KEYS, Params
-from pkmstiff.errors import ArgumentError, InputError
+from pkmstiff.errors import ComponentModelError, InputError
 
 __all__ = ["COMMON_KEYS", "ModelInfo", "ModelSpec", "Param", "Params", "available_models", "build_component",
            "build_components", "model_info", "models", "register", "register_model"]
@@ -34,9 +34,9 @@ _REGISTRY: dict[str, ModelSpec] = {}
 def register(spec: ModelSpec, *, replace: bool = False) -> None:
     """Register a declared model under ``spec.name`` (the ``model`` value in machine files)."""
     if not spec.name or not spec.name.replace("_", "").isalnum():
-        raise ArgumentError(f"register_model: model names use letters, digits and '_', found {spec.name!r}")
+        raise ComponentModelError(f"register_model: model names use letters, digits and '_', found {spec.name!r}")
     if spec.name in _REGISTRY and not replace:
-        raise ArgumentError(f"register_model: model '{spec.name}' is already registered "
+        raise ComponentModelError(f"register_model: model '{spec.name}' is already registered "
                                   "(pass replace=True to override)")
     _REGISTRY[spec.name] = spec
 
@@ -92,9 +92,9 @@ def build_component(name: str, params: dict[str, Any], *, source: str = "",
     provenance = p.string("provenance", "")
     try:
         component = spec.factory(p)
-    except (InputError, ArgumentError):
+    except (InputError, ComponentModelError):
         raise
-    except (ValueError, TypeError) as exc:
+    except (ValueError, TypeError) as exc:  # an ArgumentError of the component's constructor included
         raise InputError(source, f"components.{name}", f"valid parameters for model '{model}'", str(exc)) from exc
     extra = p.unused()
     if extra:

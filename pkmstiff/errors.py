@@ -128,6 +128,11 @@ class ComponentRangeError(ArgumentError):
     pose instead of failing (:mod:`pkmstiff.structure.stiffness`)."""
 
 
+class ComponentModelError(ArgumentError):
+    """A component model registered or declared inconsistently (a name taken, a parameter read but not declared): a
+    fault of the model's code, which the registry passes on instead of blaming the machine file."""
+
+
 class JointTableNotFound(InputError):
     """The named joint table is neither a bundled table nor an existing file (the tabulated joint then names the
     machine key that referred to it)."""

@@ -11,7 +11,7 @@ from components import Component, ComponentState, catalogue, registry
 from components.params import ModelSpec, Param
 from components.registry import build_component, model_info, models
 from pkmstiff.cli import main
-from pkmstiff.errors import ArgumentError, InputError, PkmstiffError
+from pkmstiff.errors import ArgumentError, ComponentModelError, InputError, PkmstiffError
 
 
 def _sections(text: str) -> dict[str, str]:
@@ -81,16 +81,15 @@ def test_reading_an_undeclared_parameter_is_a_model_error(monkeypatch):
     monkeypatch.setattr(registry, "_REGISTRY", dict(registry._REGISTRY))
     registry.register(ModelSpec("sloppy", "reads a key it does not declare", "", (),
                                 lambda p: _Spring(name=p.name, k=p["k"])))
-    with pytest.raises(ArgumentError, match="reads parameter 'k' without declaring it"):
+    with pytest.raises(ComponentModelError, match="reads parameter 'k' without declaring it"):
         build_component("s", {"model": "sloppy", "k": 1.0})
 
 
 def test_component_errors_derive_from_the_root():
     from components.joint_tables import JointTableNotFound
     from components.protocol import ComponentRangeError
-    from pkmstiff.errors import ArgumentError
 
     assert issubclass(ComponentRangeError, PkmstiffError) and issubclass(ComponentRangeError, ValueError)
-    assert issubclass(ArgumentError, PkmstiffError) and issubclass(JointTableNotFound, InputError)
+    assert issubclass(ComponentModelError, PkmstiffError) and issubclass(JointTableNotFound, InputError)
     with pytest.raises(ArgumentError):
         ComponentState(tilt=[0.0]).require("swivel", "j")

@@ -135,31 +135,31 @@ def load_planar(name_or_path: str | Path) -> PlanarMachine:
 
 
 def _build(raw: dict, src: str) -> PlanarMachine:
-    check_keys(raw, _TOP, src, "", error=InputError)
+    check_keys(raw, _TOP, src, "")
     if raw.get("format_version", 1) != 1:
         raise InputError(src, "format_version", "1", raw.get("format_version"))
-    mt = check_keys(require(raw, "machine", src, "", "a [machine] table", error=InputError), _MACHINE, src,
-                    "machine.", error=InputError)
-    kind = require(mt, "type", src, "machine.", "'glide' or 'pod'", error=InputError)
+    mt = check_keys(require(raw, "machine", src, "", "a [machine] table"), _MACHINE, src,
+                    "machine.")
+    kind = require(mt, "type", src, "machine.", "'glide' or 'pod'")
     if kind not in ("glide", "pod"):
         raise InputError(src, "machine.type", "'glide' or 'pod'", kind)
-    name = str(require(mt, "name", src, "machine.", "the machine's short name", error=InputError))
+    name = str(require(mt, "name", src, "machine.", "the machine's short name"))
     gravity = parse_quantity(mt.get("gravity", [0.0, -9.81]), "m/s^2", source=src, key="machine.gravity",
                              shape=(2,))
-    plat = check_keys(require(raw, "platform", src, "", "a [platform] table with the mass", error=InputError),
-                      {"mass"}, src, "platform.", error=InputError)
-    mass = require(plat, "mass", src, "platform.", "the platform mass", error=InputError)
+    plat = check_keys(require(raw, "platform", src, "", "a [platform] table with the mass"),
+                      {"mass"}, src, "platform.")
+    mass = require(plat, "mass", src, "platform.", "the platform mass")
     m_p = float(parse_quantity(mass, "kg", source=src,
                                key="platform.mass", positive=True))
     allowed = _COMMON | (_GLIDE if kind == "glide" else _POD)
-    defaults = check_keys(raw.get("chain_defaults", {}), allowed, src, "chain_defaults.", error=InputError)
-    chains = require(raw, "chains", src, "", "two [[chains]] tables", error=InputError)
+    defaults = check_keys(raw.get("chain_defaults", {}), allowed, src, "chain_defaults.")
+    chains = require(raw, "chains", src, "", "two [[chains]] tables")
     if not isinstance(chains, list) or len(chains) != 2:
         raise InputError(src, "chains", "exactly two [[chains]] tables", chains)
     cols: dict[str, list] = {}
     for i, ch in enumerate(chains):
         pre = f"chains[{i + 1}]."
-        t = {**defaults, **check_keys(ch, allowed, src, pre, error=InputError)}
+        t = {**defaults, **check_keys(ch, allowed, src, pre)}
 
         def q(key: str, unit: str, what: str, *, shape: Any = None, positive: bool = False, default: Any = None,
               min_value: float | None = None) -> Any:

@@ -381,14 +381,13 @@ def read_plan(path: str | Path) -> Plan:
 
     path = resolve(path)
     src = str(path)
-    raw = check_keys(read_toml(path, "plan file"), _PLAN_KEYS, src, "",
-                     InputError)
-    pt = check_keys(require(raw, "plan", src, "", "a [plan] table", InputError), _PLAN_TABLE, src,
-                    "plan.", InputError)
-    instrument = require(pt, "instrument", src, "plan.", f"one of {', '.join(INSTRUMENTS)}", InputError)
+    raw = check_keys(read_toml(path, "plan file"), _PLAN_KEYS, src, "")
+    pt = check_keys(require(raw, "plan", src, "", "a [plan] table"), _PLAN_TABLE, src,
+                    "plan.")
+    instrument = require(pt, "instrument", src, "plan.", f"one of {', '.join(INSTRUMENTS)}")
     if instrument not in INSTRUMENTS:
         raise InputError(src, "plan.instrument", f"one of {', '.join(INSTRUMENTS)}", instrument)
-    st = check_keys(raw.get("setup", {}), _SETUP_KEYS, src, "setup.", InputError)
+    st = check_keys(raw.get("setup", {}), _SETUP_KEYS, src, "setup.")
 
     def q(table, key, unit, prefix, default=None, shape=None, positive=False):
         if key not in table:
@@ -419,10 +418,10 @@ def read_plan(path: str | Path) -> Plan:
     plan: Plan | None = None
     for i, p in enumerate(paths):
         pre = f"paths[{i + 1}]."
-        kind = require(p, "kind", src, pre, _KINDS, InputError) if isinstance(p, dict) else None
+        kind = require(p, "kind", src, pre, _KINDS) if isinstance(p, dict) else None
         if kind not in _PATH_KEYS:
             raise InputError(src, pre + "kind", _KINDS, kind)
-        check_keys(p, _PATH_KEYS[kind], src, pre, InputError)
+        check_keys(p, _PATH_KEYS[kind], src, pre)
         label = p.get("label")
         nodes = q(p, "nodes", "rad", pre, shape=(None, 3)) if "nodes" in p else None
         if nodes is not None and len(nodes) < 1:

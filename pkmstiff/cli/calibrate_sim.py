@@ -30,7 +30,6 @@ def read_errors(path: str | None, machine, plan):
     ``frame = "cartesian"|"cylindrical"`` (optional) and an ``[errors]`` table name = quantity."""
     from pkmstiff.calibration import error_model, parse_errors
     from pkmstiff.calibration.parameters import SETUP_TOKENS
-    from pkmstiff.errors import InputError
     from pkmstiff.io import check_keys, read_toml
 
     blocks = tuple(b for b, inst in SETUP_TOKENS.values() if plan.instrument in inst)
@@ -41,7 +40,7 @@ def read_errors(path: str | None, machine, plan):
 
     path = str(resolve(path))  # example:NAME -> a bundled error file
     raw = check_keys(read_toml(path, "error file"), {"frame", "errors", "description"}, path,
-                     "", InputError)
+                     "")
     params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
     return params, parse_errors(raw.get("errors", {}), params, source=path)
 

@@ -230,7 +230,6 @@ def section_report(args) -> dict[str, Any]:
     import time
     from pathlib import Path
 
-    from pkmstiff.errors import ArgumentError
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.mechanisms.section import evaluate_section, fit_window, quantity_names
 
@@ -241,11 +240,8 @@ def section_report(args) -> dict[str, Any]:
         if given:
             raise _cli_error(f"{opt}: not available for a mechanism ('{mech.name}'): a mechanism section has the "
                              f"kinematic quantities {', '.join(quantity_names(mech))}")
-    try:
-        ranges = parse_ranges(args.range, plane) if args.range else None
-        ori = parse_triple_deg(args.orientation, "--orientation")
-    except (ArgumentError, ArgumentError, PkmstiffError) as exc:
-        raise _cli_error(str(exc)) from None
+    ranges = parse_ranges(args.range, plane) if args.range else None
+    ori = parse_triple_deg(args.orientation, "--orientation")
     if not (args.step > 0 and math.isfinite(args.step)):
         raise _cli_error(f"--step: expected a positive step in mm, found {args.step}")
     if not math.isfinite(args.at):

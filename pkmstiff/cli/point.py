@@ -315,11 +315,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
         return _point_batch(args)
     if args.figures is not None:
         check_output_dir(args.figures, "--figures", True)
-    try:
-        rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
-                           args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False))
-    except ArgumentError as exc:
-        raise ArgumentError(str(exc)) from None
+    rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
+                       args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False))
     figures = _mode_figures(args) if args.figures else []
     if figures:
         rep["figures"] = [str(f) for f in figures]

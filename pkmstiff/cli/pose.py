@@ -154,10 +154,7 @@ def _cmd_pose(args: argparse.Namespace) -> int:
         return 0
     if getattr(args, "poses", None) is not None:
         return _pose_batch(args)
-    try:
-        pose = parse_pose(args.pose)
-    except ArgumentError as exc:
-        raise ArgumentError(str(exc)) from None
+    pose = parse_pose(args.pose)
     rep = pose_report(args.machine, pose, args.frame)
     if args.json:
         print(json.dumps(rep, indent=2))

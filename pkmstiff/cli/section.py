@@ -71,7 +71,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
         if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
             raise ArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length}")
         requirements = _requirements(getattr(args, "require", None))
-    except (ArgumentError, ArgumentError, ArgumentError) as exc:
+    except ArgumentError as exc:
         raise ArgumentError(str(exc)) from None
     check_jobs(args.jobs)
     budget = parse_budget(getattr(args, "memory_budget", None))
@@ -80,22 +80,16 @@ def _cmd_section(args: argparse.Namespace) -> int:
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     from pkmstiff.evaluation.quantities import check_quantity
 
-    try:
-        for n in names:
-            check_quantity(n, machine.n_chains)
-    except ArgumentError as exc:
-        raise ArgumentError(str(exc)) from None
+    for n in names:
+        check_quantity(n, machine.n_chains)
     stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
     check_output_dir(args.out, "--out", getattr(args, "force", False), _output_names(stem, names, formats, getattr(args, "reasons_map", False)))
     step = args.step * 1e-3
     if ranges is None:
         from pkmstiff.workspace.windows import window_ranges
 
-        try:
-            ranges = dict(zip(plane_kind, window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori,
-                                                        args.frame)))
-        except ArgumentError as exc:
-            raise ArgumentError(str(exc)) from None
+        ranges = dict(zip(plane_kind, window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori,
+                                                    args.frame)))
         fitted = True
     else:
         fitted = False
@@ -106,10 +100,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())
     announce_cost("section", f"{plane_kind.upper()} window {window}{' (fitted to the workspace)' if fitted else ''}",
                   n_points, mem, secs, budget, quiet=args.quiet or args.json)
-    try:
-        plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step)
-    except ArgumentError as exc:
-        raise ArgumentError(str(exc)) from None
+    plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step)
     t0 = time.perf_counter()
     res = evaluate_section(machine, plane, all_names, orientation=ori,
                            tool_length=None if args.tool_length is None else args.tool_length * 1e-3,

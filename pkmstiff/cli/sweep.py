@@ -26,10 +26,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"pkmstiff sweep: {sweep.machine}, {sweep.mode}, {n} tasks, {where}")
     t0 = time.perf_counter()
-    try:
-        res = run_sweep(sweep, n_jobs=args.jobs, scheduler=args.scheduler or None, progress=not args.quiet)
-    except ArgumentError as exc:
-        raise ArgumentError(str(exc)) from None
+    res = run_sweep(sweep, n_jobs=args.jobs, scheduler=args.scheduler or None, progress=not args.quiet)
     failed = res.failed
     distinct: dict[str, list[int]] = {}
     for r in failed:

@@ -276,12 +276,9 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels)
             files[f"map {d} (deg)"] = str(p)
         if not args.no_plot:
-            from pkmstiff.plots.workspace import PlotDependencyError, plot_rotation_maps
+            from pkmstiff.plots.workspace import plot_rotation_maps
 
-            try:
-                files["figure"] = str(plot_rotation_maps(res, out / "rotation_map.png", labels, scale, title))
-            except PlotDependencyError as exc:
-                raise _cli_error(str(exc)) from None
+            files["figure"] = str(plot_rotation_maps(res, out / "rotation_map.png", labels, scale, title))
         summary["files"] = files
         (out / "rotation_map.json").write_text(json.dumps(summary, indent=2))
         files["summary JSON"] = str(out / "rotation_map.json")

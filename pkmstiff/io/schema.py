@@ -11,37 +11,32 @@ from typing import Any
 from pkmstiff.errors import InputError
 
 
-def check_keys(table: Any, allowed: Iterable[str], source: str, prefix: str = "",
-               error: type[InputError] = InputError) -> dict[str, Any]:
-    """Return ``table`` if it is a table whose keys all lie in ``allowed``; else raise ``error`` naming the first
-    offending key as ``prefix + key`` (``prefix`` ends with a dot, e.g. ``"chains[2]."``)."""
+def check_keys(table: Any, allowed: Iterable[str], source: str, prefix: str = "") -> dict[str, Any]:
+    """Return ``table`` if it is a table whose keys all lie in ``allowed``; else raise :class:`InputError` naming the
+    first offending key as ``prefix + key`` (``prefix`` ends with a dot, e.g. ``"chains[2]."``)."""
     allowed = set(allowed)
     if not isinstance(table, dict):
-        raise error(source, prefix.rstrip(".") or "(top level)", "a table", table)
+        raise InputError(source, prefix.rstrip(".") or "(top level)", "a table", table)
     unknown = sorted(set(table) - allowed)
     if unknown:
-        raise error(source, f"{prefix}{unknown[0]}", f"one of the keys {sorted(allowed)}", "unknown key")
+        raise InputError(source, f"{prefix}{unknown[0]}", f"one of the keys {sorted(allowed)}", "unknown key")
     return table
 
 
-def require(table: dict[str, Any], key: str, source: str, prefix: str = "", what: str = "a value",
-            error: type[InputError] = InputError) -> Any:
-    """Return ``table[key]``; a missing key raises ``error`` naming ``prefix + key`` and ``what`` was expected."""
+def require(table: dict[str, Any], key: str, source: str, prefix: str = "", what: str = "a value") -> Any:
+    """Return ``table[key]``; a missing key raises :class:`InputError` naming ``prefix + key`` and ``what`` was
+    expected."""
     if key not in table:
-        raise error(source, f"{prefix}{key}", f"{what} (the key is required)", "missing key")
+        raise InputError(source, f"{prefix}{key}", f"{what} (the key is required)", "missing key")
     return table[key]
 
 
-def check_format_version(raw: dict[str, Any], source: str, supported: Iterable[int] = (1,),
-                         error: type[InputError] | None = None) -> int:
-    """Return the file's ``format_version`` (default 1 when absent); an unknown version raises ``error`` (default
-    :class:`~pkmstiff.errors.InputError`) naming the file, the versions this pkmstiff reads and the finding."""
-    from pkmstiff.errors import InputError
-
+def check_format_version(raw: dict[str, Any], source: str, supported: Iterable[int] = (1,)) -> int:
+    """Return the file's ``format_version`` (default 1 when absent); an unknown version raises :class:`InputError`
+    naming the file, the versions this pkmstiff reads and the finding."""
     supported = tuple(supported)
     v = raw.get("format_version", 1)
     if isinstance(v, bool) or not isinstance(v, int) or v not in supported:
-        err = error or InputError
-        raise err(source, "format_version", "one of " + ", ".join(map(str, supported))
-                  + " (a newer file needs a newer pkmstiff)", v)
+        raise InputError(source, "format_version", "one of " + ", ".join(map(str, supported))
+                         + " (a newer file needs a newer pkmstiff)", v)
     return v

@@ -175,12 +175,12 @@ def _length(value: Any, src: str, key: str, *, positive: bool = True) -> float:
 
 
 def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
-    check_keys(raw, _TOP_KEYS, src, "", error=InputError)
+    check_keys(raw, _TOP_KEYS, src, "")
     check_format_version(raw, src)
-    mtab = check_keys(require(raw, "machine", src, "", "a [machine] table", error=InputError), _MACHINE_KEYS, src,
-                      "machine.", error=InputError)
-    name = str(require(mtab, "name", src, "machine.", "the machine's short name", error=InputError))
-    kind = require(mtab, "type", src, "machine.", "'pod' or 'glide'", error=InputError)
+    mtab = check_keys(require(raw, "machine", src, "", "a [machine] table"), _MACHINE_KEYS, src,
+                      "machine.")
+    name = str(require(mtab, "name", src, "machine.", "the machine's short name"))
+    kind = require(mtab, "type", src, "machine.", "'pod' or 'glide'")
     if kind not in ("pod", "glide"):
         raise InputError(src, "machine.type", "'pod' or 'glide'", kind)
     gravity = _vec(mtab.get("gravity", [0.0, 0.0, -9.81]), src, "machine.gravity", "m/s^2")
@@ -195,7 +195,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     tool = _tool(raw.get("tool", {}), src)
     components = _components(raw.get("components", {}), src)
     joint_types = _joint_types(raw.get("joint_types", {}), src, components)
-    chain_tables = require(raw, "chains", src, "", "an array of [[chains]] tables", error=InputError)
+    chain_tables = require(raw, "chains", src, "", "an array of [[chains]] tables")
     if not isinstance(chain_tables, list) or len(chain_tables) < 2:
         raise InputError(src, "chains", "an array of at least 2 [[chains]] tables", chain_tables)
     defaults = raw.get("chain_defaults", {})
@@ -241,7 +241,7 @@ def _calibration(tab: Any, src: str) -> dict[str, Any]:
     quantity such as "0.012 mm"; σ must be non-negative). Returns it as a plain dict ({} when absent)."""
     if tab is None:
         return {}
-    check_keys(tab, _CALIBRATION_KEYS, src, "calibration.", error=InputError)
+    check_keys(tab, _CALIBRATION_KEYS, src, "calibration.")
     for key, value in tab.items():
         kind, k = _CALIBRATION_KEYS[key], f"calibration.{key}"
         if kind == "str" and not isinstance(value, str):
@@ -273,7 +273,7 @@ def _calibration(tab: Any, src: str) -> dict[str, Any]:
 
 
 def _limits(tab: Any, src: str) -> Limits:
-    check_keys(tab, _LIMIT_KEYS, src, "limits.", error=InputError)
+    check_keys(tab, _LIMIT_KEYS, src, "limits.")
     kw: dict[str, Any] = {}
     if "singularity_threshold" in tab:
         kw["singularity_threshold"] = float(parse_quantity(tab["singularity_threshold"], "dimensionless", source=src,
@@ -297,7 +297,7 @@ def _limits(tab: Any, src: str) -> Limits:
             raise InputError(src, "limits.drive_load_strut_mass", "a fraction in [0, 1]", frac)
         kw["drive_load_strut_mass"] = frac
     if "frame" in tab:
-        fr = check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.", error=InputError)
+        fr = check_keys(tab["frame"], _FRAME_KEYS, src, "limits.frame.")
         lo, hi = np.full(3, -np.inf), np.full(3, np.inf)
         for k, v in fr.items():
             (lo if k.endswith("min") else hi)["xyz".index(k[0])] = float(
@@ -312,7 +312,7 @@ def _limits(tab: Any, src: str) -> Limits:
 
 
 def _tool(tab: Any, src: str) -> Tool:
-    check_keys(tab, _TOOL_KEYS, src, "tool.", error=InputError)
+    check_keys(tab, _TOOL_KEYS, src, "tool.")
     return Tool(
         offset=_vec(tab.get("offset", [0, 0, 0]), src, "tool.offset"),
         axis=_direction(tab.get("axis", [0, 0, -1]), src, "tool.axis"),
@@ -333,7 +333,7 @@ def _components(tab: Any, src: str) -> dict[str, dict[str, Any]]:
         key = f"components.{cname}"
         if not isinstance(params, dict):
             raise InputError(src, key, "a table with at least the key 'model'", params)
-        model = require(params, "model", src, key + ".", "the name of a component model", error=InputError)
+        model = require(params, "model", src, key + ".", "the name of a component model")
         if models is not None and model not in models:
             raise InputError(src, key + ".model", f"one of the component models {sorted(models)}", model)
         out[cname] = dict(params)
@@ -374,7 +374,7 @@ def _joint_types(tab: Any, src: str, components: dict) -> dict[str, JointType]:
     out = {}
     for jname, jt in tab.items():
         p = f"joint_types.{jname}."
-        check_keys(jt, _JOINT_KEYS, src, p, error=InputError)
+        check_keys(jt, _JOINT_KEYS, src, p)
         conv = jt.get("convention", "axis")
         if conv not in ("axis", "normal"):
             raise InputError(src, p + "convention", "'axis' or 'normal'", conv)
@@ -400,13 +400,13 @@ def _joint_types(tab: Any, src: str, components: dict) -> dict[str, JointType]:
 def _chains(kind: str, tables: list, defaults: Any, src: str, joint_types: dict,
             components: dict) -> tuple[Chains, tuple[dict[str, str], ...]]:
     allowed = _COMMON_CHAIN_KEYS | (_GLIDE_CHAIN_KEYS if kind == "glide" else _POD_CHAIN_KEYS)
-    check_keys(defaults, allowed, src, "chain_defaults.", error=InputError)
+    check_keys(defaults, allowed, src, "chain_defaults.")
     n = len(tables)
     cols: dict[str, list] = {k: [] for k in allowed}
     comps: list[dict[str, str]] = []
     for i, tab in enumerate(tables):
         p = f"chains[{i + 1}]."
-        check_keys(tab, allowed, src, p, error=InputError)
+        check_keys(tab, allowed, src, p)
         t = _merge(defaults, tab)
 
         def need(key: str, what: str) -> Any:
@@ -491,10 +491,10 @@ def _guides(tab: Any, src: str, n: int, kind: str) -> dict[str, Guide]:
     used: set[int] = set()
     for gname, g in tab.items():
         p = f"guides.{gname}."
-        check_keys(g, _GUIDE_KEYS, src, p, error=InputError)
+        check_keys(g, _GUIDE_KEYS, src, p)
         if kind != "glide":
             raise InputError(src, f"guides.{gname}", "shared guides only for glide machines", "a guide table")
-        members = require(g, "chains", src, p, "the 1-based chain numbers on this guide", error=InputError)
+        members = require(g, "chains", src, p, "the 1-based chain numbers on this guide")
         if (not isinstance(members, list) or len(members) < 2
                 or not all(isinstance(c, int) and not isinstance(c, bool) and 1 <= c <= n for c in members)):
             raise InputError(src, p + "chains", f"a list of at least two chain numbers 1..{n}", members)
@@ -512,7 +512,7 @@ def _guides(tab: Any, src: str, n: int, kind: str) -> dict[str, Guide]:
 
 
 def _hull(tab: Any, src: str) -> Hull:
-    check_keys(tab, _HULL_KEYS, src, "hull.", error=InputError)
+    check_keys(tab, _HULL_KEYS, src, "hull.")
     if "vertices" not in tab:
         return Hull(vertices=np.zeros((0, 3)), triangles=np.zeros((0, 3), dtype=int))
     verts = np.asarray(parse_quantity(tab["vertices"], "m", source=src, key="hull.vertices", shape=(None, 3)))

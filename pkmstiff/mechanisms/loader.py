@@ -85,17 +85,17 @@ def mechanism_from_dict(raw: dict[str, Any], src: str = "") -> Mechanism:
 
 
 def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
-    check_keys(raw, _TOP, src, error=InputError)
+    check_keys(raw, _TOP, src)
     fv = raw.get("format_version", 1)
     if fv != 1:
         raise _err(src, "format_version", "1", fv)
-    mt = check_keys(require(raw, "mechanism", src, what="a [mechanism] table", error=InputError), _MECH, src,
-                    "mechanism.", InputError)
-    name = str(require(mt, "name", src, "mechanism.", "a name", InputError))
+    mt = check_keys(require(raw, "mechanism", src, what="a [mechanism] table"), _MECH, src,
+                    "mechanism.")
+    name = str(require(mt, "name", src, "mechanism.", "a name"))
     dim = mt.get("dimension", 3)
     if dim not in (2, 3):
         raise _err(src, "mechanism.dimension", "2 (planar) or 3 (spatial)", dim)
-    links = require(mt, "links", src, "mechanism.", "a list of link names", InputError)
+    links = require(mt, "links", src, "mechanism.", "a list of link names")
     if not isinstance(links, list) or not links or not all(isinstance(x, str) and x for x in links):
         raise _err(src, "mechanism.links", "a non-empty list of link names (strings)", links)
     if len(set(links)) != len(links):
@@ -107,7 +107,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
         if g not in links:
             raise _err(src, "mechanism.ground", f"one of the links {links}", g)
     types = JOINT_TYPES_3D if dim == 3 else JOINT_TYPES_2D
-    rawj = require(raw, "joints", src, what="an array of [[joints]] tables", error=InputError)
+    rawj = require(raw, "joints", src, what="an array of [[joints]] tables")
     if not isinstance(rawj, list) or not rawj:
         raise _err(src, "joints", "a non-empty array of [[joints]] tables", rawj)
     joints: list[Joint] = []
@@ -115,17 +115,17 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
     drive_names: set[str] = set()
     for i, jr in enumerate(rawj):
         pre = f"joints[{i}]."
-        check_keys(jr, _JOINT, src, pre, InputError)
+        check_keys(jr, _JOINT, src, pre)
         jname = str(jr.get("name", f"J{i}"))
         pre = f"joints[{i}] ({jname})."
         if jname in names:
             raise _err(src, pre + "name", "a unique joint name", jname)
         names.add(jname)
-        jtype = require(jr, "type", src, pre, f"a joint type: one of {sorted(types)}", InputError)
+        jtype = require(jr, "type", src, pre, f"a joint type: one of {sorted(types)}")
         if jtype not in types:
             raise _err(src, pre + "type", f"a {'spatial' if dim == 3 else 'planar'} joint type, one of "
                        f"{sorted(types)}", jtype)
-        jl = require(jr, "links", src, pre, "the two links the joint joins", InputError)
+        jl = require(jr, "links", src, pre, "the two links the joint joins")
         nl = 1 if jtype == "fixed" else 2
         if not isinstance(jl, list) or len(jl) != nl:
             raise _err(src, pre + "links", f"a list of {nl} link name(s)", jl)
@@ -141,8 +141,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
                        "missing key")
         axis = axis2 = None
         if jtype == "cardan" or jtype == "perpendicular_axes":
-            ax = require(jr, "axes", src, pre, "two axes [[on the first link], [on the second link]]",
-                         InputError)
+            ax = require(jr, "axes", src, pre, "two axes [[on the first link], [on the second link]]")
             if not isinstance(ax, list) or len(ax) != 2:
                 raise _err(src, pre + "axes", "two axis vectors", ax)
             axis = _vec(ax[0], "dimensionless", 3, src, pre + "axes[0]", True)
@@ -175,7 +174,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
             dr = jr["drive"]
             if isinstance(dr, str):
                 dr = {"name": dr}
-            check_keys(dr, {"name", "offset"}, src, pre + "drive.", InputError)
+            check_keys(dr, {"name", "offset"}, src, pre + "drive.")
             if var not in ("linear", "angle"):
                 raise _err(src, pre + "drive", "a drive on a revolute, prismatic, cylindrical or point-on-axis joint",
                            f"a {jtype} joint")
@@ -188,7 +187,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
             drive = Drive(dn, float(parse_quantity(dr.get("offset", 0.0), unit, source=src, key=pre + "drive.offset")))
         limits = (-np.inf, np.inf)
         if "limits" in jr:
-            lt = check_keys(jr["limits"], {"min", "max"}, src, pre + "limits.", InputError)
+            lt = check_keys(jr["limits"], {"min", "max"}, src, pre + "limits.")
             if var is None:
                 raise _err(src, pre + "limits", "limits only on joints with a joint variable "
                            "(revolute, prismatic, cylindrical, point_on_axis, spherical, cardan)", jtype)
@@ -203,18 +202,18 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
         joints.append(Joint(jname, jtype, li, point, axis, axis2, drive, limits, coords, values))
     output = None
     if "output" in raw:
-        ot = check_keys(raw["output"], _OUTPUT, src, "output.", InputError)
-        ol = require(ot, "link", src, "output.", "the output link", InputError)
+        ot = check_keys(raw["output"], _OUTPUT, src, "output.")
+        ol = require(ot, "link", src, "output.", "the output link")
         if ol not in links:
             raise _err(src, "output.link", f"one of the links {links}", ol)
-        opoint = _vec(require(ot, "point", src, "output.", "the output point at home", InputError), "m", dim,
+        opoint = _vec(require(ot, "point", src, "output.", "the output point at home"), "m", dim,
                       src, "output.point")
         orient = ot.get("orientation", "full")
         if orient not in ("full", "axis", "none") or (dim == 2 and orient == "axis"):
             raise _err(src, "output.orientation", "'full', 'axis' (spatial) or 'none'", orient)
         oaxis = None
         if orient == "axis":
-            oaxis = _vec(require(ot, "axis", src, "output.", "the tool axis at home", InputError),
+            oaxis = _vec(require(ot, "axis", src, "output.", "the tool axis at home"),
                          "dimensionless", 3, src, "output.axis", True)
         cn = ot.get("coordinates", list("xyz"[:dim]))
         if not isinstance(cn, list) or not cn or not all(c in "xyz"[:dim] for c in cn) or len(set(cn)) != len(cn):

@@ -138,10 +138,10 @@ class _Reader:
     def table(self, value: Any, key: str, allowed: set[str]) -> dict[str, Any]:
         if not isinstance(value, dict):
             raise self.error(key or "(top level)", "a table", value)
-        return check_keys(value, allowed, self.src, f"{key}." if key else "", InputError)
+        return check_keys(value, allowed, self.src, f"{key}." if key else "")
 
     def req(self, tab: dict, key: str, prefix: str, what: str) -> Any:
-        return require(tab, key, self.src, prefix, what, InputError)
+        return require(tab, key, self.src, prefix, what)
 
     def number(self, value: Any, key: str, *, positive: bool = False) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):

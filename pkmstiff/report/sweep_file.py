@@ -46,7 +46,7 @@ _EVAL_KEYS = {
 
 
 def _table(src: str, tab: Any, key: str, allowed: set[str]) -> dict[str, Any]:
-    return check_keys(tab, allowed, src, f"{key}.", InputError)
+    return check_keys(tab, allowed, src, f"{key}.")
 
 
 def _parameter(src: str, tab: Any, i: int) -> Parameter:
