@@ -22,8 +22,8 @@ from components.joints import (
 )
 from components.protocol import ComponentRangeError
 from components.spline import clamped_spline, spline_weights
-from pkmstiff.units import si, to_unit
 from pkmstiff.errors import InputError
+from pkmstiff.units import si, to_unit
 
 DEG = np.deg2rad
 ANGLES = np.arange(0, 91, 15)

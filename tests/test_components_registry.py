@@ -9,8 +9,8 @@ import pytest
 from components import Component, ComponentState, registry
 from components.joints import write_joint_table
 from components.registry import available_models, build_component, build_components, register_model
-from pkmstiff.units import si, to_unit
 from pkmstiff.errors import InputError
+from pkmstiff.units import si, to_unit
 
 SRC = "machines/hexaglide.toml"
 

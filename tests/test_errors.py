@@ -12,8 +12,7 @@ import pytest
 
 import pkmstiff.errors as errors
 from pkmstiff.cli import EXIT_STATUS, exit_status, main
-from pkmstiff.errors import (ArgumentError, InadmissibleError, InputError, NumericalError, PkmstiffError,
-                             ResourceError)
+from pkmstiff.errors import ArgumentError, InadmissibleError, InputError, NumericalError, PkmstiffError, ResourceError
 from pkmstiff.io import read_toml
 
 ROOT = Path(__file__).resolve().parents[1]

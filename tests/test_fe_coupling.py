@@ -8,10 +8,10 @@ import scipy.sparse as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pkmstiff.errors import NumericalError
 from pkmstiff.fe import mesh as fm
 from pkmstiff.fe.assembly import NodeSet, Part, PartModel, ReferencePoint, Tie
 from pkmstiff.fe.coupling import ConstraintSet, guyan, rbe2_rows, stiffness_along
-from pkmstiff.errors import NumericalError
 from pkmstiff.fe.materials import CubicCylindrical, Isotropic
 
 STEEL = Isotropic("steel", 210e9, 0.3)

@@ -8,10 +8,10 @@ from skfem import Basis, BilinearForm, ElementVector, asm
 from skfem.helpers import sym_grad
 from skfem.models.elasticity import linear_elasticity
 
+from pkmstiff.errors import ArgumentError
 from pkmstiff.fe import mesh as fm
 from pkmstiff.fe.elasticity import ELEMENTS, rotate_stiffness, scalar_basis, stiffness_matrix
 from pkmstiff.fe.materials import CubicCylindrical, Isotropic
-from pkmstiff.errors import ArgumentError
 
 STEEL = Isotropic("steel", 210e9, 0.3)
 RING = CubicCylindrical("ring", 7.7e9, 3.2e9, 0.1, axis_point=(0.0, 0.0, 0.0), axis_dir=(0.0, 0.0, 1.0))

@@ -12,8 +12,8 @@ import pytest
 
 from components.joint_tables import load_joint_table
 from pkmstiff.cli.fe import cmd_fe_joint
-from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
 from pkmstiff.errors import InputError
+from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
 
 PARAMS = Path(__file__).resolve().parents[1] / "pkmstiff" / "fe" / "params"
 JOINTS = ("iwf_3dof_improved", "iwf_3dof_old", "iwf_2dof_improved", "iwf_2dof_old")

@@ -9,8 +9,8 @@ import pytest
 
 from components.registry import build_component
 from pkmstiff.cli.fe import cmd_fe_platform
-from pkmstiff.fe.platform import component_toml, load_platform_parameters, platform_stiffness
 from pkmstiff.errors import InputError
+from pkmstiff.fe.platform import component_toml, load_platform_parameters, platform_stiffness
 
 PARAMS = Path(__file__).resolve().parents[1] / "pkmstiff" / "fe" / "params" / "hexaglide_platform.toml"
 COARSE = 0.04  # m; ~13k DOFs, 1-2 s; the diagonal differs from the 30 mm mesh by < 4 %

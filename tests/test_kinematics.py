@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.errors import ArgumentError
 from pkmstiff.kinematics import (
     cardan_inverse_jacobian,
     condition_bounds,
@@ -25,7 +26,6 @@ from pkmstiff.kinematics import (
     singular_mask,
     transmission_quality,
 )
-from pkmstiff.errors import ArgumentError
 from pkmstiff.kinematics.rotation import cardan_matrix, rotation_from_axis_angle
 from pkmstiff.machine.loader import load_machine
 from tests.conftest import BUNDLED, CENTRE, hexaglide_by_hand, random_poses, with_chains

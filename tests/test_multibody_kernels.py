@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import pkmstiff.multibody as sde
-from pkmstiff.errors import InputError, NumericalError
 from pkmstiff.analysis import batch, evaluate_structure
+from pkmstiff.errors import InputError, NumericalError
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.multibody.assembly import stiffness_matrix
 from pkmstiff.multibody.fast import compiled_chunk

@@ -14,8 +14,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pkmstiff.report import Figure, Report, Table, write_report
 from pkmstiff.errors import ArgumentError
+from pkmstiff.report import Figure, Report, Table, write_report
 from pkmstiff.report.render import format_value, percent_of_baseline
 
 RUN = {"date": "2024-01-01T00:00:00+00:00", "python": "3.11", "pkmstiff": "0.1.0"}
@@ -203,9 +203,9 @@ def test_percent_round_trip(base, v):
 # ------------------------------------------------------------------------------------------------- report specs
 import math  # noqa: E402
 
+from pkmstiff.errors import InputError
 from pkmstiff.report.build import build_report  # noqa: E402
 from pkmstiff.report.spec import fast_spec, load_spec  # noqa: E402
-from pkmstiff.errors import InputError
 
 SPECS = Path(__file__).resolve().parents[1] / "studies" / "specs"
 

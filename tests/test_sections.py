@@ -8,10 +8,10 @@ import pytest
 
 import pkmstiff.evaluation.quantities as quantities
 from pkmstiff.admissibility.checks import Reason
+from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation.export import to_csv, to_npz, to_vtk
 from pkmstiff.evaluation.quantities import EvalContext, Quantity, register_quantity
 from pkmstiff.evaluation.sections import axis_plane, evaluate_section, general_plane
-from pkmstiff.errors import ArgumentError
 
 
 @pytest.fixture(scope="module")

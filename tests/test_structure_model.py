@@ -15,6 +15,7 @@ import pkmstiff.multibody as sde
 from pkmstiff.admissibility.checks import Reason
 from pkmstiff.analysis import evaluate_structure, tcp_compliance
 from pkmstiff.analysis.batch import _evaluate_chunk
+from pkmstiff.errors import InputError
 from pkmstiff.kinematics import inverse_kinematics, inverse_kinematics_frames
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.machine.model import Limits
@@ -27,7 +28,6 @@ from pkmstiff.structure import (
     build_structure,
     structure_from_ik,
 )
-from pkmstiff.errors import InputError
 
 HEXAGLIDE = load_machine("hexaglide")
 HEX_6X = load_machine("hexapod_6x")

@@ -13,6 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pkmstiff import load_machine
+from pkmstiff.errors import ArgumentError, InputError
 from pkmstiff.evaluation.sweep import (
     LogUniform,
     Normal,
@@ -23,8 +24,6 @@ from pkmstiff.evaluation.sweep import (
     random_points,
     run_sweep,
 )
-from pkmstiff.errors import ArgumentError
-from pkmstiff.errors import InputError
 from pkmstiff.machine.variants import machine_with, parse_override_path
 from pkmstiff.report.sweep_evaluations import Combined, PointValues, SectionStatistics
 
@@ -199,8 +198,8 @@ def test_sweep_file_and_cli(tmp_path):
     import argparse
 
     import pkmstiff.cli.sweep as cli_sweep
-    from pkmstiff.report.sweep_file import load_sweep
     from pkmstiff.errors import InputError
+    from pkmstiff.report.sweep_file import load_sweep
 
     s = load_sweep(SWEEPS / "hexaglide_strut_sweep.toml")
     assert len(s.tasks()) == 12 and s.tasks()[0].overrides == {"components.strut_950.k": "150.0 N/um",

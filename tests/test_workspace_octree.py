@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pkmstiff.workspace.octree import CORNER_OFFSETS, levels_for, octree_boundary
 from pkmstiff.errors import ArgumentError
+from pkmstiff.workspace.octree import CORNER_OFFSETS, levels_for, octree_boundary
 from pkmstiff.workspace.surface import boundary_surface
 from pkmstiff.workspace.volume import pyramid_volume, tetrahedron_volume, workspace_volume
 

@@ -9,10 +9,10 @@ import pytest
 
 from pkmstiff import load_machine
 from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation.quantities import Quantity, register_quantity
 from pkmstiff.kinematics import transmission_quality
 from pkmstiff.workspace.oracle import PoseOracle, staged_admissible
-from pkmstiff.errors import ArgumentError
 from pkmstiff.workspace.requirements import parse_requirement
 from tests.conftest import BUNDLED, CENTRE
 

@@ -8,13 +8,8 @@ import numpy as np
 import pytest
 
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.workspace.rotation import (
-    SIX_DIRECTIONS,
-    _prediction,
-    rotation_angle_map,
-    rotational_workspace_map,
-)
 from pkmstiff.errors import ArgumentError
+from pkmstiff.workspace.rotation import SIX_DIRECTIONS, _prediction, rotation_angle_map, rotational_workspace_map
 
 INC = math.radians(2.0)
 

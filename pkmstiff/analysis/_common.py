@@ -8,8 +8,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 import pkmstiff.multibody as sde
-from pkmstiff.structure import PKMStructure
 from pkmstiff.errors import InputError
+from pkmstiff.structure import PKMStructure
 
 Array = NDArray[np.float64]
 

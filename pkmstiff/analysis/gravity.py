@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
 from pkmstiff.analysis._common import Array, load_body
+from pkmstiff.errors import InputError, NumericalError
 from pkmstiff.kinematics import as_poses
 from pkmstiff.machine.model import Machine
 from pkmstiff.multibody.assembly import stiffness_matrix
@@ -42,7 +43,6 @@ from pkmstiff.structure import (
     build_structure,
     structure_layout,
 )
-from pkmstiff.errors import InputError, NumericalError
 
 
 def _gravity_vector(machine: Machine, gravity: ArrayLike | None) -> np.ndarray:

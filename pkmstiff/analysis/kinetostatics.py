@@ -29,17 +29,12 @@ from numpy.typing import ArrayLike
 
 from pkmstiff.admissibility.checks import Reason, static_drive_loads
 from pkmstiff.analysis._common import AXIS_NAMES, Array
+from pkmstiff.errors import InputError
 from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics, jacobian_and_condition
 from pkmstiff.kinematics import transmission_quality as _tq
 from pkmstiff.machine.model import Machine
 from pkmstiff.machine.roles import DriveLoadData, machine_components
-from pkmstiff.structure import (
-    PKSBody,
-    dynamics_masses,
-    mass_matrix_about_origin,
-    vertical_direction,
-)
-from pkmstiff.errors import InputError
+from pkmstiff.structure import PKSBody, dynamics_masses, mass_matrix_about_origin, vertical_direction
 
 DEFAULT_VELOCITY_DIRECTIONS = ("x", "y", "z")
 DEFAULT_ACCELERATION_DIRECTIONS = ("x", "-x", "y", "-y", "z", "-z")

@@ -26,7 +26,7 @@ from pkmstiff.calibration.measurement import commanded_drives
 from pkmstiff.calibration.perturb import machine_file_text
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.calibration.uncertainty import Uncertainty
-from pkmstiff.errors import InputError, NumericalError, InadmissibleError
+from pkmstiff.errors import InadmissibleError, InputError, NumericalError
 from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine

@@ -39,7 +39,7 @@ from pkmstiff.calibration.measurement import reached_poses, simulate_readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import Plan
-from pkmstiff.errors import PkmstiffError, InputError, NumericalError
+from pkmstiff.errors import InputError, NumericalError, PkmstiffError
 from pkmstiff.machine import Machine
 
 METHODS = ("lm", "gauss-newton", "minimax", "ga+lm")

@@ -10,7 +10,7 @@ from pkmstiff.calibration.instruments import readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import Plan
-from pkmstiff.errors import NumericalError, InadmissibleError
+from pkmstiff.errors import InadmissibleError, NumericalError
 from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine

@@ -31,7 +31,7 @@ from pkmstiff.calibration.identifiability import analyse, orthogonality_matrix
 from pkmstiff.calibration.jacobian import identification_jacobian
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.plans import Plan, Segment, check_plan, hemisphere_plan, poses_for_target, tilt_torsion_matrix
-from pkmstiff.errors import InputError, InadmissibleError
+from pkmstiff.errors import InadmissibleError, InputError
 from pkmstiff.machine import Machine
 
 OBJECTIVES = ("cond", "orthogonality", "O1", "O2", "O3", "O4", "O5")

@@ -22,7 +22,7 @@ import numpy as np
 
 from pkmstiff.admissibility import evaluate_poses
 from pkmstiff.calibration.instruments import INSTRUMENTS, Setup, SetupState, readings
-from pkmstiff.errors import InputError, InadmissibleError
+from pkmstiff.errors import InadmissibleError, InputError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.kinematics import as_poses
 from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix

@@ -36,7 +36,7 @@ from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_state
 from pkmstiff.calibration.plans import Plan, poses_for_target
-from pkmstiff.errors import InputError, InadmissibleError
+from pkmstiff.errors import InadmissibleError, InputError
 from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine

@@ -10,8 +10,7 @@ import sys
 from typing import Sequence
 
 from pkmstiff import __version__
-from pkmstiff.errors import (ArgumentError, InadmissibleError, InputError, NumericalError, PkmstiffError,
-                             ResourceError)
+from pkmstiff.errors import ArgumentError, InadmissibleError, InputError, NumericalError, PkmstiffError, ResourceError
 
 # modules that add their own sub-commands with ``add_commands(subparsers)``
 _COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.components", "pkmstiff.cli.demo", "pkmstiff.cli.pose",

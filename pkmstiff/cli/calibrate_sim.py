@@ -213,7 +213,7 @@ def plan_command(args: argparse.Namespace) -> dict:
         plan_toml,
         start_nodes,
     )
-    from pkmstiff.errors import InputError, InadmissibleError
+    from pkmstiff.errors import InadmissibleError, InputError
     from pkmstiff.machine import load_machine
 
     check_instrument(args.instrument)

@@ -82,8 +82,8 @@ class _Progress:
 
 
 def _requirements(args: argparse.Namespace) -> list[Any]:
-    from pkmstiff.workspace.requirements import parse_requirements
     from pkmstiff.errors import ArgumentError
+    from pkmstiff.workspace.requirements import parse_requirements
 
     try:
         return parse_requirements(args.require or [])
@@ -204,11 +204,11 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
 
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import check_output_dir
+    from pkmstiff.errors import ArgumentError
     from pkmstiff.evaluation.sections import raster
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
     from pkmstiff.workspace.rotation import DIRECTIONS, rotational_workspace_map
-    from pkmstiff.errors import ArgumentError
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))

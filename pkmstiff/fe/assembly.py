@@ -16,8 +16,8 @@ import numpy as np
 import scipy.sparse as sp
 from skfem import CellBasis, MeshHex
 
-from pkmstiff.fe.coupling import Condensation, ConstraintSet, guyan, rbe2_rows
 from pkmstiff.errors import NumericalError
+from pkmstiff.fe.coupling import Condensation, ConstraintSet, guyan, rbe2_rows
 from pkmstiff.fe.elasticity import ElementName, rotate_stiffness, scalar_basis, stiffness_matrix
 from pkmstiff.fe.materials import Material
 from pkmstiff.fe.ties import tie

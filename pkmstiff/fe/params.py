@@ -9,11 +9,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any, Mapping
 
+from pkmstiff.errors import ArgumentError, InputError
 from pkmstiff.fe.materials import CubicCylindrical, Isotropic, Material
-from pkmstiff.errors import ArgumentError
 from pkmstiff.io import check_keys
 from pkmstiff.units import parse_quantity
-from pkmstiff.errors import InputError
 
 # schema: section -> key -> unit ("m", "Pa", "N", ... positive; "m0" non-negative; "m~" any sign; "str" text,
 # "int" count, "-" dimensionless)

@@ -5,13 +5,7 @@ Poses are arrays of shape ``(N, 6)``: x, y, z [m] (O' in the MKS) and Cardan ang
 (:mod:`pkmstiff.kinematics.rotation`). Results are pose-first, e.g. ``IK.p`` has shape ``(N, n, 3)``.
 """
 
-from pkmstiff.kinematics.arrays import (
-    DEFAULT_CHUNK,
-    POSE_COLUMNS,
-    POSE_UNITS,
-    as_poses,
-    chunk_slices,
-)
+from pkmstiff.kinematics.arrays import DEFAULT_CHUNK, POSE_COLUMNS, POSE_UNITS, as_poses, chunk_slices
 from pkmstiff.kinematics.conditioning import (
     condition_bounds,
     condition_number,

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from pkmstiff.errors import ArgumentError
 from pkmstiff.kinematics import dispatch as _dispatch
 from pkmstiff.kinematics.arrays import DEFAULT_CHUNK, Array, chunk_slices
-from pkmstiff.errors import ArgumentError
 from pkmstiff.machine.model import Machine
 
 

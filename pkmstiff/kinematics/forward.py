@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.kinematics.arrays import Array, as_poses
 from pkmstiff.errors import ArgumentError
+from pkmstiff.kinematics.arrays import Array, as_poses
 from pkmstiff.kinematics.inverse import IK, inverse_kinematics
 from pkmstiff.kinematics.jacobians import cardan_inverse_jacobian, inverse_jacobian
 from pkmstiff.machine.model import Machine

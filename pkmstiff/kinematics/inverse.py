@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.kinematics.arrays import Array, _to_soa, _vec_aos, as_poses
 from pkmstiff.errors import ArgumentError
+from pkmstiff.kinematics.arrays import Array, _to_soa, _vec_aos, as_poses
 from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
 from pkmstiff.machine.model import Machine
 

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.multibody.inputs import pose_array, take
 from pkmstiff.errors import InputError
+from pkmstiff.multibody.inputs import pose_array, take
 
 FRAME = "frame"
 """Name of the fixed frame (0 DOF); may be used as ``body_a``/``body_b`` of any element."""

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pkmstiff.multibody.bodies import FRAME, RigidBody
 from pkmstiff.errors import InputError
+from pkmstiff.multibody.bodies import FRAME, RigidBody
 from pkmstiff.multibody.linalg import reference_matrix, translation_matrix
 from pkmstiff.multibody.system import SDEModel
 

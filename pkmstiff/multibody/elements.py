@@ -18,8 +18,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from pkmstiff.multibody.inputs import pose_array, take
 from pkmstiff.errors import InputError
+from pkmstiff.multibody.inputs import pose_array, take
 
 BindingKind = Literal["axial", "point", "full"]
 

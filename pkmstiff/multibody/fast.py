@@ -18,8 +18,8 @@ import os
 
 import numpy as np
 
-from pkmstiff.multibody.bodies import FRAME, RigidBody
 from pkmstiff.errors import InputError, NumericalError
+from pkmstiff.multibody.bodies import FRAME, RigidBody
 from pkmstiff.multibody.solver import UNDER_RESTRAINED, cholesky_checked, elimination_plan
 from pkmstiff.multibody.system import SDEModel
 

@@ -19,9 +19,9 @@ from typing import Any, Literal
 
 import numpy as np
 
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.assembly import damping_matrix, has_damping, mass_matrix, stiffness_matrix
 from pkmstiff.multibody.constraints import null_space_basis
-from pkmstiff.errors import InputError
 from pkmstiff.multibody.modal import dynamic_system
 from pkmstiff.multibody.solver import StaticSystem
 from pkmstiff.multibody.static import DEFAULT_CHUNK, _n_total, chunk_point, point_load

@@ -16,10 +16,10 @@ from typing import Callable
 
 import numpy as np
 
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.assembly import element_energies, mass_blocks, mass_matrix, stiffness_matrix
 from pkmstiff.multibody.bodies import RigidBody
 from pkmstiff.multibody.constraints import null_space_basis
-from pkmstiff.errors import InputError
 from pkmstiff.multibody.linalg import cholesky_inverse_factor
 from pkmstiff.multibody.solver import check_positive_definite
 from pkmstiff.multibody.static import DEFAULT_CHUNK, Groups, group_matrix

@@ -13,10 +13,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pkmstiff.errors import NumericalError
 from pkmstiff.multibody.assembly import stiffness_matrix
 from pkmstiff.multibody.bodies import FRAME
 from pkmstiff.multibody.constraints import null_space_basis
-from pkmstiff.errors import NumericalError
 from pkmstiff.multibody.linalg import solve_lower, solve_upper_t
 from pkmstiff.multibody.system import SDEModel
 

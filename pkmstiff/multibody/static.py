@@ -10,10 +10,10 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.assembly import element_deformations, element_energies, element_forces
 from pkmstiff.multibody.bodies import RigidBody
 from pkmstiff.multibody.inputs import common_poses, pose_array, take
-from pkmstiff.errors import InputError
 from pkmstiff.multibody.linalg import reference_matrix
 from pkmstiff.multibody.solver import StaticSystem
 from pkmstiff.multibody.system import SDEModel

@@ -12,10 +12,10 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
+from pkmstiff.errors import InputError
 from pkmstiff.multibody.bodies import FRAME, Body, RigidBody, make_point_mass, make_rigid_body
 from pkmstiff.multibody.elements import BindingKind, MatrixSpec, RigidBinding, SDESet, matrix_spec
 from pkmstiff.multibody.inputs import common_poses, pose_array
-from pkmstiff.errors import InputError
 
 DOF_NAMES = ("ux", "uy", "uz", "rx", "ry", "rz")
 

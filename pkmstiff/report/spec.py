@@ -175,8 +175,8 @@ class _Reader:
         return (math.radians(a), math.radians(b), math.radians(c))
 
     def quantities(self, value: Any, key: str) -> tuple[str, ...]:
-        from pkmstiff.evaluation.quantities import get_quantity
         from pkmstiff.errors import ArgumentError
+        from pkmstiff.evaluation.quantities import get_quantity
 
         names = self.strings(value, key)
         for n in names:
@@ -255,8 +255,8 @@ def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
 
 
 def _workspace(r: _Reader, tab: Any) -> WorkspaceSpec:
-    from pkmstiff.workspace.requirements import parse_requirements
     from pkmstiff.errors import ArgumentError
+    from pkmstiff.workspace.requirements import parse_requirements
     from pkmstiff.workspace.volume import METHODS
 
     tab = r.table(tab, "workspace", _WORKSPACE_KEYS)

@@ -35,8 +35,8 @@ SECTION_STATISTICS = tuple(STATISTICS)
 
 
 def _check_quantities(names: Sequence[str], where: str) -> tuple[str, ...]:
-    from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.errors import ArgumentError
+    from pkmstiff.evaluation.quantities import get_quantity
 
     names = tuple(names)
     if not names or not all(isinstance(n, str) for n in names):
@@ -174,8 +174,8 @@ class WorkspaceVolume:
 
     def __post_init__(self) -> None:
         _check_frame(self.frame, "WorkspaceVolume.frame")
-        from pkmstiff.workspace.requirements import parse_requirements
         from pkmstiff.errors import ArgumentError
+        from pkmstiff.workspace.requirements import parse_requirements
         from pkmstiff.workspace.volume import METHODS
 
         if not (isinstance(self.resolution_mm, (int, float)) and self.resolution_mm > 0):

@@ -24,9 +24,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from pkmstiff.errors import InputError  # noqa: F401 (re-exported)
+from pkmstiff.errors import (
+    ArgumentError,
+    InputError,  # noqa: F401 (re-exported)
+)
 from pkmstiff.evaluation.sweep import Choice, LogUniform, Normal, Parameter, Sweep, Uniform
-from pkmstiff.errors import ArgumentError
 from pkmstiff.io import check_keys, read_toml
 from pkmstiff.report.sweep_evaluations import Combined, PointValues, SectionStatistics, WorkspaceVolume
 

@@ -9,13 +9,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.admissibility.pipeline import evaluate_chunk, evaluate_poses
+from pkmstiff.errors import InputError
 from pkmstiff.kinematics import IK, as_poses, inverse_kinematics
 from pkmstiff.kinematics.joint_angles import joint_angles
 from pkmstiff.machine.model import Machine
 from pkmstiff.structure.layout import StructureLayout, structure_layout
 from pkmstiff.structure.model import PKMStructure
 from pkmstiff.structure.options import COMPONENT_FAILED, DEFAULT_CHUNK, Array, StructureOptions
-from pkmstiff.errors import InputError
 from pkmstiff.structure.stiffness import chain_stiffness
 
 

@@ -9,10 +9,10 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from pkmstiff.errors import InputError
 from pkmstiff.machine.model import Machine
 from pkmstiff.machine.roles import MachineComponents, machine_components
 from pkmstiff.structure.options import StructureOptions
-from pkmstiff.errors import InputError
 
 
 @dataclass(frozen=True)

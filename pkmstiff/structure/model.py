@@ -12,11 +12,11 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
 from pkmstiff.admissibility.checks import Reason
+from pkmstiff.errors import InputError
 from pkmstiff.machine.model import Machine
 from pkmstiff.structure.assembly import drive_names, rigid_chains, sde_model
 from pkmstiff.structure.layout import StructureLayout
 from pkmstiff.structure.options import NOT_POSITIVE_DEFINITE, STATUS_TEXT, Array, StructureOptions
-from pkmstiff.errors import InputError
 from pkmstiff.structure.stiffness import ChainStiffness
 
 
