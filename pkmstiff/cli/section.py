@@ -36,13 +36,12 @@ def section_cost(n_points: int, n_quantities: int) -> tuple[float, float]:
 
 def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget
+    from pkmstiff.cli.mechanism import is_mechanism_target
     from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.evaluation.sections import axis_plane, evaluate_section, raster_count, section_summary
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
-
-    from pkmstiff.cli.mechanism import is_mechanism_target
 
     if is_mechanism_target(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
         from pkmstiff.cli.mechanism import print_section, section_report
@@ -155,8 +154,8 @@ def _output_names(stem: str, names: list[str], formats: list[str], reasons_map: 
 def _requirements(texts: list[str] | None) -> list:
     if not texts:
         return []
-    from pkmstiff.workspace.requirements import parse_requirements
     from pkmstiff.errors import ArgumentError
+    from pkmstiff.workspace.requirements import parse_requirements
 
     try:
         return parse_requirements(texts)
