@@ -86,7 +86,7 @@ class ComponentState:
             raise ArgumentError(f"ComponentState: all arrays must have the same length N, found {sizes}")
         if self.n_poses is not None:
             if int(self.n_poses) < 1:
-                raise ArgumentError(f"ComponentState.n_poses: expected an integer >= 1, found {self.n_poses!r}")
+                raise ArgumentError(option="ComponentState.n_poses", expected="an integer >= 1", found=self.n_poses)
             if sizes and next(iter(sizes.values())) != int(self.n_poses):
                 raise ArgumentError(f"ComponentState: n_poses={self.n_poses} does not match the array lengths "
                                          f"{sizes}")

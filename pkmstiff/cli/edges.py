@@ -72,7 +72,7 @@ def check_output_file(path: str | Path | None, option: str = "--out", force: boo
     if p.is_dir():
         raise ArgumentError(f"{option}: expected a file name, found {str(p)!r} (a directory)")
     if suffixes and p.suffix.lower() not in suffixes:
-        raise ArgumentError(f"{option}: expected a file name ending in {' or '.join(suffixes)}, found {str(p)!r}")
+        raise ArgumentError(option=option, expected=f"a file name ending in {' or '.join(suffixes)}", found=str(p))
     if p.exists() and not force:
         raise ArgumentError(f"{option}: {str(p)!r} exists; use --force to overwrite it")
     _check_parent_writable(p, option)

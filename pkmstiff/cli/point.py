@@ -64,7 +64,7 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
     :class:`~pkmstiff.errors.InadmissibleError` (exit status 3) before any analysis.
     """
     if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
-        raise ArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
+        raise ArgumentError(option="--tool-length", expected="a length >= 0 mm", found=tool_length_mm)
     if n_modes < 0:
         raise ArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
     if _is_planar(machine_name):
@@ -285,7 +285,7 @@ def _point_batch(args: argparse.Namespace) -> int:
     from pkmstiff.cli.pose import read_pose_file
 
     if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
-        raise ArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
+        raise ArgumentError(option="--tool-length", expected="a length >= 0 mm", found=args.tool_length)
     if args.modes < 0:
         raise ArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None

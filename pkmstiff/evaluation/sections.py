@@ -107,7 +107,7 @@ def axis_plane(kind: str, at: float, u_range: tuple[float, float], v_range: tupl
     """
     kind = kind.lower()
     if kind not in ("yz", "xz", "xy"):
-        raise ArgumentError(f"plane: expected 'yz', 'xz' or 'xy', found {kind!r}")
+        raise ArgumentError(option="plane", expected="'yz', 'xz' or 'xy'", found=kind)
     su, sv = (step, step) if np.isscalar(step) else step
     normal_axis = ({"x", "y", "z"} - set(kind)).pop()
     origin = AXES[normal_axis] * at

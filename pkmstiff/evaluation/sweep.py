@@ -182,7 +182,7 @@ def random_points(parameters: Iterable[Parameter] | Mapping[str, Any], n: int, s
     ``numpy.random.default_rng(seed)``, parameter by parameter in order (the same seed gives the same points)."""
     params = _as_parameters(parameters)
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise ArgumentError(f"n_samples: expected a positive integer, found {n!r}")
+        raise ArgumentError(option="n_samples", expected="a positive integer", found=n)
     rng = np.random.default_rng(seed)
     cols = []
     for p in params:
@@ -226,7 +226,7 @@ def run_task(task: SweepTask) -> dict[str, Any]:
             raise ArgumentError(f"the evaluation returned {type(out).__name__}, expected a mapping name -> number")
         for name, value in out.items():
             if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-                raise ArgumentError(f"output {name!r}: expected a number, found {value!r}")
+                raise ArgumentError(option=f"output {name!r}", expected="a number", found=value)
             row[str(name)] = float(value)
         row["error"] = ""
     except Exception as exc:  # noqa: BLE001 - one bad variant must not stop the sweep; the row names the error
@@ -249,7 +249,7 @@ class Sweep:
     def __post_init__(self) -> None:
         object.__setattr__(self, "parameters", _as_parameters(self.parameters))
         if self.mode not in ("grid", "random"):
-            raise ArgumentError(f"mode: expected 'grid' or 'random', found {self.mode!r}")
+            raise ArgumentError(option="mode", expected="'grid' or 'random'", found=self.mode)
         if self.mode == "random" and (isinstance(self.n_samples, bool) or not isinstance(self.n_samples, int)
                                       or self.n_samples < 1):
             raise ArgumentError(f"n_samples: a random sweep needs a positive number of samples, "
@@ -259,7 +259,7 @@ class Sweep:
         if dup:
             raise ArgumentError(f"parameters: each path at most once, found {dup[0]!r} twice")
         if not callable(self.evaluation):
-            raise ArgumentError(f"evaluation: expected a function of the machine, found {self.evaluation!r}")
+            raise ArgumentError(option="evaluation", expected="a function of the machine", found=self.evaluation)
 
     def points(self) -> list[dict[str, Any]]:
         """Parameter values per task: [{path: value}]."""
@@ -381,7 +381,7 @@ def run_sweep(sweep: Sweep | Sequence[SweepTask], *, n_jobs: int = 1, scheduler:
     """
     tasks = sweep.tasks() if isinstance(sweep, Sweep) else list(sweep)
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs == 0:
-        raise ArgumentError(f"n_jobs: expected a non-zero integer (-1: all cores), found {n_jobs!r}")
+        raise ArgumentError(option="n_jobs", expected="a non-zero integer (-1: all cores)", found=n_jobs)
     t0 = time.perf_counter()
     if scheduler is not None:
         rows = _run_dask(tasks, scheduler, progress)

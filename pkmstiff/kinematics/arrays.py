@@ -56,7 +56,7 @@ def as_poses(poses: ArrayLike, name: str = "poses") -> Array:
 def chunk_slices(n: int, chunk_size: int = DEFAULT_CHUNK) -> Iterator[slice]:
     """Slices ``[0:c], [c:2c], …`` covering ``range(n)``, for processing many poses in bounded memory."""
     if chunk_size < 1:
-        raise ArgumentError(f"chunk_size: expected a positive integer, found {chunk_size!r}")
+        raise ArgumentError(option="chunk_size", expected="a positive integer", found=chunk_size)
     for start in range(0, n, chunk_size):
         yield slice(start, min(start + chunk_size, n))
 

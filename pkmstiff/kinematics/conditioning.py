@@ -249,7 +249,7 @@ def _run_chunked(
 ) -> tuple[Array | None, Array | None, tuple[Array, Array] | None, int]:
     A = _check_square_stack(jinv, "jinv")
     if not 0.0 <= rtol < 1.0:
-        raise ArgumentError(f"rtol: expected a relative tolerance in [0, 1), found {rtol!r}")
+        raise ArgumentError(option="rtol", expected="a relative tolerance in [0, 1)", found=rtol)
     if kappa and A.shape[1] != 6:
         raise ArgumentError(f"jinv: the fast condition number needs 6×6 matrices, found {A.shape[1:]}")
     N, n, _ = A.shape

@@ -40,7 +40,7 @@ def _check_quantities(names: Sequence[str], where: str) -> tuple[str, ...]:
 
     names = tuple(names)
     if not names or not all(isinstance(n, str) for n in names):
-        raise ArgumentError(f"{where}: expected a non-empty list of quantity names, found {names!r}")
+        raise ArgumentError(option=where, expected="a non-empty list of quantity names", found=names)
     for n in names:
         try:
             get_quantity(n)
@@ -52,13 +52,13 @@ def _check_quantities(names: Sequence[str], where: str) -> tuple[str, ...]:
 def _orientation(values: Sequence[float], where: str) -> tuple[float, float, float]:
     v = tuple(float(x) for x in values)
     if len(v) != 3 or not all(math.isfinite(x) for x in v):
-        raise ArgumentError(f"{where}: expected three angles a, b, c in deg, found {values!r}")
+        raise ArgumentError(option=where, expected="three angles a, b, c in deg", found=values)
     return v  # type: ignore[return-value]
 
 
 def _check_frame(frame: str, where: str) -> None:
     if frame not in ("machine", "report"):
-        raise ArgumentError(f"{where}: expected 'machine' or 'report', found {frame!r}")
+        raise ArgumentError(option=where, expected="'machine' or 'report'", found=frame)
 
 
 @dataclass(frozen=True)
@@ -85,13 +85,14 @@ class SectionStatistics:
         object.__setattr__(self, "quantities", _check_quantities(self.quantities, "SectionStatistics.quantities"))
         object.__setattr__(self, "plane", str(self.plane).lower())
         if self.plane not in ("yz", "xz", "xy"):
-            raise ArgumentError(f"SectionStatistics.plane: expected 'yz', 'xz' or 'xy', found {self.plane!r}")
+            raise ArgumentError(option="SectionStatistics.plane", expected="'yz', 'xz' or 'xy'", found=self.plane)
         try:
             parse_ranges(self.range, self.plane)
         except ArgumentError as exc:
             raise ArgumentError(f"SectionStatistics.range: {exc}") from None
         if not (isinstance(self.step_mm, (int, float)) and self.step_mm > 0):
-            raise ArgumentError(f"SectionStatistics.step_mm: expected a positive step in mm, found {self.step_mm!r}")
+            raise ArgumentError(option="SectionStatistics.step_mm", found=self.step_mm,
+                                expected="a positive step in mm")
         stats = tuple(self.statistics)
         bad = [s for s in stats if s not in SECTION_STATISTICS]
         if bad or not stats:
@@ -138,7 +139,7 @@ class PointValues:
         _check_frame(self.frame, "PointValues.frame")
         p = tuple(float(x) for x in self.pose)
         if len(p) != 6 or not all(math.isfinite(x) for x in p):
-            raise ArgumentError(f"PointValues.pose: expected x, y, z [mm], a, b, c [deg], found {self.pose!r}")
+            raise ArgumentError(option="PointValues.pose", expected="x, y, z [mm], a, b, c [deg]", found=self.pose)
         object.__setattr__(self, "pose", p)
         object.__setattr__(self, "quantities", _check_quantities(self.quantities, "PointValues.quantities"))
 
@@ -188,7 +189,7 @@ class WorkspaceVolume:
                                  f"min < max, found {self.box_mm!r}")
             object.__setattr__(self, "box_mm", b)
         if self.method not in METHODS:
-            raise ArgumentError(f"WorkspaceVolume.method: expected one of {list(METHODS)}, found {self.method!r}")
+            raise ArgumentError(option="WorkspaceVolume.method", expected=f"one of {list(METHODS)}", found=self.method)
         object.__setattr__(self, "requirements", tuple(self.requirements))
         try:
             parse_requirements(self.requirements)
@@ -221,7 +222,7 @@ class Combined:
     def __post_init__(self) -> None:
         object.__setattr__(self, "parts", tuple(self.parts))
         if not self.parts or not all(callable(p) for p in self.parts):
-            raise ArgumentError(f"Combined.parts: expected at least one evaluation, found {self.parts!r}")
+            raise ArgumentError(option="Combined.parts", expected="at least one evaluation", found=self.parts)
 
     def __call__(self, machine: Machine) -> dict[str, Any]:
         out: dict[str, Any] = {}

@@ -208,7 +208,7 @@ def _check_box(lo: ArrayLike, hi: ArrayLike, eps: float) -> tuple[np.ndarray, np
         raise ArgumentError(f"octree box: expected hi > lo on every axis, found lo={lo_a.tolist()}, "
                                f"hi={hi_a.tolist()}")
     if not (math.isfinite(eps) and eps > 0):
-        raise ArgumentError(f"octree resolution eps: expected a positive number, found {eps!r}")
+        raise ArgumentError(option="octree resolution eps", expected="a positive number", found=eps)
     if np.max((hi_a - lo_a) / eps) > 2.0 ** 20:
         raise ArgumentError(f"octree resolution eps={eps!r}: more than 2**20 cells along an axis of the box "
                                f"{(hi_a - lo_a).tolist()}; choose a coarser resolution")

@@ -127,7 +127,7 @@ class PoseOracle:
                                    f"found {base_pose!r}")
         self.free = tuple(int(f) for f in free)
         if not self.free or any(f < 0 or f > 5 for f in self.free) or len(set(self.free)) != len(self.free):
-            raise ArgumentError(f"free: expected distinct pose columns in 0..5, found {free!r}")
+            raise ArgumentError(option="free", expected="distinct pose columns in 0..5", found=free)
         unknown = set(checks) - set(adm.ALL_CHECKS)
         if unknown:
             raise ArgumentError(f"checks: unknown {sorted(unknown)}; expected a subset of {adm.ALL_CHECKS}")
@@ -142,7 +142,7 @@ class PoseOracle:
         if rng is None:
             return None
         if mode not in ("all", "any"):
-            raise ArgumentError(f"range_mode: expected 'all' or 'any', found {mode!r}")
+            raise ArgumentError(option="range_mode", expected="'all' or 'any'", found=mode)
         try:
             name, lo, hi = rng
             col = ANGLE_INDEX[str(name)]

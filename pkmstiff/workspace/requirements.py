@@ -81,7 +81,7 @@ def parse_requirement(text: str) -> Requirement:
                                    f"same dimension), found {value!r}")
         limit = float(parsed.to(target.units).magnitude) / float(target.magnitude)
     if not np.isfinite(limit):
-        raise ArgumentError(f"requirement {text!r}: expected a finite limit, found {value!r}")
+        raise ArgumentError(option=f"requirement {text!r}", expected="a finite limit", found=value)
     return Requirement(name, op, limit, text.strip())
 
 

@@ -111,14 +111,15 @@ def _directions(direction: str | Sequence[str]) -> list[str]:
     dirs = [direction] if isinstance(direction, str) else list(direction)
     bad = [d for d in dirs if d not in DIRECTIONS]
     if bad or not dirs or len(set(dirs)) != len(dirs):
-        raise ArgumentError(f"direction: expected distinct names among {list(DIRECTIONS)}, found {direction!r}")
+        raise ArgumentError(option="direction", expected=f"distinct names among {list(DIRECTIONS)}", found=direction)
     return dirs
 
 
 def _values(v: ArrayLike, name: str) -> np.ndarray:
     arr = np.asarray(v, float).ravel()
     if arr.size == 0 or not np.isfinite(arr).all() or (arr.size > 1 and np.any(np.diff(arr) <= 0)):
-        raise ArgumentError(f"{name}: expected a non-empty strictly increasing list of finite numbers, found {v!r}")
+        raise ArgumentError(option=name, found=v,
+                            expected="a non-empty strictly increasing list of finite numbers")
     return arr
 
 
@@ -155,11 +156,11 @@ def angle_search(
         raise ArgumentError(f"base_poses: expected finite values of shape ({v.size}, {u.size}, 6), "
                                f"found {base.shape}")
     if not (math.isfinite(increment) and increment > 0):
-        raise ArgumentError(f"increment: expected a positive angle in rad, found {increment!r}")
+        raise ArgumentError(option="increment", expected="a positive angle in rad", found=increment)
     if not (math.isfinite(max_angle) and max_angle >= increment):
-        raise ArgumentError(f"max_angle: expected a finite angle >= increment (rad), found {max_angle!r}")
+        raise ArgumentError(option="max_angle", expected="a finite angle >= increment (rad)", found=max_angle)
     if method not in ("predictor_corrector", "plain"):
-        raise ArgumentError(f"method: expected 'predictor_corrector' or 'plain', found {method!r}")
+        raise ArgumentError(option="method", expected="'predictor_corrector' or 'plain'", found=method)
     dirs = _directions(direction)
     reqs = parse_requirements(requirements)
     K = int(math.floor(max_angle / increment + 1e-9))
@@ -363,7 +364,7 @@ def rotation_angle_map(
     pos = _raster_points(origin, u_axis, v_axis, u, v, ("origin", "u_axis", "v_axis"))
     ori = np.asarray(base_orientation, float)
     if ori.shape != (3,) or not np.isfinite(ori).all():
-        raise ArgumentError(f"base_orientation: expected three finite angles in rad, found {base_orientation!r}")
+        raise ArgumentError(option="base_orientation", expected="three finite angles in rad", found=base_orientation)
     base = np.concatenate([pos, np.broadcast_to(ori, pos.shape)], axis=-1)
     res = angle_search(machine, base, u, v, direction, increment, max_angle, requirements=requirements,
                        method=method, verify=verify, **kw)
@@ -398,7 +399,7 @@ def rotational_workspace_map(
     u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
     p = np.asarray(point, float)
     if p.shape != (3,) or not np.isfinite(p).all():
-        raise ArgumentError(f"point: expected x, y, z (3 finite numbers, m), found {point!r}")
+        raise ArgumentError(option="point", expected="x, y, z (3 finite numbers, m)", found=point)
     base = np.zeros((v.size, u.size, 6))
     base[..., :3] = p
     base[..., 3:] = np.asarray(base_orientation, float)

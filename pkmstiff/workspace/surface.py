@@ -71,7 +71,8 @@ class BoundarySurface:
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in (".stl", ".vtk", ".vtp", ".ply"):
-            raise ArgumentError(f"{path}: expected a file name ending in .stl, .vtk, .vtp or .ply, found {suffix!r}")
+            raise ArgumentError(option=path, found=suffix,
+                                expected="a file name ending in .stl, .vtk, .vtp or .ply")
         mesh = BoundarySurface(self.vertices * scale, self.triangles, self.vertex_mode).to_pyvista()
         mesh.save(str(path), binary=True)
         return path
@@ -118,9 +119,9 @@ def boundary_surface(
 ) -> BoundarySurface:
     """Closed triangle mesh of the octree boundary (see the module docstring for ``vertices``)."""
     if vertices not in ("centroid", "crossing"):
-        raise ArgumentError(f"vertices: expected 'centroid' or 'crossing', found {vertices!r}")
+        raise ArgumentError(option="vertices", expected="'centroid' or 'crossing'", found=vertices)
     if refine_steps < 0:
-        raise ArgumentError(f"refine_steps: expected an integer >= 0, found {refine_steps!r}")
+        raise ArgumentError(option="refine_steps", expected="an integer >= 0", found=refine_steps)
     lat = res.lattice
     vox = res.leaf_index
     if vox.shape[0] == 0:
