@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import PkmstiffError
+from pkmstiff.errors import ArgumentError, PkmstiffError
 from pkmstiff.io.ranges import parse_numbers
 
 
@@ -41,12 +41,6 @@ def is_mechanism_target(name: str) -> bool:
     from pkmstiff.mechanisms.loader import is_mechanism
 
     return is_mechanism(name)
-
-
-def _cli_error(msg: str):
-    from pkmstiff.errors import ArgumentError
-
-    return ArgumentError(msg)
 
 
 def _num(x: float) -> float | None:
@@ -141,14 +135,14 @@ def _cmd(args) -> int:
     try:
         if args.action == "solve":
             if bool(args.pose) == bool(args.drives):
-                raise _cli_error("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
+                raise ArgumentError("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
             rep = solve_report(args.mechanism, args.pose, args.drives, args.steps)
         elif args.action == "range":
             rep = range_report(args.mechanism)
         else:
             rep = info_report(args.mechanism)
     except PkmstiffError as exc:
-        raise _cli_error(str(exc)) from None
+        raise ArgumentError(str(exc)) from None
     if args.json:
         print(json.dumps(rep, indent=2))
         return 0
@@ -238,19 +232,19 @@ def section_report(args) -> dict[str, Any]:
     for opt, given in (("--tool-length", args.tool_length is not None), ("--require", bool(args.require)),
                        ("--frame", args.frame != "machine"), ("--neglect-spindle", args.neglect_spindle)):
         if given:
-            raise _cli_error(f"{opt}: not available for a mechanism ('{mech.name}'): a mechanism section has the "
-                             f"kinematic quantities {', '.join(quantity_names(mech))}")
+            raise ArgumentError(f"{opt}: not available for a mechanism ('{mech.name}'): a mechanism section has the "
+                                f"kinematic quantities {', '.join(quantity_names(mech))}")
     ranges = parse_ranges(args.range, plane) if args.range else None
     ori = parse_triple_deg(args.orientation, "--orientation")
     if not (args.step > 0 and math.isfinite(args.step)):
-        raise _cli_error(f"--step: expected a positive step in mm, found {args.step}")
+        raise ArgumentError(f"--step: expected a positive step in mm, found {args.step}")
     if not math.isfinite(args.at):
-        raise _cli_error(f"--at: expected a finite position in mm, found {args.at}")
+        raise ArgumentError(f"--at: expected a finite position in mm, found {args.at}")
     names = [q.strip() for q in args.quantities.split(",") if q.strip()]
     formats = [f.strip() for f in args.formats.split(",") if f.strip()]
     bad = set(formats) - {"png", "vtu", "csv", "npz"}
     if bad:
-        raise _cli_error(f"--formats: expected a subset of png,vtu,csv,npz, found {sorted(bad)}")
+        raise ArgumentError(f"--formats: expected a subset of png,vtu,csv,npz, found {sorted(bad)}")
     step, at = args.step * 1e-3, args.at * 1e-3
     stem = f"{mech.name}_{plane}"
     from pkmstiff.cli.edges import check_output_dir
@@ -259,14 +253,14 @@ def section_report(args) -> dict[str, Any]:
         + [f"{stem}.{f}" for f in ("csv", "npz") if f in formats]
     check_output_dir(args.out, "--out", getattr(args, "force", False), tuple(outs))
     if mech.dim == 2 and plane != "xy":
-        raise _cli_error(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
+        raise ArgumentError(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
     t0 = time.process_time()
     try:
         known = quantity_names(mech)
         unknown = [n for n in names if n not in known]
         if unknown:
-            raise _cli_error(f"--quantities: expected names from {', '.join(known)} for mechanism '{mech.name}', "
-                             f"found {', '.join(unknown)}")
+            raise ArgumentError(f"--quantities: expected names from {', '.join(known)} for mechanism '{mech.name}', "
+                                f"found {', '.join(unknown)}")
         fitted = ranges is None
         if fitted:
             (u0, u1), (v0, v1) = fit_window(mech, plane, at, ori, step)
@@ -274,11 +268,11 @@ def section_report(args) -> dict[str, Any]:
             (u0, u1), (v0, v1) = ranges[plane[0]], ranges[plane[1]]
         n_points = (int((u1 - u0) / step + 1e-9) + 1) * (int((v1 - v0) / step + 1e-9) + 1)
         if n_points > SECTION_MAX_POINTS:
-            raise _cli_error(f"--step: {n_points} raster points, expected at most {SECTION_MAX_POINTS} for a "
-                             f"mechanism section (a larger step or a smaller --range)")
+            raise ArgumentError(f"--step: {n_points} raster points, expected at most {SECTION_MAX_POINTS} for a "
+                                f"mechanism section (a larger step or a smaller --range)")
         sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names)
     except PkmstiffError as exc:
-        raise _cli_error(str(exc)) from None
+        raise ArgumentError(str(exc)) from None
     cpu = time.process_time() - t0
     files = _write_section(sec, Path(args.out), stem, formats) if args.out else []
     stats = sec.statistics()

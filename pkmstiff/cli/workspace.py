@@ -13,6 +13,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from pkmstiff.errors import ArgumentError
 from pkmstiff.machine.loader import load_machine
 
 PLANES = {  # name -> (u axis, v axis, normal axis)
@@ -20,12 +21,6 @@ PLANES = {  # name -> (u axis, v axis, normal axis)
     "xz": ((1.0, 0.0, 0.0), (0.0, 0.0, 1.0), 1),
     "xy": ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), 2),
 }
-
-
-def _cli_error(msg: str) -> Exception:
-    from pkmstiff.errors import ArgumentError
-
-    return ArgumentError(msg)
 
 
 def _floats(text: str, n: int, option: str, what: str) -> list[float]:
@@ -37,13 +32,13 @@ def _floats(text: str, n: int, option: str, what: str) -> list[float]:
 def _range(text: str, option: str, unit: str) -> tuple[float, float]:
     lo, hi = _floats(text, 2, option, f"MIN,MAX in {unit}")
     if hi <= lo:
-        raise _cli_error(f"{option}: expected MIN < MAX ({unit}), found {text!r}")
+        raise ArgumentError(option=option, expected=f"MIN < MAX ({unit})", found=text)
     return lo, hi
 
 
 def _positive(value: float, option: str, unit: str) -> float:
     if not (math.isfinite(value) and value > 0):
-        raise _cli_error(f"{option}: expected a positive number in {unit}, found {value!r}")
+        raise ArgumentError(option=option, expected=f"a positive number in {unit}", found=value)
     return value
 
 
@@ -88,7 +83,7 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
     try:
         return parse_requirements(args.require or [])
     except ArgumentError as exc:
-        raise _cli_error(f"--require: {exc}") from None
+        raise ArgumentError(f"--require: {exc}") from None
 
 
 # ------------------------------------------------------------------------------------------------------- workspace
@@ -103,9 +98,9 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     machine = load_machine(args.machine)
     eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
     if args.refine < 0 or args.refine > 20:
-        raise _cli_error(f"--refine: expected 0..20 bisection steps, found {args.refine}")
+        raise ArgumentError(f"--refine: expected 0..20 bisection steps, found {args.refine}")
     if not 1 <= args.min_level <= 8:
-        raise _cli_error(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
+        raise ArgumentError(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
     budget = parse_budget(getattr(args, "memory_budget", None))
     _requirements(args)
     check_output_dir(args.out, "--out", getattr(args, "force", False), ("workspace.json", "boundary_points.csv"))
@@ -119,8 +114,8 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     if args.range:
         parts = args.range.split(",")
         if len(parts) != 3 or parts[0] not in ("a", "b", "c"):
-            raise _cli_error(f"--range: expected ANGLE,MIN,MAX with ANGLE one of a, b, c and MIN, MAX in deg, "
-                             f"found {args.range!r}")
+            raise ArgumentError(f"--range: expected ANGLE,MIN,MAX with ANGLE one of a, b, c and MIN, MAX in deg, "
+                                f"found {args.range!r}")
         lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE,MIN,MAX (deg)")
         rng = (parts[0], math.radians(lo), math.radians(hi))
     from pkmstiff.workspace.translational import reach_box
@@ -220,16 +215,16 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     dirs = [d.strip() for d in args.directions.split(",") if d.strip()]
     bad = [d for d in dirs if d not in DIRECTIONS]
     if bad or not dirs:
-        raise _cli_error(f"--directions: expected a comma-separated list of {', '.join(DIRECTIONS)}, "
-                         f"found {args.directions!r}")
+        raise ArgumentError(f"--directions: expected a comma-separated list of {', '.join(DIRECTIONS)}, "
+                            f"found {args.directions!r}")
     method = {"pc": "predictor_corrector", "predictor_corrector": "predictor_corrector", "plain": "plain"}[args.method]
     t0 = time.perf_counter()
     try:
         if args.point:
             point = np.array(_floats(args.point, 3, "--point", "x,y,z in mm")) * 1e-3
             if len(dirs) != 1 or len(dirs[0]) != 2:
-                raise _cli_error("--point (rotational workspace): expected exactly one single-axis direction, "
-                                 f"e.g. --directions +a, found {args.directions!r}")
+                raise ArgumentError("--point (rotational workspace): expected exactly one single-axis direction, "
+                                    f"e.g. --directions +a, found {args.directions!r}")
             step = math.radians(_positive(args.step, "--step", "deg"))
             u_lo, u_hi = _range(args.u_range or "-30,30", "--u-range", "deg")
             v_lo, v_hi = _range(args.v_range or "-60,60", "--v-range", "deg")
@@ -244,12 +239,12 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                      f"({frame_text(machine, args.frame).split(' (')[0]})")
         else:
             if args.plane not in PLANES:
-                raise _cli_error(f"--plane: expected one of {', '.join(PLANES)}, found {args.plane!r}")
+                raise ArgumentError(option="--plane", expected=f"one of {', '.join(PLANES)}", found=args.plane)
             ua, va, normal = PLANES[args.plane]
             origin = np.zeros(3)
             origin[normal] = args.at * 1e-3
             if not (args.u_range and args.v_range):
-                raise _cli_error("--u-range and --v-range (mm) are required for a section plane")
+                raise ArgumentError("--u-range and --v-range (mm) are required for a section plane")
             step = _positive(args.step, "--step", "mm")
             u = raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
             v = raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
@@ -262,7 +257,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                      f"{'xyz'[normal]} = {args.at:g} mm ({frame_text(machine, args.frame).split(' (')[0]}), "
                      f"base a, b, c = {args.orientation} deg")
     except ArgumentError as exc:
-        raise _cli_error(str(exc)) from None
+        raise ArgumentError(str(exc)) from None
     run = time.perf_counter() - t0
     summary = res.summary()
     summary.update({"machine": machine.name, "run_time_s": run, **frame_metadata(machine, args.frame),
