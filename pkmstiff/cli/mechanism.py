@@ -19,7 +19,6 @@ from pkmstiff.errors import ArgumentError, PkmstiffError
 from pkmstiff.io.ranges import parse_numbers
 
 
-
 def is_mechanism_target(name: str) -> bool:
     """Whether ``pose``/``section`` got a mechanism rather than a machine, answered without importing the
     mechanism solver (numba) for machines: bundled machine names and machine files are settled here, everything
