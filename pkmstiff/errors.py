@@ -100,9 +100,13 @@ class ArgumentError(PkmstiffError, ValueError):
         self.option, self.expected, self.found = option, expected, found
         super().__init__(reason)
 
+    @property
+    def detail(self) -> str:
+        """The message without its ``option``: where a file key stands for the option, the key names it instead."""
+        return self.reason if self.found is UNSET else f"expected {self.expected}, found {self.found!r}"
+
     def __str__(self) -> str:
-        body = self.reason if self.found is UNSET else f"expected {self.expected}, found {self.found!r}"
-        return f"{self.option}: {body}" if self.option else body
+        return f"{self.option}: {self.detail}" if self.option else self.detail
 
 
 class ResourceError(PkmstiffError):

@@ -18,17 +18,18 @@ def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
             axis, rng = part.split("=")
             lo, hi = (float(v) for v in rng.split(":"))
         except ValueError:
-            raise ArgumentError(f"--range: expected AXIS=LO:HI pairs in mm separated by commas, "
-                                       f"found {part!r}") from None
+            raise ArgumentError(option="--range", expected="AXIS=LO:HI pairs in mm separated by commas",
+                                found=part) from None
         axis = axis.strip().lower()
         if axis not in plane:
-            raise ArgumentError(f"--range: axis {axis!r} is not in the {plane.upper()} plane")
+            raise ArgumentError(f"axis {axis!r} is not in the {plane.upper()} plane", option="--range")
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-            raise ArgumentError(f"--range {axis}: expected LO < HI (mm), found {lo:g}:{hi:g}")
+            raise ArgumentError(f"expected LO < HI (mm), found {lo:g}:{hi:g}", option=f"--range {axis}")
         out[axis] = (lo * 1e-3, hi * 1e-3)
     missing = [a for a in plane if a not in out]
     if missing:
-        raise ArgumentError(f"--range: missing the range of {', '.join(missing)} for the {plane.upper()} plane")
+        raise ArgumentError(f"missing the range of {', '.join(missing)} for the {plane.upper()} plane",
+                            option="--range")
     return out
 
 

@@ -236,7 +236,7 @@ def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:
         ranges = parse_ranges(rng, plane)
     except ArgumentError as exc:
         raise r.error(p + ".range", f"AXIS=LO:HI pairs in mm for both axes of the {plane.upper()} plane",
-                      f"{rng!r} ({str(exc).removeprefix('--range: ')})") from None
+                      f"{rng!r} ({exc.detail if exc.option == '--range' else exc})") from None
     stats = r.strings(tab.get("statistics", ["min", "mean", "max"]), p + ".statistics")
     bad = [s for s in stats if s not in STATISTICS]
     if bad:
