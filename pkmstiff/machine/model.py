@@ -207,15 +207,13 @@ class Machine:
     def joint_type_arrays(self, side: Literal["drive", "platform"]) -> dict[str, np.ndarray]:
         """Per-chain arrays of the joint settings of one side (for vectorised checks); read-only, built once per
         machine and side (the single-pose path asked for them four times per evaluation)."""
-        key = (id(self), side)
-        hit = _JOINT_ARRAY_CACHE.get(key)
-        if hit is not None and hit[0] is self:
-            return hit[1]
-        arrays = self._joint_type_arrays(side)
-        for a in arrays.values():
-            a.flags.writeable = False
-        _JOINT_ARRAY_CACHE[key] = (self, arrays)  # the entry keeps the machine alive: its id is not reused meanwhile
-        return arrays
+        def build() -> dict[str, np.ndarray]:
+            arrays = self._joint_type_arrays(side)
+            for a in arrays.values():
+                a.flags.writeable = False
+            return arrays
+
+        return memo(self, f"_joint_type_arrays_{side}", build)
 
     def _joint_type_arrays(self, side: str) -> dict[str, np.ndarray]:
         names = self.chains.drive_joint_type if side == "drive" else self.chains.platform_joint_type
@@ -230,5 +228,3 @@ class Machine:
             "ina_coupled": np.array([j.ina_coupled for j in jts]),
         }
 
-
-_JOINT_ARRAY_CACHE: dict[tuple[int, str], tuple[Machine, dict[str, np.ndarray]]] = {}

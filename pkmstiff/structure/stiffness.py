@@ -5,7 +5,7 @@ positions of each pose, chain series stiffness k_V (docs/theory/structure.md, Co
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -109,11 +109,11 @@ class ChainStiffness:
                               self.chain[idx], None if self.w_local is None else self.w_local[idx])
 
 
-def _chain_arrays(ik: IK, angles: Any, idx: Array) -> dict[str, Array]:
+def _chain_arrays(ik: IK, angles: Mapping[str, Array], idx: Array) -> dict[str, Array]:
     return {
         "drive_position": ik.drive[idx], "strut_length": ik.length[idx],
-        "drive_joint.tilt": angles.drive.tilt[idx], "drive_joint.swivel": angles.drive.swivel[idx],
-        "platform_joint.tilt": angles.platform.tilt[idx], "platform_joint.swivel": angles.platform.swivel[idx],
+        **{f"{side}_joint.{qty}": angles[f"{side}_{qty}"][idx] for side in ("drive", "platform")
+           for qty in ("tilt", "swivel")},
     }
 
 
@@ -121,8 +121,12 @@ def _pole_placement(layout: StructureLayout) -> bool:
     return any(getattr(d, "axial_stiffness", None) == "pole_placement" for d in layout.components.drive)
 
 
-def chain_stiffness(layout: StructureLayout, ik: IK, angles: Any, idx: Array) -> tuple[ChainStiffness, Array]:
-    """Component stiffnesses at the poses ``idx`` of ``ik`` and an ok mask (len(idx),) (docs/theory/components.md, eq. 4.48)."""
+def chain_stiffness(layout: StructureLayout, ik: IK, angles: Mapping[str, Array], idx: Array
+                    ) -> tuple[ChainStiffness, Array]:
+    """Component stiffnesses at the poses ``idx`` of ``ik`` and an ok mask (len(idx),) (docs/theory/components.md, eq. 4.48).
+
+    ``angles``: the joint angles of the pose pipeline (:attr:`pkmstiff.admissibility.pipeline.PoseEvaluation.angles`,
+    keys ``drive_tilt``, ``drive_swivel``, ``platform_tilt``, ``platform_swivel``)."""
     mc, n, m = layout.components, layout.n, len(idx)
     arrays = _chain_arrays(ik, angles, idx)
     if _pole_placement(layout):
