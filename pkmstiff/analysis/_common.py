@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any
+import dataclasses
+from typing import Any, Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -37,6 +38,32 @@ def parse_direction(direction: Any, what: str = "direction") -> tuple[np.ndarray
     if e.shape != (3,) or not np.all(np.isfinite(e)) or not np.linalg.norm(e) > 0:
         raise StructureModelError("analysis", what, "a non-zero finite vector (3,) or an axis name", direction)
     return e / np.linalg.norm(e), False
+
+
+def by_parts(st: PKMStructure, analyse: Callable[[PKMStructure], Any], per_pose: Sequence[str] = ()) -> Any:
+    """``analyse(st)`` computed part by part (:meth:`PKMStructure.parts`: memory bounded by one part) and joined
+    along the pose axis: an array result, or a dataclass whose fields ``per_pose`` are (N, ...) arrays (the other
+    fields, e.g. labels, come from a part with modelled poses)."""
+    parts = st.parts()
+    if len(parts) == 1:
+        return analyse(st)
+    results = [(sl, part, analyse(part)) for sl, part in parts]
+    ref = next((r for _, part, r in results if not part.empty), results[0][2])
+    if isinstance(ref, np.ndarray):
+        return _join([(sl, r) for sl, _, r in results], st.n_poses)
+    return dataclasses.replace(ref, **{f: _join([(sl, getattr(r, f)) for sl, _, r in results], st.n_poses)
+                                       for f in per_pose if getattr(ref, f) is not None})
+
+
+def _join(values: list[tuple[slice, np.ndarray]], n: int) -> np.ndarray:
+    """(n, ...) from per-part (len, ...) arrays; a part without modelled poses may have a narrower trailing shape
+    (no element or body labels): it stays NaN."""
+    ref = max((v for _, v in values), key=lambda v: int(np.prod(v.shape[1:])))
+    out = np.full((n,) + ref.shape[1:], np.nan, dtype=ref.dtype)
+    for sl, v in values:
+        if v.shape[1:] == ref.shape[1:]:
+            out[sl] = v
+    return out
 
 
 def load_body(st: PKMStructure, neglect_spindle: bool) -> str:

@@ -164,6 +164,10 @@ class Limits:
     position_max: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
 
+#: note added to the displayed title of a machine whose K_U is left out (:attr:`Machine.display_title`)
+NEGLECT_SPINDLE_NOTE = "K_U neglected (platform and spindle rigid, Cobet 4.2.4)"
+
+
 @dataclass(frozen=True)
 class Machine:
     """A complete PKM description loaded from a machine file."""
@@ -195,6 +199,14 @@ class Machine:
     built_components: dict[str, tuple[dict, Any]] = field(default_factory=dict, compare=False, repr=False)
     # provenance of a calibrated machine file (its [calibration] table, validated on load; empty otherwise)
     calibration: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    # the platform-spindle stiffness K_U is left out (platform and spindle one rigid body); set by
+    # pkmstiff.machine.frames.neglect_spindle, which also removes the platform_spindle role
+    spindle_neglected: bool = False
+
+    @property
+    def display_title(self) -> str:
+        """The title for outputs: the machine file's, with :data:`NEGLECT_SPINDLE_NOTE` when K_U is left out."""
+        return f"{self.title} [{NEGLECT_SPINDLE_NOTE}]" if self.spindle_neglected else self.title
 
     @property
     def kind(self) -> ChainKind:

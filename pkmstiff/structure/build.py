@@ -17,7 +17,8 @@ from pkmstiff.kinematics import as_poses, singular_mask
 from pkmstiff.machine.model import Machine
 from pkmstiff.structure.layout import StructureLayout, structure_layout
 from pkmstiff.structure.model import PKMStructure
-from pkmstiff.structure.options import COMPONENT_FAILED, DEFAULT_CHUNK, Array, StructureModelError, StructureOptions
+from pkmstiff.structure import options as _options
+from pkmstiff.structure.options import COMPONENT_FAILED, Array, StructureModelError, StructureOptions
 from pkmstiff.structure.stiffness import chain_stiffness
 
 
@@ -73,25 +74,46 @@ def build_structure(machine: Machine, poses: ArrayLike | PoseEvaluation, options
     unreachable or singular (with ``options.check == "full"``: that fail any check) are kept unmodelled with their
     reason code.
 
-    All poses are held in one SDE model; for large batches use :func:`iter_structures` (chunks) or the batch
-    evaluation :func:`pkmstiff.analysis.evaluate_structure` (the analyses of :mod:`pkmstiff.analysis` also work
-    chunk by chunk on a large structure).
+    Built chunk by chunk (:data:`~pkmstiff.structure.DEFAULT_CHUNK` poses, bounded work space); the analyses of
+    :mod:`pkmstiff.analysis` also work part by part on a large structure (:meth:`PKMStructure.parts`).
     """
     layout = layout or structure_layout(machine, options)
-    ev = poses if isinstance(poses, PoseEvaluation) else structure_evaluation(machine, poses, layout.options)
-    return _structure_from_evaluation(machine, ev, layout)
+    if isinstance(poses, PoseEvaluation):
+        n = len(poses.poses)
+        if n <= _options.DEFAULT_CHUNK:
+            return _structure_from_evaluation(machine, poses, layout)
+    else:
+        poses = as_poses(poses)
+        n = len(poses)
+        if n <= _options.DEFAULT_CHUNK:
+            return _structure_from_evaluation(machine, structure_evaluation(machine, poses, layout.options), layout)
+    return PKMStructure.concatenate([st for _, st in _chunks(machine, poses, layout, _options.DEFAULT_CHUNK)])
 
 
-def iter_structures(machine: Machine, poses: ArrayLike, options: StructureOptions | None = None,
-                    chunk_size: int = DEFAULT_CHUNK) -> Iterator[tuple[slice, PKMStructure]]:
-    """``(slice, structure)`` for consecutive chunks of at most ``chunk_size`` poses (bounded memory)."""
-    x = as_poses(poses)
-    if chunk_size < 1:
+def _chunks(machine: Machine, poses: np.ndarray | PoseEvaluation, layout: StructureLayout,
+            chunk_size: int) -> Iterator[tuple[slice, PKMStructure]]:
+    n = len(poses.poses) if isinstance(poses, PoseEvaluation) else len(poses)
+    for start in range(0, n, chunk_size):
+        sl = slice(start, min(start + chunk_size, n))
+        ev = poses.subset(sl) if isinstance(poses, PoseEvaluation) else structure_evaluation(
+            machine, poses[sl], layout.options)
+        yield sl, _structure_from_evaluation(machine, ev, layout)
+
+
+def iter_structures(machine: Machine, poses: ArrayLike | PoseEvaluation | PKMStructure,
+                    options: StructureOptions | None = None, chunk_size: int | None = None
+                    ) -> Iterator[tuple[slice, PKMStructure]]:
+    """``(slice, structure)`` for consecutive chunks of at most ``chunk_size`` poses (default
+    :data:`~pkmstiff.structure.DEFAULT_CHUNK`; bounded memory) of poses ``(N, 6)``, of their evaluation, or of a
+    built structure (its :meth:`~PKMStructure.parts`)."""
+    size = _options.DEFAULT_CHUNK if chunk_size is None else chunk_size
+    if size < 1:
         raise StructureModelError("iter_structures", "chunk_size", "an integer >= 1", chunk_size)
-    layout = structure_layout(machine, options)
-    for start in range(0, x.shape[0], chunk_size):
-        sl = slice(start, min(start + chunk_size, x.shape[0]))
-        yield sl, build_structure(machine, x[sl], layout=layout)
+    if isinstance(poses, PKMStructure):
+        yield from poses.parts(size)
+        return
+    src = poses if isinstance(poses, PoseEvaluation) else as_poses(poses)
+    yield from _chunks(machine, src, structure_layout(machine, options), size)
 
 
 def structure_summary(structure: PKMStructure) -> dict[str, Any]:
