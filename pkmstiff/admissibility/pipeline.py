@@ -96,12 +96,14 @@ class PoseEvaluation:
         """True once κ is known (given or computed); reading ``kappa`` computes it."""
         return self._kappa is not None
 
-    def subset(self, mask: np.ndarray) -> "PoseEvaluation":
-        """The evaluation restricted to the poses where ``mask`` is True (κ stays lazy if not yet computed).
+    def subset(self, mask: np.ndarray | slice) -> "PoseEvaluation":
+        """The evaluation restricted to the poses where ``mask`` is True, or to a ``slice`` of them (κ stays lazy if
+        not yet computed).
 
         The admissibility keeps ``ok`` and ``reasons``; the per-check details are not carried over.
         """
-        mask = np.asarray(mask)
+        if not isinstance(mask, slice):
+            mask = np.asarray(mask)
         a = adm.Admissibility(ok=self.admissibility.ok[mask], reasons=self.admissibility.reasons[mask], checks={})
         return PoseEvaluation(
             ik=self.ik.take(mask), jinv=self.jinv[mask], jc=self.jc[mask],

@@ -55,13 +55,13 @@ def by_parts(st: PKMStructure, analyse: Callable[[PKMStructure], Any], per_pose:
                                        for f in per_pose if getattr(ref, f) is not None})
 
 
-def _join(values: list[tuple[slice, np.ndarray]], n: int) -> np.ndarray:
+def _join(values: list[tuple[slice, np.ndarray | None]], n: int) -> np.ndarray:
     """(n, ...) from per-part (len, ...) arrays; a part without modelled poses may have a narrower trailing shape
-    (no element or body labels): it stays NaN."""
-    ref = max((v for _, v in values), key=lambda v: int(np.prod(v.shape[1:])))
+    (no element or body labels) or None: it stays NaN."""
+    ref = max((v for _, v in values if v is not None), key=lambda v: int(np.prod(v.shape[1:])))
     out = np.full((n,) + ref.shape[1:], np.nan, dtype=ref.dtype)
     for sl, v in values:
-        if v.shape[1:] == ref.shape[1:]:
+        if v is not None and v.shape[1:] == ref.shape[1:]:
             out[sl] = v
     return out
 
