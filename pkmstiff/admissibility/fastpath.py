@@ -20,7 +20,6 @@ from typing import Any, Sequence
 import numpy as np
 
 import pkmstiff.admissibility.checks as adm
-from pkmstiff.kinematics.arrays import _vec_aos
 from pkmstiff.kinematics.inverse import IK
 from pkmstiff.kinematics.joint_angles import PARALLEL_TOL, _ref_parallel
 from pkmstiff.machine.model import Machine, memo
@@ -253,8 +252,9 @@ def evaluate_small(machine: Machine, x: np.ndarray, checks: Sequence[str],
             else CR(np.ones(N, bool), _R.DRIVE_LOAD,
                     skipped="no mass data (platform mass and drive force limits needed)"))
     angles = {key: ang[s, row].T for key, s, row in _ANGLE_KEYS}
-    ik = IK(kind=machine.chains.kind, poses=x, R=rot_aos, rho=_vec_aos(rho), p=_vec_aos(pqd[0]), q=_vec_aos(pqd[1]),
-            d=_vec_aos(pqd[2]), length=ld[0].T, drive=ld[1].T, reachable=reach.T)
+    aos = pqd.transpose(0, 3, 2, 1)  # (3, N, n, 3) pose-first views, as pkmstiff.kinematics.arrays._vec_aos
+    ik = IK._of(kind=machine.chains.kind, poses=x, R=rot_aos, rho=rho.transpose(2, 1, 0), p=aos[0], q=aos[1],
+                d=aos[2], length=ld[0].T, drive=ld[1].T, reachable=reach.T)
     return dict(
         ik=ik, jinv=jac.transpose(2, 0, 1), jc=jc, kappa=None, angles=angles,
         admissibility=adm.Admissibility(ok=reasons == 0, reasons=reasons, checks=results),

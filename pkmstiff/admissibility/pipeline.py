@@ -159,7 +159,7 @@ def evaluate_chunk(
     if fast is not None:  # small N: one fused compiled kernel
         fields, reach = fast
         ev = PoseEvaluation(**fields, checks=checks)
-        results = list(ev.admissibility.checks.values())
+        results = None
     else:
         ev, results = _evaluate_general(machine, poses, checks, drive_load_data)
         reach = ev.ik.all_reachable
@@ -167,6 +167,7 @@ def evaluate_chunk(
         ok = np.ones(len(poses), bool)
         for req in reqs:
             ok &= np.asarray(req(ev), bool)
+        results = list(ev.admissibility.checks.values()) if results is None else results
         results.append(adm.CheckResult(ok, adm.Reason.REQUIREMENT))
         ev.admissibility = adm.combine(len(poses), results, reach)
     return ev
