@@ -165,3 +165,15 @@ def test_unchunked_analyses_work_part_by_part(hexaglide, small_chunk):
     assert wp.component_labels and ma.dof_labels  # labels from a part with modelled poses
     np.testing.assert_array_equal(evaluate_structure(hexaglide, st, 0.1, 4).stiffness,
                                   evaluate_structure(hexaglide, x, 0.1, 4, chunk_size=7).stiffness)
+
+
+def test_part_by_part_without_any_modelled_pose(hexaglide, small_chunk):
+    """Every part empty: NaN results of the full length, as for one part."""
+    x = np.tile([0.0, 5.0, -1.0, 0.0, 0.0, 0.0], (16, 1))  # unreachable
+    st = build_structure(hexaglide, x)
+    assert st.empty and len(st.parts()) == 3
+    wp = weak_points(st, "x", 0.1)
+    assert wp.component_shares.shape[0] == 16 and np.isnan(wp.component_shares).all()
+    comp = tcp_compliance(st, 0.1)
+    assert comp.shape == (16, 6, 6) and np.isnan(comp).all()
+    assert np.isnan(modal_analysis(st, 3).frequencies_hz).all()

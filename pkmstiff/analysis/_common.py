@@ -41,29 +41,35 @@ def parse_direction(direction: Any, what: str = "direction") -> tuple[np.ndarray
 
 
 def by_parts(st: PKMStructure, analyse: Callable[[PKMStructure], Any], per_pose: Sequence[str] = ()) -> Any:
-    """``analyse(st)`` computed part by part (:meth:`PKMStructure.parts`: memory bounded by one part) and joined
+    """``analyse(st)`` computed part by part (:meth:`PKMStructure.parts`: work space bounded by one part) and joined
     along the pose axis: an array result, or a dataclass whose fields ``per_pose`` are (N, ...) arrays (the other
-    fields, e.g. labels, come from a part with modelled poses)."""
+    fields, e.g. labels, come from the first part with modelled poses). Each part's result is written into the
+    output as soon as it is computed. Parts without modelled poses stay NaN (their arrays may lack the trailing
+    axes of element or body labels)."""
     parts = st.parts()
     if len(parts) == 1:
         return analyse(st)
-    results = [(sl, part, analyse(part)) for sl, part in parts]
-    ref = next((r for _, part, r in results if not part.empty), results[0][2])
-    if isinstance(ref, np.ndarray):
-        return _join([(sl, r) for sl, _, r in results], st.n_poses)
-    return dataclasses.replace(ref, **{f: _join([(sl, getattr(r, f)) for sl, _, r in results], st.n_poses)
-                                       for f in per_pose if getattr(ref, f) is not None})
-
-
-def _join(values: list[tuple[slice, np.ndarray | None]], n: int) -> np.ndarray:
-    """(n, ...) from per-part (len, ...) arrays; a part without modelled poses may have a narrower trailing shape
-    (no element or body labels) or None: it stays NaN."""
-    ref = max((v for _, v in values if v is not None), key=lambda v: int(np.prod(v.shape[1:])))
-    out = np.full((n,) + ref.shape[1:], np.nan, dtype=ref.dtype)
-    for sl, v in values:
-        if v is not None and v.shape[1:] == ref.shape[1:]:
-            out[sl] = v
-    return out
+    out = None
+    first = None
+    for sl, part in parts:
+        res = analyse(part)
+        first = res if first is None else first
+        if part.empty:
+            continue
+        if out is None:  # the first part with modelled poses sets the shapes and the labels
+            arrays = {f: res if f is None else getattr(res, f) for f in (per_pose or (None,))}
+            out = {f: np.full((st.n_poses,) + v.shape[1:], np.nan, v.dtype) for f, v in arrays.items()
+                   if v is not None}
+            ref = res
+        for f, dst in out.items():
+            dst[sl] = res if f is None else getattr(res, f)
+    if out is None:  # no modelled pose at all: every part's result is NaN, the joined one too
+        ref = first
+        out = {f: np.full((st.n_poses,) + v.shape[1:], np.nan, v.dtype) for f in (per_pose or (None,))
+               if (v := (first if f is None else getattr(first, f))) is not None}
+    if None in out:
+        return out[None]
+    return dataclasses.replace(ref, **out)
 
 
 def load_body(st: PKMStructure, neglect_spindle: bool) -> str:
