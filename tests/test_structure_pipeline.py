@@ -6,10 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import pkmstiff.admissibility.pipeline as pipeline
-import pkmstiff.structure.build as build
 import pkmstiff.structure.model as structure_model
 import pkmstiff.structure.options as structure_options
+from pkmstiff.admissibility import pipeline
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.analysis import (
     evaluate_structure,
@@ -23,7 +22,7 @@ from pkmstiff.analysis import (
 )
 from pkmstiff.evaluation.sections import axis_plane, evaluate_section, section_poses
 from pkmstiff.machine.frames import neglect_spindle
-from pkmstiff.structure import build_structure, iter_structures
+from pkmstiff.structure import build, build_structure, iter_structures
 
 NAMES = ["kx", "share_drive_joint_x", "deflection_gravity"]
 PLANE = axis_plane("xy", -0.9, (-0.2, 0.2), (0.25, 0.55), 0.02)  # 21 x 16 points, nearly all admissible

@@ -18,8 +18,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
-from pkmstiff.analysis._common import Array, load_body
 from pkmstiff.admissibility.pipeline import PoseEvaluation
+from pkmstiff.analysis._common import Array, load_body
 from pkmstiff.kinematics import as_poses
 from pkmstiff.machine.model import Machine
 from pkmstiff.multibody.assembly import stiffness_matrix

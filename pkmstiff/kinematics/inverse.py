@@ -48,7 +48,7 @@ class IK:
         return self.d / self.length[..., None]
 
     @classmethod
-    def _of(cls, **fields) -> "IK":
+    def _of(cls, **fields) -> IK:
         """The same object as ``IK(**fields)`` without the frozen dataclass's ``__init__`` (ten ``object.__setattr__``
         calls, ≈ 4 µs): for the small-N fast path (:mod:`pkmstiff.admissibility.fastpath`), where one pose takes
         ≈ 50 µs in all. Every field must be given."""
@@ -56,7 +56,7 @@ class IK:
         ik.__dict__.update(fields)
         return ik
 
-    def take(self, idx: ArrayLike) -> "IK":
+    def take(self, idx: ArrayLike) -> IK:
         """The result at the poses ``idx`` (boolean mask or index array over the N poses)."""
         return IK(kind=self.kind, **{name: getattr(self, name)[idx] for name in IK_ARRAYS})
 

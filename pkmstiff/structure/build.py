@@ -6,7 +6,8 @@ the inverse kinematics, the joint angles and the admissibility are computed once
 
 from __future__ import annotations
 
-from typing import Any, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -15,12 +16,11 @@ from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
 from pkmstiff.admissibility.pipeline import PoseEvaluation, evaluate_poses
 from pkmstiff.kinematics import as_poses, singular_mask
 from pkmstiff.machine.model import Machine
+from pkmstiff.structure import options as _options
 from pkmstiff.structure.layout import StructureLayout, structure_layout
 from pkmstiff.structure.model import PKMStructure
-from pkmstiff.structure import options as _options
 from pkmstiff.structure.options import COMPONENT_FAILED, Array, StructureModelError, StructureOptions
 from pkmstiff.structure.stiffness import chain_stiffness
-
 
 #: reason bits that keep a pose out of the structure model with the default ``check="kinematic"``
 _KINEMATIC = np.uint32(Reason.UNREACHABLE | Reason.SINGULAR)

@@ -41,7 +41,7 @@ class PKMStructure:
     stiffness: ChainStiffness
     _model: sde.SDEModel | None = dataclasses.field(default=None, repr=False)
     _dynamic: sde.SDEModel | None = dataclasses.field(default=None, repr=False)
-    _parts: dict[int, list[tuple[slice, "PKMStructure"]]] = dataclasses.field(default_factory=dict, repr=False)
+    _parts: dict[int, list[tuple[slice, PKMStructure]]] = dataclasses.field(default_factory=dict, repr=False)
 
     @property
     def model(self) -> sde.SDEModel | None:
@@ -143,7 +143,7 @@ class PKMStructure:
         out += [text for bit, text in STATUS_TEXT.items() if int(self.status[i]) & bit]
         return out
 
-    def without(self, local_bad: Array, status_bit: int = NOT_POSITIVE_DEFINITE) -> "PKMStructure":
+    def without(self, local_bad: Array, status_bit: int = NOT_POSITIVE_DEFINITE) -> PKMStructure:
         """Copy without the modelled poses flagged in ``local_bad`` (M,) (they get ``status_bit``)."""
         keep = ~np.asarray(local_bad, bool)
         status = self.status.copy()
@@ -152,14 +152,14 @@ class PKMStructure:
                                    p=self.p[keep], q=self.q[keep], u=self.u[keep],
                                    stiffness=self.stiffness.take(keep), _model=None, _dynamic=None, _parts={})
 
-    def part(self, poses: slice) -> "PKMStructure":
+    def part(self, poses: slice) -> PKMStructure:
         """The structure of a range of its poses (``slice`` over the N poses); the SDE model is built anew."""
         lo, hi, _ = poses.indices(self.n_poses)
         k = (self.index >= lo) & (self.index < hi)
         return PKMStructure(self.layout, self.poses[lo:hi], self.reasons[lo:hi], self.status[lo:hi], self.index[k] - lo,
                             self.w[k], self.R[k], self.p[k], self.q[k], self.u[k], self.stiffness.take(k))
 
-    def parts(self, chunk_size: int | None = None) -> list[tuple[slice, "PKMStructure"]]:
+    def parts(self, chunk_size: int | None = None) -> list[tuple[slice, PKMStructure]]:
         """``(slice, structure)`` for consecutive ranges of at most ``chunk_size`` poses (default
         :data:`~pkmstiff.structure.DEFAULT_CHUNK`): the analyses of :mod:`pkmstiff.analysis` work part by part, so
         that their memory is bounded by one part whatever N is. A structure that fits is its own single part.
@@ -184,7 +184,7 @@ class PKMStructure:
         return out
 
     @staticmethod
-    def concatenate(parts: "list[PKMStructure]") -> "PKMStructure":
+    def concatenate(parts: list[PKMStructure]) -> PKMStructure:
         """One structure of the poses of ``parts`` (same layout) in their order (SDE model built anew)."""
         first = parts[0]
         offsets = np.cumsum([0] + [p.n_poses for p in parts[:-1]])

@@ -4,8 +4,9 @@ positions of each pose, chain series stiffness k_V (docs/theory/structure.md, Co
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -103,7 +104,7 @@ class ChainStiffness:
     chain: Array
     w_local: Array | None
 
-    def take(self, idx: Array) -> "ChainStiffness":
+    def take(self, idx: Array) -> ChainStiffness:
         """The same stiffnesses at the poses ``idx`` (index array or boolean mask)."""
         return ChainStiffness(self.drive_joint[idx], self.strut[idx], self.platform_joint[idx], self.drive[idx],
                               self.chain[idx], None if self.w_local is None else self.w_local[idx])
