@@ -176,3 +176,26 @@ def test_part_by_part_without_any_modelled_pose(hexaglide, small_chunk):
     comp = tcp_compliance(st, 0.1)
     assert comp.shape == (16, 6, 6) and np.isnan(comp).all()
     assert np.isnan(modal_analysis(st, 3).frequencies_hz).all()
+
+
+def test_derived_machine_data_does_not_keep_machines_alive(hexaglide):
+    """Joint-type arrays and components rebuilt for a modified machine live with that machine object (memo), not in
+    a module dict keyed by id() (which kept every machine alive) nor in the frozen machine's shared dict."""
+    import dataclasses
+    import gc
+    import weakref
+
+    from pkmstiff.machine.roles import component
+
+    m = dataclasses.replace(hexaglide, components={k: dict(v) for k, v in hexaglide.components.items()})
+    arrays = m.joint_type_arrays("drive")
+    assert m.joint_type_arrays("drive") is arrays and not arrays["normal"].flags.writeable
+    name = next(iter(m.components))
+    original = hexaglide.built_components[name]
+    built = component(m, name)  # its raw table is a copy: built anew
+    assert component(m, name) is built and built is not original[1]
+    assert hexaglide.built_components[name] is original  # the dict the copies share was not written to
+    ref = weakref.ref(m)
+    del m
+    gc.collect()
+    assert ref() is None
