@@ -110,11 +110,14 @@ class ChainStiffness:
                               self.chain[idx], None if self.w_local is None else self.w_local[idx])
 
 
-def _chain_arrays(ik: IK, angles: Mapping[str, Array], idx: Array) -> dict[str, Array]:
+def _chain_arrays(ik: IK, angles: Mapping[str, Array] | Any, idx: Array) -> dict[str, Array]:
+    def angle(side: str, qty: str) -> Array:
+        a = angles[f"{side}_{qty}"] if isinstance(angles, Mapping) else getattr(getattr(angles, side), qty)
+        return a[idx]
+
     return {
         "drive_position": ik.drive[idx], "strut_length": ik.length[idx],
-        **{f"{side}_joint.{qty}": angles[f"{side}_{qty}"][idx] for side in ("drive", "platform")
-           for qty in ("tilt", "swivel")},
+        **{f"{side}_joint.{qty}": angle(side, qty) for side in ("drive", "platform") for qty in ("tilt", "swivel")},
     }
 
 
@@ -122,12 +125,13 @@ def _pole_placement(layout: StructureLayout) -> bool:
     return any(getattr(d, "axial_stiffness", None) == "pole_placement" for d in layout.components.drive)
 
 
-def chain_stiffness(layout: StructureLayout, ik: IK, angles: Mapping[str, Array], idx: Array
+def chain_stiffness(layout: StructureLayout, ik: IK, angles: Mapping[str, Array] | Any, idx: Array
                     ) -> tuple[ChainStiffness, Array]:
     """Component stiffnesses at the poses ``idx`` of ``ik`` and an ok mask (len(idx),) (docs/theory/components.md, eq. 4.48).
 
     ``angles``: the joint angles of the pose pipeline (:attr:`pkmstiff.admissibility.pipeline.PoseEvaluation.angles`,
-    keys ``drive_tilt``, ``drive_swivel``, ``platform_tilt``, ``platform_swivel``)."""
+    keys ``drive_tilt``, ``drive_swivel``, ``platform_tilt``, ``platform_swivel``), or a
+    :class:`~pkmstiff.kinematics.joint_angles.JointAngles`."""
     mc, n, m = layout.components, layout.n, len(idx)
     arrays = _chain_arrays(ik, angles, idx)
     if _pole_placement(layout):
