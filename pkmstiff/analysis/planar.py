@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 
 import pkmstiff.multibody as sde
 from pkmstiff.admissibility.checks import Reason
-from pkmstiff.errors import InputError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.units import parse_quantity
 

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import ArgumentError, InadmissibleError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError, InadmissibleError
 from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import bundled_machines, load_machine
 

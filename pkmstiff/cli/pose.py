@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import load_machine
 

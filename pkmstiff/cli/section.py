@@ -8,7 +8,7 @@ import math
 import time
 from pathlib import Path
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 
 # the evaluation modules are imported inside the command functions: building the parser for another command
 # (``pkmstiff pose``) must not pay for them

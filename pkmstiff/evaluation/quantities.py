@@ -15,7 +15,7 @@ from typing import Any, Callable
 import numpy as np
 
 from pkmstiff.admissibility.pipeline import PoseEvaluation
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.machine.model import Machine
 from pkmstiff.units import to_unit
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
 from pkmstiff.machine.model import Machine

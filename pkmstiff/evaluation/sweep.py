@@ -30,7 +30,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.machine.model import Machine
 
 __all__ = ["Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",

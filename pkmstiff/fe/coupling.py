@@ -21,7 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from pkmstiff.errors import NumericalError  # noqa: F401 (re-exported)
+from pkmstiff.errors import NumericalError
 
 
 def rbe2_rows(slave_points: np.ndarray, ref_point: np.ndarray) -> np.ndarray:

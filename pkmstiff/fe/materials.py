@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from typing import Literal, Sequence
 import numpy as np
 from skfem import MeshHex
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 
 Axis = Literal["x", "y", "z"]
 

@@ -12,7 +12,7 @@ from typing import Iterator
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 
 Array = NDArray[np.float64]
 

@@ -17,7 +17,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from pkmstiff.errors import InputError, UnknownMachineError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError, UnknownMachineError
 from pkmstiff.io import check_format_version, check_keys, read_toml, require
 from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
 from pkmstiff.units import parse_quantity

@@ -23,7 +23,7 @@ import re
 from pathlib import Path
 from typing import Any, Mapping
 
-from pkmstiff.errors import InputError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError
 from pkmstiff.machine.loader import _build, raw_machine, split_machine_spec
 from pkmstiff.machine.model import Machine
 

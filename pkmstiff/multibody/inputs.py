@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import InputError, NumericalError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError
 
 
 def pose_array(value: Any, core: tuple[int, ...], source: str, key: str, *, extra: int | None = None) -> np.ndarray:

@@ -12,7 +12,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from pkmstiff.errors import PlotDependencyError  # noqa: F401 (re-exported)
+from pkmstiff.errors import PlotDependencyError
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch, machine_sketch

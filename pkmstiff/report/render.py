@@ -24,7 +24,7 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]

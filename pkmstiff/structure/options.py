@@ -9,7 +9,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from pkmstiff.errors import InputError  # noqa: F401 (re-exported)
+from pkmstiff.errors import InputError
 
 Array = NDArray[np.float64]
 

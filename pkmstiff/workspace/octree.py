@@ -37,7 +37,7 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)

@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.admissibility.pipeline import evaluate_poses
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation.quantities import EvalContext
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine

@@ -18,7 +18,7 @@ from typing import Callable, Iterable
 
 import numpy as np
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.units import ureg
 

@@ -40,7 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.oracle import EvaluationStats, staged_admissible
 from pkmstiff.workspace.requirements import Requirement, parse_requirements

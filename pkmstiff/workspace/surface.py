@@ -24,7 +24,7 @@ from typing import Callable, Literal
 
 import numpy as np
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.workspace.octree import Lattice, OctreeResult
 
 VertexMode = Literal["centroid", "crossing"]

@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
-from pkmstiff.errors import ArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ArgumentError
 from pkmstiff.workspace.octree import OctreeResult
 from pkmstiff.workspace.surface import BoundarySurface, boundary_surface
 
