@@ -15,7 +15,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
+from pkmstiff.admissibility.checks import ALL_CHECKS, Reason, checks_left_out
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
@@ -260,7 +260,8 @@ def evaluate_section(
         machine=machine.name, plane=plane, orientation=np.asarray(orientation, float), tool_length=tool_length,
         values=values, units={n: q.unit for n, q in qs.items()}, si_units={n: q.si_unit for n, q in qs.items()},
         labels={n: q.label for n, q in qs.items()}, ok=ok, reasons=reasons,
-        settings={"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks), **opts},
+        settings={"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks),
+                  "checks_left_out": checks_left_out(checks), **opts},
         frame=frame_metadata(machine, frame),
     )
 
@@ -320,6 +321,7 @@ def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
          "orientation_deg": np.rad2deg(res.orientation).tolist(),
          "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
          **res.frame, "neglect_spindle": bool(res.settings.get("neglect_spindle", False)),
+         "checks_left_out": list(res.settings.get("checks_left_out", [])),
          "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v},
          "window_mm": {res.plane.u_name: [float(res.plane.u_values[0]) * 1e3, float(res.plane.u_values[-1]) * 1e3],
                        res.plane.v_name: [float(res.plane.v_values[0]) * 1e3, float(res.plane.v_values[-1]) * 1e3]},
