@@ -100,7 +100,10 @@ def structure_layout(machine: Machine, options: StructureOptions | None = None) 
                                   "a telescopic drive or strut stiffness per chain", "none given")
     jt_d = [machine.joint_types[t] for t in machine.chains.drive_joint_type]
     jt_p = [machine.joint_types[t] for t in machine.chains.platform_joint_type]
-    share = options.strut_mass_to_drive
+    if options.strut_mass_to_drive is None:
+        share, platform_share = machine.strut_mass_shares
+    else:
+        share, platform_share = options.strut_mass_to_drive, 1.0 - options.strut_mass_to_drive
     strut_mass = np.array([0.0 if s is None else float(s.mass) for s in mc.strut])
     jm_d = np.array([j.mass if options.joint_masses else 0.0 for j in jt_d])
     jm_p = np.array([j.mass if options.joint_masses else 0.0 for j in jt_p])
@@ -112,7 +115,7 @@ def structure_layout(machine: Machine, options: StructureOptions | None = None) 
         platform = combine_bodies([platform, spindle])
         spindle = PKSBody.empty()
     for i in range(n):
-        platform = platform.plus_point((1.0 - share) * strut_mass[i] + jm_p[i], machine.chains.platform_joint[i])
+        platform = platform.plus_point(platform_share * strut_mass[i] + jm_p[i], machine.chains.platform_joint[i])
 
     def mass_of(c: Any) -> float:
         return 0.0 if c is None else float(c.mass)
