@@ -121,12 +121,14 @@ EXPLANATIONS = {
                                           "between the published support points (docs/theory/components.md) is "
                                           "reconstructed, not measured",
     ("Table 5.8 FE-based joints", "f1"): "within our range over the unpublished strut-mass split (17.9-23.8 Hz)",
-    ("Table 5.8", "f1"): "our mode 1 is the y translation; with the published k_y (2.5-2.7 N/um) and the platform "
-                         "mass 117.24 kg alone a y translation is at most 23.2-24.2 Hz, so the published masses "
-                         "cannot give 26.3-27.5 Hz",
-    ("Table 5.8", "f"): "modes 2 and 3 rotate the platform about y and x: set by M_P's rotational entries (units not "
-                        "printed, read as kg m^2 about O') and the unpublished CoG; about 2.2x smaller inertias "
-                        "would be needed",
+    ("Table 5.8", "f1"): "mode 1 is a rotation about an x-axis 0.73 m below O' (as Cobet describes; mode-shape "
+                         "table); Rayleigh's quotient bounds f1 by sqrt(k_y / m_P) / 2 pi = 23.2-24.2 Hz for the "
+                         "published k_y 2.5-2.7 N/um and m_P = 117.24 kg, so the published masses cannot give "
+                         "26.3-27.5 Hz (ours reaches 24.9 Hz through our higher k_y of 3.33 N/um)",
+    ("Table 5.8", "f"): "modes 2 and 3 rotate the platform about a y-axis 63 mm below O' and an x-axis 0.12 m from "
+                        "O': set by M_P's rotational entries (units not printed, read as kg m^2 about O') and the "
+                        "unpublished CoG; no uniform inertia scaling reaches f2 and f3 together (1/2.2: 50.8 / "
+                        "64.9 Hz, 1/4: 58.5 / 68.3 Hz)",
     ("Table 5.1 variant 2", "volume ratio"): "ratio only (docs/user-guide/validation-hexaglide.md (reading 8)); the variants' hulls are 3+3-point "
                                              "guesses (§1.7 item 7) and their strut masses (drive-load limit) are "
                                              "assumed (EA/l, 12.13 kg/m)",
@@ -137,9 +139,9 @@ EXPLANATIONS = {
                             "identified",
     ("Table 5.1", "U mean"): "means depend on the admissible area; the variants' hulls (3+3 points) and drive-load "
                              "limits (assumed strut masses) are uncertain",
-    ("Table 5.1 original", "kx max"): "our maximum lies at the lower workspace edge (y = 140, z = -1080 mm; 95th "
-                                      "percentile 34.8 N/um) where the drive joints are nearly vertical and stiff; "
-                                      "the mean agrees (+4.5 %)",
+    ("Table 5.1 original", "kx max"): "our maximum lies at the lower workspace edge (y = 150, z = -1075 mm; 95th "
+                                      "percentile 33.5 N/um) where the drive joints are nearly vertical and stiff; "
+                                      "the mean agrees (-4.7 %)",
     ("Table 5.1", "kx"): "variants: strut stiffness and mass assumed (EA/l, 12.13 kg/m; docs/user-guide/machines.md) and K_U's "
                          "rotational unit unprinted (sensitivity column); cause of the variant differences not "
                          "identified",
@@ -223,8 +225,8 @@ def mode_shapes(n_modes: int = 6) -> dict[str, Any]:
         d, p = axes.direction[0, k], axes.point[0, k]
         d = d * np.sign(d[np.argmax(np.abs(d))])  # sign of the largest component positive
         rows.append({"mode": k + 1, "frequency_hz": float(ma.frequencies_hz[0, k]),
-                     "dominant_motion": ma.description(0, k), "axis_direction": d.round(3).tolist(),
-                     "axis_point_report_frame_mm": ((p - origin) * 1e3).round(0).tolist(),
+                     "dominant_motion": ma.description(0, k), "axis_direction": (d.round(3) + 0.0).tolist(),
+                     "axis_point_report_frame_mm": (((p - origin) * 1e3).round(0) + 0.0).tolist(),
                      "axis_below_O_mm": float((o[2] - p[2]) * 1e3),
                      "axis_distance_from_O_mm": float(np.linalg.norm(np.cross(o - p, d)) * 1e3),
                      "pitch_mm_per_rad": float(axes.pitch[0, k] * 1e3)})
