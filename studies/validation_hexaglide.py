@@ -262,8 +262,9 @@ def point_rows(pr: dict[str, Any]) -> list[dict[str, Any]]:
         src = f"Table 5.8 {col}"
         for i in range(3):
             sens = [v[i] for v in res["frequencies_hz_by_strut_mass"].values()]
-            rows.append(row(src, f"f{i + 1}", "Hz", PUBLISHED_58[col][i], res["frequencies_hz_by_strut_mass"][main_f][i],
-                            JOINT_TEXT[joints], sens, "no extra strut mass, or struts split 0…100 % drive/platform"))
+            rows.append(row(src, f"f{i + 1}", "Hz", PUBLISHED_58[col][i],
+                            res["frequencies_hz_by_strut_mass"][main_f][i], JOINT_TEXT[joints], sens,
+                            "no extra strut mass, or struts split 0…100 % drive/platform"))
     return rows
 
 
@@ -497,8 +498,8 @@ def mode_text(modes: dict[str, Any]) -> str:
         "translation along it (pitch); the dominant motion is the largest share of the platform's kinetic energy.",
         f"Mode 1 ({r[0]['frequency_hz']:.2f} Hz) is a rotation about an axis along {r[0]['axis_direction']} "
         f"{r[0]['axis_below_O_mm'] / 1e3:.2f} m below O' (as Cobet describes): the platform swings sideways, so its "
-        f"kinetic energy is mostly y-translation ({r[0]['dominant_motion']}). Modes 2 and 3 ({r[1]['frequency_hz']:.2f}, "
-        f"{r[2]['frequency_hz']:.2f} Hz) rotate about axes along {r[1]['axis_direction']} and "
+        f"kinetic energy is mostly y-translation ({r[0]['dominant_motion']}). Modes 2 and 3 "
+        f"({r[1]['frequency_hz']:.2f}, {r[2]['frequency_hz']:.2f} Hz) rotate about axes along {r[1]['axis_direction']} and "
         f"{r[2]['axis_direction']} passing {r[1]['axis_distance_from_O_mm']:.0f} and "
         f"{r[2]['axis_distance_from_O_mm']:.0f} mm from O'.",
         "f1 is bounded by Rayleigh's quotient (trial shape: the static deflection under a y-force at O'): "

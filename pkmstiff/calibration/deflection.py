@@ -5,8 +5,8 @@ its effect on the instrument readings, its subtraction before identification, an
 * **Deflection** δ = C(x)·w generalised to the weight of every mass of the structure model: ``K q = f_g + f_load``
   per pose (stacked solves), the tool body's motion read at the tool point.  Which masses are loaded and which are
   not is stated in :mod:`pkmstiff.analysis.gravity` (Assumption: the strut masses as the machine file's
-  ``strut_mass_shares`` lump them; masses at rigidly suspended drives go straight into the frame).  A machine without stiffness data (e.g. Felix) has no
-  structure model: a one-line error.
+  ``strut_mass_shares`` lump them; masses at rigidly suspended drives go straight into the frame).  A machine
+  without stiffness data (e.g. Felix) has no structure model: a one-line error.
 * **Readings** (:func:`reading_deflection`): the platform frame (o, R) the machine reaches is moved by the
   deflection twist of the tool body referred to O' (u_O' = u_v − θ × R v for the twist (u_v, θ) at the target v),
   o + u_O', exp(θ) R, and the reading is evaluated exactly there (:func:`~pkmstiff.calibration.instruments.

@@ -63,7 +63,8 @@ def read_pose_file(path: str) -> np.ndarray:
     return np.array(poses)
 
 
-def pose_rows(machine_name: str, poses_si: np.ndarray, skip_checks: Sequence[str] = ()) -> tuple[list[str], list[list]]:
+def pose_rows(machine_name: str, poses_si: np.ndarray,
+              skip_checks: Sequence[str] = ()) -> tuple[list[str], list[list]]:
     """CSV header and rows of a pose batch: pose (mm, deg), drive coordinates and strut lengths (mm), condition
     number, admissibility and reasons; vectorised over the poses (one pipeline call). ``skip_checks``: names of
     admissibility checks left out."""
@@ -82,7 +83,8 @@ def pose_rows(machine_name: str, poses_si: np.ndarray, skip_checks: Sequence[str
     return head, rows
 
 
-def pose_report(machine_name: str, pose_si: np.ndarray, frame: str = "machine", skip_checks: Sequence[str] = ()) -> dict:
+def pose_report(machine_name: str, pose_si: np.ndarray, frame: str = "machine",
+                skip_checks: Sequence[str] = ()) -> dict:
     """Everything ``pkmstiff pose`` prints, as a JSON-ready dict whose keys name their units.
 
     ``pose_si`` is given in ``frame`` (:mod:`pkmstiff.machine.frames`); points in the output are in the same frame.

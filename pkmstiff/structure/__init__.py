@@ -57,7 +57,8 @@ from pkmstiff.structure.stiffness import ChainStiffness, chain_stiffness
 
 __all__ = [
     "StructureOptions", "StructureLayout", "StructureModelError", "PKMStructure", "ChainStiffness",
-    "structure_layout", "strut_mass_shares", "strut_mass_text", "build_structure", "structure_from_ik", "iter_structures", "chain_stiffness",
+    "structure_layout", "strut_mass_shares", "strut_mass_text", "build_structure", "structure_from_ik",
+    "iter_structures", "chain_stiffness",
     "platform_mass_matrix", "mass_matrix_about_origin", "PKSBody", "combine_bodies", "component_body",
     "vertical_direction", "platform_spindle_matrix", "dynamics_masses", "structure_summary", "DEFAULT_CHUNK",
     "COMPONENT_FAILED",
