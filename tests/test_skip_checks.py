@@ -198,3 +198,18 @@ def test_sweep_file_key(tmp_path):
         f.write_text(base.split("[[evaluations]]")[0]
                      + f'[[evaluations]]\nkind = "{kind}"\n{extra}skip_checks = ["{SKIP}"]\n')
         assert load_sweep(f).evaluation.skip_checks == (SKIP,)
+
+
+def test_cli_section_window_fits_the_region_without_the_check(capsys):
+    """Without --range the window is fitted to the region of the checks applied: without the static drive-load check
+    the middle band of the upper boundary reaches up to the drive-joint plane (docs/user-guide/validation-hexaglide.md),
+    far above the window of all checks; the fitted window still holds the whole region (no admissible point on its
+    edge)."""
+    args = ("section", "hexaglide", "--step", "50", "--quantities", "kappa", "--json", "--quiet")
+    rc, out, _ = _cli(capsys, *args)
+    base = json.loads(out)
+    rc, out, _ = _cli(capsys, *args, "--skip-check", "drive_load")
+    rep = json.loads(out)
+    assert rc == 0 and rep["window_fitted_to_workspace"] and rep["window_touches_admissible_region"] == []
+    assert rep["window_mm"]["z"][1] > base["window_mm"]["z"][1] + 100  # mm: the band reaches higher
+    assert "DRIVE_LOAD" not in rep["inadmissible_reasons"]

@@ -96,7 +96,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
 
         try:
             ranges = dict(zip(plane_kind, window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori,
-                                                        args.frame)))
+                                                        args.frame, checks)))
         except SectionError as exc:
             raise CliError(str(exc)) from None
         fitted = True
