@@ -492,25 +492,26 @@ def mode_text(modes: dict[str, Any]) -> str:
     r = modes["modes"]
     inert = modes["frequencies_hz_by_inertia_scale"]
     bound = modes["rayleigh_bound_f1_hz_by_k_y"]
-    return "\n\n".join([
-        "Measured joints, tool length 0, K_U neglected, no extra strut mass. Each mode's platform motion is a "
-        "rotation about its instantaneous axis (Chasles; the axis point is the one nearest O', report frame) plus a "
-        "translation along it (pitch); the dominant motion is the largest share of the platform's kinetic energy.",
-        f"Mode 1 ({r[0]['frequency_hz']:.2f} Hz) is a rotation about an axis along {r[0]['axis_direction']} "
-        f"{r[0]['axis_below_O_mm'] / 1e3:.2f} m below O' (as Cobet describes): the platform swings sideways, so its "
-        f"kinetic energy is mostly y-translation ({r[0]['dominant_motion']}). Modes 2 and 3 "
-        f"({r[1]['frequency_hz']:.2f}, {r[2]['frequency_hz']:.2f} Hz) rotate about axes along {r[1]['axis_direction']} and "
-        f"{r[2]['axis_direction']} passing {r[1]['axis_distance_from_O_mm']:.0f} and "
-        f"{r[2]['axis_distance_from_O_mm']:.0f} mm from O'.",
-        "f1 is bounded by Rayleigh's quotient (trial shape: the static deflection under a y-force at O'): "
-        "f1 <= sqrt(k_y / m_P) / 2 pi with m_P = 117.24 kg gives "
-        + ", ".join(f"{v:.1f} Hz for k_y = {k}" for k, v in bound.items())
-        + ": the published f1 (26.3-27.5 Hz) is out of reach of the published k_y and platform mass, whatever the "
-        "inertias and the mass distribution.",
-        "Sensitivity of f1, f2, f3 to the platform inertias (M_P's rotational entries, units not printed): "
-        + "; ".join(f"x {float(s):.3g}: " + " / ".join(f"{v:.1f}" for v in f) + " Hz" for s, f in inert.items())
-        + ". Smaller inertias raise f2 and f3 but no uniform scaling reaches the published f2 and f3 together; "
-        "nothing is tuned (machines.md §1.7 item 11)."])
+    intro = ("Measured joints, tool length 0, K_U neglected, no extra strut mass. Each mode's platform motion is a "
+             "rotation about its instantaneous axis (Chasles; the axis point is the one nearest O', report frame) "
+             "plus a translation along it (pitch); the dominant motion is the largest share of the platform's "
+             "kinetic energy.")
+    shapes = (f"Mode 1 ({r[0]['frequency_hz']:.2f} Hz) is a rotation about an axis along {r[0]['axis_direction']} "
+              f"{r[0]['axis_below_O_mm'] / 1e3:.2f} m below O' (as Cobet describes): the platform swings sideways, "
+              f"so its kinetic energy is mostly y-translation ({r[0]['dominant_motion']}). Modes 2 and 3 "
+              f"({r[1]['frequency_hz']:.2f}, {r[2]['frequency_hz']:.2f} Hz) rotate about axes along "
+              f"{r[1]['axis_direction']} and {r[2]['axis_direction']} passing "
+              f"{r[1]['axis_distance_from_O_mm']:.0f} and {r[2]['axis_distance_from_O_mm']:.0f} mm from O'.")
+    rayleigh = ("f1 is bounded by Rayleigh's quotient (trial shape: the static deflection under a y-force at O'): "
+                "f1 <= sqrt(k_y / m_P) / 2 pi with m_P = 117.24 kg gives "
+                + ", ".join(f"{v:.1f} Hz for k_y = {k}" for k, v in bound.items())
+                + ": the published f1 (26.3-27.5 Hz) is out of reach of the published k_y and platform mass, "
+                "whatever the inertias and the mass distribution.")
+    inertia = ("Sensitivity of f1, f2, f3 to the platform inertias (M_P's rotational entries, units not printed): "
+               + "; ".join(f"x {float(s):.3g}: " + " / ".join(f"{v:.1f}" for v in f) + " Hz" for s, f in inert.items())
+               + ". Smaller inertias raise f2 and f3 but no uniform scaling reaches the published f2 and f3 "
+               "together; nothing is tuned (machines.md §1.7 item 11).")
+    return f"{intro}\n\n{shapes}\n\n{rayleigh}\n\n{inertia}"
 
 
 def markdown_table(rows: list[dict[str, Any]]) -> str:

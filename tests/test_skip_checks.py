@@ -52,7 +52,8 @@ def test_requests_leave_the_check_out_and_say_so():
     without = PointRequest(BAND_POSE, ("kx",), 0.0, skip_checks=(SKIP,)).evaluate(HG)
     assert not with_check.admissible and with_check.checks_left_out == ()
     assert without.admissible and without.checks_left_out == (SKIP,) and without.values["kx"] > 0
-    sec = dict(plane="yz", at=0.0, u_range=(-0.1, 0.2), v_range=(-0.9, -0.8), step=0.05, quantities=("kx",))
+    sec = {"plane": "yz", "at": 0.0, "u_range": (-0.1, 0.2), "v_range": (-0.9, -0.8), "step": 0.05,
+           "quantities": ("kx",)}
     a = SectionRequest(**sec).evaluate(HG)
     b = SectionRequest(**sec, skip_checks=(SKIP,)).evaluate(HG)
     # leaving a check out only adds admissible points; values where both are admissible are the same numbers
