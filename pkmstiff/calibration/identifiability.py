@@ -109,6 +109,7 @@ def orthogonality_matrix(J: np.ndarray) -> np.ndarray:
     safe = np.where(norms > 0, norms, 1.0)
     U = J / safe
     O = np.abs(U.T @ U)
+    O = np.triu(O) + np.triu(O, 1).T  # exactly symmetric whichever kernel the BLAS picks for UᵀU
     O = np.clip(O, 0.0, 1.0)
     np.fill_diagonal(O, 1.0)
     return O
