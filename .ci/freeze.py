@@ -43,7 +43,8 @@ def main() -> int:
     reqs = list(project["dependencies"]) + list(project["optional-dependencies"]["test"])
     pins = closure(reqs)
     pins.pop(project["name"], None)
-    print(f"# written by .ci/freeze.py (Python {sys.version_info.major}.{sys.version_info.minor}); see docs/development.md")
+    py = f"{sys.version_info.major}.{sys.version_info.minor}"
+    print(f"# written by .ci/freeze.py (Python {py}); see docs/development.md")
     for name in sorted(pins, key=str.lower):
         print(f"{name}=={pins[name]}")
     return 0

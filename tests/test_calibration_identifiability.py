@@ -25,12 +25,7 @@ from pkmstiff.calibration import (
     observability_indices,
     orthogonality_matrix,
 )
-from pkmstiff.calibration.identifiability import (
-    BASE_THRESHOLD,
-    analyse,
-    base_parameter_indices,
-    base_priority,
-)
+from pkmstiff.calibration.identifiability import BASE_THRESHOLD, analyse, base_parameter_indices, base_priority
 from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
 
 

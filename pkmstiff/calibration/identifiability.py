@@ -1,6 +1,7 @@
 """Identifiability of the error parameters from a plan: numerical rank by the gap in the singular values, base
-parameters by a fixed priority order (:func:`base_parameter_indices`), named gauge freedoms, condition number, orthogonality matrix O and the
-observability indices O1–O5 (Szatmári §4.4.2, eq. 4.5–4.8; Denkena §1.4.3; docs/theory/calibration.md).
+parameters by a fixed priority order (:func:`base_parameter_indices`), named gauge freedoms, condition number,
+orthogonality matrix O and the observability indices O1–O5 (Szatmári §4.4.2, eq. 4.5–4.8; Denkena §1.4.3;
+docs/theory/calibration.md).
 
 All of it works on the scaled Jacobian J_s = W J D (W weights orientation rows by a length, D = diag(parameter
 scales); :meth:`IdentificationJacobian.scaled`): rank and gauge freedoms do not depend on D (column scaling keeps
