@@ -21,10 +21,10 @@ from pkmstiff.calibration.identifiability import (
                                                   observability_indices,
                                                   orthogonality_matrix,
 )
-from pkmstiff.calibration.instruments import INSTRUMENTS, READINGS, Setup, SetupState, readings
+from pkmstiff.calibration.instruments import Instrument, Setup, SetupState, instrument, readings
 from pkmstiff.calibration.jacobian import IdentificationJacobian, identification_jacobian
 from pkmstiff.calibration.measurement import reached_poses, simulate_readings
-from pkmstiff.calibration.parameters import FRAMES, SETUP_TOKENS, ParameterSet, error_model, parse_errors, parse_with
+from pkmstiff.calibration.parameters import FRAMES, ParameterSet, error_model, parse_errors, parse_with
 from pkmstiff.calibration.perturb import machine_file_text, perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import (
                                                   Plan,
@@ -42,12 +42,10 @@ from pkmstiff.calibration.plans import (
 
 __all__ = [
                                                   "FRAMES",
-                                                  "INSTRUMENTS",
-                                                  "READINGS",
-                                                  "SETUP_TOKENS",
                                                   "GaugeCandidate",
                                                   "GaugeFreedom",
                                                   "Identifiability",
+                                                  "Instrument",
                                                   "IdentificationJacobian",
                                                   "ParameterSet",
                                                   "Plan",
@@ -65,6 +63,7 @@ __all__ = [
                                                   "hemisphere_plan",
                                                   "identifiability",
                                                   "identification_jacobian",
+                                                  "instrument",
                                                   "machine_file_text",
                                                   "numerical_rank",
                                                   "observability_indices",

@@ -33,8 +33,9 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pkmstiff.calibration.identification import Identification, _row_weight, identify
-from pkmstiff.calibration.instruments import READINGS, Setup, SetupState, readings
+from pkmstiff.calibration.identification import Identification, identify
+from pkmstiff.calibration.instruments import Setup, SetupState, readings
+from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
@@ -144,7 +145,7 @@ def reading_deflection(machine: Machine, plan_or_measurement: Any, params: Param
                        gravity: np.ndarray | None = None) -> np.ndarray:
     """Change of every instrument reading (m,) = (N·k,) [m, rad] caused by the deflection at the measured poses
     (ball bar: length change from the displaced tool ball; tracker: target displacement; pose: position and
-    orientation change; :data:`~pkmstiff.calibration.instruments.READINGS` order).  With ``params``/``delta`` the
+    orientation change; :attr:`~pkmstiff.calibration.instruments.Instrument.reading_names` order).  With ``params``/``delta`` the
     machine and set-up carry those errors and deflect at the poses they reach (else: nominal machine at the
     commanded poses).  ``plan_or_measurement``: a :class:`Plan` or a ball-bar measurement."""
     plan = _plan_of(plan_or_measurement, machine)
@@ -208,7 +209,7 @@ class DeflectionAnalysis:
         return float(np.linalg.norm((self.actual - self.predicted) / s)) / den if den > 0 else 0.0
 
     def _length_rows(self) -> np.ndarray:
-        units = READINGS[self.corrected.plan.instrument][1]
+        units = self.corrected.plan.instrument.reading_units
         return np.tile(np.array([u == "m" for u in units]), self.corrected.plan.n_poses)
 
     def to_dict(self) -> dict:
@@ -265,7 +266,7 @@ def deflection_analysis(machine: Machine, params: ParameterSet, plan: Plan, meas
         dr = reading_deflection(machine, plan, params, corrected.delta, load=load, gravity=g)
     if uncorrected is None:
         uncorrected = identify(machine, params, plan, measured, method, base=corrected.base, **kwargs)
-    w = _row_weight(machine, plan.instrument, plan.n_poses)
+    w = reading_weights(machine, plan.instrument, plan.n_poses)
     predicted = np.linalg.lstsq(corrected.J, w * dr, rcond=None)[0]
     actual = uncorrected.delta[corrected.base] - corrected.delta[corrected.base]
     tv = plan.setup.target

@@ -33,8 +33,8 @@ import numpy as np
 from scipy.optimize import differential_evolution, least_squares, linprog
 
 from pkmstiff.calibration.identifiability import GaugeFreedom, identifiability
-from pkmstiff.calibration.instruments import READINGS, Setup
-from pkmstiff.calibration.jacobian import identification_jacobian, rotation_length
+from pkmstiff.calibration.instruments import Setup
+from pkmstiff.calibration.jacobian import identification_jacobian, reading_weights
 from pkmstiff.calibration.measurement import reached_poses, simulate_readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
@@ -90,7 +90,7 @@ class Identification:
         names = self.base_names
         units = [self.params.units[i] for i in self.base]
         return {
-            "machine": self.machine.name, "plan": self.plan.name, "instrument": self.plan.instrument,
+            "machine": self.machine.name, "plan": self.plan.name, "instrument": self.plan.instrument.kind,
             "method": self.method, "loss": self.loss, "scaling": self.scaling, "iterations": self.iterations,
             "n_readings": self.n_readings, "n_parameters": self.params.n, "rank": self.rank,
             "condition_number": _num(self.condition_number),
@@ -112,11 +112,6 @@ def residual_stats(r: np.ndarray) -> dict[str, float]:
     r = np.asarray(r, dtype=float)
     return {"rms_um": float(np.sqrt(np.mean(r ** 2))) * 1e6, "max_abs_um": float(np.max(np.abs(r))) * 1e6,
             "mean_um": float(np.mean(r)) * 1e6, "std_um": float(np.std(r)) * 1e6}
-
-
-def _row_weight(machine: Machine, instrument: str, n_poses: int) -> np.ndarray:
-    units = READINGS[instrument][1]
-    return np.tile([1.0 if u == "m" else rotation_length(machine) for u in units], n_poses)
 
 
 def setup_at(setup: Setup, params: ParameterSet, delta: np.ndarray) -> Setup:
@@ -144,7 +139,7 @@ class _Model:
         self.machine, self.params, self.plan, self.base = machine, params, plan, base
         self.y = measured.reshape(-1)
         self.delta0 = delta0
-        self.w = _row_weight(machine, plan.instrument, plan.n_poses)
+        self.w = reading_weights(machine, plan.instrument, plan.n_poses)
         self.s = params.scale[base]
         self.n_eval = 0
 
@@ -348,7 +343,7 @@ def outlier_report(res: Identification, threshold: float = 3.0) -> list[dict]:
     s = noise_estimate(r, res.rank)
     if not np.isfinite(s) or s <= 0:
         return []
-    names = READINGS[res.plan.instrument][0]
+    names = res.plan.instrument.reading_names
     k = len(names)
     out = []
     for i in np.flatnonzero(np.abs(r) > threshold * s):

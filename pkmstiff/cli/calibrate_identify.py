@@ -22,6 +22,7 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     from pkmstiff.calibration.compensation import measurement_plan, write_calibrated_machine
     from pkmstiff.calibration.deflection import check_deflection, deflection_analysis
     from pkmstiff.calibration.identification import identify
+    from pkmstiff.calibration.instruments import instrument as lookup
     from pkmstiff.calibration.measurement_file import read_measurement
     from pkmstiff.calibration.uncertainty import uncertainty
     from pkmstiff.errors import CalibrationInputError
@@ -32,10 +33,9 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     wrench = parse_load(load)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)
-    kind = getattr(meas, "kind", "ballbar")
-    if instrument is not None and instrument != kind:
+    if instrument is not None and lookup(instrument) != meas.instrument:
         raise CalibrationInputError(measurements, "instrument", f"'{instrument}' (--instrument), but the file holds "
-                                    f"{kind} readings (header instrument_type)", kind)
+                                    f"{meas.instrument} readings (header instrument_type)", meas.instrument.kind)
     plan, y = measurement_plan(meas, machine.name, measurements)
     params = error_model(machine, frame=frame, setup=plan.setup)
     defl = None
@@ -163,6 +163,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _add_identify(sub) -> None:
     from pkmstiff.calibration.identification import LOSSES, METHODS
+    from pkmstiff.calibration.instruments import kinds
     from pkmstiff.cli.calibrate import _run
 
     p = sub.add_parser("identify", help="identify the base parameters from a measurement",
@@ -179,7 +180,7 @@ def _add_identify(sub) -> None:
     p.add_argument("--out", metavar="CALIBRATED.toml", help="write the calibrated machine file")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check with N runs")
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
-    p.add_argument("--instrument", choices=("ballbar", "tracker", "pose"), default=None,
+    p.add_argument("--instrument", choices=kinds(), default=None,
                    help="expected instrument of the measurement (default: the file's instrument_type)")
     p.add_argument("--deflection", choices=("none", "gravity"), default="none",
                    help="gravity: subtract the predicted elastic deflection under the machine's weight (structure "

@@ -34,6 +34,7 @@ from pkmstiff.calibration.compensation import check, file_sha256, measurement_pl
 from pkmstiff.calibration.deflection import deflection_analysis, subtract_deflection
 from pkmstiff.calibration.identifiability import Identifiability, identifiability
 from pkmstiff.calibration.identification import Identification, identify, residual_stats
+from pkmstiff.calibration.instruments import BALL_BAR
 from pkmstiff.calibration.measurement_file import BallbarMeasurement, read_measurement
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine
@@ -191,10 +192,10 @@ def _ballbar_file(path: str) -> BallbarMeasurement:
     """A ball-bar measurement file; another instrument's file is a one-line error (the report's plan, circle and
     polar-plot parts are ball-bar specific)."""
     meas = read_measurement(path)
-    kind = getattr(meas, "kind", "ballbar")
-    if kind != "ballbar":
+    if not isinstance(meas, BallbarMeasurement):
         raise CalibrationInputError(path, "instrument", "a ball-bar measurement file (calibrate report evaluates "
-                                    "ball-bar circles; use calibrate identify / check for this file)", kind)
+                                    "ball-bar circles; use calibrate identify / check for this file)",
+                                    meas.instrument.kind)
     return meas
 
 
@@ -210,9 +211,9 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
     from pkmstiff.calibration import error_model
 
     plan_file = read_plan(plan_path) if plan_path else None
-    if plan_file is not None and plan_file.instrument != "ballbar":
+    if plan_file is not None and plan_file.instrument != BALL_BAR:
         raise CalibrationInputError(plan_path, "plan.instrument", "a ball-bar plan (the measurement is a ball-bar "
-                                    "file)", plan_file.instrument)
+                                    "file)", plan_file.instrument.kind)
     meas = _ballbar_file(measurements)
     plan, y = measurement_plan(meas, machine.name, measurements)
     vals = []
@@ -421,7 +422,7 @@ def _plan_section(report: Report, run: CalibrationRun, fig_dir: Path) -> None:
     groups = circle_of + 1
     if not np.any(groups == 0):
         labels[0] = "(none)"
-    text = [f"Instrument: ball bar ({meas.instrument}), measurement file {Path(run.measurements).name} "
+    text = [f"Instrument: ball bar ({meas.device}), measurement file {Path(run.measurements).name} "
             f"({meas.n_samples} samples over {float(meas.t[-1] - meas.t[0]):.1f} s)."]
     if run.plan_file is not None:
         kinds = "; ".join(f"{s.label} ({getattr(s, 'kind', 'path')}, {s.stop - s.start} poses)"
