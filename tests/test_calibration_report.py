@@ -189,22 +189,22 @@ def test_existing_report_needs_force(files, report, capsys):
 
 
 # ------------------------------------------------------------------------------------------------ deflection
-def test_deflection_section_renders_a_plain_dict(tmp_path):
-    """The dict of ``pkmstiff.calibration.deflection.deflection_contribution`` (keys with unit suffixes, vectors,
-    per-parameter biases in SI with their unit, notes) becomes tables in the report's units."""
+def test_deflection_section_renders_the_typed_summary(tmp_path):
+    """A :class:`~pkmstiff.calibration.deflection.DeflectionSummary` (SI) becomes tables in the report's units."""
+    from pkmstiff.calibration.deflection import DeflectionSummary, ParameterBias
     from pkmstiff.report.calibration import deflection_section
     from pkmstiff.report.model import Report
     from pkmstiff.report.render import write_report
 
     rep = Report("t")
-    deflection_section(rep, {"model": "gravity", "gravity_m_s2": [0.0, 0.0, -9.81], "load_N": [0.0, 0.0, -50.0], "load_N_m": [0.0, 0.0, 2.0],
-                             "n_readings": 2000, "rms_reading_um": 1.25, "max_reading_um": 3.5,
-                             "tcp_mean_um": [0.5, -0.25, -12.0], "bias_relative_deviation": 0.012,
-                             "bias": [{"name": "chain1.strut_offset", "unit": "m", "predicted": 2.0e-6,
-                                       "actual": 2.04e-6},
-                                      {"name": "chain1.guide_direction.t1", "unit": "rad", "predicted": 1.5e-6,
-                                       "actual": 1.5e-6}],
-                             "notes": ["readings corrected by the predicted deflection"]})
+    deflection_section(rep, DeflectionSummary(
+        gravity=np.array([0.0, 0.0, -9.81]), force=np.array([0.0, 0.0, -50.0]), moment=np.array([0.0, 0.0, 2.0]),
+        n_readings=2000, rms_reading=1.25e-6, max_reading=3.5e-6, rms_reading_angle=None, max_reading_angle=None,
+        tcp_max=13e-6, tcp_mean=np.array([0.5e-6, -0.25e-6, -12e-6]), tcp_rotation_max=4e-6,
+        bias=(ParameterBias("chain1.strut_offset", "m", 2.0e-6, 2.04e-6),
+              ParameterBias("chain1.guide_direction.t1", "rad", 1.5e-6, 1.5e-6)),
+        bias_relative_deviation=0.012, rms_after_corrected=0.2e-6, rms_after_uncorrected=0.9e-6,
+        notes=("readings corrected by the predicted deflection",)))
     deflection_section(rep, None)
     paths = write_report(rep, tmp_path, run={"date": "x"})
     md = paths["md"].read_text(encoding="utf-8")
@@ -213,6 +213,7 @@ def test_deflection_section_renders_a_plain_dict(tmp_path):
                 "| bias relative deviation | – | 0.01200 |", "| chain1.strut_offset | µm | 2.000 | 2.040 |",
                 "| chain1.guide_direction.t1 | µrad | 1.500 | 1.500 |"):
         assert row in md, row
+    assert "rms reading (µrad)" not in md  # no orientation readings
     assert "model: gravity" in md and "notes: readings corrected by the predicted deflection" in md
     assert "Not computed — run with --deflection gravity." in md
 
@@ -245,7 +246,7 @@ def test_deflection_gravity_subtracts_and_reports(tmp_path, capsys):
 
 def test_deflection_loads_match_the_library():
     from pkmstiff.cli.calibrate_report import DEFLECTION_LOADS as cli
-    from pkmstiff.report.calibration import DEFLECTION_LOADS as lib
+    from pkmstiff.calibration.workflow import DEFLECTION_LOADS as lib
 
     assert cli == lib
 
@@ -261,7 +262,7 @@ def test_deflection_without_stiffness_data_is_one_line(files, tmp_path, capsys):
 
 # --------------------------------------------------------------------------------------------------- circles
 def test_circle_runs_finds_planar_runs_and_merges_directions():
-    from pkmstiff.report.calibration import circle_runs
+    from pkmstiff.calibration.circles import circle_runs
 
     t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
     xy = np.c_[0.15 * np.cos(t), 0.15 * np.sin(t), np.zeros_like(t)]  # XY circle, ccw then cw
