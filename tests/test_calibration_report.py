@@ -188,6 +188,37 @@ def test_existing_report_needs_force(files, report, capsys):
     assert (report / "report.md").stat().st_mtime_ns == before
 
 
+def _count_identifiability(monkeypatch) -> list:
+    """Count the identifiability analyses of the workflow and of the identification."""
+    import pkmstiff.calibration.identification as identification
+    import pkmstiff.calibration.workflow as workflow
+
+    calls = []
+    real = workflow.identifiability
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(workflow, "identifiability", counted)
+    monkeypatch.setattr(identification, "identifiability", counted)
+    return calls
+
+
+def test_workflow_computes_identifiability_once(files, monkeypatch):
+    """One identifiability analysis per calibration run (the report shows it, the identification uses its base
+    parameters), and the typed result carries the identification's numbers."""
+    from pkmstiff.calibration.workflow import run_calibration
+    from pkmstiff.machine import load_machine
+
+    calls = _count_identifiability(monkeypatch)
+    run = run_calibration(load_machine("felix"), str(files / "meas.csv"), validate=[str(files / "val.csv")])
+    assert len(calls) == 1
+    assert run.res.rank == run.ident.rank and run.run.after.rms < run.run.before.rms
+    assert run.run.after.rms == pytest.approx(np.sqrt(np.mean(run.res.residual_after ** 2)), rel=1e-15)
+    assert len(run.validations) == 1 and run.validations[0].after_stats.rms < run.validations[0].before_stats.rms
+
+
 # ------------------------------------------------------------------------------------------------ deflection
 def test_deflection_section_renders_the_typed_summary(tmp_path):
     """A :class:`~pkmstiff.calibration.deflection.DeflectionSummary` (SI) becomes tables in the report's units."""
@@ -218,7 +249,7 @@ def test_deflection_section_renders_the_typed_summary(tmp_path):
     assert "Not computed — run with --deflection gravity." in md
 
 
-def test_deflection_gravity_subtracts_and_reports(tmp_path, capsys):
+def test_deflection_gravity_subtracts_and_reports(tmp_path, capsys, monkeypatch):
     """``--deflection gravity`` on the Hexapod 6X (has stiffness data): the readings simulated with the gravity
     deflection are explained after identification (noise-free, so the residual is round-off: < 1 nm), the
     validation file is corrected the same way, and the section shows the contribution instead of "Not computed"."""
@@ -235,9 +266,11 @@ def test_deflection_gravity_subtracts_and_reports(tmp_path, capsys):
                 tmp_path / "err.toml", "--noise", "none", "--no-quantise", "--sample-rate", "2", "--directions", "ccw",
                 "--deflection", "gravity", "--out", meas)[0] == 0
     out = tmp_path / "rep"
+    calls = _count_identifiability(monkeypatch)
     code, text, err = _run(capsys, "calibrate", "report", "hexapod_6x", "--measurements", meas, "--validate", meas,
                            "--out", out, "--deflection", "gravity", "--json")
     assert code == 0, err
+    assert len(calls) == 1  # shared by the corrected identification, its refinements and the uncorrected one
     doc = json.loads(text)
     assert doc["rms_after_um"] < 1e-3 and doc["rms_before_um"] > 1.0
     md = (out / "report.md").read_text(encoding="utf-8")

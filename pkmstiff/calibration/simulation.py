@@ -1,4 +1,4 @@
-"""Simulated ball-bar (and tracker / pose) measurements with an instrument model (Szatmári §4.3, Tab. 4.3–4.5).
+"""Simulated ball-bar (and tracker / pose) measurements with a device model (Szatmári §4.3, Tab. 4.3–4.5).
 
 Chain of effects per sample (all SI):
 
@@ -162,10 +162,10 @@ def _is_closed(P: np.ndarray) -> bool:
     return bool(np.linalg.norm(P[-1] - P[0]) < 1.5 * step)
 
 
-def sample_plan(plan: Plan, instrument: Device, options: SimulationOptions) -> Samples:
-    """The samples of a measurement along ``plan``: path segments at ``options.feed`` and the instrument's sample
+def sample_plan(plan: Plan, device: Device, options: SimulationOptions) -> Samples:
+    """The samples of a measurement along ``plan``: path segments at ``options.feed`` and the device's sample
     rate (one run per direction, ``cw`` reversed), point segments one sample per pose after ``options.dwell``."""
-    step = options.feed / instrument.sample_rate
+    step = options.feed / device.sample_rate
     parts, t0 = [], 0.0
     segs = plan.segments or ()
     for j, seg in enumerate(segs):
@@ -184,7 +184,7 @@ def sample_plan(plan: Plan, instrument: Device, options: SimulationOptions) -> S
             q, s = resample_path(plan.setup, xx, step, closed)
             t = t0 + s / options.feed
             parts.append((q, t, np.full(len(q), options.feed), np.full(len(q), d), np.full(len(q), j)))
-            t0 = t[-1] + 1.0 / instrument.sample_rate
+            t0 = t[-1] + 1.0 / device.sample_rate
     if not parts:
         raise CalibrationInputError(plan.name, "segments", "at least one path or point set", 0)
     cols = list(zip(*parts))
@@ -244,15 +244,15 @@ def displaced_frames(o: np.ndarray, R: np.ndarray, Jinv: np.ndarray, dq: np.ndar
 
 
 def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Plan,
-             instrument: Device | None = None, options: SimulationOptions | None = None,
+             device: Device | None = None, options: SimulationOptions | None = None,
              samples: Samples | None = None) -> SimulationResult:
-    """Simulate a measurement along ``plan`` on ``machine`` with errors ``delta`` (module docstring); ``instrument``
-    is the device (default: the plan's instrument's)."""
-    instrument = instrument or default_device(plan)
-    _check_match(plan, instrument)
+    """Simulate a measurement along ``plan`` on ``machine`` with errors ``delta`` (module docstring); ``device``
+    is the instrument's device (default: the plan's instrument's)."""
+    device = device or default_device(plan)
+    _check_match(plan, device)
     options = options or SimulationOptions()
     delta = params.check_vector(delta)
-    smp = samples or sample_plan(plan, instrument, options)
+    smp = samples or sample_plan(plan, device, options)
     x = smp.poses
     ik = inverse_kinematics(machine, x)
     bad = np.flatnonzero(~ik.all_reachable)
@@ -284,10 +284,10 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
         notes.append("gravity deflection of the structure model added (Assumption: struts lumped half at either "
                      "joint)")
     clean = readings(plan.setup, state, o, R, Rc)
-    sigma = instrument.sigma(options.noise, smp.feed)
+    sigma = device.sigma(options.noise, smp.feed)
     rng = np.random.default_rng(options.seed)
     out = clean + (rng.standard_normal(clean.shape) * sigma[:, None] if np.any(sigma > 0) else 0.0)
-    out, violations, dev = plan.instrument.finish_readings(instrument, plan.setup, options, clean, out, rng)
+    out, violations, dev = plan.instrument.finish_readings(device, plan.setup, options, clean, out, rng)
     return SimulationResult(smp, out, clean, sigma, options.T0 + rise, violations, notes, dev)
 
 
@@ -321,13 +321,13 @@ def range_error(plan: Plan, res: SimulationResult, device: Device) -> str:
     return plan.instrument.range_error(plan, res, device) if res.violations.size else ""
 
 
-def to_measurement(machine: Machine, plan: Plan, res: SimulationResult, instrument: Device, saturate: bool = False):
+def to_measurement(machine: Machine, plan: Plan, res: SimulationResult, device: Device, saturate: bool = False):
     """The simulated run as a measurement of the plan's instrument
     (:class:`~pkmstiff.calibration.instruments.BallbarMeasurement`: reading = distance − bar length, ``saturate``
     clips out-of-range readings at the range limits, as the transducer would;
     :class:`~pkmstiff.calibration.instruments.PointMeasurement` for a tracker / pose plan)."""
-    _check_match(plan, instrument)
-    return plan.instrument.to_measurement(machine, plan, res, instrument, saturate,
+    _check_match(plan, device)
+    return plan.instrument.to_measurement(machine, plan, res, device, saturate,
                                           [f"simulated by pkmstiff from plan '{plan.name}'"] + res.notes)
 
 

@@ -131,6 +131,8 @@ class BallBar(Instrument):
             raise CalibrationInputError("setup", "fixed_ball/bar_length", "a fixed-ball position and a positive "
                                         "bar length for a ball bar", (setup.fixed_ball, setup.bar_length))
         object.__setattr__(setup, "fixed_ball", np.asarray(setup.fixed_ball, dtype=float).reshape(3))
+        if setup.measuring_range is None:
+            object.__setattr__(setup, "measuring_range", QC10.range[1])
 
     def default_setup(self, machine: Any, centre: np.ndarray, bar_length: float) -> Setup:
         """Ball bar of ``bar_length`` with the fixed ball at ``centre`` (Szatmári §5.1: R = 300 mm about the
@@ -140,7 +142,7 @@ class BallBar(Instrument):
     def setup_from_toml(self, table: dict, quantity: Callable[..., Any], target: np.ndarray) -> Setup:
         return Setup(self, target=target, fixed_ball=quantity(table, "fixed_ball", "m", "setup.", shape=(3,)),
                      bar_length=quantity(table, "bar_length", "m", "setup.", positive=True),
-                     measuring_range=quantity(table, "measuring_range", "m", "setup.", 1e-3, positive=True),
+                     measuring_range=quantity(table, "measuring_range", "m", "setup.", QC10.range[1], positive=True),
                      max_mount_angle=(quantity(table, "max_mount_angle", "rad", "setup.", positive=True)
                                       if "max_mount_angle" in table else None))
 

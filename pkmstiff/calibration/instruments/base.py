@@ -187,7 +187,7 @@ class Instrument:
 class Setup:
     """Nominal instrument set-up: the ``instrument`` (an :class:`Instrument`, or its kind name), ``target`` v in
     the PKS (m); ball bar: ``fixed_ball`` s_7 in the MKS (m) and the nominal ``bar_length`` (m);
-    ``measuring_range`` (m) about it (QC10: ±1 mm); ``max_mount_angle`` (rad, optional) the largest angle between
+    ``measuring_range`` (m) about it (default: the device's, QC10 ±1 mm); ``max_mount_angle`` (rad, optional) the largest angle between
     the bar (moving ball → fixed ball) and the tool axis that the magnetic cup permits (Szatmári §4.4.3, collision
     check; no value given there, so unchecked unless set)."""
 
@@ -195,7 +195,7 @@ class Setup:
     target: np.ndarray = field(default_factory=lambda: np.zeros(3))
     fixed_ball: np.ndarray | None = None
     bar_length: float | None = None
-    measuring_range: float = 1e-3
+    measuring_range: float | None = None
     max_mount_angle: float | None = None
 
     def __post_init__(self) -> None:
