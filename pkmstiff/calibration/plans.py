@@ -25,7 +25,7 @@ from pkmstiff.calibration.instruments import Instrument, Setup, SetupState, inst
 from pkmstiff.errors import CalibrationError, CalibrationInputError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.kinematics import as_poses
-from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
+from pkmstiff.kinematics.rotation import cardan_angles
 from pkmstiff.machine import Machine
 from pkmstiff.units import parse_quantity
 

@@ -32,7 +32,6 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from pkmstiff.calibration.instruments import BallbarDevice, Setup, TrackerDevice, readings, target_points
-from pkmstiff.calibration.instruments.ball_bar import NOISE_MODELS
 from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_state

@@ -16,7 +16,6 @@ render.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -24,8 +23,12 @@ import numpy as np
 from pkmstiff.calibration.ballbar import ball_positions
 from pkmstiff.calibration.circles import CircleRun, circles
 from pkmstiff.calibration.compensation import check, measurement_plan
-from pkmstiff.calibration.deflection import DeflectionAnalysis, DeflectionSummary, deflection_analysis, \
-    subtract_deflection
+from pkmstiff.calibration.deflection import (
+    DeflectionAnalysis,
+    DeflectionSummary,
+    deflection_analysis,
+    subtract_deflection,
+)
 from pkmstiff.calibration.identifiability import Identifiability, identifiability
 from pkmstiff.calibration.identification import Identification, ResidualStats, identify
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument

@@ -46,7 +46,7 @@ def read_errors(path: str | None, machine, plan):
 
 
 def _noise(text: str) -> str | float:
-    from pkmstiff.calibration.simulation import NOISE_MODELS
+    from pkmstiff.calibration.instruments.ball_bar import NOISE_MODELS
     from pkmstiff.errors import CalibrationInputError
 
     if text in NOISE_MODELS:
