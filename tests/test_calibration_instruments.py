@@ -254,3 +254,10 @@ def test_dummy_instrument_keys_belong_to_its_files(zprobe, tmp_path):
                  "pz_mm\n0,0,0,0,0,0,0,0,0,0\n")
     with pytest.raises(MeasurementFileError, match="line 2: header key 'travel_mm' does not belong to a tracker"):
         read_measurement(p)
+
+
+def test_dummy_instrument_reading_lengths_are_checked_on_writing(zprobe, tmp_path):
+    meas = ZProbeMeasurement(zprobe, t=np.arange(3.0), z=np.zeros(2), poses=np.zeros((3, 6)))
+    with pytest.raises(MeasurementFileError, match="column 'z_probe_mm' has 2 samples, expected 3"):
+        write_measurement(tmp_path / "z.csv", meas)
+    assert not (tmp_path / "z.csv").exists()

@@ -1,4 +1,9 @@
-"""Ball-bar measurement files: a CSV with a commented header (issue 16 item 5; instrument data docs/theory/calibration.md).
+"""Measurement files: a CSV with a commented header (issue 16 item 5; instrument data docs/theory/calibration.md).
+
+This module reads and writes what every instrument's file shares (header lines, time, commanded poses or drive
+values, feed, direction, temperature); the header keys and reading columns of each instrument come from its
+:class:`~pkmstiff.calibration.instruments.Instrument` (``instrument_type`` names it, :mod:`.instruments.registry`).
+The header key ``instrument`` names the device (e.g. QC10), the measurement's ``device`` attribute.
 
 Layout (one sample per row, comma separated, ``#`` starts a comment line)::
 
@@ -101,14 +106,16 @@ def write_measurement(path: str | Path, meas: Measurement, *, allow_out_of_range
     path = Path(path)
     src = str(path)
     inst = meas.instrument
-    check = getattr(inst, "check_measurement", None)
-    if check is not None:
-        check(src, meas)
+    inst.check_measurement(src, meas)
     _check_lengths(meas, src)
     bad = inst.range_violations(meas)
     if bad.size and not allow_out_of_range:
         raise MeasurementFileError(src, None, inst.range_message(meas, bad))
     cols = _command_cols(meas) + inst.reading_columns(meas) + _optional_cols(meas)
+    for name, values in cols:  # the readings of any instrument, whatever its fields are called
+        if len(values) != meas.n_samples:
+            raise MeasurementFileError(src, None, f"column '{name}' has {len(values)} samples, expected "
+                                       f"{meas.n_samples} (as 't')")
     if inst == FILE_DEFAULT:  # files of the default instrument keep their original header (no instrument_type)
         head = [f"# {SIGNATURE}", f"# format_version: {FORMAT_VERSION}"]
     else:

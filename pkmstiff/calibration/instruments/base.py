@@ -163,6 +163,14 @@ class Instrument:
         """Indices of the samples whose reading lies outside the device's range."""
         raise NotImplementedError
 
+    def range_message(self, meas: Any, bad: np.ndarray) -> str:
+        """One line on the samples ``bad`` (indices, not empty) out of range, for a writer."""
+        raise NotImplementedError
+
+    def check_measurement(self, src: str, meas: Any) -> None:
+        """Raise :class:`~pkmstiff.errors.MeasurementFileError` if ``meas`` cannot be written as this instrument's
+        file (nothing to check by default)."""
+
     def parse_header(self, src: str, header: dict[str, tuple[int, str]]) -> dict:
         """Measurement attributes (SI) from the header keys of a file: {key: (line, text)}."""
         raise NotImplementedError
