@@ -311,7 +311,7 @@ def check_samples(machine: Machine, plan: Plan, samples: Samples, max_list: int 
 
 def _check_match(plan: Plan, device: Device) -> None:
     if not plan.instrument.accepts(device):
-        raise CalibrationInputError(plan.name, "instrument", f"a {plan.instrument} instrument model for a "
+        raise CalibrationInputError(plan.name, "instrument", f"a {plan.instrument} device for a "
                                     f"{plan.instrument} plan", type(device).__name__)
 
 
