@@ -24,6 +24,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from pkmstiff.calibration.instruments import BallbarMeasurement
 from pkmstiff.errors import InputError
 
 Array = NDArray[np.float64]
@@ -331,8 +332,7 @@ def fit_circle(points: ArrayLike, *, max_iter: int = 20, source: str = "") -> Ci
     """
     q = np.asarray(points, dtype=float)
     if q.ndim != 2 or q.shape[1] != 2 or q.shape[0] < 3:
-        raise InputError(reason=f"a circle fit needs points of shape (N >= 3, 2), found {q.shape}",
-                         file=source)
+        raise InputError(reason=f"a circle fit needs points of shape (N >= 3, 2), found {q.shape}", file=source)
     ref = q.mean(axis=0)
     qr = q - ref  # fit about the centroid for conditioning
     A = np.column_stack([2.0 * qr, np.ones(len(qr))])
@@ -712,11 +712,11 @@ def evaluate_measurement(meas: Any, *, harmonics: int | Literal["auto"] = "auto"
     forward kinematics of ``machine`` from ``start_pose`` for a drive-only file) and the header's ball offset.
     ``plane`` overrides the file's ``plane`` header.
     """
-    kind = getattr(meas, "kind", "ballbar")
-    if kind != "ballbar":
-        raise InputError(reason=f"a circular-test evaluation needs a ball-bar measurement, found a {kind} file "
-                           f"(instrument_type: {kind}); identify from it with 'pkmstiff calibrate identify'",
-                         file=source)
+    if not isinstance(meas, BallbarMeasurement):
+        kind = meas.instrument
+        raise InputError(source, reason=f"a circular-test evaluation needs a ball-bar measurement, found a "
+                                   f"{kind} file (instrument_type: {kind}); identify from it with 'pkmstiff "
+                                   "calibrate identify'")
     P = ball_positions(commanded_poses(meas, machine, start_pose, source), meas.ball_offset)
     return evaluate_circular_test(P, meas.reading, meas.fixed_ball, meas.bar_length, direction=meas.direction,
                                   plane=meas.plane if plane is None else plane, harmonics=harmonics, alpha=alpha,

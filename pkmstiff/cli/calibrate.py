@@ -12,44 +12,28 @@ from collections.abc import Callable
 
 import numpy as np
 
-from pkmstiff.errors import PkmstiffError
-
-
-def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
-    """Run a sub-command; toolkit errors become the CLI's one-line errors (exit status 2)."""
-    def wrapped(args: argparse.Namespace) -> int:
-        from pkmstiff.errors import ArgumentError
-
-        try:
-            return func(args)
-        except PkmstiffError as exc:
-            if isinstance(exc, ValueError):  # input errors: the CLI already prints them in one line
-                raise
-            raise ArgumentError(str(exc)) from None
-    return wrapped
-
 
 def identifiability_report(machine_name: str, instrument: str, plan_path: str | None = None,
                            with_: str | None = None, frame: str = "cartesian") -> dict:
     """Everything ``pkmstiff calibrate identifiability`` prints, as a JSON-ready dict (keys name their units)."""
     from pkmstiff.calibration import check_plan, default_plan, error_model, identifiability, parse_with, read_plan
-    from pkmstiff.calibration.instruments import check_instrument
+    from pkmstiff.calibration.instruments import instrument as lookup
     from pkmstiff.machine import load_machine
 
-    check_instrument(instrument)
+    inst = lookup(instrument)
     machine = load_machine(machine_name)
     if plan_path:
         plan = read_plan(plan_path)
-        if plan.instrument != instrument:
+        if plan.instrument != inst:
             from pkmstiff.errors import InputError
-            raise InputError(plan_path, "plan.instrument", f"'{instrument}' (as --instrument)",
-                                        plan.instrument)
+            raise InputError(plan_path, "plan.instrument", f"'{inst}' (as --instrument)",
+                                        plan.instrument.kind)
     else:
-        plan = default_plan(machine, instrument)
+        plan = default_plan(machine, inst)
     check_plan(machine, plan)
-    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=parse_with(with_, instrument))
+    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=parse_with(with_, inst))
     res = identifiability(machine, params, plan)
-    out = {"machine": machine.name, "instrument": instrument,
+    out = {"machine": machine.name, "instrument": inst.kind,
            "plan": {"name": plan.name, "n_poses": plan.n_poses, "source": plan_path or "default"},
            "setup": {"target_mm": (plan.setup.target * 1e3).tolist()}}
     if plan.setup.fixed_ball is not None:
@@ -96,12 +80,14 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
 
 
 def _add_identifiability(sub) -> None:
+    from pkmstiff.calibration.instruments import kinds
+
     p = sub.add_parser("identifiability", help="rank, gauge freedoms, condition and orthogonality of a plan",
                        description="What an instrument can identify on a machine: parameter count, rank (gap in "
                                    "the singular values), base parameters, named gauge freedoms, condition "
                                    "number, largest orthogonality entry and O1-O5 (Szatmari 4.4.2).")
     p.add_argument("machine", help="bundled machine name or machine file")
-    p.add_argument("--instrument", required=True, choices=("ballbar", "tracker", "pose"))
+    p.add_argument("--instrument", required=True, choices=kinds())
     p.add_argument("--plan", help="plan file (TOML); default: the instrument's default plan")
     p.add_argument("--with", dest="with_", metavar="LIST",
                    help="set-up parameters to include: ball-offset,fixed-ball,bar-offset (ball bar), "
@@ -109,7 +95,7 @@ def _add_identifiability(sub) -> None:
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian",
                    help="frame of the joint-position parameters (default cartesian)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
-    p.set_defaults(func=_run(_cmd_identifiability))
+    p.set_defaults(func=_cmd_identifiability)
 
 
 def subcommands() -> dict[str, Callable]:
