@@ -22,7 +22,7 @@ import numpy as np
 
 from components.limits import DRIVE_LIMITS, drive_limits
 from components.params import ModelSpec, Param
-from pkmstiff.errors import ArgumentError, ComponentRangeError  # noqa: F401 (ComponentRangeError: components.protocol.*)
+from pkmstiff.errors import ArgumentError, ComponentRangeError  # noqa: F401 (components.protocol.*)
 
 StiffnessKind = Literal["axial", "matrix3", "matrix6", "body"]
 

@@ -63,7 +63,8 @@ def _check_skip(names: Sequence[str], where: str) -> tuple[str, ...]:
     names = tuple(names)
     bad = [n for n in names if n not in ALL_CHECKS]
     if bad:
-        raise ArgumentError(f"{where}: expected admissibility check names from {', '.join(ALL_CHECKS)}, found {bad[0]!r}")
+        raise ArgumentError(option=where, expected=f"admissibility check names from {', '.join(ALL_CHECKS)}",
+                            found=bad[0])
     return names
 
 
