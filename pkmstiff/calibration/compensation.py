@@ -27,6 +27,7 @@ from pkmstiff.calibration.perturb import machine_file_text
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.calibration.uncertainty import Uncertainty
 from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
@@ -109,7 +110,7 @@ def write_calibrated_machine(path: str | Path, res: Identification, unc: Uncerta
                              measurement: str | Path | None = None, name: str | None = None,
                              deflection: str = "none") -> Path:
     p = Path(path)
-    p.write_text(calibrated_machine_text(res, unc, measurement, name, deflection=deflection), encoding="utf-8")
+    atomic_write_text(p, calibrated_machine_text(res, unc, measurement, name, deflection=deflection))
     return p
 
 

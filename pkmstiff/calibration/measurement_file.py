@@ -66,6 +66,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pkmstiff.errors import MeasurementFileError
+from pkmstiff.io.atomic import atomic_write_text
 
 Array = NDArray[np.float64]
 
@@ -243,8 +244,7 @@ def _write_table(path: Path, head: list[str], cols: list, n: int) -> Path:
         else:
             text_cols.append([_fmt(v) for v in np.asarray(values, dtype=float)])
     rows = [",".join(c[i] for c in text_cols) for i in range(n)]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(head + [",".join(name for name, _ in cols)] + rows) + "\n", encoding="utf-8")
+    atomic_write_text(path, "\n".join(head + [",".join(name for name, _ in cols)] + rows) + "\n")
     return path
 
 

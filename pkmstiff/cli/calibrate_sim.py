@@ -10,6 +10,7 @@ from collections.abc import Callable
 import numpy as np
 
 from pkmstiff.errors import PkmstiffError
+from pkmstiff.io.atomic import atomic_write_text
 
 
 def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
@@ -260,8 +261,7 @@ def plan_command(args: argparse.Namespace) -> dict:
                                 max_iter=args.iterations, max_tilt=max_tilt)
         text = plan_toml(res.best_plan, f"{machine.name} pose set, optimised ({args.objective})",
                          f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}")
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text, encoding="utf-8")
+    atomic_write_text(args.out, text)
     lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
     start = objective_label(args.objective, res.start_value)
     return {"machine": machine.name, "instrument": args.instrument, "objective": args.objective,

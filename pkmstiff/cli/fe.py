@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_path, atomic_write_text
 from pkmstiff.units import InputError
 
 DEFAULT_ANGLES = "0:90:15"
@@ -191,11 +192,12 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     Kd = to_dissertation_units(res.K)
     if out.suffix == ".toml":
-        out.write_text(component_toml(res, args.name), encoding="utf-8")
+        atomic_write_text(out, component_toml(res, args.name))
     else:
         header = ("# 6x6 platform stiffness at the spindle reference point; rows/cols ux,uy,uz,rx,ry,rz; "
                   "units N/um (translational), N/urad (coupling), N*m/urad (rotational)")
-        np.savetxt(out, Kd, delimiter=",", header=header, comments="", fmt="%.8g")
+        with atomic_path(out) as tmp:
+            np.savetxt(tmp, Kd, delimiter=",", header=header, comments="", fmt="%.8g")
     if args.vtu:
         # unit load case: 1 kN along z' at the reference point
         f = np.zeros(6)

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import PkmstiffError
+from pkmstiff.io.atomic import atomic_open, atomic_path, output_path, safe_stem
 from pkmstiff.io.ranges import parse_numbers
 
 
@@ -257,7 +258,7 @@ def section_report(args) -> dict[str, Any]:
     if bad:
         raise _cli_error(f"--formats: expected a subset of png,vtu,csv,npz, found {sorted(bad)}")
     step, at = args.step * 1e-3, args.at * 1e-3
-    stem = f"{mech.name}_{plane}"
+    stem = f"{safe_stem(mech.name)}_{plane}"
     from pkmstiff.cli.edges import check_output_dir
 
     outs = ([f"{stem}_{n}.png" for n in names] + [f"{stem}_admissibility.png"] if "png" in formats else []) \
@@ -305,13 +306,13 @@ def _write_section(sec, out, stem: str, formats: list[str]) -> list:
     if "png" in formats:
         from pkmstiff.plots.mechanism_section import plot_mechanism_quantity, plot_mechanism_reasons
 
-        paths += [plot_mechanism_quantity(sec, n, out / f"{stem}_{n}.png") for n in sec.values]
-        paths.append(plot_mechanism_reasons(sec, out / f"{stem}_admissibility.png"))
+        paths += [plot_mechanism_quantity(sec, n, output_path(out, f"{stem}_{n}.png")) for n in sec.values]
+        paths.append(plot_mechanism_reasons(sec, output_path(out, f"{stem}_admissibility.png")))
     U, V = np.meshgrid(sec.u_values, sec.v_values)
     u, v = sec.plane[0], sec.plane[1]
     if "csv" in formats:
-        p = out / f"{stem}.csv"
-        with open(p, "w", newline="", encoding="utf-8") as fh:
+        p = output_path(out, f"{stem}.csv")
+        with atomic_open(p, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
             w.writerow([f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
                        + [f"{n}_{sec.units[n]}" for n in sec.values])
@@ -322,9 +323,10 @@ def _write_section(sec, out, stem: str, formats: list[str]) -> list:
                            + ["" if not np.isfinite(c[i]) else f"{c[i]:.6g}" for c in cols])
         paths.append(p)
     if "npz" in formats:
-        p = out / f"{stem}.npz"
-        np.savez_compressed(p, **{f"{u}_m": sec.u_values, f"{v}_m": sec.v_values, "reasons": sec.reasons,
-                                  "admissible": sec.ok}, **{f"{n}_si": sec.values[n] for n in sec.values})
+        p = output_path(out, f"{stem}.npz")
+        with atomic_path(p) as tmp:
+            np.savez_compressed(tmp, **{f"{u}_m": sec.u_values, f"{v}_m": sec.v_values, "reasons": sec.reasons,
+                                        "admissible": sec.ok}, **{f"{n}_si": sec.values[n] for n in sec.values})
         paths.append(p)
     return paths
 

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import InadmissiblePoseRefused, PointArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import output_path, safe_stem
 from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import bundled_machines, load_machine
 
@@ -283,9 +284,11 @@ def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | 
 def _point_batch(args: argparse.Namespace) -> int:
     import csv
     import sys
+    from contextlib import nullcontext
 
     from pkmstiff.cli.edges import check_output_file
     from pkmstiff.cli.pose import read_pose_file
+    from pkmstiff.io.atomic import atomic_open
 
     if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
         raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
@@ -294,15 +297,11 @@ def _point_batch(args: argparse.Namespace) -> int:
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
-    fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
-    try:
+    with atomic_open(out, "w", newline="", encoding="utf-8") if out else nullcontext(sys.stdout) as fh:
         w = csv.writer(fh)
         w.writerow(head)
         w.writerows([["" if isinstance(v, float) and not math.isfinite(v) else
                       (f"{v:.6g}" if isinstance(v, float) else v) for v in r] for r in rows])
-    finally:
-        if out:
-            fh.close()
     if out:
         print(f"pkmstiff point: {len(rows)} poses ({sum(r[6] for r in rows)} admissible, analysed); wrote {out}")
     return 0
@@ -317,7 +316,7 @@ def _cmd_point(args: argparse.Namespace) -> int:
     if getattr(args, "poses", None) is not None:
         return _point_batch(args)
     if args.figures is not None:
-        check_output_dir(args.figures, "--figures", True)
+        check_output_dir(args.figures, "--figures", getattr(args, "force", False), _figure_names(args))
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
                            args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False))
@@ -349,11 +348,19 @@ def _mode_figures(args: argparse.Namespace) -> list:
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     pose = to_machine_frame(machine, parse_pose(args.pose), args.frame)
     out = Path(args.figures)
-    stem = machine.name.replace(":", "_")
-    files = [plot_mode_shape(machine, pose, out / f"{stem}_mode{k}.png", mode=k) for k in range(1, args.modes + 1)]
+    names = _figure_names(args)
+    files = [plot_mode_shape(machine, pose, output_path(out, names[k - 1]), mode=k) for k in range(1, args.modes + 1)]
     if args.gif:
-        files.append(animate_mode_shape(machine, pose, out / f"{stem}_mode1.gif", mode=1))
+        files.append(animate_mode_shape(machine, pose, output_path(out, names[-1]), mode=1))
     return files
+
+
+def _figure_names(args: argparse.Namespace) -> tuple[str, ...]:
+    """The file names ``--figures`` writes: ``<machine>_mode<k>.png`` (and ``<machine>_mode1.gif`` with ``--gif``)."""
+    if _is_planar(args.machine):
+        return ()
+    stem = safe_stem(load_machine(args.machine).name)
+    return tuple(f"{stem}_mode{k}.png" for k in range(1, args.modes + 1)) + ((f"{stem}_mode1.gif",) if args.gif else ())
 
 
 def add_commands(sub: Any) -> None:
@@ -370,7 +377,7 @@ def add_commands(sub: Any) -> None:
                    help="a batch: CSV file with one pose x,y,z,a,b,c (mm, deg) per line; prints CSV (k_x, k_y, k_z, "
                         "f1..; empty cells for inadmissible poses)")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="with --poses: write the CSV here")
-    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files (--out, --figures)")
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
                    help="tool length in mm (default: machine file)")
     p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")

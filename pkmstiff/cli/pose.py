@@ -196,20 +196,18 @@ def _pose_batch(args: argparse.Namespace) -> int:
     """``--poses FILE``: one CSV row per pose to stdout or ``--out``."""
     import csv
     import sys
+    from contextlib import nullcontext
 
     from pkmstiff.cli.edges import check_output_file
+    from pkmstiff.io.atomic import atomic_open
 
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
     poses = read_pose_file(args.poses)
     head, rows = pose_rows(args.machine, poses)
-    fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
-    try:
+    with atomic_open(out, "w", newline="", encoding="utf-8") if out else nullcontext(sys.stdout) as fh:
         w = csv.writer(fh)
         w.writerow(head)
         w.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in r] for r in rows])
-    finally:
-        if out:
-            fh.close()
     if out:
         print(f"pkmstiff pose: {len(rows)} poses ({sum(r[-2] for r in rows)} admissible); wrote {out}")
     return 0

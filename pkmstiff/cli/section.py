@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from pkmstiff.errors import SectionArgumentError, SectionError, UnknownQuantityError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import safe_stem
 
 # the evaluation modules are imported inside the command functions: building the parser for another command
 # (``pkmstiff pose``) must not pay for them
@@ -86,7 +87,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
             check_quantity(n, machine.n_chains)
     except UnknownQuantityError as exc:
         raise CliError(str(exc)) from None
-    stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
+    stem = f"{safe_stem(machine.name)}_{plane_kind}"
     check_output_dir(args.out, "--out", getattr(args, "force", False), _output_names(stem, names, formats, getattr(args, "reasons_map", False)))
     step = args.step * 1e-3
     if ranges is None:
@@ -157,6 +158,8 @@ def _output_names(stem: str, names: list[str], formats: list[str], reasons_map: 
     """The files a section writes into --out (checked for overwriting before the work)."""
     out = [f"{stem}_{n}.png" for n in names] if "png" in formats else []
     out += [f"{stem}.{f}" for f in ("vtu", "csv", "npz") if f in formats] + [f"{stem}_statistics.json"]
+    if "vtu" in formats:
+        out.append(f"{stem}.json")  # the VTU's metadata
     if reasons_map:
         out.append(f"{stem}_admissibility.png")
     return tuple(out)

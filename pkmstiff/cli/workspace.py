@@ -13,6 +13,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_open, atomic_write_text
 from pkmstiff.machine.loader import load_machine
 
 PLANES = {  # name -> (u axis, v axis, normal axis)
@@ -186,7 +187,7 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
     files: dict[str, str] = {}
     pts = (res.boundary_points - np.asarray(res.frame.get("frame_origin_mm", [0, 0, 0]), float) * 1e-3) * 1e3
     p = out / "boundary_points.csv"  # positions in the result's frame (stated in workspace.json)
-    with p.open("w", newline="") as fh:
+    with atomic_open(p, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["x_mm", "y_mm", "z_mm"])
         w.writerows(np.round(pts, 4).tolist())
@@ -200,7 +201,7 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
         files["figure"] = str(plot_workspace(res, machine, out / "workspace.png"))
     s = res.summary()
     s["files"] = files
-    (out / "workspace.json").write_text(json.dumps(s, indent=2))
+    atomic_write_text(out / "workspace.json", json.dumps(s, indent=2))
     files["summary JSON"] = str(out / "workspace.json")
     return files
 
@@ -288,7 +289,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             except PlotDependencyError as exc:
                 raise _cli_error(str(exc)) from None
         summary["files"] = files
-        (out / "rotation_map.json").write_text(json.dumps(summary, indent=2))
+        atomic_write_text(out / "rotation_map.json", json.dumps(summary, indent=2))
         files["summary JSON"] = str(out / "rotation_map.json")
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -308,7 +309,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
 
 
 def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str]) -> None:
-    with path.open("w", newline="") as fh:
+    with atomic_open(path, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow([f"{labels[1]} \\ {labels[0]}"] + [f"{x:.4f}" for x in u])
         for vi, row in zip(v, deg):

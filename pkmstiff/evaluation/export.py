@@ -15,6 +15,7 @@ import numpy as np
 
 from pkmstiff.admissibility.checks import Reason
 from pkmstiff.evaluation.sections import SectionResult
+from pkmstiff.io.atomic import atomic_open, atomic_path, atomic_write_text
 
 MM = 1e3
 
@@ -50,8 +51,9 @@ def to_vtk(res: SectionResult, path: str | Path) -> Path:
     if path.suffix != ".vtu":
         path = path.with_suffix(".vtu")
     path.parent.mkdir(parents=True, exist_ok=True)
-    meshio.write(path, meshio.Mesh(res.plane.points() * MM, [("quad", quads)], point_data=data))
-    path.with_suffix(".json").write_text(json.dumps(_metadata(res), indent=2))
+    with atomic_path(path) as tmp:
+        meshio.write(tmp, meshio.Mesh(res.plane.points() * MM, [("quad", quads)], point_data=data))
+    atomic_write_text(path.with_suffix(".json"), json.dumps(_metadata(res), indent=2))
     return path
 
 
@@ -60,7 +62,7 @@ def to_csv(res: SectionResult, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     cols = _columns(res)
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+    with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
         for k, v in _metadata(res).items():
             fh.write(f"# {k}: {json.dumps(v)}\n")
         w = csv.writer(fh)
@@ -76,6 +78,7 @@ def to_npz(res: SectionResult, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     arrays = {f"{n} [{res.units[n]}]": res.display(n) for n in res.values}
-    np.savez_compressed(path, u_mm=res.plane.u_values * MM, v_mm=res.plane.v_values * MM, ok=res.ok,
-                        reasons=res.reasons, metadata=json.dumps(_metadata(res)), **arrays)
+    with atomic_path(path) as tmp:
+        np.savez_compressed(tmp, u_mm=res.plane.u_values * MM, v_mm=res.plane.v_values * MM, ok=res.ok,
+                            reasons=res.reasons, metadata=json.dumps(_metadata(res)), **arrays)
     return path

@@ -31,6 +31,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from pkmstiff.errors import SweepError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import atomic_open
 from pkmstiff.machine.model import Machine
 
 __all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
@@ -319,7 +320,7 @@ class SweepResult:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         cols = self.columns
-        with path.open("w", newline="", encoding="utf-8") as fh:
+        with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
             for k, v in self.metadata.items():
                 fh.write(f"# {k}: {v}\n")
             w = csv.writer(fh)

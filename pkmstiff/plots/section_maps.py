@@ -8,6 +8,7 @@ from typing import Sequence
 import numpy as np
 
 from pkmstiff.evaluation.sections import SectionResult
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch
@@ -111,7 +112,8 @@ def _map_figure(res: SectionResult, window_size: tuple[int, int] | None, legend_
 def _save(fig, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100, facecolor="white")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, facecolor="white")
     return path
 
 

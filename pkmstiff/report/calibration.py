@@ -40,6 +40,7 @@ from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
 from pkmstiff.calibration.uncertainty import Uncertainty, uncertainty
 from pkmstiff.errors import BallbarError, CalibrationInputError
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.machine import Machine
 from pkmstiff.report.model import Figure, Report, Table
 
@@ -377,7 +378,8 @@ def _value_unit(unit: str) -> tuple[float, str]:
 
 def _save(fig, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     return path
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from pkmstiff.errors import ReportError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import atomic_path, atomic_write_text
 from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["ReportError", "write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]
@@ -219,7 +220,8 @@ def _place_figures(report: Report, out_dir: Path) -> list[list[tuple[Figure, byt
                     rel = f"figures/{stem}_{k}.png"
                 dst = out_dir / rel
                 dst.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(src, dst)
+                with atomic_path(dst) as tmp:
+                    shutil.copyfile(src, tmp)
             used.add(rel)
             items.append((fig, data, rel))
         placed.append(items)
@@ -386,6 +388,6 @@ def write_report(report: Report, out_dir: str | Path, *, stem: str = "report",
     placed = _place_figures(report, out)
     html_path = out / f"{stem}.html"
     md_path = out / f"{stem}.md"
-    html_path.write_text(_render_html(report, placed, info), encoding="utf-8")
-    md_path.write_text(_render_md(report, placed, info), encoding="utf-8")
+    atomic_write_text(html_path, _render_html(report, placed, info))
+    atomic_write_text(md_path, _render_md(report, placed, info))
     return {"html": html_path, "md": md_path}
