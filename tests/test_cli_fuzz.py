@@ -326,3 +326,41 @@ def test_broken_pipe_is_quiet(monkeypatch, capsys):
     code = main(["machines"])
     assert code == 141
     assert "Traceback" not in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------------------------- files and faults
+# Bad input files and file-system faults of issue 22 (item 7): exponent bombs, FIFOs, directories and symlink loops as
+# input, a UTF-8 BOM, values that used to be accepted silently. Placeholders in braces are made by ``fault_files``.
+FILE_CASES: list[tuple[str, list[str], int, str]] = [
+    ("pose", ["pose", "{power_bomb}", "--pose", POSE], 2, "powers"),
+    ("section", ["section", "{power_bomb}", "--step", "50"], 2, "powers"),
+]
+
+
+@pytest.fixture
+def fault_files(bad_files):
+    root, files = bad_files
+    text = Path(HEX).read_text(encoding="utf-8")
+    (root / "bomb.toml").write_text(text.replace('length = "0 mm"', 'length = "9**9**9 mm"'), encoding="utf-8")
+    files["power_bomb"] = "bomb.toml"
+    return root, files
+
+
+@pytest.mark.parametrize("command, argv, status, text", FILE_CASES,
+                         ids=lambda v: " ".join(v) if isinstance(v, list) else str(v))
+def test_bad_file_or_fault_gives_one_line_and_writes_nothing(fault_files, capsys, command, argv, status, text):
+    import signal
+
+    class Hang(BaseException):  # not an OSError/Exception: the command line's handlers must not swallow it
+        pass
+
+    def hung(*_):
+        raise Hang(f"{' '.join(argv)} still running after 60 s")
+
+    old = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(60)
+    try:
+        test_bad_input_gives_one_line_and_writes_nothing(fault_files, capsys, command, argv, status, text)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
