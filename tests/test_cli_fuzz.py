@@ -334,6 +334,26 @@ def test_broken_pipe_is_quiet(monkeypatch, capsys):
 FILE_CASES: list[tuple[str, list[str], int, str]] = [
     ("pose", ["pose", "{power_bomb}", "--pose", POSE], 2, "powers"),
     ("section", ["section", "{power_bomb}", "--step", "50"], 2, "powers"),
+    # a FIFO as input blocks a reader forever; a directory or symlink loop "does not exist" was the wrong answer
+    ("pose", ["pose", "{fifo_toml}", "--pose", POSE], 2, "FIFO"),
+    ("point", ["point", "{fifo_toml}", "--pose", POSE], 2, "FIFO"),
+    ("section", ["section", "{fifo_toml}"], 2, "FIFO"),
+    ("workspace", ["workspace", "{fifo_toml}", "--resolution", "20"], 2, "FIFO"),
+    ("rotation-map", ["rotation-map", "{fifo_toml}"], 2, "FIFO"),
+    ("machines", ["machines", "{fifo_toml}"], 2, "FIFO"),
+    ("pose", ["pose", "hexaglide", "--poses", "{fifo_csv}"], 2, "FIFO"),
+    ("point", ["point", "hexaglide", "--poses", "{fifo_csv}"], 2, "FIFO"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{fifo_csv}"], 2, "FIFO"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "{fifo_toml}", "--out", "m.csv"], 2, "FIFO"),
+    ("ballbar", ["ballbar", "analyse", "{fifo_csv}"], 2, "FIFO"),
+    ("sweep", ["sweep", "{fifo_toml}", "--out", "r.csv"], 2, "FIFO"),
+    ("report", ["report", "{fifo_toml}", "--out", "rep"], 2, "FIFO"),
+    ("fe-joint", ["fe-joint", "{fifo_toml}", "--out", "t.csv"], 2, "FIFO"),
+    ("mechanism", ["mechanism", "info", "{fifo_toml}"], 2, "FIFO"),
+    ("pose", ["pose", "{loop_toml}", "--pose", POSE], 2, "symbolic link loop"),
+    ("pose", ["pose", "{dir_toml}", "--pose", POSE], 2, "a directory"),
+    ("pose", ["pose", "hexaglide", "--poses", "{loop_csv}"], 2, "symbolic link loop"),
+    ("pose", ["pose", "{deep_toml}", "--pose", POSE], 2, "nested"),
 ]
 
 
@@ -343,6 +363,16 @@ def fault_files(bad_files):
     text = Path(HEX).read_text(encoding="utf-8")
     (root / "bomb.toml").write_text(text.replace('length = "0 mm"', 'length = "9**9**9 mm"'), encoding="utf-8")
     files["power_bomb"] = "bomb.toml"
+    os.mkfifo(root / "pipe.toml")
+    os.mkfifo(root / "pipe.csv")
+    files.update(fifo_toml="pipe.toml", fifo_csv="pipe.csv")
+    os.symlink("loop.toml", root / "loop.toml")
+    os.symlink("loop.csv", root / "loop.csv")
+    files.update(loop_toml="loop.toml", loop_csv="loop.csv")
+    (root / "dir.toml").mkdir()
+    files["dir_toml"] = "dir.toml"
+    (root / "deep.toml").write_text("x = " + "[" * 3000 + "]" * 3000 + "\n")
+    files["deep_toml"] = "deep.toml"
     return root, files
 
 

@@ -57,6 +57,7 @@ first offending line is named, with the count); :func:`range_violations` lists t
 
 from __future__ import annotations
 
+import csv
 import math
 import re
 from dataclasses import dataclass, field
@@ -67,6 +68,7 @@ from numpy.typing import NDArray
 
 from pkmstiff.errors import MeasurementFileError
 from pkmstiff.io.atomic import atomic_write_text
+from pkmstiff.io.inputs import input_file_problem
 
 Array = NDArray[np.float64]
 
@@ -358,8 +360,12 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     """
     path = Path(path)
     src = str(path)
+    problem = input_file_problem(path)
+    if problem is not None:
+        raise MeasurementFileError(src, None, "file not found" if problem == "no such file" else
+                                   f"expected a regular measurement file, found {problem}")
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (as spreadsheet programs write) is dropped
     except FileNotFoundError:
         raise MeasurementFileError(src, None, "file not found") from None
     except UnicodeDecodeError as exc:
@@ -395,7 +401,7 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
                 raise MeasurementFileError(src, no, f"header key '{key}' repeated (first on line {header[key][0]})")
             header[key] = (no, value)
             continue
-        cells = [c.strip() for c in s.split(",")]
+        cells = [c.strip() for c in next(csv.reader([s]))]  # quoted cells may hold commas
         if columns is None:
             columns, col_line = cells, no
         else:

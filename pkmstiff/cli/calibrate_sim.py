@@ -11,6 +11,7 @@ import numpy as np
 
 from pkmstiff.errors import PkmstiffError
 from pkmstiff.io.atomic import atomic_write_text
+from pkmstiff.cli.edges import check_output_file
 
 
 def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
@@ -65,6 +66,7 @@ def _noise(text: str) -> str | float:
 
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
     from pkmstiff.calibration import check_plan, read_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
@@ -171,6 +173,7 @@ def _add_simulate(sub) -> None:
     p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"), or example:NAME (bundled "
                                     "example); default: nominal machine")
     p.add_argument("--out", required=True, help="measurement CSV to write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--noise", default="instrument",
                    help="none | instrument (sigma = accuracy/2) | procedure (Tab. 4.5 vs feed, sigma = U/2) | "
                         "sigma in um (default instrument)")
@@ -203,6 +206,7 @@ def _add_simulate(sub) -> None:
 
 def plan_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate plan`` does; writes the optimised plan and returns the JSON-ready summary."""
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".toml",))
     from pathlib import Path
 
     from pkmstiff.calibration import Plan, Segment, default_plan, error_model, read_plan
@@ -301,6 +305,7 @@ def _add_plan(sub) -> None:
     p.add_argument("--objective", default="orthogonality", choices=OBJECTIVES,
                    help="cond (min), orthogonality (largest entry, min; eq. 4.8), O1..O5 (max)")
     p.add_argument("--out", required=True, help="plan file (TOML) to write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
     p.add_argument("--poses", type=int, default=12,
                    help="tracker/pose without --start: poses taken from the default grid (default 12)")

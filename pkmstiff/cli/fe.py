@@ -15,7 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from pkmstiff.io.atomic import atomic_path, atomic_write_text
+from pkmstiff.io.atomic import atomic_path, atomic_write_text, output_path, safe_stem
 from pkmstiff.units import InputError
 
 DEFAULT_ANGLES = "0:90:15"
@@ -116,13 +116,14 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
 
     check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
-    check_output_dir(args.vtu, "--vtu", True)
     check_output_file(args.png, "--png", getattr(args, "force", False), (".png",))
     angles = parse_angles(args.angles)
     if len(angles) < 2:
         raise InputError("--angles", "angles", "at least 2 tilt angles (a joint table needs 2 support points)",
                          args.angles)
     p = load_joint_parameters(args.params)
+    vtu_names = tuple(f"{safe_stem(p.name)}_tilt{a:g}.vtu" for a in angles)
+    check_output_dir(args.vtu, "--vtu", getattr(args, "force", False), vtu_names)
     _check_fe_cost(p, args)
     if args.mesh_size or args.n_phi or args.element:
         if args.n_phi is not None and args.n_phi < 8:
@@ -143,9 +144,9 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     if args.vtu or args.png:
         jm = build_joint_model(p)
         if args.vtu:
-            for a in angles:
+            for a, name in zip(angles, vtu_names):
                 sol, u, _ = jm.deformed(math.radians(a))
-                path = write_vtu(field_mesh(jm.model, sol, u), Path(args.vtu) / f"{p.name}_tilt{a:g}.vtu")
+                path = write_vtu(field_mesh(jm.model, sol, u), output_path(args.vtu, name))
                 if not args.quiet:
                     print(f"VTU written to {path}")
         if args.png:

@@ -36,15 +36,15 @@ def read_pose_file(path: str) -> np.ndarray:
     skipped. Returns (N, 6) SI poses; errors name the file and line."""
     from pkmstiff.errors import InputError
 
+    from pkmstiff.io.inputs import input_file_problem
+
     poses = []
+    problem = input_file_problem(path)
+    if problem is not None:
+        raise InputError(path, "(file)", "an existing pose file (CSV x,y,z,a,b,c in mm and deg)", problem)
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:
             lines = fh.read().splitlines()
-    except FileNotFoundError:
-        raise InputError(path, "(file)", "an existing pose file (CSV x,y,z,a,b,c in mm and deg)", "no such file") \
-            from None
-    except IsADirectoryError:
-        raise InputError(path, "(file)", "a pose file", "a directory") from None
     except UnicodeDecodeError as exc:
         raise InputError(path, "(file)", "a UTF-8 text pose file",
                          f"non-UTF-8 byte 0x{exc.object[exc.start]:02x} at offset {exc.start}") from None

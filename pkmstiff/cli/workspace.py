@@ -95,6 +95,10 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 # ------------------------------------------------------------------------------------------------------- workspace
 
 
+#: files every workspace run with --out writes (the surface files only when a surface is made; the PNG unless --no-plot)
+WORKSPACE_FILES = ("workspace.json", "boundary_points.csv", "workspace_surface.stl", "workspace_surface.vtp")
+
+
 def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
     from pkmstiff.machine.frames import frame_text
@@ -111,7 +115,8 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         raise _cli_error(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
     budget = parse_budget(getattr(args, "memory_budget", None))
     _requirements(args)
-    check_output_dir(args.out, "--out", getattr(args, "force", False), ("workspace.json", "boundary_points.csv"))
+    check_output_dir(args.out, "--out", getattr(args, "force", False),
+                     WORKSPACE_FILES + (() if args.no_plot else ("workspace.png",)))
     machine = load_machine(args.machine)
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
     box = None
@@ -153,7 +158,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     summary = res.summary()
-    files = _write_workspace(res, machine, Path(args.out), plot=not args.no_plot) if args.out else {}
+    files = _write_workspace(res, machine, Path(args.out), summary, plot=not args.no_plot) if args.out else {}
     summary["files"] = files
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -182,15 +187,20 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
+def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict[str, str]:
+    """boundary_points.csv, the surface (STL, VTP), the PNG and workspace.json (``summary`` with the file list)."""
     out.mkdir(parents=True, exist_ok=True)
     files: dict[str, str] = {}
     pts = (res.boundary_points - np.asarray(res.frame.get("frame_origin_mm", [0, 0, 0]), float) * 1e-3) * 1e3
-    p = out / "boundary_points.csv"  # positions in the result's frame (stated in workspace.json)
+    # positions in the result's frame (stated in workspace.json), each once: neighbouring leaf voxels can share the
+    # centroid of their admissible corners (eq. 4.1), which would repeat a row
+    pts = np.round(pts, 4)
+    pts = pts[np.sort(np.unique(pts, axis=0, return_index=True)[1])] if pts.size else pts
+    p = out / "boundary_points.csv"
     with atomic_open(p, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["x_mm", "y_mm", "z_mm"])
-        w.writerows(np.round(pts, 4).tolist())
+        w.writerows(pts.tolist())
     files[f"boundary points (eq. 4.1, mm, {res.frame.get('frame', 'machine')} frame)"] = str(p)
     if res.surface is not None and res.surface.triangles.shape[0]:
         files["surface STL (mm)"] = str(res.surface.save(out / "workspace_surface.stl", scale=1e3))
@@ -199,9 +209,9 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
         from pkmstiff.plots.workspace import plot_workspace
 
         files["figure"] = str(plot_workspace(res, machine, out / "workspace.png"))
-    s = res.summary()
-    s["files"] = files
-    atomic_write_text(out / "workspace.json", json.dumps(s, indent=2))
+    summary["boundary_points_distinct"] = int(pts.shape[0])  # the rows of boundary_points.csv
+    summary["files"] = files
+    atomic_write_text(out / "workspace.json", json.dumps(summary, indent=2))
     files["summary JSON"] = str(out / "workspace.json")
     return files
 
@@ -218,7 +228,9 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
-    check_output_dir(args.out, "--out", getattr(args, "force", False), ("rotation_map.json",))
+    check_output_dir(args.out, "--out", getattr(args, "force", False),
+                     ("rotation_map.json",) + (() if args.no_plot else ("rotation_map.png",))
+                     + tuple(_map_name(d.strip()) for d in args.directions.split(",") if d.strip()))
     _requirements(args)
     machine = load_machine(args.machine)
     amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
@@ -278,7 +290,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         for d, a in res.angles.items():
-            p = out / f"rotation_map_{d.replace('+', 'p').replace('-', 'm')}.csv"
+            p = out / _map_name(d)
             _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels)
             files[f"map {d} (deg)"] = str(p)
         if not args.no_plot:
@@ -306,6 +318,11 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     for name, p in files.items():
         print(f"{name}: {p}")
     return 0
+
+
+def _map_name(direction: str) -> str:
+    """The CSV file of one direction's map: ``rotation_map_pa.csv`` for +a."""
+    return f"rotation_map_{direction.replace('+', 'p').replace('-', 'm')}.csv"
 
 
 def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str]) -> None:

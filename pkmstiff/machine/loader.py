@@ -12,6 +12,7 @@ import copy
 import dataclasses
 import importlib.resources
 import math
+import os
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from pkmstiff.errors import MachineFileError, UnknownMachineError  # noqa: F401 (re-exported)
 from pkmstiff.io import check_format_version, check_keys, read_toml, require
+from pkmstiff.io.inputs import input_file_problem
 from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
 from pkmstiff.units import InputError, parse_quantity
 
@@ -53,9 +55,12 @@ def bundled_machines() -> list[str]:
 
 def resolve_machine_path(name_or_path: str | Path) -> Path:
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
-        if not p.is_file():
+    if p.suffix == ".toml" or os.path.lexists(p):
+        problem = input_file_problem(p)
+        if problem == "no such file":
             raise UnknownMachineError(f"machine file '{p}' does not exist")
+        if problem is not None:
+            raise UnknownMachineError(f"machine file '{p}': expected a regular file, found {problem}")
         return p
     candidate = bundled_machine_dir() / f"{name_or_path}.toml"
     if candidate.is_file():

@@ -54,7 +54,8 @@ def _finish_plane_plot(p, res: SectionResult, subtitle: str, path: str | Path) -
     p.camera.zoom(0.92)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    p.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        p.screenshot(str(tmp))
     p.close()
     return path
 
@@ -178,7 +179,8 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
     p.camera.zoom(1.5)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    p.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        p.screenshot(str(tmp))
     p.close()
     return path
 

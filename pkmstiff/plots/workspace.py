@@ -86,7 +86,8 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
         pl.view_vector(list(view))
     pl.reset_camera()
     pl.camera.zoom(1.45)
-    pl.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        pl.screenshot(str(tmp))
     pl.close()
     return path
 
