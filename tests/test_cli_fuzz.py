@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -354,6 +355,62 @@ FILE_CASES: list[tuple[str, list[str], int, str]] = [
     ("pose", ["pose", "{dir_toml}", "--pose", POSE], 2, "a directory"),
     ("pose", ["pose", "hexaglide", "--poses", "{loop_csv}"], 2, "symbolic link loop"),
     ("pose", ["pose", "{deep_toml}", "--pose", POSE], 2, "nested"),
+    # values that were accepted silently or ended as internal errors (exit 1)
+    ("pose", ["pose", "hexaglide", "--pose", "1e300,0,-1000,0,0,0"], 2, "|x| <= 100000 mm"),
+    ("pose", ["pose", "hexaglide", "--pose", "0,0,-1000,1e9,0,0"], 2, "|a| <= 360 deg"),
+    ("pose", ["pose", "hexaglide", "--pose", "0,0,-1000,720,0,0"], 2, "|a| <= 360 deg"),
+    ("point", ["point", "hexaglide", "--pose", POSE, "--tool-length", "1e300"], 2, "--tool-length"),
+    ("point", ["point", "hexaglide", "--pose", POSE, "--modes", "1000000000"], 2, "--modes"),
+    ("point", ["point", "hexaglide", "--pose", POSE, "--modes", "1000000000", "--figures", "figs"], 2, "--modes"),
+    ("section", ["section", "hexaglide", "--quantities", ""], 2, "--quantities"),
+    ("section", ["section", "hexaglide", "--formats", "", "--out", "o"], 2, "--formats"),
+    ("section", ["section", "slider_crank", "--plane", "xy", "--formats", ""], 2, "--formats"),
+    ("fe-joint", ["fe-joint", JOINT, "--out", "t.csv", "--n-phi", "0"], 2, "n_phi"),
+    ("fe-joint", ["fe-joint", JOINT, "--out", "t.csv", "--png", "j.png", "--png-angle", "nan"], 2, "png_angle"),
+    ("mechanism", ["mechanism", "solve", "slider_crank", "--drives", "0.1", "--steps", "0"], 2, "--steps"),
+    ("mechanism", ["mechanism", "solve", "slider_crank", "--drives", "0.1", "--steps", "-1"], 2, "--steps"),
+    ("mechanism", ["mechanism", "solve", "slider_crank", "--drives", "100"], 3, "no solution"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--memory-budget", "infGB"], 2, "--memory-budget"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--memory-budget", "1e400GB"], 2,
+     "--memory-budget"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "1e300"], 2, "--resolution"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--box=100,-100,-400,1200,-1900,-300"], 2,
+     "xmin < xmax"),
+    ("rotation-map", ["rotation-map", "hexaglide", "--increment", "1e300"], 2, "--increment"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out", "m.csv",
+                   "--seed", "-1"], 2, "--seed"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out", "m.csv",
+                   "--drift-tau", "0"], 2, "--drift-tau"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out", "m.csv",
+                   "--resolution", "0"], 2, "--resolution"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out", "m.csv",
+                   "--errors", "{empty_toml}"], 2, "[errors]"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "{plan_fraction}", "--out", "m.csv"], 2,
+     "whole number"),
+    ("calibrate", ["calibrate", "plan", "felix", "--instrument", "ballbar", "--out", "p.toml", "--turns", "0"], 2,
+     "--turns"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--monte-carlo", "-1"], 2,
+     "--monte-carlo"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--outlier-threshold", "nan"], 2,
+     "--outlier-threshold"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--outlier-threshold", "-1"], 2,
+     "--outlier-threshold"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--out", "cal.txt"], 2, ".toml"),
+    ("sweep", ["sweep", "{extends_sweep}", "--out", "r.csv"], 2, "machine.extends"),
+    # overwrites without --force
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--out", "{existing_toml}"], 2,
+     "--force"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out",
+                   "{existing_csv}"], 2, "--force"),
+    ("calibrate", ["calibrate", "plan", "felix", "--instrument", "ballbar", "--out", "{existing_toml}"], 2,
+     "--force"),
+    ("point", ["point", "hexaglide", "--pose", POSE, "--figures", "{figures_out}"], 2, "--force"),
+    ("fe-joint", ["fe-joint", JOINT, "--out", "t.csv", "--vtu", "{vtu_out}"], 2, "--force"),
+    ("ballbar", ["ballbar", "analyse", "{file}", "--plot", "{plot_out}"], 2, "--force"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--out", "{png_out}"], 2, "--force"),
+    ("rotation-map", ["rotation-map", "hexaglide", "--out", "{png_out}"], 2, "--force"),
+    ("section", ["section", "hexaglide", "--quantities", "kx", "--formats", "vtu", "--out", "{vtu_json_out}"], 2,
+     "--force"),
 ]
 
 
@@ -373,6 +430,23 @@ def fault_files(bad_files):
     files["dir_toml"] = "dir.toml"
     (root / "deep.toml").write_text("x = " + "[" * 3000 + "]" * 3000 + "\n")
     files["deep_toml"] = "deep.toml"
+    (root / "empty.toml").write_text("")
+    files["empty_toml"] = "empty.toml"
+    plan = (ROOT / "pkmstiff/calibration/examples/felix_plan.toml").read_text(encoding="utf-8")
+    (root / "plan25.toml").write_text(re.sub(r"(?m)^points = .*$", "points = 2.5", plan), encoding="utf-8")
+    files["plan_fraction"] = "plan25.toml"
+    (root / "extends.toml").write_text('[sweep]\nmachine = "hexaglide"\n[[parameters]]\npath = "machine.extends"\n'
+                                       'values = ["/etc/passwd"]\n[[evaluations]]\nkind = "point"\n'
+                                       'quantities = ["kx"]\npose = [0, 0, -1000, 0, 0, 0]\n')
+    files["extends_sweep"] = "extends.toml"
+    (root / "old.toml").write_text("old result\n")
+    files["existing_toml"] = "old.toml"
+    for d, name in (("figs", "hexaglide_mode1.png"), ("vtu", "iwf_3dof_improved_tilt0.vtu"),
+                    ("plots", "a_file_polar.png"), ("png", "workspace.png"), ("png", "rotation_map.png"),
+                    ("vtujson", "hexaglide_yz.json")):
+        (root / d).mkdir(exist_ok=True)
+        (root / d / name).write_text("old result\n")
+    files.update(figures_out="figs", vtu_out="vtu", plot_out="plots", png_out="png", vtu_json_out="vtujson")
     return root, files
 
 

@@ -9,7 +9,8 @@ import argparse
 import json
 
 import numpy as np
-from pkmstiff.cli.edges import check_output_file
+
+from pkmstiff.cli.edges import check_number, check_output_file
 
 
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
@@ -114,6 +115,8 @@ def _print_identify(rep: dict) -> None:
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     check_output_file(args.out, "--out", getattr(args, "force", False), (".toml",))
+    check_number(args.monte_carlo, "--monte-carlo", 0, 100000, unit="runs")
+    check_number(args.outlier_threshold, "--outlier-threshold", 0, lo_open=True)
     rep = identify_report(args.machine, args.measurements, args.method, args.loss, args.out, args.monte_carlo,
                           args.frame, args.outlier_threshold, args.instrument, args.deflection, args.load)
     if args.json:

@@ -9,9 +9,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pkmstiff.cli.edges import check_number, check_output_file
 from pkmstiff.errors import PkmstiffError
 from pkmstiff.io.atomic import atomic_write_text
-from pkmstiff.cli.edges import check_output_file
 
 
 def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
@@ -44,8 +44,11 @@ def read_errors(path: str | None, machine, plan):
     path = str(resolve(path))  # example:NAME -> a bundled error file
     raw = check_keys(read_toml(path, CalibrationInputError, "error file"), {"frame", "errors", "description"}, path,
                      "", CalibrationInputError)
+    if not isinstance(raw.get("errors"), dict) or not raw["errors"]:
+        raise CalibrationInputError(path, "errors", "an [errors] table with at least one parameter = quantity "
+                                    "(omit --errors for the nominal machine)", raw.get("errors", "missing"))
     params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
-    return params, parse_errors(raw.get("errors", {}), params, source=path)
+    return params, parse_errors(raw["errors"], params, source=path)
 
 
 def _noise(text: str) -> str | float:
@@ -67,6 +70,13 @@ def _noise(text: str) -> str | float:
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
     check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    check_number(args.seed, "--seed", 0)
+    check_number(args.feed, "--feed", 0, lo_open=True, unit="mm/min")
+    check_number(args.backlash, "--backlash", 0, unit="um")
+    check_number(args.drift, "--drift", unit="K")
+    check_number(args.drift_tau, "--drift-tau", 0, lo_open=True, unit="s")
+    for opt in ("sample_rate", "range", "resolution", "accuracy", "angle_accuracy"):
+        check_number(getattr(args, opt, None), "--" + opt.replace("_", "-"), 0, lo_open=True)
     from pkmstiff.calibration import check_plan, read_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
@@ -207,6 +217,9 @@ def _add_simulate(sub) -> None:
 def plan_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate plan`` does; writes the optimised plan and returns the JSON-ready summary."""
     check_output_file(args.out, "--out", getattr(args, "force", False), (".toml",))
+    check_number(args.seed, "--seed", 0)
+    check_number(args.turns, "--turns", 0, lo_open=True)
+    check_number(args.max_tilt, "--max-tilt", 0, 90, lo_open=True, unit="deg")
     from pathlib import Path
 
     from pkmstiff.calibration import Plan, Segment, default_plan, error_model, read_plan

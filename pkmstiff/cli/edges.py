@@ -7,6 +7,7 @@ and what was found, so that a command fails in seconds instead of after the comp
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from pathlib import Path
@@ -79,6 +80,27 @@ def check_output_file(path: str | Path | None, option: str = "--out", force: boo
     return p
 
 
+# ------------------------------------------------------------------------------------------------ number options
+
+
+def check_number(value: float | None, option: str, lo: float | None = None, hi: float | None = None, *,
+                 lo_open: bool = False, unit: str = "") -> None:
+    """A numeric option before any work: finite and in [lo, hi] (``lo`` excluded with ``lo_open``); None passes."""
+    if value is None:
+        return
+    low_ok = lo is None or (value > lo if lo_open else value >= lo)
+    if math.isfinite(value) and low_ok and (hi is None or value <= hi):
+        return
+    u = f" {unit}" if unit else ""
+    if lo is not None and hi is not None:
+        want = f"a number {'>' if lo_open else '>='} {lo:g} and <= {hi:g}{u}"
+    elif lo is not None:
+        want = f"a number {'>' if lo_open else '>='} {lo:g}{u}"
+    else:
+        want = f"a finite number <= {hi:g}{u}" if hi is not None else f"a finite number{u}"
+    raise CliError(f"{option}: expected {want}, found {value!r}")
+
+
 # ------------------------------------------------------------------------------------------------------ --jobs
 
 
@@ -123,7 +145,7 @@ def parse_budget(text: str | None) -> int:
                 val = float(t[: -len(suf)])
             except ValueError:
                 break
-            if val > 0:
+            if 0 < val * fac < 1 << 60:  # finite and below an exabyte (inf/1e400 GB overflowed int())
                 return int(val * fac)
             break
     else:
@@ -131,7 +153,7 @@ def parse_budget(text: str | None) -> int:
             frac = float(t)
         except ValueError:
             frac = -1.0
-        if 0 < frac <= 1:
+        if 0 < frac <= 1:  # (NaN fails both comparisons)
             return int(frac * available_memory())
     raise CliError(f"--memory-budget: expected a size such as '2GB' or '500MB', or a fraction 0..1 of the available "
                    f"memory, found {text!r}")

@@ -117,6 +117,8 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
 
     check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
     check_output_file(args.png, "--png", getattr(args, "force", False), (".png",))
+    if args.png and not (math.isfinite(args.png_angle) and abs(args.png_angle) <= 180):
+        raise InputError("--png-angle", "png_angle", "a finite tilt angle in -180..180 deg", args.png_angle)
     angles = parse_angles(args.angles)
     if len(angles) < 2:
         raise InputError("--angles", "angles", "at least 2 tilt angles (a joint table needs 2 support points)",
@@ -125,9 +127,9 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     vtu_names = tuple(f"{safe_stem(p.name)}_tilt{a:g}.vtu" for a in angles)
     check_output_dir(args.vtu, "--vtu", getattr(args, "force", False), vtu_names)
     _check_fe_cost(p, args)
-    if args.mesh_size or args.n_phi or args.element:
-        if args.n_phi is not None and args.n_phi < 8:
-            raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
+    if args.n_phi is not None and args.n_phi < 8:
+        raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
+    if args.mesh_size is not None or args.n_phi or args.element:
         p = p.with_mesh(size=args.mesh_size * 1e-3 if args.mesh_size else None, element=args.element,
                         n_phi=args.n_phi)
     step, close = _progress(len(angles), args.quiet, p.name)

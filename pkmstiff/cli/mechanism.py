@@ -17,7 +17,7 @@ import numpy as np
 
 from pkmstiff.errors import PkmstiffError
 from pkmstiff.io.atomic import atomic_open, atomic_path, output_path, safe_stem
-from pkmstiff.io.ranges import parse_numbers
+from pkmstiff.io.ranges import parse_names, parse_numbers
 
 
 
@@ -144,6 +144,8 @@ def _cmd(args) -> int:
         if args.action == "solve":
             if bool(args.pose) == bool(args.drives):
                 raise _cli_error("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
+            if args.steps < 1:
+                raise _cli_error(f"--steps: expected a positive number of continuation steps, found {args.steps}")
             rep = solve_report(args.mechanism, args.pose, args.drives, args.steps)
         elif args.action == "range":
             rep = range_report(args.mechanism)
@@ -153,6 +155,8 @@ def _cmd(args) -> int:
         raise _cli_error(str(exc)) from None
     if args.json:
         print(json.dumps(rep, indent=2))
+        if args.action == "solve":
+            _refuse_unsolved(rep)
         return 0
     if args.action == "info":
         print(f"{rep['mechanism']}: {rep['title']} ({'spatial' if rep['dimension'] == 3 else 'planar'})")
@@ -173,7 +177,22 @@ def _cmd(args) -> int:
             if "admissible" in r:
                 extra = f", admissible {r['admissible']}" + (f" ({', '.join(r['reasons'])})" if r["reasons"] else "")
             print(f"[{i}] {r['status']}{extra}\n    drives: {dr}\n    pose: {ps}")
+    if args.action == "solve":
+        _refuse_unsolved(rep)
     return 0
+
+
+def _refuse_unsolved(rep: dict[str, Any]) -> None:
+    """Exit status 3 (as ``point`` for an inadmissible pose) when a pose or drive set has no solution: the results
+    are printed, the error line says which."""
+    from pkmstiff.errors import InadmissiblePoseRefused
+
+    bad = [i for i, r in enumerate(rep["results"]) if r["status"] not in ("converged", "singular")]
+    if bad:
+        raise InadmissiblePoseRefused(
+            f"{rep['mechanism']}: no solution for {len(bad)} of {len(rep['results'])} "
+            f"{'poses' if rep['mode'] == 'inverse' else 'drive sets'} (first [{bad[0]}]: "
+            f"{rep['results'][bad[0]]['status']})")
 
 
 def pose_report(name: str, pose_text: str) -> dict[str, Any]:
@@ -252,11 +271,11 @@ def section_report(args) -> dict[str, Any]:
         raise _cli_error(f"--step: expected a positive step in mm, found {args.step}")
     if not math.isfinite(args.at):
         raise _cli_error(f"--at: expected a finite position in mm, found {args.at}")
-    names = [q.strip() for q in args.quantities.split(",") if q.strip()]
-    formats = [f.strip() for f in args.formats.split(",") if f.strip()]
-    bad = set(formats) - {"png", "vtu", "csv", "npz"}
-    if bad:
-        raise _cli_error(f"--formats: expected a subset of png,vtu,csv,npz, found {sorted(bad)}")
+    try:
+        names = parse_names(args.quantities, "--quantities")
+        formats = parse_names(args.formats, "--formats", ("png", "vtu", "csv", "npz"))
+    except PkmstiffError as exc:
+        raise _cli_error(str(exc)) from None
     step, at = args.step * 1e-3, args.at * 1e-3
     stem = f"{safe_stem(mech.name)}_{plane}"
     from pkmstiff.cli.edges import check_output_dir

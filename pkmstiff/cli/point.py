@@ -49,6 +49,22 @@ def _is_planar(name: str) -> bool:
     return name in bundled_planar() and name not in bundled_machines()
 
 
+#: longest tool (mm) and most natural frequencies ``point`` accepts (a 10 m tool or 100 modes is a typo, not a study)
+TOOL_LENGTH_LIMIT_MM = 1e4
+MODES_LIMIT = 100
+
+
+def check_point_options(tool_length_mm: float | None, n_modes: int) -> None:
+    """``--tool-length`` 0..:data:`TOOL_LENGTH_LIMIT_MM` mm and ``--modes`` 0..:data:`MODES_LIMIT` (0: no modes)."""
+    if tool_length_mm is not None and not (math.isfinite(tool_length_mm)
+                                           and 0 <= tool_length_mm <= TOOL_LENGTH_LIMIT_MM):
+        raise PointArgumentError(f"--tool-length: expected a length 0..{TOOL_LENGTH_LIMIT_MM:g} mm, "
+                                 f"found {tool_length_mm!r}")
+    if not 0 <= n_modes <= MODES_LIMIT:
+        raise PointArgumentError(f"--modes: expected an integer 0..{MODES_LIMIT} (0: no modal analysis), "
+                                 f"found {n_modes}")
+
+
 def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissiblePoseRefused:
     return InadmissiblePoseRefused(
         f"{machine} at {where} is not admissible: {'; '.join(reasons) or 'not modelled'}; "
@@ -64,10 +80,7 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
     check of docs/theory/admissibility.md) comes first; with ``allow_inadmissible=False`` an inadmissible pose raises
     :class:`~pkmstiff.errors.InadmissiblePoseRefused` (exit status 3) before any analysis.
     """
-    if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
-        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
-    if n_modes < 0:
-        raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
+    check_point_options(tool_length_mm, n_modes)
     if _is_planar(machine_name):
         return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
     from pkmstiff.admissibility.pipeline import evaluate_poses
@@ -290,10 +303,7 @@ def _point_batch(args: argparse.Namespace) -> int:
     from pkmstiff.cli.pose import read_pose_file
     from pkmstiff.io.atomic import atomic_open
 
-    if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
-        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
-    if args.modes < 0:
-        raise PointArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
+    check_point_options(args.tool_length, args.modes)
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
@@ -315,6 +325,7 @@ def _cmd_point(args: argparse.Namespace) -> int:
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
     if getattr(args, "poses", None) is not None:
         return _point_batch(args)
+    check_point_options(args.tool_length, args.modes)
     if args.figures is not None:
         check_output_dir(args.figures, "--figures", getattr(args, "force", False), _figure_names(args))
     try:
@@ -380,7 +391,7 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--force", action="store_true", help="overwrite existing output files (--out, --figures)")
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
                    help="tool length in mm (default: machine file)")
-    p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")
+    p.add_argument("--modes", type=int, default=6, metavar="N", help=f"number of natural frequencies, 0..{MODES_LIMIT} (0: none; default 6)")
     from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
 
     add_spindle_argument(p)

@@ -14,9 +14,19 @@ from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import load_machine
 
 
+#: largest |x|, |y|, |z| of a pose (mm: 100 m, beyond every machine tool) and largest |a|, |b|, |c| (deg: one turn)
+POSITION_LIMIT_MM = 1e5
+ANGLE_LIMIT_DEG = 360.0
+
+
 def parse_pose(text: str) -> np.ndarray:
-    """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad)."""
+    """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad); positions beyond
+    :data:`POSITION_LIMIT_MM` and angles beyond :data:`ANGLE_LIMIT_DEG` are refused (a typo, not a pose)."""
     vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", PoseArgumentError, count_text="six")
+    for name, v in zip("xyzabc", vals):
+        limit, unit = (POSITION_LIMIT_MM, "mm") if name in "xyz" else (ANGLE_LIMIT_DEG, "deg")
+        if abs(v) > limit:
+            raise PoseArgumentError(f"--pose: expected |{name}| <= {limit:g} {unit}, found {name} = {v:g} {unit}")
     return np.array([v * 1e-3 for v in vals[:3]] + [math.radians(v) for v in vals[3:]])
 
 

@@ -40,7 +40,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.evaluation.sections import axis_plane, evaluate_section, raster_count, section_summary
-    from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
+    from pkmstiff.io.ranges import parse_names, parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
 
@@ -59,13 +59,10 @@ def _cmd_section(args: argparse.Namespace) -> int:
     try:
         ranges = parse_ranges(args.range, plane_kind) if args.range else None
         ori = parse_triple_deg(args.orientation, "--orientation")
-        names = [q.strip() for q in args.quantities.split(",") if q.strip()]
+        names = parse_names(args.quantities, "--quantities")
         for n in names:
             get_quantity(n)
-        formats = [f.strip() for f in args.formats.split(",") if f.strip()]
-        bad = set(formats) - set(FORMATS)
-        if bad:
-            raise SectionArgumentError(f"--formats: expected a subset of {','.join(FORMATS)}, found {sorted(bad)}")
+        formats = parse_names(args.formats, "--formats", FORMATS)
         if not (args.step > 0 and math.isfinite(args.step)):
             raise SectionArgumentError(f"--step: expected a positive step in mm, found {args.step}")
         if not math.isfinite(args.at):

@@ -20,6 +20,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
     sweep = load_sweep(args.sweep_file)
     _check_sweep_quantities(sweep, args.sweep_file)
+    _check_sweep_paths(sweep, args.sweep_file)
     n = len(sweep.points())
     where = f"Dask scheduler {args.scheduler}" if args.scheduler else (
         "serial" if args.jobs == 1 else f"{args.jobs if args.jobs > 0 else 'all'} local processes")
@@ -64,6 +65,20 @@ def _check_sweep_quantities(sweep, source: str) -> None:
                 check_quantity(name, n_chains)
             except UnknownQuantityError as exc:
                 raise CliError(f"{source}: evaluations: {exc}") from None
+
+
+def _check_sweep_paths(sweep, source: str) -> None:
+    """Every override path (base overrides and parameters) against the base machine file, before any task runs: a
+    path that leads nowhere, or to a key resolved before overrides (``machine.extends``), is one error up front."""
+    from pkmstiff.errors import CliError, OverrideError
+    from pkmstiff.machine.variants import apply_overrides, raw_machine
+
+    raw, src, _ = raw_machine(sweep.machine)
+    paths = {**dict(sweep.base_overrides), **{p.path: None for p in sweep.parameters}}
+    try:
+        apply_overrides(raw, paths, src)
+    except OverrideError as exc:
+        raise CliError(f"{source}: parameters: {exc}") from None
 
 
 def add_commands(sub) -> None:

@@ -43,9 +43,14 @@ def _range(text: str, option: str, unit: str) -> tuple[float, float]:
     return lo, hi
 
 
+#: the largest length (mm) and angle (deg) a step, resolution or increment may have: beyond, a typo (1e300 overflowed
+#: the cost estimate)
+_LIMITS = {"mm": 1e4, "deg": 360.0}
+
+
 def _positive(value: float, option: str, unit: str) -> float:
-    if not (math.isfinite(value) and value > 0):
-        raise _cli_error(f"{option}: expected a positive number in {unit}, found {value!r}")
+    if not (math.isfinite(value) and 0 < value <= _LIMITS[unit]):
+        raise _cli_error(f"{option}: expected a positive number up to {_LIMITS[unit]:g} {unit}, found {value!r}")
     return value
 
 
@@ -122,6 +127,10 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     box = None
     if args.box:
         b = _floats(args.box, 6, "--box", "xmin,xmax,ymin,ymax,zmin,zmax in mm")
+        flat = [f"{c}min < {c}max" for c, lo, hi in zip("xyz", b[0::2], b[1::2]) if not lo < hi]
+        if flat:
+            raise _cli_error(f"--box: expected xmin,xmax,ymin,ymax,zmin,zmax in mm with {', '.join(flat)}, "
+                             f"found {args.box!r}")
         box = (np.array(b[0::2]) * 1e-3, np.array(b[1::2]) * 1e-3)
     rng = None
     if args.range:

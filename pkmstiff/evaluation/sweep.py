@@ -31,7 +31,9 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from pkmstiff.errors import SweepError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation.progress import progress as with_progress
 from pkmstiff.io.atomic import atomic_open
+from pkmstiff.io.csv_cells import text_cell
 from pkmstiff.machine.model import Machine
 
 __all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
@@ -326,29 +328,20 @@ class SweepResult:
             w = csv.writer(fh)
             w.writerow(cols)
             for r in self.rows:
-                w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else r[c])
+                w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else text_cell(r[c]))
                             for c in cols])
         return path
 
 
 def _run_serial(tasks: Sequence[SweepTask], progress: bool) -> list[dict[str, Any]]:
-    items: Iterable[SweepTask] = tasks
-    if progress:
-        from tqdm import tqdm
-
-        items = tqdm(tasks, desc="sweep", unit="task")
-    return [run_task(t) for t in items]
+    return [run_task(t) for t in with_progress(tasks, progress, "sweep", "task")]
 
 
 def _run_local(tasks: Sequence[SweepTask], n_jobs: int, progress: bool) -> list[dict[str, Any]]:
     from joblib import Parallel, delayed
 
     gen = Parallel(n_jobs=n_jobs, backend="loky", return_as="generator")(delayed(run_task)(t) for t in tasks)
-    if progress:
-        from tqdm import tqdm
-
-        gen = tqdm(gen, total=len(tasks), desc="sweep", unit="task")
-    return list(gen)
+    return list(with_progress(gen, progress, "sweep", "task", total=len(tasks)))
 
 
 def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: bool) -> list[dict[str, Any]]:
@@ -361,9 +354,7 @@ def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: bool) -> lis
     try:
         futures = client.map(run_task, list(tasks), pure=False)
         if progress:
-            from tqdm import tqdm
-
-            for _ in tqdm(as_completed(futures), total=len(futures), desc="sweep (dask)", unit="task"):
+            for _ in with_progress(as_completed(futures), True, "sweep (dask)", "task", total=len(futures)):
                 pass
         return client.gather(futures)
     finally:

@@ -46,6 +46,19 @@ def parse_numbers(text: str, count: int, option: str, what: str,
     return vals
 
 
+def parse_names(text: str, option: str, choices: tuple[str, ...] | None = None,
+                error: type[Exception] = SectionArgumentError) -> list[str]:
+    """``"kx, ky"`` -> ``["kx", "ky"]``: at least one name, each from ``choices`` when given; otherwise ``error``."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    want = f"a comma-separated subset of {','.join(choices)}" if choices else "one or more comma-separated names"
+    if not names:
+        raise error(f"{option}: expected {want}, found {text!r}")
+    bad = [n for n in names if choices and n not in choices]
+    if bad:
+        raise error(f"{option}: expected {want}, found {', '.join(bad)}")
+    return names
+
+
 def parse_triple_deg(text: str, what: str) -> np.ndarray:
     """``"a,b,c"`` in degrees -> (3,) array in rad; ``what`` names the option in the error."""
     return np.deg2rad(parse_numbers(text, 3, what, "a,b,c in degrees", count_text="three"))
