@@ -397,6 +397,11 @@ FILE_CASES: list[tuple[str, list[str], int, str]] = [
      "--outlier-threshold"),
     ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--out", "cal.txt"], 2, ".toml"),
     ("sweep", ["sweep", "{extends_sweep}", "--out", "r.csv"], 2, "machine.extends"),
+    # errors that came after the cost line, the progress output or all sweep tasks
+    ("section", ["section", "hexaglide", "--out", "/proc/pkmstiff_out"], 2, "not writable"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--out", "/sys/pkmstiff_out"], 2, "not writable"),
+    ("section", ["section", "hexaglide", "--out", "{loop_dir}"], 2, "symbolic link"),
+    ("sweep", ["sweep", "{bad_path_sweep}", "--out", "r.csv"], 2, "no_such_table"),
     # overwrites without --force
     ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--out", "{existing_toml}"], 2,
      "--force"),
@@ -439,6 +444,11 @@ def fault_files(bad_files):
                                        'values = ["/etc/passwd"]\n[[evaluations]]\nkind = "point"\n'
                                        'quantities = ["kx"]\npose = [0, 0, -1000, 0, 0, 0]\n')
     files["extends_sweep"] = "extends.toml"
+    (root / "badpath.toml").write_text((root / "extends.toml").read_text().replace("machine.extends",
+                                                                                   "no_such_table.k"))
+    files["bad_path_sweep"] = "badpath.toml"
+    os.symlink("loopdir", root / "loopdir")
+    files["loop_dir"] = "loopdir"
     (root / "old.toml").write_text("old result\n")
     files["existing_toml"] = "old.toml"
     for d, name in (("figs", "hexaglide_mode1.png"), ("vtu", "iwf_3dof_improved_tilt0.vtu"),

@@ -75,6 +75,16 @@ def test_cached_machine_equals_fresh_load(name, tmp_path, monkeypatch):
     assert cached.name == fresh.name and cached.kind == fresh.kind
     p = _poses(5, 1)
     np.testing.assert_array_equal(evaluate_poses(cached, p).kappa, evaluate_poses(fresh, p).kappa)
+    # the components too (joint tables, splines, drives): the structure model's stiffness bit for bit
+    from pkmstiff.analysis import evaluate_structure
+    from pkmstiff.errors import StructureModelError
+
+    ok = evaluate_poses(fresh, p).ok
+    try:
+        k_fresh = evaluate_structure(fresh, p[ok], n_modes=0).stiffness
+    except StructureModelError:  # a machine without stiffness data
+        return
+    np.testing.assert_array_equal(evaluate_structure(cached, p[ok], n_modes=0).stiffness, k_fresh)
 
 
 def test_damaged_cache_file_falls_back_to_loading(tmp_path, monkeypatch):

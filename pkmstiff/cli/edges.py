@@ -33,9 +33,26 @@ def _check_parent_writable(path: Path, option: str) -> None:
     if not anc.is_dir():
         raise OutputPathError(f"{option}: expected a path below a directory, found {str(path)!r} "
                               f"({str(anc)!r} is a file)")
-    if not os.access(anc, os.W_OK | os.X_OK):
+    if not (os.access(anc, os.W_OK | os.X_OK) and _can_create_in(anc)):
         raise OutputPathError(f"{option}: expected a writable location, found {str(path)!r} "
                               f"({str(anc)!r} is not writable)")
+
+
+def _can_create_in(directory: Path) -> bool:
+    """Whether files can be created in ``directory`` beyond its permission bits (which say yes for root on /proc,
+    /sys or a read-only mount): not a read-only mount, and a file system with storage (pseudo file systems such as
+    proc and sysfs report no blocks). Nothing is created."""
+    try:
+        st = os.statvfs(directory)
+    except OSError:
+        return False
+    return not st.f_flag & os.ST_RDONLY and st.f_blocks > 0
+
+
+def _check_not_a_link_loop(p: Path, option: str) -> None:
+    if os.path.islink(p) and not p.exists():
+        raise OutputPathError(f"{option}: expected a directory or a new name, found {str(p)!r} (a symbolic link "
+                              f"that leads nowhere or to itself)")
 
 
 def check_output_dir(path: str | Path | None, option: str = "--out", force: bool = False,
@@ -47,10 +64,11 @@ def check_output_dir(path: str | Path | None, option: str = "--out", force: bool
     p = Path(path)
     if str(path).strip() == "":
         raise OutputPathError(f"{option}: expected a directory, found an empty path")
+    _check_not_a_link_loop(p, option)
     if p.exists() and not p.is_dir():
         raise OutputPathError(f"{option}: expected a directory, found {str(p)!r} (an existing file)")
     if p.exists():
-        if not os.access(p, os.W_OK | os.X_OK):
+        if not (os.access(p, os.W_OK | os.X_OK) and _can_create_in(p)):
             raise OutputPathError(f"{option}: expected a writable directory, found {str(p)!r} (not writable)")
         clash = [n for n in names if (p / n).exists()]
         if clash and not force:
@@ -72,6 +90,7 @@ def check_output_file(path: str | Path | None, option: str = "--out", force: boo
         raise OutputPathError(f"{option}: expected a file name, found an empty path")
     if p.is_dir():
         raise OutputPathError(f"{option}: expected a file name, found {str(p)!r} (a directory)")
+    _check_not_a_link_loop(p, option)
     if suffixes and p.suffix.lower() not in suffixes:
         raise OutputPathError(f"{option}: expected a file name ending in {' or '.join(suffixes)}, found {str(p)!r}")
     if p.exists() and not force:

@@ -101,6 +101,7 @@ def encode(obj: Any) -> tuple[str, dict[str, Any]]:
 
     arrays: dict[str, Any] = {}
     seen: dict[int, int] = {}
+    alive: list[Any] = []  # every object numbered stays alive, so that its id() is not reused (a state tuple is new)
 
     def enc(o: Any) -> Any:
         if o is None or isinstance(o, (bool, str)) or type(o) in (int, float):
@@ -112,6 +113,7 @@ def encode(obj: Any) -> tuple[str, dict[str, Any]]:
         if id(o) in seen:
             return {"ref": seen[id(o)]}
         n = seen[id(o)] = len(seen)
+        alive.append(o)
         if type(o) is list:
             return {"list": [enc(v) for v in o], "id": n}
         if type(o) is tuple:
