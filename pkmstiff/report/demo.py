@@ -1,7 +1,7 @@
 """``pkmstiff demo``: stiffness and first eigenfrequency maps of the bundled Hexaglide (Cobet Figs. 4.25, 4.30).
 
 YZ plane at x = 0, a = b = c = 0, tool length 0 with the platform-spindle stiffness K_U neglected (as the
-dissertation's maps, Cobet 4.2.4; docs/user-guide/validation-hexaglide.md (reading 4)): maps of k_x, k_y, k_z [N/µm] and f1 [Hz], a three-plane figure of
+dissertation's maps, Cobet 4.2.4; docs/user-guide/validation-hexaglide.md, reading: tool length 0): maps of k_x, k_y, k_z [N/µm] and f1 [Hz], a three-plane figure of
 k_x with a sketch of the machine, VTU/CSV exports and a short Markdown + HTML summary, written to ``out/demo/``.
 """
 
