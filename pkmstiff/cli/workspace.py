@@ -111,6 +111,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.workspace.oracle import OracleInputError
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
+    from pkmstiff.workspace.volume import HEADLINE_METHOD, METHOD_NOTES
 
     machine = load_machine(args.machine)
     eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
@@ -184,8 +185,12 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
           + (", K_U neglected (platform and spindle rigid)" if args.neglect_spindle else "")
           + f"; resolution {args.resolution:g} mm (effective "
           f"{', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
-    print(f"volume: {res.volume:.5f} m^3 (surface nets); "
-          + ", ".join(f"{k} {v:.5f}" for k, v in res.volumes.items() if k != "surface_nets") + " m^3")
+    print(f"volume: {res.volume:.5f} m^3 (surface nets; the figure to quote)")
+    others = [(k, v) for k, v in res.volumes.items() if k != HEADLINE_METHOD]
+    if others:
+        print("  cross-checks, not the volume to quote (docs/user-guide/workspace.md, volume methods):")
+        for k, v in others:
+            print(f"    {k:<12} {v:.5f} m^3: {METHOD_NOTES.get(k, '')}")
     print("bounding box [mm]: " + ", ".join(f"{c} {a:.1f}..{b:.1f}" for c, a, b in zip("xyz", lo, hi)))
     print(f"boundary points: {summary['boundary_points']:,}; evaluations: {summary['evaluations']:,}; "
           f"run time {summary['run_time_s']:.2f} s ({summary['evaluation_time_s']:.2f} s evaluating poses)")
