@@ -90,8 +90,8 @@ def test_cli_workspace_json_and_files(tmp_path, capsys):
 
 
 def test_cli_rotation_map_and_errors(tmp_path, capsys):
-    code = main(["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--u-range", "0,600",
-                 "--v-range=-1100,-800", "--step", "100", "--directions", "+a,-b", "--increment", "3",
+    code = main(["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--range", "y=0:600,z=-1100:-800",
+                 "--step", "100", "--directions", "+a,-b", "--increment", "3",
                  "--json", "--out", str(tmp_path), "--no-plot"])
     assert code == 0
     rep = json.loads(capsys.readouterr().out)

@@ -53,8 +53,8 @@ def collect_claims() -> dict[str, Any]:
 
 
 #: the rotation-map run docs/user-guide/workspace.md quotes (Hexaglide Y-Z plane, 25 mm raster, 1 deg, six directions)
-ROTATION_MAP_YZ = ["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--u-range=-200,1100",
-                   "--v-range=-1250,-400", "--step", "25", "--increment", "1", "--json"]
+ROTATION_MAP_YZ = ["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--range",
+                   "y=-200:1100,z=-1250:-400", "--step", "25", "--increment", "1", "--json"]
 
 
 @lru_cache(maxsize=1)

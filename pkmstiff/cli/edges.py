@@ -99,6 +99,18 @@ def check_output_file(path: str | Path | None, option: str = "--out", force: boo
     return p
 
 
+# ---------------------------------------------------------------------------------------------------- --range
+
+
+def old_range_form(command: str, option: str, found: str, axes: list[str], bounds: list[tuple[float, float]]) -> str:
+    """The ``--range`` text in the one syntax (AXIS=LO:HI, ...) for an option given in an old form; prints one
+    deprecation line on stderr naming the new form."""
+    new = ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zip(axes, bounds))
+    print(f"pkmstiff {command}: note: {option} {found} is deprecated; write --range {new} "
+          f"(one syntax AXIS=LO:HI for section, workspace and rotation-map)", file=sys.stderr)
+    return new
+
+
 # ------------------------------------------------------------------------------------------------ number options
 
 

@@ -43,6 +43,39 @@ def _range(text: str, option: str, unit: str) -> tuple[float, float]:
     return lo, hi
 
 
+def _axis_ranges(text: str, axes: str, unit: str, option: str = "--range",
+                 required: bool = True) -> dict[str, tuple[float, float]]:
+    from pkmstiff.errors import CliError
+    from pkmstiff.io.ranges import parse_axis_ranges
+
+    return parse_axis_ranges(text, axes, unit, option, required, CliError)
+
+
+def _map_ranges(args: argparse.Namespace, axes: str, unit: str,
+                default: dict[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
+    """The two in-plane ranges of a rotation map from ``--range AXIS=LO:HI,AXIS=LO:HI`` or, deprecated, from
+    ``--u-range``/``--v-range MIN,MAX`` (``axes``: the two axis letters; ``default`` when neither is given)."""
+    from pkmstiff.cli.edges import old_range_form
+
+    if args.range and (args.u_range or args.v_range):
+        raise _cli_error("--range: expected either --range or the old --u-range/--v-range, found both")
+    if args.u_range or args.v_range:
+        old = [(o, t) for o, t in (("--u-range", args.u_range), ("--v-range", args.v_range)) if t]
+        bounds = {a: (_range(t, o, unit) if t else (default or {}).get(a)) for a, (o, t) in
+                  zip(axes, (("--u-range", args.u_range), ("--v-range", args.v_range)))}
+        if any(b is None for b in bounds.values()):
+            raise _cli_error(f"--range: expected {axes[0]}=LO:HI,{axes[1]}=LO:HI ({unit}) for the plane, "
+                             f"found {' '.join(f'{o} {t}' for o, t in old)}")
+        old_range_form("rotation-map", " ".join(o for o, _ in old), " ".join(t for _, t in old),
+                       list(bounds), list(bounds.values()))
+        return bounds
+    if not args.range:
+        if default is None:
+            raise _cli_error(f"--range: expected {axes[0]}=LO:HI,{axes[1]}=LO:HI in {unit} for a section plane")
+        return default
+    return _axis_ranges(args.range, axes, unit)
+
+
 #: the largest length (mm) and angle (deg) a step, resolution or increment may have: beyond, a typo (1e300 overflowed
 #: the cost estimate)
 _LIMITS = {"mm": 1e4, "deg": 360.0}
@@ -105,7 +138,7 @@ WORKSPACE_FILES = ("workspace.json", "boundary_points.csv", "workspace_surface.s
 
 
 def _cmd_workspace(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
+    from pkmstiff.cli.edges import announce_cost, check_output_dir, old_range_form, parse_budget
     from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.octree import OctreeInputError
     from pkmstiff.workspace.oracle import OracleInputError
@@ -135,12 +168,17 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         box = (np.array(b[0::2]) * 1e-3, np.array(b[1::2]) * 1e-3)
     rng = None
     if args.range:
-        parts = args.range.split(",")
-        if len(parts) != 3 or parts[0] not in ("a", "b", "c"):
-            raise _cli_error(f"--range: expected ANGLE,MIN,MAX with ANGLE one of a, b, c and MIN, MAX in deg, "
+        text = args.range
+        parts = text.split(",")
+        if len(parts) == 3 and "=" not in text and parts[0].strip() in ("a", "b", "c"):  # old form ANGLE,MIN,MAX
+            lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE=MIN:MAX (deg)")
+            text = old_range_form("workspace", "--range", text, [parts[0].strip()], [(lo, hi)])
+        r = _axis_ranges(text, "abc", "deg", "--range", required=False)
+        if len(r) != 1:
+            raise _cli_error(f"--range: expected one orientation angle ANGLE=MIN:MAX (deg), e.g. c=-30:30, "
                              f"found {args.range!r}")
-        lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE,MIN,MAX (deg)")
-        rng = (parts[0], math.radians(lo), math.radians(hi))
+        (axis, (lo, hi)), = r.items()
+        rng = (axis, math.radians(lo), math.radians(hi))
     from pkmstiff.workspace.translational import reach_box
 
     lo_box, hi_box = (box if box is not None else reach_box(machine))
@@ -263,14 +301,13 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                 raise _cli_error("--point (rotational workspace): expected exactly one single-axis direction, "
                                  f"e.g. --directions +a, found {args.directions!r}")
             step = math.radians(_positive(args.step, "--step", "deg"))
-            u_lo, u_hi = _range(args.u_range or "-30,30", "--u-range", "deg")
-            v_lo, v_hi = _range(args.v_range or "-60,60", "--v-range", "deg")
-            u = np.radians(raster(u_lo, u_hi, math.degrees(step)))
-            v = np.radians(raster(v_lo, v_hi, math.degrees(step)))
+            others = [c for c in "abc" if c != dirs[0][1]]
+            rng = _map_ranges(args, "".join(others), "deg", {others[0]: (-30.0, 30.0), others[1]: (-60.0, 60.0)})
+            u = np.radians(raster(*rng[others[0]], math.degrees(step)))
+            v = np.radians(raster(*rng[others[1]], math.degrees(step)))
             res = rotational_workspace_map(machine, to_machine_frame(machine, point, args.frame), dirs[0], u, v, ori,
                                            inc, amax,
                                            requirements=_requirements(args), method=method, verify=args.verify)
-            others = [c for c in "abc" if c != dirs[0][1]]
             labels, scale = (f"{others[0]} [deg]", f"{others[1]} [deg]"), (180 / math.pi, 180 / math.pi)
             title = (f"{machine.name}: max. rotation {dirs[0]} at x,y,z = {args.point} mm "
                      f"({frame_text(machine, args.frame).split(' (')[0]})")
@@ -280,11 +317,10 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             ua, va, normal = PLANES[args.plane]
             origin = np.zeros(3)
             origin[normal] = args.at * 1e-3
-            if not (args.u_range and args.v_range):
-                raise _cli_error("--u-range and --v-range (mm) are required for a section plane")
+            rng = _map_ranges(args, args.plane, "mm")
             step = _positive(args.step, "--step", "mm")
-            u = raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
-            v = raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
+            u = raster(*rng[args.plane[0]], step) * 1e-3
+            v = raster(*rng[args.plane[1]], step) * 1e-3
             req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
                                      inc, amax, tuple(_requirements(args)), method, frame=args.frame)
             res = req.evaluate(machine, verify=args.verify)
@@ -359,7 +395,8 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--require", action="append", metavar="REQ",
                    help="extra requirement, e.g. 'U>=0.2', 'kappa<=100', 'kx>=20 N/um' (repeatable)")
     p.add_argument("--box", help="initial box xmin,xmax,ymin,ymax,zmin,zmax in mm (default: the chains' reach box)")
-    p.add_argument("--range", help="variable orientation range ANGLE,MIN,MAX in deg, e.g. c,-30,30")
+    p.add_argument("--range", metavar="ANGLE=LO:HI",
+                   help="variable orientation range in deg, e.g. c=-30:30 (the old form c,-30,30 is deprecated)")
     p.add_argument("--range-step", type=float, default=2.0, help="sampling step of --range in deg (default 2)")
     p.add_argument("--range-mode", choices=("all", "any"), default="all",
                    help="'all' samples admissible (Merlet) or 'any' (choose the angle) (default all)")
@@ -387,8 +424,11 @@ def add_commands(sub: Any) -> None:
     p.add_argument("machine", help="bundled machine name or path to a machine file")
     p.add_argument("--plane", default="yz", help="section plane yz, xz or xy (default yz)")
     p.add_argument("--at", type=float, default=0.0, help="plane position along its normal in mm (default 0)")
-    p.add_argument("--u-range", help="first in-plane coordinate MIN,MAX (mm; with --point: deg)")
-    p.add_argument("--v-range", help="second in-plane coordinate MIN,MAX (mm; with --point: deg)")
+    p.add_argument("--range", metavar="AXIS=LO:HI,AXIS=LO:HI",
+                   help="the two in-plane ranges, e.g. y=-200:1100,z=-1100:-800 (mm; with --point: the two other "
+                        "angles in deg, default e.g. b=-30:30,c=-60:60 for +a)")
+    p.add_argument("--u-range", help=argparse.SUPPRESS)  # deprecated: MIN,MAX of the first in-plane axis
+    p.add_argument("--v-range", help=argparse.SUPPRESS)  # deprecated: MIN,MAX of the second in-plane axis
     p.add_argument("--step", type=float, default=25.0, help="raster step (mm; with --point: deg) (default 25)")
     p.add_argument("--point", help="x,y,z in mm: rotational workspace at this point instead of a plane")
     p.add_argument("--directions", default="+a,-a,+b,-b,+a+b,-a-b", help="comma-separated directions")
