@@ -17,6 +17,7 @@ import numpy as np
 
 from pkmstiff.errors import PkmstiffError
 from pkmstiff.io.atomic import atomic_open, atomic_path, output_path, safe_stem
+from pkmstiff.io.columns import column_name
 from pkmstiff.io.ranges import parse_names, parse_numbers
 
 
@@ -334,7 +335,7 @@ def _write_section(sec, out, stem: str, formats: list[str]) -> list:
         with atomic_open(p, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
             w.writerow([f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
-                       + [f"{n}_{sec.units[n]}" for n in sec.values])
+                       + [column_name(n, sec.units[n]) for n in sec.values])
             cols = [sec.display(n).ravel() for n in sec.values]
             for i in range(U.size):
                 w.writerow([f"{U.flat[i] * 1e3:.6g}", f"{V.flat[i] * 1e3:.6g}", sec.status.flat[i],
@@ -344,8 +345,9 @@ def _write_section(sec, out, stem: str, formats: list[str]) -> list:
     if "npz" in formats:
         p = output_path(out, f"{stem}.npz")
         with atomic_path(p) as tmp:
-            np.savez_compressed(tmp, **{f"{u}_m": sec.u_values, f"{v}_m": sec.v_values, "reasons": sec.reasons,
-                                        "admissible": sec.ok}, **{f"{n}_si": sec.values[n] for n in sec.values})
+            np.savez_compressed(tmp, **{f"{u}_mm": sec.u_values * 1e3, f"{v}_mm": sec.v_values * 1e3,
+                                        "reasons": sec.reasons, "admissible": sec.ok},
+                                **{column_name(n, sec.units[n]): sec.display(n) for n in sec.values})
         paths.append(p)
     return paths
 

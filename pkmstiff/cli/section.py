@@ -155,8 +155,8 @@ def _output_names(stem: str, names: list[str], formats: list[str], reasons_map: 
     """The files a section writes into --out (checked for overwriting before the work)."""
     out = [f"{stem}_{n}.png" for n in names] if "png" in formats else []
     out += [f"{stem}.{f}" for f in ("vtu", "csv", "npz") if f in formats] + [f"{stem}_statistics.json"]
-    if "vtu" in formats:
-        out.append(f"{stem}.json")  # the VTU's metadata
+    if "vtu" in formats or "csv" in formats:
+        out.append(f"{stem}.json")  # the metadata of the VTU and CSV
     if reasons_map:
         out.append(f"{stem}_admissibility.png")
     return tuple(out)

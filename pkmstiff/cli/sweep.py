@@ -13,11 +13,12 @@ EXIT_SOME_TASKS_FAILED = 4
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import check_jobs, check_output_file
     from pkmstiff.errors import CliError
-    from pkmstiff.evaluation.sweep import SweepError, run_sweep
+    from pkmstiff.evaluation.sweep import SweepError, run_sweep, sidecar_path
     from pkmstiff.report.sweep_file import load_sweep
 
     check_jobs(args.jobs)
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    check_output_file(sidecar_path(out), "--out (its metadata)", getattr(args, "force", False), (".json",))
     sweep = load_sweep(args.sweep_file)
     _check_sweep_quantities(sweep, args.sweep_file)
     _check_sweep_paths(sweep, args.sweep_file)
@@ -41,7 +42,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         raise CliError(f"all {len(res.rows)} tasks failed: {first}{more}; nothing written")
     path = res.to_csv(Path(out))
     print(f"pkmstiff sweep: {len(res.rows) - len(failed)} of {len(res.rows)} tasks ok, "
-          f"{time.perf_counter() - t0:.1f} s; wrote {path}")
+          f"{time.perf_counter() - t0:.1f} s; wrote {path} (metadata {sidecar_path(path)})")
     for err, tasks in distinct.items():  # one line per distinct error
         ids = ", ".join(map(str, tasks[:8])) + (", ..." if len(tasks) > 8 else "")
         print(f"  {len(tasks)} task(s) failed ({ids}): {err}")

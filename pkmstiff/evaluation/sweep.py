@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import itertools
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -32,8 +33,8 @@ import numpy as np
 
 from pkmstiff.errors import SweepError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.progress import progress as with_progress
-from pkmstiff.io.atomic import atomic_open
-from pkmstiff.io.csv_cells import text_cell
+from pkmstiff.io.atomic import atomic_open, atomic_write_text
+from pkmstiff.io.columns import label_column, text_cell
 from pkmstiff.machine.model import Machine
 
 __all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
@@ -318,19 +319,27 @@ class SweepResult:
         return np.array(vals, dtype=object)
 
     def to_csv(self, path: str | Path) -> Path:
-        """CSV with ``# key: value`` metadata lines, one header row and one row per task (empty = no value)."""
+        """A plain CSV (``pandas.read_csv(path)`` reads it with no options): one header row, named by the file rule
+        (:func:`pkmstiff.io.columns.label_column`: ``kx_N_per_um``), and one row per task (empty = no value); the
+        metadata and the map from file columns to result labels go to ``<name>.json`` beside it."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         cols = self.columns
+        meta = {k: v for k, v in self.metadata.items()}
+        meta["columns"] = {label_column(c): c for c in cols}
+        atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, default=str))
         with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
-            for k, v in self.metadata.items():
-                fh.write(f"# {k}: {v}\n")
             w = csv.writer(fh)
-            w.writerow(cols)
+            w.writerow([label_column(c) for c in cols])
             for r in self.rows:
                 w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else text_cell(r[c]))
                             for c in cols])
         return path
+
+
+def sidecar_path(path: str | Path) -> Path:
+    """The JSON file beside a results CSV that holds its metadata (``<name>.json``)."""
+    return Path(path).with_suffix(".json")
 
 
 def _run_serial(tasks: Sequence[SweepTask], progress: bool) -> list[dict[str, Any]]:
