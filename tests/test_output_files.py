@@ -118,3 +118,54 @@ def test_a_file_size_limit_leaves_the_previous_output_intact(tmp_path):
     assert len(r.stderr.strip().splitlines()) == 1 and "File too large" in r.stderr, r.stderr
     assert out.read_text() == "previous result\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["old.csv", "poses.csv"]
+
+
+# ------------------------------------------------------------------------------------------- injected strings
+
+
+def test_markdown_twin_shows_injected_strings_as_text(tmp_path):
+    """Strings from a spec or machine file (title, heading, text, caption, assumptions, settings) cannot become HTML
+    or links in the Markdown twin; the HTML twin escapes them already."""
+    from pkmstiff.report import Report, Table, write_report
+
+    evil = '<script>alert(1)</script> [x](javascript:alert(1)) `code` <img src=x onerror=alert(1)>'
+    r = Report(evil, summary=evil)
+    s = r.section(evil, evil)
+    s.tables.append(Table(evil, ["value"]).add("row " + evil, "1", [1.0]))
+    r.assumptions = {evil: evil}
+    r.settings = {"k": evil}
+    md = write_report(r, tmp_path, run={"date": "d", "pkmstiff": "0"})["md"].read_text(encoding="utf-8")
+    import re
+
+    assert "<script" not in md and "<img" not in md and not re.search(r"(?<!\\)\]\(javascript", md)
+    assert "&lt;script&gt;" in md and "\\[x\\]" in md and "\\`code\\`" in md
+
+
+def test_sweep_csv_text_cells_are_not_formulas(tmp_path):
+    import csv
+
+    from pkmstiff.evaluation.sweep import SweepResult
+    from pkmstiff.io.columns import text_cell
+
+    assert [text_cell(v) for v in ("=1+2", "+1", "-2", "@SUM(A1)", "\tx", "ok", -2.5, 3)] == \
+        ["'=1+2", "'+1", "'-2", "'@SUM(A1)", "'\tx", "ok", -2.5, 3]
+    res = SweepResult([{"task": 0, "p": "=HYPERLINK(\"http://x\")", "kx [N/um]": -1.5, "error": "@x"}], ["p"])
+    rows = list(csv.reader((tmp_path / "s.csv").read_text().splitlines())) if res.to_csv(tmp_path / "s.csv") else []
+    assert rows[0] == ["task", "p", "kx_N_per_um", "error"]
+    assert rows[1] == ["0", "'=HYPERLINK(\"http://x\")", "-1.5", "'@x"]  # numbers stay numbers
+
+
+def test_sweep_progress_is_periodic_lines_off_a_terminal(monkeypatch, capsys):
+    """stderr redirected: one plain line every PROGRESS_INTERVAL_S, no bar redraws (carriage returns)."""
+    import itertools
+
+    from pkmstiff.evaluation import progress as prog
+
+    clock = itertools.count(0.0, 4.0)  # each item takes 4 s
+    monkeypatch.setattr(prog.time, "perf_counter", lambda: next(clock))
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: False, raising=False)
+    assert list(prog.progress(range(10), True, "sweep", "task")) == list(range(10))
+    err = capsys.readouterr().err
+    lines = err.splitlines()
+    assert "\r" not in err and 3 <= len(lines) <= 4 and all(ln.startswith("sweep: ") for ln in lines)
+    assert "task" in lines[0] and "/10 tasks" in lines[0]
