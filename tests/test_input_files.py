@@ -31,13 +31,16 @@ def test_measurement_with_byte_order_mark_and_quoted_cells(tmp_path):
     from pkmstiff.calibration.measurement_file import read_measurement, write_measurement
     from tests.test_ballbar_file import _meas
 
+    from tests.test_calibration_simulate_points import _old_form
+
     plain = write_measurement(tmp_path / "m.csv", _meas(n=40, plane="XY"))
-    text = plain.read_text(encoding="utf-8")
-    lines = text.splitlines()
-    col = next(i for i, ln in enumerate(lines) if not ln.startswith("#"))
-    quoted = lines[:col + 1] + [",".join(f'"{c}"' for c in ln.split(",")) for ln in lines[col + 1:]]
+    lines = plain.read_text(encoding="utf-8").splitlines()
+    quoted = lines[:1] + [",".join(f'"{c}"' for c in ln.split(",")) for ln in lines[1:]]
+    for name, head in (("bom", []), ("bom_old", _old_form(plain.with_suffix(".json")))):  # header beside / inside
+        (tmp_path / f"{name}.csv").write_bytes(b"\xef\xbb\xbf" + ("\n".join(head + quoted) + "\n").encode("utf-8"))
+    (tmp_path / "bom.json").write_bytes(b"\xef\xbb\xbf" + plain.with_suffix(".json").read_bytes())
     bom = tmp_path / "bom.csv"
-    bom.write_bytes(b"\xef\xbb\xbf" + ("\n".join(quoted) + "\n").encode("utf-8"))
+    np.testing.assert_array_equal(read_measurement(tmp_path / "bom_old.csv").reading, read_measurement(plain).reading)
     a, b = read_measurement(plain), read_measurement(bom)
     np.testing.assert_array_equal(a.reading, b.reading)
     np.testing.assert_array_equal(a.poses, b.poses)
@@ -67,3 +70,30 @@ def test_plain_powers_still_parse(good, unit, value):
     from pkmstiff.units import parse_quantity
 
     assert parse_quantity(good, unit, plausible=False) == pytest.approx(value, rel=1e-15)
+
+
+def test_measurement_header_beside_the_csv(tmp_path):
+    """New files: the CSV holds only the table (pandas reads it with no options), the header is <name>.json; errors
+    in the header name the JSON file; a CSV without either header form says so."""
+    import json
+
+    import pandas as pd
+
+    from pkmstiff.calibration.measurement_file import read_measurement, write_measurement
+    from pkmstiff.errors import MeasurementFileError
+    from tests.test_ballbar_file import _meas
+
+    m = _meas(n=40, plane="XY")
+    path = write_measurement(tmp_path / "m.csv", m)
+    df = pd.read_csv(path)
+    assert list(df.columns[:2]) == ["t_s", "x_mm"] and len(df) == m.n_samples
+    np.testing.assert_allclose(df["reading_mm"], m.reading * 1e3, rtol=1e-14, atol=1e-18)  # 15 digits written
+    meta = json.loads(path.with_suffix(".json").read_text())
+    assert meta["bar_length_mm"] == 150 and meta["fixed_ball_mm"] == [0, 0, 0] and meta["machine"] == "felix"
+    meta["bar_length_mm"] = -150
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    with pytest.raises(MeasurementFileError, match=r"m\.json.*bar_length_mm"):
+        read_measurement(path)
+    path.with_suffix(".json").unlink()
+    with pytest.raises(MeasurementFileError, match=r"no header.*m\.json"):
+        read_measurement(path)

@@ -63,6 +63,9 @@ def provenance(res: Identification, unc: Uncertainty | None = None, measurement:
     if measurement is not None:
         out["measurement_file"] = str(Path(measurement).name)
         out["measurement_sha256"] = file_sha256(measurement)
+        header = Path(measurement).with_suffix(".json")  # the header beside the CSV (files written since issue 22)
+        if header.is_file():
+            out["measurement_header_sha256"] = file_sha256(header)
     out["identified"] = {nm: float(res.delta[i]) for nm, i in zip(res.base_names, res.base)}
     if unc is not None:
         out["sigma"] = {nm: float(s) for nm, s in zip(unc.names, unc.sigma)}

@@ -1,6 +1,10 @@
-"""Ball-bar measurement files: a CSV with a commented header (issue 16 item 5; instrument data docs/theory/calibration.md).
+"""Ball-bar measurement files: a CSV and its header (issue 16 item 5; instrument data docs/theory/calibration.md).
 
-Layout (one sample per row, comma separated, ``#`` starts a comment line)::
+pkmstiff writes the header as ``<name>.json`` beside the CSV (issue 22 item 6: the CSV is a plain table that
+``pandas.read_csv(path)`` reads with no options); a CSV may instead carry the same keys as ``# key: value`` comment
+lines before the column row (the earlier form, read unchanged; a byte-order mark is dropped, cells may be quoted).
+
+Layout of the earlier form (one sample per row, comma separated, ``#`` starts a comment line)::
 
     # pkmstiff ball-bar measurement
     # format_version: 1
@@ -58,7 +62,9 @@ first offending line is named, with the count); :func:`range_violations` lists t
 from __future__ import annotations
 
 import csv
+import json
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -238,7 +244,34 @@ def write_measurement(path: str | Path, meas: BallbarMeasurement, *, allow_out_o
     return _write_table(path, head, cols, n)
 
 
+def sidecar_path(path: str | Path) -> Path:
+    """The JSON file beside a measurement CSV that holds its header (``<name>.json``)."""
+    return Path(path).with_suffix(".json")
+
+
+def _json_value(text: str):
+    """A header value as JSON data: a number, a list of numbers (``"0, 0, 0"``) or the text."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        nums = [float(p) for p in parts]
+    except ValueError:
+        return text
+    nums = [int(v) if v.is_integer() and abs(v) < 2**53 else v for v in nums]
+    return nums[0] if len(nums) == 1 else nums
+
+
 def _write_table(path: Path, head: list[str], cols: list, n: int) -> Path:
+    """The CSV (the column row and the samples: ``pandas.read_csv(path)`` reads it with no options) and its header
+    as ``<name>.json`` beside it (the ``# key: value`` lines of earlier files, which are still read)."""
+    meta: dict = {"file": head[0].lstrip("# ").strip()}
+    for line in head[1:]:
+        key, value = (p.strip() for p in line.lstrip("# ").split(":", 1))
+        if key == "note":
+            meta.setdefault("note", []).append(value)
+        else:
+            meta[key] = _json_value(value) if key not in ("machine", "instrument", "plane", "units") else value
+    atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, ensure_ascii=False) + "\n")
+    head = []
     text_cols = []
     for name, values in cols:
         if name == "direction":
@@ -410,6 +443,14 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     if columns is None:
         raise MeasurementFileError(src, len(lines) or None, "no column row found (expected a line such as "
                                    "'t_s,x_mm,...,reading_mm')")
+    hsrc = src  # where the header came from: the CSV's '# key: value' lines or the JSON file beside it
+    if not header and not notes:
+        if not os.path.lexists(sidecar_path(path)):
+            raise MeasurementFileError(src, None, f"no header: neither '# key: value' lines nor "
+                                       f"{sidecar_path(path).name} beside the file (a ball-bar file needs at least "
+                                       f"bar_length_mm and fixed_ball_mm)")
+        hsrc = str(sidecar_path(path))
+        header, notes = _read_sidecar(hsrc)
     kind = "ballbar"
     if "instrument_type" in header:
         no, kind = header["instrument_type"]
@@ -419,9 +460,9 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     foreign = _POINT_KEYS if kind == "ballbar" else _BALLBAR_KEYS
     for key in foreign:
         if key in header:
-            raise MeasurementFileError(src, header[key][0], f"header key '{key}' does not belong to a {kind} file "
+            raise MeasurementFileError(hsrc, header[key][0], f"header key '{key}' does not belong to a {kind} file "
                                        f"(instrument_type: {kind})")
-    meta = _parse_header(src, header) if kind == "ballbar" else _parse_point_header(src, header, kind)
+    meta = _parse_header(hsrc, header) if kind == "ballbar" else _parse_point_header(hsrc, header, kind)
     layout = _parse_columns(src, col_line, columns, kind)
     if not data_rows:
         raise MeasurementFileError(src, col_line, "no data rows after the column row")
@@ -507,6 +548,35 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
                                        f"instrument range [{lo * 1e3:g}, {hi * 1e3:g}] mm{more}",
                                        layout["reading_mm"] + 1, "reading_mm")
     return meas
+
+
+def _read_sidecar(src: str) -> tuple[dict[str, tuple[int | None, str]], list[str]]:
+    """The header of a measurement CSV from the JSON file beside it: {key: (None, value text)} and the notes."""
+    problem = input_file_problem(src)
+    if problem is not None:
+        raise MeasurementFileError(src, None, f"expected the header file of the measurement, found {problem}")
+    try:
+        raw = json.loads(Path(src).read_text(encoding="utf-8-sig"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise MeasurementFileError(src, None, f"expected a JSON object with the header keys, found invalid JSON "
+                                   f"({str(exc).splitlines()[0]})") from None
+    if not isinstance(raw, dict):
+        raise MeasurementFileError(src, None, f"expected a JSON object with the header keys, found "
+                                   f"{type(raw).__name__}")
+    header: dict[str, tuple[int | None, str]] = {}
+    notes: list[str] = []
+    for key, value in raw.items():
+        if key == "file":
+            continue
+        if key not in _HEADER_KEYS:
+            raise MeasurementFileError(src, None, f"unknown header key '{key}'; expected one of "
+                                       f"{', '.join(_HEADER_KEYS)}")
+        if key == "note":
+            notes += [str(v) for v in (value if isinstance(value, list) else [value])]
+            continue
+        text = ", ".join(str(v) for v in value) if isinstance(value, list) else str(value)
+        header[key] = (None, text)
+    return header, notes
 
 
 def _parse_header(src: str, header: dict[str, tuple[int, str]]) -> dict:

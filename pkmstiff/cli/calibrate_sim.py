@@ -69,7 +69,8 @@ def _noise(text: str) -> str | float:
 
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
-    check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    check_output_file(out.with_suffix(".json"), "--out (its header file)", getattr(args, "force", False), (".json",))
     check_number(args.seed, "--seed", 0)
     check_number(args.feed, "--feed", 0, lo_open=True, unit="mm/min")
     check_number(args.backlash, "--backlash", 0, unit="um")

@@ -392,7 +392,8 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--force", action="store_true", help="overwrite existing output files (--out, --figures)")
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
                    help="tool length in mm (default: machine file)")
-    p.add_argument("--modes", type=int, default=6, metavar="N", help=f"number of natural frequencies, 0..{MODES_LIMIT} (0: none; default 6)")
+    p.add_argument("--modes", type=int, default=6, metavar="N",
+                   help=f"number of natural frequencies, 0..{MODES_LIMIT} (0: none; default 6)")
     from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
 
     add_spindle_argument(p)

@@ -246,7 +246,7 @@ def evaluate_section(
     if neglect:
         settings["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
-    if progress is None:  # a bar on a terminal, periodic lines otherwise (see _progress)
+    if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
         progress = len(poses) * (1 + len(names)) > 20_000
     jobs = [poses[s:s + chunk_size] for s in starts]
     if n_jobs != 1 and len(jobs) > 1 and len(poses) >= PARALLEL_MIN_POINTS:
@@ -256,7 +256,8 @@ def evaluate_section(
         parts = Parallel(n_jobs=n)(delayed(_evaluate_chunk)(machine, p, names, tool_length, opts, checks) for p in
                                    with_progress(jobs, progress, "section", "chunk"))
     else:
-        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks) for p in with_progress(jobs, progress, "section", "chunk")]
+        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks)
+                 for p in with_progress(jobs, progress, "section", "chunk")]
     shape = plane.shape
     ok = np.concatenate([p[0] for p in parts]).reshape(shape)
     reasons = np.concatenate([p[1] for p in parts]).reshape(shape)

@@ -207,8 +207,10 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     components = _components(raw.get("components", {}), src)
     joint_types = _joint_types(raw.get("joint_types", {}), src, components)
     chain_tables = require(raw, "chains", src, "", "an array of [[chains]] tables", error=MachineFileError)
-    if not isinstance(chain_tables, list) or len(chain_tables) < 2:
-        raise MachineFileError(src, "chains", "an array of at least 2 [[chains]] tables", chain_tables)
+    if not isinstance(chain_tables, list) or len(chain_tables) != 6:  # a square Jacobian: one chain per platform DOF
+        raise MachineFileError(src, "chains", "an array of 6 [[chains]] tables (one per degree of freedom of the "
+                               "platform)", f"{len(chain_tables)} tables" if isinstance(chain_tables, list)
+                               else chain_tables)
     defaults = raw.get("chain_defaults", {})
     chains, chain_components = _chains(kind, chain_tables, defaults, src, joint_types, components)
     guides = _guides(raw.get("guides", {}), src, chains.n, kind)
@@ -240,6 +242,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
 #: [calibration] provenance block of a calibrated machine file (written by ``pkmstiff calibrate identify``):
 #: key -> kind of value
 _CALIBRATION_KEYS = {"nominal_machine": "str", "measurement_file": "str", "measurement_sha256": "sha256",
+                     "measurement_header_sha256": "sha256",  # the measurement's header file <name>.json
                      "method": "str", "loss": "str", "rank": "count", "n_readings": "count",
                      "condition_number": "number", "rms_before_um": "number", "rms_after_um": "number",
                      "max_before_um": "number", "max_after_um": "number", "s_um": "number", "date": "str",
