@@ -103,21 +103,31 @@ def _limited(limit: int):
     return set_limit
 
 
-def test_a_file_size_limit_leaves_the_previous_output_intact(tmp_path):
-    """As a full disk: ``pose --poses … --out old.csv --force`` under a 300-byte file-size limit fails with one line
-    (exit 2), the previous file keeps its content and no temporary file is left behind."""
+@pytest.mark.parametrize("command", ["pose", "section"])
+def test_a_file_size_limit_leaves_the_previous_output_intact(tmp_path, command):
+    """As a full disk: ``pose --poses … --out old.csv --force`` and ``section … --out DIR --force`` under a 300-byte
+    file-size limit fail with one line (exit 2), the previous files keep their content and no temporary file is
+    left behind."""
     poses = tmp_path / "poses.csv"
     poses.write_text("".join(f"{x},0,-1000,0,0,0\n" for x in range(0, 200, 10)))
-    out = tmp_path / "old.csv"
+    if command == "pose":
+        out = tmp_path / "old.csv"
+        argv = ["pose", "hexaglide", "--poses", str(poses), "--out", str(out), "--force"]
+    else:
+        (tmp_path / "sec").mkdir()
+        out = tmp_path / "sec" / "hexaglide_yz.csv"
+        argv = ["section", "hexaglide", "--step", "200", "--quantities", "kappa", "--formats", "csv", "--out",
+                str(tmp_path / "sec"), "--force", "--quiet"]
     out.write_text("previous result\n")
+    before = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
     env = dict(os.environ, PYTHONDONTWRITEBYTECODE="1", PKMSTIFF_CACHE="0", PYTHONPATH=str(ROOT))
-    r = subprocess.run([sys.executable, "-m", "pkmstiff.cli", "pose", "hexaglide", "--poses", str(poses), "--out",
-                        str(out), "--force"], cwd=tmp_path, env=env, capture_output=True, text=True,
-                       preexec_fn=_limited(300), timeout=300)
+    r = subprocess.run([sys.executable, "-m", "pkmstiff.cli"] + argv, cwd=tmp_path, env=env, capture_output=True,
+                       text=True, preexec_fn=_limited(300), timeout=300)
     assert r.returncode == 2, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and "File too large" in r.stderr, r.stderr
     assert out.read_text() == "previous result\n"
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["old.csv", "poses.csv"]
+    after = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*"))
+    assert [p for p in after if p not in before and not p.endswith(".json")] == []  # no partial or temporary file
 
 
 # ------------------------------------------------------------------------------------------- injected strings
