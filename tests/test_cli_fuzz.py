@@ -356,6 +356,8 @@ FILE_CASES: list[tuple[str, list[str], int, str]] = [
     ("pose", ["pose", "hexaglide", "--poses", "{loop_csv}"], 2, "symbolic link loop"),
     ("pose", ["pose", "{deep_toml}", "--pose", POSE], 2, "nested"),
     ("pose", ["pose", "{seven_chains}", "--pose", POSE], 2, "key 'chains'"),
+    ("workspace", ["workspace", "{tiny_guides}", "--resolution", "50"], 2, "reach boxes do not overlap"),
+    ("section", ["section", "{tiny_guides}"], 2, "reach boxes do not overlap"),
     # values that were accepted silently or ended as internal errors (exit 1)
     ("pose", ["pose", "hexaglide", "--pose", "1e300,0,-1000,0,0,0"], 2, "|x| <= 100000 mm"),
     ("pose", ["pose", "hexaglide", "--pose", "0,0,-1000,1e9,0,0"], 2, "|a| <= 360 deg"),
@@ -440,6 +442,8 @@ def fault_files(bad_files):
     first, second = text.index("[[chains]]"), text.index("[[chains]]", text.index("[[chains]]") + 1)
     (root / "seven.toml").write_text(text[:first] + text[first:second] + text[first:], encoding="utf-8")
     files["seven_chains"] = "seven.toml"
+    (root / "tiny.toml").write_text(text.replace("guide_length = 2.7", "guide_length = 1e-300"), encoding="utf-8")
+    files["tiny_guides"] = "tiny.toml"
     files["empty_toml"] = "empty.toml"
     plan = (ROOT / "pkmstiff/calibration/examples/felix_plan.toml").read_text(encoding="utf-8")
     (root / "plan25.toml").write_text(re.sub(r"(?m)^points = .*$", "points = 2.5", plan), encoding="utf-8")

@@ -13,7 +13,7 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.machine.model import Machine
-from pkmstiff.workspace.octree import OctreeResult, Progress, octree_boundary
+from pkmstiff.workspace.octree import OctreeInputError, OctreeResult, Progress, octree_boundary
 from pkmstiff.workspace.oracle import PoseOracle, RangeMode
 from pkmstiff.workspace.requirements import Requirement
 from pkmstiff.workspace.surface import BoundarySurface
@@ -40,7 +40,7 @@ def reach_box(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
     lo = np.maximum((lo_i - reach[:, None]).max(axis=0), machine.limits.position_min)
     hi = np.minimum((hi_i + reach[:, None]).min(axis=0), machine.limits.position_max)
     if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or np.any(hi <= lo):
-        raise ValueError(f"machine '{machine.name}': the chains' reach boxes do not overlap (no workspace); "
+        raise OctreeInputError(f"machine '{machine.name}': the chains' reach boxes do not overlap (no workspace); "
                          f"found lo={lo.tolist()} m, hi={hi.tolist()} m")
     return lo, hi
 
