@@ -10,27 +10,39 @@ import numpy as np
 from pkmstiff.errors import ArgumentError
 
 
-def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
-    """``"y=-600:800,z=-1200:-500"`` (mm) -> {"y": (-0.6, 0.8), "z": (-1.2, -0.5)} in m, for the plane's axes."""
-    out = {}
+#: the one ``--range`` syntax of section, workspace and rotation-map: AXIS=LO:HI pairs separated by commas
+RANGE_SYNTAX = "AXIS=LO:HI pairs separated by commas"
+
+
+def parse_axis_ranges(text: str, axes: str, unit: str, option: str = "--range",
+                      required: bool = True) -> dict[str, tuple[float, float]]:
+    """``"y=-600:800,z=-1200:-500"`` -> {"y": (-600.0, 800.0), "z": (-1200.0, -500.0)} in ``unit`` (not converted):
+    each axis one of ``axes`` at most once, LO < HI and finite; every axis of ``axes`` given unless not ``required``."""
+    out: dict[str, tuple[float, float]] = {}
     for part in text.split(","):
         try:
             axis, rng = part.split("=")
             lo, hi = (float(v) for v in rng.split(":"))
         except ValueError:
-            raise ArgumentError(option="--range", expected="AXIS=LO:HI pairs in mm separated by commas",
-                                found=part) from None
+            raise ArgumentError(option=option, found=part, expected=f"{RANGE_SYNTAX} (AXIS one of "
+                                f"{', '.join(axes)}, LO and HI in {unit})") from None
         axis = axis.strip().lower()
-        if axis not in plane:
-            raise ArgumentError(f"axis {axis!r} is not in the {plane.upper()} plane", option="--range")
+        if axis not in axes or len(axis) != 1:
+            raise ArgumentError(option=option, expected=f"an axis among {', '.join(axes)}", found=axis)
+        if axis in out:
+            raise ArgumentError(f"expected each axis once, found {axis!r} twice", option=option)
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-            raise ArgumentError(f"expected LO < HI (mm), found {lo:g}:{hi:g}", option=f"--range {axis}")
-        out[axis] = (lo * 1e-3, hi * 1e-3)
-    missing = [a for a in plane if a not in out]
-    if missing:
-        raise ArgumentError(f"missing the range of {', '.join(missing)} for the {plane.upper()} plane",
-                            option="--range")
+            raise ArgumentError(f"expected LO < HI ({unit}), found {lo:g}:{hi:g}", option=f"{option} {axis}")
+        out[axis] = (lo, hi)
+    missing = [a for a in axes if a not in out]
+    if required and missing:
+        raise ArgumentError(f"missing the range of {', '.join(missing)} ({RANGE_SYNTAX})", option=option)
     return out
+
+
+def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
+    """``"y=-600:800,z=-1200:-500"`` (mm) -> {"y": (-0.6, 0.8), "z": (-1.2, -0.5)} in m, for the plane's axes."""
+    return {a: (lo * 1e-3, hi * 1e-3) for a, (lo, hi) in parse_axis_ranges(text, plane, "mm").items()}
 
 
 def parse_numbers(text: str, count: int, option: str, what: str, count_text: str | None = None) -> list[float]:
@@ -44,6 +56,19 @@ def parse_numbers(text: str, count: int, option: str, what: str, count_text: str
     if len(vals) != count or not all(math.isfinite(v) for v in vals):
         raise ArgumentError(option=option, expected=f"{n} finite numbers {what}", found=text)
     return vals
+
+
+def parse_names(text: str, option: str, choices: tuple[str, ...] | None = None) -> list[str]:
+    """``"kx, ky"`` -> ``["kx", "ky"]``: at least one name, each from ``choices`` when given; otherwise an
+    :class:`ArgumentError`."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    want = f"a comma-separated subset of {','.join(choices)}" if choices else "one or more comma-separated names"
+    if not names:
+        raise ArgumentError(option=option, expected=want, found=text)
+    bad = [n for n in names if choices and n not in choices]
+    if bad:
+        raise ArgumentError(f"expected {want}, found {', '.join(bad)}", option=option)
+    return names
 
 
 def parse_triple_deg(text: str, what: str) -> np.ndarray:

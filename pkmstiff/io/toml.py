@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from pkmstiff.errors import InputError
+from pkmstiff.io.inputs import input_file_problem
 
 #: tomllib's position suffix: "... (at line 3, column 7)" (Python 3.11 and 3.12 keep it only in the message)
 _POSITION = re.compile(r"\s*\(at line (\d+), column (\d+)\)$")
@@ -20,13 +21,14 @@ def read_toml(path: str | Path, what: str = "TOML file") -> dict[str, Any]:
     import tomllib  # here: a cached bundled machine needs no TOML parser (start-up time)
 
     src = str(path)
+    problem = input_file_problem(path)
+    if problem is not None:
+        raise InputError(src, "(file)", f"an existing {what} (a regular file)", problem)
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
-    except FileNotFoundError:
-        raise InputError(src, "(file)", f"an existing {what}", "no such file") from None
-    except IsADirectoryError:
-        raise InputError(src, "(file)", f"a {what}", "a directory") from None
+    except RecursionError:
+        raise InputError(src, "(file)", "TOML nested at most a few hundred levels deep", "deeper nesting") from None
     except PermissionError:
         raise InputError(src, "(file)", f"a readable {what}", "permission denied") from None
     except UnicodeDecodeError as exc:

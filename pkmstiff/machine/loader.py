@@ -12,6 +12,7 @@ import copy
 import dataclasses
 import importlib.resources
 import math
+import os
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from pkmstiff.errors import InputError, UnknownMachineError
 from pkmstiff.io import check_format_version, check_keys, read_toml, require
+from pkmstiff.io.inputs import input_file_problem
 from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
 from pkmstiff.units import parse_quantity
 
@@ -53,9 +55,12 @@ def bundled_machines() -> list[str]:
 
 def resolve_machine_path(name_or_path: str | Path) -> Path:
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
-        if not p.is_file():
+    if p.suffix == ".toml" or os.path.lexists(p):
+        problem = input_file_problem(p)
+        if problem == "no such file":
             raise UnknownMachineError(f"machine file '{p}' does not exist")
+        if problem is not None:
+            raise UnknownMachineError(f"machine file '{p}': expected a regular file, found {problem}")
         return p
     candidate = bundled_machine_dir() / f"{name_or_path}.toml"
     if candidate.is_file():
@@ -63,6 +68,10 @@ def resolve_machine_path(name_or_path: str | Path) -> Path:
     raise UnknownMachineError(
         f"unknown machine '{name_or_path}': not a file and not a bundled machine (bundled: {', '.join(bundled_machines())})"
     )
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    return read_toml(path, "machine file")
 
 
 def _merge(base: Any, over: Any) -> Any:
@@ -79,7 +88,7 @@ def _merge(base: Any, over: Any) -> Any:
 
 
 def _raw_with_extends(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
-    raw = read_toml(path, "machine file")
+    raw = _read_toml(path)
     parent = raw.get("machine", {}).get("extends") if isinstance(raw.get("machine"), dict) else None
     if parent is None:
         return raw
@@ -146,8 +155,10 @@ def _load_uncached(name_or_path: str | Path, options: Iterable[str] = ()) -> Mac
     raw, src, options = raw_machine(name_or_path, options)
     try:
         return _build(raw, src, options)
-    except InputError as exc:  # raised by the unit parser or a component model: name the machine file
-        raise exc.in_file(src) from None
+    except InputError:
+        raise
+    except InputError as exc:  # raised by the unit parser or a component model: report as a machine-file error
+        raise InputError(exc.source or src, exc.key, exc.expected, exc.found) from None
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -212,8 +223,10 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     components = _components(raw.get("components", {}), src)
     joint_types = _joint_types(raw.get("joint_types", {}), src, components)
     chain_tables = require(raw, "chains", src, "", "an array of [[chains]] tables")
-    if not isinstance(chain_tables, list) or len(chain_tables) < 2:
-        raise InputError(src, "chains", "an array of at least 2 [[chains]] tables", chain_tables)
+    if not isinstance(chain_tables, list) or len(chain_tables) != 6:  # a square Jacobian: one chain per platform DOF
+        raise InputError(src, "chains", "an array of 6 [[chains]] tables (one per degree of freedom of the "
+                               "platform)", f"{len(chain_tables)} tables" if isinstance(chain_tables, list)
+                               else chain_tables)
     defaults = raw.get("chain_defaults", {})
     chains, chain_components = _chains(kind, chain_tables, defaults, src, joint_types, components)
     guides = _guides(raw.get("guides", {}), src, chains.n, kind)
@@ -245,6 +258,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
 #: [calibration] provenance block of a calibrated machine file (written by ``pkmstiff calibrate identify``):
 #: key -> kind of value
 _CALIBRATION_KEYS = {"nominal_machine": "str", "measurement_file": "str", "measurement_sha256": "sha256",
+                     "measurement_header_sha256": "sha256",  # the measurement's header file <name>.json
                      "method": "str", "loss": "str", "rank": "count", "n_readings": "count",
                      "condition_number": "number", "rms_before_um": "number", "rms_after_um": "number",
                      "max_before_um": "number", "max_after_um": "number", "s_um": "number", "date": "str",

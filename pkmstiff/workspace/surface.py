@@ -25,6 +25,7 @@ from typing import Callable, Literal
 import numpy as np
 
 from pkmstiff.errors import ArgumentError
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.workspace.octree import Lattice, OctreeResult
 
 VertexMode = Literal["centroid", "crossing"]
@@ -71,10 +72,10 @@ class BoundarySurface:
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in (".stl", ".vtk", ".vtp", ".ply"):
-            raise ArgumentError(option=path, found=suffix,
-                                expected="a file name ending in .stl, .vtk, .vtp or .ply")
+            raise ArgumentError(option=path, expected="a file name ending in .stl, .vtk, .vtp or .ply", found=suffix)
         mesh = BoundarySurface(self.vertices * scale, self.triangles, self.vertex_mode).to_pyvista()
-        mesh.save(str(path), binary=True)
+        with atomic_path(path) as tmp:
+            mesh.save(str(tmp), binary=True)
         return path
 
 
