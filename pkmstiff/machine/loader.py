@@ -155,10 +155,8 @@ def _load_uncached(name_or_path: str | Path, options: Iterable[str] = ()) -> Mac
     raw, src, options = raw_machine(name_or_path, options)
     try:
         return _build(raw, src, options)
-    except InputError:
-        raise
-    except InputError as exc:  # raised by the unit parser or a component model: report as a machine-file error
-        raise InputError(exc.source or src, exc.key, exc.expected, exc.found) from None
+    except InputError as exc:  # raised by the unit parser or a component model: name the machine file
+        raise exc.in_file(src) from None
 
 
 # ----------------------------------------------------------------------------------------------------------------
