@@ -117,7 +117,7 @@ def test_the_toml_reader_names_file_line_and_column(tmp_path):
     e = err.value
     assert (e.file, e.key, e.line, e.column) == (str(p), "(file)", 3, 8)
     assert str(e).startswith(f"{p}: line 3, column 8: key '(file)': expected valid TOML, found ") and "\n" not in str(e)
-    with pytest.raises(InputError, match=r"key '\(file\)': expected an existing plan file, found 'no such file'"):
+    with pytest.raises(InputError, match=r"key '\(file\)': expected an existing plan file .*, found 'no such file'"):
         read_toml(tmp_path / "missing.toml", "plan file")
 
 
@@ -129,7 +129,7 @@ def test_machine_file_errors_name_file_and_key(tmp_path):
     with pytest.raises(InputError) as err:
         load_machine(str(p))
     assert (err.value.file, err.value.key, err.value.found) == (str(p), "chains", {"kind": "hexapod"})
-    assert str(err.value).startswith(f"{p}: key 'chains': expected an array of at least 2 [[chains]] tables")
+    assert str(err.value).startswith(f"{p}: key 'chains': expected an array of 6 [[chains]] tables")
 
 
 def _sorts_by_text(handler: ast.ExceptHandler) -> bool:

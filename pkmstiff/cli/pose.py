@@ -15,7 +15,6 @@ from pkmstiff.errors import ArgumentError
 from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import load_machine
 
-
 #: largest |x|, |y|, |z| of a pose (mm: 100 m, beyond every machine tool) and largest |a|, |b|, |c| (deg: one turn)
 POSITION_LIMIT_MM = 1e5
 ANGLE_LIMIT_DEG = 360.0
@@ -24,7 +23,7 @@ ANGLE_LIMIT_DEG = 360.0
 def parse_pose(text: str) -> np.ndarray:
     """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad); positions beyond
     :data:`POSITION_LIMIT_MM` and angles beyond :data:`ANGLE_LIMIT_DEG` are refused (a typo, not a pose)."""
-    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", ArgumentError, count_text="six")
+    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", count_text="six")
     for name, v in zip("xyzabc", vals):
         limit, unit = (POSITION_LIMIT_MM, "mm") if name in "xyz" else (ANGLE_LIMIT_DEG, "deg")
         if abs(v) > limit:
@@ -47,7 +46,6 @@ def read_pose_file(path: str) -> np.ndarray:
     """Poses from a CSV file: one pose per line ``x,y,z,a,b,c`` (mm, deg); a header line and '#' comments are
     skipped. Returns (N, 6) SI poses; errors name the file and line."""
     from pkmstiff.errors import InputError
-
     from pkmstiff.io.inputs import input_file_problem
 
     poses = []

@@ -194,10 +194,6 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
                            range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
                            range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level,
                            progress=progress)
-    except (ArgumentError, ArgumentError, ValueError) as exc:
-        if isinstance(exc, (ArgumentError, ArgumentError)) or "reach boxes" in str(exc):
-            raise ArgumentError(str(exc)) from None
-        raise
     finally:
         progress.close()
     summary = res.summary()

@@ -33,6 +33,8 @@ import sys
 from pathlib import Path
 from typing import Any, Callable
 
+from pkmstiff.errors import ArgumentError
+
 _PKG = Path(__file__).resolve().parent.parent
 
 
@@ -86,8 +88,9 @@ SUFFIX = ".npz"
 _MODULE = re.compile(r"(pkmstiff|components)(\.[A-Za-z_][A-Za-z0-9_]*)*")
 
 
-class Unsupported(Exception):
-    """An object the data-only format cannot hold, or a file that does not describe one."""
+class Unsupported(ArgumentError):
+    """An object the data-only format cannot hold, or a file that does not describe one (the cache then stores or
+    loads nothing: an optimisation only)."""
 
 
 # ------------------------------------------------------------------------------------------------ data-only codec
