@@ -107,7 +107,8 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
             results.append({
                 "status": str(sol.status[i]), "iterations": int(sol.iterations[i]),
                 "residual": _num(sol.residual[i]),
-                "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, D[i])},
+                # the drive values of the configuration found (not the request: a wrong root would show here)
+                "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, sol.drives[i])},
                 "pose": {f"{n}_{u}": _num(v * (1e3 if u == "mm" else 180 / math.pi))
                          for (n, u), v in zip(pose_names, outp[i])},
             })

@@ -329,10 +329,13 @@ def block_eval(bl: Block, F: Frames, target: Array | None) -> tuple[Array, Array
         dS_k = np.einsum("nkac,nka->nkc", DV, _cross(A, U))
         dC_j = np.einsum("nkac,nka->nkc", DU, V)
         dC_k = np.einsum("nkac,nka->nkc", DV, U)
-        c0, s0 = np.cos(th)[..., None], np.sin(th)[..., None]
-        Jj[..., 0, D:] = c0 * dS_j - s0 * dC_j
-        Jk[..., 0, D:] = c0 * dS_k - s0 * dC_k
-        return (c0[..., 0] * S - s0[..., 0] * C)[..., None], Jj, Jk
+        # wrapped angle difference atan2(sin(θ − θ*), cos(θ − θ*)) with θ = atan2(S, C): its only root is θ = θ*
+        # (mod 2π) — sin(θ − θ*) also vanishes at θ* + π; ∂r = (C ∂S − S ∂C)/(S² + C²), independent of θ*
+        c0, s0 = np.cos(th), np.sin(th)
+        n2 = (S * S + C * C)[..., None]
+        Jj[..., 0, D:] = (C[..., None] * dS_j - S[..., None] * dC_j) / n2
+        Jk[..., 0, D:] = (C[..., None] * dS_k - S[..., None] * dC_k) / n2
+        return np.arctan2(c0 * S - s0 * C, c0 * C + s0 * S)[..., None], Jj, Jk
     if kind == "out_point":
         w, Dw = F.point(bl.j, bl.p)
         c = bl.coord

@@ -272,7 +272,7 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
                             gk += Dwk[a, c] * U[a]
                         _put(J, n, r0, cj + 3 + c, sg * gj, roff, cmap)
                         _put(J, n, r0, ck + 3 + c, -sg * gk, roff, cmap)
-            elif kd == 8:  # revolute drive: relative angle about the axis a (sin form, see block_eval)
+            elif kd == 8:  # revolute drive: wrapped relative angle about the axis a (see block_eval)
                 th = target[n, coord[i]] - value[i]
                 c0, s0 = math.cos(th), math.sin(th)
                 _vector(R, dR, j, A[i], W, DW)  # A
@@ -281,7 +281,8 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
                 _cross(U, V, x1)
                 S = W[0] * x1[0] + W[1] * x1[1] + W[2] * x1[2]
                 C = U[0] * V[0] + U[1] * V[1] + U[2] * V[2]
-                r[n, r0] = c0 * S - s0 * C
+                r[n, r0] = math.atan2(c0 * S - s0 * C, c0 * C + s0 * S)
+                n2 = S * S + C * C
                 if jac:
                     _cross(V, W, x2)
                     _cross(W, U, x3)
@@ -295,8 +296,8 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
                             dSk += DV[a, c] * x3[a]
                             dCj += DU[a, c] * V[a]
                             dCk += DV[a, c] * U[a]
-                        _put(J, n, r0, cj + 3 + c, c0 * dSj - s0 * dCj, roff, cmap)
-                        _put(J, n, r0, ck + 3 + c, c0 * dSk - s0 * dCk, roff, cmap)
+                        _put(J, n, r0, cj + 3 + c, (C * dSj - S * dCj) / n2, roff, cmap)
+                        _put(J, n, r0, ck + 3 + c, (C * dSk - S * dCk) / n2, roff, cmap)
             elif kd == 9:  # output point coordinate
                 _point(qn, R, dR, j, P[i], wj, Dwj)
                 c_ = coord[i]

@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pkmstiff.errors import MechanismInputError
 from pkmstiff.kinematics.rotation import cardan_angles
-from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system
+from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system, wrap
 from pkmstiff.mechanisms.linalg import (GAP_FACTOR, GAP_FLOOR, gap_rank, lstsq_pivoted, lstsq_step,
                                         singular_values)
 from pkmstiff.mechanisms.model import Mechanism
@@ -34,6 +34,12 @@ _SUSPECT_RCOND = 1e-5
 #: pose counts as regular without a QR/SVD: 1e3 above the suspect bound and 1e3 above ``singular_tol``
 _FINISH_SCREEN = 1e-4
 _ARMIJO = 1e-4
+#: default continuation: no step changes an angle (revolute drive, output angle) by more than this [rad] …
+MAX_ANGLE_STEP = np.radians(15.0)
+#: … or a length (linear drive, output position) by more than this fraction of the mechanism's length scale, so that
+#: each Newton solve starts inside the basin of the configuration reached along the path (patent [0018]); larger
+#: changes are subdivided into equal steps (at least ``steps``)
+MAX_LENGTH_STEP = 0.25
 
 
 @dataclass
@@ -312,6 +318,37 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
     return q_out, status.astype(str), iters, resid, rank, rcond, chol
 
 
+def path_steps(delta: Array, angular: Array, length_scale: float, steps: int) -> Array:
+    """Continuation steps per pose (N,) for target changes ``delta`` (N, k) whose columns are angles where
+    ``angular`` (k,) is True [rad], else lengths [m]: at least ``steps``, and enough that no step exceeds
+    :data:`MAX_ANGLE_STEP` / :data:`MAX_LENGTH_STEP` × length scale; rounded up to ``steps``·2^i so that
+    poses share few step counts (one vectorised continuation per count)."""
+    lim = np.where(angular, MAX_ANGLE_STEP, MAX_LENGTH_STEP * length_scale)
+    need = np.ceil(np.nanmax(np.abs(delta) / lim, axis=1, initial=0.0) / max(1, int(steps)))
+    return max(1, int(steps)) * 2 ** np.ceil(np.log2(np.maximum(need, 1.0))).astype(int)
+
+
+def _grouped(system: System, target: Array, start_q: Array, start_target: Array, n: Array, tol: float,
+             max_iter: int, max_refine: int, max_backtrack: int) -> tuple:
+    """:func:`_continuation` for poses with different step counts ``n`` (N,): one call per distinct count."""
+    N = target.shape[0]
+    if np.all(n == n[0]):
+        return _continuation(system, target, start_q, start_target, int(n[0]), tol, max_iter, max_refine,
+                             max_backtrack)
+    L, d = start_q.shape[-2:]
+    q0 = np.broadcast_to(start_q, (N, L, d))
+    t0 = np.broadcast_to(start_target, target.shape)
+    outs = None
+    for v in np.unique(n):
+        idx = np.flatnonzero(n == v)
+        res = _continuation(system, target[idx], q0[idx], t0[idx], int(v), tol, max_iter, max_refine, max_backtrack)
+        if outs is None:
+            outs = [np.empty((N,) + a.shape[1:], dtype=a.dtype if a.dtype.kind != "U" else object) for a in res]
+        for o, a in zip(outs, res):
+            o[idx] = a
+    return tuple(o.astype(str) if o.dtype == object else o for o in outs)
+
+
 def home(mech: Mechanism, n: int = 1) -> Array:
     """Home configuration: every link frame = world frame (patent claim 4), shape (n, L, d)."""
     return np.zeros((n, len(mech.links), mech.dof_per_link))
@@ -323,7 +360,9 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     """Forward kinematics: configurations for drive values (N, n_drives) [m or rad] (patent claim 12).
 
     Starts at home (drive values = offsets) or at ``start`` (a Solution or q (N, L, d)) and continues in
-    ``steps`` equal steps; ``tol`` defaults to 1e-13·length scale.  Never raises for unreachable targets:
+    equal steps: ``steps``, or more where a drive changes by more than :data:`MAX_ANGLE_STEP` (revolute) or
+    :data:`MAX_LENGTH_STEP` × length scale (linear) per step (:func:`path_steps`), so that the configuration
+    is the one connected to the start; ``tol`` defaults to 1e-13·length scale.  Never raises for unreachable targets:
     see ``Solution.status``.  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
     targets are given up sooner, as a section raster needs).
     """
@@ -339,7 +378,8 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = joint_values(mech, q0, [i for i, j in enumerate(mech.joints) if j.drive is not None])
-    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine, max_backtrack)
+    n = path_steps(tg - t0, np.array([u == "rad" for u in mech.drive_units]), mech.length_scale, steps)
+    out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
     return _finish(system, *out, tg, singular_tol)
 
 
@@ -348,7 +388,8 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
             singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
     """Inverse kinematics: configurations (and drive values) for output poses (N, 6) x, y, z [m], a, b, c [rad]
     (planar (N, 3) x, y [m], φ [rad]) (patent claim 11).  Continuation from home or ``start`` as in
-    :func:`forward`."""
+    :func:`forward` (position changes against :data:`MAX_LENGTH_STEP`, angle changes against
+    :data:`MAX_ANGLE_STEP`)."""
     if mech.output is None:
         raise MechanismInputError(f"mechanism '{mech.name}' has no [output]: inverse kinematics undefined")
     units = "m, m, m, rad, rad, rad" if mech.dim == 3 else "m, m, rad"
@@ -360,5 +401,9 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = output_pose(mech, q0)
-    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine, max_backtrack)
+    delta = tg - t0
+    ang = np.arange(mech.pose_size) >= mech.dim
+    delta[:, ang] = wrap(delta[:, ang])
+    n = path_steps(delta, ang, mech.length_scale, steps)
+    out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
     return _finish(system, *out, tg, singular_tol)
