@@ -59,3 +59,104 @@ def test_path_steps_bound_the_change_per_step():
     assert (np.abs(delta[:, 0]) / n <= MAX_ANGLE_STEP).all()
     # steps=3: multiples 3·2^i (179° → 12 steps of 14.9°, 1 m → 6)
     assert path_steps(delta, np.array([True, False]), 1.0, 3).tolist() == [12, 3, 6]
+
+
+def test_wrist_singularity_flagged_by_forward_kinematics_with_output_kappa(hybrid):
+    # V2 = 0: tool axis parallel to V1 — the controlled outputs (point + tool axis) lose a direction although the
+    # forward kinematics and the Cardan-pose ∂x/∂s stay regular (κ ≈ 3.2 there)
+    fk = mm.forward(hybrid, [[0.05, -0.02, 0.01, 0.4, 0.0], [0.05, -0.02, 0.01, 0.4, 0.3]], steps=4)
+    assert fk.status.tolist() == ["singular", "converged"]
+    # exact singularity: σ_min at rounding level of σ_max (κ ≥ 1e12 measured 6.7e12); regular wrist: κ = O(10)
+    assert fk.output_kappa[0] > 1e10 and 1.0 < fk.output_kappa[1] < 100.0
+    # near it κ grows like 1/V2 (axis rate ∝ sin V2): κ·V2 constant to O(V2²)
+    near = mm.forward(hybrid, [[0.05, -0.02, 0.01, 0.4, v] for v in (1e-3, 1e-4)], steps=4)
+    k = near.output_kappa * np.array([1e-3, 1e-4])
+    assert abs(k[0] / k[1] - 1.0) < 1e-3
+
+
+def test_output_jacobian_matches_central_differences_of_forward_kinematics(hybrid):
+    from pkmstiff.mechanisms.outputs import output_jacobian
+
+    d0 = np.array([0.03, -0.02, 0.05, 0.7, 0.5])
+    fk = mm.forward(hybrid, d0[None], steps=4)
+    Jc = output_jacobian(hybrid, fk.q, d0[None])[0]
+    o = hybrid.output
+    h = 1e-6  # central differences: truncation O(h²) ≈ 1e-12, rounding 1e-16/1e-6 = 1e-10 → compare to 1e-8
+    for c in range(5):
+        dp, dm = d0.copy(), d0.copy()
+        dp[c] += h
+        dm[c] -= h
+        qp = mm.forward(hybrid, dp[None], start=fk.q).q
+        qm = mm.forward(hybrid, dm[None], start=fk.q).q
+        F = lambda q: __import__("pkmstiff.mechanisms.constraints", fromlist=["Frames"]).Frames(q, 3, False)  # noqa
+        wp, up = F(qp).point(np.array([o.link]), o.point[None])[0][0, 0], F(qp).R[0, o.link] @ o.axis
+        wm, um = F(qm).point(np.array([o.link]), o.point[None])[0][0, 0], F(qm).R[0, o.link] @ o.axis
+        assert np.abs((wp - wm) / (2 * h) - Jc[:3, c]).max() < 1e-8
+        # the axis rows are u̇ on two unit vectors ⊥ u: their norm is |u̇|
+        assert abs(np.linalg.norm((up - um) / (2 * h)) - np.linalg.norm(Jc[3:, c])) < 1e-8
+
+
+MOBILE = """
+format_version = 1
+[mechanism]
+name = "t"
+dimension = 2
+links = ["0", "1", "2", "3"]
+ground = "0"
+[[joints]]
+name = "A"
+type = "revolute"
+links = ["0", "1"]
+point = [0.04, 0.02]
+{drive_a}
+[[joints]]
+name = "B"
+type = "revolute"
+links = ["1", "2"]
+point = [0.07, 0.07]
+[[joints]]
+name = "C"
+type = "revolute"
+links = ["2", "3"]
+point = [0.115, 0.055]
+[[joints]]
+name = "slider"
+type = "prismatic"
+links = ["0", "3"]
+point = [0.115, 0.02]
+axis = [1, 0]
+{drive_s}
+"""
+
+
+@pytest.mark.parametrize("drive_a, drive_s, found", [
+    ("", "", None),  # no drives: a structure, not checked
+    ("", 'drive = "s"', None),  # slider-crank: mobility 1, one drive
+    ('drive = "a"', 'drive = "s"', "drive 's' locks no motion"),  # two drives on one degree of freedom
+])
+def test_mobility_against_drives_at_load(tmp_path, drive_a, drive_s, found):
+    from pkmstiff.errors import MechanismFileError
+
+    p = tmp_path / "m.toml"
+    p.write_text(MOBILE.format(drive_a=drive_a, drive_s=drive_s))
+    if found is None:
+        mm.load_mechanism(p)
+        return
+    with pytest.raises(MechanismFileError) as ei:
+        mm.load_mechanism(p)
+    assert found in str(ei.value) and "mobility at home (1 = 12 unknowns − rank 11)" in str(ei.value)
+    assert "\n" not in str(ei.value)
+
+
+def test_free_motion_named_at_load(tmp_path):
+    from pkmstiff.errors import MechanismFileError
+
+    # the slider-crank with its coupler pin C removed: crank + free coupler + slider, three degrees of freedom
+    text = MOBILE.format(drive_a="", drive_s='drive = "s"').replace(
+        '[[joints]]\nname = "C"\ntype = "revolute"\nlinks = ["2", "3"]\npoint = [0.115, 0.055]\n', "")
+    p = tmp_path / "m.toml"
+    p.write_text(text)
+    with pytest.raises(MechanismFileError) as ei:
+        mm.load_mechanism(p)
+    msg = str(ei.value)
+    assert "2 motion(s) left free, e.g. link '2' phi" in msg and "mobility at home (3 = 12 unknowns − rank 9)" in msg

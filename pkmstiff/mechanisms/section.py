@@ -23,61 +23,39 @@ from numpy.typing import NDArray
 
 from pkmstiff.errors import MechanismInputError
 from pkmstiff.evaluation.sections import raster
-from pkmstiff.mechanisms.constraints import fk_system
 from pkmstiff.mechanisms.evaluate import REASONS, evaluate
-from pkmstiff.mechanisms.linalg import lstsq_step
 from pkmstiff.mechanisms.model import Mechanism
+from pkmstiff.mechanisms.outputs import condition_numbers, configuration_rates
 from pkmstiff.mechanisms.solver import Solution, output_pose
 
 Array = NDArray[np.float64]
 
 
 def kinematic_jacobian(sol: Solution, h: float = 1e-6) -> Array:
-    """∂x/∂s (N, pose_size, n_drives) at the configurations of ``sol`` (SI).
+    """∂x/∂s (N, pose_size, n_drives) of the Cardan output pose at the configurations of ``sol`` (SI).
 
-    Implicit differentiation of the forward kinematics F(q, s) = 0 (patent claim 9): F_q q_s = −F_s with
-    F_s = −1 on each drive row, solved by the Newton step of :func:`~pkmstiff.mechanisms.linalg.lstsq_step`; the
-    pose rates are central differences of the output pose along q_s (step h·length scale: truncation
-    O(h²) ≈ 1e-12 relative).  NaN where ``sol`` found no configuration.
+    Implicit differentiation of the forward kinematics F(q, s) = 0 (patent claim 9,
+    :func:`~pkmstiff.mechanisms.outputs.configuration_rates`); the pose rates are central differences of the output
+    pose along q_s (step h·length scale: truncation O(h²) ≈ 1e-12 relative).  NaN where ``sol`` found no
+    configuration.  The conditioning of the *controlled* outputs is :func:`~pkmstiff.mechanisms.outputs.output_condition`.
     """
     mech = sol.mech
-    system = fk_system(mech)
     N, L, d = sol.q.shape
     nd = len(mech.drives)
     drv = np.where(sol.ok[:, None], sol.drives, 0.0)
-    r, J = system.evaluate(sol.q, drv, reduced=True)
-    roff = system.n_fixed_rows
+    qs_all = configuration_rates(mech, sol.q, drv)
     out = np.full((N, mech.pose_size, nd), np.nan)
     qf = sol.q.reshape(N, -1)
-    free = system.free
-    for b in system.blocks:
-        if not b.kind.startswith("drive"):
-            continue
-        for i, c in enumerate(b.coord):
-            rhs = np.zeros((N, J.shape[1]))
-            rhs[:, b.row0 - roff + i] = -1.0  # the step solves J dq = −rhs: F_q q_s = −F_s = +1 on this drive row
-            dq, _, _, _ = lstsq_step(J, rhs, pattern=system.sparsity)
-            qs = np.zeros((N, L * d))
-            qs[:, free] = dq
-            eps = h * mech.length_scale / np.maximum(np.abs(qs).max(axis=1, keepdims=True), 1e-300)
-            pp = output_pose(mech, (qf + eps * qs).reshape(N, L, d))
-            pm = output_pose(mech, (qf - eps * qs).reshape(N, L, d))
-            dp = pp - pm
-            if mech.dim == 3:
-                dp[:, 3:] = (dp[:, 3:] + np.pi) % (2.0 * np.pi) - np.pi  # angle differences across ±π
-            out[:, :, c] = dp / (2.0 * eps)
+    for c in range(nd):
+        qs = qs_all[:, :, c]
+        eps = h * mech.length_scale / np.maximum(np.abs(qs).max(axis=1, keepdims=True), 1e-300)
+        pp = output_pose(mech, (qf + eps * qs).reshape(N, L, d))
+        pm = output_pose(mech, (qf - eps * qs).reshape(N, L, d))
+        dp = pp - pm
+        if mech.dim == 3:
+            dp[:, 3:] = (dp[:, 3:] + np.pi) % (2.0 * np.pi) - np.pi  # angle differences across ±π
+        out[:, :, c] = dp / (2.0 * eps)
     out[~sol.ok] = np.nan
-    return out
-
-
-def condition_numbers(Jx: Array) -> Array:
-    """σ_1/σ_k of each ∂x/∂s (N, p, k) over its k largest singular values; ∞ where singular or NaN."""
-    out = np.full(Jx.shape[0], np.inf)
-    good = np.isfinite(Jx).all(axis=(1, 2))
-    if good.any():
-        s = np.linalg.svd(Jx[good], compute_uv=False)[:, : Jx.shape[2]]
-        with np.errstate(divide="ignore"):
-            out[good] = np.where(s[:, -1] > 1e-14 * s[:, 0], s[:, 0] / s[:, -1], np.inf)
     return out
 
 

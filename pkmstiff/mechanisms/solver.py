@@ -24,6 +24,7 @@ from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system
 from pkmstiff.mechanisms.linalg import (GAP_FACTOR, GAP_FLOOR, gap_rank, lstsq_pivoted, lstsq_step,
                                         singular_values)
 from pkmstiff.mechanisms.model import Mechanism
+from pkmstiff.mechanisms.outputs import output_condition
 
 Array = NDArray[np.float64]
 
@@ -56,6 +57,9 @@ class Solution:
     rcond: Array  #: (N,) reciprocal condition estimate at the last iterate: σ_min/σ_max estimate of the normal-equation
     #: step, or min/max |R_kk| where the pivoted QR was used (see linalg.lstsq_step)
     sigma_ratio: Array  #: (N,) σ_min/σ_max where computed (suspect poses), else NaN
+    #: (N,) κ of ∂x_c/∂s of the controlled outputs (:mod:`pkmstiff.mechanisms.outputs`; forward kinematics
+    #: only, NaN elsewhere and where no configuration was found)
+    output_kappa: Array | None = None
 
     @property
     def converged(self) -> Array:
@@ -356,14 +360,16 @@ def home(mech: Mechanism, n: int = 1) -> Array:
 
 def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
             tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
-            singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
+            singular_tol: float = 1e-7, max_backtrack: int = 30, output_check: bool = True) -> Solution:
     """Forward kinematics: configurations for drive values (N, n_drives) [m or rad] (patent claim 12).
 
     Starts at home (drive values = offsets) or at ``start`` (a Solution or q (N, L, d)) and continues in
     equal steps: ``steps``, or more where a drive changes by more than :data:`MAX_ANGLE_STEP` (revolute) or
     :data:`MAX_LENGTH_STEP` × length scale (linear) per step (:func:`path_steps`), so that the configuration
     is the one connected to the start; ``tol`` defaults to 1e-13·length scale.  Never raises for unreachable targets:
-    see ``Solution.status``.  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
+    see ``Solution.status``: ``singular`` also where the controlled outputs are singular (``output_check``:
+    κ of ∂x_c/∂s, ``Solution.output_kappa``, above 1/``singular_tol`` — a wrist singularity, where the forward
+    kinematics themselves stay regular).  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
     targets are given up sooner, as a section raster needs).
     """
     nd = len(mech.drives)
@@ -380,7 +386,15 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
         t0 = joint_values(mech, q0, [i for i, j in enumerate(mech.joints) if j.drive is not None])
     n = path_steps(tg - t0, np.array([u == "rad" for u in mech.drive_units]), mech.length_scale, steps)
     out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
-    return _finish(system, *out, tg, singular_tol)
+    sol = _finish(system, *out, tg, singular_tol)
+    sol.output_kappa = np.full(tg.shape[0], np.nan)
+    if output_check and mech.output is not None:
+        ok = np.flatnonzero(sol.ok)
+        kap = output_condition(mech, sol.q[ok], tg[ok])
+        sol.output_kappa[ok] = kap
+        with np.errstate(invalid="ignore"):
+            sol.status[ok[kap * singular_tol > 1.0]] = "singular"
+    return sol
 
 
 def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
