@@ -160,3 +160,28 @@ def test_free_motion_named_at_load(tmp_path):
         mm.load_mechanism(p)
     msg = str(ei.value)
     assert "2 motion(s) left free, e.g. link '2' phi" in msg and "mobility at home (3 = 12 unknowns − rank 9)" in msg
+
+
+def test_cli_solve_reports_solved_drives_output_kappa_links_and_start(capsys):
+    import json
+
+    from pkmstiff.cli import main
+
+    assert main(["mechanism", "solve", "hybrid_tripod_wrist", "--drives", "0,0,0,150,40", "--drives", "0,0,0,20,0",
+                 "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    r0, r1 = rep["results"]
+    assert rep["controlled_outputs"] == ["x", "y", "z", "axis_e1", "axis_e2"]
+    assert abs(r0["drives"]["V1_deg"] - 150.0) < 1e-9 and r0["status"] == "converged"
+    assert abs(r0["links"]["fork"]["phi_z_deg"] - 150.0) < 1e-9  # the fork turns by V1 about z
+    assert r1["status"] == "singular" and r1["output_condition_number"] > 1e10
+    # the other wrist solution (V1 + 180°, −V2) is the same tool axis: chosen by starting from its drive values
+    assert main(["mechanism", "solve", "hybrid_tripod_wrist", "--pose", "0,100,-1073.2,10,0,0", "--start-drives",
+                 "0,0,0,180,-30", "--json"]) == 0
+    dr = json.loads(capsys.readouterr().out)["results"][0]["drives"]
+    assert main(["mechanism", "solve", "hybrid_tripod_wrist", "--pose", "0,100,-1073.2,10,0,0", "--json"]) == 0
+    dr_home = json.loads(capsys.readouterr().out)["results"][0]["drives"]
+    assert abs(dr["V2_deg"] + dr_home["V2_deg"]) < 1e-6 and abs(abs(dr["V1_deg"] - dr_home["V1_deg"]) - 180) < 1e-6
+    assert main(["mechanism", "solve", "slider_crank", "--drives", "10", "--links"]) == 0
+    out = capsys.readouterr().out
+    assert "condition number of the controlled outputs (x): 1" in out and "link " in out

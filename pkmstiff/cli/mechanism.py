@@ -70,23 +70,76 @@ def _load(name: str):
     return load_mechanism(name)
 
 
+def _pose_names(mech) -> tuple[tuple[str, str], ...]:
+    return (("x", "mm"), ("y", "mm"), ("z", "mm"), ("a", "deg"), ("b", "deg"), ("c", "deg")) if mech.dim == 3 \
+        else (("x", "mm"), ("y", "mm"), ("phi", "deg"))
+
+
+def _parse_poses(mech, texts: list[str], opt: str) -> np.ndarray:
+    """Poses (N, pose_size) in SI from ``x,y,z,a,b,c`` texts in mm and degrees."""
+    names = _pose_names(mech)
+    P = np.array([_values(p, len(names), ",".join(f"{n} [{u}]" for n, u in names), opt) for p in texts])
+    return P * np.array([1e-3 if u == "mm" else math.pi / 180 for _, u in names])[None]
+
+
+def _parse_drives(mech, texts: list[str], opt: str) -> np.ndarray:
+    """Drive values (N, n_drives) in SI from texts in mm / degrees."""
+    units = [_unit_scale(u) for u in mech.drive_units]
+    D = np.array([_values(d, len(mech.drives), ",".join(f"{n} [{u}]" for n, (u, _) in zip(mech.drive_names, units)),
+                          opt) for d in texts])
+    return D / np.array([s for _, s in units])[None]
+
+
+def _start_configuration(mech, start_pose: str | None, start_drives: str | None, steps: int):
+    """The configuration to continue from (assembly/working mode): IK of ``--start-pose`` or FK of
+    ``--start-drives`` (from home), or None (home)."""
+    import pkmstiff.mechanisms as mm
+
+    if start_pose and start_drives:
+        raise _cli_error("solve: give at most one of --start-pose and --start-drives")
+    if start_pose:
+        sol = mm.inverse(mech, _parse_poses(mech, [start_pose], "--start-pose"), steps=steps)
+        opt, what = "--start-pose", start_pose
+    elif start_drives:
+        sol = mm.forward(mech, _parse_drives(mech, [start_drives], "--start-drives"), steps=steps)
+        opt, what = "--start-drives", start_drives
+    else:
+        return None
+    if not sol.ok[0]:
+        raise _cli_error(f"{opt}: expected a start the mechanism reaches from home, found {what} ({sol.status[0]})")
+    return sol.q
+
+
+def _links(mech, q: np.ndarray) -> dict[str, dict[str, float | None]]:
+    """Link frames of one configuration: position (mm) and angles φ (deg, wrapped to (−180, 180])."""
+    from pkmstiff.mechanisms.model import COORDINATES
+
+    D = mech.dim
+    out = {}
+    for li, ln in enumerate(mech.links):
+        v = q[li].copy()
+        v[D:] = (v[D:] + math.pi) % (2.0 * math.pi) - math.pi
+        out[ln] = {f"{c}_{'mm' if i < D else 'deg'}": _num(v[i] * (1e3 if i < D else 180.0 / math.pi))
+                   for i, c in enumerate(COORDINATES[D])}
+    return out
+
+
 def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | None = None,
-                 steps: int = 1) -> dict[str, Any]:
+                 steps: int = 1, start_pose: str | None = None, start_drives: str | None = None) -> dict[str, Any]:
     """Everything ``pkmstiff mechanism solve`` prints, as a JSON-ready dict."""
     import pkmstiff.mechanisms as mm
+    from pkmstiff.mechanisms.outputs import controlled_output_names, output_condition
 
     mech = _load(name)
     units = [_unit_scale(u) for u in mech.drive_units]
-    pose_names = (("x", "mm"), ("y", "mm"), ("z", "mm"), ("a", "deg"), ("b", "deg"), ("c", "deg")) if mech.dim == 3 \
-        else (("x", "mm"), ("y", "mm"), ("phi", "deg"))
+    pose_names = _pose_names(mech)
+    start = _start_configuration(mech, start_pose, start_drives, steps)
     results = []
     if poses:
-        P = np.array([_values(p, len(pose_names), ",".join(f"{n} [{u}]" for n, u in pose_names), "--pose")
-                      for p in poses])
-        P = np.array([[v * (1e-3 if u == "mm" else math.pi / 180) for v, (_, u) in zip(row, pose_names)]
-                      for row in P])
-        ev = mm.evaluate(mech, P, steps=steps)
+        P = _parse_poses(mech, poses, "--pose")
+        ev = mm.evaluate(mech, P, steps=steps, start=start)
         sol = ev.solution
+        kap = output_condition(mech, np.where(sol.ok[:, None, None], sol.q, np.nan), sol.drives)
         for i in range(len(P)):
             results.append({
                 "status": str(sol.status[i]), "iterations": int(sol.iterations[i]),
@@ -95,13 +148,12 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
                 "pose": {f"{n}_{u}": _num(v * (1e3 if u == "mm" else 180 / math.pi))
                          for (n, u), v in zip(pose_names, P[i])},
                 "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, ev.drives[i])},
+                "output_condition_number": _num(kap[i]),
+                "links": _links(mech, sol.q[i]) if sol.ok[i] else None,
             })
     else:
-        nd = len(mech.drives)
-        D = np.array([_values(d, nd, ",".join(f"{n} [{u}]" for n, (u, _) in zip(mech.drive_names, units)),
-                              "--drives") for d in drives or []])
-        D = D / np.array([s for _, s in units])[None]
-        sol = mm.forward(mech, D, steps=steps)
+        D = _parse_drives(mech, drives or [], "--drives")
+        sol = mm.forward(mech, D, steps=steps, start=start)
         outp = sol.poses if mech.output is not None else np.full((len(D), len(pose_names)), np.nan)
         for i in range(len(D)):
             results.append({
@@ -111,8 +163,11 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
                 "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, sol.drives[i])},
                 "pose": {f"{n}_{u}": _num(v * (1e3 if u == "mm" else 180 / math.pi))
                          for (n, u), v in zip(pose_names, outp[i])},
+                "output_condition_number": _num(sol.output_kappa[i]),
+                "links": _links(mech, sol.q[i]) if sol.ok[i] else None,
             })
-    return {"mechanism": mech.name, "mode": "inverse" if poses else "forward", "results": results}
+    return {"mechanism": mech.name, "mode": "inverse" if poses else "forward",
+            "controlled_outputs": list(controlled_output_names(mech)), "results": results}
 
 
 def range_report(name: str) -> dict[str, Any]:
@@ -144,7 +199,8 @@ def _cmd(args) -> int:
         if args.action == "solve":
             if bool(args.pose) == bool(args.drives):
                 raise _cli_error("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
-            rep = solve_report(args.mechanism, args.pose, args.drives, args.steps)
+            rep = solve_report(args.mechanism, args.pose, args.drives, args.steps, args.start_pose,
+                               args.start_drives)
         elif args.action == "range":
             rep = range_report(args.mechanism)
         else:
@@ -172,7 +228,16 @@ def _cmd(args) -> int:
             extra = ""
             if "admissible" in r:
                 extra = f", admissible {r['admissible']}" + (f" ({', '.join(r['reasons'])})" if r["reasons"] else "")
-            print(f"[{i}] {r['status']}{extra}\n    drives: {dr}\n    pose: {ps}")
+            k = r["output_condition_number"]
+            kap = "" if not rep["controlled_outputs"] else \
+                f"\n    condition number of the controlled outputs ({', '.join(rep['controlled_outputs'])}): " \
+                f"{'inf' if k is None else f'{k:.4g}'}"
+            print(f"[{i}] {r['status']}{extra}\n    drives: {dr}\n    pose: {ps}{kap}")
+            if args.links and r["links"]:
+                for ln, v in r["links"].items():
+                    print(f"    link {ln}: " + ", ".join(
+                        f"{c.rsplit('_', 1)[0]} = {x if abs(x) >= 5e-7 else 0.0:.6f} {c.rsplit('_', 1)[1]}"
+                        for c, x in v.items()))
     return 0
 
 
@@ -194,7 +259,7 @@ def pose_report(name: str, pose_text: str) -> dict[str, Any]:
         u, s = _unit_scale("m" if jt.variable == "linear" else "rad")
         joints[jn] = {f"value_{u}": _num(ev.joint_values[0, i] * s), f"min_{u}": _num(jt.limits[0] * s),
                       f"max_{u}": _num(jt.limits[1] * s), "violated": bool(ev.violated[0, i])}
-    r.update({"condition_number": _num(kap), "joints": joints})
+    r.update({"condition_number": _num(kap), "joints": joints, "controlled_outputs": rep["controlled_outputs"]})
     return {"mechanism": mech.name, "title": mech.title, **r}
 
 
@@ -206,6 +271,10 @@ def print_pose(rep: dict[str, Any]) -> None:
     print(f"drives: {dr}")
     k = rep["condition_number"]
     print(f"condition number of dx/ds: {'inf' if k is None else f'{k:.4g}'}")
+    k = rep["output_condition_number"]
+    if rep["controlled_outputs"]:
+        print(f"condition number of the controlled outputs ({', '.join(rep['controlled_outputs'])}): "
+              f"{'inf' if k is None else f'{k:.4g}'}")
     for jn, j in rep["joints"].items():
         u = "mm" if "value_mm" in j else "deg"
         v, lo, hi = j[f"value_{u}"], j[f"min_{u}"], j[f"max_{u}"]
@@ -361,6 +430,14 @@ def add_commands(sub: Any) -> None:
     p.add_argument("mechanism", help="bundled mechanism name (slider_crank, hybrid_tripod_wrist, …) or file")
     p.add_argument("--pose", action="append", help="x,y,z,a,b,c in mm and degrees (planar x,y,phi); repeatable")
     p.add_argument("--drives", action="append", help="drive values in file order (mm / deg); repeatable")
-    p.add_argument("--steps", type=int, default=1, help="continuation steps from home (default 1)")
+    p.add_argument("--steps", type=int, default=1,
+                   help="continuation steps from home or the start (default 1; steps that change an angle by more "
+                        "than 15 deg or a length by more than 1/4 of the mechanism's size are subdivided)")
+    p.add_argument("--start-pose", help="solve from the configuration of this pose (x,y,z,a,b,c mm/deg) instead of "
+                                        "home: chooses the assembly/working mode")
+    p.add_argument("--start-drives", help="solve from the configuration of these drive values (mm/deg) instead of "
+                                          "home: chooses the assembly/working mode")
+    p.add_argument("--links", action="store_true",
+                   help="also print every link frame (position mm, angles phi_x, phi_y, phi_z deg, R = Rz Ry Rx)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_cmd)

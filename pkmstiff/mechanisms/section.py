@@ -12,6 +12,10 @@ plane is an output pose (position = the point, orientation fixed), solved by the
     machines' ``kappa`` (Cobet eq. A.18); ∞ where the Jacobian loses rank (a singular configuration).
 ``<drive name>``
     a drive value (m or rad inside; mm or deg displayed).
+``kappa_out``
+    condition number of ∂x_c/∂s of the *controlled* outputs the file declares (point coordinates and full
+    orientation or tool axis, :func:`~pkmstiff.mechanisms.outputs.output_condition`): ∞ at an output singularity
+    such as a wrist singularity, where ``kappa`` of the Cardan pose stays finite.
 """
 
 from __future__ import annotations
@@ -25,7 +29,7 @@ from pkmstiff.errors import MechanismInputError
 from pkmstiff.evaluation.sections import raster
 from pkmstiff.mechanisms.evaluate import REASONS, evaluate
 from pkmstiff.mechanisms.model import Mechanism
-from pkmstiff.mechanisms.outputs import condition_numbers, configuration_rates
+from pkmstiff.mechanisms.outputs import condition_numbers, configuration_rates, output_condition
 from pkmstiff.mechanisms.solver import Solution, output_pose
 
 Array = NDArray[np.float64]
@@ -60,8 +64,8 @@ def kinematic_jacobian(sol: Solution, h: float = 1e-6) -> Array:
 
 
 def quantity_names(mech: Mechanism) -> tuple[str, ...]:
-    """Quantities a mechanism section offers: ``kappa`` and every drive name."""
-    return ("kappa",) + mech.drive_names
+    """Quantities a mechanism section offers: ``kappa``, ``kappa_out`` and every drive name."""
+    return ("kappa", "kappa_out") + mech.drive_names
 
 
 @dataclass
@@ -171,6 +175,9 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
     if "kappa" in names:
         kap = condition_numbers(kinematic_jacobian(ev.solution))
         values["kappa"], units["kappa"], scales["kappa"] = kap, "1", 1.0
+    if "kappa_out" in names:
+        q = np.where(ev.solution.ok[:, None, None], ev.solution.q, np.nan)
+        values["kappa_out"], units["kappa_out"], scales["kappa_out"] = output_condition(mech, q, ev.drives), "1", 1.0
     for i, (dn, du) in enumerate(zip(mech.drive_names, mech.drive_units)):
         if dn in names:
             values[dn] = ev.drives[:, i]
