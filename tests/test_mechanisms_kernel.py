@@ -23,8 +23,8 @@ def _spatial_mechanisms():
     return [m, axis] + [mm.load_mechanism(n) for n in ("hybrid_tripod_wrist", "hexapod_6ups", "hexaglide_generic")]
 
 
-@pytest.mark.parametrize("reduced", [False, True])
-def test_compiled_evaluation_equals_numpy_reference(reduced, monkeypatch):
+@pytest.mark.parametrize("reduced, omega", [(False, False), (True, False), (True, True)])
+def test_compiled_evaluation_equals_numpy_reference(reduced, omega, monkeypatch):
     monkeypatch.setattr(kernel, "PARALLEL_MIN", 64)  # 300 poses = two chunks on the parallel kernel
     rng = np.random.default_rng(11)
     for mech in _spatial_mechanisms():
@@ -32,8 +32,9 @@ def test_compiled_evaluation_equals_numpy_reference(reduced, monkeypatch):
             q = rng.uniform(-0.6, 0.6, (300, len(mech.links), 6))
             tg = rng.uniform(-1.0, 1.0, (300, width)) if width else None
             for n in (300, 1):  # parallel and serial kernel
-                r1, J1 = sysm.evaluate(q[:n], None if tg is None else tg[:n], reduced=reduced)
-                r2, J2 = sysm.evaluate_reference(q[:n], None if tg is None else tg[:n], reduced=reduced)
+                r1, J1 = sysm.evaluate(q[:n], None if tg is None else tg[:n], reduced=reduced, omega=omega)
+                r2, J2 = sysm.evaluate_reference(q[:n], None if tg is None else tg[:n], reduced=reduced,
+                                                 omega=omega)
                 assert J1.shape == J2.shape
                 # same formulas, different summation order: rounding only (entries are O(1))
                 assert np.abs(r1 - r2).max() < 1e-13 and np.abs(J1 - J2).max() < 1e-13, mech.name

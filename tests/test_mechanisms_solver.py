@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import pkmstiff.mechanisms as mm
-from pkmstiff.mechanisms.constraints import fk_system
+from pkmstiff.mechanisms.constraints import fk_system, link_rotations
 from pkmstiff.mechanisms.solver import MAX_ANGLE_STEP, path_steps
 
 
@@ -185,3 +185,53 @@ def test_cli_solve_reports_solved_drives_output_kappa_links_and_start(capsys):
     assert main(["mechanism", "solve", "slider_crank", "--drives", "10", "--links"]) == 0
     out = capsys.readouterr().out
     assert "condition number of the controlled outputs (x): 1" in out and "link " in out
+
+
+ARM = """
+format_version = 1
+[mechanism]
+name = "arm"
+dimension = 3
+links = ["ground", "arm", "hand"]
+ground = "ground"
+[[joints]]
+name = "shoulder"
+type = "revolute"
+links = ["ground", "arm"]
+point = [0, 0, 0]
+axis = [0, 1, 0]
+drive = "q1"
+[[joints]]
+name = "wrist"
+type = "revolute"
+links = ["arm", "hand"]
+point = [0.5, 0, 0]
+axis = [1, 0, 0]
+drive = "q2"
+[output]
+link = "hand"
+point = [0.6, 0.1, 0]
+orientation = "none"
+coordinates = ["x", "y"]
+"""
+
+
+@pytest.mark.parametrize("q1_deg", [90.0, 90.0 + 1e-5, 90.0 - 1e-5, -90.0, 89.0])
+def test_link_at_phi_y_90_degrees_solves(tmp_path, q1_deg):
+    # the arm turns about y: its Euler angle φy = q1, the parametrisation singularity of R = Rz Ry Rx at ±90°
+    p = tmp_path / "arm.toml"
+    p.write_text(ARM)
+    mech = mm.load_mechanism(p)
+    d = np.radians([[q1_deg, 30.0]])
+    fk = mm.forward(mech, d)
+    assert fk.status[0] == "converged" and fk.rank[0] == fk.n_free
+    # the arm's rotation is Ry(q1) (its angles are stored with |φy| ≤ 90°: beyond, φx = φz = 180°)
+    c, s_ = np.cos(d[0, 0]), np.sin(d[0, 0])
+    R_arm = link_rotations(fk.q[0, 1, 3:], 3)[0]
+    assert np.abs(R_arm - np.array([[c, 0, s_], [0, 1, 0], [-s_, 0, c]])).max() < 1e-13
+    assert np.abs(fk.drives - d).max() < 1e-12
+    # IK of the hand point's x, y from the FK configuration's neighbourhood (x, y leave two assembly modes)
+    ik = mm.inverse(mech, fk.poses, start=mm.forward(mech, d - np.radians(5.0)).q)
+    assert ik.status[0] == "converged"
+    # x, y solved to 1e-13 m; drives follow with sensitivity ≤ 1/(0.1 m · sin 30°) = 20 rad/m
+    assert np.abs(ik.drives - d).max() < 1e-10

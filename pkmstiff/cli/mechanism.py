@@ -60,6 +60,11 @@ def _values(text: str, count: int, what: str, opt: str) -> list[float]:
     return parse_numbers(text, count, opt, what, CliError)
 
 
+def _f6(v: float | None) -> str:
+    """Six decimals; rounding noise below the last digit prints as 0.000000, not −0.000000."""
+    return "-" if v is None else f"{v if abs(v) >= 5e-7 else 0.0:.6f}"
+
+
 def _unit_scale(unit: str) -> tuple[str, float]:
     return ("mm", 1e3) if unit == "m" else ("deg", 180.0 / math.pi)
 
@@ -223,8 +228,8 @@ def _cmd(args) -> int:
             print(f"{d}: {r['min']:.6f} .. {r['max']:.6f} {r['unit']} (ends: {r['min_end']}, {r['max_end']})")
     else:
         for i, r in enumerate(rep["results"]):
-            dr = ", ".join(f"{k} = {'-' if v is None else f'{v:.6f}'}" for k, v in r["drives"].items())
-            ps = ", ".join(f"{k} = {'-' if v is None else f'{v:.6f}'}" for k, v in r["pose"].items())
+            dr = ", ".join(f"{k} = {_f6(v)}" for k, v in r["drives"].items())
+            ps = ", ".join(f"{k} = {_f6(v)}" for k, v in r["pose"].items())
             extra = ""
             if "admissible" in r:
                 extra = f", admissible {r['admissible']}" + (f" ({', '.join(r['reasons'])})" if r["reasons"] else "")
@@ -235,9 +240,8 @@ def _cmd(args) -> int:
             print(f"[{i}] {r['status']}{extra}\n    drives: {dr}\n    pose: {ps}{kap}")
             if args.links and r["links"]:
                 for ln, v in r["links"].items():
-                    print(f"    link {ln}: " + ", ".join(
-                        f"{c.rsplit('_', 1)[0]} = {x if abs(x) >= 5e-7 else 0.0:.6f} {c.rsplit('_', 1)[1]}"
-                        for c, x in v.items()))
+                    print(f"    link {ln}: " + ", ".join(f"{c.rsplit('_', 1)[0]} = {_f6(x)} {c.rsplit('_', 1)[1]}"
+                                                         for c, x in v.items()))
     return 0
 
 

@@ -142,6 +142,9 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
            max_backtrack: int = 30) -> tuple[Array, Array, Array, Array, Array, Array]:
     """Damped Newton with pivoted-QR least-squares steps, vectorised over N (q0 (N, L, d)).
 
+    Link rotations are updated multiplicatively by incremental rotation vectors (:meth:`System.step`), so a link
+    at φy = ±90° (the Euler angles' singularity) is an ordinary configuration for the solver and its rank check.
+
     Converged when max |F| ≤ ``tol``.  A full step is tried first, its residual and Jacobian are kept for the
     next iteration when it reduces ‖F‖ (Armijo); otherwise the step is halved.  Returns q, status (str:
     converged/no_solution/max_iter), iterations, residual (max |F|), rank and rcond of the pivoted QR at the last
@@ -162,7 +165,8 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
     shape = (L, d)
 
     def ev(idx, qq, jac=True):
-        return system.evaluate(qq.reshape(-1, *shape), None if target is None else target[idx], jac, reduced=True)
+        return system.evaluate(qq.reshape(-1, *shape), None if target is None else target[idx], jac, reduced=True,
+                               omega=True)
 
     act = np.arange(N)
     r, J = ev(act, q)
@@ -184,8 +188,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
         rcond[act] = rc
         chol[act] = ~used_qr
         r2 = np.einsum("nm,nm->n", r, r)
-        qt = q[act]
-        qt[:, free] += dx
+        qt = system.step(q[act], dx)
         rt, Jt = ev(act, qt)
         rt2 = np.einsum("nm,nm->n", rt, rt)
         ok = np.isfinite(rt2) & ((rt2 <= (1.0 - _ARMIJO) ** 2 * r2) | (np.abs(rt).max(axis=1) <= tol))
@@ -205,8 +208,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
             tr = np.flatnonzero(~accepted)
             if tr.size == 0:
                 break
-            qb = q[act[bad[tr]]].copy()
-            qb[:, free] += alpha[tr, None] * dx[bad[tr]]
+            qb = system.step(q[act[bad[tr]]], alpha[tr, None] * dx[bad[tr]])
             rb, _ = ev(act[bad[tr]], qb, jac=False)
             rb2 = np.einsum("nm,nm->n", rb, rb)
             okb = np.isfinite(rb2) & (rb2 <= (1.0 - _ARMIJO * alpha[tr]) ** 2 * r2[bad[tr]])
@@ -243,7 +245,7 @@ def _finish(system: System, q: Array, status: Array, iters, resid, rank, rcond, 
     ok = np.flatnonzero((status == "converged") & ~regular)
     status = status.copy()
     if ok.size:
-        r, J = system.evaluate(q[ok], None if target is None else target[ok], reduced=True)
+        r, J = system.evaluate(q[ok], None if target is None else target[ok], reduced=True, omega=True)
         _, rk, rc, qr = lstsq_step(J, r, screen=_FINISH_SCREEN, sweeps=4, pattern=system.sparsity)
         rank[ok] = rk
         rcond[ok] = rc
