@@ -72,3 +72,24 @@ def test_singular_jacobian_takes_the_pivoted_qr_step():
     assert qr.all() and rank[0] == J.shape[2] - 1  # rank by the QR diagonal's gap, as before
     dq, _, rk = lstsq_pivoted(J, r + 1e-6)
     assert np.array_equal(dx, dq) and rk[0] == rank[0]
+
+
+def test_compiled_rotation_step_equals_rodrigues_and_link_angles():
+    from pkmstiff.mechanisms.constraints import link_angles, link_rotations
+
+    rng = np.random.default_rng(4)
+    phi = rng.uniform(-3, 3, (300, 2, 3))
+    phi[:100, :, 1] = np.pi / 2  # at the lock
+    w = rng.normal(size=(300, 2, 3)) * rng.choice([1e-10, 1e-3, 1.0], (300, 2, 1))
+    K = np.zeros(w.shape + (3,))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    K = K - np.swapaxes(K, -1, -2)
+    from scipy.linalg import expm
+
+    E = np.array([[expm(K[n, l]) for l in range(2)] for n in range(300)])
+    ref = E @ link_rotations(phi, 3)[0]
+    got = kernel.rotate(phi, w)
+    # same rotation to rounding: entries O(1), |w| up to ~4, scipy's Padé expm and the products carry a few 1e-16
+    # each (measured 3e-14); the angles follow link_angles' convention (atan2 of the same entries)
+    assert np.abs(link_rotations(got, 3)[0] - ref).max() < 1e-13
+    assert np.abs(got - link_angles(ref)).max() < 1e-11

@@ -494,17 +494,7 @@ class System:
             d, D = self.mech.dof_per_link, self.mech.dim
             links = np.flatnonzero(self.omega_links)
             cols = links[:, None] * d + D + np.arange(3)  # (nl, 3) angle columns in q
-            w = dx[:, self.rot_cols]  # (N, nl, 3)
-            R, _ = link_rotations(q[:, cols], 3)
-            th = np.linalg.norm(w, axis=-1)[..., None, None]
-            K = np.zeros(w.shape + (3,))
-            K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
-            K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = w[..., 2], -w[..., 1], w[..., 0]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                a = np.where(th < 1e-8, 1.0 - th**2 / 6.0, np.sin(th) / th)
-                b = np.where(th < 1e-8, 0.5 - th**2 / 24.0, (1.0 - np.cos(th)) / th**2)
-            E = np.eye(3) + a * K + b * (K @ K)
-            out[:, cols] = link_angles(E @ R)
+            out[:, cols] = kernel.rotate(q[:, cols], dx[:, self.rot_cols])
         return out
 
     def row_joint(self) -> np.ndarray:

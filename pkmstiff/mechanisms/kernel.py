@@ -424,6 +424,52 @@ def _renamed(fn, name):
     return out
 
 
+@numba.njit(**_OPTS)
+def _rotate_impl(phi, w, out):  # pragma: no cover - compiled
+    for n in range(phi.shape[0]):
+        for l in range(phi.shape[1]):
+            x, y, z = phi[n, l, 0], phi[n, l, 1], phi[n, l, 2]
+            cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+            # R = Rz Ry Rx (eq. 2)
+            R00, R01, R02 = cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx
+            R10, R11, R12 = sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx
+            R20, R21, R22 = -sy, cy * sx, cy * cx
+            w0, w1, w2 = w[n, l, 0], w[n, l, 1], w[n, l, 2]
+            th2 = w0 * w0 + w1 * w1 + w2 * w2
+            th = math.sqrt(th2)
+            if th < 1e-8:
+                a, b = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
+            else:
+                a, b = math.sin(th) / th, (1.0 - math.cos(th)) / th2
+            # E = I + a K + b K², K = [w]× (Rodrigues)
+            E00, E11, E22 = 1.0 - b * (w1 * w1 + w2 * w2), 1.0 - b * (w0 * w0 + w2 * w2), 1.0 - b * (w0 * w0 + w1 * w1)
+            E01, E10 = -a * w2 + b * w0 * w1, a * w2 + b * w0 * w1
+            E02, E20 = a * w1 + b * w0 * w2, -a * w1 + b * w0 * w2
+            E12, E21 = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
+            N00 = E00 * R00 + E01 * R10 + E02 * R20
+            N10 = E10 * R00 + E11 * R10 + E12 * R20
+            N20 = E20 * R00 + E21 * R10 + E22 * R20
+            N01 = E00 * R01 + E01 * R11 + E02 * R21
+            N11 = E10 * R01 + E11 * R11 + E12 * R21
+            N02 = E00 * R02 + E01 * R12 + E02 * R22
+            N12 = E10 * R02 + E11 * R12 + E12 * R22
+            # angles as constraints.link_angles (exact at φy = ±90°)
+            py = math.atan2(-N20, math.hypot(N00, N10))
+            pz = math.atan2(N10, N00)
+            c, s_ = math.cos(pz), math.sin(pz)
+            out[n, l, 0] = math.atan2(-(-s_ * N02 + c * N12), -s_ * N01 + c * N11)
+            out[n, l, 1] = py
+            out[n, l, 2] = pz
+
+
+def rotate(phi: Array, w: Array) -> Array:
+    """Angles φ' (N, nl, 3) of exp([w]×) R(φ) for link angles φ and rotation vectors w (N, nl, 3) (the compiled
+    :meth:`pkmstiff.mechanisms.constraints.System.step`)."""
+    out = np.empty_like(phi)
+    _rotate_impl(np.ascontiguousarray(phi, dtype=float), np.ascontiguousarray(w, dtype=float), out)
+    return out
+
+
 _eval_parallel = numba.njit(parallel=True, **_OPTS)(_eval_impl)
 _eval_serial = numba.njit(**_OPTS)(_renamed(_eval_impl, "_eval_serial_impl"))
 #: below this many poses the serial kernel is used (a parallel region costs more than it saves for small

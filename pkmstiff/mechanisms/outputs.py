@@ -30,15 +30,19 @@ def configuration_rates(mech: Mechanism, q: Array, drives: Array) -> Array:
     N, L, d = q.shape
     _, J = system.evaluate(q, drives, reduced=True)
     roff = system.n_fixed_rows
-    out = np.zeros((N, L * d, len(mech.drives)))
+    nd = len(mech.drives)
+    rows = np.empty(nd, dtype=int)
     for b in system.blocks:
-        if not b.kind.startswith("drive"):
-            continue
-        for i, c in enumerate(b.coord):
-            rhs = np.zeros((N, J.shape[1]))
-            rhs[:, b.row0 - roff + i] = -1.0  # the step solves J dq = −rhs: F_q q_s = −F_s = +1 on this drive row
-            dq, _, _, _ = lstsq_step(J, rhs, pattern=system.sparsity)
-            out[:, system.free, c] = dq
+        if b.kind.startswith("drive"):
+            rows[b.coord] = b.row0 - roff + np.arange(b.n)
+    # one batched solve for all drives: J repeated per drive, the step solves J dq = −rhs, so rhs = −1 on the
+    # drive's row gives F_q q_s = −F_s = +1 there
+    rhs = np.zeros((N, nd, J.shape[1]))
+    rhs[:, np.arange(nd), rows] = -1.0
+    Jr = np.repeat(J, nd, axis=0)
+    dq, _, _, _ = lstsq_step(Jr, rhs.reshape(N * nd, -1), pattern=system.sparsity)
+    out = np.zeros((N, L * d, nd))
+    out[:, system.free] = dq.reshape(N, nd, -1).swapaxes(1, 2)
     return out
 
 

@@ -41,6 +41,9 @@ MAX_ANGLE_STEP = np.radians(15.0)
 #: each Newton solve starts inside the basin of the configuration reached along the path (patent [0018]); larger
 #: changes are subdivided into equal steps (at least ``steps``)
 MAX_LENGTH_STEP = 0.25
+#: intermediate continuation steps are solved to this multiple of the tolerance (1e-6 of the length scale by
+#: default): they only have to land in the next step's basin, whose size is the step itself (≥ 1e-3 typically)
+_PATH_TOL = 1e7
 
 
 @dataclass
@@ -303,7 +306,7 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
                 break
             tg = t0[idx] + (s / n) * (t1[idx] - t0[idx])
             last = s == n
-            qs, sts, its, res, rk, rc, ch = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter,
+            qs, sts, its, res, rk, rc, ch = newton(system, q[idx], tg, tol if last else _PATH_TOL * tol, max_iter,
                                                    max_backtrack)
             q[idx] = qs
             iters[todo[idx]] += its
