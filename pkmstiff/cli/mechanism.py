@@ -199,6 +199,129 @@ def info_report(name: str) -> dict[str, Any]:
             "mobility": i.mobility, "drives": list(i.drives), "assumptions": mech.assumptions}
 
 
+#: suffixes of the derivative columns of a drive-path file (per s, s², s³)
+_RATE_SUFFIX = ("", "_per_s", "_per_s2", "_per_s3")
+
+
+def read_drive_path(mech, path: str) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Times t (N,) [s] and drive values with their first three time derivatives [(N, n_drives)] ×4 (SI) of a
+    drive-path CSV: columns ``t_s``, one per drive ``<name>_mm`` / ``<name>_deg``, optionally
+    ``<name>_<unit>_per_s``, ``…_per_s2``, ``…_per_s3``; derivatives not given come from a quintic interpolating
+    spline through the samples (scipy ``make_interp_spline``, degree ≤ 5, not above samples − 1)."""
+    import csv
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise _cli_error(f"--drives-file: expected a CSV file, found {path!r} (no such file)")
+    with open(p, newline="", encoding="utf-8") as fh:
+        rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
+    if len(rows) < 2:
+        raise _cli_error(f"{path}: expected a header and at least one sample row, found {len(rows)} line(s)")
+    head = [c.strip() for c in rows[0]]
+    units = [_unit_scale(u) for u in mech.drive_units]
+    need = ["t_s"] + [f"{n}_{u}" for n, (u, _) in zip(mech.drive_names, units)]
+    missing = [c for c in need if c not in head]
+    if missing:
+        raise _cli_error(f"{path}: line 1: expected columns {', '.join(need)} (derivatives optional: "
+                         f"<column>_per_s, _per_s2, _per_s3), found {', '.join(head)}; missing {', '.join(missing)}")
+    data = np.empty((len(rows) - 1, len(head)))
+    for i, r in enumerate(rows[1:], start=2):
+        if len(r) != len(head):
+            raise _cli_error(f"{path}: line {i}: expected {len(head)} values, found {len(r)}")
+        for c, v in enumerate(r):
+            try:
+                data[i - 2, c] = float(v)
+            except ValueError:
+                raise _cli_error(f"{path}: line {i}, column {head[c]}: expected a number, found {v!r}") from None
+            if not math.isfinite(data[i - 2, c]):
+                raise _cli_error(f"{path}: line {i}, column {head[c]}: expected a finite number, found {v!r}")
+    t = data[:, head.index("t_s")]
+    if np.any(np.diff(t) <= 0):
+        i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 3
+        raise _cli_error(f"{path}: line {i}, column t_s: expected strictly increasing times [s], found "
+                         f"{t[i - 2]:g} after {t[i - 3]:g}")
+    out = [np.empty((t.size, len(units))) for _ in range(4)]
+    for c, (n, (u, scale)) in enumerate(zip(mech.drive_names, units)):
+        cols = [f"{n}_{u}{suf}" for suf in _RATE_SUFFIX]
+        if all(col in head for col in cols):
+            for k, col in enumerate(cols):
+                out[k][:, c] = data[:, head.index(col)] / scale
+            continue
+        if t.size < 2:
+            raise _cli_error(f"{path}: column {cols[1]}: expected the rates (and _per_s2, _per_s3) of a single "
+                             "sample, or at least two samples to interpolate, found neither")
+        from scipy.interpolate import make_interp_spline
+
+        spl = make_interp_spline(t, data[:, head.index(cols[0])] / scale, k=min(5, t.size - 1))
+        for k in range(4):
+            out[k][:, c] = spl(t, nu=k) if k <= spl.k else 0.0
+    return t, out
+
+
+def path_report(name: str, drives_file: str, start_pose: str | None = None,
+                start_drives: str | None = None) -> tuple[dict[str, Any], list[list[str]]]:
+    """``pkmstiff mechanism path``: positions, velocities, accelerations and jerk of the output pose (and status)
+    along a drive path (patent claim 9, :func:`pkmstiff.mechanisms.path.path_derivatives`); returns the JSON-ready
+    summary and the CSV rows (header first)."""
+    import pkmstiff.mechanisms as mm
+    from pkmstiff.mechanisms.path import path_derivatives
+
+    mech = _load(name)
+    t, sv = read_drive_path(mech, drives_file)
+    start = _start_configuration(mech, start_pose, start_drives, 1)
+    # the path is followed sample after sample (each solve starts from the previous configuration)
+    q = []
+    for i in range(t.size):
+        sol_i = mm.forward(mech, sv[0][i:i + 1], start=start)
+        q.append(sol_i)
+        if sol_i.ok[0]:
+            start = sol_i.q
+    status = np.array([s.status[0] for s in q])
+    sol = mm.Solution(mech, np.concatenate([s.q for s in q]), status, np.concatenate([s.iterations for s in q]),
+                      np.concatenate([s.residual for s in q]), np.concatenate([s.rank for s in q]), q[0].n_free,
+                      np.concatenate([s.rcond for s in q]), np.concatenate([s.sigma_ratio for s in q]),
+                      np.concatenate([s.output_kappa for s in q]))
+    pd = path_derivatives(mech, *sv, solution=sol)
+    units = [_unit_scale(u) for u in mech.drive_units]
+    header = ["t_s", "status"] + [f"{n}_{u}" for n, (u, _) in zip(mech.drive_names, units)]
+    pose_names = _pose_names(mech) if mech.output is not None else ()
+    for k in range(4):
+        header += [f"{n}_{u}{_RATE_SUFFIX[k]}" for n, u in pose_names]
+    rows = [header]
+    for i in range(t.size):
+        row = [f"{t[i]:.9g}", str(status[i])] + [f"{v * s:.9g}" for v, (_, s) in zip(sv[0][i], units)]
+        for k in range(4):
+            row += ["" if not np.isfinite(v) else f"{v * (1e3 if u == 'mm' else 180 / math.pi):.9g}"
+                    for v, (_, u) in zip(pd.pose[k, i] if pd.pose is not None else [], pose_names)]
+        rows.append(row)
+    peak = {}
+    if pd.pose is not None:
+        for k, what in ((1, "velocity"), (2, "acceleration"), (3, "jerk")):
+            lin = np.nanmax(np.linalg.norm(pd.point[k], axis=-1)) * 1e3 if np.isfinite(pd.point[k]).any() else None
+            peak[f"max_point_{what}_mm_per_s{'' if k == 1 else k}"] = _num(lin) if lin is not None else None
+    rep = {"mechanism": mech.name, "samples": int(t.size), "t_s": [float(t[0]), float(t[-1])],
+           "status": {s_: int(np.sum(status == s_)) for s_ in mm.STATUS if np.any(status == s_)}, **peak}
+    return rep, rows
+
+
+def _write_csv_atomic(rows: list[list[str]], path: str) -> None:
+    import csv
+    import os
+    import tempfile
+    from pathlib import Path
+
+    p = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", dir=p.parent if str(p.parent) else ".")
+    try:
+        with os.fdopen(fd, "w", newline="", encoding="utf-8") as fh:
+            csv.writer(fh).writerows(rows)
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
 def _cmd(args) -> int:
     try:
         if args.action == "solve":
@@ -206,6 +329,16 @@ def _cmd(args) -> int:
                 raise _cli_error("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
             rep = solve_report(args.mechanism, args.pose, args.drives, args.steps, args.start_pose,
                                args.start_drives)
+        elif args.action == "path":
+            if not args.drives_file:
+                raise _cli_error("path: expected --drives-file FILE.csv (columns t_s and the drive names)")
+            from pkmstiff.cli.edges import check_output_file
+
+            check_output_file(args.out, "--out", args.force, (".csv",))
+            rep, rows = path_report(args.mechanism, args.drives_file, args.start_pose, args.start_drives)
+            if args.out:
+                _write_csv_atomic(rows, args.out)
+                rep["files"] = [args.out]
         elif args.action == "range":
             rep = range_report(args.mechanism)
         else:
@@ -223,6 +356,16 @@ def _cmd(args) -> int:
                   + (f" (drive {j['drive']})" if j["drive"] else ""))
         print(f"  unknowns {rep['unknowns']}, equations {rep['equations']}, rank {rep['rank']}, "
               f"mobility {rep['mobility']}")
+    elif args.action == "path":
+        st = ", ".join(f"{k} {v}" for k, v in rep["status"].items())
+        print(f"{rep['mechanism']}: {rep['samples']} samples, t = {rep['t_s'][0]:g} .. {rep['t_s'][1]:g} s: {st}")
+        for k, v in rep.items():
+            if k.startswith("max_point_"):
+                what, unit = k[len("max_point_"):].split("_", 1)
+                print(f"  max |{what}| of the output point: {'-' if v is None else f'{v:.6g}'} "
+                      f"{unit.replace('_per_', '/').replace('s2', 's^2').replace('s3', 's^3')}")
+        for f in rep.get("files", []):
+            print(f"  wrote {f}")
     elif args.action == "range":
         for d, r in rep["drives"].items():
             print(f"{d}: {r['min']:.6f} .. {r['max']:.6f} {r['unit']} (ends: {r['min_end']}, {r['max_end']})")
@@ -431,7 +574,7 @@ def add_commands(sub: Any) -> None:
                                    "(--pose, mm/deg; status, drive values and joint-limit admissibility as 'pkmstiff "
                                    "pose'), forward kinematics of drive values (--drives; mm for linear, deg for "
                                    "angular drives), drive ranges, links/joints/rank/mobility.")
-    p.add_argument("action", choices=("solve", "range", "info"))
+    p.add_argument("action", choices=("solve", "path", "range", "info"))
     p.add_argument("mechanism", help="bundled mechanism name (slider_crank, hybrid_tripod_wrist, …) or file")
     p.add_argument("--pose", action="append", help="x,y,z,a,b,c in mm and degrees (planar x,y,phi); repeatable")
     p.add_argument("--drives", action="append", help="drive values in file order (mm / deg); repeatable")
@@ -442,6 +585,10 @@ def add_commands(sub: Any) -> None:
                                         "home: chooses the assembly/working mode")
     p.add_argument("--start-drives", help="solve from the configuration of these drive values (mm/deg) instead of "
                                           "home: chooses the assembly/working mode")
+    p.add_argument("--drives-file", help="path: CSV of a drive path (columns t_s, <drive>_mm or <drive>_deg, "
+                                         "optionally <column>_per_s, _per_s2, _per_s3)")
+    p.add_argument("--out", help="path: CSV of pose, velocity, acceleration and jerk per sample")
+    p.add_argument("--force", action="store_true", help="overwrite --out")
     p.add_argument("--links", action="store_true",
                    help="also print every link frame (position mm, angles phi_x, phi_y, phi_z deg, R = Rz Ry Rx)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
