@@ -235,3 +235,20 @@ def test_link_at_phi_y_90_degrees_solves(tmp_path, q1_deg):
     assert ik.status[0] == "converged"
     # x, y solved to 1e-13 m; drives follow with sensitivity ≤ 1/(0.1 m · sin 30°) = 20 rad/m
     assert np.abs(ik.drives - d).max() < 1e-10
+
+
+def test_range_of_an_unlimited_revolute_drive(tmp_path):
+    import time
+
+    p = tmp_path / "arm.toml"
+    p.write_text(ARM.replace('drive = "q2"', 'drive = "q2"\nlimits = { min = "-100 deg", max = "120 deg" }'))
+    mech = mm.load_mechanism(p)
+    t0 = time.process_time()
+    rng = mm.drive_ranges(mech)
+    # q1 turns round (angles unwrapped along the curve): unlimited both ways, not min > max after 2000 steps
+    assert (rng["q1"].min.kind, rng["q1"].max.kind) == ("unlimited", "unlimited")
+    assert rng["q1"].min.value == -np.inf and rng["q1"].max.value == np.inf
+    # q2 passes its home value and stops at its limits (radians, exact: the limit is reported, not the overshoot)
+    assert (rng["q2"].min.kind, rng["q2"].max.kind) == ("limit", "limit")
+    assert (rng["q2"].min.value, rng["q2"].max.value) == (np.radians(-100.0), np.radians(120.0))
+    assert time.process_time() - t0 < 20.0  # a full turn in 2 %-of-size steps: a few hundred corrector solves

@@ -368,7 +368,9 @@ def _cmd(args) -> int:
             print(f"  wrote {f}")
     elif args.action == "range":
         for d, r in rep["drives"].items():
-            print(f"{d}: {r['min']:.6f} .. {r['max']:.6f} {r['unit']} (ends: {r['min_end']}, {r['max_end']})")
+            lo = "-inf" if r["min"] is None else f"{r['min']:.6f}"
+            hi = "inf" if r["max"] is None else f"{r['max']:.6f}"
+            print(f"{d}: {lo} .. {hi} {r['unit']} (ends: {r['min_end']}, {r['max_end']})")
     else:
         for i, r in enumerate(rep["results"]):
             dr = ", ".join(f"{k} = {_f6(v)}" for k, v in r["drives"].items())
