@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import pkmstiff.mechanisms as mm
-from pkmstiff.mechanisms.constraints import fk_system, link_rotations
+from pkmstiff.mechanisms.constraints import Frames, fk_system, link_rotations
 from pkmstiff.mechanisms.solver import MAX_ANGLE_STEP, path_steps
 
 
@@ -88,45 +88,20 @@ def test_output_jacobian_matches_central_differences_of_forward_kinematics(hybri
         dm[c] -= h
         qp = mm.forward(hybrid, dp[None], start=fk.q).q
         qm = mm.forward(hybrid, dm[None], start=fk.q).q
-        F = lambda q: __import__("pkmstiff.mechanisms.constraints", fromlist=["Frames"]).Frames(q, 3, False)  # noqa
-        wp, up = F(qp).point(np.array([o.link]), o.point[None])[0][0, 0], F(qp).R[0, o.link] @ o.axis
-        wm, um = F(qm).point(np.array([o.link]), o.point[None])[0][0, 0], F(qm).R[0, o.link] @ o.axis
+        Fp, Fm = Frames(qp, 3, False), Frames(qm, 3, False)
+        wp, up = Fp.point(np.array([o.link]), o.point[None])[0][0, 0], Fp.R[0, o.link] @ o.axis
+        wm, um = Fm.point(np.array([o.link]), o.point[None])[0][0, 0], Fm.R[0, o.link] @ o.axis
         assert np.abs((wp - wm) / (2 * h) - Jc[:3, c]).max() < 1e-8
         # the axis rows are u̇ on two unit vectors ⊥ u: their norm is |u̇|
         assert abs(np.linalg.norm((up - um) / (2 * h)) - np.linalg.norm(Jc[3:, c])) < 1e-8
 
 
-MOBILE = """
-format_version = 1
-[mechanism]
-name = "t"
-dimension = 2
-links = ["0", "1", "2", "3"]
-ground = "0"
-[[joints]]
-name = "A"
-type = "revolute"
-links = ["0", "1"]
-point = [0.04, 0.02]
-{drive_a}
-[[joints]]
-name = "B"
-type = "revolute"
-links = ["1", "2"]
-point = [0.07, 0.07]
-[[joints]]
-name = "C"
-type = "revolute"
-links = ["2", "3"]
-point = [0.115, 0.055]
-[[joints]]
-name = "slider"
-type = "prismatic"
-links = ["0", "3"]
-point = [0.115, 0.02]
-axis = [1, 0]
-{drive_s}
-"""
+def _slider_crank_text(drive_a: str, drive_s: str) -> str:
+    """The slider-crank of tests/test_mechanisms_files.py with the crank (A) and slider drives as given."""
+    from tests.test_mechanisms_files import BASE
+
+    return BASE.replace('point = [0.04, 0.02]\n', f'point = [0.04, 0.02]\n{drive_a}\n', 1).replace(
+        'drive = "s"\n', f"{drive_s}\n")
 
 
 @pytest.mark.parametrize("drive_a, drive_s, found", [
@@ -138,7 +113,7 @@ def test_mobility_against_drives_at_load(tmp_path, drive_a, drive_s, found):
     from pkmstiff.errors import MechanismFileError
 
     p = tmp_path / "m.toml"
-    p.write_text(MOBILE.format(drive_a=drive_a, drive_s=drive_s))
+    p.write_text(_slider_crank_text(drive_a, drive_s))
     if found is None:
         mm.load_mechanism(p)
         return
@@ -152,7 +127,7 @@ def test_free_motion_named_at_load(tmp_path):
     from pkmstiff.errors import MechanismFileError
 
     # the slider-crank with its coupler pin C removed: crank + free coupler + slider, three degrees of freedom
-    text = MOBILE.format(drive_a="", drive_s='drive = "s"').replace(
+    text = _slider_crank_text("", 'drive = "s"').replace(
         '[[joints]]\nname = "C"\ntype = "revolute"\nlinks = ["2", "3"]\npoint = [0.115, 0.055]\n', "")
     p = tmp_path / "m.toml"
     p.write_text(text)

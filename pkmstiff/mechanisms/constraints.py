@@ -415,13 +415,6 @@ def block_eval(bl: Block, F: Frames, target: Array | None) -> tuple[Array, Array
     raise ValueError(f"unknown constraint kind {kind!r}")
 
 
-def target_angles(pose: Array, dim: int) -> Array:
-    """Link angles of the output link for target poses: planar φ; spatial (φx, φy, φz) of R = cardan(a, b, c)."""
-    if dim == 2:
-        return pose[:, 2:3]
-    return link_angles(cardan_pose_rotation(pose[:, 3:6]))
-
-
 @dataclass
 class System:
     """Model equations (+ control equations) of a mechanism over the unknowns q (L, d)."""

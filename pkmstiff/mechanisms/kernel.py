@@ -192,6 +192,27 @@ def _jlinv(r, Ji):  # pragma: no cover - compiled
             Ji[a, b] = (1.0 if a == b else 0.0) - 0.5 * K[a, b] + g * k2
 
 
+def _mmT(X, Y, out):  # pragma: no cover - compiled
+    """out = X Yᵀ (3 × 3)."""
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = X[a, 0] * Y[b, 0] + X[a, 1] * Y[b, 1] + X[a, 2] * Y[b, 2]
+
+
+def _log_rows(r, J, n, r0, cj, M, Wr, j, x, Ji, jac, roff, cmap):  # pragma: no cover - compiled
+    """Rows r0…r0+2: log M (M = R_j ·ᵀ, a rotation of link j against another) and ∂/∂q_j,c = J_l⁻¹(log M) w_j,c;
+    leaves log M in x and J_l⁻¹ in Ji."""
+    _logm(M, x)
+    for a in range(3):
+        r[n, r0 + a] = x[a]
+    if jac:
+        _jlinv(x, Ji)
+        for c in range(3):
+            for a in range(3):
+                _put(J, n, r0 + a, cj + 3 + c, Ji[a, 0] * Wr[j, c, 0] + Ji[a, 1] * Wr[j, c, 1]
+                     + Ji[a, 2] * Wr[j, c, 2], roff, cmap)
+
+
 def _put(J, n, row, col, val, roff, cmap):  # pragma: no cover - compiled
     rr = row - roff
     if rr >= 0:
@@ -258,20 +279,13 @@ def _eval_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, rof
                             _put(J, n, r0 + a, cj + 3 + c, Dwj[a, c], roff, cmap)
                             _put(J, n, r0 + a, ck + 3 + c, -Dwk[a, c], roff, cmap)
             elif kd == 2:  # 1B equal orientation (eq. 4) as log(R_j R_kᵀ) = 0 (see constraints.block_eval)
-                for a in range(3):
-                    for b in range(3):
-                        M[a, b] = R[j, a, 0] * R[k, b, 0] + R[j, a, 1] * R[k, b, 1] + R[j, a, 2] * R[k, b, 2]
-                _logm(M, x1)
-                for a in range(3):
-                    r[n, r0 + a] = x1[a]
+                _mmT(R[j], R[k], M)
+                _log_rows(r, J, n, r0, cj, M, Wr, j, x1, Ji, jac, roff, cmap)
                 if jac:
-                    _jlinv(x1, Ji)
                     for c in range(3):
-                        for a in range(3):  # ∂r/∂q_j,c = J⁻¹ w_j,c;  ∂r/∂q_k,c = −J⁻¹ M w_k,c
+                        for a in range(3):  # ∂r/∂q_k,c = −J⁻¹ M w_k,c
                             x2[a] = M[a, 0] * Wr[k, c, 0] + M[a, 1] * Wr[k, c, 1] + M[a, 2] * Wr[k, c, 2]
                         for a in range(3):
-                            _put(J, n, r0 + a, cj + 3 + c, Ji[a, 0] * Wr[j, c, 0] + Ji[a, 1] * Wr[j, c, 1]
-                                 + Ji[a, 2] * Wr[j, c, 2], roff, cmap)
                             _put(J, n, r0 + a, ck + 3 + c, -(Ji[a, 0] * x2[0] + Ji[a, 1] * x2[1] + Ji[a, 2] * x2[2]),
                                  roff, cmap)
             elif kd == 3:  # 1C common axis direction (eq. 5)
@@ -385,18 +399,8 @@ def _eval_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, rof
                     for c in range(3):
                         _put(J, n, r0, cj + 3 + c, Dwj[c_, c], roff, cmap)
             elif kd == 10:  # output orientation: log(R_j R(target)ᵀ) = 0
-                for a in range(3):
-                    for b in range(3):
-                        M[a, b] = R[j, a, 0] * Rt[n, b, 0] + R[j, a, 1] * Rt[n, b, 1] + R[j, a, 2] * Rt[n, b, 2]
-                _logm(M, x1)
-                for a in range(3):
-                    r[n, r0 + a] = x1[a]
-                if jac:
-                    _jlinv(x1, Ji)
-                    for c in range(3):
-                        for a in range(3):
-                            _put(J, n, r0 + a, cj + 3 + c, Ji[a, 0] * Wr[j, c, 0] + Ji[a, 1] * Wr[j, c, 1]
-                                 + Ji[a, 2] * Wr[j, c, 2], roff, cmap)
+                _mmT(R[j], Rt[n], M)
+                _log_rows(r, J, n, r0, cj, M, Wr, j, x1, Ji, jac, roff, cmap)
             else:  # output axis: R_j a = R(target) a
                 _vector(R, dR, j, A[i], U, DU)
                 for a in range(3):
@@ -408,7 +412,7 @@ def _eval_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, rof
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy")
 _helpers = {}
-for _f in (_mm3, _rotations, _point, _vector, _cross, _logm, _jlinv, _put, _eval_chunk):
+for _f in (_mm3, _mmT, _rotations, _point, _vector, _cross, _logm, _jlinv, _put, _log_rows, _eval_chunk):
     _helpers[_f.__name__] = numba.njit(**_OPTS)(_f)
     globals()[_f.__name__] = _helpers[_f.__name__]
 

@@ -151,7 +151,9 @@ def _rotations(phi: Array, dim: int) -> Array:
     (sx, cx), (sy, cy), (sz, cz) = (_sincos(phi[..., i]) for i in range(3))
     z, o = np.zeros_like(sx), np.zeros_like(sx)
     o[0] = 1.0
-    m = lambda *e: np.stack([np.stack(e[0:3], -1), np.stack(e[3:6], -1), np.stack(e[6:9], -1)], -2)  # noqa: E731
+    def m(*e):
+        return np.stack([np.stack(e[0:3], -1), np.stack(e[3:6], -1), np.stack(e[6:9], -1)], -2)
+
     Rx = m(o, z, z, z, cx, -sx, z, sx, cx)
     Ry = m(cy, z, sy, z, o, z, -sy, z, cy)
     Rz = m(cz, -sz, z, sz, cz, z, z, z, o)

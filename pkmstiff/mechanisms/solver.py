@@ -21,8 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 from pkmstiff.errors import MechanismInputError
 from pkmstiff.kinematics.rotation import cardan_angles
 from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system, wrap
-from pkmstiff.mechanisms.linalg import (GAP_FACTOR, GAP_FLOOR, gap_rank, lstsq_pivoted, lstsq_step,
-                                        singular_values)
+from pkmstiff.mechanisms.linalg import gap_rank, lstsq_step, singular_values
 from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.mechanisms.outputs import output_condition
 
