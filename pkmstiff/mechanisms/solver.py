@@ -20,7 +20,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from pkmstiff.errors import MechanismInputError
 from pkmstiff.kinematics.rotation import cardan_angles
-from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system, wrap
+from pkmstiff.mechanisms.constraints import (Frames, System, cardan_pose_rotation, fk_system, ik_system,
+                                             rotation_log, wrap)
 from pkmstiff.mechanisms.linalg import gap_rank, lstsq_step, singular_values
 from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.mechanisms.outputs import output_condition
@@ -406,8 +407,8 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
             singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
     """Inverse kinematics: configurations (and drive values) for output poses (N, 6) x, y, z [m], a, b, c [rad]
     (planar (N, 3) x, y [m], φ [rad]) (patent claim 11).  Continuation from home or ``start`` as in
-    :func:`forward` (position changes against :data:`MAX_LENGTH_STEP`, angle changes against
-    :data:`MAX_ANGLE_STEP`)."""
+    :func:`forward` (changes of the controlled point coordinates against :data:`MAX_LENGTH_STEP`, the turn of the
+    controlled orientation against :data:`MAX_ANGLE_STEP`)."""
     if mech.output is None:
         raise MechanismInputError(f"mechanism '{mech.name}' has no [output]: inverse kinematics undefined")
     units = "m, m, m, rad, rad, rad" if mech.dim == 3 else "m, m, rad"
@@ -419,9 +420,30 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = output_pose(mech, q0)
-    delta = tg - t0
-    ang = np.arange(mech.pose_size) >= mech.dim
-    delta[:, ang] = wrap(delta[:, ang])
-    n = path_steps(delta, ang, mech.length_scale, steps)
+    n = path_steps(_controlled_change(mech, t0, tg), np.array([False, True]), mech.length_scale, steps)
     out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
     return _finish(system, *out, tg, singular_tol)
+
+
+def _controlled_change(mech: Mechanism, p0: Array, p1: Array) -> Array:
+    """(N, 2): the largest change of a controlled point coordinate [m] and the turn of the controlled orientation
+    [rad] between output poses p0 and p1 — the rotation angle |log(R₁R₀ᵀ)| (full), the angle between the axes
+    (axis), nothing (none) — the quantities the default continuation bounds per step."""
+    o = mech.output
+    D = mech.dim
+    N = np.broadcast_shapes(p0.shape, p1.shape)[0]
+    out = np.zeros((N, 2))
+    out[:, 0] = np.abs((p1 - p0)[:, list(o.coordinates)]).max(axis=1)
+    if o.orientation == "none":
+        return out
+    if D == 2:
+        out[:, 1] = np.abs(wrap(p1[:, 2] - p0[:, 2]))
+        return out
+    R0 = cardan_pose_rotation(np.broadcast_to(p0, (N, p0.shape[1]))[:, 3:6])
+    R1 = cardan_pose_rotation(np.broadcast_to(p1, (N, p1.shape[1]))[:, 3:6])
+    if o.orientation == "full":
+        out[:, 1] = np.linalg.norm(rotation_log(R1 @ np.swapaxes(R0, -1, -2)), axis=-1)
+    else:
+        c = np.einsum("na,na->n", R0 @ o.axis, R1 @ o.axis)
+        out[:, 1] = np.arccos(np.clip(c, -1.0, 1.0))
+    return out
