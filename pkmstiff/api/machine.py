@@ -1,0 +1,159 @@
+"""The machine of the public API: the frozen machine model plus the few methods a design study scripts.
+
+:class:`StudyMachine` *is* a :class:`pkmstiff.machine.Machine` (a subclass that adds methods, no data), so every
+library function that takes a machine takes it; ``pkmstiff.load_machine`` returns one. Its methods call the library's
+high-level functions (:func:`~pkmstiff.evaluation.sections.evaluate_section`, :func:`~pkmstiff.structure.build_structure`,
+:class:`~pkmstiff.workspace.requests.WorkspaceRequest`, ...) and wrap their results in the objects of
+:mod:`pkmstiff.api.results`, which convert to xarray and pandas. SI units in and out (m, rad, N/m); every result states
+its frame (``"machine"``: the machine file's coordinate system, ``"report"``: shifted to the machine's report origin,
+the frame the dissertation quotes positions in).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from pkmstiff.machine import Machine
+from pkmstiff.machine import load_machine as _load_model
+from pkmstiff.machine.frames import check_frame, neglect_spindle as _neglect_spindle, spindle_neglected
+
+#: the quantities a section evaluates when none are named
+DEFAULT_SECTION_QUANTITIES = ("kx", "ky", "kz", "f1")
+
+
+@dataclass(frozen=True)
+class StudyMachine(Machine):
+    """A loaded machine with the design-study methods :meth:`point`, :meth:`section`, :meth:`workspace`,
+    :meth:`rotation_map` and :meth:`with_` (all SI: m, rad)."""
+
+    @classmethod
+    def of(cls, machine: Machine) -> "StudyMachine":
+        """The same machine (same field values, shared component instances) with the study methods."""
+        if isinstance(machine, cls):
+            return machine
+        return cls(**{f.name: getattr(machine, f.name) for f in dataclasses.fields(Machine)})
+
+    @property
+    def spindle_neglected(self) -> bool:
+        """True if the platform-spindle stiffness K_U is left out (platform and spindle one rigid body)."""
+        return spindle_neglected(self)
+
+    def with_(self, components: Mapping[str, Mapping[str, Any]] | None = None, options: Sequence[str] = (),
+              overrides: Mapping[str, Any] | None = None, neglect_spindle: bool | None = None) -> "StudyMachine":
+        """A variant of this machine, validated like a machine file.
+
+        ``components``: component instance name -> {parameter: value} (values as in the machine file, e.g.
+        ``{"drive": {"stiffness": "300 N/um"}}``); ``options``: ``[options.NAME]`` tables of the machine file to
+        apply; ``overrides``: any other dotted machine-file key -> value (``{"tool.length": "150 mm"}``);
+        ``neglect_spindle``: leave out (True) or keep (False) the platform-spindle stiffness K_U (Cobet 4.2.4).
+        The variant is built from the machine's file, so a variant of a variant starts again from the file: pass
+        every change at once.
+        """
+        from pkmstiff.machine.variants import machine_with
+
+        changes = dict(overrides or {})
+        for name, params in (components or {}).items():
+            changes.update({f"components.{name}.{key}": value for key, value in params.items()})
+        neglect = self.spindle_neglected if neglect_spindle is None else neglect_spindle
+        model: Machine = self
+        if changes or options or (self.spindle_neglected and not neglect):  # K_U back: rebuild from the file
+            loaded = self.name.split(":", 1)[1].split(",") if ":" in self.name else []
+            model = machine_with(self.path or self.name, changes, [*loaded, *options])
+        return StudyMachine.of(_neglect_spindle(model, neglect))
+
+    def point(self, poses: ArrayLike, frame: str = "machine", tool_length: float | None = None, n_modes: int = 6,
+              weak_point_directions: Sequence[str] = ("x", "y", "z")) -> "PointResults":
+        """Stiffness at the TCP, natural frequencies, weak points, kinetostatics and admissibility at one pose (6,)
+        or many poses (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad]. ``tool_length`` [m] (None: the
+        machine's). Evaluated in chunks of bounded memory."""
+        from pkmstiff.api.points import evaluate_points
+
+        return evaluate_points(self, poses, frame=check_frame(frame), tool_length=tool_length, n_modes=n_modes,
+                               weak_point_directions=tuple(weak_point_directions))
+
+    def section(self, plane: str = "yz", at: float = 0.0, step: float = 0.01,
+                quantities: Sequence[str] = DEFAULT_SECTION_QUANTITIES, *, u_range: tuple[float, float] | None = None,
+                v_range: tuple[float, float] | None = None, orientation: Iterable[float] = (0.0, 0.0, 0.0),
+                tool_length: float | None = None, frame: str = "machine", n_jobs: int = 1,
+                progress: bool | None = False) -> "SectionMap":
+        """Quantities (:func:`pkmstiff.evaluation.quantities.available_quantities`) on the axis plane ``plane``
+        (``"yz"``, ``"xz"``, ``"xy"``) at ``at`` [m] along its normal, raster ``step`` [m], masked by admissibility.
+
+        ``u_range``/``v_range`` [m] bound the window along the plane's two axes (in ``frame``); omitted, the window
+        is fitted to the workspace on the plane (as ``pkmstiff section`` does). ``orientation`` (a, b, c) [rad]
+        is fixed over the plane; ``tool_length`` [m] (None: the machine's).
+        """
+        from pkmstiff.api.results import SectionMap
+        from pkmstiff.evaluation.sections import axis_plane, evaluate_section
+
+        kind = plane.lower()
+        ori = tuple(float(v) for v in orientation)
+        if u_range is None or v_range is None:
+            from pkmstiff.workspace.windows import window_ranges
+
+            fitted = window_ranges(self, kind, at, step, ori, check_frame(frame))
+            u_range = fitted[0] if u_range is None else u_range
+            v_range = fitted[1] if v_range is None else v_range
+        res = evaluate_section(self, axis_plane(kind, at, u_range, v_range, step), list(quantities),
+                               orientation=ori, tool_length=tool_length, n_jobs=n_jobs, progress=progress,
+                               frame=check_frame(frame))
+        return SectionMap(res)
+
+    def workspace(self, resolution: float = 0.025, orientation: Iterable[float] = (0.0, 0.0, 0.0), *,
+                  box: tuple[ArrayLike, ArrayLike] | None = None, requirements: Sequence[str] = (),
+                  methods: Sequence[str] = ("surface_nets",), frame: str = "machine",
+                  progress: bool = False) -> "Workspace":
+        """The constant-orientation workspace by the modified octree (Cobet §7.3): boundary within ``resolution``
+        [m], volume [m³]. ``box`` = (lo, hi) [m] in ``frame`` (None: the chains' reach box); ``requirements`` as
+        ``pkmstiff workspace --require`` (e.g. ``"kx >= 5 N/um"``)."""
+        from pkmstiff.api.results import Workspace
+        from pkmstiff.workspace.requests import WorkspaceRequest
+
+        req = WorkspaceRequest(resolution=resolution, box=box, requirements=tuple(requirements),
+                               orientation=tuple(float(v) for v in orientation), methods=tuple(methods),
+                               frame=check_frame(frame))
+        return Workspace(req.evaluate(self, progress=progress), self)
+
+    def rotation_map(self, plane: str = "yz", at: float = 0.0, step: float = 0.025, *,
+                     u_range: tuple[float, float] | None = None, v_range: tuple[float, float] | None = None,
+                     directions: Sequence[str] = ("+a",), base_orientation: Iterable[float] = (0.0, 0.0, 0.0),
+                     increment: float = np.radians(1.0), max_angle: float = np.radians(90.0),
+                     requirements: Sequence[str] = (), frame: str = "machine") -> "RotationMap":
+        """Largest admissible rotation angle [rad] per direction (``"+a"``, ``"-b"``, ...) on an axis-plane raster
+        (Cobet §7.4), searched in steps of ``increment`` up to ``max_angle``; window as in :meth:`section`."""
+        from pkmstiff.api.results import RotationMap
+        from pkmstiff.evaluation.sections import axis_plane
+        from pkmstiff.workspace.requests import RotationMapRequest
+
+        kind = plane.lower()
+        if u_range is None or v_range is None:
+            from pkmstiff.workspace.windows import window_ranges
+
+            fitted = window_ranges(self, kind, at, step, tuple(base_orientation), check_frame(frame))
+            u_range = fitted[0] if u_range is None else u_range
+            v_range = fitted[1] if v_range is None else v_range
+        pl = axis_plane(kind, at, u_range, v_range, step)
+        req = RotationMapRequest(origin=tuple(pl.origin), u_axis=tuple(pl.u_axis), v_axis=tuple(pl.v_axis),
+                                 u_values=tuple(pl.u_values), v_values=tuple(pl.v_values),
+                                 directions=tuple(directions), base_orientation=tuple(base_orientation),
+                                 increment=increment, max_angle=max_angle, requirements=tuple(requirements),
+                                 frame=check_frame(frame))
+        return RotationMap(req.evaluate(self), pl)
+
+
+def load_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> StudyMachine:
+    """Load a machine by bundled name (``"hexaglide"``, ``"linapod:printed_values"``) or path, with the study methods
+    (:class:`StudyMachine`); see :func:`pkmstiff.machine.load_machine`."""
+    return StudyMachine.of(_load_model(name_or_path, options))
+
+
+if TYPE_CHECKING:
+    from pkmstiff.api.points import PointResults
+    from pkmstiff.api.results import RotationMap, SectionMap, Workspace

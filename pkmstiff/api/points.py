@@ -1,0 +1,170 @@
+"""Point evaluations of the public API: everything ``pkmstiff point`` reports, for one pose or a batch of poses.
+
+Per chunk of at most :data:`CHUNK` poses: admissibility (:func:`~pkmstiff.admissibility.evaluate_poses`), one
+structure model (:func:`~pkmstiff.structure.build_structure`) serving the TCP compliance (docs/theory/structure.md),
+the weak points and the modal analysis, and the kinetostatics (docs/theory/kinetostatics.md). SI units in the arrays;
+:meth:`PointResults.to_pandas` converts to display units named in the column names.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from pkmstiff.kinematics import as_poses
+from pkmstiff.machine.frames import frame_metadata, to_machine_frame
+
+if TYPE_CHECKING:
+    import pandas
+
+    from pkmstiff.api.machine import StudyMachine
+
+#: poses per structure model (bounds memory: about 0.3 MB per pose for the 30-DOF model with modes)
+CHUNK = 2048
+
+
+@dataclass
+class PointResults:
+    """Results at N poses (SI units; NaN where a pose could not be modelled).
+
+    ``stiffness`` (N, 6): k_x, k_y, k_z [N/m], k_rx, k_ry, k_rz [N·m/rad] (1/C_jj of the TCP compliance);
+    ``weak_points[direction][component]`` (N,): share of the TCP compliance for a unit force along ``direction``
+    (fraction, sums to 1 over the components); ``v_max`` [m/s] and ``a_max`` [m/s²] (N, directions) with their
+    labels; ``drive_loads`` (N, chains) static drive loads [N]. ``poses`` are in ``frame`` (as given).
+    """
+
+    machine: str
+    frame: dict[str, Any]
+    poses: np.ndarray  # (N, 6) m, rad, in ``frame``
+    tool_length: float  # m
+    admissible: np.ndarray  # (N,) bool
+    reasons: list[list[str]]  # per pose: failing admissibility checks
+    modelled: np.ndarray  # (N,) bool
+    compliance: np.ndarray  # (N, 6, 6) SI
+    stiffness: np.ndarray  # (N, 6) N/m, N m/rad
+    frequencies_hz: np.ndarray  # (N, n_modes) Hz
+    mode_descriptions: list[list[str]]
+    weak_points: dict[str, dict[str, np.ndarray]]
+    transmission_quality: np.ndarray  # (N,)
+    velocity_labels: list[str]
+    v_max: np.ndarray  # (N, len(velocity_labels)) m/s
+    acceleration_labels: list[str]
+    a_max: np.ndarray  # (N, len(acceleration_labels)) m/s^2
+    drive_loads: np.ndarray  # (N, n_chains) N
+    notes: list[str] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+    def to_pandas(self) -> "pandas.DataFrame":
+        """One row per pose; column names carry their unit (``x_mm``, ``kx_N_per_um``, ``f1_Hz``,
+        ``share_x_drive_joint_percent``, ``vmax_x_m_per_min``, ``drive_load_1_N``); ``admissible`` and
+        ``reasons`` (``"; "``-joined) state the admissibility. The frame is in ``DataFrame.attrs``."""
+        import pandas
+
+        cols: dict[str, Any] = {}
+        for i, ax in enumerate("xyz"):
+            cols[f"{ax}_mm"] = self.poses[:, i] * 1e3
+        for i, ax in enumerate("abc"):
+            cols[f"{ax}_deg"] = np.degrees(self.poses[:, 3 + i])
+        cols["admissible"] = self.admissible
+        cols["reasons"] = ["; ".join(r) for r in self.reasons]
+        for i, ax in enumerate("xyz"):
+            cols[f"k{ax}_N_per_um"] = self.stiffness[:, i] / 1e6
+        for i, ax in enumerate("xyz"):
+            cols[f"kr{ax}_Nm_per_urad"] = self.stiffness[:, 3 + i] / 1e6
+        for j in range(self.frequencies_hz.shape[1]):
+            cols[f"f{j + 1}_Hz"] = self.frequencies_hz[:, j]
+        for d, shares in self.weak_points.items():
+            for label, share in shares.items():
+                cols[f"share_{d}_{label}_percent"] = 100.0 * share
+        cols["transmission_quality"] = self.transmission_quality
+        for j, lab in enumerate(self.velocity_labels):
+            cols[f"vmax_{lab}_m_per_min"] = 60.0 * self.v_max[:, j]
+        for j, lab in enumerate(self.acceleration_labels):
+            cols[f"amax_{lab}_m_per_s2"] = self.a_max[:, j]
+        for j in range(self.drive_loads.shape[1]):
+            cols[f"drive_load_{j + 1}_N"] = self.drive_loads[:, j]
+        df = pandas.DataFrame(cols)
+        df.attrs.update({"machine": self.machine, **self.frame, "tool_length_mm": self.tool_length * 1e3})
+        return df
+
+    def statistics(self) -> dict[str, dict[str, float]]:
+        """Per numeric column of :meth:`to_pandas` (display units, named in the column): min, mean, max and count
+        over the admissible poses."""
+        df = self.to_pandas()
+        ok = df[df["admissible"]].drop(columns=["admissible", "reasons"])
+        return {c: {"min": float(ok[c].min()), "mean": float(ok[c].mean()), "max": float(ok[c].max()),
+                    "count": int(ok[c].count())} for c in ok.columns}
+
+    def plot(self, column: str = "kx_N_per_um", against: str | None = None, path: str | None = None):
+        """A line plot of one :meth:`to_pandas` column over the pose index or over another column (``against``,
+        e.g. ``"z_mm"``); inadmissible poses are left out. Returns the matplotlib ``Figure``; ``path`` also writes a
+        PNG."""
+        from matplotlib.figure import Figure
+
+        df = self.to_pandas()
+        if column not in df.columns or (against is not None and against not in df.columns):
+            raise KeyError(f"expected a column of to_pandas() {list(df.columns)}, found {column!r} / {against!r}")
+        ok = df[df["admissible"]]
+        fig = Figure(figsize=(6.4, 4.0), layout="constrained")
+        ax = fig.add_subplot()
+        ax.plot(ok.index if against is None else ok[against], ok[column], marker="o", ms=3)
+        ax.set_xlabel("pose" if against is None else against)
+        ax.set_ylabel(column)
+        ax.set_title(f"{self.machine} ({self.frame['frame']} frame)")
+        ax.grid(alpha=0.3)
+        if path is not None:
+            fig.savefig(path, dpi=110)
+        return fig
+
+
+def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "machine",
+                    tool_length: float | None = None, n_modes: int = 6,
+                    weak_point_directions: tuple[str, ...] = ("x", "y", "z")) -> PointResults:
+    """:class:`PointResults` at ``poses`` ((6,) or (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad]), chunked
+    by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's); K_U as the machine says
+    (:meth:`StudyMachine.with_` ``neglect_spindle``)."""
+    from pkmstiff.admissibility import evaluate_poses
+    from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
+    from pkmstiff.structure import build_structure
+
+    given = as_poses(np.atleast_2d(np.asarray(poses, float)))
+    x = to_machine_frame(machine, given, frame)
+    neglect = machine.spindle_neglected
+    parts: list[dict[str, Any]] = []
+    for s in range(0, len(x), CHUNK):
+        chunk = x[s:s + CHUNK]
+        adm = evaluate_poses(machine, chunk).admissibility
+        st = build_structure(machine, chunk)
+        comp = tcp_compliance(st, tool_length, neglect)
+        wp = {d: weak_points(st, d, tool_length, neglect) for d in weak_point_directions}
+        k = 0 if st.empty else min(n_modes, st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs))
+        ma = modal_analysis(st, k, shapes=False) if k else None
+        parts.append({
+            "ok": adm.ok, "reasons": [adm.failing(i) for i in range(len(chunk))], "modelled": st.ok,
+            "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, chunk)})
+    ks0 = parts[0]["ks"]
+    comp = np.concatenate([p["comp"] for p in parts])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stiffness = 1.0 / np.diagonal(comp, axis1=1, axis2=2)
+    n_f = max((0 if p["ma"] is None else p["ma"].frequencies_hz.shape[1]) for p in parts)
+    freqs = np.concatenate([np.full((len(p["ok"]), n_f), np.nan) if p["ma"] is None else p["ma"].frequencies_hz
+                            for p in parts])
+    descr = [[p["ma"].description(i, j) for j in range(n_f)] if p["ma"] is not None else ["n/a"] * n_f
+             for p in parts for i in range(len(p["ok"]))]
+    shares = {d: {lab: np.concatenate([p["wp"][d].component_shares[:, j] for p in parts])
+                  for j, lab in enumerate(parts[0]["wp"][d].component_labels)} for d in weak_point_directions}
+    return PointResults(
+        machine=machine.name, frame=frame_metadata(machine, frame), poses=given,
+        tool_length=machine.tool.length if tool_length is None else float(tool_length),
+        admissible=np.concatenate([p["ok"] for p in parts]), reasons=[r for p in parts for r in p["reasons"]],
+        modelled=np.concatenate([p["modelled"] for p in parts]), compliance=comp, stiffness=stiffness,
+        frequencies_hz=freqs, mode_descriptions=descr, weak_points=shares,
+        transmission_quality=np.concatenate([p["ks"].transmission_quality for p in parts]),
+        velocity_labels=list(ks0.velocity_labels), v_max=np.concatenate([p["ks"].v_max for p in parts]),
+        acceleration_labels=list(ks0.acceleration_labels), a_max=np.concatenate([p["ks"].a_max for p in parts]),
+        drive_loads=np.concatenate([p["ks"].drive_loads for p in parts]), notes=list(ks0.notes))
