@@ -22,6 +22,8 @@ _FACADE = {
     "bundled_machines": "pkmstiff.machine",
     "load_machine": "pkmstiff.api", "StudyMachine": "pkmstiff.api", "PointResults": "pkmstiff.api",
     "SectionMap": "pkmstiff.api", "Workspace": "pkmstiff.api", "RotationMap": "pkmstiff.api",
+    "Report": "pkmstiff.api", "Table": "pkmstiff.api", "Figure": "pkmstiff.api", "write_report": "pkmstiff.api",
+    "ComponentState": "pkmstiff.api", "available_quantities": "pkmstiff.api",
     "inverse_kinematics": "pkmstiff.kinematics", "forward_kinematics": "pkmstiff.kinematics",
 }
 
@@ -38,6 +40,7 @@ def __dir__() -> list[str]:
     return sorted(list(globals()) + list(_FACADE))
 
 
-__all__ = ["InputError", "Machine", "MachineFileError", "PkmstiffError", "PointResults", "RotationMap", "SectionMap",
-           "StudyMachine", "UnknownMachineError", "Workspace", "bundled_machines", "forward_kinematics",
-           "inverse_kinematics", "load_machine", "__version__"]
+__all__ = ["ComponentState", "Figure", "InputError", "Machine", "MachineFileError", "PkmstiffError", "PointResults",
+           "Report", "RotationMap", "SectionMap", "StudyMachine", "Table", "UnknownMachineError", "Workspace",
+           "available_quantities", "bundled_machines", "forward_kinematics", "inverse_kinematics", "load_machine",
+           "write_report", "__version__"]

@@ -7,11 +7,28 @@
 
 :class:`StudyMachine` methods: ``point`` (→ :class:`PointResults`, ``to_pandas()``), ``section`` (→
 :class:`SectionMap`, ``to_xarray()``), ``workspace`` (→ :class:`Workspace`), ``rotation_map`` (→ :class:`RotationMap`)
-and ``with_`` (a variant).
+and ``with_`` (a variant). A study writes its report with :class:`Report`, :class:`Table`, :class:`Figure` and
+:func:`write_report` (:mod:`pkmstiff.report`), and evaluates component models with :class:`ComponentState`.
 """
 
+from components import ComponentState
 from pkmstiff.api.machine import StudyMachine, load_machine
 from pkmstiff.api.points import PointResults
 from pkmstiff.api.results import RotationMap, SectionMap, Workspace
 
-__all__ = ["PointResults", "RotationMap", "SectionMap", "StudyMachine", "Workspace", "load_machine"]
+
+def __getattr__(name: str):
+    """The report model and the quantity list, imported on first use (``import pkmstiff.api`` stays light)."""
+    if name in ("Report", "Table", "Figure", "write_report"):
+        import pkmstiff.report as report
+
+        return getattr(report, name)
+    if name == "available_quantities":
+        from pkmstiff.evaluation.quantities import available_quantities
+
+        return available_quantities
+    raise AttributeError(f"module 'pkmstiff.api' has no attribute {name!r}")
+
+
+__all__ = ["ComponentState", "Figure", "PointResults", "Report", "RotationMap", "SectionMap", "StudyMachine", "Table",
+           "Workspace", "available_quantities", "load_machine", "write_report"]

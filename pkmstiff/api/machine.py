@@ -45,6 +45,14 @@ class StudyMachine(Machine):
         """True if the platform-spindle stiffness K_U is left out (platform and spindle one rigid body)."""
         return spindle_neglected(self)
 
+    def components_by_role(self) -> Any:
+        """The component instances by role (``.drive[i]``, ``.strut[i]``, ``.drive_joint[i]``, ``.platform``, ...;
+        None where a role is rigid or absent); each has the methods of :mod:`components` (``stiffness(state)``,
+        ...)."""
+        from pkmstiff.machine.roles import machine_components
+
+        return machine_components(self)
+
     def with_(self, components: Mapping[str, Mapping[str, Any]] | None = None, options: Sequence[str] = (),
               overrides: Mapping[str, Any] | None = None, neglect_spindle: bool | None = None) -> "StudyMachine":
         """A variant of this machine, validated like a machine file.

@@ -59,18 +59,24 @@ class SectionMap:
         return self.result.ok
 
     @property
-    def u(self) -> np.ndarray:
-        """Raster values [m] along the plane's first axis (``"y"`` for a YZ plane), in the result's frame."""
-        return self.result.plane.u_values
+    def plane(self) -> "Plane":
+        """The raster: ``u_values``/``v_values`` [m] along the plane's axes ``u_name``/``v_name`` (in the result's
+        frame), ``points()``, ``cell_area`` [m²]."""
+        return self.result.plane
 
     @property
-    def v(self) -> np.ndarray:
-        """Raster values [m] along the plane's second axis."""
-        return self.result.plane.v_values
+    def values(self) -> dict[str, np.ndarray]:
+        """Quantity name -> (nv, nu) values in SI (``si_units``), NaN where inadmissible."""
+        return self.result.values
 
-    def values(self, name: str, display: bool = True) -> np.ndarray:
-        """(nv, nu) values of quantity ``name`` in its display unit (``units[name]``) or SI (``display=False``)."""
-        return self.result.display(name) if display else self.result.values[name]
+    def display(self, name: str) -> np.ndarray:
+        """(nv, nu) values of quantity ``name`` in its display unit (``units[name]``)."""
+        return self.result.display(name)
+
+    @property
+    def si_units(self) -> dict[str, str]:
+        """SI unit of every quantity."""
+        return dict(self.result.si_units)
 
     @property
     def units(self) -> dict[str, str]:
@@ -112,7 +118,7 @@ class SectionMap:
         dims = (r.plane.v_name, r.plane.u_name)
         data: dict[str, Any] = {}
         for name in r.values:
-            data[name] = (dims, self.values(name, display=not si),
+            data[name] = (dims, r.values[name] if si else r.display(name),
                           {"units": r.si_units[name] if si else r.units[name], "long_name": r.labels[name]})
         data["admissible"] = (dims, np.asarray(r.ok, bool), {"long_name": "pose admissible (every check passed)"})
         data["reasons"] = (dims, np.asarray(r.reasons), {
