@@ -77,14 +77,33 @@ class StudyMachine(Machine):
         return StudyMachine.of(_neglect_spindle(model, neglect))
 
     def point(self, poses: ArrayLike, frame: str = "machine", tool_length: float | None = None, n_modes: int = 6,
-              weak_point_directions: Sequence[str] = ("x", "y", "z")) -> "PointResults":
-        """Stiffness at the TCP, natural frequencies, weak points, kinetostatics and admissibility at one pose (6,)
-        or many poses (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad]. ``tool_length`` [m] (None: the
-        machine's). Evaluated in chunks of bounded memory."""
+              weak_point_directions: Sequence[str] = ("x", "y", "z"), quantities: Sequence[str] = (),
+              neglect_spindle: bool | None = None) -> "PointResults":
+        """Stiffness at the TCP, natural frequencies with their energy shares, weak points, kinetostatics and
+        admissibility at one pose (6,) or many poses (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad].
+
+        ``tool_length`` [m] (None: the machine's); ``quantities``: further registered quantities
+        (:func:`pkmstiff.evaluation.quantities.available_quantities`, e.g. ``"tilt_drive_1"``) at the admissible
+        poses; ``neglect_spindle``: load the TCP with K_U rigid (None: as the machine says, see :meth:`with_`).
+        Evaluated in chunks of bounded memory.
+        """
         from pkmstiff.api.points import evaluate_points
 
         return evaluate_points(self, poses, frame=check_frame(frame), tool_length=tool_length, n_modes=n_modes,
-                               weak_point_directions=tuple(weak_point_directions))
+                               weak_point_directions=tuple(weak_point_directions), quantities=tuple(quantities),
+                               neglect_spindle=self.spindle_neglected if neglect_spindle is None else neglect_spindle)
+
+    def plot_mode_shape(self, pose: ArrayLike, path: str | Path, mode: int = 1, frame: str = "machine",
+                        amplitude: float = 0.08, animate: bool = False, frames: int = 16) -> Path:
+        """PNG (or with ``animate`` an animated GIF of ``frames`` frames) of mode ``mode`` at ``pose`` (6,) in
+        ``frame`` over the undeformed machine, displacements scaled to ``amplitude`` [m] peak."""
+        from pkmstiff.machine.frames import to_machine_frame
+        from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
+
+        x = to_machine_frame(self, pose, check_frame(frame))
+        if animate:
+            return animate_mode_shape(self, x, path, mode=mode, amplitude=amplitude, frames=frames)
+        return plot_mode_shape(self, x, path, mode=mode, amplitude=amplitude)
 
     def section(self, plane: str = "yz", at: float = 0.0, step: float = 0.01,
                 quantities: Sequence[str] = DEFAULT_SECTION_QUANTITIES, *, u_range: tuple[float, float] | None = None,

@@ -32,7 +32,9 @@ class PointResults:
 
     ``stiffness`` (N, 6): k_x, k_y, k_z [N/m], k_rx, k_ry, k_rz [N·m/rad] (1/C_jj of the TCP compliance);
     ``weak_points[direction][component]`` (N,): share of the TCP compliance for a unit force along ``direction``
-    (fraction, sums to 1 over the components); ``v_max`` [m/s] and ``a_max`` [m/s²] (N, directions) with their
+    (fraction, sums to 1 over the components); ``mode_kinetic[body]`` and ``mode_strain[component]`` (N, n_modes):
+    each mode's kinetic and strain energy shares (fractions); ``quantities[name]`` (N,): the requested registered
+    quantities in SI (display unit in ``units``); ``v_max`` [m/s] and ``a_max`` [m/s²] (N, directions) with their
     labels; ``drive_loads`` (N, chains) static drive loads [N]. ``poses`` are in ``frame`` (as given).
     """
 
@@ -47,6 +49,8 @@ class PointResults:
     stiffness: np.ndarray  # (N, 6) N/m, N m/rad
     frequencies_hz: np.ndarray  # (N, n_modes) Hz
     mode_descriptions: list[list[str]]
+    mode_kinetic: dict[str, np.ndarray]  # body -> (N, n_modes) share of the mode's kinetic energy (fraction)
+    mode_strain: dict[str, np.ndarray]  # component -> (N, n_modes) share of the mode's strain energy (fraction)
     weak_points: dict[str, dict[str, np.ndarray]]
     transmission_quality: np.ndarray  # (N,)
     velocity_labels: list[str]
@@ -54,6 +58,8 @@ class PointResults:
     acceleration_labels: list[str]
     a_max: np.ndarray  # (N, len(acceleration_labels)) m/s^2
     drive_loads: np.ndarray  # (N, n_chains) N
+    quantities: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (N,) SI, NaN where inadmissible
+    units: dict[str, str] = field(default_factory=dict)  # name -> display unit of ``quantities``
     notes: list[str] = field(default_factory=list)
 
     def __len__(self) -> int:
@@ -88,6 +94,11 @@ class PointResults:
             cols[f"amax_{lab}_m_per_s2"] = self.a_max[:, j]
         for j in range(self.drive_loads.shape[1]):
             cols[f"drive_load_{j + 1}_N"] = self.drive_loads[:, j]
+        from pkmstiff.evaluation.quantities import get_quantity
+
+        for name, vals in self.quantities.items():
+            unit = self.units[name].replace("/", "_per_")
+            cols[name if unit == "1" else f"{name}_{unit}"] = get_quantity(name).to_display(vals)
         df = pandas.DataFrame(cols)
         df.attrs.update({"machine": self.machine, **self.frame, "tool_length_mm": self.tool_length * 1e3})
         return df
@@ -122,23 +133,41 @@ class PointResults:
         return fig
 
 
+def _quantities(machine: "StudyMachine", ev: Any, names: tuple[str, ...], tool_length: float | None,
+                neglect: bool) -> dict[str, np.ndarray]:
+    """Registered quantities (SI) at the admissible poses of ``ev``, NaN elsewhere (as on a section)."""
+    from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities
+
+    out = {n: np.full(len(ev.poses), np.nan) for n in names}
+    if names and ev.ok.any():
+        sub = ev if ev.ok.all() else ev.subset(ev.ok)
+        vals = evaluate_quantities(EvalContext(machine, sub, tool_length, {"neglect_spindle": neglect}), list(names))
+        for n in names:
+            out[n][ev.ok] = np.asarray(vals[n], float)
+    return out
+
+
 def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "machine",
                     tool_length: float | None = None, n_modes: int = 6,
-                    weak_point_directions: tuple[str, ...] = ("x", "y", "z")) -> PointResults:
+                    weak_point_directions: tuple[str, ...] = ("x", "y", "z"), quantities: tuple[str, ...] = (),
+                    neglect_spindle: bool = False) -> PointResults:
     """:class:`PointResults` at ``poses`` ((6,) or (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad]), chunked
-    by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's); K_U as the machine says
-    (:meth:`StudyMachine.with_` ``neglect_spindle``)."""
+    by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's); ``neglect_spindle``: the TCP compliance with
+    K_U rigid (:func:`~pkmstiff.analysis.tcp_compliance`)."""
     from pkmstiff.admissibility import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
+    from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.structure import build_structure
 
+    units = {n: get_quantity(n).unit for n in quantities}  # unknown names fail before any work
     given = as_poses(np.atleast_2d(np.asarray(poses, float)))
     x = to_machine_frame(machine, given, frame)
-    neglect = machine.spindle_neglected
+    neglect = neglect_spindle
     parts: list[dict[str, Any]] = []
     for s in range(0, len(x), CHUNK):
         chunk = x[s:s + CHUNK]
-        adm = evaluate_poses(machine, chunk).admissibility
+        ev = evaluate_poses(machine, chunk)
+        adm = ev.admissibility
         st = build_structure(machine, chunk)
         comp = tcp_compliance(st, tool_length, neglect)
         wp = {d: weak_points(st, d, tool_length, neglect) for d in weak_point_directions}
@@ -146,7 +175,8 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         ma = modal_analysis(st, k, shapes=False) if k else None
         parts.append({
             "ok": adm.ok, "reasons": [adm.failing(i) for i in range(len(chunk))], "modelled": st.ok,
-            "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, chunk)})
+            "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, chunk),
+            "q": _quantities(machine, ev, quantities, tool_length, neglect)})
     ks0 = parts[0]["ks"]
     comp = np.concatenate([p["comp"] for p in parts])
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -156,6 +186,14 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
                             for p in parts])
     descr = [[p["ma"].description(i, j) for j in range(n_f)] if p["ma"] is not None else ["n/a"] * n_f
              for p in parts for i in range(len(p["ok"]))]
+    def energy(labels: str, values: str) -> dict[str, np.ndarray]:
+        first = next((p["ma"] for p in parts if p["ma"] is not None), None)
+        if first is None:
+            return {}
+        return {lab: np.concatenate([np.full((len(p["ok"]), n_f), np.nan) if p["ma"] is None
+                                     else getattr(p["ma"], values)[:, :, j] for p in parts])
+                for j, lab in enumerate(getattr(first, labels))}
+
     shares = {d: {lab: np.concatenate([p["wp"][d].component_shares[:, j] for p in parts])
                   for j, lab in enumerate(parts[0]["wp"][d].component_labels)} for d in weak_point_directions}
     return PointResults(
@@ -164,7 +202,10 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         admissible=np.concatenate([p["ok"] for p in parts]), reasons=[r for p in parts for r in p["reasons"]],
         modelled=np.concatenate([p["modelled"] for p in parts]), compliance=comp, stiffness=stiffness,
         frequencies_hz=freqs, mode_descriptions=descr, weak_points=shares,
+        mode_kinetic=energy("body_labels", "kinetic"), mode_strain=energy("component_labels", "component_strain"),
         transmission_quality=np.concatenate([p["ks"].transmission_quality for p in parts]),
         velocity_labels=list(ks0.velocity_labels), v_max=np.concatenate([p["ks"].v_max for p in parts]),
         acceleration_labels=list(ks0.acceleration_labels), a_max=np.concatenate([p["ks"].a_max for p in parts]),
-        drive_loads=np.concatenate([p["ks"].drive_loads for p in parts]), notes=list(ks0.notes))
+        drive_loads=np.concatenate([p["ks"].drive_loads for p in parts]),
+        quantities={n: np.concatenate([p["q"][n] for p in parts]) for n in quantities}, units=units,
+        notes=list(ks0.notes))
