@@ -23,7 +23,7 @@ _FACADE = {
     "load_machine": "pkmstiff.api", "StudyMachine": "pkmstiff.api", "PointResults": "pkmstiff.api",
     "SectionMap": "pkmstiff.api", "Workspace": "pkmstiff.api", "RotationMap": "pkmstiff.api",
     "Report": "pkmstiff.api", "Table": "pkmstiff.api", "Figure": "pkmstiff.api", "write_report": "pkmstiff.api",
-    "ComponentState": "pkmstiff.api", "available_quantities": "pkmstiff.api",
+    "ComponentState": "pkmstiff.api", "available_quantities": "pkmstiff.api", "ALL_CHECKS": "pkmstiff.api",
     "inverse_kinematics": "pkmstiff.kinematics", "forward_kinematics": "pkmstiff.kinematics",
 }
 
@@ -40,7 +40,7 @@ def __dir__() -> list[str]:
     return sorted(list(globals()) + list(_FACADE))
 
 
-__all__ = ["ComponentState", "Figure", "InputError", "Machine", "MachineFileError", "PkmstiffError", "PointResults",
+__all__ = ["ALL_CHECKS", "ComponentState", "Figure", "InputError", "Machine", "MachineFileError", "PkmstiffError", "PointResults",
            "Report", "RotationMap", "SectionMap", "StudyMachine", "Table", "UnknownMachineError", "Workspace",
            "available_quantities", "bundled_machines", "forward_kinematics", "inverse_kinematics", "load_machine",
            "write_report", "__version__"]

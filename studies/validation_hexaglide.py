@@ -33,17 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study_common import Stopwatch, machine_assumptions, parse_args, write_outputs  # noqa: E402
 
 import pkmstiff  # noqa: E402
-import pkmstiff.admissibility.checks as adm  # noqa: E402
-from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
-from pkmstiff.analysis import evaluate_structure  # noqa: E402
-from pkmstiff.evaluation.requests import SectionRequest  # noqa: E402
-from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
-from pkmstiff.machine.frames import frame_text, neglect_spindle, to_machine_frame  # noqa: E402
-from pkmstiff.machine.model import Machine  # noqa: E402
-from pkmstiff.machine.variants import machine_with  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.structure import StructureOptions  # noqa: E402
-from pkmstiff.workspace.requests import WorkspaceRequest  # noqa: E402
+from pkmstiff import Figure, Report, SectionMap, Table  # noqa: E402
 
 #: verdict threshold: |deviation| <= 5 % agrees (issue 13)
 AGREE_PERCENT = 5.0
@@ -78,7 +68,7 @@ LABEL_51 = {"U": ("transmission quality U", "1"), "kx": ("x-stiffness (tool 150 
             "vmax_y": ("y-velocity", "m/min")}
 TOOL_51 = 0.150  # m
 STRUT_SHARES = (0.0, 0.5, 1.0)  # fraction of each strut's mass at the drive joint (unpublished)
-NO_PLATFORM_CHECK = tuple(c for c in adm.ALL_CHECKS if c != "platform_collision")
+NO_PLATFORM_CHECK = tuple(c for c in pkmstiff.ALL_CHECKS if c != "platform_collision")
 
 # YZ plane at x = 0 in the report frame: covers the admissible region of all three configurations (m)
 Y_RANGE = (-1.10, 1.10)
@@ -177,18 +167,17 @@ def point_results() -> dict[str, Any]:
     out: dict[str, Any] = {}
     for joints, opts in JOINT_OPTIONS.items():
         m = pkmstiff.load_machine("hexaglide", opts)
-        x = to_machine_frame(m, np.array([POSE_57]), "report")
         k = {}
-        for key, mach, tl in (("K_U neglected, tool 0", neglect_spindle(m), 0.0), ("K_U kept, tool 0", m, 0.0),
-                              ("K_U kept, tool 150 mm", m, TOOL_51)):
-            k[key] = (evaluate_structure(mach, x, tool_length=tl, n_modes=0).stiffness[0, :3] / 1e6).tolist()
+        for key, mach, tl in (("K_U neglected, tool 0", m.with_(neglect_spindle=True), 0.0),
+                              ("K_U kept, tool 0", m, 0.0), ("K_U kept, tool 150 mm", m, TOOL_51)):
+            p = mach.point(POSE_57, frame="report", tool_length=tl, n_modes=0)
+            k[key] = (p.stiffness[0, :3] / 1e6).tolist()
         f = {}
         for share in STRUT_SHARES:
-            r = evaluate_structure(m, x, tool_length=0.0, n_modes=3,
-                                   options=StructureOptions(strut_mass_to_drive=share))
-            f[share] = r.frequencies_hz[0].tolist()
+            p = m.point(POSE_57, frame="report", tool_length=0.0, n_modes=3, structure={"strut_mass_to_drive": share})
+            f[share] = p.frequencies_hz[0].tolist()
         out[joints] = {"stiffness_N_per_um": k, "frequencies_hz_by_strut_share": f,
-                       "pose_machine_frame_m": x[0, :3].tolist()}
+                       "pose_machine_frame_m": m.to_machine_frame(POSE_57, "report")[:3].tolist()}
     return out
 
 
@@ -218,21 +207,17 @@ def variant_results(step: float, eps: float) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for label, name in VARIANTS:
         m = pkmstiff.load_machine(name)
-        req = SectionRequest("yz", 0.0, Y_RANGE, Z_RANGE, step, ("U", "kx", "vmax_y"), tool_length=TOOL_51,
-                             frame="report")
-        res = req.evaluate(m)
-        plane = axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, step)
-        nohull = evaluate_section(m, plane, ["U", "kx", "vmax_y"], tool_length=TOOL_51, frame="report",
-                                  checks=NO_PLATFORM_CHECK, progress=False)
+        window = {"u_range": Y_RANGE, "v_range": Z_RANGE, "tool_length": TOOL_51, "frame": "report"}
+        res = m.section("yz", 0.0, step, ["U", "kx", "vmax_y"], **window)
+        nohull = m.section("yz", 0.0, step, ["U", "kx", "vmax_y"], checks=NO_PLATFORM_CHECK, **window)
         # K_U's rotational entries have no printed unit (docs/user-guide/machines.md note 3): N*m/urad (bundled) vs N*mm/urad
-        mku = machine_with(name, {"components.platform_stiffness.rotational_unit": "N*mm/urad"})
-        ku = SectionRequest("yz", 0.0, Y_RANGE, Z_RANGE, step, ("kx",), tool_length=TOOL_51,
-                            frame="report").evaluate(mku)
-        ws = WorkspaceRequest(eps, frame="report").evaluate(m)
+        mku = m.with_(overrides={"components.platform_stiffness.rotational_unit": "N*mm/urad"})
+        ku = mku.section("yz", 0.0, step, ["kx"], **window)
+        ws = m.workspace(eps, frame="report", methods=["surface_nets"])
         out[label] = {"stats": res.statistics(), "stats_no_platform_check": nohull.statistics(),
                       "stats_ku_nmm": ku.statistics(),
                       "area_m2": float(res.ok.sum()) * res.plane.cell_area, "volume_m3": ws.volume,
-                      "workspace": ws.summary()}
+                      "workspace": ws.statistics()}
     return out
 
 
@@ -263,11 +248,10 @@ def named_points() -> list[dict[str, Any]]:
     out = []
     for label, name, pos in NAMED_POINTS:
         m = pkmstiff.load_machine(name)
-        x = to_machine_frame(m, np.array([[*pos, 0.0, 0.0, 0.0]]), "report")
-        ev = evaluate_poses(m, x)
+        ok, failing = m.admissibility([*pos, 0.0, 0.0, 0.0], frame="report")
         out.append({"point": label, "machine": name, "report_frame_mm": [1e3 * v for v in pos],
-                    "machine_frame_mm": (x[0, :3] * 1e3).tolist(), "admissible": bool(ev.ok[0]),
-                    "failing": ev.admissibility.failing(0)})
+                    "machine_frame_mm": (m.to_machine_frame(pos, "report") * 1e3).tolist(), "admissible": bool(ok[0]),
+                    "failing": failing[0]})
     return out
 
 
@@ -284,31 +268,32 @@ CAUSES = (("UNREACHABLE", "strut length (unreachable)", "#1f77b4"),
           ("FRAME", "frame limit", "#bcbd22"))
 
 
-def boundary_causes(res: SectionResult) -> tuple[np.ndarray, np.ndarray]:
+def boundary_causes(res: SectionMap) -> tuple[np.ndarray, np.ndarray]:
     """(boundary mask, cause index into :data:`CAUSES` or -1) on a section: a boundary point is an admissible raster
     point with an inadmissible 4-neighbour; its cause is the check failing at most of those neighbours."""
-    ok, reasons = res.ok, res.reasons.astype(np.int64)
+    ok = res.ok
+    fails = [res.fails(name) for name, _, _ in CAUSES]
     nv, nu = ok.shape
     counts = np.zeros((len(CAUSES), nv, nu), int)
     boundary = np.zeros_like(ok)
     for dv, du in ((1, 0), (-1, 0), (0, 1), (0, -1)):
         nb_ok = np.ones_like(ok)
-        nb_r = np.zeros_like(reasons)
         sv = slice(max(dv, 0), nv + min(dv, 0))
         su = slice(max(du, 0), nu + min(du, 0))
         tv = slice(max(-dv, 0), nv + min(-dv, 0))
         tu = slice(max(-du, 0), nu + min(-du, 0))
         nb_ok[tv, tu] = ok[sv, su]
-        nb_r[tv, tu] = reasons[sv, su]
         edge = ok & ~nb_ok
         boundary |= edge
-        for k, (name, _, _) in enumerate(CAUSES):
-            counts[k] += edge & ((nb_r & int(adm.Reason[name])) != 0)
+        for k, fail in enumerate(fails):
+            nb_fail = np.zeros_like(ok)
+            nb_fail[tv, tu] = fail[sv, su]
+            counts[k] += edge & nb_fail
     cause = np.where(boundary & (counts.max(axis=0) > 0), counts.argmax(axis=0), -1)
     return boundary, cause
 
 
-def cause_summary(res: SectionResult, boundary: np.ndarray, cause: np.ndarray, axis: int) -> dict[str, Any]:
+def cause_summary(res: SectionMap, boundary: np.ndarray, cause: np.ndarray, axis: int) -> dict[str, Any]:
     """Boundary points per cause, split into the upper boundary (highest admissible z per column) and the rest."""
     vals = res.plane.u_values * 1e3
     nv, nu = res.ok.shape
@@ -343,7 +328,7 @@ def band_causes(ub: list[tuple[float, str, float]], lo: float, hi: float) -> dic
     return out
 
 
-def plot_cause_map(res: SectionResult, boundary: np.ndarray, cause: np.ndarray, path: Path, title: str) -> Path:
+def plot_cause_map(res: SectionMap, boundary: np.ndarray, cause: np.ndarray, path: Path, title: str) -> Path:
     """Admissible area (grey), boundary points coloured by their limiting check (report frame, mm)."""
     from matplotlib.figure import Figure as MplFigure
     from matplotlib.lines import Line2D
@@ -381,7 +366,7 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> 
     info: dict[str, Any] = {}
     figs: list[Figure] = []
     for key, (kind, at, ur, vr) in planes.items():
-        res = SectionRequest(kind, at, ur, vr, step, (), frame="report").evaluate(m)
+        res = m.section(kind, at, step, [], u_range=ur, v_range=vr, frame="report")
         b, c = boundary_causes(res)
         s = cause_summary(res, b, c, 0)
         s["admissible_area_m2"] = float(res.ok.sum()) * res.plane.cell_area
@@ -392,13 +377,13 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> 
             s["upper boundary causes, y < -10 mm"] = band_causes(ub, -1e9, -10.0 - 1e-9)
             s["upper boundary causes, y > 180 mm"] = band_causes(ub, 180.0 + 1e-9, 1e9)
             # without the drive-load check: what limits the middle band then
-            nodl = evaluate_section(m, res.plane, [], frame="report", progress=False,
-                                    checks=tuple(x for x in adm.ALL_CHECKS if x != "drive_load"))
+            nodl = m.section(kind, at, step, [], u_range=ur, v_range=vr, frame="report",
+                             checks=tuple(x for x in pkmstiff.ALL_CHECKS if x != "drive_load"))
             b2, c2 = boundary_causes(nodl)
             s2 = cause_summary(nodl, b2, c2, 0)
             s["without drive-load check: upper boundary causes, -10 <= y <= 180 mm"] = band_causes(
                 s2["upper boundary by position (u_mm, cause, z_mm)"], -10.0, 180.0)
-            hull = evaluate_section(m, res.plane, [], frame="report", progress=False, checks=NO_PLATFORM_CHECK)
+            hull = m.section(kind, at, step, [], u_range=ur, v_range=vr, frame="report", checks=NO_PLATFORM_CHECK)
             s["share of the area excluded by the strut-platform check (percent of the admissible area without it)"] = (
                 100.0 * (1.0 - res.ok.sum() / max(hull.ok.sum(), 1)))
         info[key] = s
@@ -410,15 +395,13 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> 
             figs.append(Figure(p, f"Boundary-cause map, {kind.upper()} section at {where} (report frame): grey = "
                                   "admissible; each boundary point coloured by the check failing at most of its "
                                   "inadmissible neighbours."))
-    ws = WorkspaceRequest(shape_eps, frame="report").evaluate(m)
-    lo, hi = ws.summary()["bounding_box_mm"]["min"], ws.summary()["bounding_box_mm"]["max"]
+    ws = m.workspace(shape_eps, frame="report", methods=["surface_nets"])
+    lo, hi = ws.statistics()["bounding_box_mm"]["min"], ws.statistics()["bounding_box_mm"]["max"]
     info["workspace"] = {"volume_m3": ws.volume, "bounding_box_mm_report_frame": {"min": lo, "max": hi},
                          "resolution_mm": shape_eps * 1e3}
     if figures:
         try:
-            from pkmstiff.plots.workspace import plot_workspace
-
-            p = plot_workspace(ws, m, out / "hexaglide_workspace.png")
+            p = ws.plot(out / "hexaglide_workspace.png")
             figs.append(Figure(p, f"Constant-orientation workspace of the original Hexaglide at a = b = c = 0 "
                                   f"(resolution {shape_eps * 1e3:g} mm), machine at a central pose."))
         except Exception as exc:  # pragma: no cover - rendering back-end missing
@@ -454,7 +437,7 @@ def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str
     rep.summary = ("Published values side by side with the toolkit's, absolute and in %, with a verdict (agrees: "
                    f"|deviation| <= {AGREE_PERCENT:g} %; within sensitivity: the published value lies inside our "
                    "range over an unpublished modelling choice) and a one-line explanation for every deviation "
-                   "above 5 %. Nothing is fitted. Positions in the " + frame_text(m0, "report") + ".")
+                   "above 5 %. Nothing is fitted. Positions in the " + m0.frame_description("report") + ".")
     sec = rep.section("Comparison table", "Tables 5.7 (static stiffness) and 5.8 (eigenfrequencies) at x = y = 0, "
                       "z = -1000 mm, a = b = c = 0 (report frame), tool length 0 with K_U neglected (Cobet 4.2.4); "
                       "frequencies with half of each strut's mass at the drive. Table 5.1 on the Y-Z plane at x = 0 "

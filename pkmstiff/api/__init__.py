@@ -23,6 +23,10 @@ def __getattr__(name: str):
         import pkmstiff.report as report
 
         return getattr(report, name)
+    if name == "ALL_CHECKS":
+        from pkmstiff.admissibility.checks import ALL_CHECKS
+
+        return ALL_CHECKS
     if name == "available_quantities":
         from pkmstiff.evaluation.quantities import available_quantities
 
@@ -30,5 +34,5 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'pkmstiff.api' has no attribute {name!r}")
 
 
-__all__ = ["ComponentState", "Figure", "PointResults", "Report", "RotationMap", "SectionMap", "StudyMachine", "Table",
+__all__ = ["ALL_CHECKS", "ComponentState", "Figure", "PointResults", "Report", "RotationMap", "SectionMap", "StudyMachine", "Table",
            "Workspace", "available_quantities", "load_machine", "write_report"]

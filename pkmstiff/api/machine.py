@@ -78,20 +78,62 @@ class StudyMachine(Machine):
 
     def point(self, poses: ArrayLike, frame: str = "machine", tool_length: float | None = None, n_modes: int = 6,
               weak_point_directions: Sequence[str] = ("x", "y", "z"), quantities: Sequence[str] = (),
-              neglect_spindle: bool | None = None) -> "PointResults":
+              neglect_spindle: bool | None = None, structure: Mapping[str, Any] | None = None,
+              kinetostatics: bool = True) -> "PointResults":
         """Stiffness at the TCP, natural frequencies with their energy shares, weak points, kinetostatics and
         admissibility at one pose (6,) or many poses (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad].
 
         ``tool_length`` [m] (None: the machine's); ``quantities``: further registered quantities
         (:func:`pkmstiff.evaluation.quantities.available_quantities`, e.g. ``"tilt_drive_1"``) at the admissible
-        poses; ``neglect_spindle``: load the TCP with K_U rigid (None: as the machine says, see :meth:`with_`).
-        Evaluated in chunks of bounded memory.
+        poses; ``neglect_spindle``: load the TCP with K_U rigid (None: as the machine says, see :meth:`with_`);
+        ``structure``: modelling choices of the structure model (fields of
+        :class:`pkmstiff.structure.StructureOptions`, e.g. ``{"strut_mass_to_drive": 0.5}``). Evaluated in chunks
+        of bounded memory. ``n_modes=0``, ``weak_point_directions=()`` and ``kinetostatics=False`` leave those analyses
+        out (for fast stiffness-only batches).
         """
         from pkmstiff.api.points import evaluate_points
 
         return evaluate_points(self, poses, frame=check_frame(frame), tool_length=tool_length, n_modes=n_modes,
                                weak_point_directions=tuple(weak_point_directions), quantities=tuple(quantities),
-                               neglect_spindle=self.spindle_neglected if neglect_spindle is None else neglect_spindle)
+                               neglect_spindle=self.spindle_neglected if neglect_spindle is None else neglect_spindle,
+                               structure=dict(structure or {}), with_kinetostatics=kinetostatics)
+
+    def frame_description(self, frame: str) -> str:
+        """One line naming ``frame`` and its origin, e.g. ``report frame (origin 0, 400, 0 mm in the machine frame:
+        middle guide)``."""
+        from pkmstiff.machine.frames import frame_text
+
+        return frame_text(self, check_frame(frame))
+
+    def to_machine_frame(self, positions: ArrayLike, frame: str) -> np.ndarray:
+        """Positions (..., 3) or poses (..., 6) given in ``frame`` → the same in the machine frame [m]."""
+        from pkmstiff.machine.frames import to_machine_frame
+
+        return to_machine_frame(self, positions, check_frame(frame))
+
+    def admissibility(self, poses: ArrayLike, frame: str = "machine", checks: Sequence[str] | None = None
+                      ) -> tuple[np.ndarray, list[list[str]]]:
+        """Admissibility only (no structure model): (N,) bool and, per pose, the failing checks, for poses (6,) or
+        (N, 6) in ``frame``; ``checks`` as in :meth:`section`."""
+        from pkmstiff.admissibility import evaluate_poses
+        from pkmstiff.admissibility.checks import ALL_CHECKS
+
+        x = self.to_machine_frame(np.atleast_2d(np.asarray(poses, float)), frame)
+        adm = evaluate_poses(self, x, checks=ALL_CHECKS if checks is None else tuple(checks)).admissibility
+        return np.asarray(adm.ok, bool), [adm.failing(i) for i in range(len(x))]
+
+    def orientation_map(self, point: ArrayLike, direction: str = "+a",
+                        u_values: ArrayLike = np.radians(np.arange(-30.0, 30.1, 2.0)),
+                        v_values: ArrayLike = np.radians(np.arange(-60.0, 60.1, 4.0)), frame: str = "machine",
+                        increment: float = np.radians(1.0), max_angle: float = np.radians(90.0)) -> Any:
+        """The rotational workspace at ``point`` (x, y, z [m] in ``frame``; Cobet §7.4): the largest admissible
+        angle [rad] in ``direction`` (``"+a"``: over u = b, v = c; ``"+b"``: over u = a, v = c; raster values in
+        rad). Returns :class:`pkmstiff.workspace.rotation.RotationMapResult` (``.angles[direction]`` (nv, nu) rad,
+        NaN where the base orientation is inadmissible; ``.summary()`` with units)."""
+        from pkmstiff.workspace.rotation import rotational_workspace_map
+
+        return rotational_workspace_map(self, self.to_machine_frame(point, frame), direction, u_values=u_values,
+                                        v_values=v_values, increment=increment, max_angle=max_angle)
 
     def plot_mode_shape(self, pose: ArrayLike, path: str | Path, mode: int = 1, frame: str = "machine",
                         amplitude: float = 0.08, animate: bool = False, frames: int = 16) -> Path:
@@ -108,15 +150,17 @@ class StudyMachine(Machine):
     def section(self, plane: str = "yz", at: float = 0.0, step: float = 0.01,
                 quantities: Sequence[str] = DEFAULT_SECTION_QUANTITIES, *, u_range: tuple[float, float] | None = None,
                 v_range: tuple[float, float] | None = None, orientation: Iterable[float] = (0.0, 0.0, 0.0),
-                tool_length: float | None = None, frame: str = "machine", n_jobs: int = 1,
-                progress: bool | None = False) -> "SectionMap":
+                tool_length: float | None = None, frame: str = "machine", checks: Sequence[str] | None = None,
+                n_jobs: int = 1, progress: bool | None = False) -> "SectionMap":
         """Quantities (:func:`pkmstiff.evaluation.quantities.available_quantities`) on the axis plane ``plane``
         (``"yz"``, ``"xz"``, ``"xy"``) at ``at`` [m] along its normal, raster ``step`` [m], masked by admissibility.
 
         ``u_range``/``v_range`` [m] bound the window along the plane's two axes (in ``frame``); omitted, the window
         is fitted to the workspace on the plane (as ``pkmstiff section`` does). ``orientation`` (a, b, c) [rad]
-        is fixed over the plane; ``tool_length`` [m] (None: the machine's).
+        is fixed over the plane; ``tool_length`` [m] (None: the machine's); ``checks``: the admissibility checks
+        (None: all, :data:`pkmstiff.ALL_CHECKS`).
         """
+        from pkmstiff.admissibility.checks import ALL_CHECKS
         from pkmstiff.api.results import SectionMap
         from pkmstiff.evaluation.sections import axis_plane, evaluate_section
 
@@ -130,23 +174,32 @@ class StudyMachine(Machine):
             v_range = fitted[1] if v_range is None else v_range
         res = evaluate_section(self, axis_plane(kind, at, u_range, v_range, step), list(quantities),
                                orientation=ori, tool_length=tool_length, n_jobs=n_jobs, progress=progress,
-                               frame=check_frame(frame))
+                               frame=check_frame(frame), checks=ALL_CHECKS if checks is None else tuple(checks))
         return SectionMap(res)
 
     def workspace(self, resolution: float = 0.025, orientation: Iterable[float] = (0.0, 0.0, 0.0), *,
                   box: tuple[ArrayLike, ArrayLike] | None = None, requirements: Sequence[str] = (),
-                  methods: Sequence[str] = ("surface_nets",), frame: str = "machine",
-                  progress: bool = False) -> "Workspace":
+                  checks: Sequence[str] | None = None, methods: Sequence[str] | None = None,
+                  frame: str = "machine", fit_box: bool = False, progress: bool = False) -> "Workspace":
         """The constant-orientation workspace by the modified octree (Cobet §7.3): boundary within ``resolution``
-        [m], volume [m³]. ``box`` = (lo, hi) [m] in ``frame`` (None: the chains' reach box); ``requirements`` as
-        ``pkmstiff workspace --require`` (e.g. ``"kx >= 5 N/um"``)."""
+        [m], volumes [m³]. ``box`` = (lo, hi) [m] in ``frame`` (None: the chains' reach box); ``requirements`` as
+        ``pkmstiff workspace --require`` (e.g. ``"kx >= 5 N/um"``); ``checks`` as in :meth:`section`; ``methods``:
+        volume methods (None: all of :data:`pkmstiff.workspace.volume.DEFAULT_METHODS`); ``fit_box``: grow ``box``
+        about its centre to extents resolution·2^k, so that halving reaches exactly ``resolution`` and boxes of
+        successive resolutions are nested (the reach box is always fitted)."""
+        from pkmstiff.admissibility.checks import ALL_CHECKS
         from pkmstiff.api.results import Workspace
         from pkmstiff.workspace.requests import WorkspaceRequest
+        from pkmstiff.workspace.translational import fit_box as fitted
+        from pkmstiff.workspace.volume import DEFAULT_METHODS
 
+        if box is not None and fit_box:
+            box = fitted(box[0], box[1], resolution)
         req = WorkspaceRequest(resolution=resolution, box=box, requirements=tuple(requirements),
-                               orientation=tuple(float(v) for v in orientation), methods=tuple(methods),
-                               frame=check_frame(frame))
-        return Workspace(req.evaluate(self, progress=progress), self)
+                               orientation=tuple(float(v) for v in orientation),
+                               methods=DEFAULT_METHODS if methods is None else tuple(methods), frame=check_frame(frame))
+        return Workspace(req.evaluate(self, progress=progress, checks=ALL_CHECKS if checks is None else tuple(checks)),
+                         self)
 
     def rotation_map(self, plane: str = "yz", at: float = 0.0, step: float = 0.025, *,
                      u_range: tuple[float, float] | None = None, v_range: tuple[float, float] | None = None,

@@ -9,6 +9,7 @@ the weak points and the modal analysis, and the kinetostatics (docs/theory/kinet
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -43,7 +44,7 @@ class PointResults:
     poses: np.ndarray  # (N, 6) m, rad, in ``frame``
     tool_length: float  # m
     admissible: np.ndarray  # (N,) bool
-    reasons: list[list[str]]  # per pose: failing admissibility checks
+    reason_bits: np.ndarray  # (N,) failing admissibility checks as Reason bits (pkmstiff.admissibility.checks.Reason)
     modelled: np.ndarray  # (N,) bool
     compliance: np.ndarray  # (N, 6, 6) SI
     stiffness: np.ndarray  # (N, 6) N/m, N m/rad
@@ -61,9 +62,15 @@ class PointResults:
     quantities: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (N,) SI, NaN where inadmissible
     units: dict[str, str] = field(default_factory=dict)  # name -> display unit of ``quantities``
     notes: list[str] = field(default_factory=list)
+    _admissibility: list[Any] = field(default_factory=list, repr=False)  # per chunk, for the texts of ``reasons``
 
     def __len__(self) -> int:
         return len(self.poses)
+
+    @cached_property
+    def reasons(self) -> list[list[str]]:
+        """Per pose: the failing admissibility checks as text, naming the chains involved (empty if admissible)."""
+        return [adm.failing(i) for adm in self._admissibility for i in range(len(adm.ok))]
 
     def to_pandas(self) -> "pandas.DataFrame":
         """One row per pose; column names carry their unit (``x_mm``, ``kx_N_per_um``, ``f1_Hz``,
@@ -77,7 +84,7 @@ class PointResults:
         for i, ax in enumerate("abc"):
             cols[f"{ax}_deg"] = np.degrees(self.poses[:, 3 + i])
         cols["admissible"] = self.admissible
-        cols["reasons"] = ["; ".join(r) for r in self.reasons]
+        cols["reasons"] = ["; ".join(r) for r in self.reasons] if (~self.admissible).any() else [""] * len(self)
         for i, ax in enumerate("xyz"):
             cols[f"k{ax}_N_per_um"] = self.stiffness[:, i] / 1e6
         for i, ax in enumerate("xyz"):
@@ -87,7 +94,8 @@ class PointResults:
         for d, shares in self.weak_points.items():
             for label, share in shares.items():
                 cols[f"share_{d}_{label}_percent"] = 100.0 * share
-        cols["transmission_quality"] = self.transmission_quality
+        if self.velocity_labels:  # kinetostatics evaluated
+            cols["transmission_quality"] = self.transmission_quality
         for j, lab in enumerate(self.velocity_labels):
             cols[f"vmax_{lab}_m_per_min"] = 60.0 * self.v_max[:, j]
         for j, lab in enumerate(self.acceleration_labels):
@@ -150,16 +158,20 @@ def _quantities(machine: "StudyMachine", ev: Any, names: tuple[str, ...], tool_l
 def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "machine",
                     tool_length: float | None = None, n_modes: int = 6,
                     weak_point_directions: tuple[str, ...] = ("x", "y", "z"), quantities: tuple[str, ...] = (),
-                    neglect_spindle: bool = False) -> PointResults:
+                    neglect_spindle: bool = False, structure: dict[str, Any] | None = None,
+                    with_kinetostatics: bool = True) -> PointResults:
     """:class:`PointResults` at ``poses`` ((6,) or (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad]), chunked
     by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's); ``neglect_spindle``: the TCP compliance with
-    K_U rigid (:func:`~pkmstiff.analysis.tcp_compliance`)."""
+    K_U rigid (:func:`~pkmstiff.analysis.tcp_compliance`); ``structure``: fields of
+    :class:`~pkmstiff.structure.StructureOptions`; ``with_kinetostatics=False`` leaves the kinetostatics out (NaN,
+    no direction labels)."""
     from pkmstiff.admissibility import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.evaluation.quantities import get_quantity
-    from pkmstiff.structure import build_structure
+    from pkmstiff.structure import StructureOptions, build_structure
 
     units = {n: get_quantity(n).unit for n in quantities}  # unknown names fail before any work
+    options = StructureOptions(**structure) if structure else None
     given = as_poses(np.atleast_2d(np.asarray(poses, float)))
     x = to_machine_frame(machine, given, frame)
     neglect = neglect_spindle
@@ -168,16 +180,23 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         chunk = x[s:s + CHUNK]
         ev = evaluate_poses(machine, chunk)
         adm = ev.admissibility
-        st = build_structure(machine, chunk)
+        st = build_structure(machine, chunk, options)
         comp = tcp_compliance(st, tool_length, neglect)
         wp = {d: weak_points(st, d, tool_length, neglect) for d in weak_point_directions}
         k = 0 if st.empty else min(n_modes, st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs))
         ma = modal_analysis(st, k, shapes=False) if k else None
         parts.append({
-            "ok": adm.ok, "reasons": [adm.failing(i) for i in range(len(chunk))], "modelled": st.ok,
-            "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, chunk),
+            "ok": adm.ok, "adm": adm, "modelled": st.ok,
+            "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, chunk) if with_kinetostatics else None,
             "q": _quantities(machine, ev, quantities, tool_length, neglect)})
     ks0 = parts[0]["ks"]
+
+    def kin(key: str, *width: int) -> np.ndarray:
+        """A kinetostatics array over all chunks; NaN of shape (N, *width) where it was not evaluated."""
+        if ks0 is None:
+            return np.full((len(x), *width), np.nan)
+        return np.concatenate([getattr(p["ks"], key) for p in parts])
+
     comp = np.concatenate([p["comp"] for p in parts])
     with np.errstate(divide="ignore", invalid="ignore"):
         stiffness = 1.0 / np.diagonal(comp, axis1=1, axis2=2)
@@ -199,13 +218,14 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
     return PointResults(
         machine=machine.name, frame=frame_metadata(machine, frame), poses=given,
         tool_length=machine.tool.length if tool_length is None else float(tool_length),
-        admissible=np.concatenate([p["ok"] for p in parts]), reasons=[r for p in parts for r in p["reasons"]],
+        admissible=np.concatenate([p["ok"] for p in parts]),
+        reason_bits=np.concatenate([p["adm"].reasons for p in parts]),
         modelled=np.concatenate([p["modelled"] for p in parts]), compliance=comp, stiffness=stiffness,
         frequencies_hz=freqs, mode_descriptions=descr, weak_points=shares,
         mode_kinetic=energy("body_labels", "kinetic"), mode_strain=energy("component_labels", "component_strain"),
-        transmission_quality=np.concatenate([p["ks"].transmission_quality for p in parts]),
-        velocity_labels=list(ks0.velocity_labels), v_max=np.concatenate([p["ks"].v_max for p in parts]),
-        acceleration_labels=list(ks0.acceleration_labels), a_max=np.concatenate([p["ks"].a_max for p in parts]),
-        drive_loads=np.concatenate([p["ks"].drive_loads for p in parts]),
+        transmission_quality=kin("transmission_quality"),
+        velocity_labels=[] if ks0 is None else list(ks0.velocity_labels), v_max=kin("v_max", 0),
+        acceleration_labels=[] if ks0 is None else list(ks0.acceleration_labels), a_max=kin("a_max", 0),
+        drive_loads=kin("drive_loads", machine.n_chains),
         quantities={n: np.concatenate([p["q"][n] for p in parts]) for n in quantities}, units=units,
-        notes=list(ks0.notes))
+        notes=[] if ks0 is None else list(ks0.notes), _admissibility=[p["adm"] for p in parts])

@@ -98,6 +98,28 @@ class SectionMap:
 
         return plot_section(self.result, name, path, clim=clim)
 
+    def fails(self, check: str) -> np.ndarray:
+        """(nv, nu) True where the admissibility check ``check`` fails (a name of
+        :class:`pkmstiff.admissibility.checks.Reason`, e.g. ``"drive_load"``, ``"PLATFORM_COLLISION"``)."""
+        from pkmstiff.admissibility.checks import Reason
+
+        return (self.result.reasons & int(Reason[check.upper()])) != 0
+
+    def reason_counts(self) -> dict[str, int]:
+        """Raster points failing each admissibility check (a point may fail several)."""
+        return self.result.reason_counts()
+
+    def failing_check_codes(self) -> tuple[np.ndarray, list[str]]:
+        """(nv, nu) int codes and their names: 0 = ``"admissible"``, k = the k-th check (in the order of
+        :data:`pkmstiff.admissibility.checks.Reason`) is the first that fails at the point — for maps of why."""
+        from pkmstiff.admissibility.checks import Reason
+
+        reasons = list(Reason)
+        code = np.zeros(self.result.reasons.shape, int)
+        for k, reason in reversed(list(enumerate(reasons, start=1))):
+            code[(self.result.reasons & int(reason)) > 0] = k
+        return code, ["admissible"] + [x.name.lower().replace("_", " ") for x in reasons]
+
     def plot_admissibility(self, path: str | Path) -> Path:
         """PNG map of the first failing admissibility check per raster point."""
         from pkmstiff.plots.section_maps import plot_reasons
@@ -146,20 +168,33 @@ class Workspace:
         return self.result.volume
 
     @property
+    def volumes(self) -> dict[str, float]:
+        """Volume [m³] by method (``surface_nets``, ``divergence``, ``tetrahedron``, ``pyramid``; docs/theory/
+        workspace.md); :attr:`volume` is the one to quote."""
+        return dict(self.result.volumes)
+
+    @property
     def boundary_points(self) -> np.ndarray:
         """(M, 3) boundary points [m] in the machine frame."""
         return self.result.boundary_points
+
+    def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) (3,) [m] of the boundary points, machine frame (NaN without a workspace)."""
+        return self.result.bounding_box()
 
     def statistics(self) -> dict[str, Any]:
         """The workspace summary (keys name their units: ``volume_m3``, ``bounding_box_mm`` in the result's frame,
         ``resolution_mm``, evaluation counts and times)."""
         return self.result.summary()
 
-    def plot(self, path: str | Path, pose: Any = None, show_points: bool = False) -> Path:
-        """PNG of the closed boundary surface [mm] with the machine drawn at ``pose`` (default a central pose)."""
+    def plot(self, path: str | Path, pose: Any = None, show_points: bool = False,
+             window_size: tuple[int, int] = (1200, 900), view: Any = None) -> Path:
+        """PNG of the closed boundary surface [mm] with the machine drawn at ``pose`` (machine frame; default a
+        central pose), seen along ``view`` (a direction (3,); default oblique)."""
         from pkmstiff.plots.workspace import plot_workspace
 
-        return plot_workspace(self.result, self.machine, path, pose=pose, show_points=show_points)
+        return plot_workspace(self.result, self.machine, path, pose=pose, show_points=show_points,
+                              window_size=window_size, view=view)
 
     def to_pandas(self) -> "pandas.DataFrame":
         """The boundary points, one row each: ``x_mm``, ``y_mm``, ``z_mm`` (machine frame, stated in ``attrs``)."""
@@ -178,6 +213,26 @@ class RotationMap:
 
     result: "RotationMapResult"
     plane: "Plane"
+
+    @property
+    def angles(self) -> dict[str, np.ndarray]:
+        """Direction -> (nv, nu) largest admissible angle [rad] (NaN where the base pose is inadmissible)."""
+        return self.result.angles
+
+    @property
+    def at_limit(self) -> dict[str, np.ndarray]:
+        """Direction -> (nv, nu) True where the pose stays admissible up to the search limit."""
+        return self.result.at_limit
+
+    @property
+    def u_values(self) -> np.ndarray:
+        """Raster values [m] along the plane's first axis."""
+        return self.plane.u_values
+
+    @property
+    def v_values(self) -> np.ndarray:
+        """Raster values [m] along the plane's second axis."""
+        return self.plane.v_values
 
     def angle(self, direction: str) -> np.ndarray:
         """(nv, nu) largest admissible angle [rad] in ``direction`` (``"+a"``, ...); NaN where the base pose is
