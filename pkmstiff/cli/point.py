@@ -16,7 +16,7 @@ import numpy as np
 
 from pkmstiff.errors import InadmissiblePoseRefused, PointArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.io.ranges import parse_numbers
-from pkmstiff.machine.loader import bundled_machines, load_machine
+from pkmstiff.machine.loader import load_machine
 
 WEAK_POINT_DIRECTIONS = ("x", "y", "z")
 #: identifier of the JSON document ``pkmstiff point --json`` prints (pkmstiff/schemas/point.schema.json)
@@ -40,14 +40,6 @@ def parse_values(text: str, count: int, what: str) -> list[float]:
     return parse_numbers(text, count, "--pose", what, PointArgumentError)
 
 
-def _is_planar(name: str) -> bool:
-    if name in bundled_machines():  # spatial: decided without importing the planar module
-        return False
-    from pkmstiff.analysis.planar import bundled_planar
-
-    return name in bundled_planar() and name not in bundled_machines()
-
-
 def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissiblePoseRefused:
     return InadmissiblePoseRefused(
         f"{machine} at {where} is not admissible: {'; '.join(reasons) or 'not modelled'}; "
@@ -67,8 +59,18 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
     if n_modes < 0:
         raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
-    if _is_planar(machine_name):
-        return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
+    from pkmstiff.cli.targets import Kind, dispatch
+
+    return dispatch(machine_name, {
+        Kind.SPATIAL: lambda _: _machine_report(machine_name, pose_text, tool_length_mm, n_modes, neglect_spindle,
+                                                frame, allow_inadmissible),
+        Kind.PLANAR: lambda _: _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"),
+                                              allow_inadmissible)})
+
+
+def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | None, n_modes: int,
+                    neglect_spindle: bool, frame: str, allow_inadmissible: bool) -> dict:
+    """:func:`point_report` of a spatial machine."""
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.cli.pose import PoseArgumentError, parse_pose
