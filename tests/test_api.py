@@ -225,3 +225,27 @@ def test_admissibility_and_section_checks(m):
     assert not (s.fails("platform_collision") & s.ok).any() and s.fails("PLATFORM_COLLISION")[only_platform].all()
     code, names = s.failing_check_codes()
     assert names[0] == "admissible" and ((code == 0) == s.ok).all()
+
+
+def test_rotation_map_equals_the_library_and_converts(m, tmp_path):
+    from pkmstiff.workspace.rotation import rotation_angle_map
+
+    r = m.rotation_map("yz", at=0.0, step=0.1, u_range=(-0.1, 0.5), v_range=(-1.1, -0.7), increment=np.radians(5))
+    direct = rotation_angle_map(m, [0, 0, 0], [0, 1, 0], [0, 0, 1], r.u_values, r.v_values,
+                                increment=np.radians(5))
+    np.testing.assert_array_equal(r.angle("+a"), direct.angles["+a"])
+    ds = r.to_xarray()
+    assert ds["angle_+a"].attrs["units"] == "deg" and ds["y"].attrs["units"] == "mm"
+    np.testing.assert_allclose(ds["angle_+a"].values, np.degrees(direct.angles["+a"]))
+    assert r.statistics()["+a"]["max_deg"] == pytest.approx(np.nanmax(np.degrees(direct.angles["+a"])))
+    assert r.plot("+a", tmp_path / "a.png").stat().st_size > 1000
+
+
+def test_plots_write_pngs(m, tmp_path):
+    s = m.section("yz", at=0.0, step=0.05, quantities=["kx"], u_range=(-0.2, 0.6), v_range=(-1.2, -0.6))
+    assert s.plot("kx", tmp_path / "kx.png").stat().st_size > 1000
+    p = m.point(POSES)
+    fig = p.plot("kx_N_per_um", against="z_mm", path=tmp_path / "p.png")
+    assert fig.axes[0].get_xlabel() == "z_mm" and (tmp_path / "p.png").stat().st_size > 1000
+    with pytest.raises(KeyError):
+        p.plot("no_such_column")

@@ -28,6 +28,13 @@ from pkmstiff.machine.frames import check_frame, neglect_spindle as _neglect_spi
 DEFAULT_SECTION_QUANTITIES = ("kx", "ky", "kz", "f1")
 
 
+def _checks(checks: Sequence[str] | None) -> tuple[str, ...]:
+    """The admissibility checks to apply: all (:data:`pkmstiff.admissibility.checks.ALL_CHECKS`) for None."""
+    from pkmstiff.admissibility.checks import ALL_CHECKS
+
+    return tuple(ALL_CHECKS if checks is None else checks)
+
+
 @dataclass(frozen=True)
 class StudyMachine(Machine):
     """A loaded machine with the design-study methods :meth:`point`, :meth:`section`, :meth:`workspace`,
@@ -116,10 +123,9 @@ class StudyMachine(Machine):
         """Admissibility only (no structure model): (N,) bool and, per pose, the failing checks, for poses (6,) or
         (N, 6) in ``frame``; ``checks`` as in :meth:`section`."""
         from pkmstiff.admissibility import evaluate_poses
-        from pkmstiff.admissibility.checks import ALL_CHECKS
 
         x = self.to_machine_frame(np.atleast_2d(np.asarray(poses, float)), frame)
-        adm = evaluate_poses(self, x, checks=ALL_CHECKS if checks is None else tuple(checks)).admissibility
+        adm = evaluate_poses(self, x, checks=_checks(checks)).admissibility
         return np.asarray(adm.ok, bool), [adm.failing(i) for i in range(len(x))]
 
     def orientation_map(self, point: ArrayLike, direction: str = "+a",
@@ -139,10 +145,9 @@ class StudyMachine(Machine):
                         amplitude: float = 0.08, animate: bool = False, frames: int = 16) -> Path:
         """PNG (or with ``animate`` an animated GIF of ``frames`` frames) of mode ``mode`` at ``pose`` (6,) in
         ``frame`` over the undeformed machine, displacements scaled to ``amplitude`` [m] peak."""
-        from pkmstiff.machine.frames import to_machine_frame
         from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
 
-        x = to_machine_frame(self, pose, check_frame(frame))
+        x = self.to_machine_frame(pose, frame)
         if animate:
             return animate_mode_shape(self, x, path, mode=mode, amplitude=amplitude, frames=frames)
         return plot_mode_shape(self, x, path, mode=mode, amplitude=amplitude)
@@ -160,22 +165,29 @@ class StudyMachine(Machine):
         is fixed over the plane; ``tool_length`` [m] (None: the machine's); ``checks``: the admissibility checks
         (None: all, :data:`pkmstiff.ALL_CHECKS`).
         """
-        from pkmstiff.admissibility.checks import ALL_CHECKS
         from pkmstiff.api.results import SectionMap
-        from pkmstiff.evaluation.sections import axis_plane, evaluate_section
+        from pkmstiff.evaluation.sections import evaluate_section
+
+        ori = tuple(float(v) for v in orientation)
+        res = evaluate_section(self, self._plane(plane, at, step, u_range, v_range, ori, frame), list(quantities),
+                               orientation=ori, tool_length=tool_length, n_jobs=n_jobs, progress=progress,
+                               frame=check_frame(frame), checks=_checks(checks))
+        return SectionMap(res)
+
+    def _plane(self, plane: str, at: float, step: float, u_range: tuple[float, float] | None,
+               v_range: tuple[float, float] | None, orientation: Iterable[float], frame: str) -> Any:
+        """The axis plane of a section or rotation map; a range not given is fitted to the workspace on the plane
+        (:func:`pkmstiff.workspace.windows.window_ranges`, as ``pkmstiff section`` does)."""
+        from pkmstiff.evaluation.sections import axis_plane
 
         kind = plane.lower()
-        ori = tuple(float(v) for v in orientation)
         if u_range is None or v_range is None:
             from pkmstiff.workspace.windows import window_ranges
 
-            fitted = window_ranges(self, kind, at, step, ori, check_frame(frame))
+            fitted = window_ranges(self, kind, at, step, tuple(orientation), check_frame(frame))
             u_range = fitted[0] if u_range is None else u_range
             v_range = fitted[1] if v_range is None else v_range
-        res = evaluate_section(self, axis_plane(kind, at, u_range, v_range, step), list(quantities),
-                               orientation=ori, tool_length=tool_length, n_jobs=n_jobs, progress=progress,
-                               frame=check_frame(frame), checks=ALL_CHECKS if checks is None else tuple(checks))
-        return SectionMap(res)
+        return axis_plane(kind, at, u_range, v_range, step)
 
     def workspace(self, resolution: float = 0.025, orientation: Iterable[float] = (0.0, 0.0, 0.0), *,
                   box: tuple[ArrayLike, ArrayLike] | None = None, requirements: Sequence[str] = (),
@@ -187,7 +199,6 @@ class StudyMachine(Machine):
         volume methods (None: all of :data:`pkmstiff.workspace.volume.DEFAULT_METHODS`); ``fit_box``: grow ``box``
         about its centre to extents resolution·2^k, so that halving reaches exactly ``resolution`` and boxes of
         successive resolutions are nested (the reach box is always fitted)."""
-        from pkmstiff.admissibility.checks import ALL_CHECKS
         from pkmstiff.api.results import Workspace
         from pkmstiff.workspace.requests import WorkspaceRequest
         from pkmstiff.workspace.translational import fit_box as fitted
@@ -198,8 +209,7 @@ class StudyMachine(Machine):
         req = WorkspaceRequest(resolution=resolution, box=box, requirements=tuple(requirements),
                                orientation=tuple(float(v) for v in orientation),
                                methods=DEFAULT_METHODS if methods is None else tuple(methods), frame=check_frame(frame))
-        return Workspace(req.evaluate(self, progress=progress, checks=ALL_CHECKS if checks is None else tuple(checks)),
-                         self)
+        return Workspace(req.evaluate(self, progress=progress, checks=_checks(checks)), self)
 
     def rotation_map(self, plane: str = "yz", at: float = 0.0, step: float = 0.025, *,
                      u_range: tuple[float, float] | None = None, v_range: tuple[float, float] | None = None,
@@ -209,17 +219,9 @@ class StudyMachine(Machine):
         """Largest admissible rotation angle [rad] per direction (``"+a"``, ``"-b"``, ...) on an axis-plane raster
         (Cobet §7.4), searched in steps of ``increment`` up to ``max_angle``; window as in :meth:`section`."""
         from pkmstiff.api.results import RotationMap
-        from pkmstiff.evaluation.sections import axis_plane
         from pkmstiff.workspace.requests import RotationMapRequest
 
-        kind = plane.lower()
-        if u_range is None or v_range is None:
-            from pkmstiff.workspace.windows import window_ranges
-
-            fitted = window_ranges(self, kind, at, step, tuple(base_orientation), check_frame(frame))
-            u_range = fitted[0] if u_range is None else u_range
-            v_range = fitted[1] if v_range is None else v_range
-        pl = axis_plane(kind, at, u_range, v_range, step)
+        pl = self._plane(plane, at, step, u_range, v_range, base_orientation, frame)
         req = RotationMapRequest(origin=tuple(pl.origin), u_axis=tuple(pl.u_axis), v_axis=tuple(pl.v_axis),
                                  u_values=tuple(pl.u_values), v_values=tuple(pl.v_values),
                                  directions=tuple(directions), base_orientation=tuple(base_orientation),

@@ -255,7 +255,7 @@ class RotationMap:
         ax.set_xlabel(f"{self.plane.u_name} [mm]")
         ax.set_ylabel(f"{self.plane.v_name} [mm]")
         ax.set_aspect("equal")
-        ax.set_title(self.plane.name)
+        ax.set_title(f"{self.plane.name} ({self.result.settings.get('frame', 'machine')} frame)")
         fig.savefig(path, dpi=110)
         return Path(path)
 
