@@ -22,7 +22,13 @@ from numpy.typing import ArrayLike
 
 from pkmstiff.machine import Machine
 from pkmstiff.machine import load_machine as _load_model
-from pkmstiff.machine.frames import check_frame, neglect_spindle as _neglect_spindle, spindle_neglected
+from pkmstiff.machine.frames import check_frame, spindle_neglected
+from pkmstiff.machine.frames import neglect_spindle as _neglect_spindle
+
+if TYPE_CHECKING:
+    from pkmstiff.api.points import PointResults
+    from pkmstiff.api.results import RotationMap, SectionMap, Workspace
+    from pkmstiff.machine.roles import MachineComponents
 
 #: the quantities a section evaluates when none are named
 DEFAULT_SECTION_QUANTITIES = ("kx", "ky", "kz", "f1")
@@ -52,7 +58,7 @@ class StudyMachine(Machine):
         """True if the platform-spindle stiffness K_U is left out (platform and spindle one rigid body)."""
         return spindle_neglected(self)
 
-    def components_by_role(self) -> Any:
+    def components_by_role(self) -> "MachineComponents":
         """The component instances by role (``.drive[i]``, ``.strut[i]``, ``.drive_joint[i]``, ``.platform``, ...;
         None where a role is rigid or absent); each has the methods of :mod:`components` (``stiffness(state)``,
         ...)."""
@@ -235,7 +241,3 @@ def load_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> Study
     (:class:`StudyMachine`); see :func:`pkmstiff.machine.load_machine`."""
     return StudyMachine.of(_load_model(name_or_path, options))
 
-
-if TYPE_CHECKING:
-    from pkmstiff.api.points import PointResults
-    from pkmstiff.api.results import RotationMap, SectionMap, Workspace
