@@ -260,3 +260,13 @@ def test_plots_write_pngs(m, tmp_path):
     assert fig.axes[0].get_xlabel() == "z_mm" and (tmp_path / "p.png").stat().st_size > 1000
     with pytest.raises(KeyError):
         p.plot("no_such_column")
+
+
+def test_general_plane_has_no_axis_coordinate():
+    from pkmstiff.api import SectionMap
+    from pkmstiff.evaluation.sections import general_plane
+
+    m = pkmstiff.load_machine("hexaglide")
+    pl = general_plane([0.0, 0.3, -0.9], [1, 0, 0], [0, 1, 1], (-0.1, 0.1), (-0.1, 0.1), 0.05)
+    ds = SectionMap(evaluate_section(m, pl, ["kx"], progress=False)).to_xarray()
+    assert set(ds.coords) == {"u", "v"} and ds["u"].attrs["units"] == "mm" and ds["kx"].dims == ("v", "u")

@@ -35,8 +35,9 @@ def _raster_coords(plane: "Plane", frame: dict[str, Any], si: bool) -> dict[str,
                        {"units": unit, "long_name": f"{plane.u_name} of O' ({where})"}),
         plane.v_name: (plane.v_name, plane.v_values * scale,
                        {"units": unit, "long_name": f"{plane.v_name} of O' ({where})"})}
-    normal = next((a for a in "xyz" if a not in (plane.u_name, plane.v_name)), None)
-    if normal is not None and len(plane.u_name) == 1 and len(plane.v_name) == 1:
+    axes = {plane.u_name, plane.v_name}
+    if len(axes) == 2 and axes <= set("xyz"):  # an axis plane: its position along the third axis
+        normal = (set("xyz") - axes).pop()
         at = float(plane.origin["xyz".index(normal)])
         coords[normal] = ((), at * scale, {"units": unit, "long_name": f"{normal} of the plane ({where})"})
     return coords
