@@ -34,7 +34,8 @@ class PointResults:
 
     ``stiffness`` (N, 6): k_x, k_y, k_z [N/m], k_rx, k_ry, k_rz [N·m/rad] (1/C_jj of the TCP compliance);
     ``weak_points[direction][component]`` (N,): share of the TCP compliance for a unit force along ``direction``
-    (fraction, sums to 1 over the components); ``mode_kinetic[body]`` and ``mode_strain[component]`` (N, n_modes):
+    (fraction, sums to 1 over the components); ``mode_descriptions`` (per pose and mode, made on first use);
+    ``mode_kinetic[body]`` and ``mode_strain[component]`` (N, n_modes):
     each mode's kinetic and strain energy shares (fractions); ``quantities[name]`` (N,): the requested registered
     quantities in SI (display unit in ``units``); ``v_max`` [m/s] and ``a_max`` [m/s²] (N, directions) with their
     labels; ``drive_loads`` (N, chains) static drive loads [N]. ``poses`` are in ``frame`` (as given).
@@ -50,7 +51,6 @@ class PointResults:
     compliance: np.ndarray  # (N, 6, 6) SI
     stiffness: np.ndarray  # (N, 6) N/m, N m/rad
     frequencies_hz: np.ndarray  # (N, n_modes) Hz
-    mode_descriptions: list[list[str]]
     mode_kinetic: dict[str, np.ndarray]  # body -> (N, n_modes) share of the mode's kinetic energy (fraction)
     mode_strain: dict[str, np.ndarray]  # component -> (N, n_modes) share of the mode's strain energy (fraction)
     weak_points: dict[str, dict[str, np.ndarray]]
@@ -64,6 +64,7 @@ class PointResults:
     units: dict[str, str] = field(default_factory=dict)  # name -> display unit of ``quantities``
     notes: list[str] = field(default_factory=list)
     _admissibility: list[Any] = field(default_factory=list, repr=False)  # per chunk, for the texts of ``reasons``
+    _modal: list[tuple[int, Any]] = field(default_factory=list, repr=False)  # per chunk: (poses, ModalAnalysis|None)
 
     def __len__(self) -> int:
         return len(self.poses)
@@ -72,6 +73,13 @@ class PointResults:
     def reasons(self) -> list[list[str]]:
         """Per pose: the failing admissibility checks as text, naming the chains involved (empty if admissible)."""
         return [adm.failing(i) for adm in self._admissibility for i in range(len(adm.ok))]
+
+    @cached_property
+    def mode_descriptions(self) -> list[list[str]]:
+        """Per pose and mode: the platform motion, e.g. ``'translation along y (58 %)'`` (``'n/a'`` if not modelled)."""
+        k = self.frequencies_hz.shape[1]
+        return [[ma.description(i, j) for j in range(k)] if ma is not None else ["n/a"] * k
+                for n, ma in self._modal for i in range(n)]
 
     def to_pandas(self) -> "pandas.DataFrame":
         """One row per pose; column names carry their unit (``x_mm``, ``kx_N_per_um``, ``f1_Hz``,
@@ -175,21 +183,20 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
     options = StructureOptions(**structure) if structure else None
     given = as_poses(np.atleast_2d(np.asarray(poses, float)))
     x = to_machine_frame(machine, given, frame)
-    neglect = neglect_spindle
     parts: list[dict[str, Any]] = []
     for s in range(0, len(x), CHUNK):
         chunk = x[s:s + CHUNK]
         ev = evaluate_poses(machine, chunk)
         adm = ev.admissibility
         st = build_structure(machine, chunk, options)
-        comp = tcp_compliance(st, tool_length, neglect)
-        wp = {d: weak_points(st, d, tool_length, neglect) for d in weak_point_directions}
+        comp = tcp_compliance(st, tool_length, neglect_spindle)
+        wp = {d: weak_points(st, d, tool_length, neglect_spindle) for d in weak_point_directions}
         k = 0 if st.empty else min(n_modes, st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs))
         ma = modal_analysis(st, k, shapes=False) if k else None
         parts.append({
             "ok": adm.ok, "adm": adm, "modelled": st.ok,
             "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, chunk) if with_kinetostatics else None,
-            "q": _quantities(machine, ev, quantities, tool_length, neglect)})
+            "q": _quantities(machine, ev, quantities, tool_length, neglect_spindle)})
     ks0 = parts[0]["ks"]
 
     def kin(key: str, *width: int) -> np.ndarray:
@@ -204,9 +211,9 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
     n_f = max((0 if p["ma"] is None else p["ma"].frequencies_hz.shape[1]) for p in parts)
     freqs = np.concatenate([np.full((len(p["ok"]), n_f), np.nan) if p["ma"] is None else p["ma"].frequencies_hz
                             for p in parts])
-    descr = [[p["ma"].description(i, j) for j in range(n_f)] if p["ma"] is not None else ["n/a"] * n_f
-             for p in parts for i in range(len(p["ok"]))]
+
     def energy(labels: str, values: str) -> dict[str, np.ndarray]:
+        """Per body (kinetic) or component (strain): the share of each mode's energy over all chunks, (N, n_modes)."""
         first = next((p["ma"] for p in parts if p["ma"] is not None), None)
         if first is None:
             return {}
@@ -222,11 +229,12 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         admissible=np.concatenate([p["ok"] for p in parts]),
         reason_bits=np.concatenate([p["adm"].reasons for p in parts]),
         modelled=np.concatenate([p["modelled"] for p in parts]), compliance=comp, stiffness=stiffness,
-        frequencies_hz=freqs, mode_descriptions=descr, weak_points=shares,
+        frequencies_hz=freqs, weak_points=shares,
         mode_kinetic=energy("body_labels", "kinetic"), mode_strain=energy("component_labels", "component_strain"),
         transmission_quality=kin("transmission_quality"),
         velocity_labels=[] if ks0 is None else list(ks0.velocity_labels), v_max=kin("v_max", 0),
         acceleration_labels=[] if ks0 is None else list(ks0.acceleration_labels), a_max=kin("a_max", 0),
         drive_loads=kin("drive_loads", machine.n_chains),
         quantities={n: np.concatenate([p["q"][n] for p in parts]) for n in quantities}, units=units,
-        notes=[] if ks0 is None else list(ks0.notes), _admissibility=[p["adm"] for p in parts])
+        notes=[] if ks0 is None else list(ks0.notes), _admissibility=[p["adm"] for p in parts],
+        _modal=[(len(p["ok"]), p["ma"]) for p in parts])
