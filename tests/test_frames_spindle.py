@@ -15,8 +15,8 @@ from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.analysis import evaluate_structure
 from pkmstiff.errors import InputError
 from pkmstiff.evaluation.requests import PointRequest, SectionRequest
-from pkmstiff.machine.frames import (frame_metadata, from_machine_frame, neglect_spindle, spindle_neglected,
-                                     to_machine_frame)
+from pkmstiff.machine.frames import (NEGLECT_SPINDLE_NOTE, frame_metadata, from_machine_frame, neglect_spindle,
+                                     spindle_neglected, to_machine_frame)
 from pkmstiff.machine.roles import drive_load_data, machine_components
 
 HG = pkmstiff.load_machine("hexaglide")
@@ -78,7 +78,10 @@ def test_neglect_spindle_equals_rigid_k_u_load_on_the_platform():
         np.testing.assert_allclose(b.stiffness, a.stiffness, rtol=1e-9)
         np.testing.assert_allclose(b.frequencies_hz, a.frequencies_hz, rtol=1e-9)
     m = neglect_spindle(HG)
-    assert spindle_neglected(m) and not spindle_neglected(HG) and "K_U neglected" in m.title
+    assert spindle_neglected(m) and not spindle_neglected(HG) and m.spindle_neglected and not HG.spindle_neglected
+    # a typed field, not text in the title: the title stays the file's, the displayed title says so
+    assert m.title == HG.title and m.display_title == f"{HG.title} [{NEGLECT_SPINDLE_NOTE}]"
+    assert HG.display_title == HG.title
     assert machine_components(m).platform_spindle is None
     assert neglect_spindle(HG, False) is HG
 

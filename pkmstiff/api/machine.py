@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike
 
 from pkmstiff.machine import Machine
 from pkmstiff.machine import load_machine as _load_model
-from pkmstiff.machine.frames import check_frame, spindle_neglected
+from pkmstiff.machine.frames import check_frame
 from pkmstiff.machine.frames import neglect_spindle as _neglect_spindle
 
 if TYPE_CHECKING:
@@ -52,11 +52,6 @@ class StudyMachine(Machine):
         if isinstance(machine, cls):
             return machine
         return cls(**{f.name: getattr(machine, f.name) for f in dataclasses.fields(Machine)})
-
-    @property
-    def spindle_neglected(self) -> bool:
-        """True if the platform-spindle stiffness K_U is left out (platform and spindle one rigid body)."""
-        return spindle_neglected(self)
 
     def components_by_role(self) -> "MachineComponents":
         """The component instances by role (``.drive[i]``, ``.strut[i]``, ``.drive_joint[i]``, ``.platform``, ...;

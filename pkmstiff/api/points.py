@@ -1,8 +1,9 @@
 """Point evaluations of the public API: everything ``pkmstiff point`` reports, for one pose or a batch of poses.
 
-Per chunk of at most :data:`CHUNK` poses: admissibility (:func:`~pkmstiff.admissibility.evaluate_poses`), one
-structure model (:func:`~pkmstiff.structure.build_structure`) serving the TCP compliance (docs/theory/structure.md),
-the weak points and the modal analysis, and the kinetostatics (docs/theory/kinetostatics.md). SI units in the arrays;
+Per chunk of at most :data:`CHUNK` poses: one pose evaluation (:func:`~pkmstiff.admissibility.evaluate_poses`:
+inverse kinematics, Jacobians, joint angles, admissibility) serving one structure model
+(:func:`~pkmstiff.structure.build_structure`: the TCP compliance (docs/theory/structure.md), the weak points and the
+modal analysis) and the kinetostatics (docs/theory/kinetostatics.md). SI units in the arrays;
 :meth:`PointResults.to_pandas` converts to display units named in the column names.
 """
 
@@ -188,14 +189,14 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         chunk = x[s:s + CHUNK]
         ev = evaluate_poses(machine, chunk)
         adm = ev.admissibility
-        st = build_structure(machine, chunk, options)
+        st = build_structure(machine, ev, options)  # the chunk's one evaluation: no second inverse kinematics
         comp = tcp_compliance(st, tool_length, neglect_spindle)
         wp = {d: weak_points(st, d, tool_length, neglect_spindle) for d in weak_point_directions}
         k = 0 if st.empty else min(n_modes, st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs))
         ma = modal_analysis(st, k, shapes=False) if k else None
         parts.append({
             "ok": adm.ok, "adm": adm, "modelled": st.ok,
-            "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, chunk) if with_kinetostatics else None,
+            "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, ev) if with_kinetostatics else None,
             "q": _quantities(machine, ev, quantities, tool_length, neglect_spindle)})
     ks0 = parts[0]["ks"]
 

@@ -85,7 +85,8 @@ def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | N
     m = load_machine(machine_name)
     given = pose
     pose = to_machine_frame(m, given, frame)
-    adm = evaluate_poses(m, pose[None]).admissibility
+    ev = evaluate_poses(m, pose[None])  # the one pose evaluation: the structure and the kinetostatics reuse it
+    adm = ev.admissibility
     admissible, reasons = bool(adm.ok[0]), adm.failing(0)
     pose_out = {"x_mm": given[0] * 1e3, "y_mm": given[1] * 1e3, "z_mm": given[2] * 1e3,
                 "a_deg": math.degrees(given[3]), "b_deg": math.degrees(given[4]), "c_deg": math.degrees(given[5])}
@@ -93,8 +94,8 @@ def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | N
         raise _refuse(m.name, ", ".join(f"{k.split('_')[0]} = {v:g} {k.split('_')[1]}" for k, v in pose_out.items())
                       + f" ({frame} frame)", reasons)
     tl = None if tool_length_mm is None else tool_length_mm * 1e-3
-    st = build_structure(m, pose[None])
-    ks = kinetostatics(m, pose[None])
+    st = build_structure(m, ev)
+    ks = kinetostatics(m, ev)
     rep: dict[str, Any] = {
         "schema": SCHEMA,
         "machine": m.name, "machine_type": m.kind,

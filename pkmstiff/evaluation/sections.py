@@ -19,7 +19,7 @@ from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
-from pkmstiff.machine.frames import frame_metadata, frame_origin, spindle_neglected
+from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
 from pkmstiff.machine.model import Machine
 
 #: below this many raster points ``n_jobs`` > 1 runs serially. Measured by benchmarks/bench_parallel_section.py on
@@ -238,8 +238,12 @@ def evaluate_section(
     poses = section_poses(plane, orientation)
     poses[:, :3] += frame_origin(machine, frame)
     opts = dict(options or {})
-    if spindle_neglected(machine):
-        opts["neglect_spindle"] = True
+    # the one place where the option maps onto the machine (every quantity then honours it); kept in the settings
+    neglect = bool(opts.pop("neglect_spindle", False)) or machine.spindle_neglected
+    machine = neglect_spindle(machine, neglect)
+    settings = {"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks), **opts}
+    if neglect:
+        settings["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
     if progress is None:  # a bar on a terminal, periodic lines otherwise (see _progress)
         progress = len(poses) * (1 + len(names)) > 20_000
@@ -260,7 +264,7 @@ def evaluate_section(
         machine=machine.name, plane=plane, orientation=np.asarray(orientation, float), tool_length=tool_length,
         values=values, units={n: q.unit for n, q in qs.items()}, si_units={n: q.si_unit for n, q in qs.items()},
         labels={n: q.label for n, q in qs.items()}, ok=ok, reasons=reasons,
-        settings={"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks), **opts},
+        settings=settings,
         frame=frame_metadata(machine, frame),
     )
 

@@ -31,7 +31,7 @@ reference point is O'; a massless spindle (Hexaglide: all of M_P on the platform
 """
 
 from pkmstiff.structure.assembly import platform_spindle_matrix
-from pkmstiff.structure.build import build_structure, iter_structures, structure_from_ik, structure_summary
+from pkmstiff.structure.build import build_structure, iter_structures, structure_evaluation, structure_summary
 from pkmstiff.structure.layout import (
                                        PKSBody,
                                        StructureLayout,
@@ -54,7 +54,7 @@ from pkmstiff.structure.stiffness import ChainStiffness, chain_stiffness
 
 __all__ = [
     "StructureOptions", "StructureLayout", "StructureModelError", "PKMStructure", "ChainStiffness",
-    "structure_layout", "build_structure", "structure_from_ik", "iter_structures", "chain_stiffness",
+    "structure_layout", "build_structure", "structure_evaluation", "iter_structures", "chain_stiffness",
     "platform_mass_matrix", "mass_matrix_about_origin", "PKSBody", "combine_bodies", "component_body",
     "vertical_direction", "platform_spindle_matrix", "dynamics_masses", "structure_summary", "DEFAULT_CHUNK",
     "COMPONENT_FAILED",
