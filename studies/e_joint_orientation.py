@@ -56,7 +56,7 @@ SETTINGS = {
 SEED = 20031194  # fixed seed of the differential evolution (any fixed value; reproducible runs)
 CHAINS = np.arange(1, 7)
 TILTS = [f"tilt_drive_{i}" for i in CHAINS]
-NO_JOINT_CHECK = tuple(c for c in pkmstiff.ALL_CHECKS if c != "joint_angles")
+ONLY_JOINT_CHECK = tuple(c for c in pkmstiff.ALL_CHECKS if c != "joint_angles")  # skipped per candidate
 MIRROR = np.array([-1.0, 1.0, 1.0])  # mirror about the YZ plane (x -> -x)
 
 STUDY_ASSUMPTIONS = {
@@ -154,7 +154,7 @@ class CandidateEvaluator:
 
     def __init__(self, machine: Machine, step: float):
         self.machine = machine
-        base = machine.section("yz", 0.0, step, [], u_range=Y_RANGE, v_range=Z_RANGE, checks=NO_JOINT_CHECK)
+        base = machine.section("yz", 0.0, step, [], u_range=Y_RANGE, v_range=Z_RANGE, skip_checks=["joint_angles"])
         self.plane = base.plane  # YZ plane at x = 0, machine frame, a = b = c = 0
         points = self.plane.points()
         poses = np.concatenate([points, np.zeros((len(points), 3))], axis=1)
@@ -169,7 +169,7 @@ class CandidateEvaluator:
     def kx(self, axes: np.ndarray, refs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(ok over the base poses, k_x in N/m at the admissible ones) for the given a_i, b_i."""
         m = with_drive_joints(self.machine, axes, refs)
-        ok, _ = m.admissibility(self.poses, checks=("joint_angles",))
+        ok, _ = m.admissibility(self.poses, skip_checks=ONLY_JOINT_CHECK)
         if not ok.any():
             return ok, np.zeros(0)
         # K_U neglected at tool length 0, as the dissertation (Cobet 4.2.4; docs/user-guide/validation-hexaglide.md (reading 4))

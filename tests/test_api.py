@@ -146,6 +146,9 @@ LAYER_EXAMPLES = {"example_spring_mass.py": "pkmstiff.multibody"}
 #: scipy's differential evolution (the optimisation issue replaces it)
 ALLOWED_TOP_LEVEL = {"pkmstiff", "numpy", "matplotlib", "_study_common", "__future__"}
 EXTRA_ALLOWED = {"e_joint_orientation.py": {"scipy"}}
+#: studies still on the library's internals: the validation study was rewritten on main (mode screw axes, strut-mass
+#: readings, checks left out) while this port was made; it needs mode shapes the API does not offer yet
+NOT_PORTED = {"validation_hexaglide.py"}
 
 
 def _pkmstiff_submodule_imports(code: str) -> list[str]:
@@ -186,6 +189,9 @@ def test_readme_examples_use_only_the_public_api():
 @pytest.mark.parametrize("script", sorted(p.name for p in (ROOT / "studies").glob("*.py")))
 def test_studies_use_only_the_public_api(script):
     bad = _pkmstiff_submodule_imports((ROOT / "studies" / script).read_text(encoding="utf-8"))
+    if script in NOT_PORTED:
+        assert bad, f"{script} uses only the public API now: remove it from NOT_PORTED"
+        pytest.xfail(f"{script} is not ported to the public API yet")
     if script in LAYER_EXAMPLES:  # the generic spring-mass example of the multibody layer, no machine involved
         bad = [b for b in bad if not b.endswith(LAYER_EXAMPLES[script])]
     assert not bad, f"studies/{script} imports internals: {bad}"
@@ -225,10 +231,10 @@ def test_point_options_leave_analyses_out_and_add_quantities(m):
 def test_admissibility_and_section_checks(m):
     ok, reasons = m.admissibility(POSES)
     assert ok.tolist() == m.point(POSES).admissible.tolist() and reasons[1] and not reasons[0]
-    without = tuple(c for c in pkmstiff.ALL_CHECKS if c != "platform_collision")
-    assert m.admissibility(POSES[1], checks=without)[0][0]  # pose 1 fails the strut-platform check only
+    without = ["platform_collision"]
+    assert m.admissibility(POSES[1], skip_checks=without)[0][0]  # pose 1 fails the strut-platform check only
     s = m.section("yz", 0.0, 0.05, [], u_range=(-0.2, 0.6), v_range=(-1.2, -0.6))
-    s2 = m.section("yz", 0.0, 0.05, [], u_range=(-0.2, 0.6), v_range=(-1.2, -0.6), checks=without)
+    s2 = m.section("yz", 0.0, 0.05, [], u_range=(-0.2, 0.6), v_range=(-1.2, -0.6), skip_checks=without)
     from pkmstiff.admissibility.checks import Reason
 
     only_platform = s.result.reasons == int(Reason.PLATFORM_COLLISION)

@@ -105,8 +105,10 @@ def test_masses_follow_the_strut_split_option():
 
 
 def test_platform_inertia_includes_the_strut_shares_by_parallel_axis():
-    """Platform inertia about its CoG = M_P inertia + point masses m_s/2 at p'_i (parallel-axis theorem)."""
-    st_ = build_structure(HEXAGLIDE, POSES[:1])
+    """Platform inertia about its CoG = M_P inertia + point masses m_s/2 at p'_i (parallel-axis theorem), with the
+    half/half strut split of option strut_mass_split (the bundled default adds no strut mass, machines.md §1.7
+    item 10)."""
+    st_ = build_structure(load_machine("hexaglide:strut_mass_split"), POSES[:1])
     pts = HEXAGLIDE.chains.platform_joint
     mp = 0.5 * hexaglide_strut_masses()
     total = 117.24 + mp.sum()

@@ -5,17 +5,18 @@ Gravity load (the masses of the structure model, :func:`pkmstiff.structure.struc
 
 * **loaded**: every body of the SDE model carries ``m g`` at its translational DOFs.  A rigid body's reference point
   is its centre of gravity (:mod:`pkmstiff.multibody.bodies`), so its weight is exactly ``(m g, 0)`` in its own
-  DOFs, whatever its orientation: the platform (with the platform-side half of each strut, the platform joints'
+  DOFs, whatever its orientation: the platform (with the platform-side share of each strut, the platform joints'
   masses and, without a ``platform_spindle`` stiffness, the spindle merged into it), the spindle body (if separate;
   the Hexaglide's is massless) and the drive point masses at the drive joints (drive, guide carriage, drive
-  suspension, drive-side strut half, drive-joint mass) wherever the drive is elastically suspended;
+  suspension, drive-side strut share, drive-joint mass) wherever the drive is elastically suspended;
 * **not loaded** (carried directly by the frame, so they cannot deflect the TCP in this model): the masses at rigidly
   suspended drives (a pod without ``drive_suspension`` stiffness: the drive, its joint and the drive-side strut
-  half), and the machine frame itself (rigid, Assumption of the structure model).
-* **Assumption** (of the structure model, :class:`~pkmstiff.structure.StructureOptions`): each strut's mass is
-  lumped half at either joint.  For a uniform straight strut between two spherical/universal joints this is the
-  exact static equivalent of its distributed weight (moment balance about either end); the strut's own bending
-  under its weight (a sag between the joints) does not move the joints and is ignored.
+  share), and the machine frame itself (rigid, Assumption of the structure model).
+* **Assumption** (of the structure model, the machine file's ``strut_mass_shares``): each strut's mass is lumped at
+  its joints in the machine's shares — by default half at either joint, for a uniform straight strut between two
+  spherical/universal joints the exact static equivalent of its distributed weight (moment balance about either
+  end); none where the drive and platform masses already hold the struts (the Hexaglide, machines.md §1.7 item 10).
+  The strut's own bending under its weight (a sag between the joints) does not move the joints and is ignored.
 
 Then ``K q = f`` (stacked solves over the poses, :func:`pkmstiff.multibody.solve_static`) and the TCP motion
 ``(u, θ)`` of the tool body (spindle, or platform when merged).  Everything is linear: the deflection scales with

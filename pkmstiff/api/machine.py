@@ -34,11 +34,12 @@ if TYPE_CHECKING:
 DEFAULT_SECTION_QUANTITIES = ("kx", "ky", "kz", "f1")
 
 
-def _checks(checks: Sequence[str] | None) -> tuple[str, ...]:
-    """The admissibility checks to apply: all (:data:`pkmstiff.admissibility.checks.ALL_CHECKS`) for None."""
-    from pkmstiff.admissibility.checks import ALL_CHECKS
+def _checks(skip_checks: Sequence[str]) -> tuple[str, ...]:
+    """The admissibility checks to apply: :data:`pkmstiff.admissibility.checks.ALL_CHECKS` without ``skip_checks``
+    (an unknown name is an :class:`~pkmstiff.errors.InputError` naming the known ones)."""
+    from pkmstiff.admissibility.checks import checks_without
 
-    return tuple(ALL_CHECKS if checks is None else checks)
+    return checks_without(skip_checks, "pkmstiff.api", "skip_checks")
 
 
 @dataclass(frozen=True)
@@ -119,14 +120,14 @@ class StudyMachine(Machine):
 
         return to_machine_frame(self, positions, check_frame(frame))
 
-    def admissibility(self, poses: ArrayLike, frame: str = "machine", checks: Sequence[str] | None = None
+    def admissibility(self, poses: ArrayLike, frame: str = "machine", skip_checks: Sequence[str] = ()
                       ) -> tuple[np.ndarray, list[list[str]]]:
         """Admissibility only (no structure model): (N,) bool and, per pose, the failing checks, for poses (6,) or
-        (N, 6) in ``frame``; ``checks`` as in :meth:`section`."""
+        (N, 6) in ``frame``; ``skip_checks`` as in :meth:`section`."""
         from pkmstiff.admissibility import evaluate_poses
 
         x = self.to_machine_frame(np.atleast_2d(np.asarray(poses, float)), frame)
-        adm = evaluate_poses(self, x, checks=_checks(checks)).admissibility
+        adm = evaluate_poses(self, x, checks=_checks(skip_checks)).admissibility
         return np.asarray(adm.ok, bool), [adm.failing(i) for i in range(len(x))]
 
     def orientation_map(self, point: ArrayLike, direction: str = "+a",
@@ -156,15 +157,15 @@ class StudyMachine(Machine):
     def section(self, plane: str = "yz", at: float = 0.0, step: float = 0.01,
                 quantities: Sequence[str] = DEFAULT_SECTION_QUANTITIES, *, u_range: tuple[float, float] | None = None,
                 v_range: tuple[float, float] | None = None, orientation: Iterable[float] = (0.0, 0.0, 0.0),
-                tool_length: float | None = None, frame: str = "machine", checks: Sequence[str] | None = None,
+                tool_length: float | None = None, frame: str = "machine", skip_checks: Sequence[str] = (),
                 n_jobs: int = 1, progress: bool | None = False) -> "SectionMap":
         """Quantities (:func:`pkmstiff.evaluation.quantities.available_quantities`) on the axis plane ``plane``
         (``"yz"``, ``"xz"``, ``"xy"``) at ``at`` [m] along its normal, raster ``step`` [m], masked by admissibility.
 
         ``u_range``/``v_range`` [m] bound the window along the plane's two axes (in ``frame``); omitted, the window
         is fitted to the workspace on the plane (as ``pkmstiff section`` does). ``orientation`` (a, b, c) [rad]
-        is fixed over the plane; ``tool_length`` [m] (None: the machine's); ``checks``: the admissibility checks
-        (None: all, :data:`pkmstiff.ALL_CHECKS`).
+        is fixed over the plane; ``tool_length`` [m] (None: the machine's); ``skip_checks``: names of admissibility
+        checks left out (of :data:`pkmstiff.ALL_CHECKS`; the result's settings say so).
         """
         from pkmstiff.api.results import SectionMap
         from pkmstiff.evaluation.sections import evaluate_section
@@ -172,7 +173,7 @@ class StudyMachine(Machine):
         ori = tuple(float(v) for v in orientation)
         res = evaluate_section(self, self._plane(plane, at, step, u_range, v_range, ori, frame), list(quantities),
                                orientation=ori, tool_length=tool_length, n_jobs=n_jobs, progress=progress,
-                               frame=check_frame(frame), checks=_checks(checks))
+                               frame=check_frame(frame), checks=_checks(skip_checks))
         return SectionMap(res)
 
     def _plane(self, plane: str, at: float, step: float, u_range: tuple[float, float] | None,
@@ -192,11 +193,11 @@ class StudyMachine(Machine):
 
     def workspace(self, resolution: float = 0.025, orientation: Iterable[float] = (0.0, 0.0, 0.0), *,
                   box: tuple[ArrayLike, ArrayLike] | None = None, requirements: Sequence[str] = (),
-                  checks: Sequence[str] | None = None, methods: Sequence[str] | None = None,
+                  skip_checks: Sequence[str] = (), methods: Sequence[str] | None = None,
                   frame: str = "machine", fit_box: bool = False, progress: bool = False) -> "Workspace":
         """The constant-orientation workspace by the modified octree (Cobet §7.3): boundary within ``resolution``
         [m], volumes [m³]. ``box`` = (lo, hi) [m] in ``frame`` (None: the chains' reach box); ``requirements`` as
-        ``pkmstiff workspace --require`` (e.g. ``"kx >= 5 N/um"``); ``checks`` as in :meth:`section`; ``methods``:
+        ``pkmstiff workspace --require`` (e.g. ``"kx >= 5 N/um"``); ``skip_checks`` as in :meth:`section`; ``methods``:
         volume methods (None: all of :data:`pkmstiff.workspace.volume.DEFAULT_METHODS`); ``fit_box``: grow ``box``
         about its centre to extents resolution·2^k, so that halving reaches exactly ``resolution`` and boxes of
         successive resolutions are nested (the reach box is always fitted)."""
@@ -209,8 +210,9 @@ class StudyMachine(Machine):
             box = fitted(box[0], box[1], resolution)
         req = WorkspaceRequest(resolution=resolution, box=box, requirements=tuple(requirements),
                                orientation=tuple(float(v) for v in orientation),
-                               methods=DEFAULT_METHODS if methods is None else tuple(methods), frame=check_frame(frame))
-        return Workspace(req.evaluate(self, progress=progress, checks=_checks(checks)), self)
+                               methods=DEFAULT_METHODS if methods is None else tuple(methods), frame=check_frame(frame),
+                               skip_checks=tuple(skip_checks))
+        return Workspace(req.evaluate(self, progress=progress), self)
 
     def rotation_map(self, plane: str = "yz", at: float = 0.0, step: float = 0.025, *,
                      u_range: tuple[float, float] | None = None, v_range: tuple[float, float] | None = None,

@@ -15,7 +15,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from pkmstiff.admissibility.checks import ALL_CHECKS, Reason
+from pkmstiff.admissibility.checks import ALL_CHECKS, Reason, checks_left_out
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
@@ -241,7 +241,8 @@ def evaluate_section(
     # the one place where the option maps onto the machine (every quantity then honours it); kept in the settings
     neglect = bool(opts.pop("neglect_spindle", False)) or machine.spindle_neglected
     machine = neglect_spindle(machine, neglect)
-    settings = {"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks), **opts}
+    settings = {"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks),
+                "checks_left_out": checks_left_out(checks), **opts}
     if neglect:
         settings["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
@@ -324,6 +325,7 @@ def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
          "orientation_deg": np.rad2deg(res.orientation).tolist(),
          "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
          **res.frame, "neglect_spindle": bool(res.settings.get("neglect_spindle", False)),
+         "checks_left_out": list(res.settings.get("checks_left_out", [])),
          "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v},
          "window_mm": {res.plane.u_name: [float(res.plane.u_values[0]) * 1e3, float(res.plane.u_values[-1]) * 1e3],
                        res.plane.v_name: [float(res.plane.v_values[0]) * 1e3, float(res.plane.v_values[-1]) * 1e3]},

@@ -195,6 +195,9 @@ class Machine:
     # transmission quality form (docs/theory/kinetostatics.md eq. 4.75 note): "inverse_sqrt_kappa" = κ(WJ_C)^(-1/2) (default),
     # "inverse_kappa" = 1/κ(WJ_C)
     transmission_form: str = "inverse_sqrt_kappa"
+    # shares (drive joint, platform joint) of each strut's mass that the structure model lumps there ([machine]
+    # strut_mass_shares; docs/theory/structure.md): (0, 0) where the drive and platform masses already hold the struts
+    strut_mass_shares: tuple[float, float] = (0.5, 0.5)
     # component instances built on load: name -> (raw parameter table it was built from, instance)
     built_components: dict[str, tuple[dict, Any]] = field(default_factory=dict, compare=False, repr=False)
     # provenance of a calibrated machine file (its [calibration] table, validated on load; empty otherwise)

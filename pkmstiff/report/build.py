@@ -14,6 +14,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from pkmstiff.admissibility.checks import checks_left_out, checks_without, left_out_text
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
 from pkmstiff.machine.frames import frame_origin, frame_text
@@ -123,6 +124,7 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
 def _variant_text(v: Variant, m: Machine) -> str:
     overrides = (", overrides " + ", ".join(f"{k} = {val!r}" for k, val in v.overrides.items())) if v.overrides else ""
     ku = ", K_U neglected (platform and spindle rigid)" if v.neglect_spindle else ""
+    ku += f", {left_out_text(v.skip_checks)}" if v.skip_checks else ""
     return (f"{v.name}: {m.title} ({m.name}{overrides}{ku}), tool length {_tool_mm(m, v.tool_length):g} mm, "
             f"orientation a, b, c = {_fmt_deg(v.orientation)} deg" + (f". {v.description}" if v.description else ""))
 
@@ -136,7 +138,7 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
         t0 = time.perf_counter()
         ori = ws.orientation if ws.orientation is not None else v.orientation
         res = WorkspaceRequest(ws.resolution, ws.box, ws.requirements, ori, ws.methods, frame=spec.frame,
-                               neglect_spindle=v.neglect_spindle).evaluate(m)
+                               neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks).evaluate(m)
         for meth in ws.methods:
             vols[meth].append(res.volumes.get(meth))
         if res.octree.touches_box:
@@ -162,7 +164,7 @@ def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, j
         req = SectionRequest(sec.plane, sec.at, sec.u_range, sec.v_range, sec.step, sec.quantities,
                              sec.orientation if sec.orientation is not None else v.orientation,
                              sec.tool_length if sec.tool_length is not None else v.tool_length,
-                             frame=frame, neglect_spindle=v.neglect_spindle)
+                             frame=frame, neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks)
         res = req.evaluate(m, n_jobs=jobs)
         res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
         if res.tool_length is None:
@@ -193,7 +195,8 @@ def _point_rows(pt: PointSpec, pairs: list, table: Table, notes: list[str], fram
     rows: dict[str, list[float | None]] = {q: [] for q in pt.quantities}
     for v, m in pairs:
         tl = pt.tool_length if pt.tool_length is not None else v.tool_length
-        res = PointRequest(pt.pose, pt.quantities, tl, frame=frame, neglect_spindle=v.neglect_spindle).evaluate(m)
+        res = PointRequest(pt.pose, pt.quantities, tl, frame=frame, neglect_spindle=v.neglect_spindle,
+                           skip_checks=v.skip_checks).evaluate(m)
         if not res.admissible:
             notes.append(f"{v.name} at {pt.name}: inadmissible ({'; '.join(res.failing)})")
         for q in pt.quantities:
@@ -211,6 +214,7 @@ def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) 
                                   "overrides": dict(v.overrides), "tool_length_mm": _tool_mm(m, v.tool_length),
                                   "orientation_deg": [round(math.degrees(a), 9) for a in v.orientation],
                                   "neglect_spindle": v.neglect_spindle,
+                                  "checks_left_out": checks_left_out(checks_without(v.skip_checks)),
                                   "frame_origin_mm": (frame_origin(m, spec.frame) * 1e3).tolist()}
     for k, sec in enumerate(spec.sections):
         s[f"section {k + 1}"] = {"plane": sec.name, "range_mm": sec.range_text, "step_mm": sec.step * 1e3,
