@@ -169,13 +169,10 @@ class CandidateEvaluator:
     def kx(self, axes: np.ndarray, refs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(ok over the base poses, k_x in N/m at the admissible ones) for the given a_i, b_i."""
         m = with_drive_joints(self.machine, axes, refs)
-        ok, _ = m.admissibility(self.poses, skip_checks=ONLY_JOINT_CHECK)
-        if not ok.any():
-            return ok, np.zeros(0)
         # K_U neglected at tool length 0, as the dissertation (Cobet 4.2.4; docs/user-guide/validation-hexaglide.md (reading 4))
-        p = m.point(self.poses[ok], tool_length=TOOL_LENGTH, neglect_spindle=True, n_modes=0, weak_point_directions=(),
-                    kinetostatics=False)
-        return ok, p.stiffness[:, 0]
+        p = m.point(self.poses, tool_length=TOOL_LENGTH, neglect_spindle=True, n_modes=0, weak_point_directions=(),
+                    kinetostatics=False, skip_checks=ONLY_JOINT_CHECK)
+        return p.admissible, p.stiffness[p.admissible, 0]
 
     def metrics(self, axes: np.ndarray, refs: np.ndarray, count: bool = True) -> Metrics:
         """k_x statistics (N/um) and the admissible-area fraction (of the original's) for a_i, b_i."""

@@ -237,6 +237,10 @@ def test_admissibility_and_section_checks(m):
     s2 = m.section("yz", 0.0, 0.05, [], u_range=(-0.2, 0.6), v_range=(-1.2, -0.6), skip_checks=without)
     from pkmstiff.admissibility.checks import Reason
 
+    lenient = m.point(POSES, skip_checks=without, n_modes=0)
+    assert lenient.admissible.all() and (lenient.reason_bits & int(Reason.PLATFORM_COLLISION) == 0).all()
+    with pytest.raises(pkmstiff.InputError):
+        m.section("yz", 0.0, 0.05, [], u_range=(-0.2, 0.6), v_range=(-1.2, -0.6), skip_checks=["no_such_check"])
     only_platform = s.result.reasons == int(Reason.PLATFORM_COLLISION)
     assert only_platform.any() and (s2.ok == (s.ok | only_platform)).all()
     assert not (s.fails("platform_collision") & s.ok).any() and s.fails("PLATFORM_COLLISION")[only_platform].all()

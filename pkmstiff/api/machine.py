@@ -88,7 +88,7 @@ class StudyMachine(Machine):
     def point(self, poses: ArrayLike, frame: str = "machine", tool_length: float | None = None, n_modes: int = 6,
               weak_point_directions: Sequence[str] = ("x", "y", "z"), quantities: Sequence[str] = (),
               neglect_spindle: bool | None = None, structure: Mapping[str, Any] | None = None,
-              kinetostatics: bool = True) -> "PointResults":
+              kinetostatics: bool = True, skip_checks: Sequence[str] = ()) -> "PointResults":
         """Stiffness at the TCP, natural frequencies with their energy shares, weak points, kinetostatics and
         admissibility at one pose (6,) or many poses (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad].
 
@@ -97,7 +97,7 @@ class StudyMachine(Machine):
         poses; ``neglect_spindle``: load the TCP with K_U rigid (None: as the machine says, see :meth:`with_`);
         ``structure``: modelling choices of the structure model (fields of
         :class:`pkmstiff.structure.StructureOptions`, e.g. ``{"strut_mass_to_drive": 0.5}``). Evaluated in chunks
-        of bounded memory. ``n_modes=0``, ``weak_point_directions=()`` and ``kinetostatics=False`` leave those analyses
+        of bounded memory. ``skip_checks`` as in :meth:`section`. ``n_modes=0``, ``weak_point_directions=()`` and ``kinetostatics=False`` leave those analyses
         out (for fast stiffness-only batches).
         """
         from pkmstiff.api.points import evaluate_points
@@ -105,7 +105,8 @@ class StudyMachine(Machine):
         return evaluate_points(self, poses, frame=check_frame(frame), tool_length=tool_length, n_modes=n_modes,
                                weak_point_directions=tuple(weak_point_directions), quantities=tuple(quantities),
                                neglect_spindle=self.spindle_neglected if neglect_spindle is None else neglect_spindle,
-                               structure=dict(structure or {}), with_kinetostatics=kinetostatics)
+                               structure=dict(structure or {}), with_kinetostatics=kinetostatics,
+                               checks=_checks(skip_checks))
 
     def frame_description(self, frame: str) -> str:
         """One line naming ``frame`` and its origin, e.g. ``report frame (origin 0, 400, 0 mm in the machine frame:

@@ -169,12 +169,12 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
                     tool_length: float | None = None, n_modes: int = 6,
                     weak_point_directions: tuple[str, ...] = ("x", "y", "z"), quantities: tuple[str, ...] = (),
                     neglect_spindle: bool = False, structure: dict[str, Any] | None = None,
-                    with_kinetostatics: bool = True) -> PointResults:
+                    with_kinetostatics: bool = True, checks: tuple[str, ...] | None = None) -> PointResults:
     """:class:`PointResults` at ``poses`` ((6,) or (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad]), chunked
     by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's); ``neglect_spindle``: the TCP compliance with
     K_U rigid (:func:`~pkmstiff.analysis.tcp_compliance`); ``structure``: fields of
     :class:`~pkmstiff.structure.StructureOptions`; ``with_kinetostatics=False`` leaves the kinetostatics out (NaN,
-    no direction labels)."""
+    no direction labels); ``checks``: the admissibility checks (None: all)."""
     from pkmstiff.admissibility import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.evaluation.quantities import get_quantity
@@ -187,7 +187,7 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
     parts: list[dict[str, Any]] = []
     for s in range(0, len(x), CHUNK):
         chunk = x[s:s + CHUNK]
-        ev = evaluate_poses(machine, chunk)
+        ev = evaluate_poses(machine, chunk) if checks is None else evaluate_poses(machine, chunk, checks=checks)
         adm = ev.admissibility
         st = build_structure(machine, ev, options)  # the chunk's one evaluation: no second inverse kinematics
         comp = tcp_compliance(st, tool_length, neglect_spindle)
