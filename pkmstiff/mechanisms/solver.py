@@ -60,8 +60,8 @@ class Solution:
     rcond: Array  #: (N,) reciprocal condition estimate at the last iterate: σ_min/σ_max estimate of the normal-equation
     #: step, or min/max |R_kk| where the pivoted QR was used (see linalg.lstsq_step)
     sigma_ratio: Array  #: (N,) σ_min/σ_max where computed (suspect poses), else NaN
-    #: (N,) κ of ∂x_c/∂s of the controlled outputs (:mod:`pkmstiff.mechanisms.outputs`; forward kinematics
-    #: only, NaN elsewhere and where no configuration was found)
+    #: (N,) κ of ∂x_c/∂s of the controlled outputs (:mod:`pkmstiff.mechanisms.outputs`), set by the forward
+    #: kinematics (NaN where no configuration was found or without an output check); None from the inverse
     output_kappa: Array | None = None
 
     @property
