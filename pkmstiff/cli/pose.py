@@ -15,6 +15,7 @@ from pkmstiff.errors import ArgumentError
 from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import load_machine
 
+
 #: largest |x|, |y|, |z| of a pose (mm: 100 m, beyond every machine tool) and largest |a|, |b|, |c| (deg: one turn)
 POSITION_LIMIT_MM = 1e5
 ANGLE_LIMIT_DEG = 360.0
@@ -23,7 +24,7 @@ ANGLE_LIMIT_DEG = 360.0
 def parse_pose(text: str) -> np.ndarray:
     """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad); positions beyond
     :data:`POSITION_LIMIT_MM` and angles beyond :data:`ANGLE_LIMIT_DEG` are refused (a typo, not a pose)."""
-    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", count_text="six")
+    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", ArgumentError, count_text="six")
     for name, v in zip("xyzabc", vals):
         limit, unit = (POSITION_LIMIT_MM, "mm") if name in "xyz" else (ANGLE_LIMIT_DEG, "deg")
         if abs(v) > limit:
@@ -46,6 +47,7 @@ def read_pose_file(path: str) -> np.ndarray:
     """Poses from a CSV file: one pose per line ``x,y,z,a,b,c`` (mm, deg); a header line and '#' comments are
     skipped. Returns (N, 6) SI poses; errors name the file and line."""
     from pkmstiff.errors import InputError
+
     from pkmstiff.io.inputs import input_file_problem
 
     poses = []
@@ -153,24 +155,34 @@ def _cmd_pose(args: argparse.Namespace) -> int:
 
     if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise ArgumentError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
-    from pkmstiff.cli.mechanism import is_mechanism_target
+    from pkmstiff.cli.targets import Kind, dispatch
 
-    if is_mechanism_target(args.machine):  # a generic mechanism evaluated like a machine (issue 14)
-        from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
-        from pkmstiff.cli.mechanism import print_pose
+    return dispatch(args.machine, {Kind.SPATIAL: lambda _: _machine_pose(args),
+                                   Kind.MECHANISM: lambda _: _mechanism_pose(args)})
 
-        if args.skip_check:
-            raise ArgumentError(f"--skip-check: not available for the mechanism '{args.machine}' (its admissibility is "
-                           "the joint limits)")
-        if args.pose is None:
-            raise ArgumentError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
-                           "'pkmstiff mechanism solve' with several --pose)")
-        rep = mechanism_pose_report(args.machine, args.pose)
-        if args.json:
-            print(json.dumps(rep, indent=2))
-        else:
-            print_pose(rep)
-        return 0
+
+def _mechanism_pose(args: argparse.Namespace) -> int:
+    """A generic mechanism evaluated like a machine (issue 14)."""
+    from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
+    from pkmstiff.cli.mechanism import print_pose
+    from pkmstiff.errors import ArgumentError
+
+    if args.skip_check:
+        raise ArgumentError(f"--skip-check: not available for the mechanism '{args.machine}' (its admissibility is "
+                       "the joint limits)")
+    if args.pose is None:
+        raise ArgumentError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
+                       "'pkmstiff mechanism solve' with several --pose)")
+    rep = mechanism_pose_report(args.machine, args.pose)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        print_pose(rep)
+    return 0
+
+
+def _machine_pose(args: argparse.Namespace) -> int:
+
     if getattr(args, "poses", None) is not None:
         return _pose_batch(args)
     pose = parse_pose(args.pose)
