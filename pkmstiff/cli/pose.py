@@ -24,7 +24,7 @@ ANGLE_LIMIT_DEG = 360.0
 def parse_pose(text: str) -> np.ndarray:
     """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad); positions beyond
     :data:`POSITION_LIMIT_MM` and angles beyond :data:`ANGLE_LIMIT_DEG` are refused (a typo, not a pose)."""
-    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", ArgumentError, count_text="six")
+    vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", count_text="six")
     for name, v in zip("xyzabc", vals):
         limit, unit = (POSITION_LIMIT_MM, "mm") if name in "xyz" else (ANGLE_LIMIT_DEG, "deg")
         if abs(v) > limit:
