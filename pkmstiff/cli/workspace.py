@@ -284,7 +284,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
     check_output_dir(args.out, "--out", getattr(args, "force", False),
                      ("rotation_map.json",) + (() if args.no_plot else ("rotation_map.png",))
-                     + tuple(_map_name(d.strip()) for d in args.directions.split(",") if d.strip()))
+                     + tuple(f"{_map_name(d.strip())}.{ext}" for d in args.directions.split(",") if d.strip()
+                             for ext in ("csv", "json")))
     _requirements(args)
     machine = load_machine(args.machine)
     amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
@@ -337,15 +338,21 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
         raise _cli_error(str(exc)) from None
     run = time.perf_counter() - t0
     summary = res.summary()
-    summary.update({"machine": machine.name, "run_time_s": run, **frame_metadata(machine, args.frame),
+    frame = frame_metadata(machine, args.frame)
+    summary.update({"machine": machine.name, "run_time_s": run, **frame,
                     "neglect_spindle": bool(args.neglect_spindle)})
     files: dict[str, str] = {}
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         for d, a in res.angles.items():
-            p = out / _map_name(d)
-            _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels)
+            p = out / f"{_map_name(d)}.csv"
+            _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels,
+                       {"machine": machine.name, "direction": d, "title": title,
+                        "max_angle_deg": f"largest admissible rotation {d} from the base orientation on the "
+                                         f"{args.increment:g} deg lattice; empty: base orientation inadmissible",
+                        "increment_deg": args.increment, "max_search_deg": args.max_angle,
+                        "checks_left_out": list(args.skip_check), **frame})
             files[f"map {d} (deg)"] = str(p)
         if not args.no_plot:
             from pkmstiff.plots.workspace import PlotDependencyError, plot_rotation_maps
@@ -375,16 +382,20 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
 
 
 def _map_name(direction: str) -> str:
-    """The CSV file of one direction's map: ``rotation_map_pa.csv`` for +a."""
-    return f"rotation_map_{direction.replace('+', 'p').replace('-', 'm')}.csv"
+    """The file stem of one direction's map: ``rotation_map_pa`` (``.csv`` and its ``.json``) for +a."""
+    return f"rotation_map_{direction.replace('+', 'p').replace('-', 'm')}"
 
 
-def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str]) -> None:
-    with atomic_open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow([f"{labels[1]} \\ {labels[0]}"] + [f"{x:.4f}" for x in u])
-        for vi, row in zip(v, deg):
-            w.writerow([f"{vi:.4f}"] + ["" if not np.isfinite(x) else f"{x:.4f}" for x in row])
+def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str],
+               meta: dict[str, Any]) -> None:
+    """One direction's map as a plain CSV, one row per raster point (``v`` outer, ``u`` inner): the two raster
+    coordinates named by the column rule (``y_mm``, ``z_mm``; ``b_deg``, ``c_deg`` at a point) and
+    ``max_angle_deg`` (empty = inadmissible base orientation); ``meta`` goes to ``<name>.json`` beside it."""
+    from pkmstiff.io.columns import label_column, write_table
+
+    U, V = np.meshgrid(u, v)
+    rows = zip(U.ravel().tolist(), V.ravel().tolist(), np.asarray(deg, dtype=float).ravel().tolist())
+    write_table(path, [label_column(labels[0]), label_column(labels[1]), "max_angle_deg"], rows, meta, ".6g")
 
 
 def add_commands(sub: Any) -> None:
