@@ -36,6 +36,7 @@ from pkmstiff.evaluation.progress import progress as with_progress
 from pkmstiff.io.atomic import atomic_open, atomic_write_text
 from pkmstiff.io.columns import label_column, text_cell
 from pkmstiff.machine.model import Machine
+from pkmstiff.io.columns import sidecar_path
 
 __all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
            "SweepResult", "grid_points", "random_points", "run_task", "run_sweep"]
@@ -335,11 +336,6 @@ class SweepResult:
                 w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else text_cell(r[c]))
                             for c in cols])
         return path
-
-
-def sidecar_path(path: str | Path) -> Path:
-    """The JSON file beside a results CSV that holds its metadata (``<name>.json``)."""
-    return Path(path).with_suffix(".json")
 
 
 def _run_serial(tasks: Sequence[SweepTask], progress: bool) -> list[dict[str, Any]]:
