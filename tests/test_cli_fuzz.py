@@ -18,6 +18,7 @@ import pytest
 
 from pkmstiff.cli import _value_options, build_parser, join_negative_values, main
 from pkmstiff.machine.loader import bundled_machine_dir
+from tests.calibration_plans import ONE_CIRCLE_PLAN
 
 HEX = str(bundled_machine_dir() / "hexaglide.toml")
 POSE = "0,0,-1000,0,0,0"
@@ -425,24 +426,6 @@ FILE_CASES: list[tuple[str, list[str], int, str]] = [
     ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{one_circle}"], 2, "rank 14"),
     ("calibrate", ["calibrate", "report", "felix", "--measurements", "{one_circle}", "--out", "rep"], 2, "rank 14"),
 ]
-
-ONE_CIRCLE_PLAN = """[plan]
-name = "one circle"
-instrument = "ballbar"
-[setup]
-fixed_ball = ["0 mm", "0 mm", "0 mm"]
-target = ["0 mm", "0 mm", "0 mm"]
-bar_length = "300 mm"
-measuring_range = "15 mm"
-[[paths]]
-kind = "circle"
-label = "XY circle at z=150 mm"
-plane = "XY"
-centre = ["0 mm", "0 mm", "150 mm"]
-radius = "259.808 mm"
-points = 72
-"""
-
 
 @pytest.fixture(scope="module")
 def one_circle(tmp_path_factory) -> Path:

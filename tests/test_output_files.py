@@ -16,6 +16,7 @@ from pkmstiff.cli import main
 from pkmstiff.errors import OutputPathError
 from pkmstiff.io.atomic import atomic_open, atomic_path, atomic_write_text, output_path, safe_stem
 from pkmstiff.machine.loader import bundled_machine_dir
+from tests.calibration_plans import ONE_CIRCLE_PLAN
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -190,23 +191,6 @@ _UNIT_SUFFIXES = ("_mm", "_deg", "_m", "_rad", "_s", "_Hz", "_N_per_um", "_N_m_p
                   "_m2", "_m3", "_pct")
 _COLUMN = re.compile(r"[A-Za-z][A-Za-z0-9_.]*")  # no spaces, brackets, slashes or units in words
 
-_TINY_PLAN = """[plan]
-name = "tiny"
-instrument = "ballbar"
-[setup]
-fixed_ball = ["0 mm", "0 mm", "0 mm"]
-target = ["0 mm", "0 mm", "0 mm"]
-bar_length = "300 mm"
-measuring_range = "15 mm"
-[[paths]]
-kind = "circle"
-label = "XY circle"
-plane = "XY"
-centre = ["0 mm", "0 mm", "150 mm"]
-radius = "259.808 mm"
-points = 12
-"""
-
 _TINY_SWEEP = """[sweep]
 machine = "hexaglide"
 mode = "grid"
@@ -261,7 +245,7 @@ CSV_WRITERS = [
 ]  # 'report' writes no CSV; 'demo' writes the section CSV (evaluation.export.to_csv) tested here via 'section'
 
 _INPUTS = {"poses": _poses, "five_bar": _five_bar, "sweep": _file("sweep.toml", _TINY_SWEEP),
-           "plan": _file("plan.toml", _TINY_PLAN)}
+           "plan": _file("plan.toml", ONE_CIRCLE_PLAN)}
 
 
 @pytest.mark.parametrize("argv", [a for _, a in CSV_WRITERS], ids=[i for i, _ in CSV_WRITERS])
