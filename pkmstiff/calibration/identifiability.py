@@ -331,9 +331,10 @@ def identifiability(machine: Machine, params: ParameterSet, plan: Plan) -> Ident
 def check_identifiable(ident: Identifiability, source: str) -> None:
     """Refuse, before any identification, a measurement whose poses lose parameter directions beyond the named
     gauge freedoms (docs/theory/calibration.md): the rank found must equal the parameter count less the named
-    freedoms' DOF. A plan that misses this (e.g. a single ball-bar circle: rank 14 of 42 on Felix, 30 where 36 are
-    identifiable) leaves the identification ill-posed — an iterative solver then runs for minutes before it fails to
-    converge — so this is one input error (exit status 2) naming the file, the rank found and the rank needed."""
+    freedoms' DOF. A plan that misses this (e.g. a single ball-bar circle on Felix: rank 14, where 36 of the 42
+    parameters are identifiable) leaves the identification ill-posed — an iterative solver then runs for minutes
+    before it fails to converge — so this is one input error (exit status 2) naming the file, the rank found and the
+    rank needed."""
     from pkmstiff.errors import CalibrationInputError
 
     unnamed = sum(g.dof for g in ident.gauge_freedoms if g.kind == "unnamed")
@@ -341,8 +342,8 @@ def check_identifiable(ident: Identifiability, source: str) -> None:
         return
     needed = ident.rank + unnamed
     raise CalibrationInputError(
-        source, "readings", f"poses that identify {needed} base parameters of {ident.n_parameters} (all but the named "
-        f"gauge freedoms, {ident.n_parameters - needed} DOF); measure more circles in other planes and heights "
-        f"or a hemisphere path ('pkmstiff calibrate identifiability MACHINE --instrument ballbar --plan PLAN' "
-        f"shows what a plan identifies before measuring)", f"rank {ident.rank} ({unnamed} parameter combinations no reading sees, "
-        f"{ident.n_readings} readings)")
+        source, "readings", f"poses that identify {needed} base parameters of {ident.n_parameters} (all but the "
+        f"named gauge freedoms, {ident.n_parameters - needed} DOF); measure more ball-bar circles in other planes "
+        f"and heights or a hemisphere path, or more poses spread over the workspace ('pkmstiff calibrate "
+        f"identifiability MACHINE --instrument KIND --plan PLAN' shows what a plan identifies before measuring)",
+        f"rank {ident.rank} ({unnamed} parameter combinations no reading sees, {ident.n_readings} readings)")

@@ -81,8 +81,8 @@ from pkmstiff.calibration.instruments.file_format import FORMAT_VERSION, fmt
 from pkmstiff.calibration.instruments.registry import FILE_DEFAULT, find, instruments, kinds
 from pkmstiff.errors import MeasurementFileError
 from pkmstiff.io.atomic import atomic_write_text
-from pkmstiff.io.inputs import input_file_problem
 from pkmstiff.io.columns import sidecar_path
+from pkmstiff.io.inputs import input_file_problem
 
 Array = NDArray[np.float64]
 Measurement = BallbarMeasurement | PointMeasurement

@@ -188,7 +188,8 @@ def write_matrix_csv(path: Path, K: np.ndarray, name: str) -> Path:
     rows = [[a, *map(float, K[i])] for i, a in enumerate(MATRIX_AXES)]
     meta = {"platform": name, "quantity": "6x6 platform stiffness at the spindle reference point",
             "rows_and_columns": list(MATRIX_AXES),
-            "units": {"translational (ux..uz x ux..uz)": "N/um", "coupling (ux..uz x rx..rz, rx..rz x ux..uz)": "N/urad",
+            "units": {"translational (ux..uz x ux..uz)": "N/um",
+                      "coupling (ux..uz x rx..rz, rx..rz x ux..uz)": "N/urad",
                       "rotational (rx..rz x rx..rz)": "N*m/urad"}}
     return write_table(path, ["row", *MATRIX_AXES], rows, meta, ".8g")
 

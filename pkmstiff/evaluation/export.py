@@ -19,7 +19,7 @@ from pkmstiff.admissibility.checks import Reason
 from pkmstiff.evaluation.sections import SectionResult
 from pkmstiff.io.atomic import atomic_open, atomic_path, atomic_write_text
 from pkmstiff.io.columns import column_name
-from pkmstiff.io.columns import sidecar_path as metadata_path
+from pkmstiff.io.columns import sidecar_path as metadata_path  # the name this module's users import
 
 MM = 1e3
 
