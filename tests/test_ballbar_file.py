@@ -36,7 +36,7 @@ def test_round_trip(tmp_path):
         assert np.allclose(getattr(back, name), getattr(m, name), rtol=1e-14, atol=1e-18), name
     assert back.bar_length == pytest.approx(m.bar_length, rel=1e-15)
     assert list(back.direction) == list(m.direction)
-    assert (back.machine, back.instrument, back.plane, back.notes) == ("felix", "QC10", "XY", ["synthetic test data"])
+    assert (back.machine, back.device, back.plane, back.notes) == ("felix", "QC10", "XY", ["synthetic test data"])
     assert back.range == pytest.approx(m.range, rel=1e-15) and back.resolution == pytest.approx(1e-7, rel=1e-15)
     assert back.lines[0] == 16  # 14 header lines + column row (1-based)
 

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats
-from pkmstiff.calibration.instruments import Setup, readings
+from pkmstiff.calibration.instruments import readings
 from pkmstiff.calibration.measurement import commanded_drives
 from pkmstiff.calibration.perturb import machine_file_text
 from pkmstiff.calibration.plans import Plan
@@ -170,17 +170,11 @@ def tcp_errors(real: Machine, controller: Machine, poses: np.ndarray, point: np.
     return np.linalg.norm(reached[:, :3] + R @ v - x[:, :3] - Rc @ v, axis=1)
 
 
-def setup_from_ballbar(meas: object) -> Setup:
-    """Nominal ball-bar set-up of a :class:`~pkmstiff.calibration.measurement_file.BallbarMeasurement`."""
-    return Setup("ballbar", target=meas.ball_offset, fixed_ball=meas.fixed_ball, bar_length=meas.bar_length,
-                 measuring_range=max(abs(meas.range[0]), abs(meas.range[1])))
-
-
 def measurement_plan(meas: object, machine_name: str, source: str) -> tuple[Plan, np.ndarray]:
     """Plan (commanded poses + nominal set-up) and readings of a measurement taken on the machine
     ``machine_name``: ball bar (N, 1) in m (the full ball distance: the file's reading + bar length); tracker
     (N, 3) target positions in m; pose (N, 6) positions in m and orientation errors in rad (the order of
-    :data:`~pkmstiff.calibration.instruments.READINGS`). A file of another machine or without commanded poses is
+    :attr:`~pkmstiff.calibration.instruments.Instrument.reading_names`). A file of another machine or without commanded poses is
     a one-line error saying what to do."""
     if meas.machine and meas.machine != machine_name.split(":")[0]:
         raise CalibrationInputError(source, "machine", f"a measurement taken on '{machine_name}' (give the machine "
@@ -188,10 +182,5 @@ def measurement_plan(meas: object, machine_name: str, source: str) -> tuple[Plan
     if meas.poses is None:
         raise CalibrationInputError(source, "x_mm ... c_deg", "the commanded pose columns (identification needs the "
                                     "commanded poses; export them with the readings)", "drive columns only")
-    kind = getattr(meas, "kind", "ballbar")
-    if kind != "ballbar":
-        setup = Setup(kind, target=np.asarray(meas.target, dtype=float))
-        return (Plan(f"measurement {Path(source).name}", setup, np.asarray(meas.poses, dtype=float)),
-                np.asarray(meas.readings, dtype=float))
-    plan = Plan(f"measurement {Path(source).name}", setup_from_ballbar(meas), np.asarray(meas.poses, dtype=float))
-    return plan, (np.asarray(meas.reading, dtype=float) + meas.bar_length)[:, None]
+    setup, y = meas.instrument.measured(meas)
+    return Plan(f"measurement {Path(source).name}", setup, np.asarray(meas.poses, dtype=float)), y

@@ -67,7 +67,7 @@ def analyse_file(path: str, harmonics: int | str = "auto", plot_dir: str | None 
         model = load_machine(name)
     ev = evaluate_measurement(meas, harmonics=harmonics, alpha=alpha, machine=model, start_pose=x0,
                               source=str(path))
-    out = {"file": str(path), "machine": meas.machine, "instrument": meas.instrument, "samples": meas.n_samples,
+    out = {"file": str(path), "machine": meas.machine, "instrument": meas.device, "samples": meas.n_samples,
            **ev.to_dict()}
     if plot_dir is not None:
         from pkmstiff.plots.ballbar import save_ballbar_figures
