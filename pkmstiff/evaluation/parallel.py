@@ -25,6 +25,7 @@ import multiprocessing
 import os
 import pickle
 import sys
+import time
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
@@ -37,6 +38,9 @@ T = TypeVar("T")
 
 #: a task should run at least this long (s): below it, sending it and collecting its result cost a noticeable share
 MIN_TASK_SECONDS = 0.2
+#: seconds a fresh (cold) Dask worker needs to import pkmstiff and load the compiled kernels from the on-disk cache
+#: (measured ~2.6 s on the shared 2-core machine): work shorter than that stays here while the workers warm up
+COLD_WORKER_SECONDS = 3.0
 #: tasks per worker when the work allows it: with a few tasks each, a slow worker (a shared machine) delays the end
 #: by at most a quarter of its share
 TASKS_PER_WORKER = 4
@@ -62,7 +66,7 @@ class Plan:
     def text(self, unit: str = "points", task: str = "tasks") -> str:
         """One line for the cost line, e.g. ``2 local workers, 8 tasks of 16384 points (≈ 0.9 s each)``."""
         if not self.parallel:
-            return f"serial ({self.items} {unit}, ≈ {self.items * self.item_seconds:.1f} s)"
+            return f"{self.where} ({self.items} {unit}, ≈ {self.items * self.item_seconds:.1f} s)"
         who = f"{self.workers} local workers" if self.where == "local" else f"{self.where}"
         return (f"{who}, {self.tasks} {task} of {self.task_items} {unit} "
                 f"(≈ {self.task_items * self.item_seconds:.2f} s each)")
@@ -79,8 +83,13 @@ def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None
     """Split ``items`` items (each ``item_seconds`` s, measured) into tasks for ``n_jobs`` local workers or a Dask
     cluster: tasks of a whole number of ``granule`` items, each ≥ :data:`MIN_TASK_SECONDS`, about
     :data:`TASKS_PER_WORKER` per worker. Too little work for two such tasks runs serially (workers=1, tasks=1)."""
-    workers = _dask_workers(scheduler) if scheduler is not None else resolve_workers(n_jobs)
+    workers, cold = _dask_workers(scheduler) if scheduler is not None else (resolve_workers(n_jobs), 0)
     where = "local" if scheduler is None else f"Dask ({workers} workers at {_address(scheduler)})"
+    if cold and items * item_seconds < COLD_WORKER_SECONDS + items * item_seconds / workers:
+        _warm_in_background(scheduler)  # not worth waiting for them now; warm for the next run
+        return Plan(items, 1, min(items, 1), items, item_seconds, "serial: the Dask workers are still cold")
+    if cold:
+        client(scheduler).register_plugin(PreloadPlugin())  # waits until every worker is warm
     granules = math.ceil(items / granule) if items else 0
     per_granule = max(item_seconds, 0.0) * granule
     least = max(1, math.ceil(MIN_TASK_SECONDS / per_granule)) if per_granule > 0 else 1
@@ -88,6 +97,8 @@ def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None
     tasks = math.ceil(granules / size) if size else 0
     if tasks < 2:
         return Plan(items, 1, min(tasks, 1), items, item_seconds)
+    if scheduler is not None and not cold:
+        client(scheduler).register_plugin(PreloadPlugin())  # workers that joined later (warm ones return at once)
     return Plan(items, min(workers, tasks), tasks, size * granule, item_seconds, where)
 
 
@@ -125,11 +136,25 @@ class Shared(Generic[T]):
 _POOLS: dict[int, ProcessPoolExecutor] = {}
 
 
+_WARM = False
+
+
 def warm_up() -> None:
-    """Import what workers run (once per worker; forked workers inherit it)."""
-    import pkmstiff.admissibility.pipeline  # noqa: F401
-    import pkmstiff.evaluation.quantities  # noqa: F401
-    import pkmstiff.machine.loader  # noqa: F401
+    """Import what workers run and load the compiled kernels from the on-disk cache by evaluating one small section
+    (once per process; forked workers inherit both from the process that forks them)."""
+    global _WARM
+    if _WARM:
+        return
+    from pkmstiff.evaluation.sections import axis_plane, evaluate_section
+    from pkmstiff.machine.loader import load_machine
+
+    evaluate_section(load_machine("hexaglide"), axis_plane("yz", 0.0, (0.0, 0.1), (-1.0, -0.9), 0.05), ["kx", "f1"],
+                     progress=False)
+    _WARM = True
+
+
+def _is_warm() -> bool:
+    return _WARM
 
 
 def _context() -> multiprocessing.context.BaseContext:
@@ -142,19 +167,23 @@ def pool(workers: int) -> ProcessPoolExecutor:
     """The process pool of ``workers`` workers, started at the first call and kept for the life of this process."""
     p = _POOLS.get(workers)
     if p is None:
-        p = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=_context(), initializer=warm_up)
+        ctx = _context()
+        p = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
+                                                  initializer=None if ctx.get_start_method() == "fork" else warm_up)
     return p
 
 
-def _noop(_: int) -> int:
+def _pid(_: int) -> int:
+    time.sleep(0.005)  # long enough that every started worker takes one of the calls
     return os.getpid()
 
 
 def start_workers(workers: int) -> int:
-    """Start the pool of ``workers`` (if not yet running) and wait until every worker answers; returns the number of
-    distinct worker processes that answered (for benchmarks of the start-up)."""
+    """Start the pool of ``workers`` (if not yet running) and have the workers answer 2 × ``workers`` calls of 5 ms;
+    returns the number of distinct worker processes that answered (for benchmarks of the start-up, which the 5 ms
+    calls bound from above)."""
     p = pool(workers)
-    return len(set(p.map(_noop, range(4 * workers))))
+    return len(set(p.map(_pid, range(2 * workers))))
 
 
 def shutdown() -> None:
@@ -179,8 +208,8 @@ def _address(scheduler: Any) -> str:
 
 
 def client(scheduler: Any) -> Any:
-    """A ``distributed.Client`` for ``scheduler`` (an address or a client), kept per address for the run, with
-    :class:`PreloadPlugin` registered."""
+    """A ``distributed.Client`` for ``scheduler`` (an address or a client), kept per address for the run
+    (:func:`plan` registers :class:`PreloadPlugin` when the work goes to the cluster)."""
     try:
         from distributed import Client
     except ImportError:
@@ -194,9 +223,6 @@ def client(scheduler: Any) -> Any:
                 c = _CLIENTS[scheduler] = Client(scheduler, timeout=30)
             except (OSError, TimeoutError, ValueError) as exc:
                 raise ParallelError(f"scheduler: cannot connect to the Dask scheduler {scheduler!r}: {exc}") from None
-    if "pkmstiff-preload" not in getattr(c, "_pkmstiff_plugins", ()):
-        c.register_plugin(PreloadPlugin())
-        c._pkmstiff_plugins = ("pkmstiff-preload",)
     return c
 
 
@@ -211,9 +237,23 @@ def connected(scheduler: Any) -> Iterator[None]:
             _CLIENTS.pop(scheduler).close()
 
 
-def _dask_workers(scheduler: Any) -> int:
-    info = client(scheduler).scheduler_info()
-    return max(1, sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values()))
+def _dask_workers(scheduler: Any) -> tuple[int, int]:
+    """(worker threads, workers not yet warm) of the cluster."""
+    c = client(scheduler)
+    info = c.scheduler_info()
+    warm = c.run(_is_warm)
+    return (max(1, sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values())),
+            sum(1 for v in warm.values() if not v))
+
+
+def _warm_in_background(scheduler: Any) -> None:
+    """One warm-up task per cold worker, not waited for."""
+    from distributed import fire_and_forget
+
+    c = client(scheduler)
+    for addr, warm in c.run(_is_warm).items():
+        if not warm:
+            fire_and_forget(c.submit(warm_up, workers=[addr], allow_other_workers=False, pure=False))
 
 
 try:  # the plugin base class only where distributed is installed
