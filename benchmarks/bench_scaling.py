@@ -57,7 +57,9 @@ def workloads(quick: bool, tmp: Path) -> dict[str, list[str]]:
         "sweep-5": ["sweep", str(_sweep_file(tmp, 10 if quick else 5)), "--quiet", "--force", "--out",
                     str(tmp / "s5.csv")],
         "sweep-25": ["sweep", str(SWEEP), "--quiet", "--force", "--out", str(tmp / "s25.csv")],
-        "workspace": ["workspace", "hexaglide", "--resolution", "6.25" if quick else "3.125", "--quiet"],
+        # the workspace's cost line bounds memory from above (the whole lattice); the octree needs far less
+        "workspace": ["workspace", "hexaglide", "--resolution", "6.25" if quick else "3.125", "--quiet",
+                      "--memory-budget", "1TB"],
     }
 
 

@@ -129,3 +129,23 @@ def test_workspace_oracle_gives_the_same_answer_and_counts_on_workers(monkeypatc
     assert (serial.stats.points, serial.stats.poses, serial.stats.full_pipeline) == \
         (par.stats.points, par.stats.poses, par.stats.full_pipeline)
     assert math.isfinite(par.stats.time)
+
+
+def test_shared_cache_keeps_only_the_most_recent_objects():
+    shared = [parallel.Shared({"design": k}) for k in range(parallel.Shared.KEEP + 3)]
+    assert len(parallel.Shared._cache) <= parallel.Shared.KEEP and shared[0].key not in parallel.Shared._cache
+    assert shared[0].get() == {"design": 0} and shared[0].key in parallel.Shared._cache  # unpickled again on demand
+
+
+def test_small_work_on_cold_dask_workers_stays_here_and_warms_them(monkeypatch):
+    warmed = []
+    monkeypatch.setattr(parallel, "_dask_workers", lambda scheduler: (2, 2))  # 2 workers, both cold
+    monkeypatch.setattr(parallel, "_warm_in_background", warmed.append)
+    small = parallel.plan(11, 0.1, scheduler="tcp://h:8786")  # 1.1 s of work < COLD_WORKER_SECONDS + 0.55 s
+    assert not small.parallel and small.text("tasks").startswith("serial: the Dask workers are still cold")
+    assert warmed == ["tcp://h:8786"]
+    registered = []
+    monkeypatch.setattr(parallel, "client", lambda s: type("C", (), {"register_plugin": registered.append})())
+    big = parallel.plan(1000, 0.1, scheduler="tcp://h:8786")  # 100 s: worth waiting for the warm-up
+    assert big.parallel and big.workers == 2 and len(registered) == 1
+    assert big.text("tasks", "batches").startswith("Dask (2 workers at tcp://h:8786), 8 batches of 125 tasks")

@@ -88,8 +88,6 @@ def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None
     if cold and items * item_seconds < COLD_WORKER_SECONDS + items * item_seconds / workers:
         _warm_in_background(scheduler)  # not worth waiting for them now; warm for the next run
         return Plan(items, 1, min(items, 1), items, item_seconds, "serial: the Dask workers are still cold")
-    if cold:
-        client(scheduler).register_plugin(PreloadPlugin())  # waits until every worker is warm
     granules = math.ceil(items / granule) if items else 0
     per_granule = max(item_seconds, 0.0) * granule
     least = max(1, math.ceil(MIN_TASK_SECONDS / per_granule)) if per_granule > 0 else 1
@@ -97,8 +95,8 @@ def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None
     tasks = math.ceil(granules / size) if size else 0
     if tasks < 2:
         return Plan(items, 1, min(tasks, 1), items, item_seconds)
-    if scheduler is not None and not cold:
-        client(scheduler).register_plugin(PreloadPlugin())  # workers that joined later (warm ones return at once)
+    if scheduler is not None:  # waits until every worker is warm (warm ones answer at once)
+        client(scheduler).register_plugin(PreloadPlugin())
     return Plan(items, min(workers, tasks), tasks, size * granule, item_seconds, where)
 
 
@@ -113,16 +111,23 @@ class Shared(Generic[T]):
     object, unpickled at most once per process."""
 
     _cache: dict[str, Any] = {}
+    #: objects kept per process (the most recently used; a design optimisation sends thousands of machines)
+    KEEP = 8
 
     def __init__(self, obj: T) -> None:
         self.data = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
         self.key = hashlib.sha1(self.data).hexdigest()
-        Shared._cache[self.key] = obj  # this process (and workers forked later) hold it already
+        self._keep(obj)  # this process (and workers forked later) hold it already
 
     def get(self) -> T:
-        obj = Shared._cache.get(self.key)
-        if obj is None:
-            obj = Shared._cache[self.key] = pickle.loads(self.data)
+        obj = Shared._cache.pop(self.key, None)
+        return self._keep(pickle.loads(self.data) if obj is None else obj)
+
+    def _keep(self, obj: T) -> T:
+        Shared._cache.pop(self.key, None)
+        Shared._cache[self.key] = obj  # newest last
+        while len(Shared._cache) > Shared.KEEP:
+            Shared._cache.pop(next(iter(Shared._cache)))
         return obj
 
     def __getstate__(self) -> dict[str, Any]:
