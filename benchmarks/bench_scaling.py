@@ -8,7 +8,8 @@ run so every run pays its workers' start-up):
   sweep-5   the 12-task ``studies/sweeps/hexaglide_strut_sweep.toml`` with 5 mm sections (--quick: 10 mm)
   sweep-25  the same file as it is (25 mm sections)
   workspace ``workspace hexaglide --resolution 3.125`` (--quick: 6.25 mm)
-``--dask`` adds sweep-25 and section on a local Dask cluster of N workers (started before the clock runs).
+``--dask`` adds sweep-25 and section on a local Dask cluster of N workers (started before the clock runs), once with
+cold and once with warm workers.
 
 Usage (from a clone, nothing installed): ``python benchmarks/bench_scaling.py [--max-workers N] [--workers 1,2,4]
 [--quick] [--only section,sweep-25] [--dask] [--json out.json]``. Default workers 1, 2, 4, … up to N = os.cpu_count();
@@ -53,26 +54,32 @@ def _sweep_file(tmp: Path, step_mm: float) -> Path:
 
 def workloads(quick: bool, tmp: Path) -> dict[str, list[str]]:
     return {
-        "section": ["section", "hexaglide", "--plane", "yz", "--step", "2.5" if quick else "1.25", "--quiet"],
-        "sweep-5": ["sweep", str(_sweep_file(tmp, 10 if quick else 5)), "--quiet", "--force", "--out",
+        "section": ["section", "hexaglide", "--plane", "yz", "--step", "2.5" if quick else "1.25"],
+        "sweep-5": ["sweep", str(_sweep_file(tmp, 10 if quick else 5)), "--force", "--out",
                     str(tmp / "s5.csv")],
-        "sweep-25": ["sweep", str(SWEEP), "--quiet", "--force", "--out", str(tmp / "s25.csv")],
+        "sweep-25": ["sweep", str(SWEEP), "--force", "--out", str(tmp / "s25.csv")],
         # the workspace's cost line bounds memory from above (the whole lattice); the octree needs far less
-        "workspace": ["workspace", "hexaglide", "--resolution", "6.25" if quick else "3.125", "--quiet",
+        "workspace": ["workspace", "hexaglide", "--resolution", "6.25" if quick else "3.125",
                       "--memory-budget", "1TB"],
     }
+
+
+PLANS: dict[str, str] = {}  # command line -> the plan it printed (cost line or the sweep's last line)
 
 
 def run_once(argv: list[str]) -> tuple[float, float]:
     """(wall s, CPU s) of one command, its workers started and stopped inside the measurement."""
     parallel.shutdown()
+    out, err = io.StringIO(), io.StringIO()
     c0, t0 = _cpu(), time.perf_counter()
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         rc = cli(argv)
     parallel.shutdown()  # reaps the workers: their CPU time is counted
     wall, cpu = time.perf_counter() - t0, _cpu() - c0
     if rc not in (0,):
-        raise SystemExit(f"bench_scaling: {' '.join(argv)} exited {rc}")
+        raise SystemExit(f"bench_scaling: {' '.join(argv)} exited {rc}: {err.getvalue().strip()[-300:]}")
+    lines = [x for x in (err.getvalue() + out.getvalue()).splitlines() if x.startswith("pkmstiff ")]
+    PLANS[" ".join(argv)] = lines[-1] if lines else ""
     return wall, cpu
 
 
@@ -140,13 +147,13 @@ def main() -> None:
     for name, t in table.items():
         cells = "".join(f"{_cell(t['runs'].get(n)):>22}" for n in counts)
         print(f"{name:<12}{cells}{t['serial_fraction']:>14.3f}{t['predicted_speedup_16']:>11.1f}×")
-    print("CPU s (this process + workers): " + "; ".join(
+    print("CPU s (this process + local workers; Dask workers not counted): " + "; ".join(
         f"{name} " + ", ".join(f"{n} w {r['cpu_s']:.1f}" for n, r in t["runs"].items()) for name, t in table.items()))
     info["load_average_end"] = os.getloadavg()
     print(f"load average at the end {info['load_average_end'][0]:.1f}")
     if a.json:
         Path(a.json).write_text(json.dumps({"machine": info, "startup_overhead_s_per_worker": startup,
-                                            "work": table}, indent=2, default=str))
+                                            "work": table, "plans": PLANS}, indent=2, default=str))
         print(f"wrote {a.json}")
 
 
@@ -155,7 +162,8 @@ def _cell(r: dict | None) -> str:
 
 
 def _dask_runs(work: dict[str, list[str]], n: int) -> dict[str, dict]:
-    """sweep-25 and section with ``--scheduler`` on a local cluster of ``n`` single-threaded workers, against serial."""
+    """sweep-25 and section with ``--scheduler`` on a fresh local cluster of ``n`` single-threaded workers against
+    serial: the first run finds the workers cold (small work then stays local while they warm up), the second warm."""
     from distributed import LocalCluster
 
     out = {}
@@ -164,12 +172,14 @@ def _dask_runs(work: dict[str, list[str]], n: int) -> dict[str, dict]:
             if name not in work:
                 continue
             serial = run_once([*work[name], "--jobs", "1"])
-            dask = run_once([*work[name], "--scheduler", cluster.scheduler_address])
-            r = {1: {"wall_s": serial[0], "cpu_s": serial[1], "speedup": 1.0, "efficiency": 1.0},
-                 n: {"wall_s": dask[0], "cpu_s": dask[1], "speedup": serial[0] / dask[0],
-                     "efficiency": serial[0] / dask[0] / n}}
-            s, pred = amdahl([1, n], [1.0, serial[0] / dask[0]])
-            out[f"{name}/dask"] = {"argv": work[name], "runs": r, "serial_fraction": s, "predicted_speedup_16": pred}
+            for state in ("cold", "warm"):
+                dask = run_once([*work[name], "--scheduler", cluster.scheduler_address])
+                r = {1: {"wall_s": serial[0], "cpu_s": serial[1], "speedup": 1.0, "efficiency": 1.0},
+                     n: {"wall_s": dask[0], "cpu_s": dask[1], "speedup": serial[0] / dask[0],
+                         "efficiency": serial[0] / dask[0] / n}}
+                s, pred = amdahl([1, n], [1.0, serial[0] / dask[0]])
+                out[f"{name}/dask-{state}"] = {"argv": work[name], "runs": r, "serial_fraction": s,
+                                               "predicted_speedup_16": pred}
     return out
 
 
