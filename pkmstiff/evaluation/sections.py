@@ -20,6 +20,7 @@ from pkmstiff.admissibility.checks import ALL_CHECKS, Reason, checks_left_out
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation import parallel
+from pkmstiff.evaluation.progress import callback as progress_callback
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
 from pkmstiff.machine.model import Machine
@@ -263,7 +264,7 @@ def evaluate_section(
     settings = {"chunk_size": chunk_size, "checks": list(checks), "checks_left_out": checks_left_out(checks), **opts}
     if neglect:
         settings["neglect_spindle"] = True
-    if progress is None:  # a bar on a terminal, periodic lines otherwise (see _progress)
+    if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
         progress = len(poses) * (1 + len(names)) > 20_000
     t0 = time.perf_counter()
     first = _evaluate_chunk(machine, poses[:chunk_size], names, tool_length, opts, checks)
@@ -274,8 +275,8 @@ def evaluate_section(
         bounds = parallel.split(len(rest), plan if plan.parallel else dataclasses.replace(plan, task_items=chunk_size))
         shared = parallel.Shared(machine)
         payloads = [(shared, rest[a:b], chunk_size, names, tool_length, opts, checks) for a, b in bounds]
-        parts = [first, *parallel.run_tasks(_evaluate_task, payloads, plan, scheduler,
-                                            _progress(len(payloads), progress, plan.parallel))]
+        step = progress_callback(len(payloads), progress, "section", "task" if plan.parallel else "chunk")
+        parts = [first, *parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step)]
     ok, reasons, vals = _concat(parts)
     shape = plane.shape
     return SectionResult(
@@ -285,42 +286,6 @@ def evaluate_section(
         ok=ok.reshape(shape), reasons=reasons.reshape(shape), settings=settings,
         frame=frame_metadata(machine, frame), plan=dataclasses.replace(plan, items=len(poses)),
     )
-
-
-#: seconds between two progress lines when stderr is not a terminal
-PROGRESS_INTERVAL_S = 10.0
-
-
-def _progress(total: int, enabled: bool, tasks: bool) -> Callable[[int], None] | None:
-    """A callback for :func:`parallel.run_tasks`: a tqdm bar on a terminal; one line every
-    :data:`PROGRESS_INTERVAL_S` s when stderr is redirected; None when disabled."""
-    import sys
-
-    if not enabled or total == 0:
-        return None
-    unit = "task" if tasks else "chunk"
-    if sys.stderr.isatty():
-        from tqdm import tqdm
-
-        bar = tqdm(total=total, desc="section", unit=unit, leave=False)
-
-        def step(k: int) -> None:
-            bar.update(k - bar.n)
-            if k == total:
-                bar.close()
-
-        return step
-    t0 = last = time.perf_counter()
-
-    def line(k: int) -> None:
-        nonlocal last
-        now = time.perf_counter()
-        if now - last >= PROGRESS_INTERVAL_S:
-            last = now
-            print(f"section: {100 * k / total:.0f} % ({k}/{total} {unit}s), {now - t0:.0f} s", file=sys.stderr,
-                  flush=True)
-
-    return line
 
 
 def three_planes(centre: Iterable[float], half_extent: Iterable[float], step: float) -> list[Plane]:

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import csv
 import itertools
+import json
 import math
 import time
 from dataclasses import dataclass, field, replace
@@ -33,6 +34,9 @@ import numpy as np
 
 from pkmstiff.errors import ParallelError, SweepError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.parallel import Plan, connected, plan, run_tasks, split
+from pkmstiff.evaluation.progress import callback as progress_callback
+from pkmstiff.io.atomic import atomic_open, atomic_write_text
+from pkmstiff.io.columns import label_column, text_cell
 from pkmstiff.machine.model import Machine
 
 __all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
@@ -319,19 +323,27 @@ class SweepResult:
         return np.array(vals, dtype=object)
 
     def to_csv(self, path: str | Path) -> Path:
-        """CSV with ``# key: value`` metadata lines, one header row and one row per task (empty = no value)."""
+        """A plain CSV (``pandas.read_csv(path)`` reads it with no options): one header row, named by the file rule
+        (:func:`pkmstiff.io.columns.label_column`: ``kx_N_per_um``), and one row per task (empty = no value); the
+        metadata and the map from file columns to result labels go to ``<name>.json`` beside it."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         cols = self.columns
-        with path.open("w", newline="", encoding="utf-8") as fh:
-            for k, v in self.metadata.items():
-                fh.write(f"# {k}: {v}\n")
+        meta = {k: v for k, v in self.metadata.items()}
+        meta["columns"] = {label_column(c): c for c in cols}
+        atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, default=str))
+        with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
-            w.writerow(cols)
+            w.writerow([label_column(c) for c in cols])
             for r in self.rows:
-                w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else r[c])
+                w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else text_cell(r[c]))
                             for c in cols])
         return path
+
+
+def sidecar_path(path: str | Path) -> Path:
+    """The JSON file beside a results CSV that holds its metadata (``<name>.json``)."""
+    return Path(path).with_suffix(".json")
 
 
 def _run_batch(tasks: Sequence[SweepTask]) -> list[dict[str, Any]]:
@@ -346,17 +358,8 @@ def _run(tasks: Sequence[SweepTask], n_jobs: int, scheduler: Any, progress: bool
     rest = list(tasks[1:])
     p = plan(len(rest), time.perf_counter() - t0, n_jobs, scheduler)
     batches = split(len(rest), p if p.parallel else replace(p, task_items=1))
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(batches), desc="sweep" if scheduler is None else "sweep (dask)", unit="batch")
-    try:
-        done = run_tasks(_run_batch, [(rest[a:b],) for a, b in batches], p, scheduler,
-                         None if bar is None else lambda k: bar.update(k - bar.n))
-    finally:
-        if bar is not None:
-            bar.close()
+    step = progress_callback(len(batches), progress, "sweep" if scheduler is None else "sweep (dask)", "batch")
+    done = run_tasks(_run_batch, [(rest[a:b],) for a, b in batches], p, scheduler, step)
     return rows + [r for batch in done for r in batch], replace(p, items=len(tasks))
 
 
