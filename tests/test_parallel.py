@@ -149,3 +149,15 @@ def test_small_work_on_cold_dask_workers_stays_here_and_warms_them(monkeypatch):
     big = parallel.plan(1000, 0.1, scheduler="tcp://h:8786")  # 100 s: worth waiting for the warm-up
     assert big.parallel and big.workers == 2 and len(registered) == 1
     assert big.text("tasks", "batches").startswith("Dask (2 workers at tcp://h:8786), 8 batches of 125 tasks")
+
+
+def test_progress_callback_reports_tasks_finished_out_of_order(monkeypatch, capsys):
+    from pkmstiff.evaluation import progress
+
+    monkeypatch.setattr(progress, "PROGRESS_INTERVAL_S", 0.0)  # a line at every step (stderr is not a terminal here)
+    assert progress.callback(4, False, "section", "task") is None and progress.callback(0, True, "x", "y") is None
+    step = progress.callback(4, True, "section", "task")
+    for k in (1, 3, 4):  # two tasks may finish between two calls
+        step(k)
+    err = capsys.readouterr().err
+    assert "section:" in err and "/4 tasks" in err and "(3/4 tasks)" in err
