@@ -125,7 +125,7 @@ def test_workspace_oracle_gives_the_same_answer_and_counts_on_workers(monkeypatc
     a, b = serial(pts), par(pts)
     assert par.plans and par.plans[-1].parallel and par.plans[-1].tasks >= 2
     assert np.array_equal(a, b) and 0 < a.sum() < a.size
-    # counts are integers: exact; the times are summed over workers (not compared)
+    # counts are integers: exact; the times are wall time (the workers overlap), not compared
     assert (serial.stats.points, serial.stats.poses, serial.stats.full_pipeline) == \
         (par.stats.points, par.stats.poses, par.stats.full_pipeline)
     assert math.isfinite(par.stats.time)

@@ -213,11 +213,15 @@ class PoseOracle:
             worker = copy.copy(self)
             worker.n_jobs, worker.scheduler, worker.stats, worker._shared = 1, None, EvaluationStats(), None
             self._shared = parallel.Shared(worker)
+        t0 = time.perf_counter()
         parts = parallel.run_tasks(_oracle_task, [(self._shared, poses[a:b]) for a, b in parallel.split(len(poses), p)],
                                    p, self.scheduler)
-        for _, st in parts:
+        wall = time.perf_counter() - t0
+        times = [k for k in dataclasses.asdict(self.stats) if k.startswith("time_")]
+        busy = sum(st[k] for _, st in parts for k in times)
+        for _, st in parts:  # counts add up; the workers' times are scaled to this call's wall time (they overlap)
             for k, v in st.items():
-                setattr(self.stats, k, getattr(self.stats, k) + v)
+                setattr(self.stats, k, getattr(self.stats, k) + (v * wall / busy if k in times and busy > 0 else v))
         return np.concatenate([ok for ok, _ in parts])
 
     def __getstate__(self) -> dict[str, Any]:
