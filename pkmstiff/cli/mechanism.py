@@ -22,29 +22,6 @@ from pkmstiff.io.ranges import parse_names, parse_numbers
 
 
 
-def is_mechanism_target(name: str) -> bool:
-    """Whether ``pose``/``section`` got a mechanism rather than a machine, answered without importing the
-    mechanism solver (numba) for machines: bundled machine names and machine files are settled here, everything
-    else by :func:`pkmstiff.mechanisms.loader.is_mechanism`."""
-    from pathlib import Path
-
-    from pkmstiff.errors import InputError
-    from pkmstiff.io import read_toml
-    from pkmstiff.machine import bundled_machines
-
-    if name in bundled_machines():
-        return False
-    p = Path(name)
-    if p.suffix == ".toml" and p.is_file():
-        try:
-            return "mechanism" in read_toml(p, InputError, "machine or mechanism file")
-        except InputError:
-            return False  # the machine loader reports what is wrong with the file
-    from pkmstiff.mechanisms.loader import is_mechanism
-
-    return is_mechanism(name)
-
-
 def _cli_error(msg: str):
     from pkmstiff.cli import CliError
 
