@@ -26,11 +26,12 @@ import os
 import pickle
 import sys
 import time
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
 from contextlib import contextmanager
-from typing import Any, Callable, Generic, Iterator, Sequence, TypeVar
+from dataclasses import dataclass
+from typing import Any, ClassVar, Generic, TypeVar
 
 from pkmstiff.errors import ParallelError
 
@@ -110,7 +111,7 @@ class Shared(Generic[T]):
     """An object (a machine) sent to workers once per worker: its pickle and a hash of it. :meth:`get` returns the
     object, unpickled at most once per process."""
 
-    _cache: dict[str, Any] = {}
+    _cache: ClassVar[dict[str, Any]] = {}
     #: objects kept per process (the most recently used; a design optimisation sends thousands of machines)
     KEEP = 8
 
@@ -324,5 +325,20 @@ def _report_progress(futures: list, progress: Callable[[int], None], dask: bool)
         progress(k)
 
 
-__all__ = ["MIN_TASK_SECONDS", "TASKS_PER_WORKER", "ParallelError", "Plan", "Shared", "PreloadPlugin", "plan",
-           "split", "pool", "start_workers", "run_tasks", "client", "connected", "shutdown", "resolve_workers"]
+__all__ = [
+    "MIN_TASK_SECONDS",
+    "TASKS_PER_WORKER",
+    "ParallelError",
+    "Plan",
+    "PreloadPlugin",
+    "Shared",
+    "client",
+    "connected",
+    "plan",
+    "pool",
+    "resolve_workers",
+    "run_tasks",
+    "shutdown",
+    "split",
+    "start_workers",
+]

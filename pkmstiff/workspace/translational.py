@@ -12,8 +12,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
-from pkmstiff.machine.model import Machine
 from pkmstiff.evaluation import parallel
+from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.octree import OctreeInputError, OctreeResult, Progress, octree_boundary
 from pkmstiff.workspace.oracle import PoseOracle, RangeMode
 from pkmstiff.workspace.requirements import Requirement
