@@ -139,7 +139,8 @@ WORKSPACE_FILES = ("workspace.json", "boundary_points.csv", "workspace_surface.s
 
 
 def _cmd_workspace(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce_cost, check_output_dir, old_range_form, parse_budget
+    from pkmstiff.cli.edges import (announce_cost, check_jobs, check_output_dir, old_range_form, parse_budget,
+                                    predicted_plan)
     from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.octree import OctreeInputError
     from pkmstiff.workspace.oracle import OracleInputError
@@ -155,6 +156,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         raise _cli_error(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
     budget = parse_budget(getattr(args, "memory_budget", None))
     _requirements(args)
+    jobs, scheduler = check_jobs(getattr(args, "jobs", 1)), getattr(args, "scheduler", None)
     check_output_dir(args.out, "--out", getattr(args, "force", False),
                      WORKSPACE_FILES + (() if args.no_plot else ("workspace.png",)))
     machine = load_machine(args.machine)
@@ -190,8 +192,11 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     lattice = float(np.prod(ext / eps + 1))
     n_est = int(min(surface_pts, lattice))
     n_ori = 1 if rng is None else max(1, int((rng[2] - rng[1]) / math.radians(max(args.range_step, 1e-9))) + 1)
+    # the finest level holds about half the evaluations: it sets the plan (20,000 poses per oracle chunk)
+    plan = predicted_plan(n_est * n_ori // 2, n_est * n_ori * 15e-6, jobs, scheduler, "points", granule=20_000)
     announce_cost("workspace", f"octree at resolution {args.resolution:g} mm", n_est * n_ori,
-                  n_est * n_ori * 3000.0 + (64 << 20), n_est * n_ori * 30e-6, budget, quiet=args.quiet or args.json)
+                  n_est * n_ori * 3000.0 + (64 << 20), n_est * n_ori * 30e-6, budget, quiet=args.quiet or args.json,
+                  plan=plan if plan == "serial" else f"finest level: {plan}")
     progress = _Progress(not args.quiet, "octree")
     try:
         req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
@@ -199,7 +204,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         res = req.evaluate(machine, orientation_range=rng,
                            range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
                            range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level,
-                           progress=progress)
+                           progress=progress, n_jobs=jobs, scheduler=scheduler)
     except (OctreeInputError, OracleInputError, ValueError) as exc:
         if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
             raise _cli_error(str(exc)) from None
@@ -418,6 +423,10 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--refine", type=int, default=0,
                    help="bisection steps along boundary edges for the volume (default 0)")
     p.add_argument("--min-level", type=int, default=3, help="octree start level (default 3 = 8 voxels per axis)")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="parallel processes for the octree levels' evaluations (-1: all cores; default 1)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate the levels on that cluster")
     p.add_argument("--out", help="output directory (boundary points CSV, STL/VTK surface, PNG, JSON)")
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
