@@ -11,6 +11,7 @@ import pytest
 
 import pkmstiff
 from pkmstiff.api import points as api_points
+from pkmstiff.errors import InputError
 from pkmstiff.evaluation.sections import axis_plane, evaluate_section
 from pkmstiff.machine.frames import neglect_spindle, spindle_neglected
 
@@ -152,6 +153,33 @@ def test_with_builds_variants(m):
     assert not back.spindle_neglected and back.machine_components == m.machine_components
     opt = m.with_(options=["old_joints_fe"])
     assert opt.name == "hexaglide:old_joints_fe" and opt.with_(neglect_spindle=True).name == opt.name
+
+
+def test_with_composes_variants_and_replaced_fields(m):
+    """A variant of a variant keeps the first variant's changes (the same machine as both changes at once); a field
+    changed by dataclasses.replace survives with_ unless with_ changes it too, which is refused in one line."""
+    import dataclasses
+
+    motors = {f"linear_motor_{i}": {"k_axial": "50 N/um"} for i in range(1, 7)}
+    both = m.with_(components=motors, overrides={"tool.length": "150 mm"})
+    stepwise = m.with_(overrides={"tool.length": "150 mm"}).with_(neglect_spindle=True).with_(components=motors)
+    assert stepwise.tool.length == pytest.approx(0.15) and stepwise.spindle_neglected
+    # the same machine file values, built the same way: bit-identical stiffness
+    np.testing.assert_array_equal(stepwise.point(POSES[0]).stiffness,
+                                  both.with_(neglect_spindle=True).point(POSES[0]).stiffness)
+    replaced = dataclasses.replace(m, transmission_weight=0.5)
+    variant = replaced.with_(components=motors)
+    assert variant.transmission_weight == 0.5
+    assert variant.file_changes == {f"components.linear_motor_{i}.k_axial": "50 N/um" for i in range(1, 7)}
+    assert variant.components["linear_motor_1"] == both.components["linear_motor_1"]
+    moved = dataclasses.replace(m, tool=dataclasses.replace(m.tool, length=0.2))
+    with pytest.raises(InputError, match=r"key 'tool'.*dataclasses.replace") as err:
+        moved.with_(overrides={"tool.length": "150 mm"})
+    assert "\n" not in str(err.value)
+    edited = dataclasses.replace(m, components={**m.components})  # component data: never carried over
+    edited.components["linear_motor_1"] = {**m.components["linear_motor_1"], "k_axial": 1.0}
+    with pytest.raises(InputError, match="components"):
+        edited.with_(overrides={"tool.length": "150 mm"})
 
 
 def test_workspace_wrapper_equals_the_request(m):
