@@ -148,7 +148,8 @@ class StudyMachine(Machine):
 
         ``tool_length`` [m] (None: the machine's); ``quantities``: further registered quantities
         (:func:`pkmstiff.evaluation.quantities.available_quantities`, e.g. ``"tilt_drive_1"``) at the admissible
-        poses; ``neglect_spindle``: load the TCP with K_U rigid (None: as the machine says, see :meth:`with_`);
+        poses; ``neglect_spindle``: True/False evaluates the machine with K_U left out/kept (as
+        ``with_(neglect_spindle=...)``; None: as the machine says);
         ``structure``: modelling choices of the structure model (fields of
         :class:`pkmstiff.structure.StructureOptions`, e.g. ``{"strut_mass_to_drive": 0.5}``). Evaluated in chunks
         of bounded memory. ``skip_checks`` as in :meth:`section`. ``n_modes=0``, ``weak_point_directions=()`` and ``kinetostatics=False`` leave those analyses
@@ -156,9 +157,9 @@ class StudyMachine(Machine):
         """
         from pkmstiff.api.points import evaluate_points
 
-        return evaluate_points(self, poses, frame=check_frame(frame), tool_length=tool_length, n_modes=n_modes,
+        machine = self if neglect_spindle is None else self.with_(neglect_spindle=neglect_spindle)
+        return evaluate_points(machine, poses, frame=check_frame(frame), tool_length=tool_length, n_modes=n_modes,
                                weak_point_directions=tuple(weak_point_directions), quantities=tuple(quantities),
-                               neglect_spindle=self.spindle_neglected if neglect_spindle is None else neglect_spindle,
                                structure=dict(structure or {}), with_kinetostatics=kinetostatics,
                                checks=_checks(skip_checks))
 

@@ -158,15 +158,15 @@ class PointResults:
         return fig
 
 
-def _quantities(machine: "StudyMachine", ev: Any, names: tuple[str, ...], tool_length: float | None,
-                neglect: bool) -> dict[str, np.ndarray]:
+def _quantities(machine: "StudyMachine", ev: Any, names: tuple[str, ...], tool_length: float | None
+                ) -> dict[str, np.ndarray]:
     """Registered quantities (SI) at the admissible poses of ``ev``, NaN elsewhere (as on a section)."""
     from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities
 
     out = {n: np.full(len(ev.poses), np.nan) for n in names}
     if names and ev.ok.any():
         sub = ev if ev.ok.all() else ev.subset(ev.ok)
-        vals = evaluate_quantities(EvalContext(machine, sub, tool_length, {"neglect_spindle": neglect}), list(names))
+        vals = evaluate_quantities(EvalContext(machine, sub, tool_length, {}), list(names))
         for n in names:
             out[n][ev.ok] = np.asarray(vals[n], float)
     return out
@@ -175,11 +175,11 @@ def _quantities(machine: "StudyMachine", ev: Any, names: tuple[str, ...], tool_l
 def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "machine",
                     tool_length: float | None = None, n_modes: int = 6,
                     weak_point_directions: tuple[str, ...] = ("x", "y", "z"), quantities: tuple[str, ...] = (),
-                    neglect_spindle: bool = False, structure: dict[str, Any] | None = None,
+                    structure: dict[str, Any] | None = None,
                     with_kinetostatics: bool = True, checks: tuple[str, ...] | None = None) -> PointResults:
     """:class:`PointResults` at ``poses`` ((6,) or (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad]), chunked
-    by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's); ``neglect_spindle``: the TCP compliance with
-    K_U rigid (:func:`~pkmstiff.analysis.tcp_compliance`); ``structure``: fields of
+    by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's; K_U as the machine's ``spindle_neglected``
+    says); ``structure``: fields of
     :class:`~pkmstiff.structure.StructureOptions`; ``with_kinetostatics=False`` leaves the kinetostatics out (NaN,
     no direction labels); ``checks``: the admissibility checks (None: all)."""
     from pkmstiff.admissibility import evaluate_poses
@@ -197,14 +197,14 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         ev = evaluate_poses(machine, chunk) if checks is None else evaluate_poses(machine, chunk, checks=checks)
         adm = ev.admissibility
         st = build_structure(machine, ev, options)  # the chunk's one evaluation: no second inverse kinematics
-        comp = tcp_compliance(st, tool_length, neglect_spindle)
-        wp = {d: weak_points(st, d, tool_length, neglect_spindle) for d in weak_point_directions}
+        comp = tcp_compliance(st, tool_length)
+        wp = {d: weak_points(st, d, tool_length) for d in weak_point_directions}
         k = 0 if st.empty else min(n_modes, st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs))
         ma = modal_analysis(st, k, shapes=False) if k else None
         parts.append({
             "ok": adm.ok, "adm": adm, "modelled": st.ok,
             "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, ev) if with_kinetostatics else None,
-            "q": _quantities(machine, ev, quantities, tool_length, neglect_spindle)})
+            "q": _quantities(machine, ev, quantities, tool_length)})
     ks0 = parts[0]["ks"]
 
     def kin(key: str, *width: int) -> np.ndarray:

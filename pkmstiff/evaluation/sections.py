@@ -20,7 +20,7 @@ from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.progress import progress as with_progress
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
-from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
+from pkmstiff.machine.frames import frame_metadata, frame_origin
 from pkmstiff.machine.model import Machine
 
 #: below this many raster points ``n_jobs`` > 1 runs serially. Measured by benchmarks/bench_parallel_section.py on
@@ -239,12 +239,11 @@ def evaluate_section(
     poses = section_poses(plane, orientation)
     poses[:, :3] += frame_origin(machine, frame)
     opts = dict(options or {})
-    # the one place where the option maps onto the machine (every quantity then honours it); kept in the settings
-    neglect = bool(opts.pop("neglect_spindle", False)) or machine.spindle_neglected
-    machine = neglect_spindle(machine, neglect)
+    # K_U left out is the machine's field (pkmstiff.machine.frames.neglect_spindle): every quantity honours it; the
+    # settings state it
     settings = {"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks),
                 "checks_left_out": checks_left_out(checks), **opts}
-    if neglect:
+    if machine.spindle_neglected:
         settings["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
     if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
