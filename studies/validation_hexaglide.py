@@ -459,9 +459,9 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool
             p = plot_cause_map(res, b, c, out / f"hexaglide_boundary_causes_{kind}.png",
                                f"Hexaglide (original), a = b = c = 0: {kind.upper()} section at {where}\n"
                                f"boundary points coloured by the limiting check")
-            figs.append(pkmstiff.Figure(p, f"Boundary-cause map, {kind.upper()} section at {where} (report frame): grey = "
-                                  "admissible; each boundary point coloured by the check failing at most of its "
-                                  "inadmissible neighbours."))
+            figs.append(pkmstiff.Figure(p, f"Boundary-cause map, {kind.upper()} section at {where} (report frame): "
+                                           "grey = admissible; each boundary point coloured by the check failing at "
+                                           "most of its inadmissible neighbours."))
     ws = m.workspace(shape_eps, frame="report", methods=("surface_nets",))
     lo, hi = ws.statistics()["bounding_box_mm"]["min"], ws.statistics()["bounding_box_mm"]["max"]
     info["workspace"] = {"volume_m3": ws.volume, "bounding_box_mm_report_frame": {"min": lo, "max": hi},
@@ -470,7 +470,7 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool
         try:
             p = ws.plot(out / "hexaglide_workspace.png")
             figs.append(pkmstiff.Figure(p, f"Constant-orientation workspace of the original Hexaglide at a = b = c = 0 "
-                                  f"(resolution {shape_eps * 1e3:g} mm), machine at a central pose."))
+                                           f"(resolution {shape_eps * 1e3:g} mm), machine at a central pose."))
         except Exception as exc:  # pragma: no cover - rendering back-end missing
             info["workspace"]["figure_error"] = str(exc)
     return info, figs

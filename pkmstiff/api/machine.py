@@ -42,8 +42,7 @@ def _checks(skip_checks: Sequence[str]) -> tuple[str, ...]:
     return checks_without(skip_checks, "pkmstiff.api", "skip_checks")
 
 
-#: fields that :func:`~pkmstiff.machine.frames.neglect_spindle` sets (``with_`` handles them itself) and fields that
-#: are not part of the machine's value (``compare=False``)
+#: fields that :func:`~pkmstiff.machine.frames.neglect_spindle` sets (``with_`` handles them itself)
 _SPINDLE_FIELDS = frozenset({"machine_components", "spindle_neglected"})
 #: fields whose values are tied to the component instances built on load: a change made to them outside ``with_``
 #: cannot be carried onto a rebuilt variant (its instances would not match)
