@@ -154,31 +154,43 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
         grid = _plane_grid(r, in_3d=True, pv=pv)
         data_bounds.append(np.reshape(grid.bounds, (3, 2)))
         grid.point_data[name] = v.ravel()
+        # horizontal bar in the top right corner: its title above its values (no collision with the axes)
         p.add_mesh(grid, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0, show_scalar_bar=(k == 0),
-                   scalar_bar_args={"title": quantity_title(results[0], name), "vertical": True,
-                                    "position_x": 0.87, "position_y": 0.2, "height": 0.6,
-                                    "fmt": "%.1f" if clim and clim[1] >= 10 else "%.4g"})
-    add_sketch(p, machine, reference_pose, opacity=0.9)
+                   scalar_bar_args={"title": quantity_title(results[0], name), "vertical": False,
+                                    "position_x": 0.52, "position_y": 0.83, "width": 0.45, "height": 0.06,
+                                    "title_font_size": 22, "label_font_size": 20, "color": "black",
+                                    "n_labels": 5, "fmt": "%.0f" if clim and clim[1] >= 10 else "%.3g"})
+    # the machine ghosted (light, transparent) so that the planes in front of and behind it stay visible
+    add_sketch(p, machine, reference_pose, opacity=0.2, colour="gray")
     direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])  # front right, from above
     from pkmstiff.plots.axes3d import add_mm_axes
 
+    box = None
     if data_bounds:  # axes around the section planes (the machine sketch reaches far beyond them)
         box = np.column_stack([np.min([b[:, 0] for b in data_bounds], axis=0),
                                np.max([b[:, 1] for b in data_bounds], axis=0)])
         add_mm_axes(p, box.ravel(), direction)
-    p.add_text(f"{results[0].machine}: {name} on three section planes", position="upper_left", font_size=11,
-               color="black")
+    p.add_text(f"{results[0].machine}: {name} on three section planes (machine ghosted grey)",
+               position="upper_left", font_size=13, color="black")
     p.set_background("white")
-    bounds = np.array(p.bounds).reshape(3, 2)
-    focus = bounds.mean(axis=1)
-    dist = 2.2 * float(np.linalg.norm(bounds[:, 1] - bounds[:, 0]))
-    p.camera_position = [tuple(focus + dist * direction), tuple(focus), (0.0, 0.0, 1.0)]
-    p.camera.zoom(1.5)
+    frame_camera(p, direction, box, zoom=1.3)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     p.screenshot(str(path))
     p.close()
     return path
+
+
+def frame_camera(p, direction, box: np.ndarray | None, zoom: float = 1.0) -> None:
+    """Look along ``-direction`` at the centre of ``box`` (3, 2) [mm] (default: everything drawn), framed so that
+    the box and its axis labels fill the view; then zoom by ``zoom``."""
+    bounds = np.array(p.bounds).reshape(3, 2) if box is None else np.asarray(box, float)
+    focus = bounds.mean(axis=1)
+    dist = 2.2 * float(np.linalg.norm(bounds[:, 1] - bounds[:, 0]))
+    p.camera_position = [tuple(focus + dist * np.asarray(direction)), tuple(focus), (0.0, 0.0, 1.0)]
+    pad = 0.18 * (bounds[:, 1] - bounds[:, 0])[:, None] * np.array([-1.0, 1.0])  # room for the axis labels
+    p.reset_camera(bounds=(bounds + pad).ravel())
+    p.camera.zoom(zoom)
 
 
 def plot_reasons(res: SectionResult, path: str | Path, window_size: tuple[int, int] | None = None) -> Path:

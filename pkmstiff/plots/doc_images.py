@@ -1,0 +1,85 @@
+"""The docs' figures that no docs page or study writes itself (``python -m pkmstiff.plots.doc_images [OUTDIR]
+[NAME ...]``, default docs/images, all names): the demo's three-plane figure, the mode shape, the mechanism
+pictures and the deformed FE joint. The other figures in docs/images come from ``pkmstiff demo``,
+``pkmstiff.plots.workspace_figures``, ``pkmstiff calibrate report`` (calibration walk-through) and ``studies/``.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+
+def three_planes(out: Path) -> Path:
+    """k_x on three section planes of the Hexaglide, as ``pkmstiff demo`` draws it (step 20 mm)."""
+    from pkmstiff.evaluation.sections import evaluate_three_planes
+    from pkmstiff.evaluation.sections import three_planes as planes_at
+    from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.plots.section_maps import plot_three_planes
+    from pkmstiff.report.demo import REFERENCE_POSE
+
+    machine = neglect_spindle(load_machine("hexaglide"))
+    res = evaluate_three_planes(machine, planes_at((0.0, 0.45, -0.9), (0.5, 0.7, 0.35), 0.02), ["kx"],
+                                tool_length=0.0, progress=False)
+    return plot_three_planes(res, "kx", machine, tuple(to_machine_frame(machine, REFERENCE_POSE, "report")),
+                             out / "hexaglide_three_planes_kx.png")
+
+
+def mode1(out: Path) -> Path:
+    """Mode 1 of the Hexaglide at x, y, z = 0, 0, -1000 mm (docs/user-guide/structure.md)."""
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.plots.modes import plot_mode_shape
+
+    return plot_mode_shape(load_machine("hexaglide"), np.array([0, 0, -1.0, 0, 0, 0]), out / "hexaglide_mode1.png")
+
+
+def mechanisms(out: Path) -> list[Path]:
+    """The slider-crank at home, both dead centres and s = -80 mm; the hybrid machine at home and a second
+    configuration (docs/user-guide/mechanisms.md)."""
+    import pkmstiff.mechanisms as mm
+    from pkmstiff.plots.mechanism import mechanism_figure
+
+    sc = mm.load_mechanism("slider_crank")
+    rng = mm.drive_ranges(sc)["s"]
+    s = np.array([[0.0], [rng.max.value - 1e-9], [rng.min.value + 1e-9], [-0.08]])  # just inside the dead centres
+    q = mm.forward(sc, s, steps=8).q
+    files = [out / "mechanism_slider_crank.png", out / "mechanism_hybrid.png"]
+    mechanism_figure(sc, q, files[0],
+                              labels=["home", f"s = {s[1, 0] * 1e3:.2f} mm", f"s = {s[2, 0] * 1e3:.2f} mm",
+                                      "s = -80 mm"],
+                              title="Slider-crank (patent Fig. 3): home (solid), both dead centres and s = -80 mm")
+    hyb = mm.load_mechanism("hybrid_tripod_wrist")
+    d = np.array([[0.0, 0.0, 0.0, 0.0, np.radians(20)], [0.05, -0.02, 0.01, 0.4, np.radians(40)]])
+    q = mm.forward(hyb, d, steps=4).q
+    mechanism_figure(hyb, q, files[1], labels=["home", "second"],
+                     title="Hybrid tripod with wrist: home (solid) and a second configuration")
+    return files
+
+
+def fe_joint(out: Path) -> Path:
+    """The improved 3-DOF drive-side joint at 45° tilt under 5 kN along the strut (docs/user-guide/fe.md)."""
+    from pkmstiff.cli.fe import joint_image
+    from pkmstiff.fe.joints import build_joint_model, load_joint_parameters
+
+    params = Path(__file__).resolve().parents[1] / "fe" / "params" / "iwf_3dof_improved.toml"
+    return joint_image(build_joint_model(load_joint_parameters(params)), 45.0, out / "fe_joint_deformed.png")
+
+
+FIGURES = {"three_planes": three_planes, "mode1": mode1, "mechanisms": mechanisms, "fe_joint": fe_joint}
+
+
+def main(out: str = "docs/images", *names: str) -> list[Path]:
+    outdir = Path(out)
+    files: list[Path] = []
+    for n in names or FIGURES:
+        r = FIGURES[n](outdir)
+        files += r if isinstance(r, list) else [r]
+    return files
+
+
+if __name__ == "__main__":  # pragma: no cover
+    for f in main(*sys.argv[1:]):
+        print(f)
