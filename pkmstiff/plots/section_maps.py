@@ -163,7 +163,7 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
     # the machine ghosted (light, transparent) so that the planes in front of and behind it stay visible
     add_sketch(p, machine, reference_pose, opacity=0.2, colour="gray")
     direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])  # front right, from above
-    from pkmstiff.plots.axes3d import add_mm_axes
+    from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
 
     box = None
     if data_bounds:  # axes around the section planes (the machine sketch reaches far beyond them)
@@ -179,18 +179,6 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
     p.screenshot(str(path))
     p.close()
     return path
-
-
-def frame_camera(p, direction, box: np.ndarray | None, zoom: float = 1.0) -> None:
-    """Look along ``-direction`` at the centre of ``box`` (3, 2) [mm] (default: everything drawn), framed so that
-    the box and its axis labels fill the view; then zoom by ``zoom``."""
-    bounds = np.array(p.bounds).reshape(3, 2) if box is None else np.asarray(box, float)
-    focus = bounds.mean(axis=1)
-    dist = 2.2 * float(np.linalg.norm(bounds[:, 1] - bounds[:, 0]))
-    p.camera_position = [tuple(focus + dist * np.asarray(direction)), tuple(focus), (0.0, 0.0, 1.0)]
-    pad = 0.18 * (bounds[:, 1] - bounds[:, 0])[:, None] * np.array([-1.0, 1.0])  # room for the axis labels
-    p.reset_camera(bounds=(bounds + pad).ravel())
-    p.camera.zoom(zoom)
 
 
 def plot_reasons(res: SectionResult, path: str | Path, window_size: tuple[int, int] | None = None) -> Path:
