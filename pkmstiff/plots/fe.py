@@ -42,7 +42,7 @@ def deformed_image(fm: FieldMesh, path: str | Path, title: str = "", magnified_f
     top = float(umag.max() * 1e6)
     pl.add_mesh(warped, scalars="displacement [µm]", cmap="viridis", show_edges=True, edge_color="#303030",
                 line_width=0.3, scalar_bar_args={"title": "displacement [µm]", "color": "black", "vertical": False,
-                                                 "position_x": 0.3, "position_y": 0.03, "width": 0.45,
+                                                 "position_x": 0.22, "position_y": 0.03, "width": 0.7,
                                                  "height": 0.07, "title_font_size": 26, "label_font_size": 24,
                                                  "n_labels": 5, "fmt": "%.0f" if top >= 10 else "%.3g"})
     if load_point is not None and load_direction is not None:

@@ -177,7 +177,7 @@ def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.nd
         ax.set_ylabel("|volume error| [%]")
         ax.set_title(body, fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     return path
