@@ -18,6 +18,7 @@ import numpy as np
 from pkmstiff.admissibility.checks import ALL_CHECKS, Reason, checks_left_out
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation.progress import progress as with_progress
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
 from pkmstiff.machine.model import Machine
@@ -246,7 +247,7 @@ def evaluate_section(
     if neglect:
         settings["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
-    if progress is None:  # a bar on a terminal, periodic lines otherwise (see _progress)
+    if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
         progress = len(poses) * (1 + len(names)) > 20_000
     jobs = [poses[s:s + chunk_size] for s in starts]
     if n_jobs != 1 and len(jobs) > 1 and len(poses) >= PARALLEL_MIN_POINTS:
@@ -254,9 +255,10 @@ def evaluate_section(
 
         n = os.cpu_count() or 1 if n_jobs < 0 else n_jobs
         parts = Parallel(n_jobs=n)(delayed(_evaluate_chunk)(machine, p, names, tool_length, opts, checks) for p in
-                                   _progress(jobs, progress))
+                                   with_progress(jobs, progress, "section", "chunk"))
     else:
-        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks) for p in _progress(jobs, progress)]
+        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks)
+                 for p in with_progress(jobs, progress, "section", "chunk")]
     shape = plane.shape
     ok = np.concatenate([p[0] for p in parts]).reshape(shape)
     reasons = np.concatenate([p[1] for p in parts]).reshape(shape)
@@ -268,37 +270,6 @@ def evaluate_section(
         settings=settings,
         frame=frame_metadata(machine, frame),
     )
-
-
-#: seconds between two progress lines when stderr is not a terminal
-PROGRESS_INTERVAL_S = 10.0
-
-
-def _progress(items: list, enabled: bool):
-    """A tqdm bar on a terminal; one line every :data:`PROGRESS_INTERVAL_S` s when stderr is redirected."""
-    import sys
-
-    if not enabled:
-        return items
-    if sys.stderr.isatty():
-        from tqdm import tqdm
-
-        return tqdm(items, desc="section", unit="chunk", leave=False)
-    return _progress_lines(items)
-
-
-def _progress_lines(items: list):
-    import sys
-    import time
-
-    t0 = last = time.perf_counter()
-    for k, item in enumerate(items):
-        now = time.perf_counter()
-        if now - last >= PROGRESS_INTERVAL_S:
-            last = now
-            print(f"section: {100 * k / len(items):.0f} % ({k}/{len(items)} chunks), {now - t0:.0f} s",
-                  file=sys.stderr, flush=True)
-        yield item
 
 
 def three_planes(centre: Iterable[float], half_extent: Iterable[float], step: float) -> list[Plane]:

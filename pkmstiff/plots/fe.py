@@ -13,6 +13,7 @@ from typing import Sequence
 import numpy as np
 
 from pkmstiff.fe.export import FieldMesh
+from pkmstiff.io.atomic import atomic_path
 
 
 def deformed_image(fm: FieldMesh, path: str | Path, title: str = "", magnified_fraction: float = 0.08,
@@ -61,6 +62,7 @@ def deformed_image(fm: FieldMesh, path: str | Path, title: str = "", magnified_f
     pos, foc, up = (np.asarray(v, float) for v in pl.camera_position)
     shift = -0.07 * size * up  # the colour bar takes the bottom rows: move the model up
     pl.camera_position = [tuple(pos + shift), tuple(foc + shift), tuple(up)]
-    pl.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        pl.screenshot(str(tmp))
     pl.close()
     return path, scale

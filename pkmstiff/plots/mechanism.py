@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.mechanisms.constraints import Frames
 from pkmstiff.mechanisms.model import Mechanism
 
@@ -102,5 +103,6 @@ def mechanism_figure(mech: Mechanism, q: np.ndarray, path: str | Path | None = N
     ax.set_title(title or mech.title, fontsize=10)
     fig.legend(fontsize=9, loc="outside right upper", title="links", title_fontsize=9, frameon=False)
     if path is not None:
-        fig.savefig(path, dpi=110, facecolor="white")
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110, facecolor="white")
     return fig

@@ -13,6 +13,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from pkmstiff.errors import PlotDependencyError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch, machine_sketch
@@ -84,7 +85,8 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
     if box is not None:
         add_mm_axes(pl, box.ravel(), direction)
     frame_camera(pl, direction, box, zoom=1.25)  # the camera frames the volume; the machine may leave the view
-    pl.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        pl.screenshot(str(tmp))
     pl.close()
     return path
 
@@ -137,7 +139,8 @@ def plot_rotation_maps(res: RotationMapResult, path: str | Path, labels: tuple[s
         fig.colorbar(cs, ax=axes, label="max. admissible angle [°]", fraction=0.04, pad=0.02)
     if title:
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
-    fig.savefig(path, dpi=110, facecolor="white")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, facecolor="white")
     return path
 
 
@@ -157,7 +160,8 @@ def plot_volume_vs_orientation(angles_rad: np.ndarray, volumes: Mapping[str, np.
     if title:
         ax.set_title(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return path
 
 
@@ -179,7 +183,8 @@ def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.nd
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return path
 
 
@@ -205,5 +210,6 @@ def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | 
     if title:
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return path
