@@ -114,9 +114,7 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     if spec.sections:
         report.assumptions.setdefault("report: section statistics",
                                       "min/mean/max over the admissible raster points, every point weighted equally")
-    for v, m in pairs:
-        for key, reason in m.assumptions.items():
-            report.assumptions[f"{v.name}: {key}"] = reason
+    report.variant_assumptions = {v.name: dict(m.assumptions) for v, m in pairs}
     report.settings = _settings(spec, machines, fast, jobs)
     return report
 
