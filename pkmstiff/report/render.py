@@ -28,6 +28,7 @@ from typing import Any
 
 from pkmstiff.errors import ReportError  # noqa: F401 (re-exported)
 from pkmstiff.io.atomic import atomic_path, atomic_write_text
+from pkmstiff.plots.section_maps import pretty_unit
 from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["ReportError", "write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]
@@ -118,7 +119,7 @@ def _table_grid(table: Table) -> tuple[list[tuple[str, str]], list[tuple[str, st
             cells.append(_Cell(str(int(v)) if count and v is not None else format_value(v, table.digits), "num"))
             if ib is not None:
                 cells.append(_Cell(format_percent(percent_of_baseline(v, row.values[ib])), "pct"))
-        rows.append((row.label, row.unit, cells))
+        rows.append((row.label, pretty_unit(row.unit), cells))
     return header, rows
 
 
