@@ -1,7 +1,8 @@
-"""The docs' figures that no docs page or study writes itself (``python -m pkmstiff.plots.doc_images [OUTDIR]
-[NAME ...]``, default docs/images, all names): the demo's three-plane figure, the mode shape, the mechanism
-pictures and the deformed FE joint. The other figures in docs/images come from ``pkmstiff demo``,
-``pkmstiff.plots.workspace_figures``, ``pkmstiff calibrate report`` (calibration walk-through) and ``studies/``.
+"""The docs' figures that no command, docs page or study writes itself (``python docs/make_images.py [OUTDIR]
+[NAME ...]`` from the repository root with pkmstiff importable; default docs/images, all names): the mode shape,
+the mechanism pictures and the deformed FE joint. The other figures in docs/images come from ``pkmstiff demo``
+(hexaglide_yz_*, hexaglide_three_planes_kx), ``python -m pkmstiff.plots.workspace_figures``, ``pkmstiff calibrate
+report`` (the calibration walk-through's commands) and ``studies/``.
 """
 
 from __future__ import annotations
@@ -10,22 +11,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
-
-def three_planes(out: Path) -> Path:
-    """k_x on three section planes of the Hexaglide, as ``pkmstiff demo`` draws it (step 20 mm)."""
-    from pkmstiff.evaluation.sections import evaluate_three_planes
-    from pkmstiff.evaluation.sections import three_planes as planes_at
-    from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
-    from pkmstiff.machine.loader import load_machine
-    from pkmstiff.plots.section_maps import plot_three_planes
-    from pkmstiff.report.demo import REFERENCE_POSE
-
-    machine = neglect_spindle(load_machine("hexaglide"))
-    res = evaluate_three_planes(machine, planes_at((0.0, 0.45, -0.9), (0.5, 0.7, 0.35), 0.02), ["kx"],
-                                tool_length=0.0, progress=False)
-    return plot_three_planes(res, "kx", machine, tuple(to_machine_frame(machine, REFERENCE_POSE, "report")),
-                             out / "hexaglide_three_planes_kx.png")
 
 
 def mode1(out: Path) -> Path:
@@ -64,11 +49,11 @@ def fe_joint(out: Path) -> Path:
     from pkmstiff.cli.fe import joint_image
     from pkmstiff.fe.joints import build_joint_model, load_joint_parameters
 
-    params = Path(__file__).resolve().parents[1] / "fe" / "params" / "iwf_3dof_improved.toml"
+    params = Path(__file__).resolve().parents[1] / "pkmstiff" / "fe" / "params" / "iwf_3dof_improved.toml"
     return joint_image(build_joint_model(load_joint_parameters(params)), 45.0, out / "fe_joint_deformed.png")
 
 
-FIGURES = {"three_planes": three_planes, "mode1": mode1, "mechanisms": mechanisms, "fe_joint": fe_joint}
+FIGURES = {"mode1": mode1, "mechanisms": mechanisms, "fe_joint": fe_joint}
 
 
 def main(out: str = "docs/images", *names: str) -> list[Path]:
