@@ -18,7 +18,7 @@ import numpy as np
 from pkmstiff.errors import InadmissiblePoseRefused, PointArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.io.atomic import output_path, safe_stem
 from pkmstiff.io.ranges import parse_numbers
-from pkmstiff.machine.loader import bundled_machines, load_machine
+from pkmstiff.machine.loader import load_machine
 
 WEAK_POINT_DIRECTIONS = ("x", "y", "z")
 #: identifier of the JSON document ``pkmstiff point --json`` prints (pkmstiff/schemas/point.schema.json)
@@ -40,14 +40,6 @@ def _num(x: Any) -> Any:
 
 def parse_values(text: str, count: int, what: str) -> list[float]:
     return parse_numbers(text, count, "--pose", what, PointArgumentError)
-
-
-def _is_planar(name: str) -> bool:
-    if name in bundled_machines():  # spatial: decided without importing the planar module
-        return False
-    from pkmstiff.analysis.planar import bundled_planar
-
-    return name in bundled_planar() and name not in bundled_machines()
 
 
 #: longest tool (mm) and most natural frequencies ``point`` accepts (a 10 m tool or 100 modes is a typo, not a study)
@@ -84,13 +76,26 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
     of admissibility checks left out (stated as ``checks_left_out``).
     """
     check_point_options(tool_length_mm, n_modes)
-    from pkmstiff.admissibility.checks import checks_left_out, checks_without
+    from pkmstiff.admissibility.checks import checks_without
+    from pkmstiff.cli.targets import Kind, dispatch
 
     checks = checks_without(skip_checks, "--skip-check")
-    if _is_planar(machine_name):
+
+    def planar(_: object) -> dict:
         if skip_checks:
             raise PointArgumentError(f"--skip-check: not available for the planar example '{machine_name}'")
         return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
+
+    return dispatch(machine_name, {
+        Kind.SPATIAL: lambda _: _machine_report(machine_name, pose_text, tool_length_mm, n_modes, neglect_spindle,
+                                                frame, allow_inadmissible, checks),
+        Kind.PLANAR: planar})
+
+
+def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | None, n_modes: int,
+                    neglect_spindle: bool, frame: str, allow_inadmissible: bool, checks: tuple[str, ...]) -> dict:
+    """:func:`point_report` of a spatial machine."""
+    from pkmstiff.admissibility.checks import checks_left_out
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.cli.pose import PoseArgumentError, parse_pose
@@ -389,7 +394,9 @@ def _mode_figures(args: argparse.Namespace) -> list:
 
 def _figure_names(args: argparse.Namespace) -> tuple[str, ...]:
     """The file names ``--figures`` writes: ``<machine>_mode<k>.png`` (and ``<machine>_mode1.gif`` with ``--gif``)."""
-    if _is_planar(args.machine):
+    from pkmstiff.cli.targets import Kind, resolve
+
+    if resolve(args.machine).kind is Kind.PLANAR:
         return ()
     stem = safe_stem(load_machine(args.machine).name)
     return tuple(f"{stem}_mode{k}.png" for k in range(1, args.modes + 1)) + ((f"{stem}_mode1.gif",) if args.gif else ())

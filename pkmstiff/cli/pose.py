@@ -155,24 +155,35 @@ def _cmd_pose(args: argparse.Namespace) -> int:
 
     if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
-    from pkmstiff.cli.mechanism import is_mechanism_target
+    from pkmstiff.cli.targets import Kind, dispatch
 
-    if is_mechanism_target(args.machine):  # a generic mechanism evaluated like a machine (issue 14)
-        from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
-        from pkmstiff.cli.mechanism import print_pose
+    return dispatch(args.machine, {Kind.SPATIAL: lambda _: _machine_pose(args),
+                                   Kind.MECHANISM: lambda _: _mechanism_pose(args)})
 
-        if args.skip_check:
-            raise CliError(f"--skip-check: not available for the mechanism '{args.machine}' (its admissibility is "
-                           "the joint limits)")
-        if args.pose is None:
-            raise CliError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
-                           "'pkmstiff mechanism solve' with several --pose)")
-        rep = mechanism_pose_report(args.machine, args.pose)
-        if args.json:
-            print(json.dumps(rep, indent=2))
-        else:
-            print_pose(rep)
-        return 0
+
+def _mechanism_pose(args: argparse.Namespace) -> int:
+    """A generic mechanism evaluated like a machine (issue 14)."""
+    from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
+    from pkmstiff.cli.mechanism import print_pose
+    from pkmstiff.errors import CliError
+
+    if args.skip_check:
+        raise CliError(f"--skip-check: not available for the mechanism '{args.machine}' (its admissibility is "
+                       "the joint limits)")
+    if args.pose is None:
+        raise CliError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
+                       "'pkmstiff mechanism solve' with several --pose)")
+    rep = mechanism_pose_report(args.machine, args.pose)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        print_pose(rep)
+    return 0
+
+
+def _machine_pose(args: argparse.Namespace) -> int:
+    from pkmstiff.errors import CliError
+
     if getattr(args, "poses", None) is not None:
         return _pose_batch(args)
     try:

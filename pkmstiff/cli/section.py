@@ -36,6 +36,25 @@ def section_cost(n_points: int, n_quantities: int) -> tuple[float, float]:
 
 
 def _cmd_section(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.targets import Kind, dispatch
+
+    return dispatch(args.machine, {Kind.SPATIAL: lambda _: _machine_section(args),
+                                   Kind.MECHANISM: lambda _: _mechanism_section(args)})
+
+
+def _mechanism_section(args: argparse.Namespace) -> int:
+    """A generic mechanism: kinematic quantities and joint limits (issue 14)."""
+    from pkmstiff.cli.mechanism import print_section, section_report
+
+    rep = section_report(args)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        print_section(rep)
+    return 0
+
+
+def _machine_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
@@ -45,17 +64,6 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.admissibility.checks import checks_without, left_out_text
     from pkmstiff.report.outputs import write_section_outputs
 
-    from pkmstiff.cli.mechanism import is_mechanism_target
-
-    if is_mechanism_target(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
-        from pkmstiff.cli.mechanism import print_section, section_report
-
-        rep = section_report(args)
-        if args.json:
-            print(json.dumps(rep, indent=2))
-        else:
-            print_section(rep)
-        return 0
     plane_kind = args.plane.lower()
     try:
         ranges = parse_ranges(args.range, plane_kind) if args.range else None
