@@ -53,7 +53,28 @@ def fe_joint(out: Path) -> Path:
     return joint_image(build_joint_model(load_joint_parameters(params)), 45.0, out / "fe_joint_deformed.png")
 
 
-FIGURES = {"mode1": mode1, "mechanisms": mechanisms, "fe_joint": fe_joint}
+def figures_page(out: Path) -> list[Path]:
+    """docs/user-guide/figures.md: a k_x map and the admissibility map of the Hexaglide's YZ plane (window fitted,
+    10 mm raster, tool length 0), mode 1 at x, y, z = 0, 300, -900 mm, the workspace at a 50 mm resolution."""
+    from pkmstiff.evaluation.sections import evaluate_section
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.plots.modes import plot_mode_shape
+    from pkmstiff.plots.section_maps import plot_reasons, plot_section
+    from pkmstiff.plots.workspace import plot_workspace
+    from pkmstiff.workspace.requests import WorkspaceRequest
+    from pkmstiff.workspace.translational import DEFAULT_METHODS
+    from pkmstiff.workspace.windows import window_for
+
+    m = load_machine("hexaglide")
+    res = evaluate_section(m, window_for(m, "yz", 0.0, 0.01), ["kx"], tool_length=0.0, progress=False)
+    ws = WorkspaceRequest(0.05, None, (), (0.0, 0.0, 0.0), DEFAULT_METHODS).evaluate(m)
+    return [plot_section(res, "kx", out / "figures_section_kx.png"),
+            plot_reasons(res, out / "figures_admissibility.png"),
+            plot_mode_shape(m, np.array([0, 0.3, -0.9, 0, 0, 0]), out / "figures_mode1.png"),
+            plot_workspace(ws, m, out / "figures_workspace.png")]
+
+
+FIGURES = {"mode1": mode1, "figures_page": figures_page, "mechanisms": mechanisms, "fe_joint": fe_joint}
 
 
 def main(out: str = "docs/images", *names: str) -> list[Path]:
