@@ -86,7 +86,7 @@ class MapPanel:
     title: str
     unit: str
     cmap: str = "viridis"
-    clim: "tuple[float, float] | ColourScale | None" = None
+    clim: tuple[float, float] | ColourScale | None = None
 
 
 def shared_clim(*arrays: np.ndarray) -> ColourScale:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import re
 
 #: Markdown that a renderer leaked into HTML text: list bullets or headings at a line start, bold, images, links
-_MARKDOWN = [re.compile(p, re.M) for p in (r"^\s*[-*] \S", r"^\s*#{1,6} ", r"\*\*\S", r"!\[", r"\]\(")]
+_MARKDOWN = [re.compile(p, re.MULTILINE) for p in (r"^\s*[-*] \S", r"^\s*#{1,6} ", r"\*\*\S", r"!\[", r"\]\(")]
 #: an absolute POSIX path of this machine (site-packages, /tmp, /home, /work, /usr, /root) or a Windows drive path
 _ABSOLUTE = re.compile(r"(?<![\w.~])(/(?:tmp|home|work|usr|root|opt|var)/|site-packages|[A-Z]:\\\\)")
 

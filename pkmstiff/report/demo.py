@@ -11,13 +11,7 @@ import argparse
 import time
 from pathlib import Path
 
-from pkmstiff.evaluation.sections import (
-    evaluate_section,
-    evaluate_three_planes,
-    section_summary,
-    three_planes,
-)
-from pkmstiff.io.atomic import atomic_write_text
+from pkmstiff.evaluation.sections import evaluate_section, evaluate_three_planes, section_summary, three_planes
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.report.outputs import write_section_outputs
 

@@ -3,7 +3,9 @@
 Both come from Jinja2 templates shipped with the package (``pkmstiff/report/templates``: ``report.html.j2`` with
 autoescaping on, ``report.md.j2``) and one stylesheet (``style.css``) that the design, calibration and demo reports
 share. Text is plain: a paragraph whose lines all start with "- " is a list, any other paragraph is text, and no
-Markdown or HTML in it is interpreted. The HTML file has its CSS inline and every figure embedded as a ``data:image/png;base64`` URI: it opens offline,
+Markdown or HTML in it is interpreted.
+
+The HTML file has its CSS inline and every figure embedded as a ``data:image/png;base64`` URI: it opens offline,
 loads nothing and runs no script. The Markdown file links the PNGs, copied beside it into ``figures/``, by relative
 paths. Both carry the tables (absolute values and, with a baseline column, "% of baseline" for every column — the
 baseline itself is 100 %), the assumptions, the settings and a "Run" section with the package versions and the date.
