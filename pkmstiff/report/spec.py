@@ -4,7 +4,8 @@ A spec names the variants (bundled machine or machine file, options, parameter o
 orientation), the section planes and their quantities and statistics, the workspace, single poses and machine
 values to compare. :func:`pkmstiff.report.build.build_report` evaluates everything and returns one comparison
 table (rows = metric and statistic, columns = variants, "% of baseline"), section maps (one figure per variant and
-quantity, a shared colour scale per quantity), workspace figures, an optional weighted evaluation, the machine files' assumptions (shared ones once, differences per variant) and the settings.
+quantity, a shared colour scale per quantity), workspace figures, an optional weighted evaluation
+(``[[evaluation]]``), the machine files' assumptions (shared ones once, differences per variant) and the settings.
 Every key is validated; errors are :class:`SpecError` naming the file, the key, what was expected and what was found.
 Lengths are in mm and angles in degrees in the spec (keys ``*_mm``, ``*_deg``); SI inside.
 """
