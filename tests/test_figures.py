@@ -224,3 +224,29 @@ def test_fe_joint_image_fills_the_canvas(tmp_path):
     p = load_joint_parameters(params)
     path = joint_image(build_joint_model(p), 45.0, tmp_path / "joint.png")
     assert fill_fraction(path) >= MIN_FILL
+
+
+def test_remaining_matplotlib_kinds_have_readable_text(tmp_path, monkeypatch):
+    # the calibration path, the harmonic spectrum, volume over orientation and the convergence plot: >= 9 pt
+    from pkmstiff.calibration.ballbar import evaluate_circular_test
+    from pkmstiff.plots import workspace as wsplots
+    from pkmstiff.plots.ballbar import harmonic_spectrum_figure
+    from pkmstiff.plots.calibration import path_figure
+    from tests.ballbar_synth import circle_run
+
+    t = np.linspace(0, 2 * np.pi, 200)
+    pts = np.column_stack([0.3 * np.cos(t), 0.3 * np.sin(t), 0.1 + 0 * t])
+    assert smallest_text_pt(path_figure(pts, np.zeros(200, int), ["circle"], np.zeros(3))) >= MIN_PT
+    run = circle_run(0.15, 600, radius_error=3e-6, lobes={3: (2e-6, 0.0)})
+    ev = evaluate_circular_test(run.positions, run.reading, (0, 0, 0), 0.15, direction=np.array(["ccw"] * 600))
+    assert smallest_text_pt(harmonic_spectrum_figure(ev)) >= MIN_PT
+    figs = []
+    real = wsplots._figure
+    monkeypatch.setattr(wsplots, "_figure", lambda size: figs.append(real(size)) or figs[-1])
+    ang = np.radians(np.arange(-10.0, 10.1, 5.0))
+    wsplots.plot_volume_vs_orientation(ang, {"a": 0.3 - 0.001 * ang ** 2, "b": 0.29 - 0.002 * ang ** 2},
+                                       tmp_path / "vol.png", "test")
+    eps = np.array([50.0, 25.0, 12.5])
+    wsplots.plot_convergence(eps, {"sphere": {"surface_nets": eps ** 2 * 1e-3, "tetrahedron": eps * 1e-2}},
+                             tmp_path / "conv.png")
+    assert len(figs) == 2 and all(smallest_text_pt(f) >= MIN_PT for f in figs)
