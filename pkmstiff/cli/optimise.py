@@ -45,7 +45,7 @@ def add_commands(sub) -> None:
                        description="Optimise the variables of a design file (TOML: base machine, variables as "
                                    "dotted machine-file paths, objectives, constraints) with pymoo (DE, CMA-ES, "
                                    "NSGA-II); evaluations are cached and checkpointed in --out.")
-    p.add_argument("design_file", help="design file (TOML)")
+    p.add_argument("design_file", help="design file (TOML) or a bundled example name (hexaglide_joint_orientation)")
     p.add_argument("--out", required=True, help="output folder (front.csv, designs/, convergence.png, summary.json)")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes (-1: all cores; default 1)")
     p.add_argument("--budget", type=int, default=None, help="evaluations (default: the design file's)")

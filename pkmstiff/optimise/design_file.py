@@ -46,7 +46,7 @@ from pkmstiff.optimise.design import (
 )
 from pkmstiff.units import InputError
 
-__all__ = ["load_design", "check_design"]
+__all__ = ["load_design", "check_design", "resolve_design"]
 
 _TOP = {"machine", "optimiser", "variables", "objectives", "constraints"}
 _OPT = {"algorithm", "budget", "population", "seed"}
@@ -230,9 +230,19 @@ def _section_measures(r: _Reader, raw: list, sections: dict[tuple, set[str]]) ->
     return out
 
 
+def resolve_design(path: str | Path) -> Path:
+    """A design file path, or the name of a bundled example (``"hexaglide_joint_orientation"``)."""
+    from pkmstiff.optimise import EXAMPLES
+
+    p = Path(path)
+    bundled = EXAMPLES / f"{path}.toml"
+    return bundled if not p.exists() and p.suffix != ".toml" and bundled.is_file() else p
+
+
 def load_design(path: str | Path) -> Design:
-    """Read and validate a design file (syntax, keys, values; :func:`check_design` tries it on the machine)."""
-    path = Path(path)
+    """Read and validate a design file or bundled example (syntax, keys, values; :func:`check_design` tries it on
+    the machine)."""
+    path = resolve_design(path)
     r = _Reader(path)
     raw = read_toml(path, DesignFileError, "design file")
     r.keys(raw, _TOP, None, 0)
