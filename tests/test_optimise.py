@@ -170,3 +170,13 @@ def test_design_file_loads_and_python_entry_point(tmp_path):
     # both objectives' sections share one request: evaluated once per candidate
     assert d.objectives[0].measure.request is d.constraints[0].measure.request
     assert callable(pkmstiff.optimise)
+
+
+def test_jobs_give_the_same_run(tmp_path):
+    """Candidates evaluated in 2 local processes (the sweep's machinery) give the serial run's history."""
+    design = Design("hexaglide", (_length_variable(),), (Objective(FunctionMeasure("f", "m^2", _toy)),),
+                    budget=16, population=8)
+    serial = run_optimisation(design, tmp_path / "s")
+    parallel = run_optimisation(design, tmp_path / "p", jobs=2)
+    assert [c.key for c in parallel.history] == [c.key for c in serial.history]
+    assert [c.outputs for c in parallel.history] == [c.outputs for c in serial.history]  # same code, same inputs
