@@ -146,6 +146,20 @@ def check_jobs(jobs: int | None, option: str = "--jobs") -> int | None:
                    f"found {jobs}")
 
 
+def predicted_plan(items: int, seconds: float, jobs: int, scheduler: str | None, unit: str, granule: int = 1) -> str:
+    """The parallel plan for the cost line, from the estimated ``seconds`` of ``items`` items (the run itself sizes its
+    tasks from a measured first piece of work); connects to ``scheduler`` (exit 2 if unreachable) before any work."""
+    from pkmstiff.errors import ParallelError
+    from pkmstiff.evaluation.parallel import connected, plan
+
+    try:
+        with connected(scheduler):
+            p = plan(items, seconds / max(items, 1), jobs, scheduler, granule)
+    except ParallelError as exc:
+        raise CliError(str(exc)) from None
+    return p.text(unit) if p.parallel else "serial"
+
+
 # ------------------------------------------------------------------------------------------------ memory budget
 
 
@@ -207,12 +221,13 @@ def human_seconds(s: float) -> str:
 
 
 def announce_cost(command: str, what: str, points: int, bytes_needed: float, seconds: float, budget: int,
-                  quiet: bool = False, unit: str = "points") -> None:
-    """Print what the command will compute (one line on stderr) and refuse above the memory budget."""
+                  quiet: bool = False, unit: str = "points", plan: str | None = None) -> None:
+    """Print what the command will compute (one line on stderr, ending with the parallel ``plan`` when given) and
+    refuse above the memory budget."""
     if bytes_needed > budget:
         raise CostLimitError(f"{what}: {points:,} {unit} need about {human_bytes(bytes_needed)}, more than the memory "
                              f"budget of {human_bytes(budget)}; use a coarser step/resolution or a smaller region, or "
                              f"raise --memory-budget")
     if not quiet:
         print(f"pkmstiff {command}: {what}: {points:,} {unit}, about {human_bytes(bytes_needed)} and "
-              f"{human_seconds(seconds)}", file=sys.stderr, flush=True)
+              f"{human_seconds(seconds)}{f'; {plan}' if plan else ''}", file=sys.stderr, flush=True)

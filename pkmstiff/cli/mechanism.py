@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import PkmstiffError
-from pkmstiff.io.atomic import atomic_open, atomic_path, output_path, safe_stem
+from pkmstiff.io.atomic import atomic_path, output_path, safe_stem
 from pkmstiff.io.columns import column_name
 from pkmstiff.io.ranges import parse_names, parse_numbers
 
@@ -472,7 +472,7 @@ def section_report(args) -> dict[str, Any]:
     from pkmstiff.cli.edges import check_output_dir
 
     outs = ([f"{stem}_{n}.png" for n in names] + [f"{stem}_admissibility.png"] if "png" in formats else []) \
-        + [f"{stem}.{f}" for f in ("csv", "npz") if f in formats]
+        + [f"{stem}.{f}" for f in ("csv", "npz") if f in formats] + ([f"{stem}.json"] if "csv" in formats else [])
     check_output_dir(args.out, "--out", getattr(args, "force", False), tuple(outs))
     if mech.dim == 2 and plane != "xy":
         raise _cli_error(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
@@ -496,10 +496,11 @@ def section_report(args) -> dict[str, Any]:
     except PkmstiffError as exc:
         raise _cli_error(str(exc)) from None
     cpu = time.process_time() - t0
-    files = _write_section(sec, Path(args.out), stem, formats) if args.out else []
+    where = {"mechanism": mech.name, "plane": plane, "at_mm": None if mech.dim == 2 else args.at,
+             "orientation_deg": [float(np.degrees(a)) for a in ori]}
+    files = _write_section(sec, Path(args.out), stem, formats, where) if args.out else []
     stats = sec.statistics()
-    return {"mechanism": mech.name, "plane": plane, "at_mm": None if mech.dim == 2 else args.at,
-            "orientation_deg": [float(np.degrees(a)) for a in ori],
+    return {**where,
             "window_mm": {plane[0]: [u0 * 1e3, sec.u_values[-1] * 1e3], plane[1]: [v0 * 1e3, sec.v_values[-1] * 1e3]},
             "window_fitted_to_workspace": fitted, "points": int(sec.ok.size),
             "admissible_points": int(sec.ok.sum()), "admissible_area_m2": float(sec.ok.sum()) * sec.cell_area,
@@ -507,9 +508,9 @@ def section_report(args) -> dict[str, Any]:
             "cpu_seconds": cpu, "files": [str(p) for p in files]}
 
 
-def _write_section(sec, out, stem: str, formats: list[str]) -> list:
-    """PNG maps (each quantity and the admissibility reasons), CSV and NPZ of a mechanism section in ``out``."""
-    import csv
+def _write_section(sec, out, stem: str, formats: list[str], where: dict[str, Any]) -> list:
+    """PNG maps (each quantity and the admissibility reasons), CSV (with ``where``, the units and the reason bits in
+    ``<stem>.json`` beside it) and NPZ of a mechanism section in ``out``."""
 
     paths = []
     out.mkdir(parents=True, exist_ok=True)
@@ -521,16 +522,20 @@ def _write_section(sec, out, stem: str, formats: list[str]) -> list:
     U, V = np.meshgrid(sec.u_values, sec.v_values)
     u, v = sec.plane[0], sec.plane[1]
     if "csv" in formats:
+        from pkmstiff.io.columns import write_table
+        from pkmstiff.mechanisms.evaluate import REASONS
+
         p = output_path(out, f"{stem}.csv")
-        with atomic_open(p, "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh)
-            w.writerow([f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
-                       + [column_name(n, sec.units[n]) for n in sec.values])
-            cols = [sec.display(n).ravel() for n in sec.values]
-            for i in range(U.size):
-                w.writerow([f"{U.flat[i] * 1e3:.6g}", f"{V.flat[i] * 1e3:.6g}", sec.status.flat[i],
-                            int(sec.reasons.flat[i]), int(sec.ok.flat[i])]
-                           + ["" if not np.isfinite(c[i]) else f"{c[i]:.6g}" for c in cols])
+        cols = [sec.display(n).ravel() for n in sec.values]
+        rows = ([U.flat[i] * 1e3, V.flat[i] * 1e3, str(sec.status.flat[i]), int(sec.reasons.flat[i]),
+                 int(sec.ok.flat[i])] + [float(c[i]) for c in cols] for i in range(U.size))
+        meta = {**where,
+                "units": {column_name(n, sec.units[n]): sec.units[n] for n in sec.values},
+                "reasons": {"meaning": "bit mask of the inadmissibility reasons (0 = admissible)",
+                            "bits": {k: int(b) for k, b in REASONS.items()}},
+                "empty_cells": "no value (inadmissible point)"}
+        write_table(p, [f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
+                    + [column_name(n, sec.units[n]) for n in sec.values], rows, meta, ".6g")
         paths.append(p)
     if "npz" in formats:
         p = output_path(out, f"{stem}.npz")

@@ -55,7 +55,7 @@ def _mechanism_section(args: argparse.Namespace) -> int:
 
 
 def _machine_section(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget
+    from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.evaluation.sections import axis_plane, evaluate_section, raster_count, section_summary
@@ -113,8 +113,9 @@ def _machine_section(args: argparse.Namespace) -> int:
     all_names = list(dict.fromkeys(names + [r.quantity for r in requirements]))
     mem, secs = section_cost(n_points, len(all_names))
     window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())
+    plan = predicted_plan(n_points, secs, args.jobs, getattr(args, "scheduler", None), "points", granule=4096)
     announce_cost("section", f"{plane_kind.upper()} window {window}{' (fitted to the workspace)' if fitted else ''}",
-                  n_points, mem, secs, budget, quiet=args.quiet or args.json)
+                  n_points, mem, secs, budget, quiet=args.quiet or args.json, plan=plan)
     try:
         plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step)
     except SectionError as exc:
@@ -123,7 +124,7 @@ def _machine_section(args: argparse.Namespace) -> int:
     res = evaluate_section(machine, plane, all_names, orientation=ori,
                            tool_length=None if args.tool_length is None else args.tool_length * 1e-3,
                            n_jobs=args.jobs, progress=False if args.quiet else None, frame=args.frame,
-                           checks=checks)
+                           checks=checks, scheduler=getattr(args, "scheduler", None))
     failed_requirements = _apply_requirements(res, requirements)
     for extra in set(all_names) - set(names):
         for d in (res.values, res.units, res.si_units, res.labels):
@@ -239,6 +240,8 @@ def add_commands(sub) -> None:
     p.add_argument("--out", default=None, help="output directory for PNG/VTU/CSV/NPZ (none: print only)")
     p.add_argument("--formats", default="png,vtu,csv,npz", help="output formats (default png,vtu,csv,npz)")
     p.add_argument("--jobs", type=int, default=1, help="parallel processes (-1: all cores)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate on that cluster (--jobs ignored)")
     p.add_argument("--json", action="store_true", help="print per-quantity statistics as JSON (with units)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no cost line")
     p.add_argument("--require", action="append", metavar="REQ",
