@@ -34,8 +34,8 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
     text = ", ".join(f"{o.measure.name} = {best.outputs[o.measure.label]:.6g} {o.measure.unit}"
                      for o in design.objectives)
     front = f"front of {len(res.front)} design(s); first: " if len(design.objectives) > 1 else "best: "
-    print(f"pkmstiff optimise: {len(res.history)} evaluations ({res.evaluated} run, {res.cached} from the "
-          f"checkpoint), {res.wall_time_s:.1f} s; {front}{text}; wrote {res.meta['outputs']['front']}, "
+    print(f"pkmstiff optimise: {len(res.history)} evaluations ({res.evaluated} run, {res.cached} cached: repeated "
+          f"or read from the checkpoint), {res.wall_time_s:.1f} s; {front}{text}; wrote {res.meta['outputs']['front']}, "
           f"{res.meta['outputs']['summary']}")
     return 0
 
