@@ -12,11 +12,9 @@ import pytest
 
 pytest.importorskip("pymoo")
 
-from pkmstiff.cli import main  # noqa: E402
-from pkmstiff.optimise import (  # noqa: E402
-    EXAMPLES, Constraint, Design, FunctionMeasure, Objective, Variable, load_design, optimise,
-)
-from pkmstiff.optimise.engine import CHECKPOINT, run_optimisation  # noqa: E402
+from pkmstiff.cli import main
+from pkmstiff.optimise import EXAMPLES, Constraint, Design, FunctionMeasure, Objective, Variable, load_design, optimise
+from pkmstiff.optimise.engine import CHECKPOINT, run_optimisation
 
 EXAMPLE = EXAMPLES / "hexaglide_joint_orientation.toml"
 L_STAR = 0.1234  # m, the toy optimum
@@ -147,8 +145,8 @@ def _variable_file(tmp_path, table: str) -> Path:
      "variables[1].high", "200"),
     ('[[variables]]\nname = "k"\npath = "components.strut_950.k"\nlow = 200\nhigh = 500\nunit = "mm"',
      "variables[1].unit", "mm"),
-    ('[[variables]]\nname = "t"\npath = "components.iwf_3dof_improved.table"\nkind = "categorical"\n'
-     'values = ["hexaglide_3dof_improved_measured", "no_such_table"]', "variables[1].values", "no_such_table"),
+    (('[[variables]]\nname = "t"\npath = "components.iwf_3dof_improved.table"\nkind = "categorical"\n'
+      'values = ["hexaglide_3dof_improved_measured", "no_such_table"]'), "variables[1].values", "no_such_table"),
 ])
 def test_bad_design_file_one_line_before_any_evaluation(tmp_path, capsys, table, key, found):
     f = _variable_file(tmp_path, table)
@@ -180,3 +178,20 @@ def test_jobs_give_the_same_run(tmp_path):
     parallel = run_optimisation(design, tmp_path / "p", jobs=2)
     assert [c.key for c in parallel.history] == [c.key for c in serial.history]
     assert [c.outputs for c in parallel.history] == [c.outputs for c in serial.history]  # same code, same inputs
+
+
+def test_point_objective_task_box_constraint_and_component_variable(tmp_path):
+    from pkmstiff.io import read_toml
+
+    f = tmp_path / "d.toml"
+    f.write_text('machine = "hexaglide"\n[optimiser]\nbudget = 4\npopulation = 2\n'
+                 '[[variables]]\nname = "k"\npath = "components.strut_950.k"\nlow = 200\nhigh = 500\nunit = "N/um"\n'
+                 '[[objectives]]\nname = "kx_point"\nsense = "maximise"\nkind = "point"\nquantity = "kx"\n'
+                 'pose = [0, 400, -1000, 0, 0, 0]\n'
+                 '[[constraints]]\nname = "task"\nkind = "task_box"\nbox_mm = [[-50, 350, -1050], [50, 450, -950]]\n'
+                 'step_mm = 50\nmin = 1\n')
+    res = optimise(f, tmp_path / "o")
+    assert res.best.outputs["task [1]"] == 1.0 and res.best.outputs["kx_point [N/um]"] > 0
+    written = read_toml(tmp_path / "o" / "designs" / "design_001.toml")
+    assert written["machine"]["extends"] == "hexaglide"
+    assert written["components"]["strut_950"]["k"] == res.best.overrides["components.strut_950.k"]

@@ -14,7 +14,14 @@ import types
 from pathlib import Path
 
 from pkmstiff.optimise.design import (
-    Constraint, Design, FunctionMeasure, Objective, PointMeasure, SectionMeasure, TaskBoxMeasure, Variable,
+    Constraint,
+    Design,
+    FunctionMeasure,
+    Objective,
+    PointMeasure,
+    SectionMeasure,
+    TaskBoxMeasure,
+    Variable,
     WorkspaceMeasure,
 )
 from pkmstiff.optimise.design_file import load_design

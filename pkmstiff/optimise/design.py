@@ -17,16 +17,29 @@ fraction of a task-workspace box, or (from Python) any function of the machine.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from pkmstiff.errors import DesignFileError
 from pkmstiff.machine.model import Machine
 
-__all__ = ["Variable", "Measure", "SectionMeasure", "PointMeasure", "WorkspaceMeasure", "TaskBoxMeasure",
-           "FunctionMeasure", "Objective", "Constraint", "Design", "VARIABLE_KINDS", "SECTION_STATISTICS"]
+__all__ = [
+    "SECTION_STATISTICS",
+    "VARIABLE_KINDS",
+    "Constraint",
+    "Design",
+    "FunctionMeasure",
+    "Measure",
+    "Objective",
+    "PointMeasure",
+    "SectionMeasure",
+    "TaskBoxMeasure",
+    "Variable",
+    "WorkspaceMeasure",
+]
 
 VARIABLE_KINDS = ("continuous", "integer", "categorical", "direction")
 #: statistics of a section quantity: name -> unit (None: the quantity's display unit)
@@ -174,7 +187,7 @@ class TaskBoxMeasure(Measure):
     orientations: tuple[tuple[float, float, float], ...] = ((0.0, 0.0, 0.0),)
 
     def poses(self) -> np.ndarray:
-        axes = [np.linspace(lo, hi, max(1, int(round((hi - lo) / self.step)) + 1)) for lo, hi in zip(self.lo, self.hi)]
+        axes = [np.linspace(lo, hi, max(1, round((hi - lo) / self.step) + 1)) for lo, hi in zip(self.lo, self.hi)]
         pts = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
         return np.concatenate([np.hstack([pts, np.tile(o, (len(pts), 1))]) for o in self.orientations])
 
@@ -192,6 +205,10 @@ class FunctionMeasure(Measure):
     name: str
     unit: str
     function: Callable[[Machine], float]
+
+    def __repr__(self) -> str:  # stable across processes (part of the cache key): the function's qualified name
+        f = self.function
+        return f"FunctionMeasure({self.name!r}, {self.unit!r}, {f.__module__}.{getattr(f, '__qualname__', f)!r})"
 
     def __call__(self, machine: Machine, memo: dict) -> float:
         return float(self.function(machine))

@@ -39,14 +39,23 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import DesignFileError, SweepError
-from pkmstiff.io import check_keys, read_toml
+from pkmstiff.io import read_toml
 from pkmstiff.optimise.design import (
-    SECTION_STATISTICS, VARIABLE_KINDS, Constraint, Design, FunctionMeasure, Objective, PointMeasure, SectionMeasure,
-    TaskBoxMeasure, Variable, WorkspaceMeasure,
+    SECTION_STATISTICS,
+    VARIABLE_KINDS,
+    Constraint,
+    Design,
+    FunctionMeasure,
+    Objective,
+    PointMeasure,
+    SectionMeasure,
+    TaskBoxMeasure,
+    Variable,
+    WorkspaceMeasure,
 )
 from pkmstiff.units import InputError
 
-__all__ = ["load_design", "check_design", "resolve_design"]
+__all__ = ["check_design", "load_design", "resolve_design"]
 
 _TOP = {"machine", "optimiser", "variables", "objectives", "constraints"}
 _OPT = {"algorithm", "budget", "population", "seed"}
@@ -171,7 +180,7 @@ def _variable(r: _Reader, tab: Any, i: int) -> Variable:
 
 def _measure(r: _Reader, array: str, tab: dict, i: int, sections: dict) -> Any:
     from pkmstiff.evaluation.quantities import get_quantity
-    from pkmstiff.report.sweep_evaluations import PointValues, SectionStatistics, WorkspaceVolume
+    from pkmstiff.report.sweep_evaluations import PointValues, WorkspaceVolume
 
     name = str(tab.get("name", f"{array}_{i + 1}"))
     kind = tab.get("kind")

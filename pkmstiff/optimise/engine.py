@@ -12,18 +12,19 @@ import hashlib
 import json
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 
-from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.errors import CliError, NothingFeasibleError, PkmstiffError
+from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.machine.model import Machine
 from pkmstiff.optimise.design import Design
 
-__all__ = ["Candidate", "OptimisationResult", "DesignEvaluation", "run_optimisation", "CHECKPOINT", "INSTALL_HINT"]
+__all__ = ["CHECKPOINT", "INSTALL_HINT", "Candidate", "DesignEvaluation", "OptimisationResult", "run_optimisation"]
 
 CHECKPOINT = "evaluations.jsonl"
 INSTALL_HINT = "pkmstiff optimise needs pymoo: pip install 'pkmstiff[optimise]'"

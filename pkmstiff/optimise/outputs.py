@@ -18,7 +18,7 @@ from pkmstiff.io.columns import label_column
 from pkmstiff.optimise.design import Design
 from pkmstiff.optimise.engine import Candidate, OptimisationResult
 
-__all__ = ["write_outputs", "design_machine_toml"]
+__all__ = ["design_machine_toml", "write_outputs"]
 
 
 def _labels(design: Design) -> list[str]:
