@@ -148,3 +148,8 @@ class UnknownMachineError(ArgumentError):
 
 class PlotDependencyError(ResourceError, ImportError):
     """matplotlib (2-D maps and curves) is not installed: the command writes its data files and skips the plots."""
+
+
+class DesignFileError(InputError):
+    """An invalid design file of ``pkmstiff optimise`` (names ``file:line``, key, expected and found): the design
+    reader passes it on and names the line of any other error it meets (:mod:`pkmstiff.optimise.design_file`)."""
