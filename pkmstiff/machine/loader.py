@@ -70,10 +70,6 @@ def resolve_machine_path(name_or_path: str | Path) -> Path:
     )
 
 
-def _read_toml(path: Path) -> dict[str, Any]:
-    return read_toml(path, "machine file")
-
-
 def _merge(base: Any, over: Any) -> Any:
     """Deep merge: tables key by key, equally long arrays of tables element by element, everything else replaced."""
     if isinstance(base, dict) and isinstance(over, dict):
@@ -88,7 +84,7 @@ def _merge(base: Any, over: Any) -> Any:
 
 
 def _raw_with_extends(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
-    raw = _read_toml(path)
+    raw = read_toml(path, "machine file")
     parent = raw.get("machine", {}).get("extends") if isinstance(raw.get("machine"), dict) else None
     if parent is None:
         return raw

@@ -252,7 +252,7 @@ def load_design(path: str | Path) -> Design:
     the machine)."""
     path = resolve_design(path)
     r = _Reader(path)
-    raw = read_toml(path, DesignFileError, "design file")
+    raw = read_toml(path, "design file")
     r.keys(raw, _TOP, None, 0)
     machine = raw.get("machine")
     if not isinstance(machine, str) or not machine:
