@@ -142,6 +142,11 @@ class JointTableNotFound(InputError):
     machine key that referred to it)."""
 
 
+class OverrideError(InputError):
+    """An override path that does not lead into the machine file (names the override and what is there): a design
+    file then blames the variable's ``path``, not its value (:mod:`pkmstiff.optimise.design_file`)."""
+
+
 class UnknownMachineError(ArgumentError):
     """No bundled machine of that name and no file at that path (``extends`` reports it as a machine-file error)."""
 

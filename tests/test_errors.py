@@ -145,6 +145,11 @@ def _sorts_by_text(handler: ast.ExceptHandler) -> bool:
                 if (isinstance(side, ast.Attribute) and side.attr == "args" and isinstance(side.value, ast.Name)
                         and side.value.id == handler.name):
                     return True
+                if (isinstance(side, ast.Call) and side.args and isinstance(side.args[0], ast.Attribute)
+                        and side.args[0].attr == "__name__"):  # "override" in type(exc).__name__.lower()
+                    return True
+                if isinstance(side, ast.Attribute) and side.attr == "__name__":
+                    return True
     return False
 
 
@@ -157,4 +162,6 @@ def test_no_except_sorts_errors_by_message_text():
 
 def test_the_text_sorting_check_can_fail():
     tree = ast.parse("try:\n    f()\nexcept ValueError as exc:\n    if 'converge' in str(exc):\n        raise\n")
+    assert _sorts_by_text(next(n for n in ast.walk(tree) if isinstance(n, ast.ExceptHandler)))
+    tree = ast.parse("try:\n    f()\nexcept ValueError as exc:\n    k = 'a' if 'override' in type(exc).__name__.lower() else 'b'\n")
     assert _sorts_by_text(next(n for n in ast.walk(tree) if isinstance(n, ast.ExceptHandler)))
