@@ -145,11 +145,8 @@ def _sorts_by_text(handler: ast.ExceptHandler) -> bool:
                 if (isinstance(side, ast.Attribute) and side.attr == "args" and isinstance(side.value, ast.Name)
                         and side.value.id == handler.name):
                     return True
-                if (isinstance(side, ast.Call) and side.args and isinstance(side.args[0], ast.Attribute)
-                        and side.args[0].attr == "__name__"):  # "override" in type(exc).__name__.lower()
-                    return True
-                if isinstance(side, ast.Attribute) and side.attr == "__name__":
-                    return True
+                if any(isinstance(n, ast.Attribute) and n.attr == "__name__" for n in ast.walk(side)):
+                    return True  # "override" in type(exc).__name__.lower()
     return False
 
 
