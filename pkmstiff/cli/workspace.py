@@ -95,7 +95,7 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 
 
 def _cmd_workspace(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
+    from pkmstiff.cli.edges import announce, check_output_dir, parse_budget
     from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.octree import OctreeInputError
     from pkmstiff.workspace.oracle import OracleInputError
@@ -125,26 +125,23 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
                              f"found {args.range!r}")
         lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE,MIN,MAX (deg)")
         rng = (parts[0], math.radians(lo), math.radians(hi))
-    from pkmstiff.workspace.translational import reach_box
 
-    lo_box, hi_box = (box if box is not None else reach_box(machine))
-    ext = np.maximum(np.asarray(hi_box) - np.asarray(lo_box), eps)
-    # the octree evaluates boundary voxels: ~ surface / eps² points, each ~ 3 kB of pose pipeline state and
-    # ~ 30 µs (bench_workspace.py); the full lattice bounds it from above
-    surface_pts = 2.0 * (ext[0] * ext[1] + ext[1] * ext[2] + ext[0] * ext[2]) / eps ** 2 * 8
-    lattice = float(np.prod(ext / eps + 1))
-    n_est = int(min(surface_pts, lattice))
     n_ori = 1 if rng is None else max(1, int((rng[2] - rng[1]) / math.radians(max(args.range_step, 1e-9))) + 1)
-    announce_cost("workspace", f"octree at resolution {args.resolution:g} mm", n_est * n_ori,
-                  n_est * n_ori * 3000.0 + (64 << 20), n_est * n_ori * 30e-6, budget, quiet=args.quiet or args.json)
-    progress = _Progress(not args.quiet, "octree")
     try:
         req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
                                neglect_spindle=args.neglect_spindle)
-        res = req.evaluate(machine, orientation_range=rng,
-                           range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
-                           range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level,
-                           progress=progress)
+        options = dict(orientation_range=rng, range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
+                       range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level)
+        cost = req.cost(machine, n_ori, **options)
+    except (OctreeInputError, OracleInputError, ValueError) as exc:
+        if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
+            raise _cli_error(str(exc)) from None
+        raise
+    announce("workspace", cost.named(f"octree at resolution {args.resolution:g} mm"), budget,
+             quiet=args.quiet or args.json)
+    progress = _Progress(not args.quiet, "octree")
+    try:
+        res = req.evaluate(machine, progress=progress, **options)
     except (OctreeInputError, OracleInputError, ValueError) as exc:
         if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
             raise _cli_error(str(exc)) from None

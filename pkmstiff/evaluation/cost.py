@@ -1,0 +1,218 @@
+"""One cost model for every command: CPU time and peak resident memory before the work (issue 22, item 3).
+
+A command's cost is the process baseline (interpreter, numpy/scipy, compiled kernels) plus counts × measured
+per-unit costs. The per-unit constants below were measured by ``benchmarks/bench_estimates.py`` (CPU seconds of one
+process, so that the load of a shared machine does not enter; peak RSS from ``getrusage``) and rounded; the
+benchmark prints estimate / actual for every command and must stay within 0.5..2. Counts come from the input:
+
+* sections: raster points (every one runs the pose pipeline) and the *admissible* points (only they get
+  quantities); the admissible fraction is measured on a sub-raster of at most :data:`PILOT_POINTS` points first
+  (:func:`admissible_fraction`), because it ranges from 0 to 1 and the structure quantities cost ~10× a pose;
+* workspace (modified octree): the evaluations grow like the workspace's boundary area over eps² (the octree's
+  growth law: ×4 per halving of eps, measured on the bundled machines) — :data:`OCTREE_SURFACE_FACTOR` × the reach
+  box's surface / eps², at most the full lattice;
+* rotation maps: raster points × directions × the increments searched per point;
+* FE: degrees of freedom (from the mesh size) with the fill-in law of a 3-D sparse direct solve;
+* everything else: its row/step/harmonic count × a per-unit cost.
+
+Time is the CPU time of the one process (wall time equals it on an idle machine); memory is the peak RSS.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Iterable
+
+import numpy as np
+
+MB = float(1 << 20)
+
+# ----------------------------------------------------------------------------------------------- measured constants
+#: resident memory of a process that has loaded the evaluation stack (numpy, scipy, numba kernels, a machine), bytes
+BASE_BYTES = 220 * MB
+#: CPU seconds of that start (imports, machine cache, the first compiled-kernel calls)
+BASE_SECONDS = 0.9
+#: pose pipeline (IK, Jacobians, all admissibility checks) per pose, s
+POSE_SECONDS = 5e-6
+#: structure model (stiffness, compliance; shared by every structure quantity) per admissible pose, s
+STRUCTURE_SECONDS = 40e-6
+#: lowest modes (generalised eigenproblem) per admissible pose on top of the structure model, s
+MODAL_SECONDS = 15e-6
+#: a kinematic quantity (κ, U, velocities) per admissible pose, s
+KINEMATIC_SECONDS = 1e-6
+#: held per raster point during a section (pose, mask, reasons, coordinates), bytes
+RASTER_BYTES = 120
+#: held per raster point and quantity (the value and its display copy), bytes
+VALUE_BYTES = 24
+#: working set of one evaluation chunk (4,096 poses through the pose pipeline and the structure model), bytes
+CHUNK_BYTES = 40 * MB
+#: writing a section: per raster point and quantity (CSV text, VTU arrays, NPZ), s and bytes; per PNG map, s
+WRITE_SECONDS = 6e-6
+WRITE_BYTES = 400
+PNG_SECONDS = 0.6
+#: modified octree: evaluations per (reach-box surface / eps²); measured 0.41 (Hexaglide) .. 0.92 (6X); the
+#: geometric mean keeps every bundled machine within 1.6×
+OCTREE_SURFACE_FACTOR = 0.65
+#: per octree evaluation: pose pipeline, lattice bookkeeping, surface extraction (s) and the held lattice (bytes)
+OCTREE_SECONDS = 6e-6
+OCTREE_BYTES = 300
+#: a pilot run (growth law, :func:`octree_pilot_halvings`) for runs expected above OCTREE_PILOT_MIN evaluations
+OCTREE_PILOT_MIN = 200_000
+OCTREE_PILOT_EVALUATIONS = 30_000
+#: rotation maps: evaluations per raster point and direction of the predictor-corrector (besides the first point)
+ROTATION_PC_EVALUATIONS = 6
+#: FE: bytes and CPU seconds per degree of freedom at 1e5 DOFs (sparse Cholesky of a 3-D hex mesh), scaled with the
+#: fill-in law n^(4/3) for memory and n^(5/3) for time (nested dissection of a 3-D mesh)
+FE_BYTES_PER_DOF = 1500
+FE_SECONDS_PER_DOF = 4e-5
+FE_REFERENCE_DOFS = 1e5
+FE_BASE_BYTES = 260 * MB
+#: points of the pilot that measures a section's admissible fraction
+PILOT_POINTS = 2000
+
+
+@dataclass(frozen=True)
+class Cost:
+    """The estimated cost of one piece of work: ``count`` ``unit`` (set by ``option``), peak resident memory
+    ``bytes`` and CPU ``seconds``."""
+
+    what: str
+    count: float
+    unit: str
+    bytes: float
+    seconds: float
+    option: str = ""
+
+    def then(self, other: "Cost", what: str | None = None) -> "Cost":
+        """This work followed by ``other`` in the same process: the peak is the larger one, the times add."""
+        return Cost(what or self.what, self.count + other.count, self.unit if self.unit == other.unit else "items",
+                    max(self.bytes, other.bytes), self.seconds + other.seconds, self.option or other.option)
+
+    def named(self, what: str, option: str | None = None) -> "Cost":
+        return replace(self, what=what, option=self.option if option is None else option)
+
+
+def total(costs: Iterable[Cost], what: str, option: str = "") -> Cost:
+    """Work done one after another in one process (a report): max of the peaks, sum of the times."""
+    out = Cost(what, 0, "items", BASE_BYTES, 0.0, option)
+    for c in costs:
+        out = out.then(c, what)
+    return replace(out, option=option or out.option)
+
+
+# ---------------------------------------------------------------------------------------------------- sections
+
+
+def section_cost(n_points: int, admissible: float, n_kinematic: int, n_structure: int, modal: bool = False,
+                 n_png: int = 0, write: bool = False) -> Cost:
+    """A section of ``n_points`` raster points of which the fraction ``admissible`` is admissible, with
+    ``n_kinematic`` kinematic and ``n_structure`` structure quantities (``modal``: some need modes); ``write``: the
+    VTU/CSV/NPZ files, ``n_png`` maps."""
+    n = float(n_points)
+    n_adm = n * min(max(admissible, 0.0), 1.0)
+    nq = n_kinematic + n_structure
+    per_adm = n_kinematic * KINEMATIC_SECONDS + (STRUCTURE_SECONDS + (MODAL_SECONDS if modal else 0.0)
+                                                 if n_structure else 0.0)
+    seconds = BASE_SECONDS + n * POSE_SECONDS + n_adm * per_adm + n_png * PNG_SECONDS
+    held = n * (RASTER_BYTES + VALUE_BYTES * nq)
+    peak = held + CHUNK_BYTES
+    if write:
+        seconds += n * max(nq, 1) * WRITE_SECONDS
+        peak = max(peak, held + n * WRITE_BYTES * max(nq, 1) ** 0.5)
+    return Cost("section", n_points, "points", BASE_BYTES + peak, seconds, "--step")
+
+
+def admissible_fraction(machine, points: np.ndarray, orientation: Iterable[float]) -> float:
+    """Fraction of the raster ``points`` (N, 3) (m, machine frame) that are admissible at ``orientation`` (rad),
+    measured on an evenly strided subset of at most :data:`PILOT_POINTS` points (about 20 ms)."""
+    from pkmstiff.admissibility.pipeline import evaluate_poses
+
+    pts = np.asarray(points, float).reshape(-1, 3)
+    if pts.shape[0] == 0:
+        return 0.0
+    stride = max(1, pts.shape[0] // PILOT_POINTS)
+    sub = pts[::stride]
+    poses = np.concatenate([sub, np.broadcast_to(np.asarray(tuple(orientation), float), (len(sub), 3))], axis=1)
+    return float(np.mean(evaluate_poses(machine, poses).ok))
+
+
+def plane_points(u_range: tuple[float, float], v_range: tuple[float, float], step: float, origin: Iterable[float],
+                 u_axis: Iterable[float], v_axis: Iterable[float], max_points: int = PILOT_POINTS) -> np.ndarray:
+    """At most about ``max_points`` points (m) evenly spread over a raster window, for :func:`admissible_fraction`
+    without building the (possibly huge) raster itself."""
+    nu = max(2, int((u_range[1] - u_range[0]) / step) + 1)
+    nv = max(2, int((v_range[1] - v_range[0]) / step) + 1)
+    k = max(1.0, math.sqrt(nu * nv / max_points))
+    u = np.linspace(u_range[0], u_range[1], max(2, int(nu / k)))
+    v = np.linspace(v_range[0], v_range[1], max(2, int(nv / k)))
+    uu, vv = np.meshgrid(u, v)
+    return (np.asarray(tuple(origin), float) + uu.reshape(-1, 1) * np.asarray(tuple(u_axis), float)
+            + vv.reshape(-1, 1) * np.asarray(tuple(v_axis), float))
+
+
+# --------------------------------------------------------------------------------------------------- workspace
+
+
+def octree_evaluations(extent: Iterable[float], eps: float) -> float:
+    """Expected admissibility evaluations of the modified octree over a box of ``extent`` (m) at resolution
+    ``eps`` (m): :data:`OCTREE_SURFACE_FACTOR` × box surface / eps², at most the full lattice."""
+    e = np.maximum(np.asarray(tuple(extent), float), eps)
+    surface = 2.0 * (e[0] * e[1] + e[1] * e[2] + e[0] * e[2])
+    lattice = float(np.prod(e / eps + 1.0))
+    return min(OCTREE_SURFACE_FACTOR * surface / eps ** 2, lattice)
+
+
+def octree_pilot_halvings(extent: Iterable[float], eps: float, orientations: int = 1) -> int:
+    """Halvings k ≥ 2 of a pilot run at eps·2^k of at most :data:`OCTREE_PILOT_EVALUATIONS` evaluations; 0 when the
+    whole run is expected below :data:`OCTREE_PILOT_MIN` evaluations (no pilot: the box estimate is good enough)."""
+    n = octree_evaluations(extent, eps) * max(int(orientations), 1)
+    if n < OCTREE_PILOT_MIN:
+        return 0
+    return max(2, math.ceil(0.5 * math.log2(n / OCTREE_PILOT_EVALUATIONS)))
+
+
+def workspace_cost(extent: Iterable[float], eps: float, orientations: int = 1, structure: bool = False,
+                   pilot: tuple[float, int] | None = None) -> Cost:
+    """The modified octree at resolution ``eps`` (m) over a box of ``extent`` (m), each point checked at
+    ``orientations`` orientations (an orientation range), ``structure``: requirements need the structure model.
+    ``pilot`` = (eps_p, evaluations) of a pilot run: the evaluations scale with (eps_p / eps)² (growth law)."""
+    n = (pilot[1] * (pilot[0] / eps) ** 2 if pilot is not None else octree_evaluations(extent, eps)) \
+        * max(int(orientations), 1)
+    per = OCTREE_SECONDS + (STRUCTURE_SECONDS if structure else 0.0)
+    return Cost("workspace", int(n), "evaluations", BASE_BYTES + n * OCTREE_BYTES + CHUNK_BYTES,
+                BASE_SECONDS + n * per, "--resolution")
+
+
+# ------------------------------------------------------------------------------------------------ rotation maps
+
+
+def rotation_map_cost(n_points: int, n_directions: int, increments: int, plain: bool) -> Cost:
+    """Rotation angles on ``n_points`` raster points in ``n_directions`` directions with ``increments`` = max angle /
+    increment lattice steps: the plain search walks half the lattice per point on average (Assumption: the limit
+    lies mid-range), the predictor-corrector :data:`ROTATION_PC_EVALUATIONS` per point plus one plain search."""
+    half = 0.5 * max(int(increments), 1)
+    per_dir = n_points * half if plain else n_points * min(ROTATION_PC_EVALUATIONS, half) + half
+    n = per_dir * max(int(n_directions), 1)
+    return Cost("rotation map", int(n), "evaluations", BASE_BYTES + CHUNK_BYTES + n_points * n_directions * 64.0,
+                BASE_SECONDS + n * POSE_SECONDS, "--increment")
+
+
+# ----------------------------------------------------------------------------------------------------------- FE
+
+
+def fe_cost(n_dofs: float, solves: int = 1, what: str = "FE model", option: str = "--mesh-size") -> Cost:
+    """A sparse direct FE solve of ``n_dofs`` degrees of freedom, ``solves`` times (tilt angles): memory by the
+    fill-in law n^(4/3), time n^(5/3) per solve, both anchored at :data:`FE_REFERENCE_DOFS`."""
+    r = max(float(n_dofs), 1.0) / FE_REFERENCE_DOFS
+    mem = FE_BASE_BYTES + FE_BYTES_PER_DOF * FE_REFERENCE_DOFS * r ** (4 / 3)
+    secs = BASE_SECONDS + FE_SECONDS_PER_DOF * FE_REFERENCE_DOFS * r ** (5 / 3) * max(int(solves), 1)
+    return Cost(what, int(n_dofs), "degrees of freedom", mem, secs, option)
+
+
+# ------------------------------------------------------------------------------------------------- plain counts
+
+
+def rows_cost(n: float, bytes_per: float, seconds_per: float, what: str, unit: str, option: str) -> Cost:
+    """Work linear in a count (poses of a file, continuation steps, planned points, ball-bar samples)."""
+    return Cost(what, n, unit, BASE_BYTES + float(n) * bytes_per, BASE_SECONDS + float(n) * seconds_per, option)
