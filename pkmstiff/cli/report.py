@@ -9,10 +9,11 @@ from pathlib import Path
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import check_jobs, check_output_dir
+    from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget
     from pkmstiff.report.build import run_spec
 
     check_jobs(args.jobs)
+    budget = parse_budget(args.memory_budget)
     check_output_dir(args.out, "--out", getattr(args, "force", False), ("report.html", "report.md"))
     t0 = time.perf_counter()
 
@@ -20,7 +21,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"  [{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
 
-    paths = run_spec(args.spec, Path(args.out), fast=args.fast, n_jobs=args.jobs, log=log)
+    paths = run_spec(args.spec, Path(args.out), fast=args.fast, n_jobs=args.jobs, log=log,
+                     check=lambda cost: announce("report", cost, budget, quiet=args.quiet))
     print(f"pkmstiff report: wrote {paths['html']} and {paths['md']} ({time.perf_counter() - t0:.1f} s)")
     return 0
 
@@ -37,4 +39,7 @@ def add_commands(sub) -> None:
     p.add_argument("--jobs", type=int, default=None, help="parallel processes for the sections (default: spec)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--force", action="store_true", help="overwrite an existing report in --out")
+    from pkmstiff.cli.edges import add_budget_argument
+
+    add_budget_argument(p)
     p.set_defaults(func=_cmd_report)

@@ -22,7 +22,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
-    from pkmstiff.evaluation.sections import axis_plane, evaluate_section, raster_count, section_summary
+    from pkmstiff.evaluation.requests import SectionRequest
+    from pkmstiff.evaluation.sections import axis_plane, evaluate_section, section_summary
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
@@ -84,12 +85,12 @@ def _cmd_section(args: argparse.Namespace) -> int:
         fitted = True
     else:
         fitted = False
-    (u0, u1), (v0, v1) = ranges[plane_kind[0]], ranges[plane_kind[1]]
-    n_points = raster_count(u0, u1, step) * raster_count(v0, v1, step)
     all_names = list(dict.fromkeys(names + [r.quantity for r in requirements]))
     window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())
-    cost = estimate_section(machine, plane_kind, args.at * 1e-3, ranges, step, ori, all_names, args.frame,
-                            formats if args.out else [])
+    fmts = formats if args.out else []
+    cost = SectionRequest(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step,
+                          tuple(all_names), tuple(ori), frame=args.frame).cost(
+        machine, len(names) if "png" in fmts else 0, write=bool(set(fmts) & {"vtu", "csv", "npz"}))
     announce("section", cost.named(f"{plane_kind.upper()} window {window}"
                                    f"{' (fitted to the workspace)' if fitted else ''}"),
              budget, quiet=args.quiet or args.json)
@@ -137,31 +138,6 @@ def _cmd_section(args: argparse.Namespace) -> int:
     for p in paths:
         print(f"  wrote {p}")
     return 0
-
-
-def estimate_section(machine, plane_kind: str, at: float, ranges: dict, step: float, orientation, names: list[str],
-                     frame: str, formats: list[str]):
-    """The :class:`~pkmstiff.evaluation.cost.Cost` of a section (SI inputs): raster points, the admissible fraction
-    measured on a sub-raster, kinematic and structure quantities and the files written."""
-    import numpy as np
-
-    from pkmstiff.evaluation.cost import admissible_fraction, plane_points, section_cost
-    from pkmstiff.evaluation.quantities import get_quantity
-    from pkmstiff.evaluation.sections import AXES, raster_count
-    from pkmstiff.machine.frames import frame_origin
-
-    (u0, u1), (v0, v1) = ranges[plane_kind[0]], ranges[plane_kind[1]]
-    n_points = raster_count(u0, u1, step) * raster_count(v0, v1, step)
-    normal = ({"x", "y", "z"} - set(plane_kind)).pop()
-    origin = AXES[normal] * at + frame_origin(machine, frame)
-    pts = plane_points((u0, u1), (v0, v1), step, origin, AXES[plane_kind[0]], AXES[plane_kind[1]])
-    frac = admissible_fraction(machine, pts, orientation)
-    qs = [get_quantity(n) for n in names]
-    structure = sum(q.needs_structure for q in qs)
-    modal = any(q.group == "modal" for q in qs)
-    n_png = len(names) if "png" in formats else 0
-    return section_cost(n_points, frac, len(names) - structure, structure, modal, n_png,
-                        write=bool(set(formats) & {"vtu", "csv", "npz"}))
 
 
 def _output_names(stem: str, names: list[str], formats: list[str], reasons_map: bool) -> tuple[str, ...]:

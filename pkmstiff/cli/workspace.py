@@ -96,6 +96,7 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 
 def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_output_dir, parse_budget
+    from pkmstiff.evaluation.cost import FIGURE_3D_BYTES, FIGURE_3D_SECONDS
     from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.octree import OctreeInputError
     from pkmstiff.workspace.oracle import OracleInputError
@@ -133,6 +134,8 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         options = dict(orientation_range=rng, range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
                        range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level)
         cost = req.cost(machine, n_ori, **options)
+        if args.out and not args.no_plot:
+            cost = cost.plus(FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
     except (OctreeInputError, OracleInputError, ValueError) as exc:
         if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
             raise _cli_error(str(exc)) from None
@@ -206,8 +209,9 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
 
 
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import check_output_dir
-    from pkmstiff.evaluation.sections import raster
+    from pkmstiff.cli.edges import announce, check_output_dir, parse_budget
+    from pkmstiff.evaluation.cost import admissible_fraction, plane_points, rotation_map_cost
+    from pkmstiff.evaluation.sections import raster, raster_count
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
     from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
@@ -225,6 +229,27 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
         raise _cli_error(f"--directions: expected a comma-separated list of {', '.join(DIRECTIONS)}, "
                          f"found {args.directions!r}")
     method = {"pc": "predictor_corrector", "predictor_corrector": "predictor_corrector", "plain": "plain"}[args.method]
+    budget = parse_budget(args.memory_budget)
+    if args.point:
+        unit, u_txt, v_txt = "deg", args.u_range or "-30,30", args.v_range or "-60,60"
+    elif not (args.u_range and args.v_range):
+        raise _cli_error("--u-range and --v-range (mm) are required for a section plane")
+    else:
+        unit, u_txt, v_txt = "mm", args.u_range, args.v_range
+    step = _positive(args.step, "--step", unit)
+    (u0, u1), (v0, v1) = _range(u_txt, "--u-range", unit), _range(v_txt, "--v-range", unit)
+    nu, nv = raster_count(u0, u1, step), raster_count(v0, v1, step)
+    frac = 1.0  # at a point every raster orientation may be admissible
+    if not args.point and args.plane in PLANES:
+        ua, va, normal = PLANES[args.plane]
+        origin = np.zeros(3)
+        origin[normal] = args.at * 1e-3
+        pts = plane_points((u0 * 1e-3, u1 * 1e-3), (v0 * 1e-3, v1 * 1e-3), step * 1e-3,
+                           to_machine_frame(machine, origin, args.frame), ua, va)
+        frac = admissible_fraction(machine, pts, ori)
+    cost = rotation_map_cost(nu * nv, frac, nu + nv - 1, len(dirs), inc, amax, method == "plain", args.verify)
+    announce("rotation-map", cost.named(f"{len(dirs)} direction(s) on {nu * nv:,} raster points, increment "
+                                        f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json)
     t0 = time.perf_counter()
     try:
         if args.point:
@@ -369,8 +394,10 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
+    from pkmstiff.cli.edges import add_budget_argument
     from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
 
+    add_budget_argument(p)
     add_frame_argument(p)
     add_spindle_argument(p)
     p.set_defaults(func=_cmd_rotation_map)

@@ -51,6 +51,9 @@ CHUNK_BYTES = 40 * MB
 WRITE_SECONDS = 6e-6
 WRITE_BYTES = 400
 PNG_SECONDS = 0.6
+#: a 3-D figure (pyvista/VTK off-screen: the library's resident memory and one render), bytes and s
+FIGURE_3D_BYTES = 340 * MB
+FIGURE_3D_SECONDS = 1.7
 #: modified octree: evaluations per (reach-box surface / eps²); measured 0.41 (Hexaglide) .. 0.92 (6X); the
 #: geometric mean keeps every bundled machine within 1.6×
 OCTREE_SURFACE_FACTOR = 0.65
@@ -60,14 +63,23 @@ OCTREE_BYTES = 300
 #: a pilot run (growth law, :func:`octree_pilot_halvings`) for runs expected above OCTREE_PILOT_MIN evaluations
 OCTREE_PILOT_MIN = 200_000
 OCTREE_PILOT_EVALUATIONS = 30_000
-#: rotation maps: evaluations per raster point and direction of the predictor-corrector (besides the first point)
-ROTATION_PC_EVALUATIONS = 6
-#: FE: bytes and CPU seconds per degree of freedom at 1e5 DOFs (sparse Cholesky of a 3-D hex mesh), scaled with the
-#: fill-in law n^(4/3) for memory and n^(5/3) for time (nested dissection of a 3-D mesh)
-FE_BYTES_PER_DOF = 1500
-FE_SECONDS_PER_DOF = 4e-5
+#: rotation maps (Hexaglide YZ raster, 1° and 0.1° increments): mean limit angle of a search, prediction error of
+#: the predictor-corrector, its evaluations per point besides the error, increments per block of the plain search,
+#: CPU seconds per evaluation of the plain search (large batches) and per batch of the predictor-corrector
+ROTATION_TYPICAL_LIMIT = math.radians(20.0)
+ROTATION_PREDICTION_ERROR = math.radians(2.5)
+ROTATION_PC_EVALUATIONS = 1.5
+ROTATION_BLOCK = 8
+ROTATION_PLAIN_SECONDS = 10e-6
+ROTATION_CALL_SECONDS = 1.5e-3
+#: FE: bytes and CPU seconds per solve per degree of freedom at 1e5 DOFs (sparse direct solve of a 3-D hex mesh),
+#: scaled with the fill-in law n^(4/3) for memory and n^(5/3) for time (nested dissection of a 3-D mesh); measured
+#: on the shipped joint (28,527 DOFs, 2.3 s per tilt angle, 0.77 GB) and platform (44,928 DOFs, 1.46 GB)
+FE_BYTES_PER_DOF = 31e3
+FE_SECONDS_PER_DOF = 1.8e-4
 FE_REFERENCE_DOFS = 1e5
 FE_BASE_BYTES = 260 * MB
+FE_BASE_SECONDS = 1.8
 #: points of the pilot that measures a section's admissible fraction
 PILOT_POINTS = 2000
 
@@ -85,9 +97,15 @@ class Cost:
     option: str = ""
 
     def then(self, other: "Cost", what: str | None = None) -> "Cost":
-        """This work followed by ``other`` in the same process: the peak is the larger one, the times add."""
+        """This work followed by ``other`` in the same process: the peak is the larger one, the times add (the
+        process start, :data:`BASE_SECONDS`, which every cost includes, once)."""
         return Cost(what or self.what, self.count + other.count, self.unit if self.unit == other.unit else "items",
-                    max(self.bytes, other.bytes), self.seconds + other.seconds, self.option or other.option)
+                    max(self.bytes, other.bytes), self.seconds + other.seconds - BASE_SECONDS,
+                    self.option or other.option)
+
+    def plus(self, seconds: float = 0.0, bytes: float = 0.0) -> "Cost":
+        """The same work with ``seconds`` more and a peak ``bytes`` higher (figures, files)."""
+        return replace(self, seconds=self.seconds + seconds, bytes=self.bytes + bytes)
 
     def named(self, what: str, option: str | None = None) -> "Cost":
         return replace(self, what=what, option=self.option if option is None else option)
@@ -95,7 +113,7 @@ class Cost:
 
 def total(costs: Iterable[Cost], what: str, option: str = "") -> Cost:
     """Work done one after another in one process (a report): max of the peaks, sum of the times."""
-    out = Cost(what, 0, "items", BASE_BYTES, 0.0, option)
+    out = Cost(what, 0, "items", BASE_BYTES, BASE_SECONDS, option)
     for c in costs:
         out = out.then(c, what)
     return replace(out, option=option or out.option)
@@ -187,26 +205,49 @@ def workspace_cost(extent: Iterable[float], eps: float, orientations: int = 1, s
 # ------------------------------------------------------------------------------------------------ rotation maps
 
 
-def rotation_map_cost(n_points: int, n_directions: int, increments: int, plain: bool) -> Cost:
-    """Rotation angles on ``n_points`` raster points in ``n_directions`` directions with ``increments`` = max angle /
-    increment lattice steps: the plain search walks half the lattice per point on average (Assumption: the limit
-    lies mid-range), the predictor-corrector :data:`ROTATION_PC_EVALUATIONS` per point plus one plain search."""
-    half = 0.5 * max(int(increments), 1)
-    per_dir = n_points * half if plain else n_points * min(ROTATION_PC_EVALUATIONS, half) + half
-    n = per_dir * max(int(n_directions), 1)
-    return Cost("rotation map", int(n), "evaluations", BASE_BYTES + CHUNK_BYTES + n_points * n_directions * 64.0,
-                BASE_SECONDS + n * POSE_SECONDS, "--increment")
+def rotation_map_cost(n_points: int, admissible: float, n_diagonals: int, n_directions: int, increment: float,
+                      max_angle: float, plain: bool, verify: bool = False) -> Cost:
+    """Rotation angles (increment, max_angle in rad) on ``n_points`` raster points, the fraction ``admissible`` of them
+    at the base orientation, in ``n_directions`` directions. The plain search walks up to the limit angle
+    (:data:`ROTATION_TYPICAL_LIMIT` on average, at most max_angle) in blocks of :data:`ROTATION_BLOCK`; the
+    predictor-corrector needs :data:`ROTATION_PC_EVALUATIONS` plus the prediction error
+    (:data:`ROTATION_PREDICTION_ERROR`) in increments per point, one batch per step of each of the ``n_diagonals``
+    anti-diagonals; ``verify`` re-checks every increment below the result (held at once per diagonal)."""
+    k_max = max(max_angle / increment, 1.0)
+    walk = min(k_max, ROTATION_TYPICAL_LIMIT / increment)
+    pd = n_points * min(max(admissible, 0.0), 1.0) * max(int(n_directions), 1)  # searches
+    if plain:
+        evals = pd * (walk + ROTATION_BLOCK)
+        secs = evals * ROTATION_PLAIN_SECONDS
+    else:
+        steps = ROTATION_PC_EVALUATIONS + min(k_max, ROTATION_PREDICTION_ERROR / increment)
+        evals = pd * steps
+        secs = evals * POSE_SECONDS + (n_diagonals * steps + walk) * ROTATION_CALL_SECONDS
+    held = 0.0
+    if verify:
+        evals += pd * walk
+        secs += pd * walk * ROTATION_PLAIN_SECONDS
+        held = pd / max(n_diagonals, 1) * walk * 64.0  # (increment, pose) rows of one anti-diagonal
+    return Cost("rotation map", int(evals), "evaluations",
+                BASE_BYTES + CHUNK_BYTES + n_points * n_directions * 64.0 + held, BASE_SECONDS + secs, "--increment")
 
 
 # ----------------------------------------------------------------------------------------------------------- FE
 
 
-def fe_cost(n_dofs: float, solves: int = 1, what: str = "FE model", option: str = "--mesh-size") -> Cost:
+def fe_dofs(n_built: int, size_built: float, size: float, n_phi_built: int, n_phi: int) -> float:
+    """Degrees of freedom of a mesh at element size ``size`` and ``n_phi`` circumferential segments from a mesh built
+    at (``size_built``, ``n_phi_built``) with ``n_built`` DOFs: ×(h₀/h)³ (volume mesh), ×n_phi/n_phi₀ when the
+    circumferential division grows (an upper bound: only the circular parts grow)."""
+    return n_built * (size_built / size) ** 3 * max(1.0, n_phi / max(n_phi_built, 1))
+
+
+def fe_cost(n_dofs: float, solves: float = 1, what: str = "FE model", option: str = "--mesh-size") -> Cost:
     """A sparse direct FE solve of ``n_dofs`` degrees of freedom, ``solves`` times (tilt angles): memory by the
     fill-in law n^(4/3), time n^(5/3) per solve, both anchored at :data:`FE_REFERENCE_DOFS`."""
     r = max(float(n_dofs), 1.0) / FE_REFERENCE_DOFS
     mem = FE_BASE_BYTES + FE_BYTES_PER_DOF * FE_REFERENCE_DOFS * r ** (4 / 3)
-    secs = BASE_SECONDS + FE_SECONDS_PER_DOF * FE_REFERENCE_DOFS * r ** (5 / 3) * max(int(solves), 1)
+    secs = FE_BASE_SECONDS + FE_SECONDS_PER_DOF * FE_REFERENCE_DOFS * r ** (5 / 3) * max(float(solves), 1.0)
     return Cost(what, int(n_dofs), "degrees of freedom", mem, secs, option)
 
 

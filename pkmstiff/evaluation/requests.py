@@ -22,6 +22,7 @@ from typing import Sequence
 import numpy as np
 
 from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.evaluation.cost import Cost
 from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
 from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section
 from pkmstiff.machine.frames import check_frame, neglect_spindle, to_machine_frame
@@ -66,6 +67,25 @@ class SectionRequest:
         return evaluate_section(neglect_spindle(machine, self.neglect_spindle), plane, self.quantities,
                                 orientation=self.orientation, tool_length=self.tool_length, n_jobs=n_jobs,
                                 progress=progress, frame=self.frame)
+
+    def cost(self, machine: Machine, n_png: int = 0, write: bool = False) -> Cost:
+        """The :class:`~pkmstiff.evaluation.cost.Cost` of :meth:`evaluate` (plus ``n_png`` maps and, ``write``, the
+        VTU/CSV/NPZ files): raster points, the admissible fraction measured on a sub-raster (only admissible points
+        get quantities), kinematic and structure quantities. The raster itself is not built."""
+        from pkmstiff.evaluation.cost import admissible_fraction, plane_points, section_cost
+        from pkmstiff.evaluation.sections import AXES, raster_count
+        from pkmstiff.machine.frames import frame_origin
+
+        kind = self.plane.lower()
+        n_points = raster_count(*self.u_range, self.step) * raster_count(*self.v_range, self.step)
+        normal = ({"x", "y", "z"} - set(kind)).pop()
+        origin = AXES[normal] * self.at + frame_origin(machine, self.frame)
+        pts = plane_points(self.u_range, self.v_range, self.step, origin, AXES[kind[0]], AXES[kind[1]])
+        frac = admissible_fraction(machine, pts, self.orientation)
+        qs = [get_quantity(n) for n in dict.fromkeys(self.quantities)]
+        structure = sum(q.needs_structure for q in qs)
+        return section_cost(n_points, frac, len(qs) - structure, structure, any(q.group == "modal" for q in qs),
+                            n_png, write)
 
 
 @dataclass(frozen=True)
