@@ -284,14 +284,18 @@ def _point_batch(args: argparse.Namespace) -> int:
     import csv
     import sys
 
-    from pkmstiff.cli.edges import check_output_file
+    from pkmstiff.cli.edges import announce, check_output_file, count_lines, parse_budget
     from pkmstiff.cli.pose import read_pose_file
+    from pkmstiff.evaluation.cost import POINT_ROW_BYTES, POINT_ROW_SECONDS, rows_cost
 
     if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
         raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
     if args.modes < 0:
         raise PointArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
+    rows = count_lines(args.poses)
+    announce("point", rows_cost(rows, POINT_ROW_BYTES, POINT_ROW_SECONDS, f"{args.poses}", "pose rows", "--poses"),
+             parse_budget(args.memory_budget), quiet=rows < 10_000)
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
     fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
@@ -374,10 +378,12 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
                    help="tool length in mm (default: machine file)")
     p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")
+    from pkmstiff.cli.edges import add_budget_argument
     from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
 
     add_spindle_argument(p)
     add_frame_argument(p)
+    add_budget_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--figures", metavar="DIR", default=None,
                    help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")

@@ -80,6 +80,14 @@ FE_SECONDS_PER_DOF = 1.8e-4
 FE_REFERENCE_DOFS = 1e5
 FE_BASE_BYTES = 260 * MB
 FE_BASE_SECONDS = 1.8
+#: a sweep task: building the modified machine (s), and one point evaluation (structure + modes of one pose, s)
+TASK_SECONDS = 0.05
+POINT_SECONDS = 0.02
+#: held per result row of a sweep (a dict of floats), bytes
+ROW_BYTES = 2000
+#: ``pkmstiff point --poses``: per pose row (pose pipeline, structure model, modes, CSV row), bytes and s
+POINT_ROW_BYTES = 4000
+POINT_ROW_SECONDS = 70e-6
 #: points of the pilot that measures a section's admissible fraction
 PILOT_POINTS = 2000
 
@@ -249,6 +257,19 @@ def fe_cost(n_dofs: float, solves: float = 1, what: str = "FE model", option: st
     mem = FE_BASE_BYTES + FE_BYTES_PER_DOF * FE_REFERENCE_DOFS * r ** (4 / 3)
     secs = FE_BASE_SECONDS + FE_SECONDS_PER_DOF * FE_REFERENCE_DOFS * r ** (5 / 3) * max(float(solves), 1.0)
     return Cost(what, int(n_dofs), "degrees of freedom", mem, secs, option)
+
+
+# ------------------------------------------------------------------------------------------------------ sweeps
+
+
+def sweep_cost(n_tasks: int, task: Cost, jobs: int = 1) -> Cost:
+    """``n_tasks`` tasks of cost ``task`` each (its process start counted once), in ``jobs`` processes (each holds
+    one task's working set): the CPU time adds, the peak is the workers' working sets plus the result rows."""
+    per = task.seconds - BASE_SECONDS + TASK_SECONDS
+    workers = max(int(jobs), 1)
+    return Cost(f"{n_tasks:,} sweep task(s) of {task.what}", n_tasks, "tasks",
+                BASE_BYTES + workers * (task.bytes - BASE_BYTES) + float(n_tasks) * ROW_BYTES,
+                BASE_SECONDS + float(n_tasks) * per, task.option)
 
 
 # ------------------------------------------------------------------------------------------------- plain counts
