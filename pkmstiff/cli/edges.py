@@ -201,13 +201,12 @@ def announce(command: str, cost, budget: int, quiet: bool = False) -> None:
     opt = f"{cost.option}: " if cost.option else ""
     if cost.bytes > budget:
         raise CostLimitError(f"{opt}{cost.what}: {size} need about {human_bytes(cost.bytes)}, more than the memory "
-                             f"budget of {human_bytes(budget)}; use a coarser step/resolution or a smaller region, or "
-                             f"raise --memory-budget")
+                             f"budget of {human_bytes(budget)}; {cost.advice}, or raise the budget "
+                             f"(--memory-budget or PKMSTIFF_MEMORY_BUDGET)")
     limit = time_budget()
     if cost.seconds > limit:
         raise CostLimitError(f"{opt}{cost.what}: {size} need about {human_seconds(cost.seconds)} of CPU time, more "
-                             f"than the time budget of {human_seconds(limit)} (PKMSTIFF_TIME_BUDGET); use a coarser "
-                             f"step or fewer points")
+                             f"than the time budget of {human_seconds(limit)} (PKMSTIFF_TIME_BUDGET); {cost.advice}")
     if not quiet:
         print(f"pkmstiff {command}: {cost.what}: {size}, about {human_bytes(cost.bytes)} and "
               f"{human_seconds(cost.seconds)}", file=sys.stderr, flush=True)

@@ -138,11 +138,22 @@ def info_report(name: str) -> dict[str, Any]:
             "mobility": i.mobility, "drives": list(i.drives), "assumptions": mech.assumptions}
 
 
+def _announce_steps(args) -> None:
+    """Refuse a continuation whose CPU time exceeds the time budget before it starts (cost line from 10,000 steps)."""
+    from pkmstiff.cli.edges import announce, parse_budget
+    from pkmstiff.evaluation.cost import MECHANISM_STEP_SECONDS, rows_cost
+
+    steps = max(int(args.steps), 1)
+    cost = rows_cost(steps, 0.0, MECHANISM_STEP_SECONDS, "continuation from home", "steps", "--steps")
+    announce("mechanism", cost, parse_budget(None), quiet=args.json or steps < 10_000)
+
+
 def _cmd(args) -> int:
     try:
         if args.action == "solve":
             if bool(args.pose) == bool(args.drives):
                 raise _cli_error("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
+            _announce_steps(args)
             rep = solve_report(args.mechanism, args.pose, args.drives, args.steps)
         elif args.action == "range":
             rep = range_report(args.mechanism)

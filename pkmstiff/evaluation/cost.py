@@ -88,6 +88,11 @@ ROW_BYTES = 2000
 #: ``pkmstiff point --poses``: per pose row (pose pipeline, structure model, modes, CSV row), bytes and s
 POINT_ROW_BYTES = 4000
 POINT_ROW_SECONDS = 70e-6
+#: generic mechanisms: one continuation step (a damped Newton solve of the batch; slider-crank, 1e3..1e5 steps), s
+MECHANISM_STEP_SECONDS = 6e-4
+#: calibration: per planned pose (identification Jacobian rows over ~200 parameters, readings, samples), bytes and s
+PLAN_POSE_BYTES = 20e3
+PLAN_POSE_SECONDS = 2e-4
 #: points of the pilot that measures a section's admissible fraction
 PILOT_POINTS = 2000
 
@@ -103,6 +108,7 @@ class Cost:
     bytes: float
     seconds: float
     option: str = ""
+    advice: str = "use a coarser step/resolution or a smaller region"
 
     def then(self, other: "Cost", what: str | None = None) -> "Cost":
         """This work followed by ``other`` in the same process: the peak is the larger one, the times add (the
@@ -275,6 +281,8 @@ def sweep_cost(n_tasks: int, task: Cost, jobs: int = 1) -> Cost:
 # ------------------------------------------------------------------------------------------------- plain counts
 
 
-def rows_cost(n: float, bytes_per: float, seconds_per: float, what: str, unit: str, option: str) -> Cost:
+def rows_cost(n: float, bytes_per: float, seconds_per: float, what: str, unit: str, option: str,
+              advice: str = "use fewer") -> Cost:
     """Work linear in a count (poses of a file, continuation steps, planned points, ball-bar samples)."""
-    return Cost(what, n, unit, BASE_BYTES + float(n) * bytes_per, BASE_SECONDS + float(n) * seconds_per, option)
+    return Cost(what, n, unit, BASE_BYTES + float(n) * bytes_per, BASE_SECONDS + float(n) * seconds_per, option,
+                f"{advice} {unit}" if advice == "use fewer" else advice)
