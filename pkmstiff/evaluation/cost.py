@@ -93,6 +93,11 @@ MECHANISM_STEP_SECONDS = 6e-4
 #: calibration: per planned pose (identification Jacobian rows over ~200 parameters, readings, samples), bytes and s
 PLAN_POSE_BYTES = 20e3
 PLAN_POSE_SECONDS = 2e-4
+#: ``pkmstiff ballbar analyse``: the process (no compiled kernels) and per sample row (parsing, the run's arrays,
+#: the least-squares and minimum-zone circles, the filtered reconstruction in blocks), bytes and s
+BALLBAR_BASE_BYTES = 100 * MB
+BALLBAR_ROW_BYTES = 1100
+BALLBAR_ROW_SECONDS = 8e-6
 #: points of the pilot that measures a section's admissible fraction
 PILOT_POINTS = 2000
 
@@ -282,7 +287,8 @@ def sweep_cost(n_tasks: int, task: Cost, jobs: int = 1) -> Cost:
 
 
 def rows_cost(n: float, bytes_per: float, seconds_per: float, what: str, unit: str, option: str,
-              advice: str = "use fewer") -> Cost:
-    """Work linear in a count (poses of a file, continuation steps, planned points, ball-bar samples)."""
-    return Cost(what, n, unit, BASE_BYTES + float(n) * bytes_per, BASE_SECONDS + float(n) * seconds_per, option,
+              advice: str = "use fewer", base_bytes: float = BASE_BYTES) -> Cost:
+    """Work linear in a count (poses of a file, continuation steps, planned points, ball-bar samples) in a process
+    of ``base_bytes`` resident memory."""
+    return Cost(what, n, unit, base_bytes + float(n) * bytes_per, BASE_SECONDS + float(n) * seconds_per, option,
                 f"{advice} {unit}" if advice == "use fewer" else advice)
