@@ -91,7 +91,7 @@ def _progress(total: int, quiet: bool, desc: str) -> tuple[Callable[[float], Non
     return step, bar.close
 
 
-def _announce_fe(command: str, p: Any, build: Callable[[Any], Any], args: argparse.Namespace, solves: float,
+def _announce_fe(command: str, p: Any, dofs: Callable[[Any], int], args: argparse.Namespace, solves: float,
                  option: str) -> None:
     """Estimate an FE run before meshing it: the DOFs of the file's own mesh (built once with the requested element,
     < 1 s) scaled to ``--mesh-size`` / ``--n-phi`` (:func:`~pkmstiff.evaluation.cost.fe_dofs`); refuse it above the
@@ -102,7 +102,7 @@ def _announce_fe(command: str, p: Any, build: Callable[[Any], Any], args: argpar
     budget = parse_budget(args.memory_budget)
     n_phi0 = int(p["mesh"]["n_phi"])
     element = getattr(args, "element", None)
-    n0 = build(p.with_mesh(element=element) if element else p).model.n_fe
+    n0 = dofs(p.with_mesh(element=element) if element else p)
     size = args.mesh_size * 1e-3 if args.mesh_size else p.mesh_size
     n = fe_dofs(n0, p.mesh_size, size, n_phi0, getattr(args, "n_phi", None) or n_phi0)
     if args.mesh_size and args.mesh_size * 1e-3 < p.mesh_size:
@@ -129,7 +129,7 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     p = load_joint_parameters(args.params)
     if args.n_phi is not None and args.n_phi < 8:
         raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
-    _announce_fe("fe-joint", p, build_joint_model, args, len(angles), "--angles")
+    _announce_fe("fe-joint", p, lambda q: build_joint_model(q).model.n_fe, args, len(angles), "--angles")
     if args.mesh_size or args.n_phi or args.element:
         p = p.with_mesh(size=args.mesh_size * 1e-3 if args.mesh_size else None, element=args.element,
                         n_phi=args.n_phi)
@@ -189,7 +189,7 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     check_output_file(args.out, "--out", getattr(args, "force", False), (".toml", ".csv"))
     check_output_file(args.vtu, "--vtu", getattr(args, "force", False), (".vtu",))
     p = load_platform_parameters(args.params)
-    _announce_fe("fe-platform", p, build_platform_model, args, PLATFORM_SOLVES, "--mesh-size")
+    _announce_fe("fe-platform", p, lambda q: build_platform_model(q).n_fe, args, PLATFORM_SOLVES, "--mesh-size")
     if args.mesh_size:
         p = p.with_mesh(size=args.mesh_size * 1e-3)
     if not args.quiet and sys.stderr.isatty():
