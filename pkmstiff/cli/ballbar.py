@@ -114,7 +114,7 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     rows = count_lines(args.file)
     cost = rows_cost(rows, BALLBAR_ROW_BYTES, BALLBAR_ROW_SECONDS, args.file, "sample rows", "file",
                      base_bytes=BALLBAR_BASE_BYTES)
-    announce("ballbar", cost, parse_budget(args.memory_budget), quiet=args.json or rows < 100_000)
+    announce("ballbar", cost, parse_budget(getattr(args, "memory_budget", None)), quiet=args.json or rows < 100_000)
     rep = analyse_file(args.file, harmonics=harmonics, plot_dir=args.plot, alpha=args.alpha, machine=args.machine,
                        start_pose=args.start_pose)
     if args.json:

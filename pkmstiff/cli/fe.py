@@ -99,7 +99,7 @@ def _announce_fe(command: str, p: Any, dofs: Callable[[Any], int], args: argpars
     from pkmstiff.cli.edges import announce, parse_budget
     from pkmstiff.evaluation.cost import fe_cost, fe_dofs
 
-    budget = parse_budget(args.memory_budget)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     n_phi0 = int(p["mesh"]["n_phi"])
     element = getattr(args, "element", None)
     n0 = dofs(p.with_mesh(element=element) if element else p)

@@ -295,7 +295,7 @@ def _point_batch(args: argparse.Namespace) -> int:
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
     rows = count_lines(args.poses)
     announce("point", rows_cost(rows, POINT_ROW_BYTES, POINT_ROW_SECONDS, f"{args.poses}", "pose rows", "--poses"),
-             parse_budget(args.memory_budget), quiet=rows < 10_000)
+             parse_budget(getattr(args, "memory_budget", None)), quiet=rows < 10_000)
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
     fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout

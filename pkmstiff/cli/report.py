@@ -13,7 +13,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from pkmstiff.report.build import run_spec
 
     check_jobs(args.jobs)
-    budget = parse_budget(args.memory_budget)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     check_output_dir(args.out, "--out", getattr(args, "force", False), ("report.html", "report.md"))
     t0 = time.perf_counter()
 

@@ -21,7 +21,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from pkmstiff.report.sweep_file import load_sweep
 
     check_jobs(args.jobs)
-    budget = parse_budget(args.memory_budget)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
     sweep = load_sweep(args.sweep_file)
     _check_sweep_quantities(sweep, args.sweep_file)

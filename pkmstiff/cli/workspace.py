@@ -229,7 +229,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
         raise _cli_error(f"--directions: expected a comma-separated list of {', '.join(DIRECTIONS)}, "
                          f"found {args.directions!r}")
     method = {"pc": "predictor_corrector", "predictor_corrector": "predictor_corrector", "plain": "plain"}[args.method]
-    budget = parse_budget(args.memory_budget)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     if args.point:
         unit, u_txt, v_txt = "deg", args.u_range or "-30,30", args.v_range or "-60,60"
     elif not (args.u_range and args.v_range):
