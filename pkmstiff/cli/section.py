@@ -23,7 +23,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.evaluation.requests import SectionRequest
-    from pkmstiff.evaluation.sections import axis_plane, evaluate_section, section_summary
+    from pkmstiff.evaluation.sections import (axis_plane, evaluate_section, near_singular_line, section_summary,
+                                              statistics_line)
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
@@ -130,8 +131,9 @@ def _cmd_section(args: argparse.Namespace) -> int:
     if requirements:
         print(f"  requirements {', '.join(r.text for r in requirements)}: {failed_requirements} admissible points "
               f"fail them (masked)")
-    for n, st in res.statistics().items():
-        print(f"  {n:<16} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
+    for n, st in summary["statistics"].items():
+        print(statistics_line(n, st))
+    print(near_singular_line(summary))
     reasons = {k: v for k, v in res.reason_counts().items() if v}
     if reasons:
         print("  inadmissible points by reason: " + ", ".join(f"{k} {v}" for k, v in reasons.items()))

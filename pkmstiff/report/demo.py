@@ -15,7 +15,9 @@ from pathlib import Path
 from pkmstiff.evaluation.sections import (
     evaluate_section,
     evaluate_three_planes,
+    near_singular_line,
     section_summary,
+    statistics_line,
     three_planes,
 )
 from pkmstiff.machine.loader import load_machine
@@ -69,16 +71,20 @@ def run(args: argparse.Namespace) -> int:
           f"admissible, "
           f"{seconds:.1f} s")
     for n, st in info["statistics"].items():
-        print(f"  {n:<4} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
+        print(statistics_line(n, st))
+    print(near_singular_line(info))
     n_data = len(output_files()) - 2  # besides summary.md and summary.html (the list is checked by a test)
     print(f"  wrote {out / 'summary.md'}, {out / 'summary.html'} and {n_data} figure/data files")
     return 0
 
 
 def _table(info: dict) -> list[list[str]]:
-    rows = [["quantity", "unit", "min", "mean", "max", "admissible points"]]
+    """The statistics table, led by the 5 % quantile, mean and 95 % quantile: min and max are set by the
+    near-singular points at the workspace boundary (counted in the last column)."""
+    rows = [["quantity", "unit", "p5", "mean", "p95", "min", "p1", "max", "admissible points", "near-singular"]]
     for n, st in info["statistics"].items():
-        rows.append([n, st["unit"], f"{st['min']:.4g}", f"{st['mean']:.4g}", f"{st['max']:.4g}", str(st["count"])])
+        rows.append([n, st["unit"], *(f"{st[k]:.4g}" for k in ("p5", "mean", "p95", "min", "p1", "max")),
+                     str(st["count"]), str(st["near_singular_points"])])
     return rows
 
 
@@ -92,7 +98,10 @@ def _write_summary(out: Path, title: str, info: dict, images: list[Path], assump
           f"points admissible ({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.", "",
           "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
     md += ["| " + " | ".join(r) + " |" for r in rows[1:]]
-    md += ["", f"Inadmissible points by reason: {reasons}.", ""]
+    note = ("p5 / p95: 5 % and 95 % quantiles over the admissible points (the headline figures); min and max are set "
+            f"by the few points next to the singularity boundary. {near_singular_line(info).strip()}.")
+    md += ["", note, ""]
+    md += [f"Inadmissible points by reason: {reasons}.", ""]
     md += [f"![{p.stem}]({p.name})" for p in images]
     md += ["", "## Assumptions (machine file)", ""] + [f"- `{k}`: {v}" for k, v in assumptions.items()]
     (out / "summary.md").write_text("\n".join(md) + "\n", encoding="utf-8")
@@ -104,7 +113,7 @@ def _write_summary(out: Path, title: str, info: dict, images: list[Path], assump
     page = (f"<!doctype html><html><head><meta charset='utf-8'><title>pkmstiff demo</title></head><body>"
             f"<h1>pkmstiff demo — {html.escape(title)}</h1><p>{html.escape(md[2])}</p>"
             f"<table border='1' cellpadding='4'><tr>{head}</tr>{cells}</table>"
-            f"<p>Inadmissible points by reason: {html.escape(reasons)}.</p>{imgs}"
+            f"<p>{html.escape(note)}</p><p>Inadmissible points by reason: {html.escape(reasons)}.</p>{imgs}"
             f"<h2>Assumptions (machine file)</h2><ul>{ass}</ul></body></html>")
     (out / "summary.html").write_text(page, encoding="utf-8")
 
