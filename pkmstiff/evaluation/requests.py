@@ -30,19 +30,23 @@ from pkmstiff.machine.model import Machine
 
 #: statistics of a section quantity -> (label, unit override or None = the quantity's display unit)
 STATISTICS = {"min": ("min", None), "mean": ("mean", None), "max": ("max", None),
-              "area": ("admissible area", "m^2"), "count": ("admissible points", "1")}
+              "p1": ("1 % quantile", None), "p5": ("5 % quantile", None), "p95": ("95 % quantile", None),
+              "p99": ("99 % quantile", None),
+              "area": ("admissible area", "m^2"), "count": ("admissible points", "1"),
+              "near_singular": ("near-singular points", "1")}
 
 
 def statistic(stats: dict[str, float], name: str) -> float:
     """The statistic ``name`` (one of :data:`STATISTICS`) from one entry of :meth:`SectionResult.statistics`.
 
-    ``area`` is the admissible area [m²], ``count`` the number of admissible points with a finite value; min, mean
-    and max are in the quantity's display unit and NaN when there is no admissible point.
+    ``area`` is the admissible area [m²], ``count`` the number of admissible points with a finite value,
+    ``near_singular`` those of them near the singularity threshold; min, the quantiles p1..p99, mean and max are in
+    the quantity's display unit and NaN when there is no admissible point.
     """
     if name == "area":
         return stats["admissible_area_m2"]
-    if name == "count":
-        return float(stats["count"])
+    if name in ("count", "near_singular"):
+        return float(stats["count" if name == "count" else "near_singular_points"])
     return stats[name]
 
 
