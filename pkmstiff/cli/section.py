@@ -22,6 +22,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
+    from pkmstiff.evaluation.cost import PLOT_LIBRARY_SECONDS, PNG_SECONDS
     from pkmstiff.evaluation.requests import SectionRequest
     from pkmstiff.evaluation.sections import (axis_plane, evaluate_section, near_singular_line, section_summary,
                                               statistics_line)
@@ -92,6 +93,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
     cost = SectionRequest(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step,
                           tuple(all_names), tuple(ori), frame=args.frame).cost(
         machine, len(names) if "png" in fmts else 0, write=bool(set(fmts) & {"vtu", "csv", "npz"}))
+    if "png" in fmts or getattr(args, "reasons_map", False):
+        cost = cost.plus(PLOT_LIBRARY_SECONDS + (PNG_SECONDS if getattr(args, "reasons_map", False) else 0.0))
     announce("section", cost.named(f"{plane_kind.upper()} window {window}"
                                    f"{' (fitted to the workspace)' if fitted else ''}"),
              budget, quiet=args.quiet or args.json)

@@ -50,10 +50,14 @@ CHUNK_BYTES = 40 * MB
 #: writing a section: per raster point and quantity (CSV text, VTU arrays, NPZ), s and bytes; per PNG map, s
 WRITE_SECONDS = 6e-6
 WRITE_BYTES = 400
-PNG_SECONDS = 0.6
-#: a 3-D figure (pyvista/VTK off-screen: the library's resident memory and one render), bytes and s
+#: one matplotlib map (s), and importing matplotlib once per process (s)
+PNG_SECONDS = 0.3
+PLOT_LIBRARY_SECONDS = 0.5
+#: a 3-D figure (pyvista/VTK off-screen: one render; the library's resident memory), s and bytes, and importing
+#: pyvista/VTK once per process (s)
+FIGURE_3D_SECONDS = 0.7
 FIGURE_3D_BYTES = 340 * MB
-FIGURE_3D_SECONDS = 1.7
+FIGURE_3D_LIBRARY_SECONDS = 1.0
 #: modified octree: evaluations per (reach-box surface / eps²); measured 0.41 (Hexaglide) .. 0.92 (6X); the
 #: geometric mean keeps every bundled machine within 1.6×
 OCTREE_SURFACE_FACTOR = 0.65
@@ -145,7 +149,8 @@ def section_cost(n_points: int, admissible: float, n_kinematic: int, n_structure
                  n_png: int = 0, write: bool = False) -> Cost:
     """A section of ``n_points`` raster points of which the fraction ``admissible`` is admissible, with
     ``n_kinematic`` kinematic and ``n_structure`` structure quantities (``modal``: some need modes); ``write``: the
-    VTU/CSV/NPZ files, ``n_png`` maps."""
+    VTU/CSV/NPZ files, ``n_png`` maps (the plotting library's import, once per process, is the caller's:
+    :data:`PLOT_LIBRARY_SECONDS`)."""
     n = float(n_points)
     n_adm = n * min(max(admissible, 0.0), 1.0)
     nq = n_kinematic + n_structure

@@ -14,7 +14,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from pkmstiff.evaluation.cost import FIGURE_3D_BYTES, FIGURE_3D_SECONDS, Cost, total
+from pkmstiff.evaluation.cost import (FIGURE_3D_BYTES, FIGURE_3D_LIBRARY_SECONDS, FIGURE_3D_SECONDS,
+                                     PLOT_LIBRARY_SECONDS, Cost, total)
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
 from pkmstiff.machine.frames import frame_origin, frame_text
@@ -183,7 +184,9 @@ def spec_cost(spec: ReportSpec, fast: bool = False) -> Cost:
             parts.append(_section_request(sec, v, spec.frame).cost(m, len(sec.quantities) if sec.maps else 0))
     what = (f"{len(spec.variants)} variant(s), {len(spec.sections)} section(s)"
             + (f", workspace at {spec.workspace.resolution * 1e3:g} mm" if spec.workspace is not None else ""))
-    return total(parts, what, "the spec's step_mm / resolution_mm")
+    libraries = (PLOT_LIBRARY_SECONDS if any(sec.maps for sec in spec.sections) else 0.0) + (
+        FIGURE_3D_LIBRARY_SECONDS if spec.workspace is not None and spec.workspace.figures else 0.0)
+    return total(parts, what, "the spec's step_mm / resolution_mm").plus(libraries)
 
 
 def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, jobs: int, out: Path,
