@@ -252,3 +252,18 @@ def test_near_singular_points_are_counted_and_do_not_set_the_quantiles(hexaglide
     summary = section_summary(res)
     assert summary["near_singular"]["points"] == near.sum()
     assert summary["near_singular"]["kappa_above"] == pytest.approx(limit, rel=1e-15)
+
+
+def test_writing_large_outputs_shows_progress(tmp_path, yz, capsys, monkeypatch):
+    """Issue 22: writing the files of a large section reports progress per file (a line every PROGRESS_INTERVAL_S
+    when stderr is not a terminal; the interval is set to 0 here so that every file prints one)."""
+    import pkmstiff.evaluation.sections as sections
+    from pkmstiff.report.outputs import write_section_outputs
+
+    monkeypatch.setattr(sections, "PROGRESS_INTERVAL_S", 0.0)
+    paths = write_section_outputs(yz, tmp_path, ("vtu", "csv", "npz"), "s", progress=True)
+    err = capsys.readouterr().err.splitlines()
+    assert [ln.split(" (")[1].split(")")[0] for ln in err] == ["0/3 files", "1/3 files", "2/3 files"]
+    assert all(p.exists() for p in paths)
+    write_section_outputs(yz, tmp_path, ("csv",), "t")  # a small section: no progress by default
+    assert capsys.readouterr().err == ""

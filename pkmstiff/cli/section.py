@@ -112,7 +112,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
             d.pop(extra, None)
     res.settings["window_fitted_to_workspace"] = fitted
     seconds = time.perf_counter() - t0
-    paths = write_section_outputs(res, Path(args.out), formats, stem) if args.out else []
+    paths = write_section_outputs(res, Path(args.out), formats, stem, progress=False if args.quiet else None) \
+        if args.out else []
     if args.out and getattr(args, "reasons_map", False):
         from pkmstiff.plots.section_maps import plot_reasons
 

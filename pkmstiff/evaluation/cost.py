@@ -32,7 +32,7 @@ MB = float(1 << 20)
 #: resident memory of a process that has loaded the evaluation stack (numpy, scipy, numba kernels, a machine), bytes
 BASE_BYTES = 220 * MB
 #: CPU seconds of that start (imports, machine cache, the first compiled-kernel calls)
-BASE_SECONDS = 0.9
+BASE_SECONDS = 1.0
 #: pose pipeline (IK, Jacobians, all admissibility checks) per pose, s
 POSE_SECONDS = 5e-6
 #: structure model (stiffness, compliance; shared by every structure quantity) per admissible pose, s
@@ -65,7 +65,7 @@ OCTREE_SURFACE_FACTOR = 0.65
 OCTREE_SECONDS = 6e-6
 OCTREE_BYTES = 300
 #: a pilot run (growth law, :func:`octree_pilot_halvings`) for runs expected above OCTREE_PILOT_MIN evaluations
-OCTREE_PILOT_MIN = 200_000
+OCTREE_PILOT_MIN = 50_000
 OCTREE_PILOT_EVALUATIONS = 30_000
 #: rotation maps (Hexaglide YZ raster, 1° and 0.1° increments): mean limit angle of a search, prediction error of
 #: the predictor-corrector, its evaluations per point besides the error, increments per block of the plain search,

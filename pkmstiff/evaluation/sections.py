@@ -267,7 +267,7 @@ def evaluate_section(
     if spindle_neglected(machine):
         opts["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
-    if progress is None:  # a bar on a terminal, periodic lines otherwise (see _progress)
+    if progress is None:  # a bar on a terminal, periodic lines otherwise (see progress_items)
         progress = len(poses) * (1 + len(names)) > 20_000
     jobs = [poses[s:s + chunk_size] for s in starts]
     if n_jobs != 1 and len(jobs) > 1 and len(poses) >= PARALLEL_MIN_POINTS:
@@ -275,9 +275,10 @@ def evaluate_section(
 
         n = os.cpu_count() or 1 if n_jobs < 0 else n_jobs
         parts = Parallel(n_jobs=n)(delayed(_evaluate_chunk)(machine, p, names, tool_length, opts, checks) for p in
-                                   _progress(jobs, progress))
+                                   progress_items(jobs, progress))
     else:
-        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks) for p in _progress(jobs, progress)]
+        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks)
+                 for p in progress_items(jobs, progress)]
     shape = plane.shape
     ok = np.concatenate([p[0] for p in parts]).reshape(shape)
     reasons = np.concatenate([p[1] for p in parts]).reshape(shape)
@@ -297,7 +298,7 @@ def evaluate_section(
 PROGRESS_INTERVAL_S = 10.0
 
 
-def _progress(items: list, enabled: bool):
+def progress_items(items: list, enabled: bool, desc: str = "section", unit: str = "chunk"):
     """A tqdm bar on a terminal; one line every :data:`PROGRESS_INTERVAL_S` s when stderr is redirected."""
     import sys
 
@@ -306,11 +307,11 @@ def _progress(items: list, enabled: bool):
     if sys.stderr.isatty():
         from tqdm import tqdm
 
-        return tqdm(items, desc="section", unit="chunk", leave=False)
-    return _progress_lines(items)
+        return tqdm(items, desc=desc, unit=unit, leave=False)
+    return _progress_lines(items, desc, unit)
 
 
-def _progress_lines(items: list):
+def _progress_lines(items: list, desc: str, unit: str):
     import sys
     import time
 
@@ -319,7 +320,7 @@ def _progress_lines(items: list):
         now = time.perf_counter()
         if now - last >= PROGRESS_INTERVAL_S:
             last = now
-            print(f"section: {100 * k / len(items):.0f} % ({k}/{len(items)} chunks), {now - t0:.0f} s",
+            print(f"{desc}: {100 * k / len(items):.0f} % ({k}/{len(items)} {unit}s), {now - t0:.0f} s",
                   file=sys.stderr, flush=True)
         yield item
 
