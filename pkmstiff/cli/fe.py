@@ -180,8 +180,13 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     """``pkmstiff fe-platform``: 6x6 platform stiffness at the spindle reference point -> TOML or CSV."""
     from pkmstiff.cli.edges import check_output_file
     from pkmstiff.fe.export import field_mesh, write_vtu
-    from pkmstiff.fe.platform import (build_platform_model, component_toml, load_platform_parameters,
-                                      platform_stiffness, to_dissertation_units)
+    from pkmstiff.fe.platform import (
+        build_platform_model,
+        component_toml,
+        load_platform_parameters,
+        platform_stiffness,
+        to_dissertation_units,
+    )
 
     out = Path(args.out)
     if out.suffix not in (".toml", ".csv"):

@@ -20,17 +20,21 @@ FORMATS = ("png", "vtu", "csv", "npz")
 
 def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget
+    from pkmstiff.cli.mechanism import is_mechanism_target
     from pkmstiff.errors import CliError
-    from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.evaluation.cost import PLOT_LIBRARY_SECONDS, PNG_SECONDS
+    from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.evaluation.requests import SectionRequest
-    from pkmstiff.evaluation.sections import (axis_plane, evaluate_section, near_singular_line, section_summary,
-                                              statistics_line)
+    from pkmstiff.evaluation.sections import (
+        axis_plane,
+        evaluate_section,
+        near_singular_line,
+        section_summary,
+        statistics_line,
+    )
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.outputs import write_section_outputs
-
-    from pkmstiff.cli.mechanism import is_mechanism_target
 
     if is_mechanism_target(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
         from pkmstiff.cli.mechanism import print_section, section_report

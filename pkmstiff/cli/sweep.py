@@ -13,11 +13,11 @@ EXIT_SOME_TASKS_FAILED = 4
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_file, parse_budget
+    from pkmstiff.errors import CliError
     from pkmstiff.evaluation.cost import sweep_cost
+    from pkmstiff.evaluation.sweep import SweepError, run_sweep
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.sweep_evaluations import evaluation_cost
-    from pkmstiff.errors import CliError
-    from pkmstiff.evaluation.sweep import SweepError, run_sweep
     from pkmstiff.report.sweep_file import load_sweep
 
     check_jobs(args.jobs)

@@ -119,18 +119,18 @@ class Cost:
     option: str = ""
     advice: str = "use a coarser step/resolution or a smaller region"
 
-    def then(self, other: "Cost", what: str | None = None) -> "Cost":
+    def then(self, other: Cost, what: str | None = None) -> Cost:
         """This work followed by ``other`` in the same process: the peak is the larger one, the times add (the
         process start, :data:`BASE_SECONDS`, which every cost includes, once)."""
         return Cost(what or self.what, self.count + other.count, self.unit if self.unit == other.unit else "items",
                     max(self.bytes, other.bytes), self.seconds + other.seconds - BASE_SECONDS,
                     self.option or other.option)
 
-    def plus(self, seconds: float = 0.0, bytes: float = 0.0) -> "Cost":
+    def plus(self, seconds: float = 0.0, bytes: float = 0.0) -> Cost:
         """The same work with ``seconds`` more and a peak ``bytes`` higher (figures, files)."""
         return replace(self, seconds=self.seconds + seconds, bytes=self.bytes + bytes)
 
-    def named(self, what: str, option: str | None = None) -> "Cost":
+    def named(self, what: str, option: str | None = None) -> Cost:
         return replace(self, what=what, option=self.option if option is None else option)
 
 

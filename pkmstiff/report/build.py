@@ -14,8 +14,14 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from pkmstiff.evaluation.cost import (FIGURE_3D_BYTES, FIGURE_3D_LIBRARY_SECONDS, FIGURE_3D_SECONDS,
-                                     PLOT_LIBRARY_SECONDS, Cost, total)
+from pkmstiff.evaluation.cost import (
+    FIGURE_3D_BYTES,
+    FIGURE_3D_LIBRARY_SECONDS,
+    FIGURE_3D_SECONDS,
+    PLOT_LIBRARY_SECONDS,
+    Cost,
+    total,
+)
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
 from pkmstiff.machine.frames import frame_origin, frame_text

@@ -7,7 +7,6 @@ from pathlib import Path
 
 from pkmstiff.evaluation.sections import SectionResult, section_summary
 
-
 #: a section with at least this many (raster points × quantities) shows progress while its files are written
 WRITE_PROGRESS_VALUES = 200_000
 

@@ -10,7 +10,6 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.evaluation.cost import Cost, octree_pilot_halvings, workspace_cost
-
 from pkmstiff.machine.frames import check_frame, frame_metadata, neglect_spindle, to_machine_frame
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.requirements import parse_requirements
