@@ -34,15 +34,17 @@ from _study_common import Stopwatch, machine_assumptions, parse_args, write_outp
 
 import pkmstiff  # noqa: E402
 import pkmstiff.admissibility.checks as adm  # noqa: E402
+from pkmstiff.admissibility.checks import left_out_text  # noqa: E402
 from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
-from pkmstiff.analysis import evaluate_structure  # noqa: E402
+from pkmstiff.analysis import evaluate_structure, modal_analysis  # noqa: E402
 from pkmstiff.evaluation.requests import SectionRequest  # noqa: E402
 from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
 from pkmstiff.machine.frames import frame_text, neglect_spindle, to_machine_frame  # noqa: E402
 from pkmstiff.machine.model import Machine  # noqa: E402
 from pkmstiff.machine.variants import machine_with  # noqa: E402
+from pkmstiff.multibody import mode_axes  # noqa: E402
 from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.structure import StructureOptions  # noqa: E402
+from pkmstiff.structure import StructureOptions, build_structure  # noqa: E402
 from pkmstiff.workspace.requests import WorkspaceRequest  # noqa: E402
 
 #: verdict threshold: |deviation| <= 5 % agrees (issue 13)
@@ -77,8 +79,20 @@ PUBLISHED_VOLUME_RATIO = {"variant 1": 43.4, "variant 2": 54.2}  # % of the orig
 LABEL_51 = {"U": ("transmission quality U", "1"), "kx": ("x-stiffness (tool 150 mm)", "N/um"),
             "vmax_y": ("y-velocity", "m/min")}
 TOOL_51 = 0.150  # m
-STRUT_SHARES = (0.0, 0.5, 1.0)  # fraction of each strut's mass at the drive joint (unpublished)
-NO_PLATFORM_CHECK = tuple(c for c in adm.ALL_CHECKS if c != "platform_collision")
+#: readings of the strut masses (the platform-side share is unpublished): label -> StructureOptions.strut_mass_to_drive
+#: (None: the machine file's, no extra strut mass, machines.md §1.7 item 10; a number: that fraction at the drive
+#: joint, the rest at the platform joint)
+MASS_READINGS = {"no extra strut mass": None, "struts 0/100 % drive/platform": 0.0, "struts half/half": 0.5,
+                 "struts 100/0 % drive/platform": 1.0}
+MAIN_MASS = "no extra strut mass"
+#: the published section statistics were computed without the strut-platform check (machines.md §1.7 item 9)
+SKIP_51 = ("platform_collision",)
+NO_PLATFORM_CHECK = adm.checks_without(SKIP_51)
+#: platform inertia scalings shown as the sensitivity of the frequencies (M_P's rotational units are not printed)
+INERTIA_SCALES = (1.0, 1.0 / 2.2, 1.0 / 4.0)
+#: published TCP y-stiffness range at the Table 5.7 pose (N/um: measurement 2.5, simulation 2.7) and platform mass
+PUBLISHED_KY = (2.5, 2.7)
+PLATFORM_MASS = 117.24  # kg, eq. 3.11
 
 # YZ plane at x = 0 in the report frame: covers the admissible region of all three configurations (m)
 Y_RANGE = (-1.10, 1.10)
@@ -107,12 +121,14 @@ EXPLANATIONS = {
                                           "between the published support points (docs/theory/components.md) is "
                                           "reconstructed, not measured",
     ("Table 5.8 FE-based joints", "f1"): "within our range over the unpublished strut-mass split (17.9-23.8 Hz)",
-    ("Table 5.8", "f1"): "our mode 1 is the y translation; with the published k_y (2.5-2.7 N/um) and the platform "
-                         "mass 117.24 kg alone a y translation is at most 23.2-24.2 Hz, so the published masses "
-                         "cannot give 26.3-27.5 Hz",
-    ("Table 5.8", "f"): "modes 2 and 3 rotate the platform about y and x: set by M_P's rotational entries (units not "
-                        "printed, read as kg m^2 about O') and the unpublished CoG; about 2.2x smaller inertias "
-                        "would be needed",
+    ("Table 5.8", "f1"): "mode 1 is a rotation about an x-axis 0.73 m below O' (as Cobet describes; mode-shape "
+                         "table); Rayleigh's quotient bounds f1 by sqrt(k_y / m_P) / 2 pi = 23.2-24.2 Hz for the "
+                         "published k_y 2.5-2.7 N/um and m_P = 117.24 kg, so the published masses cannot give "
+                         "26.3-27.5 Hz (ours reaches 24.9 Hz through our higher k_y of 3.33 N/um)",
+    ("Table 5.8", "f"): "modes 2 and 3 rotate the platform about a y-axis 63 mm below O' and an x-axis 0.12 m from "
+                        "O': set by M_P's rotational entries (units not printed, read as kg m^2 about O') and the "
+                        "unpublished CoG; no uniform inertia scaling reaches f2 and f3 together (1/2.2: 50.8 / "
+                        "64.9 Hz, 1/4: 58.5 / 68.3 Hz)",
     ("Table 5.1 variant 2", "volume ratio"): "ratio only (docs/user-guide/validation-hexaglide.md (reading 8)); the variants' hulls are 3+3-point "
                                              "guesses (§1.7 item 7) and their strut masses (drive-load limit) are "
                                              "assumed (EA/l, 12.13 kg/m)",
@@ -123,9 +139,9 @@ EXPLANATIONS = {
                             "identified",
     ("Table 5.1", "U mean"): "means depend on the admissible area; the variants' hulls (3+3 points) and drive-load "
                              "limits (assumed strut masses) are uncertain",
-    ("Table 5.1 original", "kx max"): "our maximum lies at the lower workspace edge (y = 140, z = -1080 mm; 95th "
-                                      "percentile 34.8 N/um) where the drive joints are nearly vertical and stiff; "
-                                      "the mean agrees (+4.5 %)",
+    ("Table 5.1 original", "kx max"): "our maximum lies at the lower workspace edge (y = 150, z = -1075 mm; 95th "
+                                      "percentile 33.5 N/um) where the drive joints are nearly vertical and stiff; "
+                                      "the mean agrees (-4.7 %)",
     ("Table 5.1", "kx"): "variants: strut stiffness and mass assumed (EA/l, 12.13 kg/m; docs/user-guide/machines.md) and K_U's "
                          "rotational unit unprinted (sensitivity column); cause of the variant differences not "
                          "identified",
@@ -183,18 +199,58 @@ def point_results() -> dict[str, Any]:
                               ("K_U kept, tool 150 mm", m, TOOL_51)):
             k[key] = (evaluate_structure(mach, x, tool_length=tl, n_modes=0).stiffness[0, :3] / 1e6).tolist()
         f = {}
-        for share in STRUT_SHARES:
-            r = evaluate_structure(m, x, tool_length=0.0, n_modes=3,
+        for label, share in MASS_READINGS.items():
+            r = evaluate_structure(neglect_spindle(m), x, tool_length=0.0, n_modes=3,
                                    options=StructureOptions(strut_mass_to_drive=share))
-            f[share] = r.frequencies_hz[0].tolist()
-        out[joints] = {"stiffness_N_per_um": k, "frequencies_hz_by_strut_share": f,
+            f[label] = r.frequencies_hz[0].tolist()
+        out[joints] = {"stiffness_N_per_um": k, "frequencies_hz_by_strut_mass": f,
                        "pose_machine_frame_m": x[0, :3].tolist()}
     return out
 
 
+def mode_shapes(n_modes: int = 6) -> dict[str, Any]:
+    """Mode-shape description at the Tables 5.7/5.8 pose (measured joints, tool 0, K_U neglected): per mode the
+    frequency, the platform's dominant motion (kinetic-energy share) and its instantaneous screw axis (direction,
+    the point nearest O' in the report frame, distance from O', pitch); plus the sensitivity of f1..f3 to the
+    platform inertias and the Rayleigh bound of f1 from the published k_y."""
+    m = neglect_spindle(pkmstiff.load_machine("hexaglide"))
+    x = to_machine_frame(m, np.array([POSE_57]), "report")
+    st = build_structure(m, x)
+    ma = modal_analysis(st, n_modes)
+    axes = mode_axes(st.model, ma.shapes[st.ok], "platform")
+    origin = np.asarray(m.report_origin, float)
+    o = x[0, :3]
+    rows = []
+    for k in range(n_modes):
+        d, p = axes.direction[0, k], axes.point[0, k]
+        d = d * np.sign(d[np.argmax(np.abs(d))])  # sign of the largest component positive
+        rows.append({"mode": k + 1, "frequency_hz": float(ma.frequencies_hz[0, k]),
+                     "dominant_motion": ma.description(0, k), "axis_direction": (d.round(3) + 0.0).tolist(),
+                     "axis_point_report_frame_mm": (((p - origin) * 1e3).round(0) + 0.0).tolist(),
+                     "axis_below_O_mm": float((o[2] - p[2]) * 1e3),
+                     "axis_distance_from_O_mm": float(np.linalg.norm(np.cross(o - p, d)) * 1e3),
+                     "pitch_mm_per_rad": float(axes.pitch[0, k] * 1e3)})
+    inertia = {}
+    base = np.asarray(m.components["platform"]["inertia"], float)
+    for s in INERTIA_SCALES:
+        mi = neglect_spindle(machine_with("hexaglide", {"components.platform.inertia": (base * s).tolist()}))
+        inertia[f"{s:.4g}"] = evaluate_structure(mi, x, tool_length=0.0, n_modes=3).frequencies_hz[0].tolist()
+    ky_ours = float(evaluate_structure(m, x, tool_length=0.0, n_modes=0).stiffness[0, 1])
+    bound = {f"{ky:g} N/um (published)": _rayleigh_f1(ky * 1e6) for ky in PUBLISHED_KY}
+    bound[f"{ky_ours / 1e6:.3g} N/um (ours)"] = _rayleigh_f1(ky_ours)
+    return {"modes": rows, "frequencies_hz_by_inertia_scale": inertia, "rayleigh_bound_f1_hz_by_k_y": bound}
+
+
+def _rayleigh_f1(k_y: float) -> float:
+    """Upper bound of f1 [Hz] from Rayleigh's quotient with the static deflection under a y-force at O' (tool 0) as
+    trial shape: its strain energy is F²/(2 k_y), its kinetic energy at least that of the platform mass at O'
+    (CoG at O'), so ω1² <= k_y / m_P."""
+    return math.sqrt(k_y / PLATFORM_MASS) / (2.0 * math.pi)
+
+
 def point_rows(pr: dict[str, Any]) -> list[dict[str, Any]]:
     rows = []
-    main_k, main_f = "K_U neglected, tool 0", 0.5
+    main_k, main_f = "K_U neglected, tool 0", MAIN_MASS
     for col in ("measurement", FE_BASED, MEASURED):
         joints = MEASURED if col == "measurement" else col
         res = pr[joints]
@@ -205,34 +261,38 @@ def point_rows(pr: dict[str, Any]) -> list[dict[str, Any]]:
                             JOINT_TEXT[joints], sens, "K_U neglected/kept, tool 0/150 mm"))
         src = f"Table 5.8 {col}"
         for i in range(3):
-            sens = [v[i] for v in res["frequencies_hz_by_strut_share"].values()]
-            rows.append(row(src, f"f{i + 1}", "Hz", PUBLISHED_58[col][i], res["frequencies_hz_by_strut_share"][main_f][i],
-                            JOINT_TEXT[joints], sens, "strut mass 0…100 % at the drive"))
+            sens = [v[i] for v in res["frequencies_hz_by_strut_mass"].values()]
+            rows.append(row(src, f"f{i + 1}", "Hz", PUBLISHED_58[col][i],
+                            res["frequencies_hz_by_strut_mass"][main_f][i], JOINT_TEXT[joints], sens,
+                            "no extra strut mass, or struts split 0…100 % drive/platform"))
     return rows
 
 
 # ---------------------------------------------------------------------------------------------------- Table 5.1
 def variant_results(step: float, eps: float) -> dict[str, Any]:
-    """Section statistics (U, k_x with 150 mm tool, v_max,y) on the report-frame YZ plane, with and without the
-    strut-platform check, and the workspace volumes of the three configurations."""
+    """Section statistics (U, k_x with 150 mm tool, v_max,y) on the report-frame YZ plane without the strut-platform
+    check, as the dissertation computed them (machines.md §1.7 item 9), with the check as sensitivity and the share
+    of the area it removes; and the workspace volumes (all checks) of the three configurations."""
     out: dict[str, Any] = {}
+    names = ("U", "kx", "vmax_y")
     for label, name in VARIANTS:
         m = pkmstiff.load_machine(name)
-        req = SectionRequest("yz", 0.0, Y_RANGE, Z_RANGE, step, ("U", "kx", "vmax_y"), tool_length=TOOL_51,
-                             frame="report")
+        req = SectionRequest("yz", 0.0, Y_RANGE, Z_RANGE, step, names, tool_length=TOOL_51, frame="report",
+                             skip_checks=SKIP_51)
         res = req.evaluate(m)
         plane = axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, step)
-        nohull = evaluate_section(m, plane, ["U", "kx", "vmax_y"], tool_length=TOOL_51, frame="report",
-                                  checks=NO_PLATFORM_CHECK, progress=False)
+        hull = evaluate_section(m, plane, list(names), tool_length=TOOL_51, frame="report", progress=False)
         # K_U's rotational entries have no printed unit (docs/user-guide/machines.md note 3): N*m/urad (bundled) vs N*mm/urad
         mku = machine_with(name, {"components.platform_stiffness.rotational_unit": "N*mm/urad"})
-        ku = SectionRequest("yz", 0.0, Y_RANGE, Z_RANGE, step, ("kx",), tool_length=TOOL_51,
-                            frame="report").evaluate(mku)
+        ku = SectionRequest("yz", 0.0, Y_RANGE, Z_RANGE, step, ("kx",), tool_length=TOOL_51, frame="report",
+                            skip_checks=SKIP_51).evaluate(mku)
         ws = WorkspaceRequest(eps, frame="report").evaluate(m)
-        out[label] = {"stats": res.statistics(), "stats_no_platform_check": nohull.statistics(),
-                      "stats_ku_nmm": ku.statistics(),
-                      "area_m2": float(res.ok.sum()) * res.plane.cell_area, "volume_m3": ws.volume,
-                      "workspace": ws.summary()}
+        out[label] = {"checks_left_out": list(SKIP_51), "stats": res.statistics(),
+                      "stats_with_platform_check": hull.statistics(), "stats_ku_nmm": ku.statistics(),
+                      "area_m2": float(res.ok.sum()) * res.plane.cell_area,
+                      "area_with_platform_check_m2": float(hull.ok.sum()) * res.plane.cell_area,
+                      "platform_check_removes_percent": 100.0 * (1.0 - hull.ok.sum() / max(res.ok.sum(), 1)),
+                      "volume_m3": ws.volume, "workspace": ws.summary()}
     return out
 
 
@@ -247,8 +307,8 @@ def variant_rows(vr: dict[str, Any]) -> list[dict[str, Any]]:
         name, unit = LABEL_51[q]
         for k, (label, _) in enumerate(VARIANTS):
             ours = vr[label]["stats"][q][stat]
-            sens = [ours, vr[label]["stats_no_platform_check"][q][stat]]
-            text = "with/without the strut-platform check"
+            sens = [ours, vr[label]["stats_with_platform_check"][q][stat]]
+            text = "without/with the strut-platform check"
             if q == "kx":
                 sens.append(vr[label]["stats_ku_nmm"][q][stat])
                 text += "; K_U rotational unit N*m/urad or N*mm/urad"
@@ -427,6 +487,33 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> 
 
 
 # ---------------------------------------------------------------------------------------------------- report
+def mode_text(modes: dict[str, Any]) -> str:
+    """The mode-shape section's text: what each of the first three modes is and what bounds f1."""
+    r = modes["modes"]
+    inert = modes["frequencies_hz_by_inertia_scale"]
+    bound = modes["rayleigh_bound_f1_hz_by_k_y"]
+    intro = ("Measured joints, tool length 0, K_U neglected, no extra strut mass. Each mode's platform motion is a "
+             "rotation about its instantaneous axis (Chasles; the axis point is the one nearest O', report frame) "
+             "plus a translation along it (pitch); the dominant motion is the largest share of the platform's "
+             "kinetic energy.")
+    shapes = (f"Mode 1 ({r[0]['frequency_hz']:.2f} Hz) is a rotation about an axis along {r[0]['axis_direction']} "
+              f"{r[0]['axis_below_O_mm'] / 1e3:.2f} m below O' (as Cobet describes): the platform swings sideways, "
+              f"so its kinetic energy is mostly y-translation ({r[0]['dominant_motion']}). Modes 2 and 3 "
+              f"({r[1]['frequency_hz']:.2f}, {r[2]['frequency_hz']:.2f} Hz) rotate about axes along "
+              f"{r[1]['axis_direction']} and {r[2]['axis_direction']} passing "
+              f"{r[1]['axis_distance_from_O_mm']:.0f} and {r[2]['axis_distance_from_O_mm']:.0f} mm from O'.")
+    rayleigh = ("f1 is bounded by Rayleigh's quotient (trial shape: the static deflection under a y-force at O'): "
+                "f1 <= sqrt(k_y / m_P) / 2 pi with m_P = 117.24 kg gives "
+                + ", ".join(f"{v:.1f} Hz for k_y = {k}" for k, v in bound.items())
+                + ": the published f1 (26.3-27.5 Hz) is out of reach of the published k_y and platform mass, "
+                "whatever the inertias and the mass distribution.")
+    inertia = ("Sensitivity of f1, f2, f3 to the platform inertias (M_P's rotational entries, units not printed): "
+               + "; ".join(f"x {float(s):.3g}: " + " / ".join(f"{v:.1f}" for v in f) + " Hz" for s, f in inert.items())
+               + ". Smaller inertias raise f2 and f3 but no uniform scaling reaches the published f2 and f3 "
+               "together; nothing is tuned (machines.md §1.7 item 11).")
+    return f"{intro}\n\n{shapes}\n\n{rayleigh}\n\n{inertia}"
+
+
 def markdown_table(rows: list[dict[str, Any]]) -> str:
     """The comparison table as Markdown (one row per published value)."""
     head = ("| source | quantity | unit | published | ours | deviation | % | verdict | joint data | sensitivity "
@@ -441,6 +528,7 @@ def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str
     cfg = SETTINGS["fast" if fast else "default"]
     sw = Stopwatch()
     pr = point_results()
+    modes = mode_shapes()
     sw.lap("tables 5.7, 5.8")
     vr = variant_results(cfg["step"], cfg["eps"])
     sw.lap("table 5.1")
@@ -457,9 +545,14 @@ def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str
                    "above 5 %. Nothing is fitted. Positions in the " + frame_text(m0, "report") + ".")
     sec = rep.section("Comparison table", "Tables 5.7 (static stiffness) and 5.8 (eigenfrequencies) at x = y = 0, "
                       "z = -1000 mm, a = b = c = 0 (report frame), tool length 0 with K_U neglected (Cobet 4.2.4); "
-                      "frequencies with half of each strut's mass at the drive. Table 5.1 on the Y-Z plane at x = 0 "
-                      "(report frame), tool 150 mm for k_x (K_U kept), volumes as ratios only (docs/user-guide/validation-hexaglide.md "
-                      "item 8).\n\n" + "\n\n".join(
+                      "frequencies without extra strut mass (the drive mass 102.17 kg holds the drive-side strut "
+                      "share, machines.md §1.7 item 10). Table 5.1 on the Y-Z plane at x = 0 (report frame), tool "
+                      "150 mm for k_x (K_U kept), " + left_out_text(SKIP_51) + " (the published section statistics "
+                      "need points that the check excludes, machines.md §1.7 item 9; it removes "
+                      + " / ".join(f"{vr[lab]['platform_check_removes_percent']:.1f} %" for lab, _ in VARIANTS)
+                      + " of the admissible area of the original / variant 1 / variant 2: the sensitivity column "
+                      "shows the statistics with it); volumes with every check, as ratios only "
+                      "(docs/user-guide/validation-hexaglide.md item 8).\n\n" + "\n\n".join(
                           f"{r['source']} {r['quantity']}: published {r['published']:.4g}, ours {r['ours']:.4g} "
                           f"{r['unit']} ({r['deviation_percent']:+.1f} %, {r['verdict']})"
                           + (f" — {r['explanation']}" if r['explanation'] else "")
@@ -470,6 +563,14 @@ def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str
             if r["source"] == src:
                 t.add(f"{r['quantity']} ({r['verdict']})", r["unit"], [r["published"], r["ours"]])
         sec.tables.append(t)
+    ms = rep.section("Mode shapes at the Tables 5.7/5.8 pose", mode_text(modes))
+    t = Table("Mode shapes: platform motion and its instantaneous axis (report frame)",
+              ["f [Hz]", "axis y [mm]", "axis z [mm]", "axis below O' [mm]", "pitch [mm/rad]"], digits=4)
+    for r in modes["modes"]:
+        p = r["axis_point_report_frame_mm"]
+        t.add(f"mode {r['mode']}: {r['dominant_motion']}, axis along {r['axis_direction']}", "",
+              [r["frequency_hz"], p[1], p[2], r["axis_below_O_mm"], r["pitch_mm_per_rad"]])
+    ms.tables.append(t)
     rep.section("Named positions (report frame)", "\n\n".join(
         f"{p['point']} ({p['machine']}): x, y, z = {', '.join(f'{v:g}' for v in p['report_frame_mm'])} mm "
         f"(machine frame {', '.join(f'{v:g}' for v in p['machine_frame_mm'])} mm): "
@@ -495,8 +596,11 @@ def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str
         "validation: verdict": f"agrees if |deviation| <= {AGREE_PERCENT:g} %",
         "validation: K_U": "stiffness at tool length 0 without K_U (Cobet 4.2.4, Fig. 4.25; docs/user-guide/validation-hexaglide.md (reading 4)); "
                            "Table 5.7 does not state the tool length: K_U kept and tool 150 mm shown as sensitivity",
-        "validation: mass distribution": "half of each strut's mass at the drive (bundled assumption); 0 and 100 % "
-                                         "as sensitivity (unpublished)",
+        "validation: mass distribution": "no extra strut mass (machines.md §1.7 item 10: the drive mass holds the "
+                                         "drive-side strut share); struts split 0/50/100 % drive/platform as "
+                                         "sensitivity (unpublished)",
+        "validation: section checks": "Table 5.1 statistics without the strut-platform check (machines.md §1.7 "
+                                      "item 9); with it as sensitivity",
         "validation: section": f"Y-Z plane at x = 0, y {Y_RANGE[0] * 1e3:g}…{Y_RANGE[1] * 1e3:g} mm, "
                                f"z {Z_RANGE[0] * 1e3:g}…{Z_RANGE[1] * 1e3:g} mm (report frame), raster "
                                f"{cfg['step'] * 1e3:g} mm (unpublished); statistics over admissible points",
@@ -505,6 +609,7 @@ def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str
     }
     rep.settings = {"mode": "fast" if fast else "default", **{k: v for k, v in cfg.items()}, "run_time_s": sw.laps}
     results = {"columns": list(COLUMNS), "rows": rows, "named_points": pts, "point_results": pr,
+               "mode_shapes": modes,
                "variant_results": {k: {kk: vv for kk, vv in v.items() if kk != "workspace"} for k, v in vr.items()},
                "workspace_shape": shape, "fast": fast}
     return rep, results

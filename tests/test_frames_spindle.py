@@ -15,8 +15,8 @@ from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.analysis import evaluate_structure
 from pkmstiff.errors import InputError
 from pkmstiff.evaluation.requests import PointRequest, SectionRequest
-from pkmstiff.machine.frames import (frame_metadata, from_machine_frame, neglect_spindle, spindle_neglected,
-                                     to_machine_frame)
+from pkmstiff.machine.frames import (NEGLECT_SPINDLE_NOTE, frame_metadata, from_machine_frame, neglect_spindle,
+                                     spindle_neglected, to_machine_frame)
 from pkmstiff.machine.roles import drive_load_data, machine_components
 
 HG = pkmstiff.load_machine("hexaglide")
@@ -78,7 +78,10 @@ def test_neglect_spindle_equals_rigid_k_u_load_on_the_platform():
         np.testing.assert_allclose(b.stiffness, a.stiffness, rtol=1e-9)
         np.testing.assert_allclose(b.frequencies_hz, a.frequencies_hz, rtol=1e-9)
     m = neglect_spindle(HG)
-    assert spindle_neglected(m) and not spindle_neglected(HG) and "K_U neglected" in m.title
+    assert spindle_neglected(m) and not spindle_neglected(HG) and m.spindle_neglected and not HG.spindle_neglected
+    # a typed field, not text in the title: the title stays the file's, the displayed title says so
+    assert m.title == HG.title and m.display_title == f"{HG.title} [{NEGLECT_SPINDLE_NOTE}]"
+    assert HG.display_title == HG.title
     assert machine_components(m).platform_spindle is None
     assert neglect_spindle(HG, False) is HG
 
@@ -177,3 +180,45 @@ def test_report_spec_frame_key(tmp_path):
     f.write_text(base % "table")
     with pytest.raises(PkmstiffError, match="report.frame"):
         load_spec(f)
+
+
+def test_drive_mass_holds_the_strut_share():
+    """machines.md §1.7 item 10: by default the structure model adds no strut mass (drive 102.17 kg, platform
+    117.24 kg as printed, eq. 3.10/3.11); option strut_mass_split adds half of each strut at either joint; an explicit
+    StructureOptions share overrides the machine's (that fraction at the drive, the rest at the platform)."""
+    from pkmstiff.structure import StructureOptions, structure_layout
+
+    struts = np.array([12.13, 12.13, 11.52, 11.52, 11.52, 11.52])
+    lay = structure_layout(HG)
+    assert HG.strut_mass_shares == (0.0, 0.0)
+    np.testing.assert_allclose(lay.drive_mass, 102.17, rtol=1e-12)
+    assert lay.platform.mass == pytest.approx(117.24, rel=1e-12)
+    split = pkmstiff.load_machine("hexaglide:strut_mass_split")
+    lay2 = structure_layout(split)
+    np.testing.assert_allclose(lay2.drive_mass, 102.17 + 0.5 * struts, rtol=1e-12)
+    assert lay2.platform.mass == pytest.approx(117.24 + 0.5 * struts.sum(), rel=1e-12)
+    lay3 = structure_layout(HG, StructureOptions(strut_mass_to_drive=1.0))
+    np.testing.assert_allclose(lay3.drive_mass, 102.17 + struts, rtol=1e-12)
+    assert lay3.platform.mass == pytest.approx(117.24, rel=1e-12)
+    assert pkmstiff.load_machine("hexaglide:previous_readings").strut_mass_shares == (0.5, 0.5)
+    assert pkmstiff.load_machine("hexaglide_v1").strut_mass_shares == (0.0, 0.0)  # inherited
+    assert pkmstiff.load_machine("hexapod_6x").strut_mass_shares == (0.5, 0.5)  # other machines unchanged
+    assert "machine.strut_mass_shares" in HG.assumptions and "\n" not in HG.assumptions["machine.strut_mass_shares"]
+    # lighter moving masses: every frequency at the Table 5.8 pose rises, the stiffness is unchanged
+    x = to_machine_frame(HG, np.array([[0, 0, -1.0, 0, 0, 0]]), "report")
+    a = evaluate_structure(neglect_spindle(HG), x, tool_length=0.0, n_modes=3)
+    b = evaluate_structure(neglect_spindle(split), x, tool_length=0.0, n_modes=3)
+    assert np.all(a.frequencies_hz > b.frequencies_hz)
+    # the strut point masses move the platform's CoG (its reference point): same stiffness up to round-off
+    np.testing.assert_allclose(a.stiffness, b.stiffness, rtol=1e-9)
+
+
+@pytest.mark.parametrize("shares", ["{ drive = 0.6, platform = 0.6 }", "{ drive = -0.1, platform = 0.0 }",
+                                    "{ drive = 0.5, rest = 0.5 }", "0.5"])
+def test_bad_strut_mass_shares(tmp_path, shares):
+    from pkmstiff.errors import MachineFileError
+
+    f = tmp_path / "m.toml"
+    f.write_text(f'format_version = 1\n[machine]\nname = "x"\nextends = "hexaglide"\nstrut_mass_shares = {shares}\n')
+    with pytest.raises(MachineFileError, match="strut_mass_shares"):
+        pkmstiff.load_machine(f)

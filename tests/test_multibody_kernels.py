@@ -12,7 +12,7 @@ from pkmstiff.analysis import batch, evaluate_structure
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.multibody.assembly import stiffness_matrix
 from pkmstiff.multibody.fast import compiled_chunk
-from pkmstiff.multibody.modal import modal_chunk
+from pkmstiff.multibody.modal import dynamic_system, modal_chunk
 from pkmstiff.multibody.solver import StaticSystem
 from pkmstiff.multibody.static import point_transform
 from pkmstiff.structure import NOT_POSITIVE_DEFINITE, build_structure
@@ -53,10 +53,20 @@ def test_compiled_batch_equals_the_numpy_path_on_a_section(name, monkeypatch):
     assert (rel <= rtol[:, None]).all()
     rel_c = np.abs(res.compliance[ok] - ref.compliance[ok]).max(axis=(1, 2)) / np.abs(ref.compliance[ok]).max(axis=(1, 2))
     assert (rel_c <= rtol).all()
-    # the eigenproblem matrix is reproduced bit for bit (same rounding incl. fused multiply-adds), so eigvalsh
-    # returns the same eigenvalues even where λ_min is ill-conditioned (f1 < 1 Hz at the section's edge)
-    np.testing.assert_array_equal(res.frequencies_hz[ok], ref.frequencies_hz[ok])
+    # the eigenproblem matrix A is assembled by the same formulas in another code (numba vs numpy/BLAS: other
+    # summation orders and fused multiply-adds, varying with the library versions), so it agrees to round-off
+    # ‖δA‖ ≤ c ε ‖A‖ only, and by Weyl |δλ_i| ≤ c ε λ_max: f_i = √λ_i/2π moves by c ε λ_max/(2 λ_i) relative —
+    # large where λ_min is ill-conditioned (f1 < 1 Hz at the section's edge)
+    _assert_frequencies_agree(res.frequencies_hz[ok], ref.frequencies_hz[ok], st_.dynamic_model)
     assert np.isnan(res.stiffness[~ok]).all() and np.isnan(res.frequencies_hz[~ok]).all()
+
+
+def _assert_frequencies_agree(freq: np.ndarray, ref: np.ndarray, model: sde.SDEModel) -> None:
+    """Natural frequencies of two implementations within the round-off bound c ε λ_max/(2 λ_i) (see the caller);
+    c = 32 for the assembly sums over a few dozen DOFs (measured: ≤ 6.5 on the Hexaglide and the 6X sections)."""
+    lam = np.linalg.eigvalsh(dynamic_system(model).a)
+    rtol = 32 * np.finfo(float).eps * lam[:, -1:] / (2 * lam[:, :ref.shape[1]])
+    assert (np.abs(freq - ref) <= rtol * ref).all()
 
 
 def _generic_model(n_p: int) -> sde.SDEModel:
@@ -131,4 +141,4 @@ def test_non_positive_definite_pose_is_flagged_by_the_compiled_path(monkeypatch)
         if not flag:
             ref_c, ref_f = comp, freq
     np.testing.assert_allclose(comp, ref_c, rtol=0, atol=1e-12 * np.abs(ref_c).max())
-    np.testing.assert_array_equal(freq, ref_f)
+    _assert_frequencies_agree(freq, ref_f, broken.without(np.array([False, True, False])).dynamic_model)

@@ -11,6 +11,7 @@ import pytest
 import pkmstiff.admissibility.fastpath as fastpath
 from pkmstiff.admissibility.pipeline import evaluate_chunk, evaluate_poses
 from pkmstiff.admissibility.checks import ALL_CHECKS
+from pkmstiff.kinematics.inverse import IK_ARRAYS
 from pkmstiff.machine.loader import load_machine
 
 
@@ -31,6 +32,9 @@ def _assert_same(a, b) -> None:
     ulp; 1e-12 of the largest |tau_g| is ~1e4 ulp of slack and far below any force resolution."""
     for name in ("poses", "drive", "strut_length", "drive_point", "platform_point", "jinv", "jc", "kappa"):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    assert a.ik.kind == b.ik.kind and a.checks == b.checks
+    for name in IK_ARRAYS:  # the whole inverse kinematics travels with the evaluation (the structure model reuses it)
+        np.testing.assert_array_equal(getattr(a.ik, name), getattr(b.ik, name), err_msg=f"ik.{name}")
     assert list(a.angles) == list(b.angles)
     for key in a.angles:
         np.testing.assert_array_equal(a.angles[key], b.angles[key], err_msg=key)
@@ -91,14 +95,14 @@ def test_fast_path_options(name, monkeypatch):
 
 
 def test_fast_path_not_taken(monkeypatch):
-    """Interpreted kernels, a given IK or no angles keep the general path; the fast path declines large N."""
+    """Interpreted kernels keep the general path; the fast path declines large N."""
     m = load_machine("hexaglide")
     monkeypatch.setenv("PKMSTIFF_JIT", "0")
     assert not fastpath.usable(m, 1)
     monkeypatch.setenv("PKMSTIFF_JIT", "1")
     assert fastpath.usable(m, fastpath.SMALL_N) and not fastpath.usable(m, fastpath.SMALL_N + 1)
-    ev = evaluate_chunk(m, _poses(4, 1), ("singularity",), with_angles=False)
-    assert ev.angles == {}
+    ev = evaluate_chunk(m, _poses(4, 1), ("singularity",))
+    assert ev.checks == ("singularity",) and len(ev.angles) == 10
 
 
 def test_fast_path_hands_back_near_threshold(monkeypatch):

@@ -176,3 +176,42 @@ def test_free_body_with_point_load_modes_and_pose_batch():
     ev = sde.evaluate_point(m, "B", None, n_modes=4, chunk_size=3)
     np.testing.assert_allclose(ev.frequencies_hz, all_f[:, :4], rtol=1e-13)
     np.testing.assert_allclose(ev.compliance, sde.point_compliance(m, "B"), rtol=1e-13)
+
+
+def test_mode_axes_recover_a_known_screw():
+    """Chasles: shapes built as a rotation θ about an axis through p plus the translation hθ along it give back the
+    axis direction, the point of the axis nearest the CoG, the pitch h and the lever |u|/|θ| (round-off only)."""
+    rng = np.random.default_rng(7)
+    r0 = np.array([0.1, 0.2, -1.0])
+    m = sde.SDEModel()
+    m.add_rigid_body("B", 10.0, r0, [1.0, 2.0, 3.0])
+    n = rng.normal(size=(4, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    p = rng.normal(size=(4, 3))
+    p -= np.einsum("ki,ki->k", p - r0, n)[:, None] * n  # the point of each axis nearest r0
+    h = rng.normal(size=4) * 0.1
+    th = n * 1e-3
+    u = np.cross(th, r0 - p) + h[:, None] * th
+    axes = sde.mode_axes(m, np.concatenate([u, th], axis=1)[None], "B")
+    np.testing.assert_allclose(axes.direction[0], n, atol=1e-12)
+    np.testing.assert_allclose(axes.point[0], p, atol=1e-12)
+    np.testing.assert_allclose(axes.pitch[0], h, atol=1e-12)
+    np.testing.assert_allclose(axes.lever[0], np.linalg.norm(u, axis=1) / 1e-3, rtol=1e-12)
+
+
+def test_mode_axes_of_a_pendulum_pass_through_its_pivot():
+    """A body held at a pivot c by stiff translational springs (1e12 N/m) and a soft torsion spring about x
+    (1e3 N m/rad): its lowest mode is a rotation about the x-axis through c (axis off c by ~ k_rot/k_trans · |c − r0|
+    ≈ 1e-9 m; 1e-6 m tolerance)."""
+    r0, c = np.array([0.0, 0.4, -1.0]), np.array([0.0, 0.3, -1.7])
+    m = sde.SDEModel()
+    m.add_rigid_body("B", 117.0, r0, [7.4, 7.7, 2.9])
+    m.add_sde("G", "B", sde.FRAME, c, stiffness=np.diag([1e12, 1e12, 1e12, 1e3, 1e9, 1e9]))
+    res = sde.modes(m, 1, shapes=True)
+    axes = sde.mode_axes(m, res.shapes, "B")
+    np.testing.assert_allclose(np.abs(axes.direction[0, 0]), [1.0, 0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(axes.point[0, 0], c, atol=1e-6)
+    assert abs(axes.pitch[0, 0]) < 1e-9
+    # ω² = k_rot / (I_xx + m |c − r0|²) (parallel axes)
+    d2 = float(np.sum((c - r0)[1:] ** 2))
+    assert res.frequencies_hz[0, 0] == pytest.approx(np.sqrt(1e3 / (7.4 + 117.0 * d2)) / (2 * np.pi), rel=1e-6)

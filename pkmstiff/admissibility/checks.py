@@ -57,6 +57,46 @@ REASON_TEXT: dict[Reason, str] = {
 ALL_CHECKS = ("frame", "drive_range", "drive_spacing", "joint_angles", "singularity", "strut_collision",
               "platform_collision", "drive_load")
 
+#: one line per check name of :data:`ALL_CHECKS` (``pkmstiff quantities`` lists them; names for ``--skip-check``)
+CHECK_TEXT = {
+    "frame": REASON_TEXT[Reason.FRAME],
+    "drive_range": REASON_TEXT[Reason.DRIVE_RANGE],
+    "drive_spacing": REASON_TEXT[Reason.DRIVE_SPACING],
+    "joint_angles": f"{REASON_TEXT[Reason.JOINT_ANGLE]} (and the INA coupled limit)",
+    "singularity": REASON_TEXT[Reason.SINGULAR],
+    "strut_collision": REASON_TEXT[Reason.STRUT_COLLISION],
+    "platform_collision": REASON_TEXT[Reason.PLATFORM_COLLISION] + " (the machine file's platform hull)",
+    "drive_load": REASON_TEXT[Reason.DRIVE_LOAD],
+}
+
+
+def checks_without(skip: Iterable[str] = (), source: str = "", key: str = "skip_checks") -> tuple[str, ...]:
+    """The checks of :data:`ALL_CHECKS` (in that order) without the named ones (machines.md §1.7 item 9).
+
+    An unknown name raises :class:`pkmstiff.errors.InputError` naming ``source``/``key`` and the known names.
+    """
+    from pkmstiff.errors import InputError
+
+    skip = tuple(skip)
+    for name in skip:
+        if name not in ALL_CHECKS:
+            raise InputError(source, key, f"admissibility check names from {', '.join(ALL_CHECKS)}", name)
+    return tuple(c for c in ALL_CHECKS if c not in skip)
+
+
+def checks_left_out(checks: Iterable[str]) -> list[str]:
+    """The names of :data:`ALL_CHECKS` not in ``checks`` (what an output states as left out)."""
+    applied = set(checks)
+    return [c for c in ALL_CHECKS if c not in applied]
+
+
+def left_out_text(left_out: Iterable[str]) -> str:
+    """``admissibility checks left out: a, b`` (in the order of :data:`ALL_CHECKS`) for printed outputs and CSV
+    comment lines; empty when every check applies."""
+    given = set(left_out)
+    names = [c for c in ALL_CHECKS if c in given]
+    return f"admissibility checks left out: {', '.join(names)}" if names else ""
+
 
 def reason_names(code: int) -> list[str]:
     """Names of the reasons set in a reason code, e.g. ``['DRIVE_RANGE', 'SINGULAR']``."""

@@ -20,6 +20,7 @@ from typing import Any, Sequence
 import numpy as np
 
 import pkmstiff.admissibility.checks as adm
+from pkmstiff.kinematics.inverse import IK
 from pkmstiff.kinematics.joint_angles import PARALLEL_TOL, _ref_parallel
 from pkmstiff.machine.model import Machine, memo
 from pkmstiff.machine.roles import DriveLoadData
@@ -170,7 +171,8 @@ def usable(machine: Machine, n_poses: int) -> bool:
 
 def evaluate_small(machine: Machine, x: np.ndarray, checks: Sequence[str],
                    drive_load_data: DriveLoadData | None) -> tuple[dict[str, Any], np.ndarray] | None:
-    """The fields of :class:`pkmstiff.admissibility.pipeline.PoseEvaluation` for poses ``x`` (N, 6) and the (N,)
+    """The fields of :class:`pkmstiff.admissibility.pipeline.PoseEvaluation` (the inverse kinematics included, as
+    views of the kernel's outputs) for poses ``x`` (N, 6) and the (N,)
     reachability of the poses, or None where the general path must run (a pose needs an exact κ). Call only where
     :func:`usable` holds."""
     from pkmstiff.kinematics import kernels as K
@@ -250,9 +252,11 @@ def evaluate_small(machine: Machine, x: np.ndarray, checks: Sequence[str],
             else CR(np.ones(N, bool), _R.DRIVE_LOAD,
                     skipped="no mass data (platform mass and drive force limits needed)"))
     angles = {key: ang[s, row].T for key, s, row in _ANGLE_KEYS}
+    aos = pqd.transpose(0, 3, 2, 1)  # (3, N, n, 3) pose-first views, as pkmstiff.kinematics.arrays._vec_aos
+    ik = IK._of(kind=machine.chains.kind, poses=x, R=rot_aos, rho=rho.transpose(2, 1, 0), p=aos[0], q=aos[1],
+                d=aos[2], length=ld[0].T, drive=ld[1].T, reachable=reach.T)
     return dict(
-        poses=x, drive=ld[1].T, strut_length=ld[0].T, drive_point=pqd[1].transpose(2, 1, 0),
-        platform_point=pqd[0].transpose(2, 1, 0), jinv=jac.transpose(2, 0, 1), jc=jc, kappa=None, angles=angles,
+        ik=ik, jinv=jac.transpose(2, 0, 1), jc=jc, kappa=None, angles=angles,
         admissibility=adm.Admissibility(ok=reasons == 0, reasons=reasons, checks=results),
         drive_loads=tau if has_load else None,
     ), reach.all(axis=0)

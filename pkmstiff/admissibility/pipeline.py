@@ -30,6 +30,7 @@ from pkmstiff.kinematics import (
     inverse_kinematics,
     jacobian_and_singular,
 )
+from pkmstiff.kinematics.inverse import IK_ARRAYS
 from pkmstiff.kinematics.joint_angles import joint_angles
 from pkmstiff.machine.model import Machine
 from pkmstiff.machine.roles import DriveLoadData
@@ -44,14 +45,14 @@ DEFAULT_CHUNK = 8192
 class PoseEvaluation:
     """Kinematic quantities and admissibility of N poses (SI units: m, rad).
 
-    ``kappa`` may be given as ``None`` (the pipeline does): it is then computed from ``jinv`` on first access.
+    ``ik`` is the inverse-kinematics result itself (poses, R, joint points, strut vectors, drive coordinates), so
+    that later stages (the structure model, :func:`pkmstiff.structure.build_structure`) reuse it instead of
+    repeating it; ``drive``, ``strut_length``, ``drive_point`` and ``platform_point`` read it. ``checks``: the
+    admissibility checks that were applied. ``kappa`` may be given as ``None`` (the pipeline does): it is then
+    computed from ``jinv`` on first access.
     """
 
-    poses: np.ndarray  # (N, 6)
-    drive: np.ndarray  # (N, n) drive coordinates (glide: lambda_i, pod: strut length), m
-    strut_length: np.ndarray  # (N, n) m
-    drive_point: np.ndarray  # (N, n, 3) drive-side joint points q_i (MKS), m
-    platform_point: np.ndarray  # (N, n, 3) platform-side joint points p_i (MKS), m
+    ik: IK  # inverse kinematics of the N poses
     jinv: np.ndarray  # (N, 6, 6) J_C^-1 (twist form)
     jc: np.ndarray  # (N, 6, 6) J_C (NaN where singular)
     kappa: np.ndarray = field(repr=False)  # (N,) condition number of J_C^-1 (lazy, see the class docstring)
@@ -59,6 +60,32 @@ class PoseEvaluation:
     admissibility: adm.Admissibility
     drive_loads: np.ndarray | None = None  # (N, n) static drive loads tau_g, N (None without mass data)
     extra: dict[str, np.ndarray] = field(default_factory=dict)  # callers' per-pose arrays (N, ...)
+    checks: tuple[str, ...] = adm.ALL_CHECKS  # the admissibility checks applied
+
+    @property
+    def poses(self) -> np.ndarray:
+        """(N, 6) x, y, z [m], a, b, c [rad]."""
+        return self.ik.poses
+
+    @property
+    def drive(self) -> np.ndarray:
+        """(N, n) drive coordinates (glide: lambda_i, pod: strut length), m."""
+        return self.ik.drive
+
+    @property
+    def strut_length(self) -> np.ndarray:
+        """(N, n) strut lengths, m."""
+        return self.ik.length
+
+    @property
+    def drive_point(self) -> np.ndarray:
+        """(N, n, 3) drive-side joint points q_i (MKS), m."""
+        return self.ik.q
+
+    @property
+    def platform_point(self) -> np.ndarray:
+        """(N, n, 3) platform-side joint points p_i (MKS), m."""
+        return self.ik.p
 
     @property
     def ok(self) -> np.ndarray:
@@ -69,20 +96,21 @@ class PoseEvaluation:
         """True once κ is known (given or computed); reading ``kappa`` computes it."""
         return self._kappa is not None
 
-    def subset(self, mask: np.ndarray) -> "PoseEvaluation":
-        """The evaluation restricted to the poses where ``mask`` is True (κ stays lazy if not yet computed).
+    def subset(self, mask: np.ndarray | slice) -> "PoseEvaluation":
+        """The evaluation restricted to the poses where ``mask`` is True, or to a ``slice`` of them (κ stays lazy if
+        not yet computed).
 
         The admissibility keeps ``ok`` and ``reasons``; the per-check details are not carried over.
         """
-        mask = np.asarray(mask)
+        if not isinstance(mask, slice):
+            mask = np.asarray(mask)
         a = adm.Admissibility(ok=self.admissibility.ok[mask], reasons=self.admissibility.reasons[mask], checks={})
         return PoseEvaluation(
-            poses=self.poses[mask], drive=self.drive[mask], strut_length=self.strut_length[mask],
-            drive_point=self.drive_point[mask], platform_point=self.platform_point[mask], jinv=self.jinv[mask],
-            jc=self.jc[mask], kappa=None if self._kappa is None else self._kappa[mask],
+            ik=self.ik.take(mask), jinv=self.jinv[mask], jc=self.jc[mask],
+            kappa=None if self._kappa is None else self._kappa[mask],
             angles={k: v[mask] for k, v in self.angles.items()}, admissibility=a,
             drive_loads=None if self.drive_loads is None else self.drive_loads[mask],
-            extra={k: v[mask] for k, v in self.extra.items()})
+            extra={k: v[mask] for k, v in self.extra.items()}, checks=self.checks)
 
 
 def _get_kappa(self: PoseEvaluation) -> np.ndarray:
@@ -114,40 +142,44 @@ def evaluate_chunk(
     drive_load_data: DriveLoadData | None = None,
     requirements: Iterable[Callable[["PoseEvaluation"], np.ndarray]] = (),
     *,
-    ik: IK | None = None,
-    with_angles: bool = True,
     _valid: bool = False,
 ) -> PoseEvaluation:
     """Evaluate one chunk of poses (see :func:`evaluate_poses`).
 
-    ``ik``: the inverse kinematics of ``poses`` if the caller has it already (the structure model), so it is not
-    repeated. ``with_angles=False`` skips the joint angles (``angles`` is then empty), allowed only without the
-    joint-angle check. ``_valid``: ``poses`` already passed :func:`pkmstiff.kinematics.as_poses` (internal).
+    ``_valid``: ``poses`` already passed :func:`pkmstiff.kinematics.as_poses` (internal).
     """
     unknown = set(checks) - set(adm.ALL_CHECKS)
     if unknown:
         raise ValueError(f"unknown admissibility checks {sorted(unknown)}; expected a subset of {adm.ALL_CHECKS}")
-    if not with_angles and "joint_angles" in checks:
-        raise ValueError("evaluate_chunk: the joint-angle check needs the joint angles (with_angles=True)")
-    if ik is None and with_angles and not _valid:
+    checks = tuple(checks)
+    if not _valid:
         poses = as_poses(poses)
-    if ik is None and with_angles and _fast.usable(machine, len(poses)):  # small N: one fused compiled kernel
-        fast = _fast.evaluate_small(machine, poses, checks, drive_load_data)
-        if fast is not None:
-            fields, reach_pose = fast
-            ev = PoseEvaluation(**fields)
-            reqs = list(requirements)
-            if reqs:
-                ok = np.ones(len(poses), bool)
-                for req in reqs:
-                    ok &= np.asarray(req(ev), bool)
-                results = [*ev.admissibility.checks.values(), adm.CheckResult(ok, adm.Reason.REQUIREMENT)]
-                ev.admissibility = adm.combine(len(poses), results, reach_pose)
-            return ev
-    ik = inverse_kinematics(machine, poses) if ik is None else ik
+    reqs = list(requirements)
+    fast = _fast.evaluate_small(machine, poses, checks, drive_load_data) if _fast.usable(machine, len(poses)) else None
+    if fast is not None:  # small N: one fused compiled kernel
+        fields, reach = fast
+        ev = PoseEvaluation(**fields, checks=checks)
+        results = None
+    else:
+        ev, results = _evaluate_general(machine, poses, checks, drive_load_data)
+        reach = ev.ik.all_reachable
+    if reqs:
+        ok = np.ones(len(poses), bool)
+        for req in reqs:
+            ok &= np.asarray(req(ev), bool)
+        results = list(ev.admissibility.checks.values()) if results is None else results
+        results.append(adm.CheckResult(ok, adm.Reason.REQUIREMENT))
+        ev.admissibility = adm.combine(len(poses), results, reach)
+    return ev
+
+
+def _evaluate_general(machine: Machine, poses: np.ndarray, checks: tuple[str, ...],
+                      drive_load_data: DriveLoadData | None) -> tuple[PoseEvaluation, list[adm.CheckResult]]:
+    """The array path of :func:`evaluate_chunk` (any N): the evaluation and its check results."""
+    ik = inverse_kinematics(machine, poses)
     jinv = inverse_jacobian(machine, ik)
     jc, singular = jacobian_and_singular(machine, jinv)
-    angles = _angle_dict(joint_angles(machine, ik)) if with_angles else {}
+    angles = _angle_dict(joint_angles(machine, ik))
     reach = ik.all_reachable
 
     results: list[adm.CheckResult] = []
@@ -177,19 +209,9 @@ def evaluate_chunk(
         if res.ok.size == 0:
             res.ok = np.ones(len(poses), bool)
         results.append(res)
-    ev = PoseEvaluation(
-        poses=ik.poses, drive=ik.drive, strut_length=ik.length, drive_point=ik.q, platform_point=ik.p,
-        jinv=jinv, jc=jc, kappa=None, angles=angles, admissibility=adm.combine(len(poses), results, reach),
-        drive_loads=tau_g,
-    )
-    reqs = list(requirements)
-    if reqs:
-        ok = np.ones(len(poses), bool)
-        for req in reqs:
-            ok &= np.asarray(req(ev), bool)
-        results.append(adm.CheckResult(ok, adm.Reason.REQUIREMENT))
-        ev.admissibility = adm.combine(len(poses), results, reach)
-    return ev
+    ev = PoseEvaluation(ik=ik, jinv=jinv, jc=jc, kappa=None, angles=angles,
+                        admissibility=adm.combine(len(poses), results, reach), drive_loads=tau_g, checks=checks)
+    return ev, results
 
 
 def evaluate_poses(
@@ -254,17 +276,20 @@ def _allocate(first: PoseEvaluation, n: int) -> PoseEvaluation:
                                    skipped=c.skipped)
               for key, c in first.admissibility.checks.items()}
     a = first.admissibility
+    ik = IK(kind=first.ik.kind, **{name: like(getattr(first.ik, name)) for name in IK_ARRAYS})
     return PoseEvaluation(
-        poses=like(first.poses), drive=like(first.drive), strut_length=like(first.strut_length),
-        drive_point=like(first.drive_point), platform_point=like(first.platform_point), jinv=like(first.jinv),
-        jc=like(first.jc), kappa=None, angles={k: like(v) for k, v in first.angles.items()},
+        ik=ik, jinv=like(first.jinv), jc=like(first.jc), kappa=None,
+        angles={k: like(v) for k, v in first.angles.items()},
         admissibility=adm.Admissibility(ok=like(a.ok), reasons=like(a.reasons), checks=checks),
-        drive_loads=like(first.drive_loads), extra={k: like(v) for k, v in first.extra.items()})
+        drive_loads=like(first.drive_loads), extra={k: like(v) for k, v in first.extra.items()},
+        checks=first.checks)
 
 
 def _put(out: PoseEvaluation, sl: slice, ev: PoseEvaluation) -> None:
     """Copy the evaluation of the chunk ``sl`` into ``out``."""
-    for name in ("poses", "drive", "strut_length", "drive_point", "platform_point", "jinv", "jc", "drive_loads"):
+    for name in IK_ARRAYS:
+        getattr(out.ik, name)[sl] = getattr(ev.ik, name)
+    for name in ("jinv", "jc", "drive_loads"):
         dst = getattr(out, name)
         if dst is not None:
             dst[sl] = getattr(ev, name)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -37,6 +39,38 @@ def parse_direction(direction: Any, what: str = "direction") -> tuple[np.ndarray
     if e.shape != (3,) or not np.all(np.isfinite(e)) or not np.linalg.norm(e) > 0:
         raise StructureModelError("analysis", what, "a non-zero finite vector (3,) or an axis name", direction)
     return e / np.linalg.norm(e), False
+
+
+def by_parts(st: PKMStructure, analyse: Callable[[PKMStructure], Any], per_pose: Sequence[str] = ()) -> Any:
+    """``analyse(st)`` computed part by part (:meth:`PKMStructure.parts`: work space bounded by one part) and joined
+    along the pose axis: an array result, or a dataclass whose fields ``per_pose`` are (N, ...) arrays (the other
+    fields, e.g. labels, come from the first part with modelled poses). Each part's result is written into the
+    output as soon as it is computed. Parts without modelled poses stay NaN (their arrays may lack the trailing
+    axes of element or body labels)."""
+    parts = st.parts()
+    if len(parts) == 1:
+        return analyse(st)
+    out = None
+    first = None
+    for sl, part in parts:
+        res = analyse(part)
+        first = res if first is None else first
+        if part.empty:
+            continue
+        if out is None:  # the first part with modelled poses sets the shapes and the labels
+            arrays = {f: res if f is None else getattr(res, f) for f in (per_pose or (None,))}
+            out = {f: np.full((st.n_poses,) + v.shape[1:], np.nan, v.dtype) for f, v in arrays.items()
+                   if v is not None}
+            ref = res
+        for f, dst in out.items():
+            dst[sl] = res if f is None else getattr(res, f)
+    if out is None:  # no modelled pose at all: every part's result is NaN, the joined one too
+        ref = first
+        out = {f: np.full((st.n_poses,) + v.shape[1:], np.nan, v.dtype) for f in (per_pose or (None,))
+               if (v := (first if f is None else getattr(first, f))) is not None}
+    if None in out:
+        return out[None]
+    return dataclasses.replace(ref, **out)
 
 
 def load_body(st: PKMStructure, neglect_spindle: bool) -> str:

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
+from pkmstiff.admissibility.pipeline import PoseEvaluation
 from pkmstiff.analysis._common import Array, load_body
 from pkmstiff.kinematics import as_poses
 from pkmstiff.machine.model import Machine
@@ -32,9 +33,8 @@ from pkmstiff.structure import (
     STATUS_TEXT,
     PKMStructure,
     StructureOptions,
-    build_structure,
+    iter_structures,
     platform_spindle_matrix,
-    structure_layout,
 )
 
 
@@ -140,28 +140,28 @@ def _u_compliance(st: PKMStructure) -> Array:
     return h @ cu @ np.swapaxes(h, 1, 2)
 
 
-def evaluate_structure(machine: Machine, poses: ArrayLike, tool_length: float | ArrayLike | None = None, n_modes: int = 6,
+def evaluate_structure(machine: Machine, poses: ArrayLike | PoseEvaluation | PKMStructure,
+                       tool_length: float | ArrayLike | None = None, n_modes: int = 6,
                        neglect_spindle: bool = False, options: StructureOptions | None = None,
                        chunk_size: int = DEFAULT_CHUNK, store_compliance: bool = True) -> StructureBatch:
-    """TCP compliance/stiffness and the ``n_modes`` lowest frequencies at poses (N, 6) (x, y, z [m], a, b, c [rad]).
+    """TCP compliance/stiffness and the ``n_modes`` lowest frequencies at N poses: poses (N, 6) (x, y, z [m],
+    a, b, c [rad]), their :class:`~pkmstiff.admissibility.pipeline.PoseEvaluation`, or a structure built from
+    them (:func:`pkmstiff.structure.build_structure`: then nothing is built again, ``options`` does not apply).
 
     Memory: results (N × (36 + 6 + n_modes) × 8 bytes with ``store_compliance``) plus a fixed work space per
     chunk (≈ 40 MB at the default 2048 poses).  ``tool_length`` in m (None: machine file) or a tool vector (3,) in
     the PKS [m].
     """
-    x = as_poses(poses)
+    x = poses.poses if isinstance(poses, (PoseEvaluation, PKMStructure)) else as_poses(poses)
     n = x.shape[0]
-    layout = structure_layout(machine, options)
     comp_out = np.full((n, 6, 6), np.nan) if store_compliance else None
     stiff = np.full((n, 6), np.nan)
     freq = np.full((n, n_modes), np.nan)
     reasons = np.zeros(n, np.uint32)
     status = np.zeros(n, np.uint8)
-    for start in range(0, n, chunk_size):
-        sl = slice(start, min(start + chunk_size, n))
-        st = build_structure(machine, x[sl], layout=layout)
+    for sl, st in iter_structures(machine, poses, options, chunk_size):
         st, comp, fr = _evaluate_chunk(st, tool_length, n_modes, neglect_spindle)
-        idx = st.index + start
+        idx = st.index + sl.start
         reasons[sl], status[sl] = st.reasons, st.status
         if comp_out is not None:
             comp_out[idx] = comp

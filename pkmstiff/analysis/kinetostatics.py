@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.admissibility.checks import Reason, static_drive_loads
+from pkmstiff.admissibility.pipeline import PoseEvaluation
 from pkmstiff.analysis._common import AXIS_NAMES, Array
 from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics, jacobian_and_condition
 from pkmstiff.kinematics import transmission_quality as _tq
@@ -183,17 +184,22 @@ class Kinetostatics:
     notes: list[str]
 
 
-def kinetostatics(machine: Machine, poses: ArrayLike,
+def kinetostatics(machine: Machine, poses: ArrayLike | PoseEvaluation,
                   velocity_directions: Sequence[Any] = DEFAULT_VELOCITY_DIRECTIONS,
                   acceleration_directions: Sequence[Any] = DEFAULT_ACCELERATION_DIRECTIONS,
                   options: KinetostaticsOptions | None = None) -> Kinetostatics:
-    """Transmission quality, v_max, a_max (with limiting drive) and static drive loads at poses (N, 6)."""
+    """Transmission quality, v_max, a_max (with limiting drive) and static drive loads at poses (N, 6) or at the
+    poses of a :class:`~pkmstiff.admissibility.pipeline.PoseEvaluation` (its inverse kinematics, J_C^-1, J_C and
+    κ are reused)."""
     options = options or KinetostaticsOptions()
-    x = as_poses(poses)
-    ik = inverse_kinematics(machine, x)
     with np.errstate(invalid="ignore", divide="ignore"):
-        jinv = inverse_jacobian(machine, ik)
-        jc, kappa = jacobian_and_condition(jinv)
+        if isinstance(poses, PoseEvaluation):
+            x, ik, jinv, jc, kappa = poses.poses, poses.ik, poses.jinv, poses.jc, poses.kappa
+        else:
+            x = as_poses(poses)
+            ik = inverse_kinematics(machine, x)
+            jinv = inverse_jacobian(machine, ik)
+            jc, kappa = jacobian_and_condition(jinv)
         w = machine.transmission_weight if options.weight is None else float(options.weight)
         tq = _tq(machine, jinv, w)
     reasons = np.zeros(len(x), np.uint32)

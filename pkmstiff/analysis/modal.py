@@ -14,15 +14,18 @@ from dataclasses import dataclass
 import numpy as np
 
 import pkmstiff.multibody as sde
-from pkmstiff.analysis._common import Array, component_energies, present_components, shares
+from pkmstiff.analysis._common import Array, by_parts, component_energies, present_components, shares
 from pkmstiff.structure import PKMStructure
 
 
 def natural_frequencies(st: PKMStructure, n_modes: int = 6) -> Array:
     """Lowest ``n_modes`` natural frequencies (N, n_modes) in Hz (eigenvalues only: fast path)."""
-    if st.empty:
-        return st.scatter(np.zeros((0, n_modes)))
-    return st.scatter(sde.natural_frequencies(st.dynamic_model, n_modes))
+    def one(st: PKMStructure) -> Array:
+        if st.empty:
+            return st.scatter(np.zeros((0, n_modes)))
+        return st.scatter(sde.natural_frequencies(st.dynamic_model, n_modes))
+
+    return by_parts(st, one)
 
 
 @dataclass
@@ -59,6 +62,12 @@ class ModalAnalysis:
 
 def modal_analysis(st: PKMStructure, n_modes: int = 6, shapes: bool = True) -> ModalAnalysis:
     """Lowest ``n_modes`` modes with descriptions and energy shares (``shapes=False`` skips the shapes array)."""
+    return by_parts(st, lambda part: _modal_analysis(part, n_modes, shapes),
+                    ("frequencies_hz", "eigenvalues", "shapes", "dominant", "dominant_share", "kinetic", "strain",
+                     "component_strain"))
+
+
+def _modal_analysis(st: PKMStructure, n_modes: int, shapes: bool) -> ModalAnalysis:
     labels_c = present_components(st)
     if st.empty:
         nan = st.scatter(np.zeros((0, n_modes)))

@@ -16,7 +16,15 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
-from pkmstiff.analysis._common import Array, component_energies, load_body, parse_direction, present_components, shares
+from pkmstiff.analysis._common import (
+    Array,
+    by_parts,
+    component_energies,
+    load_body,
+    parse_direction,
+    present_components,
+    shares,
+)
 from pkmstiff.structure import PKMStructure
 
 
@@ -26,16 +34,22 @@ def tcp_compliance(st: PKMStructure, tool_length: float | ArrayLike | None = Non
     Symmetric (Maxwell–Betti).  ``tool_length`` [m] overrides the machine's tool length; a vector (3,) [m, PKS] is
     the whole tool vector from O' to the tip (any tool orientation).
     """
-    if st.empty:
-        return st.scatter(np.zeros((0, 6, 6)))
-    return st.scatter(sde.point_compliance(st.model, load_body(st, neglect_spindle), st.tcp(tool_length)))
+    def one(st: PKMStructure) -> Array:
+        if st.empty:
+            return st.scatter(np.zeros((0, 6, 6)))
+        return st.scatter(sde.point_compliance(st.model, load_body(st, neglect_spindle), st.tcp(tool_length)))
+
+    return by_parts(st, one)
 
 
 def tcp_stiffness_matrix(st: PKMStructure, tool_length: float | ArrayLike | None = None, neglect_spindle: bool = False) -> Array:
     """6×6 stiffness at the TCP (N, 6, 6) (statically condensed, no inversion; blocks N/m, N/rad, N m/rad)."""
-    if st.empty:
-        return st.scatter(np.zeros((0, 6, 6)))
-    return st.scatter(sde.point_stiffness(st.model, load_body(st, neglect_spindle), st.tcp(tool_length)))
+    def one(st: PKMStructure) -> Array:
+        if st.empty:
+            return st.scatter(np.zeros((0, 6, 6)))
+        return st.scatter(sde.point_stiffness(st.model, load_body(st, neglect_spindle), st.tcp(tool_length)))
+
+    return by_parts(st, one)
 
 
 def directional_stiffness(compliance: Array, direction: Any, rotational: bool = False) -> Array:
@@ -110,6 +124,12 @@ def weak_points(st: PKMStructure, direction: Any, tool_length: float | ArrayLike
     energy of a unit load equals half the compliance in its direction, so energy shares are compliance shares.
     """
     e, rot = parse_direction(direction)
+    return by_parts(st, lambda part: _weak_points(part, e, rot, tool_length, neglect_spindle),
+                    ("element_shares", "component_shares", "compliance"))
+
+
+def _weak_points(st: PKMStructure, e: np.ndarray, rot: bool, tool_length: float | ArrayLike | None,
+                 neglect_spindle: bool) -> WeakPoints:
     if st.empty:
         labels = present_components(st)
         return WeakPoints(e, rot, [], st.scatter(np.zeros((0, 0))), labels, st.scatter(np.zeros((0, len(labels)))),

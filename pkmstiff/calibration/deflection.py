@@ -4,9 +4,9 @@ its effect on the instrument readings, its subtraction before identification, an
 
 * **Deflection** δ = C(x)·w generalised to the weight of every mass of the structure model: ``K q = f_g + f_load``
   per pose (stacked solves), the tool body's motion read at the tool point.  Which masses are loaded and which are
-  not is stated in :mod:`pkmstiff.analysis.gravity` (Assumption: struts lumped half at either joint; masses at
-  rigidly suspended drives go straight into the frame).  A machine without stiffness data (e.g. Felix) has no
-  structure model: a one-line error.
+  not is stated in :mod:`pkmstiff.analysis.gravity` (Assumption: the strut masses as the machine file's
+  ``strut_mass_shares`` lump them; masses at rigidly suspended drives go straight into the frame).  A machine
+  without stiffness data (e.g. Felix) has no structure model: a one-line error.
 * **Readings** (:func:`reading_deflection`): the platform frame (o, R) the machine reaches is moved by the
   deflection twist of the tool body referred to O' (u_O' = u_v − θ × R v for the twist (u_v, θ) at the target v),
   o + u_O', exp(θ) R, and the reading is evaluated exactly there (:func:`~pkmstiff.calibration.instruments.
@@ -43,6 +43,7 @@ from pkmstiff.errors import CalibrationError, CalibrationInputError, StructureMo
 from pkmstiff.kinematics import as_poses
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
+from pkmstiff.structure import strut_mass_text
 
 DEFLECTION_MODELS = ("none", "gravity")
 
@@ -272,7 +273,7 @@ def deflection_analysis(machine: Machine, params: ParameterSet, plan: Plan, meas
     tcp = gravity_deflection(machine, plan.poses, load, tool_length=tv, gravity=g)
     how = f"first at nominal, then re-evaluated at the estimate, up to {refine} times"
     notes = [f"deflection subtracted at the identified machine ({how})",
-             "Assumption: struts lumped half at either joint; masses at rigidly suspended drives carried by the frame"]
+             f"Assumption: {strut_mass_text(machine)}; masses at rigidly suspended drives carried by the frame"]
     return DeflectionAnalysis(corrected, uncorrected, dr, tcp, predicted, actual, split_load(load), g, notes)
 
 

@@ -1,6 +1,7 @@
 """Identifiability of the error parameters from a plan: numerical rank by the gap in the singular values, base
-parameters by QR with column pivoting, named gauge freedoms, condition number, orthogonality matrix O and the
-observability indices O1–O5 (Szatmári §4.4.2, eq. 4.5–4.8; Denkena §1.4.3; docs/theory/calibration.md).
+parameters by a fixed priority order (:func:`base_parameter_indices`), named gauge freedoms, condition number,
+orthogonality matrix O and the observability indices O1–O5 (Szatmári §4.4.2, eq. 4.5–4.8; Denkena §1.4.3;
+docs/theory/calibration.md).
 
 All of it works on the scaled Jacobian J_s = W J D (W weights orientation rows by a length, D = diag(parameter
 scales); :meth:`IdentificationJacobian.scaled`): rank and gauge freedoms do not depend on D (column scaling keeps
@@ -12,7 +13,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.linalg import qr
 
 from pkmstiff.calibration.gauges import GaugeCandidate, gauge_candidates
 from pkmstiff.calibration.instruments import Setup
@@ -24,8 +24,16 @@ from pkmstiff.machine import Machine
 #: a (unit) candidate direction is new when more than this much of it lies outside the gauge directions already
 #: named (exact null directions agree to ~1e-10; anything independent leaves far more)
 _NEW_SHARE = 1e-6
-#: preference among exactly redundant parameters when choosing base parameters (higher = kept)
-_PREFERENCE = {"drive_joint": 0, "guide_start": 1}
+#: priority class of a parameter block when choosing base parameters (lower = kept first; every other block is
+#: class 0): of exactly redundant glide parameters the drive zero is kept, then the guide start, the drive-joint
+#: offset last
+_PRIORITY = {"guide_start": 1, "drive_joint": 2}
+#: a parameter is dropped when more than this much of its row of the orthonormal null basis lies outside the rows of
+#: the parameters dropped before it. Structural rows are O(0.01–1); a relative perturbation δ of the Jacobian moves
+#: the null basis by ≈ δ·cond (cond ≈ 1e4–1e5 here: 1e-12 -> 1e-7, LAPACK rounding -> 1e-11), so 1e-5 lies decades
+#: from both (every bundled machine × instrument × frame, default plans: dropped ≥ 0.012, passed over ≤ 1e-10;
+#: the tests assert the margins on Felix, the 6X and the Hexaglide)
+BASE_THRESHOLD = 1e-5
 
 
 def numerical_rank(sv: np.ndarray, shape: tuple[int, int]) -> tuple[int, float, float]:
@@ -46,6 +54,56 @@ def numerical_rank(sv: np.ndarray, shape: tuple[int, int]) -> tuple[int, float, 
     return r, float(ratios[r - 1]), float(np.sqrt(ext[r - 1] * ext[r]))
 
 
+def base_priority(params: ParameterSet) -> np.ndarray:
+    """Parameter indices in base-parameter priority order: by priority class of the block (:data:`_PRIORITY`), then
+    in the error model's parameter order (chain by chain, the block order of :mod:`.parameters`, set-up last)."""
+    return np.array(sorted(range(params.n), key=lambda i: (_PRIORITY.get(params.blocks[i], 0), i)), dtype=int)
+
+
+def base_parameter_indices(null_basis: np.ndarray, priority: np.ndarray,
+                           threshold: float = BASE_THRESHOLD) -> tuple[np.ndarray, float, float]:
+    """Base parameters: walking ``priority`` (most wanted first), keep a parameter unless it is a combination of
+    the parameters kept before it (docs/user-guide/calibration-identifiability.md).
+
+    Matroid duality turns this into a walk over the k rows of the orthonormal null basis N (n, k) in *reverse*
+    priority order: parameter j is dropped when its row N_j adds a new direction to the rows already dropped (its
+    residual after projection on them exceeds ``threshold``), until k are dropped — then N restricted to the dropped
+    rows is invertible, i.e. the kept columns are independent, and no kept parameter is a combination of earlier
+    ones. Only the null space enters (fixed by the singular-value gap), never column norms, so exactly tied columns
+    and a rounding-level perturbation do not change the choice. Returns (kept indices sorted, smallest residual
+    dropped, largest residual passed over): the decision margins. If fewer than k rows pass the threshold (no case
+    known), the largest remaining residuals are dropped to complete the set.
+    """
+    n, k = null_basis.shape
+    if k == 0:
+        return np.arange(n), np.inf, 0.0
+    order = np.asarray(priority)[::-1]
+    res = np.array(null_basis[order], dtype=float)  # residual rows, updated by modified Gram-Schmidt
+    dropped: list[int] = []
+    lo, hi, pos = np.inf, 0.0, 0
+    while len(dropped) < k and pos < n:
+        norms = np.linalg.norm(res[pos:], axis=1)
+        over = np.flatnonzero(norms > threshold)
+        if over.size == 0:
+            hi = max(hi, float(norms.max(initial=0.0)))
+            break
+        i = pos + int(over[0])
+        hi = max(hi, float(norms[:over[0]].max(initial=0.0)))
+        lo = min(lo, float(norms[over[0]]))
+        q = res[i] / norms[over[0]]
+        res[i + 1:] -= np.outer(res[i + 1:] @ q, q)
+        dropped.append(i)
+        pos = i + 1
+    while len(dropped) < k:  # fallback (see the docstring): pivot on the largest remaining residual
+        rest = np.setdiff1d(np.arange(n), dropped)
+        i = int(rest[np.argmax(np.linalg.norm(res[rest], axis=1))])
+        q = res[i] / np.linalg.norm(res[i])
+        res -= np.outer(res @ q, q)
+        dropped.append(i)
+    keep = np.setdiff1d(np.arange(n), order[dropped])
+    return keep, lo, hi
+
+
 def orthogonality_matrix(J: np.ndarray) -> np.ndarray:
     """O (n, n), o_kl = |j_k · j_l| / (|j_k| |j_l|) over the parameter columns (Szatmári eq. 4.5; docs/theory/calibration.md
     reading: n × n). A column without effect gets o_kk = 1 and o_kl = 0 (it is reported as a gauge freedom)."""
@@ -53,6 +111,7 @@ def orthogonality_matrix(J: np.ndarray) -> np.ndarray:
     safe = np.where(norms > 0, norms, 1.0)
     U = J / safe
     O = np.abs(U.T @ U)
+    O = np.triu(O) + np.triu(O, 1).T  # exactly symmetric whichever kernel the BLAS picks for UᵀU
     O = np.clip(O, 0.0, 1.0)
     np.fill_diagonal(O, 1.0)
     return O
@@ -243,14 +302,10 @@ def analyse(jac: IdentificationJacobian, machine: Machine, setup: Setup | None) 
     null_basis = V[:, rank:]
     cands = gauge_candidates(machine, params, setup)
     gauges = name_gauges(Rs, params.scale, params, cands, null_basis, thr) if rank < n else ()
-    # column pivoting depends on column norms of the updated residual only, which Q leaves unchanged; among exactly
-    # redundant columns (glide: guide start = drive-joint offset; guide start along the guide = drive zero) a tiny
-    # weight prefers the parameter a user would keep (drive zero, then guide start, last the drive-joint offset)
-    pref = np.array([1.0 + 1e-9 * _PREFERENCE.get(b, 2) for b in params.blocks])
-    piv = qr(Rs * pref, pivoting=True, mode="r")[1] if n else np.zeros(0, int)
-    base = tuple(params.names[i] for i in sorted(piv[:rank]))
+    keep = base_parameter_indices(null_basis, base_priority(params))[0]
+    base = tuple(params.names[i] for i in keep)
     if rank:
-        sb = np.linalg.svd(Rs[:, piv[:rank]], compute_uv=False)
+        sb = np.linalg.svd(Rs[:, keep], compute_uv=False)
         cond_base = float(sb[0] / sb[-1]) if sb[-1] > 0 else np.inf
         cond = float(sv[0] / sv[rank - 1])
     else:

@@ -383,8 +383,9 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
         tw = frame_deflection(perturbed_machine(machine, params, delta), reached, state.target,
                               options.deflection_load)
         o, R = deflect_frames(o, R, tw)
-        notes.append("gravity deflection of the structure model added (Assumption: struts lumped half at either "
-                     "joint)")
+        from pkmstiff.structure import strut_mass_text
+
+        notes.append(f"gravity deflection of the structure model added (Assumption: {strut_mass_text(machine)})")
     clean = readings(plan.setup, state, o, R, Rc)
     sigma = instrument.sigma(options.noise, smp.feed)
     rng = np.random.default_rng(options.seed)

@@ -249,7 +249,8 @@ def section_report(args) -> dict[str, Any]:
     mech = _load(args.machine)
     plane = args.plane.lower()
     for opt, given in (("--tool-length", args.tool_length is not None), ("--require", bool(args.require)),
-                       ("--frame", args.frame != "machine"), ("--neglect-spindle", args.neglect_spindle)):
+                       ("--frame", args.frame != "machine"), ("--neglect-spindle", args.neglect_spindle),
+                       ("--skip-check", bool(args.skip_check))):
         if given:
             raise _cli_error(f"{opt}: not available for a mechanism ('{mech.name}'): a mechanism section has the "
                              f"kinematic quantities {', '.join(quantity_names(mech))}")

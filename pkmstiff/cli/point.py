@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -55,19 +56,26 @@ def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissiblePoseRef
 
 
 def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None = None, n_modes: int = 6,
-                 neglect_spindle: bool = False, frame: str = "machine", allow_inadmissible: bool = True) -> dict:
+                 neglect_spindle: bool = False, frame: str = "machine", allow_inadmissible: bool = True,
+                 skip_checks: Sequence[str] = ()) -> dict:
     """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units
     (schema ``pkmstiff/schemas/point.schema.json``).
 
     The pose is given in ``frame`` (:mod:`pkmstiff.machine.frames`; spatial machines only). Admissibility (every
     check of docs/theory/admissibility.md) comes first; with ``allow_inadmissible=False`` an inadmissible pose raises
-    :class:`~pkmstiff.errors.InadmissiblePoseRefused` (exit status 3) before any analysis.
+    :class:`~pkmstiff.errors.InadmissiblePoseRefused` (exit status 3) before any analysis. ``skip_checks``: names
+    of admissibility checks left out (stated as ``checks_left_out``).
     """
     if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
         raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
     if n_modes < 0:
         raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
+    from pkmstiff.admissibility.checks import checks_left_out, checks_without
+
+    checks = checks_without(skip_checks, "--skip-check")
     if _is_planar(machine_name):
+        if skip_checks:
+            raise PointArgumentError(f"--skip-check: not available for the planar example '{machine_name}'")
         return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
@@ -83,7 +91,9 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
     m = load_machine(machine_name)
     given = pose
     pose = to_machine_frame(m, given, frame)
-    adm = evaluate_poses(m, pose[None]).admissibility
+    # the one pose evaluation: the structure and the kinetostatics reuse it
+    ev = evaluate_poses(m, pose[None], checks=checks)
+    adm = ev.admissibility
     admissible, reasons = bool(adm.ok[0]), adm.failing(0)
     pose_out = {"x_mm": given[0] * 1e3, "y_mm": given[1] * 1e3, "z_mm": given[2] * 1e3,
                 "a_deg": math.degrees(given[3]), "b_deg": math.degrees(given[4]), "c_deg": math.degrees(given[5])}
@@ -91,8 +101,8 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         raise _refuse(m.name, ", ".join(f"{k.split('_')[0]} = {v:g} {k.split('_')[1]}" for k, v in pose_out.items())
                       + f" ({frame} frame)", reasons)
     tl = None if tool_length_mm is None else tool_length_mm * 1e-3
-    st = build_structure(m, pose[None])
-    ks = kinetostatics(m, pose[None])
+    st = build_structure(m, ev)
+    ks = kinetostatics(m, ev)
     rep: dict[str, Any] = {
         "schema": SCHEMA,
         "machine": m.name, "machine_type": m.kind,
@@ -102,6 +112,7 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         "admissible": admissible, "reasons": reasons,
         "analysed_although_inadmissible": not admissible,
         "skipped_checks": adm.skipped(),
+        "checks_left_out": checks_left_out(checks),
         "tool_length_mm": (m.tool.length if tl is None else tl) * 1e3,
         "neglect_spindle": neglect_spindle,
         "modelled": bool(st.ok[0]), "model_reasons": st.failing(0),
@@ -204,6 +215,10 @@ def _print_report(rep: dict) -> None:
     builtins.print(f"{rep['machine']} ({rep['machine_type']}) at {where} ({_frame_line(rep)})"
                    + (f", tool length {rep['tool_length_mm']:.1f} mm" if "tool_length_mm" in rep else "")
                    + (", K_U neglected (platform and spindle rigid)" if rep.get("neglect_spindle") else ""))
+    if rep.get("checks_left_out"):
+        from pkmstiff.admissibility.checks import left_out_text
+
+        builtins.print(left_out_text(rep["checks_left_out"]))
     if rep["admissible"]:
         builtins.print("admissible: yes")
     else:
@@ -252,16 +267,17 @@ def _print_report(rep: dict) -> None:
 
 
 def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | None = None,
-               n_modes: int = 1) -> tuple[list[str], list[list]]:
+               n_modes: int = 1, skip_checks: Sequence[str] = ()) -> tuple[list[str], list[list]]:
     """CSV header and rows of a point batch (one structure batch over all poses): pose (mm, deg), admissibility and
     reasons, TCP stiffness k_x, k_y, k_z (N/µm) and the lowest ``n_modes`` natural frequencies (Hz). Inadmissible
-    poses get empty result cells (never a silent number)."""
+    poses get empty result cells (never a silent number). ``skip_checks``: admissibility checks left out."""
+    from pkmstiff.admissibility.checks import checks_without
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import natural_frequencies, tcp_compliance
     from pkmstiff.structure import build_structure
 
     m = load_machine(machine_name)
-    adm = evaluate_poses(m, poses_si).admissibility
+    adm = evaluate_poses(m, poses_si, checks=checks_without(skip_checks, "--skip-check")).admissibility
     ok = adm.ok
     n = len(poses_si)
     k = np.full((n, 3), np.nan)
@@ -297,9 +313,13 @@ def _point_batch(args: argparse.Namespace) -> int:
     announce("point", rows_cost(rows, POINT_ROW_BYTES, POINT_ROW_SECONDS, f"{args.poses}", "pose rows", "--poses"),
              parse_budget(getattr(args, "memory_budget", None)), quiet=rows < 10_000)
     poses = read_pose_file(args.poses)
-    head, rows = point_rows(args.machine, poses, args.tool_length, args.modes)
+    head, rows = point_rows(args.machine, poses, args.tool_length, args.modes, args.skip_check)
     fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
     try:
+        if args.skip_check:
+            from pkmstiff.admissibility.checks import left_out_text
+
+            fh.write(f"# {left_out_text(args.skip_check)}\n")
         w = csv.writer(fh)
         w.writerow(head)
         w.writerows([["" if isinstance(v, float) and not math.isfinite(v) else
@@ -324,7 +344,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
         check_output_dir(args.figures, "--figures", True)
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
-                           args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False))
+                           args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False),
+                           skip_checks=args.skip_check)
     except PointArgumentError as exc:
         from pkmstiff.cli import CliError
 
@@ -379,10 +400,11 @@ def add_commands(sub: Any) -> None:
                    help="tool length in mm (default: machine file)")
     p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")
     from pkmstiff.cli.edges import add_budget_argument
-    from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
+    from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument, add_spindle_argument
 
     add_spindle_argument(p)
     add_frame_argument(p)
+    add_skip_check_argument(p)
     add_budget_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--figures", metavar="DIR", default=None,

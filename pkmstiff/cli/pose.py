@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
+from pkmstiff.admissibility.checks import checks_left_out, checks_without, left_out_text
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import PoseArgumentError  # noqa: F401 (re-exported)
 from pkmstiff.io.ranges import parse_numbers
@@ -61,11 +63,13 @@ def read_pose_file(path: str) -> np.ndarray:
     return np.array(poses)
 
 
-def pose_rows(machine_name: str, poses_si: np.ndarray) -> tuple[list[str], list[list]]:
+def pose_rows(machine_name: str, poses_si: np.ndarray,
+              skip_checks: Sequence[str] = ()) -> tuple[list[str], list[list]]:
     """CSV header and rows of a pose batch: pose (mm, deg), drive coordinates and strut lengths (mm), condition
-    number, admissibility and reasons; vectorised over the poses (one pipeline call)."""
+    number, admissibility and reasons; vectorised over the poses (one pipeline call). ``skip_checks``: names of
+    admissibility checks left out."""
     m = load_machine(machine_name)
-    ev = evaluate_poses(m, poses_si)
+    ev = evaluate_poses(m, poses_si, checks=checks_without(skip_checks, "--skip-check"))
     a = ev.admissibility
     n = m.n_chains
     head = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"] + [f"drive{i + 1}_mm" for i in range(n)] \
@@ -79,17 +83,20 @@ def pose_rows(machine_name: str, poses_si: np.ndarray) -> tuple[list[str], list[
     return head, rows
 
 
-def pose_report(machine_name: str, pose_si: np.ndarray, frame: str = "machine") -> dict:
+def pose_report(machine_name: str, pose_si: np.ndarray, frame: str = "machine",
+                skip_checks: Sequence[str] = ()) -> dict:
     """Everything ``pkmstiff pose`` prints, as a JSON-ready dict whose keys name their units.
 
     ``pose_si`` is given in ``frame`` (:mod:`pkmstiff.machine.frames`); points in the output are in the same frame.
+    ``skip_checks``: names of admissibility checks left out (stated as ``checks_left_out``).
     """
     from pkmstiff.machine.frames import frame_metadata, from_machine_frame, to_machine_frame
 
     m = load_machine(machine_name)
     given = np.asarray(pose_si, float)
     pose_si = to_machine_frame(m, given, frame)
-    ev = evaluate_poses(m, pose_si[None])
+    checks = checks_without(skip_checks, "--skip-check")
+    ev = evaluate_poses(m, pose_si[None], checks=checks)
     a = ev.admissibility
     deg = np.rad2deg
     rep = {
@@ -111,6 +118,7 @@ def pose_report(machine_name: str, pose_si: np.ndarray, frame: str = "machine") 
         "admissible": bool(a.ok[0]),
         "reasons": a.failing(0),
         "skipped_checks": a.skipped(),
+        "checks_left_out": checks_left_out(checks),
     }
     for side in ("drive", "platform"):
         types = m.chains.drive_joint_type if side == "drive" else m.chains.platform_joint_type
@@ -143,6 +151,9 @@ def _cmd_pose(args: argparse.Namespace) -> int:
         from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
         from pkmstiff.cli.mechanism import print_pose
 
+        if args.skip_check:
+            raise CliError(f"--skip-check: not available for the mechanism '{args.machine}' (its admissibility is "
+                           "the joint limits)")
         if args.pose is None:
             raise CliError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
                            "'pkmstiff mechanism solve' with several --pose)")
@@ -158,7 +169,7 @@ def _cmd_pose(args: argparse.Namespace) -> int:
         pose = parse_pose(args.pose)
     except PoseArgumentError as exc:
         raise CliError(str(exc)) from None
-    rep = pose_report(args.machine, pose, args.frame)
+    rep = pose_report(args.machine, pose, args.frame, args.skip_check)
     if args.json:
         print(json.dumps(rep, indent=2))
         return 0
@@ -189,6 +200,8 @@ def _cmd_pose(args: argparse.Namespace) -> int:
             print(f"  - {r}")
     for name, why in rep["skipped_checks"].items():
         print(f"  (check '{name}' skipped: {why})")
+    if rep["checks_left_out"]:
+        print(f"  ({left_out_text(rep['checks_left_out'])})")
     return 0
 
 
@@ -201,9 +214,11 @@ def _pose_batch(args: argparse.Namespace) -> int:
 
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
     poses = read_pose_file(args.poses)
-    head, rows = pose_rows(args.machine, poses)
+    head, rows = pose_rows(args.machine, poses, args.skip_check)
     fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
     try:
+        if args.skip_check:
+            fh.write(f"# {left_out_text(args.skip_check)}\n")
         w = csv.writer(fh)
         w.writerow(head)
         w.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in r] for r in rows])
@@ -228,7 +243,8 @@ def add_commands(sub) -> None:
                    help="a batch: CSV file with one pose x,y,z,a,b,c (mm, deg) per line; prints CSV")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="with --poses: write the CSV here")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
-    from pkmstiff.cli.frame_options import add_frame_argument
+    from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument
 
     add_frame_argument(p)
+    add_skip_check_argument(p)
     p.set_defaults(func=_cmd_pose)

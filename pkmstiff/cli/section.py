@@ -34,6 +34,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     )
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
+    from pkmstiff.admissibility.checks import checks_without, left_out_text
     from pkmstiff.report.outputs import write_section_outputs
 
     if is_mechanism_target(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
@@ -63,6 +64,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
         if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
             raise SectionArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length}")
         requirements = _requirements(getattr(args, "require", None))
+        checks = checks_without(args.skip_check, "--skip-check")
     except (SectionArgumentError, SectionError, UnknownQuantityError) as exc:
         raise CliError(str(exc)) from None
     check_jobs(args.jobs)
@@ -85,7 +87,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
 
         try:
             ranges = dict(zip(plane_kind, window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori,
-                                                        args.frame)))
+                                                        args.frame, checks)))
         except SectionError as exc:
             raise CliError(str(exc)) from None
         fitted = True
@@ -95,7 +97,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())
     fmts = formats if args.out else []
     cost = SectionRequest(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step,
-                          tuple(all_names), tuple(ori), frame=args.frame).cost(
+                          tuple(all_names), tuple(ori), frame=args.frame, skip_checks=tuple(args.skip_check)).cost(
         machine, len(names) if "png" in fmts else 0, write=bool(set(fmts) & {"vtu", "csv", "npz"}))
     if "png" in fmts or getattr(args, "reasons_map", False):
         cost = cost.plus(PLOT_LIBRARY_SECONDS + (PNG_SECONDS if getattr(args, "reasons_map", False) else 0.0))
@@ -109,7 +111,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     res = evaluate_section(machine, plane, all_names, orientation=ori,
                            tool_length=None if args.tool_length is None else args.tool_length * 1e-3,
-                           n_jobs=args.jobs, progress=False if args.quiet else None, frame=args.frame)
+                           n_jobs=args.jobs, progress=False if args.quiet else None, frame=args.frame,
+                           checks=checks)
     failed_requirements = _apply_requirements(res, requirements)
     for extra in set(all_names) - set(names):
         for d in (res.values, res.units, res.si_units, res.labels):
@@ -133,7 +136,8 @@ def _cmd_section(args: argparse.Namespace) -> int:
     print(f"{res.machine}: {res.plane.name} ({frame_text(machine, args.frame)}), window {window}"
           f"{' (fitted)' if fitted else ''}: {res.ok.sum()} of {res.ok.size} points admissible "
           f"({float(res.ok.sum()) * plane.cell_area:.4g} m²), {seconds:.2f} s"
-          + (", K_U neglected (platform and spindle rigid)" if args.neglect_spindle else ""))
+          + (", K_U neglected (platform and spindle rigid)" if args.neglect_spindle else "")
+          + (f", {left_out_text(summary['checks_left_out'])}" if summary["checks_left_out"] else ""))
     for w in summary["warnings"]:
         print(f"  warning: {w}")
     if requirements:
@@ -195,14 +199,20 @@ def _cmd_quantities(args: argparse.Namespace) -> int:
     from pkmstiff.evaluation.quantities import _FAMILIES, available_quantities
 
     examples = {ex: pat.pattern.removesuffix("\\Z") for pat, _, ex in _FAMILIES}
+    from pkmstiff.admissibility.checks import CHECK_TEXT
+
     for name, desc in available_quantities().items():
         print(f"{name:<20} {desc}" + (f"  (family {examples[name]})" if name in examples else ""))
+    print("\nadmissibility checks (names for --skip-check and skip_checks):")
+    for name, desc in CHECK_TEXT.items():
+        print(f"{name:<20} {desc}")
     return 0
 
 
 def add_commands(sub) -> None:
     p = sub.add_parser("section", help="evaluate quantities on a workspace section plane",
-                       description="Quantities on a section plane, masked by all admissibility checks. "
+                       description="Quantities on a section plane, masked by the admissibility checks (all unless "
+                                   "--skip-check leaves some out). "
                                    "Lengths in mm, angles in degrees. See 'pkmstiff quantities' for names.")
     p.add_argument("machine", help="bundled machine name or machine file; or a mechanism (name or file): then the "
                                    "quantities are kappa and the drive names (see 'pkmstiff mechanism')")
@@ -228,10 +238,12 @@ def add_commands(sub) -> None:
                    help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory; "
                         "default 0.5)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files in --out")
-    from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
+    from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument, add_spindle_argument
 
     add_frame_argument(p)
     add_spindle_argument(p)
+    add_skip_check_argument(p)
     p.set_defaults(func=_cmd_section)
-    q = sub.add_parser("quantities", help="list the quantities that sections and requirements can use")
+    q = sub.add_parser("quantities", help="list the quantities that sections and requirements can use, and the "
+                                          "admissibility check names")
     q.set_defaults(func=_cmd_quantities)

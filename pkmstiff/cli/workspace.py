@@ -13,6 +13,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from pkmstiff.admissibility.checks import checks_without, left_out_text
 from pkmstiff.machine.loader import load_machine
 
 PLANES = {  # name -> (u axis, v axis, normal axis)
@@ -130,7 +131,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     n_ori = 1 if rng is None else max(1, int((rng[2] - rng[1]) / math.radians(max(args.range_step, 1e-9))) + 1)
     try:
         req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
-                               neglect_spindle=args.neglect_spindle)
+                               neglect_spindle=args.neglect_spindle, skip_checks=tuple(args.skip_check))
         options = dict(orientation_range=rng, range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
                        range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level)
         cost = req.cost(machine, n_ori, **options)
@@ -167,6 +168,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     print(f"{machine.name}: workspace at a,b,c = {args.orientation} deg{varying}, positions in the "
           f"{frame_text(machine, args.frame)}"
           + (", K_U neglected (platform and spindle rigid)" if args.neglect_spindle else "")
+          + (f", {left_out_text(args.skip_check)}" if args.skip_check else "")
           + f"; resolution {args.resolution:g} mm (effective "
           f"{', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
     print(f"volume: {res.volume:.5f} m^3 (surface nets); "
@@ -209,6 +211,7 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
 
 
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
+    from pkmstiff.admissibility.checks import checks_without
     from pkmstiff.cli.edges import announce, check_output_dir, parse_budget
     from pkmstiff.evaluation.cost import admissible_fraction, plane_points, rotation_map_cost
     from pkmstiff.evaluation.sections import raster, raster_count
@@ -246,7 +249,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
         origin[normal] = args.at * 1e-3
         pts = plane_points((u0 * 1e-3, u1 * 1e-3), (v0 * 1e-3, v1 * 1e-3), step * 1e-3,
                            to_machine_frame(machine, origin, args.frame), ua, va)
-        frac = admissible_fraction(machine, pts, ori)
+        frac = admissible_fraction(machine, pts, ori, checks_without(args.skip_check, "--skip-check"))
     cost = rotation_map_cost(nu * nv, frac, nu + nv - 1, len(dirs), inc, amax, method == "plain", args.verify)
     announce("rotation-map", cost.named(f"{len(dirs)} direction(s) on {nu * nv:,} raster points, increment "
                                         f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json)
@@ -264,7 +267,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             v = np.radians(raster(v_lo, v_hi, math.degrees(step)))
             res = rotational_workspace_map(machine, to_machine_frame(machine, point, args.frame), dirs[0], u, v, ori,
                                            inc, amax,
-                                           requirements=_requirements(args), method=method, verify=args.verify)
+                                           requirements=_requirements(args), method=method, verify=args.verify,
+                                           checks=checks_without(args.skip_check, "--skip-check"))
             others = [c for c in "abc" if c != dirs[0][1]]
             labels, scale = (f"{others[0]} [deg]", f"{others[1]} [deg]"), (180 / math.pi, 180 / math.pi)
             title = (f"{machine.name}: max. rotation {dirs[0]} at x,y,z = {args.point} mm "
@@ -281,7 +285,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             u = raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
             v = raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
             req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
-                                     inc, amax, tuple(_requirements(args)), method, frame=args.frame)
+                                     inc, amax, tuple(_requirements(args)), method, frame=args.frame,
+                                     skip_checks=tuple(args.skip_check))
             res = req.evaluate(machine, verify=args.verify)
             labels = (f"{args.plane[0]} [mm]", f"{args.plane[1]} [mm]")
             scale = (1e3, 1e3)
@@ -315,7 +320,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(summary, indent=2))
         return 0
-    print(title)
+    print(title + (f" ({left_out_text(args.skip_check)})" if args.skip_check else ""))
     print(f"{summary['admissible_points']} of {res.base_ok.size} raster points admissible at the base orientation; "
           f"increment {args.increment:g} deg, max {args.max_angle:g} deg, method {method}; run time {run:.2f} s")
     for d, st in summary["angles"].items():
@@ -363,10 +368,11 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--memory-budget", default=None, metavar="SIZE",
                    help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory)")
     p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
-    from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
+    from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument, add_spindle_argument
 
     add_frame_argument(p)
     add_spindle_argument(p)
+    add_skip_check_argument(p)
     p.set_defaults(func=_cmd_workspace)
 
     p = sub.add_parser(
@@ -395,11 +401,12 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
     from pkmstiff.cli.edges import add_budget_argument
-    from pkmstiff.cli.frame_options import add_frame_argument, add_spindle_argument
+    from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument, add_spindle_argument
 
     add_budget_argument(p)
     add_frame_argument(p)
     add_spindle_argument(p)
+    add_skip_check_argument(p)
     p.set_defaults(func=_cmd_rotation_map)
 
 

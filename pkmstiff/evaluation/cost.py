@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Iterable
+from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -165,9 +165,11 @@ def section_cost(n_points: int, admissible: float, n_kinematic: int, n_structure
     return Cost("section", n_points, "points", BASE_BYTES + peak, seconds, "--step")
 
 
-def admissible_fraction(machine, points: np.ndarray, orientation: Iterable[float]) -> float:
-    """Fraction of the raster ``points`` (N, 3) (m, machine frame) that are admissible at ``orientation`` (rad),
-    measured on an evenly strided subset of at most :data:`PILOT_POINTS` points (about 20 ms)."""
+def admissible_fraction(machine, points: np.ndarray, orientation: Iterable[float],
+                        checks: Sequence[str] | None = None) -> float:
+    """Fraction of the raster ``points`` (N, 3) (m, machine frame) that are admissible at ``orientation`` (rad) under
+    ``checks`` (None: all), measured on an evenly strided subset of at most :data:`PILOT_POINTS` points (~20 ms)."""
+    from pkmstiff.admissibility.checks import ALL_CHECKS
     from pkmstiff.admissibility.pipeline import evaluate_poses
 
     pts = np.asarray(points, float).reshape(-1, 3)
@@ -176,7 +178,7 @@ def admissible_fraction(machine, points: np.ndarray, orientation: Iterable[float
     stride = max(1, pts.shape[0] // PILOT_POINTS)
     sub = pts[::stride]
     poses = np.concatenate([sub, np.broadcast_to(np.asarray(tuple(orientation), float), (len(sub), 3))], axis=1)
-    return float(np.mean(evaluate_poses(machine, poses).ok))
+    return float(np.mean(evaluate_poses(machine, poses, checks=ALL_CHECKS if checks is None else checks).ok))
 
 
 def plane_points(u_range: tuple[float, float], v_range: tuple[float, float], step: float, origin: Iterable[float],

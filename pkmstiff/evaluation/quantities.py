@@ -201,8 +201,18 @@ for _k, _axis in enumerate("xyz"):
 
 
 # ------------------------------------------------------------------------------------ structure-model quantities
-# They share one structure evaluation per chunk (TCP compliance + lowest modes, pkmstiff.analysis), cached in the
-# context; the tool length of the context applies (None: the machine file's).
+# They share one structure model per chunk (structure_model, built from the chunk's pose evaluation) and one
+# structure evaluation (TCP compliance + lowest modes, pkmstiff.analysis), cached in the context; the tool length of
+# the context applies (None: the machine file's). Leaving K_U out is a property of the machine
+# (pkmstiff.machine.frames.neglect_spindle), so every quantity honours it.
+
+
+def structure_model(c: EvalContext):
+    """The chunk's one structure model (:func:`pkmstiff.structure.build_structure` on the chunk's pose evaluation,
+    which it reuses): stiffness, frequencies, shares and the deflection under gravity all take it."""
+    from pkmstiff.structure import build_structure
+
+    return c.cached("structure_model", lambda: build_structure(c.machine, c.ev))
 
 
 def _structure(c: EvalContext, n_modes: int = 6):
@@ -214,8 +224,7 @@ def _structure(c: EvalContext, n_modes: int = 6):
         # a batch with more modes serves requests for fewer
         have = [k for k in c._cache if k.startswith("structure:") and int(k.split(":")[1]) >= n_modes]
         c._cache[key] = c._cache[have[0]] if have else evaluate_structure(
-            c.machine, c.poses, tool_length=c.tool_length, n_modes=n_modes,
-            neglect_spindle=bool(c.options.get("neglect_spindle", False)))
+            c.machine, structure_model(c), tool_length=c.tool_length, n_modes=n_modes)
     return c._cache[key]
 
 
@@ -255,7 +264,7 @@ register_family(r"f(\d+)", _freq_family, "f1")
 def _kinetostatics(c: EvalContext):
     from pkmstiff.analysis.kinetostatics import kinetostatics
 
-    return c.cached("kinetostatics", lambda: kinetostatics(c.machine, c.poses))
+    return c.cached("kinetostatics", lambda: kinetostatics(c.machine, c.ev))
 
 
 def _vmax_family(m: re.Match) -> Quantity:
@@ -287,9 +296,8 @@ def _share_family(m: re.Match) -> Quantity:
 
     def f(c: EvalContext) -> np.ndarray:
         from pkmstiff.analysis.static import weak_points
-        from pkmstiff.structure import build_structure
 
-        wp = c.cached(f"weak:{direction}", lambda: weak_points(build_structure(c.machine, c.poses), direction,
+        wp = c.cached(f"weak:{direction}", lambda: weak_points(structure_model(c), direction,
                                                                tool_length=c.tool_length))
         if comp not in wp.component_labels:
             return np.zeros(len(c.poses))  # component absent (rigid): no share
@@ -311,8 +319,7 @@ register_family(r"share_(drive|guide|drive_suspension|drive_joint|strut|platform
 def _gravity(c: EvalContext) -> np.ndarray:
     from pkmstiff.analysis.gravity import gravity_deflection
 
-    return c.cached("gravity", lambda: gravity_deflection(
-        c.machine, c.poses, tool_length=c.tool_length, neglect_spindle=bool(c.options.get("neglect_spindle", False))))
+    return c.cached("gravity", lambda: gravity_deflection(c.machine, structure_model(c), tool_length=c.tool_length))
 
 
 register_quantity(Quantity("deflection_gravity", "TCP deflection under gravity (magnitude of the translation)", "um",

@@ -9,7 +9,9 @@ studies are thin front-ends that build requests from their own units (mm, degree
 
 Every request takes ``frame`` ("machine" or "report", :mod:`pkmstiff.machine.frames`): its positions are given in
 that frame and its results state it; and ``neglect_spindle`` (leave the platform-spindle stiffness K_U out, as the
-dissertation's tool-length-0 stiffness maps do; docs/user-guide/validation-hexaglide.md (reading 4)).
+dissertation's tool-length-0 stiffness maps do; docs/user-guide/validation-hexaglide.md (reading 4)); and
+``skip_checks`` (names of :data:`pkmstiff.admissibility.checks.ALL_CHECKS` left out of the admissibility; the
+results state them).
 
 :func:`statistic` is the one place that turns a section's per-quantity statistics into a named number.
 """
@@ -21,6 +23,7 @@ from typing import Sequence
 
 import numpy as np
 
+from pkmstiff.admissibility.checks import checks_left_out, checks_without
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.evaluation.cost import Cost
 from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
@@ -64,13 +67,15 @@ class SectionRequest:
     tool_length: float | None = None  # m; None = the machine file's
     frame: str = "machine"  # frame of at / u_range / v_range and of the result's raster
     neglect_spindle: bool = False  # leave K_U out
+    skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
     def evaluate(self, machine: Machine, *, n_jobs: int = 1, progress: bool | None = False) -> SectionResult:
         check_frame(self.frame)
+        checks = checks_without(self.skip_checks, "SectionRequest")
         plane = axis_plane(self.plane, self.at, self.u_range, self.v_range, self.step)
         return evaluate_section(neglect_spindle(machine, self.neglect_spindle), plane, self.quantities,
                                 orientation=self.orientation, tool_length=self.tool_length, n_jobs=n_jobs,
-                                progress=progress, frame=self.frame)
+                                progress=progress, frame=self.frame, checks=checks)
 
     def cost(self, machine: Machine, n_png: int = 0, write: bool = False) -> Cost:
         """The :class:`~pkmstiff.evaluation.cost.Cost` of :meth:`evaluate` (plus ``n_png`` maps and, ``write``, the
@@ -85,7 +90,8 @@ class SectionRequest:
         normal = ({"x", "y", "z"} - set(kind)).pop()
         origin = AXES[normal] * self.at + frame_origin(machine, self.frame)
         pts = plane_points(self.u_range, self.v_range, self.step, origin, AXES[kind[0]], AXES[kind[1]])
-        frac = admissible_fraction(machine, pts, self.orientation)
+        frac = admissible_fraction(machine, pts, self.orientation,
+                                   checks_without(self.skip_checks, "SectionRequest"))
         qs = [get_quantity(n) for n in dict.fromkeys(self.quantities)]
         structure = sum(q.needs_structure for q in qs)
         return section_cost(n_points, frac, len(qs) - structure, structure, any(q.group == "modal" for q in qs),
@@ -100,6 +106,7 @@ class PointResult:
     failing: list[str]
     pose_machine: tuple[float, ...] = ()  # the pose in the machine frame (m, rad)
     frame: str = "machine"  # frame in which the request's pose was given
+    checks_left_out: tuple[str, ...] = ()  # admissibility checks not applied
 
     @property
     def admissible(self) -> bool:
@@ -115,18 +122,21 @@ class PointRequest:
     tool_length: float | None = None  # m; None = the machine file's
     frame: str = "machine"  # frame of the pose's position
     neglect_spindle: bool = False  # leave K_U out
+    skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
     def evaluate(self, machine: Machine) -> PointResult:
         check_frame(self.frame)
+        checks = checks_without(self.skip_checks, "PointRequest")
+        left_out = tuple(checks_left_out(checks))
         machine = neglect_spindle(machine, self.neglect_spindle)
         x = to_machine_frame(machine, np.asarray(self.pose, float)[None, :], self.frame)
-        ev = evaluate_poses(machine, x)
+        ev = evaluate_poses(machine, x, checks=checks)
         pm = tuple(float(v) for v in x[0])
         if not ev.ok[0]:
-            return PointResult({}, ev.admissibility.failing(0), pm, self.frame)
+            return PointResult({}, ev.admissibility.failing(0), pm, self.frame, left_out)
         vals = evaluate_quantities(EvalContext(machine, ev, self.tool_length, {}), list(self.quantities))
         return PointResult({n: float(get_quantity(n).to_display(vals[n])[0]) for n in self.quantities}, [], pm,
-                           self.frame)
+                           self.frame, left_out)
 
 
 def check_quantity_names(names: Sequence[str]) -> tuple[str, ...]:

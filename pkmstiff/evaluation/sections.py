@@ -15,11 +15,17 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from pkmstiff.admissibility.checks import ALL_CHECKS, NEAR_SINGULAR_FRACTION, Reason, near_singular_limit
+from pkmstiff.admissibility.checks import (
+    ALL_CHECKS,
+    NEAR_SINGULAR_FRACTION,
+    Reason,
+    checks_left_out,
+    near_singular_limit,
+)
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
-from pkmstiff.machine.frames import frame_metadata, frame_origin, spindle_neglected
+from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
 from pkmstiff.machine.model import Machine
 
 #: below this many raster points ``n_jobs`` > 1 runs serially. Measured by benchmarks/bench_parallel_section.py on
@@ -264,8 +270,13 @@ def evaluate_section(
     poses = section_poses(plane, orientation)
     poses[:, :3] += frame_origin(machine, frame)
     opts = dict(options or {})
-    if spindle_neglected(machine):
-        opts["neglect_spindle"] = True
+    # the one place where the option maps onto the machine (every quantity then honours it); kept in the settings
+    neglect = bool(opts.pop("neglect_spindle", False)) or machine.spindle_neglected
+    machine = neglect_spindle(machine, neglect)
+    settings = {"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks),
+                "checks_left_out": checks_left_out(checks), **opts}
+    if neglect:
+        settings["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
     if progress is None:  # a bar on a terminal, periodic lines otherwise (see progress_items)
         progress = len(poses) * (1 + len(names)) > 20_000
@@ -288,8 +299,7 @@ def evaluate_section(
         machine=machine.name, plane=plane, orientation=np.asarray(orientation, float), tool_length=tool_length,
         values=values, units={n: q.unit for n, q in qs.items()}, si_units={n: q.si_unit for n, q in qs.items()},
         labels={n: q.label for n, q in qs.items()}, ok=ok, reasons=reasons,
-        settings={"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks),
-                  "near_singular_kappa": near_singular_limit(machine), **opts},
+        settings={**settings, "near_singular_kappa": near_singular_limit(machine)},
         frame=frame_metadata(machine, frame), kappa=kappa,
     )
 
@@ -363,6 +373,7 @@ def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
          "orientation_deg": np.rad2deg(res.orientation).tolist(),
          "tool_length_mm": None if res.tool_length is None else res.tool_length * 1e3,
          **res.frame, "neglect_spindle": bool(res.settings.get("neglect_spindle", False)),
+         "checks_left_out": list(res.settings.get("checks_left_out", [])),
          "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v},
          "window_mm": {res.plane.u_name: [float(res.plane.u_values[0]) * 1e3, float(res.plane.u_values[-1]) * 1e3],
                        res.plane.v_name: [float(res.plane.v_values[0]) * 1e3, float(res.plane.v_values[-1]) * 1e3]},

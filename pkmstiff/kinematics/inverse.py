@@ -47,6 +47,23 @@ class IK:
         """(N, n, 3) unit strut directions d̂_i (drive-side → platform-side joint)."""
         return self.d / self.length[..., None]
 
+    @classmethod
+    def _of(cls, **fields) -> IK:
+        """The same object as ``IK(**fields)`` without the frozen dataclass's ``__init__`` (ten ``object.__setattr__``
+        calls, ≈ 4 µs): for the small-N fast path (:mod:`pkmstiff.admissibility.fastpath`), where one pose takes
+        ≈ 50 µs in all. Every field must be given."""
+        ik = object.__new__(cls)
+        ik.__dict__.update(fields)
+        return ik
+
+    def take(self, idx: ArrayLike) -> IK:
+        """The result at the poses ``idx`` (boolean mask or index array over the N poses)."""
+        return IK(kind=self.kind, **{name: getattr(self, name)[idx] for name in IK_ARRAYS})
+
+
+#: the per-pose arrays of :class:`IK` (pose axis first)
+IK_ARRAYS = ("poses", "R", "rho", "p", "q", "d", "length", "drive", "reachable")
+
 
 def inverse_kinematics(machine: Machine, poses: ArrayLike) -> IK:
     """Inverse kinematics of N poses (docs/theory/kinematics.md pod, eq. A.6–A.8; §1.3 glide, eq. A.9–A.11).

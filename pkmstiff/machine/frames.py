@@ -21,12 +21,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.errors import InputError
-from pkmstiff.machine.model import Machine
+from pkmstiff.machine.model import NEGLECT_SPINDLE_NOTE, Machine  # noqa: F401 (re-exported)
 
 FRAMES = ("machine", "report")
-
-#: text added to the title of a machine whose K_U is neglected (outputs say so)
-NEGLECT_SPINDLE_NOTE = "K_U neglected (platform and spindle rigid, Cobet 4.2.4)"
 
 
 def check_frame(frame: str, source: str = "frame") -> str:
@@ -78,14 +75,15 @@ def neglect_spindle(machine: Machine, enabled: bool = True) -> Machine:
 
     Without the ``platform_spindle`` role platform and spindle form one rigid body (roles.py); this equals loading
     the platform at the TCP with K_U rigid (:func:`pkmstiff.analysis.static.tcp_compliance` ``neglect_spindle``).
-    The title says so.
+    The machine's field ``spindle_neglected`` records it (every analysis of the machine honours it; the displayed
+    title :attr:`~pkmstiff.machine.model.Machine.display_title` says so).
     """
     if not enabled or "platform_spindle" not in machine.machine_components:
         return machine
     mc = {k: v for k, v in machine.machine_components.items() if k != "platform_spindle"}
-    return dataclasses.replace(machine, machine_components=mc, title=f"{machine.title} [{NEGLECT_SPINDLE_NOTE}]")
+    return dataclasses.replace(machine, machine_components=mc, spindle_neglected=True)
 
 
 def spindle_neglected(machine: Machine) -> bool:
-    """True if K_U was left out by :func:`neglect_spindle`."""
-    return NEGLECT_SPINDLE_NOTE in machine.title
+    """True if K_U was left out by :func:`neglect_spindle` (the machine's ``spindle_neglected`` field)."""
+    return machine.spindle_neglected

@@ -25,7 +25,7 @@ from pkmstiff.units import InputError, parse_quantity
 _TOP_KEYS = {"format_version", "machine", "limits", "tool", "joint_types", "guides", "chain_defaults", "chains",
              "hull", "components", "machine_components", "assumptions", "options", "calibration"}
 _MACHINE_KEYS = {"name", "title", "type", "source", "extends", "gravity", "transmission_weight", "notes",
-                 "report_origin", "report_origin_note", "transmission_form"}
+                 "report_origin", "report_origin_note", "transmission_form", "strut_mass_shares"}
 TRANSMISSION_FORMS = ("inverse_sqrt_kappa", "inverse_kappa")
 _LIMIT_KEYS = {"singularity_threshold", "strut_collision_mode", "platform_end_exclusion", "drive_load_include_coulomb",
                "drive_load_strut_mass", "frame"}
@@ -180,6 +180,21 @@ def _length(value: Any, src: str, key: str, *, positive: bool = True) -> float:
     return float(parse_quantity(value, "m", source=src, key=key, positive=positive, min_value=None if positive else 0.0))
 
 
+def _strut_mass_shares(tab: Any, src: str) -> tuple[float, float]:
+    """``[machine] strut_mass_shares = { drive = D, platform = P }``: fractions of each strut's mass lumped at its
+    drive and platform joint in the structure model, each in [0, 1], D + P <= 1."""
+    key = "machine.strut_mass_shares"
+    if not isinstance(tab, dict):
+        raise MachineFileError(src, key, "a table { drive = fraction, platform = fraction }", tab)
+    check_keys(tab, {"drive", "platform"}, src, key + ".", error=MachineFileError)
+    shares = tuple(float(parse_quantity(require(tab, side, src, key + ".", "a fraction in [0, 1]",
+                                                error=MachineFileError), "dimensionless", source=src,
+                                        key=f"{key}.{side}", min_value=0.0)) for side in ("drive", "platform"))
+    if max(shares) > 1.0 or sum(shares) > 1.0 + 1e-12:
+        raise MachineFileError(src, key, "fractions in [0, 1] with drive + platform <= 1", tab)
+    return shares  # type: ignore[return-value]
+
+
 def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     check_keys(raw, _TOP_KEYS, src, "", error=MachineFileError)
     check_format_version(raw, src)
@@ -197,6 +212,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     tform = mtab.get("transmission_form", "inverse_sqrt_kappa")
     if tform not in TRANSMISSION_FORMS:
         raise MachineFileError(src, "machine.transmission_form", f"one of {list(TRANSMISSION_FORMS)}", tform)
+    shares = _strut_mass_shares(mtab.get("strut_mass_shares", {"drive": 0.5, "platform": 0.5}), src)
     limits = _limits(raw.get("limits", {}), src)
     tool = _tool(raw.get("tool", {}), src)
     components = _components(raw.get("components", {}), src)
@@ -228,7 +244,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
         machine_components={k: str(v) for k, v in mcomp.items()}, assumptions=dict(assumptions),
         source=str(mtab.get("source", "")), path=src, built_components=built,
         report_origin=report_origin, report_origin_note=str(mtab.get("report_origin_note", "")),
-        transmission_form=tform, calibration=_calibration(raw.get("calibration"), src),
+        transmission_form=tform, strut_mass_shares=shares, calibration=_calibration(raw.get("calibration"), src),
     )
 
 

@@ -164,6 +164,10 @@ class Limits:
     position_max: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
 
 
+#: note added to the displayed title of a machine whose K_U is left out (:attr:`Machine.display_title`)
+NEGLECT_SPINDLE_NOTE = "K_U neglected (platform and spindle rigid, Cobet 4.2.4)"
+
+
 @dataclass(frozen=True)
 class Machine:
     """A complete PKM description loaded from a machine file."""
@@ -191,10 +195,21 @@ class Machine:
     # transmission quality form (docs/theory/kinetostatics.md eq. 4.75 note): "inverse_sqrt_kappa" = κ(WJ_C)^(-1/2) (default),
     # "inverse_kappa" = 1/κ(WJ_C)
     transmission_form: str = "inverse_sqrt_kappa"
+    # shares (drive joint, platform joint) of each strut's mass that the structure model lumps there ([machine]
+    # strut_mass_shares; docs/theory/structure.md): (0, 0) where the drive and platform masses already hold the struts
+    strut_mass_shares: tuple[float, float] = (0.5, 0.5)
     # component instances built on load: name -> (raw parameter table it was built from, instance)
     built_components: dict[str, tuple[dict, Any]] = field(default_factory=dict, compare=False, repr=False)
     # provenance of a calibrated machine file (its [calibration] table, validated on load; empty otherwise)
     calibration: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    # the platform-spindle stiffness K_U is left out (platform and spindle one rigid body); set by
+    # pkmstiff.machine.frames.neglect_spindle, which also removes the platform_spindle role
+    spindle_neglected: bool = False
+
+    @property
+    def display_title(self) -> str:
+        """The title for outputs: the machine file's, with :data:`NEGLECT_SPINDLE_NOTE` when K_U is left out."""
+        return f"{self.title} [{NEGLECT_SPINDLE_NOTE}]" if self.spindle_neglected else self.title
 
     @property
     def kind(self) -> ChainKind:
@@ -207,15 +222,13 @@ class Machine:
     def joint_type_arrays(self, side: Literal["drive", "platform"]) -> dict[str, np.ndarray]:
         """Per-chain arrays of the joint settings of one side (for vectorised checks); read-only, built once per
         machine and side (the single-pose path asked for them four times per evaluation)."""
-        key = (id(self), side)
-        hit = _JOINT_ARRAY_CACHE.get(key)
-        if hit is not None and hit[0] is self:
-            return hit[1]
-        arrays = self._joint_type_arrays(side)
-        for a in arrays.values():
-            a.flags.writeable = False
-        _JOINT_ARRAY_CACHE[key] = (self, arrays)  # the entry keeps the machine alive: its id is not reused meanwhile
-        return arrays
+        def build() -> dict[str, np.ndarray]:
+            arrays = self._joint_type_arrays(side)
+            for a in arrays.values():
+                a.flags.writeable = False
+            return arrays
+
+        return memo(self, f"_joint_type_arrays_{side}", build)
 
     def _joint_type_arrays(self, side: str) -> dict[str, np.ndarray]:
         names = self.chains.drive_joint_type if side == "drive" else self.chains.platform_joint_type
@@ -230,5 +243,3 @@ class Machine:
             "ina_coupled": np.array([j.ina_coupled for j in jts]),
         }
 
-
-_JOINT_ARRAY_CACHE: dict[tuple[int, str], tuple[Machine, dict[str, np.ndarray]]] = {}

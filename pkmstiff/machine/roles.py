@@ -22,18 +22,25 @@ MACHINE_ROLES = ("platform", "spindle", "platform_spindle")
 
 
 def component(machine: Machine, name: str) -> Any:
-    """The component instance ``name`` of the machine (built on load; rebuilt if the machine was modified)."""
+    """The component instance ``name`` of the machine (built on load; built once per machine object if the machine
+    was modified: kept with the object by :func:`~pkmstiff.machine.model.memo`, never written into the frozen
+    machine's ``built_components``, which ``dataclasses.replace`` shares between copies)."""
     raw = machine.components[name]
     cached = machine.built_components.get(name)
     if cached is not None and cached[0] is raw:
         return cached[1]
-    from pathlib import Path
 
-    from components.registry import build_component
+    def build() -> tuple[dict, Any]:
+        from pathlib import Path
 
-    inst = build_component(name, raw, source=machine.path, base_dir=str(Path(machine.path).parent))
-    machine.built_components[name] = (raw, inst)
-    return inst
+        from components.registry import build_component
+
+        return raw, build_component(name, raw, source=machine.path, base_dir=str(Path(machine.path).parent))
+
+    hit = memo(machine, f"_built_component:{name}", build)
+    if hit[0] is not raw:  # the components dict was changed in place since: build afresh
+        hit = build()
+    return hit[1]
 
 
 

@@ -20,8 +20,10 @@ from pkmstiff.multibody.inputs import SDEInputError, SingularModelError
 from pkmstiff.multibody.modal import (
                        MOTION_LABELS,
                        ModalResult,
+                       ModeAxes,
                        describe_modes,
                        kinetic_energy_shares,
+                       mode_axes,
                        mode_label,
                        modes,
                        motion_shares,
@@ -54,7 +56,7 @@ __all__ = [
     "axis_stiffness", "body_displacements", "sde_deformations", "sde_forces", "energy_shares", "group_matrix",
     "weak_points",
     "ModalResult", "modes", "natural_frequencies", "kinetic_energy_shares", "strain_energy_shares",
-    "motion_shares", "describe_modes", "mode_label",
+    "motion_shares", "describe_modes", "mode_label", "ModeAxes", "mode_axes",
     "PointDirection", "load_vector", "receptance", "accelerance", "find_peaks",
     "PointEvaluation", "evaluate_point",
 ]

@@ -217,6 +217,42 @@ def describe_modes(model: SDEModel, shapes: np.ndarray, body: str) -> tuple[np.n
     return idx, np.take_along_axis(shares, idx[..., None], axis=-1)[..., 0]
 
 
+@dataclass
+class ModeAxes:
+    """Instantaneous screw axis of a rigid body's motion in each mode (N, k): ``direction`` (N, k, 3) unit vector
+    along the rotation θ, ``point`` (N, k, 3) [m] the point of the axis nearest the body's reference point (CoG),
+    ``pitch`` (N, k) [m/rad] translation along the axis per rotation, and ``lever`` (N, k) [m] = |u|/|θ| at the
+    reference point (large: the motion is nearly a translation; then ``point`` lies far away)."""
+
+    direction: np.ndarray
+    point: np.ndarray
+    pitch: np.ndarray
+    lever: np.ndarray
+
+
+def mode_axes(model: SDEModel, shapes: np.ndarray, body: str) -> ModeAxes:
+    """Instantaneous screw axis of ``body`` (a rigid body) in each mode shape (Chasles' theorem).
+
+    A small rigid-body motion (u at the reference point r₀, rotation θ) is a rotation about the axis
+    ``p + t θ/|θ|`` with ``p = r₀ + (θ × u)/|θ|²`` plus the translation ``h θ`` along it, ``h = θ·u/|θ|²``
+    (the velocity of a point r is ``u + θ × (r − r₀)``; on the axis it is parallel to θ).  NaN where θ = 0.
+    """
+    b = model.body(body)
+    if not isinstance(b, RigidBody):
+        raise SDEInputError(body, "body", "a rigid body (6 DOF)", type(b).__name__)
+    v = shapes[..., model.dof_index(body)]
+    u, th = v[..., :3], v[..., 3:]
+    t2 = np.einsum("...i,...i->...", th, th)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.where(t2 > 0, 1.0 / t2, np.nan)
+        r0 = np.broadcast_to(b.position, (shapes.shape[0], 3))[:, None, :]
+        point = r0 + np.cross(th, u) * inv[..., None]
+        direction = th * np.sqrt(inv)[..., None]
+        pitch = np.einsum("...i,...i->...", th, u) * inv
+        lever = np.linalg.norm(u, axis=-1) * np.sqrt(inv)
+    return ModeAxes(direction, point, pitch, lever)
+
+
 def mode_label(index: int, share: float) -> str:
     """Text such as ``'rotation about x (83 %)'``."""
     return f"{MOTION_LABELS[int(index)]} ({100.0 * float(share):.0f} %)"

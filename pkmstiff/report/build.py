@@ -14,6 +14,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from pkmstiff.admissibility.checks import checks_left_out, checks_without, left_out_text
 from pkmstiff.evaluation.cost import (
     FIGURE_3D_BYTES,
     FIGURE_3D_LIBRARY_SECONDS,
@@ -131,6 +132,7 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
 def _variant_text(v: Variant, m: Machine) -> str:
     overrides = (", overrides " + ", ".join(f"{k} = {val!r}" for k, val in v.overrides.items())) if v.overrides else ""
     ku = ", K_U neglected (platform and spindle rigid)" if v.neglect_spindle else ""
+    ku += f", {left_out_text(v.skip_checks)}" if v.skip_checks else ""
     return (f"{v.name}: {m.title} ({m.name}{overrides}{ku}), tool length {_tool_mm(m, v.tool_length):g} mm, "
             f"orientation a, b, c = {_fmt_deg(v.orientation)} deg" + (f". {v.description}" if v.description else ""))
 
@@ -165,14 +167,14 @@ def _workspace_request(spec: ReportSpec, v: Variant) -> WorkspaceRequest:
     ws = spec.workspace
     ori = ws.orientation if ws.orientation is not None else v.orientation
     return WorkspaceRequest(ws.resolution, ws.box, ws.requirements, ori, ws.methods, frame=spec.frame,
-                            neglect_spindle=v.neglect_spindle)
+                            neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks)
 
 
 def _section_request(sec: SectionSpec, v: Variant, frame: str) -> SectionRequest:
     return SectionRequest(sec.plane, sec.at, sec.u_range, sec.v_range, sec.step, sec.quantities,
                           sec.orientation if sec.orientation is not None else v.orientation,
                           sec.tool_length if sec.tool_length is not None else v.tool_length,
-                          frame=frame, neglect_spindle=v.neglect_spindle)
+                          frame=frame, neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks)
 
 
 def spec_cost(spec: ReportSpec, fast: bool = False) -> Cost:
@@ -231,7 +233,8 @@ def _point_rows(pt: PointSpec, pairs: list, table: Table, notes: list[str], fram
     rows: dict[str, list[float | None]] = {q: [] for q in pt.quantities}
     for v, m in pairs:
         tl = pt.tool_length if pt.tool_length is not None else v.tool_length
-        res = PointRequest(pt.pose, pt.quantities, tl, frame=frame, neglect_spindle=v.neglect_spindle).evaluate(m)
+        res = PointRequest(pt.pose, pt.quantities, tl, frame=frame, neglect_spindle=v.neglect_spindle,
+                           skip_checks=v.skip_checks).evaluate(m)
         if not res.admissible:
             notes.append(f"{v.name} at {pt.name}: inadmissible ({'; '.join(res.failing)})")
         for q in pt.quantities:
@@ -249,6 +252,7 @@ def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) 
                                   "overrides": dict(v.overrides), "tool_length_mm": _tool_mm(m, v.tool_length),
                                   "orientation_deg": [round(math.degrees(a), 9) for a in v.orientation],
                                   "neglect_spindle": v.neglect_spindle,
+                                  "checks_left_out": checks_left_out(checks_without(v.skip_checks)),
                                   "frame_origin_mm": (frame_origin(m, spec.frame) * 1e3).tolist()}
     for k, sec in enumerate(spec.sections):
         s[f"section {k + 1}"] = {"plane": sec.name, "range_mm": sec.range_text, "step_mm": sec.step * 1e3,

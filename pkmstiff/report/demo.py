@@ -65,9 +65,9 @@ def run(args: argparse.Namespace) -> int:
     reasons_png = plot_reasons(res, out / "hexaglide_yz_admissibility.png")
     seconds = time.perf_counter() - t0
     info = section_summary(res, seconds)
-    _write_summary(out, machine.title, info, [f for f in files if f.suffix == ".png"] + [reasons_png, fig3],
+    _write_summary(out, machine.display_title, info, [f for f in files if f.suffix == ".png"] + [reasons_png, fig3],
                    machine.assumptions)
-    print(f"pkmstiff demo: {machine.title}, {plane.name} (report frame), {res.ok.sum()} of {res.ok.size} points "
+    print(f"pkmstiff demo: {machine.display_title}, {plane.name} (report frame), {res.ok.sum()} of {res.ok.size} points "
           f"admissible, "
           f"{seconds:.1f} s")
     for n, st in info["statistics"].items():

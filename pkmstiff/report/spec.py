@@ -39,7 +39,7 @@ MACHINE_ROWS: dict[str, tuple[str, str, Callable[[Machine, "Variant"], float]]] 
 
 _REPORT_KEYS = {"title", "summary", "baseline", "digits", "machine_rows", "assumptions", "frame"}
 _VARIANT_KEYS = {"name", "machine", "options", "overrides", "tool_length_mm", "orientation_deg", "description",
-                 "neglect_spindle"}
+                 "neglect_spindle", "skip_checks"}
 _SECTION_KEYS = {"plane", "at_mm", "range", "step_mm", "quantities", "statistics", "maps", "tool_length_mm",
                  "orientation_deg", "title"}
 _WORKSPACE_KEYS = {"resolution_mm", "box_mm", "requirements", "methods", "figures", "orientation_deg"}
@@ -60,6 +60,7 @@ class Variant:
     orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
     description: str = ""
     neglect_spindle: bool = False  # leave K_U out (docs/user-guide/validation-hexaglide.md (reading 4))
+    skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
 
 @dataclass(frozen=True)
@@ -173,6 +174,14 @@ class _Reader:
             raise self.error(key, "true or false", value)
         return value
 
+    def check_names(self, value: Any, key: str) -> tuple[str, ...]:
+        """Admissibility check names to leave out (:data:`pkmstiff.admissibility.checks.ALL_CHECKS`)."""
+        from pkmstiff.admissibility.checks import checks_without
+
+        names = self.strings(value, key, nonempty=False)
+        checks_without(names, self.src, key)  # raises, naming the known checks
+        return names
+
     def orientation(self, value: Any, key: str) -> tuple[float, float, float]:
         a, b, c = self.numbers(value, key, 3, "a, b, c in deg")
         return (math.radians(a), math.radians(b), math.radians(c))
@@ -223,7 +232,8 @@ def _variant(r: _Reader, tab: Any, i: int, spec_dir: Path) -> Variant:
                    1e-3 * r.number(tab["tool_length_mm"], p + ".tool_length_mm"),
                    orientation=r.orientation(tab.get("orientation_deg", [0, 0, 0]), p + ".orientation_deg"),
                    description=r.string(tab.get("description", ""), p + ".description"),
-                   neglect_spindle=r.boolean(tab.get("neglect_spindle", False), p + ".neglect_spindle"))
+                   neglect_spindle=r.boolean(tab.get("neglect_spindle", False), p + ".neglect_spindle"),
+                   skip_checks=r.check_names(tab.get("skip_checks", []), p + ".skip_checks"))
 
 
 def _section(r: _Reader, tab: Any, i: int) -> SectionSpec:

@@ -57,6 +57,17 @@ def _orientation(values: Sequence[float], where: str) -> tuple[float, float, flo
     return v  # type: ignore[return-value]
 
 
+def _check_skip(names: Sequence[str], where: str) -> tuple[str, ...]:
+    """Admissibility check names to leave out, validated against ``ALL_CHECKS``."""
+    from pkmstiff.admissibility.checks import ALL_CHECKS
+
+    names = tuple(names)
+    bad = [n for n in names if n not in ALL_CHECKS]
+    if bad:
+        raise SweepError(f"{where}: expected admissibility check names from {', '.join(ALL_CHECKS)}, found {bad[0]!r}")
+    return names
+
+
 def _check_frame(frame: str, where: str) -> None:
     if frame not in ("machine", "report"):
         raise SweepError(f"{where}: expected 'machine' or 'report', found {frame!r}")
@@ -80,9 +91,11 @@ class SectionStatistics:
     orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     frame: str = "machine"  # frame of at_mm / range ("machine" or "report", pkmstiff.machine.frames)
     neglect_spindle: bool = False  # leave K_U out (docs/user-guide/validation-hexaglide.md (reading 4))
+    skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
     def __post_init__(self) -> None:
         _check_frame(self.frame, "SectionStatistics.frame")
+        object.__setattr__(self, "skip_checks", _check_skip(self.skip_checks, "SectionStatistics.skip_checks"))
         object.__setattr__(self, "quantities", _check_quantities(self.quantities, "SectionStatistics.quantities"))
         object.__setattr__(self, "plane", str(self.plane).lower())
         if self.plane not in ("yz", "xz", "xy"):
@@ -108,7 +121,7 @@ class SectionStatistics:
         return SectionRequest(self.plane, self.at_mm * 1e-3, r[self.plane[0]], r[self.plane[1]], self.step_mm * 1e-3,
                               self.quantities, tuple(np.radians(self.orientation_deg)),
                               None if self.tool_length_mm is None else self.tool_length_mm * 1e-3,
-                              frame=self.frame, neglect_spindle=self.neglect_spindle)
+                              frame=self.frame, neglect_spindle=self.neglect_spindle, skip_checks=self.skip_checks)
 
     def __call__(self, machine: Machine) -> dict[str, float]:
         res = self.request().evaluate(machine)
@@ -134,9 +147,11 @@ class PointValues:
     suffix: str = ""
     frame: str = "machine"  # frame of the pose's position
     neglect_spindle: bool = False  # leave K_U out
+    skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
     def __post_init__(self) -> None:
         _check_frame(self.frame, "PointValues.frame")
+        object.__setattr__(self, "skip_checks", _check_skip(self.skip_checks, "PointValues.skip_checks"))
         p = tuple(float(x) for x in self.pose)
         if len(p) != 6 or not all(math.isfinite(x) for x in p):
             raise SweepError(f"PointValues.pose: expected x, y, z [mm], a, b, c [deg], found {self.pose!r}")
@@ -147,7 +162,7 @@ class PointValues:
         """The SI evaluation request this sweep evaluation stands for."""
         pose = (*(v * 1e-3 for v in self.pose[:3]), *np.radians(self.pose[3:]))
         return PointRequest(pose, self.quantities, None if self.tool_length_mm is None else self.tool_length_mm * 1e-3,
-                            frame=self.frame, neglect_spindle=self.neglect_spindle)
+                            frame=self.frame, neglect_spindle=self.neglect_spindle, skip_checks=self.skip_checks)
 
     def __call__(self, machine: Machine) -> dict[str, float]:
         res = self.request().evaluate(machine)
@@ -172,9 +187,11 @@ class WorkspaceVolume:
     method: str = "surface_nets"
     frame: str = "machine"  # frame of box_mm
     neglect_spindle: bool = False  # leave K_U out (stiffness requirements)
+    skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
     def __post_init__(self) -> None:
         _check_frame(self.frame, "WorkspaceVolume.frame")
+        object.__setattr__(self, "skip_checks", _check_skip(self.skip_checks, "WorkspaceVolume.skip_checks"))
         from pkmstiff.workspace.requirements import RequirementError, parse_requirements
         from pkmstiff.workspace.volume import METHODS
 
@@ -205,7 +222,7 @@ class WorkspaceVolume:
             box = (b[0::2], b[1::2])
         return WorkspaceRequest(self.resolution_mm * 1e-3, box, self.requirements,
                                 tuple(np.radians(self.orientation_deg)), (self.method,), frame=self.frame,
-                                neglect_spindle=self.neglect_spindle)
+                                neglect_spindle=self.neglect_spindle, skip_checks=self.skip_checks)
 
     def __call__(self, machine: Machine) -> dict[str, float]:
         res = self.request().evaluate(machine)

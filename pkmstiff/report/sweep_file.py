@@ -15,6 +15,7 @@
     kind = "section"                 # section | point | workspace (see pkmstiff.evaluation.requests)
     quantities = ["kx"]; plane = "yz"; at_mm = 0; range = "y=-200:800,z=-1100:-500"; step_mm = 25
     statistics = ["mean", "max"]; tool_length_mm = 150; orientation_deg = [0, 0, 0]
+    skip_checks = ["platform_collision"]   # optional: admissibility checks left out (pkmstiff quantities lists them)
 
 Errors are :class:`SweepFileError` naming the file, the key, what was expected and what was found.
 """
@@ -36,10 +37,10 @@ _SWEEP_KEYS = {"machine", "mode", "samples", "seed", "overrides"}
 _PARAM_KEYS = {"path", "unit", "values", "distribution", "low", "high", "mean", "std"}
 _EVAL_KEYS = {
     "section": {"kind", "quantities", "plane", "at_mm", "range", "step_mm", "statistics", "tool_length_mm",
-                "orientation_deg", "frame", "neglect_spindle"},
-    "point": {"kind", "pose", "quantities", "tool_length_mm", "suffix", "frame", "neglect_spindle"},
+                "orientation_deg", "frame", "neglect_spindle", "skip_checks"},
+    "point": {"kind", "pose", "quantities", "tool_length_mm", "suffix", "frame", "neglect_spindle", "skip_checks"},
     "workspace": {"kind", "resolution_mm", "box_mm", "requirements", "orientation_deg", "method", "frame",
-                  "neglect_spindle"},
+                  "neglect_spindle", "skip_checks"},
 }
 
 

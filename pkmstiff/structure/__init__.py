@@ -24,20 +24,23 @@ docs/theory/kinematics.md) are not modelled: the structure keeps them with a rea
 error, NaN or non-positive stiffness) and, in the batch evaluation, for poses whose stiffness matrix is not
 positive definite.
 
-Assumptions (not in the spec, configurable in :class:`StructureOptions`): strut masses are lumped half at the
-drive joint and half at the platform joint (Hexaglide machine file); joint masses of the joint types go to the
+Assumptions (not in the spec, configurable in :class:`StructureOptions`): strut masses are lumped at the drive and
+platform joints by the machine file's ``strut_mass_shares`` (default half at either joint; the Hexaglide: none, its
+drive and platform masses hold the struts); joint masses of the joint types go to the
 drive resp. the platform; the platform–spindle coupling point is O' (docs/theory/structure.md Assumption); the spindle's
 reference point is O'; a massless spindle (Hexaglide: all of M_P on the platform) is condensed statically.
 """
 
 from pkmstiff.structure.assembly import platform_spindle_matrix
-from pkmstiff.structure.build import build_structure, iter_structures, structure_from_ik, structure_summary
+from pkmstiff.structure.build import build_structure, iter_structures, structure_evaluation, structure_summary
 from pkmstiff.structure.layout import (
                                        PKSBody,
                                        StructureLayout,
                                        combine_bodies,
                                        component_body,
                                        structure_layout,
+                                       strut_mass_shares,
+                                       strut_mass_text,
                                        vertical_direction,
 )
 from pkmstiff.structure.masses import dynamics_masses, mass_matrix_about_origin, platform_mass_matrix
@@ -54,7 +57,8 @@ from pkmstiff.structure.stiffness import ChainStiffness, chain_stiffness
 
 __all__ = [
     "StructureOptions", "StructureLayout", "StructureModelError", "PKMStructure", "ChainStiffness",
-    "structure_layout", "build_structure", "structure_from_ik", "iter_structures", "chain_stiffness",
+    "structure_layout", "strut_mass_shares", "strut_mass_text", "build_structure", "structure_evaluation",
+    "iter_structures", "chain_stiffness",
     "platform_mass_matrix", "mass_matrix_about_origin", "PKSBody", "combine_bodies", "component_body",
     "vertical_direction", "platform_spindle_matrix", "dynamics_masses", "structure_summary", "DEFAULT_CHUNK",
     "COMPONENT_FAILED",

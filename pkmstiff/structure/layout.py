@@ -81,6 +81,24 @@ class StructureLayout:
         return "spindle" if self.separate_spindle else "platform"
 
 
+def strut_mass_shares(machine: Machine, options: StructureOptions | None = None) -> tuple[float, float]:
+    """(drive, platform) fractions of each strut's mass lumped at its joints: the machine file's
+    ``strut_mass_shares`` unless ``options.strut_mass_to_drive`` overrides them (that fraction at the drive, the rest
+    at the platform)."""
+    share = None if options is None else options.strut_mass_to_drive
+    if share is None:
+        return machine.strut_mass_shares
+    return share, 1.0 - share
+
+
+def strut_mass_text(machine: Machine, options: StructureOptions | None = None) -> str:
+    """One line for outputs: how the structure model places the strut masses."""
+    d, p = strut_mass_shares(machine, options)
+    if d == 0.0 and p == 0.0:
+        return "no extra strut mass (the drive and platform masses hold the struts)"
+    return f"each strut's mass lumped {100 * d:g} % at its drive joint, {100 * p:g} % at its platform joint"
+
+
 def structure_layout(machine: Machine, options: StructureOptions | None = None) -> StructureLayout:
     """Masses and bodies of the structure model of ``machine`` (docs/theory/structure.md); raises on missing data."""
     options = options or StructureOptions()
@@ -100,7 +118,7 @@ def structure_layout(machine: Machine, options: StructureOptions | None = None) 
                                   "a telescopic drive or strut stiffness per chain", "none given")
     jt_d = [machine.joint_types[t] for t in machine.chains.drive_joint_type]
     jt_p = [machine.joint_types[t] for t in machine.chains.platform_joint_type]
-    share = options.strut_mass_to_drive
+    share, platform_share = strut_mass_shares(machine, options)
     strut_mass = np.array([0.0 if s is None else float(s.mass) for s in mc.strut])
     jm_d = np.array([j.mass if options.joint_masses else 0.0 for j in jt_d])
     jm_p = np.array([j.mass if options.joint_masses else 0.0 for j in jt_p])
@@ -112,7 +130,7 @@ def structure_layout(machine: Machine, options: StructureOptions | None = None) 
         platform = combine_bodies([platform, spindle])
         spindle = PKSBody.empty()
     for i in range(n):
-        platform = platform.plus_point((1.0 - share) * strut_mass[i] + jm_p[i], machine.chains.platform_joint[i])
+        platform = platform.plus_point(platform_share * strut_mass[i] + jm_p[i], machine.chains.platform_joint[i])
 
     def mass_of(c: Any) -> float:
         return 0.0 if c is None else float(c.mass)

@@ -41,6 +41,7 @@ class PKMStructure:
     stiffness: ChainStiffness
     _model: sde.SDEModel | None = dataclasses.field(default=None, repr=False)
     _dynamic: sde.SDEModel | None = dataclasses.field(default=None, repr=False)
+    _parts: dict[int, list[tuple[slice, PKMStructure]]] = dataclasses.field(default_factory=dict, repr=False)
 
     @property
     def model(self) -> sde.SDEModel | None:
@@ -142,11 +143,62 @@ class PKMStructure:
         out += [text for bit, text in STATUS_TEXT.items() if int(self.status[i]) & bit]
         return out
 
-    def without(self, local_bad: Array, status_bit: int = NOT_POSITIVE_DEFINITE) -> "PKMStructure":
+    def without(self, local_bad: Array, status_bit: int = NOT_POSITIVE_DEFINITE) -> PKMStructure:
         """Copy without the modelled poses flagged in ``local_bad`` (M,) (they get ``status_bit``)."""
         keep = ~np.asarray(local_bad, bool)
         status = self.status.copy()
         status[self.index[~keep]] |= np.uint8(status_bit)
         return dataclasses.replace(self, status=status, index=self.index[keep], w=self.w[keep], R=self.R[keep],
                                    p=self.p[keep], q=self.q[keep], u=self.u[keep],
-                                   stiffness=self.stiffness.take(keep), _model=None, _dynamic=None)
+                                   stiffness=self.stiffness.take(keep), _model=None, _dynamic=None, _parts={})
+
+    def part(self, poses: slice) -> PKMStructure:
+        """The structure of a range of its poses (``slice`` over the N poses); the SDE model is built anew."""
+        lo, hi, _ = poses.indices(self.n_poses)
+        k = (self.index >= lo) & (self.index < hi)
+        return PKMStructure(self.layout, self.poses[lo:hi], self.reasons[lo:hi], self.status[lo:hi], self.index[k] - lo,
+                            self.w[k], self.R[k], self.p[k], self.q[k], self.u[k], self.stiffness.take(k))
+
+    def parts(self, chunk_size: int | None = None) -> list[tuple[slice, PKMStructure]]:
+        """``(slice, structure)`` for consecutive ranges of at most ``chunk_size`` poses (default
+        :data:`~pkmstiff.structure.DEFAULT_CHUNK`): the analyses of :mod:`pkmstiff.analysis` work part by part, so
+        that their memory is bounded by one part whatever N is. A structure that fits is its own single part.
+
+        The parts (and the SDE models they build) of a structure of at most :data:`KEEP_PARTS` parts are kept, so
+        that several analyses of one chunk (stiffness, weak points, deflection: the section quantities) assemble
+        each model once; a larger structure is split afresh by every analysis (memory stays bounded).
+        """
+        from pkmstiff.structure import options as _options
+
+        size = int(chunk_size or _options.DEFAULT_CHUNK)
+        if size < 1:
+            raise StructureModelError("PKMStructure.parts", "chunk_size", "an integer >= 1", chunk_size)
+        if self.n_poses <= size:
+            return [(slice(0, self.n_poses), self)]
+        if size in self._parts:
+            return self._parts[size]
+        out = [(sl, self.part(sl)) for sl in (slice(s, min(s + size, self.n_poses))
+                                              for s in range(0, self.n_poses, size))]
+        if len(out) <= KEEP_PARTS:
+            self._parts[size] = out
+        return out
+
+    @staticmethod
+    def concatenate(parts: list[PKMStructure]) -> PKMStructure:
+        """One structure of the poses of ``parts`` (same layout) in their order (SDE model built anew)."""
+        first = parts[0]
+        offsets = np.cumsum([0] + [p.n_poses for p in parts[:-1]])
+        ks = [p.stiffness for p in parts]
+        w_local = None if ks[0].w_local is None else np.concatenate([k.w_local for k in ks])
+        stiffness = ChainStiffness(*(np.concatenate([getattr(k, f) for k in ks]) for f in
+                                     ("drive_joint", "strut", "platform_joint", "drive", "chain")), w_local)
+        return PKMStructure(first.layout, *(np.concatenate([getattr(p, f) for p in parts]) for f in
+                                            ("poses", "reasons", "status")),
+                            np.concatenate([p.index + o for p, o in zip(parts, offsets)]),
+                            *(np.concatenate([getattr(p, f) for p in parts]) for f in ("w", "R", "p", "q", "u")),
+                            stiffness)
+
+
+#: largest number of parts of a structure that :meth:`PKMStructure.parts` keeps (a section chunk of the default
+#: 4096 poses has two parts of 2048; one million poses would keep every part's SDE model alive)
+KEEP_PARTS = 4

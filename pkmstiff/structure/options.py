@@ -37,7 +37,8 @@ STATUS_TEXT = {
 class StructureOptions:
     """Settings of the structure model; every field not prescribed by the spec is an Assumption.
 
-    ``strut_mass_to_drive``: fraction of each strut's mass lumped at the drive joint (rest at the platform joint);
+    ``strut_mass_to_drive``: None (default) = the machine's ``strut_mass_shares`` (machine file); a fraction
+    overrides them: that fraction of each strut's mass at the drive joint, the rest at the platform joint;
     ``joint_masses``: add the joint types' masses (drive joint → drive, platform joint → platform);
     ``coupling_point``: r_U in the PKS [m] (docs/theory/structure.md Assumption: O'); ``k_u_axes``: axes in which the
     ``platform_spindle`` matrix is given (``"platform"`` → ``H K_U Hᵀ``, or ``"machine"``);
@@ -48,7 +49,7 @@ class StructureOptions:
     failing any admissibility check of :func:`pkmstiff.admissibility.pipeline.evaluate_poses` (collisions, joint limits, ...).
     """
 
-    strut_mass_to_drive: float = 0.5
+    strut_mass_to_drive: float | None = None
     joint_masses: bool = True
     coupling_point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     k_u_axes: Literal["platform", "machine"] = "platform"
@@ -59,7 +60,7 @@ class StructureOptions:
     check: Literal["kinematic", "full"] = "kinematic"
 
     def __post_init__(self) -> None:
-        if not 0.0 <= self.strut_mass_to_drive <= 1.0:
+        if self.strut_mass_to_drive is not None and not 0.0 <= self.strut_mass_to_drive <= 1.0:
             raise StructureModelError("StructureOptions", "strut_mass_to_drive", "a fraction in [0, 1]",
                                       self.strut_mass_to_drive)
         if self.k_u_axes not in ("platform", "machine"):

@@ -4,8 +4,9 @@ positions of each pose, chain series stiffness k_V (docs/theory/structure.md, Co
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -103,17 +104,20 @@ class ChainStiffness:
     chain: Array
     w_local: Array | None
 
-    def take(self, idx: Array) -> "ChainStiffness":
+    def take(self, idx: Array) -> ChainStiffness:
         """The same stiffnesses at the poses ``idx`` (index array or boolean mask)."""
         return ChainStiffness(self.drive_joint[idx], self.strut[idx], self.platform_joint[idx], self.drive[idx],
                               self.chain[idx], None if self.w_local is None else self.w_local[idx])
 
 
-def _chain_arrays(ik: IK, angles: Any, idx: Array) -> dict[str, Array]:
+def _chain_arrays(ik: IK, angles: Mapping[str, Array] | Any, idx: Array) -> dict[str, Array]:
+    def angle(side: str, qty: str) -> Array:
+        a = angles[f"{side}_{qty}"] if isinstance(angles, Mapping) else getattr(getattr(angles, side), qty)
+        return a[idx]
+
     return {
         "drive_position": ik.drive[idx], "strut_length": ik.length[idx],
-        "drive_joint.tilt": angles.drive.tilt[idx], "drive_joint.swivel": angles.drive.swivel[idx],
-        "platform_joint.tilt": angles.platform.tilt[idx], "platform_joint.swivel": angles.platform.swivel[idx],
+        **{f"{side}_joint.{qty}": angle(side, qty) for side in ("drive", "platform") for qty in ("tilt", "swivel")},
     }
 
 
@@ -121,8 +125,13 @@ def _pole_placement(layout: StructureLayout) -> bool:
     return any(getattr(d, "axial_stiffness", None) == "pole_placement" for d in layout.components.drive)
 
 
-def chain_stiffness(layout: StructureLayout, ik: IK, angles: Any, idx: Array) -> tuple[ChainStiffness, Array]:
-    """Component stiffnesses at the poses ``idx`` of ``ik`` and an ok mask (len(idx),) (docs/theory/components.md, eq. 4.48)."""
+def chain_stiffness(layout: StructureLayout, ik: IK, angles: Mapping[str, Array] | Any, idx: Array
+                    ) -> tuple[ChainStiffness, Array]:
+    """Component stiffnesses at the poses ``idx`` of ``ik`` and an ok mask (len(idx),) (docs/theory/components.md, eq. 4.48).
+
+    ``angles``: the joint angles of the pose pipeline (:attr:`pkmstiff.admissibility.pipeline.PoseEvaluation.angles`,
+    keys ``drive_tilt``, ``drive_swivel``, ``platform_tilt``, ``platform_swivel``), or a
+    :class:`~pkmstiff.kinematics.joint_angles.JointAngles`."""
     mc, n, m = layout.components, layout.n, len(idx)
     arrays = _chain_arrays(ik, angles, idx)
     if _pole_placement(layout):

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from pkmstiff.admissibility.checks import checks_without
 from pkmstiff.evaluation.cost import Cost, octree_pilot_halvings, workspace_cost
 from pkmstiff.machine.frames import check_frame, frame_metadata, neglect_spindle, to_machine_frame
 from pkmstiff.machine.model import Machine
@@ -32,16 +33,18 @@ class WorkspaceRequest:
     methods: tuple[str, ...] = ("surface_nets",)
     frame: str = "machine"  # frame of ``box``; the result's summary gives positions in it too
     neglect_spindle: bool = False  # leave K_U out (stiffness requirements)
+    skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
     def evaluate(self, machine: Machine, **options: Any) -> WorkspaceResult:
         """``options`` are passed to :func:`constant_orientation_workspace` (progress, refine_steps, ...)."""
         check_frame(self.frame)
+        checks = checks_without(self.skip_checks, "WorkspaceRequest")
         machine = neglect_spindle(machine, self.neglect_spindle)
         box = None if self.box is None else (to_machine_frame(machine, self.box[0], self.frame),
                                              to_machine_frame(machine, self.box[1], self.frame))
         res = constant_orientation_workspace(machine, self.resolution, self.orientation,
                                              requirements=self.requirements, box=box, methods=self.methods,
-                                             **options)
+                                             checks=checks, **options)
         res.frame = frame_metadata(machine, self.frame)
         res.settings["neglect_spindle"] = self.neglect_spindle
         return res
@@ -85,14 +88,17 @@ class RotationMapRequest:
     method: str = "predictor_corrector"
     frame: str = "machine"  # frame of ``origin`` (the raster's u, v values are offsets along the axes)
     neglect_spindle: bool = False  # leave K_U out (stiffness requirements)
+    skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
     def evaluate(self, machine: Machine, **options: Any) -> RotationMapResult:
         check_frame(self.frame)
+        checks = checks_without(self.skip_checks, "RotationMapRequest")
         machine = neglect_spindle(machine, self.neglect_spindle)
         origin = to_machine_frame(machine, self.origin, self.frame)
         res = rotation_angle_map(machine, origin, self.u_axis, self.v_axis, self.u_values, self.v_values,
                                  self.base_orientation, list(self.directions), self.increment, self.max_angle,
-                                 requirements=self.requirements, method=self.method, **options)
+                                 requirements=self.requirements, method=self.method, checks=checks,
+                                 **options)
         res.settings.update(frame_metadata(machine, self.frame))
         res.settings["neglect_spindle"] = self.neglect_spindle
         return res

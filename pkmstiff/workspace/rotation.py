@@ -184,7 +184,8 @@ def angle_search(
         angles[d] = np.where(k >= 0, k * increment, np.nan).reshape(nv, nu)
         at_limit[d] = (k == K).reshape(nv, nu)
         plain_seq[d] = int(np.where(k < 0, 0, np.where(k == K, K, k + 1)).sum())  # k=0 is the shared base check
-    settings = {"checks": list(checks), "requirements": [r.text for r in reqs], "verify": verify,
+    settings = {"checks": list(checks), "checks_left_out": adm.checks_left_out(checks),
+                "requirements": [r.text for r in reqs], "verify": verify,
                 "block": block, "increments": K}
     return RotationMapResult(u, v, base, angles, at_limit, base_ok.reshape(nv, nu),
                              {d: int(evals[j]) for j, d in enumerate(dirs)}, plain_seq, base_evals,

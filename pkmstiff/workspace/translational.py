@@ -167,7 +167,8 @@ def constant_orientation_workspace(
     stats = {"evaluations": st.points, "octree_evaluations": res.evaluations,
              "refine_evaluations": rep.refine_evaluations, **st.as_dict(),
              "run_time_s": run, "evaluation_time_s": st.time, "octree_overhead_s": run - st.time}
-    settings = {"checks": list(checks), "requirements": [r.text for r in oracle.requirements],
+    settings = {"checks": list(checks), "checks_left_out": adm.checks_left_out(checks),
+                "requirements": [r.text for r in oracle.requirements],
                 "orientation_range": None if orientation_range is None else
                 [orientation_range[0], math.degrees(orientation_range[1]), math.degrees(orientation_range[2])],
                 "orientation_range_unit": "deg", "range_step_deg": math.degrees(range_step),

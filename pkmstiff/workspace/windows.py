@@ -5,10 +5,11 @@ gives the in-plane extent of the admissible region, so that a default section ne
 from __future__ import annotations
 
 import math
-from typing import Iterable
+from typing import Iterable, Sequence
 
 import numpy as np
 
+from pkmstiff.admissibility.checks import ALL_CHECKS
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError
 from pkmstiff.evaluation.sections import axis_plane, section_poses
@@ -22,7 +23,8 @@ ROUND_TO = 0.01
 
 
 def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[float] = (0.0, 0.0, 0.0),
-               margin_steps: float = 1.5) -> tuple[tuple[float, float], tuple[float, float]]:
+               margin_steps: float = 1.5, checks: Sequence[str] = ALL_CHECKS,
+               ) -> tuple[tuple[float, float], tuple[float, float]]:
     """In-plane ranges (m) of plane ``kind`` ('yz', 'xz', 'xy') at ``at`` (m) that contain the admissible region.
 
     A raster of :data:`COARSE_POINTS` points along the longer side of the chains' reach box
@@ -31,13 +33,14 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
     within one coarse step of the outermost admissible point, plus a visible margin) and is rounded outward to
     :data:`ROUND_TO`. It is not clipped to the reach box: where the region ends at a frame limit, the margin shows
     inadmissible points, so the window's edge never cuts the region. Raises :class:`SectionError` when no coarse point is admissible.
+    ``checks``: the admissibility checks that define the region (those the section will apply).
     """
     kind = kind.lower()
     lo, hi = reach_box(machine)
     iu, iv = "xyz".index(kind[0]), "xyz".index(kind[1])
     step = max(hi[iu] - lo[iu], hi[iv] - lo[iv]) / COARSE_POINTS
     plane = axis_plane(kind, at, (lo[iu], hi[iu]), (lo[iv], hi[iv]), step)
-    ok = evaluate_poses(machine, section_poses(plane, orientation)).ok.reshape(plane.shape)
+    ok = evaluate_poses(machine, section_poses(plane, orientation), checks=checks).ok.reshape(plane.shape)
     if not ok.any():
         raise SectionError(f"{machine.name}: no admissible point on the {kind.upper()} plane at "
                            f"{'xyz'[3 - iu - iv]} = {at * 1e3:g} mm in the chains' reach box (coarse step "
@@ -55,7 +58,8 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
 
 
 def window_ranges(machine: Machine, kind: str, at: float, step: float, orientation: Iterable[float] = (0.0, 0.0, 0.0),
-                  frame: str = "machine") -> tuple[tuple[float, float], tuple[float, float]]:
+                  frame: str = "machine", checks: Sequence[str] = ALL_CHECKS,
+                  ) -> tuple[tuple[float, float], tuple[float, float]]:
     """The in-plane ranges (m) of :func:`fit_window`, upper ends extended to whole raster steps (:func:`snap_to_step`)
     so that the raster's last row and column lie outside the admissible region too. ``at`` and the ranges are in
     ``frame`` (:mod:`pkmstiff.machine.frames`); the fit itself runs in the machine frame."""
@@ -64,7 +68,7 @@ def window_ranges(machine: Machine, kind: str, at: float, step: float, orientati
     kind = kind.lower()
     o = frame_origin(machine, frame)
     normal = "xyz".index(({"x", "y", "z"} - set(kind)).pop())
-    ur, vr = fit_window(machine, kind, at + o[normal], orientation)
+    ur, vr = fit_window(machine, kind, at + o[normal], orientation, checks=checks)
     iu, iv = "xyz".index(kind[0]), "xyz".index(kind[1])
     return (snap_to_step((ur[0] - o[iu], ur[1] - o[iu]), step), snap_to_step((vr[0] - o[iv], vr[1] - o[iv]), step))
 
