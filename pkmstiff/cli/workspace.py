@@ -8,6 +8,7 @@ import json
 import math
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -95,12 +96,24 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 # ------------------------------------------------------------------------------------------------------- workspace
 
 
+@contextmanager
+def _octree_input_errors():
+    """Bad octree/oracle input (and a box the chains cannot reach) as one-line command-line errors."""
+    from pkmstiff.workspace.octree import OctreeInputError
+    from pkmstiff.workspace.oracle import OracleInputError
+
+    try:
+        yield
+    except (OctreeInputError, OracleInputError, ValueError) as exc:
+        if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
+            raise _cli_error(str(exc)) from None
+        raise
+
+
 def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_output_dir, parse_budget
     from pkmstiff.evaluation.cost import FIGURE_3D_BYTES, FIGURE_3D_LIBRARY_SECONDS, FIGURE_3D_SECONDS
     from pkmstiff.machine.frames import frame_text
-    from pkmstiff.workspace.octree import OctreeInputError
-    from pkmstiff.workspace.oracle import OracleInputError
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
 
@@ -129,27 +142,21 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         rng = (parts[0], math.radians(lo), math.radians(hi))
 
     n_ori = 1 if rng is None else max(1, int((rng[2] - rng[1]) / math.radians(max(args.range_step, 1e-9))) + 1)
-    try:
-        req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
-                               neglect_spindle=args.neglect_spindle, skip_checks=tuple(args.skip_check))
-        options = dict(orientation_range=rng, range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
-                       range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level)
-        cost = req.cost(machine, n_ori, **options)
-        if args.out and not args.no_plot:
-            cost = cost.plus(FIGURE_3D_LIBRARY_SECONDS + FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
-    except (OctreeInputError, OracleInputError, ValueError) as exc:
-        if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
-            raise _cli_error(str(exc)) from None
-        raise
+    range_step = math.radians(_positive(args.range_step, "--range-step", "deg"))
+    options = {"orientation_range": rng, "range_step": range_step, "range_mode": args.range_mode,
+               "refine_steps": args.refine, "min_level": args.min_level}
+    req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
+                           neglect_spindle=args.neglect_spindle, skip_checks=tuple(args.skip_check))
+    with _octree_input_errors():
+        cost = req.cost(machine, n_ori, **options)  # a pilot octree: input errors surface here, before the work
+    if args.out and not args.no_plot:
+        cost = cost.plus(FIGURE_3D_LIBRARY_SECONDS + FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
     announce("workspace", cost.named(f"octree at resolution {args.resolution:g} mm"), budget,
              quiet=args.quiet or args.json)
     progress = _Progress(not args.quiet, "octree")
     try:
-        res = req.evaluate(machine, progress=progress, **options)
-    except (OctreeInputError, OracleInputError, ValueError) as exc:
-        if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
-            raise _cli_error(str(exc)) from None
-        raise
+        with _octree_input_errors():
+            res = req.evaluate(machine, progress=progress, **options)
     finally:
         progress.close()
     summary = res.summary()
@@ -211,7 +218,6 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
 
 
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
-    from pkmstiff.admissibility.checks import checks_without
     from pkmstiff.cli.edges import announce, check_output_dir, parse_budget
     from pkmstiff.evaluation.cost import admissible_fraction, plane_points, rotation_map_cost
     from pkmstiff.evaluation.sections import raster, raster_count
