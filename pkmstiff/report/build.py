@@ -7,6 +7,7 @@ Every evaluation goes through the request model (:mod:`pkmstiff.evaluation.reque
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 import re
 import time
 from pathlib import Path
@@ -194,7 +195,8 @@ def spec_cost(spec: ReportSpec, fast: bool = False) -> Cost:
             + (f", workspace at {spec.workspace.resolution * 1e3:g} mm" if spec.workspace is not None else ""))
     libraries = (PLOT_LIBRARY_SECONDS if any(sec.maps for sec in spec.sections) else 0.0) + (
         FIGURE_3D_LIBRARY_SECONDS if spec.workspace is not None and spec.workspace.figures else 0.0)
-    return total(parts, what, "the spec's step_mm / resolution_mm").plus(libraries)
+    out = total(parts, what, "the spec's step_mm / resolution_mm").plus(libraries)
+    return replace(out, unit="octree evaluations and raster points")
 
 
 def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, jobs: int, out: Path,
