@@ -92,8 +92,10 @@ ROW_BYTES = 2000
 #: ``pkmstiff point --poses``: per pose row (pose pipeline, structure model, modes, CSV row), bytes and s
 POINT_ROW_BYTES = 4000
 POINT_ROW_SECONDS = 70e-6
-#: generic mechanisms: one continuation step (a damped Newton solve of the batch; slider-crank, 1e3..1e5 steps), s
-MECHANISM_STEP_SECONDS = 6e-4
+#: generic mechanisms: one continuation step of a path that converges (a damped Newton solve of the batch;
+#: slider-crank, 1e3..1e5 steps: 0.65..1 ms), s. A target without solution retries with 2×, 4×, … 16× the steps
+#: (max_refine = 4), up to ~30× this: the estimate is the lower bound, so feasible work is never refused
+MECHANISM_STEP_SECONDS = 8e-4
 #: calibration: per planned pose (identification Jacobian rows over ~200 parameters, readings, samples), bytes and s
 PLAN_POSE_BYTES = 20e3
 PLAN_POSE_SECONDS = 2e-4
