@@ -23,7 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from pkmstiff import load_machine  # noqa: E402
 from pkmstiff.cli import main as cli  # noqa: E402
-from pkmstiff.report.calibration import run_calibration, write_calibration_report  # noqa: E402
+from pkmstiff.calibration.workflow import run_calibration  # noqa: E402
+from pkmstiff.report.calibration import write_calibration_report  # noqa: E402
 
 
 def main() -> int:

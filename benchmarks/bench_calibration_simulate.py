@@ -20,7 +20,8 @@ import numpy as np
 
 import pkmstiff
 from pkmstiff.calibration import Setup, circle_plan, error_model
-from pkmstiff.calibration.simulation import InstrumentModel, SimulationOptions, sample_plan, simulate
+from pkmstiff.calibration.instruments import BallbarDevice
+from pkmstiff.calibration.simulation import SimulationOptions, sample_plan, simulate
 
 TARGET_S = 1.0
 N = 10_000
@@ -36,7 +37,7 @@ def main() -> None:
     # one ccw run with exactly N samples at 250 samples/s
     opts = SimulationOptions(feed=circumference * 250.0 / N, directions=("ccw",), backlash=4e-6, drift_dT=0.5,
                              seed=1)
-    inst = InstrumentModel()
+    inst = BallbarDevice()
     simulate(m, params, delta, plan, inst, opts)  # warm-up (numba kernels, imports)
     best = np.inf
     for _ in range(3):

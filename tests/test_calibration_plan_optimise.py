@@ -112,4 +112,4 @@ def test_plan_command_for_a_tracker_pose_set(tmp_path, capsys):
     rep = json.loads(capsys.readouterr().out)
     assert code == 0 and rep["best_cond"] <= rep["start_cond"]  # Armijo steps never increase Ω + μ b
     plan = read_plan(out)
-    assert plan.n_poses == 4 and plan.instrument == "tracker"
+    assert plan.n_poses == 4 and plan.instrument.kind == "tracker"

@@ -188,23 +188,54 @@ def test_existing_report_needs_force(files, report, capsys):
     assert (report / "report.md").stat().st_mtime_ns == before
 
 
+def _count_identifiability(monkeypatch) -> list:
+    """Count the identifiability analyses of the workflow and of the identification."""
+    import pkmstiff.calibration.identification as identification
+    import pkmstiff.calibration.workflow as workflow
+
+    calls = []
+    real = workflow.identifiability
+
+    def counted(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(workflow, "identifiability", counted)
+    monkeypatch.setattr(identification, "identifiability", counted)
+    return calls
+
+
+def test_workflow_computes_identifiability_once(files, monkeypatch):
+    """One identifiability analysis per calibration run (the report shows it, the identification uses its base
+    parameters), and the typed result carries the identification's numbers."""
+    from pkmstiff.calibration.workflow import run_calibration
+    from pkmstiff.machine import load_machine
+
+    calls = _count_identifiability(monkeypatch)
+    run = run_calibration(load_machine("felix"), str(files / "meas.csv"), validate=[str(files / "val.csv")])
+    assert len(calls) == 1
+    assert run.res.rank == run.ident.rank and run.run.after.rms < run.run.before.rms
+    assert run.run.after.rms == pytest.approx(np.sqrt(np.mean(run.res.residual_after ** 2)), rel=1e-15)
+    assert len(run.validations) == 1 and run.validations[0].after_stats.rms < run.validations[0].before_stats.rms
+
+
 # ------------------------------------------------------------------------------------------------ deflection
-def test_deflection_section_renders_a_plain_dict(tmp_path):
-    """The dict of ``pkmstiff.calibration.deflection.deflection_contribution`` (keys with unit suffixes, vectors,
-    per-parameter biases in SI with their unit, notes) becomes tables in the report's units."""
+def test_deflection_section_renders_the_typed_summary(tmp_path):
+    """A :class:`~pkmstiff.calibration.deflection.DeflectionSummary` (SI) becomes tables in the report's units."""
+    from pkmstiff.calibration.deflection import DeflectionSummary, ParameterBias
     from pkmstiff.report.calibration import deflection_section
     from pkmstiff.report.model import Report
     from pkmstiff.report.render import write_report
 
     rep = Report("t")
-    deflection_section(rep, {"model": "gravity", "gravity_m_s2": [0.0, 0.0, -9.81], "load_N": [0.0, 0.0, -50.0], "load_N_m": [0.0, 0.0, 2.0],
-                             "n_readings": 2000, "rms_reading_um": 1.25, "max_reading_um": 3.5,
-                             "tcp_mean_um": [0.5, -0.25, -12.0], "bias_relative_deviation": 0.012,
-                             "bias": [{"name": "chain1.strut_offset", "unit": "m", "predicted": 2.0e-6,
-                                       "actual": 2.04e-6},
-                                      {"name": "chain1.guide_direction.t1", "unit": "rad", "predicted": 1.5e-6,
-                                       "actual": 1.5e-6}],
-                             "notes": ["readings corrected by the predicted deflection"]})
+    deflection_section(rep, DeflectionSummary(
+        gravity=np.array([0.0, 0.0, -9.81]), force=np.array([0.0, 0.0, -50.0]), moment=np.array([0.0, 0.0, 2.0]),
+        n_readings=2000, rms_reading=1.25e-6, max_reading=3.5e-6, rms_reading_angle=None, max_reading_angle=None,
+        tcp_max=13e-6, tcp_mean=np.array([0.5e-6, -0.25e-6, -12e-6]), tcp_rotation_max=4e-6,
+        bias=(ParameterBias("chain1.strut_offset", "m", 2.0e-6, 2.04e-6),
+              ParameterBias("chain1.guide_direction.t1", "rad", 1.5e-6, 1.5e-6)),
+        bias_relative_deviation=0.012, rms_after_corrected=0.2e-6, rms_after_uncorrected=0.9e-6,
+        notes=("readings corrected by the predicted deflection",)))
     deflection_section(rep, None)
     paths = write_report(rep, tmp_path, run={"date": "x"})
     md = paths["md"].read_text(encoding="utf-8")
@@ -213,11 +244,12 @@ def test_deflection_section_renders_a_plain_dict(tmp_path):
                 "| bias relative deviation | – | 0.01200 |", "| chain1.strut_offset | µm | 2.000 | 2.040 |",
                 "| chain1.guide_direction.t1 | µrad | 1.500 | 1.500 |"):
         assert row in md, row
+    assert "rms reading (µrad)" not in md  # no orientation readings
     assert "model: gravity" in md and "notes: readings corrected by the predicted deflection" in md
     assert "Not computed — run with --deflection gravity." in md
 
 
-def test_deflection_gravity_subtracts_and_reports(tmp_path, capsys):
+def test_deflection_gravity_subtracts_and_reports(tmp_path, capsys, monkeypatch):
     """``--deflection gravity`` on the Hexapod 6X (has stiffness data): the readings simulated with the gravity
     deflection are explained after identification (noise-free, so the residual is round-off: < 1 nm), the
     validation file is corrected the same way, and the section shows the contribution instead of "Not computed"."""
@@ -234,9 +266,11 @@ def test_deflection_gravity_subtracts_and_reports(tmp_path, capsys):
                 tmp_path / "err.toml", "--noise", "none", "--no-quantise", "--sample-rate", "2", "--directions", "ccw",
                 "--deflection", "gravity", "--out", meas)[0] == 0
     out = tmp_path / "rep"
+    calls = _count_identifiability(monkeypatch)
     code, text, err = _run(capsys, "calibrate", "report", "hexapod_6x", "--measurements", meas, "--validate", meas,
                            "--out", out, "--deflection", "gravity", "--json")
     assert code == 0, err
+    assert len(calls) == 1  # shared by the corrected identification, its refinements and the uncorrected one
     doc = json.loads(text)
     assert doc["rms_after_um"] < 1e-3 and doc["rms_before_um"] > 1.0
     md = (out / "report.md").read_text(encoding="utf-8")
@@ -245,7 +279,7 @@ def test_deflection_gravity_subtracts_and_reports(tmp_path, capsys):
 
 def test_deflection_loads_match_the_library():
     from pkmstiff.cli.calibrate_report import DEFLECTION_LOADS as cli
-    from pkmstiff.report.calibration import DEFLECTION_LOADS as lib
+    from pkmstiff.calibration.workflow import DEFLECTION_LOADS as lib
 
     assert cli == lib
 
@@ -261,7 +295,7 @@ def test_deflection_without_stiffness_data_is_one_line(files, tmp_path, capsys):
 
 # --------------------------------------------------------------------------------------------------- circles
 def test_circle_runs_finds_planar_runs_and_merges_directions():
-    from pkmstiff.report.calibration import circle_runs
+    from pkmstiff.calibration.circles import circle_runs
 
     t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
     xy = np.c_[0.15 * np.cos(t), 0.15 * np.sin(t), np.zeros_like(t)]  # XY circle, ccw then cw

@@ -8,10 +8,9 @@ from hypothesis import strategies as st
 
 import pkmstiff
 from pkmstiff.calibration import Setup, circle_plan, error_model, grid_plan, hemisphere_plan, simulate_readings
+from pkmstiff.calibration.instruments import BallbarDevice
+from pkmstiff.calibration.instruments.ball_bar import TAB_4_5_FEED, TAB_4_5_UNCERTAINTY
 from pkmstiff.calibration.simulation import (
-    TAB_4_5_FEED,
-    TAB_4_5_UNCERTAINTY,
-    InstrumentModel,
     SimulationOptions,
     backlash_offsets,
     range_error,
@@ -74,7 +73,7 @@ def test_nominal_tracker_reads_the_commanded_target(machines):
 def test_sampling_at_the_instrument_rate_and_feed(machines):
     m = machines["felix"]
     plan = circle_plan(_setup(m, 0.15), "XY", 72)
-    inst = InstrumentModel()
+    inst = BallbarDevice()
     smp = sample_plan(plan, inst, SimulationOptions(feed=FAST))
     ccw = smp.direction == "ccw"
     dt = np.diff(smp.t[ccw])
@@ -110,7 +109,7 @@ def test_noise_quantisation_and_seed(machines):
 
 
 def test_procedure_uncertainty_follows_tab_4_5():
-    inst = InstrumentModel()
+    inst = BallbarDevice()
     assert np.allclose(inst.uncertainty(TAB_4_5_FEED), TAB_4_5_UNCERTAINTY, rtol=0, atol=1e-15)  # table nodes
     # midway 1000 -> 2000 mm/min: (36 + 54) / 2 µm; σ = U / 2 (k = 2 reading)
     assert inst.sigma("procedure", 1500 / 60e3) == pytest.approx(45e-6 / 2, rel=1e-12)
@@ -167,5 +166,5 @@ def test_range_violations_are_reported(machines):
     delta = params.vector({"bar_offset": 1.5e-3})
     res = simulate(m, params, delta, plan, options=SimulationOptions(feed=FAST, noise="none"))
     assert res.violations.size == len(res.readings)
-    msg = range_error(plan, res, InstrumentModel())
+    msg = range_error(plan, res, BallbarDevice())
     assert "outside the QC10 range [-1, 1] mm, first at sample 1" in msg and "\n" not in msg

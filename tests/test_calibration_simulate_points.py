@@ -12,11 +12,10 @@ from pkmstiff.calibration.identifiability import identifiability
 from pkmstiff.calibration.identification import identify
 from pkmstiff.calibration.instruments import target_points
 from pkmstiff.calibration.measurement_file import PointMeasurement, read_measurement, write_measurement
+from pkmstiff.calibration.instruments import BallbarDevice, TrackerDevice
 from pkmstiff.calibration.simulation import (
     SimulationOptions,
-    TrackerModel,
     check_samples,
-    default_instrument,
     sample_plan,
     simulate,
     to_measurement,
@@ -59,19 +58,19 @@ def test_nominal_machine_reads_the_commanded_values_on_every_plan_kind_through_t
     measurement CSV (15 significant digits in mm / µrad: ≤ 1e-15 m, 1e-15 µrad of rounding)."""
     for plan in _plans(felix):
         params = error_model(felix, setup=plan.setup)
-        inst = default_instrument(plan.instrument)
+        inst = plan.instrument.default_device()
         res = simulate(felix, params, np.zeros(params.n), plan, inst, NOMINAL)
         path = write_measurement(tmp_path / f"{plan.instrument}.csv", to_measurement(felix, plan, res, inst))
         back = read_measurement(path)
         p2, y = measurement_plan(back, "felix", str(path))
         assert p2.instrument == plan.instrument and y.shape == (len(res.readings), plan.setup.n_readings)
-        if plan.instrument == "ballbar":
+        if plan.instrument.kind == "ballbar":
             ref = np.full(len(y), plan.setup.bar_length) if plan.segments[0].kind == "path" else None
             assert np.max(np.abs(y[:, 0] - ref)) <= 1e-12  # 1e-12 m: the done-when criterion
             continue
         cmd = _commanded_target(plan.setup, back.poses)
         assert np.max(np.abs(y[:, :3] - cmd)) <= 1e-12  # m: the done-when criterion (rounding ~1e-16 m)
-        if plan.instrument == "pose":
+        if plan.instrument.kind == "pose":
             assert np.max(np.abs(y[:, 3:])) <= 1e-12  # rad: R R_cᵀ = I up to rounding
         if plan.segments[0].kind == "path":
             assert len(y) > plan.n_poses  # a tracker path is sampled at the instrument rate, too
@@ -89,7 +88,7 @@ def test_simulate_identify_round_trip_recovers_the_base_errors(felix, tmp_path, 
     base = np.array([params.index(n) for n in identifiability(felix, params, plan).base_parameters])
     delta = np.zeros(params.n)
     delta[base] = np.random.default_rng(0).uniform(-50e-6, 50e-6, base.size)
-    inst = TrackerModel(kind=kind)
+    inst = TrackerDevice()
     res = simulate(felix, params, delta, plan, inst, SimulationOptions(noise="none", quantise=False))
     path = write_measurement(tmp_path / "m.csv", to_measurement(felix, plan, res, inst))
     p2, y = measurement_plan(read_measurement(path), "felix", str(path))
@@ -101,7 +100,7 @@ def test_simulate_identify_round_trip_recovers_the_base_errors(felix, tmp_path, 
 
 
 def test_tracker_noise_quantisation_and_instrument_figures(felix):
-    m = TrackerModel()
+    m = TrackerDevice()
     # Assumption figures: MPE 15 µm + 6 µm/m at 2 m = 27 µm, σ = MPE / 2 (k = 2)
     assert m.accuracy == pytest.approx(27e-6, rel=1e-12)
     assert m.sigma("instrument", 0.0) == pytest.approx(13.5e-6, rel=1e-12)
@@ -110,7 +109,7 @@ def test_tracker_noise_quantisation_and_instrument_figures(felix):
     s = Setup("pose", target=felix.tool.tip())
     plan = grid_plan(s, np.zeros(3), 0.05, points=3, tilt=np.radians(5), torsion=np.radians(5))
     params = error_model(felix, setup=s)
-    inst = TrackerModel(kind="pose")
+    inst = TrackerDevice()
     res = simulate(felix, params, np.zeros(params.n), plan, inst, SimulationOptions(seed=3))
     pos = res.readings[:, :3] / inst.resolution
     rot = res.readings[:, 3:] / inst.angle_resolution
@@ -127,7 +126,7 @@ def test_instrument_must_match_the_plan(felix):
     plan = grid_plan(s, np.zeros(3), 0.05, points=2)
     params = error_model(felix, setup=s)
     with pytest.raises(CalibrationInputError, match="tracker"):
-        simulate(felix, params, np.zeros(params.n), plan, default_instrument("ballbar"))
+        simulate(felix, params, np.zeros(params.n), plan, BallbarDevice())
 
 
 # ------------------------------------------------------------------------------ sampled poses leave the region
@@ -141,11 +140,10 @@ def _outside_circle(m):
 
 def test_plan_whose_sampled_poses_leave_the_admissible_region_is_refused(felix):
     from pkmstiff.calibration import check_plan
-    from pkmstiff.calibration.simulation import InstrumentModel
 
     plan = _outside_circle(felix)
     check_plan(felix, plan)  # the nodes pass ...
-    smp = sample_plan(plan, InstrumentModel(), SimulationOptions(feed=FAST))
+    smp = sample_plan(plan, BallbarDevice(), SimulationOptions(feed=FAST))
     with pytest.raises(CalibrationError) as exc:  # ... the sampled poses do not
         check_samples(felix, plan, smp)
     msg = str(exc.value)
@@ -196,7 +194,7 @@ def test_cli_simulate_identify_check_on_tracker_and_pose_files(tmp_path, capsys,
     text = capsys.readouterr().out
     assert "position error up to" in text
     meas = read_measurement(out)
-    assert isinstance(meas, PointMeasurement) and meas.kind == kind and meas.n_samples == 24
+    assert isinstance(meas, PointMeasurement) and meas.instrument.kind == kind and meas.n_samples == 24
     assert main(["calibrate", "check", "felix", "--measurements", str(out)]) == 0
     assert "residual RMS" in capsys.readouterr().out
     other = "pose" if kind == "tracker" else "tracker"
@@ -206,10 +204,24 @@ def test_cli_simulate_identify_check_on_tracker_and_pose_files(tmp_path, capsys,
 
 
 def _good(tmp_path, kind="tracker"):
-    m = PointMeasurement(kind=kind, t=np.arange(1.0, 4.0), position=np.array([[0.1, 0.2, 0.3]] * 3),
+    """The lines of a valid file in the earlier form (``# key: value`` header lines, still read): the written CSV
+    with its JSON header turned back into those lines."""
+    m = PointMeasurement(instrument=kind, t=np.arange(1.0, 4.0), position=np.array([[0.1, 0.2, 0.3]] * 3),
                          rotation=np.zeros((3, 3)) if kind == "pose" else None,
-                         poses=np.zeros((3, 6)), machine="felix", instrument="test")
-    return write_measurement(tmp_path / f"{kind}.csv", m).read_text().splitlines()
+                         poses=np.zeros((3, 6)), machine="felix", device="test")
+    path = write_measurement(tmp_path / f"{kind}.csv", m)
+    return _old_form(path.with_suffix(".json")) + path.read_text().splitlines()
+
+
+def _old_form(sidecar) -> list[str]:
+    import json
+
+    meta = json.loads(sidecar.read_text(encoding="utf-8"))
+    lines = [f"# {meta.pop('file')}"]
+    for key, value in meta.items():
+        for v in (value if key == "note" else [value]):
+            lines.append(f"# {key}: {', '.join(map(str, v)) if isinstance(v, list) else v}")
+    return lines
 
 
 def _bad(tmp_path, lines):
@@ -226,10 +238,15 @@ def test_tracker_file_round_trip(tmp_path):
     for kind in ("tracker", "pose"):
         lines = _good(tmp_path, kind)
         back = read_measurement(tmp_path / f"{kind}.csv")
-        assert back.kind == kind and back.position[2, 2] == pytest.approx(0.3, abs=1e-15)  # 15 digits in mm
+        assert back.instrument.kind == kind and back.position[2, 2] == pytest.approx(0.3, abs=1e-15)  # 15 digits in mm
         assert (back.rotation is None) == (kind == "tracker")
         assert back.target.shape == (3,) and back.volume_radius == pytest.approx(20.0, abs=1e-12)
         assert lines[2] == f"# instrument_type: {kind}"
+        assert lines[len(lines) - 4].startswith("t_s,") and not (tmp_path / f"{kind}.csv").read_text().startswith("#")
+        # the old form reads as the new one
+        old = tmp_path / f"old_{kind}.csv"
+        old.write_text("\n".join(lines) + "\n")
+        np.testing.assert_array_equal(read_measurement(old).position, back.position)
 
 
 def test_malformed_tracker_and_pose_files_name_line_and_column(tmp_path):
@@ -268,5 +285,6 @@ def test_ballbar_files_unchanged(tmp_path):
     m = BallbarMeasurement(bar_length=0.15, fixed_ball=np.zeros(3), t=np.arange(3.0), reading=np.zeros(3),
                            poses=np.zeros((3, 6)))
     text = write_measurement(tmp_path / "b.csv", m).read_text()
-    assert "instrument_type" not in text and "\nt_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,reading_mm\n" in text
+    header = (tmp_path / "b.json").read_text()
+    assert "instrument_type" not in header and text.startswith("t_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,reading_mm\n")
     assert isinstance(read_measurement(tmp_path / "b.csv"), BallbarMeasurement)

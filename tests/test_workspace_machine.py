@@ -84,13 +84,15 @@ def test_cli_workspace_json_and_files(tmp_path, capsys):
     assert rep["effective_resolution_mm"] == [50.0, 50.0, 50.0]
     assert (out / "workspace_surface.stl").stat().st_size > 0
     pts = np.loadtxt(out / "boundary_points.csv", delimiter=",", skiprows=1)
-    assert pts.shape == (rep["boundary_points"], 3)
+    assert pts.shape == (rep["boundary_points_distinct"], 3)
+    assert rep["boundary_points_distinct"] <= rep["boundary_points"]
+    assert np.unique(pts, axis=0).shape == pts.shape  # each point once (neighbouring leaves can share a centroid)
     assert np.all(pts.min(axis=0) >= np.array(rep["bounding_box_mm"]["min"]) - 1e-3)
 
 
 def test_cli_rotation_map_and_errors(tmp_path, capsys):
-    code = main(["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--u-range", "0,600",
-                 "--v-range=-1100,-800", "--step", "100", "--directions", "+a,-b", "--increment", "3",
+    code = main(["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--range", "y=0:600,z=-1100:-800",
+                 "--step", "100", "--directions", "+a,-b", "--increment", "3",
                  "--json", "--out", str(tmp_path), "--no-plot"])
     assert code == 0
     rep = json.loads(capsys.readouterr().out)

@@ -2,13 +2,16 @@
 measurement plans and Denkena's implicit double-pendulum example (Szatmári 2007 §4.2–4.4; Denkena et al. 2008
 §1.2–1.5; the readings of docs/theory/calibration.md).
 
-Modules: :mod:`.parameters` (named error parameters, Cartesian/cylindrical frames), :mod:`.instruments` (ball bar,
-tracker, 6-D pose set-ups and readings), :mod:`.perturb` (perturbed machine, machine file that ``extends`` the
+Modules: :mod:`.parameters` (named error parameters, Cartesian/cylindrical frames), :mod:`.instruments` (the
+Instrument protocol, one module per instrument — ball bar, tracker, 6-D pose — with its set-up, readings, devices and
+measurement-file columns; the registry of kind names), :mod:`.perturb` (perturbed machine, machine file that ``extends`` the
 nominal one), :mod:`.plans` (plans, default plans, TOML plans, plan checks), :mod:`.measurement` (simulated readings
 through the forward kinematics), :mod:`.jacobian` (analytic identification Jacobian), :mod:`.gauges` (named gauge
 freedoms), :mod:`.identifiability` (rank, base parameters, condition, orthogonality, O1–O5), :mod:`.implicit`
 (implicit-function-theorem sensitivities), :mod:`.pendulum` (Denkena's double pendulum).
-The ball-bar circle/Fourier evaluation lives in :mod:`.ballbar` (imported on its own).
+The ball-bar circle/Fourier evaluation lives in :mod:`.ballbar` (imported on its own); the workflow of
+``calibrate identify`` / ``calibrate report`` (identification, uncertainty, validation; typed results) in
+:mod:`.workflow`, the circles of a ball-bar measurement in :mod:`.circles`.
 """
 
 from pkmstiff.calibration.gauges import GaugeCandidate, gauge_candidates
@@ -21,10 +24,10 @@ from pkmstiff.calibration.identifiability import (
                                                   observability_indices,
                                                   orthogonality_matrix,
 )
-from pkmstiff.calibration.instruments import INSTRUMENTS, READINGS, Setup, SetupState, readings
+from pkmstiff.calibration.instruments import Instrument, Setup, SetupState, instrument, readings
 from pkmstiff.calibration.jacobian import IdentificationJacobian, identification_jacobian
 from pkmstiff.calibration.measurement import reached_poses, simulate_readings
-from pkmstiff.calibration.parameters import FRAMES, SETUP_TOKENS, ParameterSet, error_model, parse_errors, parse_with
+from pkmstiff.calibration.parameters import FRAMES, ParameterSet, error_model, parse_errors, parse_with
 from pkmstiff.calibration.perturb import machine_file_text, perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import (
                                                   Plan,
@@ -42,12 +45,10 @@ from pkmstiff.calibration.plans import (
 
 __all__ = [
                                                   "FRAMES",
-                                                  "INSTRUMENTS",
-                                                  "READINGS",
-                                                  "SETUP_TOKENS",
                                                   "GaugeCandidate",
                                                   "GaugeFreedom",
                                                   "Identifiability",
+                                                  "Instrument",
                                                   "IdentificationJacobian",
                                                   "ParameterSet",
                                                   "Plan",
@@ -65,6 +66,7 @@ __all__ = [
                                                   "hemisphere_plan",
                                                   "identifiability",
                                                   "identification_jacobian",
+                                                  "instrument",
                                                   "machine_file_text",
                                                   "numerical_rank",
                                                   "observability_indices",

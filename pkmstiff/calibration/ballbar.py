@@ -24,7 +24,8 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pkmstiff.errors import BallbarError
+from pkmstiff.calibration.instruments import BallbarMeasurement
+from pkmstiff.errors import BallbarError, MeasurementFileError
 
 Array = NDArray[np.float64]
 TWO_PI = 2.0 * math.pi
@@ -764,10 +765,11 @@ def evaluate_measurement(meas: Any, *, harmonics: int | Literal["auto"] = "auto"
     forward kinematics of ``machine`` from ``start_pose`` for a drive-only file) and the header's ball offset.
     ``plane`` overrides the file's ``plane`` header.
     """
-    kind = getattr(meas, "kind", "ballbar")
-    if kind != "ballbar":
-        raise BallbarError(f"a circular-test evaluation needs a ball-bar measurement, found a {kind} file "
-                           f"(instrument_type: {kind}); identify from it with 'pkmstiff calibrate identify'", source)
+    if not isinstance(meas, BallbarMeasurement):
+        kind = meas.instrument
+        raise MeasurementFileError(source, None, f"a circular-test evaluation needs a ball-bar measurement, found a "
+                                   f"{kind} file (instrument_type: {kind}); identify from it with 'pkmstiff "
+                                   "calibrate identify'")
     P = ball_positions(commanded_poses(meas, machine, start_pose, source), meas.ball_offset)
     return evaluate_circular_test(P, meas.reading, meas.fixed_ball, meas.bar_length, direction=meas.direction,
                                   plane=meas.plane if plane is None else plane, harmonics=harmonics, alpha=alpha,

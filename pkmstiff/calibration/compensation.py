@@ -21,12 +21,13 @@ from pathlib import Path
 import numpy as np
 
 from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats
-from pkmstiff.calibration.instruments import Setup, readings
+from pkmstiff.calibration.instruments import readings
 from pkmstiff.calibration.measurement import commanded_drives
 from pkmstiff.calibration.perturb import machine_file_text
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.calibration.uncertainty import Uncertainty
 from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
@@ -62,6 +63,9 @@ def provenance(res: Identification, unc: Uncertainty | None = None, measurement:
     if measurement is not None:
         out["measurement_file"] = str(Path(measurement).name)
         out["measurement_sha256"] = file_sha256(measurement)
+        header = Path(measurement).with_suffix(".json")  # the header beside the CSV (files written since issue 22)
+        if header.is_file():
+            out["measurement_header_sha256"] = file_sha256(header)
     out["identified"] = {nm: float(res.delta[i]) for nm, i in zip(res.base_names, res.base)}
     if unc is not None:
         out["sigma"] = {nm: float(s) for nm, s in zip(unc.names, unc.sigma)}
@@ -109,7 +113,7 @@ def write_calibrated_machine(path: str | Path, res: Identification, unc: Uncerta
                              measurement: str | Path | None = None, name: str | None = None,
                              deflection: str = "none") -> Path:
     p = Path(path)
-    p.write_text(calibrated_machine_text(res, unc, measurement, name, deflection=deflection), encoding="utf-8")
+    atomic_write_text(p, calibrated_machine_text(res, unc, measurement, name, deflection=deflection))
     return p
 
 
@@ -170,17 +174,11 @@ def tcp_errors(real: Machine, controller: Machine, poses: np.ndarray, point: np.
     return np.linalg.norm(reached[:, :3] + R @ v - x[:, :3] - Rc @ v, axis=1)
 
 
-def setup_from_ballbar(meas: object) -> Setup:
-    """Nominal ball-bar set-up of a :class:`~pkmstiff.calibration.measurement_file.BallbarMeasurement`."""
-    return Setup("ballbar", target=meas.ball_offset, fixed_ball=meas.fixed_ball, bar_length=meas.bar_length,
-                 measuring_range=max(abs(meas.range[0]), abs(meas.range[1])))
-
-
 def measurement_plan(meas: object, machine_name: str, source: str) -> tuple[Plan, np.ndarray]:
     """Plan (commanded poses + nominal set-up) and readings of a measurement taken on the machine
     ``machine_name``: ball bar (N, 1) in m (the full ball distance: the file's reading + bar length); tracker
     (N, 3) target positions in m; pose (N, 6) positions in m and orientation errors in rad (the order of
-    :data:`~pkmstiff.calibration.instruments.READINGS`). A file of another machine or without commanded poses is
+    :attr:`~pkmstiff.calibration.instruments.Instrument.reading_names`). A file of another machine or without commanded poses is
     a one-line error saying what to do."""
     if meas.machine and meas.machine != machine_name.split(":")[0]:
         raise CalibrationInputError(source, "machine", f"a measurement taken on '{machine_name}' (give the machine "
@@ -188,10 +186,5 @@ def measurement_plan(meas: object, machine_name: str, source: str) -> tuple[Plan
     if meas.poses is None:
         raise CalibrationInputError(source, "x_mm ... c_deg", "the commanded pose columns (identification needs the "
                                     "commanded poses; export them with the readings)", "drive columns only")
-    kind = getattr(meas, "kind", "ballbar")
-    if kind != "ballbar":
-        setup = Setup(kind, target=np.asarray(meas.target, dtype=float))
-        return (Plan(f"measurement {Path(source).name}", setup, np.asarray(meas.poses, dtype=float)),
-                np.asarray(meas.readings, dtype=float))
-    plan = Plan(f"measurement {Path(source).name}", setup_from_ballbar(meas), np.asarray(meas.poses, dtype=float))
-    return plan, (np.asarray(meas.reading, dtype=float) + meas.bar_length)[:, None]
+    setup, y = meas.instrument.measured(meas)
+    return Plan(f"measurement {Path(source).name}", setup, np.asarray(meas.poses, dtype=float)), y

@@ -33,8 +33,9 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pkmstiff.calibration.identification import Identification, _row_weight, identify
-from pkmstiff.calibration.instruments import READINGS, Setup, SetupState, readings
+from pkmstiff.calibration.identification import Identification, identify
+from pkmstiff.calibration.instruments import Setup, SetupState, readings
+from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
@@ -145,7 +146,7 @@ def reading_deflection(machine: Machine, plan_or_measurement: Any, params: Param
                        gravity: np.ndarray | None = None) -> np.ndarray:
     """Change of every instrument reading (m,) = (N·k,) [m, rad] caused by the deflection at the measured poses
     (ball bar: length change from the displaced tool ball; tracker: target displacement; pose: position and
-    orientation change; :data:`~pkmstiff.calibration.instruments.READINGS` order).  With ``params``/``delta`` the
+    orientation change; :attr:`~pkmstiff.calibration.instruments.Instrument.reading_names` order).  With ``params``/``delta`` the
     machine and set-up carry those errors and deflect at the poses they reach (else: nominal machine at the
     commanded poses).  ``plan_or_measurement``: a :class:`Plan` or a ball-bar measurement."""
     plan = _plan_of(plan_or_measurement, machine)
@@ -182,6 +183,67 @@ def identify_with_deflection(machine: Machine, params: ParameterSet, plan: Plan,
     return res, dr
 
 
+@dataclass(frozen=True)
+class ParameterBias:
+    """Deflection-induced bias of one identified parameter (``unit`` "m" or "rad"): first-order ``predicted`` and
+    ``actual`` (difference of the two identifications), SI."""
+
+    name: str
+    unit: str
+    predicted: float
+    actual: float
+
+
+@dataclass(frozen=True)
+class DeflectionSummary:
+    """The deflection's contribution to a calibration, SI: ``gravity`` (3,) m/s², the user load at the target
+    ``force`` (3,) N and ``moment`` (3,) N m; ``n_readings``; RMS and largest reading change of the length
+    readings ``rms_reading`` / ``max_reading`` (m) and of the orientation readings ``rms_reading_angle`` /
+    ``max_reading_angle`` (rad, None without such readings); the target point's largest translation ``tcp_max``
+    (m), mean translation ``tcp_mean`` (3,) m and largest rotation ``tcp_rotation_max`` (rad) over the plan
+    (nominal machine, commanded poses); the ``bias`` of every identified base parameter and
+    ``bias_relative_deviation`` ‖actual − predicted‖/‖predicted‖ (scaled unknowns); the residual RMS of the
+    identifications with and without the subtraction (m); ``notes``."""
+
+    gravity: np.ndarray
+    force: np.ndarray
+    moment: np.ndarray
+    n_readings: int
+    rms_reading: float
+    max_reading: float
+    rms_reading_angle: float | None
+    max_reading_angle: float | None
+    tcp_max: float
+    tcp_mean: np.ndarray
+    tcp_rotation_max: float
+    bias: tuple[ParameterBias, ...]
+    bias_relative_deviation: float
+    rms_after_corrected: float
+    rms_after_uncorrected: float
+    notes: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        """JSON-ready record; keys name their unit (µm, µrad), biases in SI with their ``unit``."""
+        out: dict[str, Any] = {
+            "model": "gravity", "gravity_m_s2": [float(v) for v in self.gravity],
+            "load_N": [float(v) for v in self.force], "load_N_m": [float(v) for v in self.moment],
+            "n_readings": self.n_readings, "rms_reading_um": self.rms_reading * 1e6,
+            "max_reading_um": self.max_reading * 1e6, "tcp_max_um": self.tcp_max * 1e6,
+            "tcp_mean_um": [float(v) * 1e6 for v in self.tcp_mean],
+            "tcp_rotation_max_urad": self.tcp_rotation_max * 1e6,
+            "bias": [{"name": b.name, "unit": b.unit, "predicted": b.predicted, "actual": b.actual}
+                     for b in self.bias],
+            "bias_relative_deviation": self.bias_relative_deviation,
+            "rms_after_corrected_um": self.rms_after_corrected * 1e6,
+            "rms_after_uncorrected_um": self.rms_after_uncorrected * 1e6,
+            "notes": list(self.notes),
+        }
+        if self.rms_reading_angle is not None:
+            out["rms_reading_urad"] = self.rms_reading_angle * 1e6
+            out["max_reading_urad"] = self.max_reading_angle * 1e6
+        return out
+
+
 @dataclass
 class DeflectionAnalysis:
     """Identification with and without the deflection subtracted and the bias of the base parameters (SI).
@@ -209,34 +271,34 @@ class DeflectionAnalysis:
         return float(np.linalg.norm((self.actual - self.predicted) / s)) / den if den > 0 else 0.0
 
     def _length_rows(self) -> np.ndarray:
-        units = READINGS[self.corrected.plan.instrument][1]
+        units = self.corrected.plan.instrument.reading_units
         return np.tile(np.array([u == "m" for u in units]), self.corrected.plan.n_poses)
 
-    def to_dict(self) -> dict:
-        """SI record (see :func:`deflection_contribution` for the keys)."""
+    def summary(self) -> DeflectionSummary:
+        """The contribution in figures (SI, :class:`DeflectionSummary`)."""
         rows = self._length_rows()
         dl, da = self.reading[rows], self.reading[~rows]
         p = self.corrected.params
-        out: dict[str, Any] = {
-            "model": "gravity", "gravity_m_s2": [float(v) for v in self.gravity],
-            "load_N": [float(v) for v in self.load[0]], "load_N_m": [float(v) for v in self.load[1]],
-            "n_readings": int(self.reading.size),
-            "rms_reading_um": float(np.sqrt(np.mean(dl ** 2))) * 1e6 if dl.size else 0.0,
-            "max_reading_um": float(np.max(np.abs(dl))) * 1e6 if dl.size else 0.0,
-            "tcp_max_um": float(np.max(np.linalg.norm(self.tcp[:, :3], axis=1))) * 1e6,
-            "tcp_mean_um": [float(v) * 1e6 for v in self.tcp[:, :3].mean(axis=0)],
-            "tcp_rotation_max_urad": float(np.max(np.linalg.norm(self.tcp[:, 3:], axis=1))) * 1e6,
-            "bias": [{"name": p.names[i], "unit": p.units[i], "predicted": float(b), "actual": float(a)}
-                     for i, b, a in zip(self.corrected.base, self.predicted, self.actual)],
-            "bias_relative_deviation": self.relative_deviation,
-            "rms_after_corrected_um": float(np.sqrt(np.mean(self.corrected.residual_after ** 2))) * 1e6,
-            "rms_after_uncorrected_um": float(np.sqrt(np.mean(self.uncorrected.residual_after ** 2))) * 1e6,
-            "notes": list(self.notes),
-        }
-        if da.size:
-            out["rms_reading_urad"] = float(np.sqrt(np.mean(da ** 2))) * 1e6
-            out["max_reading_urad"] = float(np.max(np.abs(da))) * 1e6
-        return out
+        return DeflectionSummary(
+            gravity=np.asarray(self.gravity, dtype=float), force=np.asarray(self.load[0], dtype=float),
+            moment=np.asarray(self.load[1], dtype=float), n_readings=int(self.reading.size),
+            rms_reading=float(np.sqrt(np.mean(dl ** 2))) if dl.size else 0.0,
+            max_reading=float(np.max(np.abs(dl))) if dl.size else 0.0,
+            rms_reading_angle=float(np.sqrt(np.mean(da ** 2))) if da.size else None,
+            max_reading_angle=float(np.max(np.abs(da))) if da.size else None,
+            tcp_max=float(np.max(np.linalg.norm(self.tcp[:, :3], axis=1))),
+            tcp_mean=self.tcp[:, :3].mean(axis=0),
+            tcp_rotation_max=float(np.max(np.linalg.norm(self.tcp[:, 3:], axis=1))),
+            bias=tuple(ParameterBias(p.names[i], p.units[i], float(b), float(a))
+                       for i, b, a in zip(self.corrected.base, self.predicted, self.actual)),
+            bias_relative_deviation=self.relative_deviation,
+            rms_after_corrected=float(np.sqrt(np.mean(self.corrected.residual_after ** 2))),
+            rms_after_uncorrected=float(np.sqrt(np.mean(self.uncorrected.residual_after ** 2))),
+            notes=tuple(self.notes))
+
+    def to_dict(self) -> dict:
+        """SI record (see :func:`deflection_contribution` for the keys)."""
+        return self.summary().to_dict()
 
     def report(self) -> dict:
         """JSON-ready record for the command line: as :meth:`to_dict`, biases in mm (lengths) / µrad (angles)."""
@@ -266,7 +328,7 @@ def deflection_analysis(machine: Machine, params: ParameterSet, plan: Plan, meas
         dr = reading_deflection(machine, plan, params, corrected.delta, load=load, gravity=g)
     if uncorrected is None:
         uncorrected = identify(machine, params, plan, measured, method, base=corrected.base, **kwargs)
-    w = _row_weight(machine, plan.instrument, plan.n_poses)
+    w = reading_weights(machine, plan.instrument, plan.n_poses)
     predicted = np.linalg.lstsq(corrected.J, w * dr, rcond=None)[0]
     actual = uncorrected.delta[corrected.base] - corrected.delta[corrected.base]
     tv = plan.setup.target
@@ -316,6 +378,8 @@ def deflection_contribution(machine: Machine, params: ParameterSet, plan: Plan, 
 __all__ = (
     "DEFLECTION_MODELS",
     "DeflectionAnalysis",
+    "DeflectionSummary",
+    "ParameterBias",
     "check_deflection",
     "deflect_frames",
     "deflection_analysis",

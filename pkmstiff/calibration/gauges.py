@@ -97,7 +97,7 @@ def gauge_candidates(machine: Machine, params: ParameterSet, setup: Setup | None
         [_base_motion(machine, params, setup, _E[j], zero, c_base) for j in range(3)], 1), xyz, "rigid"))
     cands.append(GaugeCandidate(f"base frame rotation about {where}", np.stack(
         [_base_motion(machine, params, setup, zero, _E[j], c_base) for j in range(3)], 1), xyz, "rigid"))
-    tgt_name = "moving-ball centre" if setup is not None and setup.instrument == "ballbar" else "target point"
+    tgt_name = setup.instrument.target_name if setup is not None else "target point"
     cands.append(GaugeCandidate("platform frame translation", np.stack(
         [_platform_motion(machine, params, setup, _E[j], zero, target) for j in range(3)], 1), xyz, "rigid"))
     cands.append(GaugeCandidate(f"platform frame rotation about the {tgt_name}", np.stack(

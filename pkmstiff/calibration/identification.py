@@ -32,9 +32,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import differential_evolution, least_squares, linprog
 
-from pkmstiff.calibration.identifiability import GaugeFreedom, identifiability
-from pkmstiff.calibration.instruments import READINGS, Setup
-from pkmstiff.calibration.jacobian import identification_jacobian, rotation_length
+from pkmstiff.calibration.identifiability import GaugeFreedom, Identifiability, identifiability
+from pkmstiff.calibration.instruments import Setup
+from pkmstiff.calibration.jacobian import identification_jacobian, reading_weights
 from pkmstiff.calibration.measurement import reached_poses, simulate_readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
@@ -90,7 +90,7 @@ class Identification:
         names = self.base_names
         units = [self.params.units[i] for i in self.base]
         return {
-            "machine": self.machine.name, "plan": self.plan.name, "instrument": self.plan.instrument,
+            "machine": self.machine.name, "plan": self.plan.name, "instrument": self.plan.instrument.kind,
             "method": self.method, "loss": self.loss, "scaling": self.scaling, "iterations": self.iterations,
             "n_readings": self.n_readings, "n_parameters": self.params.n, "rank": self.rank,
             "condition_number": _num(self.condition_number),
@@ -107,16 +107,29 @@ def _num(v: float) -> float | None:
     return float(v) if np.isfinite(v) else None
 
 
+@dataclass(frozen=True)
+class ResidualStats:
+    """RMS, largest absolute value, mean and standard deviation of residuals, all in m."""
+
+    rms: float
+    max_abs: float
+    mean: float
+    std: float
+
+    @classmethod
+    def of(cls, r: np.ndarray) -> ResidualStats:
+        r = np.asarray(r, dtype=float)
+        return cls(float(np.sqrt(np.mean(r ** 2))), float(np.max(np.abs(r))), float(np.mean(r)), float(np.std(r)))
+
+    def to_dict(self) -> dict[str, float]:
+        """The same in µm (keys ``rms_um``, ``max_abs_um``, ``mean_um``, ``std_um``)."""
+        return {"rms_um": self.rms * 1e6, "max_abs_um": self.max_abs * 1e6, "mean_um": self.mean * 1e6,
+                "std_um": self.std * 1e6}
+
+
 def residual_stats(r: np.ndarray) -> dict[str, float]:
     """RMS, largest absolute, mean and standard deviation of residuals (m), in µm."""
-    r = np.asarray(r, dtype=float)
-    return {"rms_um": float(np.sqrt(np.mean(r ** 2))) * 1e6, "max_abs_um": float(np.max(np.abs(r))) * 1e6,
-            "mean_um": float(np.mean(r)) * 1e6, "std_um": float(np.std(r)) * 1e6}
-
-
-def _row_weight(machine: Machine, instrument: str, n_poses: int) -> np.ndarray:
-    units = READINGS[instrument][1]
-    return np.tile([1.0 if u == "m" else rotation_length(machine) for u in units], n_poses)
+    return ResidualStats.of(r).to_dict()
 
 
 def setup_at(setup: Setup, params: ParameterSet, delta: np.ndarray) -> Setup:
@@ -144,7 +157,7 @@ class _Model:
         self.machine, self.params, self.plan, self.base = machine, params, plan, base
         self.y = measured.reshape(-1)
         self.delta0 = delta0
-        self.w = _row_weight(machine, plan.instrument, plan.n_poses)
+        self.w = reading_weights(machine, plan.instrument, plan.n_poses)
         self.s = params.scale[base]
         self.n_eval = 0
 
@@ -278,16 +291,19 @@ def identify(machine: Machine, params: ParameterSet, plan: Plan, measured: np.nd
              loss: str = "linear", f_scale: float | None = None, delta0: np.ndarray | None = None,
              base: np.ndarray | None = None, tol: float = 1e-12, max_iter: int = 50,
              outlier_threshold: float = 3.0, bounds: float = 5.0, seed: int | None = 0,
-             de_maxiter: int = 200, source: str = "measurement") -> Identification:
+             de_maxiter: int = 200, source: str = "measurement",
+             ident: Identifiability | None = None) -> Identification:
     """Identify the base parameters of ``params`` from ``measured`` readings (N, k) of ``plan`` (SI) (Szatmári
     §4.6; see the module docstring). ``base`` (indices) overrides the base parameters of the identifiability
-    analysis; ``delta0`` is the start (default zero), also the value of the parameters held fixed."""
+    analysis; ``delta0`` is the start (default zero), also the value of the parameters held fixed. ``ident`` is the
+    identifiability of ``plan`` with ``params`` when already computed (it depends on neither the readings nor the
+    start, so repeated identifications of one plan share it)."""
     if method not in METHODS:
         raise CalibrationInputError(source, "method", f"one of {', '.join(METHODS)}", method)
     if loss not in LOSSES:
         raise CalibrationInputError(source, "loss", f"one of {', '.join(LOSSES)}", loss)
     y = _check_measured(plan, measured, source)
-    ident = identifiability(machine, params, plan)
+    ident = identifiability(machine, params, plan) if ident is None else ident
     b = np.array([params.index(nm) for nm in ident.base_parameters], dtype=int) if base is None else \
         np.asarray(base, dtype=int)
     m = y.size
@@ -348,7 +364,7 @@ def outlier_report(res: Identification, threshold: float = 3.0) -> list[dict]:
     s = noise_estimate(r, res.rank)
     if not np.isfinite(s) or s <= 0:
         return []
-    names = READINGS[res.plan.instrument][0]
+    names = res.plan.instrument.reading_names
     k = len(names)
     out = []
     for i in np.flatnonzero(np.abs(r) > threshold * s):

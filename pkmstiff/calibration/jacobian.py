@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pkmstiff.calibration.instruments import READINGS
+from pkmstiff.calibration.instruments import Instrument
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.errors import CalibrationError
@@ -43,7 +43,7 @@ class IdentificationJacobian:
     J: np.ndarray
     params: ParameterSet
     plan_name: str
-    instrument: str
+    instrument: Instrument
     n_poses: int
     reading_names: tuple[str, ...]
     reading_units: tuple[str, ...]
@@ -63,32 +63,14 @@ class IdentificationJacobian:
         return self.weighted() * self.params.scale[None, :]
 
 
+def reading_weights(machine: Machine, instrument: Instrument, n_poses: int) -> np.ndarray:
+    """Row weights (n_poses · k,): 1 for length readings, :func:`rotation_length` for orientation readings."""
+    return np.tile([1.0 if u == "m" else rotation_length(machine) for u in instrument.reading_units], n_poses)
+
+
 def rotation_length(machine: Machine) -> float:
     """Length (m) that weights orientation readings: the mean platform-joint radius |p'_i|."""
     return float(np.mean(np.linalg.norm(machine.chains.platform_joint, axis=1)))
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """[v]× for v (N, 3) -> (N, 3, 3)."""
-    S = np.zeros(v.shape[:-1] + (3, 3))
-    S[..., 0, 1], S[..., 0, 2] = -v[..., 2], v[..., 1]
-    S[..., 1, 0], S[..., 1, 2] = v[..., 2], -v[..., 0]
-    S[..., 2, 0], S[..., 2, 1] = -v[..., 1], v[..., 0]
-    return S
-
-
-def _reading_twist(instrument: str, u_hat: np.ndarray | None, Rv: np.ndarray) -> np.ndarray:
-    """H (N, k, 6): derivative of the readings with respect to the platform twist (δo, δω) (MKS)."""
-    N = Rv.shape[0]
-    if instrument == "ballbar":
-        return np.concatenate([u_hat, np.cross(Rv, u_hat)], axis=1)[:, None, :]
-    k = 3 if instrument == "tracker" else 6
-    H = np.zeros((N, k, 6))
-    H[:, 0:3, 0:3] = np.eye(3)
-    H[:, 0:3, 3:6] = -_skew(Rv)
-    if instrument == "pose":
-        H[:, 3:6, 3:6] = np.eye(3)
-    return H
 
 
 def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) -> IdentificationJacobian:
@@ -110,15 +92,7 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
     setup = plan.setup
     Rv = np.einsum("nij,j->ni", R, setup.target)
     m = o + Rv
-    u_hat = None
-    if inst == "ballbar":
-        rel = m - setup.fixed_ball
-        dist = np.linalg.norm(rel, axis=1)
-        if np.any(dist < 1e-9):
-            raise CalibrationError(f"plan '{plan.name}': the moving ball coincides with the fixed ball (singular "
-                                   "ball-bar set-up)")
-        u_hat = rel / dist[:, None]
-    H = _reading_twist(inst, u_hat, Rv)
+    H = inst.reading_twist(setup, m, Rv, f"plan '{plan.name}'")
     k = H.shape[1]
     sing = singular_mask(machine, jinv)  # κ(J_C⁻¹) > threshold (models.md §1.6), as the admissibility check
     if sing.any():
@@ -163,30 +137,9 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
         if idx.size:
             c = params.chain[idx]
             J[:, :, idx] = -LamT[:, c, :].transpose(0, 2, 1) * g_all[:, c][:, None, :]
-    _setup_columns(J, params, inst, R, m, u_hat)
-    names, units = READINGS[inst]
-    row_scale = np.tile([1.0 if u == "m" else rotation_length(machine) for u in units], N)
+    inst.setup_jacobian(J, params, setup, R, m)
+    names, units = inst.reading_names, inst.reading_units
+    row_scale = reading_weights(machine, inst, N)
     return IdentificationJacobian(J=J.reshape(N * k, params.n), params=params, plan_name=plan.name, instrument=inst,
                                   n_poses=N, reading_names=names, reading_units=units, row_scale=row_scale)
 
-
-def _setup_columns(J: np.ndarray, params: ParameterSet, inst: str, R: np.ndarray, m: np.ndarray,
-                   u_hat: np.ndarray | None) -> None:
-    """Direct derivatives of the readings with respect to the set-up parameters (in place)."""
-    for k in np.flatnonzero(params.chain < 0):
-        blk, a = params.blocks[k], params.axis[k]
-        if blk == "ball_offset":
-            J[:, 0, k] = np.einsum("ni,nij,j->n", u_hat, R, a)
-        elif blk == "fixed_ball":
-            J[:, 0, k] = -u_hat @ a
-        elif blk == "bar_offset":
-            J[:, 0, k] = 1.0
-        elif blk == "target_offset":
-            J[:, 0:3, k] = R @ a
-        elif blk == "instrument_frame":
-            if params.components[k].startswith("r"):
-                J[:, 0:3, k] = np.cross(m, a)
-                if inst == "pose":
-                    J[:, 3:6, k] = -a
-            else:
-                J[:, 0:3, k] = -a

@@ -12,7 +12,7 @@ Per chain (chain numbers 1-based, as ``chains[i]`` in machine files):
   ``drive_joint`` (3, offset of the drive-side joint from the guide point), ``strut_length`` (1),
   ``platform_joint`` (3), ``drive_zero`` (1, key ``drive_offset``) = 13.
 
-Set-up parameters (selected by the tokens of :data:`SETUP_TOKENS`): ball-bar ``ball_offset`` Δv (PKS, 3),
+Set-up parameters (selected by the tokens of :func:`setup_tokens`): ball-bar ``ball_offset`` Δv (PKS, 3),
 ``fixed_ball`` position (MKS, 3), ``bar_offset`` Δr (1); tracker/pose ``target_offset`` (PKS, 3) and
 ``instrument_frame`` (translation x, y, z and rotation rx, ry, rz of the instrument's frame in the MKS, 6).
 
@@ -26,12 +26,15 @@ from __future__ import annotations
 import difflib
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
 from pkmstiff.errors import CalibrationInputError
 from pkmstiff.machine.model import Machine
+
+if TYPE_CHECKING:
+    from pkmstiff.calibration.instruments import Instrument
 
 Frame = Literal["cartesian", "cylindrical"]
 FRAMES = ("cartesian", "cylindrical")
@@ -42,14 +45,6 @@ DEFAULT_LENGTH_SCALE = 1e-3
 #: typical size of an angular error (rad): 1 mrad = 1 mm over 1 m of guide
 DEFAULT_ANGLE_SCALE = 1e-3
 
-#: set-up parameter tokens (command line ``--with``) -> (block, allowed instruments)
-SETUP_TOKENS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "ball-offset": ("ball_offset", ("ballbar",)),
-    "fixed-ball": ("fixed_ball", ("ballbar",)),
-    "bar-offset": ("bar_offset", ("ballbar",)),
-    "target-offset": ("target_offset", ("tracker", "pose")),
-    "instrument-frame": ("instrument_frame", ("tracker", "pose")),
-}
 
 #: blocks whose parameters are points fixed to the base (MKS), to the platform (PKS), vectors fixed to the base,
 #: and scalars
@@ -201,20 +196,33 @@ class _Builder:
                             scale=np.array(scale, dtype=float))
 
 
-def parse_with(tokens: str | Iterable[str] | None, instrument: str, source: str = "--with") -> tuple[str, ...]:
+def setup_tokens() -> dict[str, str]:
+    """Every set-up parameter token (command line ``--with``) -> its block, over all instruments
+    (:attr:`pkmstiff.calibration.instruments.Instrument.setup_tokens`)."""
+    from pkmstiff.calibration.instruments import instruments
+
+    return {t: b for inst in instruments() for t, b in inst.setup_tokens.items()}
+
+
+def parse_with(tokens: str | Iterable[str] | None, instrument: Instrument | str,
+               source: str = "--with") -> tuple[str, ...]:
     """Set-up tokens (``"ball-offset,bar-offset"``) -> block names; checked against the instrument."""
+    from pkmstiff.calibration.instruments import instrument as lookup, instruments
+
     if tokens is None:
         return ()
+    inst = lookup(instrument)
+    known = setup_tokens()
     items = [t.strip() for t in (tokens.split(",") if isinstance(tokens, str) else tokens) if t.strip()]
     out = []
     for t in items:
-        if t not in SETUP_TOKENS:
-            raise CalibrationInputError(source, t, f"one of {', '.join(SETUP_TOKENS)}", "unknown set-up parameter")
-        block, instruments = SETUP_TOKENS[t]
-        if instrument not in instruments:
-            raise CalibrationInputError(source, t, f"a set-up parameter of the {instrument} "
-                                        f"({', '.join(k for k, v in SETUP_TOKENS.items() if instrument in v[1])})",
-                                        f"a {'/'.join(instruments)} parameter")
+        if t not in known:
+            raise CalibrationInputError(source, t, f"one of {', '.join(known)}", "unknown set-up parameter")
+        block = known[t]
+        if t not in inst.setup_tokens:
+            owners = "/".join(str(i) for i in instruments() if t in i.setup_tokens)
+            raise CalibrationInputError(source, t, f"a set-up parameter of the {inst} "
+                                        f"({', '.join(inst.setup_tokens)})", f"a {owners} parameter")
         if block not in out:
             out.append(block)
     return tuple(out)
@@ -273,7 +281,7 @@ def error_model(machine: Machine, frame: str = "cartesian", setup: object | None
                 b.rows.append((f"instrument_frame.r{c}", "rad", blk, f"r{c}", -1, _E[k], 0.0, A))
         else:
             raise CalibrationInputError(machine.path or machine.name, "setup_blocks",
-                                        f"set-up blocks {sorted(v[0] for v in SETUP_TOKENS.values())}", blk)
+                                        f"set-up blocks {sorted(setup_tokens().values())}", blk)
     return b.build(machine.name, ch.kind, frame)
 
 

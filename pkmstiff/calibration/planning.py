@@ -412,16 +412,11 @@ def plan_toml(plan: Plan, name: str, description: str = "", hemisphere: Hemisphe
     """A plan file :func:`~.plans.read_plan` reads back to the same poses: a hemisphere path with its orientation
     nodes (deg), or the poses (platform origin in mm, Cardan angles in deg, full precision)."""
     st = plan.setup
-    lines = ["[plan]", f"name = {name!r}".replace("'", '"'), f'instrument = "{st.instrument}"']
+    lines = ["[plan]", f"name = {name!r}".replace("'", '"'), f'instrument = "{st.instrument.kind}"']
     if description:
         lines.append(f'description = "{description}"')
     lines += ["", "[setup]", "target = [" + ", ".join(_q(v, "mm", 1e-3) for v in st.target) + "]"]
-    if st.instrument == "ballbar":
-        lines += ["fixed_ball = [" + ", ".join(_q(v, "mm", 1e-3) for v in st.fixed_ball) + "]",
-                  f"bar_length = {_q(st.bar_length, 'mm', 1e-3)}",
-                  f"measuring_range = {_q(st.measuring_range, 'mm', 1e-3)}"]
-        if st.max_mount_angle is not None:
-            lines.append(f"max_mount_angle = {_q(st.max_mount_angle, 'deg', np.pi / 180)}")
+    lines += st.instrument.setup_toml(st, _q)
     lines += ["", "[[paths]]"]
     if hemisphere is not None and nodes is not None:
         h = hemisphere

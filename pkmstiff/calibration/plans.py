@@ -21,11 +21,11 @@ from pathlib import Path
 import numpy as np
 
 from pkmstiff.admissibility import evaluate_poses
-from pkmstiff.calibration.instruments import INSTRUMENTS, Setup, SetupState, readings
+from pkmstiff.calibration.instruments import Instrument, Setup, SetupState, instrument, kinds
 from pkmstiff.errors import CalibrationError, CalibrationInputError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.kinematics import as_poses
-from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
+from pkmstiff.kinematics.rotation import cardan_angles
 from pkmstiff.machine import Machine
 from pkmstiff.units import parse_quantity
 
@@ -51,7 +51,7 @@ class Plan:
     segments: tuple[Segment, ...] = field(default=())
 
     @property
-    def instrument(self) -> str:
+    def instrument(self) -> Instrument:
         return self.setup.instrument
 
     @property
@@ -202,8 +202,9 @@ def hemisphere_plan(setup: Setup, n: int = 360, turns: float = 4.0, polar: tuple
     ``nodes`` (k, 3): orientation nodes B, L, D [rad] (absolute, calibration.md §1 reading) at k equally spaced
     values of the path parameter, interpolated by cubic splines (Szatmári §4.4.3); they replace the default
     schedule. The simulation runs the path at constant feed (:mod:`pkmstiff.calibration.simulation`)."""
-    if setup.instrument != "ballbar":
-        raise CalibrationInputError("plan", "instrument", "a ball-bar set-up for a hemisphere path", setup.instrument)
+    if setup.fixed_ball is None:
+        raise CalibrationInputError("plan", "instrument", "a ball-bar set-up for a hemisphere path",
+                                    setup.instrument.kind)
     s = np.linspace(0.0, 1.0, int(n))
     pol = polar[1] + (polar[0] - polar[1]) * s  # from near the equator up to near the pole
     az = 2 * np.pi * turns * s
@@ -254,29 +255,7 @@ def check_plan(machine: Machine, plan: Plan, max_list: int = 3) -> None:
         more = f"; ... ({bad.size - max_list} more)" if bad.size > max_list else ""
         raise CalibrationError(f"plan '{plan.name}': {bad.size} of {len(poses)} poses not admissible on "
                                f"{machine.name}: " + "; ".join(items) + more)
-    if plan.instrument == "ballbar":
-        R = cardan_matrix(poses[:, 3], poses[:, 4], poses[:, 5])
-        if plan.setup.max_mount_angle is not None:
-            m = poses[:, :3] + np.einsum("nij,j->ni", R, plan.setup.target)
-            bar = plan.setup.fixed_ball - m
-            axis = np.einsum("nij,j->ni", R, machine.tool.axis)
-            cos = np.einsum("ni,ni->n", bar, axis) / np.linalg.norm(bar, axis=1) / np.linalg.norm(axis, axis=1)
-            ang = np.arccos(np.clip(cos, -1.0, 1.0))
-            off = np.flatnonzero(ang > plan.setup.max_mount_angle)
-            if off.size:
-                i = int(off[0])
-                raise CalibrationError(
-                    f"plan '{plan.name}': {off.size} of {len(poses)} poses tilt the ball bar beyond the cup's "
-                    f"{np.degrees(plan.setup.max_mount_angle):g} deg to the tool axis, first pose {i + 1} "
-                    f"{_fmt_pose(poses[i])} at {np.degrees(ang[i]):.1f} deg")
-        r = readings(plan.setup, plan.setup.state(), poses[:, :3], R, R)[:, 0]
-        off = np.flatnonzero(np.abs(r - plan.setup.bar_length) > plan.setup.measuring_range)
-        if off.size:
-            i = int(off[0])
-            raise CalibrationError(
-                f"plan '{plan.name}': {off.size} of {len(poses)} poses put the ball bar outside its range "
-                f"{plan.setup.bar_length * 1e3:g} ± {plan.setup.measuring_range * 1e3:g} mm, first pose {i + 1} "
-                f"{_fmt_pose(poses[i])} at {r[i] * 1e3:.3f} mm")
+    plan.instrument.check_nominal(machine, plan, poses)
 
 
 # ------------------------------------------------------------------------------------------- default plans
@@ -308,56 +287,35 @@ def workspace_centre(machine: Machine, points: int = 17) -> np.ndarray:
     return centre
 
 
-def default_setup(machine: Machine, instrument: str, centre: np.ndarray | None = None,
+def default_setup(machine: Machine, kind: Instrument | str, centre: np.ndarray | None = None,
                   bar_length: float = 0.3) -> Setup:
     """The set-up a user starts with: target at the TCP (machine ``[tool]``); ball bar of 300 mm with the fixed
     ball at the workspace centre (Szatmári §5.1: hemisphere of R = 300 mm about the origin of Felix)."""
     c = workspace_centre(machine) if centre is None else np.asarray(centre, float)
-    tip = machine.tool.tip()
-    if instrument == "ballbar":
-        return Setup("ballbar", target=tip, fixed_ball=c, bar_length=bar_length)
-    return Setup(instrument, target=tip)
+    return instrument(kind).default_setup(machine, c, bar_length)
 
 
 def _admissible(machine: Machine, plan: Plan) -> bool:
     return bool(evaluate_poses(machine, plan.poses).ok.all())
 
 
-def default_plan(machine: Machine, instrument: str) -> Plan:
-    """The default plan per instrument (an admissible one is searched by reducing tilt and size):
+def default_plan(machine: Machine, kind: Instrument | str) -> Plan:
+    """The default plan of an instrument (:meth:`~pkmstiff.calibration.instruments.Instrument.default_plans`): the
+    first admissible candidate (the candidates reduce tilt and size), e.g.
 
-    * ballbar: Szatmári's tilted hemisphere path of R = 300 mm about the workspace centre (§4.4, §5.1), the ball
-      above the fixed ball when the tool points down (−z'), else below; where it is not admissible the fixed
-      ball is moved (±100 mm in y, ±150/300 mm in z), the tilt reduced (20, 15, 10, 5 deg) and then the shorter
-      QC10 bars (150, 100 mm) are tried, in that order;
+    * ball bar: Szatmári's tilted hemisphere path of R = 300 mm about the workspace centre (§4.4, §5.1);
     * tracker / pose: a 3×3×3 grid of ±150 mm about the workspace centre, three orientations per point.
     """
+    inst = instrument(kind)
     centre = workspace_centre(machine)
-    setup = default_setup(machine, instrument, centre)
-    tried = []
-    if instrument == "ballbar":
-        side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
-        offsets = [np.array([0.0, dy, dz * side]) for dz in (0.0, -0.15, 0.15, -0.3) for dy in (0.0, -0.1, 0.1)]
-        for bar in (0.3, 0.15, 0.1):  # QC10 bar lengths (Szatmári Tab. 4.3)
-            for tilt in (20.0, 15.0, 10.0, 5.0):
-                torsion = min(tilt, 15.0)
-                for off in offsets:
-                    st = Setup("ballbar", target=setup.target, fixed_ball=centre + off, bar_length=bar)
-                    p = hemisphere_plan(st, tilt=np.radians(tilt), torsion=np.radians(torsion), side=side,
-                                        name=f"default hemisphere R={bar * 1e3:g} mm, tilt {tilt:g} deg")
-                    tried.append(p)
-                    if _admissible(machine, p):
-                        return p
-    else:
-        for hw in (0.15, 0.1, 0.05):
-            for tilt in (10.0, 5.0):
-                p = grid_plan(setup, centre, hw, tilt=np.radians(tilt), torsion=np.radians(tilt),
-                              name=f"default grid 3^3 ±{hw * 1e3:g} mm, tilt {tilt:g} deg")
-                tried.append(p)
-                if _admissible(machine, p):
-                    return p
-    check_plan(machine, tried[-1])  # raises with the failing poses of the most modest candidate
-    return tried[-1]
+    setup = default_setup(machine, inst, centre)
+    last = None
+    for p in inst.default_plans(machine, centre, setup):
+        last = p
+        if _admissible(machine, p):
+            return p
+    check_plan(machine, last)  # raises with the failing poses of the most modest candidate
+    return last
 
 
 # ---------------------------------------------------------------------------------------------- TOML plans
@@ -386,9 +344,8 @@ def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None)
                      CalibrationInputError)
     pt = check_keys(require(raw, "plan", src, "", "a [plan] table", CalibrationInputError), _PLAN_TABLE, src,
                     "plan.", CalibrationInputError)
-    instrument = require(pt, "instrument", src, "plan.", f"one of {', '.join(INSTRUMENTS)}", CalibrationInputError)
-    if instrument not in INSTRUMENTS:
-        raise CalibrationInputError(src, "plan.instrument", f"one of {', '.join(INSTRUMENTS)}", instrument)
+    inst = instrument(require(pt, "instrument", src, "plan.", f"one of {', '.join(kinds())}", CalibrationInputError),
+                      src, "plan.instrument")
     st = check_keys(raw.get("setup", {}), _SETUP_KEYS, src, "setup.", CalibrationInputError)
 
     def q(table, key, unit, prefix, default=None, shape=None, positive=False):
@@ -405,15 +362,14 @@ def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None)
                                         getattr(exc, "expected", f"a value in {unit}"),
                                         getattr(exc, "found", table[key])) from None
 
-    target = q(st, "target", "m", "setup.", np.zeros(3), (3,))
-    if instrument == "ballbar":
-        setup = Setup("ballbar", target=target, fixed_ball=q(st, "fixed_ball", "m", "setup.", shape=(3,)),
-                      bar_length=q(st, "bar_length", "m", "setup.", positive=True),
-                      measuring_range=q(st, "measuring_range", "m", "setup.", 1e-3, positive=True),
-                      max_mount_angle=(q(st, "max_mount_angle", "rad", "setup.", positive=True)
-                                       if "max_mount_angle" in st else None))
-    else:
-        setup = Setup(instrument, target=target)
+    def count(table: dict, key: str, prefix: str, default: float) -> int:
+        """A whole positive number of points (2.5 points is a typo, not a plan)."""
+        v = q(table, key, "dimensionless", prefix, default, positive=True)
+        if v != int(v):
+            raise CalibrationInputError(src, prefix + key, "a whole number of points", table[key])
+        return int(v)
+
+    setup = inst.setup_from_toml(st, q, q(st, "target", "m", "setup.", np.zeros(3), (3,)))
     paths = raw.get("paths")
     if not isinstance(paths, list) or not paths:
         raise CalibrationInputError(src, "paths", "at least one [[paths]] table", paths)
@@ -432,7 +388,7 @@ def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None)
         if check is not None:
             check(total + _path_poses(kind, p, q, pre), f"{src}: {pre}points")
         if kind == "circle":
-            n = int(q(p, "points", "dimensionless", pre, 72.0, positive=True))
+            n = count(p, "points", pre, 72.0)
             if "normal" in p and "plane" in p:
                 raise CalibrationInputError(src, pre + "normal", "either plane or normal", "both")
             plane = q(p, "normal", "dimensionless", pre, shape=(3,)) if "normal" in p else str(p.get("plane", "XY"))
@@ -446,7 +402,7 @@ def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None)
                                tilt=q(p, "tilt", "rad", pre, 0.0), tilt_azimuth=q(p, "tilt_azimuth", "rad", pre, 0.0),
                                torsion=q(p, "torsion", "rad", pre, 0.0), name=label)
         elif kind == "hemisphere":
-            part = hemisphere_plan(setup, n=int(q(p, "points", "dimensionless", pre, 360.0, positive=True)),
+            part = hemisphere_plan(setup, n=count(p, "points", pre, 360.0),
                                    turns=q(p, "turns", "dimensionless", pre, 4.0, positive=True),
                                    polar=(q(p, "polar_min", "rad", pre, np.radians(10)),
                                           q(p, "polar_max", "rad", pre, np.radians(80))),
@@ -457,7 +413,7 @@ def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None)
             part = grid_plan(setup, q(p, "centre", "m", pre, setup.fixed_ball if setup.fixed_ball is not None
                                       else np.zeros(3), (3,)),
                              q(p, "half_width", "m", pre, positive=True),
-                             points=int(q(p, "points", "dimensionless", pre, 3.0, positive=True)),
+                             points=count(p, "points", pre, 3.0),
                              tilt=q(p, "tilt", "rad", pre, np.radians(10)),
                              torsion=q(p, "torsion", "rad", pre, np.radians(10)), name=label)
         else:

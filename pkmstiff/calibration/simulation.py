@@ -1,4 +1,4 @@
-"""Simulated ball-bar (and tracker / pose) measurements with an instrument model (Szatmári §4.3, Tab. 4.3–4.5).
+"""Simulated ball-bar (and tracker / pose) measurements with a device model (Szatmári §4.3, Tab. 4.3–4.5).
 
 Chain of effects per sample (all SI):
 
@@ -18,10 +18,10 @@ Chain of effects per sample (all SI):
 **Assumption:** the ±0.5 µm accuracy and the Tab. 4.5 procedure uncertainties are read as 2σ bounds (k = 2), i.e.
 σ = accuracy / 2 resp. U(feed) / 2, with U interpolated linearly in the feed.
 
-Laser tracker and 6-D pose instrument (:class:`TrackerModel`): the readings of
+Laser tracker and 6-D pose instrument (:class:`~pkmstiff.calibration.instruments.TrackerDevice`): the readings of
 :func:`~pkmstiff.calibration.instruments.readings` with white noise per coordinate (σ = MPE / 2, the same k = 2
 reading) and quantisation to the resolution; the instrument figures are **assumptions** for a typical
-AT960-class tracker with a 6-D probe (no source of the project gives them; see :class:`TrackerModel`).
+AT960-class tracker with a 6-D probe (no source of the project gives them; see :class:`~pkmstiff.calibration.instruments.TrackerDevice`).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pkmstiff.calibration.instruments import Setup, readings, target_points
+from pkmstiff.calibration.instruments import BallbarDevice, Setup, TrackerDevice, readings, target_points
 from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_state
@@ -41,124 +41,24 @@ from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
 
-#: Szatmári Tab. 4.5: uncertainty of the whole measuring procedure on Felix vs. path feed (mm/min -> µm)
-TAB_4_5_FEED = np.array([0.0, 100.0, 500.0, 1000.0, 2000.0]) / 60e3  # m/s
-TAB_4_5_UNCERTAINTY = np.array([15.0, 22.0, 22.0, 36.0, 54.0]) * 1e-6  # m
-NOISE_MODELS = ("none", "instrument", "procedure")
 STEEL_ALPHA = 11.5e-6  # 1/K, Assumption: steel struts
 
 
-@dataclass(frozen=True)
-class InstrumentModel:
-    """A ball-bar class instrument (defaults: QC10, Szatmári Tab. 4.3): ``sample_rate`` [Hz], reading ``range``
-    (lo, hi) about the nominal bar length [m], ``resolution`` and ``accuracy`` [m]; the procedure uncertainty
-    table U(feed) (Tab. 4.5) as ``procedure_feed`` [m/s] / ``procedure_uncertainty`` [m]."""
-
-    name: str = "QC10"
-    sample_rate: float = 250.0
-    range: tuple[float, float] = (-1e-3, 1e-3)
-    resolution: float = 0.1e-6
-    accuracy: float = 0.5e-6
-    procedure_feed: tuple[float, ...] = tuple(TAB_4_5_FEED)
-    procedure_uncertainty: tuple[float, ...] = tuple(TAB_4_5_UNCERTAINTY)
-
-    def __post_init__(self) -> None:
-        for key in ("sample_rate", "resolution", "accuracy"):
-            v = getattr(self, key)
-            if not (np.isfinite(v) and v >= 0) or (key == "sample_rate" and v <= 0):
-                raise CalibrationInputError("instrument", key, "a positive number", v)
-        if not self.range[0] < 0 < self.range[1]:
-            raise CalibrationInputError("instrument", "range", "lo < 0 < hi (m, about the bar length)", self.range)
-
-    def uncertainty(self, feed: np.ndarray | float) -> np.ndarray:
-        """Procedure uncertainty U(feed) [m] (Tab. 4.5, linear interpolation, constant beyond the table)."""
-        return np.interp(np.abs(feed), self.procedure_feed, self.procedure_uncertainty)
-
-    def sigma(self, noise: str | float, feed: np.ndarray | float) -> np.ndarray:
-        """White-noise standard deviation [m]: ``none``, ``instrument`` (accuracy / 2), ``procedure`` (U / 2) or
-        a number (σ in m)."""
-        f = np.asarray(feed, dtype=float)
-        if isinstance(noise, str):
-            if noise == "none":
-                return np.zeros_like(f)
-            if noise == "instrument":
-                return np.full_like(f, self.accuracy / 2.0)
-            if noise == "procedure":
-                return self.uncertainty(f) / 2.0
-            raise CalibrationInputError("--noise", "noise", f"one of {', '.join(NOISE_MODELS)} or a σ", noise)
-        return np.full_like(f, float(noise))
+#: a device (noise model) of an instrument: :class:`~pkmstiff.calibration.instruments.BallbarDevice` or
+#: :class:`~pkmstiff.calibration.instruments.TrackerDevice`
+Device = BallbarDevice | TrackerDevice
 
 
-@dataclass(frozen=True)
-class TrackerModel:
-    """A laser tracker (``kind`` "tracker": 3-D target position) or a 6-D pose instrument (``kind`` "pose": a
-    tracker with a 6-DoF probe, position + orientation). Every figure is an **Assumption** (typical data-sheet
-    values of an AT960-class tracker; the project's sources give none), one reason each:
-
-    * ``sample_rate`` 1000 Hz: the output rate such trackers offer for dynamic measurement;
-    * ``resolution`` 0.1 µm: the distance (ADM/IFM) display resolution;
-    * position MPE = ``mpe_constant`` 15 µm + ``mpe_per_m`` 6 µm/m × distance: the usual form and size of a
-      tracker's ISO 10360-10 maximum permissible error;
-    * ``standoff`` 2 m: the tracker stands beside the machine, about 2 m from the workspace, so the MPE is
-      evaluated at 2 m (27 µm);
-    * ``volume_radius`` 20 m: the 6-DoF probe range of such trackers (readings beyond are out of range);
-    * ``angle_accuracy`` 175 µrad (0.01°) MPE and ``angle_resolution`` 1 µrad: 6-DoF probe (T-Mac class) data.
-
-    σ = MPE / 2 per coordinate (k = 2, as for the ball bar)."""
-
-    kind: str = "tracker"
-    name: str = "laser tracker (AT960 class, assumed)"
-    sample_rate: float = 1000.0
-    resolution: float = 0.1e-6
-    mpe_constant: float = 15e-6
-    mpe_per_m: float = 6e-6
-    standoff: float = 2.0
-    volume_radius: float = 20.0
-    angle_resolution: float = 1e-6
-    angle_accuracy: float = 175e-6
-
-    def __post_init__(self) -> None:
-        if self.kind not in ("tracker", "pose"):
-            raise CalibrationInputError("instrument", "kind", "tracker or pose", self.kind)
-        for key in ("sample_rate", "resolution", "mpe_constant", "mpe_per_m", "standoff", "volume_radius",
-                    "angle_resolution", "angle_accuracy"):
-            v = getattr(self, key)
-            if not (np.isfinite(v) and v >= 0) or (key in ("sample_rate", "volume_radius") and v <= 0):
-                raise CalibrationInputError("instrument", key, "a positive number", v)
-
-    @property
-    def accuracy(self) -> float:
-        """Position MPE at the standoff distance [m]."""
-        return self.mpe_constant + self.mpe_per_m * self.standoff
-
-    def sigma(self, noise: str | float, feed: np.ndarray | float) -> np.ndarray:
-        """Position σ per sample [m]: ``none``, ``instrument`` (MPE / 2) or a number (σ in m); the ball-bar
-        ``procedure`` model (Szatmári Tab. 4.5) does not apply to a tracker."""
-        f = np.asarray(feed, dtype=float)
-        if isinstance(noise, str):
-            if noise == "none":
-                return np.zeros_like(f)
-            if noise == "instrument":
-                return np.full_like(f, self.accuracy / 2.0)
-            raise CalibrationInputError("--noise", "noise", "none, instrument or a sigma for a tracker / pose "
-                                        "instrument (procedure is the ball-bar model of Szatmari Tab. 4.5)", noise)
-        return np.full_like(f, float(noise))
-
-    def angle_sigma(self, noise: str | float) -> float:
-        """Orientation σ [rad]: 0 for ``none``, angle MPE / 2 otherwise (a numeric σ sets the position only)."""
-        return 0.0 if noise == "none" else self.angle_accuracy / 2.0
-
-
-def default_instrument(kind: str) -> InstrumentModel | TrackerModel:
-    """The default instrument model of a plan's instrument: QC10 ball bar, or the assumed tracker / 6-D model."""
-    return InstrumentModel() if kind == "ballbar" else TrackerModel(kind=kind)
+def default_device(plan: Plan) -> Device:
+    """The default device of a plan's instrument: QC10 ball bar, or the assumed tracker / 6-D device."""
+    return plan.instrument.default_device()
 
 
 @dataclass(frozen=True)
 class SimulationOptions:
     """How the measurement is run: path ``feed`` [m/s] (default 500 mm/min, Szatmári's quasi-static limit for
     Felix, §4.3.3.2), ``directions`` ("ccw", "cw" or both, "cw" being the plan's paths reversed), ``noise`` (see
-    :meth:`InstrumentModel.sigma`), ``quantise`` to the resolution, ``backlash`` b [m] per drive, thermal drift
+    :meth:`~pkmstiff.calibration.instruments.BallbarDevice.sigma`), ``quantise`` to the resolution, ``backlash`` b [m] per drive, thermal drift
     ``drift_dT`` [K] with time constant ``drift_tau`` [s] and expansion coefficient ``alpha`` [1/K] (Assumption,
     see the module docstring), start temperature ``T0`` [°C], ``dwell`` [s] per static pose; ``deflection``
     ``"gravity"`` adds the elastic deflection of the perturbed machine under its weight (and ``deflection_load`` at
@@ -249,11 +149,7 @@ def resample_path(setup: Setup, poses: np.ndarray, step: float, closed: bool) ->
     with np.errstate(divide="ignore", invalid="ignore"):
         w = np.where(ds[k] > 0, (sq - s[k]) / ds[k], 0.0)
     Pq = P[k] + w[:, None] * (P[k + 1] - P[k])
-    if setup.instrument == "ballbar":
-        c = setup.fixed_ball
-        rad = np.linalg.norm(P - c, axis=1)
-        rq = rad[k] + w * (rad[k + 1] - rad[k])
-        Pq = c + (Pq - c) * (rq / np.linalg.norm(Pq - c, axis=1))[:, None]
+    Pq = setup.instrument.project_path(setup, P, Pq, k, w)
     Rq = _slerp_pairs(R, k, w)
     return poses_for_target(Pq, Rq, setup.target), sq
 
@@ -265,10 +161,10 @@ def _is_closed(P: np.ndarray) -> bool:
     return bool(np.linalg.norm(P[-1] - P[0]) < 1.5 * step)
 
 
-def sample_plan(plan: Plan, instrument: InstrumentModel, options: SimulationOptions) -> Samples:
-    """The samples of a measurement along ``plan``: path segments at ``options.feed`` and the instrument's sample
+def sample_plan(plan: Plan, device: Device, options: SimulationOptions) -> Samples:
+    """The samples of a measurement along ``plan``: path segments at ``options.feed`` and the device's sample
     rate (one run per direction, ``cw`` reversed), point segments one sample per pose after ``options.dwell``."""
-    step = options.feed / instrument.sample_rate
+    step = options.feed / device.sample_rate
     parts, t0 = [], 0.0
     segs = plan.segments or ()
     for j, seg in enumerate(segs):
@@ -287,7 +183,7 @@ def sample_plan(plan: Plan, instrument: InstrumentModel, options: SimulationOpti
             q, s = resample_path(plan.setup, xx, step, closed)
             t = t0 + s / options.feed
             parts.append((q, t, np.full(len(q), options.feed), np.full(len(q), d), np.full(len(q), j)))
-            t0 = t[-1] + 1.0 / instrument.sample_rate
+            t0 = t[-1] + 1.0 / device.sample_rate
     if not parts:
         raise CalibrationInputError(plan.name, "segments", "at least one path or point set", 0)
     cols = list(zip(*parts))
@@ -347,14 +243,15 @@ def displaced_frames(o: np.ndarray, R: np.ndarray, Jinv: np.ndarray, dq: np.ndar
 
 
 def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Plan,
-             instrument: InstrumentModel | TrackerModel | None = None, options: SimulationOptions | None = None,
+             device: Device | None = None, options: SimulationOptions | None = None,
              samples: Samples | None = None) -> SimulationResult:
-    """Simulate a measurement along ``plan`` on ``machine`` with errors ``delta`` (module docstring)."""
-    instrument = instrument or default_instrument(plan.instrument)
-    _check_match(plan, instrument)
+    """Simulate a measurement along ``plan`` on ``machine`` with errors ``delta`` (module docstring); ``device``
+    is the instrument's device (default: the plan's instrument's)."""
+    device = device or default_device(plan)
+    _check_match(plan, device)
     options = options or SimulationOptions()
     delta = params.check_vector(delta)
-    smp = samples or sample_plan(plan, instrument, options)
+    smp = samples or sample_plan(plan, device, options)
     x = smp.poses
     ik = inverse_kinematics(machine, x)
     bad = np.flatnonzero(~ik.all_reachable)
@@ -387,18 +284,10 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
 
         notes.append(f"gravity deflection of the structure model added (Assumption: {strut_mass_text(machine)})")
     clean = readings(plan.setup, state, o, R, Rc)
-    sigma = instrument.sigma(options.noise, smp.feed)
+    sigma = device.sigma(options.noise, smp.feed)
     rng = np.random.default_rng(options.seed)
     out = clean + (rng.standard_normal(clean.shape) * sigma[:, None] if np.any(sigma > 0) else 0.0)
-    violations, dev = np.zeros(0, dtype=int), None
-    if plan.instrument != "ballbar":
-        out, violations = _point_readings(instrument, options, clean, out, rng)
-    else:
-        dev = out[:, 0] - plan.setup.bar_length
-        if options.quantise and instrument.resolution > 0:
-            dev = np.round(dev / instrument.resolution) * instrument.resolution
-            out = (plan.setup.bar_length + dev)[:, None]
-        violations = np.flatnonzero((dev < instrument.range[0]) | (dev > instrument.range[1]))
+    out, violations, dev = plan.instrument.finish_readings(device, plan.setup, options, clean, out, rng)
     return SimulationResult(smp, out, clean, sigma, options.T0 + rise, violations, notes, dev)
 
 
@@ -421,88 +310,35 @@ def check_samples(machine: Machine, plan: Plan, samples: Samples, max_list: int 
                            f"on {machine.name}: " + "; ".join(items) + more)
 
 
-def _check_match(plan: Plan, instrument: InstrumentModel | TrackerModel) -> None:
-    kind = getattr(instrument, "kind", "ballbar")
-    if kind != plan.instrument:
-        raise CalibrationInputError(plan.name, "instrument", f"a {plan.instrument} instrument model for a "
-                                    f"{plan.instrument} plan", kind)
+def _check_match(plan: Plan, device: Device) -> None:
+    if not plan.instrument.accepts(device):
+        raise CalibrationInputError(plan.name, "instrument", f"a {plan.instrument} device for a "
+                                    f"{plan.instrument} plan", type(device).__name__)
 
 
-def _point_readings(instrument: TrackerModel, options: SimulationOptions, clean: np.ndarray, out: np.ndarray,
-                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Tracker / pose readings: orientation noise added to ``out`` (position noise is already in), quantisation
-    to the position / angle resolution, and the samples beyond the measuring volume."""
-    out = out.copy()
-    if out.shape[1] == 6:  # the orientation columns get the angle noise, not the position σ drawn for all columns
-        sa = instrument.angle_sigma(options.noise)
-        out[:, 3:] = clean[:, 3:] + (rng.standard_normal((len(out), 3)) * sa if sa > 0 else 0.0)
-    if options.quantise:
-        for cols, res in ((slice(0, 3), instrument.resolution), (slice(3, 6), instrument.angle_resolution)):
-            if res > 0:
-                out[:, cols] = np.round(out[:, cols] / res) * res
-    return out, np.flatnonzero(np.linalg.norm(out[:, :3], axis=1) > instrument.volume_radius)
-
-
-def range_error(plan: Plan, res: SimulationResult, instrument: InstrumentModel | TrackerModel) -> str:
+def range_error(plan: Plan, res: SimulationResult, device: Device) -> str:
     """The one-line report of range violations (empty when there are none)."""
-    v = res.violations
-    if not v.size:
-        return ""
-    i = int(v[0])
-    if plan.instrument != "ballbar":
-        return (f"plan '{plan.name}': {v.size} of {len(res.readings)} simulated readings beyond the {instrument.name}'s "
-                f"measuring volume of radius {instrument.volume_radius * 1e3:g} mm, first at sample {i + 1} "
-                f"(t = {res.samples.t[i]:.3f} s, {np.linalg.norm(res.readings[i, :3]) * 1e3:.1f} mm)")
-    dev = (res.readings[i, 0] - plan.setup.bar_length) * 1e3
-    return (f"plan '{plan.name}': {v.size} of {len(res.readings)} simulated readings outside the {instrument.name} "
-            f"range [{instrument.range[0] * 1e3:g}, {instrument.range[1] * 1e3:g}] mm, first at sample {i + 1} "
-            f"(t = {res.samples.t[i]:.3f} s, reading {dev:+.4f} mm)")
+    return plan.instrument.range_error(plan, res, device) if res.violations.size else ""
 
 
-def to_measurement(machine: Machine, plan: Plan, res: SimulationResult, instrument: InstrumentModel | TrackerModel,
-                   saturate: bool = False):
-    """The simulated run as a :class:`~pkmstiff.calibration.measurement_file.BallbarMeasurement` (reading =
-    distance − bar length; ``saturate`` clips out-of-range readings at the range limits, as the transducer would)
-    or, for a tracker / pose plan, a :class:`~pkmstiff.calibration.measurement_file.PointMeasurement`."""
-    from pkmstiff.calibration.measurement_file import BallbarMeasurement, PointMeasurement
-
-    _check_match(plan, instrument)
-    if plan.instrument != "ballbar":
-        return PointMeasurement(kind=plan.instrument, t=res.samples.t, position=res.readings[:, :3],
-                                rotation=res.readings[:, 3:6] if plan.instrument == "pose" else None,
-                                poses=res.samples.poses, feed=res.samples.feed,
-                                direction=res.samples.direction.astype(str), temperature=res.temperature,
-                                target=plan.setup.target.copy(), machine=machine.name, instrument=instrument.name,
-                                volume_radius=instrument.volume_radius, resolution=instrument.resolution,
-                                accuracy=instrument.mpe_constant, accuracy_per_m=instrument.mpe_per_m,
-                                standoff=instrument.standoff, angle_resolution=instrument.angle_resolution,
-                                angle_accuracy=instrument.angle_accuracy, sample_rate=instrument.sample_rate,
-                                notes=[f"simulated by pkmstiff from plan '{plan.name}'"] + res.notes)
-    dev = res.readings[:, 0] - plan.setup.bar_length if res.deviation is None else res.deviation
-    if saturate:
-        dev = np.clip(dev, *instrument.range)
-    plane = plan.segments[0].label.split()[1] if plan.segments and plan.segments[0].label.startswith("circle ") \
-        and len(plan.segments) == 1 else "auto"
-    return BallbarMeasurement(bar_length=float(plan.setup.bar_length), fixed_ball=plan.setup.fixed_ball.copy(),
-                              t=res.samples.t, reading=dev, poses=res.samples.poses,
-                              feed=res.samples.feed, direction=res.samples.direction.astype(str),
-                              temperature=res.temperature, ball_offset=plan.setup.target.copy(),
-                              machine=machine.name, instrument=instrument.name, range=instrument.range,
-                              resolution=instrument.resolution, accuracy=instrument.accuracy,
-                              sample_rate=instrument.sample_rate,
-                              plane=plane if plane in ("XY", "XZ", "YZ") else "auto",
-                              notes=[f"simulated by pkmstiff from plan '{plan.name}'"] + res.notes)
+def to_measurement(machine: Machine, plan: Plan, res: SimulationResult, device: Device, saturate: bool = False):
+    """The simulated run as a measurement of the plan's instrument
+    (:class:`~pkmstiff.calibration.instruments.BallbarMeasurement`: reading = distance − bar length, ``saturate``
+    clips out-of-range readings at the range limits, as the transducer would;
+    :class:`~pkmstiff.calibration.instruments.PointMeasurement` for a tracker / pose plan)."""
+    _check_match(plan, device)
+    return plan.instrument.to_measurement(machine, plan, res, device, saturate,
+                                          [f"simulated by pkmstiff from plan '{plan.name}'"] + res.notes)
 
 
 __all__ = (
-    "InstrumentModel",
+    "Device",
     "Samples",
     "SimulationOptions",
     "SimulationResult",
-    "TrackerModel",
     "backlash_offsets",
     "check_samples",
-    "default_instrument",
+    "default_device",
     "displaced_frames",
     "drift_offsets",
     "range_error",

@@ -14,6 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from pkmstiff.cli.edges import check_output_dir
 from pkmstiff.errors import BallbarError
 
 
@@ -67,7 +68,7 @@ def analyse_file(path: str, harmonics: int | str = "auto", plot_dir: str | None 
         model = load_machine(name)
     ev = evaluate_measurement(meas, harmonics=harmonics, alpha=alpha, machine=model, start_pose=x0,
                               source=str(path))
-    out = {"file": str(path), "machine": meas.machine, "instrument": meas.instrument, "samples": meas.n_samples,
+    out = {"file": str(path), "machine": meas.machine, "instrument": meas.device, "samples": meas.n_samples,
            **ev.to_dict()}
     if plot_dir is not None:
         from pkmstiff.plots.ballbar import save_ballbar_figures
@@ -108,6 +109,9 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     harmonics = _harmonics_arg(args.harmonics)
     if not 0.0 < args.alpha < 1.0:
         raise BallbarError(f"--alpha: expected a probability in (0, 1), found {args.alpha}")
+    if args.plot is not None:
+        stem = Path(args.file).stem
+        check_output_dir(args.plot, "--plot", args.force, (f"{stem}_polar.png", f"{stem}_spectrum.png"))
     from pkmstiff.cli.edges import announce, count_lines, parse_budget
     from pkmstiff.evaluation.cost import BALLBAR_BASE_BYTES, BALLBAR_ROW_BYTES, BALLBAR_ROW_SECONDS, rows_cost
 
@@ -142,6 +146,7 @@ def add_commands(sub: Any) -> None:
     a.add_argument("--start-pose", metavar="x,y,z,a,b,c",
                    help="start pose (mm, deg) of the forward kinematics for a drive-only file")
     a.add_argument("--plot", metavar="DIR", help="write the polar deviation plot and harmonic spectrum (PNG) here")
+    a.add_argument("--force", action="store_true", help="overwrite existing plots in --plot")
     a.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     from pkmstiff.cli.edges import add_budget_argument
 

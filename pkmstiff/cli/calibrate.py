@@ -33,25 +33,25 @@ def identifiability_report(machine_name: str, instrument: str, plan_path: str | 
                            with_: str | None = None, frame: str = "cartesian") -> dict:
     """Everything ``pkmstiff calibrate identifiability`` prints, as a JSON-ready dict (keys name their units)."""
     from pkmstiff.calibration import check_plan, default_plan, error_model, identifiability, parse_with, read_plan
-    from pkmstiff.calibration.instruments import check_instrument
+    from pkmstiff.calibration.instruments import instrument as lookup
     from pkmstiff.machine import load_machine
 
-    check_instrument(instrument)
+    inst = lookup(instrument)
     machine = load_machine(machine_name)
     if plan_path:
         from pkmstiff.cli.calibrate_sim import plan_check
 
         plan = read_plan(plan_path, plan_check())
-        if plan.instrument != instrument:
+        if plan.instrument != inst:
             from pkmstiff.errors import CalibrationInputError
-            raise CalibrationInputError(plan_path, "plan.instrument", f"'{instrument}' (as --instrument)",
-                                        plan.instrument)
+            raise CalibrationInputError(plan_path, "plan.instrument", f"'{inst}' (as --instrument)",
+                                        plan.instrument.kind)
     else:
-        plan = default_plan(machine, instrument)
+        plan = default_plan(machine, inst)
     check_plan(machine, plan)
-    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=parse_with(with_, instrument))
+    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=parse_with(with_, inst))
     res = identifiability(machine, params, plan)
-    out = {"machine": machine.name, "instrument": instrument,
+    out = {"machine": machine.name, "instrument": inst.kind,
            "plan": {"name": plan.name, "n_poses": plan.n_poses, "source": plan_path or "default"},
            "setup": {"target_mm": (plan.setup.target * 1e3).tolist()}}
     if plan.setup.fixed_ball is not None:
@@ -98,12 +98,14 @@ def _cmd_identifiability(args: argparse.Namespace) -> int:
 
 
 def _add_identifiability(sub) -> None:
+    from pkmstiff.calibration.instruments import kinds
+
     p = sub.add_parser("identifiability", help="rank, gauge freedoms, condition and orthogonality of a plan",
                        description="What an instrument can identify on a machine: parameter count, rank (gap in "
                                    "the singular values), base parameters, named gauge freedoms, condition "
                                    "number, largest orthogonality entry and O1-O5 (Szatmari 4.4.2).")
     p.add_argument("machine", help="bundled machine name or machine file")
-    p.add_argument("--instrument", required=True, choices=("ballbar", "tracker", "pose"))
+    p.add_argument("--instrument", required=True, choices=kinds())
     p.add_argument("--plan", help="plan file (TOML); default: the instrument's default plan")
     p.add_argument("--with", dest="with_", metavar="LIST",
                    help="set-up parameters to include: ball-offset,fixed-ball,bar-offset (ball bar), "

@@ -10,6 +10,8 @@ import json
 
 import numpy as np
 
+from pkmstiff.cli.edges import check_number, check_output_file
+
 
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
                     out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
@@ -18,12 +20,9 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict.
     ``deflection="gravity"``: the predicted deflection is subtracted from the readings and the bias an
     identification without it would have is reported (key ``deflection``, :mod:`pkmstiff.calibration.deflection`)."""
-    from pkmstiff.calibration import error_model
-    from pkmstiff.calibration.compensation import measurement_plan, write_calibrated_machine
-    from pkmstiff.calibration.deflection import check_deflection, deflection_analysis
-    from pkmstiff.calibration.identification import identify
-    from pkmstiff.calibration.measurement_file import read_measurement
-    from pkmstiff.calibration.uncertainty import uncertainty
+    from pkmstiff.calibration.compensation import write_calibrated_machine
+    from pkmstiff.calibration.deflection import check_deflection
+    from pkmstiff.calibration.workflow import identify_file
     from pkmstiff.errors import CalibrationInputError
     from pkmstiff.machine import load_machine
 
@@ -31,22 +30,9 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
         raise CalibrationInputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
     wrench = parse_load(load)
     machine = load_machine(machine_name)
-    meas = read_measurement(measurements)
-    kind = getattr(meas, "kind", "ballbar")
-    if instrument is not None and instrument != kind:
-        raise CalibrationInputError(measurements, "instrument", f"'{instrument}' (--instrument), but the file holds "
-                                    f"{kind} readings (header instrument_type)", kind)
-    plan, y = measurement_plan(meas, machine.name, measurements)
-    params = error_model(machine, frame=frame, setup=plan.setup)
-    defl = None
-    if deflection == "gravity":
-        defl = deflection_analysis(machine, params, plan, y, method, load=wrench, loss=loss,
-                                   outlier_threshold=outlier_threshold, source=measurements)
-        res = defl.corrected
-    else:
-        res = identify(machine, params, plan, y, method, loss=loss, outlier_threshold=outlier_threshold,
-                       source=measurements)
-    unc = uncertainty(res, monte_carlo=monte_carlo)
+    run = identify_file(machine, measurements, method=method, loss=loss, frame=frame, monte_carlo=monte_carlo,
+                        outlier_threshold=outlier_threshold, expected=instrument, deflection=deflection, load=wrench)
+    res, unc, defl = run.res, run.unc, run.deflection
     rep = res.to_dict()
     if defl is not None:
         rep["deflection"] = defl.report()
@@ -112,6 +98,9 @@ def _print_identify(rep: dict) -> None:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".toml",))
+    check_number(args.monte_carlo, "--monte-carlo", 0, 100000, unit="runs")
+    check_number(args.outlier_threshold, "--outlier-threshold", 0, lo_open=True)
     rep = identify_report(args.machine, args.measurements, args.method, args.loss, args.out, args.monte_carlo,
                           args.frame, args.outlier_threshold, args.instrument, args.deflection, args.load)
     if args.json:
@@ -163,6 +152,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
 
 def _add_identify(sub) -> None:
     from pkmstiff.calibration.identification import LOSSES, METHODS
+    from pkmstiff.calibration.instruments import kinds
     from pkmstiff.cli.calibrate import _run
 
     p = sub.add_parser("identify", help="identify the base parameters from a measurement",
@@ -177,9 +167,10 @@ def _add_identify(sub) -> None:
     p.add_argument("--method", choices=METHODS, default="lm")
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
     p.add_argument("--out", metavar="CALIBRATED.toml", help="write the calibrated machine file")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check with N runs")
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
-    p.add_argument("--instrument", choices=("ballbar", "tracker", "pose"), default=None,
+    p.add_argument("--instrument", choices=kinds(), default=None,
                    help="expected instrument of the measurement (default: the file's instrument_type)")
     p.add_argument("--deflection", choices=("none", "gravity"), default="none",
                    help="gravity: subtract the predicted elastic deflection under the machine's weight (structure "

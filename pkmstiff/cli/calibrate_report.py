@@ -1,29 +1,25 @@
 """``pkmstiff calibrate report`` (issue 17 item 5): identification, uncertainty, residuals, cross-validation and the
-deflection contribution as an HTML + Markdown report (:mod:`pkmstiff.report.calibration`). Registered in
-:func:`pkmstiff.cli.calibrate.subcommands`."""
+deflection contribution (:func:`pkmstiff.calibration.workflow.run_calibration`) as an HTML + Markdown report
+(:mod:`pkmstiff.report.calibration`). Registered in :func:`pkmstiff.cli.calibrate.subcommands`."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-#: ``--deflection`` loads (= :data:`pkmstiff.report.calibration.DEFLECTION_LOADS`; not imported here so that building
-#: the parser stays cheap)
+#: ``--deflection`` loads (= :data:`pkmstiff.calibration.workflow.DEFLECTION_LOADS`; not imported here so that
+#: building the parser stays cheap)
 DEFLECTION_LOADS = ("none", "gravity")
 
 
 def report_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate report`` does; returns a JSON-ready summary (keys name their units)."""
-    from pkmstiff.calibration.identification import residual_stats
+    from pkmstiff.calibration.deflection import require_structure_model
+    from pkmstiff.calibration.workflow import run_calibration
     from pkmstiff.cli.edges import check_output_dir
     from pkmstiff.errors import CalibrationInputError
-    from pkmstiff.calibration.deflection import require_structure_model
     from pkmstiff.machine import load_machine
-    from pkmstiff.report.calibration import (
-        REPORT_FILES,
-        run_calibration,
-        write_calibration_report,
-    )
+    from pkmstiff.report.calibration import REPORT_FILES, write_calibration_report
 
     check_output_dir(args.out, "--out", args.force, REPORT_FILES)
     if args.monte_carlo < 0:
@@ -35,13 +31,12 @@ def report_command(args: argparse.Namespace) -> dict:
     run = run_calibration(machine, args.measurements, plan_path=args.plan, validate=args.validate or (),
                           method=args.method, loss=args.loss, frame=args.frame, monte_carlo=args.monte_carlo,
                           deflection=args.deflection)
-    paths = write_calibration_report(run, args.out, run.deflection)
-    b, a = residual_stats(run.res.residual_before), residual_stats(run.res.residual_after)
+    paths = write_calibration_report(run, args.out)
     return {"machine": machine.name, "measurement_file": args.measurements, "n_readings": run.res.n_readings,
-            "rank": run.res.rank, "n_parameters": run.params.n, "rms_before_um": b["rms_um"],
-            "rms_after_um": a["rms_um"], "circles": len(run.circles),
-            "validation": [{"file": v.path, "rms_nominal_um": residual_stats(v.before)["rms_um"],
-                            "rms_calibrated_um": residual_stats(v.after)["rms_um"]} for v in run.validations],
+            "rank": run.res.rank, "n_parameters": run.params.n, "rms_before_um": run.run.before.rms * 1e6,
+            "rms_after_um": run.run.after.rms * 1e6, "circles": len(run.circles),
+            "validation": [{"file": v.path, "rms_nominal_um": v.before_stats.rms * 1e6,
+                            "rms_calibrated_um": v.after_stats.rms * 1e6} for v in run.validations],
             "html": str(paths["html"]), "md": str(paths["md"]), "figures": len(paths["figures"])}
 
 

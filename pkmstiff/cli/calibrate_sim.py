@@ -9,7 +9,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pkmstiff.cli.edges import check_number, check_output_file
 from pkmstiff.errors import PkmstiffError
+from pkmstiff.io.atomic import atomic_write_text
 
 
 def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
@@ -29,11 +31,10 @@ def read_errors(path: str | None, machine, plan):
     """Parameter set (with every set-up block of the plan's instrument) and the error vector of an error file:
     ``frame = "cartesian"|"cylindrical"`` (optional) and an ``[errors]`` table name = quantity."""
     from pkmstiff.calibration import error_model, parse_errors
-    from pkmstiff.calibration.parameters import SETUP_TOKENS
     from pkmstiff.errors import CalibrationInputError
     from pkmstiff.io import check_keys, read_toml
 
-    blocks = tuple(b for b, inst in SETUP_TOKENS.values() if plan.instrument in inst)
+    blocks = tuple(plan.instrument.setup_tokens.values())
     if path is None:
         params = error_model(machine, setup=plan.setup, setup_blocks=blocks)
         return params, np.zeros(params.n)
@@ -42,12 +43,15 @@ def read_errors(path: str | None, machine, plan):
     path = str(resolve(path))  # example:NAME -> a bundled error file
     raw = check_keys(read_toml(path, CalibrationInputError, "error file"), {"frame", "errors", "description"}, path,
                      "", CalibrationInputError)
+    if not isinstance(raw.get("errors"), dict) or not raw["errors"]:
+        raise CalibrationInputError(path, "errors", "an [errors] table with at least one parameter = quantity "
+                                    "(omit --errors for the nominal machine)", raw.get("errors", "missing"))
     params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
-    return params, parse_errors(raw.get("errors", {}), params, source=path)
+    return params, parse_errors(raw["errors"], params, source=path)
 
 
 def _noise(text: str) -> str | float:
-    from pkmstiff.calibration.simulation import NOISE_MODELS
+    from pkmstiff.calibration.instruments.ball_bar import NOISE_MODELS
     from pkmstiff.errors import CalibrationInputError
 
     if text in NOISE_MODELS:
@@ -79,6 +83,15 @@ def plan_check(command: str = "calibrate") -> Callable[[int, str], None]:
 
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
+    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    check_output_file(out.with_suffix(".json"), "--out (its header file)", getattr(args, "force", False), (".json",))
+    check_number(args.seed, "--seed", 0)
+    check_number(args.feed, "--feed", 0, lo_open=True, unit="mm/min")
+    check_number(args.backlash, "--backlash", 0, unit="um")
+    check_number(args.drift, "--drift", unit="K")
+    check_number(args.drift_tau, "--drift-tau", 0, lo_open=True, unit="s")
+    for opt in ("sample_rate", "range", "resolution", "accuracy", "angle_accuracy"):
+        check_number(getattr(args, opt, None), "--" + opt.replace("_", "-"), 0, lo_open=True)
     from pkmstiff.calibration import check_plan, read_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
@@ -105,50 +118,29 @@ def simulate_command(args: argparse.Namespace) -> dict:
     check_samples(machine, plan, smp)  # the poses between the plan's nodes, too
     res = simulate(machine, params, delta, plan, inst, opts, samples=smp)
     msg = range_error(plan, res, inst)
-    if msg and (not args.saturate or plan.instrument != "ballbar"):
+    saturates = plan.instrument.saturates
+    if msg and (not args.saturate or not saturates):
         raise CalibrationError(msg + (" (use --saturate to write them clipped at the range limits)"
-                                      if plan.instrument == "ballbar" else ""))
+                                      if saturates else ""))
     meas = to_measurement(machine, plan, res, inst, saturate=args.saturate)
     write_measurement(args.out, meas)
-    rep = {"machine": machine.name, "plan": plan.name, "instrument": plan.instrument, "out": str(args.out),
+    rep = {"machine": machine.name, "plan": plan.name, "instrument": plan.instrument.kind, "out": str(args.out),
            "n_samples": len(res.readings), "duration_s": float(res.samples.t[-1])}
-    if plan.instrument == "ballbar":
-        dev = res.readings[:, 0] - plan.setup.bar_length
-        rep.update({"reading_min_um": float(dev.min() * 1e6), "reading_max_um": float(dev.max() * 1e6)})
-    else:  # deviation of the reading from the commanded target position / orientation
-        from pkmstiff.calibration.instruments import target_points
-        from pkmstiff.kinematics.rotation import cardan_matrix
-
-        x = res.samples.poses
-        cmd = target_points(plan.setup.state(), x[:, :3], cardan_matrix(x[:, 3], x[:, 4], x[:, 5]))
-        rep["position_error_max_um"] = float(np.linalg.norm(res.readings[:, :3] - cmd, axis=1).max() * 1e6)
-        if plan.instrument == "pose":
-            rep["orientation_error_max_urad"] = float(np.linalg.norm(res.readings[:, 3:], axis=1).max() * 1e6)
+    rep.update(plan.instrument.simulation_summary(plan, res))
     rep.update({"range_violations": int(res.violations.size), "noise_sigma_um": float(res.sigma.max() * 1e6),
                 "notes": res.notes})
     return rep
 
 
 def _instrument(args: argparse.Namespace, plan):
-    """The instrument model of the plan's instrument with the command-line figures (defaults: QC10 ball bar;
-    the assumed AT960-class tracker / 6-D instrument of :class:`~pkmstiff.calibration.simulation.TrackerModel`)."""
-    from pkmstiff.calibration.simulation import InstrumentModel, TrackerModel
-    from pkmstiff.errors import CalibrationInputError
+    """The device of the plan's instrument with the command-line figures (mm, um, urad -> SI; defaults: QC10 ball
+    bar, the assumed AT960-class tracker / 6-D device)."""
+    def si(v: float | None, scale: float) -> float | None:
+        return None if v is None else v * scale
 
-    if plan.instrument == "ballbar":
-        rng = plan.setup.measuring_range if args.range is None else args.range * 1e-3
-        return InstrumentModel(sample_rate=250.0 if args.sample_rate is None else args.sample_rate, range=(-rng, rng),
-                               resolution=(0.1 if args.resolution is None else args.resolution) * 1e-6,
-                               accuracy=(0.5 if args.accuracy is None else args.accuracy) * 1e-6)
-    if args.angle_accuracy is not None and plan.instrument != "pose":
-        raise CalibrationInputError("--angle-accuracy", "angle_accuracy", "a pose (6-D) plan", plan.instrument)
-    d = TrackerModel(kind=plan.instrument)
-    return TrackerModel(kind=plan.instrument,
-                        sample_rate=d.sample_rate if args.sample_rate is None else args.sample_rate,
-                        volume_radius=d.volume_radius if args.range is None else args.range * 1e-3,
-                        resolution=d.resolution if args.resolution is None else args.resolution * 1e-6,
-                        mpe_constant=d.mpe_constant if args.accuracy is None else args.accuracy * 1e-6,
-                        angle_accuracy=d.angle_accuracy if args.angle_accuracy is None else args.angle_accuracy * 1e-6)
+    return plan.instrument.device(plan.setup, sample_rate=args.sample_rate, range=si(args.range, 1e-3),
+                                  resolution=si(args.resolution, 1e-6), accuracy=si(args.accuracy, 1e-6),
+                                  angle_accuracy=si(args.angle_accuracy, 1e-6))
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -185,6 +177,7 @@ def _add_simulate(sub) -> None:
     p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"), or example:NAME (bundled "
                                     "example); default: nominal machine")
     p.add_argument("--out", required=True, help="measurement CSV to write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--noise", default="instrument",
                    help="none | instrument (sigma = accuracy/2) | procedure (Tab. 4.5 vs feed, sigma = U/2) | "
                         "sigma in um (default instrument)")
@@ -217,10 +210,14 @@ def _add_simulate(sub) -> None:
 
 def plan_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate plan`` does; writes the optimised plan and returns the JSON-ready summary."""
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".toml",))
+    check_number(args.seed, "--seed", 0)
+    check_number(args.turns, "--turns", 0, lo_open=True)
+    check_number(args.max_tilt, "--max-tilt", 0, 90, lo_open=True, unit="deg")
     from pathlib import Path
 
     from pkmstiff.calibration import Plan, Segment, default_plan, error_model, read_plan
-    from pkmstiff.calibration.instruments import check_instrument
+    from pkmstiff.calibration.instruments import instrument
     from pkmstiff.calibration.planning import (
         HemisphereSpec,
         objective_label,
@@ -232,18 +229,18 @@ def plan_command(args: argparse.Namespace) -> dict:
     from pkmstiff.errors import CalibrationError, CalibrationInputError
     from pkmstiff.machine import load_machine
 
-    check_instrument(args.instrument)
+    inst = instrument(args.instrument)
     machine = load_machine(args.machine)
     for key in ("starts", "iterations", "nodes", "points", "poses"):
         if getattr(args, key) < 1:
             raise CalibrationInputError(f"--{key}", key, "a positive integer", getattr(args, key))
     max_tilt = np.radians(args.max_tilt)
-    if args.instrument == "ballbar":
+    if inst.path_plans:
         plan_check()(args.points, "--points")
         if args.start:
             raise CalibrationInputError("--start", "start", "no start plan for a ball bar (the hemisphere path of "
                                         "the default plan is used; its nodes are optimised)", args.start)
-        d = default_plan(machine, "ballbar")
+        d = default_plan(machine, inst)
         side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
         spec = HemisphereSpec(d.setup, n=args.points, turns=args.turns, side=side, max_tilt=max_tilt,
                               max_torsion=max_tilt)
@@ -264,23 +261,22 @@ def plan_command(args: argparse.Namespace) -> dict:
                          f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}",
                          hemisphere=spec, nodes=res.best.x)
     else:
-        plan0 = read_plan(args.start, plan_check()) if args.start else default_plan(machine, args.instrument)
+        plan0 = read_plan(args.start, plan_check()) if args.start else default_plan(machine, inst)
         if not args.start:  # a subset of the default grid: the gradient costs 12 plan evaluations per pose
             idx = np.unique(np.linspace(0, plan0.n_poses - 1, min(args.poses, plan0.n_poses)).round().astype(int))
             plan0 = Plan(f"{plan0.name}, {len(idx)} poses", plan0.setup, plan0.poses[idx],
                          (Segment("poses", 0, len(idx), "points"),))
-        if plan0.instrument != args.instrument:
-            raise CalibrationInputError(args.start, "plan.instrument", f"'{args.instrument}'", plan0.instrument)
+        if plan0.instrument != inst:
+            raise CalibrationInputError(args.start, "plan.instrument", f"'{inst}'", plan0.instrument.kind)
         params = error_model(machine, frame=args.frame, setup=plan0.setup)
         res = optimise_pose_set(machine, params, plan0, args.objective, starts=args.starts, seed=args.seed,
                                 max_iter=args.iterations, max_tilt=max_tilt)
         text = plan_toml(res.best_plan, f"{machine.name} pose set, optimised ({args.objective})",
                          f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}")
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text, encoding="utf-8")
+    atomic_write_text(args.out, text)
     lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
     start = objective_label(args.objective, res.start_value)
-    return {"machine": machine.name, "instrument": args.instrument, "objective": args.objective,
+    return {"machine": machine.name, "instrument": inst.kind, "objective": args.objective,
             "out": str(args.out), "seed": args.seed, "starts": args.starts,
             f"start_{lab}": start,
             f"best_{lab}": objective_label(args.objective, res.best.value),
@@ -305,6 +301,7 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 
 def _add_plan(sub) -> None:
+    from pkmstiff.calibration.instruments import kinds
     from pkmstiff.calibration.planning import OBJECTIVES
 
     p = sub.add_parser("plan", help="optimise a measurement plan (hemisphere nodes or a pose set)",
@@ -313,10 +310,11 @@ def _add_plan(sub) -> None:
                                    "(Denkena Gl. 90-92). Gradient method with Armijo steps on a barrier-augmented "
                                    "objective, admissibility as constraints, seeded multi-start.")
     p.add_argument("machine", help="bundled machine name or machine file")
-    p.add_argument("--instrument", required=True, choices=("ballbar", "tracker", "pose"))
+    p.add_argument("--instrument", required=True, choices=kinds())
     p.add_argument("--objective", default="orthogonality", choices=OBJECTIVES,
                    help="cond (min), orthogonality (largest entry, min; eq. 4.8), O1..O5 (max)")
     p.add_argument("--out", required=True, help="plan file (TOML) to write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
     p.add_argument("--poses", type=int, default=12,
                    help="tracker/pose without --start: poses taken from the default grid (default 12)")

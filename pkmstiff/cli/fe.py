@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_path, atomic_write_text, output_path, safe_stem
 from pkmstiff.units import InputError
 
 DEFAULT_ANGLES = "0:90:15"
@@ -120,17 +121,20 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
 
     check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
-    check_output_dir(args.vtu, "--vtu", True)
     check_output_file(args.png, "--png", getattr(args, "force", False), (".png",))
+    if args.png and not (math.isfinite(args.png_angle) and abs(args.png_angle) <= 180):
+        raise InputError("--png-angle", "png_angle", "a finite tilt angle in -180..180 deg", args.png_angle)
     angles = parse_angles(args.angles)
     if len(angles) < 2:
         raise InputError("--angles", "angles", "at least 2 tilt angles (a joint table needs 2 support points)",
                          args.angles)
     p = load_joint_parameters(args.params)
+    vtu_names = tuple(f"{safe_stem(p.name)}_tilt{a:g}.vtu" for a in angles)
+    check_output_dir(args.vtu, "--vtu", getattr(args, "force", False), vtu_names)
     if args.n_phi is not None and args.n_phi < 8:
         raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
     _announce_fe("fe-joint", p, lambda q: build_joint_model(q).model.n_fe, args, len(angles), "--angles")
-    if args.mesh_size or args.n_phi or args.element:
+    if args.mesh_size is not None or args.n_phi or args.element:
         p = p.with_mesh(size=args.mesh_size * 1e-3 if args.mesh_size else None, element=args.element,
                         n_phi=args.n_phi)
     step, close = _progress(len(angles), args.quiet, p.name)
@@ -147,9 +151,9 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     if args.vtu or args.png:
         jm = build_joint_model(p)
         if args.vtu:
-            for a in angles:
+            for a, name in zip(angles, vtu_names):
                 sol, u, _ = jm.deformed(math.radians(a))
-                path = write_vtu(field_mesh(jm.model, sol, u), Path(args.vtu) / f"{p.name}_tilt{a:g}.vtu")
+                path = write_vtu(field_mesh(jm.model, sol, u), output_path(args.vtu, name))
                 if not args.quiet:
                     print(f"VTU written to {path}")
         if args.png:
@@ -203,11 +207,12 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     Kd = to_dissertation_units(res.K)
     if out.suffix == ".toml":
-        out.write_text(component_toml(res, args.name), encoding="utf-8")
+        atomic_write_text(out, component_toml(res, args.name))
     else:
         header = ("# 6x6 platform stiffness at the spindle reference point; rows/cols ux,uy,uz,rx,ry,rz; "
                   "units N/um (translational), N/urad (coupling), N*m/urad (rotational)")
-        np.savetxt(out, Kd, delimiter=",", header=header, comments="", fmt="%.8g")
+        with atomic_path(out) as tmp:
+            np.savetxt(tmp, Kd, delimiter=",", header=header, comments="", fmt="%.8g")
     if args.vtu:
         # unit load case: 1 kN along z' at the reference point
         f = np.zeros(6)

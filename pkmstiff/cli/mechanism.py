@@ -16,31 +16,10 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import PkmstiffError
-from pkmstiff.io.ranges import parse_numbers
+from pkmstiff.io.atomic import atomic_open, atomic_path, output_path, safe_stem
+from pkmstiff.io.columns import column_name
+from pkmstiff.io.ranges import parse_names, parse_numbers
 
-
-
-def is_mechanism_target(name: str) -> bool:
-    """Whether ``pose``/``section`` got a mechanism rather than a machine, answered without importing the
-    mechanism solver (numba) for machines: bundled machine names and machine files are settled here, everything
-    else by :func:`pkmstiff.mechanisms.loader.is_mechanism`."""
-    from pathlib import Path
-
-    from pkmstiff.errors import InputError
-    from pkmstiff.io import read_toml
-    from pkmstiff.machine import bundled_machines
-
-    if name in bundled_machines():
-        return False
-    p = Path(name)
-    if p.suffix == ".toml" and p.is_file():
-        try:
-            return "mechanism" in read_toml(p, InputError, "machine or mechanism file")
-        except InputError:
-            return False  # the machine loader reports what is wrong with the file
-    from pkmstiff.mechanisms.loader import is_mechanism
-
-    return is_mechanism(name)
 
 
 def _cli_error(msg: str):
@@ -153,6 +132,8 @@ def _cmd(args) -> int:
         if args.action == "solve":
             if bool(args.pose) == bool(args.drives):
                 raise _cli_error("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
+            if args.steps < 1:
+                raise _cli_error(f"--steps: expected a positive number of continuation steps, found {args.steps}")
             _announce_steps(args)
             rep = solve_report(args.mechanism, args.pose, args.drives, args.steps)
         elif args.action == "range":
@@ -163,6 +144,8 @@ def _cmd(args) -> int:
         raise _cli_error(str(exc)) from None
     if args.json:
         print(json.dumps(rep, indent=2))
+        if args.action == "solve":
+            _refuse_unsolved(rep)
         return 0
     if args.action == "info":
         print(f"{rep['mechanism']}: {rep['title']} ({'spatial' if rep['dimension'] == 3 else 'planar'})")
@@ -183,7 +166,22 @@ def _cmd(args) -> int:
             if "admissible" in r:
                 extra = f", admissible {r['admissible']}" + (f" ({', '.join(r['reasons'])})" if r["reasons"] else "")
             print(f"[{i}] {r['status']}{extra}\n    drives: {dr}\n    pose: {ps}")
+    if args.action == "solve":
+        _refuse_unsolved(rep)
     return 0
+
+
+def _refuse_unsolved(rep: dict[str, Any]) -> None:
+    """Exit status 3 (as ``point`` for an inadmissible pose) when a pose or drive set has no solution: the results
+    are printed, the error line says which."""
+    from pkmstiff.errors import InadmissiblePoseRefused
+
+    bad = [i for i, r in enumerate(rep["results"]) if r["status"] not in ("converged", "singular")]
+    if bad:
+        raise InadmissiblePoseRefused(
+            f"{rep['mechanism']}: no solution for {len(bad)} of {len(rep['results'])} "
+            f"{'poses' if rep['mode'] == 'inverse' else 'drive sets'} (first [{bad[0]}]: "
+            f"{rep['results'][bad[0]]['status']})")
 
 
 def pose_report(name: str, pose_text: str) -> dict[str, Any]:
@@ -263,13 +261,13 @@ def section_report(args) -> dict[str, Any]:
         raise _cli_error(f"--step: expected a positive step in mm, found {args.step}")
     if not math.isfinite(args.at):
         raise _cli_error(f"--at: expected a finite position in mm, found {args.at}")
-    names = [q.strip() for q in args.quantities.split(",") if q.strip()]
-    formats = [f.strip() for f in args.formats.split(",") if f.strip()]
-    bad = set(formats) - {"png", "vtu", "csv", "npz"}
-    if bad:
-        raise _cli_error(f"--formats: expected a subset of png,vtu,csv,npz, found {sorted(bad)}")
+    try:
+        names = parse_names(args.quantities, "--quantities")
+        formats = parse_names(args.formats, "--formats", ("png", "vtu", "csv", "npz"))
+    except PkmstiffError as exc:
+        raise _cli_error(str(exc)) from None
     step, at = args.step * 1e-3, args.at * 1e-3
-    stem = f"{mech.name}_{plane}"
+    stem = f"{safe_stem(mech.name)}_{plane}"
     from pkmstiff.cli.edges import check_output_dir
 
     outs = ([f"{stem}_{n}.png" for n in names] + [f"{stem}_admissibility.png"] if "png" in formats else []) \
@@ -317,16 +315,16 @@ def _write_section(sec, out, stem: str, formats: list[str]) -> list:
     if "png" in formats:
         from pkmstiff.plots.mechanism_section import plot_mechanism_quantity, plot_mechanism_reasons
 
-        paths += [plot_mechanism_quantity(sec, n, out / f"{stem}_{n}.png") for n in sec.values]
-        paths.append(plot_mechanism_reasons(sec, out / f"{stem}_admissibility.png"))
+        paths += [plot_mechanism_quantity(sec, n, output_path(out, f"{stem}_{n}.png")) for n in sec.values]
+        paths.append(plot_mechanism_reasons(sec, output_path(out, f"{stem}_admissibility.png")))
     U, V = np.meshgrid(sec.u_values, sec.v_values)
     u, v = sec.plane[0], sec.plane[1]
     if "csv" in formats:
-        p = out / f"{stem}.csv"
-        with open(p, "w", newline="", encoding="utf-8") as fh:
+        p = output_path(out, f"{stem}.csv")
+        with atomic_open(p, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
             w.writerow([f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
-                       + [f"{n}_{sec.units[n]}" for n in sec.values])
+                       + [column_name(n, sec.units[n]) for n in sec.values])
             cols = [sec.display(n).ravel() for n in sec.values]
             for i in range(U.size):
                 w.writerow([f"{U.flat[i] * 1e3:.6g}", f"{V.flat[i] * 1e3:.6g}", sec.status.flat[i],
@@ -334,9 +332,11 @@ def _write_section(sec, out, stem: str, formats: list[str]) -> list:
                            + ["" if not np.isfinite(c[i]) else f"{c[i]:.6g}" for c in cols])
         paths.append(p)
     if "npz" in formats:
-        p = out / f"{stem}.npz"
-        np.savez_compressed(p, **{f"{u}_m": sec.u_values, f"{v}_m": sec.v_values, "reasons": sec.reasons,
-                                  "admissible": sec.ok}, **{f"{n}_si": sec.values[n] for n in sec.values})
+        p = output_path(out, f"{stem}.npz")
+        with atomic_path(p) as tmp:
+            np.savez_compressed(tmp, **{f"{u}_mm": sec.u_values * 1e3, f"{v}_mm": sec.v_values * 1e3,
+                                        "reasons": sec.reasons, "admissible": sec.ok},
+                                **{column_name(n, sec.units[n]): sec.display(n) for n in sec.values})
         paths.append(p)
     return paths
 

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from pkmstiff.errors import SectionArgumentError, SectionError, UnknownQuantityError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import safe_stem
 
 # the evaluation modules are imported inside the command functions: building the parser for another command
 # (``pkmstiff pose``) must not pay for them
@@ -19,8 +20,26 @@ FORMATS = ("png", "vtu", "csv", "npz")
 
 
 def _cmd_section(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.targets import Kind, dispatch
+
+    return dispatch(args.machine, {Kind.SPATIAL: lambda _: _machine_section(args),
+                                   Kind.MECHANISM: lambda _: _mechanism_section(args)})
+
+
+def _mechanism_section(args: argparse.Namespace) -> int:
+    """A generic mechanism: kinematic quantities and joint limits (issue 14)."""
+    from pkmstiff.cli.mechanism import print_section, section_report
+
+    rep = section_report(args)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        print_section(rep)
+    return 0
+
+
+def _machine_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget
-    from pkmstiff.cli.mechanism import is_mechanism_target
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.cost import PLOT_LIBRARY_SECONDS, PNG_SECONDS
     from pkmstiff.evaluation.quantities import get_quantity
@@ -32,31 +51,19 @@ def _cmd_section(args: argparse.Namespace) -> int:
         section_summary,
         statistics_line,
     )
-    from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
+    from pkmstiff.io.ranges import parse_names, parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.admissibility.checks import checks_without, left_out_text
     from pkmstiff.report.outputs import write_section_outputs
 
-    if is_mechanism_target(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
-        from pkmstiff.cli.mechanism import print_section, section_report
-
-        rep = section_report(args)
-        if args.json:
-            print(json.dumps(rep, indent=2))
-        else:
-            print_section(rep)
-        return 0
     plane_kind = args.plane.lower()
     try:
         ranges = parse_ranges(args.range, plane_kind) if args.range else None
         ori = parse_triple_deg(args.orientation, "--orientation")
-        names = [q.strip() for q in args.quantities.split(",") if q.strip()]
+        names = parse_names(args.quantities, "--quantities")
         for n in names:
             get_quantity(n)
-        formats = [f.strip() for f in args.formats.split(",") if f.strip()]
-        bad = set(formats) - set(FORMATS)
-        if bad:
-            raise SectionArgumentError(f"--formats: expected a subset of {','.join(FORMATS)}, found {sorted(bad)}")
+        formats = parse_names(args.formats, "--formats", FORMATS)
         if not (args.step > 0 and math.isfinite(args.step)):
             raise SectionArgumentError(f"--step: expected a positive step in mm, found {args.step}")
         if not math.isfinite(args.at):
@@ -79,7 +86,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
             check_quantity(n, machine.n_chains)
     except UnknownQuantityError as exc:
         raise CliError(str(exc)) from None
-    stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
+    stem = f"{safe_stem(machine.name)}_{plane_kind}"
     check_output_dir(args.out, "--out", getattr(args, "force", False), _output_names(stem, names, formats, getattr(args, "reasons_map", False)))
     step = args.step * 1e-3
     if ranges is None:
@@ -158,6 +165,8 @@ def _output_names(stem: str, names: list[str], formats: list[str], reasons_map: 
     """The files a section writes into --out (checked for overwriting before the work)."""
     out = [f"{stem}_{n}.png" for n in names] if "png" in formats else []
     out += [f"{stem}.{f}" for f in ("vtu", "csv", "npz") if f in formats] + [f"{stem}_statistics.json"]
+    if "vtu" in formats or "csv" in formats:
+        out.append(f"{stem}.json")  # the metadata of the VTU and CSV
     if reasons_map:
         out.append(f"{stem}_admissibility.png")
     return tuple(out)

@@ -15,7 +15,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_file, parse_budget
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.cost import sweep_cost
-    from pkmstiff.evaluation.sweep import SweepError, run_sweep
+    from pkmstiff.evaluation.sweep import SweepError, run_sweep, sidecar_path
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.report.sweep_evaluations import evaluation_cost
     from pkmstiff.report.sweep_file import load_sweep
@@ -23,8 +23,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
     check_jobs(args.jobs)
     budget = parse_budget(getattr(args, "memory_budget", None))
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    check_output_file(sidecar_path(out), "--out (its metadata)", getattr(args, "force", False), (".json",))
     sweep = load_sweep(args.sweep_file)
     _check_sweep_quantities(sweep, args.sweep_file)
+    _check_sweep_paths(sweep, args.sweep_file)
     n = sweep.n_tasks
     try:
         task = evaluation_cost(sweep.evaluation, load_machine(sweep.machine))
@@ -54,7 +56,7 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         raise CliError(f"all {len(res.rows)} tasks failed: {first}{more}; nothing written")
     path = res.to_csv(Path(out))
     print(f"pkmstiff sweep: {len(res.rows) - len(failed)} of {len(res.rows)} tasks ok, "
-          f"{time.perf_counter() - t0:.1f} s; wrote {path}")
+          f"{time.perf_counter() - t0:.1f} s; wrote {path} (metadata {sidecar_path(path)})")
     for err, tasks in distinct.items():  # one line per distinct error
         ids = ", ".join(map(str, tasks[:8])) + (", ..." if len(tasks) > 8 else "")
         print(f"  {len(tasks)} task(s) failed ({ids}): {err}")
@@ -78,6 +80,20 @@ def _check_sweep_quantities(sweep, source: str) -> None:
                 check_quantity(name, n_chains)
             except UnknownQuantityError as exc:
                 raise CliError(f"{source}: evaluations: {exc}") from None
+
+
+def _check_sweep_paths(sweep, source: str) -> None:
+    """Every override path (base overrides and parameters) against the base machine file, before any task runs: a
+    path that leads nowhere, or to a key resolved before overrides (``machine.extends``), is one error up front."""
+    from pkmstiff.errors import CliError, OverrideError
+    from pkmstiff.machine.variants import apply_overrides, raw_machine
+
+    raw, src, _ = raw_machine(sweep.machine)
+    paths = {**dict(sweep.base_overrides), **{p.path: None for p in sweep.parameters}}
+    try:
+        apply_overrides(raw, paths, src)
+    except OverrideError as exc:
+        raise CliError(f"{source}: parameters: {exc}") from None
 
 
 def add_commands(sub) -> None:

@@ -24,6 +24,7 @@ from pkmstiff.admissibility.checks import (
 )
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation.progress import progress as with_progress
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
 from pkmstiff.machine.model import Machine
@@ -278,7 +279,7 @@ def evaluate_section(
     if neglect:
         settings["neglect_spindle"] = True
     starts = list(range(0, len(poses), chunk_size))
-    if progress is None:  # a bar on a terminal, periodic lines otherwise (see progress_items)
+    if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
         progress = len(poses) * (1 + len(names)) > 20_000
     jobs = [poses[s:s + chunk_size] for s in starts]
     if n_jobs != 1 and len(jobs) > 1 and len(poses) >= PARALLEL_MIN_POINTS:
@@ -286,10 +287,10 @@ def evaluate_section(
 
         n = os.cpu_count() or 1 if n_jobs < 0 else n_jobs
         parts = Parallel(n_jobs=n)(delayed(_evaluate_chunk)(machine, p, names, tool_length, opts, checks) for p in
-                                   progress_items(jobs, progress))
+                                   with_progress(jobs, progress, "section", "chunk"))
     else:
         parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks)
-                 for p in progress_items(jobs, progress)]
+                 for p in with_progress(jobs, progress, "section", "chunk")]
     shape = plane.shape
     ok = np.concatenate([p[0] for p in parts]).reshape(shape)
     reasons = np.concatenate([p[1] for p in parts]).reshape(shape)
@@ -302,37 +303,6 @@ def evaluate_section(
         settings={**settings, "near_singular_kappa": near_singular_limit(machine)},
         frame=frame_metadata(machine, frame), kappa=kappa,
     )
-
-
-#: seconds between two progress lines when stderr is not a terminal
-PROGRESS_INTERVAL_S = 10.0
-
-
-def progress_items(items: list, enabled: bool, desc: str = "section", unit: str = "chunk"):
-    """A tqdm bar on a terminal; one line every :data:`PROGRESS_INTERVAL_S` s when stderr is redirected."""
-    import sys
-
-    if not enabled:
-        return items
-    if sys.stderr.isatty():
-        from tqdm import tqdm
-
-        return tqdm(items, desc=desc, unit=unit, leave=False)
-    return _progress_lines(items, desc, unit)
-
-
-def _progress_lines(items: list, desc: str, unit: str):
-    import sys
-    import time
-
-    t0 = last = time.perf_counter()
-    for k, item in enumerate(items):
-        now = time.perf_counter()
-        if now - last >= PROGRESS_INTERVAL_S:
-            last = now
-            print(f"{desc}: {100 * k / len(items):.0f} % ({k}/{len(items)} {unit}s), {now - t0:.0f} s",
-                  file=sys.stderr, flush=True)
-        yield item
 
 
 def three_planes(centre: Iterable[float], half_extent: Iterable[float], step: float) -> list[Plane]:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import csv
 import itertools
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -31,6 +32,9 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from pkmstiff.errors import SweepError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation.progress import progress as with_progress
+from pkmstiff.io.atomic import atomic_open, atomic_write_text
+from pkmstiff.io.columns import label_column, text_cell
 from pkmstiff.machine.model import Machine
 
 __all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
@@ -322,39 +326,38 @@ class SweepResult:
         return np.array(vals, dtype=object)
 
     def to_csv(self, path: str | Path) -> Path:
-        """CSV with ``# key: value`` metadata lines, one header row and one row per task (empty = no value)."""
+        """A plain CSV (``pandas.read_csv(path)`` reads it with no options): one header row, named by the file rule
+        (:func:`pkmstiff.io.columns.label_column`: ``kx_N_per_um``), and one row per task (empty = no value); the
+        metadata and the map from file columns to result labels go to ``<name>.json`` beside it."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         cols = self.columns
-        with path.open("w", newline="", encoding="utf-8") as fh:
-            for k, v in self.metadata.items():
-                fh.write(f"# {k}: {v}\n")
+        meta = {k: v for k, v in self.metadata.items()}
+        meta["columns"] = {label_column(c): c for c in cols}
+        atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, default=str))
+        with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
-            w.writerow(cols)
+            w.writerow([label_column(c) for c in cols])
             for r in self.rows:
-                w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else r[c])
+                w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else text_cell(r[c]))
                             for c in cols])
         return path
 
 
-def _run_serial(tasks: Sequence[SweepTask], progress: bool) -> list[dict[str, Any]]:
-    items: Iterable[SweepTask] = tasks
-    if progress:
-        from tqdm import tqdm
+def sidecar_path(path: str | Path) -> Path:
+    """The JSON file beside a results CSV that holds its metadata (``<name>.json``)."""
+    return Path(path).with_suffix(".json")
 
-        items = tqdm(tasks, desc="sweep", unit="task")
-    return [run_task(t) for t in items]
+
+def _run_serial(tasks: Sequence[SweepTask], progress: bool) -> list[dict[str, Any]]:
+    return [run_task(t) for t in with_progress(tasks, progress, "sweep", "task")]
 
 
 def _run_local(tasks: Sequence[SweepTask], n_jobs: int, progress: bool) -> list[dict[str, Any]]:
     from joblib import Parallel, delayed
 
     gen = Parallel(n_jobs=n_jobs, backend="loky", return_as="generator")(delayed(run_task)(t) for t in tasks)
-    if progress:
-        from tqdm import tqdm
-
-        gen = tqdm(gen, total=len(tasks), desc="sweep", unit="task")
-    return list(gen)
+    return list(with_progress(gen, progress, "sweep", "task", total=len(tasks)))
 
 
 def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: bool) -> list[dict[str, Any]]:
@@ -367,9 +370,7 @@ def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: bool) -> lis
     try:
         futures = client.map(run_task, list(tasks), pure=False)
         if progress:
-            from tqdm import tqdm
-
-            for _ in tqdm(as_completed(futures), total=len(futures), desc="sweep (dask)", unit="task"):
+            for _ in with_progress(as_completed(futures), True, "sweep (dask)", "task", total=len(futures)):
                 pass
         return client.gather(futures)
     finally:

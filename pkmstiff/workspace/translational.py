@@ -13,11 +13,11 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.machine.model import Machine
-from pkmstiff.workspace.octree import OctreeResult, Progress, octree_boundary
+from pkmstiff.workspace.octree import OctreeInputError, OctreeResult, Progress, octree_boundary
 from pkmstiff.workspace.oracle import PoseOracle, RangeMode
 from pkmstiff.workspace.requirements import Requirement
 from pkmstiff.workspace.surface import BoundarySurface
-from pkmstiff.workspace.volume import DEFAULT_METHODS, workspace_volume
+from pkmstiff.workspace.volume import DEFAULT_METHODS, HEADLINE_METHOD, workspace_volume
 
 MAX_RETRY_LEVEL = 6  # finest start grid tried when a coarser one finds no admissible corner
 
@@ -40,7 +40,7 @@ def reach_box(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
     lo = np.maximum((lo_i - reach[:, None]).max(axis=0), machine.limits.position_min)
     hi = np.minimum((hi_i + reach[:, None]).min(axis=0), machine.limits.position_max)
     if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or np.any(hi <= lo):
-        raise ValueError(f"machine '{machine.name}': the chains' reach boxes do not overlap (no workspace); "
+        raise OctreeInputError(f"machine '{machine.name}': the chains' reach boxes do not overlap (no workspace); "
                          f"found lo={lo.tolist()} m, hi={hi.tolist()} m")
     return lo, hi
 
@@ -74,7 +74,7 @@ class WorkspaceResult:
     @property
     def volume(self) -> float:
         """Volume by the default method (surface nets), m^3."""
-        return self.volumes.get("surface_nets", next(iter(self.volumes.values()), float("nan")))
+        return self.volumes.get(HEADLINE_METHOD, next(iter(self.volumes.values()), float("nan")))
 
     @property
     def boundary_points(self) -> np.ndarray:
@@ -97,6 +97,7 @@ class WorkspaceResult:
             "resolution_mm": self.resolution * 1e3,
             "effective_resolution_mm": (o.spacing * 1e3).tolist(),
             "volume_m3": self.volume,
+            "volume_method": HEADLINE_METHOD,  # volume_m3, the figure to quote; volumes_m3: every method (cross-checks)
             "volumes_m3": dict(self.volumes),
             "bounding_box_mm": None if not np.isfinite(lo).all() else {"min": (lo * 1e3).tolist(),
                                                                          "max": (hi * 1e3).tolist()},

@@ -1,0 +1,231 @@
+"""The calibration workflow behind ``calibrate identify`` and ``calibrate report`` (issue 17; Szatmári §4.6, §5.4):
+read a measurement, identify the machine's base parameters, estimate their uncertainty, build the calibrated machine
+and check it on further measurements — returning typed results (SI) that the command line and the report only
+render.
+
+* :func:`identify_file` — one measurement file: its plan (commanded poses + nominal set-up) and readings, the error
+  model, the identifiability of the measured poses (computed once and shared by every identification of that
+  plan), the identification (:func:`~pkmstiff.calibration.identification.identify`) and its uncertainty
+  (:func:`~pkmstiff.calibration.uncertainty.uncertainty`); with ``deflection="gravity"`` the predicted gravity
+  deflection is subtracted first and its contribution analysed (:mod:`pkmstiff.calibration.deflection`);
+* :func:`run_calibration` — that, for a ball-bar file, plus the calibrated machine, the ball-bar circles of the
+  measurement evaluated before and after (:mod:`pkmstiff.calibration.circles`) and the residuals of the nominal and
+  the calibrated machine on every validation file (:func:`~pkmstiff.calibration.compensation.check`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from pkmstiff.calibration.ballbar import ball_positions
+from pkmstiff.calibration.circles import CircleRun, circles
+from pkmstiff.calibration.compensation import check, measurement_plan
+from pkmstiff.calibration.deflection import (
+    DeflectionAnalysis,
+    DeflectionSummary,
+    deflection_analysis,
+    subtract_deflection,
+)
+from pkmstiff.calibration.identifiability import Identifiability, identifiability
+from pkmstiff.calibration.identification import Identification, ResidualStats, identify
+from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
+from pkmstiff.calibration.measurement_file import Measurement, read_measurement
+from pkmstiff.calibration.parameters import ParameterSet, error_model
+from pkmstiff.calibration.perturb import perturbed_machine
+from pkmstiff.calibration.plans import Plan, read_plan
+from pkmstiff.calibration.uncertainty import Uncertainty, uncertainty
+from pkmstiff.errors import CalibrationInputError
+from pkmstiff.machine import Machine
+
+#: ``--deflection`` values of ``calibrate report`` ("none": the report says "not computed")
+DEFLECTION_LOADS = ("none", "gravity")
+
+
+@dataclass
+class IdentificationRun:
+    """One measurement identified (SI): the file ``measurements`` and its measurement ``meas``, the ``plan``
+    (commanded poses + nominal set-up) with its readings ``measured`` (N, k), the error model ``params``, the
+    identifiability ``ident`` of the measured poses, the identification ``res`` (with the deflection subtracted
+    when ``deflection`` is not None) and its uncertainty ``unc``."""
+
+    measurements: str
+    meas: Measurement
+    plan: Plan
+    measured: np.ndarray
+    params: ParameterSet
+    ident: Identifiability
+    res: Identification
+    unc: Uncertainty
+    deflection: DeflectionAnalysis | None = None
+
+    @property
+    def before(self) -> ResidualStats:
+        """Residuals of the nominal machine (m)."""
+        return ResidualStats.of(self.res.residual_before)
+
+    @property
+    def after(self) -> ResidualStats:
+        """Residuals of the calibrated machine (m)."""
+        return ResidualStats.of(self.res.residual_after)
+
+    def calibrated_machine(self, machine: Machine) -> Machine:
+        """``machine`` with the identified chain errors; set-up errors belong to the measurement, not to the
+        machine (:mod:`pkmstiff.calibration.compensation`)."""
+        delta = self.res.delta.copy()
+        delta[self.params.chain < 0] = 0.0
+        return perturbed_machine(machine, self.params, delta)
+
+
+def identify_file(machine: Machine, measurements: str, *, meas: Measurement | None = None, method: str = "lm",
+                  loss: str = "linear", frame: str = "cartesian", monte_carlo: int = 0, outlier_threshold: float = 3.0,
+                  expected: str | None = None, deflection: str = "none", load: Any | None = None) -> IdentificationRun:
+    """Identify ``machine`` from the measurement file ``measurements`` (already read: ``meas``); ``expected``
+    names the instrument the file must hold (``--instrument``); ``deflection="gravity"`` subtracts the predicted
+    deflection (with the extra ``load`` at the target, N or N and N m) and analyses its bias."""
+    meas = read_measurement(measurements) if meas is None else meas
+    if expected is not None and instrument(expected) != meas.instrument:
+        raise CalibrationInputError(measurements, "instrument", f"'{expected}' (--instrument), but the file holds "
+                                    f"{meas.instrument} readings (header instrument_type)", meas.instrument.kind)
+    plan, y = measurement_plan(meas, machine.name, measurements)
+    params = error_model(machine, frame=frame, setup=plan.setup)
+    ident = identifiability(machine, params, plan)
+    kw = dict(loss=loss, outlier_threshold=outlier_threshold, source=measurements, ident=ident)
+    analysis = None
+    if deflection == "gravity":
+        analysis = deflection_analysis(machine, params, plan, y, method, load=load, **kw)
+        res = analysis.corrected
+    else:
+        res = identify(machine, params, plan, y, method, **kw)
+    return IdentificationRun(measurements, meas, plan, y, params, ident, res, uncertainty(res, monte_carlo=monte_carlo),
+                             analysis)
+
+
+@dataclass
+class Validation:
+    """Residuals (m) of the nominal (``before``) and the calibrated machine (``after``) on one further measurement
+    file ``path``, and its ball-bar circles evaluated on both."""
+
+    path: str
+    before: np.ndarray
+    after: np.ndarray
+    circles: list[CircleRun] = field(default_factory=list)
+
+    @property
+    def before_stats(self) -> ResidualStats:
+        return ResidualStats.of(self.before)
+
+    @property
+    def after_stats(self) -> ResidualStats:
+        return ResidualStats.of(self.after)
+
+
+@dataclass
+class CalibrationRun:
+    """Everything the calibration report shows (SI): the machine, the identification of the ball-bar file
+    (:class:`IdentificationRun`), the calibrated machine, the circles of the measurement, the validations, the
+    optional plan file (only described and drawn), the parameter frame and the deflection contribution
+    (``--deflection gravity``, else None)."""
+
+    machine: Machine
+    run: IdentificationRun
+    calibrated: Machine
+    circles: list[CircleRun]
+    validations: list[Validation]
+    plan_file: Plan | None = None
+    plan_path: str | None = None
+    frame: str = "cartesian"
+
+    # the parts of the identification the report shows
+    @property
+    def measurements(self) -> str:
+        return self.run.measurements
+
+    @property
+    def meas(self) -> BallbarMeasurement:
+        return self.run.meas
+
+    @property
+    def plan(self) -> Plan:
+        return self.run.plan
+
+    @property
+    def params(self) -> ParameterSet:
+        return self.run.params
+
+    @property
+    def ident(self) -> Identifiability:
+        return self.run.ident
+
+    @property
+    def res(self) -> Identification:
+        return self.run.res
+
+    @property
+    def unc(self) -> Uncertainty:
+        return self.run.unc
+
+    @property
+    def deflection(self) -> DeflectionSummary | None:
+        return None if self.run.deflection is None else self.run.deflection.summary()
+
+    def ball_points(self) -> np.ndarray:
+        """Moving-ball centres of the identification measurement's commanded poses (N, 3), m."""
+        return ball_positions(self.plan.poses, self.meas.ball_offset)
+
+
+def _ballbar_file(path: str) -> BallbarMeasurement:
+    """A ball-bar measurement file; another instrument's file is a one-line error (the report's plan, circle and
+    polar-plot parts are ball-bar specific)."""
+    meas = read_measurement(path)
+    if not isinstance(meas, BallbarMeasurement):
+        raise CalibrationInputError(path, "instrument", "a ball-bar measurement file (calibrate report evaluates "
+                                    "ball-bar circles; use calibrate identify / check for this file)",
+                                    meas.instrument.kind)
+    return meas
+
+
+def _circles(meas: BallbarMeasurement, plan: Plan, before: np.ndarray, after: np.ndarray,
+             source: str) -> list[CircleRun]:
+    return circles(ball_positions(plan.poses, meas.ball_offset), meas.direction, meas.fixed_ball, meas.bar_length,
+                   before, after, source)
+
+
+def run_calibration(machine: Machine, measurements: str, *, plan_path: str | None = None,
+                    validate: Sequence[str] = (), method: str = "lm", loss: str = "linear",
+                    frame: str = "cartesian", monte_carlo: int = 0, deflection: str = "none") -> CalibrationRun:
+    """Identify ``machine``'s base parameters from the ball-bar file ``measurements`` and check the result on every
+    ``validate`` file (module docstring). ``plan_path`` (a plan file) is only described and drawn; the
+    identification uses the commanded poses of the measurement. ``deflection="gravity"`` does what
+    ``calibrate identify/check --deflection gravity`` do: the predicted gravity deflection is subtracted from the
+    readings before identification and validation, and the bias without it is recorded."""
+    plan_file = read_plan(plan_path) if plan_path else None
+    if plan_file is not None and plan_file.instrument != BALL_BAR:
+        raise CalibrationInputError(plan_path, "plan.instrument", "a ball-bar plan (the measurement is a ball-bar "
+                                    "file)", plan_file.instrument.kind)
+    meas = _ballbar_file(measurements)
+    vals = []
+    for v in validate:  # read every file before the (slower) identification: bad input fails fast
+        vm = _ballbar_file(v)
+        vals.append((v, vm, *measurement_plan(vm, machine.name, v)))
+    run = identify_file(machine, measurements, meas=meas, method=method, loss=loss, frame=frame,
+                        monte_carlo=monte_carlo, deflection=deflection)
+    calibrated = run.calibrated_machine(machine)
+    found = _circles(meas, run.plan, run.res.residual_before, run.res.residual_after, measurements)
+    validations = []
+    for v, vm, vplan, vy in vals:
+        y0 = y1 = vy
+        if deflection == "gravity":  # each machine's own deflection at the poses it reaches
+            y0, _ = subtract_deflection(machine, machine, vplan, vy)
+            y1, _ = subtract_deflection(calibrated, machine, vplan, vy)
+        r0 = check(machine, machine, vplan, y0).residual
+        r1 = check(calibrated, machine, vplan, y1).residual
+        validations.append(Validation(v, r0, r1, _circles(vm, vplan, r0, r1, v)))
+    return CalibrationRun(machine=machine, run=run, calibrated=calibrated, circles=found, validations=validations,
+                          plan_file=plan_file, plan_path=plan_path, frame=frame)
+
+
+__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "identify_file",
+           "run_calibration"]
