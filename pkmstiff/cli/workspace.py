@@ -305,16 +305,22 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     method = {"pc": "predictor_corrector", "predictor_corrector": "predictor_corrector", "plain": "plain"}[args.method]
     budget = parse_budget(getattr(args, "memory_budget", None))
     if args.point:
-        unit, u_txt, v_txt = "deg", args.u_range or "-30,30", args.v_range or "-60,60"
-    elif not (args.u_range and args.v_range):
-        raise _cli_error("--u-range and --v-range (mm) are required for a section plane")
+        if len(dirs) != 1 or len(dirs[0]) != 2:
+            raise _cli_error("--point (rotational workspace): expected exactly one single-axis direction, "
+                             f"e.g. --directions +a, found {args.directions!r}")
+        others = [c for c in "abc" if c != dirs[0][1]]
+        axes, unit = "".join(others), "deg"
+        rng = _map_ranges(args, axes, unit, {others[0]: (-30.0, 30.0), others[1]: (-60.0, 60.0)})
     else:
-        unit, u_txt, v_txt = "mm", args.u_range, args.v_range
+        if args.plane not in PLANES:
+            raise _cli_error(f"--plane: expected one of {', '.join(PLANES)}, found {args.plane!r}")
+        axes, unit = args.plane, "mm"
+        rng = _map_ranges(args, axes, unit)
     step = _positive(args.step, "--step", unit)
-    (u0, u1), (v0, v1) = _range(u_txt, "--u-range", unit), _range(v_txt, "--v-range", unit)
+    (u0, u1), (v0, v1) = rng[axes[0]], rng[axes[1]]
     nu, nv = raster_count(u0, u1, step), raster_count(v0, v1, step)
     frac = 1.0  # at a point every raster orientation may be admissible
-    if not args.point and args.plane in PLANES:
+    if not args.point:  # the admissible fraction of the plane at the base orientation, on a sub-raster
         ua, va, normal = PLANES[args.plane]
         origin = np.zeros(3)
         origin[normal] = args.at * 1e-3
@@ -328,14 +334,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     try:
         if args.point:
             point = np.array(_floats(args.point, 3, "--point", "x,y,z in mm")) * 1e-3
-            if len(dirs) != 1 or len(dirs[0]) != 2:
-                raise _cli_error("--point (rotational workspace): expected exactly one single-axis direction, "
-                                 f"e.g. --directions +a, found {args.directions!r}")
-            step = math.radians(_positive(args.step, "--step", "deg"))
-            others = [c for c in "abc" if c != dirs[0][1]]
-            rng = _map_ranges(args, "".join(others), "deg", {others[0]: (-30.0, 30.0), others[1]: (-60.0, 60.0)})
-            u = np.radians(raster(*rng[others[0]], math.degrees(step)))
-            v = np.radians(raster(*rng[others[1]], math.degrees(step)))
+            u = np.radians(raster(*rng[others[0]], step))
+            v = np.radians(raster(*rng[others[1]], step))
             res = rotational_workspace_map(machine, to_machine_frame(machine, point, args.frame), dirs[0], u, v, ori,
                                            inc, amax,
                                            requirements=_requirements(args), method=method, verify=args.verify,
@@ -344,13 +344,6 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             title = (f"{machine.name}: max. rotation {dirs[0]} at x,y,z = {args.point} mm "
                      f"({frame_text(machine, args.frame).split(' (')[0]})")
         else:
-            if args.plane not in PLANES:
-                raise _cli_error(f"--plane: expected one of {', '.join(PLANES)}, found {args.plane!r}")
-            ua, va, normal = PLANES[args.plane]
-            origin = np.zeros(3)
-            origin[normal] = args.at * 1e-3
-            rng = _map_ranges(args, args.plane, "mm")
-            step = _positive(args.step, "--step", "mm")
             u = raster(*rng[args.plane[0]], step) * 1e-3
             v = raster(*rng[args.plane[1]], step) * 1e-3
             req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
