@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import os
 import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -18,6 +19,7 @@ import pytest
 
 from pkmstiff.cli import _value_options, build_parser, join_negative_values, main
 from pkmstiff.machine.loader import bundled_machine_dir
+from tests.calibration_plans import ONE_CIRCLE_PLAN
 
 HEX = str(bundled_machine_dir() / "hexaglide.toml")
 POSE = "0,0,-1000,0,0,0"
@@ -482,12 +484,43 @@ FILE_CASES: list[tuple[str, list[str], int, str]] = [
     ("rotation-map", ["rotation-map", "hexaglide", "--out", "{png_out}"], 2, "--force"),
     ("section", ["section", "hexaglide", "--quantities", "kx", "--formats", "vtu", "--out", "{vtu_json_out}"], 2,
      "--force"),
+    # a valid single-circle ball-bar file: rank 14 of the 36 identifiable parameters, refused before LM (it ran
+    # 214-219 s before "LM did not converge")
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{one_circle}"], 2, "rank 14"),
+    ("calibrate", ["calibrate", "report", "felix", "--measurements", "{one_circle}", "--out", "rep"], 2, "rank 14"),
 ]
+
+@pytest.fixture(scope="module")
+def one_circle(tmp_path_factory) -> Path:
+    """A valid Felix ball-bar measurement of one horizontal circle (simulated with the example errors)."""
+    d = tmp_path_factory.mktemp("one_circle")
+    (d / "plan.toml").write_text(ONE_CIRCLE_PLAN, encoding="utf-8")
+    assert main(["calibrate", "simulate", "felix", "--plan", str(d / "plan.toml"), "--errors",
+                 "example:felix_errors.toml", "--seed", "1", "--feed", "3000", "--sample-rate", "5", "--out",
+                 str(d / "one.csv")]) == 0
+    return d / "one.csv"
+
+
+def test_single_circle_measurement_is_refused_within_seconds(one_circle, capsys):
+    """The rank check runs on the measurement's own poses before any identification: well under 10 s (the
+    identifiability of 326 readings takes about 1 s on one core; 10 s leaves room for a loaded test machine)."""
+    import time
+
+    for cmd in (["identify"], ["report", "--out", str(one_circle.parent / "rep")]):
+        t0 = time.perf_counter()
+        assert main(["calibrate", cmd[0], "felix", "--measurements", str(one_circle), *cmd[1:]]) == 2
+        assert time.perf_counter() - t0 < 10.0
+        err = capsys.readouterr().err
+        assert "rank 14" in err and "36 base parameters of 42" in err and str(one_circle) in err
+    assert not (one_circle.parent / "rep").exists()
 
 
 @pytest.fixture
-def fault_files(bad_files):
+def fault_files(bad_files, one_circle):
     root, files = bad_files
+    for suffix in (".csv", ".json"):  # the measurement and its header
+        shutil.copy(one_circle.with_suffix(suffix), root / f"one_circle{suffix}")
+    files["one_circle"] = "one_circle.csv"
     text = Path(HEX).read_text(encoding="utf-8")
     (root / "bomb.toml").write_text(text.replace('length = "0 mm"', 'length = "9**9**9 mm"'), encoding="utf-8")
     files["power_bomb"] = "bomb.toml"

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -15,6 +16,7 @@ from pkmstiff.cli import main
 from pkmstiff.errors import OutputPathError
 from pkmstiff.io.atomic import atomic_open, atomic_path, atomic_write_text, output_path, safe_stem
 from pkmstiff.machine.loader import bundled_machine_dir
+from tests.calibration_plans import ONE_CIRCLE_PLAN
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -179,3 +181,114 @@ def test_sweep_progress_is_periodic_lines_off_a_terminal(monkeypatch, capsys):
     lines = err.splitlines()
     assert "\r" not in err and 3 <= len(lines) <= 4 and all(ln.startswith("sweep: ") for ln in lines)
     assert "task" in lines[0] and "/10 tasks" in lines[0]
+
+
+# ------------------------------------------------------------------------------- every CSV opens with pandas
+
+
+#: unit suffixes of the column rule (pkmstiff.io.columns) met in the CSVs below; a column with one holds numbers
+_UNIT_SUFFIXES = ("_mm", "_deg", "_m", "_rad", "_s", "_Hz", "_N_per_um", "_N_m_per_urad", "_N_per_urad", "_um",
+                  "_m2", "_m3", "_pct")
+_COLUMN = re.compile(r"[A-Za-z][A-Za-z0-9_.]*")  # no spaces, brackets, slashes or units in words
+
+_TINY_SWEEP = """[sweep]
+machine = "hexaglide"
+mode = "grid"
+[[parameters]]
+path = "components.strut_950.k"
+unit = "N/um"
+values = [150, 344]
+[[evaluations]]
+kind = "point"
+pose = [0, 0, -1000, 0, 0, 0]
+quantities = ["kx", "f1"]
+"""
+
+
+def _five_bar(d: Path) -> str:
+    from pkmstiff.mechanisms.loader import bundled_mechanism_dir
+
+    return str(bundled_mechanism_dir() / "five_bar.toml")
+
+
+def _poses(d: Path) -> str:
+    (d / "poses.csv").write_text("x,y,z,a,b,c\n0,0,-850,0,0,0\n0,0,-1000,0,0,0\n", encoding="utf-8")
+    return str(d / "poses.csv")
+
+
+def _file(name: str, text: str):
+    def make(d: Path) -> str:
+        (d / name).write_text(text, encoding="utf-8")
+        return str(d / name)
+    return make
+
+
+#: every command that writes a CSV, on a tiny case: (id, argv with {o} = output dir and {NAME} = made inputs)
+CSV_WRITERS = [
+    ("pose", ["pose", "hexaglide", "--poses", "{poses}", "--out", "{o}/b.csv"]),
+    ("point", ["point", "hexaglide", "--poses", "{poses}", "--modes", "2", "--out", "{o}/b.csv"]),
+    ("section", ["section", "hexaglide", "--plane", "yz", "--step", "100", "--quantities", "kx,kappa", "--formats",
+                 "csv", "--out", "{o}", "--quiet"]),
+    ("mechanism-section", ["section", "{five_bar}", "--plane", "xy", "--step", "40", "--formats", "csv",
+                           "--out", "{o}"]),
+    ("sweep", ["sweep", "{sweep}", "--out", "{o}/s.csv", "--quiet"]),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "100", "--no-plot", "--quiet", "--out", "{o}"]),
+    ("rotation-map", ["rotation-map", "hexaglide", "--plane", "yz", "--range", "y=0:600,z=-1100:-800", "--step",
+                      "150", "--directions", "+a", "--increment", "5", "--no-plot", "--out", "{o}"]),
+    ("rotation-map-point", ["rotation-map", "hexaglide", "--point", "0,0,-1000", "--directions", "+a", "--range",
+                            "b=-10:10,c=-10:10", "--step", "10", "--increment", "5", "--no-plot", "--out", "{o}"]),
+    ("fe-platform", ["fe-platform", "pkmstiff/fe/params/hexaglide_platform.toml", "--mesh-size", "60", "--quiet",
+                     "--out", "{o}/K.csv"]),
+    ("calibrate-simulate", ["calibrate", "simulate", "felix", "--plan", "{plan}", "--errors",
+                            "example:felix_errors.toml", "--seed", "1", "--feed", "3000", "--sample-rate", "5",
+                            "--out", "{o}/m.csv"]),
+]  # 'report' writes no CSV; 'demo' writes the section CSV (evaluation.export.to_csv) tested here via 'section'
+
+_INPUTS = {"poses": _poses, "five_bar": _five_bar, "sweep": _file("sweep.toml", _TINY_SWEEP),
+           "plan": _file("plan.toml", ONE_CIRCLE_PLAN)}
+
+
+@pytest.mark.parametrize("argv", [a for _, a in CSV_WRITERS], ids=[i for i, _ in CSV_WRITERS])
+def test_every_csv_the_cli_writes_opens_with_pandas_and_follows_the_column_rule(argv, tmp_path, monkeypatch, capsys):
+    """``pandas.read_csv(path)`` with no options reads every CSV, its columns follow the ``<name>_<unit>`` rule,
+    unit-suffixed columns hold numbers, and the metadata sit in a JSON file (beside it or in the output directory)."""
+    import json
+
+    import pandas as pd
+
+    monkeypatch.chdir(ROOT)
+    inputs, out = tmp_path / "in", tmp_path / "out"
+    inputs.mkdir()
+    names = {k: make(inputs) for k, make in _INPUTS.items() if any("{" + k + "}" in a for a in argv)}
+    assert main([a.format(o=out, **names) for a in argv]) == 0, capsys.readouterr().err
+    csvs = sorted(out.rglob("*.csv"))
+    assert csvs, "no CSV written"
+    for path in csvs:
+        table = pd.read_csv(path)
+        assert len(table) and len(table.columns) >= 2, path
+        for col in table.columns:
+            assert _COLUMN.fullmatch(col), f"{path.name}: column {col!r} breaks the column rule"
+            if col.endswith(_UNIT_SUFFIXES) and table[col].notna().any():
+                assert pd.api.types.is_numeric_dtype(table[col]), f"{path.name}: {col} is not numeric"
+        meta = [path.with_suffix(".json")] + sorted(path.parent.glob("*.json"))
+        assert any(m.is_file() for m in meta), f"{path.name}: no JSON metadata"
+        json.loads(next(m for m in meta if m.is_file()).read_text(encoding="utf-8"))
+    capsys.readouterr()
+
+
+def test_fe_joint_table_is_the_documented_comment_exception(tmp_path, monkeypatch, capsys):
+    """``fe-joint --out`` writes a component input table: ``# key: value`` provenance the joint-table reader reads,
+    then ``tilt_deg,k_N_per_um``; pandas needs ``comment="#"`` (docs/user-guide/fe.md says so)."""
+    import pandas as pd
+
+    from components.joint_tables import load_joint_table
+
+    monkeypatch.chdir(ROOT)
+    out = tmp_path / "j.csv"
+    assert main(["fe-joint", "pkmstiff/fe/params/iwf_2dof_improved.toml", "--angles", "0,45", "--mesh-size", "30",
+                 "--n-phi", "8", "--quiet", "--out", str(out)]) == 0
+    table = pd.read_csv(out, comment="#")
+    assert list(table.columns) == ["tilt_deg", "k_N_per_um"] and list(table["tilt_deg"]) == [0, 45]
+    assert load_joint_table(out).metadata  # the component reader reads the provenance lines
+    assert 'comment="#"' in (ROOT / "docs" / "user-guide" / "fe.md").read_text(encoding="utf-8")
+    capsys.readouterr()

@@ -81,6 +81,7 @@ from pkmstiff.calibration.instruments.file_format import FORMAT_VERSION, fmt
 from pkmstiff.calibration.instruments.registry import FILE_DEFAULT, find, instruments, kinds
 from pkmstiff.errors import MeasurementFileError
 from pkmstiff.io.atomic import atomic_write_text
+from pkmstiff.io.columns import sidecar_path
 from pkmstiff.io.inputs import input_file_problem
 
 Array = NDArray[np.float64]
@@ -132,11 +133,6 @@ def write_measurement(path: str | Path, meas: Measurement, *, allow_out_of_range
     head += [f"# machine: {meas.machine}", f"# instrument: {meas.device}"] + inst.header_lines(meas)
     head += [f"# note: {note}" for note in meas.notes]
     return _write_table(path, head, cols, meas.n_samples)
-
-
-def sidecar_path(path: str | Path) -> Path:
-    """The JSON file beside a measurement CSV that holds its header (``<name>.json``)."""
-    return Path(path).with_suffix(".json")
 
 
 def _json_value(text: str):

@@ -146,6 +146,20 @@ def check_jobs(jobs: int | None, option: str = "--jobs") -> int | None:
                    f"found {jobs}")
 
 
+def predicted_plan(items: int, seconds: float, jobs: int, scheduler: str | None, unit: str, granule: int = 1) -> str:
+    """The parallel plan for the cost line, from the estimated ``seconds`` of ``items`` items (the run itself sizes its
+    tasks from a measured first piece of work); connects to ``scheduler`` (exit 2 if unreachable) before any work."""
+    from pkmstiff.errors import ParallelError
+    from pkmstiff.evaluation.parallel import connected, plan
+
+    try:
+        with connected(scheduler):
+            p = plan(items, seconds / max(items, 1), jobs, scheduler, granule)
+    except ParallelError as exc:
+        raise CliError(str(exc)) from None
+    return p.text(unit) if p.parallel else "serial"
+
+
 # ------------------------------------------------------------------------------------------------ memory budget
 
 
@@ -247,9 +261,10 @@ def add_budget_argument(p) -> None:
                         f"default {DEFAULT_BUDGET_FRACTION:g})")
 
 
-def announce(command: str, cost, budget: int, quiet: bool = False) -> None:
+def announce(command: str, cost, budget: int, quiet: bool = False, plan: str | None = None) -> None:
     """Refuse a :class:`~pkmstiff.evaluation.cost.Cost` above the memory budget or the time budget (one line naming
-    the option that sets the size, the estimate and the budget); otherwise print the cost line on stderr."""
+    the option that sets the size, the estimate and the budget); otherwise print the cost line on stderr (ending with
+    the parallel ``plan`` when given)."""
     size = f"{cost.count:,.0f} {cost.unit}"
     opt = f"{cost.option}: " if cost.option else ""
     if cost.bytes > budget:
@@ -262,4 +277,4 @@ def announce(command: str, cost, budget: int, quiet: bool = False) -> None:
                              f"than the time budget of {human_seconds(limit)} (PKMSTIFF_TIME_BUDGET); {cost.advice}")
     if not quiet:
         print(f"pkmstiff {command}: {cost.what}: {size}, about {human_bytes(cost.bytes)} and "
-              f"{human_seconds(cost.seconds)}", file=sys.stderr, flush=True)
+              f"{human_seconds(cost.seconds)}{f'; {plan}' if plan else ''}", file=sys.stderr, flush=True)

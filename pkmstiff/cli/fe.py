@@ -15,7 +15,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from pkmstiff.io.atomic import atomic_path, atomic_write_text, output_path, safe_stem
+from pkmstiff.io.atomic import atomic_write_text, output_path, safe_stem
+from pkmstiff.io.columns import sidecar_path
 from pkmstiff.units import InputError
 
 DEFAULT_ANGLES = "0:90:15"
@@ -180,6 +181,24 @@ def joint_image(jm: Any, tilt_deg: float, path: str | Path) -> Path:
     return img
 
 
+#: rows/columns of the 6x6 platform matrix CSV: force/displacement components at the spindle reference point
+MATRIX_AXES = ("ux", "uy", "uz", "rx", "ry", "rz")
+
+
+def write_matrix_csv(path: Path, K: np.ndarray, name: str) -> Path:
+    """The 6x6 platform stiffness ``K`` (dissertation units, :func:`to_dissertation_units`) as a plain CSV:
+    a ``row`` column (``ux`` ... ``rz``) and one column per matrix column; the units go to ``<name>.json``."""
+    from pkmstiff.io.columns import write_table
+
+    rows = [[a, *map(float, K[i])] for i, a in enumerate(MATRIX_AXES)]
+    meta = {"platform": name, "quantity": "6x6 platform stiffness at the spindle reference point",
+            "rows_and_columns": list(MATRIX_AXES),
+            "units": {"translational (ux..uz x ux..uz)": "N/um",
+                      "coupling (ux..uz x rx..rz, rx..rz x ux..uz)": "N/urad",
+                      "rotational (rx..rz x rx..rz)": "N*m/urad"}}
+    return write_table(path, ["row", *MATRIX_AXES], rows, meta, ".8g")
+
+
 def cmd_fe_platform(args: argparse.Namespace) -> int:
     """``pkmstiff fe-platform``: 6x6 platform stiffness at the spindle reference point -> TOML or CSV."""
     from pkmstiff.cli.edges import check_output_file
@@ -196,6 +215,8 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     if out.suffix not in (".toml", ".csv"):
         raise InputError("--out", "out", "a file name ending in .toml or .csv", args.out)
     check_output_file(args.out, "--out", getattr(args, "force", False), (".toml", ".csv"))
+    if out.suffix == ".csv":
+        check_output_file(sidecar_path(out), "--out (its metadata)", getattr(args, "force", False), (".json",))
     check_output_file(args.vtu, "--vtu", getattr(args, "force", False), (".vtu",))
     p = load_platform_parameters(args.params)
     _announce_fe("fe-platform", p, lambda q: build_platform_model(q).n_fe, args, PLATFORM_SOLVES, "--mesh-size")
@@ -209,10 +230,7 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     if out.suffix == ".toml":
         atomic_write_text(out, component_toml(res, args.name))
     else:
-        header = ("# 6x6 platform stiffness at the spindle reference point; rows/cols ux,uy,uz,rx,ry,rz; "
-                  "units N/um (translational), N/urad (coupling), N*m/urad (rotational)")
-        with atomic_path(out) as tmp:
-            np.savetxt(tmp, Kd, delimiter=",", header=header, comments="", fmt="%.8g")
+        write_matrix_csv(out, Kd, p.name)
     if args.vtu:
         # unit load case: 1 kN along z' at the reference point
         f = np.zeros(6)

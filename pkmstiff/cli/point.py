@@ -316,31 +316,18 @@ def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | 
 
 
 def _point_batch(args: argparse.Namespace) -> int:
-    import csv
-    import sys
-    from contextlib import nullcontext
-
-    from pkmstiff.cli.edges import announce, check_output_file, count_lines, parse_budget
-    from pkmstiff.cli.pose import read_pose_file
+    from pkmstiff.cli.edges import announce, count_lines, parse_budget
+    from pkmstiff.cli.pose import check_batch_out, read_pose_file, write_batch
     from pkmstiff.evaluation.cost import POINT_ROW_BYTES, POINT_ROW_SECONDS, rows_cost
-    from pkmstiff.io.atomic import atomic_open
 
     check_point_options(args.tool_length, args.modes)
-    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
+    out = check_batch_out(args)
     rows = count_lines(args.poses)
     announce("point", rows_cost(rows, POINT_ROW_BYTES, POINT_ROW_SECONDS, f"{args.poses}", "pose rows", "--poses"),
              parse_budget(getattr(args, "memory_budget", None)), quiet=rows < 10_000)
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes, args.skip_check)
-    with atomic_open(out, "w", newline="", encoding="utf-8") if out else nullcontext(sys.stdout) as fh:
-        if args.skip_check:
-            from pkmstiff.admissibility.checks import left_out_text
-
-            fh.write(f"# {left_out_text(args.skip_check)}\n")
-        w = csv.writer(fh)
-        w.writerow(head)
-        w.writerows([["" if isinstance(v, float) and not math.isfinite(v) else
-                      (f"{v:.6g}" if isinstance(v, float) else v) for v in r] for r in rows])
+    write_batch(out, head, rows, args, "point")
     if out:
         print(f"pkmstiff point: {len(rows)} poses ({sum(r[6] for r in rows)} admissible, analysed); wrote {out}")
     return 0

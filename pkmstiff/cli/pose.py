@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -228,25 +229,45 @@ def _machine_pose(args: argparse.Namespace) -> int:
 
 def _pose_batch(args: argparse.Namespace) -> int:
     """``--poses FILE``: one CSV row per pose to stdout or ``--out``."""
-    import csv
-    import sys
-    from contextlib import nullcontext
-
-    from pkmstiff.cli.edges import check_output_file
-    from pkmstiff.io.atomic import atomic_open
-
-    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
+    out = check_batch_out(args)
     poses = read_pose_file(args.poses)
     head, rows = pose_rows(args.machine, poses, args.skip_check)
-    with atomic_open(out, "w", newline="", encoding="utf-8") if out else nullcontext(sys.stdout) as fh:
-        if args.skip_check:
-            fh.write(f"# {left_out_text(args.skip_check)}\n")
-        w = csv.writer(fh)
-        w.writerow(head)
-        w.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in r] for r in rows])
+    write_batch(out, head, rows, args, "pose")
     if out:
         print(f"pkmstiff pose: {len(rows)} poses ({sum(r[-2] for r in rows)} admissible); wrote {out}")
     return 0
+
+
+def check_batch_out(args: argparse.Namespace) -> Path | None:
+    """The ``--out`` CSV of a ``--poses`` batch and its JSON metadata beside it, checked before any work."""
+    from pkmstiff.cli.edges import check_output_file
+    from pkmstiff.io.columns import sidecar_path
+
+    if not args.out:
+        return None
+    force = getattr(args, "force", False)
+    out = check_output_file(args.out, "--out", force, (".csv",))
+    check_output_file(sidecar_path(out), "--out (its metadata)", force, (".json",))
+    return Path(out)
+
+
+def write_batch(out: Path | None, head: Sequence[str], rows: list[list], args: argparse.Namespace,
+                command: str) -> None:
+    """A ``--poses`` batch as a plain CSV (``pandas.read_csv`` with no options; floats to 6 digits, empty = no value)
+    to ``out`` with its metadata (machine, pose file, checks left out) in ``<out>.json``, or to stdout with the
+    checks left out stated on stderr."""
+    import sys
+
+    from pkmstiff.io.columns import write_csv, write_table
+
+    if out is None:
+        if args.skip_check:
+            print(f"pkmstiff {command}: {left_out_text(args.skip_check)}", file=sys.stderr)
+        write_csv(sys.stdout, head, rows, ".6g")
+        return
+    meta = {"command": f"pkmstiff {command}", "machine": str(args.machine), "poses_file": str(args.poses),
+            "checks_left_out": list(args.skip_check)}
+    write_table(out, head, rows, meta, ".6g")
 
 
 def add_commands(sub) -> None:

@@ -39,7 +39,7 @@ def _mechanism_section(args: argparse.Namespace) -> int:
 
 
 def _machine_section(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget
+    from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.cost import PLOT_LIBRARY_SECONDS, PNG_SECONDS
     from pkmstiff.evaluation.quantities import get_quantity
@@ -108,9 +108,11 @@ def _machine_section(args: argparse.Namespace) -> int:
         machine, len(names) if "png" in fmts else 0, write=bool(set(fmts) & {"vtu", "csv", "npz"}))
     if "png" in fmts or getattr(args, "reasons_map", False):
         cost = cost.plus(PLOT_LIBRARY_SECONDS + (PNG_SECONDS if getattr(args, "reasons_map", False) else 0.0))
+    plan = predicted_plan(int(cost.count), cost.seconds, args.jobs, getattr(args, "scheduler", None), "points",
+                          granule=4096)
     announce("section", cost.named(f"{plane_kind.upper()} window {window}"
                                    f"{' (fitted to the workspace)' if fitted else ''}"),
-             budget, quiet=args.quiet or args.json)
+             budget, quiet=args.quiet or args.json, plan=plan)
     try:
         plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step)
     except SectionError as exc:
@@ -119,7 +121,7 @@ def _machine_section(args: argparse.Namespace) -> int:
     res = evaluate_section(machine, plane, all_names, orientation=ori,
                            tool_length=None if args.tool_length is None else args.tool_length * 1e-3,
                            n_jobs=args.jobs, progress=False if args.quiet else None, frame=args.frame,
-                           checks=checks)
+                           checks=checks, scheduler=getattr(args, "scheduler", None))
     failed_requirements = _apply_requirements(res, requirements)
     for extra in set(all_names) - set(names):
         for d in (res.values, res.units, res.si_units, res.labels):
@@ -237,6 +239,8 @@ def add_commands(sub) -> None:
     p.add_argument("--out", default=None, help="output directory for PNG/VTU/CSV/NPZ (none: print only)")
     p.add_argument("--formats", default="png,vtu,csv,npz", help="output formats (default png,vtu,csv,npz)")
     p.add_argument("--jobs", type=int, default=1, help="parallel processes (-1: all cores)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate on that cluster (--jobs ignored)")
     p.add_argument("--json", action="store_true", help="print per-quantity statistics as JSON (with units)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no cost line")
     p.add_argument("--require", action="append", metavar="REQ",

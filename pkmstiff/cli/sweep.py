@@ -55,8 +55,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         more = f" (and {len(distinct) - 1} other error(s))" if len(distinct) > 1 else ""
         raise CliError(f"all {len(res.rows)} tasks failed: {first}{more}; nothing written")
     path = res.to_csv(Path(out))
+    plan = res.plan.text("tasks", "batches") if res.plan is not None else "serial"
     print(f"pkmstiff sweep: {len(res.rows) - len(failed)} of {len(res.rows)} tasks ok, "
-          f"{time.perf_counter() - t0:.1f} s; wrote {path} (metadata {sidecar_path(path)})")
+          f"{time.perf_counter() - t0:.1f} s ({plan}); wrote {path} (metadata {sidecar_path(path)})")
     for err, tasks in distinct.items():  # one line per distinct error
         ids = ", ".join(map(str, tasks[:8])) + (", ..." if len(tasks) > 8 else "")
         print(f"  {len(tasks)} task(s) failed ({ids}): {err}")

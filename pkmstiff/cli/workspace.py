@@ -154,7 +154,7 @@ def _octree_input_errors():
 
 
 def _cmd_workspace(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce, check_output_dir, old_range_form, parse_budget
+    from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, old_range_form, parse_budget, predicted_plan
     from pkmstiff.evaluation.cost import FIGURE_3D_BYTES, FIGURE_3D_LIBRARY_SECONDS, FIGURE_3D_SECONDS
     from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.requests import WorkspaceRequest
@@ -169,6 +169,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         raise _cli_error(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
     budget = parse_budget(getattr(args, "memory_budget", None))
     _requirements(args)
+    jobs, scheduler = check_jobs(getattr(args, "jobs", 1)), getattr(args, "scheduler", None)
     check_output_dir(args.out, "--out", getattr(args, "force", False),
                      WORKSPACE_FILES + (() if args.no_plot else ("workspace.png",)))
     machine = load_machine(args.machine)
@@ -205,12 +206,14 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         cost = req.cost(machine, n_ori, **options)  # a pilot octree: input errors surface here, before the work
     if args.out and not args.no_plot:
         cost = cost.plus(FIGURE_3D_LIBRARY_SECONDS + FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
+    # the finest level holds about half the evaluations: it sets the plan (20,000 poses per oracle chunk)
+    plan = predicted_plan(int(cost.count) // 2, cost.seconds / 2, jobs, scheduler, "points", granule=20_000)
     announce("workspace", cost.named(f"octree at resolution {args.resolution:g} mm"), budget,
-             quiet=args.quiet or args.json)
+             quiet=args.quiet or args.json, plan=plan if plan == "serial" else f"finest level: {plan}")
     progress = _Progress(not args.quiet, "octree")
     try:
         with _octree_input_errors():
-            res = req.evaluate(machine, progress=progress, **options)
+            res = req.evaluate(machine, progress=progress, n_jobs=jobs, scheduler=scheduler, **options)
     finally:
         progress.close()
     summary = res.summary()
@@ -292,7 +295,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
     check_output_dir(args.out, "--out", getattr(args, "force", False),
                      ("rotation_map.json",) + (() if args.no_plot else ("rotation_map.png",))
-                     + tuple(_map_name(d.strip()) for d in args.directions.split(",") if d.strip()))
+                     + tuple(f"{_map_name(d.strip())}.{ext}" for d in args.directions.split(",") if d.strip()
+                             for ext in ("csv", "json")))
     _requirements(args)
     machine = load_machine(args.machine)
     amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
@@ -359,15 +363,21 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
         raise _cli_error(str(exc)) from None
     run = time.perf_counter() - t0
     summary = res.summary()
-    summary.update({"machine": machine.name, "run_time_s": run, **frame_metadata(machine, args.frame),
+    frame = frame_metadata(machine, args.frame)
+    summary.update({"machine": machine.name, "run_time_s": run, **frame,
                     "neglect_spindle": bool(args.neglect_spindle)})
     files: dict[str, str] = {}
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         for d, a in res.angles.items():
-            p = out / _map_name(d)
-            _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels)
+            p = out / f"{_map_name(d)}.csv"
+            _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels,
+                       {"machine": machine.name, "direction": d, "title": title,
+                        "max_angle_deg": f"largest admissible rotation {d} from the base orientation on the "
+                                         f"{args.increment:g} deg lattice; empty: base orientation inadmissible",
+                        "increment_deg": args.increment, "max_search_deg": args.max_angle,
+                        "checks_left_out": list(args.skip_check), **frame})
             files[f"map {d} (deg)"] = str(p)
         if not args.no_plot:
             from pkmstiff.plots.workspace import PlotDependencyError, plot_rotation_maps
@@ -397,16 +407,20 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
 
 
 def _map_name(direction: str) -> str:
-    """The CSV file of one direction's map: ``rotation_map_pa.csv`` for +a."""
-    return f"rotation_map_{direction.replace('+', 'p').replace('-', 'm')}.csv"
+    """The file stem of one direction's map: ``rotation_map_pa`` (``.csv`` and its ``.json``) for +a."""
+    return f"rotation_map_{direction.replace('+', 'p').replace('-', 'm')}"
 
 
-def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str]) -> None:
-    with atomic_open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow([f"{labels[1]} \\ {labels[0]}"] + [f"{x:.4f}" for x in u])
-        for vi, row in zip(v, deg):
-            w.writerow([f"{vi:.4f}"] + ["" if not np.isfinite(x) else f"{x:.4f}" for x in row])
+def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str],
+               meta: dict[str, Any]) -> None:
+    """One direction's map as a plain CSV, one row per raster point (``v`` outer, ``u`` inner): the two raster
+    coordinates named by the column rule (``y_mm``, ``z_mm``; ``b_deg``, ``c_deg`` at a point) and
+    ``max_angle_deg`` (empty = inadmissible base orientation); ``meta`` goes to ``<name>.json`` beside it."""
+    from pkmstiff.io.columns import label_column, write_table
+
+    U, V = np.meshgrid(u, v)
+    rows = zip(U.ravel().tolist(), V.ravel().tolist(), np.asarray(deg, dtype=float).ravel().tolist())
+    write_table(path, [label_column(labels[0]), label_column(labels[1]), "max_angle_deg"], rows, meta, ".6g")
 
 
 def add_commands(sub: Any) -> None:
@@ -429,6 +443,10 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--refine", type=int, default=0,
                    help="bisection steps along boundary edges for the volume (default 0)")
     p.add_argument("--min-level", type=int, default=3, help="octree start level (default 3 = 8 voxels per axis)")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="parallel processes for the octree levels' evaluations (-1: all cores; default 1)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate the levels on that cluster")
     p.add_argument("--out", help="output directory (boundary points CSV, STL/VTK surface, PNG, JSON)")
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")

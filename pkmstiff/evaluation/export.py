@@ -19,6 +19,7 @@ from pkmstiff.admissibility.checks import Reason
 from pkmstiff.evaluation.sections import SectionResult
 from pkmstiff.io.atomic import atomic_open, atomic_path, atomic_write_text
 from pkmstiff.io.columns import column_name
+from pkmstiff.io.columns import sidecar_path as metadata_path  # the name this module's users import
 
 MM = 1e3
 
@@ -40,11 +41,6 @@ def _metadata(res: SectionResult) -> dict:
     meta["plane_axes"] = {"u_mm": res.plane.u_name, "v_mm": res.plane.v_name}  # the in-plane coordinate columns
     meta["columns"] = {column_name(n, res.units[n]): {"quantity": n, "unit": res.units[n]} for n in res.values}
     return meta
-
-
-def metadata_path(path: str | Path) -> Path:
-    """The JSON file beside a CSV or VTU export that holds its metadata (``<name>.json``)."""
-    return Path(path).with_suffix(".json")
 
 
 def to_vtk(res: SectionResult, path: str | Path) -> Path:

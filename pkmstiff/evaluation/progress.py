@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sys
 import time
-from typing import Iterable, Iterator, TypeVar
+from typing import Callable, Iterable, Iterator, TypeVar
 
 T = TypeVar("T")
 
@@ -35,3 +35,22 @@ def _lines(items: Iterable[T], n: int, desc: str, unit: str) -> Iterator[T]:
             print(f"{desc}: {100 * k / max(n, 1):.0f} % ({k}/{n} {unit}s), {now - t0:.0f} s", file=sys.stderr,
                   flush=True)
         yield item
+
+
+def callback(total: int, enabled: bool, desc: str, unit: str) -> Callable[[int], None] | None:
+    """The same reporting as :func:`progress` for work that finishes out of order (parallel tasks): call it with the
+    number of finished items; None when disabled."""
+    if not enabled or total == 0:
+        return None
+    it = iter(progress(range(total), True, desc, unit))
+    done = 0
+
+    def step(k: int) -> None:
+        nonlocal done
+        while done < k:
+            next(it, None)
+            done += 1
+        if done == total:
+            next(it, None)  # ends the bar
+
+    return step

@@ -8,8 +8,15 @@ with no options; their metadata go to a JSON file beside them.
 
 from __future__ import annotations
 
+import csv
+import json
+import math
 import re
-from typing import Any
+from pathlib import Path
+from collections.abc import Iterable, Sequence
+from typing import IO, Any
+
+import numpy as np
 
 #: first characters a spreadsheet reads as the start of a formula (OWASP "CSV injection")
 FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
@@ -54,3 +61,37 @@ def text_cell(value: Any) -> Any:
     if isinstance(value, str) and value.startswith(FORMULA_START):
         return "'" + value
     return value
+
+
+def sidecar_path(path: str | Path) -> Path:
+    """The JSON file beside an output CSV that holds its metadata (``<name>.json``)."""
+    return Path(path).with_suffix(".json")
+
+
+def table_cell(value: Any, float_format: str = ".10g") -> Any:
+    """``value`` for a CSV cell: a float in ``float_format`` (empty if NaN or infinite), a string through
+    :func:`text_cell`, anything else (int, bool) unchanged."""
+    if isinstance(value, (float, np.floating)):
+        return format(float(value), float_format) if math.isfinite(value) else ""
+    return text_cell(value)
+
+
+def write_csv(fh: IO[str], header: Sequence[str], rows: Iterable[Sequence[Any]], float_format: str = ".10g") -> None:
+    """``header`` and ``rows`` (cells through :func:`table_cell`) to the open text file ``fh``."""
+    w = csv.writer(fh)
+    w.writerow(list(header))
+    w.writerows([[table_cell(v, float_format) for v in r] for r in rows])
+
+
+def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[Any]],
+                metadata: dict[str, Any], float_format: str = ".10g") -> Path:
+    """Write ``rows`` under ``header`` as a plain CSV (``pandas.read_csv(path)`` reads it with no options) and
+    ``metadata`` to :func:`sidecar_path` beside it, both atomically; the JSON is written first, so a CSV never
+    stands without its metadata. Returns ``path``."""
+    from pkmstiff.io.atomic import atomic_open, atomic_write_text
+
+    path = Path(path)
+    atomic_write_text(sidecar_path(path), json.dumps(metadata, indent=2, ensure_ascii=False, default=str) + "\n")
+    with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
+        write_csv(fh, header, rows, float_format)
+    return path

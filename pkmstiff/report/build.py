@@ -64,11 +64,13 @@ def _tool_mm(machine: Machine, tl: float | None) -> float:
 
 
 def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
-                 log: Callable[[str], None] | None = None) -> Report:
+                 log: Callable[[str], None] | None = None, scheduler: Any = None) -> Report:
     """Evaluate a spec for every variant and assemble the report; figures are written to ``out_dir``.
 
     ``fast`` applies :func:`~pkmstiff.report.spec.fast_spec`; ``n_jobs`` (default: the spec's ``options.jobs``) is
-    passed to the section evaluation. ``log`` receives one progress line per step.
+    passed to the section and workspace evaluations, ``scheduler`` (a Dask address or client) sends them to a
+    cluster (:mod:`pkmstiff.evaluation.parallel`; the numbers are the same). ``log`` receives one progress line per
+    step.
     """
     log = log or (lambda msg: None)
     if fast:
@@ -95,10 +97,11 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     notes: list[str] = []
 
     # workspace volume first (as in Cobet Table 5.1), then sections, points, machine values
-    ws_figs = _workspace_rows(spec, pairs, table, notes, out, log) if spec.workspace is not None else []
+    par = {"n_jobs": jobs, "scheduler": scheduler}
+    ws_figs = _workspace_rows(spec, pairs, table, notes, out, log, par) if spec.workspace is not None else []
     multi = len(spec.sections) > 1
     map_sections = [(sec, figs) for k, sec in enumerate(spec.sections)
-                    for figs in [_section(sec, k, pairs, table, multi, jobs, out, log, spec.frame)] if sec.maps]
+                    for figs in [_section(sec, k, pairs, table, multi, par, out, log, spec.frame)] if sec.maps]
     for pt in spec.points:
         _point_rows(pt, pairs, table, notes, spec.frame)
     for key in spec.machine_rows:
@@ -139,7 +142,7 @@ def _variant_text(v: Variant, m: Machine) -> str:
 
 
 def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str], out: Path,
-                    log: Callable[[str], None]) -> list[Figure]:
+                    log: Callable[[str], None], par: dict[str, Any]) -> list[Figure]:
     ws = spec.workspace
     figs: list[Figure] = []
     vols: dict[str, list[float | None]] = {m: [] for m in ws.methods}
@@ -147,7 +150,7 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
         t0 = time.perf_counter()
         req = _workspace_request(spec, v)
         ori = req.orientation
-        res = req.evaluate(m)
+        res = req.evaluate(m, **par)
         for meth in ws.methods:
             vols[meth].append(res.volumes.get(meth))
         if res.octree.touches_box:
@@ -199,13 +202,13 @@ def spec_cost(spec: ReportSpec, fast: bool = False) -> Cost:
     return replace(out, unit="octree evaluations and raster points")
 
 
-def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, jobs: int, out: Path,
+def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, par: dict[str, Any], out: Path,
              log: Callable[[str], None], frame: str = "machine") -> list[Figure]:
     """Evaluate one section for every variant, add its rows; the maps' figures (one colour scale per quantity)."""
     results = []
     for v, m in pairs:
         t0 = time.perf_counter()
-        res = _section_request(sec, v, frame).evaluate(m, n_jobs=jobs)
+        res = _section_request(sec, v, frame).evaluate(m, **par)
         res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
         if res.tool_length is None:
             res.tool_length = m.tool.length
@@ -276,7 +279,8 @@ def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) 
 
 
 def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
-             log: Callable[[str], None] | None = None, check: Callable[[Cost], None] | None = None) -> dict[str, Path]:
+             log: Callable[[str], None] | None = None, scheduler: Any = None,
+             check: Callable[[Cost], None] | None = None) -> dict[str, Path]:
     """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths.
     ``check`` receives the :func:`spec_cost` before any work (and may refuse it by raising)."""
     from pkmstiff.report.render import run_info, write_report
@@ -285,7 +289,7 @@ def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_job
     spec = load_spec(path)
     if check is not None:
         check(spec_cost(spec, fast))
-    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log)
+    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log, scheduler=scheduler)
     info = run_info()
     info["run time"] = f"{time.perf_counter() - t0:.1f} s"
     return write_report(report, out_dir, run=info)
