@@ -347,7 +347,7 @@ def statistics_line(name: str, st: dict[str, Any]) -> str:
 def near_singular_line(summary: dict[str, Any]) -> str:
     """The count of near-singular points of a :func:`section_summary`, one text line."""
     ns = summary["near_singular"]
-    return (f"  near-singular (kappa > {ns['kappa_above']:.3g} = {ns['fraction_of_threshold']:g} x the singularity "
+    return (f"  near-singular (kappa above {ns['kappa_above']:.3g} = {ns['fraction_of_threshold']:g} x the singularity "
             f"threshold): {ns['points']} of {summary['admissible_points']} admissible points")
 
 

@@ -8,7 +8,6 @@ k_x with a sketch of the machine, VTU/CSV exports and a short Markdown + HTML su
 from __future__ import annotations
 
 import argparse
-import html
 import time
 from pathlib import Path
 
@@ -20,7 +19,6 @@ from pkmstiff.evaluation.sections import (
     statistics_line,
     three_planes,
 )
-from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.report.outputs import write_section_outputs
 
@@ -79,42 +77,37 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _table(info: dict) -> list[list[str]]:
-    """The statistics table, led by the 5 % quantile, mean and 95 % quantile: min and max are set by the
-    near-singular points at the workspace boundary (counted in the last column)."""
-    rows = [["quantity", "unit", "p5", "mean", "p95", "min", "p1", "max", "admissible points", "near-singular"]]
-    for n, st in info["statistics"].items():
-        rows.append([n, st["unit"], *(f"{st[k]:.4g}" for k in ("p5", "mean", "p95", "min", "p1", "max")),
-                     str(st["count"]), str(st["near_singular_points"])])
-    return rows
+_CAPTIONS = {"kx": "k_x, TCP stiffness in x", "ky": "k_y, TCP stiffness in y", "kz": "k_z, TCP stiffness in z",
+             "f1": "first eigenfrequency", "admissibility": "admissibility: first failing check per point",
+             "three_planes_kx": "k_x on three section planes, the machine ghosted at the reference pose"}
 
 
 def _write_summary(out: Path, title: str, info: dict, images: list[Path], assumptions: dict[str, str]) -> None:
-    rows = _table(info)
+    """``summary.html`` (self-contained) and ``summary.md``, rendered by the report templates (one stylesheet)."""
+    from pkmstiff.report.model import Figure, Report, Table
+    from pkmstiff.report.render import write_report
+
     reasons = ", ".join(f"{k} {v}" for k, v in info["inadmissible_reasons"].items()) or "none"
-    md = [f"# pkmstiff demo — {title}", "",
-          f"{info['plane']} (report frame, origin at the middle guide), a = b = c = 0, tool length 0 mm, K_U "
-          f"neglected (platform and spindle "
-          f"rigid, Cobet 4.2.4); {info['admissible_points']} of {info['points']} raster "
-          f"points admissible ({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.", "",
-          "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
-    md += ["| " + " | ".join(r) + " |" for r in rows[1:]]
+    rep = Report(f"pkmstiff demo — {title}",
+                 summary=f"{info['plane']} (report frame, origin at the middle guide), a = b = c = 0, tool length "
+                         f"0 mm, K_U neglected (platform and spindle rigid, Cobet 4.2.4); "
+                         f"{info['admissible_points']} of {info['points']} raster points admissible "
+                         f"({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.")
+    # led by the 5 % quantile, mean and 95 % quantile: min and max are set by the near-singular points at the
+    # workspace boundary (counted in the last column)
+    table = Table("Statistics over the admissible points",
+                  ["p5", "mean", "p95", "min", "p1", "max", "admissible points", "near-singular"])
+    for n, st in info["statistics"].items():
+        table.add(n, st["unit"].replace("um", "µm"), [*(st[k] for k in ("p5", "mean", "p95", "min", "p1", "max")),
+                                                     st["count"], st["near_singular_points"]])
     note = ("p5 / p95: 5 % and 95 % quantiles over the admissible points (the headline figures); min and max are set "
             f"by the few points next to the singularity boundary. {near_singular_line(info).strip()}.")
-    md += ["", note, ""]
-    md += [f"Inadmissible points by reason: {reasons}.", ""]
-    md += [f"![{p.stem}]({p.name})" for p in images]
-    md += ["", "## Assumptions (machine file)", ""] + [f"- `{k}`: {v}" for k, v in assumptions.items()]
-    atomic_write_text(out / "summary.md", "\n".join(md) + "\n")
-    cells = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in rows[1:])
-    head = "".join(f"<th>{html.escape(c)}</th>" for c in rows[0])
-    imgs = "".join(f'<figure><img src="{p.name}" width="640"><figcaption>{html.escape(p.stem)}</figcaption></figure>'
-                   for p in images)
-    ass = "".join(f"<li><code>{html.escape(k)}</code>: {html.escape(v)}</li>" for k, v in assumptions.items())
-    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>pkmstiff demo</title></head><body>"
-            f"<h1>pkmstiff demo — {html.escape(title)}</h1><p>{html.escape(md[2])}</p>"
-            f"<table border='1' cellpadding='4'><tr>{head}</tr>{cells}</table>"
-            f"<p>{html.escape(note)}</p><p>Inadmissible points by reason: {html.escape(reasons)}.</p>{imgs}"
-            f"<h2>Assumptions (machine file)</h2><ul>{ass}</ul></body></html>")
-    atomic_write_text(out / "summary.html", page)
-
+    sec = rep.section("Section maps", f"{note}\n\nInadmissible points by reason: {reasons}.")
+    sec.tables.append(table)
+    for p in images:
+        key = p.stem.removeprefix("hexaglide_yz_").removeprefix("hexaglide_")
+        sec.figures.append(Figure(p, _CAPTIONS.get(key, p.stem)))
+    rep.assumptions = dict(assumptions)
+    rep.settings = {"machine": MACHINE, "plane": info["plane"], "frame": "report", "tool length [mm]": 0.0,
+                    "quantities": list(QUANTITIES)}
+    write_report(rep, out, stem="summary")
