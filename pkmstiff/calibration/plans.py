@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from pkmstiff.admissibility import evaluate_poses
-from pkmstiff.calibration.instruments import Instrument, Setup, SetupState, instrument, kinds
+from pkmstiff.calibration.instruments import Instrument, Setup, instrument, kinds
 from pkmstiff.errors import CalibrationError, CalibrationInputError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.kinematics import as_poses
@@ -437,10 +437,6 @@ def _path_poses(kind: str, p: dict, q: Callable, pre: str) -> int:
     if kind in ("circle", "hemisphere"):
         return int(q(p, "points", "dimensionless", pre, 72.0 if kind == "circle" else 360.0, positive=True))
     return len(p.get("positions", ()))
-
-
-def setup_state(plan: Plan) -> SetupState:
-    return plan.setup.state()
 
 
 __all__: Sequence[str] = (

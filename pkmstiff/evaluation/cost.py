@@ -108,6 +108,11 @@ BALLBAR_ROW_SECONDS = 8e-6
 PILOT_POINTS = 2000
 
 
+#: quantity groups (:attr:`pkmstiff.evaluation.quantities.Quantity.group`) computed from the structure model; the
+#: others (kinematics, pose) come with the pose pipeline
+STRUCTURE_GROUPS = frozenset({"stiffness", "modal", "kinetostatics", "deflection"})
+
+
 @dataclass(frozen=True)
 class Cost:
     """The estimated cost of one piece of work: ``count`` ``unit`` (set by ``option``), peak resident memory

@@ -82,7 +82,7 @@ class SectionRequest:
         """The :class:`~pkmstiff.evaluation.cost.Cost` of :meth:`evaluate` (plus ``n_png`` maps and, ``write``, the
         VTU/CSV/NPZ files): raster points, the admissible fraction measured on a sub-raster (only admissible points
         get quantities), kinematic and structure quantities. The raster itself is not built."""
-        from pkmstiff.evaluation.cost import admissible_fraction, plane_points, section_cost
+        from pkmstiff.evaluation.cost import STRUCTURE_GROUPS, admissible_fraction, plane_points, section_cost
         from pkmstiff.evaluation.sections import AXES, raster_count
         from pkmstiff.machine.frames import frame_origin
 
@@ -94,7 +94,7 @@ class SectionRequest:
         frac = admissible_fraction(machine, pts, self.orientation,
                                    checks_without(self.skip_checks, "SectionRequest"))
         qs = [get_quantity(n) for n in dict.fromkeys(self.quantities)]
-        structure = sum(q.needs_structure for q in qs)
+        structure = sum(q.group in STRUCTURE_GROUPS for q in qs)
         return section_cost(n_points, frac, len(qs) - structure, structure, any(q.group == "modal" for q in qs),
                             n_png, write)
 

@@ -94,6 +94,10 @@ class ColourScale:
 
         return LogNorm(self.lo, self.hi) if self.log else Normalize(self.lo, self.hi)
 
+    def extend(self, values: np.ndarray) -> str:
+        """Colour-bar arrows (matplotlib's ``extend``) for the values outside the limits."""
+        return _extend(values, (self.lo, self.hi))
+
     def label_colorbar(self, cb, unit_label: str) -> None:
         """Colour-bar label with the note; a log scale gets plain ticks at 1, 2, 5 × 10^k."""
         cb.set_label(unit_label + (f"\n({self.note})" if self.note else ""))

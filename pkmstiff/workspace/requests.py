@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.admissibility.checks import checks_without
-from pkmstiff.evaluation.cost import Cost, octree_pilot_halvings, workspace_cost
+from pkmstiff.evaluation.cost import STRUCTURE_GROUPS, Cost, octree_pilot_halvings, workspace_cost
 from pkmstiff.machine.frames import check_frame, frame_metadata, neglect_spindle, to_machine_frame
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.requirements import parse_requirements
@@ -60,7 +60,8 @@ class WorkspaceRequest:
 
         lo, hi = self.box if self.box is not None else reach_box(neglect_spindle(machine, self.neglect_spindle))
         extent = np.asarray(hi, float) - np.asarray(lo, float)
-        structure = any(get_quantity(r.quantity).needs_structure for r in parse_requirements(self.requirements))
+        structure = any(get_quantity(r.quantity).group in STRUCTURE_GROUPS
+                        for r in parse_requirements(self.requirements))
         k = octree_pilot_halvings(extent, self.resolution, orientations)
         pilot = None
         if k:
