@@ -24,6 +24,7 @@ _FACADE = {
     "SectionMap": "pkmstiff.api", "Workspace": "pkmstiff.api", "RotationMap": "pkmstiff.api",
     "Report": "pkmstiff.api", "Table": "pkmstiff.api", "Figure": "pkmstiff.api", "write_report": "pkmstiff.api",
     "ComponentState": "pkmstiff.api", "available_quantities": "pkmstiff.api", "ALL_CHECKS": "pkmstiff.api",
+    "ColourScale": "pkmstiff.api", "robust_clim": "pkmstiff.api",
     "load_design": "pkmstiff.optimise",
     "inverse_kinematics": "pkmstiff.kinematics", "forward_kinematics": "pkmstiff.kinematics",
 }
@@ -45,7 +46,7 @@ def __dir__() -> list[str]:
     return sorted(list(globals()) + list(_FACADE) + ["optimise"])
 
 
-__all__ = ["ALL_CHECKS", "ArgumentError", "ComponentState", "Figure", "InputError", "Machine", "PkmstiffError",
-           "PointResults", "Report", "RotationMap", "SectionMap", "StudyMachine", "Table", "UnknownMachineError", "Workspace",
-           "available_quantities", "bundled_machines", "forward_kinematics", "inverse_kinematics", "load_design", "load_machine", "optimise",
+__all__ = ["ALL_CHECKS", "ArgumentError", "ColourScale", "ComponentState", "Figure", "InputError", "Machine", "PkmstiffError", "PointResults",
+           "Report", "RotationMap", "SectionMap", "StudyMachine", "Table", "UnknownMachineError", "Workspace",
+           "available_quantities", "bundled_machines", "forward_kinematics", "inverse_kinematics", "load_design", "load_machine", "optimise", "robust_clim",
            "write_report", "__version__"]

@@ -18,7 +18,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 import pkmstiff
-from pkmstiff.plots.section_maps import ColourScale, robust_clim
+from pkmstiff import ColourScale, robust_clim
 
 STAT_KEYS = ("max", "mean", "min")
 
@@ -91,7 +91,7 @@ class MapPanel:
 
 def shared_clim(*arrays: np.ndarray) -> ColourScale:
     """Common colour scale over the finite values of all arrays: min..max, or logarithmic / cut at a percentile
-    where one hot spot would flatten the rest (pkmstiff.plots.section_maps.robust_clim; the colour bar says so)."""
+    where one hot spot would flatten the rest (pkmstiff.robust_clim; the colour bar says so)."""
     return robust_clim(*arrays)
 
 
@@ -115,8 +115,6 @@ def deviation_colours(rel: np.ndarray, percentile: float = 100.0) -> tuple[str, 
 def plot_maps(panels: Sequence[MapPanel], path: str | Path, title: str, ncols: int | None = None) -> Path:
     """PNG with the panels side by side: colour map (positions of O' in mm), admissible outline, colour bar each."""
     import matplotlib
-
-    from pkmstiff.plots.section_maps import _extend
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -143,7 +141,7 @@ def plot_maps(panels: Sequence[MapPanel], path: str | Path, title: str, ncols: i
         ax.set_xlabel(f"{pl.u_name} [mm]")
         ax.set_ylabel(f"{pl.v_name} [mm]")
         ax.set_title(pan.title, fontsize=10)
-        cb = fig.colorbar(mesh, ax=ax, shrink=0.85, extend=_extend(pan.values, clim))
+        cb = fig.colorbar(mesh, ax=ax, shrink=0.85, extend=scale.extend(pan.values))
         scale.label_colorbar(cb, pan.unit.replace("N/um", "N/µm"))
     fig.suptitle(title, fontsize=11)
     path = Path(path)

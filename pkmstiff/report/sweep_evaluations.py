@@ -21,6 +21,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from pkmstiff.errors import ArgumentError, InadmissibleError
+from pkmstiff.evaluation.cost import POINT_SECONDS, Cost, rows_cost, total
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
 from pkmstiff.io.ranges import parse_ranges
@@ -40,7 +41,7 @@ def _check_quantities(names: Sequence[str], where: str) -> tuple[str, ...]:
 
     names = tuple(names)
     if not names or not all(isinstance(n, str) for n in names):
-        raise ArgumentError(option=where, expected="a non-empty list of quantity names", found=names)
+        raise ArgumentError(f"{where}: expected a non-empty list of quantity names, found {names!r}")
     for n in names:
         try:
             get_quantity(n)
@@ -52,7 +53,7 @@ def _check_quantities(names: Sequence[str], where: str) -> tuple[str, ...]:
 def _orientation(values: Sequence[float], where: str) -> tuple[float, float, float]:
     v = tuple(float(x) for x in values)
     if len(v) != 3 or not all(math.isfinite(x) for x in v):
-        raise ArgumentError(option=where, expected="three angles a, b, c in deg", found=values)
+        raise ArgumentError(f"{where}: expected three angles a, b, c in deg, found {values!r}")
     return v  # type: ignore[return-value]
 
 
@@ -70,7 +71,7 @@ def _check_skip(names: Sequence[str], where: str) -> tuple[str, ...]:
 
 def _check_frame(frame: str, where: str) -> None:
     if frame not in ("machine", "report"):
-        raise ArgumentError(option=where, expected="'machine' or 'report'", found=frame)
+        raise ArgumentError(f"{where}: expected 'machine' or 'report', found {frame!r}")
 
 
 @dataclass(frozen=True)
@@ -99,14 +100,13 @@ class SectionStatistics:
         object.__setattr__(self, "quantities", _check_quantities(self.quantities, "SectionStatistics.quantities"))
         object.__setattr__(self, "plane", str(self.plane).lower())
         if self.plane not in ("yz", "xz", "xy"):
-            raise ArgumentError(option="SectionStatistics.plane", expected="'yz', 'xz' or 'xy'", found=self.plane)
+            raise ArgumentError(f"SectionStatistics.plane: expected 'yz', 'xz' or 'xy', found {self.plane!r}")
         try:
             parse_ranges(self.range, self.plane)
         except ArgumentError as exc:
             raise ArgumentError(f"SectionStatistics.range: {exc}") from None
         if not (isinstance(self.step_mm, (int, float)) and self.step_mm > 0):
-            raise ArgumentError(option="SectionStatistics.step_mm", found=self.step_mm,
-                                expected="a positive step in mm")
+            raise ArgumentError(f"SectionStatistics.step_mm: expected a positive step in mm, found {self.step_mm!r}")
         stats = tuple(self.statistics)
         bad = [s for s in stats if s not in SECTION_STATISTICS]
         if bad or not stats:
@@ -155,7 +155,7 @@ class PointValues:
         object.__setattr__(self, "skip_checks", _check_skip(self.skip_checks, "PointValues.skip_checks"))
         p = tuple(float(x) for x in self.pose)
         if len(p) != 6 or not all(math.isfinite(x) for x in p):
-            raise ArgumentError(option="PointValues.pose", expected="x, y, z [mm], a, b, c [deg]", found=self.pose)
+            raise ArgumentError(f"PointValues.pose: expected x, y, z [mm], a, b, c [deg], found {self.pose!r}")
         object.__setattr__(self, "pose", p)
         object.__setattr__(self, "quantities", _check_quantities(self.quantities, "PointValues.quantities"))
 
@@ -207,7 +207,7 @@ class WorkspaceVolume:
                                  f"min < max, found {self.box_mm!r}")
             object.__setattr__(self, "box_mm", b)
         if self.method not in METHODS:
-            raise ArgumentError(option="WorkspaceVolume.method", expected=f"one of {list(METHODS)}", found=self.method)
+            raise ArgumentError(f"WorkspaceVolume.method: expected one of {list(METHODS)}, found {self.method!r}")
         object.__setattr__(self, "requirements", tuple(self.requirements))
         try:
             parse_requirements(self.requirements)
@@ -240,7 +240,7 @@ class Combined:
     def __post_init__(self) -> None:
         object.__setattr__(self, "parts", tuple(self.parts))
         if not self.parts or not all(callable(p) for p in self.parts):
-            raise ArgumentError(option="Combined.parts", expected="at least one evaluation", found=self.parts)
+            raise ArgumentError(f"Combined.parts: expected at least one evaluation, found {self.parts!r}")
 
     def __call__(self, machine: Machine) -> dict[str, Any]:
         out: dict[str, Any] = {}
@@ -251,3 +251,13 @@ class Combined:
                 raise ArgumentError(f"Combined: output {clash[0]!r} is produced twice; give PointValues a suffix")
             out.update(d)
         return out
+
+
+def evaluation_cost(ev: Callable[[Machine], Mapping[str, Any]], machine: Machine) -> Cost:
+    """The :class:`~pkmstiff.evaluation.cost.Cost` of one sweep evaluation on ``machine``: a section or workspace by
+    its request's estimate, a point (or an evaluation of another kind) by the cost of one structure evaluation."""
+    if isinstance(ev, Combined):
+        return total((evaluation_cost(p, machine) for p in ev.parts), "combined evaluations")
+    if isinstance(ev, (SectionStatistics, WorkspaceVolume)):
+        return ev.request().cost(machine)
+    return rows_cost(1, 0.0, POINT_SECONDS, "a point", "points", "")
