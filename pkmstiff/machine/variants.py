@@ -13,7 +13,7 @@ SI, a string carries its unit, e.g. ``"300 N/um"``, ``"7 deg"``; lists and table
 options); the last key may be new (e.g. a limit the file does not set). The modified raw data go through the same
 validation as :func:`pkmstiff.machine.loader.load_machine`, so an invalid value or an unknown key gives the usual
 :class:`InputError` naming the key; a path that does not lead into the file gives an
-:class:`InputError` naming the override and the keys available there.
+:class:`OverrideError` naming the override and the keys available there.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import re
 from pathlib import Path
 from typing import Any, Mapping
 
-from pkmstiff.errors import InputError
+from pkmstiff.errors import InputError, OverrideError
 from pkmstiff.machine.loader import _build, raw_machine, split_machine_spec
 from pkmstiff.machine.model import Machine
 
@@ -38,12 +38,12 @@ _SEGMENT = re.compile(r"^(?P<key>[^\[\]]+)(?:\[(?P<index>\*|\d+)\])?$")
 def parse_override_path(path: str) -> list[tuple[str, int | str | None]]:
     """``"chains[3].platform_joint"`` -> [("chains", 3), ("platform_joint", None)]; ``[*]`` gives "*"."""
     if not isinstance(path, str) or not path.strip():
-        raise InputError("(override)", str(path), "a dotted path such as 'components.strut_950.k'", path)
+        raise OverrideError("(override)", str(path), "a dotted path such as 'components.strut_950.k'", path)
     out: list[tuple[str, int | str | None]] = []
     for seg in path.strip().split("."):
         m = _SEGMENT.match(seg.strip())
         if not m:
-            raise InputError("(override)", path, "dotted keys, each optionally with a 1-based index [i] or [*], "
+            raise OverrideError("(override)", path, "dotted keys, each optionally with a 1-based index [i] or [*], "
                                 "e.g. 'chains[3].platform_joint'", seg)
         idx = m.group("index")
         out.append((m.group("key").strip(), None if idx is None else ("*" if idx == "*" else int(idx))))
@@ -55,25 +55,25 @@ def _set(node: Any, segments: list[tuple[str, int | str | None]], value: Any, pa
     here = f"{done}.{key}" if done else key
     last = len(segments) == 1
     if not isinstance(node, dict):
-        raise InputError(src, path, f"a table at '{done}'", type(node).__name__)
+        raise OverrideError(src, path, f"a table at '{done}'", type(node).__name__)
     if idx is None:
         if last:
             node[key] = copy.deepcopy(value)
             return
         if key not in node:
-            raise InputError(src, path, f"an existing table '{here}' (keys at '{done or '(top level)'}': "
+            raise OverrideError(src, path, f"an existing table '{here}' (keys at '{done or '(top level)'}': "
                                 f"{sorted(node)})", "no such key")
         _set(node[key], segments[1:], value, path, src, here)
         return
     seq = node.get(key)
     if not isinstance(seq, list):
-        raise InputError(src, path, f"an array of tables at '{here}'",
+        raise OverrideError(src, path, f"an array of tables at '{here}'",
                             "no such key" if key not in node else type(seq).__name__)
     if idx == "*":
         targets = list(range(len(seq)))
     else:
         if not 1 <= idx <= len(seq):
-            raise InputError(src, path, f"a 1-based index 1..{len(seq)} into '{here}'", idx)
+            raise OverrideError(src, path, f"a 1-based index 1..{len(seq)} into '{here}'", idx)
         targets = [idx - 1]
     for t in targets:
         if last:
@@ -93,7 +93,7 @@ def apply_overrides(raw: dict[str, Any], overrides: Mapping[str, Any], src: str 
     for path, value in overrides.items():
         keys = tuple(k for k, _ in parse_override_path(path))
         if any(keys[:len(r)] == r for r in _RESOLVED_FIRST):
-            raise InputError(src, path, "a machine value (machine.extends, format_version and [options] are "
+            raise OverrideError(src, path, "a machine value (machine.extends, format_version and [options] are "
                                 "resolved before overrides apply; use another machine file or ':option')", path)
         _set(out, parse_override_path(path), value, path, src, "")
     return out

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.errors import ArgumentError, DesignFileError, InputError
+from pkmstiff.errors import ArgumentError, DesignFileError, InputError, OverrideError
 from pkmstiff.io import read_toml
 from pkmstiff.optimise.design import (
     SECTION_STATISTICS,
@@ -324,7 +324,7 @@ def check_design(design: Design, reader: _Reader | None = None) -> None:
             try:
                 machine_with(design.machine, v.overrides(value))
             except InputError as exc:
-                key = "values" if v.kind == "categorical" else ("path" if isinstance(exc, InputError)
+                key = "values" if v.kind == "categorical" else ("path" if isinstance(exc, OverrideError)
                                                                else "unit" if v.unit else "low")
                 raise r.error("variables", i, key, f"a value the machine accepts at {value!r} "
                               f"({exc.key}: {exc.expected})", exc.found) from None
