@@ -33,7 +33,7 @@ from pkmstiff.calibration.identifiability import Identifiability, identifiabilit
 from pkmstiff.calibration.identification import Identification, ResidualStats, identify
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
 from pkmstiff.calibration.measurement_file import Measurement, read_measurement
-from pkmstiff.calibration.parameters import ParameterSet, error_model
+from pkmstiff.calibration.parameters import ParameterSet, error_model, parse_with
 from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
 from pkmstiff.calibration.uncertainty import Uncertainty, uncertainty
@@ -81,16 +81,19 @@ class IdentificationRun:
 
 def identify_file(machine: Machine, measurements: str, *, meas: Measurement | None = None, method: str = "lm",
                   loss: str = "linear", frame: str = "cartesian", monte_carlo: int = 0, outlier_threshold: float = 3.0,
-                  expected: str | None = None, deflection: str = "none", load: Any | None = None) -> IdentificationRun:
+                  expected: str | None = None, deflection: str = "none", load: Any | None = None,
+                  with_: str | None = None) -> IdentificationRun:
     """Identify ``machine`` from the measurement file ``measurements`` (already read: ``meas``); ``expected``
     names the instrument the file must hold (``--instrument``); ``deflection="gravity"`` subtracts the predicted
-    deflection (with the extra ``load`` at the target, N or N and N m) and analyses its bias."""
+    deflection (with the extra ``load`` at the target, N or N and N m) and analyses its bias; ``with_`` (``--with``
+    tokens, e.g. ``"bar-offset"``) adds the set-up parameters of the measurement to the unknowns."""
     meas = read_measurement(measurements) if meas is None else meas
     if expected is not None and instrument(expected) != meas.instrument:
         raise CalibrationInputError(measurements, "instrument", f"'{expected}' (--instrument), but the file holds "
                                     f"{meas.instrument} readings (header instrument_type)", meas.instrument.kind)
+    blocks = parse_with(with_, meas.instrument)
     plan, y = measurement_plan(meas, machine.name, measurements)
-    params = error_model(machine, frame=frame, setup=plan.setup)
+    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=blocks)
     ident = identifiability(machine, params, plan)
     kw = dict(loss=loss, outlier_threshold=outlier_threshold, source=measurements, ident=ident)
     analysis = None
@@ -195,12 +198,15 @@ def _circles(meas: BallbarMeasurement, plan: Plan, before: np.ndarray, after: np
 
 def run_calibration(machine: Machine, measurements: str, *, plan_path: str | None = None,
                     validate: Sequence[str] = (), method: str = "lm", loss: str = "linear",
-                    frame: str = "cartesian", monte_carlo: int = 0, deflection: str = "none") -> CalibrationRun:
+                    frame: str = "cartesian", monte_carlo: int = 0, deflection: str = "none",
+                    with_: str | None = None) -> CalibrationRun:
     """Identify ``machine``'s base parameters from the ball-bar file ``measurements`` and check the result on every
     ``validate`` file (module docstring). ``plan_path`` (a plan file) is only described and drawn; the
     identification uses the commanded poses of the measurement. ``deflection="gravity"`` does what
     ``calibrate identify/check --deflection gravity`` do: the predicted gravity deflection is subtracted from the
-    readings before identification and validation, and the bias without it is recorded."""
+    readings before identification and validation, and the bias without it is recorded. ``with_`` (``--with``)
+    identifies the set-up parameters with the machine and fits them anew on every validation file (a set-up
+    error belongs to its measurement)."""
     plan_file = read_plan(plan_path) if plan_path else None
     if plan_file is not None and plan_file.instrument != BALL_BAR:
         raise CalibrationInputError(plan_path, "plan.instrument", "a ball-bar plan (the measurement is a ball-bar "
@@ -211,7 +217,8 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
         vm = _ballbar_file(v)
         vals.append((v, vm, *measurement_plan(vm, machine.name, v)))
     run = identify_file(machine, measurements, meas=meas, method=method, loss=loss, frame=frame,
-                        monte_carlo=monte_carlo, deflection=deflection)
+                        monte_carlo=monte_carlo, deflection=deflection, with_=with_)
+    blocks = parse_with(with_, meas.instrument)
     calibrated = run.calibrated_machine(machine)
     found = _circles(meas, run.plan, run.res.residual_before, run.res.residual_after, measurements)
     validations = []
@@ -220,8 +227,8 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
         if deflection == "gravity":  # each machine's own deflection at the poses it reaches
             y0, _ = subtract_deflection(machine, machine, vplan, vy)
             y1, _ = subtract_deflection(calibrated, machine, vplan, vy)
-        r0 = check(machine, machine, vplan, y0).residual
-        r1 = check(calibrated, machine, vplan, y1).residual
+        r0 = check(machine, machine, vplan, y0, blocks).residual
+        r1 = check(calibrated, machine, vplan, y1, blocks).residual
         validations.append(Validation(v, r0, r1, _circles(vm, vplan, r0, r1, v)))
     return CalibrationRun(machine=machine, run=run, calibrated=calibrated, circles=found, validations=validations,
                           plan_file=plan_file, plan_path=plan_path, frame=frame)
