@@ -30,14 +30,16 @@ from pkmstiff.calibration.deflection import (
     subtract_deflection,
 )
 from pkmstiff.calibration.identifiability import Identifiability, identifiability
-from pkmstiff.calibration.identification import Identification, ResidualStats, identify
+from pkmstiff.calibration.diagnostics import Candidate, FitDiagnostics, diagnose
+from pkmstiff.calibration.identification import Identification, ResidualStats, identify, jacobian_at
+from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
 from pkmstiff.calibration.measurement_file import Measurement, read_measurement
 from pkmstiff.calibration.parameters import ParameterSet, error_model, parse_with
 from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
 from pkmstiff.calibration.uncertainty import Uncertainty, uncertainty
-from pkmstiff.errors import CalibrationInputError
+from pkmstiff.errors import CalibrationError, CalibrationInputError
 from pkmstiff.machine import Machine
 
 #: ``--deflection`` values of ``calibrate report`` ("none": the report says "not computed")
@@ -60,6 +62,7 @@ class IdentificationRun:
     res: Identification
     unc: Uncertainty
     deflection: DeflectionAnalysis | None = None
+    diagnostics: FitDiagnostics | None = None
 
     @property
     def before(self) -> ResidualStats:
@@ -102,8 +105,46 @@ def identify_file(machine: Machine, measurements: str, *, meas: Measurement | No
         res = analysis.corrected
     else:
         res = identify(machine, params, plan, y, method, **kw)
-    return IdentificationRun(measurements, meas, plan, y, params, ident, res, uncertainty(res, monte_carlo=monte_carlo),
-                             analysis)
+    unc = uncertainty(res, monte_carlo=monte_carlo)
+    refit = None
+    if analysis is None:
+        def refit(a: int, b: int) -> np.ndarray | None:
+            yr = y.copy()
+            yr[a:b] = y[a:b][::-1]
+            try:
+                return identify(machine, params, plan, yr, method, **kw).residual_after
+            except CalibrationError:  # diverged or not evaluable: the hypothesis does not fit
+                return None
+    diag = fit_diagnostics(machine, meas, plan, params, res, unc, refit)
+    return IdentificationRun(measurements, meas, plan, y, params, ident, res, unc, analysis, diag)
+
+
+def fit_diagnostics(machine: Machine, meas: Measurement, plan: Plan, params: ParameterSet, res: Identification,
+                    unc: Uncertainty, refit_reversed=None) -> FitDiagnostics:
+    """:func:`~pkmstiff.calibration.diagnostics.diagnose` of an identification: the stated σ of the measurement's
+    device, its sample times and directions, and every set-up parameter of the instrument not identified as an
+    added-variable candidate (its Jacobian columns at the solution)."""
+    inst = plan.instrument
+    done = {params.blocks[i] for i in np.flatnonzero(params.chain < 0)}
+    todo = {tok: blk for tok, blk in inst.setup_tokens.items() if blk not in done}
+    cands = []
+    if todo:
+        full = error_model(machine, frame=params.frame, setup=plan.setup,
+                           setup_blocks=tuple(sorted(done)) + tuple(todo.values()))
+        d = np.zeros(full.n)
+        d[full.indices(params.names)] = res.delta
+        w = reading_weights(machine, inst, plan.n_poses)
+        J = w[:, None] * jacobian_at(machine, full, plan, d)
+        for tok, blk in todo.items():
+            idx = np.flatnonzero(full.mask(blk))
+            cands.append(Candidate(f"setup:{tok}", f"set-up parameter {tok} not identified", J[:, idx],
+                                   tuple(full.names[i] for i in idx), tuple(full.units[i] for i in idx),
+                                   f"identify with --with {tok}"))
+    direction = getattr(meas, "direction", None)
+    return diagnose(res.J, res.residual_after, inst.reading_sigma(meas),
+                    reading_weights(machine, inst, 1), unc.sigma, reading_names=inst.reading_names,
+                    reading_units=inst.reading_units, t=np.asarray(meas.t, dtype=float), direction=direction,
+                    candidates=tuple(cands), refit_reversed=refit_reversed)
 
 
 @dataclass
@@ -140,6 +181,7 @@ class CalibrationRun:
     plan_file: Plan | None = None
     plan_path: str | None = None
     frame: str = "cartesian"
+    with_: str | None = None
 
     # the parts of the identification the report shows
     @property
@@ -231,8 +273,8 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
         r1 = check(calibrated, machine, vplan, y1, blocks).residual
         validations.append(Validation(v, r0, r1, _circles(vm, vplan, r0, r1, v)))
     return CalibrationRun(machine=machine, run=run, calibrated=calibrated, circles=found, validations=validations,
-                          plan_file=plan_file, plan_path=plan_path, frame=frame)
+                          plan_file=plan_file, plan_path=plan_path, frame=frame, with_=with_)
 
 
-__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "identify_file",
+__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "fit_diagnostics", "identify_file",
            "run_calibration"]

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 import numpy as np
 
@@ -14,8 +15,10 @@ import numpy as np
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
                     out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
                     outlier_threshold: float = 3.0, instrument: str | None = None, deflection: str = "none",
-                    load: str | None = None, with_: str | None = None) -> dict:
+                    load: str | None = None, with_: str | None = None, accept_misfit: bool = False) -> dict:
     """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict.
+    The model-fit diagnostics are under ``diagnostics``; when the fit is inconsistent the calibrated machine is
+    written only with ``accept_misfit``.
     ``deflection="gravity"``: the predicted deflection is subtracted from the readings and the bias an
     identification without it would have is reported (key ``deflection``, :mod:`pkmstiff.calibration.deflection`)."""
     from pkmstiff.calibration.compensation import write_calibrated_machine
@@ -37,7 +40,8 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
         rep["deflection"] = defl.report()
     rep["measurement_file"] = measurements
     rep["uncertainty"] = unc.to_dict()
-    if out:
+    rep["diagnostics"] = run.diagnostics.to_dict()
+    if out and (run.diagnostics.consistent or accept_misfit):
         subtracted = "none" if defl is None else "gravity" + ("" if load is None else f" + load {load} (N, N m)")
         write_calibrated_machine(out, res, unc, measurements, deflection=subtracted)
         rep["calibrated_machine_file"] = out
@@ -92,19 +96,42 @@ def _print_identify(rep: dict) -> None:
         print(f"outliers (|r| > threshold x s): {len(rep['outliers'])}, first at pose {rep['outliers'][0]['pose']}")
     if "deflection" in rep:
         _print_deflection(rep["deflection"])
+    _print_diagnostics(rep["diagnostics"])
     if "calibrated_machine_file" in rep:
         print(f"calibrated machine written to {rep['calibrated_machine_file']}")
+
+
+def _print_diagnostics(d: dict) -> None:
+    """One line (every test is in --json and the report), then one line per failed test."""
+    chi = next(f for f in d["findings"] if f["key"] == "chi2")
+    failed = [f for f in d["findings"] if f["failed"]]
+    print(f"model fit: {'consistent' if d['consistent'] else 'INCONSISTENT'}, chi2/dof {chi['statistic']:.4g} "
+          f"(limit {chi['threshold']:.4g}); {len(d['findings'])} tests at false-alarm probability {d['alpha']:g}, "
+          f"{len(failed)} failed")
+    for f in failed:
+        print(f"  FAIL {f['title']}: {f['statistic']:.4g} (limit {f['threshold']:.4g})")
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     rep = identify_report(args.machine, args.measurements, args.method, args.loss, args.out, args.monte_carlo,
                           args.frame, args.outlier_threshold, args.instrument, args.deflection, args.load,
-                          args.with_)
+                          args.with_, args.accept_misfit)
     if args.json:
         print(json.dumps(rep, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o)))
     else:
         _print_identify(rep)
+    if not rep["diagnostics"]["consistent"]:
+        msg = rep["diagnostics"]["summary"]
+        if not args.accept_misfit:
+            print(f"error: {msg} (nothing written; --accept-misfit to accept the result)", file=sys.stderr)
+            return MISFIT_EXIT
+        print(f"warning (accepted): {msg}", file=sys.stderr)
     return 0
+
+
+#: exit status of ``calibrate identify`` when the model does not fit the measurement (2: bad input, 3:
+#: inadmissible/unreachable; 4: the readings are inconsistent with the model and the instrument's stated accuracy)
+MISFIT_EXIT = 4
 
 
 def check_report(machine_name: str, measurements: str, controller: str | None = None, deflection: str = "none",
@@ -184,6 +211,9 @@ def _add_identify(sub) -> None:
                    help="report readings with |residual| > K s (default 3)")
     add_with_option(p, "identify with the machine (they belong to the measurement and are not written into the "
                        "calibrated machine)")
+    p.add_argument("--accept-misfit", action="store_true",
+                   help="write the calibrated machine and exit 0 although the model-fit diagnostics fail (without "
+                        "it such a fit exits with status 4 and writes nothing)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_run(_cmd_identify))
 

@@ -37,6 +37,7 @@ def report_command(args: argparse.Namespace) -> dict:
             "rms_after_um": run.run.after.rms * 1e6, "circles": len(run.circles),
             "validation": [{"file": v.path, "rms_nominal_um": v.before_stats.rms * 1e6,
                             "rms_calibrated_um": v.after_stats.rms * 1e6} for v in run.validations],
+            "diagnostics": run.run.diagnostics.to_dict(),
             "html": str(paths["html"]), "md": str(paths["md"]), "figures": len(paths["figures"])}
 
 
@@ -52,6 +53,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
           f"{'' if rep['circles'] == 1 else 's'} evaluated)")
     for v in rep["validation"]:
         print(f"  validation {Path(v['file']).name}: RMS {v['rms_nominal_um']:.4g} -> {v['rms_calibrated_um']:.4g} µm")
+    print(f"model fit: {rep['diagnostics']['summary']}")
     print(f"wrote {rep['html']} and {rep['md']} ({rep['figures']} figures)")
     return 0
 
