@@ -5,10 +5,12 @@ Public API (SI units inside: m, rad, kg, N, N/m):
     >>> import pkmstiff
     >>> m = pkmstiff.load_machine("hexaglide")
     >>> ik = pkmstiff.inverse_kinematics(m, [[0, 0, -1.0, 0, 0, 0]])
+    >>> s = m.section("yz", at=0.0, step=0.025, quantities=["kx"])   # s.to_xarray(), s.statistics()
 
 Layers (each a subpackage; imports only downward): ``units``/``errors`` → ``io`` → ``machine`` → ``kinematics`` →
 ``admissibility`` → ``multibody`` → ``structure`` → ``analysis`` → ``evaluation`` → ``workspace`` → ``fe`` →
-``calibration``/``mechanisms`` → ``plots`` → ``report`` → ``cli``.
+``calibration``/``mechanisms`` → ``plots`` → ``report`` → ``api`` (the design-study API: ``load_machine`` returns a
+:class:`~pkmstiff.api.StudyMachine`) → ``cli``.
 """
 
 __version__ = "0.1.0"
@@ -17,7 +19,11 @@ __version__ = "0.1.0"
 _FACADE = {
     "InputError": "pkmstiff.errors", "PkmstiffError": "pkmstiff.errors",
     "Machine": "pkmstiff.machine", "MachineFileError": "pkmstiff.machine", "UnknownMachineError": "pkmstiff.machine",
-    "bundled_machines": "pkmstiff.machine", "load_machine": "pkmstiff.machine",
+    "bundled_machines": "pkmstiff.machine",
+    "load_machine": "pkmstiff.api", "StudyMachine": "pkmstiff.api", "PointResults": "pkmstiff.api",
+    "SectionMap": "pkmstiff.api", "Workspace": "pkmstiff.api", "RotationMap": "pkmstiff.api",
+    "Report": "pkmstiff.api", "Table": "pkmstiff.api", "Figure": "pkmstiff.api", "write_report": "pkmstiff.api",
+    "ComponentState": "pkmstiff.api", "available_quantities": "pkmstiff.api", "ALL_CHECKS": "pkmstiff.api",
     "inverse_kinematics": "pkmstiff.kinematics", "forward_kinematics": "pkmstiff.kinematics",
 }
 
@@ -34,5 +40,7 @@ def __dir__() -> list[str]:
     return sorted(list(globals()) + list(_FACADE))
 
 
-__all__ = ["InputError", "Machine", "MachineFileError", "PkmstiffError", "UnknownMachineError", "bundled_machines",
-           "forward_kinematics", "inverse_kinematics", "load_machine", "__version__"]
+__all__ = ["ALL_CHECKS", "ComponentState", "Figure", "InputError", "Machine", "MachineFileError", "PkmstiffError", "PointResults",
+           "Report", "RotationMap", "SectionMap", "StudyMachine", "Table", "UnknownMachineError", "Workspace",
+           "available_quantities", "bundled_machines", "forward_kinematics", "inverse_kinematics", "load_machine",
+           "write_report", "__version__"]

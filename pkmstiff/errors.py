@@ -101,6 +101,10 @@ class SectionError(PkmstiffError, ValueError):
     pass
 
 
+class ParallelError(PkmstiffError, ValueError):
+    """A worker pool or Dask cluster could not run the tasks (bad ``n_jobs``, unreachable scheduler, dead worker)."""
+
+
 class SweepError(PkmstiffError, ValueError):
     """An invalid sweep definition (names the parameter or setting, what was expected and what was found)."""
 

@@ -14,6 +14,7 @@ Every error is an :class:`InputError` naming the source file, the key, what was 
 from __future__ import annotations
 
 import math
+import re
 from functools import lru_cache
 from typing import Any
 
@@ -65,12 +66,32 @@ def _si_factor(unit: str) -> tuple[float, Any]:
     return float(q.to_base_units().magnitude), q.dimensionality
 
 
+#: longest quantity string accepted (a quantity is a number and a unit; longer text is not a quantity)
+MAX_QUANTITY_CHARS = 200
+#: an exponent: ``**`` or ``^`` after a name or digit, then a plain number of at most two digits
+_POWER = re.compile(r"(\*\*|\^)")
+_PLAIN_EXPONENT = re.compile(r"\s*[+-]?\d{1,2}(\.\d+)?(?![\d.])(?!\s*(\*\*|\^))")
+
+
+def _check_expression(text: str, what: str, source: str, key: str) -> None:
+    """Refuse unit expressions that pint would evaluate at length before any conversion (``"9**9**9 mm"`` spins for
+    minutes): at most :data:`MAX_QUANTITY_CHARS` characters, and every power a name or number raised to a plain number
+    of at most two digits (``m**2``, ``kg*m^2``, ``s^-1``) — no power of a power or of a bracket."""
+    if len(text) > MAX_QUANTITY_CHARS:
+        raise InputError(source, key, f"{what} of at most {MAX_QUANTITY_CHARS} characters", text[:40] + "...")
+    for m in _POWER.finditer(text):
+        before = text[:m.start()].rstrip()
+        if not before or not (before[-1].isalnum() or before[-1] == "_") or not _PLAIN_EXPONENT.match(text, m.end()):
+            raise InputError(source, key, f"{what} whose powers are plain numbers (e.g. 'kg*m^2')", text)
+
+
 def _scalar(value: Any, unit: str, source: str, key: str) -> float:
     if isinstance(value, bool):
         raise InputError(source, key, f"a number or a quantity in {unit}", value)
     if isinstance(value, (int, float)):
         return float(value)
     if isinstance(value, str):
+        _check_expression(value, f"a quantity in {unit}", source, key)
         try:
             q = ureg()(value)
         except Exception as exc:  # pint raises several kinds
@@ -107,6 +128,7 @@ def parse_quantity(
         if set(value) != {"value", "unit"}:
             raise InputError(source, key, "a table with exactly the keys 'value' and 'unit'", value)
         vunit = value["unit"]
+        _check_expression(str(vunit), "a unit name", source, key + ".unit")
         try:
             factor, dim = _si_factor(str(vunit))
             tfactor, tdim = _si_factor(unit)

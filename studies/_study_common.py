@@ -17,9 +17,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from pkmstiff.machine.model import Machine
-from pkmstiff.report.model import Report, Table
-from pkmstiff.evaluation.sections import SectionResult
+import pkmstiff
 
 STAT_KEYS = ("max", "mean", "min")
 
@@ -39,7 +37,7 @@ def relative_deviation_percent(value: float, baseline: float) -> float:
     return 100.0 * (float(value) - float(baseline)) / float(baseline)
 
 
-def common_mask(results: Iterable[SectionResult]) -> np.ndarray:
+def common_mask(results: Iterable[pkmstiff.SectionMap]) -> np.ndarray:
     """Raster points admissible in every result (variants are compared on the same points)."""
     masks = [r.ok for r in results]
     return np.logical_and.reduce(masks) if masks else np.zeros(0, bool)
@@ -54,14 +52,14 @@ def masked_stats(values: np.ndarray, mask: np.ndarray) -> dict[str, float]:
     return {"min": float(v.min()), "mean": float(v.mean()), "max": float(v.max()), "count": int(v.size)}
 
 
-def add_stat_rows(table: Table, label: str, unit: str, stats: Sequence[dict[str, float]],
+def add_stat_rows(table: pkmstiff.Table, label: str, unit: str, stats: Sequence[dict[str, float]],
                   keys: Iterable[str] = STAT_KEYS) -> None:
     """One row per statistic (``"<label> max"`` …), one value per table column from ``stats`` (same order)."""
     for key in keys:
         table.add(f"{label} {key}", unit, [s[key] for s in stats])
 
 
-def machine_assumptions(*machines: Machine) -> dict[str, str]:
+def machine_assumptions(*machines: pkmstiff.Machine) -> dict[str, str]:
     """The machine files' ``[assumptions]`` (including those of selected options) for a report, without repeats.
 
     Keys are prefixed by the machine's base name (``"hexaglide: tool"``); an entry that differs between variants
@@ -82,7 +80,7 @@ def machine_assumptions(*machines: Machine) -> dict[str, str]:
 class MapPanel:
     """One map of a side-by-side figure: values (nv, nu) in ``unit`` on ``res.plane``; NaN = not shown."""
 
-    res: SectionResult
+    res: pkmstiff.SectionMap
     values: np.ndarray
     title: str
     unit: str
@@ -157,13 +155,11 @@ def plot_maps(panels: Sequence[MapPanel], path: str | Path, title: str, ncols: i
     return path
 
 
-def write_outputs(report: Report, out_dir: Path, results: dict[str, Any]) -> dict[str, Path]:
+def write_outputs(report: pkmstiff.Report, out_dir: Path, results: dict[str, Any]) -> dict[str, Path]:
     """Write ``report.html`` / ``report.md`` (pkmstiff.report.write_report) and ``results.json`` (key numbers)."""
-    from pkmstiff.report import write_report
-
     out_dir.mkdir(parents=True, exist_ok=True)
     (out_dir / "results.json").write_text(json.dumps(results, indent=2, default=_json_default), encoding="utf-8")
-    paths = write_report(report, out_dir)
+    paths = pkmstiff.write_report(report, out_dir)
     return {k: Path(v) for k, v in paths.items()}
 
 

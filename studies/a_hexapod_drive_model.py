@@ -28,9 +28,7 @@ from _study_common import (MapPanel, Stopwatch, add_stat_rows, common_mask, devi
                            shared_clim, write_outputs)
 
 import pkmstiff  # noqa: E402
-from pkmstiff.machine.roles import machine_components  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
+from pkmstiff import Figure, Report, Table  # noqa: E402
 
 # (label, machine spec); the first is the baseline
 VARIANTS = (
@@ -61,27 +59,25 @@ STUDY_ASSUMPTIONS = {
 }
 
 
-def plane(fast: bool):
-    """The section plane of the study (YZ at x = 0)."""
-    return axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, STEP["fast" if fast else "default"])
+def section(m: pkmstiff.StudyMachine, fast: bool) -> pkmstiff.SectionMap:
+    """k_z and the strut lengths on the section plane of the study (YZ at x = 0, machine frame)."""
+    return m.section("yz", at=0.0, step=STEP["fast" if fast else "default"], quantities=["kz", *DRIVES],
+                     u_range=Y_RANGE, v_range=Z_RANGE, tool_length=0.0, frame="machine")
 
 
-def evaluate(fast: bool) -> dict[str, tuple[Any, SectionResult]]:
-    """k_z and the strut lengths on the plane for every variant: label -> (machine, SectionResult)."""
-    pl = plane(fast)
+def evaluate(fast: bool) -> dict[str, tuple[Any, pkmstiff.SectionMap]]:
+    """k_z and the strut lengths on the plane for every variant: label -> (machine, SectionMap)."""
     out = {}
     for label, spec in VARIANTS:
         m = pkmstiff.load_machine(spec)
-        out[label] = (m, evaluate_section(m, pl, ["kz", *DRIVES], tool_length=0.0, progress=False))
+        out[label] = (m, section(m, fast))
     return out
 
 
 def drive_curves(machines: dict[str, Any], lengths: np.ndarray) -> dict[str, np.ndarray]:
     """Drive stiffness (N/m) of chain 1 of every variant over the strut lengths ``lengths`` (m)."""
-    from components import ComponentState
-
-    state = ComponentState(drive_position=lengths, strut_length=lengths)
-    return {label: np.asarray(machine_components(m).drive[0].stiffness(state), float) for label, m in machines.items()}
+    state = pkmstiff.ComponentState(drive_position=lengths, strut_length=lengths)
+    return {label: np.asarray(m.components_by_role().drive[0].stiffness(state), float) for label, m in machines.items()}
 
 
 def plot_drive_curves(curves: dict[str, np.ndarray], lengths: np.ndarray, used: tuple[float, float],

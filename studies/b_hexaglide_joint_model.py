@@ -29,10 +29,7 @@ from _study_common import (MapPanel, Stopwatch, add_stat_rows, common_mask, devi
                            shared_clim, write_outputs)
 
 import pkmstiff  # noqa: E402
-from pkmstiff.machine.frames import neglect_spindle  # noqa: E402
-from pkmstiff.machine.roles import machine_components  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
+from pkmstiff import Figure, Report, Table  # noqa: E402
 
 BASELINE = "angle-dependent (measured)"
 CONSTANT = "constant (0 deg values)"
@@ -59,32 +56,27 @@ STUDY_ASSUMPTIONS = {
 }
 
 
-def plane(fast: bool):
-    """The section plane of the study (YZ at x = 0)."""
-    return axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, STEP["fast" if fast else "default"])
-
-
-def evaluate(fast: bool) -> dict[str, tuple[Any, SectionResult]]:
-    """k_x (both variants) and the tilt angles of joints 1 (baseline) on the plane: label -> (machine, result)."""
-    pl = plane(fast)
+def evaluate(fast: bool) -> dict[str, tuple[Any, pkmstiff.SectionMap]]:
+    """k_x (both variants) and the tilt angles of joints 1 (baseline) on the plane (YZ at x = 0, machine frame):
+    label -> (machine, result)."""
     out = {}
     for label, spec in VARIANTS:
         m = pkmstiff.load_machine(spec)
         names = ["kx"] + ([q for _, q, _ in JOINTS] if label == BASELINE else [])
-        out[label] = (m, evaluate_section(neglect_spindle(m), pl, names, tool_length=0.0, progress=False))
+        out[label] = (m, m.with_(neglect_spindle=True).section(
+            "yz", at=0.0, step=STEP["fast" if fast else "default"], quantities=names, u_range=Y_RANGE,
+            v_range=Z_RANGE, tool_length=0.0, frame="machine"))
     return out
 
 
 def joint_stiffness(machine: Any, side: str, tilt_rad: np.ndarray) -> np.ndarray:
     """Stiffness (N/m) of chain 1's joint on ``side`` ("drive_joint" | "platform_joint") at axis-referenced tilts."""
-    from components import ComponentState
-
-    comp = getattr(machine_components(machine), side)[0]
+    comp = getattr(machine.components_by_role(), side)[0]
     t = np.atleast_1d(np.asarray(tilt_rad, float))
-    return np.asarray(comp.stiffness(ComponentState(tilt=t, swivel=np.full_like(t, np.nan))), float)
+    return np.asarray(comp.stiffness(pkmstiff.ComponentState(tilt=t, swivel=np.full_like(t, np.nan))), float)
 
 
-def tilt_table(machine: Any, res: SectionResult) -> dict[str, dict[str, float]]:
+def tilt_table(machine: Any, res: pkmstiff.SectionMap) -> dict[str, dict[str, float]]:
     """Per joint: max/mean/min tilt (deg) over the plane, the joint stiffness there (N/um), the plane-mean stiffness."""
     out = {}
     for label, q, side in JOINTS:

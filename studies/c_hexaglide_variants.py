@@ -33,15 +33,7 @@ from _study_common import (MapPanel, Stopwatch, machine_assumptions, parse_args,
                            shared_clim, write_outputs)
 
 import pkmstiff  # noqa: E402
-from pkmstiff.machine.frames import to_machine_frame  # noqa: E402
-import pkmstiff.admissibility.checks as adm  # noqa: E402
-from pkmstiff.machine.model import Machine  # noqa: E402
-from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
-from pkmstiff.plots.workspace import plot_workspace  # noqa: E402
-from pkmstiff.workspace.rotation import RotationMapResult, rotational_workspace_map  # noqa: E402
-from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace  # noqa: E402
+from pkmstiff import Figure, Report, StudyMachine, Table  # noqa: E402
 
 # (label, machine); the first is the baseline of every table
 VARIANTS = (("original", "hexaglide"), ("variant 1", "hexaglide_v1"), ("variant 2", "hexaglide_v2"))
@@ -55,7 +47,7 @@ QUANTITIES = ("U", "kx", "vmax_y")
 # machine bed (z = -1.1 m) and the frame's upper limit z = -0.34 m of hexaglide.toml
 Y_RANGE = (-0.30, 1.40)
 Z_RANGE = (-1.30, -0.40)
-NO_DRIVE_LOAD = tuple(c for c in adm.ALL_CHECKS if c != "drive_load")
+NO_DRIVE_LOAD = ("drive_load",)  # admissibility checks left out of the kinematic variants
 SETTINGS = {
     # eps: octree resolution (m); step: section raster (m); rot: rotational-workspace raster (deg) and increment
     "default": {"eps": 0.003125, "step": 0.005, "rot_u_step": 2.0, "rot_v_step": 4.0, "rot_increment": 1.0},
@@ -99,36 +91,34 @@ STUDY_ASSUMPTIONS = {
 }
 
 
-def plane(step: float):
-    """The YZ section plane at x = 0 (m)."""
-    return axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, step)
-
-
-def workspaces(machines: dict[str, Machine], eps: float) -> dict[str, dict[str, WorkspaceResult]]:
+def workspaces(machines: dict[str, StudyMachine], eps: float) -> dict[str, dict[str, pkmstiff.Workspace]]:
     """Constant-orientation workspaces (a = b = c = 0) with all checks and without B.13, per configuration."""
     out = {}
     for label, m in machines.items():
         out[label] = {
-            "all": constant_orientation_workspace(m, eps, (0.0, 0.0, 0.0)),
-            "no_drive_load": constant_orientation_workspace(m, eps, (0.0, 0.0, 0.0), checks=NO_DRIVE_LOAD),
+            "all": m.workspace(eps, (0.0, 0.0, 0.0)),
+            "no_drive_load": m.workspace(eps, (0.0, 0.0, 0.0), skip_checks=NO_DRIVE_LOAD),
         }
     return out
 
 
-def sections(machines: dict[str, Machine], step: float) -> dict[str, SectionResult]:
+def section(machine: StudyMachine, step: float, skip_checks: Sequence[str] = ()) -> pkmstiff.SectionMap:
+    """U, k_x (tool 150 mm) and v_max,y on the YZ plane at x = 0 (machine frame)."""
+    return machine.section("yz", at=0.0, step=step, quantities=list(QUANTITIES), u_range=Y_RANGE, v_range=Z_RANGE,
+                           tool_length=TOOL_LENGTH, frame="machine", skip_checks=skip_checks)
+
+
+def sections(machines: dict[str, StudyMachine], step: float) -> dict[str, pkmstiff.SectionMap]:
     """U, k_x (tool 150 mm) and v_max,y on the YZ plane for every configuration."""
-    pl = plane(step)
-    return {label: evaluate_section(m, pl, list(QUANTITIES), tool_length=TOOL_LENGTH, progress=False)
-            for label, m in machines.items()}
+    return {label: section(m, step) for label, m in machines.items()}
 
 
-def kinematic_section(machine: Machine, step: float) -> SectionResult:
+def kinematic_section(machine: StudyMachine, step: float) -> pkmstiff.SectionMap:
     """The section of :func:`sections` with every check except the static drive load (B.13)."""
-    return evaluate_section(machine, plane(step), list(QUANTITIES), tool_length=TOOL_LENGTH, progress=False,
-                            checks=NO_DRIVE_LOAD)
+    return section(machine, step, skip_checks=NO_DRIVE_LOAD)
 
 
-def argmax_pose(res: SectionResult, name: str) -> list[float]:
+def argmax_pose(res: pkmstiff.SectionMap, name: str) -> list[float]:
     """Position of O' (mm) where ``name`` is largest on the section."""
     v = np.where(res.ok, res.values[name], -np.inf)
     iv, iu = np.unravel_index(int(np.argmax(v)), v.shape)
@@ -136,35 +126,35 @@ def argmax_pose(res: SectionResult, name: str) -> list[float]:
     return (p * 1e3).tolist()
 
 
-def section_centre(res: SectionResult) -> tuple[float, float, float]:
+def section_centre(res: pkmstiff.SectionMap) -> tuple[float, float, float]:
     """The admissible raster point nearest to the centroid of the admissible region of the section (m)."""
     pts = res.plane.points()[res.ok.ravel()]
     c = pts.mean(axis=0)
     return tuple(float(v) for v in pts[np.argmin(np.linalg.norm(pts - c, axis=1))])
 
 
-def point_status(m: Machine, point: Sequence[float]) -> str:
+def point_status(m: StudyMachine, point: Sequence[float]) -> str:
     """'admissible' or the failing checks at (point, a = b = c = 0)."""
-    ev = evaluate_poses(m, np.array([[*point, 0.0, 0.0, 0.0]]))
-    return "admissible" if ev.ok[0] else "; ".join(ev.admissibility.failing(0))
+    ok, reasons = m.admissibility([*point, 0.0, 0.0, 0.0])
+    return "admissible" if ok[0] else "; ".join(reasons[0])
 
 
-def rotational(m: Machine, point: Sequence[float], cfg: dict[str, float]) -> dict[str, RotationMapResult]:
+def rotational(m: StudyMachine, point: Sequence[float], cfg: dict[str, float]) -> dict[str, Any]:
     """+a over (b, c) and +b over (a, c) at ``point`` (m)."""
     u = np.radians(np.arange(ROT_U_RANGE[0], ROT_U_RANGE[1] + 1e-9, cfg["rot_u_step"]))
     v = np.radians(np.arange(ROT_V_RANGE[0], ROT_V_RANGE[1] + 1e-9, cfg["rot_v_step"]))
     inc = math.radians(cfg["rot_increment"])
-    return {d: rotational_workspace_map(m, point, d, u_values=u, v_values=v, increment=inc) for d in ("+a", "+b")}
+    return {d: m.orientation_map(point, d, u_values=u, v_values=v, increment=inc) for d in ("+a", "+b")}
 
 
-def rot_stats(r: RotationMapResult) -> dict[str, Any]:
+def rot_stats(r: Any) -> dict[str, Any]:
     a = np.degrees(next(iter(r.angles.values())))
     fin = a[np.isfinite(a)]
     return {"admissible_orientations": int(fin.size), "raster_points": int(a.size),
             "max_deg": float(fin.max()) if fin.size else None, "mean_deg": float(fin.mean()) if fin.size else None}
 
 
-def plot_rotational(rot: dict[str, dict[str, dict[str, RotationMapResult]]], points: dict[str, dict[str, tuple]],
+def plot_rotational(rot: dict[str, dict[str, dict[str, Any]]], points: dict[str, dict[str, tuple]],
                     path: Path) -> Path:
     """Grid of the rotational-workspace projections: one row per configuration, columns (+a, +b) at the
     dissertation's point and at the section centre. Grey scale in deg; shaded = base orientation inadmissible."""
@@ -208,7 +198,7 @@ def plot_rotational(rot: dict[str, dict[str, dict[str, RotationMapResult]]], poi
     return path
 
 
-def plot_reason_maps(secs: dict[str, SectionResult], path: Path) -> Path:
+def plot_reason_maps(secs: dict[str, pkmstiff.SectionMap], path: Path) -> Path:
     """First failing admissibility check per raster point, one panel per configuration (categorical colours)."""
     import matplotlib
 
@@ -217,24 +207,20 @@ def plot_reason_maps(secs: dict[str, SectionResult], path: Path) -> Path:
     from matplotlib.colors import ListedColormap
     from matplotlib.patches import Patch
 
-    reasons = list(adm.Reason)
     colours = ["#2ca02c", "#d62728", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf",
                "#1f77b4", "#000000", "#aec7e8"]
     fig, axes = plt.subplots(1, len(secs), figsize=(4.6 * len(secs), 3.4), squeeze=False, constrained_layout=True)
     used: set[int] = set()
     for ax, (lab, r) in zip(axes[0], secs.items()):
-        code = np.zeros(r.reasons.shape, int)  # 0 = admissible, k = first failing reason in bit order
-        for k, reason in reversed(list(enumerate(reasons, start=1))):
-            code[(r.reasons & int(reason)) > 0] = k
+        code, names = r.failing_check_codes()  # 0 = admissible, k = first failing check in bit order
         used |= set(np.unique(code).tolist())
         pl = r.plane
-        ax.pcolormesh(pl.u_values * 1e3, pl.v_values * 1e3, code, cmap=ListedColormap(colours[:len(reasons) + 1]),
-                      vmin=-0.5, vmax=len(reasons) + 0.5, shading="nearest", rasterized=True)
+        ax.pcolormesh(pl.u_values * 1e3, pl.v_values * 1e3, code, cmap=ListedColormap(colours[:len(names)]),
+                      vmin=-0.5, vmax=len(names) - 0.5, shading="nearest", rasterized=True)
         ax.set_aspect("equal")
         ax.set_title(f"{lab}: {int(r.ok.sum())} admissible points", fontsize=10)
         ax.set_xlabel("y [mm]")
         ax.set_ylabel("z [mm]")
-    names = ["admissible"] + [x.name.lower().replace("_", " ") for x in reasons]
     fig.legend(handles=[Patch(color=colours[k], label=names[k]) for k in sorted(used)], loc="outside lower center",
                ncol=min(6, len(used)), fontsize=8)
     fig.suptitle("YZ plane at x = 0, a = b = c = 0: first failing admissibility check", fontsize=11)
@@ -273,7 +259,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     secs_kin = {lab: kinematic_section(m, cfg["step"]) for lab, m in machines.items()}
     stats_kin = {lab: r.statistics() for lab, r in secs_kin.items()}
     sw.lap("sections")
-    diss = {lab: tuple(to_machine_frame(machines[lab], DISSERTATION_POINTS[lab], "report")) for lab in labels}
+    diss = {lab: tuple(machines[lab].to_machine_frame(DISSERTATION_POINTS[lab], "report")) for lab in labels}
     points = {lab: {"dissertation": diss[lab], "centre": section_centre(secs[lab])} for lab in labels}
     status = {lab: point_status(machines[lab], diss[lab]) for lab in labels}
     rot = {lab: {where: rotational(machines[lab], p, cfg) for where, p in points[lab].items()} for lab in labels}
@@ -282,7 +268,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     sw.lap("rotational workspaces")
 
     # ---------------------------------------------------------------------------------------------- figures
-    fig_ws = [plot_workspace(ws[lab]["all"], machines[lab], out / f"c_workspace_{name}.png", window_size=(1000, 760))
+    fig_ws = [ws[lab]["all"].plot(out / f"c_workspace_{name}.png", window_size=(1000, 760))
               for lab, name in VARIANTS]
     panels = []
     for q in QUANTITIES:
@@ -352,9 +338,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"(eps = {cfg['eps'] * 1e3:g} mm). Bounding boxes (mm): " + "; ".join(
             f"{lab} x {b['min'][0]:.0f}…{b['max'][0]:.0f}, y {b['min'][1]:.0f}…{b['max'][1]:.0f}, "
             f"z {b['min'][2]:.0f}…{b['max'][2]:.0f}"
-            for lab in labels for b in [ws[lab]["all"].summary()["bounding_box_mm"]] if b) + ". Octree effort: " +
+            for lab in labels for b in [ws[lab]["all"].statistics()["bounding_box_mm"]] if b) + ". Octree effort: " +
         "; ".join(f"{lab} {w['evaluations']:,} evaluations, {w['boundary_points']:,} boundary points, "
-                  f"{w['run_time_s']:.1f} s" for lab in labels for w in [ws[lab]["all"].summary()]) + ".")
+                  f"{w['run_time_s']:.1f} s" for lab in labels for w in [ws[lab]["all"].statistics()]) + ".")
     for lab, f in zip(labels, fig_ws):
         sec_ws.figures.append(Figure(f, f"Workspace of the {lab} at a = b = c = 0."))
 
@@ -386,7 +372,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     rep.settings.update({
         "machines": {lab: name for lab, name in VARIANTS}, "baseline": BASELINE, "mode": mode,
         "workspace resolution eps [mm]": cfg["eps"] * 1e3, "workspace orientation a, b, c [deg]": [0, 0, 0],
-        "workspace checks": list(adm.ALL_CHECKS), "plane": secs[BASELINE].plane.name,
+        "workspace checks": list(pkmstiff.ALL_CHECKS), "plane": secs[BASELINE].plane.name,
         "y range [mm]": [Y_RANGE[0] * 1e3, Y_RANGE[1] * 1e3], "z range [mm]": [Z_RANGE[0] * 1e3, Z_RANGE[1] * 1e3],
         "raster step [mm]": cfg["step"] * 1e3, "raster points": int(secs[BASELINE].ok.size),
         "section orientation a, b, c [deg]": [0, 0, 0], "tool length for k_x [mm]": TOOL_LENGTH * 1e3,
@@ -403,7 +389,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "section_stats_without_drive_load": {lab: {q: stats_kin[lab][q] for q in QUANTITIES} for lab in labels},
         "section_stats": {lab: {q: stats[lab][q] for q in QUANTITIES} for lab in labels},
         "argmax_mm": {lab: {q: argmax_pose(secs[lab], q) for q in QUANTITIES} for lab in labels},
-        "workspaces": {lab: ws[lab]["all"].summary() for lab in labels},
+        "workspaces": {lab: ws[lab]["all"].statistics() for lab in labels},
         "rotational_points_mm": {lab: {w: [v * 1e3 for v in p] for w, p in points[lab].items()} for lab in labels},
         "dissertation_point_status": status, "rotational": rstats,
         "plane": {"y_range_m": Y_RANGE, "z_range_m": Z_RANGE, "step_m": cfg["step"]},

@@ -30,12 +30,7 @@ from _study_common import (MapPanel, Stopwatch, add_stat_rows, common_mask, mach
                            write_outputs)
 
 import pkmstiff  # noqa: E402
-from pkmstiff.machine.frames import neglect_spindle, to_machine_frame  # noqa: E402
-from pkmstiff.analysis import modal_analysis  # noqa: E402
-from pkmstiff.machine.roles import machine_components  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
-from pkmstiff.structure import build_structure  # noqa: E402
+from pkmstiff import Figure, Report, Table  # noqa: E402
 
 OLD = "old joints (FE)"
 IMPROVED_FE = "improved joints (FE)"
@@ -73,17 +68,14 @@ STUDY_ASSUMPTIONS = {
 }
 
 
-def plane(fast: bool):
-    return axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, STEP["fast" if fast else "default"])
-
-
-def evaluate_sections(fast: bool) -> dict[str, tuple[Any, SectionResult]]:
-    """k_x, k_y, k_z on the plane for every joint variant: label -> (machine, result)."""
-    pl = plane(fast)
+def evaluate_sections(fast: bool) -> dict[str, tuple[Any, pkmstiff.SectionMap]]:
+    """k_x, k_y, k_z on the plane (YZ at x = 0, machine frame) for every joint variant: label -> (machine, result)."""
     out = {}
     for label, spec in VARIANTS:
         m = pkmstiff.load_machine(spec)
-        out[label] = (m, evaluate_section(neglect_spindle(m), pl, list(QUANTITIES), tool_length=0.0, progress=False))
+        out[label] = (m, m.with_(neglect_spindle=True).section(
+            "yz", at=0.0, step=STEP["fast" if fast else "default"], quantities=list(QUANTITIES), u_range=Y_RANGE,
+            v_range=Z_RANGE, tool_length=0.0, frame="machine"))
     return out
 
 
@@ -91,11 +83,9 @@ def evaluate_modes(spec: str) -> dict[str, Any]:
     """First three eigenfrequencies (Hz) and platform-motion descriptions at the poses of ``POSES_MM``."""
     m = pkmstiff.load_machine(spec)
     # POSES_MM are the dissertation's positions, i.e. in the report frame (origin at the middle guide)
-    poses = to_machine_frame(m, np.array([[x / 1e3, y / 1e3, z / 1e3, 0.0, 0.0, 0.0] for x, y, z in POSES_MM.values()]),
-                             "report")
-    ma = modal_analysis(build_structure(m, poses), N_MODES, shapes=False)
-    return {pose: {"f_hz": [float(f) for f in ma.frequencies_hz[i]],
-                   "description": [ma.description(i, k) for k in range(N_MODES)]}
+    poses = np.array([[x / 1e3, y / 1e3, z / 1e3, 0.0, 0.0, 0.0] for x, y, z in POSES_MM.values()])
+    p = m.point(poses, frame="report", n_modes=N_MODES)
+    return {pose: {"f_hz": [float(f) for f in p.frequencies_hz[i]], "description": p.mode_descriptions[i]}
             for i, pose in enumerate(POSES_MM)}
 
 
@@ -105,15 +95,13 @@ def plot_joint_curves(machines: dict[str, Any], path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from components import ComponentState
-
     deg = np.linspace(0.0, 90.0, 181)
-    state = ComponentState(tilt=np.deg2rad(deg), swivel=np.full(deg.size, np.nan))
+    state = pkmstiff.ComponentState(tilt=np.deg2rad(deg), swivel=np.full(deg.size, np.nan))
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
     for ax, side, title in zip(axes, ("drive_joint", "platform_joint"),
                                ("drive-side joint (3 DOF)", "platform-side joint (2 DOF)")):
         for label, m in machines.items():
-            comp = getattr(machine_components(m), side)[0]
+            comp = getattr(m.components_by_role(), side)[0]
             ax.plot(deg, np.asarray(comp.stiffness(state)) / 1e6, label=label, lw=2 if label == BASELINE else 1.5)
         ax.set_title(title)
         ax.set_xlabel("tilt angle (axis-referenced) [deg]")

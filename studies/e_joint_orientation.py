@@ -33,15 +33,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study_common import MapPanel, Stopwatch, machine_assumptions, plot_maps, shared_clim, write_outputs  # noqa: E402
 
 import pkmstiff  # noqa: E402
-from pkmstiff.machine.frames import neglect_spindle  # noqa: E402
-import pkmstiff.admissibility.checks as adm  # noqa: E402
-from pkmstiff.analysis import axis_stiffness, tcp_compliance  # noqa: E402
-from pkmstiff.machine.roles import machine_components  # noqa: E402
-from pkmstiff.machine.model import Machine  # noqa: E402
-from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.evaluation.sections import Plane, SectionResult, axis_plane, evaluate_section, section_poses  # noqa: E402
-from pkmstiff.structure import build_structure  # noqa: E402
+from pkmstiff import Figure, Report, SectionMap, Table  # noqa: E402
+from pkmstiff import StudyMachine as Machine  # noqa: E402
 
 ORIGINAL, PUBLISHED = "original", "published (Table 5.4)"
 MACHINES = {ORIGINAL: "hexaglide", PUBLISHED: "hexaglide:optimised_drive_joints"}
@@ -63,7 +56,7 @@ SETTINGS = {
 SEED = 20031194  # fixed seed of the differential evolution (any fixed value; reproducible runs)
 CHAINS = np.arange(1, 7)
 TILTS = [f"tilt_drive_{i}" for i in CHAINS]
-NO_JOINT_CHECK = tuple(c for c in adm.ALL_CHECKS if c != "joint_angles")
+ONLY_JOINT_CHECK = tuple(c for c in pkmstiff.ALL_CHECKS if c != "joint_angles")  # skipped per candidate
 MIRROR = np.array([-1.0, 1.0, 1.0])  # mirror about the YZ plane (x -> -x)
 
 STUDY_ASSUMPTIONS = {
@@ -159,11 +152,13 @@ class CandidateEvaluator:
     check and the structure model (k_x at the TCP, tool length 0) on them only.
     """
 
-    def __init__(self, machine: Machine, plane: Plane):
+    def __init__(self, machine: Machine, step: float):
         self.machine = machine
-        self.plane = plane
-        poses = section_poses(plane)
-        self.base_ok = evaluate_poses(machine, poses, checks=NO_JOINT_CHECK).ok
+        base = machine.section("yz", 0.0, step, [], u_range=Y_RANGE, v_range=Z_RANGE, skip_checks=["joint_angles"])
+        self.plane = base.plane  # YZ plane at x = 0, machine frame, a = b = c = 0
+        points = self.plane.points()
+        poses = np.concatenate([points, np.zeros((len(points), 3))], axis=1)
+        self.base_ok = base.ok.ravel()
         self.poses = poses[self.base_ok]
         self.evaluations = 0
         self.cache: dict[bytes, Metrics] = {}
@@ -174,13 +169,10 @@ class CandidateEvaluator:
     def kx(self, axes: np.ndarray, refs: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(ok over the base poses, k_x in N/m at the admissible ones) for the given a_i, b_i."""
         m = with_drive_joints(self.machine, axes, refs)
-        ok = evaluate_poses(m, self.poses, checks=("joint_angles",)).ok
-        if not ok.any():
-            return ok, np.zeros(0)
         # K_U neglected at tool length 0, as the dissertation (Cobet 4.2.4; docs/user-guide/validation-hexaglide.md (reading 4))
-        k = axis_stiffness(tcp_compliance(build_structure(m, self.poses[ok]), tool_length=TOOL_LENGTH,
-                                          neglect_spindle=True))
-        return ok, k[:, 0]
+        p = m.point(self.poses, tool_length=TOOL_LENGTH, neglect_spindle=True, n_modes=0, weak_point_directions=(),
+                    kinetostatics=False, skip_checks=ONLY_JOINT_CHECK)
+        return p.admissible, p.stiffness[p.admissible, 0]
 
     def metrics(self, axes: np.ndarray, refs: np.ndarray, count: bool = True) -> Metrics:
         """k_x statistics (N/um) and the admissible-area fraction (of the original's) for a_i, b_i."""
@@ -242,24 +234,21 @@ def optimise(ev: CandidateEvaluator, objective: str, popsize: int, maxiter: int,
 
 
 # ------------------------------------------------------------------------------------------------ evaluation
-def evaluate(machines: dict[str, Machine], step: float) -> dict[str, SectionResult]:
-    """k_x, k_y, k_z and the six drive-joint tilts on the YZ plane (full section pipeline)."""
-    pl = axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, step)
-    return {lab: evaluate_section(neglect_spindle(m), pl, ["kx", "ky", "kz", *TILTS], tool_length=TOOL_LENGTH,
-                                  progress=False)
+def evaluate(machines: dict[str, Machine], step: float) -> dict[str, SectionMap]:
+    """k_x, k_y, k_z and the six drive-joint tilts on the YZ plane at x = 0, machine frame (full section pipeline)."""
+    return {lab: m.with_(neglect_spindle=True).section("yz", 0.0, step, ["kx", "ky", "kz", *TILTS], u_range=Y_RANGE,
+                                                       v_range=Z_RANGE, tool_length=TOOL_LENGTH)
             for lab, m in machines.items()}
 
 
 def joint_stiffness(machine: Machine, tilt_deg: np.ndarray, chain: int = 1) -> np.ndarray:
     """Axial stiffness (N/m) of the drive joint of ``chain`` at axis-referenced tilt angles (deg)."""
-    from components import ComponentState
-
     t = np.radians(np.atleast_1d(np.asarray(tilt_deg, float)))
-    joint = machine_components(machine).drive_joint[chain - 1]
-    return np.asarray(joint.stiffness(ComponentState(tilt=t, swivel=np.full(t.shape, np.nan))), float)
+    joint = machine.components_by_role().drive_joint[chain - 1]
+    return np.asarray(joint.stiffness(pkmstiff.ComponentState(tilt=t, swivel=np.full(t.shape, np.nan))), float)
 
 
-def tilt_stats(res: SectionResult, chain: int) -> dict[str, float]:
+def tilt_stats(res: SectionMap, chain: int) -> dict[str, float]:
     t = res.display(f"tilt_drive_{chain}")[res.ok]
     return {"max": float(t.max()), "mean": float(t.mean()), "min": float(t.min())}
 
@@ -302,7 +291,7 @@ def plot_history(runs: list[OptimiserRun], refs: dict[str, dict[str, float]], pa
     return path
 
 
-def plot_tilts(secs: dict[str, SectionResult], machine: Machine, path: Path) -> Path:
+def plot_tilts(secs: dict[str, SectionMap], machine: Machine, path: Path) -> Path:
     """Joint stiffness over the tilt with the distribution of all six drive-joint tilts per orientation."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9.0, 4.2))
@@ -379,8 +368,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     tilt_min = math.degrees(orig.joint_types["iwf_3dof"].tilt_min)
 
     # ------------------------------------------------------------------------------------------ optimiser
-    coarse = axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, cfg["coarse_step"])
-    ev = CandidateEvaluator(orig, coarse)
+    ev = CandidateEvaluator(orig, cfg["coarse_step"])
     pub_coarse = ev.metrics(base[PUBLISHED].chains.drive_axis, base[PUBLISHED].chains.drive_reference, count=False)
     runs = [optimise(ev, obj, cfg["popsize"], cfg["maxiter"], seed=args.seed) for obj in args.objectives]
     sw.lap("optimiser")

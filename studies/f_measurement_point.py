@@ -29,13 +29,7 @@ from _study_common import (Stopwatch, machine_assumptions, parse_args, relative_
                            write_outputs)
 
 import pkmstiff  # noqa: E402
-from pkmstiff.machine.frames import to_machine_frame  # noqa: E402
-from pkmstiff.analysis import axis_stiffness, modal_analysis, tcp_compliance, weak_points  # noqa: E402
-from pkmstiff.kinematics.joint_angles import joint_angles  # noqa: E402
-from pkmstiff.kinematics import inverse_kinematics  # noqa: E402
-from pkmstiff.machine.roles import machine_components  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.structure import build_structure  # noqa: E402
+from pkmstiff import Figure, Report, Table  # noqa: E402
 
 MEASURED = "test-rig joints (measured)"
 FE = "FE-based joints"
@@ -73,40 +67,36 @@ def _percent(shares: np.ndarray) -> list[float]:
 def analyse(spec: str) -> dict[str, Any]:
     """Stiffness, modes, weak points and joint angles/stiffness of ``spec`` at ``POSE`` (SI inside, display out)."""
     m = pkmstiff.load_machine(spec)
-    pose = to_machine_frame(m, POSE, "report")
-    st = build_structure(m, pose[None])
-    if not bool(st.ok[0]):
-        raise RuntimeError(f"{spec}: the measurement pose is not modelled: {st.failing(0)}")
+    n = m.n_chains
+    tilts = [f"tilt_{side}_{i}" for side in ("drive", "platform") for i in range(1, n + 1)]
+    # the pose is in the report frame; at tool length 0 the TCP is loaded with K_U rigid (neglect_spindle)
+    pts = {L: m.point(POSE, frame="report", tool_length=L, n_modes=N_MODES, weak_point_directions=DIRECTIONS,
+                      quantities=tilts, neglect_spindle=L == 0.0) for L in TOOL_LENGTHS}
+    p = pts[TOOL_LENGTHS[0]]
+    if not bool(p.modelled[0]):
+        raise RuntimeError(f"{spec}: the measurement pose is not modelled: {p.reasons[0]}")
     stiffness = {}
     weak = {}
-    for L in TOOL_LENGTHS:
-        k = axis_stiffness(tcp_compliance(st, tool_length=L, neglect_spindle=L == 0.0))[0]
-        stiffness[L] = {d: float(k[i]) / 1e6 for i, d in enumerate(DIRECTIONS)}  # N/um
+    for L, pt in pts.items():
+        stiffness[L] = {d: float(pt.stiffness[0, i]) / 1e6 for i, d in enumerate(DIRECTIONS)}  # N/um
         for d in DIRECTIONS:
-            wp = weak_points(st, d, tool_length=L, neglect_spindle=L == 0.0)
-            weak[(d, L)] = dict(zip(wp.component_labels, _percent(wp.component_shares[0])))
-    ma = modal_analysis(st, N_MODES, shapes=False)
-    drives = [i for i, b in enumerate(ma.body_labels) if b.startswith("drive")]
+            weak[(d, L)] = dict(zip(pt.weak_points[d], _percent([v[0] for v in pt.weak_points[d].values()])))
+    drives = [b for b in p.mode_kinetic if b.startswith("drive")]
     modes = []
     for k in range(N_MODES):
-        kin = ma.kinetic[0, k]
         modes.append({
-            "f_hz": float(ma.frequencies_hz[0, k]), "description": ma.description(0, k),
-            "kinetic_percent": {"platform": 100.0 * float(kin[ma.body_labels.index("platform")]),
-                                "drives (sum)": 100.0 * float(kin[drives].sum())},
-            "strain_percent": dict(zip(ma.component_labels, _percent(ma.component_strain[0, k]))),
+            "f_hz": float(p.frequencies_hz[0, k]), "description": p.mode_descriptions[0][k],
+            "kinetic_percent": {"platform": 100.0 * float(p.mode_kinetic["platform"][0, k]),
+                                "drives (sum)": 100.0 * float(sum(p.mode_kinetic[b][0, k] for b in drives))},
+            "strain_percent": dict(zip(p.mode_strain, _percent([v[0, k] for v in p.mode_strain.values()]))),
         })
-    ik = inverse_kinematics(m, pose[None])
-    ja = joint_angles(m, ik)
-    mc = machine_components(m)
-    from components import ComponentState
-
+    mc = m.components_by_role()
     joints = {}
-    for side, angles, comps in (("drive", ja.drive, mc.drive_joint), ("platform", ja.platform, mc.platform_joint)):
-        tilt = angles.tilt[0]
+    for side, comps in (("drive", mc.drive_joint), ("platform", mc.platform_joint)):
+        tilt = np.array([p.quantities[f"tilt_{side}_{i}"][0] for i in range(1, n + 1)])
         joints[side] = {"tilt_deg": np.rad2deg(tilt).tolist(),
-                        "k_N_per_um": [float(c.stiffness(ComponentState(tilt=tilt[i:i + 1],
-                                                                        swivel=np.full(1, np.nan)))[0]) / 1e6
+                        "k_N_per_um": [float(c.stiffness(pkmstiff.ComponentState(tilt=tilt[i:i + 1],
+                                                                                 swivel=np.full(1, np.nan)))[0]) / 1e6
                                        for i, c in enumerate(comps)]}
     return {"machine": m, "stiffness": stiffness, "weak": weak, "modes": modes, "joints": joints}
 
@@ -151,17 +141,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     base, fe = res[BASELINE], res[FE]
 
     # ---------------------------------------------------------------------------------------------- figures
-    from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
-
-    # the figures take machine-frame poses; POSE is given in the report frame
-    pose_b = to_machine_frame(base["machine"], POSE, "report")
-    mode_figs = [plot_mode_shape(base["machine"], pose_b, out / f"f_mode{k + 1}.png", mode=k + 1)
+    # POSE is given in the report frame
+    mode_figs = [base["machine"].plot_mode_shape(POSE, out / f"f_mode{k + 1}.png", mode=k + 1, frame="report")
                  for k in range(N_MODES)]
-    fe_mode1 = plot_mode_shape(fe["machine"], to_machine_frame(fe["machine"], POSE, "report"),
-                               out / "f_mode1_fe_joints.png", mode=1)
+    fe_mode1 = fe["machine"].plot_mode_shape(POSE, out / "f_mode1_fe_joints.png", mode=1, frame="report")
     gif = None
     if not args.fast:
-        gif = animate_mode_shape(base["machine"], pose_b, out / "f_mode1.gif", mode=1, frames=16)
+        gif = base["machine"].plot_mode_shape(POSE, out / "f_mode1.gif", mode=1, frame="report", animate=True,
+                                              frames=16)
     fig_weak = plot_weak_points(res, out / "f_weak_points.png")
     sw.lap("figures")
 

@@ -28,11 +28,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study_common import Stopwatch, machine_assumptions, parse_args, write_outputs  # noqa: E402
 
 import pkmstiff  # noqa: E402
-from pkmstiff.machine.model import Machine  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.plots.workspace import plot_workspace  # noqa: E402
-from pkmstiff.workspace.rotation import RotationMapResult, rotation_angle_map  # noqa: E402
-from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace, fit_box  # noqa: E402
+from pkmstiff import StudyMachine as Machine  # noqa: E402
+from pkmstiff import Figure, Report, RotationMap, Table, Workspace  # noqa: E402
 
 # (label, machine, x of the YZ section plane [m]); the Hexaglide, the dissertation's machine, is the baseline
 MACHINES = (("Hexaglide", "hexaglide", 0.0), ("6X Hexapod", "hexapod_6x", 0.0), ("Linapod", "linapod", 0.0),
@@ -91,30 +88,31 @@ def workspaces(machines: dict[str, Machine], names: dict[str, str], eps: float) 
     out: dict[str, dict[str, Any]] = {}
     for lab, m in machines.items():
         lim = usable_limits(m)
-        whole = constant_orientation_workspace(without_frame(m), eps)
+        whole = without_frame(m).workspace(eps)
         usable = None
         if lim is not None:
             lo, hi = whole.bounding_box()
             lo, hi = lo - MARGIN, hi + MARGIN
             lo[2], hi[2] = max(lo[2], lim[0] - MARGIN), min(hi[2], lim[1] + MARGIN)
-            usable = constant_orientation_workspace(m, eps, box=fit_box(lo, hi, eps))
+            usable = m.workspace(eps, box=(lo, hi), fit_box=True)
         out[lab] = {"whole": whole, "usable": usable, "limits": lim}
     return out
 
 
-def rotation_map(machine: Machine, ws: WorkspaceResult, x: float, cfg: dict[str, float]) -> RotationMapResult:
-    """Maximum +a on the YZ plane at ``x`` over the workspace's y-z bounding box (+ margin)."""
+def rotation_map(machine: Machine, ws: Workspace, x: float, cfg: dict[str, float]) -> RotationMap:
+    """Maximum +a on the YZ plane at ``x`` (machine frame) over the workspace's y-z bounding box (+ margin), on a
+    raster aligned to multiples of the step."""
     lo, hi = ws.bounding_box()
     step = cfg["step"]
-    u = np.arange(math.floor((lo[1] - MARGIN) / step) * step, hi[1] + MARGIN + 1e-9, step)
-    v = np.arange(math.floor((lo[2] - MARGIN) / step) * step, hi[2] + MARGIN + 1e-9, step)
-    return rotation_angle_map(machine, [x, 0.0, 0.0], [0, 1, 0], [0, 0, 1], u, v, direction="+a",
-                              increment=math.radians(cfg["increment"]), max_angle=math.radians(MAX_ANGLE))
+    u0, v0 = math.floor((lo[1] - MARGIN) / step) * step, math.floor((lo[2] - MARGIN) / step) * step
+    return machine.rotation_map("yz", at=x, step=step, u_range=(u0, hi[1] + MARGIN), v_range=(v0, hi[2] + MARGIN),
+                                directions=["+a"], increment=math.radians(cfg["increment"]),
+                                max_angle=math.radians(MAX_ANGLE), frame="machine")
 
 
-def map_stats(r: RotationMapResult, zlim: tuple[float, float] | None = None) -> dict[str, Any]:
+def map_stats(r: RotationMap, zlim: tuple[float, float] | None = None) -> dict[str, Any]:
     """Max/mean of +a (deg) over the admissible raster points (optionally only z_min <= z <= z_max)."""
-    a = np.degrees(r.angle)
+    a = np.degrees(r.angle("+a"))
     keep = np.isfinite(a)
     if zlim is not None:
         keep &= ((r.v_values >= zlim[0]) & (r.v_values <= zlim[1]))[:, None]
@@ -125,7 +123,7 @@ def map_stats(r: RotationMapResult, zlim: tuple[float, float] | None = None) -> 
             "admissible_area_m2": v.size * cell, "at_bound": int((r.at_limit["+a"] & keep).sum())}
 
 
-def plot_rotation_panels(maps: dict[str, RotationMapResult], xs: dict[str, float],
+def plot_rotation_panels(maps: dict[str, RotationMap], xs: dict[str, float],
                          usable: dict[str, tuple[float, float] | None], path: Path) -> Path:
     """One grey-scale panel of max. +a per machine (Cobet's display), shared scale; dashed: usable-part limit."""
     import matplotlib
@@ -139,7 +137,7 @@ def plot_rotation_panels(maps: dict[str, RotationMapResult], xs: dict[str, float
     levels = np.linspace(0.0, MAX_ANGLE, 19)
     for ax, lab in zip(axes[0], labels):
         r = maps[lab]
-        a = np.degrees(r.angle)
+        a = np.degrees(r.angle("+a"))
         ax.set_facecolor("#f2d7d5")
         U, V = np.meshgrid(r.u_values * 1e3, r.v_values * 1e3)
         if np.isfinite(a).any():
@@ -189,16 +187,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     figs_ws = []
     for lab in labels:
         name = names[lab]
-        figs_ws.append((plot_workspace(ws[lab]["whole"], machines[lab], out / f"g_workspace_{name}.png",
-                                       window_size=(900, 700)), f"{lab}: workspace at a = b = c = 0."))
+        figs_ws.append((ws[lab]["whole"].plot(out / f"g_workspace_{name}.png", window_size=(900, 700)),
+                        f"{lab}: workspace at a = b = c = 0."))
         if name in ("hexapod_6x", "linapod"):
-            figs_ws.append((plot_workspace(ws[lab]["whole"], machines[lab], out / f"g_workspace_{name}_xy.png",
-                                           # almost from above: a view along z clashes with the view-up vector
-                                           window_size=(900, 700), view=(0.0, -0.02, 1.0)),
+            figs_ws.append((ws[lab]["whole"].plot(out / f"g_workspace_{name}_xy.png",
+                                                  # almost from above: a view along z clashes with the view-up vector
+                                                  window_size=(900, 700), view=(0.0, -0.02, 1.0)),
                             f"{lab}: workspace seen from above (X-Y plane)."))
         if ws[lab]["usable"] is not None:
-            figs_ws.append((plot_workspace(ws[lab]["usable"], machines[lab], out / f"g_workspace_{name}_usable.png",
-                                           window_size=(900, 700)), f"{lab}: usable part of the workspace."))
+            figs_ws.append((ws[lab]["usable"].plot(out / f"g_workspace_{name}_usable.png", window_size=(900, 700)),
+                            f"{lab}: usable part of the workspace."))
     fig_rot = plot_rotation_panels(maps, xs, {lab: ws[lab]["limits"] for lab in labels}, out / "g_rotation_a.png")
     sw.lap("figures")
 
@@ -247,10 +245,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         + "; ".join(
             f"{lab} x {b['min'][0]:.0f}…{b['max'][0]:.0f}, y {b['min'][1]:.0f}…{b['max'][1]:.0f}, "
             f"z {b['min'][2]:.0f}…{b['max'][2]:.0f}" for lab in labels
-            for b in [ws[lab]["whole"].summary()["bounding_box_mm"]] if b)
+            for b in [ws[lab]["whole"].statistics()["bounding_box_mm"]] if b)
         + ". Octree effort: " + "; ".join(
             f"{lab} {s['evaluations']:,} evaluations, {s['run_time_s']:.1f} s" for lab in labels
-            for s in [ws[lab]["whole"].summary()]) + ".")
+            for s in [ws[lab]["whole"].statistics()]) + ".")
     for path, caption in figs_ws:
         sec_ws.figures.append(Figure(path, caption))
 
@@ -272,10 +270,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         "usable_z_limits_m": {lab: ws[lab]["limits"] for lab in labels},
         "rotation_plus_a": rs, "rotation_plus_a_usable": rs_usable,
         "rotation_maps": {lab: {"x_m": xs[lab], "y_m": maps[lab].u_values, "z_m": maps[lab].v_values,
-                                "angle_deg": np.where(np.isfinite(maps[lab].angle), np.degrees(maps[lab].angle),
-                                                      -1.0), "note": "-1 = base orientation inadmissible"}
+                                "angle_deg": np.where(np.isfinite(maps[lab].angle("+a")),
+                                                      np.degrees(maps[lab].angle("+a")), -1.0), "note": "-1 = base orientation inadmissible"}
                           for lab in labels},
-        "workspaces": {lab: ws[lab]["whole"].summary() for lab in labels},
+        "workspaces": {lab: ws[lab]["whole"].statistics() for lab in labels},
         "settings": cfg,
     }
     rep.settings["run time [s]"]["total"] = sw.total

@@ -38,7 +38,8 @@ def test_round_trip(tmp_path):
     assert list(back.direction) == list(m.direction)
     assert (back.machine, back.device, back.plane, back.notes) == ("felix", "QC10", "XY", ["synthetic test data"])
     assert back.range == pytest.approx(m.range, rel=1e-15) and back.resolution == pytest.approx(1e-7, rel=1e-15)
-    assert back.lines[0] == 16  # 14 header lines + column row (1-based)
+    assert back.lines[0] == 2  # the column row, then the samples (the header is m.json beside the CSV)
+    assert path.with_suffix(".json").is_file() and path.read_text().startswith("t_s,")
 
 
 def test_round_trip_drives_and_tiny_readings(tmp_path):
@@ -66,8 +67,8 @@ def test_writer_reports_range_violations(tmp_path):
     with pytest.raises(MeasurementFileError) as exc:
         read_measurement(tmp_path / "x.csv")
     msg = str(exc.value)
-    # sample 10 is on file line 14 + 1 + 11 = 26 (header 14 lines incl. one note, column row 15)
-    assert "line 26, column 8 (reading_mm)" in msg and "3 readings out of range" in msg
+    # sample 10 is on file line 1 + 11 = 12 (column row 1; the header is in x.json)
+    assert "line 12, column 8 (reading_mm)" in msg and "3 readings out of range" in msg
     assert read_measurement(tmp_path / "x.csv", check_range=False).n_samples == 200
 
 

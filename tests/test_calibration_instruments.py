@@ -4,6 +4,7 @@ module plus one registry line — followed here for a dummy "z probe" (docs/deve
 from __future__ import annotations
 
 import ast
+import json
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -238,8 +239,8 @@ def test_dummy_instrument_end_to_end(zprobe, felix, tmp_path):
     delta = params.vector({"chain1.strut_offset": 30e-6, "chain3.base_joint.z": -20e-6})
     res = simulate(felix, params, delta, plan, options=SimulationOptions(noise="none", quantise=False))
     path = write_measurement(tmp_path / "z.csv", to_measurement(felix, plan, res, zprobe.default_device()))
-    text = path.read_text()
-    assert "# instrument_type: zprobe" in text and "z_probe_mm" in text
+    header = json.loads(path.with_suffix(".json").read_text())  # the header sits beside the plain CSV
+    assert header["instrument_type"] == "zprobe" and "z_probe_mm" in path.read_text().splitlines()[0]
     meas = read_measurement(path)
     assert meas.instrument is zprobe and meas.n_samples == plan.n_poses
     mplan, y = measurement_plan(meas, "felix", str(path))

@@ -204,10 +204,24 @@ def test_cli_simulate_identify_check_on_tracker_and_pose_files(tmp_path, capsys,
 
 
 def _good(tmp_path, kind="tracker"):
+    """The lines of a valid file in the earlier form (``# key: value`` header lines, still read): the written CSV
+    with its JSON header turned back into those lines."""
     m = PointMeasurement(instrument=kind, t=np.arange(1.0, 4.0), position=np.array([[0.1, 0.2, 0.3]] * 3),
                          rotation=np.zeros((3, 3)) if kind == "pose" else None,
                          poses=np.zeros((3, 6)), machine="felix", device="test")
-    return write_measurement(tmp_path / f"{kind}.csv", m).read_text().splitlines()
+    path = write_measurement(tmp_path / f"{kind}.csv", m)
+    return _old_form(path.with_suffix(".json")) + path.read_text().splitlines()
+
+
+def _old_form(sidecar) -> list[str]:
+    import json
+
+    meta = json.loads(sidecar.read_text(encoding="utf-8"))
+    lines = [f"# {meta.pop('file')}"]
+    for key, value in meta.items():
+        for v in (value if key == "note" else [value]):
+            lines.append(f"# {key}: {', '.join(map(str, v)) if isinstance(v, list) else v}")
+    return lines
 
 
 def _bad(tmp_path, lines):
@@ -228,6 +242,11 @@ def test_tracker_file_round_trip(tmp_path):
         assert (back.rotation is None) == (kind == "tracker")
         assert back.target.shape == (3,) and back.volume_radius == pytest.approx(20.0, abs=1e-12)
         assert lines[2] == f"# instrument_type: {kind}"
+        assert lines[len(lines) - 4].startswith("t_s,") and not (tmp_path / f"{kind}.csv").read_text().startswith("#")
+        # the old form reads as the new one
+        old = tmp_path / f"old_{kind}.csv"
+        old.write_text("\n".join(lines) + "\n")
+        np.testing.assert_array_equal(read_measurement(old).position, back.position)
 
 
 def test_malformed_tracker_and_pose_files_name_line_and_column(tmp_path):
@@ -266,5 +285,6 @@ def test_ballbar_files_unchanged(tmp_path):
     m = BallbarMeasurement(bar_length=0.15, fixed_ball=np.zeros(3), t=np.arange(3.0), reading=np.zeros(3),
                            poses=np.zeros((3, 6)))
     text = write_measurement(tmp_path / "b.csv", m).read_text()
-    assert "instrument_type" not in text and "\nt_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,reading_mm\n" in text
+    header = (tmp_path / "b.json").read_text()
+    assert "instrument_type" not in header and text.startswith("t_s,x_mm,y_mm,z_mm,a_deg,b_deg,c_deg,reading_mm\n")
     assert isinstance(read_measurement(tmp_path / "b.csv"), BallbarMeasurement)

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import io
 import os
+import re
+import shutil
 import sys
 from pathlib import Path
 
@@ -16,6 +18,7 @@ import pytest
 
 from pkmstiff.cli import _value_options, build_parser, join_negative_values, main
 from pkmstiff.machine.loader import bundled_machine_dir
+from tests.calibration_plans import ONE_CIRCLE_PLAN
 
 HEX = str(bundled_machine_dir() / "hexaglide.toml")
 POSE = "0,0,-1000,0,0,0"
@@ -326,3 +329,193 @@ def test_broken_pipe_is_quiet(monkeypatch, capsys):
     code = main(["machines"])
     assert code == 141
     assert "Traceback" not in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------------------------------- files and faults
+# Bad input files and file-system faults of issue 22 (item 7): exponent bombs, FIFOs, directories and symlink loops as
+# input, a UTF-8 BOM, values that used to be accepted silently. Placeholders in braces are made by ``fault_files``.
+FILE_CASES: list[tuple[str, list[str], int, str]] = [
+    ("pose", ["pose", "{power_bomb}", "--pose", POSE], 2, "powers"),
+    ("section", ["section", "{power_bomb}", "--step", "50"], 2, "powers"),
+    # a FIFO as input blocks a reader forever; a directory or symlink loop "does not exist" was the wrong answer
+    ("pose", ["pose", "{fifo_toml}", "--pose", POSE], 2, "FIFO"),
+    ("point", ["point", "{fifo_toml}", "--pose", POSE], 2, "FIFO"),
+    ("section", ["section", "{fifo_toml}"], 2, "FIFO"),
+    ("workspace", ["workspace", "{fifo_toml}", "--resolution", "20"], 2, "FIFO"),
+    ("rotation-map", ["rotation-map", "{fifo_toml}"], 2, "FIFO"),
+    ("machines", ["machines", "{fifo_toml}"], 2, "FIFO"),
+    ("pose", ["pose", "hexaglide", "--poses", "{fifo_csv}"], 2, "FIFO"),
+    ("point", ["point", "hexaglide", "--poses", "{fifo_csv}"], 2, "FIFO"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{fifo_csv}"], 2, "FIFO"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "{fifo_toml}", "--out", "m.csv"], 2, "FIFO"),
+    ("ballbar", ["ballbar", "analyse", "{fifo_csv}"], 2, "FIFO"),
+    ("sweep", ["sweep", "{fifo_toml}", "--out", "r.csv"], 2, "FIFO"),
+    ("report", ["report", "{fifo_toml}", "--out", "rep"], 2, "FIFO"),
+    ("fe-joint", ["fe-joint", "{fifo_toml}", "--out", "t.csv"], 2, "FIFO"),
+    ("mechanism", ["mechanism", "info", "{fifo_toml}"], 2, "FIFO"),
+    ("pose", ["pose", "{loop_toml}", "--pose", POSE], 2, "symbolic link loop"),
+    ("pose", ["pose", "{dir_toml}", "--pose", POSE], 2, "a directory"),
+    ("pose", ["pose", "hexaglide", "--poses", "{loop_csv}"], 2, "symbolic link loop"),
+    ("pose", ["pose", "{deep_toml}", "--pose", POSE], 2, "nested"),
+    ("pose", ["pose", "{seven_chains}", "--pose", POSE], 2, "key 'chains'"),
+    ("workspace", ["workspace", "{tiny_guides}", "--resolution", "50"], 2, "reach boxes do not overlap"),
+    ("section", ["section", "{tiny_guides}"], 2, "reach boxes do not overlap"),
+    # values that were accepted silently or ended as internal errors (exit 1)
+    ("pose", ["pose", "hexaglide", "--pose", "1e300,0,-1000,0,0,0"], 2, "|x| <= 100000 mm"),
+    ("pose", ["pose", "hexaglide", "--pose", "0,0,-1000,1e9,0,0"], 2, "|a| <= 360 deg"),
+    ("pose", ["pose", "hexaglide", "--pose", "0,0,-1000,720,0,0"], 2, "|a| <= 360 deg"),
+    ("point", ["point", "hexaglide", "--pose", POSE, "--tool-length", "1e300"], 2, "--tool-length"),
+    ("point", ["point", "hexaglide", "--pose", POSE, "--modes", "1000000000"], 2, "--modes"),
+    ("point", ["point", "hexaglide", "--pose", POSE, "--modes", "1000000000", "--figures", "figs"], 2, "--modes"),
+    ("section", ["section", "hexaglide", "--quantities", ""], 2, "--quantities"),
+    ("section", ["section", "hexaglide", "--formats", "", "--out", "o"], 2, "--formats"),
+    ("section", ["section", "slider_crank", "--plane", "xy", "--formats", ""], 2, "--formats"),
+    ("fe-joint", ["fe-joint", JOINT, "--out", "t.csv", "--n-phi", "0"], 2, "n_phi"),
+    ("fe-joint", ["fe-joint", JOINT, "--out", "t.csv", "--png", "j.png", "--png-angle", "nan"], 2, "png_angle"),
+    ("mechanism", ["mechanism", "solve", "slider_crank", "--drives", "0.1", "--steps", "0"], 2, "--steps"),
+    ("mechanism", ["mechanism", "solve", "slider_crank", "--drives", "0.1", "--steps", "-1"], 2, "--steps"),
+    ("mechanism", ["mechanism", "solve", "slider_crank", "--drives", "100"], 3, "no solution"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--memory-budget", "infGB"], 2, "--memory-budget"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--memory-budget", "1e400GB"], 2,
+     "--memory-budget"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "1e300"], 2, "--resolution"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--box=100,-100,-400,1200,-1900,-300"], 2,
+     "xmin < xmax"),
+    ("rotation-map", ["rotation-map", "hexaglide", "--increment", "1e300"], 2, "--increment"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out", "m.csv",
+                   "--seed", "-1"], 2, "--seed"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out", "m.csv",
+                   "--drift-tau", "0"], 2, "--drift-tau"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out", "m.csv",
+                   "--resolution", "0"], 2, "--resolution"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out", "m.csv",
+                   "--errors", "{empty_toml}"], 2, "[errors]"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "{plan_fraction}", "--out", "m.csv"], 2,
+     "whole number"),
+    ("calibrate", ["calibrate", "plan", "felix", "--instrument", "ballbar", "--out", "p.toml", "--turns", "0"], 2,
+     "--turns"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--monte-carlo", "-1"], 2,
+     "--monte-carlo"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--outlier-threshold", "nan"], 2,
+     "--outlier-threshold"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--outlier-threshold", "-1"], 2,
+     "--outlier-threshold"),
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--out", "cal.txt"], 2, ".toml"),
+    ("sweep", ["sweep", "{extends_sweep}", "--out", "r.csv"], 2, "machine.extends"),
+    # errors that came after the cost line, the progress output or all sweep tasks
+    ("section", ["section", "hexaglide", "--out", "/proc/pkmstiff_out"], 2, "not writable"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--out", "/sys/pkmstiff_out"], 2, "not writable"),
+    ("section", ["section", "hexaglide", "--out", "{loop_dir}"], 2, "symbolic link"),
+    ("sweep", ["sweep", "{bad_path_sweep}", "--out", "r.csv"], 2, "no_such_table"),
+    # overwrites without --force
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{file}", "--out", "{existing_toml}"], 2,
+     "--force"),
+    ("calibrate", ["calibrate", "simulate", "felix", "--plan", "example:felix_plan.toml", "--out",
+                   "{existing_csv}"], 2, "--force"),
+    ("calibrate", ["calibrate", "plan", "felix", "--instrument", "ballbar", "--out", "{existing_toml}"], 2,
+     "--force"),
+    ("point", ["point", "hexaglide", "--pose", POSE, "--figures", "{figures_out}"], 2, "--force"),
+    ("fe-joint", ["fe-joint", JOINT, "--out", "t.csv", "--vtu", "{vtu_out}"], 2, "--force"),
+    ("ballbar", ["ballbar", "analyse", "{file}", "--plot", "{plot_out}"], 2, "--force"),
+    ("workspace", ["workspace", "hexaglide", "--resolution", "20", "--out", "{png_out}"], 2, "--force"),
+    ("rotation-map", ["rotation-map", "hexaglide", "--out", "{png_out}"], 2, "--force"),
+    ("section", ["section", "hexaglide", "--quantities", "kx", "--formats", "vtu", "--out", "{vtu_json_out}"], 2,
+     "--force"),
+    # a valid single-circle ball-bar file: rank 14 of the 36 identifiable parameters, refused before LM (it ran
+    # 214-219 s before "LM did not converge")
+    ("calibrate", ["calibrate", "identify", "felix", "--measurements", "{one_circle}"], 2, "rank 14"),
+    ("calibrate", ["calibrate", "report", "felix", "--measurements", "{one_circle}", "--out", "rep"], 2, "rank 14"),
+]
+
+@pytest.fixture(scope="module")
+def one_circle(tmp_path_factory) -> Path:
+    """A valid Felix ball-bar measurement of one horizontal circle (simulated with the example errors)."""
+    d = tmp_path_factory.mktemp("one_circle")
+    (d / "plan.toml").write_text(ONE_CIRCLE_PLAN, encoding="utf-8")
+    assert main(["calibrate", "simulate", "felix", "--plan", str(d / "plan.toml"), "--errors",
+                 "example:felix_errors.toml", "--seed", "1", "--feed", "3000", "--sample-rate", "5", "--out",
+                 str(d / "one.csv")]) == 0
+    return d / "one.csv"
+
+
+def test_single_circle_measurement_is_refused_within_seconds(one_circle, capsys):
+    """The rank check runs on the measurement's own poses before any identification: well under 10 s (the
+    identifiability of 326 readings takes about 1 s on one core; 10 s leaves room for a loaded test machine)."""
+    import time
+
+    for cmd in (["identify"], ["report", "--out", str(one_circle.parent / "rep")]):
+        t0 = time.perf_counter()
+        assert main(["calibrate", cmd[0], "felix", "--measurements", str(one_circle), *cmd[1:]]) == 2
+        assert time.perf_counter() - t0 < 10.0
+        err = capsys.readouterr().err
+        assert "rank 14" in err and "36 base parameters of 42" in err and str(one_circle) in err
+    assert not (one_circle.parent / "rep").exists()
+
+
+@pytest.fixture
+def fault_files(bad_files, one_circle):
+    root, files = bad_files
+    for suffix in (".csv", ".json"):  # the measurement and its header
+        shutil.copy(one_circle.with_suffix(suffix), root / f"one_circle{suffix}")
+    files["one_circle"] = "one_circle.csv"
+    text = Path(HEX).read_text(encoding="utf-8")
+    (root / "bomb.toml").write_text(text.replace('length = "0 mm"', 'length = "9**9**9 mm"'), encoding="utf-8")
+    files["power_bomb"] = "bomb.toml"
+    os.mkfifo(root / "pipe.toml")
+    os.mkfifo(root / "pipe.csv")
+    files.update(fifo_toml="pipe.toml", fifo_csv="pipe.csv")
+    os.symlink("loop.toml", root / "loop.toml")
+    os.symlink("loop.csv", root / "loop.csv")
+    files.update(loop_toml="loop.toml", loop_csv="loop.csv")
+    (root / "dir.toml").mkdir()
+    files["dir_toml"] = "dir.toml"
+    (root / "deep.toml").write_text("x = " + "[" * 3000 + "]" * 3000 + "\n")
+    files["deep_toml"] = "deep.toml"
+    (root / "empty.toml").write_text("")
+    first, second = text.index("[[chains]]"), text.index("[[chains]]", text.index("[[chains]]") + 1)
+    (root / "seven.toml").write_text(text[:first] + text[first:second] + text[first:], encoding="utf-8")
+    files["seven_chains"] = "seven.toml"
+    (root / "tiny.toml").write_text(text.replace("guide_length = 2.7", "guide_length = 1e-300"), encoding="utf-8")
+    files["tiny_guides"] = "tiny.toml"
+    files["empty_toml"] = "empty.toml"
+    plan = (ROOT / "pkmstiff/calibration/examples/felix_plan.toml").read_text(encoding="utf-8")
+    (root / "plan25.toml").write_text(re.sub(r"(?m)^points = .*$", "points = 2.5", plan), encoding="utf-8")
+    files["plan_fraction"] = "plan25.toml"
+    (root / "extends.toml").write_text('[sweep]\nmachine = "hexaglide"\n[[parameters]]\npath = "machine.extends"\n'
+                                       'values = ["/etc/passwd"]\n[[evaluations]]\nkind = "point"\n'
+                                       'quantities = ["kx"]\npose = [0, 0, -1000, 0, 0, 0]\n')
+    files["extends_sweep"] = "extends.toml"
+    (root / "badpath.toml").write_text((root / "extends.toml").read_text().replace("machine.extends",
+                                                                                   "no_such_table.k"))
+    files["bad_path_sweep"] = "badpath.toml"
+    os.symlink("loopdir", root / "loopdir")
+    files["loop_dir"] = "loopdir"
+    (root / "old.toml").write_text("old result\n")
+    files["existing_toml"] = "old.toml"
+    for d, name in (("figs", "hexaglide_mode1.png"), ("vtu", "iwf_3dof_improved_tilt0.vtu"),
+                    ("plots", "a_file_polar.png"), ("png", "workspace.png"), ("png", "rotation_map.png"),
+                    ("vtujson", "hexaglide_yz.json")):
+        (root / d).mkdir(exist_ok=True)
+        (root / d / name).write_text("old result\n")
+    files.update(figures_out="figs", vtu_out="vtu", plot_out="plots", png_out="png", vtu_json_out="vtujson")
+    return root, files
+
+
+@pytest.mark.parametrize("command, argv, status, text", FILE_CASES,
+                         ids=lambda v: " ".join(v) if isinstance(v, list) else str(v))
+def test_bad_file_or_fault_gives_one_line_and_writes_nothing(fault_files, capsys, command, argv, status, text):
+    import signal
+
+    class Hang(BaseException):  # not an OSError/Exception: the command line's handlers must not swallow it
+        pass
+
+    def hung(*_):
+        raise Hang(f"{' '.join(argv)} still running after 60 s")
+
+    old = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(60)
+    try:
+        test_bad_input_gives_one_line_and_writes_nothing(fault_files, capsys, command, argv, status, text)
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)

@@ -300,3 +300,70 @@ def _has_module(name: str) -> bool:
     import importlib.util
 
     return importlib.util.find_spec(name) is not None
+
+
+# ---------------------------------------------------------------------------------------- '# -> output' comments
+#: a statement of a ```python block whose last line ends with this comment must print what follows it
+OUTPUT_MARK = "# -> "
+_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
+
+
+def _same_printed_line(expected: str, actual: str) -> bool:
+    """Text equal (whitespace ignored: numpy pads columns), numbers equal within one unit of the expected number's
+    last printed digit: a value on a rounding boundary may round either way under another BLAS or numpy, whose
+    results differ by ~1e-12 relative; a stale comment differs by far more."""
+    exp_nums, act_nums = _NUMBER.findall(expected), _NUMBER.findall(actual)
+    if re.sub(r"\s+", "", _NUMBER.sub("#", expected)) != re.sub(r"\s+", "", _NUMBER.sub("#", actual)):
+        return False
+    for e, a in zip(exp_nums, act_nums):
+        mantissa = re.split(r"[eE]", e)[0]
+        digits = len(mantissa.split(".")[1]) if "." in mantissa else 0
+        exponent = int(re.split(r"[eE]", e)[1]) if re.search(r"[eE]", e) else 0
+        if abs(float(a) - float(e)) > 1.01 * 10.0 ** (exponent - digits):
+            return False
+    return len(exp_nums) == len(act_nums)
+
+
+def output_comments(code: str) -> dict[int, str]:
+    """Line number (1-based, in ``code``) -> expected output of every '# -> ...' comment."""
+    import tokenize
+
+    return {tok.start[0]: tok.string[len(OUTPUT_MARK):].strip()
+            for tok in tokenize.generate_tokens(io.StringIO(code).readline)
+            if tok.type == tokenize.COMMENT and tok.string.startswith(OUTPUT_MARK)}
+
+
+COMMENTED_PAGES = [p for p in PAGES if any(b[0] == "python" and not b[3] and output_comments(b[2])
+                                           for b in fenced_blocks(p))]
+
+
+@pytest.mark.parametrize("page", COMMENTED_PAGES, ids=_page_id)
+def test_python_output_comments(page: Path, isolated, monkeypatch) -> None:
+    """Every '# -> text' comment of a page's python blocks states what its statement prints (so the comments of the
+    README's examples cannot go stale); the blocks run statement by statement, in order, in one namespace."""
+    import ast
+
+    module = types.ModuleType("pkmstiff_docs_page")
+    monkeypatch.setitem(sys.modules, module.__name__, module)
+    wrong = []
+    for lang, line, code, skip in fenced_blocks(page):
+        if lang != "python" or skip:
+            continue
+        expected = output_comments(code)
+        for stmt in ast.parse(code).body:
+            buf = io.StringIO()
+            with contextlib.redirect_stdout(buf):
+                exec(compile(ast.Module([stmt], []), f"{_page_id(page)}:{line}", "exec"), module.__dict__)
+            want = next((expected[n] for n in range(stmt.lineno, stmt.end_lineno + 1) if n in expected), None)
+            if want is not None and not _same_printed_line(want, buf.getvalue().strip()):
+                wrong.append(f"{_page_id(page)}:{line + stmt.end_lineno - 1}: the comment says {want!r}, "
+                             f"the statement prints {buf.getvalue().strip()!r}")
+    assert not wrong, "\n".join(wrong)
+
+
+def test_output_comment_comparison() -> None:
+    assert output_comments("x = 1\nprint(x)  # -> 1\n# a comment\n") == {2: "1"}
+    assert _same_printed_line("[24.82  4.42 43.5 ] N/um", "[24.82 4.43 43.5] N/um")  # one unit of the last digit
+    assert not _same_printed_line("[3.428 4.253 4.506]", "[4.369 4.813 5.188]")  # the stale README comment
+    assert not _same_printed_line("57.6 %", "57.6 Hz") and not _same_printed_line("1 2", "1 2 3")
+    assert _same_printed_line("1.5e+04", "1.49e4") and not _same_printed_line("1.5e+04", "1.7e4")

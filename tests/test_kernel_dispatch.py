@@ -54,24 +54,44 @@ def test_dispatch_switches_to_compiled_after_enough_poses(monkeypatch):
     assert dispatch.kernels_for(dispatch.COMPILE_AFTER) is dispatch.compiled_kernels()
 
 
+def _same_state(a, b) -> bool:
+    """Same object graph: same classes, values (arrays bit for bit) and sharing of containers and objects (the
+    cache's own description is a canonical form of it; equal strings need not be one object)."""
+    from pkmstiff.machine.cache import encode
+
+    (ta, aa), (tb, ab) = encode(a), encode(b)
+    return ta == tb and aa.keys() == ab.keys() and all(
+        aa[k].dtype == ab[k].dtype and np.array_equal(aa[k], ab[k], equal_nan=True) for k in aa)
+
+
 @pytest.mark.parametrize("name", bundled_machines())
 def test_cached_machine_equals_fresh_load(name, tmp_path, monkeypatch):
     monkeypatch.setenv("PKMSTIFF_CACHE_DIR", str(tmp_path))
     first = load_machine(name)  # stores
-    assert list(tmp_path.glob(f"machine-{name}-*.pickle"))
+    assert list(tmp_path.glob(f"machine-{name}-*.npz"))
     cached = load_machine(name)  # reads
     fresh = _load_uncached(name)
-    assert pickle.dumps(cached.chains) == pickle.dumps(fresh.chains) == pickle.dumps(first.chains)
+    assert _same_state(cached.chains, fresh.chains) and _same_state(first.chains, fresh.chains)
     assert cached.name == fresh.name and cached.kind == fresh.kind
     p = _poses(5, 1)
     np.testing.assert_array_equal(evaluate_poses(cached, p).kappa, evaluate_poses(fresh, p).kappa)
+    # the components too (joint tables, splines, drives): the structure model's stiffness bit for bit
+    from pkmstiff.analysis import evaluate_structure
+    from pkmstiff.errors import StructureModelError
+
+    ok = evaluate_poses(fresh, p).ok
+    try:
+        k_fresh = evaluate_structure(fresh, p[ok], n_modes=0).stiffness
+    except StructureModelError:  # a machine without stiffness data
+        return
+    np.testing.assert_array_equal(evaluate_structure(cached, p[ok], n_modes=0).stiffness, k_fresh)
 
 
 def test_damaged_cache_file_falls_back_to_loading(tmp_path, monkeypatch):
     monkeypatch.setenv("PKMSTIFF_CACHE_DIR", str(tmp_path))
     load_machine("hexaglide")
-    (f,) = tmp_path.glob("machine-hexaglide-*.pickle")
-    f.write_bytes(b"not a pickle")
+    (f,) = tmp_path.glob("machine-hexaglide-*.npz")
+    f.write_bytes(b"not an archive")
     assert load_machine("hexaglide").name == "hexaglide"
     monkeypatch.setenv("PKMSTIFF_CACHE", "0")
     assert load_machine("hexaglide").name == "hexaglide"
@@ -112,3 +132,86 @@ def test_one_pose_commands_do_not_import_heavy_modules(command):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
                          env={**__import__("os").environ, "PKMSTIFF_JIT": ""})
     assert json.loads(out.stdout.strip().splitlines()[-1]) == []
+
+
+# ------------------------------------------------------------------------------------------------ cache safety
+
+
+def _cache_file(tmp_path, name="hexaglide"):
+    (f,) = tmp_path.glob(f"machine-{name}-*.npz")
+    return f
+
+
+def test_planted_pickle_is_never_executed(tmp_path, monkeypatch):
+    """A pickle planted under the cache's name (old format) or inside the archive never runs: the run succeeds."""
+    import os
+    import pickle as pk
+
+    monkeypatch.setenv("PKMSTIFF_CACHE_DIR", str(tmp_path))
+    load_machine("hexaglide")
+    f = _cache_file(tmp_path)
+    marker = tmp_path / "pwned"
+
+    class Evil:
+        def __reduce__(self):
+            return (os.system, (f"touch {marker}",))
+
+    f.with_suffix(".pickle").write_bytes(pk.dumps(Evil()))  # the old cache name
+    f.write_bytes(pk.dumps(Evil()))  # a pickle where the archive belongs
+    assert load_machine("hexaglide").name == "hexaglide"
+    np.savez(f, __json__=np.frombuffer(pk.dumps(Evil()), np.uint8))  # a pickle as the archive's description
+    assert load_machine("hexaglide").name == "hexaglide"
+    import io
+
+    buf = io.BytesIO()
+    np.save(buf, np.array([Evil()], dtype=object), allow_pickle=True)  # an object array inside the archive
+    with open(f, "wb") as fh:
+        np.savez(fh, __json__=np.frombuffer(b'{"array": "a0"}', np.uint8), a0=np.array([Evil()], dtype=object))
+    assert load_machine("hexaglide").name == "hexaglide"
+    assert not marker.exists()
+
+
+def test_cache_file_naming_a_foreign_class_is_refused(tmp_path, monkeypatch):
+    from pkmstiff.machine import cache
+
+    for name in ("os:system", "subprocess:Popen", "builtins:eval", "pkmstiff.io.atomic:atomic_write_text",
+                 "pkmstiff:load_machine"):
+        with pytest.raises(cache.Unsupported):
+            cache.decode('{"object": "%s", "id": 0, "state": null}' % name, {})
+    with pytest.raises(cache.Unsupported):
+        cache.encode(lambda: 0)
+    monkeypatch.setenv("PKMSTIFF_CACHE_DIR", str(tmp_path))
+    load_machine("hexaglide")
+    f = _cache_file(tmp_path)
+    np.savez(f, __json__=np.frombuffer(b'{"object": "os:system", "id": 0, "state": null}', np.uint8))
+    assert load_machine("hexaglide").name == "hexaglide"  # fallback to the normal load
+
+
+def test_cache_shared_with_others_is_not_read(tmp_path, monkeypatch):
+    """A cache file (or directory) that group or others may write is ignored, and the load still succeeds."""
+    from pkmstiff.machine import cache
+
+    monkeypatch.setenv("PKMSTIFF_CACHE_DIR", str(tmp_path))
+    load_machine("hexaglide")
+    f = _cache_file(tmp_path)
+    assert oct(f.stat().st_mode & 0o777) == oct(0o600)
+    calls = []
+    monkeypatch.setattr(cache, "decode", lambda *a: calls.append(a))
+    f.chmod(0o666)
+    assert load_machine("hexaglide").name == "hexaglide" and not calls
+    tmp_path.chmod(0o777)
+    try:
+        assert load_machine("hexaglide").name == "hexaglide" and not calls
+    finally:
+        tmp_path.chmod(0o700)
+
+
+def test_cache_round_trip_keeps_shared_objects_shared(tmp_path):
+    from pkmstiff.machine import cache
+
+    m = _load_uncached("hexaglide")
+    text, arrays = cache.encode(m)
+    back = cache.decode(text, arrays)
+    assert _same_state(back, m)
+    for name, (raw, _) in back.built_components.items():
+        assert back.components[name] is raw

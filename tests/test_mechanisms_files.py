@@ -131,9 +131,12 @@ def test_cli_range_json(capsys):
 
 
 def test_cli_solve_and_info(capsys):
-    assert main(["mechanism", "solve", "slider_crank", "--drives", "10", "--drives", "40", "--json"]) == 0
-    rep = json.loads(capsys.readouterr().out)
+    # one drive set without a solution: the results are printed, the exit status is 3 (as for an inadmissible pose)
+    assert main(["mechanism", "solve", "slider_crank", "--drives", "10", "--drives", "40", "--json"]) == 3
+    out, err = capsys.readouterr()
+    rep = json.loads(out)
     assert [r["status"] for r in rep["results"]] == ["converged", "no_solution"]
+    assert "no solution for 1 of 2 drive sets" in err and len(err.strip().splitlines()) == 1
     assert abs(rep["results"][0]["pose"]["x_mm"] - 125.0) < 1e-9  # slider point moves with the drive
     assert main(["mechanism", "info", "hybrid_tripod_wrist", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["mobility"] == 5

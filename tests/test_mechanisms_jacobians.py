@@ -119,3 +119,41 @@ def test_bundled_system_jacobians(name):
     for sysm, tg in ((fk_system(mech), rng.uniform(-0.2, 0.2, len(mech.drives))),
                      (ik_system(mech), rng.uniform(-0.2, 0.2, mech.pose_size))):
         assert _check(mech, sysm.blocks, q, tg) < 1e-7  # see test_spatial_jacobians_match_central_differences
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([0.0, 1e-7, 0.3]))
+def test_incremental_rotation_jacobians_match_central_differences_at_any_phi_y(seed, off):
+    """``evaluate(omega=True)``: rotation columns are ∂/∂ω of R → exp([ω]×) R (System.step), also at the Euler
+    angles' singularity φy = ±90° (off = 0) and next to it."""
+    mech = spatial_all_kinds()
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-0.5, 0.5, (3, 6))
+    q[:, 3:] = rng.uniform(-1.2, 1.2, (3, 3))
+    q[2, 4] = rng.choice([-1.0, 1.0]) * (np.pi / 2 - off)  # link b (an ω link) at or near the lock
+    target = {"fk": rng.uniform(-1, 1, 3), "ik": np.concatenate([rng.uniform(-1, 1, 3), rng.uniform(-1, 1, 3)])}
+    for blocks, tg in ((model_blocks(mech) + drive_blocks(mech), target["fk"]),
+                       (model_blocks(mech) + output_blocks(mech), target["ik"])):
+        sysm = System(mech, blocks)
+        assert sysm.omega_links.tolist() == [False, False, True]  # ground and the link with a fixed φy keep φ
+        _, J = sysm.evaluate(q[None], tg[None], reduced=True, omega=True)
+        h = 1e-6
+        Jfd = np.empty_like(J[0])
+        for c in range(sysm.free.size):
+            e = np.zeros((1, sysm.free.size))
+            e[0, c] = h
+            rp, _ = sysm.evaluate(sysm.step(q.reshape(1, -1), e).reshape(1, 3, 6), tg[None], jac=False, reduced=True)
+            rm, _ = sysm.evaluate(sysm.step(q.reshape(1, -1), -e).reshape(1, 3, 6), tg[None], jac=False, reduced=True)
+            Jfd[:, c] = (rp[0] - rm[0]) / (2 * h)
+        # same error budget as the φ Jacobians above
+        assert np.abs(J[0] - Jfd).max() / max(1.0, np.abs(J[0]).max()) < 1e-7
+
+
+def test_link_angles_reproduce_the_rotation_at_the_lock():
+    rng = np.random.default_rng(3)
+    phi = rng.uniform(-3, 3, (200, 3))
+    phi[:, 1] = np.pi / 2 * rng.choice([-1.0, 1.0], 200) + rng.choice([0.0, 1e-9, 1e-7, -1e-5], 200)
+    R, _ = link_rotations(phi, 3)
+    R2, _ = link_rotations(link_angles(R), 3)
+    # φx, φz are not separately determined at the lock, but R(φ) is reproduced to rounding (entries O(1))
+    assert np.abs(R2 - R).max() < 1e-14

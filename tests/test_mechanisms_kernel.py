@@ -23,8 +23,8 @@ def _spatial_mechanisms():
     return [m, axis] + [mm.load_mechanism(n) for n in ("hybrid_tripod_wrist", "hexapod_6ups", "hexaglide_generic")]
 
 
-@pytest.mark.parametrize("reduced", [False, True])
-def test_compiled_evaluation_equals_numpy_reference(reduced, monkeypatch):
+@pytest.mark.parametrize("reduced, omega", [(False, False), (True, False), (True, True)])
+def test_compiled_evaluation_equals_numpy_reference(reduced, omega, monkeypatch):
     monkeypatch.setattr(kernel, "PARALLEL_MIN", 64)  # 300 poses = two chunks on the parallel kernel
     rng = np.random.default_rng(11)
     for mech in _spatial_mechanisms():
@@ -32,8 +32,9 @@ def test_compiled_evaluation_equals_numpy_reference(reduced, monkeypatch):
             q = rng.uniform(-0.6, 0.6, (300, len(mech.links), 6))
             tg = rng.uniform(-1.0, 1.0, (300, width)) if width else None
             for n in (300, 1):  # parallel and serial kernel
-                r1, J1 = sysm.evaluate(q[:n], None if tg is None else tg[:n], reduced=reduced)
-                r2, J2 = sysm.evaluate_reference(q[:n], None if tg is None else tg[:n], reduced=reduced)
+                r1, J1 = sysm.evaluate(q[:n], None if tg is None else tg[:n], reduced=reduced, omega=omega)
+                r2, J2 = sysm.evaluate_reference(q[:n], None if tg is None else tg[:n], reduced=reduced,
+                                                 omega=omega)
                 assert J1.shape == J2.shape
                 # same formulas, different summation order: rounding only (entries are O(1))
                 assert np.abs(r1 - r2).max() < 1e-13 and np.abs(J1 - J2).max() < 1e-13, mech.name
@@ -71,3 +72,24 @@ def test_singular_jacobian_takes_the_pivoted_qr_step():
     assert qr.all() and rank[0] == J.shape[2] - 1  # rank by the QR diagonal's gap, as before
     dq, _, rk = lstsq_pivoted(J, r + 1e-6)
     assert np.array_equal(dx, dq) and rk[0] == rank[0]
+
+
+def test_compiled_rotation_step_equals_rodrigues_and_link_angles():
+    from pkmstiff.mechanisms.constraints import link_angles, link_rotations
+
+    rng = np.random.default_rng(4)
+    phi = rng.uniform(-3, 3, (300, 2, 3))
+    phi[:100, :, 1] = np.pi / 2  # at the lock
+    w = rng.normal(size=(300, 2, 3)) * rng.choice([1e-10, 1e-3, 1.0], (300, 2, 1))
+    K = np.zeros(w.shape + (3,))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -w[..., 2], w[..., 1], -w[..., 0]
+    K = K - np.swapaxes(K, -1, -2)
+    from scipy.linalg import expm
+
+    E = np.array([[expm(K[n, l]) for l in range(2)] for n in range(300)])
+    ref = E @ link_rotations(phi, 3)[0]
+    got = kernel.rotate(phi, w)
+    # same rotation to rounding: entries O(1), |w| up to ~4, scipy's Padé expm and the products carry a few 1e-16
+    # each (measured 3e-14); the angles follow link_angles' convention (atan2 of the same entries)
+    assert np.abs(link_rotations(got, 3)[0] - ref).max() < 1e-13
+    assert np.abs(got - link_angles(ref)).max() < 1e-11

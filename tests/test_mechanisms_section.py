@@ -76,4 +76,4 @@ def test_pose_and_section_commands_dispatch_to_mechanisms(tmp_path, capsys):
     assert {"slider_crank_xy_kappa.png", "slider_crank_xy_s.png", "slider_crank_xy_admissibility.png",
             "slider_crank_xy.csv", "slider_crank_xy.npz"} <= names
     rows = (out / "slider_crank_xy.csv").read_text().splitlines()
-    assert rows[0] == "x_mm,y_mm,status,reasons,admissible,kappa_1,s_mm" and len(rows) == 34
+    assert rows[0] == "x_mm,y_mm,status,reasons,admissible,kappa,s_mm" and len(rows) == 34

@@ -101,21 +101,25 @@ def test_vtk_round_trip(tmp_path, yz):
     mesh = meshio.read(path)
     nv, nu = yz.plane.shape
     np.testing.assert_allclose(mesh.points, yz.plane.points() * 1e3, rtol=0, atol=1e-9)
-    got = mesh.point_data["tilt_drive_1 [deg]"].ravel()
+    got = mesh.point_data["tilt_drive_1_deg"].ravel()
     np.testing.assert_allclose(got, yz.display("tilt_drive_1").ravel(), rtol=1e-12, equal_nan=True)
     np.testing.assert_array_equal(mesh.point_data["reason_code"].ravel(), yz.reasons.ravel())
 
 
 def test_csv_and_npz(tmp_path, yz):
+    import pandas as pd
+
     p = to_csv(yz, tmp_path / "s.csv")
-    lines = p.read_text().splitlines()
-    meta = {line[2:].split(":", 1)[0]: json.loads(line.split(":", 1)[1]) for line in lines if line.startswith("# ")}
+    meta = json.loads(p.with_suffix(".json").read_text())  # the metadata beside the table
     assert meta["machine"] == "hexaglide" and meta["units"]["kappa"] == "1"
-    header = [line for line in lines if not line.startswith("#")][0].split(",")
-    assert "tilt_drive_1 [deg]" in header and "y [mm]" in header
-    assert len([line for line in lines if not line.startswith("#")]) == 1 + yz.ok.size
+    assert meta["columns"]["tilt_drive_1_deg"] == {"quantity": "tilt_drive_1", "unit": "deg"}
+    df = pd.read_csv(p)  # no options: a plain table
+    assert {"x_mm", "y_mm", "z_mm", "u_mm", "v_mm", "tilt_drive_1_deg", "kappa"} <= set(df.columns)
+    assert len(df) == yz.ok.size
+    np.testing.assert_allclose(df["tilt_drive_1_deg"], yz.display("tilt_drive_1").ravel(), rtol=1e-9,
+                               equal_nan=True)  # 10 significant digits written
     z = np.load(to_npz(yz, tmp_path / "s.npz"))
-    np.testing.assert_array_equal(z["tilt_drive_1 [deg]"], yz.display("tilt_drive_1"))
+    np.testing.assert_array_equal(z["tilt_drive_1_deg"], yz.display("tilt_drive_1"))
     assert json.loads(str(z["metadata"]))["orientation_deg"] == [0.0, 0.0, 0.0]
 
 

@@ -80,14 +80,24 @@ def test_cli_pose_and_point(capsys):
     assert rc == 0 and rep["admissible"] and rep["checks_left_out"] == [SKIP]
 
 
-def test_cli_batches_state_the_checks_in_a_comment_line(capsys, tmp_path):
+def test_cli_batches_state_the_checks_in_the_json_beside_the_csv(capsys, tmp_path):
+    """The checks left out go to ``<out>.json`` (``pandas.read_csv`` reads the CSV with no options), or to stderr
+    when the CSV goes to stdout."""
+    import pandas as pd
+
     f = tmp_path / "poses.csv"
     f.write_text("x,y,z,a,b,c\n0,0,-850,0,0,0\n")
     for cmd in ("pose", "point"):
-        rc, out, _ = _cli(capsys, cmd, "hexaglide", "--poses", str(f), "--skip-check", SKIP)
+        rc, out, err = _cli(capsys, cmd, "hexaglide", "--poses", str(f), "--skip-check", SKIP)
         lines = out.splitlines()
-        assert rc == 0 and lines[0] == f"# admissibility checks left out: {SKIP}"
-        assert lines[2].split(",")[lines[1].split(",").index("admissible")] == "True"
+        assert rc == 0 and f"admissibility checks left out: {SKIP}" in err and not out.startswith("#")
+        assert lines[1].split(",")[lines[0].split(",").index("admissible")] == "True"
+        csv_out = tmp_path / f"{cmd}.csv"
+        rc, _, _ = _cli(capsys, cmd, "hexaglide", "--poses", str(f), "--skip-check", SKIP, "--out", str(csv_out))
+        table = pd.read_csv(csv_out)
+        assert rc == 0 and list(table.columns[:6]) == ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg"]
+        assert bool(table["admissible"].iloc[0]) and table["z_mm"].iloc[0] == -850
+        assert json.loads(csv_out.with_suffix(".json").read_text())["checks_left_out"] == [SKIP]
 
 
 def test_cli_section_states_the_checks_left_out(capsys):
@@ -110,8 +120,7 @@ def test_cli_section_files_state_the_checks_left_out(capsys, tmp_path):
                     "--quantities", "kappa", "--skip-check", SKIP, "--skip-check", "drive_load", "--quiet",
                     "--out", str(tmp_path), "--formats", "csv")
     assert rc == 0
-    csv_head = (tmp_path / "hexaglide_yz.csv").read_text().splitlines()
-    settings = json.loads(next(ln for ln in csv_head if ln.startswith("# settings:")).split(": ", 1)[1])
+    settings = json.loads((tmp_path / "hexaglide_yz.json").read_text())["settings"]  # the CSV's metadata
     assert settings["checks_left_out"] == [SKIP, "drive_load"] and SKIP not in settings["checks"]
     stats = json.loads((tmp_path / "hexaglide_yz_statistics.json").read_text())
     assert stats["checks_left_out"] == [SKIP, "drive_load"]

@@ -9,6 +9,7 @@ from scipy.interpolate import CubicSpline
 
 import pkmstiff
 from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.evaluation.sections import axis_plane
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.roles import machine_components
 from pkmstiff.structure import structure_layout
@@ -39,7 +40,7 @@ def test_report_has_tables_and_images(runs, letter):
 
 
 def fast_poses(mod) -> np.ndarray:
-    pl = mod.plane(True)
+    pl = axis_plane("yz", 0.0, mod.Y_RANGE, mod.Z_RANGE, mod.STEP["fast"])
     pts = pl.points()
     return np.concatenate([pts, np.zeros((len(pts), 3))], axis=1)
 

@@ -202,7 +202,7 @@ def test_e_fast_candidate_path_equals_full_section(runs, study_e):
     mod, _, res = runs["e"]
     orig = pkmstiff.load_machine("hexaglide")
     pl = axis_plane("yz", 0.0, mod.Y_RANGE, mod.Z_RANGE, res["coarse"]["step_m"])
-    ev = study_e.CandidateEvaluator(orig, pl)
+    ev = study_e.CandidateEvaluator(orig, res["coarse"]["step_m"])
     candidates = [np.asarray(run["angles_deg"]) for run in res["optimiser"]] + [np.array([20, 200, 15, 190, 10, 160.0])]
     cut = False
     for x in candidates:

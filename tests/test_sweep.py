@@ -174,13 +174,20 @@ def test_failing_tasks_are_recorded_and_physics_holds(tmp_path):
     assert kx[(150, 200)] < kx[(344, 200)] and kx[(150, 200)] < kx[(150, 326)] < kx[(344, 326)]
     # the bundled machine's values (344, 326 N/um) give the unmodified machine's stiffness (same builder)
     assert kx[(344, 326)] == pytest.approx(_kx(load_machine("hexaglide")) / 1e6, rel=1e-12)
-    # CSV round trip: metadata lines, header, exact floats
+    # CSV round trip: a plain table (file column names), the metadata beside it, exact floats
+    import json
+
+    import pandas as pd
+
     path = res.to_csv(tmp_path / "s.csv")
-    lines = path.read_text().splitlines()
-    assert lines[0] == "# machine: hexaglide" and any(x.startswith("# failed: 2") for x in lines)
-    rows = list(csv.DictReader(x for x in lines if not x.startswith("#")))
-    assert list(rows[0]) == res.columns and res.columns[-1] == "error"
-    assert float(rows[0]["kx [N/um]"]) == res.rows[0]["kx [N/um]"] and rows[4]["kx [N/um]"] == ""
+    meta = json.loads(path.with_suffix(".json").read_text())
+    assert meta["machine"] == "hexaglide" and str(meta["failed"]).startswith("2")
+    assert meta["columns"]["kx_N_per_um"] == "kx [N/um]"
+    rows = list(csv.DictReader(path.read_text().splitlines()))
+    assert list(rows[0]) == list(meta["columns"]) and list(meta["columns"].values()) == res.columns
+    assert float(rows[0]["kx_N_per_um"]) == res.rows[0]["kx [N/um]"] and rows[4]["kx_N_per_um"] == ""
+    df = pd.read_csv(path)  # no options
+    assert len(df) == 6 and df["kx_N_per_um"].isna().sum() == 2 and list(df.columns)[-1] == "error"
 
 
 def test_serial_parallel_and_dask_give_identical_rows():
@@ -226,9 +233,9 @@ quantities = ["kx"]
     cli_sweep.add_commands(parser.add_subparsers())
     args = parser.parse_args(["sweep", str(f), "--out", str(tmp_path / "r.csv"), "--quiet"])
     assert args.func(args) == 0
-    rows = list(csv.DictReader(x for x in (tmp_path / "r.csv").read_text().splitlines() if not x.startswith("#")))
-    assert len(rows) == 3 and all(200 <= float(r["components.strut_950.k [N/um]"]) <= 400 for r in rows)
-    assert all(r["error"] == "" and float(r["kx [N/um]"]) > 0 for r in rows)
+    rows = list(csv.DictReader((tmp_path / "r.csv").read_text().splitlines()))
+    assert len(rows) == 3 and all(200 <= float(r["components.strut_950.k_N_per_um"]) <= 400 for r in rows)
+    assert all(r["error"] == "" and float(r["kx_N_per_um"]) > 0 for r in rows)
     f.write_text(f.read_text().replace('distribution = "uniform"', 'distribution = "gaussian"'))
     with pytest.raises(SweepFileError, match=r"key 'parameters\[1\].distribution'"):
         load_sweep(f)

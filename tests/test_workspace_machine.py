@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from pkmstiff import load_machine
@@ -84,19 +85,24 @@ def test_cli_workspace_json_and_files(tmp_path, capsys):
     assert rep["effective_resolution_mm"] == [50.0, 50.0, 50.0]
     assert (out / "workspace_surface.stl").stat().st_size > 0
     pts = np.loadtxt(out / "boundary_points.csv", delimiter=",", skiprows=1)
-    assert pts.shape == (rep["boundary_points"], 3)
+    assert pts.shape == (rep["boundary_points_distinct"], 3)
+    assert rep["boundary_points_distinct"] <= rep["boundary_points"]
+    assert np.unique(pts, axis=0).shape == pts.shape  # each point once (neighbouring leaves can share a centroid)
     assert np.all(pts.min(axis=0) >= np.array(rep["bounding_box_mm"]["min"]) - 1e-3)
 
 
 def test_cli_rotation_map_and_errors(tmp_path, capsys):
-    code = main(["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--u-range", "0,600",
-                 "--v-range=-1100,-800", "--step", "100", "--directions", "+a,-b", "--increment", "3",
+    code = main(["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--range", "y=0:600,z=-1100:-800",
+                 "--step", "100", "--directions", "+a,-b", "--increment", "3",
                  "--json", "--out", str(tmp_path), "--no-plot"])
     assert code == 0
     rep = json.loads(capsys.readouterr().out)
     assert set(rep["angles"]) == {"+a", "-b"} and rep["increment_deg"] == pytest.approx(3.0, rel=1e-12)
-    grid = np.genfromtxt(tmp_path / "rotation_map_pa.csv", delimiter=",", skip_header=1)[:, 1:]
-    assert grid.shape == (4, 7)
+    table = pd.read_csv(tmp_path / "rotation_map_pa.csv")  # plain CSV, one row per raster point
+    assert list(table.columns) == ["y_mm", "z_mm", "max_angle_deg"] and len(table) == 4 * 7
+    assert np.allclose(table["y_mm"].to_numpy()[:7], np.arange(0, 601, 100), atol=1e-9)
+    grid = table["max_angle_deg"].to_numpy().reshape(4, 7)
+    assert json.loads((tmp_path / "rotation_map_pa.json").read_text())["direction"] == "+a"
     assert np.nanmax(grid) == pytest.approx(rep["angles"]["+a"]["max_deg"])
     assert np.allclose(grid[np.isfinite(grid)] / 3.0, np.rint(grid[np.isfinite(grid)] / 3.0), atol=1e-6)  # lattice
     assert main(["workspace", "hexaglide", "--resolution", "-5"]) == 2

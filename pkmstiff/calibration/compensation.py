@@ -32,6 +32,7 @@ from pkmstiff.calibration.perturb import machine_file_text
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.calibration.uncertainty import Uncertainty
 from pkmstiff.errors import CalibrationError, CalibrationInputError
+from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
@@ -67,6 +68,9 @@ def provenance(res: Identification, unc: Uncertainty | None = None, measurement:
     if measurement is not None:
         out["measurement_file"] = str(Path(measurement).name)
         out["measurement_sha256"] = file_sha256(measurement)
+        header = Path(measurement).with_suffix(".json")  # the header beside the CSV (files written since issue 22)
+        if header.is_file():
+            out["measurement_header_sha256"] = file_sha256(header)
     out["identified"] = {nm: float(res.delta[i]) for nm, i in zip(res.base_names, res.base)}
     if unc is not None:
         out["sigma"] = {nm: float(s) for nm, s in zip(unc.names, unc.sigma)}
@@ -114,7 +118,7 @@ def write_calibrated_machine(path: str | Path, res: Identification, unc: Uncerta
                              measurement: str | Path | None = None, name: str | None = None,
                              deflection: str = "none") -> Path:
     p = Path(path)
-    p.write_text(calibrated_machine_text(res, unc, measurement, name, deflection=deflection), encoding="utf-8")
+    atomic_write_text(p, calibrated_machine_text(res, unc, measurement, name, deflection=deflection))
     return p
 
 

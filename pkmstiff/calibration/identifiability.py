@@ -326,3 +326,24 @@ def analyse(jac: IdentificationJacobian, machine: Machine, setup: Setup | None) 
 def identifiability(machine: Machine, params: ParameterSet, plan: Plan) -> Identifiability:
     """Identification Jacobian of the plan and its identifiability analysis in one call."""
     return analyse(identification_jacobian(machine, params, plan), machine, plan.setup)
+
+
+def check_identifiable(ident: Identifiability, source: str) -> None:
+    """Refuse, before any identification, a measurement whose poses lose parameter directions beyond the named
+    gauge freedoms (docs/theory/calibration.md): the rank found must equal the parameter count less the named
+    freedoms' DOF. A plan that misses this (e.g. a single ball-bar circle on Felix: rank 14, where 36 of the 42
+    parameters are identifiable) leaves the identification ill-posed — an iterative solver then runs for minutes
+    before it fails to converge — so this is one input error (exit status 2) naming the file, the rank found and the
+    rank needed."""
+    from pkmstiff.errors import CalibrationInputError
+
+    unnamed = sum(g.dof for g in ident.gauge_freedoms if g.kind == "unnamed")
+    if unnamed == 0:
+        return
+    needed = ident.rank + unnamed
+    raise CalibrationInputError(
+        source, "readings", f"poses that identify {needed} base parameters of {ident.n_parameters} (all but the "
+        f"named gauge freedoms, {ident.n_parameters - needed} DOF); measure more ball-bar circles in other planes "
+        f"and heights or a hemisphere path, or more poses spread over the workspace ('pkmstiff calibrate "
+        f"identifiability MACHINE --instrument KIND --plan PLAN' shows what a plan identifies before measuring)",
+        f"rank {ident.rank} ({unnamed} parameter combinations no reading sees, {ident.n_readings} readings)")

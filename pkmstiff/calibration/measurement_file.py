@@ -1,4 +1,8 @@
-"""Measurement files: a CSV with a commented header (issue 16 item 5; instrument data docs/theory/calibration.md).
+"""Measurement files: a CSV and its header (issue 16 item 5; instrument data docs/theory/calibration.md).
+
+pkmstiff writes the header as ``<name>.json`` beside the CSV (issue 22 item 6: the CSV is a plain table that
+``pandas.read_csv(path)`` reads with no options); a CSV may instead carry the same keys as ``# key: value`` comment
+lines before the column row (the earlier form, read unchanged; a byte-order mark is dropped, cells may be quoted).
 
 This module reads and writes what every instrument's file shares (header lines, time, commanded poses or drive
 values, feed, direction, temperature); the header keys and reading columns of each instrument come from its
@@ -62,7 +66,10 @@ first offending line is named, with the count); :func:`range_violations` lists t
 
 from __future__ import annotations
 
+import csv
+import json
 import math
+import os
 import re
 from pathlib import Path
 
@@ -73,6 +80,9 @@ from pkmstiff.calibration.instruments import BallbarMeasurement, Instrument, Poi
 from pkmstiff.calibration.instruments.file_format import FORMAT_VERSION, fmt
 from pkmstiff.calibration.instruments.registry import FILE_DEFAULT, find, instruments, kinds
 from pkmstiff.errors import MeasurementFileError
+from pkmstiff.io.atomic import atomic_write_text
+from pkmstiff.io.columns import sidecar_path
+from pkmstiff.io.inputs import input_file_problem
 
 Array = NDArray[np.float64]
 Measurement = BallbarMeasurement | PointMeasurement
@@ -125,7 +135,32 @@ def write_measurement(path: str | Path, meas: Measurement, *, allow_out_of_range
     return _write_table(path, head, cols, meas.n_samples)
 
 
+def _json_value(text: str):
+    """A header value as JSON data: a number, a list of numbers (``"0, 0, 0"``) or the text."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        nums = [float(p) for p in parts]
+    except ValueError:
+        return text
+    nums = [int(v) if v.is_integer() and abs(v) < 2**53 else v for v in nums]
+    return nums[0] if len(nums) == 1 else nums
+
+
+#: header keys whose values stay text in the JSON header even when they look like numbers
+_TEXT_KEYS = ("machine", "instrument", "instrument_type", "plane", "units")
+
+
 def _write_table(path: Path, head: list[str], cols: list, n: int) -> Path:
+    """The CSV (the column row and the samples: ``pandas.read_csv(path)`` reads it with no options) and its header
+    as ``<name>.json`` beside it (the ``# key: value`` lines of earlier files, which are still read)."""
+    meta: dict = {"file": head[0].lstrip("# ").strip()}
+    for line in head[1:]:
+        key, value = (p.strip() for p in line.lstrip("# ").split(":", 1))
+        if key == "note":
+            meta.setdefault("note", []).append(value)
+        else:
+            meta[key] = value if key in _TEXT_KEYS else _json_value(value)
+    atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, ensure_ascii=False) + "\n")
     text_cols = []
     for name, values in cols:
         if name == "direction":
@@ -133,8 +168,7 @@ def _write_table(path: Path, head: list[str], cols: list, n: int) -> Path:
         else:
             text_cols.append([fmt(v) for v in np.asarray(values, dtype=float)])
     rows = [",".join(c[i] for c in text_cols) for i in range(n)]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(head + [",".join(name for name, _ in cols)] + rows) + "\n", encoding="utf-8")
+    atomic_write_text(path, "\n".join([",".join(name for name, _ in cols)] + rows) + "\n")
     return path
 
 
@@ -194,6 +228,33 @@ def _foreign_key(src: str, inst: Instrument, key: str, line: int) -> Measurement
                                 f"(instrument_type: {inst})")
 
 
+def _read_sidecar(src: str, known: tuple[str, ...]) -> tuple[dict[str, tuple[int | None, str]], list[str]]:
+    """The header of a measurement CSV from the JSON file beside it: {key: (None, value text)} and the notes."""
+    problem = input_file_problem(src)
+    if problem is not None:
+        raise MeasurementFileError(src, None, f"expected the header file of the measurement, found {problem}")
+    try:
+        raw = json.loads(Path(src).read_text(encoding="utf-8-sig"))
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise MeasurementFileError(src, None, f"expected a JSON object with the header keys, found invalid JSON "
+                                   f"({str(exc).splitlines()[0]})") from None
+    if not isinstance(raw, dict):
+        raise MeasurementFileError(src, None, f"expected a JSON object with the header keys, found "
+                                   f"{type(raw).__name__}")
+    header: dict[str, tuple[int | None, str]] = {}
+    notes: list[str] = []
+    for key, value in raw.items():
+        if key == "file":
+            continue
+        if key not in known:
+            raise MeasurementFileError(src, None, f"unknown header key '{key}'; expected one of {', '.join(known)}")
+        if key == "note":
+            notes += [str(v) for v in (value if isinstance(value, list) else [value])]
+            continue
+        header[key] = (None, ", ".join(str(v) for v in value) if isinstance(value, list) else str(value))
+    return header, notes
+
+
 def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMeasurement | PointMeasurement:
     """Read a measurement CSV (format in the module docstring) into SI units: a :class:`BallbarMeasurement`, or
     a :class:`PointMeasurement` for a file with ``instrument_type: tracker`` / ``pose``.
@@ -205,8 +266,12 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     """
     path = Path(path)
     src = str(path)
+    problem = input_file_problem(path)
+    if problem is not None:
+        raise MeasurementFileError(src, None, "file not found" if problem == "no such file" else
+                                   f"expected a regular measurement file, found {problem}")
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (as spreadsheet programs write) is dropped
     except FileNotFoundError:
         raise MeasurementFileError(src, None, "file not found") from None
     except UnicodeDecodeError as exc:
@@ -243,7 +308,7 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
                 raise MeasurementFileError(src, no, f"header key '{key}' repeated (first on line {header[key][0]})")
             header[key] = (no, value)
             continue
-        cells = [c.strip() for c in s.split(",")]
+        cells = [c.strip() for c in next(csv.reader([s]))]  # quoted cells may hold commas
         if columns is None:
             columns, col_line = cells, no
         else:
@@ -252,18 +317,26 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     if columns is None:
         raise MeasurementFileError(src, len(lines) or None, "no column row found (expected a line such as "
                                    "'t_s,x_mm,...,reading_mm')")
+    hsrc = src  # where the header came from: the CSV's '# key: value' lines or the JSON file beside it
+    if not header and not notes:
+        if not os.path.lexists(sidecar_path(path)):
+            raise MeasurementFileError(src, None, f"no header: neither '# key: value' lines nor "
+                                       f"{sidecar_path(path).name} beside the file (a ball-bar file needs at least "
+                                       f"bar_length_mm and fixed_ball_mm)")
+        hsrc = str(sidecar_path(path))
+        header, notes = _read_sidecar(hsrc, known)
     inst = FILE_DEFAULT
     if "instrument_type" in header:
         no, kind = header["instrument_type"]
         found = find(kind)
         if found is None:
-            raise MeasurementFileError(src, no, f"header key 'instrument_type': expected one of "
+            raise MeasurementFileError(hsrc, no, f"header key 'instrument_type': expected one of "
                                        f"{', '.join(kinds())}, found {kind!r}")
         inst = found
     for key, (no, _) in header.items():
         if key not in _COMMON_KEYS and key not in inst.header_keys:
-            raise _foreign_key(src, inst, key, no)
-    meta = inst.parse_header(src, header)
+            raise _foreign_key(hsrc, inst, key, no)
+    meta = inst.parse_header(hsrc, header)
     layout = _parse_columns(src, col_line, columns, inst)
     if not data_rows:
         raise MeasurementFileError(src, col_line, "no data rows after the column row")

@@ -361,6 +361,13 @@ def read_plan(path: str | Path) -> Plan:
                                         getattr(exc, "expected", f"a value in {unit}"),
                                         getattr(exc, "found", table[key])) from None
 
+    def count(table: dict, key: str, prefix: str, default: float) -> int:
+        """A whole positive number of points (2.5 points is a typo, not a plan)."""
+        v = q(table, key, "dimensionless", prefix, default, positive=True)
+        if v != int(v):
+            raise CalibrationInputError(src, prefix + key, "a whole number of points", table[key])
+        return int(v)
+
     setup = inst.setup_from_toml(st, q, q(st, "target", "m", "setup.", np.zeros(3), (3,)))
     paths = raw.get("paths")
     if not isinstance(paths, list) or not paths:
@@ -377,7 +384,7 @@ def read_plan(path: str | Path) -> Plan:
         if nodes is not None and len(nodes) < 1:
             raise CalibrationInputError(src, pre + "nodes", "at least one [B, L, D] node", "an empty list")
         if kind == "circle":
-            n = int(q(p, "points", "dimensionless", pre, 72.0, positive=True))
+            n = count(p, "points", pre, 72.0)
             if "normal" in p and "plane" in p:
                 raise CalibrationInputError(src, pre + "normal", "either plane or normal", "both")
             plane = q(p, "normal", "dimensionless", pre, shape=(3,)) if "normal" in p else str(p.get("plane", "XY"))
@@ -391,7 +398,7 @@ def read_plan(path: str | Path) -> Plan:
                                tilt=q(p, "tilt", "rad", pre, 0.0), tilt_azimuth=q(p, "tilt_azimuth", "rad", pre, 0.0),
                                torsion=q(p, "torsion", "rad", pre, 0.0), name=label)
         elif kind == "hemisphere":
-            part = hemisphere_plan(setup, n=int(q(p, "points", "dimensionless", pre, 360.0, positive=True)),
+            part = hemisphere_plan(setup, n=count(p, "points", pre, 360.0),
                                    turns=q(p, "turns", "dimensionless", pre, 4.0, positive=True),
                                    polar=(q(p, "polar_min", "rad", pre, np.radians(10)),
                                           q(p, "polar_max", "rad", pre, np.radians(80))),
@@ -402,7 +409,7 @@ def read_plan(path: str | Path) -> Plan:
             part = grid_plan(setup, q(p, "centre", "m", pre, setup.fixed_ball if setup.fixed_ball is not None
                                       else np.zeros(3), (3,)),
                              q(p, "half_width", "m", pre, positive=True),
-                             points=int(q(p, "points", "dimensionless", pre, 3.0, positive=True)),
+                             points=count(p, "points", pre, 3.0),
                              tilt=q(p, "tilt", "rad", pre, np.radians(10)),
                              torsion=q(p, "torsion", "rad", pre, np.radians(10)), name=label)
         else:

@@ -29,8 +29,8 @@ from pkmstiff.calibration.deflection import (
     deflection_analysis,
     subtract_deflection,
 )
-from pkmstiff.calibration.identifiability import Identifiability, identifiability
 from pkmstiff.calibration.diagnostics import Candidate, FitDiagnostics, diagnose
+from pkmstiff.calibration.identifiability import Identifiability, check_identifiable, identifiability
 from pkmstiff.calibration.identification import Identification, ResidualStats, identify, jacobian_at
 from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
@@ -98,6 +98,7 @@ def identify_file(machine: Machine, measurements: str, *, meas: Measurement | No
     plan, y = measurement_plan(meas, machine.name, measurements)
     params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=blocks)
     ident = identifiability(machine, params, plan)
+    check_identifiable(ident, measurements)  # an ill-posed measurement fails here, not after minutes of LM
     kw = dict(loss=loss, outlier_threshold=outlier_threshold, source=measurements, ident=ident)
     analysis = None
     if deflection == "gravity":

@@ -14,6 +14,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from pkmstiff.cli.edges import check_output_dir
 from pkmstiff.errors import BallbarError
 
 
@@ -108,6 +109,9 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     harmonics = _harmonics_arg(args.harmonics)
     if not 0.0 < args.alpha < 1.0:
         raise BallbarError(f"--alpha: expected a probability in (0, 1), found {args.alpha}")
+    if args.plot is not None:
+        stem = Path(args.file).stem
+        check_output_dir(args.plot, "--plot", args.force, (f"{stem}_polar.png", f"{stem}_spectrum.png"))
     rep = analyse_file(args.file, harmonics=harmonics, plot_dir=args.plot, alpha=args.alpha, machine=args.machine,
                        start_pose=args.start_pose)
     if args.json:
@@ -135,5 +139,6 @@ def add_commands(sub: Any) -> None:
     a.add_argument("--start-pose", metavar="x,y,z,a,b,c",
                    help="start pose (mm, deg) of the forward kinematics for a drive-only file")
     a.add_argument("--plot", metavar="DIR", help="write the polar deviation plot and harmonic spectrum (PNG) here")
+    a.add_argument("--force", action="store_true", help="overwrite existing plots in --plot")
     a.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     a.set_defaults(func=_cmd_analyse)

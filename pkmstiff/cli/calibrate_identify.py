@@ -11,6 +11,8 @@ import sys
 
 import numpy as np
 
+from pkmstiff.cli.edges import check_number, check_output_file
+
 
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
                     out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
@@ -113,6 +115,9 @@ def _print_diagnostics(d: dict) -> None:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".toml",))
+    check_number(args.monte_carlo, "--monte-carlo", 0, 100000, unit="runs")
+    check_number(args.outlier_threshold, "--outlier-threshold", 0, lo_open=True)
     rep = identify_report(args.machine, args.measurements, args.method, args.loss, args.out, args.monte_carlo,
                           args.frame, args.outlier_threshold, args.instrument, args.deflection, args.load,
                           args.with_, args.accept_misfit)
@@ -198,6 +203,7 @@ def _add_identify(sub) -> None:
     p.add_argument("--method", choices=METHODS, default="lm")
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
     p.add_argument("--out", metavar="CALIBRATED.toml", help="write the calibrated machine file")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check with N runs")
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
     p.add_argument("--instrument", choices=kinds(), default=None,

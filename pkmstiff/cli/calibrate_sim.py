@@ -9,7 +9,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pkmstiff.cli.edges import check_number, check_output_file
 from pkmstiff.errors import PkmstiffError
+from pkmstiff.io.atomic import atomic_write_text
 
 
 def _run(func: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
@@ -41,8 +43,11 @@ def read_errors(path: str | None, machine, plan):
     path = str(resolve(path))  # example:NAME -> a bundled error file
     raw = check_keys(read_toml(path, CalibrationInputError, "error file"), {"frame", "errors", "description"}, path,
                      "", CalibrationInputError)
+    if not isinstance(raw.get("errors"), dict) or not raw["errors"]:
+        raise CalibrationInputError(path, "errors", "an [errors] table with at least one parameter = quantity "
+                                    "(omit --errors for the nominal machine)", raw.get("errors", "missing"))
     params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
-    return params, parse_errors(raw.get("errors", {}), params, source=path)
+    return params, parse_errors(raw["errors"], params, source=path)
 
 
 def _noise(text: str) -> str | float:
@@ -63,6 +68,15 @@ def _noise(text: str) -> str | float:
 
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
+    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    check_output_file(out.with_suffix(".json"), "--out (its header file)", getattr(args, "force", False), (".json",))
+    check_number(args.seed, "--seed", 0)
+    check_number(args.feed, "--feed", 0, lo_open=True, unit="mm/min")
+    check_number(args.backlash, "--backlash", 0, unit="um")
+    check_number(args.drift, "--drift", unit="K")
+    check_number(args.drift_tau, "--drift-tau", 0, lo_open=True, unit="s")
+    for opt in ("sample_rate", "range", "resolution", "accuracy", "angle_accuracy"):
+        check_number(getattr(args, opt, None), "--" + opt.replace("_", "-"), 0, lo_open=True)
     from pkmstiff.calibration import check_plan, read_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
@@ -148,6 +162,7 @@ def _add_simulate(sub) -> None:
     p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"), or example:NAME (bundled "
                                     "example); default: nominal machine")
     p.add_argument("--out", required=True, help="measurement CSV to write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--noise", default="instrument",
                    help="none | instrument (sigma = accuracy/2) | procedure (Tab. 4.5 vs feed, sigma = U/2) | "
                         "sigma in um (default instrument)")
@@ -180,6 +195,10 @@ def _add_simulate(sub) -> None:
 
 def plan_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate plan`` does; writes the optimised plan and returns the JSON-ready summary."""
+    check_output_file(args.out, "--out", getattr(args, "force", False), (".toml",))
+    check_number(args.seed, "--seed", 0)
+    check_number(args.turns, "--turns", 0, lo_open=True)
+    check_number(args.max_tilt, "--max-tilt", 0, 90, lo_open=True, unit="deg")
     from pathlib import Path
 
     from pkmstiff.calibration import Plan, Segment, default_plan, error_model, read_plan
@@ -238,8 +257,7 @@ def plan_command(args: argparse.Namespace) -> dict:
                                 max_iter=args.iterations, max_tilt=max_tilt)
         text = plan_toml(res.best_plan, f"{machine.name} pose set, optimised ({args.objective})",
                          f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}")
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(text, encoding="utf-8")
+    atomic_write_text(args.out, text)
     lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
     start = objective_label(args.objective, res.start_value)
     return {"machine": machine.name, "instrument": inst.kind, "objective": args.objective,
@@ -280,6 +298,7 @@ def _add_plan(sub) -> None:
     p.add_argument("--objective", default="orthogonality", choices=OBJECTIVES,
                    help="cond (min), orthogonality (largest entry, min; eq. 4.8), O1..O5 (max)")
     p.add_argument("--out", required=True, help="plan file (TOML) to write")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
     p.add_argument("--poses", type=int, default=12,
                    help="tracker/pose without --start: poses taken from the default grid (default 12)")

@@ -17,6 +17,8 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
+from pkmstiff.io.atomic import atomic_write_text
+
 ROOT = Path(__file__).resolve().parents[2]
 CLAIMS_FILE = ROOT / "docs" / "claims.json"
 START, END = "<!-- claims:start -->", "<!-- claims:end -->"
@@ -51,8 +53,8 @@ def collect_claims() -> dict[str, Any]:
 
 
 #: the rotation-map run docs/user-guide/workspace.md quotes (Hexaglide Y-Z plane, 25 mm raster, 1 deg, six directions)
-ROTATION_MAP_YZ = ["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--u-range=-200,1100",
-                   "--v-range=-1250,-400", "--step", "25", "--increment", "1", "--json"]
+ROTATION_MAP_YZ = ["rotation-map", "hexaglide", "--plane", "yz", "--at", "0", "--range",
+                   "y=-200:1100,z=-1250:-400", "--step", "25", "--increment", "1", "--json"]
 
 
 @lru_cache(maxsize=1)
@@ -112,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     claims = collect_claims()
     if args.write:
-        CLAIMS_FILE.write_text(json.dumps(claims, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+        atomic_write_text(CLAIMS_FILE, json.dumps(claims, indent=2, ensure_ascii=False) + "\n")
         print(f"wrote {CLAIMS_FILE}")
     print(render_markdown(claims))
     return 0

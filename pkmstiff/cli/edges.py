@@ -7,6 +7,7 @@ and what was found, so that a command fails in seconds instead of after the comp
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from pathlib import Path
@@ -32,9 +33,26 @@ def _check_parent_writable(path: Path, option: str) -> None:
     if not anc.is_dir():
         raise OutputPathError(f"{option}: expected a path below a directory, found {str(path)!r} "
                               f"({str(anc)!r} is a file)")
-    if not os.access(anc, os.W_OK | os.X_OK):
+    if not (os.access(anc, os.W_OK | os.X_OK) and _can_create_in(anc)):
         raise OutputPathError(f"{option}: expected a writable location, found {str(path)!r} "
                               f"({str(anc)!r} is not writable)")
+
+
+def _can_create_in(directory: Path) -> bool:
+    """Whether files can be created in ``directory`` beyond its permission bits (which say yes for root on /proc,
+    /sys or a read-only mount): not a read-only mount, and a file system with storage (pseudo file systems such as
+    proc and sysfs report no blocks). Nothing is created."""
+    try:
+        st = os.statvfs(directory)
+    except OSError:
+        return False
+    return not st.f_flag & os.ST_RDONLY and st.f_blocks > 0
+
+
+def _check_not_a_link_loop(p: Path, option: str) -> None:
+    if os.path.islink(p) and not p.exists():
+        raise OutputPathError(f"{option}: expected a directory or a new name, found {str(p)!r} (a symbolic link "
+                              f"that leads nowhere or to itself)")
 
 
 def check_output_dir(path: str | Path | None, option: str = "--out", force: bool = False,
@@ -46,10 +64,11 @@ def check_output_dir(path: str | Path | None, option: str = "--out", force: bool
     p = Path(path)
     if str(path).strip() == "":
         raise OutputPathError(f"{option}: expected a directory, found an empty path")
+    _check_not_a_link_loop(p, option)
     if p.exists() and not p.is_dir():
         raise OutputPathError(f"{option}: expected a directory, found {str(p)!r} (an existing file)")
     if p.exists():
-        if not os.access(p, os.W_OK | os.X_OK):
+        if not (os.access(p, os.W_OK | os.X_OK) and _can_create_in(p)):
             raise OutputPathError(f"{option}: expected a writable directory, found {str(p)!r} (not writable)")
         clash = [n for n in names if (p / n).exists()]
         if clash and not force:
@@ -71,12 +90,46 @@ def check_output_file(path: str | Path | None, option: str = "--out", force: boo
         raise OutputPathError(f"{option}: expected a file name, found an empty path")
     if p.is_dir():
         raise OutputPathError(f"{option}: expected a file name, found {str(p)!r} (a directory)")
+    _check_not_a_link_loop(p, option)
     if suffixes and p.suffix.lower() not in suffixes:
         raise OutputPathError(f"{option}: expected a file name ending in {' or '.join(suffixes)}, found {str(p)!r}")
     if p.exists() and not force:
         raise OutputPathError(f"{option}: {str(p)!r} exists; use --force to overwrite it")
     _check_parent_writable(p, option)
     return p
+
+
+# ---------------------------------------------------------------------------------------------------- --range
+
+
+def old_range_form(command: str, option: str, found: str, axes: list[str], bounds: list[tuple[float, float]]) -> str:
+    """The ``--range`` text in the one syntax (AXIS=LO:HI, ...) for an option given in an old form; prints one
+    deprecation line on stderr naming the new form."""
+    new = ",".join(f"{a}={lo:g}:{hi:g}" for a, (lo, hi) in zip(axes, bounds))
+    print(f"pkmstiff {command}: note: {option} {found} is deprecated; write --range {new} "
+          f"(one syntax AXIS=LO:HI for section, workspace and rotation-map)", file=sys.stderr)
+    return new
+
+
+# ------------------------------------------------------------------------------------------------ number options
+
+
+def check_number(value: float | None, option: str, lo: float | None = None, hi: float | None = None, *,
+                 lo_open: bool = False, unit: str = "") -> None:
+    """A numeric option before any work: finite and in [lo, hi] (``lo`` excluded with ``lo_open``); None passes."""
+    if value is None:
+        return
+    low_ok = lo is None or (value > lo if lo_open else value >= lo)
+    if math.isfinite(value) and low_ok and (hi is None or value <= hi):
+        return
+    u = f" {unit}" if unit else ""
+    if lo is not None and hi is not None:
+        want = f"a number {'>' if lo_open else '>='} {lo:g} and <= {hi:g}{u}"
+    elif lo is not None:
+        want = f"a number {'>' if lo_open else '>='} {lo:g}{u}"
+    else:
+        want = f"a finite number <= {hi:g}{u}" if hi is not None else f"a finite number{u}"
+    raise CliError(f"{option}: expected {want}, found {value!r}")
 
 
 # ------------------------------------------------------------------------------------------------------ --jobs
@@ -91,6 +144,20 @@ def check_jobs(jobs: int | None, option: str = "--jobs") -> int | None:
         return jobs
     raise CliError(f"{option}: expected -1 (all cores) or 1..{4 * cores} processes ({cores} cores here), "
                    f"found {jobs}")
+
+
+def predicted_plan(items: int, seconds: float, jobs: int, scheduler: str | None, unit: str, granule: int = 1) -> str:
+    """The parallel plan for the cost line, from the estimated ``seconds`` of ``items`` items (the run itself sizes its
+    tasks from a measured first piece of work); connects to ``scheduler`` (exit 2 if unreachable) before any work."""
+    from pkmstiff.errors import ParallelError
+    from pkmstiff.evaluation.parallel import connected, plan
+
+    try:
+        with connected(scheduler):
+            p = plan(items, seconds / max(items, 1), jobs, scheduler, granule)
+    except ParallelError as exc:
+        raise CliError(str(exc)) from None
+    return p.text(unit) if p.parallel else "serial"
 
 
 # ------------------------------------------------------------------------------------------------ memory budget
@@ -123,7 +190,7 @@ def parse_budget(text: str | None) -> int:
                 val = float(t[: -len(suf)])
             except ValueError:
                 break
-            if val > 0:
+            if 0 < val * fac < 1 << 60:  # finite and below an exabyte (inf/1e400 GB overflowed int())
                 return int(val * fac)
             break
     else:
@@ -131,7 +198,7 @@ def parse_budget(text: str | None) -> int:
             frac = float(t)
         except ValueError:
             frac = -1.0
-        if 0 < frac <= 1:
+        if 0 < frac <= 1:  # (NaN fails both comparisons)
             return int(frac * available_memory())
     raise CliError(f"--memory-budget: expected a size such as '2GB' or '500MB', or a fraction 0..1 of the available "
                    f"memory, found {text!r}")
@@ -154,12 +221,13 @@ def human_seconds(s: float) -> str:
 
 
 def announce_cost(command: str, what: str, points: int, bytes_needed: float, seconds: float, budget: int,
-                  quiet: bool = False, unit: str = "points") -> None:
-    """Print what the command will compute (one line on stderr) and refuse above the memory budget."""
+                  quiet: bool = False, unit: str = "points", plan: str | None = None) -> None:
+    """Print what the command will compute (one line on stderr, ending with the parallel ``plan`` when given) and
+    refuse above the memory budget."""
     if bytes_needed > budget:
         raise CostLimitError(f"{what}: {points:,} {unit} need about {human_bytes(bytes_needed)}, more than the memory "
                              f"budget of {human_bytes(budget)}; use a coarser step/resolution or a smaller region, or "
                              f"raise --memory-budget")
     if not quiet:
         print(f"pkmstiff {command}: {what}: {points:,} {unit}, about {human_bytes(bytes_needed)} and "
-              f"{human_seconds(seconds)}", file=sys.stderr, flush=True)
+              f"{human_seconds(seconds)}{f'; {plan}' if plan else ''}", file=sys.stderr, flush=True)

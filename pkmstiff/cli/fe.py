@@ -15,6 +15,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_write_text, output_path, safe_stem
+from pkmstiff.io.columns import sidecar_path
 from pkmstiff.units import InputError
 
 DEFAULT_ANGLES = "0:90:15"
@@ -115,17 +117,20 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     from pkmstiff.fe.joints import build_joint_model, load_joint_parameters, parse_angles, sweep
 
     check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
-    check_output_dir(args.vtu, "--vtu", True)
     check_output_file(args.png, "--png", getattr(args, "force", False), (".png",))
+    if args.png and not (math.isfinite(args.png_angle) and abs(args.png_angle) <= 180):
+        raise InputError("--png-angle", "png_angle", "a finite tilt angle in -180..180 deg", args.png_angle)
     angles = parse_angles(args.angles)
     if len(angles) < 2:
         raise InputError("--angles", "angles", "at least 2 tilt angles (a joint table needs 2 support points)",
                          args.angles)
     p = load_joint_parameters(args.params)
+    vtu_names = tuple(f"{safe_stem(p.name)}_tilt{a:g}.vtu" for a in angles)
+    check_output_dir(args.vtu, "--vtu", getattr(args, "force", False), vtu_names)
     _check_fe_cost(p, args)
-    if args.mesh_size or args.n_phi or args.element:
-        if args.n_phi is not None and args.n_phi < 8:
-            raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
+    if args.n_phi is not None and args.n_phi < 8:
+        raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
+    if args.mesh_size is not None or args.n_phi or args.element:
         p = p.with_mesh(size=args.mesh_size * 1e-3 if args.mesh_size else None, element=args.element,
                         n_phi=args.n_phi)
     step, close = _progress(len(angles), args.quiet, p.name)
@@ -142,9 +147,9 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     if args.vtu or args.png:
         jm = build_joint_model(p)
         if args.vtu:
-            for a in angles:
+            for a, name in zip(angles, vtu_names):
                 sol, u, _ = jm.deformed(math.radians(a))
-                path = write_vtu(field_mesh(jm.model, sol, u), Path(args.vtu) / f"{p.name}_tilt{a:g}.vtu")
+                path = write_vtu(field_mesh(jm.model, sol, u), output_path(args.vtu, name))
                 if not args.quiet:
                     print(f"VTU written to {path}")
         if args.png:
@@ -171,6 +176,24 @@ def joint_image(jm: Any, tilt_deg: float, path: str | Path) -> Path:
     return img
 
 
+#: rows/columns of the 6x6 platform matrix CSV: force/displacement components at the spindle reference point
+MATRIX_AXES = ("ux", "uy", "uz", "rx", "ry", "rz")
+
+
+def write_matrix_csv(path: Path, K: np.ndarray, name: str) -> Path:
+    """The 6x6 platform stiffness ``K`` (dissertation units, :func:`to_dissertation_units`) as a plain CSV:
+    a ``row`` column (``ux`` ... ``rz``) and one column per matrix column; the units go to ``<name>.json``."""
+    from pkmstiff.io.columns import write_table
+
+    rows = [[a, *map(float, K[i])] for i, a in enumerate(MATRIX_AXES)]
+    meta = {"platform": name, "quantity": "6x6 platform stiffness at the spindle reference point",
+            "rows_and_columns": list(MATRIX_AXES),
+            "units": {"translational (ux..uz x ux..uz)": "N/um",
+                      "coupling (ux..uz x rx..rz, rx..rz x ux..uz)": "N/urad",
+                      "rotational (rx..rz x rx..rz)": "N*m/urad"}}
+    return write_table(path, ["row", *MATRIX_AXES], rows, meta, ".8g")
+
+
 def cmd_fe_platform(args: argparse.Namespace) -> int:
     """``pkmstiff fe-platform``: 6x6 platform stiffness at the spindle reference point -> TOML or CSV."""
     from pkmstiff.cli.edges import check_output_file
@@ -181,6 +204,8 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     if out.suffix not in (".toml", ".csv"):
         raise InputError("--out", "out", "a file name ending in .toml or .csv", args.out)
     check_output_file(args.out, "--out", getattr(args, "force", False), (".toml", ".csv"))
+    if out.suffix == ".csv":
+        check_output_file(sidecar_path(out), "--out (its metadata)", getattr(args, "force", False), (".json",))
     check_output_file(args.vtu, "--vtu", getattr(args, "force", False), (".vtu",))
     p = load_platform_parameters(args.params)
     if args.mesh_size:
@@ -191,11 +216,9 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     Kd = to_dissertation_units(res.K)
     if out.suffix == ".toml":
-        out.write_text(component_toml(res, args.name), encoding="utf-8")
+        atomic_write_text(out, component_toml(res, args.name))
     else:
-        header = ("# 6x6 platform stiffness at the spindle reference point; rows/cols ux,uy,uz,rx,ry,rz; "
-                  "units N/um (translational), N/urad (coupling), N*m/urad (rotational)")
-        np.savetxt(out, Kd, delimiter=",", header=header, comments="", fmt="%.8g")
+        write_matrix_csv(out, Kd, p.name)
     if args.vtu:
         # unit load case: 1 kN along z' at the reference point
         f = np.zeros(6)

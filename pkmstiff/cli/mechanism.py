@@ -16,31 +16,10 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import PkmstiffError
-from pkmstiff.io.ranges import parse_numbers
+from pkmstiff.io.atomic import atomic_path, output_path, safe_stem
+from pkmstiff.io.columns import column_name
+from pkmstiff.io.ranges import parse_names, parse_numbers
 
-
-
-def is_mechanism_target(name: str) -> bool:
-    """Whether ``pose``/``section`` got a mechanism rather than a machine, answered without importing the
-    mechanism solver (numba) for machines: bundled machine names and machine files are settled here, everything
-    else by :func:`pkmstiff.mechanisms.loader.is_mechanism`."""
-    from pathlib import Path
-
-    from pkmstiff.errors import InputError
-    from pkmstiff.io import read_toml
-    from pkmstiff.machine import bundled_machines
-
-    if name in bundled_machines():
-        return False
-    p = Path(name)
-    if p.suffix == ".toml" and p.is_file():
-        try:
-            return "mechanism" in read_toml(p, InputError, "machine or mechanism file")
-        except InputError:
-            return False  # the machine loader reports what is wrong with the file
-    from pkmstiff.mechanisms.loader import is_mechanism
-
-    return is_mechanism(name)
 
 
 def _cli_error(msg: str):
@@ -60,6 +39,11 @@ def _values(text: str, count: int, what: str, opt: str) -> list[float]:
     return parse_numbers(text, count, opt, what, CliError)
 
 
+def _f6(v: float | None) -> str:
+    """Six decimals; rounding noise below the last digit prints as 0.000000, not −0.000000."""
+    return "-" if v is None else f"{v if abs(v) >= 5e-7 else 0.0:.6f}"
+
+
 def _unit_scale(unit: str) -> tuple[str, float]:
     return ("mm", 1e3) if unit == "m" else ("deg", 180.0 / math.pi)
 
@@ -70,23 +54,76 @@ def _load(name: str):
     return load_mechanism(name)
 
 
+def _pose_names(mech) -> tuple[tuple[str, str], ...]:
+    return (("x", "mm"), ("y", "mm"), ("z", "mm"), ("a", "deg"), ("b", "deg"), ("c", "deg")) if mech.dim == 3 \
+        else (("x", "mm"), ("y", "mm"), ("phi", "deg"))
+
+
+def _parse_poses(mech, texts: list[str], opt: str) -> np.ndarray:
+    """Poses (N, pose_size) in SI from ``x,y,z,a,b,c`` texts in mm and degrees."""
+    names = _pose_names(mech)
+    P = np.array([_values(p, len(names), ",".join(f"{n} [{u}]" for n, u in names), opt) for p in texts])
+    return P * np.array([1e-3 if u == "mm" else math.pi / 180 for _, u in names])[None]
+
+
+def _parse_drives(mech, texts: list[str], opt: str) -> np.ndarray:
+    """Drive values (N, n_drives) in SI from texts in mm / degrees."""
+    units = [_unit_scale(u) for u in mech.drive_units]
+    D = np.array([_values(d, len(mech.drives), ",".join(f"{n} [{u}]" for n, (u, _) in zip(mech.drive_names, units)),
+                          opt) for d in texts])
+    return D / np.array([s for _, s in units])[None]
+
+
+def _start_configuration(mech, start_pose: str | None, start_drives: str | None, steps: int):
+    """The configuration to continue from (assembly/working mode): IK of ``--start-pose`` or FK of
+    ``--start-drives`` (from home), or None (home)."""
+    import pkmstiff.mechanisms as mm
+
+    if start_pose and start_drives:
+        raise _cli_error("solve: give at most one of --start-pose and --start-drives")
+    if start_pose:
+        sol = mm.inverse(mech, _parse_poses(mech, [start_pose], "--start-pose"), steps=steps)
+        opt, what = "--start-pose", start_pose
+    elif start_drives:
+        sol = mm.forward(mech, _parse_drives(mech, [start_drives], "--start-drives"), steps=steps)
+        opt, what = "--start-drives", start_drives
+    else:
+        return None
+    if not sol.ok[0]:
+        raise _cli_error(f"{opt}: expected a start the mechanism reaches from home, found {what} ({sol.status[0]})")
+    return sol.q
+
+
+def _links(mech, q: np.ndarray) -> dict[str, dict[str, float | None]]:
+    """Link frames of one configuration: position (mm) and angles φ (deg, wrapped to (−180, 180])."""
+    from pkmstiff.mechanisms.model import COORDINATES
+
+    D = mech.dim
+    out = {}
+    for li, ln in enumerate(mech.links):
+        v = q[li].copy()
+        v[D:] = (v[D:] + math.pi) % (2.0 * math.pi) - math.pi
+        out[ln] = {f"{c}_{'mm' if i < D else 'deg'}": _num(v[i] * (1e3 if i < D else 180.0 / math.pi))
+                   for i, c in enumerate(COORDINATES[D])}
+    return out
+
+
 def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | None = None,
-                 steps: int = 1) -> dict[str, Any]:
+                 steps: int = 1, start_pose: str | None = None, start_drives: str | None = None) -> dict[str, Any]:
     """Everything ``pkmstiff mechanism solve`` prints, as a JSON-ready dict."""
     import pkmstiff.mechanisms as mm
+    from pkmstiff.mechanisms.outputs import controlled_output_names, output_condition
 
     mech = _load(name)
     units = [_unit_scale(u) for u in mech.drive_units]
-    pose_names = (("x", "mm"), ("y", "mm"), ("z", "mm"), ("a", "deg"), ("b", "deg"), ("c", "deg")) if mech.dim == 3 \
-        else (("x", "mm"), ("y", "mm"), ("phi", "deg"))
+    pose_names = _pose_names(mech)
+    start = _start_configuration(mech, start_pose, start_drives, steps)
     results = []
     if poses:
-        P = np.array([_values(p, len(pose_names), ",".join(f"{n} [{u}]" for n, u in pose_names), "--pose")
-                      for p in poses])
-        P = np.array([[v * (1e-3 if u == "mm" else math.pi / 180) for v, (_, u) in zip(row, pose_names)]
-                      for row in P])
-        ev = mm.evaluate(mech, P, steps=steps)
+        P = _parse_poses(mech, poses, "--pose")
+        ev = mm.evaluate(mech, P, steps=steps, start=start)
         sol = ev.solution
+        kap = output_condition(mech, np.where(sol.ok[:, None, None], sol.q, np.nan), sol.drives)
         for i in range(len(P)):
             results.append({
                 "status": str(sol.status[i]), "iterations": int(sol.iterations[i]),
@@ -95,23 +132,26 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
                 "pose": {f"{n}_{u}": _num(v * (1e3 if u == "mm" else 180 / math.pi))
                          for (n, u), v in zip(pose_names, P[i])},
                 "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, ev.drives[i])},
+                "output_condition_number": _num(kap[i]),
+                "links": _links(mech, sol.q[i]) if sol.ok[i] else None,
             })
     else:
-        nd = len(mech.drives)
-        D = np.array([_values(d, nd, ",".join(f"{n} [{u}]" for n, (u, _) in zip(mech.drive_names, units)),
-                              "--drives") for d in drives or []])
-        D = D / np.array([s for _, s in units])[None]
-        sol = mm.forward(mech, D, steps=steps)
+        D = _parse_drives(mech, drives or [], "--drives")
+        sol = mm.forward(mech, D, steps=steps, start=start)
         outp = sol.poses if mech.output is not None else np.full((len(D), len(pose_names)), np.nan)
         for i in range(len(D)):
             results.append({
                 "status": str(sol.status[i]), "iterations": int(sol.iterations[i]),
                 "residual": _num(sol.residual[i]),
-                "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, D[i])},
+                # the drive values of the configuration found (not the request: a wrong root would show here)
+                "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, sol.drives[i])},
                 "pose": {f"{n}_{u}": _num(v * (1e3 if u == "mm" else 180 / math.pi))
                          for (n, u), v in zip(pose_names, outp[i])},
+                "output_condition_number": _num(sol.output_kappa[i]),
+                "links": _links(mech, sol.q[i]) if sol.ok[i] else None,
             })
-    return {"mechanism": mech.name, "mode": "inverse" if poses else "forward", "results": results}
+    return {"mechanism": mech.name, "mode": "inverse" if poses else "forward",
+            "controlled_outputs": list(controlled_output_names(mech)), "results": results}
 
 
 def range_report(name: str) -> dict[str, Any]:
@@ -138,12 +178,141 @@ def info_report(name: str) -> dict[str, Any]:
             "mobility": i.mobility, "drives": list(i.drives), "assumptions": mech.assumptions}
 
 
+#: suffixes of the derivative columns of a drive-path file (per s, s², s³)
+_RATE_SUFFIX = ("", "_per_s", "_per_s2", "_per_s3")
+
+
+def read_drive_path(mech, path: str) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Times t (N,) [s] and drive values with their first three time derivatives [(N, n_drives)] ×4 (SI) of a
+    drive-path CSV: columns ``t_s``, one per drive ``<name>_mm`` / ``<name>_deg``, optionally
+    ``<name>_<unit>_per_s``, ``…_per_s2``, ``…_per_s3``; derivatives not given come from a quintic interpolating
+    spline through the samples (scipy ``make_interp_spline``, degree ≤ 5, not above samples − 1)."""
+    import csv
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise _cli_error(f"--drives-file: expected a CSV file, found {path!r} (no such file)")
+    with open(p, newline="", encoding="utf-8") as fh:
+        rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)]
+    if len(rows) < 2:
+        raise _cli_error(f"{path}: expected a header and at least one sample row, found {len(rows)} line(s)")
+    head = [c.strip() for c in rows[0]]
+    units = [_unit_scale(u) for u in mech.drive_units]
+    need = ["t_s"] + [f"{n}_{u}" for n, (u, _) in zip(mech.drive_names, units)]
+    missing = [c for c in need if c not in head]
+    if missing:
+        raise _cli_error(f"{path}: line 1: expected columns {', '.join(need)} (derivatives optional: "
+                         f"<column>_per_s, _per_s2, _per_s3), found {', '.join(head)}; missing {', '.join(missing)}")
+    data = np.empty((len(rows) - 1, len(head)))
+    for i, r in enumerate(rows[1:], start=2):
+        if len(r) != len(head):
+            raise _cli_error(f"{path}: line {i}: expected {len(head)} values, found {len(r)}")
+        for c, v in enumerate(r):
+            try:
+                data[i - 2, c] = float(v)
+            except ValueError:
+                raise _cli_error(f"{path}: line {i}, column {head[c]}: expected a number, found {v!r}") from None
+            if not math.isfinite(data[i - 2, c]):
+                raise _cli_error(f"{path}: line {i}, column {head[c]}: expected a finite number, found {v!r}")
+    t = data[:, head.index("t_s")]
+    if np.any(np.diff(t) <= 0):
+        i = int(np.flatnonzero(np.diff(t) <= 0)[0]) + 3
+        raise _cli_error(f"{path}: line {i}, column t_s: expected strictly increasing times [s], found "
+                         f"{t[i - 2]:g} after {t[i - 3]:g}")
+    out = [np.empty((t.size, len(units))) for _ in range(4)]
+    for c, (n, (u, scale)) in enumerate(zip(mech.drive_names, units)):
+        cols = [f"{n}_{u}{suf}" for suf in _RATE_SUFFIX]
+        if all(col in head for col in cols):
+            for k, col in enumerate(cols):
+                out[k][:, c] = data[:, head.index(col)] / scale
+            continue
+        if t.size < 2:
+            raise _cli_error(f"{path}: column {cols[1]}: expected the rates (and _per_s2, _per_s3) of a single "
+                             "sample, or at least two samples to interpolate, found neither")
+        from scipy.interpolate import make_interp_spline
+
+        spl = make_interp_spline(t, data[:, head.index(cols[0])] / scale, k=min(5, t.size - 1))
+        for k in range(4):
+            out[k][:, c] = spl(t, nu=k) if k <= spl.k else 0.0
+    return t, out
+
+
+def path_report(name: str, drives_file: str, start_pose: str | None = None,
+                start_drives: str | None = None) -> tuple[dict[str, Any], list[list[str]]]:
+    """``pkmstiff mechanism path``: positions, velocities, accelerations and jerk of the output pose (and status)
+    along a drive path (patent claim 9, :func:`pkmstiff.mechanisms.path.path_derivatives`); returns the JSON-ready
+    summary and the CSV rows (header first)."""
+    import pkmstiff.mechanisms as mm
+    from pkmstiff.mechanisms.path import path_derivatives
+
+    mech = _load(name)
+    t, sv = read_drive_path(mech, drives_file)
+    start = _start_configuration(mech, start_pose, start_drives, 1)
+    # the path is followed sample after sample (each solve starts from the previous configuration)
+    q = []
+    for i in range(t.size):
+        sol_i = mm.forward(mech, sv[0][i:i + 1], start=start)
+        q.append(sol_i)
+        if sol_i.ok[0]:
+            start = sol_i.q
+    status = np.array([s.status[0] for s in q])
+    sol = mm.Solution(mech, np.concatenate([s.q for s in q]), status, np.concatenate([s.iterations for s in q]),
+                      np.concatenate([s.residual for s in q]), np.concatenate([s.rank for s in q]), q[0].n_free,
+                      np.concatenate([s.rcond for s in q]), np.concatenate([s.sigma_ratio for s in q]),
+                      np.concatenate([s.output_kappa for s in q]))
+    pd = path_derivatives(mech, *sv, solution=sol)
+    units = [_unit_scale(u) for u in mech.drive_units]
+    header = ["t_s", "status"] + [f"{n}_{u}" for n, (u, _) in zip(mech.drive_names, units)]
+    pose_names = _pose_names(mech) if mech.output is not None else ()
+    for k in range(4):
+        header += [f"{n}_{u}{_RATE_SUFFIX[k]}" for n, u in pose_names]
+    rows = [header]
+    for i in range(t.size):
+        row = [f"{t[i]:.9g}", str(status[i])] + [f"{v * s:.9g}" for v, (_, s) in zip(sv[0][i], units)]
+        for k in range(4):
+            row += ["" if not np.isfinite(v) else f"{v * (1e3 if u == 'mm' else 180 / math.pi):.9g}"
+                    for v, (_, u) in zip(pd.pose[k, i] if pd.pose is not None else [], pose_names)]
+        rows.append(row)
+    peak = {}
+    if pd.pose is not None:
+        for k, what in ((1, "velocity"), (2, "acceleration"), (3, "jerk")):
+            lin = np.nanmax(np.linalg.norm(pd.point[k], axis=-1)) * 1e3 if np.isfinite(pd.point[k]).any() else None
+            peak[f"max_point_{what}_mm_per_s{'' if k == 1 else k}"] = _num(lin) if lin is not None else None
+    rep = {"mechanism": mech.name, "samples": int(t.size), "t_s": [float(t[0]), float(t[-1])],
+           "status": {s_: int(np.sum(status == s_)) for s_ in mm.STATUS if np.any(status == s_)}, **peak}
+    return rep, rows
+
+
+def _write_csv(rows: list[list[str]], path: str) -> None:
+    """The rows as CSV, written atomically (whole file or none)."""
+    import csv
+
+    from pkmstiff.io.atomic import atomic_open
+
+    with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
+        csv.writer(fh).writerows(rows)
+
+
 def _cmd(args) -> int:
     try:
         if args.action == "solve":
             if bool(args.pose) == bool(args.drives):
                 raise _cli_error("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
-            rep = solve_report(args.mechanism, args.pose, args.drives, args.steps)
+            if args.steps < 1:
+                raise _cli_error(f"--steps: expected a positive number of continuation steps, found {args.steps}")
+            rep = solve_report(args.mechanism, args.pose, args.drives, args.steps, args.start_pose,
+                               args.start_drives)
+        elif args.action == "path":
+            if not args.drives_file:
+                raise _cli_error("path: expected --drives-file FILE.csv (columns t_s and the drive names)")
+            from pkmstiff.cli.edges import check_output_file
+
+            check_output_file(args.out, "--out", args.force, (".csv",))
+            rep, rows = path_report(args.mechanism, args.drives_file, args.start_pose, args.start_drives)
+            if args.out:
+                _write_csv(rows, args.out)
+                rep["files"] = [args.out]
         elif args.action == "range":
             rep = range_report(args.mechanism)
         else:
@@ -152,6 +321,8 @@ def _cmd(args) -> int:
         raise _cli_error(str(exc)) from None
     if args.json:
         print(json.dumps(rep, indent=2))
+        if args.action == "solve":
+            _refuse_unsolved(rep)
         return 0
     if args.action == "info":
         print(f"{rep['mechanism']}: {rep['title']} ({'spatial' if rep['dimension'] == 3 else 'planar'})")
@@ -161,18 +332,53 @@ def _cmd(args) -> int:
                   + (f" (drive {j['drive']})" if j["drive"] else ""))
         print(f"  unknowns {rep['unknowns']}, equations {rep['equations']}, rank {rep['rank']}, "
               f"mobility {rep['mobility']}")
+    elif args.action == "path":
+        st = ", ".join(f"{k} {v}" for k, v in rep["status"].items())
+        print(f"{rep['mechanism']}: {rep['samples']} samples, t = {rep['t_s'][0]:g} .. {rep['t_s'][1]:g} s: {st}")
+        for k, v in rep.items():
+            if k.startswith("max_point_"):
+                what, unit = k[len("max_point_"):].split("_", 1)
+                print(f"  max |{what}| of the output point: {'-' if v is None else f'{v:.6g}'} "
+                      f"{unit.replace('_per_', '/').replace('s2', 's^2').replace('s3', 's^3')}")
+        for f in rep.get("files", []):
+            print(f"  wrote {f}")
     elif args.action == "range":
         for d, r in rep["drives"].items():
-            print(f"{d}: {r['min']:.6f} .. {r['max']:.6f} {r['unit']} (ends: {r['min_end']}, {r['max_end']})")
+            lo = "-inf" if r["min"] is None else f"{r['min']:.6f}"
+            hi = "inf" if r["max"] is None else f"{r['max']:.6f}"
+            print(f"{d}: {lo} .. {hi} {r['unit']} (ends: {r['min_end']}, {r['max_end']})")
     else:
         for i, r in enumerate(rep["results"]):
-            dr = ", ".join(f"{k} = {'-' if v is None else f'{v:.6f}'}" for k, v in r["drives"].items())
-            ps = ", ".join(f"{k} = {'-' if v is None else f'{v:.6f}'}" for k, v in r["pose"].items())
+            dr = ", ".join(f"{k} = {_f6(v)}" for k, v in r["drives"].items())
+            ps = ", ".join(f"{k} = {_f6(v)}" for k, v in r["pose"].items())
             extra = ""
             if "admissible" in r:
                 extra = f", admissible {r['admissible']}" + (f" ({', '.join(r['reasons'])})" if r["reasons"] else "")
-            print(f"[{i}] {r['status']}{extra}\n    drives: {dr}\n    pose: {ps}")
+            k = r["output_condition_number"]
+            kap = "" if not rep["controlled_outputs"] else \
+                f"\n    condition number of the controlled outputs ({', '.join(rep['controlled_outputs'])}): " \
+                f"{'inf' if k is None else f'{k:.4g}'}"
+            print(f"[{i}] {r['status']}{extra}\n    drives: {dr}\n    pose: {ps}{kap}")
+            if args.links and r["links"]:
+                for ln, v in r["links"].items():
+                    print(f"    link {ln}: " + ", ".join(f"{c.rsplit('_', 1)[0]} = {_f6(x)} {c.rsplit('_', 1)[1]}"
+                                                         for c, x in v.items()))
+    if args.action == "solve":
+        _refuse_unsolved(rep)
     return 0
+
+
+def _refuse_unsolved(rep: dict[str, Any]) -> None:
+    """Exit status 3 (as ``point`` for an inadmissible pose) when a pose or drive set has no solution: the results
+    are printed, the error line says which."""
+    from pkmstiff.errors import InadmissiblePoseRefused
+
+    bad = [i for i, r in enumerate(rep["results"]) if r["status"] not in ("converged", "singular")]
+    if bad:
+        raise InadmissiblePoseRefused(
+            f"{rep['mechanism']}: no solution for {len(bad)} of {len(rep['results'])} "
+            f"{'poses' if rep['mode'] == 'inverse' else 'drive sets'} (first [{bad[0]}]: "
+            f"{rep['results'][bad[0]]['status']})")
 
 
 def pose_report(name: str, pose_text: str) -> dict[str, Any]:
@@ -193,7 +399,7 @@ def pose_report(name: str, pose_text: str) -> dict[str, Any]:
         u, s = _unit_scale("m" if jt.variable == "linear" else "rad")
         joints[jn] = {f"value_{u}": _num(ev.joint_values[0, i] * s), f"min_{u}": _num(jt.limits[0] * s),
                       f"max_{u}": _num(jt.limits[1] * s), "violated": bool(ev.violated[0, i])}
-    r.update({"condition_number": _num(kap), "joints": joints})
+    r.update({"condition_number": _num(kap), "joints": joints, "controlled_outputs": rep["controlled_outputs"]})
     return {"mechanism": mech.name, "title": mech.title, **r}
 
 
@@ -205,6 +411,10 @@ def print_pose(rep: dict[str, Any]) -> None:
     print(f"drives: {dr}")
     k = rep["condition_number"]
     print(f"condition number of dx/ds: {'inf' if k is None else f'{k:.4g}'}")
+    k = rep["output_condition_number"]
+    if rep["controlled_outputs"]:
+        print(f"condition number of the controlled outputs ({', '.join(rep['controlled_outputs'])}): "
+              f"{'inf' if k is None else f'{k:.4g}'}")
     for jn, j in rep["joints"].items():
         u = "mm" if "value_mm" in j else "deg"
         v, lo, hi = j[f"value_{u}"], j[f"min_{u}"], j[f"max_{u}"]
@@ -252,17 +462,17 @@ def section_report(args) -> dict[str, Any]:
         raise _cli_error(f"--step: expected a positive step in mm, found {args.step}")
     if not math.isfinite(args.at):
         raise _cli_error(f"--at: expected a finite position in mm, found {args.at}")
-    names = [q.strip() for q in args.quantities.split(",") if q.strip()]
-    formats = [f.strip() for f in args.formats.split(",") if f.strip()]
-    bad = set(formats) - {"png", "vtu", "csv", "npz"}
-    if bad:
-        raise _cli_error(f"--formats: expected a subset of png,vtu,csv,npz, found {sorted(bad)}")
+    try:
+        names = parse_names(args.quantities, "--quantities")
+        formats = parse_names(args.formats, "--formats", ("png", "vtu", "csv", "npz"))
+    except PkmstiffError as exc:
+        raise _cli_error(str(exc)) from None
     step, at = args.step * 1e-3, args.at * 1e-3
-    stem = f"{mech.name}_{plane}"
+    stem = f"{safe_stem(mech.name)}_{plane}"
     from pkmstiff.cli.edges import check_output_dir
 
     outs = ([f"{stem}_{n}.png" for n in names] + [f"{stem}_admissibility.png"] if "png" in formats else []) \
-        + [f"{stem}.{f}" for f in ("csv", "npz") if f in formats]
+        + [f"{stem}.{f}" for f in ("csv", "npz") if f in formats] + ([f"{stem}.json"] if "csv" in formats else [])
     check_output_dir(args.out, "--out", getattr(args, "force", False), tuple(outs))
     if mech.dim == 2 and plane != "xy":
         raise _cli_error(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
@@ -286,10 +496,11 @@ def section_report(args) -> dict[str, Any]:
     except PkmstiffError as exc:
         raise _cli_error(str(exc)) from None
     cpu = time.process_time() - t0
-    files = _write_section(sec, Path(args.out), stem, formats) if args.out else []
+    where = {"mechanism": mech.name, "plane": plane, "at_mm": None if mech.dim == 2 else args.at,
+             "orientation_deg": [float(np.degrees(a)) for a in ori]}
+    files = _write_section(sec, Path(args.out), stem, formats, where) if args.out else []
     stats = sec.statistics()
-    return {"mechanism": mech.name, "plane": plane, "at_mm": None if mech.dim == 2 else args.at,
-            "orientation_deg": [float(np.degrees(a)) for a in ori],
+    return {**where,
             "window_mm": {plane[0]: [u0 * 1e3, sec.u_values[-1] * 1e3], plane[1]: [v0 * 1e3, sec.v_values[-1] * 1e3]},
             "window_fitted_to_workspace": fitted, "points": int(sec.ok.size),
             "admissible_points": int(sec.ok.sum()), "admissible_area_m2": float(sec.ok.sum()) * sec.cell_area,
@@ -297,35 +508,41 @@ def section_report(args) -> dict[str, Any]:
             "cpu_seconds": cpu, "files": [str(p) for p in files]}
 
 
-def _write_section(sec, out, stem: str, formats: list[str]) -> list:
-    """PNG maps (each quantity and the admissibility reasons), CSV and NPZ of a mechanism section in ``out``."""
-    import csv
+def _write_section(sec, out, stem: str, formats: list[str], where: dict[str, Any]) -> list:
+    """PNG maps (each quantity and the admissibility reasons), CSV (with ``where``, the units and the reason bits in
+    ``<stem>.json`` beside it) and NPZ of a mechanism section in ``out``."""
 
     paths = []
     out.mkdir(parents=True, exist_ok=True)
     if "png" in formats:
         from pkmstiff.plots.mechanism_section import plot_mechanism_quantity, plot_mechanism_reasons
 
-        paths += [plot_mechanism_quantity(sec, n, out / f"{stem}_{n}.png") for n in sec.values]
-        paths.append(plot_mechanism_reasons(sec, out / f"{stem}_admissibility.png"))
+        paths += [plot_mechanism_quantity(sec, n, output_path(out, f"{stem}_{n}.png")) for n in sec.values]
+        paths.append(plot_mechanism_reasons(sec, output_path(out, f"{stem}_admissibility.png")))
     U, V = np.meshgrid(sec.u_values, sec.v_values)
     u, v = sec.plane[0], sec.plane[1]
     if "csv" in formats:
-        p = out / f"{stem}.csv"
-        with open(p, "w", newline="", encoding="utf-8") as fh:
-            w = csv.writer(fh)
-            w.writerow([f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
-                       + [f"{n}_{sec.units[n]}" for n in sec.values])
-            cols = [sec.display(n).ravel() for n in sec.values]
-            for i in range(U.size):
-                w.writerow([f"{U.flat[i] * 1e3:.6g}", f"{V.flat[i] * 1e3:.6g}", sec.status.flat[i],
-                            int(sec.reasons.flat[i]), int(sec.ok.flat[i])]
-                           + ["" if not np.isfinite(c[i]) else f"{c[i]:.6g}" for c in cols])
+        from pkmstiff.io.columns import write_table
+        from pkmstiff.mechanisms.evaluate import REASONS
+
+        p = output_path(out, f"{stem}.csv")
+        cols = [sec.display(n).ravel() for n in sec.values]
+        rows = ([U.flat[i] * 1e3, V.flat[i] * 1e3, str(sec.status.flat[i]), int(sec.reasons.flat[i]),
+                 int(sec.ok.flat[i])] + [float(c[i]) for c in cols] for i in range(U.size))
+        meta = {**where,
+                "units": {column_name(n, sec.units[n]): sec.units[n] for n in sec.values},
+                "reasons": {"meaning": "bit mask of the inadmissibility reasons (0 = admissible)",
+                            "bits": {k: int(b) for k, b in REASONS.items()}},
+                "empty_cells": "no value (inadmissible point)"}
+        write_table(p, [f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
+                    + [column_name(n, sec.units[n]) for n in sec.values], rows, meta, ".6g")
         paths.append(p)
     if "npz" in formats:
-        p = out / f"{stem}.npz"
-        np.savez_compressed(p, **{f"{u}_m": sec.u_values, f"{v}_m": sec.v_values, "reasons": sec.reasons,
-                                  "admissible": sec.ok}, **{f"{n}_si": sec.values[n] for n in sec.values})
+        p = output_path(out, f"{stem}.npz")
+        with atomic_path(p) as tmp:
+            np.savez_compressed(tmp, **{f"{u}_mm": sec.u_values * 1e3, f"{v}_mm": sec.v_values * 1e3,
+                                        "reasons": sec.reasons, "admissible": sec.ok},
+                                **{column_name(n, sec.units[n]): sec.display(n) for n in sec.values})
         paths.append(p)
     return paths
 
@@ -357,10 +574,22 @@ def add_commands(sub: Any) -> None:
                                    "(--pose, mm/deg; status, drive values and joint-limit admissibility as 'pkmstiff "
                                    "pose'), forward kinematics of drive values (--drives; mm for linear, deg for "
                                    "angular drives), drive ranges, links/joints/rank/mobility.")
-    p.add_argument("action", choices=("solve", "range", "info"))
+    p.add_argument("action", choices=("solve", "path", "range", "info"))
     p.add_argument("mechanism", help="bundled mechanism name (slider_crank, hybrid_tripod_wrist, …) or file")
     p.add_argument("--pose", action="append", help="x,y,z,a,b,c in mm and degrees (planar x,y,phi); repeatable")
     p.add_argument("--drives", action="append", help="drive values in file order (mm / deg); repeatable")
-    p.add_argument("--steps", type=int, default=1, help="continuation steps from home (default 1)")
+    p.add_argument("--steps", type=int, default=1,
+                   help="continuation steps from home or the start (default 1; steps that change an angle by more "
+                        "than 15 deg or a length by more than 1/4 of the mechanism's size are subdivided)")
+    p.add_argument("--start-pose", help="solve from the configuration of this pose (x,y,z,a,b,c mm/deg) instead of "
+                                        "home: chooses the assembly/working mode")
+    p.add_argument("--start-drives", help="solve from the configuration of these drive values (mm/deg) instead of "
+                                          "home: chooses the assembly/working mode")
+    p.add_argument("--drives-file", help="path: CSV of a drive path (columns t_s, <drive>_mm or <drive>_deg, "
+                                         "optionally <column>_per_s, _per_s2, _per_s3)")
+    p.add_argument("--out", help="path: CSV of pose, velocity, acceleration and jerk per sample")
+    p.add_argument("--force", action="store_true", help="overwrite --out")
+    p.add_argument("--links", action="store_true",
+                   help="also print every link frame (position mm, angles phi_x, phi_y, phi_z deg, R = Rz Ry Rx)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_cmd)

@@ -16,8 +16,9 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import InadmissiblePoseRefused, PointArgumentError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import output_path, safe_stem
 from pkmstiff.io.ranges import parse_numbers
-from pkmstiff.machine.loader import bundled_machines, load_machine
+from pkmstiff.machine.loader import load_machine
 
 WEAK_POINT_DIRECTIONS = ("x", "y", "z")
 #: identifier of the JSON document ``pkmstiff point --json`` prints (pkmstiff/schemas/point.schema.json)
@@ -41,12 +42,20 @@ def parse_values(text: str, count: int, what: str) -> list[float]:
     return parse_numbers(text, count, "--pose", what, PointArgumentError)
 
 
-def _is_planar(name: str) -> bool:
-    if name in bundled_machines():  # spatial: decided without importing the planar module
-        return False
-    from pkmstiff.analysis.planar import bundled_planar
+#: longest tool (mm) and most natural frequencies ``point`` accepts (a 10 m tool or 100 modes is a typo, not a study)
+TOOL_LENGTH_LIMIT_MM = 1e4
+MODES_LIMIT = 100
 
-    return name in bundled_planar() and name not in bundled_machines()
+
+def check_point_options(tool_length_mm: float | None, n_modes: int) -> None:
+    """``--tool-length`` 0..:data:`TOOL_LENGTH_LIMIT_MM` mm and ``--modes`` 0..:data:`MODES_LIMIT` (0: no modes)."""
+    if tool_length_mm is not None and not (math.isfinite(tool_length_mm)
+                                           and 0 <= tool_length_mm <= TOOL_LENGTH_LIMIT_MM):
+        raise PointArgumentError(f"--tool-length: expected a length 0..{TOOL_LENGTH_LIMIT_MM:g} mm, "
+                                 f"found {tool_length_mm!r}")
+    if not 0 <= n_modes <= MODES_LIMIT:
+        raise PointArgumentError(f"--modes: expected an integer 0..{MODES_LIMIT} (0: no modal analysis), "
+                                 f"found {n_modes}")
 
 
 def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissiblePoseRefused:
@@ -66,17 +75,27 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
     :class:`~pkmstiff.errors.InadmissiblePoseRefused` (exit status 3) before any analysis. ``skip_checks``: names
     of admissibility checks left out (stated as ``checks_left_out``).
     """
-    if tool_length_mm is not None and not (math.isfinite(tool_length_mm) and tool_length_mm >= 0):
-        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {tool_length_mm!r}")
-    if n_modes < 0:
-        raise PointArgumentError(f"--modes: expected an integer >= 0, found {n_modes}")
-    from pkmstiff.admissibility.checks import checks_left_out, checks_without
+    check_point_options(tool_length_mm, n_modes)
+    from pkmstiff.admissibility.checks import checks_without
+    from pkmstiff.cli.targets import Kind, dispatch
 
     checks = checks_without(skip_checks, "--skip-check")
-    if _is_planar(machine_name):
+
+    def planar(_: object) -> dict:
         if skip_checks:
             raise PointArgumentError(f"--skip-check: not available for the planar example '{machine_name}'")
         return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
+
+    return dispatch(machine_name, {
+        Kind.SPATIAL: lambda _: _machine_report(machine_name, pose_text, tool_length_mm, n_modes, neglect_spindle,
+                                                frame, allow_inadmissible, checks),
+        Kind.PLANAR: planar})
+
+
+def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | None, n_modes: int,
+                    neglect_spindle: bool, frame: str, allow_inadmissible: bool, checks: tuple[str, ...]) -> dict:
+    """:func:`point_report` of a spatial machine."""
+    from pkmstiff.admissibility.checks import checks_left_out
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.cli.pose import PoseArgumentError, parse_pose
@@ -297,32 +316,13 @@ def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | 
 
 
 def _point_batch(args: argparse.Namespace) -> int:
-    import csv
-    import sys
+    from pkmstiff.cli.pose import check_batch_out, read_pose_file, write_batch
 
-    from pkmstiff.cli.edges import check_output_file
-    from pkmstiff.cli.pose import read_pose_file
-
-    if args.tool_length is not None and not (math.isfinite(args.tool_length) and args.tool_length >= 0):
-        raise PointArgumentError(f"--tool-length: expected a length >= 0 mm, found {args.tool_length!r}")
-    if args.modes < 0:
-        raise PointArgumentError(f"--modes: expected an integer >= 0, found {args.modes}")
-    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
+    check_point_options(args.tool_length, args.modes)
+    out = check_batch_out(args)
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes, args.skip_check)
-    fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
-    try:
-        if args.skip_check:
-            from pkmstiff.admissibility.checks import left_out_text
-
-            fh.write(f"# {left_out_text(args.skip_check)}\n")
-        w = csv.writer(fh)
-        w.writerow(head)
-        w.writerows([["" if isinstance(v, float) and not math.isfinite(v) else
-                      (f"{v:.6g}" if isinstance(v, float) else v) for v in r] for r in rows])
-    finally:
-        if out:
-            fh.close()
+    write_batch(out, head, rows, args, "point")
     if out:
         print(f"pkmstiff point: {len(rows)} poses ({sum(r[6] for r in rows)} admissible, analysed); wrote {out}")
     return 0
@@ -336,8 +336,9 @@ def _cmd_point(args: argparse.Namespace) -> int:
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
     if getattr(args, "poses", None) is not None:
         return _point_batch(args)
+    check_point_options(args.tool_length, args.modes)
     if args.figures is not None:
-        check_output_dir(args.figures, "--figures", True)
+        check_output_dir(args.figures, "--figures", getattr(args, "force", False), _figure_names(args))
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
                            args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False),
@@ -370,11 +371,21 @@ def _mode_figures(args: argparse.Namespace) -> list:
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     pose = to_machine_frame(machine, parse_pose(args.pose), args.frame)
     out = Path(args.figures)
-    stem = machine.name.replace(":", "_")
-    files = [plot_mode_shape(machine, pose, out / f"{stem}_mode{k}.png", mode=k) for k in range(1, args.modes + 1)]
+    names = _figure_names(args)
+    files = [plot_mode_shape(machine, pose, output_path(out, names[k - 1]), mode=k) for k in range(1, args.modes + 1)]
     if args.gif:
-        files.append(animate_mode_shape(machine, pose, out / f"{stem}_mode1.gif", mode=1))
+        files.append(animate_mode_shape(machine, pose, output_path(out, names[-1]), mode=1))
     return files
+
+
+def _figure_names(args: argparse.Namespace) -> tuple[str, ...]:
+    """The file names ``--figures`` writes: ``<machine>_mode<k>.png`` (and ``<machine>_mode1.gif`` with ``--gif``)."""
+    from pkmstiff.cli.targets import Kind, resolve
+
+    if resolve(args.machine).kind is Kind.PLANAR:
+        return ()
+    stem = safe_stem(load_machine(args.machine).name)
+    return tuple(f"{stem}_mode{k}.png" for k in range(1, args.modes + 1)) + ((f"{stem}_mode1.gif",) if args.gif else ())
 
 
 def add_commands(sub: Any) -> None:
@@ -391,10 +402,11 @@ def add_commands(sub: Any) -> None:
                    help="a batch: CSV file with one pose x,y,z,a,b,c (mm, deg) per line; prints CSV (k_x, k_y, k_z, "
                         "f1..; empty cells for inadmissible poses)")
     p.add_argument("--out", default=None, metavar="FILE.csv", help="with --poses: write the CSV here")
-    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files (--out, --figures)")
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
                    help="tool length in mm (default: machine file)")
-    p.add_argument("--modes", type=int, default=6, metavar="N", help="number of natural frequencies (default 6)")
+    p.add_argument("--modes", type=int, default=6, metavar="N",
+                   help=f"number of natural frequencies, 0..{MODES_LIMIT} (0: none; default 6)")
     from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument, add_spindle_argument
 
     add_spindle_argument(p)

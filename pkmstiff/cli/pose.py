@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -16,9 +17,19 @@ from pkmstiff.io.ranges import parse_numbers
 from pkmstiff.machine.loader import load_machine
 
 
+#: largest |x|, |y|, |z| of a pose (mm: 100 m, beyond every machine tool) and largest |a|, |b|, |c| (deg: one turn)
+POSITION_LIMIT_MM = 1e5
+ANGLE_LIMIT_DEG = 360.0
+
+
 def parse_pose(text: str) -> np.ndarray:
-    """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad)."""
+    """Parse ``x,y,z,a,b,c`` (mm, mm, mm, deg, deg, deg) into an SI pose (m, rad); positions beyond
+    :data:`POSITION_LIMIT_MM` and angles beyond :data:`ANGLE_LIMIT_DEG` are refused (a typo, not a pose)."""
     vals = parse_numbers(text, 6, "--pose", "x,y,z,a,b,c (mm, deg)", PoseArgumentError, count_text="six")
+    for name, v in zip("xyzabc", vals):
+        limit, unit = (POSITION_LIMIT_MM, "mm") if name in "xyz" else (ANGLE_LIMIT_DEG, "deg")
+        if abs(v) > limit:
+            raise PoseArgumentError(f"--pose: expected |{name}| <= {limit:g} {unit}, found {name} = {v:g} {unit}")
     return np.array([v * 1e-3 for v in vals[:3]] + [math.radians(v) for v in vals[3:]])
 
 
@@ -38,15 +49,15 @@ def read_pose_file(path: str) -> np.ndarray:
     skipped. Returns (N, 6) SI poses; errors name the file and line."""
     from pkmstiff.errors import InputError
 
+    from pkmstiff.io.inputs import input_file_problem
+
     poses = []
+    problem = input_file_problem(path)
+    if problem is not None:
+        raise InputError(path, "(file)", "an existing pose file (CSV x,y,z,a,b,c in mm and deg)", problem)
     try:
-        with open(path, encoding="utf-8") as fh:
+        with open(path, encoding="utf-8-sig") as fh:
             lines = fh.read().splitlines()
-    except FileNotFoundError:
-        raise InputError(path, "(file)", "an existing pose file (CSV x,y,z,a,b,c in mm and deg)", "no such file") \
-            from None
-    except IsADirectoryError:
-        raise InputError(path, "(file)", "a pose file", "a directory") from None
     except UnicodeDecodeError as exc:
         raise InputError(path, "(file)", "a UTF-8 text pose file",
                          f"non-UTF-8 byte 0x{exc.object[exc.start]:02x} at offset {exc.start}") from None
@@ -145,24 +156,35 @@ def _cmd_pose(args: argparse.Namespace) -> int:
 
     if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise CliError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
-    from pkmstiff.cli.mechanism import is_mechanism_target
+    from pkmstiff.cli.targets import Kind, dispatch
 
-    if is_mechanism_target(args.machine):  # a generic mechanism evaluated like a machine (issue 14)
-        from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
-        from pkmstiff.cli.mechanism import print_pose
+    return dispatch(args.machine, {Kind.SPATIAL: lambda _: _machine_pose(args),
+                                   Kind.MECHANISM: lambda _: _mechanism_pose(args)})
 
-        if args.skip_check:
-            raise CliError(f"--skip-check: not available for the mechanism '{args.machine}' (its admissibility is "
-                           "the joint limits)")
-        if args.pose is None:
-            raise CliError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
-                           "'pkmstiff mechanism solve' with several --pose)")
-        rep = mechanism_pose_report(args.machine, args.pose)
-        if args.json:
-            print(json.dumps(rep, indent=2))
-        else:
-            print_pose(rep)
-        return 0
+
+def _mechanism_pose(args: argparse.Namespace) -> int:
+    """A generic mechanism evaluated like a machine (issue 14)."""
+    from pkmstiff.cli.mechanism import pose_report as mechanism_pose_report
+    from pkmstiff.cli.mechanism import print_pose
+    from pkmstiff.errors import CliError
+
+    if args.skip_check:
+        raise CliError(f"--skip-check: not available for the mechanism '{args.machine}' (its admissibility is "
+                       "the joint limits)")
+    if args.pose is None:
+        raise CliError(f"--poses: not available for the mechanism '{args.machine}'; give --pose (or use "
+                       "'pkmstiff mechanism solve' with several --pose)")
+    rep = mechanism_pose_report(args.machine, args.pose)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        print_pose(rep)
+    return 0
+
+
+def _machine_pose(args: argparse.Namespace) -> int:
+    from pkmstiff.errors import CliError
+
     if getattr(args, "poses", None) is not None:
         return _pose_batch(args)
     try:
@@ -207,27 +229,45 @@ def _cmd_pose(args: argparse.Namespace) -> int:
 
 def _pose_batch(args: argparse.Namespace) -> int:
     """``--poses FILE``: one CSV row per pose to stdout or ``--out``."""
-    import csv
-    import sys
-
-    from pkmstiff.cli.edges import check_output_file
-
-    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",)) if args.out else None
+    out = check_batch_out(args)
     poses = read_pose_file(args.poses)
     head, rows = pose_rows(args.machine, poses, args.skip_check)
-    fh = open(out, "w", newline="", encoding="utf-8") if out else sys.stdout
-    try:
-        if args.skip_check:
-            fh.write(f"# {left_out_text(args.skip_check)}\n")
-        w = csv.writer(fh)
-        w.writerow(head)
-        w.writerows([[f"{v:.6g}" if isinstance(v, float) else v for v in r] for r in rows])
-    finally:
-        if out:
-            fh.close()
+    write_batch(out, head, rows, args, "pose")
     if out:
         print(f"pkmstiff pose: {len(rows)} poses ({sum(r[-2] for r in rows)} admissible); wrote {out}")
     return 0
+
+
+def check_batch_out(args: argparse.Namespace) -> Path | None:
+    """The ``--out`` CSV of a ``--poses`` batch and its JSON metadata beside it, checked before any work."""
+    from pkmstiff.cli.edges import check_output_file
+    from pkmstiff.io.columns import sidecar_path
+
+    if not args.out:
+        return None
+    force = getattr(args, "force", False)
+    out = check_output_file(args.out, "--out", force, (".csv",))
+    check_output_file(sidecar_path(out), "--out (its metadata)", force, (".json",))
+    return Path(out)
+
+
+def write_batch(out: Path | None, head: Sequence[str], rows: list[list], args: argparse.Namespace,
+                command: str) -> None:
+    """A ``--poses`` batch as a plain CSV (``pandas.read_csv`` with no options; floats to 6 digits, empty = no value)
+    to ``out`` with its metadata (machine, pose file, checks left out) in ``<out>.json``, or to stdout with the
+    checks left out stated on stderr."""
+    import sys
+
+    from pkmstiff.io.columns import write_csv, write_table
+
+    if out is None:
+        if args.skip_check:
+            print(f"pkmstiff {command}: {left_out_text(args.skip_check)}", file=sys.stderr)
+        write_csv(sys.stdout, head, rows, ".6g")
+        return
+    meta = {"command": f"pkmstiff {command}", "machine": str(args.machine), "poses_file": str(args.poses),
+            "checks_left_out": list(args.skip_check)}
+    write_table(out, head, rows, meta, ".6g")
 
 
 def add_commands(sub) -> None:

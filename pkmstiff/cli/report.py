@@ -20,7 +20,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"  [{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
 
-    paths = run_spec(args.spec, Path(args.out), fast=args.fast, n_jobs=args.jobs, log=log)
+    paths = run_spec(args.spec, Path(args.out), fast=args.fast, n_jobs=args.jobs, log=log,
+                     scheduler=getattr(args, "scheduler", None))
     print(f"pkmstiff report: wrote {paths['html']} and {paths['md']} ({time.perf_counter() - t0:.1f} s)")
     return 0
 
@@ -34,7 +35,10 @@ def add_commands(sub) -> None:
     p.add_argument("--out", required=True, help="output directory (report.html, report.md, figures)")
     p.add_argument("--fast", action="store_true",
                    help="coarse raster/resolution from the spec's [options] fast_step_mm / fast_resolution_mm")
-    p.add_argument("--jobs", type=int, default=None, help="parallel processes for the sections (default: spec)")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="parallel processes for the sections and the workspace (default: spec)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate sections and workspace there")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--force", action="store_true", help="overwrite an existing report in --out")
     p.set_defaults(func=_cmd_report)

@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 from pkmstiff.errors import SectionArgumentError, SectionError, UnknownQuantityError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import safe_stem
 
 # the evaluation modules are imported inside the command functions: building the parser for another command
 # (``pkmstiff pose``) must not pay for them
@@ -35,37 +36,42 @@ def section_cost(n_points: int, n_quantities: int) -> tuple[float, float]:
 
 
 def _cmd_section(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget
+    from pkmstiff.cli.targets import Kind, dispatch
+
+    return dispatch(args.machine, {Kind.SPATIAL: lambda _: _machine_section(args),
+                                   Kind.MECHANISM: lambda _: _mechanism_section(args)})
+
+
+def _mechanism_section(args: argparse.Namespace) -> int:
+    """A generic mechanism: kinematic quantities and joint limits (issue 14)."""
+    from pkmstiff.cli.mechanism import print_section, section_report
+
+    rep = section_report(args)
+    if args.json:
+        print(json.dumps(rep, indent=2))
+    else:
+        print_section(rep)
+    return 0
+
+
+def _machine_section(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import CliError
     from pkmstiff.evaluation.quantities import get_quantity
     from pkmstiff.evaluation.sections import axis_plane, evaluate_section, raster_count, section_summary
-    from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
+    from pkmstiff.io.ranges import parse_names, parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.admissibility.checks import checks_without, left_out_text
     from pkmstiff.report.outputs import write_section_outputs
 
-    from pkmstiff.cli.mechanism import is_mechanism_target
-
-    if is_mechanism_target(args.machine):  # a generic mechanism: kinematic quantities and joint limits (issue 14)
-        from pkmstiff.cli.mechanism import print_section, section_report
-
-        rep = section_report(args)
-        if args.json:
-            print(json.dumps(rep, indent=2))
-        else:
-            print_section(rep)
-        return 0
     plane_kind = args.plane.lower()
     try:
         ranges = parse_ranges(args.range, plane_kind) if args.range else None
         ori = parse_triple_deg(args.orientation, "--orientation")
-        names = [q.strip() for q in args.quantities.split(",") if q.strip()]
+        names = parse_names(args.quantities, "--quantities")
         for n in names:
             get_quantity(n)
-        formats = [f.strip() for f in args.formats.split(",") if f.strip()]
-        bad = set(formats) - set(FORMATS)
-        if bad:
-            raise SectionArgumentError(f"--formats: expected a subset of {','.join(FORMATS)}, found {sorted(bad)}")
+        formats = parse_names(args.formats, "--formats", FORMATS)
         if not (args.step > 0 and math.isfinite(args.step)):
             raise SectionArgumentError(f"--step: expected a positive step in mm, found {args.step}")
         if not math.isfinite(args.at):
@@ -88,7 +94,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
             check_quantity(n, machine.n_chains)
     except UnknownQuantityError as exc:
         raise CliError(str(exc)) from None
-    stem = f"{machine.name.replace(':', '_')}_{plane_kind}"
+    stem = f"{safe_stem(machine.name)}_{plane_kind}"
     check_output_dir(args.out, "--out", getattr(args, "force", False), _output_names(stem, names, formats, getattr(args, "reasons_map", False)))
     step = args.step * 1e-3
     if ranges is None:
@@ -107,8 +113,9 @@ def _cmd_section(args: argparse.Namespace) -> int:
     all_names = list(dict.fromkeys(names + [r.quantity for r in requirements]))
     mem, secs = section_cost(n_points, len(all_names))
     window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())
+    plan = predicted_plan(n_points, secs, args.jobs, getattr(args, "scheduler", None), "points", granule=4096)
     announce_cost("section", f"{plane_kind.upper()} window {window}{' (fitted to the workspace)' if fitted else ''}",
-                  n_points, mem, secs, budget, quiet=args.quiet or args.json)
+                  n_points, mem, secs, budget, quiet=args.quiet or args.json, plan=plan)
     try:
         plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step)
     except SectionError as exc:
@@ -117,7 +124,7 @@ def _cmd_section(args: argparse.Namespace) -> int:
     res = evaluate_section(machine, plane, all_names, orientation=ori,
                            tool_length=None if args.tool_length is None else args.tool_length * 1e-3,
                            n_jobs=args.jobs, progress=False if args.quiet else None, frame=args.frame,
-                           checks=checks)
+                           checks=checks, scheduler=getattr(args, "scheduler", None))
     failed_requirements = _apply_requirements(res, requirements)
     for extra in set(all_names) - set(names):
         for d in (res.values, res.units, res.si_units, res.labels):
@@ -161,6 +168,8 @@ def _output_names(stem: str, names: list[str], formats: list[str], reasons_map: 
     """The files a section writes into --out (checked for overwriting before the work)."""
     out = [f"{stem}_{n}.png" for n in names] if "png" in formats else []
     out += [f"{stem}.{f}" for f in ("vtu", "csv", "npz") if f in formats] + [f"{stem}_statistics.json"]
+    if "vtu" in formats or "csv" in formats:
+        out.append(f"{stem}.json")  # the metadata of the VTU and CSV
     if reasons_map:
         out.append(f"{stem}_admissibility.png")
     return tuple(out)
@@ -231,6 +240,8 @@ def add_commands(sub) -> None:
     p.add_argument("--out", default=None, help="output directory for PNG/VTU/CSV/NPZ (none: print only)")
     p.add_argument("--formats", default="png,vtu,csv,npz", help="output formats (default png,vtu,csv,npz)")
     p.add_argument("--jobs", type=int, default=1, help="parallel processes (-1: all cores)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate on that cluster (--jobs ignored)")
     p.add_argument("--json", action="store_true", help="print per-quantity statistics as JSON (with units)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no cost line")
     p.add_argument("--require", action="append", metavar="REQ",

@@ -13,13 +13,15 @@ EXIT_SOME_TASKS_FAILED = 4
 def _cmd_sweep(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import check_jobs, check_output_file
     from pkmstiff.errors import CliError
-    from pkmstiff.evaluation.sweep import SweepError, run_sweep
+    from pkmstiff.evaluation.sweep import SweepError, run_sweep, sidecar_path
     from pkmstiff.report.sweep_file import load_sweep
 
     check_jobs(args.jobs)
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+    check_output_file(sidecar_path(out), "--out (its metadata)", getattr(args, "force", False), (".json",))
     sweep = load_sweep(args.sweep_file)
     _check_sweep_quantities(sweep, args.sweep_file)
+    _check_sweep_paths(sweep, args.sweep_file)
     n = len(sweep.points())
     where = f"Dask scheduler {args.scheduler}" if args.scheduler else (
         "serial" if args.jobs == 1 else f"{args.jobs if args.jobs > 0 else 'all'} local processes")
@@ -39,8 +41,9 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         more = f" (and {len(distinct) - 1} other error(s))" if len(distinct) > 1 else ""
         raise CliError(f"all {len(res.rows)} tasks failed: {first}{more}; nothing written")
     path = res.to_csv(Path(out))
+    plan = res.plan.text("tasks", "batches") if res.plan is not None else "serial"
     print(f"pkmstiff sweep: {len(res.rows) - len(failed)} of {len(res.rows)} tasks ok, "
-          f"{time.perf_counter() - t0:.1f} s; wrote {path}")
+          f"{time.perf_counter() - t0:.1f} s ({plan}); wrote {path} (metadata {sidecar_path(path)})")
     for err, tasks in distinct.items():  # one line per distinct error
         ids = ", ".join(map(str, tasks[:8])) + (", ..." if len(tasks) > 8 else "")
         print(f"  {len(tasks)} task(s) failed ({ids}): {err}")
@@ -64,6 +67,20 @@ def _check_sweep_quantities(sweep, source: str) -> None:
                 check_quantity(name, n_chains)
             except UnknownQuantityError as exc:
                 raise CliError(f"{source}: evaluations: {exc}") from None
+
+
+def _check_sweep_paths(sweep, source: str) -> None:
+    """Every override path (base overrides and parameters) against the base machine file, before any task runs: a
+    path that leads nowhere, or to a key resolved before overrides (``machine.extends``), is one error up front."""
+    from pkmstiff.errors import CliError, OverrideError
+    from pkmstiff.machine.variants import apply_overrides, raw_machine
+
+    raw, src, _ = raw_machine(sweep.machine)
+    paths = {**dict(sweep.base_overrides), **{p.path: None for p in sweep.parameters}}
+    try:
+        apply_overrides(raw, paths, src)
+    except OverrideError as exc:
+        raise CliError(f"{source}: parameters: {exc}") from None
 
 
 def add_commands(sub) -> None:

@@ -14,6 +14,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from pkmstiff.admissibility.checks import checks_without, left_out_text
+from pkmstiff.io.atomic import atomic_open, atomic_write_text
 from pkmstiff.machine.loader import load_machine
 
 PLANES = {  # name -> (u axis, v axis, normal axis)
@@ -43,9 +44,47 @@ def _range(text: str, option: str, unit: str) -> tuple[float, float]:
     return lo, hi
 
 
+def _axis_ranges(text: str, axes: str, unit: str, option: str = "--range",
+                 required: bool = True) -> dict[str, tuple[float, float]]:
+    from pkmstiff.errors import CliError
+    from pkmstiff.io.ranges import parse_axis_ranges
+
+    return parse_axis_ranges(text, axes, unit, option, required, CliError)
+
+
+def _map_ranges(args: argparse.Namespace, axes: str, unit: str,
+                default: dict[str, tuple[float, float]] | None = None) -> dict[str, tuple[float, float]]:
+    """The two in-plane ranges of a rotation map from ``--range AXIS=LO:HI,AXIS=LO:HI`` or, deprecated, from
+    ``--u-range``/``--v-range MIN,MAX`` (``axes``: the two axis letters; ``default`` when neither is given)."""
+    from pkmstiff.cli.edges import old_range_form
+
+    if args.range and (args.u_range or args.v_range):
+        raise _cli_error("--range: expected either --range or the old --u-range/--v-range, found both")
+    if args.u_range or args.v_range:
+        old = [(o, t) for o, t in (("--u-range", args.u_range), ("--v-range", args.v_range)) if t]
+        bounds = {a: (_range(t, o, unit) if t else (default or {}).get(a)) for a, (o, t) in
+                  zip(axes, (("--u-range", args.u_range), ("--v-range", args.v_range)))}
+        if any(b is None for b in bounds.values()):
+            raise _cli_error(f"--range: expected {axes[0]}=LO:HI,{axes[1]}=LO:HI ({unit}) for the plane, "
+                             f"found {' '.join(f'{o} {t}' for o, t in old)}")
+        old_range_form("rotation-map", " ".join(o for o, _ in old), " ".join(t for _, t in old),
+                       list(bounds), list(bounds.values()))
+        return bounds
+    if not args.range:
+        if default is None:
+            raise _cli_error(f"--range: expected {axes[0]}=LO:HI,{axes[1]}=LO:HI in {unit} for a section plane")
+        return default
+    return _axis_ranges(args.range, axes, unit)
+
+
+#: the largest length (mm) and angle (deg) a step, resolution or increment may have: beyond, a typo (1e300 overflowed
+#: the cost estimate)
+_LIMITS = {"mm": 1e4, "deg": 360.0}
+
+
 def _positive(value: float, option: str, unit: str) -> float:
-    if not (math.isfinite(value) and value > 0):
-        raise _cli_error(f"{option}: expected a positive number in {unit}, found {value!r}")
+    if not (math.isfinite(value) and 0 < value <= _LIMITS[unit]):
+        raise _cli_error(f"{option}: expected a positive number up to {_LIMITS[unit]:g} {unit}, found {value!r}")
     return value
 
 
@@ -95,13 +134,19 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 # ------------------------------------------------------------------------------------------------------- workspace
 
 
+#: files every workspace run with --out writes (the surface files only when a surface is made; the PNG unless --no-plot)
+WORKSPACE_FILES = ("workspace.json", "boundary_points.csv", "workspace_surface.stl", "workspace_surface.vtp")
+
+
 def _cmd_workspace(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce_cost, check_output_dir, parse_budget
+    from pkmstiff.cli.edges import (announce_cost, check_jobs, check_output_dir, old_range_form, parse_budget,
+                                    predicted_plan)
     from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.octree import OctreeInputError
     from pkmstiff.workspace.oracle import OracleInputError
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
+    from pkmstiff.workspace.volume import HEADLINE_METHOD, METHOD_NOTES
 
     machine = load_machine(args.machine)
     eps = _positive(args.resolution, "--resolution", "mm") * 1e-3
@@ -111,21 +156,32 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         raise _cli_error(f"--min-level: expected an octree start level 1..8, found {args.min_level}")
     budget = parse_budget(getattr(args, "memory_budget", None))
     _requirements(args)
-    check_output_dir(args.out, "--out", getattr(args, "force", False), ("workspace.json", "boundary_points.csv"))
+    jobs, scheduler = check_jobs(getattr(args, "jobs", 1)), getattr(args, "scheduler", None)
+    check_output_dir(args.out, "--out", getattr(args, "force", False),
+                     WORKSPACE_FILES + (() if args.no_plot else ("workspace.png",)))
     machine = load_machine(args.machine)
     ori = np.radians(_floats(args.orientation, 3, "--orientation", "three angles a,b,c in deg"))
     box = None
     if args.box:
         b = _floats(args.box, 6, "--box", "xmin,xmax,ymin,ymax,zmin,zmax in mm")
+        flat = [f"{c}min < {c}max" for c, lo, hi in zip("xyz", b[0::2], b[1::2]) if not lo < hi]
+        if flat:
+            raise _cli_error(f"--box: expected xmin,xmax,ymin,ymax,zmin,zmax in mm with {', '.join(flat)}, "
+                             f"found {args.box!r}")
         box = (np.array(b[0::2]) * 1e-3, np.array(b[1::2]) * 1e-3)
     rng = None
     if args.range:
-        parts = args.range.split(",")
-        if len(parts) != 3 or parts[0] not in ("a", "b", "c"):
-            raise _cli_error(f"--range: expected ANGLE,MIN,MAX with ANGLE one of a, b, c and MIN, MAX in deg, "
+        text = args.range
+        parts = text.split(",")
+        if len(parts) == 3 and "=" not in text and parts[0].strip() in ("a", "b", "c"):  # old form ANGLE,MIN,MAX
+            lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE=MIN:MAX (deg)")
+            text = old_range_form("workspace", "--range", text, [parts[0].strip()], [(lo, hi)])
+        r = _axis_ranges(text, "abc", "deg", "--range", required=False)
+        if len(r) != 1:
+            raise _cli_error(f"--range: expected one orientation angle ANGLE=MIN:MAX (deg), e.g. c=-30:30, "
                              f"found {args.range!r}")
-        lo, hi = _floats(",".join(parts[1:]), 2, "--range", "ANGLE,MIN,MAX (deg)")
-        rng = (parts[0], math.radians(lo), math.radians(hi))
+        (axis, (lo, hi)), = r.items()
+        rng = (axis, math.radians(lo), math.radians(hi))
     from pkmstiff.workspace.translational import reach_box
 
     lo_box, hi_box = (box if box is not None else reach_box(machine))
@@ -136,8 +192,11 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     lattice = float(np.prod(ext / eps + 1))
     n_est = int(min(surface_pts, lattice))
     n_ori = 1 if rng is None else max(1, int((rng[2] - rng[1]) / math.radians(max(args.range_step, 1e-9))) + 1)
+    # the finest level holds about half the evaluations: it sets the plan (20,000 poses per oracle chunk)
+    plan = predicted_plan(n_est * n_ori // 2, n_est * n_ori * 15e-6, jobs, scheduler, "points", granule=20_000)
     announce_cost("workspace", f"octree at resolution {args.resolution:g} mm", n_est * n_ori,
-                  n_est * n_ori * 3000.0 + (64 << 20), n_est * n_ori * 30e-6, budget, quiet=args.quiet or args.json)
+                  n_est * n_ori * 3000.0 + (64 << 20), n_est * n_ori * 30e-6, budget, quiet=args.quiet or args.json,
+                  plan=plan if plan == "serial" else f"finest level: {plan}")
     progress = _Progress(not args.quiet, "octree")
     try:
         req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
@@ -145,7 +204,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         res = req.evaluate(machine, orientation_range=rng,
                            range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
                            range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level,
-                           progress=progress)
+                           progress=progress, n_jobs=jobs, scheduler=scheduler)
     except (OctreeInputError, OracleInputError, ValueError) as exc:
         if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
             raise _cli_error(str(exc)) from None
@@ -153,7 +212,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     summary = res.summary()
-    files = _write_workspace(res, machine, Path(args.out), plot=not args.no_plot) if args.out else {}
+    files = _write_workspace(res, machine, Path(args.out), summary, plot=not args.no_plot) if args.out else {}
     summary["files"] = files
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -171,8 +230,12 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
           + (f", {left_out_text(args.skip_check)}" if args.skip_check else "")
           + f"; resolution {args.resolution:g} mm (effective "
           f"{', '.join(f'{h:.4g}' for h in summary['effective_resolution_mm'])} mm)")
-    print(f"volume: {res.volume:.5f} m^3 (surface nets); "
-          + ", ".join(f"{k} {v:.5f}" for k, v in res.volumes.items() if k != "surface_nets") + " m^3")
+    print(f"volume: {res.volume:.5f} m^3 (surface nets; the figure to quote)")
+    others = [(k, v) for k, v in res.volumes.items() if k != HEADLINE_METHOD]
+    if others:
+        print("  cross-checks, not the volume to quote (docs/user-guide/workspace.md, volume methods):")
+        for k, v in others:
+            print(f"    {k:<12} {v:.5f} m^3: {METHOD_NOTES.get(k, '')}")
     print("bounding box [mm]: " + ", ".join(f"{c} {a:.1f}..{b:.1f}" for c, a, b in zip("xyz", lo, hi)))
     print(f"boundary points: {summary['boundary_points']:,}; evaluations: {summary['evaluations']:,}; "
           f"run time {summary['run_time_s']:.2f} s ({summary['evaluation_time_s']:.2f} s evaluating poses)")
@@ -183,15 +246,20 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
+def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict[str, str]:
+    """boundary_points.csv, the surface (STL, VTP), the PNG and workspace.json (``summary`` with the file list)."""
     out.mkdir(parents=True, exist_ok=True)
     files: dict[str, str] = {}
     pts = (res.boundary_points - np.asarray(res.frame.get("frame_origin_mm", [0, 0, 0]), float) * 1e-3) * 1e3
-    p = out / "boundary_points.csv"  # positions in the result's frame (stated in workspace.json)
-    with p.open("w", newline="") as fh:
+    # positions in the result's frame (stated in workspace.json), each once: neighbouring leaf voxels can share the
+    # centroid of their admissible corners (eq. 4.1), which would repeat a row
+    pts = np.round(pts, 4)
+    pts = pts[np.sort(np.unique(pts, axis=0, return_index=True)[1])] if pts.size else pts
+    p = out / "boundary_points.csv"
+    with atomic_open(p, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(["x_mm", "y_mm", "z_mm"])
-        w.writerows(np.round(pts, 4).tolist())
+        w.writerows(pts.tolist())
     files[f"boundary points (eq. 4.1, mm, {res.frame.get('frame', 'machine')} frame)"] = str(p)
     if res.surface is not None and res.surface.triangles.shape[0]:
         files["surface STL (mm)"] = str(res.surface.save(out / "workspace_surface.stl", scale=1e3))
@@ -200,9 +268,9 @@ def _write_workspace(res, machine, out: Path, plot: bool) -> dict[str, str]:
         from pkmstiff.plots.workspace import plot_workspace
 
         files["figure"] = str(plot_workspace(res, machine, out / "workspace.png"))
-    s = res.summary()
-    s["files"] = files
-    (out / "workspace.json").write_text(json.dumps(s, indent=2))
+    summary["boundary_points_distinct"] = int(pts.shape[0])  # the rows of boundary_points.csv
+    summary["files"] = files
+    atomic_write_text(out / "workspace.json", json.dumps(summary, indent=2))
     files["summary JSON"] = str(out / "workspace.json")
     return files
 
@@ -219,7 +287,10 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
-    check_output_dir(args.out, "--out", getattr(args, "force", False), ("rotation_map.json",))
+    check_output_dir(args.out, "--out", getattr(args, "force", False),
+                     ("rotation_map.json",) + (() if args.no_plot else ("rotation_map.png",))
+                     + tuple(f"{_map_name(d.strip())}.{ext}" for d in args.directions.split(",") if d.strip()
+                             for ext in ("csv", "json")))
     _requirements(args)
     machine = load_machine(args.machine)
     amax = math.radians(_positive(args.max_angle, "--max-angle", "deg"))
@@ -238,15 +309,14 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                 raise _cli_error("--point (rotational workspace): expected exactly one single-axis direction, "
                                  f"e.g. --directions +a, found {args.directions!r}")
             step = math.radians(_positive(args.step, "--step", "deg"))
-            u_lo, u_hi = _range(args.u_range or "-30,30", "--u-range", "deg")
-            v_lo, v_hi = _range(args.v_range or "-60,60", "--v-range", "deg")
-            u = np.radians(raster(u_lo, u_hi, math.degrees(step)))
-            v = np.radians(raster(v_lo, v_hi, math.degrees(step)))
+            others = [c for c in "abc" if c != dirs[0][1]]
+            rng = _map_ranges(args, "".join(others), "deg", {others[0]: (-30.0, 30.0), others[1]: (-60.0, 60.0)})
+            u = np.radians(raster(*rng[others[0]], math.degrees(step)))
+            v = np.radians(raster(*rng[others[1]], math.degrees(step)))
             res = rotational_workspace_map(machine, to_machine_frame(machine, point, args.frame), dirs[0], u, v, ori,
                                            inc, amax,
                                            requirements=_requirements(args), method=method, verify=args.verify,
                                            checks=checks_without(args.skip_check, "--skip-check"))
-            others = [c for c in "abc" if c != dirs[0][1]]
             labels, scale = (f"{others[0]} [deg]", f"{others[1]} [deg]"), (180 / math.pi, 180 / math.pi)
             title = (f"{machine.name}: max. rotation {dirs[0]} at x,y,z = {args.point} mm "
                      f"({frame_text(machine, args.frame).split(' (')[0]})")
@@ -256,11 +326,10 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             ua, va, normal = PLANES[args.plane]
             origin = np.zeros(3)
             origin[normal] = args.at * 1e-3
-            if not (args.u_range and args.v_range):
-                raise _cli_error("--u-range and --v-range (mm) are required for a section plane")
+            rng = _map_ranges(args, args.plane, "mm")
             step = _positive(args.step, "--step", "mm")
-            u = raster(*_range(args.u_range, "--u-range", "mm"), step) * 1e-3
-            v = raster(*_range(args.v_range, "--v-range", "mm"), step) * 1e-3
+            u = raster(*rng[args.plane[0]], step) * 1e-3
+            v = raster(*rng[args.plane[1]], step) * 1e-3
             req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
                                      inc, amax, tuple(_requirements(args)), method, frame=args.frame,
                                      skip_checks=tuple(args.skip_check))
@@ -274,15 +343,21 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
         raise _cli_error(str(exc)) from None
     run = time.perf_counter() - t0
     summary = res.summary()
-    summary.update({"machine": machine.name, "run_time_s": run, **frame_metadata(machine, args.frame),
+    frame = frame_metadata(machine, args.frame)
+    summary.update({"machine": machine.name, "run_time_s": run, **frame,
                     "neglect_spindle": bool(args.neglect_spindle)})
     files: dict[str, str] = {}
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         for d, a in res.angles.items():
-            p = out / f"rotation_map_{d.replace('+', 'p').replace('-', 'm')}.csv"
-            _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels)
+            p = out / f"{_map_name(d)}.csv"
+            _write_map(p, res.u_values * scale[0], res.v_values * scale[1], np.degrees(a), labels,
+                       {"machine": machine.name, "direction": d, "title": title,
+                        "max_angle_deg": f"largest admissible rotation {d} from the base orientation on the "
+                                         f"{args.increment:g} deg lattice; empty: base orientation inadmissible",
+                        "increment_deg": args.increment, "max_search_deg": args.max_angle,
+                        "checks_left_out": list(args.skip_check), **frame})
             files[f"map {d} (deg)"] = str(p)
         if not args.no_plot:
             from pkmstiff.plots.workspace import PlotDependencyError, plot_rotation_maps
@@ -292,7 +367,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             except PlotDependencyError as exc:
                 raise _cli_error(str(exc)) from None
         summary["files"] = files
-        (out / "rotation_map.json").write_text(json.dumps(summary, indent=2))
+        atomic_write_text(out / "rotation_map.json", json.dumps(summary, indent=2))
         files["summary JSON"] = str(out / "rotation_map.json")
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -311,12 +386,21 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str]) -> None:
-    with path.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow([f"{labels[1]} \\ {labels[0]}"] + [f"{x:.4f}" for x in u])
-        for vi, row in zip(v, deg):
-            w.writerow([f"{vi:.4f}"] + ["" if not np.isfinite(x) else f"{x:.4f}" for x in row])
+def _map_name(direction: str) -> str:
+    """The file stem of one direction's map: ``rotation_map_pa`` (``.csv`` and its ``.json``) for +a."""
+    return f"rotation_map_{direction.replace('+', 'p').replace('-', 'm')}"
+
+
+def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels: tuple[str, str],
+               meta: dict[str, Any]) -> None:
+    """One direction's map as a plain CSV, one row per raster point (``v`` outer, ``u`` inner): the two raster
+    coordinates named by the column rule (``y_mm``, ``z_mm``; ``b_deg``, ``c_deg`` at a point) and
+    ``max_angle_deg`` (empty = inadmissible base orientation); ``meta`` goes to ``<name>.json`` beside it."""
+    from pkmstiff.io.columns import label_column, write_table
+
+    U, V = np.meshgrid(u, v)
+    rows = zip(U.ravel().tolist(), V.ravel().tolist(), np.asarray(deg, dtype=float).ravel().tolist())
+    write_table(path, [label_column(labels[0]), label_column(labels[1]), "max_angle_deg"], rows, meta, ".6g")
 
 
 def add_commands(sub: Any) -> None:
@@ -331,13 +415,18 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--require", action="append", metavar="REQ",
                    help="extra requirement, e.g. 'U>=0.2', 'kappa<=100', 'kx>=20 N/um' (repeatable)")
     p.add_argument("--box", help="initial box xmin,xmax,ymin,ymax,zmin,zmax in mm (default: the chains' reach box)")
-    p.add_argument("--range", help="variable orientation range ANGLE,MIN,MAX in deg, e.g. c,-30,30")
+    p.add_argument("--range", metavar="ANGLE=LO:HI",
+                   help="variable orientation range in deg, e.g. c=-30:30 (the old form c,-30,30 is deprecated)")
     p.add_argument("--range-step", type=float, default=2.0, help="sampling step of --range in deg (default 2)")
     p.add_argument("--range-mode", choices=("all", "any"), default="all",
                    help="'all' samples admissible (Merlet) or 'any' (choose the angle) (default all)")
     p.add_argument("--refine", type=int, default=0,
                    help="bisection steps along boundary edges for the volume (default 0)")
     p.add_argument("--min-level", type=int, default=3, help="octree start level (default 3 = 8 voxels per axis)")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="parallel processes for the octree levels' evaluations (-1: all cores; default 1)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate the levels on that cluster")
     p.add_argument("--out", help="output directory (boundary points CSV, STL/VTK surface, PNG, JSON)")
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
@@ -360,8 +449,11 @@ def add_commands(sub: Any) -> None:
     p.add_argument("machine", help="bundled machine name or path to a machine file")
     p.add_argument("--plane", default="yz", help="section plane yz, xz or xy (default yz)")
     p.add_argument("--at", type=float, default=0.0, help="plane position along its normal in mm (default 0)")
-    p.add_argument("--u-range", help="first in-plane coordinate MIN,MAX (mm; with --point: deg)")
-    p.add_argument("--v-range", help="second in-plane coordinate MIN,MAX (mm; with --point: deg)")
+    p.add_argument("--range", metavar="AXIS=LO:HI,AXIS=LO:HI",
+                   help="the two in-plane ranges, e.g. y=-200:1100,z=-1100:-800 (mm; with --point: the two other "
+                        "angles in deg, default e.g. b=-30:30,c=-60:60 for +a)")
+    p.add_argument("--u-range", help=argparse.SUPPRESS)  # deprecated: MIN,MAX of the first in-plane axis
+    p.add_argument("--v-range", help=argparse.SUPPRESS)  # deprecated: MIN,MAX of the second in-plane axis
     p.add_argument("--step", type=float, default=25.0, help="raster step (mm; with --point: deg) (default 25)")
     p.add_argument("--point", help="x,y,z in mm: rotational workspace at this point instead of a plane")
     p.add_argument("--directions", default="+a,-a,+b,-b,+a+b,-a-b", help="comma-separated directions")

@@ -19,7 +19,7 @@ results state them).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -64,13 +64,14 @@ class SectionRequest:
     neglect_spindle: bool = False  # leave K_U out
     skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
-    def evaluate(self, machine: Machine, *, n_jobs: int = 1, progress: bool | None = False) -> SectionResult:
+    def evaluate(self, machine: Machine, *, n_jobs: int = 1, progress: bool | None = False,
+                 scheduler: Any = None) -> SectionResult:
         check_frame(self.frame)
         checks = checks_without(self.skip_checks, "SectionRequest")
         plane = axis_plane(self.plane, self.at, self.u_range, self.v_range, self.step)
         return evaluate_section(neglect_spindle(machine, self.neglect_spindle), plane, self.quantities,
                                 orientation=self.orientation, tool_length=self.tool_length, n_jobs=n_jobs,
-                                progress=progress, frame=self.frame, checks=checks)
+                                progress=progress, frame=self.frame, checks=checks, scheduler=scheduler)
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,8 @@ elsewhere, where the reason code says why.
 
 from __future__ import annotations
 
-import os
+import dataclasses
+import time
 from dataclasses import dataclass, field
 from typing import Any, Iterable, Sequence
 
@@ -18,15 +19,11 @@ import numpy as np
 from pkmstiff.admissibility.checks import ALL_CHECKS, Reason, checks_left_out
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation import parallel
+from pkmstiff.evaluation.progress import callback as progress_callback
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
 from pkmstiff.machine.model import Machine
-
-#: below this many raster points ``n_jobs`` > 1 runs serially. Measured by benchmarks/bench_parallel_section.py on
-#: the 2-core machine (quantity kx): serial 44-65 µs per point; starting two workers (interpreter, imports, compiled
-#: kernels, pickled machine) ~9.5 s, warm workers break even at 40k-160k points. Halving 55 µs/point pays back the
-#: start-up from ~350k points; 250k is the measured break-even rounded down (an idle machine starts workers faster).
-PARALLEL_MIN_POINTS = 250_000
 
 AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
 
@@ -145,6 +142,8 @@ class SectionResult:
     reasons: np.ndarray  # (nv, nu) uint32
     settings: dict[str, Any] = field(default_factory=dict)
     frame: dict[str, Any] = field(default_factory=lambda: {"frame": "machine", "frame_origin_mm": [0.0, 0.0, 0.0]})
+    #: how the points were split over workers (:mod:`pkmstiff.evaluation.parallel`); not part of the written results
+    plan: parallel.Plan | None = None
 
     def display(self, name: str) -> np.ndarray:
         """Values of ``name`` in its display unit."""
@@ -192,16 +191,33 @@ class SectionResult:
 
 
 def _evaluate_chunk(machine: Machine, poses: np.ndarray, names: Sequence[str], tool_length: float | None,
-                    options: dict[str, Any], checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+                    options: dict[str, Any], checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(ok, reasons, values (len(names), n) SI) of one chunk of poses."""
     ev = evaluate_poses(machine, poses, checks=checks)
     ok = ev.ok.copy()
-    vals = {n: np.full(len(poses), np.nan) for n in names}
+    vals = np.full((len(names), len(poses)), np.nan)
     if ok.any() and names:
         sub = ev if ok.all() else ev.subset(ok)
         ctx = EvalContext(machine, sub, tool_length, options)
-        for n in names:
-            vals[n][ok] = np.asarray(get_quantity(n).compute(ctx), float)
+        for i, n in enumerate(names):
+            vals[i, ok] = np.asarray(get_quantity(n).compute(ctx), float)
     return ok, ev.admissibility.reasons, vals
+
+
+def _evaluate_task(machine: parallel.Shared[Machine], poses: np.ndarray, chunk_size: int, names: Sequence[str],
+                   tool_length: float | None, options: dict[str, Any],
+                   checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One parallel task: consecutive chunks of ``chunk_size`` poses (the chunks the serial run evaluates, so the
+    values are the same bytes), returned as three compact arrays."""
+    m = machine.get()
+    parts = [_evaluate_chunk(m, poses[s:s + chunk_size], names, tool_length, options, checks)
+             for s in range(0, len(poses), chunk_size)]
+    return _concat(parts)
+
+
+def _concat(parts: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
+            np.concatenate([p[2] for p in parts], axis=1))
 
 
 def section_poses(plane: Plane, orientation: Iterable[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
@@ -222,83 +238,54 @@ def evaluate_section(
     options: dict[str, Any] | None = None,
     checks: Sequence[str] = ALL_CHECKS,
     frame: str = "machine",
+    scheduler: Any = None,
 ) -> SectionResult:
     """Evaluate ``quantities`` (names, see :mod:`pkmstiff.evaluation.quantities`) on a plane, masked by admissibility.
 
     ``orientation`` = (a, b, c) in rad, fixed over the plane; ``tool_length`` in m (None: the machine's).
-    ``n_jobs`` > 1 evaluates chunks in parallel processes (joblib) for sections of at least
-    :data:`PARALLEL_MIN_POINTS` points (smaller ones run serially: there the workers' start-up dominates); the result
-    is identical to the serial one because chunks are independent. ``progress``: None = a progress bar only on a terminal when the section is large.
+    ``n_jobs`` > 1 (-1: all cores) evaluates the chunks in the run's worker pool, ``scheduler`` (a Dask address or
+    client) on a cluster (:mod:`pkmstiff.evaluation.parallel`): the first chunk runs here and its measured time sizes
+    the tasks (too little work stays serial). Every chunk is evaluated alone whatever the plan, so the result is the
+    same bytes for any ``n_jobs``/``scheduler``; ``result.plan`` keeps the plan (not written to files).
+    ``progress``: None = a progress bar only on a terminal when the section is large.
     ``checks``: the admissibility checks to apply (default all, see :data:`pkmstiff.admissibility.checks.ALL_CHECKS`).
     ``frame``: the plane's points are positions of O' in this frame (``"machine"`` or ``"report"``,
     :mod:`pkmstiff.machine.frames`); the result keeps them so and states the frame.
     """
     names = list(dict.fromkeys(quantities))
     qs = {n: get_quantity(n) for n in names}  # raises early for unknown names
+    parallel.resolve_workers(n_jobs)
     poses = section_poses(plane, orientation)
     poses[:, :3] += frame_origin(machine, frame)
     opts = dict(options or {})
     # the one place where the option maps onto the machine (every quantity then honours it); kept in the settings
     neglect = bool(opts.pop("neglect_spindle", False)) or machine.spindle_neglected
     machine = neglect_spindle(machine, neglect)
-    settings = {"chunk_size": chunk_size, "n_jobs": n_jobs, "checks": list(checks),
-                "checks_left_out": checks_left_out(checks), **opts}
+    settings = {"chunk_size": chunk_size, "checks": list(checks), "checks_left_out": checks_left_out(checks), **opts}
     if neglect:
         settings["neglect_spindle"] = True
-    starts = list(range(0, len(poses), chunk_size))
-    if progress is None:  # a bar on a terminal, periodic lines otherwise (see _progress)
+    if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
         progress = len(poses) * (1 + len(names)) > 20_000
-    jobs = [poses[s:s + chunk_size] for s in starts]
-    if n_jobs != 1 and len(jobs) > 1 and len(poses) >= PARALLEL_MIN_POINTS:
-        from joblib import Parallel, delayed
-
-        n = os.cpu_count() or 1 if n_jobs < 0 else n_jobs
-        parts = Parallel(n_jobs=n)(delayed(_evaluate_chunk)(machine, p, names, tool_length, opts, checks) for p in
-                                   _progress(jobs, progress))
-    else:
-        parts = [_evaluate_chunk(machine, p, names, tool_length, opts, checks) for p in _progress(jobs, progress)]
+    t0 = time.perf_counter()
+    first = _evaluate_chunk(machine, poses[:chunk_size], names, tool_length, opts, checks)
+    n_first = min(chunk_size, len(poses))
+    rest = poses[n_first:]
+    with parallel.connected(scheduler):
+        plan = parallel.plan(len(rest), (time.perf_counter() - t0) / n_first, n_jobs, scheduler, granule=chunk_size)
+        bounds = parallel.split(len(rest), plan if plan.parallel else dataclasses.replace(plan, task_items=chunk_size))
+        shared = parallel.Shared(machine)
+        payloads = [(shared, rest[a:b], chunk_size, names, tool_length, opts, checks) for a, b in bounds]
+        step = progress_callback(len(payloads), progress, "section", "task" if plan.parallel else "chunk")
+        parts = [first, *parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step)]
+    ok, reasons, vals = _concat(parts)
     shape = plane.shape
-    ok = np.concatenate([p[0] for p in parts]).reshape(shape)
-    reasons = np.concatenate([p[1] for p in parts]).reshape(shape)
-    values = {n: np.concatenate([p[2][n] for p in parts]).reshape(shape) for n in names}
     return SectionResult(
         machine=machine.name, plane=plane, orientation=np.asarray(orientation, float), tool_length=tool_length,
-        values=values, units={n: q.unit for n, q in qs.items()}, si_units={n: q.si_unit for n, q in qs.items()},
-        labels={n: q.label for n, q in qs.items()}, ok=ok, reasons=reasons,
-        settings=settings,
-        frame=frame_metadata(machine, frame),
+        values={n: vals[i].reshape(shape) for i, n in enumerate(names)}, units={n: q.unit for n, q in qs.items()},
+        si_units={n: q.si_unit for n, q in qs.items()}, labels={n: q.label for n, q in qs.items()},
+        ok=ok.reshape(shape), reasons=reasons.reshape(shape), settings=settings,
+        frame=frame_metadata(machine, frame), plan=dataclasses.replace(plan, items=len(poses)),
     )
-
-
-#: seconds between two progress lines when stderr is not a terminal
-PROGRESS_INTERVAL_S = 10.0
-
-
-def _progress(items: list, enabled: bool):
-    """A tqdm bar on a terminal; one line every :data:`PROGRESS_INTERVAL_S` s when stderr is redirected."""
-    import sys
-
-    if not enabled:
-        return items
-    if sys.stderr.isatty():
-        from tqdm import tqdm
-
-        return tqdm(items, desc="section", unit="chunk", leave=False)
-    return _progress_lines(items)
-
-
-def _progress_lines(items: list):
-    import sys
-    import time
-
-    t0 = last = time.perf_counter()
-    for k, item in enumerate(items):
-        now = time.perf_counter()
-        if now - last >= PROGRESS_INTERVAL_S:
-            last = now
-            print(f"section: {100 * k / len(items):.0f} % ({k}/{len(items)} chunks), {now - t0:.0f} s",
-                  file=sys.stderr, flush=True)
-        yield item
 
 
 def three_planes(centre: Iterable[float], half_extent: Iterable[float], step: float) -> list[Plane]:

@@ -7,8 +7,9 @@ product) or a distribution (random: ``n_samples`` draws from a seeded generator)
 of the modified machine returning named numbers (ready-made ones in :mod:`pkmstiff.report.sweep_evaluations`).
 
 Every task is the pure function :func:`run_task` of a picklable :class:`SweepTask`; a failing task records its
-error message in its row and never stops the sweep. Serial, local-parallel (joblib/loky processes) and Dask
-(``dask.distributed.Client(address)``) execution give identical rows in task order.
+error message in its row and never stops the sweep. Serial, local-parallel (the run's worker pool) and Dask
+(``dask.distributed.Client(address)``) execution give identical rows in task order; tasks travel in batches sized by
+the measured time of the first task (:mod:`pkmstiff.evaluation.parallel`).
 
     from pkmstiff.evaluation.sweep import Parameter, Sweep, run_sweep
     from pkmstiff.report.sweep_evaluations import SectionStatistics
@@ -22,15 +23,20 @@ from __future__ import annotations
 
 import csv
 import itertools
+import json
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from pkmstiff.errors import SweepError  # noqa: F401 (re-exported)
+from pkmstiff.errors import ParallelError, SweepError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation.parallel import Plan, connected, plan, run_tasks, split
+from pkmstiff.evaluation.progress import callback as progress_callback
+from pkmstiff.io.atomic import atomic_open, atomic_write_text
+from pkmstiff.io.columns import label_column, sidecar_path, text_cell
 from pkmstiff.machine.model import Machine
 
 __all__ = ["SweepError", "Uniform", "LogUniform", "Normal", "Choice", "Parameter", "Sweep", "SweepTask",
@@ -286,6 +292,8 @@ class SweepResult:
     parameter_columns: list[str]
     metadata: dict[str, Any] = field(default_factory=dict)
     wall_time_s: float = float("nan")
+    #: how the tasks were split over workers (not written to the CSV: rows are the same whatever the plan)
+    plan: Plan | None = None
 
     @property
     def output_columns(self) -> list[str]:
@@ -315,59 +323,39 @@ class SweepResult:
         return np.array(vals, dtype=object)
 
     def to_csv(self, path: str | Path) -> Path:
-        """CSV with ``# key: value`` metadata lines, one header row and one row per task (empty = no value)."""
+        """A plain CSV (``pandas.read_csv(path)`` reads it with no options): one header row, named by the file rule
+        (:func:`pkmstiff.io.columns.label_column`: ``kx_N_per_um``), and one row per task (empty = no value); the
+        metadata and the map from file columns to result labels go to ``<name>.json`` beside it."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         cols = self.columns
-        with path.open("w", newline="", encoding="utf-8") as fh:
-            for k, v in self.metadata.items():
-                fh.write(f"# {k}: {v}\n")
+        meta = {k: v for k, v in self.metadata.items()}
+        meta["columns"] = {label_column(c): c for c in cols}
+        atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, default=str))
+        with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
             w = csv.writer(fh)
-            w.writerow(cols)
+            w.writerow([label_column(c) for c in cols])
             for r in self.rows:
-                w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else r[c])
+                w.writerow(["" if r.get(c) is None else (repr(r[c]) if isinstance(r[c], float) else text_cell(r[c]))
                             for c in cols])
         return path
 
 
-def _run_serial(tasks: Sequence[SweepTask], progress: bool) -> list[dict[str, Any]]:
-    items: Iterable[SweepTask] = tasks
-    if progress:
-        from tqdm import tqdm
-
-        items = tqdm(tasks, desc="sweep", unit="task")
-    return [run_task(t) for t in items]
+def _run_batch(tasks: Sequence[SweepTask]) -> list[dict[str, Any]]:
+    return [run_task(t) for t in tasks]
 
 
-def _run_local(tasks: Sequence[SweepTask], n_jobs: int, progress: bool) -> list[dict[str, Any]]:
-    from joblib import Parallel, delayed
-
-    gen = Parallel(n_jobs=n_jobs, backend="loky", return_as="generator")(delayed(run_task)(t) for t in tasks)
-    if progress:
-        from tqdm import tqdm
-
-        gen = tqdm(gen, total=len(tasks), desc="sweep", unit="task")
-    return list(gen)
-
-
-def _run_dask(tasks: Sequence[SweepTask], scheduler: Any, progress: bool) -> list[dict[str, Any]]:
-    try:
-        from dask.distributed import Client, as_completed
-    except ImportError:
-        raise SweepError("scheduler: Dask execution needs dask.distributed (pip install 'pkmstiff[dask]')") from None
-    own = not isinstance(scheduler, Client)
-    client = Client(scheduler) if own else scheduler
-    try:
-        futures = client.map(run_task, list(tasks), pure=False)
-        if progress:
-            from tqdm import tqdm
-
-            for _ in tqdm(as_completed(futures), total=len(futures), desc="sweep (dask)", unit="task"):
-                pass
-        return client.gather(futures)
-    finally:
-        if own:
-            client.close()
+def _run(tasks: Sequence[SweepTask], n_jobs: int, scheduler: Any, progress: bool) -> tuple[list[dict[str, Any]], Plan]:
+    """Rows in task order: the first task runs here and its measured time sizes batches of the others
+    (:func:`pkmstiff.evaluation.parallel.plan`; too little work stays serial)."""
+    t0 = time.perf_counter()
+    rows = [run_task(tasks[0])] if tasks else []
+    rest = list(tasks[1:])
+    p = plan(len(rest), time.perf_counter() - t0, n_jobs, scheduler)
+    batches = split(len(rest), p if p.parallel else replace(p, task_items=1))
+    step = progress_callback(len(batches), progress, "sweep" if scheduler is None else "sweep (dask)", "batch")
+    done = run_tasks(_run_batch, [(rest[a:b],) for a, b in batches], p, scheduler, step)
+    return rows + [r for batch in done for r in batch], replace(p, items=len(tasks))
 
 
 def run_sweep(sweep: Sweep | Sequence[SweepTask], *, n_jobs: int = 1, scheduler: Any = None,
@@ -376,18 +364,18 @@ def run_sweep(sweep: Sweep | Sequence[SweepTask], *, n_jobs: int = 1, scheduler:
 
     ``scheduler``: a Dask scheduler address (``"tcp://host:8786"``) or a ``dask.distributed.Client`` — the tasks
     are submitted to that cluster (``n_jobs`` is ignored). Otherwise ``n_jobs`` = 1 runs serially, > 1 (or -1 =
-    all cores) in local processes (joblib/loky). All three give identical rows.
+    all cores) in the run's local worker pool. The first task runs here; its time sizes batches of the others
+    (:mod:`pkmstiff.evaluation.parallel`). All give identical rows; ``result.plan`` says how the work was split.
     """
     tasks = sweep.tasks() if isinstance(sweep, Sweep) else list(sweep)
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs == 0:
         raise SweepError(f"n_jobs: expected a non-zero integer (-1: all cores), found {n_jobs!r}")
     t0 = time.perf_counter()
-    if scheduler is not None:
-        rows = _run_dask(tasks, scheduler, progress)
-    elif n_jobs == 1 or len(tasks) <= 1:
-        rows = _run_serial(tasks, progress)
-    else:
-        rows = _run_local(tasks, n_jobs, progress)
+    try:
+        with connected(scheduler):
+            rows, p = _run(tasks, n_jobs, scheduler, progress)
+    except ParallelError as exc:
+        raise SweepError(str(exc)) from None
     rows = sorted(rows, key=lambda r: r["task"])
     meta: dict[str, Any] = {}
     pcols: list[str] = []
@@ -402,4 +390,4 @@ def run_sweep(sweep: Sweep | Sequence[SweepTask], *, n_jobs: int = 1, scheduler:
     elif tasks:
         pcols = list(dict.fromkeys(c for t in tasks for c in t.columns.values()))
     meta["failed"] = sum(1 for r in rows if r.get("error"))
-    return SweepResult(rows, pcols, meta, time.perf_counter() - t0)
+    return SweepResult(rows, pcols, meta, time.perf_counter() - t0, p)

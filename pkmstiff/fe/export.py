@@ -20,6 +20,7 @@ import numpy as np
 from components.joint_tables import write_joint_table
 from pkmstiff.fe.assembly import PartModel, Solution
 from pkmstiff.fe.joints import SweepResult, element_label, tie_tolerance
+from pkmstiff.io.atomic import atomic_path
 
 # VTK hexahedron vertex order expressed in skfem's MeshHex order (V000, V010, V100, V001, V110, V011, V101, V111)
 _SKFEM_TO_VTK_HEX = np.array([0, 2, 4, 1, 3, 6, 7, 5])
@@ -67,7 +68,9 @@ def write_sweep_table(result: SweepResult, path: str | Path, name: str | None = 
     """Write a sweep as a joint table CSV (tilt_deg, k_N_per_um) with provenance; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    return write_joint_table(path, result.tilt_deg, result.k, table_metadata(result, name), k_unit="N/m")
+    with atomic_path(path) as tmp:
+        write_joint_table(tmp, result.tilt_deg, result.k, table_metadata(result, name), k_unit="N/m")
+    return path
 
 
 @dataclass(frozen=True)
@@ -113,5 +116,6 @@ def write_vtu(fm: FieldMesh, path: str | Path, extra_point_data: dict[str, np.nd
     mesh = meshio.Mesh(fm.points, [("hexahedron", fm.cells)], point_data=point_data,
                        cell_data={"part_id": [fm.part_id]})
     mesh.field_data = {name: np.array([i, 3]) for i, name in enumerate(fm.part_names)}
-    meshio.write(path, mesh)
+    with atomic_path(path) as tmp:
+        meshio.write(tmp, mesh)
     return path

@@ -10,26 +10,39 @@ import numpy as np
 from pkmstiff.errors import SectionArgumentError
 
 
-def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
-    """``"y=-600:800,z=-1200:-500"`` (mm) -> {"y": (-0.6, 0.8), "z": (-1.2, -0.5)} in m, for the plane's axes."""
-    out = {}
+#: the one ``--range`` syntax of section, workspace and rotation-map: AXIS=LO:HI pairs separated by commas
+RANGE_SYNTAX = "AXIS=LO:HI pairs separated by commas"
+
+
+def parse_axis_ranges(text: str, axes: str, unit: str, option: str = "--range", required: bool = True,
+                      error: type[Exception] = SectionArgumentError) -> dict[str, tuple[float, float]]:
+    """``"y=-600:800,z=-1200:-500"`` -> {"y": (-600.0, 800.0), "z": (-1200.0, -500.0)} in ``unit`` (not converted):
+    each axis one of ``axes`` at most once, LO < HI and finite; every axis of ``axes`` given unless not ``required``."""
+    out: dict[str, tuple[float, float]] = {}
     for part in text.split(","):
         try:
             axis, rng = part.split("=")
             lo, hi = (float(v) for v in rng.split(":"))
         except ValueError:
-            raise SectionArgumentError(f"--range: expected AXIS=LO:HI pairs in mm separated by commas, "
-                                       f"found {part!r}") from None
+            raise error(f"{option}: expected {RANGE_SYNTAX} (AXIS one of {', '.join(axes)}, LO and HI in {unit}), "
+                        f"found {part!r}") from None
         axis = axis.strip().lower()
-        if axis not in plane:
-            raise SectionArgumentError(f"--range: axis {axis!r} is not in the {plane.upper()} plane")
+        if axis not in axes or len(axis) != 1:
+            raise error(f"{option}: expected an axis among {', '.join(axes)}, found {axis!r}")
+        if axis in out:
+            raise error(f"{option}: expected each axis once, found {axis!r} twice")
         if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
-            raise SectionArgumentError(f"--range {axis}: expected LO < HI (mm), found {lo:g}:{hi:g}")
-        out[axis] = (lo * 1e-3, hi * 1e-3)
-    missing = [a for a in plane if a not in out]
-    if missing:
-        raise SectionArgumentError(f"--range: missing the range of {', '.join(missing)} for the {plane.upper()} plane")
+            raise error(f"{option} {axis}: expected LO < HI ({unit}), found {lo:g}:{hi:g}")
+        out[axis] = (lo, hi)
+    missing = [a for a in axes if a not in out]
+    if required and missing:
+        raise error(f"{option}: missing the range of {', '.join(missing)} ({RANGE_SYNTAX})")
     return out
+
+
+def parse_ranges(text: str, plane: str) -> dict[str, tuple[float, float]]:
+    """``"y=-600:800,z=-1200:-500"`` (mm) -> {"y": (-0.6, 0.8), "z": (-1.2, -0.5)} in m, for the plane's axes."""
+    return {a: (lo * 1e-3, hi * 1e-3) for a, (lo, hi) in parse_axis_ranges(text, plane, "mm").items()}
 
 
 def parse_numbers(text: str, count: int, option: str, what: str,
@@ -44,6 +57,19 @@ def parse_numbers(text: str, count: int, option: str, what: str,
     if len(vals) != count or not all(math.isfinite(v) for v in vals):
         raise error(f"{option}: expected {n} finite numbers {what}, found {text!r}")
     return vals
+
+
+def parse_names(text: str, option: str, choices: tuple[str, ...] | None = None,
+                error: type[Exception] = SectionArgumentError) -> list[str]:
+    """``"kx, ky"`` -> ``["kx", "ky"]``: at least one name, each from ``choices`` when given; otherwise ``error``."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    want = f"a comma-separated subset of {','.join(choices)}" if choices else "one or more comma-separated names"
+    if not names:
+        raise error(f"{option}: expected {want}, found {text!r}")
+    bad = [n for n in names if choices and n not in choices]
+    if bad:
+        raise error(f"{option}: expected {want}, found {', '.join(bad)}")
+    return names
 
 
 def parse_triple_deg(text: str, what: str) -> np.ndarray:

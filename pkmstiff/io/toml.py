@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Any
 
 from pkmstiff.errors import InputError
+from pkmstiff.io.inputs import input_file_problem
 
 
 def read_toml(path: str | Path, error: type[InputError] = InputError, what: str = "TOML file") -> dict[str, Any]:
@@ -13,13 +14,14 @@ def read_toml(path: str | Path, error: type[InputError] = InputError, what: str 
     import tomllib  # here: a cached bundled machine needs no TOML parser (start-up time)
 
     src = str(path)
+    problem = input_file_problem(path)
+    if problem is not None:
+        raise error(src, "(file)", f"an existing {what} (a regular file)", problem)
     try:
         with open(path, "rb") as fh:
             return tomllib.load(fh)
-    except FileNotFoundError:
-        raise error(src, "(file)", f"an existing {what}", "no such file") from None
-    except IsADirectoryError:
-        raise error(src, "(file)", f"a {what}", "a directory") from None
+    except RecursionError:
+        raise error(src, "(file)", "TOML nested at most a few hundred levels deep", "deeper nesting") from None
     except PermissionError:
         raise error(src, "(file)", f"a readable {what}", "permission denied") from None
     except UnicodeDecodeError as exc:

@@ -12,6 +12,7 @@ import copy
 import dataclasses
 import importlib.resources
 import math
+import os
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -19,6 +20,7 @@ import numpy as np
 
 from pkmstiff.errors import MachineFileError, UnknownMachineError  # noqa: F401 (re-exported)
 from pkmstiff.io import check_format_version, check_keys, read_toml, require
+from pkmstiff.io.inputs import input_file_problem
 from pkmstiff.machine.model import Chains, Guide, Hull, JointType, Limits, Machine, Tool
 from pkmstiff.units import InputError, parse_quantity
 
@@ -53,9 +55,12 @@ def bundled_machines() -> list[str]:
 
 def resolve_machine_path(name_or_path: str | Path) -> Path:
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.exists():
-        if not p.is_file():
+    if p.suffix == ".toml" or os.path.lexists(p):
+        problem = input_file_problem(p)
+        if problem == "no such file":
             raise UnknownMachineError(f"machine file '{p}' does not exist")
+        if problem is not None:
+            raise UnknownMachineError(f"machine file '{p}': expected a regular file, found {problem}")
         return p
     candidate = bundled_machine_dir() / f"{name_or_path}.toml"
     if candidate.is_file():
@@ -218,8 +223,10 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
     components = _components(raw.get("components", {}), src)
     joint_types = _joint_types(raw.get("joint_types", {}), src, components)
     chain_tables = require(raw, "chains", src, "", "an array of [[chains]] tables", error=MachineFileError)
-    if not isinstance(chain_tables, list) or len(chain_tables) < 2:
-        raise MachineFileError(src, "chains", "an array of at least 2 [[chains]] tables", chain_tables)
+    if not isinstance(chain_tables, list) or len(chain_tables) != 6:  # a square Jacobian: one chain per platform DOF
+        raise MachineFileError(src, "chains", "an array of 6 [[chains]] tables (one per degree of freedom of the "
+                               "platform)", f"{len(chain_tables)} tables" if isinstance(chain_tables, list)
+                               else chain_tables)
     defaults = raw.get("chain_defaults", {})
     chains, chain_components = _chains(kind, chain_tables, defaults, src, joint_types, components)
     guides = _guides(raw.get("guides", {}), src, chains.n, kind)
@@ -251,6 +258,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
 #: [calibration] provenance block of a calibrated machine file (written by ``pkmstiff calibrate identify``):
 #: key -> kind of value
 _CALIBRATION_KEYS = {"nominal_machine": "str", "measurement_file": "str", "measurement_sha256": "sha256",
+                     "measurement_header_sha256": "sha256",  # the measurement's header file <name>.json
                      "method": "str", "loss": "str", "rank": "count", "n_readings": "count",
                      "condition_number": "number", "rms_before_um": "number", "rms_after_um": "number",
                      "max_before_um": "number", "max_after_um": "number", "s_um": "number", "date": "str",

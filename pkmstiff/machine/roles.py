@@ -97,7 +97,7 @@ def drive_load_data(machine: Machine) -> DriveLoadData | None:
     """Mass and drive-force data for the static drive-load check (eq. 4.90, B.13), or None if not given.
 
     Moved mass = platform (+ spindle) mass, plus ``limits.drive_load_strut_mass`` × the strut masses (eq. 4.90:
-    the sum of the moved masses carried by the platform; docs/user-guide/validation-hexaglide.md (reading 5) — for the Hexaglide all six
+    the sum of the moved masses carried by the platform; docs/user-guide/validation-hexaglide.md, reading: static drive load — for the Hexaglide all six
     struts); CoG = the combined CoG of platform and spindle in the PKS (the strut share is added at that CoG:
     eq. 4.90 sums the masses, their CoG is not given). Needs a platform body and a maximum force on every drive;
     missing force reserve / Coulomb friction count as 0. Computed once per machine object (it depends on the

@@ -83,10 +83,19 @@ def _set(node: Any, segments: list[tuple[str, int | str | None]], value: Any, pa
             _set(seq[t], segments[1:], value, path, src, f"{here}[{t + 1}]")
 
 
+#: keys resolved before overrides apply (the parent file, the format, the option tables): an override of them would
+#: be accepted and ignored
+_RESOLVED_FIRST = (("machine", "extends"), ("format_version",), ("options",))
+
+
 def apply_overrides(raw: dict[str, Any], overrides: Mapping[str, Any], src: str = "(override)") -> dict[str, Any]:
     """A deep copy of ``raw`` with every override set (in the mapping's order)."""
     out = copy.deepcopy(raw)
     for path, value in overrides.items():
+        keys = tuple(k for k, _ in parse_override_path(path))
+        if any(keys[:len(r)] == r for r in _RESOLVED_FIRST):
+            raise OverrideError(src, path, "a machine value (machine.extends, format_version and [options] are "
+                                "resolved before overrides apply; use another machine file or ':option')", path)
         _set(out, parse_override_path(path), value, path, src, "")
     return out
 

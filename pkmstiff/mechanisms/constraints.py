@@ -56,12 +56,52 @@ def link_rotations(phi: Array, dim: int) -> tuple[Array, Array]:
 
 
 def link_angles(R: Array) -> Array:
-    """Angles (φx, φy, φz) of R = Rz Ry Rx (…, 3, 3) for |φy| < 90° (inverse of eq. 2)."""
+    """Angles (φx, φy, φz) of R = Rz Ry Rx (…, 3, 3), |φy| ≤ 90° (inverse of eq. 2).
+
+    φz and φy come from the first column; φx from Rx = Ry(φy)ᵀ Rz(φz)ᵀ R, so that R(φ) reproduces R to rounding
+    also at and near φy = ±90°, where φx and φz are not determined separately (there φz may take any value)."""
     out = np.empty(R.shape[:-2] + (3,))
-    out[..., 0] = np.arctan2(R[..., 2, 1], R[..., 2, 2])
-    out[..., 1] = np.arctan2(-R[..., 2, 0], np.hypot(R[..., 0, 0], R[..., 1, 0]))
+    c1 = np.hypot(R[..., 0, 0], R[..., 1, 0])
+    out[..., 1] = np.arctan2(-R[..., 2, 0], c1)
     out[..., 2] = np.arctan2(R[..., 1, 0], R[..., 0, 0])
+    cz, sz = np.cos(out[..., 2]), np.sin(out[..., 2])
+    # rows 1 and 2 of Rz(φz)ᵀ R: (−sz, cz, 0)·R and R's third row; then Ry(φy)ᵀ leaves row 1 as cos φx, sin φx
+    r1 = -sz[..., None] * R[..., 0, :] + cz[..., None] * R[..., 1, :]  # = (0, cos φx, −sin φx) of Rx
+    out[..., 0] = np.arctan2(-r1[..., 2], r1[..., 1])
     return out
+
+
+def rotation_log(M: Array) -> Array:
+    """Rotation vectors r (…, 3) of rotation matrices M (…, 3, 3), |r| ∈ [0, π] (the compiled ``_logm``)."""
+    v = 0.5 * np.stack([M[..., 2, 1] - M[..., 1, 2], M[..., 0, 2] - M[..., 2, 0], M[..., 1, 0] - M[..., 0, 1]], -1)
+    sn = np.linalg.norm(v, axis=-1)
+    cs = 0.5 * (np.trace(M, axis1=-2, axis2=-1) - 1.0)
+    th = np.arctan2(sn, cs)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.where(sn < 1e-8, 1.0 + sn * sn / 6.0, th / sn)
+    r = f[..., None] * v
+    far = cs <= -0.99
+    if far.any():  # near half a turn: axis from the symmetric part, sign from v
+        Mf, vf, csf, thf = M[far], v[far], cs[far], th[far]
+        i = np.argmax(np.diagonal(Mf, axis1=-2, axis2=-1), axis=-1)
+        n = np.arange(i.size)
+        u = 0.5 * (Mf[n, :, i] + Mf[n, i, :])
+        u[n, i] = Mf[n, i, i] - csf
+        sg = np.where(np.einsum("na,na->n", u, vf) >= 0.0, 1.0, -1.0)
+        r[far] = (sg * thf / np.linalg.norm(u, axis=-1))[:, None] * u
+    return r
+
+
+def left_jacobian_inverse(r: Array) -> Array:
+    """J_l⁻¹(r) (…, 3, 3) = I − ½[r]× + (1/θ² − (1 + cos θ)/(2θ sin θ))[r]×², d log(exp(δ) M)/dδ at r = log M."""
+    th2 = np.einsum("...a,...a->...", r, r)
+    th = np.sqrt(th2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        g = np.where(th < 1e-4, 1.0 / 12.0 + th2 / 720.0, 1.0 / th2 - (1.0 + np.cos(th)) / (2.0 * th * np.sin(th)))
+    K = np.zeros(r.shape + (3,))
+    K[..., 0, 1], K[..., 0, 2], K[..., 1, 2] = -r[..., 2], r[..., 1], -r[..., 0]
+    K[..., 1, 0], K[..., 2, 0], K[..., 2, 1] = r[..., 2], -r[..., 1], r[..., 0]
+    return np.eye(3) - 0.5 * K + g[..., None, None] * (K @ K)
 
 
 def wrap(a: Array) -> Array:
@@ -209,12 +249,22 @@ def output_blocks(mech: Mechanism) -> list[Block]:
 class Frames:
     """Link frames of N configurations: t (N, L, D), R (N, L, D, D), dR (N, L, nr, D, D)."""
 
-    def __init__(self, q: Array, dim: int, derivatives: bool = True):
+    def __init__(self, q: Array, dim: int, derivatives: bool = True, omega: np.ndarray | None = None):
         self.q, self.dim = q, dim
         self.t = q[..., :dim]
         self.R, self.dR = link_rotations(q[..., dim:], dim)
+        if omega is not None and omega.any():  # incremental rotation vectors: ∂R/∂ω_c = [e_c]× R
+            E = np.zeros((3, 3, 3))
+            for c in range(3):
+                E[c, (c + 2) % 3, (c + 1) % 3], E[c, (c + 1) % 3, (c + 2) % 3] = 1.0, -1.0
+            self.dR[:, omega] = np.einsum("cab,nlbd->nlcad", E, self.R[:, omega])
         if not derivatives:
             self.dR = None
+
+    def rates(self, li: np.ndarray) -> Array:
+        """w (N, nc, 3, nr): angular velocity vee(∂R/∂q_c Rᵀ) of links li per unit rate of rotation coordinate c."""
+        W = np.einsum("nkcab,nkdb->nkcad", self.dR[:, li], self.R[:, li])
+        return np.stack([W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]], axis=-1).swapaxes(-1, -2)
 
     def point(self, li: np.ndarray, p: Array) -> tuple[Array, Array | None]:
         """World points w = t + R p (N, nc, D) and ∂w/∂φ (N, nc, D, nr) of local points p (nc, D) on links li
@@ -277,9 +327,16 @@ def block_eval(bl: Block, F: Frames, target: Array | None) -> tuple[Array, Array
         Jk[..., :D], Jk[..., D:] = -I, -Dwk
         return delta, Jj, Jk
     if kind == "1B":
-        r = F.q[:, bl.j, D:] - F.q[:, bl.k, D:]
-        Jj[..., D:] = np.eye(nr)
-        Jk[..., D:] = -np.eye(nr)
+        if D == 2:
+            Jj[..., D:], Jk[..., D:] = 1.0, -1.0
+            return F.q[:, bl.j, D:] - F.q[:, bl.k, D:], Jj, Jk
+        # log(R_j R_kᵀ) = 0: the only root is equal orientation (angle differences φ_j − φ_k would tie the
+        # equation to the Euler angles and their singularity at φy = ±90°)
+        M = F.R[:, bl.j] @ np.swapaxes(F.R[:, bl.k], -1, -2)
+        r = rotation_log(M)
+        Ji = left_jacobian_inverse(r)
+        Jj[..., D:] = Ji @ F.rates(bl.j)
+        Jk[..., D:] = -Ji @ M @ F.rates(bl.k)
         return r, Jj, Jk
     if kind == "1C":
         Uj, DUj = F.vector(bl.j, bl.a)
@@ -329,10 +386,13 @@ def block_eval(bl: Block, F: Frames, target: Array | None) -> tuple[Array, Array
         dS_k = np.einsum("nkac,nka->nkc", DV, _cross(A, U))
         dC_j = np.einsum("nkac,nka->nkc", DU, V)
         dC_k = np.einsum("nkac,nka->nkc", DV, U)
-        c0, s0 = np.cos(th)[..., None], np.sin(th)[..., None]
-        Jj[..., 0, D:] = c0 * dS_j - s0 * dC_j
-        Jk[..., 0, D:] = c0 * dS_k - s0 * dC_k
-        return (c0[..., 0] * S - s0[..., 0] * C)[..., None], Jj, Jk
+        # wrapped angle difference atan2(sin(θ − θ*), cos(θ − θ*)) with θ = atan2(S, C): its only root is θ = θ*
+        # (mod 2π) — sin(θ − θ*) also vanishes at θ* + π; ∂r = (C ∂S − S ∂C)/(S² + C²), independent of θ*
+        c0, s0 = np.cos(th), np.sin(th)
+        n2 = (S * S + C * C)[..., None]
+        Jj[..., 0, D:] = (C[..., None] * dS_j - S[..., None] * dC_j) / n2
+        Jk[..., 0, D:] = (C[..., None] * dS_k - S[..., None] * dC_k) / n2
+        return np.arctan2(c0 * S - s0 * C, c0 * C + s0 * S)[..., None], Jj, Jk
     if kind == "out_point":
         w, Dw = F.point(bl.j, bl.p)
         c = bl.coord
@@ -340,22 +400,19 @@ def block_eval(bl: Block, F: Frames, target: Array | None) -> tuple[Array, Array
         Jj[..., D:] = Dw[:, :, c]
         return w[:, :, c] - target[:, None, c], Jj, None
     if kind == "out_full":
-        phi_t = target_angles(target, D)
-        Jj[..., D:] = np.eye(nr)
-        return wrap(F.q[:, bl.j, D:] - phi_t[:, None]), Jj, None
+        if D == 2:
+            Jj[..., D:] = 1.0
+            return wrap(F.q[:, bl.j, D:] - target[:, None, 2:3]), Jj, None
+        M = F.R[:, bl.j] @ np.swapaxes(cardan_pose_rotation(target[:, 3:6]), -1, -2)[:, None]
+        r = rotation_log(M)
+        Jj[..., D:] = left_jacobian_inverse(r) @ F.rates(bl.j)
+        return r, Jj, None
     if kind == "out_axis":
         U, DU = F.vector(bl.j, bl.a)
         Rt = cardan_pose_rotation(target[:, 3:6])
         Jj[..., D:] = DU
         return U - np.einsum("nab,kb->nka", Rt, bl.a), Jj, None
     raise ValueError(f"unknown constraint kind {kind!r}")
-
-
-def target_angles(pose: Array, dim: int) -> Array:
-    """Link angles of the output link for target poses: planar φ; spatial (φx, φy, φz) of R = cardan(a, b, c)."""
-    if dim == 2:
-        return pose[:, 2:3]
-    return link_angles(cardan_pose_rotation(pose[:, 3:6]))
 
 
 @dataclass
@@ -388,8 +445,17 @@ class System:
         self._cmap_full = np.arange(self.n, dtype=np.int64)
         self._cmap_reduced = np.full(self.n, -1, dtype=np.int64)
         self._cmap_reduced[self.free] = np.arange(self.free.size)
-        self._has_full = any(b.kind == "out_full" for b in self.blocks)
-        self._has_axis = any(b.kind == "out_axis" for b in self.blocks)
+        self._has_rt = any(b.kind in ("out_full", "out_axis") for b in self.blocks)
+        # links whose rotation the Newton solver updates by incremental rotation vectors (spatial links without a
+        # fixed angle coordinate); their rotation columns in ``evaluate(omega=True)`` are ∂/∂ω
+        fixed_rot = np.zeros(L, dtype=bool)
+        fc = self.fixed_cols
+        fixed_rot[fc[fc % d >= self.mech.dim] // d] = True
+        self.omega_links = ~fixed_rot if self.mech.dim == 3 else np.zeros(L, dtype=bool)
+        self._om = self.omega_links.astype(np.int64)
+        self._om0 = np.zeros(L, dtype=np.int64)
+        self.rot_cols = np.array([[self._cmap_reduced[li * d + self.mech.dim + c] for c in range(3)]
+                                  for li in np.flatnonzero(self.omega_links)], dtype=np.int64).reshape(-1, 3)
         self.plan = make_plan(self.blocks) if self.mech.dim == 3 else None
         self._sparsity = None
 
@@ -411,6 +477,19 @@ class System:
             self._sparsity = sparsity(pat[self.n_fixed_rows:][:, self.free])
         return self._sparsity
 
+    def step(self, q: Array, dx: Array) -> Array:
+        """q (N, L·d) after the Newton step dx (N, n_free) in the coordinates of ``evaluate(omega=True)``:
+        positions (and the angles of the other links) add; the rotation of an :attr:`omega_links` link becomes
+        exp([δω]×) R(φ) (Rodrigues), stored again as angles φ (:func:`link_angles`, exact at φy = ±90°)."""
+        out = q.copy()
+        out[:, self.free] += dx
+        if self.rot_cols.size:
+            d, D = self.mech.dof_per_link, self.mech.dim
+            links = np.flatnonzero(self.omega_links)
+            cols = links[:, None] * d + D + np.arange(3)  # (nl, 3) angle columns in q
+            out[:, cols] = kernel.rotate(q[:, cols], dx[:, self.rot_cols])
+        return out
+
     def row_joint(self) -> np.ndarray:
         """(m,) index of the joint behind each row (−1: ground / control)."""
         out = np.empty(self.m, dtype=int)
@@ -419,31 +498,32 @@ class System:
         return out
 
     def evaluate(self, q: Array, target: Array | None = None, jac: bool = True,
-                 reduced: bool = False) -> tuple[Array, Array | None]:
+                 reduced: bool = False, omega: bool = False) -> tuple[Array, Array | None]:
         """Residual F (N, m) and Jacobian F_q (N, m, L·d) at configurations q (N, L, d).
 
         ``reduced=True``: only the rows and columns the solver uses — without the fixed-coordinate rows and the
         fixed coordinates — F (N, m_s) and F_q (N, m_s, n_free).  Spatial systems run the compiled loop of
         :mod:`pkmstiff.mechanisms.kernel` (one call for all constraints and poses), planar ones
-        :meth:`evaluate_reference`.
+        :meth:`evaluate_reference`.  ``omega=True``: the rotation columns of :attr:`omega_links` are
+        derivatives with respect to an incremental world-frame rotation vector (R → exp([δω]×) R), regular at every
+        orientation (the Newton solver's coordinates, see :meth:`step`); else with respect to the angles φ.
         """
         if self.plan is None:
-            return self.evaluate_reference(q, target, jac, reduced)
-        phi_t = target_angles(np.asarray(target, dtype=float), 3) if self._has_full else None
-        Rt = cardan_pose_rotation(np.asarray(target, dtype=float)[:, 3:6]) if self._has_axis else None
+            return self.evaluate_reference(q, target, jac, reduced, omega)
+        Rt = cardan_pose_rotation(np.asarray(target, dtype=float)[:, 3:6]) if self._has_rt else None
         roff = self.n_fixed_rows if reduced else 0
         cmap = self._cmap_reduced if reduced else self._cmap_full
-        r, J = kernel.evaluate(self.plan, q, target, phi_t, Rt, self.m, roff, cmap,
+        r, J = kernel.evaluate(self.plan, q, target, self._om if omega else self._om0, Rt, self.m, roff, cmap,
                                self.free.size if reduced else self.n, jac)
         return (r[:, roff:] if reduced else r), J
 
     def evaluate_reference(self, q: Array, target: Array | None = None, jac: bool = True,
-                           reduced: bool = False) -> tuple[Array, Array | None]:
+                           reduced: bool = False, omega: bool = False) -> tuple[Array, Array | None]:
         """:meth:`evaluate` by one vectorised numpy call per constraint kind (:func:`block_eval`): the reference
         the compiled loop is tested against, and the planar path."""
         N = q.shape[0]
         d = self.mech.dof_per_link
-        F = Frames(q, self.mech.dim)
+        F = Frames(q, self.mech.dim, omega=self.omega_links if omega else None)
         r = np.empty((N, self.m))
         if reduced:
             cmap = np.full(self.n, self.free.size)  # fixed columns go to a scratch column that is cut off

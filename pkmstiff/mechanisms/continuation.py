@@ -27,7 +27,7 @@ Array = NDArray[np.float64]
 
 @dataclass
 class RangeEnd:
-    """One end of a drive interval: value (m or rad), kind ("singular", "limit", "travel", "failed"),
+    """One end of a drive interval: value (m or rad), kind ("singular", "limit", "travel", "unlimited", "failed"),
     configuration q (L, d) and σ_min/σ_max of the forward-kinematics Jacobian there."""
 
     value: float
@@ -121,8 +121,17 @@ def _split(blocks):
 
 def _trace(c: _Curve, x0: Array, target: Array, sign: float, h0: float, lo: float, hi: float, max_travel: float,
            max_steps: int, tol: float) -> RangeEnd:
+    """One end of the range: follow the curve in direction ``sign`` of the drive value.  Angles are unwrapped
+    along the curve (a step changes them by far less than π), so a drive that turns round passes ±180° and, after
+    a full turn without a turning point or limit, is reported ``unlimited`` (value ±∞)."""
     x = x0.copy()
+    angular = c.mech.drive_units[c.drive] == "rad"
     s0 = c.value(x)
+    s_prev = s0
+
+    def unwrapped(xx):
+        v = c.value(xx)
+        return s_prev + ((v - s_prev + np.pi) % (2.0 * np.pi) - np.pi) if angular else v
     t = c.tangent(x, target, None)
     if c.grad(x) @ t * sign < 0:
         t = -t
@@ -132,12 +141,14 @@ def _trace(c: _Curve, x0: Array, target: Array, sign: float, h0: float, lo: floa
         if xn is None:
             h *= 0.5
             if h < 1e-12 * h0:
-                return RangeEnd(c.value(x), "failed", x, c.sigma_ratio(x, target))
+                return RangeEnd(unwrapped(x), "failed", x, c.sigma_ratio(x, target))
             continue
         tn = c.tangent(xn, target, t)
-        sn = c.value(xn)
+        sn = unwrapped(xn)
         if (sign > 0 and sn > hi) or (sign < 0 and sn < lo):
             return RangeEnd(hi if sign > 0 else lo, "limit", xn, c.sigma_ratio(xn, target))
+        if angular and abs(sn - s0) >= 2.0 * np.pi:
+            return RangeEnd(sign * np.inf, "unlimited", xn, c.sigma_ratio(xn, target))
         if abs(sn - s0) > max_travel:
             return RangeEnd(sn, "travel", xn, c.sigma_ratio(xn, target))
         if sign * (c.grad(xn) @ tn) <= 0:  # ds/dα changed sign: a turning point between x and xn
@@ -157,10 +168,10 @@ def _trace(c: _Curve, x0: Array, target: Array, sign: float, h0: float, lo: floa
                     break
             xe = c.correct(xa + 0.5 * (b - a) * ta, ta, target, tol)
             xe = xa if xe is None else xe
-            return RangeEnd(c.value(xe), "singular", xe, c.sigma_ratio(xe, target))
-        x, t = xn, tn
+            return RangeEnd(unwrapped(xe), "singular", xe, c.sigma_ratio(xe, target))
+        x, t, s_prev = xn, tn, sn
         h = min(2.0 * h, 8.0 * h0) if h < 8.0 * h0 else h
-    return RangeEnd(c.value(x), "travel", x, c.sigma_ratio(x, target))
+    return RangeEnd(unwrapped(x), "travel", x, c.sigma_ratio(x, target))
 
 
 def drive_ranges(mech: Mechanism, drives: list[str] | None = None, start: Array | None = None,
@@ -170,8 +181,8 @@ def drive_ranges(mech: Mechanism, drives: list[str] | None = None, start: Array 
 
     ``start``: a configuration q (L, d) (default home); ``step``: initial arclength step in the free link
     coordinates (default 2 % of the length scale); ``max_travel``: stop after this change of the drive value
-    (default 10 length scales for linear drives, 2π for angles); joint limits of the driven joint stop the
-    continuation too ("limit").
+    (default 10 length scales for linear drives); an angle that turns a full round without a turning point is
+    ``unlimited`` (±∞); joint limits of the driven joint stop the continuation too ("limit").
     """
     names = list(mech.drive_names)
     if not names:
@@ -195,7 +206,7 @@ def drive_ranges(mech: Mechanism, drives: list[str] | None = None, start: Array 
             raise MechanismInputError(f"drive {name!r}: the mechanism with the other drives held has "
                                       f"{c.free.size - rk} degrees of freedom at the start (need 1)")
         jt = mech.joints[c.ji]
-        travel = (10.0 * mech.length_scale if units[i] == "m" else 2 * np.pi) if max_travel is None else max_travel
+        travel = (10.0 * mech.length_scale if units[i] == "m" else np.inf) if max_travel is None else max_travel
         ends = [_trace(c, x0, target, sg, h0, jt.limits[0], jt.limits[1], travel, max_steps, tol) for sg in (-1, 1)]
         out[name] = DriveRange(name, units[i], ends[0], ends[1])
     return out

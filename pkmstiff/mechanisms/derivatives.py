@@ -2,9 +2,8 @@
 
 With model and drive equations F(q, s) = 0 (drive rows m(q) − s), differentiation along a motion s(t) gives
 F_q q̇ = E ṡ and F_q q̈ = E s̈ − (d/dt F_q) q̇, where E selects the drive rows.  Both are solved as least-squares
-problems (the rows are redundant, calibration.md §3) by pivoted QR; the curvature term (d/dt F_q) q̇ is the second
-directional derivative of F along q̇, taken as a central difference of the analytic residual (error O(h²), h
-scaled to the configuration).  Output rates follow from the output pose along the same path.
+problems (the rows are redundant, calibration.md §3); the curvature term is exact — the Taylor-mode residual of
+:mod:`pkmstiff.mechanisms.path`, which also gives the jerk — and so are the output pose rates.
 """
 
 from __future__ import annotations
@@ -15,9 +14,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from pkmstiff.errors import MechanismInputError
-from pkmstiff.mechanisms.constraints import fk_system
-from pkmstiff.mechanisms.linalg import GAP_FACTOR, GAP_FLOOR, lstsq_pivoted
-from pkmstiff.mechanisms.solver import Solution, output_pose
+from pkmstiff.mechanisms.path import path_derivatives
+from pkmstiff.mechanisms.solver import Solution
 
 Array = NDArray[np.float64]
 
@@ -30,10 +28,10 @@ class Rates:
     pose_ddot: Array | None  #: (N, 6)
 
 
-def rates(sol: Solution, drive_rates: ArrayLike, drive_accelerations: ArrayLike | None = None,
-          h: float = 1e-4) -> Rates:
+def rates(sol: Solution, drive_rates: ArrayLike, drive_accelerations: ArrayLike | None = None) -> Rates:
     """Velocities and accelerations of the configurations of a forward/inverse solution for drive rates ṡ and
-    drive accelerations s̈ (N, n_drives) [m/s or rad/s; m/s² or rad/s²] (claim 9)."""
+    drive accelerations s̈ (N, n_drives) [m/s or rad/s; m/s² or rad/s²] (claim 9); :func:`path_derivatives`
+    gives the jerk as well."""
     mech = sol.mech
     nd = len(mech.drives)
     N = sol.q.shape[0]
@@ -42,36 +40,6 @@ def rates(sol: Solution, drive_rates: ArrayLike, drive_accelerations: ArrayLike 
         np.asarray(drive_accelerations, dtype=float), (N, nd))
     if sd is None or sd.shape != (N, nd):
         raise MechanismInputError(f"drive_rates: expected shape ({nd},) or ({N}, {nd})")
-    system = fk_system(mech)
-    rows, free = system.solve_rows, system.free
-    L, d = sol.q.shape[1:]
-    drv = sol.drives
-    r0, J = system.evaluate(sol.q, drv)
-    Jf = np.ascontiguousarray(J[:, rows][:, :, free])
-    E = np.zeros((N, system.m))
-    Edd = np.zeros((N, system.m))
-    for b in system.blocks:
-        if b.kind.startswith("drive"):
-            E[:, b.row0 + np.arange(b.n)] = sd[:, b.coord]
-            Edd[:, b.row0 + np.arange(b.n)] = sdd[:, b.coord]
-    # F_q q̇ = E ṡ (drive rows: ∂(m − s)/∂s = −1)
-    v, _, _ = lstsq_pivoted(Jf, np.ascontiguousarray(-E[:, rows]), GAP_FLOOR, GAP_FACTOR)
-    qd = np.zeros((N, L * d))
-    qd[:, free] = v
-    scale = h * mech.length_scale / np.maximum(np.abs(qd).max(axis=1, keepdims=True), 1e-300)
-    qf = sol.q.reshape(N, -1)
-    # the drive rows of F(q ± εq̇) with the targets s ± εṡ: second difference of F along the motion
-    rp, _ = system.evaluate((qf + scale * qd).reshape(N, L, d), drv + scale * sd, jac=False)
-    rm, _ = system.evaluate((qf - scale * qd).reshape(N, L, d), drv - scale * sd, jac=False)
-    curv = (rp - 2.0 * r0 + rm) / scale**2
-    rhs = Edd - curv
-    a, _, _ = lstsq_pivoted(Jf, np.ascontiguousarray(-rhs[:, rows]), GAP_FLOOR, GAP_FACTOR)
-    qdd = np.zeros((N, L * d))
-    qdd[:, free] = a
-    pd = pdd = None
-    if mech.output is not None:
-        P = lambda x: output_pose(mech, x.reshape(N, L, d))  # noqa: E731
-        pp, p0, pm = P(qf + scale * qd + 0.5 * scale**2 * qdd), P(qf), P(qf - scale * qd + 0.5 * scale**2 * qdd)
-        pd = (pp - pm) / (2.0 * scale)
-        pdd = (pp - 2.0 * p0 + pm) / scale**2
-    return Rates(qd.reshape(N, L, d), qdd.reshape(N, L, d), pd, pdd)
+    pd = path_derivatives(mech, np.where(sol.ok[:, None], sol.drives, 0.0), sd, sdd, solution=sol)
+    return Rates(pd.q[1], pd.q[2], None if pd.pose is None else pd.pose[1],
+                 None if pd.pose is None else pd.pose[2])

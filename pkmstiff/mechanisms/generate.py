@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
 from pkmstiff.mechanisms.loader import mechanism_from_dict
@@ -106,7 +107,7 @@ def write_mechanism(table: dict[str, Any], path: str | Path, header: str = "") -
     if table.get("assumptions"):
         lines += ["", "[assumptions]"] + [f"{_toml_value(k)} = {_toml_value(v)}" for k, v in
                                           table["assumptions"].items()]
-    Path(path).write_text("\n".join(lines) + "\n")
+    atomic_write_text(path, "\n".join(lines) + "\n")
 
 
 #: home poses of the generated bundled mechanisms (workspace centres of tests/kin_fixtures.py)

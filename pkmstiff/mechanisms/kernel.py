@@ -76,8 +76,10 @@ def _mm3(X, Y, out):  # pragma: no cover - compiled
             out[r, c] = X[r, 0] * Y[0, c] + X[r, 1] * Y[1, c] + X[r, 2] * Y[2, c]
 
 
-def _rotations(q, L, R, dR):  # pragma: no cover - compiled
-    """R = Rz(φz) Ry(φy) Rx(φx) (eq. 2) of every link and dR[l, c] = ∂R/∂φ_c."""
+def _rotations(q, L, R, dR, om, W):  # pragma: no cover - compiled
+    """R = Rz(φz) Ry(φy) Rx(φx) (eq. 2) of every link and dR[l, c] = ∂R/∂φ_c, or for the links with om[l] = 1
+    dR[l, c] = [e_c]× R = ∂R/∂ω_c (an incremental world-frame rotation vector ω: no parametrisation singularity);
+    W[l, c] = vee(dR[l, c] Rᵀ), the angular velocity per unit rate of coordinate c."""
     Rx = np.zeros((3, 3))
     Ry = np.zeros((3, 3))
     Rz = np.zeros((3, 3))
@@ -104,6 +106,21 @@ def _rotations(q, L, R, dR):  # pragma: no cover - compiled
         _mm3(T, Rx, dR[l, 1])
         _mm3(dZ, Ry, T)
         _mm3(T, Rx, dR[l, 2])
+        if om[l]:
+            for c in range(3):  # [e_c]× R: row a of e_c × (column of R)
+                c1 = (c + 1) % 3
+                c2 = (c + 2) % 3
+                for b in range(3):
+                    dR[l, c, c, b] = 0.0
+                    dR[l, c, c1, b] = -R[l, c2, b]
+                    dR[l, c, c2, b] = R[l, c1, b]
+        for c in range(3):
+            for a in range(3):
+                a1 = (a + 1) % 3
+                a2 = (a + 2) % 3
+                # vee(dR Rᵀ)_a = (dR Rᵀ)[a2, a1]
+                W[l, c, a] = dR[l, c, a2, 0] * R[l, a1, 0] + dR[l, c, a2, 1] * R[l, a1, 1] + \
+                    dR[l, c, a2, 2] * R[l, a1, 2]
 
 
 def _point(q, R, dR, l, p, w, Dw):  # pragma: no cover - compiled
@@ -128,6 +145,74 @@ def _cross(x, y, out):  # pragma: no cover - compiled
     out[2] = x[0] * y[1] - x[1] * y[0]
 
 
+def _logm(M, r):  # pragma: no cover - compiled
+    """Rotation vector r of the rotation matrix M (|r| = angle ∈ [0, π]): the unique root of log M = 0."""
+    v0 = 0.5 * (M[2, 1] - M[1, 2])
+    v1 = 0.5 * (M[0, 2] - M[2, 0])
+    v2 = 0.5 * (M[1, 0] - M[0, 1])
+    sn = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    cs = 0.5 * (M[0, 0] + M[1, 1] + M[2, 2] - 1.0)
+    th = math.atan2(sn, cs)
+    if cs > -0.99:
+        f = 1.0 + sn * sn / 6.0 if sn < 1e-8 else th / sn
+        r[0], r[1], r[2] = f * v0, f * v1, f * v2
+        return
+    # near half a turn: the axis from the symmetric part (M + I)/2 = cos-weighted u uᵀ, sign from v
+    i = 0
+    if M[1, 1] > M[i, i]:
+        i = 1
+    if M[2, 2] > M[i, i]:
+        i = 2
+    u = np.empty(3)
+    for a in range(3):
+        u[a] = 0.5 * (M[a, i] + M[i, a])
+    u[i] = M[i, i] - cs
+    nu = math.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2])
+    sg = 1.0 if u[0] * v0 + u[1] * v1 + u[2] * v2 >= 0.0 else -1.0
+    for a in range(3):
+        r[a] = sg * th * u[a] / nu
+
+
+def _jlinv(r, Ji):  # pragma: no cover - compiled
+    """Inverse left Jacobian of SO(3): d log(exp(δ) M)/dδ at r = log M (Barfoot eq. 7.45):
+    I − ½[r]× + (1/θ² − (1 + cos θ)/(2θ sin θ)) [r]×²."""
+    th2 = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    th = math.sqrt(th2)
+    if th < 1e-4:
+        g = 1.0 / 12.0 + th2 / 720.0
+    else:
+        g = 1.0 / th2 - (1.0 + math.cos(th)) / (2.0 * th * math.sin(th))
+    K = np.empty((3, 3))
+    K[0, 0], K[0, 1], K[0, 2] = 0.0, -r[2], r[1]
+    K[1, 0], K[1, 1], K[1, 2] = r[2], 0.0, -r[0]
+    K[2, 0], K[2, 1], K[2, 2] = -r[1], r[0], 0.0
+    for a in range(3):
+        for b in range(3):
+            k2 = K[a, 0] * K[0, b] + K[a, 1] * K[1, b] + K[a, 2] * K[2, b]
+            Ji[a, b] = (1.0 if a == b else 0.0) - 0.5 * K[a, b] + g * k2
+
+
+def _mmT(X, Y, out):  # pragma: no cover - compiled
+    """out = X Yᵀ (3 × 3)."""
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = X[a, 0] * Y[b, 0] + X[a, 1] * Y[b, 1] + X[a, 2] * Y[b, 2]
+
+
+def _log_rows(r, J, n, r0, cj, M, Wr, j, x, Ji, jac, roff, cmap):  # pragma: no cover - compiled
+    """Rows r0…r0+2: log M (M = R_j ·ᵀ, a rotation of link j against another) and ∂/∂q_j,c = J_l⁻¹(log M) w_j,c;
+    leaves log M in x and J_l⁻¹ in Ji."""
+    _logm(M, x)
+    for a in range(3):
+        r[n, r0 + a] = x[a]
+    if jac:
+        _jlinv(x, Ji)
+        for c in range(3):
+            for a in range(3):
+                _put(J, n, r0 + a, cj + 3 + c, Ji[a, 0] * Wr[j, c, 0] + Ji[a, 1] * Wr[j, c, 1]
+                     + Ji[a, 2] * Wr[j, c, 2], roff, cmap)
+
+
 def _put(J, n, row, col, val, roff, cmap):  # pragma: no cover - compiled
     rr = row - roff
     if rr >= 0:
@@ -136,21 +221,24 @@ def _put(J, n, row, col, val, roff, cmap):  # pragma: no cover - compiled
             J[n, rr, cc] = val
 
 
-def _eval_impl(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J):
+def _eval_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J):
     # pragma: no cover - compiled
     N = q.shape[0]
     L = q.shape[1] // 6
     ni = kind.shape[0]
     nchunk = (N + _CHUNK - 1) // _CHUNK
     for ch in numba.prange(nchunk):  # scratch arrays once per chunk of poses, not per pose
-        _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J, L, ni,
+        _eval_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J, L, ni,
                     ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
-def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J, L, ni,
+def _eval_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J, L, ni,
                 n0, n1):  # pragma: no cover - compiled
     R = np.empty((L, 3, 3))
     dR = np.empty((L, 3, 3, 3))
+    Wr = np.empty((L, 3, 3))
+    M = np.empty((3, 3))
+    Ji = np.empty((3, 3))
     wj = np.empty(3)
     wk = np.empty(3)
     Dwj = np.empty((3, 3))
@@ -167,7 +255,7 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
     x3 = np.empty(3)
     for n in range(n0, n1):
         qn = q[n]
-        _rotations(qn, L, R, dR)
+        _rotations(qn, L, R, dR, om, Wr)
         for i in range(ni):
             kd = kind[i]
             j = lj[i]
@@ -190,12 +278,16 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
                         for c in range(3):
                             _put(J, n, r0 + a, cj + 3 + c, Dwj[a, c], roff, cmap)
                             _put(J, n, r0 + a, ck + 3 + c, -Dwk[a, c], roff, cmap)
-            elif kd == 2:  # 1B equal orientation (eq. 4)
-                for a in range(3):
-                    r[n, r0 + a] = qn[cj + 3 + a] - qn[ck + 3 + a]
-                    if jac:
-                        _put(J, n, r0 + a, cj + 3 + a, 1.0, roff, cmap)
-                        _put(J, n, r0 + a, ck + 3 + a, -1.0, roff, cmap)
+            elif kd == 2:  # 1B equal orientation (eq. 4) as log(R_j R_kᵀ) = 0 (see constraints.block_eval)
+                _mmT(R[j], R[k], M)
+                _log_rows(r, J, n, r0, cj, M, Wr, j, x1, Ji, jac, roff, cmap)
+                if jac:
+                    for c in range(3):
+                        for a in range(3):  # ∂r/∂q_k,c = −J⁻¹ M w_k,c
+                            x2[a] = M[a, 0] * Wr[k, c, 0] + M[a, 1] * Wr[k, c, 1] + M[a, 2] * Wr[k, c, 2]
+                        for a in range(3):
+                            _put(J, n, r0 + a, ck + 3 + c, -(Ji[a, 0] * x2[0] + Ji[a, 1] * x2[1] + Ji[a, 2] * x2[2]),
+                                 roff, cmap)
             elif kd == 3:  # 1C common axis direction (eq. 5)
                 _vector(R, dR, j, A[i], U, DU)
                 _vector(R, dR, k, A[i], V, DV)
@@ -272,7 +364,7 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
                             gk += Dwk[a, c] * U[a]
                         _put(J, n, r0, cj + 3 + c, sg * gj, roff, cmap)
                         _put(J, n, r0, ck + 3 + c, -sg * gk, roff, cmap)
-            elif kd == 8:  # revolute drive: relative angle about the axis a (sin form, see block_eval)
+            elif kd == 8:  # revolute drive: wrapped relative angle about the axis a (see block_eval)
                 th = target[n, coord[i]] - value[i]
                 c0, s0 = math.cos(th), math.sin(th)
                 _vector(R, dR, j, A[i], W, DW)  # A
@@ -281,7 +373,8 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
                 _cross(U, V, x1)
                 S = W[0] * x1[0] + W[1] * x1[1] + W[2] * x1[2]
                 C = U[0] * V[0] + U[1] * V[1] + U[2] * V[2]
-                r[n, r0] = c0 * S - s0 * C
+                r[n, r0] = math.atan2(c0 * S - s0 * C, c0 * C + s0 * S)
+                n2 = S * S + C * C
                 if jac:
                     _cross(V, W, x2)
                     _cross(W, U, x3)
@@ -295,8 +388,8 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
                             dSk += DV[a, c] * x3[a]
                             dCj += DU[a, c] * V[a]
                             dCk += DV[a, c] * U[a]
-                        _put(J, n, r0, cj + 3 + c, c0 * dSj - s0 * dCj, roff, cmap)
-                        _put(J, n, r0, ck + 3 + c, c0 * dSk - s0 * dCk, roff, cmap)
+                        _put(J, n, r0, cj + 3 + c, (C * dSj - S * dCj) / n2, roff, cmap)
+                        _put(J, n, r0, ck + 3 + c, (C * dSk - S * dCk) / n2, roff, cmap)
             elif kd == 9:  # output point coordinate
                 _point(qn, R, dR, j, P[i], wj, Dwj)
                 c_ = coord[i]
@@ -305,12 +398,9 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
                     _put(J, n, r0, cj + c_, 1.0, roff, cmap)
                     for c in range(3):
                         _put(J, n, r0, cj + 3 + c, Dwj[c_, c], roff, cmap)
-            elif kd == 10:  # output orientation: link angles = target angles (wrapped)
-                for a in range(3):
-                    e = qn[cj + 3 + a] - phi_t[n, a]
-                    r[n, r0 + a] = math.pi - ((math.pi - e) % (2.0 * math.pi))
-                    if jac:
-                        _put(J, n, r0 + a, cj + 3 + a, 1.0, roff, cmap)
+            elif kd == 10:  # output orientation: log(R_j R(target)ᵀ) = 0
+                _mmT(R[j], Rt[n], M)
+                _log_rows(r, J, n, r0, cj, M, Wr, j, x1, Ji, jac, roff, cmap)
             else:  # output axis: R_j a = R(target) a
                 _vector(R, dR, j, A[i], U, DU)
                 for a in range(3):
@@ -322,7 +412,7 @@ def _eval_chunk(q, target, phi_t, Rt, kind, lj, lk, row, coord, value, P, A, B, 
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy")
 _helpers = {}
-for _f in (_mm3, _rotations, _point, _vector, _cross, _put, _eval_chunk):
+for _f in (_mm3, _mmT, _rotations, _point, _vector, _cross, _logm, _jlinv, _put, _log_rows, _eval_chunk):
     _helpers[_f.__name__] = numba.njit(**_OPTS)(_f)
     globals()[_f.__name__] = _helpers[_f.__name__]
 
@@ -338,6 +428,52 @@ def _renamed(fn, name):
     return out
 
 
+@numba.njit(**_OPTS)
+def _rotate_impl(phi, w, out):  # pragma: no cover - compiled
+    for n in range(phi.shape[0]):
+        for l in range(phi.shape[1]):
+            x, y, z = phi[n, l, 0], phi[n, l, 1], phi[n, l, 2]
+            cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+            # R = Rz Ry Rx (eq. 2)
+            R00, R01, R02 = cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx
+            R10, R11, R12 = sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx
+            R20, R21, R22 = -sy, cy * sx, cy * cx
+            w0, w1, w2 = w[n, l, 0], w[n, l, 1], w[n, l, 2]
+            th2 = w0 * w0 + w1 * w1 + w2 * w2
+            th = math.sqrt(th2)
+            if th < 1e-8:
+                a, b = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
+            else:
+                a, b = math.sin(th) / th, (1.0 - math.cos(th)) / th2
+            # E = I + a K + b K², K = [w]× (Rodrigues)
+            E00, E11, E22 = 1.0 - b * (w1 * w1 + w2 * w2), 1.0 - b * (w0 * w0 + w2 * w2), 1.0 - b * (w0 * w0 + w1 * w1)
+            E01, E10 = -a * w2 + b * w0 * w1, a * w2 + b * w0 * w1
+            E02, E20 = a * w1 + b * w0 * w2, -a * w1 + b * w0 * w2
+            E12, E21 = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
+            N00 = E00 * R00 + E01 * R10 + E02 * R20
+            N10 = E10 * R00 + E11 * R10 + E12 * R20
+            N20 = E20 * R00 + E21 * R10 + E22 * R20
+            N01 = E00 * R01 + E01 * R11 + E02 * R21
+            N11 = E10 * R01 + E11 * R11 + E12 * R21
+            N02 = E00 * R02 + E01 * R12 + E02 * R22
+            N12 = E10 * R02 + E11 * R12 + E12 * R22
+            # angles as constraints.link_angles (exact at φy = ±90°)
+            py = math.atan2(-N20, math.hypot(N00, N10))
+            pz = math.atan2(N10, N00)
+            c, s_ = math.cos(pz), math.sin(pz)
+            out[n, l, 0] = math.atan2(-(-s_ * N02 + c * N12), -s_ * N01 + c * N11)
+            out[n, l, 1] = py
+            out[n, l, 2] = pz
+
+
+def rotate(phi: Array, w: Array) -> Array:
+    """Angles φ' (N, nl, 3) of exp([w]×) R(φ) for link angles φ and rotation vectors w (N, nl, 3) (the compiled
+    :meth:`pkmstiff.mechanisms.constraints.System.step`)."""
+    out = np.empty_like(phi)
+    _rotate_impl(np.ascontiguousarray(phi, dtype=float), np.ascontiguousarray(w, dtype=float), out)
+    return out
+
+
 _eval_parallel = numba.njit(parallel=True, **_OPTS)(_eval_impl)
 _eval_serial = numba.njit(**_OPTS)(_renamed(_eval_impl, "_eval_serial_impl"))
 #: below this many poses the serial kernel is used (a parallel region costs more than it saves for small
@@ -345,19 +481,19 @@ _eval_serial = numba.njit(**_OPTS)(_renamed(_eval_impl, "_eval_serial_impl"))
 PARALLEL_MIN = 2048
 
 
-def evaluate(plan: Plan, q: Array, target: Array | None, phi_t: Array | None, Rt: Array | None, m: int, roff: int,
+def evaluate(plan: Plan, q: Array, target: Array | None, om: np.ndarray, Rt: Array | None, m: int, roff: int,
              cmap: np.ndarray, ncol: int, jac: bool) -> tuple[Array, Array | None]:
-    """Residual (N, m) and Jacobian (N, m − roff, ncol) (columns through ``cmap``, −1 = dropped) of the plan."""
+    """Residual (N, m) and Jacobian (N, m − roff, ncol) (columns through ``cmap``, −1 = dropped) of the plan;
+    ``om`` (L,) int64: links whose rotation columns are incremental rotation vectors (1) or the angles φ (0)."""
     N = q.shape[0]
     qf = np.ascontiguousarray(q.reshape(N, -1), dtype=float)
     if target is None and plan.needs_target:
         raise ValueError("kernel.evaluate: drive/output equations need target values")  # no bounds checks inside
     tg = np.zeros((N, 1)) if target is None else np.ascontiguousarray(target, dtype=float)
-    ph = np.zeros((1, 3)) if phi_t is None else np.ascontiguousarray(phi_t)
     rt = np.zeros((1, 3, 3)) if Rt is None else np.ascontiguousarray(Rt)
     r = np.empty((N, m))
     J = np.zeros((N, m - roff, ncol)) if jac else np.zeros((1, 1, 1))
     kern = _eval_parallel if N >= PARALLEL_MIN else _eval_serial
-    kern(qf, tg, ph, rt, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b,
+    kern(qf, tg, np.ascontiguousarray(om, dtype=np.int64), rt, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b,
          roff, cmap, jac, r, J)
     return r, (J if jac else None)

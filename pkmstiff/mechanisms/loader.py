@@ -234,6 +234,7 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
     check_connected(mech, src)
     check_home(mech, src)
     check_redundancy(mech, src)
+    check_mobility(mech, src)
     return mech
 
 
@@ -319,3 +320,48 @@ def is_mechanism(name_or_path: str | Path) -> bool:
         except MechanismFileError:
             return False
     return (bundled_mechanism_dir() / f"{name_or_path}.toml").exists()
+
+
+def check_mobility(mech: Mechanism, src: str = "") -> None:
+    """The drives must lock every motion of the mechanism, each a different one: the rank of the model Jacobian
+    at home plus the number of drives equals the unknowns, and the drive rows raise the rank one by one.
+
+    Mobility by rank at home rather than by Grübler/Kutzbach (which miscounts overconstrained linkages).  A
+    mechanism without drives (described for its structure only) is not checked.  The error names the free motion
+    (the largest link coordinates of a null-space vector of model + drive equations) or the drive that locks
+    nothing new."""
+    from pkmstiff.mechanisms.constraints import System, drive_blocks, model_blocks
+    from pkmstiff.mechanisms.linalg import numerical_rank
+
+    nd = len(mech.drives)
+    if nd == 0:
+        return
+    q0 = np.zeros((1, len(mech.links), mech.dof_per_link))
+    target = np.array([[j.drive.offset for j in mech.drives]])
+    model = model_blocks(mech)
+    Jm = System(mech, model).evaluate(q0)[1][0]
+    rank = numerical_rank(Jm)
+    mobility = Jm.shape[1] - rank
+    key = "joints (drives)"
+    expected = f"as many drives as the mobility at home ({mobility} = {Jm.shape[1]} unknowns − rank {rank})"
+    drives = System(mech, model + drive_blocks(mech))
+    Jd = drives.evaluate(q0, target)[1][0]
+    row_of = {}  # drive index → its row in the full system
+    for b in drives.blocks:
+        if b.kind.startswith("drive"):
+            for i, c in enumerate(b.coord):
+                row_of[int(c)] = b.row0 + i * b.nrows
+    rows = list(range(Jm.shape[0]))
+    for c in range(nd):
+        r_new = numerical_rank(Jd[rows + [row_of[c]]])
+        if r_new == numerical_rank(Jd[rows]):
+            raise _err(src, key, expected, f"{nd} drives; drive {mech.drive_names[c]!r} locks no motion that "
+                       "the model equations and the drives before it leave free")
+        rows.append(row_of[c])
+    if rank + nd < Jm.shape[1]:
+        z = np.linalg.svd(Jd)[2][numerical_rank(Jd)]  # a free motion: null-space vector at home
+        d = mech.dof_per_link
+        names = [f"link {mech.links[i // d]!r} {COORDINATES[mech.dim][i % d]}" for i in np.argsort(-np.abs(z))[:3]
+                 if abs(z[i]) > 1e-3 * np.abs(z).max()]
+        raise _err(src, key, expected, f"{nd} drives; {Jm.shape[1] - rank - nd} motion(s) left free, e.g. "
+                   f"{', '.join(names)}")

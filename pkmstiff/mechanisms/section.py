@@ -12,6 +12,10 @@ plane is an output pose (position = the point, orientation fixed), solved by the
     machines' ``kappa`` (Cobet eq. A.18); ∞ where the Jacobian loses rank (a singular configuration).
 ``<drive name>``
     a drive value (m or rad inside; mm or deg displayed).
+``kappa_out``
+    condition number of ∂x_c/∂s of the *controlled* outputs the file declares (point coordinates and full
+    orientation or tool axis, :func:`~pkmstiff.mechanisms.outputs.output_condition`): ∞ at an output singularity
+    such as a wrist singularity, where ``kappa`` of the Cardan pose stays finite.
 """
 
 from __future__ import annotations
@@ -23,67 +27,45 @@ from numpy.typing import NDArray
 
 from pkmstiff.errors import MechanismInputError
 from pkmstiff.evaluation.sections import raster
-from pkmstiff.mechanisms.constraints import fk_system
 from pkmstiff.mechanisms.evaluate import REASONS, evaluate
-from pkmstiff.mechanisms.linalg import lstsq_step
 from pkmstiff.mechanisms.model import Mechanism
+from pkmstiff.mechanisms.outputs import condition_numbers, configuration_rates, output_condition
 from pkmstiff.mechanisms.solver import Solution, output_pose
 
 Array = NDArray[np.float64]
 
 
 def kinematic_jacobian(sol: Solution, h: float = 1e-6) -> Array:
-    """∂x/∂s (N, pose_size, n_drives) at the configurations of ``sol`` (SI).
+    """∂x/∂s (N, pose_size, n_drives) of the Cardan output pose at the configurations of ``sol`` (SI).
 
-    Implicit differentiation of the forward kinematics F(q, s) = 0 (patent claim 9): F_q q_s = −F_s with
-    F_s = −1 on each drive row, solved by the Newton step of :func:`~pkmstiff.mechanisms.linalg.lstsq_step`; the
-    pose rates are central differences of the output pose along q_s (step h·length scale: truncation
-    O(h²) ≈ 1e-12 relative).  NaN where ``sol`` found no configuration.
+    Implicit differentiation of the forward kinematics F(q, s) = 0 (patent claim 9,
+    :func:`~pkmstiff.mechanisms.outputs.configuration_rates`); the pose rates are central differences of the output
+    pose along q_s (step h·length scale: truncation O(h²) ≈ 1e-12 relative).  NaN where ``sol`` found no
+    configuration.  The conditioning of the *controlled* outputs is :func:`~pkmstiff.mechanisms.outputs.output_condition`.
     """
     mech = sol.mech
-    system = fk_system(mech)
     N, L, d = sol.q.shape
     nd = len(mech.drives)
     drv = np.where(sol.ok[:, None], sol.drives, 0.0)
-    r, J = system.evaluate(sol.q, drv, reduced=True)
-    roff = system.n_fixed_rows
+    qs_all = configuration_rates(mech, sol.q, drv)
     out = np.full((N, mech.pose_size, nd), np.nan)
     qf = sol.q.reshape(N, -1)
-    free = system.free
-    for b in system.blocks:
-        if not b.kind.startswith("drive"):
-            continue
-        for i, c in enumerate(b.coord):
-            rhs = np.zeros((N, J.shape[1]))
-            rhs[:, b.row0 - roff + i] = -1.0  # the step solves J dq = −rhs: F_q q_s = −F_s = +1 on this drive row
-            dq, _, _, _ = lstsq_step(J, rhs, pattern=system.sparsity)
-            qs = np.zeros((N, L * d))
-            qs[:, free] = dq
-            eps = h * mech.length_scale / np.maximum(np.abs(qs).max(axis=1, keepdims=True), 1e-300)
-            pp = output_pose(mech, (qf + eps * qs).reshape(N, L, d))
-            pm = output_pose(mech, (qf - eps * qs).reshape(N, L, d))
-            dp = pp - pm
-            if mech.dim == 3:
-                dp[:, 3:] = (dp[:, 3:] + np.pi) % (2.0 * np.pi) - np.pi  # angle differences across ±π
-            out[:, :, c] = dp / (2.0 * eps)
+    for c in range(nd):
+        qs = qs_all[:, :, c]
+        eps = h * mech.length_scale / np.maximum(np.abs(qs).max(axis=1, keepdims=True), 1e-300)
+        pp = output_pose(mech, (qf + eps * qs).reshape(N, L, d))
+        pm = output_pose(mech, (qf - eps * qs).reshape(N, L, d))
+        dp = pp - pm
+        if mech.dim == 3:
+            dp[:, 3:] = (dp[:, 3:] + np.pi) % (2.0 * np.pi) - np.pi  # angle differences across ±π
+        out[:, :, c] = dp / (2.0 * eps)
     out[~sol.ok] = np.nan
     return out
 
 
-def condition_numbers(Jx: Array) -> Array:
-    """σ_1/σ_k of each ∂x/∂s (N, p, k) over its k largest singular values; ∞ where singular or NaN."""
-    out = np.full(Jx.shape[0], np.inf)
-    good = np.isfinite(Jx).all(axis=(1, 2))
-    if good.any():
-        s = np.linalg.svd(Jx[good], compute_uv=False)[:, : Jx.shape[2]]
-        with np.errstate(divide="ignore"):
-            out[good] = np.where(s[:, -1] > 1e-14 * s[:, 0], s[:, 0] / s[:, -1], np.inf)
-    return out
-
-
 def quantity_names(mech: Mechanism) -> tuple[str, ...]:
-    """Quantities a mechanism section offers: ``kappa`` and every drive name."""
-    return ("kappa",) + mech.drive_names
+    """Quantities a mechanism section offers: ``kappa``, ``kappa_out`` and every drive name."""
+    return ("kappa", "kappa_out") + mech.drive_names
 
 
 @dataclass
@@ -193,6 +175,9 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
     if "kappa" in names:
         kap = condition_numbers(kinematic_jacobian(ev.solution))
         values["kappa"], units["kappa"], scales["kappa"] = kap, "1", 1.0
+    if "kappa_out" in names:
+        q = np.where(ev.solution.ok[:, None, None], ev.solution.q, np.nan)
+        values["kappa_out"], units["kappa_out"], scales["kappa_out"] = output_condition(mech, q, ev.drives), "1", 1.0
     for i, (dn, du) in enumerate(zip(mech.drive_names, mech.drive_units)):
         if dn in names:
             values[dn] = ev.drives[:, i]

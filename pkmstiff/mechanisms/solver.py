@@ -20,10 +20,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from pkmstiff.errors import MechanismInputError
 from pkmstiff.kinematics.rotation import cardan_angles
-from pkmstiff.mechanisms.constraints import Frames, System, fk_system, ik_system
-from pkmstiff.mechanisms.linalg import (GAP_FACTOR, GAP_FLOOR, gap_rank, lstsq_pivoted, lstsq_step,
-                                        singular_values)
+from pkmstiff.mechanisms.constraints import (Frames, System, cardan_pose_rotation, fk_system, ik_system,
+                                             rotation_log, wrap)
+from pkmstiff.mechanisms.linalg import gap_rank, lstsq_step, singular_values
 from pkmstiff.mechanisms.model import Mechanism
+from pkmstiff.mechanisms.outputs import output_condition
 
 Array = NDArray[np.float64]
 
@@ -34,6 +35,15 @@ _SUSPECT_RCOND = 1e-5
 #: pose counts as regular without a QR/SVD: 1e3 above the suspect bound and 1e3 above ``singular_tol``
 _FINISH_SCREEN = 1e-4
 _ARMIJO = 1e-4
+#: default continuation: no step changes an angle (revolute drive, output angle) by more than this [rad] …
+MAX_ANGLE_STEP = np.radians(15.0)
+#: … or a length (linear drive, output position) by more than this fraction of the mechanism's length scale, so that
+#: each Newton solve starts inside the basin of the configuration reached along the path (patent [0018]); larger
+#: changes are subdivided into equal steps (at least ``steps``)
+MAX_LENGTH_STEP = 0.25
+#: intermediate continuation steps are solved to this multiple of the tolerance (1e-6 of the length scale by
+#: default): they only have to land in the next step's basin, whose size is the step itself (≥ 1e-3 typically)
+_PATH_TOL = 1e7
 
 
 @dataclass
@@ -50,6 +60,9 @@ class Solution:
     rcond: Array  #: (N,) reciprocal condition estimate at the last iterate: σ_min/σ_max estimate of the normal-equation
     #: step, or min/max |R_kk| where the pivoted QR was used (see linalg.lstsq_step)
     sigma_ratio: Array  #: (N,) σ_min/σ_max where computed (suspect poses), else NaN
+    #: (N,) κ of ∂x_c/∂s of the controlled outputs (:mod:`pkmstiff.mechanisms.outputs`), set by the forward
+    #: kinematics (NaN where no configuration was found or without an output check); None from the inverse
+    output_kappa: Array | None = None
 
     @property
     def converged(self) -> Array:
@@ -132,6 +145,9 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
            max_backtrack: int = 30) -> tuple[Array, Array, Array, Array, Array, Array]:
     """Damped Newton with pivoted-QR least-squares steps, vectorised over N (q0 (N, L, d)).
 
+    Link rotations are updated multiplicatively by incremental rotation vectors (:meth:`System.step`), so a link
+    at φy = ±90° (the Euler angles' singularity) is an ordinary configuration for the solver and its rank check.
+
     Converged when max |F| ≤ ``tol``.  A full step is tried first, its residual and Jacobian are kept for the
     next iteration when it reduces ‖F‖ (Armijo); otherwise the step is halved.  Returns q, status (str:
     converged/no_solution/max_iter), iterations, residual (max |F|), rank and rcond of the pivoted QR at the last
@@ -152,7 +168,8 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
     shape = (L, d)
 
     def ev(idx, qq, jac=True):
-        return system.evaluate(qq.reshape(-1, *shape), None if target is None else target[idx], jac, reduced=True)
+        return system.evaluate(qq.reshape(-1, *shape), None if target is None else target[idx], jac, reduced=True,
+                               omega=True)
 
     act = np.arange(N)
     r, J = ev(act, q)
@@ -174,8 +191,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
         rcond[act] = rc
         chol[act] = ~used_qr
         r2 = np.einsum("nm,nm->n", r, r)
-        qt = q[act]
-        qt[:, free] += dx
+        qt = system.step(q[act], dx)
         rt, Jt = ev(act, qt)
         rt2 = np.einsum("nm,nm->n", rt, rt)
         ok = np.isfinite(rt2) & ((rt2 <= (1.0 - _ARMIJO) ** 2 * r2) | (np.abs(rt).max(axis=1) <= tol))
@@ -195,8 +211,7 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
             tr = np.flatnonzero(~accepted)
             if tr.size == 0:
                 break
-            qb = q[act[bad[tr]]].copy()
-            qb[:, free] += alpha[tr, None] * dx[bad[tr]]
+            qb = system.step(q[act[bad[tr]]], alpha[tr, None] * dx[bad[tr]])
             rb, _ = ev(act[bad[tr]], qb, jac=False)
             rb2 = np.einsum("nm,nm->n", rb, rb)
             okb = np.isfinite(rb2) & (rb2 <= (1.0 - _ARMIJO * alpha[tr]) ** 2 * r2[bad[tr]])
@@ -233,7 +248,7 @@ def _finish(system: System, q: Array, status: Array, iters, resid, rank, rcond, 
     ok = np.flatnonzero((status == "converged") & ~regular)
     status = status.copy()
     if ok.size:
-        r, J = system.evaluate(q[ok], None if target is None else target[ok], reduced=True)
+        r, J = system.evaluate(q[ok], None if target is None else target[ok], reduced=True, omega=True)
         _, rk, rc, qr = lstsq_step(J, r, screen=_FINISH_SCREEN, sweeps=4, pattern=system.sparsity)
         rank[ok] = rk
         rcond[ok] = rc
@@ -291,7 +306,7 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
                 break
             tg = t0[idx] + (s / n) * (t1[idx] - t0[idx])
             last = s == n
-            qs, sts, its, res, rk, rc, ch = newton(system, q[idx], tg, tol if last else 1e3 * tol, max_iter,
+            qs, sts, its, res, rk, rc, ch = newton(system, q[idx], tg, tol if last else _PATH_TOL * tol, max_iter,
                                                    max_backtrack)
             q[idx] = qs
             iters[todo[idx]] += its
@@ -312,6 +327,37 @@ def _continuation(system: System, target: Array, start_q: Array, start_target: A
     return q_out, status.astype(str), iters, resid, rank, rcond, chol
 
 
+def path_steps(delta: Array, angular: Array, length_scale: float, steps: int) -> Array:
+    """Continuation steps per pose (N,) for target changes ``delta`` (N, k) whose columns are angles where
+    ``angular`` (k,) is True [rad], else lengths [m]: at least ``steps``, and enough that no step exceeds
+    :data:`MAX_ANGLE_STEP` / :data:`MAX_LENGTH_STEP` × length scale; rounded up to ``steps``·2^i so that
+    poses share few step counts (one vectorised continuation per count)."""
+    lim = np.where(angular, MAX_ANGLE_STEP, MAX_LENGTH_STEP * length_scale)
+    need = np.ceil(np.nanmax(np.abs(delta) / lim, axis=1, initial=0.0) / max(1, int(steps)))
+    return max(1, int(steps)) * 2 ** np.ceil(np.log2(np.maximum(need, 1.0))).astype(int)
+
+
+def _grouped(system: System, target: Array, start_q: Array, start_target: Array, n: Array, tol: float,
+             max_iter: int, max_refine: int, max_backtrack: int) -> tuple:
+    """:func:`_continuation` for poses with different step counts ``n`` (N,): one call per distinct count."""
+    N = target.shape[0]
+    if np.all(n == n[0]):
+        return _continuation(system, target, start_q, start_target, int(n[0]), tol, max_iter, max_refine,
+                             max_backtrack)
+    L, d = start_q.shape[-2:]
+    q0 = np.broadcast_to(start_q, (N, L, d))
+    t0 = np.broadcast_to(start_target, target.shape)
+    outs = None
+    for v in np.unique(n):
+        idx = np.flatnonzero(n == v)
+        res = _continuation(system, target[idx], q0[idx], t0[idx], int(v), tol, max_iter, max_refine, max_backtrack)
+        if outs is None:
+            outs = [np.empty((N,) + a.shape[1:], dtype=a.dtype if a.dtype.kind != "U" else object) for a in res]
+        for o, a in zip(outs, res):
+            o[idx] = a
+    return tuple(o.astype(str) if o.dtype == object else o for o in outs)
+
+
 def home(mech: Mechanism, n: int = 1) -> Array:
     """Home configuration: every link frame = world frame (patent claim 4), shape (n, L, d)."""
     return np.zeros((n, len(mech.links), mech.dof_per_link))
@@ -319,12 +365,16 @@ def home(mech: Mechanism, n: int = 1) -> Array:
 
 def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
             tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
-            singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
+            singular_tol: float = 1e-7, max_backtrack: int = 30, output_check: bool = True) -> Solution:
     """Forward kinematics: configurations for drive values (N, n_drives) [m or rad] (patent claim 12).
 
     Starts at home (drive values = offsets) or at ``start`` (a Solution or q (N, L, d)) and continues in
-    ``steps`` equal steps; ``tol`` defaults to 1e-13·length scale.  Never raises for unreachable targets:
-    see ``Solution.status``.  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
+    equal steps: ``steps``, or more where a drive changes by more than :data:`MAX_ANGLE_STEP` (revolute) or
+    :data:`MAX_LENGTH_STEP` × length scale (linear) per step (:func:`path_steps`), so that the configuration
+    is the one connected to the start; ``tol`` defaults to 1e-13·length scale.  Never raises for unreachable targets:
+    see ``Solution.status``: ``singular`` also where the controlled outputs are singular (``output_check``:
+    κ of ∂x_c/∂s, ``Solution.output_kappa``, above 1/``singular_tol`` — a wrist singularity, where the forward
+    kinematics themselves stay regular).  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
     targets are given up sooner, as a section raster needs).
     """
     nd = len(mech.drives)
@@ -339,8 +389,17 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = joint_values(mech, q0, [i for i, j in enumerate(mech.joints) if j.drive is not None])
-    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine, max_backtrack)
-    return _finish(system, *out, tg, singular_tol)
+    n = path_steps(tg - t0, np.array([u == "rad" for u in mech.drive_units]), mech.length_scale, steps)
+    out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
+    sol = _finish(system, *out, tg, singular_tol)
+    sol.output_kappa = np.full(tg.shape[0], np.nan)
+    if output_check and mech.output is not None:
+        ok = np.flatnonzero(sol.ok)
+        kap = output_condition(mech, sol.q[ok], tg[ok])
+        sol.output_kappa[ok] = kap
+        with np.errstate(invalid="ignore"):
+            sol.status[ok[kap * singular_tol > 1.0]] = "singular"
+    return sol
 
 
 def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
@@ -348,7 +407,8 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
             singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
     """Inverse kinematics: configurations (and drive values) for output poses (N, 6) x, y, z [m], a, b, c [rad]
     (planar (N, 3) x, y [m], φ [rad]) (patent claim 11).  Continuation from home or ``start`` as in
-    :func:`forward`."""
+    :func:`forward` (changes of the controlled point coordinates against :data:`MAX_LENGTH_STEP`, the turn of the
+    controlled orientation against :data:`MAX_ANGLE_STEP`)."""
     if mech.output is None:
         raise MechanismInputError(f"mechanism '{mech.name}' has no [output]: inverse kinematics undefined")
     units = "m, m, m, rad, rad, rad" if mech.dim == 3 else "m, m, rad"
@@ -360,5 +420,30 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
     else:
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = output_pose(mech, q0)
-    out = _continuation(system, tg, q0, t0, steps, tol, max_iter, max_refine, max_backtrack)
+    n = path_steps(_controlled_change(mech, t0, tg), np.array([False, True]), mech.length_scale, steps)
+    out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
     return _finish(system, *out, tg, singular_tol)
+
+
+def _controlled_change(mech: Mechanism, p0: Array, p1: Array) -> Array:
+    """(N, 2): the largest change of a controlled point coordinate [m] and the turn of the controlled orientation
+    [rad] between output poses p0 and p1 — the rotation angle |log(R₁R₀ᵀ)| (full), the angle between the axes
+    (axis), nothing (none) — the quantities the default continuation bounds per step."""
+    o = mech.output
+    D = mech.dim
+    N = np.broadcast_shapes(p0.shape, p1.shape)[0]
+    out = np.zeros((N, 2))
+    out[:, 0] = np.abs((p1 - p0)[:, list(o.coordinates)]).max(axis=1)
+    if o.orientation == "none":
+        return out
+    if D == 2:
+        out[:, 1] = np.abs(wrap(p1[:, 2] - p0[:, 2]))
+        return out
+    R0 = cardan_pose_rotation(np.broadcast_to(p0, (N, p0.shape[1]))[:, 3:6])
+    R1 = cardan_pose_rotation(np.broadcast_to(p1, (N, p1.shape[1]))[:, 3:6])
+    if o.orientation == "full":
+        out[:, 1] = np.linalg.norm(rotation_log(R1 @ np.swapaxes(R0, -1, -2)), axis=-1)
+    else:
+        c = np.einsum("na,na->n", R0 @ o.axis, R1 @ o.axis)
+        out[:, 1] = np.arccos(np.clip(c, -1.0, 1.0))
+    return out

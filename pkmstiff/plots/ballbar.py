@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_path, output_path
+
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
@@ -136,7 +138,8 @@ def save_ballbar_figures(ev: "BallbarEvaluation", out_dir: str | Path, stem: str
     """Write ``<stem>_polar.png`` and ``<stem>_spectrum.png`` into ``out_dir``; returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [out / f"{stem}_polar.png", out / f"{stem}_spectrum.png"]
-    polar_deviation_figure(ev).savefig(paths[0], dpi=130)
-    harmonic_spectrum_figure(ev).savefig(paths[1], dpi=130)
+    paths = [output_path(out, f"{stem}_polar.png"), output_path(out, f"{stem}_spectrum.png")]
+    for path, fig in zip(paths, (polar_deviation_figure(ev), harmonic_spectrum_figure(ev))):
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=130)
     return paths

@@ -13,6 +13,7 @@ from typing import Sequence
 import numpy as np
 
 from pkmstiff.fe.export import FieldMesh
+from pkmstiff.io.atomic import atomic_path
 
 
 def deformed_image(fm: FieldMesh, path: str | Path, title: str = "", magnified_fraction: float = 0.08,
@@ -55,6 +56,7 @@ def deformed_image(fm: FieldMesh, path: str | Path, title: str = "", magnified_f
     pl.camera_position = [tuple(centre + 2.5 * size * d), tuple(centre), (0.0, 0.0, 1.0)]
     pl.reset_camera()
     pl.camera.zoom(1.1)
-    pl.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        pl.screenshot(str(tmp))
     pl.close()
     return path, scale

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.mechanisms.constraints import Frames
 from pkmstiff.mechanisms.model import Mechanism
 
@@ -90,5 +91,6 @@ def mechanism_figure(mech: Mechanism, q: np.ndarray, path: str | Path | None = N
     ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=110)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110)
     return fig

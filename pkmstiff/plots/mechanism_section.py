@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pkmstiff.io.atomic import atomic_path
+
 MM = 1e3
 #: map categories: admissible, then the first failing reason bit (pkmstiff.mechanisms.REASONS order)
 _CATEGORIES = (("admissible", "#2ca02c"), ("no solution", "#7f7f7f"), ("singular", "#d62728"),
@@ -79,5 +81,6 @@ def plot_mechanism_quantity(sec, name: str, path: str | Path) -> Path:
 def _save(fig, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return path

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from pkmstiff.analysis.modal import ModalAnalysis, modal_analysis
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
@@ -131,7 +132,8 @@ def plot_mode_shape(machine: Machine, pose, path: str | Path, mode: int = 1, amp
     _camera(p, ms, zoom=1.75)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    p.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        p.screenshot(str(tmp))
     p.close()
     return path
 
@@ -157,5 +159,6 @@ def animate_mode_shape(machine: Machine, pose, path: str | Path, mode: int = 1, 
         p.close()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+    with atomic_path(path) as tmp:
+        images[0].save(tmp, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
     return path

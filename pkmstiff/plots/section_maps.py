@@ -8,6 +8,7 @@ from typing import Sequence
 import numpy as np
 
 from pkmstiff.evaluation.sections import SectionResult
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch
@@ -53,7 +54,8 @@ def _finish_plane_plot(p, res: SectionResult, subtitle: str, path: str | Path) -
     p.camera.zoom(0.92)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    p.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        p.screenshot(str(tmp))
     p.close()
     return path
 
@@ -111,7 +113,8 @@ def _map_figure(res: SectionResult, window_size: tuple[int, int] | None, legend_
 def _save(fig, path: str | Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100, facecolor="white")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, facecolor="white")
     return path
 
 
@@ -176,7 +179,8 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
     p.camera.zoom(1.5)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    p.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        p.screenshot(str(tmp))
     p.close()
     return path
 

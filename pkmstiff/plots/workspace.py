@@ -13,6 +13,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from pkmstiff.errors import PlotDependencyError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch, machine_sketch
@@ -85,7 +86,8 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
         pl.view_vector(list(view))
     pl.reset_camera()
     pl.camera.zoom(1.45)
-    pl.screenshot(str(path))
+    with atomic_path(path) as tmp:
+        pl.screenshot(str(tmp))
     pl.close()
     return path
 
@@ -131,7 +133,8 @@ def plot_rotation_maps(res: RotationMapResult, path: str | Path, labels: tuple[s
     if title:
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return path
 
 
@@ -151,7 +154,8 @@ def plot_volume_vs_orientation(angles_rad: np.ndarray, volumes: Mapping[str, np.
     if title:
         ax.set_title(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return path
 
 
@@ -173,7 +177,8 @@ def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.nd
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return path
 
 
@@ -199,5 +204,6 @@ def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | 
     if title:
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     return path

@@ -55,11 +55,13 @@ def _tool_mm(machine: Machine, tl: float | None) -> float:
 
 
 def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
-                 log: Callable[[str], None] | None = None) -> Report:
+                 log: Callable[[str], None] | None = None, scheduler: Any = None) -> Report:
     """Evaluate a spec for every variant and assemble the report; figures are written to ``out_dir``.
 
     ``fast`` applies :func:`~pkmstiff.report.spec.fast_spec`; ``n_jobs`` (default: the spec's ``options.jobs``) is
-    passed to the section evaluation. ``log`` receives one progress line per step.
+    passed to the section and workspace evaluations, ``scheduler`` (a Dask address or client) sends them to a
+    cluster (:mod:`pkmstiff.evaluation.parallel`; the numbers are the same). ``log`` receives one progress line per
+    step.
     """
     log = log or (lambda msg: None)
     if fast:
@@ -86,10 +88,11 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     notes: list[str] = []
 
     # workspace volume first (as in Cobet Table 5.1), then sections, points, machine values
-    ws_figs = _workspace_rows(spec, pairs, table, notes, out, log) if spec.workspace is not None else []
+    par = {"n_jobs": jobs, "scheduler": scheduler}
+    ws_figs = _workspace_rows(spec, pairs, table, notes, out, log, par) if spec.workspace is not None else []
     multi = len(spec.sections) > 1
     map_sections = [(sec, figs) for k, sec in enumerate(spec.sections)
-                    for figs in [_section(sec, k, pairs, table, multi, jobs, out, log, spec.frame)] if sec.maps]
+                    for figs in [_section(sec, k, pairs, table, multi, par, out, log, spec.frame)] if sec.maps]
     for pt in spec.points:
         _point_rows(pt, pairs, table, notes, spec.frame)
     for key in spec.machine_rows:
@@ -130,7 +133,7 @@ def _variant_text(v: Variant, m: Machine) -> str:
 
 
 def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str], out: Path,
-                    log: Callable[[str], None]) -> list[Figure]:
+                    log: Callable[[str], None], par: dict[str, Any]) -> list[Figure]:
     ws = spec.workspace
     figs: list[Figure] = []
     vols: dict[str, list[float | None]] = {m: [] for m in ws.methods}
@@ -138,7 +141,7 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
         t0 = time.perf_counter()
         ori = ws.orientation if ws.orientation is not None else v.orientation
         res = WorkspaceRequest(ws.resolution, ws.box, ws.requirements, ori, ws.methods, frame=spec.frame,
-                               neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks).evaluate(m)
+                               neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks).evaluate(m, **par)
         for meth in ws.methods:
             vols[meth].append(res.volumes.get(meth))
         if res.octree.touches_box:
@@ -155,7 +158,7 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
     return figs
 
 
-def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, jobs: int, out: Path,
+def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, par: dict[str, Any], out: Path,
              log: Callable[[str], None], frame: str = "machine") -> list[Figure]:
     """Evaluate one section for every variant, add its rows; the maps' figures (one colour scale per quantity)."""
     results = []
@@ -165,7 +168,7 @@ def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, j
                              sec.orientation if sec.orientation is not None else v.orientation,
                              sec.tool_length if sec.tool_length is not None else v.tool_length,
                              frame=frame, neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks)
-        res = req.evaluate(m, n_jobs=jobs)
+        res = req.evaluate(m, **par)
         res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
         if res.tool_length is None:
             res.tool_length = m.tool.length
@@ -236,13 +239,13 @@ def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) 
 
 
 def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
-             log: Callable[[str], None] | None = None) -> dict[str, Path]:
+             log: Callable[[str], None] | None = None, scheduler: Any = None) -> dict[str, Path]:
     """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths."""
     from pkmstiff.report.render import run_info, write_report
 
     t0 = time.perf_counter()
     spec = load_spec(path)
-    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log)
+    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log, scheduler=scheduler)
     info = run_info()
     info["run time"] = f"{time.perf_counter() - t0:.1f} s"
     return write_report(report, out_dir, run=info)

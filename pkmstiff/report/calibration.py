@@ -21,6 +21,7 @@ from pkmstiff.calibration.deflection import DeflectionSummary
 from pkmstiff.calibration.diagnostics import ALPHA
 from pkmstiff.calibration.identification import ResidualStats
 from pkmstiff.calibration.workflow import CalibrationRun
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["REPORT_FILES", "calibration_report", "deflection_section", "write_calibration_report"]
@@ -82,7 +83,8 @@ def _value_unit(unit: str) -> tuple[float, str]:
 
 def _save(fig, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     return path
 
 

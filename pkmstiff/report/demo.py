@@ -1,7 +1,7 @@
 """``pkmstiff demo``: stiffness and first eigenfrequency maps of the bundled Hexaglide (Cobet Figs. 4.25, 4.30).
 
 YZ plane at x = 0, a = b = c = 0, tool length 0 with the platform-spindle stiffness K_U neglected (as the
-dissertation's maps, Cobet 4.2.4; docs/user-guide/validation-hexaglide.md (reading 4)): maps of k_x, k_y, k_z [N/µm] and f1 [Hz], a three-plane figure of
+dissertation's maps, Cobet 4.2.4; docs/user-guide/validation-hexaglide.md, reading: tool length 0): maps of k_x, k_y, k_z [N/µm] and f1 [Hz], a three-plane figure of
 k_x with a sketch of the machine, VTU/CSV exports and a short Markdown + HTML summary, written to ``out/demo/``.
 """
 
@@ -18,6 +18,7 @@ from pkmstiff.evaluation.sections import (
     section_summary,
     three_planes,
 )
+from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.report.outputs import write_section_outputs
 
@@ -95,7 +96,7 @@ def _write_summary(out: Path, title: str, info: dict, images: list[Path], assump
     md += ["", f"Inadmissible points by reason: {reasons}.", ""]
     md += [f"![{p.stem}]({p.name})" for p in images]
     md += ["", "## Assumptions (machine file)", ""] + [f"- `{k}`: {v}" for k, v in assumptions.items()]
-    (out / "summary.md").write_text("\n".join(md) + "\n", encoding="utf-8")
+    atomic_write_text(out / "summary.md", "\n".join(md) + "\n")
     cells = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in rows[1:])
     head = "".join(f"<th>{html.escape(c)}</th>" for c in rows[0])
     imgs = "".join(f'<figure><img src="{p.name}" width="640"><figcaption>{html.escape(p.stem)}</figcaption></figure>'
@@ -106,5 +107,5 @@ def _write_summary(out: Path, title: str, info: dict, images: list[Path], assump
             f"<table border='1' cellpadding='4'><tr>{head}</tr>{cells}</table>"
             f"<p>Inadmissible points by reason: {html.escape(reasons)}.</p>{imgs}"
             f"<h2>Assumptions (machine file)</h2><ul>{ass}</ul></body></html>")
-    (out / "summary.html").write_text(page, encoding="utf-8")
+    atomic_write_text(out / "summary.html", page)
 

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from pkmstiff.evaluation.sections import SectionResult, section_summary
+from pkmstiff.io.atomic import atomic_write_text, output_path
 
 
 def write_section_outputs(res: SectionResult, out: Path, formats, stem: str) -> list[Path]:
@@ -17,14 +18,14 @@ def write_section_outputs(res: SectionResult, out: Path, formats, stem: str) -> 
     if "png" in formats:
         from pkmstiff.plots.section_maps import plot_section
 
-        paths += [plot_section(res, n, out / f"{stem}_{n}.png") for n in res.values]
+        paths += [plot_section(res, n, output_path(out, f"{stem}_{n}.png")) for n in res.values]
     if "vtu" in formats:
-        paths.append(to_vtk(res, out / f"{stem}.vtu"))
+        paths.append(to_vtk(res, output_path(out, f"{stem}.vtu")))
     if "csv" in formats:
-        paths.append(to_csv(res, out / f"{stem}.csv"))
+        paths.append(to_csv(res, output_path(out, f"{stem}.csv")))
     if "npz" in formats:
-        paths.append(to_npz(res, out / f"{stem}.npz"))
-    stats = out / f"{stem}_statistics.json"
-    stats.write_text(json.dumps(section_summary(res), indent=2))
+        paths.append(to_npz(res, output_path(out, f"{stem}.npz")))
+    stats = output_path(out, f"{stem}_statistics.json")
+    atomic_write_text(stats, json.dumps(section_summary(res), indent=2))
     paths.append(stats)
     return paths

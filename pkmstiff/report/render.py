@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from pkmstiff.errors import ReportError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import atomic_path, atomic_write_text
 from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["ReportError", "write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]
@@ -219,7 +220,8 @@ def _place_figures(report: Report, out_dir: Path) -> list[list[tuple[Figure, byt
                     rel = f"figures/{stem}_{k}.png"
                 dst = out_dir / rel
                 dst.parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(src, dst)
+                with atomic_path(dst) as tmp:
+                    shutil.copyfile(src, tmp)
             used.add(rel)
             items.append((fig, data, rel))
         placed.append(items)
@@ -308,8 +310,16 @@ def _html_kv(d: dict[str, Any], key_head: str, sort: bool) -> str:
 
 
 # ---------------------------------------------------------------------------------------------------------- Markdown
+def _md_text(text: str, inline: bool = True) -> str:
+    """Text from a spec or machine file as literal Markdown: HTML special characters as entities (a Markdown viewer
+    renders raw HTML), link/image brackets and code ticks escaped; one line where ``inline``."""
+    t = text.replace("\\", "\\\\").replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    t = t.replace("[", "\\[").replace("]", "\\]").replace("`", "\\`")
+    return " ".join(t.split("\n")) if inline else t
+
+
 def _md_cell(text: str) -> str:
-    return text.replace("\\", "\\\\").replace("|", "\\|").replace("\n", " ")
+    return _md_text(text).replace("|", "\\|")
 
 
 def _md_table(header: list[str], rows: list[list[str]], right: list[bool]) -> str:
@@ -320,29 +330,29 @@ def _md_table(header: list[str], rows: list[list[str]], right: list[bool]) -> st
 
 
 def _render_md(report: Report, placed, info: dict[str, str]) -> str:
-    parts = [f"# {report.title}\n\n", f"*pkmstiff {info.get('pkmstiff', '')} — {info.get('date', '')}*\n\n"]
+    parts = [f"# {_md_text(report.title)}\n\n", f"*pkmstiff {info.get('pkmstiff', '')} — {info.get('date', '')}*\n\n"]
     if report.summary.strip():
-        parts.append(report.summary.strip() + "\n\n")
+        parts.append(_md_text(report.summary.strip(), inline=False) + "\n\n")
     nt = nf = 0
     for section, figs in zip(report.sections, placed):
-        parts.append(f"## {section.heading}\n\n")
+        parts.append(f"## {_md_text(section.heading)}\n\n")
         if section.text.strip():
-            parts.append(section.text.strip() + "\n\n")
+            parts.append(_md_text(section.text.strip(), inline=False) + "\n\n")
         for table in section.tables:
             nt += 1
             header, rows = _table_grid(table)
-            parts.append(f"**Table {nt}: {table.caption}**\n\n")
+            parts.append(f"**Table {nt}: {_md_text(table.caption)}**\n\n")
             parts.append(_md_table([h for h, _ in header],
                                    [[label, unit] + [c.text for c in cells] for label, unit, cells in rows],
                                    [False, False] + [True] * (len(header) - 2)))
             parts.append("\n")
         for fig, _data, rel in figs:
             nf += 1
-            alt = fig.caption.replace("[", "(").replace("]", ")").replace("\n", " ")
-            parts.append(f"![{alt}]({rel})\n\n*Figure {nf}: {fig.caption}*\n\n")
+            alt = _md_text(fig.caption.replace("[", "(").replace("]", ")"))
+            parts.append(f"![{alt}]({rel})\n\n*Figure {nf}: {_md_text(fig.caption)}*\n\n")
     parts.append("## Assumptions\n\n")
     if report.assumptions:
-        parts.extend(f"- **{k}**: {report.assumptions[k]}\n" for k in sorted(report.assumptions))
+        parts.extend(f"- **{_md_text(k)}**: {_md_text(str(report.assumptions[k]))}\n" for k in sorted(report.assumptions))
         parts.append("\n")
     else:
         parts.append("None recorded.\n\n")
@@ -386,6 +396,6 @@ def write_report(report: Report, out_dir: str | Path, *, stem: str = "report",
     placed = _place_figures(report, out)
     html_path = out / f"{stem}.html"
     md_path = out / f"{stem}.md"
-    html_path.write_text(_render_html(report, placed, info), encoding="utf-8")
-    md_path.write_text(_render_md(report, placed, info), encoding="utf-8")
+    atomic_write_text(html_path, _render_html(report, placed, info))
+    atomic_write_text(md_path, _render_md(report, placed, info))
     return {"html": html_path, "md": md_path}

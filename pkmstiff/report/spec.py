@@ -59,7 +59,7 @@ class Variant:
     tool_length: float | None = None  # m; None = the machine file's
     orientation: tuple[float, float, float] = (0.0, 0.0, 0.0)  # rad
     description: str = ""
-    neglect_spindle: bool = False  # leave K_U out (docs/user-guide/validation-hexaglide.md (reading 4))
+    neglect_spindle: bool = False  # leave K_U out (docs/user-guide/validation-hexaglide.md, reading: tool length 0)
     skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
 

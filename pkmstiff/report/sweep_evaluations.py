@@ -89,7 +89,7 @@ class SectionStatistics:
     tool_length_mm: float | None = None
     orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     frame: str = "machine"  # frame of at_mm / range ("machine" or "report", pkmstiff.machine.frames)
-    neglect_spindle: bool = False  # leave K_U out (docs/user-guide/validation-hexaglide.md (reading 4))
+    neglect_spindle: bool = False  # leave K_U out (docs/user-guide/validation-hexaglide.md, reading: tool length 0)
     skip_checks: tuple[str, ...] = ()  # admissibility checks left out (names of ALL_CHECKS)
 
     def __post_init__(self) -> None:

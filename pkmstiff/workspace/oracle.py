@@ -20,10 +20,12 @@ Samples are evaluated one after the other, each only for the points still undeci
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
-from typing import Iterable, Literal, Sequence
+from typing import Any, Iterable, Literal, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -31,6 +33,7 @@ from numpy.typing import ArrayLike
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import OracleInputError  # noqa: F401 (re-exported)
+from pkmstiff.evaluation import parallel
 from pkmstiff.evaluation.quantities import EvalContext
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
@@ -120,6 +123,8 @@ class PoseOracle:
         range_mode: RangeMode = "all",
         prefilter: bool = True,
         chunk_size: int = 20_000,
+        n_jobs: int = 1,
+        scheduler: Any = None,
     ):
         base = np.asarray(base_pose, float)
         if base.shape != (6,) or not np.isfinite(base).all():
@@ -137,6 +142,11 @@ class PoseOracle:
         self.stats = EvaluationStats()
         self.range_mode = range_mode
         self.range_samples = self._range_samples(orientation_range, range_step, range_mode)
+        parallel.resolve_workers(n_jobs)
+        self.n_jobs, self.scheduler = n_jobs, scheduler
+        self._point_seconds: float | None = None  # measured on the last call evaluated here
+        self._shared: parallel.Shared[PoseOracle] | None = None
+        self.plans: list[parallel.Plan] = []  # one per call split over workers
 
     def _range_samples(self, rng, step, mode) -> tuple[int, np.ndarray] | None:
         if rng is None:
@@ -189,4 +199,39 @@ class PoseOracle:
 
     def __call__(self, points: np.ndarray) -> np.ndarray:
         self.stats.points += len(points)
-        return self.admissible_poses(self.poses(points))
+        poses = self.poses(points)
+        p = None
+        if (self.n_jobs != 1 or self.scheduler is not None) and self._point_seconds is not None:
+            p = parallel.plan(len(poses), self._point_seconds, self.n_jobs, self.scheduler, granule=self.chunk_size)
+        if p is None or not p.parallel:  # serial; its time sizes the next call's tasks
+            t0 = time.perf_counter()
+            out = self.admissible_poses(poses)
+            self._point_seconds = (time.perf_counter() - t0) / max(len(poses), 1)
+            return out
+        self.plans.append(p)
+        if self._shared is None:
+            worker = copy.copy(self)
+            worker.n_jobs, worker.scheduler, worker.stats, worker._shared = 1, None, EvaluationStats(), None
+            self._shared = parallel.Shared(worker)
+        t0 = time.perf_counter()
+        parts = parallel.run_tasks(_oracle_task, [(self._shared, poses[a:b]) for a, b in parallel.split(len(poses), p)],
+                                   p, self.scheduler)
+        wall = time.perf_counter() - t0
+        times = [k for k in dataclasses.asdict(self.stats) if k.startswith("time_")]
+        busy = sum(st[k] for _, st in parts for k in times)
+        for _, st in parts:  # counts add up; the workers' times are scaled to this call's wall time (they overlap)
+            for k, v in st.items():
+                setattr(self.stats, k, getattr(self.stats, k) + (v * wall / busy if k in times and busy > 0 else v))
+        return np.concatenate([ok for ok, _ in parts])
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "scheduler": None, "_shared": None}
+
+
+def _oracle_task(oracle: parallel.Shared[PoseOracle], poses: np.ndarray) -> tuple[np.ndarray, dict[str, float]]:
+    """One parallel task: admissibility of ``poses`` and the evaluation counts/times it added (a compact array and a
+    small dict)."""
+    o = oracle.get()
+    before = dataclasses.asdict(o.stats)
+    ok = o.admissible_poses(poses)
+    return ok, {k: v - before[k] for k, v in dataclasses.asdict(o.stats).items()}

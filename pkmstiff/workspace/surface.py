@@ -25,6 +25,7 @@ from typing import Callable, Literal
 import numpy as np
 
 from pkmstiff.errors import SurfaceError  # noqa: F401 (re-exported)
+from pkmstiff.io.atomic import atomic_path
 from pkmstiff.workspace.octree import Lattice, OctreeResult
 
 VertexMode = Literal["centroid", "crossing"]
@@ -73,7 +74,8 @@ class BoundarySurface:
         if suffix not in (".stl", ".vtk", ".vtp", ".ply"):
             raise SurfaceError(f"{path}: expected a file name ending in .stl, .vtk, .vtp or .ply, found {suffix!r}")
         mesh = BoundarySurface(self.vertices * scale, self.triangles, self.vertex_mode).to_pyvista()
-        mesh.save(str(path), binary=True)
+        with atomic_path(path) as tmp:
+            mesh.save(str(tmp), binary=True)
         return path
 
 

@@ -12,12 +12,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
+from pkmstiff.evaluation import parallel
 from pkmstiff.machine.model import Machine
-from pkmstiff.workspace.octree import OctreeResult, Progress, octree_boundary
+from pkmstiff.workspace.octree import OctreeInputError, OctreeResult, Progress, octree_boundary
 from pkmstiff.workspace.oracle import PoseOracle, RangeMode
 from pkmstiff.workspace.requirements import Requirement
 from pkmstiff.workspace.surface import BoundarySurface
-from pkmstiff.workspace.volume import DEFAULT_METHODS, workspace_volume
+from pkmstiff.workspace.volume import DEFAULT_METHODS, HEADLINE_METHOD, workspace_volume
 
 MAX_RETRY_LEVEL = 6  # finest start grid tried when a coarser one finds no admissible corner
 
@@ -40,7 +41,7 @@ def reach_box(machine: Machine) -> tuple[np.ndarray, np.ndarray]:
     lo = np.maximum((lo_i - reach[:, None]).max(axis=0), machine.limits.position_min)
     hi = np.minimum((hi_i + reach[:, None]).min(axis=0), machine.limits.position_max)
     if not (np.isfinite(lo).all() and np.isfinite(hi).all()) or np.any(hi <= lo):
-        raise ValueError(f"machine '{machine.name}': the chains' reach boxes do not overlap (no workspace); "
+        raise OctreeInputError(f"machine '{machine.name}': the chains' reach boxes do not overlap (no workspace); "
                          f"found lo={lo.tolist()} m, hi={hi.tolist()} m")
     return lo, hi
 
@@ -74,7 +75,7 @@ class WorkspaceResult:
     @property
     def volume(self) -> float:
         """Volume by the default method (surface nets), m^3."""
-        return self.volumes.get("surface_nets", next(iter(self.volumes.values()), float("nan")))
+        return self.volumes.get(HEADLINE_METHOD, next(iter(self.volumes.values()), float("nan")))
 
     @property
     def boundary_points(self) -> np.ndarray:
@@ -97,6 +98,7 @@ class WorkspaceResult:
             "resolution_mm": self.resolution * 1e3,
             "effective_resolution_mm": (o.spacing * 1e3).tolist(),
             "volume_m3": self.volume,
+            "volume_method": HEADLINE_METHOD,  # volume_m3, the figure to quote; volumes_m3: every method (cross-checks)
             "volumes_m3": dict(self.volumes),
             "bounding_box_mm": None if not np.isfinite(lo).all() else {"min": (lo * 1e3).tolist(),
                                                                          "max": (hi * 1e3).tolist()},
@@ -130,13 +132,17 @@ def constant_orientation_workspace(
     refine_steps: int = 0,
     min_level: int = 3,
     progress: Progress | None = None,
+    n_jobs: int = 1,
+    scheduler: Any = None,
 ) -> WorkspaceResult:
     """Workspace at constant orientation (a, b, c [rad]) by the modified octree, with volumes and a closed surface.
 
     ``resolution`` = eps in m. ``box`` = (lo, hi) in m; default :func:`reach_box`, fitted so that the effective
     resolution equals eps (:func:`fit_box`). ``orientation_range`` = ("a"|"b"|"c", lo, hi) [rad] gives the workspace
     with one variable orientation range (see :class:`PoseOracle`). ``refine_steps``: bisection steps along the
-    boundary edges for the surface-nets volume (extra evaluations, counted).
+    boundary edges for the surface-nets volume (extra evaluations, counted). ``n_jobs`` (-1: all cores) /
+    ``scheduler`` (Dask): the octree levels' points are evaluated in the run's worker pool / on the cluster, sized by
+    the measured time of the previous level (:class:`PoseOracle`); the result is the same whatever the plan.
     """
     t0 = time.perf_counter()
     ori = np.asarray(orientation, float)
@@ -149,19 +155,13 @@ def constant_orientation_workspace(
         lo, hi = fit_box(lo, hi, resolution)
     oracle = PoseOracle(machine, np.concatenate([np.zeros(3), ori]), (0, 1, 2), requirements=requirements,
                         checks=checks, orientation_range=orientation_range, range_step=range_step,
-                        range_mode=range_mode)
-    res = octree_boundary(oracle, lo, hi, resolution, min_level=min_level, progress=progress)
-    # A workspace thinner than the start grid's spacing is missed when no start corner is admissible (docs/theory/workspace.md,
-    # known limitation): start finer before concluding that there is none, and say so if there still is none.
-    level = min_level
-    while res.leaf_index.shape[0] == 0 and res.inside_volume == 0.0 and level < max(min_level, MAX_RETRY_LEVEL):
-        level += 1
-        res = octree_boundary(oracle, lo, hi, resolution, min_level=level, progress=progress)
+                        range_mode=range_mode, n_jobs=n_jobs, scheduler=scheduler)
+    with parallel.connected(scheduler):
+        res, level, rep = _octree(oracle, lo, hi, resolution, min_level, methods, refine_steps, progress)
     if res.leaf_index.shape[0] == 0 and res.inside_volume == 0.0:
         warnings.warn(f"{machine.name}: no admissible point found on the octree start grids up to level {level} "
                       f"(spacing {np.max((hi - lo) / 2 ** level) * 1e3:.0f} mm); the workspace is empty or thinner "
                       f"than that — give a tighter box", RuntimeWarning, stacklevel=2)
-    rep = workspace_volume(res, tuple(methods), refine_steps=refine_steps, admissible=oracle)
     run = time.perf_counter() - t0
     st = oracle.stats
     stats = {"evaluations": st.points, "octree_evaluations": res.evaluations,
@@ -174,6 +174,19 @@ def constant_orientation_workspace(
                 "orientation_range_unit": "deg", "range_step_deg": math.degrees(range_step),
                 "range_mode": range_mode, "refine_steps": refine_steps, "min_level": min_level, "start_level": level}
     return WorkspaceResult(machine.name, ori, float(resolution), res, rep.volumes, rep.crossing_mesh, stats, settings)
+
+
+def _octree(oracle: PoseOracle, lo: np.ndarray, hi: np.ndarray, resolution: float, min_level: int,
+            methods: Sequence[str], refine_steps: int, progress: Progress | None) -> tuple[OctreeResult, int, Any]:
+    """The octree from ``min_level`` (finer start levels while no start corner is admissible) and its volumes."""
+    res = octree_boundary(oracle, lo, hi, resolution, min_level=min_level, progress=progress)
+    # A workspace thinner than the start grid's spacing is missed when no start corner is admissible (docs/theory/workspace.md,
+    # known limitation): start finer before concluding that there is none, and say so if there still is none.
+    level = min_level
+    while res.leaf_index.shape[0] == 0 and res.inside_volume == 0.0 and level < max(min_level, MAX_RETRY_LEVEL):
+        level += 1
+        res = octree_boundary(oracle, lo, hi, resolution, min_level=level, progress=progress)
+    return res, level, workspace_volume(res, tuple(methods), refine_steps=refine_steps, admissible=oracle)
 
 
 def volume_vs_orientation(

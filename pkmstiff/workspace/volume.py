@@ -32,6 +32,16 @@ from pkmstiff.workspace.surface import BoundarySurface, boundary_surface
 
 METHODS = ("surface_nets", "divergence", "tetrahedron", "pyramid", "voxels")
 DEFAULT_METHODS = ("surface_nets", "divergence", "tetrahedron", "pyramid")
+#: the method whose volume is the result to quote (``WorkspaceResult.volume``); the others are cross-checks
+HEADLINE_METHOD = "surface_nets"
+#: what each method's number is, for the printed output (docs/user-guide/workspace.md, "Volume methods")
+METHOD_NOTES = {
+    "surface_nets": "divergence theorem on the mesh through the boundary-edge mid-points; converges quadratically",
+    "divergence": "signed sum on the mesh through the eq. 4.1 points, whose corners are cut: small",
+    "tetrahedron": "Cobet eq. 4.14, unsigned sum about the cloud centre: wrong where the workspace is not star-shaped",
+    "pyramid": "eq. 4.4-4.6 as specified: 25-50 % too large on test bodies",
+    "voxels": "voxel counting: a cross-check for simple bodies",
+}
 
 
 

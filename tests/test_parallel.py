@@ -1,0 +1,163 @@
+"""Workers that start once (pkmstiff.evaluation.parallel, issue 25): task plans, machines kept per worker, and results
+that are the same bytes whatever ``--jobs`` / ``--scheduler``."""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pkmstiff import load_machine
+from pkmstiff.cli import main
+from pkmstiff.errors import ParallelError
+from pkmstiff.evaluation import parallel
+from pkmstiff.workspace.oracle import PoseOracle
+
+SWEEP = Path(__file__).resolve().parents[1] / "studies" / "sweeps" / "hexaglide_strut_sweep.toml"
+
+
+@settings(max_examples=200, deadline=None)
+@given(items=st.integers(0, 3_000_000), us=st.floats(1.0, 5000.0), jobs=st.integers(1, 64),
+       granule=st.sampled_from([1, 500, 4096, 20_000]))
+def test_plan_covers_every_item_once_with_tasks_of_whole_granules(items, us, jobs, granule):
+    p = parallel.plan(items, us * 1e-6, jobs, granule=granule)
+    bounds = parallel.split(items, p)
+    assert [a for a, _ in bounds][1:] == [b for _, b in bounds][:-1]  # contiguous, no gap, no overlap
+    assert (bounds[0][0], bounds[-1][1]) == (0, items) if items else bounds == []
+    if p.parallel:
+        assert 2 <= p.tasks == len(bounds) and p.workers <= min(jobs, p.tasks)
+        assert p.task_items % granule == 0  # the serial run's chunks, so the same bytes
+        # every task but the last runs at least MIN_TASK_SECONDS at the measured cost (one granule may be less)
+        assert p.task_items * us * 1e-6 >= min(parallel.MIN_TASK_SECONDS, granule * us * 1e-6) * (1 - 1e-12)
+        # no more than TASKS_PER_WORKER tasks per worker unless a task is one granule already
+        assert p.tasks <= jobs * parallel.TASKS_PER_WORKER + 1 or p.task_items == granule or \
+            p.task_items * us * 1e-6 < 2 * parallel.MIN_TASK_SECONDS + granule * us * 1e-6
+    else:
+        assert jobs == 1 or items * us * 1e-6 < 2 * parallel.MIN_TASK_SECONDS + 2 * granule * us * 1e-6
+
+
+def test_plan_text_names_workers_tasks_and_task_size():
+    p = parallel.plan(1_000_000, 50e-6, 2, granule=4096)
+    assert p.parallel and p.workers == 2 and p.tasks == 8  # 50 s of work: 4 tasks per worker
+    assert p.text() == f"2 local workers, 8 tasks of {p.task_items} points (≈ {p.task_items * 50e-6:.2f} s each)"
+    assert parallel.plan(1000, 50e-6, 2).text().startswith("serial")  # 0.05 s: not worth a worker
+
+
+def test_bad_n_jobs_is_one_clear_error():
+    for bad in (0, -2, 1.5, True):
+        with pytest.raises(ParallelError, match="n_jobs"):
+            parallel.resolve_workers(bad)
+
+
+def test_shared_machine_is_unpickled_once_per_process():
+    m = load_machine("hexaglide")
+    s = parallel.Shared(m)
+    assert s.get() is m  # this process holds it already
+    copy = pickle.loads(pickle.dumps(s))
+    parallel.Shared._cache.pop(s.key)
+    first = copy.get()
+    assert first is not m and copy.get() is first and first.name == m.name
+
+
+def test_pool_is_started_once_and_reused():
+    assert 1 <= parallel.start_workers(2) <= 2
+    pool = parallel.pool(2)
+    pids = {f.result() for f in [pool.submit(parallel._pid, k) for k in range(8)]}
+    assert parallel.pool(2) is pool and 1 <= len(pids) <= 2 and os.getpid() not in pids
+
+
+@pytest.fixture(scope="module")
+def dask_address():
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None) as c:
+        yield c.scheduler_address
+
+
+def _digests(folder: Path) -> dict[str, str]:
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir())}
+
+
+def test_section_files_are_the_same_bytes_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
+    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)  # split even this small section into tasks
+    base = ["section", "hexaglide", "--plane", "yz", "--step", "10", "--range", "y=-200:600,z=-1130:-500",
+            "--quantities", "kx,kappa", "--formats", "csv,npz,vtu", "--quiet"]
+    runs = {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}
+    for name, extra in runs.items():
+        assert main([*base, *extra, "--out", str(tmp_path / name)]) == 0
+    capsys.readouterr()
+    ref = _digests(tmp_path / "1")
+    assert len(ref) >= 4 and _digests(tmp_path / "2") == ref and _digests(tmp_path / "dask") == ref
+
+
+def test_section_cost_line_states_the_plan(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)
+    assert main(["section", "hexaglide", "--plane", "yz", "--step", "10", "--jobs", "2", "--range",
+                 "y=-200:600,z=-1130:-500", "--quantities", "kx", "--formats", "csv", "--out", str(tmp_path)]) == 0
+    line = next(x for x in capsys.readouterr().err.splitlines() if x.startswith("pkmstiff section:"))
+    assert "; 2 local workers, " in line and " tasks of 4096 points" in line
+
+
+def test_sweep_csv_is_the_same_bytes_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
+    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)
+    for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
+        assert main(["sweep", str(SWEEP), "--out", str(tmp_path / f"{name}.csv"), "--quiet", *extra]) == 0
+    out = capsys.readouterr().out
+    assert "2 local workers" in out and "batches of" in out
+    ref = (tmp_path / "1.csv").read_bytes()
+    assert (tmp_path / "2.csv").read_bytes() == ref and (tmp_path / "dask.csv").read_bytes() == ref
+
+
+def test_workspace_oracle_gives_the_same_answer_and_counts_on_workers(monkeypatch):
+    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)
+    m = load_machine("hexaglide")
+    rng = np.random.default_rng(3)
+    pts = np.column_stack([rng.uniform(-0.4, 0.9, 6000), rng.uniform(-0.3, 0.3, 6000), rng.uniform(-1.2, -0.5, 6000)])
+    serial, par = PoseOracle(m, chunk_size=500), PoseOracle(m, chunk_size=500, n_jobs=2)
+    par(pts[:500])  # measured here: sizes the next call's tasks
+    serial(pts[:500])
+    a, b = serial(pts), par(pts)
+    assert par.plans and par.plans[-1].parallel and par.plans[-1].tasks >= 2
+    assert np.array_equal(a, b) and 0 < a.sum() < a.size
+    # counts are integers: exact; the times are wall time (the workers overlap), not compared
+    assert (serial.stats.points, serial.stats.poses, serial.stats.full_pipeline) == \
+        (par.stats.points, par.stats.poses, par.stats.full_pipeline)
+    assert math.isfinite(par.stats.time)
+
+
+def test_shared_cache_keeps_only_the_most_recent_objects():
+    shared = [parallel.Shared({"design": k}) for k in range(parallel.Shared.KEEP + 3)]
+    assert len(parallel.Shared._cache) <= parallel.Shared.KEEP and shared[0].key not in parallel.Shared._cache
+    assert shared[0].get() == {"design": 0} and shared[0].key in parallel.Shared._cache  # unpickled again on demand
+
+
+def test_small_work_on_cold_dask_workers_stays_here_and_warms_them(monkeypatch):
+    warmed = []
+    monkeypatch.setattr(parallel, "_dask_workers", lambda scheduler: (2, 2))  # 2 workers, both cold
+    monkeypatch.setattr(parallel, "_warm_in_background", warmed.append)
+    small = parallel.plan(11, 0.1, scheduler="tcp://h:8786")  # 1.1 s of work < COLD_WORKER_SECONDS + 0.55 s
+    assert not small.parallel and small.text("tasks").startswith("serial: the Dask workers are still cold")
+    assert warmed == ["tcp://h:8786"]
+    registered = []
+    monkeypatch.setattr(parallel, "client", lambda s: type("C", (), {"register_plugin": registered.append})())
+    big = parallel.plan(1000, 0.1, scheduler="tcp://h:8786")  # 100 s: worth waiting for the warm-up
+    assert big.parallel and big.workers == 2 and len(registered) == 1
+    assert big.text("tasks", "batches").startswith("Dask (2 workers at tcp://h:8786), 8 batches of 125 tasks")
+
+
+def test_progress_callback_reports_tasks_finished_out_of_order(monkeypatch, capsys):
+    from pkmstiff.evaluation import progress
+
+    monkeypatch.setattr(progress, "PROGRESS_INTERVAL_S", 0.0)  # a line at every step (stderr is not a terminal here)
+    assert progress.callback(4, False, "section", "task") is None and progress.callback(0, True, "x", "y") is None
+    step = progress.callback(4, True, "section", "task")
+    for k in (1, 3, 4):  # two tasks may finish between two calls
+        step(k)
+    err = capsys.readouterr().err
+    assert "section:" in err and "/4 tasks" in err and "(3/4 tasks)" in err
