@@ -146,7 +146,7 @@ def test_each_misfit_is_detected_and_named(files, capsys, tmp_path, case, key, n
 
 
 def test_a_consistent_fit_passes_every_diagnostic(files, capsys):
-    code, rep, err = _identify(capsys, files["small"])
+    code, rep, _ = _identify(capsys, files["small"])
     assert code == 0 and rep["diagnostics"]["consistent"], rep["diagnostics"]["summary"]
     keys = {f["key"] for f in rep["diagnostics"]["findings"]}
     assert {"chi2", "drift", "setup:bar-offset", "cw-ccw", "run", "outliers"} <= keys

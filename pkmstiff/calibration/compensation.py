@@ -25,10 +25,9 @@ import numpy as np
 from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats, setup_at
 from pkmstiff.calibration.instruments import readings, target_points
 from pkmstiff.calibration.jacobian import reading_weights
-from pkmstiff.calibration.parameters import error_model
-from pkmstiff.calibration.perturb import perturbed_state
 from pkmstiff.calibration.measurement import commanded_drives
-from pkmstiff.calibration.perturb import machine_file_text
+from pkmstiff.calibration.parameters import error_model
+from pkmstiff.calibration.perturb import machine_file_text, perturbed_state
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.calibration.uncertainty import Uncertainty
 from pkmstiff.errors import CalibrationError, CalibrationInputError

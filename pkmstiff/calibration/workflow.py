@@ -32,8 +32,8 @@ from pkmstiff.calibration.deflection import (
 from pkmstiff.calibration.diagnostics import Candidate, FitDiagnostics, diagnose
 from pkmstiff.calibration.identifiability import Identifiability, check_identifiable, identifiability
 from pkmstiff.calibration.identification import Identification, ResidualStats, identify, jacobian_at
-from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
+from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.measurement_file import Measurement, read_measurement
 from pkmstiff.calibration.parameters import ParameterSet, error_model, parse_with
 from pkmstiff.calibration.perturb import perturbed_machine
