@@ -10,7 +10,7 @@ Public API (SI units inside: m, rad, kg, N, N/m):
 Layers (each a subpackage; imports only downward): ``units``/``errors`` → ``io`` → ``machine`` → ``kinematics`` →
 ``admissibility`` → ``multibody`` → ``structure`` → ``analysis`` → ``evaluation`` → ``workspace`` → ``fe`` →
 ``calibration``/``mechanisms`` → ``plots`` → ``report`` → ``api`` (the design-study API: ``load_machine`` returns a
-:class:`~pkmstiff.api.StudyMachine`) → ``cli``.
+:class:`~pkmstiff.api.StudyMachine`) → ``optimise`` (``pkmstiff.optimise(design_file, out)``) → ``cli``.
 """
 
 __version__ = "0.1.0"
@@ -24,11 +24,17 @@ _FACADE = {
     "SectionMap": "pkmstiff.api", "Workspace": "pkmstiff.api", "RotationMap": "pkmstiff.api",
     "Report": "pkmstiff.api", "Table": "pkmstiff.api", "Figure": "pkmstiff.api", "write_report": "pkmstiff.api",
     "ComponentState": "pkmstiff.api", "available_quantities": "pkmstiff.api", "ALL_CHECKS": "pkmstiff.api",
+    "ColourScale": "pkmstiff.api", "robust_clim": "pkmstiff.api",
+    "load_design": "pkmstiff.optimise",
     "inverse_kinematics": "pkmstiff.kinematics", "forward_kinematics": "pkmstiff.kinematics",
 }
 
 
 def __getattr__(name: str):
+    if name == "optimise":  # the subpackage, callable: pkmstiff.optimise(design_file, out=...)
+        import importlib
+
+        return importlib.import_module("pkmstiff.optimise")
     if name in _FACADE:
         import importlib
 
@@ -37,10 +43,10 @@ def __getattr__(name: str):
 
 
 def __dir__() -> list[str]:
-    return sorted(list(globals()) + list(_FACADE))
+    return sorted(list(globals()) + list(_FACADE) + ["optimise"])
 
 
-__all__ = ["ALL_CHECKS", "ComponentState", "Figure", "InputError", "Machine", "MachineFileError", "PkmstiffError", "PointResults",
+__all__ = ["ALL_CHECKS", "ColourScale", "ComponentState", "Figure", "InputError", "Machine", "MachineFileError", "PkmstiffError", "PointResults",
            "Report", "RotationMap", "SectionMap", "StudyMachine", "Table", "UnknownMachineError", "Workspace",
-           "available_quantities", "bundled_machines", "forward_kinematics", "inverse_kinematics", "load_machine",
+           "available_quantities", "bundled_machines", "forward_kinematics", "inverse_kinematics", "load_design", "load_machine", "optimise", "robust_clim",
            "write_report", "__version__"]

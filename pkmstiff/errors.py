@@ -274,3 +274,16 @@ class UnknownMechanismError(PkmstiffError, ValueError):
 
 class MechanismInputError(PkmstiffError, ValueError):
     """Invalid argument of a mechanism function (poses, drive values, parameter names); the message says which."""
+
+
+# -------------------- optimise
+
+
+class DesignFileError(InputError):
+    """An invalid design file of ``pkmstiff optimise`` (names file:line, key, what was expected and what was found)."""
+
+
+class NothingFeasibleError(PkmstiffError):
+    """An optimisation found no candidate that satisfies every constraint (exit status 3); no "best" is reported."""
+
+    exit_status = 3

@@ -18,6 +18,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 import pkmstiff
+from pkmstiff import ColourScale, robust_clim
 
 STAT_KEYS = ("max", "mean", "min")
 
@@ -85,16 +86,13 @@ class MapPanel:
     title: str
     unit: str
     cmap: str = "viridis"
-    clim: tuple[float, float] | None = None
+    clim: tuple[float, float] | ColourScale | None = None
 
 
-def shared_clim(*arrays: np.ndarray) -> tuple[float, float]:
-    """Common colour limits (min, max over the finite values of all arrays)."""
-    finite = np.concatenate([a[np.isfinite(a)].ravel() for a in arrays])
-    if not finite.size:
-        return (0.0, 1.0)
-    lo, hi = float(finite.min()), float(finite.max())
-    return (lo, hi) if hi > lo else (lo - 0.5, hi + 0.5)
+def shared_clim(*arrays: np.ndarray) -> ColourScale:
+    """Common colour scale over the finite values of all arrays: min..max, or logarithmic / cut at a percentile
+    where one hot spot would flatten the rest (pkmstiff.robust_clim; the colour bar says so)."""
+    return robust_clim(*arrays)
 
 
 def symmetric_clim(values: np.ndarray, percentile: float = 100.0) -> tuple[float, float]:
@@ -132,8 +130,10 @@ def plot_maps(panels: Sequence[MapPanel], path: str | Path, title: str, ncols: i
     for ax, pan in zip(axes.ravel(), panels):
         pl = pan.res.plane
         u, v = pl.u_values * 1e3, pl.v_values * 1e3
-        clim = pan.clim or shared_clim(pan.values)
-        mesh = ax.pcolormesh(u, v, np.ma.masked_invalid(pan.values), cmap=pan.cmap, vmin=clim[0], vmax=clim[1],
+        scale = pan.clim if isinstance(pan.clim, ColourScale) else \
+            ColourScale(*pan.clim) if pan.clim is not None else shared_clim(pan.values)
+        clim = (scale.lo, scale.hi)
+        mesh = ax.pcolormesh(u, v, np.ma.masked_invalid(pan.values), cmap=pan.cmap, norm=scale.norm(),
                              shading="nearest", rasterized=True)
         if pan.res.ok.any() and not pan.res.ok.all():
             ax.contour(u, v, pan.res.ok.astype(float), levels=[0.5], colors="black", linewidths=1.0)
@@ -141,12 +141,8 @@ def plot_maps(panels: Sequence[MapPanel], path: str | Path, title: str, ncols: i
         ax.set_xlabel(f"{pl.u_name} [mm]")
         ax.set_ylabel(f"{pl.v_name} [mm]")
         ax.set_title(pan.title, fontsize=10)
-        finite = pan.values[np.isfinite(pan.values)]
-        below = finite.size and finite.min() < clim[0]
-        above = finite.size and finite.max() > clim[1]
-        extend = {(0, 0): "neither", (1, 0): "min", (0, 1): "max", (1, 1): "both"}[(int(bool(below)), int(bool(above)))]
-        cb = fig.colorbar(mesh, ax=ax, shrink=0.85, extend=extend)
-        cb.set_label(pan.unit)
+        cb = fig.colorbar(mesh, ax=ax, shrink=0.85, extend=scale.extend(pan.values))
+        scale.label_colorbar(cb, pan.unit.replace("N/um", "N/µm"))
     fig.suptitle(title, fontsize=11)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

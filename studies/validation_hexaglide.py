@@ -33,19 +33,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _study_common import Stopwatch, machine_assumptions, parse_args, write_outputs  # noqa: E402
 
 import pkmstiff  # noqa: E402
-import pkmstiff.admissibility.checks as adm  # noqa: E402
-from pkmstiff.admissibility.checks import left_out_text  # noqa: E402
-from pkmstiff.admissibility.pipeline import evaluate_poses  # noqa: E402
-from pkmstiff.analysis import evaluate_structure, modal_analysis  # noqa: E402
-from pkmstiff.evaluation.requests import SectionRequest  # noqa: E402
-from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section  # noqa: E402
-from pkmstiff.machine.frames import frame_text, neglect_spindle, to_machine_frame  # noqa: E402
-from pkmstiff.machine.model import Machine  # noqa: E402
-from pkmstiff.machine.variants import machine_with  # noqa: E402
-from pkmstiff.multibody import mode_axes  # noqa: E402
-from pkmstiff.report.model import Figure, Report, Table  # noqa: E402
-from pkmstiff.structure import StructureOptions, build_structure  # noqa: E402
-from pkmstiff.workspace.requests import WorkspaceRequest  # noqa: E402
 
 #: verdict threshold: |deviation| <= 5 % agrees (issue 13)
 AGREE_PERCENT = 5.0
@@ -87,7 +74,6 @@ MASS_READINGS = {"no extra strut mass": None, "struts 0/100 % drive/platform": 0
 MAIN_MASS = "no extra strut mass"
 #: the published section statistics were computed without the strut-platform check (machines.md §1.7 item 9)
 SKIP_51 = ("platform_collision",)
-NO_PLATFORM_CHECK = adm.checks_without(SKIP_51)
 #: platform inertia scalings shown as the sensitivity of the frequencies (M_P's rotational units are not printed)
 INERTIA_SCALES = (1.0, 1.0 / 2.2, 1.0 / 4.0)
 #: published TCP y-stiffness range at the Table 5.7 pose (N/um: measurement 2.5, simulation 2.7) and platform mass
@@ -193,19 +179,25 @@ def point_results() -> dict[str, Any]:
     out: dict[str, Any] = {}
     for joints, opts in JOINT_OPTIONS.items():
         m = pkmstiff.load_machine("hexaglide", opts)
-        x = to_machine_frame(m, np.array([POSE_57]), "report")
         k = {}
-        for key, mach, tl in (("K_U neglected, tool 0", neglect_spindle(m), 0.0), ("K_U kept, tool 0", m, 0.0),
-                              ("K_U kept, tool 150 mm", m, TOOL_51)):
-            k[key] = (evaluate_structure(mach, x, tool_length=tl, n_modes=0).stiffness[0, :3] / 1e6).tolist()
+        for key, mach, tl in (("K_U neglected, tool 0", m.with_(neglect_spindle=True), 0.0),
+                              ("K_U kept, tool 0", m, 0.0), ("K_U kept, tool 150 mm", m, TOOL_51)):
+            k[key] = (stiffness_only(mach, tl).stiffness[0, :3] / 1e6).tolist()
         f = {}
         for label, share in MASS_READINGS.items():
-            r = evaluate_structure(neglect_spindle(m), x, tool_length=0.0, n_modes=3,
-                                   options=StructureOptions(strut_mass_to_drive=share))
+            r = m.with_(neglect_spindle=True).point(POSE_57, "report", tool_length=0.0, n_modes=3,
+                                                     weak_point_directions=(), kinetostatics=False,
+                                                     structure={"strut_mass_to_drive": share})
             f[label] = r.frequencies_hz[0].tolist()
         out[joints] = {"stiffness_N_per_um": k, "frequencies_hz_by_strut_mass": f,
-                       "pose_machine_frame_m": x[0, :3].tolist()}
+                       "pose_machine_frame_m": m.to_machine_frame(POSE_57[:3], "report").tolist()}
     return out
+
+
+def stiffness_only(m: pkmstiff.StudyMachine, tool_length: float) -> pkmstiff.PointResults:
+    """The TCP stiffness of ``m`` at the Tables 5.7/5.8 pose (no modes, weak points or kinetostatics)."""
+    return m.point(POSE_57, "report", tool_length=tool_length, n_modes=0, weak_point_directions=(),
+                   kinetostatics=False)
 
 
 def mode_shapes(n_modes: int = 6) -> dict[str, Any]:
@@ -213,29 +205,27 @@ def mode_shapes(n_modes: int = 6) -> dict[str, Any]:
     frequency, the platform's dominant motion (kinetic-energy share) and its instantaneous screw axis (direction,
     the point nearest O' in the report frame, distance from O', pitch); plus the sensitivity of f1..f3 to the
     platform inertias and the Rayleigh bound of f1 from the published k_y."""
-    m = neglect_spindle(pkmstiff.load_machine("hexaglide"))
-    x = to_machine_frame(m, np.array([POSE_57]), "report")
-    st = build_structure(m, x)
-    ma = modal_analysis(st, n_modes)
-    axes = mode_axes(st.model, ma.shapes[st.ok], "platform")
-    origin = np.asarray(m.report_origin, float)
-    o = x[0, :3]
+    m = pkmstiff.load_machine("hexaglide").with_(neglect_spindle=True)
+    res = m.point(POSE_57, "report", tool_length=0.0, n_modes=n_modes, weak_point_directions=(),
+                  kinetostatics=False)
+    o = np.asarray(POSE_57[:3])
     rows = []
     for k in range(n_modes):
-        d, p = axes.direction[0, k], axes.point[0, k]
+        d, p = res.mode_axis_direction[0, k], res.mode_axis_point[0, k]
         d = d * np.sign(d[np.argmax(np.abs(d))])  # sign of the largest component positive
-        rows.append({"mode": k + 1, "frequency_hz": float(ma.frequencies_hz[0, k]),
-                     "dominant_motion": ma.description(0, k), "axis_direction": (d.round(3) + 0.0).tolist(),
-                     "axis_point_report_frame_mm": (((p - origin) * 1e3).round(0) + 0.0).tolist(),
+        rows.append({"mode": k + 1, "frequency_hz": float(res.frequencies_hz[0, k]),
+                     "dominant_motion": res.mode_descriptions[0][k], "axis_direction": (d.round(3) + 0.0).tolist(),
+                     "axis_point_report_frame_mm": ((p * 1e3).round(0) + 0.0).tolist(),
                      "axis_below_O_mm": float((o[2] - p[2]) * 1e3),
                      "axis_distance_from_O_mm": float(np.linalg.norm(np.cross(o - p, d)) * 1e3),
-                     "pitch_mm_per_rad": float(axes.pitch[0, k] * 1e3)})
+                     "pitch_mm_per_rad": float(res.mode_axis_pitch[0, k] * 1e3)})
     inertia = {}
     base = np.asarray(m.components["platform"]["inertia"], float)
     for s in INERTIA_SCALES:
-        mi = neglect_spindle(machine_with("hexaglide", {"components.platform.inertia": (base * s).tolist()}))
-        inertia[f"{s:.4g}"] = evaluate_structure(mi, x, tool_length=0.0, n_modes=3).frequencies_hz[0].tolist()
-    ky_ours = float(evaluate_structure(m, x, tool_length=0.0, n_modes=0).stiffness[0, 1])
+        mi = m.with_(components={"platform": {"inertia": (base * s).tolist()}})
+        inertia[f"{s:.4g}"] = mi.point(POSE_57, "report", tool_length=0.0, n_modes=3, weak_point_directions=(),
+                                       kinetostatics=False).frequencies_hz[0].tolist()
+    ky_ours = float(stiffness_only(m, 0.0).stiffness[0, 1])
     bound = {f"{ky:g} N/um (published)": _rayleigh_f1(ky * 1e6) for ky in PUBLISHED_KY}
     bound[f"{ky_ours / 1e6:.3g} N/um (ours)"] = _rayleigh_f1(ky_ours)
     return {"modes": rows, "frequencies_hz_by_inertia_scale": inertia, "rayleigh_bound_f1_hz_by_k_y": bound}
@@ -277,23 +267,26 @@ def variant_results(step: float, eps: float) -> dict[str, Any]:
     names = ("U", "kx", "vmax_y")
     for label, name in VARIANTS:
         m = pkmstiff.load_machine(name)
-        req = SectionRequest("yz", 0.0, Y_RANGE, Z_RANGE, step, names, tool_length=TOOL_51, frame="report",
-                             skip_checks=SKIP_51)
-        res = req.evaluate(m)
-        plane = axis_plane("yz", 0.0, Y_RANGE, Z_RANGE, step)
-        hull = evaluate_section(m, plane, list(names), tool_length=TOOL_51, frame="report", progress=False)
+        res = yz_section(m, step, names, skip_checks=SKIP_51)
+        hull = yz_section(m, step, names)
         # K_U's rotational entries have no printed unit (docs/user-guide/machines.md note 3): N*m/urad (bundled) vs N*mm/urad
-        mku = machine_with(name, {"components.platform_stiffness.rotational_unit": "N*mm/urad"})
-        ku = SectionRequest("yz", 0.0, Y_RANGE, Z_RANGE, step, ("kx",), tool_length=TOOL_51, frame="report",
-                            skip_checks=SKIP_51).evaluate(mku)
-        ws = WorkspaceRequest(eps, frame="report").evaluate(m)
+        mku = m.with_(components={"platform_stiffness": {"rotational_unit": "N*mm/urad"}})
+        ku = yz_section(mku, step, ("kx",), skip_checks=SKIP_51)
+        ws = m.workspace(eps, frame="report", methods=("surface_nets",))
         out[label] = {"checks_left_out": list(SKIP_51), "stats": res.statistics(),
                       "stats_with_platform_check": hull.statistics(), "stats_ku_nmm": ku.statistics(),
                       "area_m2": float(res.ok.sum()) * res.plane.cell_area,
                       "area_with_platform_check_m2": float(hull.ok.sum()) * res.plane.cell_area,
                       "platform_check_removes_percent": 100.0 * (1.0 - hull.ok.sum() / max(res.ok.sum(), 1)),
-                      "volume_m3": ws.volume, "workspace": ws.summary()}
+                      "volume_m3": ws.volume, "workspace": ws.statistics()}
     return out
+
+
+def yz_section(m: pkmstiff.StudyMachine, step: float, names: Sequence[str],
+               skip_checks: Sequence[str] = ()) -> pkmstiff.SectionMap:
+    """Table 5.1's Y-Z plane at x = 0 (report frame), tool 150 mm."""
+    return m.section("yz", 0.0, step, names, u_range=Y_RANGE, v_range=Z_RANGE, tool_length=TOOL_51,
+                     frame="report", skip_checks=skip_checks)
 
 
 def variant_rows(vr: dict[str, Any]) -> list[dict[str, Any]]:
@@ -323,11 +316,10 @@ def named_points() -> list[dict[str, Any]]:
     out = []
     for label, name, pos in NAMED_POINTS:
         m = pkmstiff.load_machine(name)
-        x = to_machine_frame(m, np.array([[*pos, 0.0, 0.0, 0.0]]), "report")
-        ev = evaluate_poses(m, x)
+        ok, failing = m.admissibility([*pos, 0.0, 0.0, 0.0], "report")
         out.append({"point": label, "machine": name, "report_frame_mm": [1e3 * v for v in pos],
-                    "machine_frame_mm": (x[0, :3] * 1e3).tolist(), "admissible": bool(ev.ok[0]),
-                    "failing": ev.admissibility.failing(0)})
+                    "machine_frame_mm": (m.to_machine_frame(pos, "report") * 1e3).tolist(), "admissible": bool(ok[0]),
+                    "failing": failing[0]})
     return out
 
 
@@ -344,31 +336,31 @@ CAUSES = (("UNREACHABLE", "strut length (unreachable)", "#1f77b4"),
           ("FRAME", "frame limit", "#bcbd22"))
 
 
-def boundary_causes(res: SectionResult) -> tuple[np.ndarray, np.ndarray]:
+def boundary_causes(res: pkmstiff.SectionMap) -> tuple[np.ndarray, np.ndarray]:
     """(boundary mask, cause index into :data:`CAUSES` or -1) on a section: a boundary point is an admissible raster
     point with an inadmissible 4-neighbour; its cause is the check failing at most of those neighbours."""
-    ok, reasons = res.ok, res.reasons.astype(np.int64)
+    ok = res.ok
+    fails = np.stack([res.fails(name) for name, _, _ in CAUSES])  # (causes, nv, nu)
     nv, nu = ok.shape
     counts = np.zeros((len(CAUSES), nv, nu), int)
     boundary = np.zeros_like(ok)
     for dv, du in ((1, 0), (-1, 0), (0, 1), (0, -1)):
         nb_ok = np.ones_like(ok)
-        nb_r = np.zeros_like(reasons)
+        nb_fails = np.zeros_like(fails)
         sv = slice(max(dv, 0), nv + min(dv, 0))
         su = slice(max(du, 0), nu + min(du, 0))
         tv = slice(max(-dv, 0), nv + min(-dv, 0))
         tu = slice(max(-du, 0), nu + min(-du, 0))
         nb_ok[tv, tu] = ok[sv, su]
-        nb_r[tv, tu] = reasons[sv, su]
+        nb_fails[:, tv, tu] = fails[:, sv, su]
         edge = ok & ~nb_ok
         boundary |= edge
-        for k, (name, _, _) in enumerate(CAUSES):
-            counts[k] += edge & ((nb_r & int(adm.Reason[name])) != 0)
+        counts += edge & nb_fails
     cause = np.where(boundary & (counts.max(axis=0) > 0), counts.argmax(axis=0), -1)
     return boundary, cause
 
 
-def cause_summary(res: SectionResult, boundary: np.ndarray, cause: np.ndarray, axis: int) -> dict[str, Any]:
+def cause_summary(res: pkmstiff.SectionMap, boundary: np.ndarray, cause: np.ndarray, axis: int) -> dict[str, Any]:
     """Boundary points per cause, split into the upper boundary (highest admissible z per column) and the rest."""
     vals = res.plane.u_values * 1e3
     nv, nu = res.ok.shape
@@ -403,7 +395,7 @@ def band_causes(ub: list[tuple[float, str, float]], lo: float, hi: float) -> dic
     return out
 
 
-def plot_cause_map(res: SectionResult, boundary: np.ndarray, cause: np.ndarray, path: Path, title: str) -> Path:
+def plot_cause_map(res: pkmstiff.SectionMap, boundary: np.ndarray, cause: np.ndarray, path: Path, title: str) -> Path:
     """Admissible area (grey), boundary points coloured by their limiting check (report frame, mm)."""
     from matplotlib.figure import Figure as MplFigure
     from matplotlib.lines import Line2D
@@ -433,15 +425,16 @@ def plot_cause_map(res: SectionResult, boundary: np.ndarray, cause: np.ndarray, 
     return path
 
 
-def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> tuple[dict[str, Any], list[Figure]]:
+def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool
+                    ) -> tuple[dict[str, Any], list[pkmstiff.Figure]]:
     """Original Hexaglide at a = b = c = 0: YZ section at x = 0 and XZ section at y = 85 mm (report frame) with
     boundary causes, and the 3-D workspace (Cobet 5.1 shape)."""
     m = pkmstiff.load_machine("hexaglide")
     planes = {"yz": ("yz", 0.0, (-0.70, 0.90), (-1.40, -0.10)), "xz": ("xz", 0.085, (-1.10, 1.10), (-1.40, -0.10))}
     info: dict[str, Any] = {}
-    figs: list[Figure] = []
+    figs: list[pkmstiff.Figure] = []
     for key, (kind, at, ur, vr) in planes.items():
-        res = SectionRequest(kind, at, ur, vr, step, (), frame="report").evaluate(m)
+        res = m.section(kind, at, step, (), u_range=ur, v_range=vr, frame="report")
         b, c = boundary_causes(res)
         s = cause_summary(res, b, c, 0)
         s["admissible_area_m2"] = float(res.ok.sum()) * res.plane.cell_area
@@ -452,13 +445,12 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> 
             s["upper boundary causes, y < -10 mm"] = band_causes(ub, -1e9, -10.0 - 1e-9)
             s["upper boundary causes, y > 180 mm"] = band_causes(ub, 180.0 + 1e-9, 1e9)
             # without the drive-load check: what limits the middle band then
-            nodl = evaluate_section(m, res.plane, [], frame="report", progress=False,
-                                    checks=tuple(x for x in adm.ALL_CHECKS if x != "drive_load"))
+            nodl = m.section(kind, at, step, (), u_range=ur, v_range=vr, frame="report", skip_checks=("drive_load",))
             b2, c2 = boundary_causes(nodl)
             s2 = cause_summary(nodl, b2, c2, 0)
             s["without drive-load check: upper boundary causes, -10 <= y <= 180 mm"] = band_causes(
                 s2["upper boundary by position (u_mm, cause, z_mm)"], -10.0, 180.0)
-            hull = evaluate_section(m, res.plane, [], frame="report", progress=False, checks=NO_PLATFORM_CHECK)
+            hull = m.section(kind, at, step, (), u_range=ur, v_range=vr, frame="report", skip_checks=SKIP_51)
             s["share of the area excluded by the strut-platform check (percent of the admissible area without it)"] = (
                 100.0 * (1.0 - res.ok.sum() / max(hull.ok.sum(), 1)))
         info[key] = s
@@ -467,20 +459,18 @@ def workspace_shape(step: float, shape_eps: float, out: Path, figures: bool) -> 
             p = plot_cause_map(res, b, c, out / f"hexaglide_boundary_causes_{kind}.png",
                                f"Hexaglide (original), a = b = c = 0: {kind.upper()} section at {where}\n"
                                f"boundary points coloured by the limiting check")
-            figs.append(Figure(p, f"Boundary-cause map, {kind.upper()} section at {where} (report frame): grey = "
-                                  "admissible; each boundary point coloured by the check failing at most of its "
-                                  "inadmissible neighbours."))
-    ws = WorkspaceRequest(shape_eps, frame="report").evaluate(m)
-    lo, hi = ws.summary()["bounding_box_mm"]["min"], ws.summary()["bounding_box_mm"]["max"]
+            figs.append(pkmstiff.Figure(p, f"Boundary-cause map, {kind.upper()} section at {where} (report frame): "
+                                           "grey = admissible; each boundary point coloured by the check failing at "
+                                           "most of its inadmissible neighbours."))
+    ws = m.workspace(shape_eps, frame="report", methods=("surface_nets",))
+    lo, hi = ws.statistics()["bounding_box_mm"]["min"], ws.statistics()["bounding_box_mm"]["max"]
     info["workspace"] = {"volume_m3": ws.volume, "bounding_box_mm_report_frame": {"min": lo, "max": hi},
                          "resolution_mm": shape_eps * 1e3}
     if figures:
         try:
-            from pkmstiff.plots.workspace import plot_workspace
-
-            p = plot_workspace(ws, m, out / "hexaglide_workspace.png")
-            figs.append(Figure(p, f"Constant-orientation workspace of the original Hexaglide at a = b = c = 0 "
-                                  f"(resolution {shape_eps * 1e3:g} mm), machine at a central pose."))
+            p = ws.plot(out / "hexaglide_workspace.png")
+            figs.append(pkmstiff.Figure(p, f"Constant-orientation workspace of the original Hexaglide at a = b = c = 0 "
+                                           f"(resolution {shape_eps * 1e3:g} mm), machine at a central pose."))
         except Exception as exc:  # pragma: no cover - rendering back-end missing
             info["workspace"]["figure_error"] = str(exc)
     return info, figs
@@ -524,7 +514,7 @@ def markdown_table(rows: list[dict[str, Any]]) -> str:
     return head + "\n".join(lines) + "\n"
 
 
-def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str, Any]]:
+def build(fast: bool, out: Path, figures: bool = True) -> tuple[pkmstiff.Report, dict[str, Any]]:
     cfg = SETTINGS["fast" if fast else "default"]
     sw = Stopwatch()
     pr = point_results()
@@ -538,16 +528,16 @@ def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str
     rows = point_rows(pr) + variant_rows(vr)
 
     m0 = pkmstiff.load_machine("hexaglide")
-    rep = Report("Validation: the bundled Hexaglide against Cobet 2003 (Tables 5.1, 5.7, 5.8)")
+    rep = pkmstiff.Report("Validation: the bundled Hexaglide against Cobet 2003 (Tables 5.1, 5.7, 5.8)")
     rep.summary = ("Published values side by side with the toolkit's, absolute and in %, with a verdict (agrees: "
                    f"|deviation| <= {AGREE_PERCENT:g} %; within sensitivity: the published value lies inside our "
                    "range over an unpublished modelling choice) and a one-line explanation for every deviation "
-                   "above 5 %. Nothing is fitted. Positions in the " + frame_text(m0, "report") + ".")
+                   "above 5 %. Nothing is fitted. Positions in the " + m0.frame_description("report") + ".")
     sec = rep.section("Comparison table", "Tables 5.7 (static stiffness) and 5.8 (eigenfrequencies) at x = y = 0, "
                       "z = -1000 mm, a = b = c = 0 (report frame), tool length 0 with K_U neglected (Cobet 4.2.4); "
                       "frequencies without extra strut mass (the drive mass 102.17 kg holds the drive-side strut "
                       "share, machines.md §1.7 item 10). Table 5.1 on the Y-Z plane at x = 0 (report frame), tool "
-                      "150 mm for k_x (K_U kept), " + left_out_text(SKIP_51) + " (the published section statistics "
+                      "150 mm for k_x (K_U kept), admissibility checks left out: " + ", ".join(SKIP_51) + " (the published section statistics "
                       "need points that the check excludes, machines.md §1.7 item 9; it removes "
                       + " / ".join(f"{vr[lab]['platform_check_removes_percent']:.1f} %" for lab, _ in VARIANTS)
                       + " of the admissible area of the original / variant 1 / variant 2: the sensitivity column "
@@ -558,13 +548,13 @@ def build(fast: bool, out: Path, figures: bool = True) -> tuple[Report, dict[str
                           + (f" — {r['explanation']}" if r['explanation'] else "")
                           + (f"; sensitivity {r['sensitivity']}" if r['sensitivity'] else "") for r in rows))
     for src in sorted({r["source"] for r in rows}):
-        t = Table(src, ["published", "ours"], baseline="published", digits=4)
+        t = pkmstiff.Table(src, ["published", "ours"], baseline="published", digits=4)
         for r in rows:
             if r["source"] == src:
                 t.add(f"{r['quantity']} ({r['verdict']})", r["unit"], [r["published"], r["ours"]])
         sec.tables.append(t)
     ms = rep.section("Mode shapes at the Tables 5.7/5.8 pose", mode_text(modes))
-    t = Table("Mode shapes: platform motion and its instantaneous axis (report frame)",
+    t = pkmstiff.Table("Mode shapes: platform motion and its instantaneous axis (report frame)",
               ["f [Hz]", "axis y [mm]", "axis z [mm]", "axis below O' [mm]", "pitch [mm/rad]"], digits=4)
     for r in modes["modes"]:
         p = r["axis_point_report_frame_mm"]

@@ -325,3 +325,16 @@ def test_example_files_resolve_and_their_plans_are_admissible():
     assert resolve("plain.toml") == "plain.toml"
     with pytest.raises(CalibrationInputError, match="example:felix_plan.toml"):
         resolve("example:nope.toml")
+
+
+def test_report_is_valid_html_without_markdown_or_absolute_paths(report):
+    # issue 28: html5lib parse, no leaked Markdown (the gauge list was "<p>- base frame rotation…<br>- …</p>"),
+    # no absolute paths, assumptions once, one condition-number definition named where it appears
+    from tests.report_checks import check_report
+
+    html_text = (report / "report.html").read_text(encoding="utf-8")
+    md = (report / "report.md").read_text(encoding="utf-8")
+    check_report(html_text, md)
+    assert "<li>base frame rotation" in html_text
+    assert html_text.count("σ_max/σ_min") == 1 and "identifiable part" not in html_text  # defined once
+    assert "κ (base-parameter columns, nominal parameters)" in html_text and "defined under Identifiability" in html_text

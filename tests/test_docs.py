@@ -305,15 +305,16 @@ def _has_module(name: str) -> bool:
 # ---------------------------------------------------------------------------------------- '# -> output' comments
 #: a statement of a ```python block whose last line ends with this comment must print what follows it
 OUTPUT_MARK = "# -> "
-_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
+#: numbers in a `# ->` comment (digits inside names count: the text around them is compared separately)
+_COMMENT_NUMBER = re.compile(r"[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?")
 
 
 def _same_printed_line(expected: str, actual: str) -> bool:
     """Text equal (whitespace ignored: numpy pads columns), numbers equal within one unit of the expected number's
     last printed digit: a value on a rounding boundary may round either way under another BLAS or numpy, whose
     results differ by ~1e-12 relative; a stale comment differs by far more."""
-    exp_nums, act_nums = _NUMBER.findall(expected), _NUMBER.findall(actual)
-    if re.sub(r"\s+", "", _NUMBER.sub("#", expected)) != re.sub(r"\s+", "", _NUMBER.sub("#", actual)):
+    exp_nums, act_nums = _COMMENT_NUMBER.findall(expected), _COMMENT_NUMBER.findall(actual)
+    if re.sub(r"\s+", "", _COMMENT_NUMBER.sub("#", expected)) != re.sub(r"\s+", "", _COMMENT_NUMBER.sub("#", actual)):
         return False
     for e, a in zip(exp_nums, act_nums):
         mantissa = re.split(r"[eE]", e)[0]

@@ -54,21 +54,24 @@ def inertia6(inertia: np.ndarray) -> list[float]:
     return [inertia[0, 0], inertia[1, 1], inertia[2, 2], inertia[1, 2], inertia[0, 2], inertia[0, 1]]
 
 
-def exudyn_hexaglide(pose: np.ndarray):
+def exudyn_hexaglide(pose: np.ndarray, machine=MACHINE):
     """Independent Exudyn model at one pose; returns (mbs, spindle object, TCP in spindle coordinates, loads)."""
-    mc = machine_components(MACHINE)
-    ch = MACHINE.chains
-    ik = inverse_kinematics(MACHINE, pose[None])
+    mc = machine_components(machine)
+    ch = machine.chains
+    ik = inverse_kinematics(machine, pose[None])
     R, w = ik.R[0], pose[:3]
     q, p = ik.q[0], ik.p[0]
     u = (p - q) / np.linalg.norm(p - q, axis=1)[:, None]
     strut_mass = np.array([s.mass for s in mc.strut])
-    # platform body: M_P (117.24 kg at O', inertia in PKS axes) plus half of every strut at its platform joint
-    half = 0.5 * strut_mass
-    m_pl = mc.platform.mass + half.sum()
-    cog_pks = (mc.platform.mass * mc.platform.cog + (half[:, None] * ch.platform_joint).sum(axis=0)) / m_pl
+    # platform body: M_P (117.24 kg at O', inertia in PKS axes) plus the machine file's platform share of every strut
+    # at its platform joint; the drive share goes to the drive masses (strut_mass_shares: none on the Hexaglide,
+    # whose drive and platform masses already hold the struts; half at either joint with strut_mass_split)
+    share_drive, share_platform = machine.strut_mass_shares
+    at_drive, at_platform = share_drive * strut_mass, share_platform * strut_mass
+    m_pl = mc.platform.mass + at_platform.sum()
+    cog_pks = (mc.platform.mass * mc.platform.cog + (at_platform[:, None] * ch.platform_joint).sum(axis=0)) / m_pl
     i_pl = mc.platform.inertia.copy()
-    for m_i, r in [(mc.platform.mass, mc.platform.cog)] + list(zip(half, ch.platform_joint)):
+    for m_i, r in [(mc.platform.mass, mc.platform.cog)] + list(zip(at_platform, ch.platform_joint)):
         d = r - cog_pks
         i_pl = i_pl + m_i * (d @ d * np.eye(3) - np.outer(d, d))
     SC = exu.SystemContainer()
@@ -89,7 +92,7 @@ def exudyn_hexaglide(pose: np.ndarray):
         k_v = 1.0 / (1.0 / mc.drive_joint[i].stiffness(ComponentState(tilt=[tilt_d[i]]))[0]
                      + 1.0 / mc.strut[i].k
                      + 1.0 / mc.platform_joint[i].stiffness(ComponentState(tilt=[tilt_p[i]]))[0])
-        o_dr = mbs.AddObject(ObjectMassPoint(mass=mc.drive[i].mass + half[i],
+        o_dr = mbs.AddObject(ObjectMassPoint(mass=mc.drive[i].mass + at_drive[i],
                                              nodeNumber=mbs.AddNode(NodePoint(referenceCoordinates=list(q[i])))))
         m_dr = mbs.AddMarker(MarkerBodyPosition(bodyNumber=o_dr, localPosition=[0.0, 0.0, 0.0]))
         m_gr = mbs.AddMarker(MarkerBodyPosition(bodyNumber=ground, localPosition=list(q[i])))
@@ -199,3 +202,13 @@ def test_tcp_compliance_equals_the_exudyn_model(reference):
     for i, (_, c_ref) in enumerate(reference):
         assert_blocks_close(c[i], c_ref, RTOL)
         assert_blocks_close(batch.compliance[i], c_ref, RTOL)
+
+
+def test_eigenfrequencies_with_the_strut_mass_split_equal_the_exudyn_model():
+    """The half-and-half strut-mass lumping (option strut_mass_split) puts mass on the drives and the platform."""
+    split = load_machine("hexaglide", options=["strut_mass_split"])
+    assert split.strut_mass_shares == (0.5, 0.5)  # input check: the option this test is about
+    mbs, *_ = exudyn_hexaglide(POSES[1], split)
+    f_ref = exudyn_frequencies(mbs)
+    f = natural_frequencies(build_structure(split, POSES[1:2]).model, 24)
+    np.testing.assert_allclose(f[0], f_ref, rtol=RTOL)

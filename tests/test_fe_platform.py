@@ -5,6 +5,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from components.registry import build_component
@@ -58,8 +59,11 @@ def test_component_toml_builds_the_library_body_stiffness(pinned):
 def test_fe_platform_command(tmp_path, capsys):
     base = dict(params=str(PARAMS), name="platform_stiffness", mesh_size=COARSE * 1e3, vtu=None, quiet=False)
     assert cmd_fe_platform(argparse.Namespace(out=str(tmp_path / "k.csv"), **base)) == 0
-    K = np.loadtxt(tmp_path / "k.csv", delimiter=",", skiprows=1)
+    table = pd.read_csv(tmp_path / "k.csv", index_col="row")  # a plain table: row label + ux..rz, units in k.json
+    assert list(table.columns) == list(table.index) == ["ux", "uy", "uz", "rx", "ry", "rz"]
+    K = table.to_numpy()
     assert K.shape == (6, 6) and np.all(np.diag(K) > 0)
+    assert (tmp_path / "k.json").is_file()
     assert "N*m/urad" in capsys.readouterr().out
     assert cmd_fe_platform(argparse.Namespace(out=str(tmp_path / "k.toml"), **base)) == 0
     assert "body_stiffness" in (tmp_path / "k.toml").read_text(encoding="utf-8")

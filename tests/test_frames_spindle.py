@@ -18,6 +18,7 @@ from pkmstiff.evaluation.requests import PointRequest, SectionRequest
 from pkmstiff.machine.frames import (NEGLECT_SPINDLE_NOTE, frame_metadata, from_machine_frame, neglect_spindle,
                                      spindle_neglected, to_machine_frame)
 from pkmstiff.machine.roles import drive_load_data, machine_components
+from pkmstiff.structure import StructureOptions
 
 HG = pkmstiff.load_machine("hexaglide")
 MIDDLE_GUIDE = {"hexaglide": 0.400, "hexaglide_v1": 0.353, "hexaglide_v2": 0.722}  # machines.md §1.7 item 2
@@ -73,7 +74,7 @@ def test_neglect_spindle_equals_rigid_k_u_load_on_the_platform():
     (K_U rigid, spec models.md §5.1 option); same assembly, round-off only (1e-9)."""
     x = to_machine_frame(HG, np.array([[0, 0, -1.0, 0, 0, 0], [0.1, 0.1, -0.9, 0.05, 0, 0]]), "report")
     for tl in (0.0, 0.15):
-        a = evaluate_structure(HG, x, tool_length=tl, n_modes=3, neglect_spindle=True)
+        a = evaluate_structure(HG, x, tool_length=tl, n_modes=3, options=StructureOptions(load_platform=True))
         b = evaluate_structure(neglect_spindle(HG), x, tool_length=tl, n_modes=3)
         np.testing.assert_allclose(b.stiffness, a.stiffness, rtol=1e-9)
         np.testing.assert_allclose(b.frequencies_hz, a.frequencies_hz, rtol=1e-9)

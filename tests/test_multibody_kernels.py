@@ -136,7 +136,7 @@ def test_non_positive_definite_pose_is_flagged_by_the_compiled_path(monkeypatch)
         compiled_chunk(broken.dynamic_model, "platform", point_transform(broken.dynamic_model, "platform", None), 6)
     for flag in (False, True):
         monkeypatch.setattr(batch, "use_compiled", lambda model, f=flag: f)
-        out, comp, freq = batch._evaluate_chunk(broken, None, 6, False)
+        out, comp, freq = batch._evaluate_chunk(broken, None, 6)
         assert out.index.tolist() == [0, 2] and out.status.tolist() == [0, NOT_POSITIVE_DEFINITE, 0]
         if not flag:
             ref_c, ref_f = comp, freq

@@ -95,8 +95,8 @@ def test_html_tables_percentages_and_escaping(tmp_path):
     head, *rows = p.tables[0]
     assert head == ["Metric", "Unit", "orig", "% of orig", "v1", "% of orig", "v2", "% of orig"]
     # hand values: 25/20 = 125 %, 15.5/20 = 77.5 %, 0.3125/0.25 = 125 %; the baseline itself is 100 %
-    assert rows[0] == ["k_x mean", "N/um", "20.00", "100.0 %", "25.00", "125.0 %", "15.50", "77.5 %"]
-    assert rows[1] == ["volume", "m^3", "0.2500", "100.0 %", "n/a", "–", "0.3125", "125.0 %"]
+    assert rows[0] == ["k_x mean", "N/µm", "20.00", "100.0 %", "25.00", "125.0 %", "15.50", "77.5 %"]
+    assert rows[1] == ["volume", "m³", "0.2500", "100.0 %", "n/a", "–", "0.3125", "125.0 %"]
     assert rows[2] == ["zero base", "-", "0", "–", "1.000", "–", "2.000", "–"]  # % of a zero baseline undefined
     # without baseline: no % columns; 4 significant digits, fixed notation up to 1e7, scientific below 1e-3
     assert p.tables[1] == [["Metric", "Unit", "a", "b"], ["n", "1", "1235000", "1.235e-04"]]
@@ -133,9 +133,9 @@ def test_markdown_twin_links_resolve(tmp_path):
         assert not Path(link).is_absolute()
         target = out["md"].parent / link
         assert target.read_bytes() == Path(fig.path).read_bytes()
-    assert "| k_x mean | N/um | 20.00 | 100.0 % | 25.00 | 125.0 % | 15.50 | 77.5 % |" in md
+    assert "| k_x mean | N/µm | 20.00 | 100.0 % | 25.00 | 125.0 % | 15.50 | 77.5 % |" in md
     assert "## Assumptions" in md and "## Settings" in md and "## Run" in md
-    assert md.index("**a.key**") < md.index("**z.key**")
+    assert md.index("| a.key |") < md.index("| z.key |")  # assumptions sorted, one table row each
 
 
 def test_figures_inside_out_dir_are_linked_in_place(tmp_path):
@@ -287,7 +287,7 @@ def test_spec_table_matches_direct_evaluation(tmp_path):
     assert rows["transmission quality weight w (eq. 4.77)"][1][0] == pytest.approx(0.5 / math.radians(20), rel=1e-12)
     # assumptions: the spec's own and the machine file's, prefixed with the variant
     assert rep.assumptions["mine"] == "a spec-level assumption"
-    assert "orig: hull" in rep.assumptions and "soft: hull" in rep.assumptions
+    assert "hull" in rep.variant_assumptions["orig"] and "hull" in rep.variant_assumptions["soft"]
     assert rep.settings["variant soft"]["overrides"]["components.strut_950.k"] == "100 N/um"
 
 
@@ -306,7 +306,7 @@ def test_spec_report_writes_maps_and_html(tmp_path):
     md = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
     for link in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md):
         assert (tmp_path / "out" / link).is_file()
-    assert '"step_mm": 100.0' in md  # --fast used the spec's fast_step_mm
+    assert "| section 1 › step_mm | 100 |" in md  # --fast used the spec's fast_step_mm
 
 
 def test_fast_spec_defaults(tmp_path):
@@ -364,3 +364,62 @@ def test_count_rows_print_as_integers():
     _, rows = table_cells(t)
     assert [c.text for c in rows[0][2]][::2] == ["936", "900"]  # a count row: integers
     assert [c.text for c in rows[1][2]][::2] == ["20.00", "25.00"]  # a measured row keeps its significant digits
+
+
+EVALUATION = """
+[[evaluation]]
+metric = "kx mean"
+weight = 2
+[[evaluation]]
+metric = "U mean"
+weight = 1
+better = "lower"
+"""
+
+
+def test_weighted_scores_by_hand():
+    from pkmstiff.report import weighted
+
+    # three variants, two criteria: k (higher better) 10, 20, 30; mass (lower better) 5, 5, 8
+    x = np.array([[10.0, 5.0], [20.0, 5.0], [30.0, 8.0]])
+    better = np.array([True, False])
+    u = weighted.utilities(x, better)
+    np.testing.assert_allclose(u, [[0.0, 1.0], [0.5, 1.0], [1.0, 0.0]])
+    s = weighted.scores(x, np.array([1.0, 1.0]), better)  # (0 + 1)/2, (0.5 + 1)/2, (1 + 0)/2
+    np.testing.assert_allclose(s, [50.0, 75.0, 50.0])
+    assert weighted.ranking(s) == [1, 0, 2]  # tie 0 / 2 keeps the given order
+    assert weighted.ranking(weighted.scores(x, np.array([3.0, 1.0]), better)) == [2, 1, 0]  # 75 > 62.5 > 25
+    sens = {(j, f): r for j, f, r in weighted.sensitivity(x, np.array([1.0, 1.0]), better)}
+    assert sens[(0, 0.0)] == [0, 1, 2] and sens[(1, 0.0)] == [2, 1, 0]
+    np.testing.assert_allclose(weighted.utilities(np.array([[1.0], [np.nan]]), np.array([True])), [[1.0], [0.0]])
+
+
+def test_weighted_evaluation_section_and_html_checks(tmp_path):
+    from tests.report_checks import check_report
+
+    spec = load_spec(_mini(tmp_path, extra=EVALUATION))
+    assert [(c.metric, c.weight, c.higher_is_better) for c in spec.evaluation] == [("kx mean", 2.0, True),
+                                                                                   ("U mean", 1.0, False)]
+    rep = build_report(spec, tmp_path / "out")
+    sec = next(s for s in rep.sections if s.heading == "Weighted evaluation")
+    rows = {r.label: r.values for r in sec.tables[0].rows}
+    comparison = _rows(rep)
+    kx, U = comparison["kx mean"][1], comparison["U mean"][1]
+    # two variants: the better one on a criterion gets 100 points, the other 0
+    u_kx = [100.0 * (v == max(kx)) for v in kx]
+    u_U = [100.0 * (v == min(U)) for v in U]
+    expect = [(2 * a + b) / 3 for a, b in zip(u_kx, u_U)]
+    np.testing.assert_allclose(rows["weighted score"], expect, rtol=1e-12)
+    assert "x0" in sec.text and "x2" in sec.text
+    out = write_report(rep, tmp_path / "out", run=RUN)
+    check_report(out["html"].read_text(encoding="utf-8"), out["md"].read_text(encoding="utf-8"))
+
+
+def test_evaluation_metric_must_be_a_table_row(tmp_path):
+    from pkmstiff.errors import SpecError
+
+    spec = load_spec(_mini(tmp_path, extra='[[evaluation]]\nmetric = "nope"\n'))
+    with pytest.raises(SpecError, match=r"evaluation\[1\].metric.*'nope'"):
+        build_report(spec, tmp_path / "out")
+    with pytest.raises(SpecError, match="evaluation\\[1\\].better"):
+        load_spec(_mini(tmp_path, extra='[[evaluation]]\nmetric = "kx mean"\nbetter = "more"\n'))

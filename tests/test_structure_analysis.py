@@ -43,7 +43,10 @@ def test_tool_length_transfers_the_compliance_as_a_rigid_body():
 
 def test_neglect_spindle_removes_exactly_the_platform_stiffness_in_series():
     """The spindle hangs on U only: C_full − C_neglect = N(Δ) (H K_U Hᵀ)⁻¹ N(Δ)ᵀ (series connection), Δ = TCP − r_U."""
-    full, neg = tcp_compliance(ST, 0.15), tcp_compliance(ST, 0.15, neglect_spindle=True)
+    from pkmstiff.structure import StructureOptions
+
+    rigid_u = build_structure(HEXAGLIDE, POSES, StructureOptions(load_platform=True))  # load the platform, K_U rigid
+    full, neg = tcp_compliance(ST, 0.15), tcp_compliance(rigid_u, 0.15)
     ku = np.diag([1603e6, 1567e6, 588e6, 4348e6, 5115e6, 2564e6])  # machines.md §1.4 (Nm/µrad reading)
     H = np.zeros((len(POSES), 6, 6))
     H[:, :3, :3] = H[:, 3:, 3:] = ST.R
@@ -235,15 +238,15 @@ def test_sde_damping_is_proportional_so_modal_and_direct_frf_agree():
     direct complex solve (response at the platform: the massless spindle's U damper carries no force there)."""
     from pkmstiff.structure import StructureOptions
 
-    st_ = build_structure(HEXAGLIDE, POSES[1:], StructureOptions(damping_beta=2e-4))
+    st_ = build_structure(HEXAGLIDE, POSES[1:], StructureOptions(damping_beta=2e-4, load_platform=True))
     f = np.array([5.0, 17.0, 24.0, 43.0, 80.0])
-    kw = dict(zeta=None, sde_damping=True, neglect_spindle=True)
+    kw = dict(zeta=None, sde_damping=True)
     for resp, exc in (("x", "x"), ("z", "y")):
         modal = tcp_frf(st_, f, resp, exc, **kw)
         direct = tcp_frf(st_, f, resp, exc, method="direct", **kw)
         scale = np.abs(direct.values).max()
         np.testing.assert_allclose(modal.values, direct.values, rtol=1e-8, atol=1e-9 * scale)  # round-off only
-    undamped = tcp_frf(build_structure(HEXAGLIDE, POSES[1:]), f, "x", "x", neglect_spindle=True)
+    undamped = tcp_frf(build_structure(HEXAGLIDE, POSES[1:], StructureOptions(load_platform=True)), f, "x", "x")
     damped = tcp_frf(st_, f, "x", "x", **kw)
     assert np.all(np.abs(damped.values.imag) > 0) and np.all(undamped.values.imag == 0)  # the damping acts
 

@@ -251,10 +251,10 @@ def test_non_positive_definite_pose_is_removed_from_the_chunk():
     """A pose whose chain stiffnesses vanish (platform held only by the massless spindle) has a singular K: the
     batch evaluation flags it NOT_POSITIVE_DEFINITE and returns the other poses unchanged."""
     st_ = build_structure(HEXAGLIDE, POSES)
-    _, ref_c, ref_f = _evaluate_chunk(st_, None, 6, False)
+    _, ref_c, ref_f = _evaluate_chunk(st_, None, 6)
     st_.stiffness.chain[1] = 0.0
     broken = st_.without(np.zeros(3, bool))
-    out, comp, freq = _evaluate_chunk(broken, None, 6, False)
+    out, comp, freq = _evaluate_chunk(broken, None, 6)
     assert out.index.tolist() == [0, 2] and out.status.tolist() == [0, NOT_POSITIVE_DEFINITE, 0]
     np.testing.assert_allclose(comp, ref_c[[0, 2]], rtol=1e-12)
     np.testing.assert_allclose(freq, ref_f[[0, 2]], rtol=1e-12)

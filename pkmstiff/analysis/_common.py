@@ -73,9 +73,10 @@ def by_parts(st: PKMStructure, analyse: Callable[[PKMStructure], Any], per_pose:
     return dataclasses.replace(ref, **out)
 
 
-def load_body(st: PKMStructure, neglect_spindle: bool) -> str:
-    """Body carrying the TCP load: the spindle, or the platform with ``neglect_spindle`` (K_U rigid, docs/theory/structure.md)."""
-    return "platform" if neglect_spindle else st.tcp_body
+def load_body(st: PKMStructure) -> str:
+    """Body carrying the TCP load: the tool's body (the platform where the machine leaves K_U out), or the platform
+    with K_U rigid where the structure's options say ``load_platform`` (docs/theory/structure.md)."""
+    return "platform" if st.options.load_platform else st.tcp_body
 
 
 def component_energies(st: PKMStructure, q: Array) -> tuple[list[str], Array]:

@@ -71,22 +71,21 @@ def _not_pd(k: np.ndarray) -> np.ndarray:
     return ~(eig[:, 0] > 1e-13 * np.abs(eig[:, -1]))
 
 
-def _evaluate_chunk(st: PKMStructure, tool_length: float | ArrayLike | None, n_modes: int, neglect_spindle: bool
+def _evaluate_chunk(st: PKMStructure, tool_length: float | ArrayLike | None, n_modes: int
                     ) -> tuple[PKMStructure, Array, Array]:
     """Compliance (M, 6, 6) and frequencies (M, n_modes) of the modelled poses of one chunk."""
     for _ in range(3):
         if st.empty:
             return st, np.zeros((0, 6, 6)), np.zeros((0, n_modes))
         try:
-            return (st, *_chunk_results(st, tool_length, n_modes, neglect_spindle))
+            return (st, *_chunk_results(st, tool_length, n_modes))
         except sde.SingularModelError:
             model = st.dynamic_model if st.massless_spindle else st.model
             st = st.without(_not_pd(np.ascontiguousarray(stiffness_matrix(model))), NOT_POSITIVE_DEFINITE)
     raise sde.SingularModelError("stiffness matrix still singular after removing the non-positive-definite poses")
 
 
-def _chunk_results(st: PKMStructure, tool_length: float | ArrayLike | None, n_modes: int, neglect_spindle: bool
-                   ) -> tuple[Array, Array]:
+def _chunk_results(st: PKMStructure, tool_length: float | ArrayLike | None, n_modes: int) -> tuple[Array, Array]:
     tcp = st.tcp(tool_length)
     if st.massless_spindle:
         # the spindle hangs on U alone: C_TCP = N(Δ) [C_P(r_U) + (H K_U Hᵀ)⁻¹] N(Δ)ᵀ, Δ = TCP − r_U (series
@@ -94,13 +93,13 @@ def _chunk_results(st: PKMStructure, tool_length: float | ArrayLike | None, n_mo
         model = st.dynamic_model
         r_u = _coupling_point(st)
         comp, lam = _compliance(model, "platform", r_u, n_modes)
-        if not neglect_spindle:
+        if not st.options.load_platform:
             comp = comp + _u_compliance(st)
         n = sde.linalg.reference_matrix(tcp - r_u)
         comp = n @ comp @ np.swapaxes(n, 1, 2)
     else:
         model = st.model
-        comp, lam = _compliance(model, load_body(st, neglect_spindle), tcp, n_modes)
+        comp, lam = _compliance(model, load_body(st), tcp, n_modes)
     freq = np.zeros((comp.shape[0], n_modes))
     if n_modes:
         freq = np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)  # as modal_chunk
@@ -142,7 +141,7 @@ def _u_compliance(st: PKMStructure) -> Array:
 
 def evaluate_structure(machine: Machine, poses: ArrayLike | PoseEvaluation | PKMStructure,
                        tool_length: float | ArrayLike | None = None, n_modes: int = 6,
-                       neglect_spindle: bool = False, options: StructureOptions | None = None,
+                       options: StructureOptions | None = None,
                        chunk_size: int = DEFAULT_CHUNK, store_compliance: bool = True) -> StructureBatch:
     """TCP compliance/stiffness and the ``n_modes`` lowest frequencies at N poses: poses (N, 6) (x, y, z [m],
     a, b, c [rad]), their :class:`~pkmstiff.admissibility.pipeline.PoseEvaluation`, or a structure built from
@@ -160,7 +159,7 @@ def evaluate_structure(machine: Machine, poses: ArrayLike | PoseEvaluation | PKM
     reasons = np.zeros(n, np.uint32)
     status = np.zeros(n, np.uint8)
     for sl, st in iter_structures(machine, poses, options, chunk_size):
-        st, comp, fr = _evaluate_chunk(st, tool_length, n_modes, neglect_spindle)
+        st, comp, fr = _evaluate_chunk(st, tool_length, n_modes)
         idx = st.index + sl.start
         reasons[sl], status[sl] = st.reasons, st.status
         if comp_out is not None:

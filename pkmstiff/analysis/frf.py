@@ -35,7 +35,7 @@ class FRFResult:
 def tcp_frf(st: PKMStructure, freq_hz: Any, response: Any = "x", excitation: Any = "x", *,
             tool_length: float | ArrayLike | None = None, zeta: Any = None, sde_damping: bool = True,
             kind: Literal["receptance", "accelerance"] = "receptance", method: Literal["modal", "direct"] = "modal",
-            neglect_spindle: bool = False, max_peaks: int = 6) -> FRFResult:
+            max_peaks: int = 6) -> FRFResult:
     """FRF between two directions at the TCP (``"x"``, ``"-y"``, ``"rz"`` or vectors) over ``freq_hz`` (Hz)."""
     if kind not in ("receptance", "accelerance"):
         from pkmstiff.structure import StructureModelError
@@ -46,7 +46,7 @@ def tcp_frf(st: PKMStructure, freq_hz: Any, response: Any = "x", excitation: Any
         nan = st.scatter(np.zeros((0, f.size), complex))
         pk = st.scatter(np.zeros((0, max_peaks)))
         return FRFResult(kind, f, nan, pk, pk.copy())
-    body = load_body(st, neglect_spindle)
+    body = load_body(st)
     tcp = st.tcp(tool_length)
     dirs = []
     for d, what in ((response, "response"), (excitation, "excitation")):

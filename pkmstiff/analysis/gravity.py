@@ -67,15 +67,14 @@ def gravity_load(st: PKMStructure, gravity: ArrayLike | None = None) -> Array:
 
 def structure_deflection(st: PKMStructure, tool_length: float | ArrayLike | None = None,
                          gravity: ArrayLike | None = None, force: Any = (0.0, 0.0, 0.0),
-                         moment: Any = (0.0, 0.0, 0.0), neglect_spindle: bool = False,
-                         weight: bool = True) -> Array:
+                         moment: Any = (0.0, 0.0, 0.0), weight: bool = True) -> Array:
     """TCP motion (N, 6) [m, rad] of a built structure under gravity (``weight``) plus a force [N] and moment
     [N m] at the TCP: ``u = C_TCP-row(K⁻¹ f)``; NaN where a pose is not modelled.  ``tool_length`` as in
     :meth:`PKMStructure.tcp` (a vector (3,) in the PKS is any point of the tool body)."""
     def one(st: PKMStructure) -> Array:
         if st.empty:
             return st.scatter(np.zeros((0, 6)))
-        body = load_body(st, neglect_spindle)
+        body = load_body(st)
         tcp = st.tcp(tool_length)
         f = sde.point_load(st.model, body, tcp, force=force, moment=moment)
         if weight:
@@ -94,7 +93,7 @@ def _not_pd(k: np.ndarray) -> np.ndarray:
 def gravity_deflection(machine: Machine, poses: ArrayLike | PoseEvaluation | PKMStructure,
                        tool_length: float | ArrayLike | None = None,
                        gravity: ArrayLike | None = None, force: Any = (0.0, 0.0, 0.0),
-                       moment: Any = (0.0, 0.0, 0.0), neglect_spindle: bool = False, weight: bool = True,
+                       moment: Any = (0.0, 0.0, 0.0), weight: bool = True,
                        options: StructureOptions | None = None, chunk_size: int = DEFAULT_CHUNK) -> Array:
     """TCP deflection (N, 6): translation [m] and rotation [rad] of the tool tip under the weight of the
     structure model (module docstring) plus an optional force [N] / moment [N m] at the TCP, at N poses: poses
@@ -110,7 +109,7 @@ def gravity_deflection(machine: Machine, poses: ArrayLike | PoseEvaluation | PKM
     for sl, st in iter_structures(machine, poses, options, chunk_size):
         for _ in range(3):
             try:
-                out[sl] = structure_deflection(st, tool_length, gravity, force, moment, neglect_spindle, weight)
+                out[sl] = structure_deflection(st, tool_length, gravity, force, moment, weight)
                 break
             except sde.SingularModelError:
                 st = st.without(_not_pd(np.ascontiguousarray(stiffness_matrix(st.model))), NOT_POSITIVE_DEFINITE)

@@ -36,7 +36,9 @@ class ModalAnalysis:
     DOF order of ``dof_labels``; ``dominant`` (N, k) index into :data:`pkmstiff.multibody.MOTION_LABELS` of the
     platform's dominant motion and ``dominant_share`` its kinetic-energy share; ``kinetic`` (N, k, bodies)
     kinetic-energy shares per body (``body_labels``); ``strain`` (N, k, E) strain-energy shares per SDE
-    (``element_labels``); ``component_strain`` (N, k, C) per component kind (``component_labels``).
+    (``element_labels``); ``component_strain`` (N, k, C) per component kind (``component_labels``);
+    ``axis_direction`` (N, k, 3), ``axis_point`` (N, k, 3) [m, machine frame] and ``axis_pitch`` (N, k) [m/rad]:
+    the platform's instantaneous screw axis in each mode (Chasles; :func:`pkmstiff.multibody.mode_axes`).
     """
 
     frequencies_hz: Array
@@ -51,6 +53,9 @@ class ModalAnalysis:
     strain: Array
     component_labels: list[str]
     component_strain: Array
+    axis_direction: Array
+    axis_point: Array
+    axis_pitch: Array
 
     def description(self, pose: int, mode: int) -> str:
         """E.g. ``'rotation about x (83 %)'`` (platform motion); ``'n/a'`` for a pose that is not modelled."""
@@ -64,7 +69,7 @@ def modal_analysis(st: PKMStructure, n_modes: int = 6, shapes: bool = True) -> M
     """Lowest ``n_modes`` modes with descriptions and energy shares (``shapes=False`` skips the shapes array)."""
     return by_parts(st, lambda part: _modal_analysis(part, n_modes, shapes),
                     ("frequencies_hz", "eigenvalues", "shapes", "dominant", "dominant_share", "kinetic", "strain",
-                     "component_strain"))
+                     "component_strain", "axis_direction", "axis_point", "axis_pitch"))
 
 
 def _modal_analysis(st: PKMStructure, n_modes: int, shapes: bool) -> ModalAnalysis:
@@ -72,16 +77,19 @@ def _modal_analysis(st: PKMStructure, n_modes: int, shapes: bool) -> ModalAnalys
     if st.empty:
         nan = st.scatter(np.zeros((0, n_modes)))
         empty = st.scatter(np.zeros((0, n_modes, 0)))
+        axis = st.scatter(np.zeros((0, n_modes, 3)))
         return ModalAnalysis(nan, nan.copy(), None, [], nan.copy(), nan.copy(), [], empty, [], empty.copy(), labels_c,
-                             st.scatter(np.zeros((0, n_modes, len(labels_c)))))
+                             st.scatter(np.zeros((0, n_modes, len(labels_c)))), axis, axis.copy(), nan.copy())
     m = st.model
     res = sde.modes(m, n_modes, shapes=True)
     idx, share = sde.describe_modes(m, res.shapes, "platform")
     el_labels, strain = sde.strain_energy_shares(m, res.shapes)
     _, comp = component_energies(st, res.shapes)
+    axes = sde.mode_axes(m, res.shapes, "platform")
     return ModalAnalysis(
         frequencies_hz=st.scatter(res.frequencies_hz), eigenvalues=st.scatter(res.eigenvalues),
         shapes=st.scatter(res.shapes) if shapes else None, dof_labels=m.dof_labels,
         dominant=st.scatter(idx.astype(float)), dominant_share=st.scatter(share), body_labels=m.body_names,
         kinetic=st.scatter(sde.kinetic_energy_shares(m, res.shapes)), element_labels=el_labels,
-        strain=st.scatter(strain), component_labels=labels_c, component_strain=st.scatter(shares(comp)))
+        strain=st.scatter(strain), component_labels=labels_c, component_strain=st.scatter(shares(comp)),
+        axis_direction=st.scatter(axes.direction), axis_point=st.scatter(axes.point), axis_pitch=st.scatter(axes.pitch))

@@ -1,7 +1,7 @@
 """Static analyses at the tool centre point (docs/theory/structure.md, Cobet eq. 4.70–4.72).
 
 TCP = ``O' + R (tool.offset + L_tool · tool.axis)`` on the spindle body (or on the platform with
-``neglect_spindle=True``, i.e. K_U rigid).  Stiffness in a direction e: ``k_e = |F| / (e·u_TCP) = 1/(eᵀ C e)`` for
+the structure option ``load_platform``, i.e. K_U rigid).  Stiffness in a direction e: ``k_e = |F| / (e·u_TCP) = 1/(eᵀ C e)`` for
 a unit force along e at the TCP; rotational stiffness: unit moment, rotation about the same axis.  Every function
 returns values for all N poses of the structure, NaN where a pose is not modelled (``structure.failing(i)``).
 Units: N/m, N m/rad, m/N, rad/(N m); forces N, moments N m, displacements m, rotations rad.
@@ -28,7 +28,7 @@ from pkmstiff.analysis._common import (
 from pkmstiff.structure import PKMStructure
 
 
-def tcp_compliance(st: PKMStructure, tool_length: float | ArrayLike | None = None, neglect_spindle: bool = False) -> Array:
+def tcp_compliance(st: PKMStructure, tool_length: float | ArrayLike | None = None) -> Array:
     """Compliance at the TCP (N, 6, 6): column j = (u, θ) of the TCP for a unit force (j < 3) / moment (j ≥ 3).
 
     Symmetric (Maxwell–Betti).  ``tool_length`` [m] overrides the machine's tool length; a vector (3,) [m, PKS] is
@@ -37,17 +37,17 @@ def tcp_compliance(st: PKMStructure, tool_length: float | ArrayLike | None = Non
     def one(st: PKMStructure) -> Array:
         if st.empty:
             return st.scatter(np.zeros((0, 6, 6)))
-        return st.scatter(sde.point_compliance(st.model, load_body(st, neglect_spindle), st.tcp(tool_length)))
+        return st.scatter(sde.point_compliance(st.model, load_body(st), st.tcp(tool_length)))
 
     return by_parts(st, one)
 
 
-def tcp_stiffness_matrix(st: PKMStructure, tool_length: float | ArrayLike | None = None, neglect_spindle: bool = False) -> Array:
+def tcp_stiffness_matrix(st: PKMStructure, tool_length: float | ArrayLike | None = None) -> Array:
     """6×6 stiffness at the TCP (N, 6, 6) (statically condensed, no inversion; blocks N/m, N/rad, N m/rad)."""
     def one(st: PKMStructure) -> Array:
         if st.empty:
             return st.scatter(np.zeros((0, 6, 6)))
-        return st.scatter(sde.point_stiffness(st.model, load_body(st, neglect_spindle), st.tcp(tool_length)))
+        return st.scatter(sde.point_stiffness(st.model, load_body(st), st.tcp(tool_length)))
 
     return by_parts(st, one)
 
@@ -80,12 +80,12 @@ class Deformation:
 
 
 def static_deformation(st: PKMStructure, force: Any = (0.0, 0.0, 0.0), moment: Any = (0.0, 0.0, 0.0),
-                       tool_length: float | ArrayLike | None = None, neglect_spindle: bool = False) -> Deformation:
+                       tool_length: float | ArrayLike | None = None) -> Deformation:
     """Deformation of every body and SDE for a force [N] and moment [N m] at the TCP (eq. 4.70–4.72)."""
     if st.empty:
         labels = present_components(st)
         return Deformation(st.scatter(np.zeros((0, 6))), {}, {}, {}, labels, st.scatter(np.zeros((0, len(labels)))))
-    body = load_body(st, neglect_spindle)
+    body = load_body(st)
     tcp = st.tcp(tool_length)
     f = sde.point_load(st.model, body, tcp, force=force, moment=moment)
     q = sde.solve_static(st.model, f)
@@ -116,25 +116,23 @@ class WeakPoints:
     compliance: Array
 
 
-def weak_points(st: PKMStructure, direction: Any, tool_length: float | ArrayLike | None = None,
-                neglect_spindle: bool = False) -> WeakPoints:
+def weak_points(st: PKMStructure, direction: Any, tool_length: float | ArrayLike | None = None) -> WeakPoints:
     """Each SDE's and each component's share of the TCP compliance for a unit load along ``direction``.
 
     ``direction``: ``"x"``, ``"-z"``, a vector (3,) (force) or ``"rx"``/``"ry"``/``"rz"`` (moment).  The strain
     energy of a unit load equals half the compliance in its direction, so energy shares are compliance shares.
     """
     e, rot = parse_direction(direction)
-    return by_parts(st, lambda part: _weak_points(part, e, rot, tool_length, neglect_spindle),
+    return by_parts(st, lambda part: _weak_points(part, e, rot, tool_length),
                     ("element_shares", "component_shares", "compliance"))
 
 
-def _weak_points(st: PKMStructure, e: np.ndarray, rot: bool, tool_length: float | ArrayLike | None,
-                 neglect_spindle: bool) -> WeakPoints:
+def _weak_points(st: PKMStructure, e: np.ndarray, rot: bool, tool_length: float | ArrayLike | None) -> WeakPoints:
     if st.empty:
         labels = present_components(st)
         return WeakPoints(e, rot, [], st.scatter(np.zeros((0, 0))), labels, st.scatter(np.zeros((0, len(labels)))),
                           st.scatter(np.zeros(0)))
-    body = load_body(st, neglect_spindle)
+    body = load_body(st)
     tcp = st.tcp(tool_length)
     kw = {"moment": e} if rot else {"force": e}
     f = sde.point_load(st.model, body, tcp, **kw)

@@ -23,6 +23,10 @@ def __getattr__(name: str):
         import pkmstiff.report as report
 
         return getattr(report, name)
+    if name in ("ColourScale", "robust_clim"):  # colour limits a study shares between its map panels
+        import pkmstiff.plots.section_maps as section_maps
+
+        return getattr(section_maps, name)
     if name == "ALL_CHECKS":
         from pkmstiff.admissibility.checks import ALL_CHECKS
 
@@ -34,5 +38,5 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'pkmstiff.api' has no attribute {name!r}")
 
 
-__all__ = ["ALL_CHECKS", "ComponentState", "Figure", "PointResults", "Report", "RotationMap", "SectionMap", "StudyMachine", "Table",
-           "Workspace", "available_quantities", "load_machine", "write_report"]
+__all__ = ["ALL_CHECKS", "ColourScale", "ComponentState", "Figure", "PointResults", "Report", "RotationMap", "SectionMap", "StudyMachine", "Table",
+           "Workspace", "available_quantities", "load_machine", "robust_clim", "write_report"]

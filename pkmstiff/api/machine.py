@@ -42,17 +42,54 @@ def _checks(skip_checks: Sequence[str]) -> tuple[str, ...]:
     return checks_without(skip_checks, "pkmstiff.api", "skip_checks")
 
 
+#: fields that :func:`~pkmstiff.machine.frames.neglect_spindle` sets (``with_`` handles them itself)
+_SPINDLE_FIELDS = frozenset({"machine_components", "spindle_neglected"})
+#: fields whose values are tied to the component instances built on load: a change made to them outside ``with_``
+#: cannot be carried onto a rebuilt variant (its instances would not match)
+_BUILT_FIELDS = frozenset({"components", "chain_components"})
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Value equality of machine fields (dataclasses, dicts, sequences, numpy arrays; NaN equals NaN)."""
+    if a is b:
+        return True
+    if dataclasses.is_dataclass(a) and not isinstance(a, type):
+        return type(a) is type(b) and all(_same(getattr(a, f.name), getattr(b, f.name))
+                                          for f in dataclasses.fields(a) if f.compare)
+    if isinstance(a, dict):
+        return isinstance(b, dict) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return np.shape(a) == np.shape(b) and bool(np.array_equal(a, b, equal_nan=True))
+    if isinstance(a, (list, tuple)):
+        return isinstance(b, (list, tuple)) and len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    return bool(a == b)
+
+
+def _changed_fields(machine: Machine, reference: Machine) -> list[str]:
+    """Names of the compared fields of ``machine`` whose values differ from ``reference``'s."""
+    return [f.name for f in dataclasses.fields(Machine)
+            if f.compare and f.name not in _SPINDLE_FIELDS and not _same(getattr(machine, f.name),
+                                                                         getattr(reference, f.name))]
+
+
 @dataclass(frozen=True)
 class StudyMachine(Machine):
     """A loaded machine with the design-study methods :meth:`point`, :meth:`section`, :meth:`workspace`,
-    :meth:`rotation_map` and :meth:`with_` (all SI: m, rad)."""
+    :meth:`rotation_map` and :meth:`with_` (all SI: m, rad).
+
+    ``file_changes``: the machine-file changes (dotted key -> value) that :meth:`with_` applied to the machine file
+    to make this variant (empty for a machine as loaded); the next :meth:`with_` starts from them.
+    """
+
+    file_changes: Mapping[str, Any] = dataclasses.field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
-    def of(cls, machine: Machine) -> "StudyMachine":
+    def of(cls, machine: Machine, file_changes: Mapping[str, Any] | None = None) -> "StudyMachine":
         """The same machine (same field values, shared component instances) with the study methods."""
-        if isinstance(machine, cls):
+        if isinstance(machine, cls) and (file_changes is None or _same(dict(file_changes), machine.file_changes)):
             return machine
-        return cls(**{f.name: getattr(machine, f.name) for f in dataclasses.fields(Machine)})
+        return cls(**{f.name: getattr(machine, f.name) for f in dataclasses.fields(Machine)},
+                   file_changes=dict(file_changes or {}))
 
     def components_by_role(self) -> "MachineComponents":
         """The component instances by role (``.drive[i]``, ``.strut[i]``, ``.drive_joint[i]``, ``.platform``, ...;
@@ -70,20 +107,36 @@ class StudyMachine(Machine):
         ``{"drive": {"stiffness": "300 N/um"}}``); ``options``: ``[options.NAME]`` tables of the machine file to
         apply; ``overrides``: any other dotted machine-file key -> value (``{"tool.length": "150 mm"}``);
         ``neglect_spindle``: leave out (True) or keep (False) the platform-spindle stiffness K_U (Cobet 4.2.4).
-        The variant is built from the machine's file, so a variant of a variant starts again from the file: pass
-        every change at once.
+
+        Changes compose: the variant is rebuilt from the machine file with this machine's options and
+        :attr:`file_changes` plus the new ones (a later value of a key wins). A field changed outside ``with_``
+        (``dataclasses.replace``) is carried onto the variant when the new changes leave it as the file gives it;
+        where they change it too, or where it holds component data, this is an
+        :class:`~pkmstiff.errors.InputError` (one line) instead of a variant that silently loses the change.
         """
+        from pkmstiff.errors import InputError
         from pkmstiff.machine.variants import machine_with
 
         changes = dict(overrides or {})
         for name, params in (components or {}).items():
             changes.update({f"components.{name}.{key}": value for key, value in params.items()})
         neglect = self.spindle_neglected if neglect_spindle is None else neglect_spindle
-        model: Machine = self
-        if changes or options or (self.spindle_neglected and not neglect):  # K_U back: rebuild from the file
-            loaded = self.name.split(":", 1)[1].split(",") if ":" in self.name else []
-            model = machine_with(self.path or self.name, changes, [*loaded, *options])
-        return StudyMachine.of(_neglect_spindle(model, neglect))
+        if not (changes or options or (self.spindle_neglected and not neglect)):
+            return StudyMachine.of(_neglect_spindle(self, neglect), self.file_changes)
+        loaded = self.name.split(":", 1)[1].split(",") if ":" in self.name else []
+        source = self.path or self.name
+        as_made = _neglect_spindle(machine_with(source, self.file_changes, loaded), self.spindle_neglected)
+        edited = _changed_fields(self, as_made)  # changed outside with_ (dataclasses.replace)
+        merged = {**self.file_changes, **changes}
+        model = machine_with(source, merged, [*loaded, *options])
+        if edited:
+            clash = [f for f in edited if f in _BUILT_FIELDS or not _same(getattr(model, f), getattr(as_made, f))]
+            if clash:
+                raise InputError(f"{self.name} (StudyMachine.with_)", ", ".join(clash),
+                                 "a field changed either by with_ or by dataclasses.replace, not both (make every "
+                                 "change with with_)", "changed by dataclasses.replace and by this with_ call")
+            model = dataclasses.replace(model, **{f: getattr(self, f) for f in edited})
+        return StudyMachine.of(_neglect_spindle(model, neglect), merged)
 
     def point(self, poses: ArrayLike, frame: str = "machine", tool_length: float | None = None, n_modes: int = 6,
               weak_point_directions: Sequence[str] = ("x", "y", "z"), quantities: Sequence[str] = (),
@@ -94,7 +147,8 @@ class StudyMachine(Machine):
 
         ``tool_length`` [m] (None: the machine's); ``quantities``: further registered quantities
         (:func:`pkmstiff.evaluation.quantities.available_quantities`, e.g. ``"tilt_drive_1"``) at the admissible
-        poses; ``neglect_spindle``: load the TCP with K_U rigid (None: as the machine says, see :meth:`with_`);
+        poses; ``neglect_spindle``: True/False evaluates the machine with K_U left out/kept (as
+        ``with_(neglect_spindle=...)``; None: as the machine says);
         ``structure``: modelling choices of the structure model (fields of
         :class:`pkmstiff.structure.StructureOptions`, e.g. ``{"strut_mass_to_drive": 0.5}``). Evaluated in chunks
         of bounded memory. ``skip_checks`` as in :meth:`section`. ``n_modes=0``, ``weak_point_directions=()`` and ``kinetostatics=False`` leave those analyses
@@ -102,9 +156,9 @@ class StudyMachine(Machine):
         """
         from pkmstiff.api.points import evaluate_points
 
-        return evaluate_points(self, poses, frame=check_frame(frame), tool_length=tool_length, n_modes=n_modes,
+        machine = self if neglect_spindle is None else self.with_(neglect_spindle=neglect_spindle)
+        return evaluate_points(machine, poses, frame=check_frame(frame), tool_length=tool_length, n_modes=n_modes,
                                weak_point_directions=tuple(weak_point_directions), quantities=tuple(quantities),
-                               neglect_spindle=self.spindle_neglected if neglect_spindle is None else neglect_spindle,
                                structure=dict(structure or {}), with_kinetostatics=kinetostatics,
                                checks=_checks(skip_checks))
 

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.kinematics import as_poses
-from pkmstiff.machine.frames import frame_metadata, to_machine_frame
+from pkmstiff.machine.frames import frame_metadata, from_machine_frame, to_machine_frame
 
 if TYPE_CHECKING:
     import pandas
@@ -40,6 +40,10 @@ class PointResults:
     each mode's kinetic and strain energy shares (fractions); ``quantities[name]`` (N,): the requested registered
     quantities in SI (display unit in ``units``); ``v_max`` [m/s] and ``a_max`` [m/s²] (N, directions) with their
     labels; ``drive_loads`` (N, chains) static drive loads [N]. ``poses`` are in ``frame`` (as given).
+    ``mode_axis_direction`` (N, n_modes, 3), ``mode_axis_point`` (N, n_modes, 3) [m, in ``frame``] and
+    ``mode_axis_pitch`` (N, n_modes) [m/rad]: the platform's instantaneous screw axis in each mode (a rotation about
+    the axis through ``point`` along ``direction`` plus ``pitch`` times it along the axis; ``point`` is the axis
+    point nearest the platform's reference point; NaN for a pure translation; :func:`pkmstiff.multibody.mode_axes`).
     """
 
     machine: str
@@ -61,6 +65,9 @@ class PointResults:
     acceleration_labels: list[str]
     a_max: np.ndarray  # (N, len(acceleration_labels)) m/s^2
     drive_loads: np.ndarray  # (N, n_chains) N
+    mode_axis_direction: np.ndarray  # (N, n_modes, 3) unit vector
+    mode_axis_point: np.ndarray  # (N, n_modes, 3) m, in ``frame``
+    mode_axis_pitch: np.ndarray  # (N, n_modes) m/rad
     quantities: dict[str, np.ndarray] = field(default_factory=dict)  # name -> (N,) SI, NaN where inadmissible
     units: dict[str, str] = field(default_factory=dict)  # name -> display unit of ``quantities``
     notes: list[str] = field(default_factory=list)
@@ -151,15 +158,15 @@ class PointResults:
         return fig
 
 
-def _quantities(machine: "StudyMachine", ev: Any, names: tuple[str, ...], tool_length: float | None,
-                neglect: bool) -> dict[str, np.ndarray]:
+def _quantities(machine: "StudyMachine", ev: Any, names: tuple[str, ...], tool_length: float | None
+                ) -> dict[str, np.ndarray]:
     """Registered quantities (SI) at the admissible poses of ``ev``, NaN elsewhere (as on a section)."""
     from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities
 
     out = {n: np.full(len(ev.poses), np.nan) for n in names}
     if names and ev.ok.any():
         sub = ev if ev.ok.all() else ev.subset(ev.ok)
-        vals = evaluate_quantities(EvalContext(machine, sub, tool_length, {"neglect_spindle": neglect}), list(names))
+        vals = evaluate_quantities(EvalContext(machine, sub, tool_length, {}), list(names))
         for n in names:
             out[n][ev.ok] = np.asarray(vals[n], float)
     return out
@@ -168,11 +175,11 @@ def _quantities(machine: "StudyMachine", ev: Any, names: tuple[str, ...], tool_l
 def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "machine",
                     tool_length: float | None = None, n_modes: int = 6,
                     weak_point_directions: tuple[str, ...] = ("x", "y", "z"), quantities: tuple[str, ...] = (),
-                    neglect_spindle: bool = False, structure: dict[str, Any] | None = None,
+                    structure: dict[str, Any] | None = None,
                     with_kinetostatics: bool = True, checks: tuple[str, ...] | None = None) -> PointResults:
     """:class:`PointResults` at ``poses`` ((6,) or (N, 6): x, y, z [m] of O' in ``frame``, a, b, c [rad]), chunked
-    by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's); ``neglect_spindle``: the TCP compliance with
-    K_U rigid (:func:`~pkmstiff.analysis.tcp_compliance`); ``structure``: fields of
+    by :data:`CHUNK` poses. ``tool_length`` [m] (None: the machine's; K_U as the machine's ``spindle_neglected``
+    says); ``structure``: fields of
     :class:`~pkmstiff.structure.StructureOptions`; ``with_kinetostatics=False`` leaves the kinetostatics out (NaN,
     no direction labels); ``checks``: the admissibility checks (None: all)."""
     from pkmstiff.admissibility import evaluate_poses
@@ -190,14 +197,14 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         ev = evaluate_poses(machine, chunk) if checks is None else evaluate_poses(machine, chunk, checks=checks)
         adm = ev.admissibility
         st = build_structure(machine, ev, options)  # the chunk's one evaluation: no second inverse kinematics
-        comp = tcp_compliance(st, tool_length, neglect_spindle)
-        wp = {d: weak_points(st, d, tool_length, neglect_spindle) for d in weak_point_directions}
+        comp = tcp_compliance(st, tool_length)
+        wp = {d: weak_points(st, d, tool_length) for d in weak_point_directions}
         k = 0 if st.empty else min(n_modes, st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs))
         ma = modal_analysis(st, k, shapes=False) if k else None
         parts.append({
             "ok": adm.ok, "adm": adm, "modelled": st.ok,
             "comp": comp, "ma": ma, "wp": wp, "ks": kinetostatics(machine, ev) if with_kinetostatics else None,
-            "q": _quantities(machine, ev, quantities, tool_length, neglect_spindle)})
+            "q": _quantities(machine, ev, quantities, tool_length)})
     ks0 = parts[0]["ks"]
 
     def kin(key: str, *width: int) -> np.ndarray:
@@ -210,8 +217,13 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
     with np.errstate(divide="ignore", invalid="ignore"):
         stiffness = 1.0 / np.diagonal(comp, axis1=1, axis2=2)
     n_f = max((0 if p["ma"] is None else p["ma"].frequencies_hz.shape[1]) for p in parts)
-    freqs = np.concatenate([np.full((len(p["ok"]), n_f), np.nan) if p["ma"] is None else p["ma"].frequencies_hz
-                            for p in parts])
+
+    def modal(key: str, *width: int) -> np.ndarray:
+        """A per-mode array of the modal analyses over all chunks, (N, n_modes, *width); NaN where not evaluated."""
+        return np.concatenate([np.full((len(p["ok"]), n_f, *width), np.nan) if p["ma"] is None
+                               else getattr(p["ma"], key) for p in parts])
+
+    freqs = modal("frequencies_hz")
 
     def energy(labels: str, values: str) -> dict[str, np.ndarray]:
         """Per body (kinetic) or component (strain): the share of each mode's energy over all chunks, (N, n_modes)."""
@@ -235,7 +247,8 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         transmission_quality=kin("transmission_quality"),
         velocity_labels=[] if ks0 is None else list(ks0.velocity_labels), v_max=kin("v_max", 0),
         acceleration_labels=[] if ks0 is None else list(ks0.acceleration_labels), a_max=kin("a_max", 0),
-        drive_loads=kin("drive_loads", machine.n_chains),
+        drive_loads=kin("drive_loads", machine.n_chains), mode_axis_direction=modal("axis_direction", 3),
+        mode_axis_point=from_machine_frame(machine, modal("axis_point", 3), frame), mode_axis_pitch=modal("axis_pitch"),
         quantities={n: np.concatenate([p["q"][n] for p in parts]) for n in quantities}, units=units,
         notes=[] if ks0 is None else list(ks0.notes), _admissibility=[p["adm"] for p in parts],
         _modal=[(len(p["ok"]), p["ma"]) for p in parts])

@@ -46,11 +46,8 @@ DEFAULT_LENGTH_SCALE = 1e-3
 DEFAULT_ANGLE_SCALE = 1e-3
 
 
-#: blocks whose parameters are points fixed to the base (MKS), to the platform (PKS), vectors fixed to the base,
-#: and scalars
+#: blocks whose parameters are points fixed to the base (MKS)
 BASE_POINTS = ("base_joint", "guide_start", "fixed_ball")
-PLATFORM_POINTS = ("platform_joint", "ball_offset", "target_offset")
-SCALARS = ("strut_offset", "strut_length", "drive_zero", "bar_offset")
 
 _E = np.eye(3)
 
@@ -99,9 +96,6 @@ class ParameterSet:
 
     def mask(self, block: str) -> np.ndarray:
         return np.array([b == block for b in self.blocks])
-
-    def has_block(self, block: str) -> bool:
-        return block in self.blocks
 
     def vector(self, values: Mapping[str, float]) -> np.ndarray:
         """Error vector Δp (SI) from a mapping name -> value; names not given are 0."""

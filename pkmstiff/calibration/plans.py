@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from pkmstiff.admissibility import evaluate_poses
-from pkmstiff.calibration.instruments import Instrument, Setup, SetupState, instrument, kinds
+from pkmstiff.calibration.instruments import Instrument, Setup, instrument, kinds
 from pkmstiff.errors import CalibrationError, CalibrationInputError
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.kinematics import as_poses
@@ -423,10 +423,6 @@ def read_plan(path: str | Path) -> Plan:
         plan = part if plan is None else plan.concat(part)
     assert plan is not None
     return Plan(str(pt.get("name", Path(src).stem)), setup, plan.poses, plan.segments)
-
-
-def setup_state(plan: Plan) -> SetupState:
-    return plan.setup.state()
 
 
 __all__: Sequence[str] = (

@@ -16,7 +16,7 @@ from pkmstiff.errors import CliError, PkmstiffError  # noqa: F401 (CliError re-e
 _COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.components", "pkmstiff.cli.demo", "pkmstiff.cli.pose",
                     "pkmstiff.cli.point", "pkmstiff.cli.section", "pkmstiff.cli.workspace", "pkmstiff.cli.report",
                     "pkmstiff.cli.sweep", "pkmstiff.cli.fe", "pkmstiff.cli.ballbar",
-                    "pkmstiff.cli.calibrate", "pkmstiff.cli.mechanism")
+                    "pkmstiff.cli.calibrate", "pkmstiff.cli.mechanism", "pkmstiff.cli.optimise")
 
 
 class UsageError(CliError):

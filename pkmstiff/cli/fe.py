@@ -170,7 +170,7 @@ def joint_image(jm: Any, tilt_deg: float, path: str | Path) -> Path:
     tip = R @ np.asarray(jm.model.references[0].point, float)
     F = float(jm.params["load"]["force"])
     title = (f"{jm.params.name}: tilt {tilt_deg:g} deg, {F / 1e3:g} kN along the strut, "
-             f"k = {k / 1e6:.1f} N/um")
+             f"k = {k / 1e6:.1f} N/µm")
     img, _ = deformed_image(field_mesh(jm.model, sol, u), path, title=title, load_point=tip,
                             load_direction=jm.strut_direction(th))
     return img

@@ -99,7 +99,7 @@ def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | N
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.cli.pose import PoseArgumentError, parse_pose
-    from pkmstiff.structure import build_structure
+    from pkmstiff.structure import StructureOptions, build_structure
 
     try:
         pose = parse_pose(pose_text)
@@ -120,7 +120,7 @@ def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | N
         raise _refuse(m.name, ", ".join(f"{k.split('_')[0]} = {v:g} {k.split('_')[1]}" for k, v in pose_out.items())
                       + f" ({frame} frame)", reasons)
     tl = None if tool_length_mm is None else tool_length_mm * 1e-3
-    st = build_structure(m, ev)
+    st = build_structure(m, ev, StructureOptions(load_platform=neglect_spindle))  # K_U rigid for the load only
     ks = kinetostatics(m, ev)
     rep: dict[str, Any] = {
         "schema": SCHEMA,
@@ -138,7 +138,7 @@ def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | N
         "model": {"bodies": [] if st.empty else st.model.body_names, "dof": 0 if st.empty else st.model.n_dof,
                   "tcp_body": st.tcp_body},
     }
-    comp = tcp_compliance(st, tl, neglect_spindle)[0]
+    comp = tcp_compliance(st, tl)[0]
     with np.errstate(divide="ignore", invalid="ignore"):
         diag = 1.0 / np.diagonal(comp)
     if np.all(np.isfinite(comp)):
@@ -150,7 +150,7 @@ def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | N
     rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(diag[3 + i] / 1e6) for i, ax in enumerate("xyz")}
     rep["weak_points_percent"] = {}
     for d in WEAK_POINT_DIRECTIONS:
-        wp = weak_points(st, d, tl, neglect_spindle)
+        wp = weak_points(st, d, tl)
         rep["weak_points_percent"][d] = {lab: _num(100 * wp.component_shares[0, j])
                                          for j, lab in enumerate(wp.component_labels)}
     if n_modes and not st.empty:

@@ -50,7 +50,6 @@ class Quantity:
     si_unit: str
     compute: Callable[[EvalContext], np.ndarray]
     group: str = "kinematics"
-    needs_structure: bool = False
 
     def to_display(self, values_si: np.ndarray) -> np.ndarray:
         return np.asarray(to_unit(values_si, self.unit)) if self.unit != self.si_unit else np.asarray(values_si)
@@ -231,10 +230,10 @@ def _structure(c: EvalContext, n_modes: int = 6):
 _STIFFNESS = {"kx": (0, "x"), "ky": (1, "y"), "kz": (2, "z")}
 for _name, (_i, _ax) in _STIFFNESS.items():
     register_quantity(Quantity(_name, f"TCP stiffness in {_ax} (force / displacement in {_ax})", "N/um", "N/m",
-                               (lambda i: lambda c: _structure(c).stiffness[:, i])(_i), "stiffness", True))
+                               (lambda i: lambda c: _structure(c).stiffness[:, i])(_i), "stiffness"))
 for _i, _ax in enumerate("xyz"):
     register_quantity(Quantity(f"kr{_ax}", f"rotational TCP stiffness about {_ax}", "N*m/urad", "N*m/rad",
-                               (lambda i: lambda c: _structure(c).stiffness[:, 3 + i])(_i), "stiffness", True))
+                               (lambda i: lambda c: _structure(c).stiffness[:, 3 + i])(_i), "stiffness"))
 
 
 def _kmin(c: EvalContext) -> np.ndarray:
@@ -247,7 +246,7 @@ def _kmin(c: EvalContext) -> np.ndarray:
 
 
 register_quantity(Quantity("kmin", "minimum translational TCP stiffness (weakest direction)", "N/um", "N/m", _kmin,
-                           "stiffness", True))
+                           "stiffness"))
 
 
 def _freq_family(m: re.Match) -> Quantity:
@@ -255,7 +254,7 @@ def _freq_family(m: re.Match) -> Quantity:
     if n < 1:
         raise UnknownQuantityError(f"eigenfrequencies are numbered from 1, found {m.group(0)!r}")
     return Quantity(m.group(0), f"eigenfrequency {n}", "Hz", "Hz",
-                    lambda c: _structure(c, n).frequencies_hz[:, n - 1], "modal", True)
+                    lambda c: _structure(c, n).frequencies_hz[:, n - 1], "modal")
 
 
 register_family(r"f(\d+)", _freq_family, "f1")
@@ -270,7 +269,7 @@ def _kinetostatics(c: EvalContext):
 def _vmax_family(m: re.Match) -> Quantity:
     ax = m.group(1)
     return Quantity(m.group(0), f"maximum TCP velocity along {ax} (eq. 4.79)", "m/min", "m/s",
-                    lambda c: _kinetostatics(c).v_max[:, "xyz".index(ax)], "kinetostatics", True)
+                    lambda c: _kinetostatics(c).v_max[:, "xyz".index(ax)], "kinetostatics")
 
 
 register_family(r"vmax_([xyz])", _vmax_family, "vmax_y")
@@ -285,7 +284,7 @@ def _amax_family(m: re.Match) -> Quantity:
         return k.a_max[:, k.acceleration_labels.index(key)]
 
     return Quantity(m.group(0), f"maximum TCP acceleration towards {label} (eq. 4.87-4.93)", "m/s^2", "m/s^2", f,
-                    "kinetostatics", True)
+                    "kinetostatics")
 
 
 register_family(r"amax_([+-][xyz])", _amax_family, "amax_+z")
@@ -304,7 +303,7 @@ def _share_family(m: re.Match) -> Quantity:
         return wp.component_shares[:, wp.component_labels.index(comp)]
 
     return Quantity(m.group(0), f"share of the {comp.replace('_', ' ')} in the TCP compliance along {direction}",
-                    "%", "1", f, "stiffness", True)
+                    "%", "1", f, "stiffness")
 
 
 register_family(r"share_(drive|guide|drive_suspension|drive_joint|strut|platform_joint|platform_spindle)_([xyz])",
@@ -323,16 +322,16 @@ def _gravity(c: EvalContext) -> np.ndarray:
 
 
 register_quantity(Quantity("deflection_gravity", "TCP deflection under gravity (magnitude of the translation)", "um",
-                           "m", lambda c: np.linalg.norm(_gravity(c)[:, :3], axis=1), "deflection", True))
+                           "m", lambda c: np.linalg.norm(_gravity(c)[:, :3], axis=1), "deflection"))
 register_quantity(Quantity("deflection_gravity_rot", "TCP rotation under gravity (magnitude)", "urad", "rad",
-                           lambda c: np.linalg.norm(_gravity(c)[:, 3:], axis=1), "deflection", True))
+                           lambda c: np.linalg.norm(_gravity(c)[:, 3:], axis=1), "deflection"))
 
 
 def _deflection_family(m: re.Match) -> Quantity:
     k = ("x", "y", "z", "rx", "ry", "rz").index(m.group(1))
     what = f"translation along {m.group(1)}" if k < 3 else f"rotation about {m.group(1)[1]}"
     return Quantity(m.group(0), f"TCP deflection under gravity, {what}", "um" if k < 3 else "urad",
-                    "m" if k < 3 else "rad", lambda c: _gravity(c)[:, k], "deflection", True)
+                    "m" if k < 3 else "rad", lambda c: _gravity(c)[:, k], "deflection")
 
 
 register_family(r"deflection_gravity_(x|y|z|rx|ry|rz)", _deflection_family, "deflection_gravity_z")

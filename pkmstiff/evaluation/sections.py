@@ -22,7 +22,7 @@ from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation import parallel
 from pkmstiff.evaluation.progress import callback as progress_callback
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
-from pkmstiff.machine.frames import frame_metadata, frame_origin, neglect_spindle
+from pkmstiff.machine.frames import frame_metadata, frame_origin
 from pkmstiff.machine.model import Machine
 
 AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
@@ -258,11 +258,10 @@ def evaluate_section(
     poses = section_poses(plane, orientation)
     poses[:, :3] += frame_origin(machine, frame)
     opts = dict(options or {})
-    # the one place where the option maps onto the machine (every quantity then honours it); kept in the settings
-    neglect = bool(opts.pop("neglect_spindle", False)) or machine.spindle_neglected
-    machine = neglect_spindle(machine, neglect)
+    # K_U left out is the machine's field (pkmstiff.machine.frames.neglect_spindle): every quantity honours it; the
+    # settings state it
     settings = {"chunk_size": chunk_size, "checks": list(checks), "checks_left_out": checks_left_out(checks), **opts}
-    if neglect:
+    if machine.spindle_neglected:
         settings["neglect_spindle"] = True
     if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
         progress = len(poses) * (1 + len(names)) > 20_000

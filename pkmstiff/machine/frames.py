@@ -74,7 +74,8 @@ def neglect_spindle(machine: Machine, enabled: bool = True) -> Machine:
     """The machine with the platform-spindle stiffness K_U left out (``enabled``; else the machine unchanged).
 
     Without the ``platform_spindle`` role platform and spindle form one rigid body (roles.py); this equals loading
-    the platform at the TCP with K_U rigid (:func:`pkmstiff.analysis.static.tcp_compliance` ``neglect_spindle``).
+    the platform at the TCP with K_U rigid (the structure option ``load_platform`` of
+    :class:`pkmstiff.structure.StructureOptions`).
     The machine's field ``spindle_neglected`` records it (every analysis of the machine honours it; the displayed
     title :attr:`~pkmstiff.machine.model.Machine.display_title` says so).
     """

@@ -87,3 +87,15 @@ def add_mm_axes(plotter, bounds_mm: Sequence[float], view_direction: Sequence[fl
     plotter.add_point_labels(np.array(title_pts), list(titles), font_size=font_size + 2, text_color=color,
                              shape=None, show_points=False, always_visible=True, bold=True,
                              justification_horizontal="center", justification_vertical="center")
+
+
+def frame_camera(p, direction, box: np.ndarray | None, zoom: float = 1.0) -> None:
+    """Look along ``-direction`` at the centre of ``box`` (3, 2) [mm] (default: everything drawn), framed so that
+    the box and its axis labels fill the view; then zoom by ``zoom``."""
+    bounds = np.array(p.bounds).reshape(3, 2) if box is None else np.asarray(box, float)
+    focus = bounds.mean(axis=1)
+    dist = 2.2 * float(np.linalg.norm(bounds[:, 1] - bounds[:, 0]))
+    p.camera_position = [tuple(focus + dist * np.asarray(direction)), tuple(focus), (0.0, 0.0, 1.0)]
+    pad = 0.18 * (bounds[:, 1] - bounds[:, 0])[:, None] * np.array([-1.0, 1.0])  # room for the axis labels
+    p.reset_camera(bounds=(bounds + pad).ravel())
+    p.camera.zoom(zoom)

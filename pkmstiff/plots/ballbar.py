@@ -41,8 +41,8 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
     """
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(10.0, 6.4))
-    ax = fig.add_axes((0.07, 0.07, 0.56, 0.82), projection="polar")
+    fig = Figure(figsize=(10.0, 7.0))
+    ax = fig.add_axes((0.08, 0.06, 0.52, 0.84), projection="polar")  # room for the 180° label
     devs = np.concatenate([r.deviation for r in ev.runs.values()]) * 1e6
     lo_d, hi_d = float(min(devs.min(), 0.0)), float(max(devs.max(), 0.0))
     span = max(hi_d - lo_d, 1e-3)
@@ -68,13 +68,14 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
     ax.set_ylim(0, hi - lo)
     ticks = np.arange(lo + step, hi + 1e-9, step)
     ax.set_yticks(ticks - lo)
-    ax.set_yticklabels([f"{t:+.3g}" if abs(t) > 1e-9 * step else "0" for t in ticks], fontsize=8)
+    ax.set_yticklabels([("0" if abs(t) <= 1e-9 * step else f"{t:+.0f}" if step >= 1 else f"{t:+.3g}")
+                        for t in ticks], fontsize=10)  # whole µm when the step is (no "+4e+03")
     ax.set_rlabel_position(67.5)
     ax.set_xticks(np.radians(np.arange(0, 360, 45)))
     ax.grid(True, lw=0.4)
     e1, e2 = _axis_names(ev)
     ax.set_xticklabels([f"0° (+{e1})", "45°", f"90° (+{e2})", "135°", f"180° (−{e1})", "225°", f"270° (−{e2})",
-                        "315°"], fontsize=8)
+                        "315°"], fontsize=10)
     lines = [f"bar {ev.bar_length * 1e3:g} mm, plane {ev.plane.name}", f"scale {step:g} µm/div", ""]
     for lab, run in ev.runs.items():
         tag = lab.upper() + ":"
@@ -87,10 +88,10 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
         lines.append(f"hysteresis H {ev.hysteresis * 1e6:.2f} µm")
     lines.append(f"circularity  {ev.circularity * 1e6:.2f} µm (LSQ)")
     lines.append(f"  min zone   {ev.circularity_min_zone * 1e6:.2f} µm")
-    fig.suptitle(title or "Ball-bar circular test: radial deviation [µm]", fontsize=12, x=0.35)
-    fig.legend(*ax.get_legend_handles_labels(), loc="upper left", bbox_to_anchor=(0.68, 0.9), fontsize=8,
+    fig.suptitle(title or "Ball-bar circular test: radial deviation [µm]", fontsize=13, x=0.35)
+    fig.legend(*ax.get_legend_handles_labels(), loc="upper left", bbox_to_anchor=(0.64, 0.93), fontsize=10,
                frameon=False)
-    fig.text(0.68, 0.12, "\n".join(lines), fontsize=7.5, va="bottom", family="monospace", wrap=True)
+    fig.text(0.65, 0.04, "\n".join(lines), fontsize=10, va="bottom", family="monospace")
     return fig
 
 
@@ -129,7 +130,7 @@ def harmonic_spectrum_figure(ev: "BallbarEvaluation", *, n_show: int | None = No
         ax.set_ylabel("amplitude A_k [µm]")
         ax.set_xticks(k)
         ax.set_title(title or f"{run.direction.upper()} run: Fourier harmonics (Szatmári eq. 4.9/4.10)", fontsize=10)
-        ax.legend(fontsize=7.5)
+        ax.legend(fontsize=9)
         ax.grid(True, axis="y", lw=0.3)
     return fig
 

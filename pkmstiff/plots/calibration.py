@@ -49,7 +49,7 @@ def path_figure(points: np.ndarray, groups: np.ndarray, labels: Sequence[str], f
     ax3.set_xlabel("x [mm]")
     ax3.set_ylabel("y [mm]")
     ax3.set_zlabel("z [mm]")
-    ax3.legend(fontsize=7.5, loc="upper left")
+    ax3.legend(fontsize=9, loc="upper left")
     ax2.set_aspect("equal", adjustable="datalim")
     ax2.set_xlabel("x [mm]")
     ax2.set_ylabel("y [mm]")
@@ -60,26 +60,33 @@ def path_figure(points: np.ndarray, groups: np.ndarray, labels: Sequence[str], f
 
 
 def parameter_figure(names: Sequence[str], values: np.ndarray, sigma: np.ndarray, units: Sequence[str], *,
-                     title: str = "Identified parameters (±2σ)") -> "Figure":
-    """Horizontal bars of the identified values with ±2σ error bars: lengths in mm, angles in mrad (one panel per
-    unit present). ``values``/``sigma`` in SI (m, rad)."""
+                     title: str = "Identified parameters and their 2σ") -> "Figure":
+    """Horizontal bars of the identified values (lengths in mm, angles in mrad) and beside them their 2σ (µm, µrad),
+    one row of panels per unit present. ``values``/``sigma`` in SI (m, rad)."""
     from matplotlib.figure import Figure
 
     v, s = np.asarray(values, dtype=float) * 1e3, np.asarray(sigma, dtype=float) * 1e3
-    kinds = [(u, lab) for u, lab in (("m", "mm"), ("rad", "mrad")) if u in units]
-    n_rows = [sum(1 for x in units if x == u) for u, _ in kinds]
-    fig = Figure(figsize=(8.0, 1.2 + 0.16 * sum(n_rows) + 0.6 * len(kinds)), layout="constrained")
-    gs = fig.add_gridspec(len(kinds), 1, height_ratios=[max(n, 1) for n in n_rows])
-    for k, (u, lab) in enumerate(kinds):
+    kinds = [(u, lab, small) for u, lab, small in (("m", "mm", "µm"), ("rad", "mrad", "µrad")) if u in units]
+    n_rows = [sum(1 for x in units if x == u) for u, _, _ in kinds]
+    # two columns: the identified values (mm, mrad) and, on their own scale, 2σ in µm / µrad; at the values'
+    # scale the ±2σ bars of a well-identified parameter are narrower than a pixel
+    fig = Figure(figsize=(9.0, 1.0 + 0.21 * sum(n_rows) + 0.7 * len(kinds)), layout="constrained")
+    gs = fig.add_gridspec(len(kinds), 2, height_ratios=[max(n, 1) for n in n_rows], width_ratios=[3, 2])
+    for k, (u, lab, small) in enumerate(kinds):
         ax = fig.add_subplot(gs[k, 0])
         idx = [i for i, x in enumerate(units) if x == u]
         y = np.arange(len(idx))[::-1]
-        ax.barh(y, v[idx], xerr=2 * s[idx], color="tab:blue", alpha=0.7, ecolor="k", capsize=1.5, height=0.7)
+        ax.barh(y, v[idx], color="tab:blue", alpha=0.75, height=0.7)
         ax.set_yticks(y)
-        ax.set_yticklabels([names[i] for i in idx], fontsize=6.5)
+        ax.set_yticklabels([names[i] for i in idx], fontsize=9)
         ax.axvline(0.0, color="k", lw=0.6)
         ax.set_xlabel(f"identified error [{lab}]")
         ax.grid(True, axis="x", lw=0.3)
         ax.set_ylim(-0.7, len(idx) - 0.3)
+        ax2 = fig.add_subplot(gs[k, 1], sharey=ax)
+        ax2.barh(y, 2 * s[idx] * 1e3, color="tab:orange", alpha=0.8, height=0.7)
+        ax2.tick_params(labelleft=False)
+        ax2.set_xlabel(f"2σ [{small}]")
+        ax2.grid(True, axis="x", lw=0.3)
     fig.suptitle(title, fontsize=11)
     return fig

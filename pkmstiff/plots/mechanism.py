@@ -39,9 +39,19 @@ def mechanism_figure(mech: Mechanism, q: np.ndarray, path: str | Path | None = N
     q = np.asarray(q, dtype=float)
     q = q[None] if q.ndim == 2 else q
     D = mech.dim
-    fig = Figure(figsize=(7.0, 5.6) if D == 3 else (7.0, 4.6))
-    ax = fig.add_subplot(111, projection="3d" if D == 3 else None)
     F = Frames(q, D)
+    every = np.concatenate([(F.t[:, li][:, None] + np.einsum("kij,pj->kpi", F.R[:, li], np.array(pl))).reshape(-1, D)
+                            for li, pl in _link_points(mech).items() if pl]) * MM
+    every = every[np.isfinite(every).all(axis=1)]
+    lo, hi = every.min(axis=0), every.max(axis=0)
+    margin = 0.08 * float(np.max(hi - lo)) + 5.0  # mm: room for the joint dots and the labels under the output
+    if D == 2:  # canvas shaped like the drawing of the links (guides cut at it), legend to its right
+        lo, hi = lo - margin * np.array([1.0, 2.0]), hi + margin
+        figsize = (8.0, float(np.clip(1.3 + 6.4 * (hi[1] - lo[1]) / (hi[0] - lo[0]), 2.4, 7.0)))
+    else:
+        figsize = (8.0, 6.4)
+    fig = Figure(figsize=figsize, layout="constrained")
+    ax = fig.add_subplot(111, projection="3d" if D == 3 else None)
     pts = _link_points(mech)
     colours = [f"C{i % 10}" for i in range(len(mech.links))]
     for kk in range(q.shape[0]):
@@ -68,29 +78,31 @@ def mechanism_figure(mech: Mechanism, q: np.ndarray, path: str | Path | None = N
         if mech.output is not None:
             o = mech.output
             w = (F.t[kk, o.link] + F.R[kk, o.link] @ o.point) * MM
-            ax.plot(*w[:, None], "*", color="crimson", ms=10, alpha=alpha, label="output" if kk == 0 else None)
-            if labels:
-                if D == 3:
-                    ax.text(*w, f" {labels[kk]}", fontsize=8, alpha=alpha)
-                else:
-                    ax.annotate(labels[kk], w, fontsize=8, alpha=alpha, xytext=(4, 4), textcoords="offset points")
+            if D == 3:  # labels at the output points overlap in 3-D: the legend names each configuration
+                ax.plot(*w[:, None], "*^so"[kk % 4], color="crimson", ms=10, alpha=max(alpha, 0.6),
+                        label=f"output: {labels[kk]}" if labels else ("output" if kk == 0 else None))
+            else:
+                ax.plot(*w[:, None], "*", color="crimson", ms=10, alpha=alpha, label="output" if kk == 0 else None)
+                if labels:
+                    ax.annotate(labels[kk], w, fontsize=9, alpha=max(alpha, 0.7), xytext=(0, -14 - 11 * (kk % 2)),
+                                textcoords="offset points", ha="center")
     ax.set_xlabel("x [mm]")
     ax.set_ylabel("y [mm]")
     if D == 3:
         ax.set_zlabel("z [mm]")
         ax.view_init(elev=elev, azim=azim)
-        lims = np.array([ax.get_xlim3d(), ax.get_ylim3d(), ax.get_zlim3d()])
-        c, r = lims.mean(axis=1), (lims[:, 1] - lims[:, 0]).max() / 2
-        ax.set_xlim3d(c[0] - r, c[0] + r)
-        ax.set_ylim3d(c[1] - r, c[1] + r)
-        ax.set_zlim3d(c[2] - r, c[2] + r)
+        ax.set_xlim3d(lo[0] - margin, hi[0] + margin)
+        ax.set_ylim3d(lo[1] - margin, hi[1] + margin)
+        ax.set_zlim3d(lo[2] - margin, hi[2] + margin)
+        ax.set_aspect("equal")  # the box follows the drawing's extent, no empty cube around it
     else:
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
         ax.set_aspect("equal")
         ax.grid(True, lw=0.3)
     ax.set_title(title or mech.title, fontsize=10)
-    ax.legend(fontsize=7, loc="upper left")
-    fig.tight_layout()
+    fig.legend(fontsize=9, loc="outside right upper", title="links", title_fontsize=9, frameon=False)
     if path is not None:
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, dpi=110)
+            fig.savefig(tmp, dpi=110, facecolor="white")
     return fig

@@ -113,23 +113,35 @@ def add_axis_triad(p, ms: ModeShape) -> None:
                        show_points=False, always_visible=True)
 
 
-def plot_mode_shape(machine: Machine, pose, path: str | Path, mode: int = 1, amplitude: float = 0.08,
-                    window_size=(1000, 580)) -> Path:
-    """PNG of the undeformed machine (grey, transparent) and mode ``mode`` scaled to ``amplitude`` (m) peak."""
+def plot_mode_shape(machine: Machine, pose, path: str | Path, mode: int = 1, amplitude: float = 0.12,
+                    window_size=(1000, 720)) -> Path:
+    """PNG of the undeformed machine (grey, transparent) and mode ``mode`` scaled to ``amplitude`` (m) peak
+    (orange), with axes in mm (the scale), the x, y, z triad and a legend that states the amplitude; the frequency
+    and the description are computed at ``pose`` by the structure model."""
     pv = offscreen()
     ms = mode_shape(machine, pose, mode)
     factor = ms.scale_for(amplitude)
     p = pv.Plotter(off_screen=True, window_size=window_size)
-    add_sketch(p, machine, pose, opacity=0.25, colour="gray")
-    add_sketch(p, machine, pose, sketch=_deformed(machine, ms, factor))
+    add_sketch(p, machine, pose, opacity=0.3, colour="gray")
+    deformed = _deformed(machine, ms, factor)
+    if "guides" in deformed.keys():
+        deformed.pop("guides")  # the guides do not move; drawn once, grey
+    add_sketch(p, machine, pose, sketch=deformed, colour="darkorange")
     add_axis_triad(p, ms)
+    pts = np.concatenate([ms.q, ms.p]) * 1e3
+    direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])
+    from pkmstiff.plots.axes3d import add_mm_axes
+
+    add_mm_axes(p, np.column_stack([np.nanmin(pts, axis=0), np.nanmax(pts, axis=0)]).ravel(), direction,
+                font_size=16)
     ori = ", ".join(f"{np.degrees(v):g}°" for v in np.asarray(pose)[3:6])
     p.add_text(f"{machine.name}: mode {mode}, {ms.frequency_hz:.2f} Hz, {ms.description}\n"
                f"pose x, y, z = {', '.join(f'{v * 1e3:g}' for v in np.asarray(pose)[:3])} mm, a, b, c = {ori} "
-               f"(machine frame); grey: undeformed, displacements scaled to {amplitude * 1e3:g} mm peak",
-               position="upper_left", font_size=10, color="black")
+               f"(machine frame)", position="upper_left", font_size=12, color="black")
+    p.add_text(f"grey: undeformed; orange: mode {mode} scaled to {amplitude * 1e3:g} mm peak displacement "
+               f"(x{factor:.3g})", position="lower_left", font_size=12, color="black")
     p.set_background("white")
-    _camera(p, ms, zoom=1.75)
+    _camera(p, ms, zoom=1.3)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:

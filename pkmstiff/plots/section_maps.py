@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
@@ -72,6 +73,84 @@ def pretty_unit(unit: str) -> str:
     return unit
 
 
+#: a tail beyond the 1st/99th percentile longer than this fraction of the percentile span is a hot spot
+HOT_SPOT_TAIL = 0.5
+#: positive values whose median lies in the lowest fraction of their range (one peak, the rest near the bottom)
+#: and that span more than a decade get a logarithmic colour scale
+LOG_MEDIAN_FRACTION = 0.15
+
+
+@dataclass(frozen=True)
+class ColourScale:
+    """Colour limits, linear or logarithmic, and the note the colour bar carries ("" for a plain min..max scale)."""
+
+    lo: float
+    hi: float
+    log: bool = False
+    note: str = ""
+
+    def norm(self):
+        from matplotlib.colors import LogNorm, Normalize
+
+        return LogNorm(self.lo, self.hi) if self.log else Normalize(self.lo, self.hi)
+
+    def extend(self, values: np.ndarray) -> str:
+        """Colour-bar arrows (matplotlib's ``extend``) for the values outside the limits."""
+        return _extend(values, (self.lo, self.hi))
+
+    def label_colorbar(self, cb, unit_label: str) -> None:
+        """Colour-bar label with the note; a log scale gets plain ticks at 1, 2, 5 × 10^k."""
+        cb.set_label(unit_label + (f"\n({self.note})" if self.note else ""))
+        if self.log:
+            from matplotlib.ticker import FormatStrFormatter
+
+            k = np.arange(np.floor(np.log10(self.lo)), np.ceil(np.log10(self.hi)) + 1)
+            ticks = (np.array([1.0, 2.0, 5.0])[None] * 10.0 ** k[:, None]).ravel()
+            cb.set_ticks(ticks[(ticks >= self.lo) & (ticks <= self.hi)], labels=None)
+            cb.ax.minorticks_off()
+            cb.formatter = FormatStrFormatter("%g")
+            cb.update_ticks()
+
+
+def robust_clim(*arrays: np.ndarray) -> ColourScale:
+    """Colour scale over the finite values of ``arrays`` that shows the structure when one hot spot dominates
+    (e.g. k_z up to 184 N/µm where most of the map lies below 40):
+
+    - an end whose tail beyond the 1st/99th percentile is longer than ``HOT_SPOT_TAIL`` times the 1…99 % span is
+      cut at that percentile (the note gives the value the cut hides; the colour bar gets an arrow);
+    - positive values that still span more than a decade with their median in the lowest ``LOG_MEDIAN_FRACTION``
+      of the range get a logarithmic scale (note "log scale"), else the scale is linear.
+    """
+    finite = np.concatenate([np.ravel(a)[np.isfinite(np.ravel(a))] for a in arrays]) if arrays else np.array([])
+    if not finite.size:
+        return ColourScale(0.0, 1.0)
+    lo, hi = float(finite.min()), float(finite.max())
+    p1, p99 = (float(x) for x in np.percentile(finite, [1.0, 99.0]))
+    span = p99 - p1
+    notes = []
+    if span > 0 and hi - p99 > HOT_SPOT_TAIL * span:
+        notes.append(f"scale cut at the 99th percentile, max {hi:.4g}")
+        hi = p99
+    if span > 0 and p1 - lo > HOT_SPOT_TAIL * span:
+        notes.append(f"scale cut at the 1st percentile, min {lo:.4g}")
+        lo = p1
+    inside = finite[(finite >= lo) & (finite <= hi)]
+    log = bool(lo > 0 and hi > 10 * lo and float(np.median(inside)) - lo < LOG_MEDIAN_FRACTION * (hi - lo))
+    if log:
+        notes.insert(0, "log scale")
+    if hi <= lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    return ColourScale(lo, hi, log, "; ".join(notes))
+
+
+def _extend(values: np.ndarray, clim: tuple[float, float]) -> str:
+    """Colour-bar arrows for values outside ``clim``."""
+    finite = values[np.isfinite(values)]
+    below = bool(finite.size and finite.min() < clim[0])
+    above = bool(finite.size and finite.max() > clim[1])
+    return {(False, False): "neither", (True, False): "min", (False, True): "max", (True, True): "both"}[(below, above)]
+
+
 def _map_title(res: SectionResult) -> str:
     """Machine, plane, the window's real ranges, orientation and tool length; a clipping warning if any."""
     pl = res.plane
@@ -123,22 +202,22 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size: t
     """Write a PNG of quantity ``name`` on its plane: colour map, admissible outline, axes in mm at round steps,
     colour bar outside the data, title with the real window ranges, orientation and frame.
 
-    Inadmissible points are white; the black line is the boundary of the admissible region. ``window_size`` (px) fixes
+    Inadmissible points are white; the black line is the boundary of the admissible region. Without ``clim`` the
+    colour scale is ``robust_clim``'s (log or cut where one hot spot dominates, said on the colour bar).
+    ``window_size`` (px) fixes
     the canvas; by default it follows the plane's aspect so that the map fills the figure.
     """
     u, v = res.plane.u_values * MM, res.plane.v_values * MM
     values = res.display(name)
-    finite = values[np.isfinite(values)]
-    if clim is None and finite.size:
-        clim = (float(finite.min()), float(finite.max())) if finite.max() > finite.min() else \
-            (float(finite.min()) - 0.5, float(finite.max()) + 0.5)
+    scale = robust_clim(values) if clim is None else ColourScale(*clim)
+    clim = (scale.lo, scale.hi)
     fig, ax = _map_figure(res, window_size, 1.3)
-    mesh = ax.pcolormesh(u, v, np.ma.masked_invalid(values), shading="nearest", cmap=cmap,
-                         vmin=None if clim is None else clim[0], vmax=None if clim is None else clim[1])
+    mesh = ax.pcolormesh(u, v, np.ma.masked_invalid(values), shading="nearest", cmap=cmap, norm=scale.norm())
     if res.ok.any() and not res.ok.all():
         ax.contour(u, v, res.ok.astype(float), levels=[0.5], colors="black", linewidths=1.2)
     unit = pretty_unit(res.units[name])
-    fig.colorbar(mesh, ax=ax, label=f"{name} [{unit}]", fraction=0.06, pad=0.02)
+    cb = fig.colorbar(mesh, ax=ax, fraction=0.06, pad=0.02, extend=_extend(values, clim))
+    scale.label_colorbar(cb, f"{name} [{unit}]")
     ax.set_title(f"{res.labels[name]} [{unit}]", fontsize=10)
     fig.suptitle(_map_title(res), fontsize=9)
     return _save(fig, path)
@@ -157,26 +236,26 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
         grid = _plane_grid(r, in_3d=True, pv=pv)
         data_bounds.append(np.reshape(grid.bounds, (3, 2)))
         grid.point_data[name] = v.ravel()
+        # horizontal bar in the top right corner: its title above its values (no collision with the axes)
         p.add_mesh(grid, scalars=name, cmap=cmap, clim=clim, nan_opacity=0.0, show_scalar_bar=(k == 0),
-                   scalar_bar_args={"title": quantity_title(results[0], name), "vertical": True,
-                                    "position_x": 0.87, "position_y": 0.2, "height": 0.6,
-                                    "fmt": "%.1f" if clim and clim[1] >= 10 else "%.4g"})
-    add_sketch(p, machine, reference_pose, opacity=0.9)
+                   scalar_bar_args={"title": quantity_title(results[0], name), "vertical": False,
+                                    "position_x": 0.52, "position_y": 0.83, "width": 0.45, "height": 0.06,
+                                    "title_font_size": 22, "label_font_size": 20, "color": "black",
+                                    "n_labels": 5, "fmt": "%.0f" if clim and clim[1] >= 10 else "%.3g"})
+    # the machine ghosted (light, transparent) so that the planes in front of and behind it stay visible
+    add_sketch(p, machine, reference_pose, opacity=0.2, colour="gray")
     direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])  # front right, from above
-    from pkmstiff.plots.axes3d import add_mm_axes
+    from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
 
+    box = None
     if data_bounds:  # axes around the section planes (the machine sketch reaches far beyond them)
         box = np.column_stack([np.min([b[:, 0] for b in data_bounds], axis=0),
                                np.max([b[:, 1] for b in data_bounds], axis=0)])
         add_mm_axes(p, box.ravel(), direction)
-    p.add_text(f"{results[0].machine}: {name} on three section planes", position="upper_left", font_size=11,
-               color="black")
+    p.add_text(f"{results[0].machine}: {name} on three section planes (machine ghosted grey)",
+               position="upper_left", font_size=13, color="black")
     p.set_background("white")
-    bounds = np.array(p.bounds).reshape(3, 2)
-    focus = bounds.mean(axis=1)
-    dist = 2.2 * float(np.linalg.norm(bounds[:, 1] - bounds[:, 0]))
-    p.camera_position = [tuple(focus + dist * direction), tuple(focus), (0.0, 0.0, 1.0)]
-    p.camera.zoom(1.5)
+    frame_camera(p, direction, box, zoom=1.3)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(path) as tmp:

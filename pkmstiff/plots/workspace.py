@@ -55,12 +55,12 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
         mesh = res.surface.to_pyvista()
         mesh.points *= 1e3
         mesh = mesh.compute_normals(auto_orient_normals=False, consistent_normals=False, split_vertices=False)
-        pl.add_mesh(mesh, color="#e8a33d", opacity=0.55, smooth_shading=True, specular=0.2)
+        pl.add_mesh(mesh, color="#e8a33d", opacity=0.85, smooth_shading=True, specular=0.2)
     if show_points:
         pl.add_points(res.boundary_points * 1e3, color="black", point_size=2, render_points_as_spheres=False)
     x = reference_pose(res, machine) if pose is None else np.asarray(pose, float)
     if x is not None:
-        add_sketch(pl, machine, x)
+        add_sketch(pl, machine, x, opacity=0.25, colour="gray")  # ghosted: the volume stays in view
     lo, hi = res.bounding_box()
     s = res.summary()
     ori = s["orientation_deg"]
@@ -76,16 +76,15 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
         f"{c} {a * 1e3:.0f}…{b * 1e3:.0f} mm" for c, a, b in zip("xyz", lo, hi)))
     title = (f"{machine.name}: workspace (machine frame) at {orientation}, resolution {s['resolution_mm']:g} mm\n"
              f"V = {res.volume:.4f} m³{extent}; {s['boundary_points']:,} boundary points")
-    pl.add_text(title, font_size=11, color="black")
-    if np.isfinite(lo).all():
-        from pkmstiff.plots.axes3d import add_mm_axes
+    pl.add_text(title + "\nmachine ghosted grey", font_size=12, color="black")
+    direction = np.asarray((1.0, 1.0, 1.0) if view is None else view, float)
+    direction = direction / np.linalg.norm(direction)
+    from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
 
-        add_mm_axes(pl, np.ravel(np.column_stack([lo, hi]) * 1e3), (1.0, 1.0, 1.0) if view is None else view)
-    pl.camera_position = "iso" if view is None else None
-    if view is not None:
-        pl.view_vector(list(view))
-    pl.reset_camera()
-    pl.camera.zoom(1.45)
+    box = np.column_stack([lo, hi]) * 1e3 if np.isfinite(lo).all() else None
+    if box is not None:
+        add_mm_axes(pl, box.ravel(), direction)
+    frame_camera(pl, direction, box, zoom=1.25)  # the camera frames the volume; the machine may leave the view
     with atomic_path(path) as tmp:
         pl.screenshot(str(tmp))
     pl.close()
@@ -105,36 +104,43 @@ def _figure(figsize: tuple[float, float]):
 
 
 def plot_rotation_maps(res: RotationMapResult, path: str | Path, labels: tuple[str, str] = ("u [mm]", "v [mm]"),
-                       scale: tuple[float, float] = (1e3, 1e3), title: str = "", cmap: str = "gray_r") -> Path:
-    """One grey-scale contour panel per direction (Cobet's display, §7.2); white = inadmissible base orientation."""
+                       scale: tuple[float, float] = (1e3, 1e3), title: str = "", cmap: str = "viridis") -> Path:
+    """One contour panel per direction (Cobet's display, §7.2) on one shared colour scale; shaded = inadmissible
+    base orientation. The colour map is perceptual and 0° is one of its colours (dark), so a point that admits no
+    rotation reads as data, not as a gap."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     dirs = list(res.angles)
     ncol = min(3, len(dirs))
     nrow = int(np.ceil(len(dirs) / ncol))
-    fig = _figure((4.6 * ncol, 3.9 * nrow))
-    axes = fig.subplots(nrow, ncol, squeeze=False)
     U, V = np.meshgrid(res.u_values * scale[0], res.v_values * scale[1])
+    du, dv = float(np.ptp(U)) or 1.0, float(np.ptp(V)) or 1.0
+    aspect = dv / du if scale[0] == scale[1] else 0.75
+    fig = _figure((4.2 * ncol + 1.2, (3.7 * aspect + 0.8) * nrow + (0.5 if title else 0.0)))
+    fig.set_layout_engine("constrained")
+    axes = fig.subplots(nrow, ncol, squeeze=False)
     vmax = max(float(np.nanmax(np.degrees(a))) if np.isfinite(a).any() else 0.0 for a in res.angles.values())
-    levels = np.linspace(0.0, max(vmax, 1.0), 19)
+    step = 5.0 if vmax > 20 else 1.0  # contour levels at round angles
+    levels = np.arange(0.0, max(np.ceil(vmax / step), 1.0) * step + 0.5 * step, step)
+    cs = None
     for ax, d in zip(axes.ravel(), dirs):
         a = np.degrees(res.angles[d])
         ax.set_facecolor(INADMISSIBLE)
         if np.isfinite(a).any():
             cs = ax.contourf(U, V, np.ma.masked_invalid(a), levels=levels, cmap=cmap, extend="neither")
-            fig.colorbar(cs, ax=ax, label="max. angle [°]")
         ax.set_title(f"{d}: max {np.nanmax(a) if np.isfinite(a).any() else float('nan'):.0f}°, "
-                     f"mean {np.nanmean(a) if np.isfinite(a).any() else float('nan'):.1f}°", fontsize=9)
+                     f"mean {np.nanmean(a) if np.isfinite(a).any() else float('nan'):.1f}°", fontsize=10)
         ax.set_xlabel(labels[0])
         ax.set_ylabel(labels[1])
         ax.set_aspect("equal" if scale[0] == scale[1] else "auto")
     for ax in axes.ravel()[len(dirs):]:
         ax.set_visible(False)
+    if cs is not None:  # one colour bar for every panel (same levels)
+        fig.colorbar(cs, ax=axes, label="max. admissible angle [°]", fraction=0.04, pad=0.02)
     if title:
         fig.suptitle(title + " (shaded: base orientation inadmissible)", fontsize=10)
-    fig.tight_layout()
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110)
+        fig.savefig(tmp, dpi=110, facecolor="white")
     return path
 
 
@@ -175,7 +181,7 @@ def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.nd
         ax.set_ylabel("|volume error| [%]")
         ax.set_title(body, fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=9)
     fig.tight_layout()
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110)

@@ -15,6 +15,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from pkmstiff.admissibility.checks import checks_left_out, checks_without, left_out_text
+from pkmstiff.errors import SpecError
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
 from pkmstiff.machine.frames import frame_origin, frame_text
@@ -113,15 +114,59 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
                                         "with the machine at a central pose.")
         s.figures.extend(ws_figs)
 
+    if spec.evaluation:
+        _weighted_section(report, spec, table)
     report.assumptions = dict(spec.assumptions)
     if spec.sections:
         report.assumptions.setdefault("report: section statistics",
                                       "min/mean/max over the admissible raster points, every point weighted equally")
-    for v, m in pairs:
-        for key, reason in m.assumptions.items():
-            report.assumptions[f"{v.name}: {key}"] = reason
+    report.variant_assumptions = {v.name: dict(m.assumptions) for v, m in pairs}
     report.settings = _settings(spec, machines, fast, jobs)
     return report
+
+
+def _weighted_section(report: Report, spec: ReportSpec, table: Table) -> None:
+    """Weighted evaluation (pkmstiff.report.weighted): utilities per criterion, the score and rank of every
+    variant, and how the ranking changes when one weight is set to 0 or doubled."""
+    from pkmstiff.report import weighted
+
+    rows = {r.label: r for r in table.rows}
+    for i, c in enumerate(spec.evaluation):
+        if c.metric not in rows:
+            raise SpecError(spec.source, f"evaluation[{i + 1}].metric",
+                            f"a row label of the comparison table ({', '.join(repr(k) for k in rows)})", c.metric)
+    crit = spec.evaluation
+    x = np.array([[np.nan if v is None else v for v in rows[c.metric].values] for c in crit]).T
+    w = np.array([c.weight for c in crit])
+    better = np.array([c.higher_is_better for c in crit])
+    u = weighted.utilities(x, better)
+    score = weighted.scores(x, w, better)
+    order = weighted.ranking(score)
+    names = [v.name for v in spec.variants]
+    t = Table("Weighted evaluation: utility per criterion (best variant 100, worst 0) and weighted score",
+              names, digits=3)
+    for j, c in enumerate(crit):
+        t.add(f"{c.metric} (weight {c.weight:g}, {'higher' if c.higher_is_better else 'lower'} is better)", "pts",
+              list(100.0 * u[:, j]))
+    t.add("weighted score", "pts", list(score))
+    t.add("rank", "count", [order.index(i) + 1 for i in range(len(names))])
+    t.highlight = ("weighted score",)
+
+    def text(rank: list[int]) -> str:
+        return " > ".join(names[i] for i in rank)
+
+    varied = weighted.sensitivity(x, w, better)
+    lines = [f"- weight of {crit[j].metric} x{f:g}: {text(rank)} ({'unchanged' if rank == order else 'CHANGED'})"
+             for j, f, rank in varied]
+    stable = all(rank == order for _, _, rank in varied)
+    sec = report.section("Weighted evaluation",
+                         "Scoring rule: per criterion the best variant gets 100 points and the worst 0, linearly in "
+                         "between (a missing value 0); the score is the weighted mean of these utilities with the "
+                         "spec's weights ([[evaluation]]). Ranking: " + text(order) + ".\n\n"
+                         "Sensitivity of the ranking to the weights (each weight in turn set to 0 and doubled): "
+                         + ("the ranking does not change." if stable else "the ranking changes where marked.")
+                         + "\n\n" + "\n".join(lines))
+    sec.tables.append(t)
 
 
 def _variant_text(v: Variant, m: Machine) -> str:

@@ -167,17 +167,17 @@ def _identifiability_section(report: Report, run: CalibrationRun) -> None:
                 f"identify {ident.rank} of them (numerical rank from the singular-value gap, Szatmári §4.4.2); the "
                 f"other {ident.null_dimension} directions are gauge freedoms, held fixed at zero in the "
                 f"identification:\n\n{gauges}\n\nBase parameters ({len(ident.base_parameters)}): "
-                + ", ".join(ident.base_parameters) + ".\n\nCondition numbers and observability indices O1–O5 "
-                "refer to the scaled Jacobian (readings in m per parameter scale of 1 mm / 1 mrad).")
+                + ", ".join(ident.base_parameters) + ".\n\nκ, the condition number used throughout this report, is "
+                "σ_max/σ_min of the base-parameter columns of the scaled Jacobian (readings in m per parameter scale "
+                "of 1 mm / 1 mrad); the observability indices O1–O5 refer to the same scaled Jacobian. Here it is "
+                "evaluated at the nominal parameters; the summary gives it at the identified ones.")
     t = Table("Identifiability of the measured poses", ["value"], digits=5)
     t.add("parameters", "count", [ident.n_parameters])
     t.add("readings", "count", [ident.n_readings])
     t.add("rank (identified base parameters)", "count", [ident.rank])
     t.add("gauge freedoms (DOF held fixed)", "count", [ident.null_dimension])
     t.add("singular-value gap ratio", "–", [ident.gap_ratio if math.isfinite(ident.gap_ratio) else None])
-    t.add("condition number (identifiable part)", "–",
-          [ident.condition_number if math.isfinite(ident.condition_number) else None])
-    t.add("condition number (base-parameter columns)", "–",
+    t.add("κ (base-parameter columns, nominal parameters)", "–",
           [ident.condition_number_base if math.isfinite(ident.condition_number_base) else None])
     t.add(f"largest orthogonality entry ({' / '.join(ident.max_orthogonality_pair)})", "–",
           [ident.max_orthogonality])
@@ -287,7 +287,8 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path) -> Report:
     summary = [f"Machine {run.machine.name}, ball-bar measurement {Path(run.measurements).name} "
                f"({res.n_readings} readings), method {res.method}: residual RMS {_fmt(b.rms * 1e6)} µm before, "
                f"{_fmt(a.rms * 1e6)} µm after; {res.rank} of {run.params.n} parameters identified "
-               f"({run.params.n - res.rank} gauge DOF held fixed), condition number {_fmt(res.condition_number)}."]
+               f"({run.params.n - res.rank} gauge DOF held fixed), κ = {_fmt(res.condition_number)} at the identified "
+               f"parameters (κ: the report's one condition number, defined under Identifiability)."]
     if run.validations:
         summary.append("Cross-validation: " + "; ".join(
             f"{Path(v.path).name} RMS {_fmt(v.before_stats.rms * 1e6)} → "

@@ -8,17 +8,10 @@ k_x with a sketch of the machine, VTU/CSV exports and a short Markdown + HTML su
 from __future__ import annotations
 
 import argparse
-import html
 import time
 from pathlib import Path
 
-from pkmstiff.evaluation.sections import (
-    evaluate_section,
-    evaluate_three_planes,
-    section_summary,
-    three_planes,
-)
-from pkmstiff.io.atomic import atomic_write_text
+from pkmstiff.evaluation.sections import evaluate_section, evaluate_three_planes, section_summary, three_planes
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.report.outputs import write_section_outputs
 
@@ -76,36 +69,31 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _table(info: dict) -> list[list[str]]:
-    rows = [["quantity", "unit", "min", "mean", "max", "admissible points"]]
-    for n, st in info["statistics"].items():
-        rows.append([n, st["unit"], f"{st['min']:.4g}", f"{st['mean']:.4g}", f"{st['max']:.4g}", str(st["count"])])
-    return rows
+_CAPTIONS = {"kx": "k_x, TCP stiffness in x", "ky": "k_y, TCP stiffness in y", "kz": "k_z, TCP stiffness in z",
+             "f1": "first eigenfrequency", "admissibility": "admissibility: first failing check per point",
+             "three_planes_kx": "k_x on three section planes, the machine ghosted at the reference pose"}
 
 
 def _write_summary(out: Path, title: str, info: dict, images: list[Path], assumptions: dict[str, str]) -> None:
-    rows = _table(info)
-    reasons = ", ".join(f"{k} {v}" for k, v in info["inadmissible_reasons"].items()) or "none"
-    md = [f"# pkmstiff demo — {title}", "",
-          f"{info['plane']} (report frame, origin at the middle guide), a = b = c = 0, tool length 0 mm, K_U "
-          f"neglected (platform and spindle "
-          f"rigid, Cobet 4.2.4); {info['admissible_points']} of {info['points']} raster "
-          f"points admissible ({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.", "",
-          "| " + " | ".join(rows[0]) + " |", "|" + "---|" * len(rows[0])]
-    md += ["| " + " | ".join(r) + " |" for r in rows[1:]]
-    md += ["", f"Inadmissible points by reason: {reasons}.", ""]
-    md += [f"![{p.stem}]({p.name})" for p in images]
-    md += ["", "## Assumptions (machine file)", ""] + [f"- `{k}`: {v}" for k, v in assumptions.items()]
-    atomic_write_text(out / "summary.md", "\n".join(md) + "\n")
-    cells = "".join("<tr>" + "".join(f"<td>{html.escape(c)}</td>" for c in r) + "</tr>" for r in rows[1:])
-    head = "".join(f"<th>{html.escape(c)}</th>" for c in rows[0])
-    imgs = "".join(f'<figure><img src="{p.name}" width="640"><figcaption>{html.escape(p.stem)}</figcaption></figure>'
-                   for p in images)
-    ass = "".join(f"<li><code>{html.escape(k)}</code>: {html.escape(v)}</li>" for k, v in assumptions.items())
-    page = (f"<!doctype html><html><head><meta charset='utf-8'><title>pkmstiff demo</title></head><body>"
-            f"<h1>pkmstiff demo — {html.escape(title)}</h1><p>{html.escape(md[2])}</p>"
-            f"<table border='1' cellpadding='4'><tr>{head}</tr>{cells}</table>"
-            f"<p>Inadmissible points by reason: {html.escape(reasons)}.</p>{imgs}"
-            f"<h2>Assumptions (machine file)</h2><ul>{ass}</ul></body></html>")
-    atomic_write_text(out / "summary.html", page)
+    """``summary.html`` (self-contained) and ``summary.md``, rendered by the report templates (one stylesheet)."""
+    from pkmstiff.report.model import Figure, Report, Table
+    from pkmstiff.report.render import write_report
 
+    reasons = ", ".join(f"{k} {v}" for k, v in info["inadmissible_reasons"].items()) or "none"
+    rep = Report(f"pkmstiff demo — {title}",
+                 summary=f"{info['plane']} (report frame, origin at the middle guide), a = b = c = 0, tool length "
+                         f"0 mm, K_U neglected (platform and spindle rigid, Cobet 4.2.4); "
+                         f"{info['admissible_points']} of {info['points']} raster points admissible "
+                         f"({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.")
+    table = Table("Statistics over the admissible points", ["min", "mean", "max", "admissible points"])
+    for n, st in info["statistics"].items():
+        table.add(n, st["unit"].replace("um", "µm"), [st["min"], st["mean"], st["max"], st["count"]])
+    sec = rep.section("Section maps", f"Inadmissible points by reason: {reasons}.")
+    sec.tables.append(table)
+    for p in images:
+        key = p.stem.removeprefix("hexaglide_yz_").removeprefix("hexaglide_")
+        sec.figures.append(Figure(p, _CAPTIONS.get(key, p.stem)))
+    rep.assumptions = dict(assumptions)
+    rep.settings = {"machine": MACHINE, "plane": info["plane"], "frame": "report", "tool length [mm]": 0.0,
+                    "quantities": list(QUANTITIES)}
+    write_report(rep, out, stem="summary")

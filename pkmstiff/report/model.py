@@ -2,8 +2,9 @@
 
 A :class:`Report` holds sections; a section holds text, tables and figures. A :class:`Table` compares variants
 (columns) on metrics (rows), each row with its unit; with a ``baseline`` column every other value is also shown in %
-of the baseline (like Cobet's Table 5.1). Figures are PNG files. Assumptions (key -> one-line reason) and settings
-(name -> value) are printed in the report; the run's versions are added by the renderer.
+of the baseline (like Cobet's Table 5.1). Figures are PNG files. Assumptions (key -> one-line reason; per variant where
+they come from its machine file: the renderer prints the shared ones once and only the differences per variant) and
+settings (name -> value) are printed in the report; the run's versions are added by the renderer.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ class Table:
     rows: list[Row] = field(default_factory=list)
     baseline: str | None = None  # a column name: other columns get "% of baseline"
     digits: int = 4  # significant digits
+    highlight: tuple[str, ...] = ()  # row labels shown highlighted (e.g. the best variant of an evaluation)
 
     def add(self, label: str, unit: str, values: list[float | None]) -> "Table":
         if len(values) != len(self.columns):
@@ -57,7 +59,8 @@ class Report:
     title: str
     summary: str = ""
     sections: list[Section] = field(default_factory=list)
-    assumptions: dict[str, str] = field(default_factory=dict)
+    assumptions: dict[str, str] = field(default_factory=dict)  # the report's own (shared by every variant)
+    variant_assumptions: dict[str, dict[str, str]] = field(default_factory=dict)  # variant -> its machine file's
     settings: dict[str, Any] = field(default_factory=dict)
 
     def section(self, heading: str, text: str = "") -> Section:

@@ -1,5 +1,10 @@
 """Render a :class:`pkmstiff.report.model.Report` to a self-contained HTML page and a Markdown twin.
 
+Both come from Jinja2 templates shipped with the package (``pkmstiff/report/templates``: ``report.html.j2`` with
+autoescaping on, ``report.md.j2``) and one stylesheet (``style.css``) that the design, calibration and demo reports
+share. Text is plain: a paragraph whose lines all start with "- " is a list, any other paragraph is text, and no
+Markdown or HTML in it is interpreted.
+
 The HTML file has its CSS inline and every figure embedded as a ``data:image/png;base64`` URI: it opens offline,
 loads nothing and runs no script. The Markdown file links the PNGs, copied beside it into ``figures/``, by relative
 paths. Both carry the tables (absolute values and, with a baseline column, "% of baseline" for every column — the
@@ -12,7 +17,6 @@ from __future__ import annotations
 
 import base64
 import datetime as _dt
-import html
 import json
 import math
 import os
@@ -26,6 +30,7 @@ from typing import Any
 
 from pkmstiff.errors import ReportError  # noqa: F401 (re-exported)
 from pkmstiff.io.atomic import atomic_path, atomic_write_text
+from pkmstiff.plots.section_maps import pretty_unit
 from pkmstiff.report.model import Figure, Report, Table
 
 __all__ = ["ReportError", "write_report", "run_info", "format_value", "format_percent", "percent_of_baseline"]
@@ -34,32 +39,6 @@ __all__ = ["ReportError", "write_report", "run_info", "format_value", "format_pe
 VERSION_PACKAGES = ("pkmstiff", "numpy", "scipy", "numba", "scikit-fem", "pyvista", "matplotlib")
 
 _PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
-
-_CSS = """
-body{font-family:-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;max-width:75em;margin:2em auto;padding:0 1em;
-color:#222;line-height:1.45}
-h1{border-bottom:2px solid #444;padding-bottom:.2em}
-h2{border-bottom:1px solid #bbb;padding-bottom:.1em;margin-top:1.8em}
-table{border-collapse:collapse;margin:.8em 0 1.4em 0;font-size:.92em}
-caption{caption-side:top;text-align:left;font-weight:bold;padding:.3em 0}
-th,td{border:1px solid #bbb;padding:.25em .6em}
-th{background:#eee}
-td.num{text-align:right;font-variant-numeric:tabular-nums}
-td.pct{text-align:right;color:#555;font-variant-numeric:tabular-nums}
-th.pct{background:#f6f6f6;font-weight:normal}
-tr.base td{font-weight:bold}
-div.figures{display:flex;flex-wrap:wrap;gap:1em;align-items:flex-start}
-figure{margin:.5em 0 1.2em 0;flex:0 1 36.5em;max-width:100%}
-figure img{width:100%;height:auto;border:1px solid #ddd}
-figcaption{font-size:.9em;color:#444}
-dl.assumptions dt{font-weight:bold;margin-top:.4em}
-dl.assumptions dd{margin-left:1.5em}
-nav ul{columns:2}
-.meta{color:#555;font-size:.9em}
-"""
-
-
-
 
 # ----------------------------------------------------------------------------------------------------------- numbers
 def format_value(value: float | None, digits: int) -> str:
@@ -142,7 +121,7 @@ def _table_grid(table: Table) -> tuple[list[tuple[str, str]], list[tuple[str, st
             cells.append(_Cell(str(int(v)) if count and v is not None else format_value(v, table.digits), "num"))
             if ib is not None:
                 cells.append(_Cell(format_percent(percent_of_baseline(v, row.values[ib])), "pct"))
-        rows.append((row.label, row.unit, cells))
+        rows.append((row.label, pretty_unit(row.unit), cells))
     return header, rows
 
 
@@ -232,140 +211,173 @@ def _anchor(i: int) -> str:
     return f"s{i + 1}"
 
 
-# -------------------------------------------------------------------------------------------------------------- HTML
-def _html_paragraphs(text: str) -> str:
-    paras = [p.strip() for p in text.strip().split("\n\n") if p.strip()]
-    return "".join(f"<p>{html.escape(p).replace(chr(10), '<br>')}</p>\n" for p in paras)
+# ------------------------------------------------------------------------------------------------------- text blocks
+def text_blocks(text: str) -> list[tuple[str, list[str]]]:
+    """Plain text as blocks: ("ul", items) for a paragraph whose lines all start with "- ", else ("p", lines).
+    Paragraphs are separated by blank lines."""
+    out = []
+    for para in (p.strip() for p in text.strip().split("\n\n")):
+        if not para:
+            continue
+        lines = [ln.strip() for ln in para.split("\n")]
+        if all(ln.startswith("- ") for ln in lines):
+            out.append(("ul", [ln[2:].strip() for ln in lines]))
+        else:
+            out.append(("p", lines))
+    return out
 
 
-def _html_table(table: Table, number: int) -> str:
-    header, rows = _table_grid(table)
-    e = html.escape
-    out = [f'<table>\n<caption>Table {number}: {e(table.caption)}</caption>\n<thead><tr>']
-    for text, kind in header:
-        out.append(f'<th class="pct">{e(text)}</th>' if kind == "pct" else f"<th>{e(text)}</th>")
-    out.append("</tr></thead>\n<tbody>\n")
-    for label, unit, cells in rows:
-        out.append(f"<tr><td>{e(label)}</td><td>{e(unit)}</td>")
-        out.extend(f'<td class="{c.kind}">{e(c.text)}</td>' for c in cells)
-        out.append("</tr>\n")
-    out.append("</tbody>\n</table>\n")
-    return "".join(out)
+# ---------------------------------------------------------------------------------------- assumptions and settings
+@dataclass(frozen=True)
+class Assumptions:
+    """Assumptions once: those every variant shares (with the report's own) and a table of the differences."""
+
+    shared: list[tuple[str, str]]
+    variants: list[str]
+    per_variant: list[tuple[str, list[str]]]
+
+    @property
+    def per_variant_rows(self) -> list[list[str]]:
+        return [[k, *vals] for k, vals in self.per_variant]
 
 
-def _render_html(report: Report, placed, info: dict[str, str]) -> str:
-    e = html.escape
-    parts = ["<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n",
-             f"<title>{e(report.title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n",
-             f"<h1>{e(report.title)}</h1>\n",
-             f'<p class="meta">pkmstiff {e(info.get("pkmstiff", ""))} — {e(info.get("date", ""))}</p>\n']
-    if report.summary.strip():
-        parts.append(_html_paragraphs(report.summary))
-    toc = [f'<li><a href="#{_anchor(i)}">{e(s.heading)}</a></li>' for i, s in enumerate(report.sections)]
-    toc += ['<li><a href="#assumptions">Assumptions</a></li>', '<li><a href="#settings">Settings</a></li>',
-            '<li><a href="#run">Run</a></li>']
-    parts.append("<nav><h2>Contents</h2><ul>" + "".join(toc) + "</ul></nav>\n")
-    nt = nf = 0
-    for i, (section, figs) in enumerate(zip(report.sections, placed)):
-        parts.append(f'<section id="{_anchor(i)}">\n<h2>{e(section.heading)}</h2>\n')
-        parts.append(_html_paragraphs(section.text))
-        for table in section.tables:
-            nt += 1
-            parts.append(_html_table(table, nt))
-        if figs:
-            parts.append('<div class="figures">\n')
-        for fig, data, _rel in figs:
-            nf += 1
-            b64 = base64.b64encode(data).decode("ascii")
-            parts.append(f'<figure><img src="data:image/png;base64,{b64}" alt="{e(fig.caption)}">'
-                         f"<figcaption>Figure {nf}: {e(fig.caption)}</figcaption></figure>\n")
-        if figs:
-            parts.append("</div>\n")
-        parts.append("</section>\n")
-    parts.append('<section id="assumptions">\n<h2>Assumptions</h2>\n')
-    if report.assumptions:
-        parts.append('<dl class="assumptions">\n')
-        for key in sorted(report.assumptions):
-            parts.append(f"<dt>{e(key)}</dt><dd>{e(str(report.assumptions[key]))}</dd>\n")
-        parts.append("</dl>\n")
-    else:
-        parts.append("<p>None recorded.</p>\n")
-    parts.append("</section>\n")
-    parts.append('<section id="settings">\n<h2>Settings</h2>\n')
-    parts.append(_html_kv(report.settings, "Setting", sort=True))
-    parts.append("</section>\n")
-    parts.append('<section id="run">\n<h2>Run</h2>\n')
-    parts.append(_html_kv(info, "Item", sort=False))
-    parts.append("</section>\n</body>\n</html>\n")
-    return "".join(parts)
+def merge_assumptions(report: Report) -> Assumptions:
+    """Shared assumptions (the report's and every key all variants state with the same reason) and, per key that
+    differs, the reason per variant ("—" where a variant has none)."""
+    shared = dict(report.assumptions)
+    per = report.variant_assumptions
+    names = list(per)
+    keys = sorted({k for a in per.values() for k in a})
+    rows = []
+    for k in keys:
+        vals = [per[n].get(k) for n in names]
+        if all(v is not None and v == vals[0] for v in vals):
+            shared.setdefault(k, vals[0])
+        else:
+            rows.append((k, ["—" if v is None else v for v in vals]))
+    return Assumptions(sorted(shared.items()), names, rows)
 
 
-def _html_kv(d: dict[str, Any], key_head: str, sort: bool) -> str:
-    if not d:
-        return "<p>None recorded.</p>\n"
-    e = html.escape
-    keys = sorted(d) if sort else list(d)
-    rows = "".join(f"<tr><td>{e(str(k))}</td><td>{e(_setting_text(d[k]))}</td></tr>\n" for k in keys)
-    return f"<table>\n<thead><tr><th>{key_head}</th><th>Value</th></tr></thead>\n<tbody>\n{rows}</tbody>\n</table>\n"
+_PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
 
-# ---------------------------------------------------------------------------------------------------------- Markdown
+def display_path(text: str, out_dir: Path) -> str:
+    """An absolute path as the reader should see it: "bundled: <path in the package>" for a file shipped with
+    pkmstiff, else relative to the report's directory. Other text is returned as it is."""
+    p = Path(text)
+    if not p.is_absolute():
+        return text
+    try:
+        return "bundled: " + p.resolve().relative_to(_PACKAGE_DIR).as_posix()
+    except ValueError:
+        return Path(os.path.relpath(p.resolve(), out_dir.resolve())).as_posix()
+
+
+def settings_rows(settings: dict[str, Any], out_dir: Path) -> list[tuple[str, str]]:
+    """Settings as (name, value) rows: nested tables flattened to "outer › inner", lists joined with commas,
+    absolute paths shown by :func:`display_path`."""
+    rows: list[tuple[str, str]] = []
+
+    def value_text(v: Any) -> str:
+        if isinstance(v, (list, tuple)):
+            return ", ".join(value_text(x) for x in v) if v else "—"
+        if v is None:
+            return "—"
+        if isinstance(v, bool):
+            return "yes" if v else "no"
+        if isinstance(v, (str, Path)):
+            return display_path(str(v), out_dir)
+        if isinstance(v, float):
+            return f"{v:.6g}"
+        return _setting_text(v)
+
+    def walk(prefix: str, d: dict[str, Any]) -> None:
+        for k in sorted(d):
+            name = f"{prefix} › {k}" if prefix else str(k)
+            if isinstance(d[k], dict) and d[k]:
+                walk(name, d[k])
+            else:
+                rows.append((name, value_text(d[k])))
+
+    walk("", settings)
+    return rows
+
+
+# --------------------------------------------------------------------------------------------------------- templates
 def _md_text(text: str, inline: bool = True) -> str:
     """Text from a spec or machine file as literal Markdown: HTML special characters as entities (a Markdown viewer
     renders raw HTML), link/image brackets and code ticks escaped; one line where ``inline``."""
-    t = text.replace("\\", "\\\\").replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    t = str(text).replace("\\", "\\\\").replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
     t = t.replace("[", "\\[").replace("]", "\\]").replace("`", "\\`")
     return " ".join(t.split("\n")) if inline else t
 
 
-def _md_cell(text: str) -> str:
-    return _md_text(text).replace("|", "\\|")
+def _md_table(header: list[str], rows, right: list[bool]) -> str:
+    def cell(x: Any) -> str:
+        return _md_text(str(x)).replace("|", "\\|")
 
-
-def _md_table(header: list[str], rows: list[list[str]], right: list[bool]) -> str:
-    out = ["| " + " | ".join(_md_cell(h) for h in header) + " |",
+    out = ["| " + " | ".join(cell(h) for h in header) + " |",
            "|" + "|".join("---:" if r else "---" for r in right) + "|"]
-    out += ["| " + " | ".join(_md_cell(c) for c in row) + " |" for row in rows]
+    out += ["| " + " | ".join(cell(c) for c in row) + " |" for row in rows]
     return "\n".join(out) + "\n"
 
 
-def _render_md(report: Report, placed, info: dict[str, str]) -> str:
-    parts = [f"# {_md_text(report.title)}\n\n", f"*pkmstiff {info.get('pkmstiff', '')} — {info.get('date', '')}*\n\n"]
-    if report.summary.strip():
-        parts.append(_md_text(report.summary.strip(), inline=False) + "\n\n")
+def _md_blocks(text: str) -> str:
+    parts = []
+    for kind, lines in text_blocks(text):
+        if kind == "ul":
+            parts.append("\n".join(f"- {_md_text(x)}" for x in lines))
+        else:
+            parts.append("  \n".join(_md_text(x) for x in lines))
+    return "\n\n".join(parts) + ("\n" if parts else "")
+
+
+def _environment(kind: str):
+    """The Jinja2 environment of the package's templates: autoescape for HTML, Markdown escaping by filter."""
+    import jinja2
+
+    env = jinja2.Environment(loader=jinja2.PackageLoader("pkmstiff.report", "templates"),
+                             autoescape=(kind == "html"), keep_trailing_newline=True, trim_blocks=False,
+                             undefined=jinja2.StrictUndefined)
+    env.globals.update(split_blocks=text_blocks, mdblocks=_md_blocks, mdtable=_md_table)
+    env.filters["md"] = _md_text
+    return env
+
+
+def stylesheet() -> str:
+    """The stylesheet every pkmstiff report uses (``templates/style.css``)."""
+    from importlib.resources import files
+
+    return files("pkmstiff.report").joinpath("templates/style.css").read_text(encoding="utf-8")
+
+
+def render_template(name: str, **context: Any) -> str:
+    """Render ``templates/<name>`` (HTML with autoescaping when the name ends in .html.j2) with the stylesheet."""
+    env = _environment("html" if name.endswith(".html.j2") else "md")
+    return env.get_template(name).render(css=stylesheet(), **context)
+
+
+def _context(report: Report, placed, info: dict[str, str], out_dir: Path) -> dict[str, Any]:
+    sections = []
     nt = nf = 0
-    for section, figs in zip(report.sections, placed):
-        parts.append(f"## {_md_text(section.heading)}\n\n")
-        if section.text.strip():
-            parts.append(_md_text(section.text.strip(), inline=False) + "\n\n")
+    for i, (section, figs) in enumerate(zip(report.sections, placed)):
+        tables = []
         for table in section.tables:
             nt += 1
             header, rows = _table_grid(table)
-            parts.append(f"**Table {nt}: {_md_text(table.caption)}**\n\n")
-            parts.append(_md_table([h for h, _ in header],
-                                   [[label, unit] + [c.text for c in cells] for label, unit, cells in rows],
-                                   [False, False] + [True] * (len(header) - 2)))
-            parts.append("\n")
-        for fig, _data, rel in figs:
+            tables.append({"number": nt, "caption": table.caption, "header": header, "rows": rows,
+                           "md_rows": [[label, unit] + [c.text for c in cells] for label, unit, cells in rows],
+                           "right": [False, False] + [True] * (len(header) - 2), "best": table.highlight})
+        figures = []
+        for fig, data, rel in figs:
             nf += 1
-            alt = _md_text(fig.caption.replace("[", "(").replace("]", ")"))
-            parts.append(f"![{alt}]({rel})\n\n*Figure {nf}: {_md_text(fig.caption)}*\n\n")
-    parts.append("## Assumptions\n\n")
-    if report.assumptions:
-        parts.extend(f"- **{_md_text(k)}**: {_md_text(str(report.assumptions[k]))}\n" for k in sorted(report.assumptions))
-        parts.append("\n")
-    else:
-        parts.append("None recorded.\n\n")
-    parts.append("## Settings\n\n")
-    if report.settings:
-        keys = sorted(report.settings)
-        parts.append(_md_table(["Setting", "Value"], [[str(k), _setting_text(report.settings[k])] for k in keys],
-                               [False, False]))
-    else:
-        parts.append("None recorded.\n")
-    parts.append("\n## Run\n\n")
-    parts.append(_md_table(["Item", "Value"], [[k, _setting_text(v)] for k, v in info.items()], [False, False]))
-    return "".join(parts)
+            figures.append({"number": nf, "caption": fig.caption, "rel": rel,
+                            "alt": fig.caption.replace("[", "(").replace("]", ")"),
+                            "b64": base64.b64encode(data).decode("ascii")})
+        sections.append({"anchor": _anchor(i), "heading": section.heading, "text": section.text,
+                         "tables": tables, "figures": figures})
+    return {"report": report, "sections": sections, "info": info, "assumptions": merge_assumptions(report),
+            "settings": settings_rows(report.settings, out_dir)}
 
 
 # ------------------------------------------------------------------------------------------------------------ public
@@ -396,6 +408,7 @@ def write_report(report: Report, out_dir: str | Path, *, stem: str = "report",
     placed = _place_figures(report, out)
     html_path = out / f"{stem}.html"
     md_path = out / f"{stem}.md"
-    atomic_write_text(html_path, _render_html(report, placed, info))
-    atomic_write_text(md_path, _render_md(report, placed, info))
+    ctx = _context(report, placed, info, out)
+    atomic_write_text(html_path, render_template("report.html.j2", **ctx))
+    atomic_write_text(md_path, render_template("report.md.j2", **ctx))
     return {"html": html_path, "md": md_path}

@@ -4,7 +4,8 @@ A spec names the variants (bundled machine or machine file, options, parameter o
 orientation), the section planes and their quantities and statistics, the workspace, single poses and machine
 values to compare. :func:`pkmstiff.report.build.build_report` evaluates everything and returns one comparison
 table (rows = metric and statistic, columns = variants, "% of baseline"), section maps (one figure per variant and
-quantity, a shared colour scale per quantity), workspace figures, the machine files' assumptions (prefixed with the variant) and the settings.
+quantity, a shared colour scale per quantity), workspace figures, an optional weighted evaluation
+(``[[evaluation]]``), the machine files' assumptions (shared ones once, differences per variant) and the settings.
 Every key is validated; errors are :class:`SpecError` naming the file, the key, what was expected and what was found.
 Lengths are in mm and angles in degrees in the spec (keys ``*_mm``, ``*_deg``); SI inside.
 """
@@ -25,6 +26,7 @@ from pkmstiff.evaluation.requests import STATISTICS
 from pkmstiff.io import check_keys, read_toml, require
 from pkmstiff.io.ranges import parse_ranges
 from pkmstiff.machine.model import Machine
+from pkmstiff.report.weighted import Criterion
 
 __all__ = ["SpecError", "Variant", "SectionSpec", "WorkspaceSpec", "PointSpec", "ReportSpec", "load_spec",
            "fast_spec", "STATISTICS", "MACHINE_ROWS"]
@@ -45,7 +47,8 @@ _SECTION_KEYS = {"plane", "at_mm", "range", "step_mm", "quantities", "statistics
 _WORKSPACE_KEYS = {"resolution_mm", "box_mm", "requirements", "methods", "figures", "orientation_deg"}
 _POINT_KEYS = {"pose", "quantities", "tool_length_mm", "label"}
 _OPTION_KEYS = {"fast_step_mm", "fast_resolution_mm", "jobs"}
-_TOP_KEYS = {"report", "variants", "sections", "workspace", "points", "options"}
+_EVALUATION_KEYS = {"metric", "weight", "better"}
+_TOP_KEYS = {"report", "variants", "sections", "workspace", "points", "options", "evaluation"}
 
 
 
@@ -127,6 +130,7 @@ class ReportSpec:
     jobs: int = 1
     source: str = ""
     frame: str = "machine"  # frame of every position in the spec (sections, points, workspace box)
+    evaluation: tuple[Criterion, ...] = ()  # weighted evaluation (pkmstiff.report.weighted)
 
 
 # ---------------------------------------------------------------------------------------------------------- parsing
@@ -308,6 +312,20 @@ def _point(r: _Reader, tab: Any, i: int) -> PointSpec:
                      label=r.string(tab.get("label", ""), p + ".label"))
 
 
+def _criterion(r: _Reader, tab: Any, i: int) -> Criterion:
+    p = f"evaluation[{i + 1}]"
+    tab = r.table(tab, p, _EVALUATION_KEYS)
+    metric = r.string(r.req(tab, "metric", f"{p}.", "a row label of the comparison table, e.g. 'k_x mean'"),
+                      f"{p}.metric")
+    weight = r.number(tab.get("weight", 1.0), f"{p}.weight")
+    if weight < 0:
+        raise r.error(f"{p}.weight", "a weight >= 0", weight)
+    better = tab.get("better", "higher")
+    if better not in ("higher", "lower"):
+        raise r.error(f"{p}.better", "'higher' or 'lower' (which values are better)", better)
+    return Criterion(metric, weight, better == "higher")
+
+
 def load_spec(path: str | Path) -> ReportSpec:
     """Read and validate a report spec (see the README, "Report specs", for every key)."""
     path = Path(path)
@@ -347,6 +365,12 @@ def load_spec(path: str | Path) -> ReportSpec:
     frame = rep.get("frame", "machine")
     if frame not in ("machine", "report"):
         raise r.error("report.frame", "'machine' or 'report' (frame of every position in the spec)", frame)
+    crit = raw.get("evaluation", [])
+    if not isinstance(crit, list):
+        raise r.error("evaluation", "an array of [[evaluation]] tables (metric, weight, better)", crit)
+    evaluation = tuple(_criterion(r, t, i) for i, t in enumerate(crit))
+    if evaluation and sum(c.weight for c in evaluation) <= 0:
+        raise r.error("evaluation", "at least one weight > 0", [c.weight for c in evaluation])
     jobs = opts.get("jobs", 1)
     if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs == 0:
         raise r.error("options.jobs", "a non-zero integer (-1: all cores)", jobs)
@@ -361,7 +385,7 @@ def load_spec(path: str | Path) -> ReportSpec:
                                                                           "options.fast_step_mm", positive=True),
         fast_resolution=None if "fast_resolution_mm" not in opts else
         1e-3 * r.number(opts["fast_resolution_mm"], "options.fast_resolution_mm", positive=True),
-        jobs=jobs, source=src, frame=frame)
+        jobs=jobs, source=src, frame=frame, evaluation=evaluation)
     if not (spec.sections or spec.workspace or spec.points or spec.machine_rows):
         raise r.error("(file)", "at least one of [[sections]], [workspace], [[points]], report.machine_rows",
                       "nothing to compare")

@@ -46,7 +46,12 @@ class StructureOptions:
     ``free_frame``: replace the fixed frame by a free rigid body ``base`` of ``frame_mass`` [kg] and
     ``frame_inertia`` [kg m²] (test of the six rigid-body modes; not a machine model);
     ``check``: ``"kinematic"`` (default) models every reachable, non-singular pose; ``"full"`` also excludes poses
-    failing any admissibility check of :func:`pkmstiff.admissibility.pipeline.evaluate_poses` (collisions, joint limits, ...).
+    failing any admissibility check of :func:`pkmstiff.admissibility.pipeline.evaluate_poses` (collisions, joint limits, ...);
+    ``load_platform``: the static analyses (TCP compliance, weak points, deflections, FRFs) load the platform at the
+    TCP, i.e. with K_U rigid, while the spindle body and K_U stay in the model (the modes keep them; K_U's weak-point
+    share is 0). This is the one load choice that differs from leaving K_U out of the machine
+    (:func:`pkmstiff.machine.frames.neglect_spindle`, the machine's ``spindle_neglected``, which merges platform and
+    spindle for every analysis): ``pkmstiff point --neglect-spindle`` reports it so (docs/theory/structure.md).
     """
 
     strut_mass_to_drive: float | None = None
@@ -58,6 +63,7 @@ class StructureOptions:
     frame_mass: float = 1.0e3
     frame_inertia: float = 1.0e3
     check: Literal["kinematic", "full"] = "kinematic"
+    load_platform: bool = False
 
     def __post_init__(self) -> None:
         if self.strut_mass_to_drive is not None and not 0.0 <= self.strut_mass_to_drive <= 1.0:

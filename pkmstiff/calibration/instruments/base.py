@@ -249,7 +249,3 @@ def readings(setup: Setup, state: SetupState, o: np.ndarray, R: np.ndarray, R_cm
     commanded orientations (pose instrument). Units: m, rad (:attr:`Instrument.reading_units`)."""
     return setup.instrument.readings(setup, state, o, R, R_cmd)
 
-
-def row_units(instrument: Instrument, n_poses: int) -> np.ndarray:
-    """Unit of every reading row (pose-major), (n_poses · k,)."""
-    return np.tile(np.array(instrument.reading_units), n_poses)

@@ -1,0 +1,91 @@
+"""The docs' figures that no command, docs page or study writes itself (``python docs/make_images.py [OUTDIR]
+[NAME ...]`` from the repository root with pkmstiff importable; default docs/images, all names): the mode shape,
+the mechanism pictures and the deformed FE joint. The other figures in docs/images come from ``pkmstiff demo``
+(hexaglide_yz_*, hexaglide_three_planes_kx), ``python -m pkmstiff.plots.workspace_figures``, ``pkmstiff calibrate
+report`` (the calibration walk-through's commands) and ``studies/``.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+
+
+def mode1(out: Path) -> Path:
+    """Mode 1 of the Hexaglide at x, y, z = 0, 0, -1000 mm (docs/user-guide/structure.md)."""
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.plots.modes import plot_mode_shape
+
+    return plot_mode_shape(load_machine("hexaglide"), np.array([0, 0, -1.0, 0, 0, 0]), out / "hexaglide_mode1.png")
+
+
+def mechanisms(out: Path) -> list[Path]:
+    """The slider-crank at home, both dead centres and s = -80 mm; the hybrid machine at home and a second
+    configuration (docs/user-guide/mechanisms.md)."""
+    import pkmstiff.mechanisms as mm
+    from pkmstiff.plots.mechanism import mechanism_figure
+
+    sc = mm.load_mechanism("slider_crank")
+    rng = mm.drive_ranges(sc)["s"]
+    s = np.array([[0.0], [rng.max.value - 1e-9], [rng.min.value + 1e-9], [-0.08]])  # just inside the dead centres
+    q = mm.forward(sc, s, steps=8).q
+    files = [out / "mechanism_slider_crank.png", out / "mechanism_hybrid.png"]
+    mechanism_figure(sc, q, files[0],
+                              labels=["home", f"s = {s[1, 0] * 1e3:.2f} mm", f"s = {s[2, 0] * 1e3:.2f} mm",
+                                      "s = -80 mm"],
+                              title="Slider-crank (patent Fig. 3): home (solid), both dead centres and s = -80 mm")
+    hyb = mm.load_mechanism("hybrid_tripod_wrist")
+    d = np.array([[0.0, 0.0, 0.0, 0.0, np.radians(20)], [0.05, -0.02, 0.01, 0.4, np.radians(40)]])
+    q = mm.forward(hyb, d, steps=4).q
+    mechanism_figure(hyb, q, files[1], labels=["home", "second"],
+                     title="Hybrid tripod with wrist: home (solid) and a second configuration")
+    return files
+
+
+def fe_joint(out: Path) -> Path:
+    """The improved 3-DOF drive-side joint at 45° tilt under 5 kN along the strut (docs/user-guide/fe.md)."""
+    from pkmstiff.cli.fe import joint_image
+    from pkmstiff.fe.joints import build_joint_model, load_joint_parameters
+
+    params = Path(__file__).resolve().parents[1] / "pkmstiff" / "fe" / "params" / "iwf_3dof_improved.toml"
+    return joint_image(build_joint_model(load_joint_parameters(params)), 45.0, out / "fe_joint_deformed.png")
+
+
+def figures_page(out: Path) -> list[Path]:
+    """docs/user-guide/figures.md: a k_x map and the admissibility map of the Hexaglide's YZ plane (window fitted,
+    10 mm raster, tool length 0), mode 1 at x, y, z = 0, 300, -900 mm, the workspace at a 50 mm resolution."""
+    from pkmstiff.evaluation.sections import evaluate_section
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.plots.modes import plot_mode_shape
+    from pkmstiff.plots.section_maps import plot_reasons, plot_section
+    from pkmstiff.plots.workspace import plot_workspace
+    from pkmstiff.workspace.requests import WorkspaceRequest
+    from pkmstiff.workspace.translational import DEFAULT_METHODS
+    from pkmstiff.workspace.windows import window_for
+
+    m = load_machine("hexaglide")
+    res = evaluate_section(m, window_for(m, "yz", 0.0, 0.01), ["kx"], tool_length=0.0, progress=False)
+    ws = WorkspaceRequest(0.05, None, (), (0.0, 0.0, 0.0), DEFAULT_METHODS).evaluate(m)
+    return [plot_section(res, "kx", out / "figures_section_kx.png"),
+            plot_reasons(res, out / "figures_admissibility.png"),
+            plot_mode_shape(m, np.array([0, 0.3, -0.9, 0, 0, 0]), out / "figures_mode1.png"),
+            plot_workspace(ws, m, out / "figures_workspace.png")]
+
+
+FIGURES = {"mode1": mode1, "figures_page": figures_page, "mechanisms": mechanisms, "fe_joint": fe_joint}
+
+
+def main(out: str = "docs/images", *names: str) -> list[Path]:
+    outdir = Path(out)
+    files: list[Path] = []
+    for n in names or FIGURES:
+        r = FIGURES[n](outdir)
+        files += r if isinstance(r, list) else [r]
+    return files
+
+
+if __name__ == "__main__":  # pragma: no cover
+    for f in main(*sys.argv[1:]):
+        print(f)

@@ -1,0 +1,60 @@
+"""Design optimisation (``pkmstiff optimise``; docs/user-guide/optimise.md): a design file states the base machine,
+the variables (dotted machine-file paths), the objectives and the constraints; :func:`optimise` runs a pymoo
+algorithm over it with cached, checkpointed, optionally parallel evaluations and writes the front.
+
+    >>> import pkmstiff
+    >>> res = pkmstiff.optimise("design.toml", out="opt", budget=40)     # doctest: +SKIP
+    >>> res.best.values, res.best.outputs                                # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import sys
+import types
+from pathlib import Path
+
+from pkmstiff.optimise.design import (
+    Constraint,
+    Design,
+    FunctionMeasure,
+    Objective,
+    PointMeasure,
+    SectionMeasure,
+    TaskBoxMeasure,
+    Variable,
+    WorkspaceMeasure,
+)
+from pkmstiff.optimise.design_file import load_design
+from pkmstiff.optimise.engine import OptimisationResult, run_optimisation
+
+__all__ = ["Constraint", "Design", "FunctionMeasure", "Objective", "OptimisationResult", "PointMeasure",
+           "SectionMeasure", "TaskBoxMeasure", "Variable", "WorkspaceMeasure", "load_design", "optimise"]
+
+#: the bundled example design files
+EXAMPLES = Path(__file__).parent / "examples"
+
+
+def optimise(design: Design | str | Path, out: str | Path, *, jobs: int = 1, budget: int | None = None,
+             seed: int | None = None, resume: bool = False, force: bool = False, progress=None) -> OptimisationResult:
+    """Run ``design`` (a :class:`Design` or a design file) and write its outputs into ``out`` (front.csv,
+    history.csv, designs/*.toml, convergence.png, summary.json; the checkpoint evaluations.jsonl). ``budget``
+    and ``seed`` override the design's; ``resume`` continues an interrupted run without re-evaluating its
+    checkpointed candidates; ``force`` starts afresh in an ``out`` that holds a run."""
+    from pkmstiff.optimise.outputs import write_outputs
+
+    if not isinstance(design, Design):
+        design = load_design(design)
+    res = run_optimisation(design, out, jobs=jobs, budget=budget, seed=seed, resume=resume, force=force,
+                           progress=progress)
+    res.meta["outputs"] = {k: str(v) for k, v in write_outputs(res, out).items()}
+    return res
+
+
+class _CallableModule(types.ModuleType):
+    """``pkmstiff.optimise(...)`` calls :func:`optimise`: the subpackage and the function share the name."""
+
+    def __call__(self, *args, **kwargs) -> OptimisationResult:
+        return optimise(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallableModule
