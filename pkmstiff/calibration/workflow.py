@@ -7,7 +7,8 @@ render.
   model, the identifiability of the measured poses (computed once and shared by every identification of that
   plan), the identification (:func:`~pkmstiff.calibration.identification.identify`) and its uncertainty
   (:func:`~pkmstiff.calibration.uncertainty.uncertainty`); with ``deflection="gravity"`` the predicted gravity
-  deflection is subtracted first and its contribution analysed (:mod:`pkmstiff.calibration.deflection`);
+  deflection is subtracted first and its contribution analysed (:mod:`pkmstiff.calibration.deflection`); the
+  model-fit diagnostics of the result (:func:`fit_diagnostics`, :mod:`pkmstiff.calibration.diagnostics`);
 * :func:`run_calibration` — that, for a ball-bar file, plus the calibrated machine, the ball-bar circles of the
   measurement evaluated before and after (:mod:`pkmstiff.calibration.circles`) and the residuals of the nominal and
   the calibrated machine on every validation file (:func:`~pkmstiff.calibration.compensation.check`).
@@ -15,8 +16,9 @@ render.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -121,7 +123,8 @@ def identify_file(machine: Machine, measurements: str, *, meas: Measurement | No
 
 
 def fit_diagnostics(machine: Machine, meas: Measurement, plan: Plan, params: ParameterSet, res: Identification,
-                    unc: Uncertainty, refit_reversed=None) -> FitDiagnostics:
+                    unc: Uncertainty, refit_reversed: Callable[[int, int], np.ndarray | None] | None = None
+                    ) -> FitDiagnostics:
     """:func:`~pkmstiff.calibration.diagnostics.diagnose` of an identification: the stated σ of the measurement's
     device, its sample times and directions, and every set-up parameter of the instrument not identified as an
     added-variable candidate (its Jacobian columns at the solution)."""
