@@ -14,6 +14,7 @@ import shutil
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pkmstiff.cli import _value_options, build_parser, join_negative_values, main
@@ -64,6 +65,8 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["pose", "hexaglide", "--poses", "{poses}", "--out", "{existing_csv}"], 2, "--force"),
     ],
     "point": [
+        # issue 22, faults 5: estimates before the work (budget fixed at 4 GB by the fixture)
+        (["point", "hexaglide", "--poses", "{poses_2m}"], 2, "--poses: poses_2m.csv: 2,000,001 pose rows need"),
         (["point", "hexaglide", "--pose", "2000,0,-1000,0,0,0"], 3, "chain 1"),
         (["point", "hexaglide", "--pose", "0,0,-900,0,0,0"], 3, "collision"),
         (["point", "hexaglide", "--pose", "-100,300,-1000"], 2, "six"),
@@ -111,6 +114,10 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["workspace", "{nonutf8}", "--resolution", "20"], 2, "UTF-8"),
     ],
     "rotation-map": [
+        (["rotation-map", "hexaglide", "--range", "y=-200:800,z=-1200:-500", "--step", "50", "--increment", "1e-7"],
+         2, "--increment"),
+        (["rotation-map", "hexaglide", "--range", "y=-200:800,z=-1200:-500", "--step", "50", "--increment", "1e-7",
+          "--verify"], 2, "memory budget"),
         (["rotation-map", "hexaglide", "--increment", "0"], 2, "--increment"),
         (["rotation-map", "hexaglide", "--out", "{file}"], 2, "--out"),
         (["rotation-map", "hexaglide", "--directions", "+q", "--u-range", "-100,100", "--v-range", "-1000,-900"],
@@ -118,12 +125,16 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["rotation-map", "{nonutf8}"], 2, "UTF-8"),
     ],
     "report": [
+        (["report", "{report_fine_section}", "--out", "rep"], 2, "memory budget"),
+        (["report", "{report_fine_workspace}", "--out", "rep"], 2, "memory budget"),
         (["report", "{nonutf8}", "--out", "rep"], 2, "UTF-8"),
         (["report", "missing.toml", "--out", "rep"], 2, "missing.toml"),
         (["report", SPEC, "--out", "{file}"], 2, "--out"),
         (["report", SPEC, "--out", "rep", "--jobs", "0"], 2, "--jobs"),
     ],
     "sweep": [
+        (["sweep", "{huge_sweep}", "--out", "r.csv"], 2, "parameters (values per parameter)"),
+        (["sweep", "{fine_section_sweep}", "--out", "r.csv"], 2, "evaluations (step_mm / resolution_mm)"),
         (["sweep", "{nonutf8}", "--out", "r.csv"], 2, "UTF-8"),
         (["sweep", "{bad_quantity_sweep}", "--out", "r.csv"], 2, "tilt_drive_7"),
         (["sweep", SWEEP, "--out", "{dir}"], 2, "--out"),
@@ -131,6 +142,10 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["sweep", SWEEP, "--out", "r.csv", "--jobs", "0"], 2, "--jobs"),
     ],
     "fe-joint": [
+        (["fe-joint", JOINT, "--out", "t.csv", "--n-phi", "100000"], 2, "--n-phi"),
+        (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "0.1"], 2, "--mesh-size"),
+        (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "0.5"], 2, "--mesh-size"),
+        (["fe-joint", JOINT, "--out", "t.csv", "--angles", "0:90:0.0001"], 2, "--angles"),
         (["fe-joint", "{nonutf8}", "--out", "t.csv"], 2, "UTF-8"),
         (["fe-joint", JOINT, "--out", "{dir}"], 2, "--out"),
         (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "-1"], 2, "--mesh-size"),
@@ -138,6 +153,7 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "1"], 2, "memory budget"),
     ],
     "ballbar": [
+        (["ballbar", "analyse", "{ballbar_10_revolutions}", "--memory-budget", "120MB"], 2, "sample rows need"),
         (["ballbar", "analyse", "missing.csv"], 2, "missing.csv"),
         (["ballbar", "analyse", "{nonutf8}"], 2, "UTF-8"),
         (["ballbar", "analyse", "{file}"], 2, "bar_length_mm"),
@@ -145,6 +161,12 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["ballbar", "analyse", "{tracker_file}"], 2, "needs a ball-bar measurement, found a tracker file"),
     ],
     "calibrate": [
+        (["calibrate", "simulate", "felix", "--plan", "{plan_1e9}", "--errors", "example:felix_errors.toml", "--out",
+          "m.csv"], 2, "paths[1].points"),
+        (["calibrate", "identifiability", "felix", "--instrument", "tracker", "--plan", "{tracker_grid_1000}"], 2,
+         "paths[1].points"),
+        (["calibrate", "plan", "felix", "--instrument", "ballbar", "--points", "100000000", "--out", "p.toml"], 2,
+         "--points"),
         (["calibrate", "identifiability", "no_such_machine", "--instrument", "ballbar"], 2, "no_such_machine"),
         (["calibrate", "identifiability", "felix", "--instrument", "laser"], 2, "--instrument"),
         (["calibrate", "identifiability", "felix", "--instrument", "ballbar", "--with", "bogus"], 2, "bogus"),
@@ -202,6 +224,7 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
           "m.csv"], 2, "example"),
     ],
     "mechanism": [
+        (["mechanism", "solve", "slider_crank", "--drives", "100", "--steps", "1000000000"], 2, "--steps"),
         (["mechanism", "solve", "no_such", "--drives", "1"], 2, "no_such"),
         (["mechanism", "solve", "slider_crank", "--drives", "abc"], 2, "--drives"),
         (["mechanism", "solve", "slider_crank"], 2, "--pose"),
@@ -209,6 +232,7 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["mechanism", "range", "no_such"], 2, "no_such"),
     ],
     "fe-platform": [
+        (["fe-platform", PLATFORM, "--out", "k.toml", "--mesh-size", "0.5"], 2, "--mesh-size"),
         (["fe-platform", PLATFORM, "--out", "k.txt"], 2, ".toml or .csv"),
         (["fe-platform", "{nonutf8}", "--out", "k.toml"], 2, "UTF-8"),
         (["fe-platform", PLATFORM, "--out", "{existing_csv}"], 2, "--force"),
@@ -229,8 +253,11 @@ def test_every_command_has_fuzz_cases():
 
 @pytest.fixture
 def bad_files(tmp_path, monkeypatch):
-    """Bad input files in a fresh working directory (repository paths resolved from the repo root)."""
+    """Bad input files in a fresh working directory (repository paths resolved from the repo root); the memory
+    budget fixed at 4 GB, so that the estimate refusals do not depend on this machine's memory."""
     monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("PKMSTIFF_MEMORY_BUDGET", "4GB")
+    monkeypatch.delenv("PKMSTIFF_TIME_BUDGET", raising=False)
     for rel in ("studies", "pkmstiff"):
         os.symlink(ROOT / rel, tmp_path / rel)
     f = {}
@@ -275,7 +302,43 @@ def bad_files(tmp_path, monkeypatch):
     (tmp_path / "tracker_plan.toml").write_text('[plan]\ninstrument = "tracker"\n[[paths]]\nkind = "poses"\n'
                                                 'positions = [[0, 0, 0]]\n')
     f["tracker_plan"] = "tracker_plan.toml"
+    _resource_files(tmp_path, f)
     return tmp_path, f
+
+
+def _resource_files(tmp_path: Path, f: dict[str, str]) -> None:
+    """Inputs whose work would exhaust memory or time (issue 22, bad input 2 and 5): refused from the estimate."""
+    (tmp_path / "poses_2m.csv").write_bytes(b"x_mm,y_mm,z_mm,a_deg,b_deg,c_deg\n" + b"0,0,-1000,0,0,0\n" * 2_000_000)
+    f["poses_2m"] = "poses_2m.csv"
+    paths = ["components.strut_950.k", "joint_types.iwf_3dof.tilt_min", "guides.y800.safety_margin",
+             "guides.y400.safety_margin", "guides.y000.safety_margin", "limits.singularity_threshold"]
+    values = ", ".join(str(1 + i) for i in range(100))
+    (tmp_path / "huge_sweep.toml").write_text('[sweep]\nmachine = "hexaglide"\n' + "".join(
+        f'[[parameters]]\npath = "{p}"\nvalues = [{values}]\n' for p in paths)
+        + '[[evaluations]]\nkind = "point"\npose = [0, 0, -1000, 0, 0, 0]\nquantities = ["kx"]\n')
+    f["huge_sweep"] = "huge_sweep.toml"
+    sweep = (ROOT / SWEEP).read_text(encoding="utf-8").replace("step_mm = 25", "step_mm = 0.1")
+    (tmp_path / "fine_sweep.toml").write_text(sweep, encoding="utf-8")
+    f["fine_section_sweep"] = "fine_sweep.toml"
+    spec = (ROOT / SPEC).read_text(encoding="utf-8")
+    (tmp_path / "fine_section.toml").write_text(spec.replace("step_mm = 5", "step_mm = 0.2"), encoding="utf-8")
+    (tmp_path / "fine_workspace.toml").write_text(spec.replace("resolution_mm = 3.125", "resolution_mm = 0.5"),
+                                                  encoding="utf-8")
+    f["report_fine_section"], f["report_fine_workspace"] = "fine_section.toml", "fine_workspace.toml"
+    plan = (ROOT / "pkmstiff/calibration/examples/felix_plan.toml").read_text(encoding="utf-8")
+    (tmp_path / "plan_1e9.toml").write_text(plan.replace("points = 360", "points = 1e9"), encoding="utf-8")
+    f["plan_1e9"] = "plan_1e9.toml"
+    (tmp_path / "grid_1000.toml").write_text('[plan]\ninstrument = "tracker"\n[[paths]]\nkind = "grid"\n'
+                                             'half_width = "100 mm"\npoints = 1000\n')
+    f["tracker_grid_1000"] = "grid_1000.toml"
+    from pkmstiff.calibration.measurement_file import write_measurement
+    from tests.ballbar_synth import SyntheticRun, circle_run, measurement_from_runs
+
+    runs = [circle_run(n=4000, seed=i) for i in range(10)]
+    run = SyntheticRun(*(np.concatenate([getattr(r, k) for r in runs])
+                         for k in ("theta", "positions", "actual", "reading", "true_deviation")))
+    write_measurement(tmp_path / "bb10.csv", measurement_from_runs({"ccw": run}))
+    f["ballbar_10_revolutions"] = "bb10.csv"
 
 
 def _snapshot(root: Path) -> dict[str, tuple[int, float]]:

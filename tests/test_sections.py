@@ -214,3 +214,60 @@ def test_mode_shape_figure_and_gif(tmp_path, hexaglide):
     gif = animate_mode_shape(hexaglide, pose, tmp_path / "mode.gif", mode=1, frames=4, window_size=(240, 200))
     with Image.open(gif) as im:
         assert im.n_frames == 4
+
+
+def test_statistics_quantiles_on_a_synthetic_field(hexaglide, test_field):
+    """p1, p5, p95, p99 are numpy's linear quantiles of the admissible values (1e-12 m: the same arithmetic on the
+    same values) and ordered min <= p1 <= p5 <= mean-range <= p95 <= p99 <= max."""
+    plane = axis_plane("yz", 0.0, (-0.6, 0.8), (-1.2, -0.5), 0.05)
+    res = evaluate_section(hexaglide, plane, ["_test_field"])
+    vv, uu = np.meshgrid(plane.v_values, plane.u_values, indexing="ij")
+    f = (2 * uu - 3 * vv + 0.5)[res.ok]
+    st = res.statistics()["_test_field"]
+    for key, q in (("p1", 0.01), ("p5", 0.05), ("p95", 0.95), ("p99", 0.99)):
+        assert st[key] == pytest.approx(np.quantile(f, q), abs=1e-12)
+    assert st["min"] <= st["p1"] <= st["p5"] <= st["p95"] <= st["p99"] <= st["max"]
+
+
+def test_near_singular_points_are_counted_and_do_not_set_the_quantiles(hexaglide):
+    """Issue 22 item 4: next to the singularity boundary k_x and f1 fall towards zero while the pose stays admissible.
+    The points with κ above NEAR_SINGULAR_FRACTION × threshold are the ones near_singular marks (exactly the κ test
+    on the stored κ), their count is in the statistics and the summary, they stay admissible (the spec's threshold
+    is the rule), and the 5 % quantile is not set by them: it lies above every near-singular value."""
+    from pkmstiff.admissibility.checks import NEAR_SINGULAR_FRACTION
+    from pkmstiff.evaluation.sections import section_summary
+    from pkmstiff.machine.frames import neglect_spindle
+    from pkmstiff.workspace.windows import window_for
+
+    m = neglect_spindle(hexaglide)
+    res = evaluate_section(m, window_for(m, "yz", 0.0, 0.01, frame="report"), ["kx", "f1"], tool_length=0.0,
+                           frame="report")
+    limit = NEAR_SINGULAR_FRACTION * m.limits.singularity_threshold
+    near = res.near_singular
+    with np.errstate(invalid="ignore"):
+        assert np.array_equal(near, res.ok & (res.kappa > limit))
+    assert near.sum() >= 1 and np.all(res.ok[near]) and np.all(res.kappa[res.ok] <= m.limits.singularity_threshold)
+    st = res.statistics()
+    kx, f1 = res.display("kx"), res.display("f1")
+    for name, vals in (("kx", kx), ("f1", f1)):
+        assert st[name]["near_singular_points"] == near.sum()
+        assert st[name]["min"] == vals[near].min()  # the degenerate points set the minimum ...
+        assert st[name]["p5"] > vals[near].max()  # ... but not the headline 5 % quantile
+    summary = section_summary(res)
+    assert summary["near_singular"]["points"] == near.sum()
+    assert summary["near_singular"]["kappa_above"] == pytest.approx(limit, rel=1e-15)
+
+
+def test_writing_large_outputs_shows_progress(tmp_path, yz, capsys, monkeypatch):
+    """Issue 22: writing the files of a large section reports progress per file (a line every PROGRESS_INTERVAL_S
+    when stderr is not a terminal; the interval is set to 0 here so that every file prints one)."""
+    from pkmstiff.evaluation import progress
+    from pkmstiff.report.outputs import write_section_outputs
+
+    monkeypatch.setattr(progress, "PROGRESS_INTERVAL_S", 0.0)
+    paths = write_section_outputs(yz, tmp_path, ("vtu", "csv", "npz"), "s", progress=True)
+    err = capsys.readouterr().err.splitlines()
+    assert [ln.split(" (")[1].split(")")[0] for ln in err] == ["0/3 files", "1/3 files", "2/3 files"]
+    assert all(p.exists() for p in paths)
+    write_section_outputs(yz, tmp_path, ("csv",), "t")  # a small section: no progress by default
+    assert capsys.readouterr().err == ""

@@ -360,6 +360,18 @@ def check_drive_load(machine: Machine, tau_g: np.ndarray | None, data: DriveLoad
     return CheckResult(~bad.any(axis=1), Reason.DRIVE_LOAD, bad, [f"drive {i + 1}" for i in range(machine.n_chains)])
 
 
+#: margin of the singularity check (docs/theory/kinematics.md, "Near-singular points"): an admissible pose whose κ
+#: exceeds this fraction of ``limits.singularity_threshold`` is *near-singular*. It stays admissible (the spec's
+#: threshold is the rule); statistics count and mark it, because there the stiffness and the eigenfrequencies fall
+#: towards zero (Hexaglide, YZ section: k_x down to 3.5e-5 N/µm at κ ≈ 10⁴, while its 1 % quantile is 0.06 N/µm).
+NEAR_SINGULAR_FRACTION = 1e-5
+
+
+def near_singular_limit(machine: Machine) -> float:
+    """κ above which an admissible pose counts as near-singular (:data:`NEAR_SINGULAR_FRACTION` of the threshold)."""
+    return NEAR_SINGULAR_FRACTION * float(machine.limits.singularity_threshold)
+
+
 def combine(n_pose: int, results: Iterable[CheckResult], reachable_pose: np.ndarray) -> Admissibility:
     """Combine check results into the mask and reason code; unreachable poses carry only UNREACHABLE."""
     reasons = np.zeros(n_pose, np.uint32)

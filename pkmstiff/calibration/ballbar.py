@@ -51,7 +51,8 @@ class Harmonics:
     (Szatmári's case formula gives the same angle mod 2π). Physical meaning (Szatmári Fig. 4.27): A1, φ1
     centre displacement (magnitude and direction), A2 ovality, A3 three-lobe, A4 four-lobe form.
     ``n_samples`` samples were used, on a uniform angle grid if ``resampled`` is False, else after linear
-    periodic interpolation onto a uniform grid of ``n_samples`` points.
+    periodic interpolation onto a uniform grid of ``n_samples`` points (one revolution) or, for a run of
+    several revolutions, averaged onto ``2·n_max + 1`` or ``2·n_max + 2`` angles of one revolution.
     """
 
     amplitude: Array
@@ -111,6 +112,9 @@ def fourier_harmonics(theta: ArrayLike, deviation: ArrayLike, *, max_gap: float 
         raise BallbarError(f"a Fourier evaluation needs at least 3 samples, found {n}", source)
     if not (np.all(np.isfinite(th)) and np.all(np.isfinite(d))):
         raise BallbarError("angles and deviations must be finite numbers (found NaN or inf)", source)
+    revolutions = revolution_count(th)
+    if revolutions >= MULTI_REVOLUTION:
+        return _revolution_harmonics(th, d, revolutions, max_gap, source)
     ts, ds = _sorted_periodic(th, d)
     gap, at = _largest_gap(ts)
     step = TWO_PI / n
@@ -125,6 +129,49 @@ def fourier_harmonics(theta: ArrayLike, deviation: ArrayLike, *, max_gap: float 
     else:
         theta0 = 0.0
         values = np.interp(np.arange(n) * step, ts, ds, period=TWO_PI)
+    return _spectrum(values, theta0, n, not uniform)
+
+
+#: a run whose commanded angle travels this many revolutions or more is analysed per revolution
+#: (:func:`_revolution_harmonics`); one revolution with overshoot stays below it
+MULTI_REVOLUTION = 1.5
+
+
+def revolution_count(theta: ArrayLike) -> float:
+    """Revolutions travelled by the commanded angle (time order): the span of the unwrapped angle / 2π."""
+    u = np.unwrap(np.asarray(theta, dtype=float).ravel())
+    return float((u.max() - u.min()) / TWO_PI) if u.size else 0.0
+
+
+def _revolution_harmonics(th: Array, d: Array, revolutions: float, max_gap: float, source: str) -> Harmonics:
+    """Harmonics of a run of several revolutions (the same circle travelled again), revolution by revolution:
+    the samples are averaged onto the M = 2π / (median angle step) uniform angles of one revolution (nearest
+    angle; an angle no sample reached is interpolated periodically), so the spectrum ends at the Nyquist harmonic of ONE
+    revolution (M/2) — physics: the path repeats every revolution, harmonics above the per-revolution sampling
+    are aliases — and memory and the harmonic count stay those of one revolution."""
+    n = th.size
+    steps = np.abs(np.diff(np.unwrap(th)))
+    spacing = float(np.median(steps[steps > 0])) if np.any(steps > 0) else TWO_PI * revolutions / n
+    m = int(min(max(3, round(TWO_PI / spacing)), n))  # the sampling of one revolution
+    step = TWO_PI / m
+    ts, _ = _sorted_periodic(th, d)
+    gap, at = _largest_gap(ts)
+    if gap > max(max_gap, 1.5 * step):
+        raise BallbarError(f"the samples do not cover a full revolution: gap of {math.degrees(gap):.3g} deg after "
+                           f"{math.degrees(at):.4g} deg (allowed {math.degrees(max(max_gap, 1.5 * step)):.3g} deg)",
+                           source)
+    bins = np.rint(np.mod(th, TWO_PI) / step).astype(np.int64) % m
+    count = np.bincount(bins, minlength=m)
+    total = np.bincount(bins, weights=d, minlength=m)
+    have = count > 0
+    grid = np.arange(m) * step
+    values = np.interp(grid, grid[have], total[have] / count[have], period=TWO_PI)
+    return _spectrum(values, 0.0, n, True)
+
+
+def _spectrum(values: Array, theta0: float, n_samples: int, resampled: bool) -> Harmonics:
+    """Amplitudes and phases of uniform ``values`` over one revolution starting at ``theta0`` (real FFT)."""
+    n = values.size
     c = np.fft.rfft(values) / n
     kmax = (n - 1) // 2  # drop the Nyquist term of even N: its phase is undefined
     k = np.arange(kmax + 1)
@@ -136,7 +183,7 @@ def fourier_harmonics(theta: ArrayLike, deviation: ArrayLike, *, max_gap: float 
     amp[0] = c[0].real  # A0 keeps its sign
     phase = np.mod(np.arctan2(-C.imag, C.real), TWO_PI)
     phase[0] = 0.0
-    return Harmonics(amplitude=amp, phase=phase, n_samples=n, resampled=not uniform)
+    return Harmonics(amplitude=amp, phase=phase, n_samples=n_samples, resampled=resampled)
 
 
 def reconstruct(harmonics: Harmonics, theta: ArrayLike, n: int) -> Array:
@@ -147,8 +194,16 @@ def reconstruct(harmonics: Harmonics, theta: ArrayLike, n: int) -> Array:
     out = np.full(th.shape, harmonics.amplitude[0])
     if n:
         k = np.arange(1, n + 1)
-        out = out + np.cos(th[..., None] * k - harmonics.phase[1: n + 1]) @ harmonics.amplitude[1: n + 1]
+        flat, res = th.reshape(-1), out.reshape(-1)
+        rows = max(1, RECONSTRUCT_CHUNK // n)  # (rows, n) blocks: memory bounded for any N and n
+        for i in range(0, flat.size, rows):
+            res[i:i + rows] += np.cos(flat[i:i + rows, None] * k - harmonics.phase[1: n + 1]) \
+                @ harmonics.amplitude[1: n + 1]
     return out
+
+
+#: elements of one (samples × harmonics) block of :func:`reconstruct` (8 MB of float64)
+RECONSTRUCT_CHUNK = 1 << 20
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ tilt-and-torsion form without a singularity at B = 0).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -332,9 +332,10 @@ _PATH_KEYS = {"circle": {"kind", "label", "plane", "normal", "points", "centre",
 _KINDS = "circle, hemisphere, grid or poses"
 
 
-def read_plan(path: str | Path) -> Plan:
+def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None) -> Plan:
     """Read a TOML plan (format in docs/user-guide/calibration-identifiability.md); SI for bare numbers.
-    ``example:NAME`` reads a bundled example plan (:mod:`pkmstiff.calibration.examples`)."""
+    ``example:NAME`` reads a bundled example plan (:mod:`pkmstiff.calibration.examples`). ``check(poses, key)``
+    is called with the running pose count before each path is built (a cost check may refuse it by raising)."""
     from pkmstiff.calibration.examples import resolve
 
     path = resolve(path)
@@ -373,6 +374,7 @@ def read_plan(path: str | Path) -> Plan:
     if not isinstance(paths, list) or not paths:
         raise CalibrationInputError(src, "paths", "at least one [[paths]] table", paths)
     plan: Plan | None = None
+    total = 0
     for i, p in enumerate(paths):
         pre = f"paths[{i + 1}]."
         kind = require(p, "kind", src, pre, _KINDS, CalibrationInputError) if isinstance(p, dict) else None
@@ -383,6 +385,8 @@ def read_plan(path: str | Path) -> Plan:
         nodes = q(p, "nodes", "rad", pre, shape=(None, 3)) if "nodes" in p else None
         if nodes is not None and len(nodes) < 1:
             raise CalibrationInputError(src, pre + "nodes", "at least one [B, L, D] node", "an empty list")
+        if check is not None:
+            check(total + _path_poses(kind, p, q, pre), f"{src}: {pre}points")
         if kind == "circle":
             n = count(p, "points", pre, 72.0)
             if "normal" in p and "plane" in p:
@@ -421,8 +425,18 @@ def read_plan(path: str | Path) -> Plan:
             lab = label or f"poses ({len(pos)})"
             part = Plan(lab, setup, np.c_[pos, ang], (Segment(lab, 0, len(pos), "points"),))
         plan = part if plan is None else plan.concat(part)
+        total = plan.n_poses
     assert plan is not None
     return Plan(str(pt.get("name", Path(src).stem)), setup, plan.poses, plan.segments)
+
+
+def _path_poses(kind: str, p: dict, q: Callable, pre: str) -> int:
+    """Poses a plan path will hold, from its keys alone (before building it)."""
+    if kind == "grid":
+        return int(q(p, "points", "dimensionless", pre, 3.0, positive=True)) ** 3
+    if kind in ("circle", "hemisphere"):
+        return int(q(p, "points", "dimensionless", pre, 72.0 if kind == "circle" else 360.0, positive=True))
+    return len(p.get("positions", ()))
 
 
 __all__: Sequence[str] = (

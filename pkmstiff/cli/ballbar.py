@@ -112,6 +112,13 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     if args.plot is not None:
         stem = Path(args.file).stem
         check_output_dir(args.plot, "--plot", args.force, (f"{stem}_polar.png", f"{stem}_spectrum.png"))
+    from pkmstiff.cli.edges import announce, count_lines, parse_budget
+    from pkmstiff.evaluation.cost import BALLBAR_BASE_BYTES, BALLBAR_ROW_BYTES, BALLBAR_ROW_SECONDS, rows_cost
+
+    rows = count_lines(args.file)
+    cost = rows_cost(rows, BALLBAR_ROW_BYTES, BALLBAR_ROW_SECONDS, args.file, "sample rows", "file",
+                     base_bytes=BALLBAR_BASE_BYTES)
+    announce("ballbar", cost, parse_budget(getattr(args, "memory_budget", None)), quiet=args.json or rows < 100_000)
     rep = analyse_file(args.file, harmonics=harmonics, plot_dir=args.plot, alpha=args.alpha, machine=args.machine,
                        start_pose=args.start_pose)
     if args.json:
@@ -141,4 +148,7 @@ def add_commands(sub: Any) -> None:
     a.add_argument("--plot", metavar="DIR", help="write the polar deviation plot and harmonic spectrum (PNG) here")
     a.add_argument("--force", action="store_true", help="overwrite existing plots in --plot")
     a.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    from pkmstiff.cli.edges import add_budget_argument
+
+    add_budget_argument(a)
     a.set_defaults(func=_cmd_analyse)

@@ -39,7 +39,9 @@ def identifiability_report(machine_name: str, instrument: str, plan_path: str | 
     inst = lookup(instrument)
     machine = load_machine(machine_name)
     if plan_path:
-        plan = read_plan(plan_path)
+        from pkmstiff.cli.calibrate_sim import plan_check
+
+        plan = read_plan(plan_path, plan_check())
         if plan.instrument != inst:
             from pkmstiff.errors import CalibrationInputError
             raise CalibrationInputError(plan_path, "plan.instrument", f"'{inst}' (as --instrument)",

@@ -66,6 +66,21 @@ def _noise(text: str) -> str | float:
     return v
 
 
+def plan_check(command: str = "calibrate") -> Callable[[int, str], None]:
+    """The cost check :func:`~pkmstiff.calibration.plans.read_plan` calls before building each path: refuse a plan
+    whose poses exceed the memory or time budget (cost line from 10,000 poses)."""
+    from pkmstiff.cli.edges import announce, parse_budget
+    from pkmstiff.evaluation.cost import PLAN_POSE_BYTES, PLAN_POSE_SECONDS, rows_cost
+
+    budget = parse_budget(None)
+
+    def check(n: int, key: str) -> None:
+        announce(command, rows_cost(n, PLAN_POSE_BYTES, PLAN_POSE_SECONDS, "measurement plan", "poses", key), budget,
+                 quiet=n < 10_000)
+
+    return check
+
+
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
@@ -91,7 +106,7 @@ def simulate_command(args: argparse.Namespace) -> dict:
     from pkmstiff.machine import load_machine
 
     machine = load_machine(args.machine)
-    plan = read_plan(args.plan)
+    plan = read_plan(args.plan, plan_check())
     check_plan(machine, plan)
     inst = _instrument(args, plan)
     dirs = tuple(d.strip() for d in args.directions.split(",") if d.strip())
@@ -221,6 +236,7 @@ def plan_command(args: argparse.Namespace) -> dict:
             raise CalibrationInputError(f"--{key}", key, "a positive integer", getattr(args, key))
     max_tilt = np.radians(args.max_tilt)
     if inst.path_plans:
+        plan_check()(args.points, "--points")
         if args.start:
             raise CalibrationInputError("--start", "start", "no start plan for a ball bar (the hemisphere path of "
                                         "the default plan is used; its nodes are optimised)", args.start)
@@ -245,7 +261,7 @@ def plan_command(args: argparse.Namespace) -> dict:
                          f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}",
                          hemisphere=spec, nodes=res.best.x)
     else:
-        plan0 = read_plan(args.start) if args.start else default_plan(machine, inst)
+        plan0 = read_plan(args.start, plan_check()) if args.start else default_plan(machine, inst)
         if not args.start:  # a subset of the default grid: the gradient costs 12 plan evaluations per pose
             idx = np.unique(np.linspace(0, plan0.n_poses - 1, min(args.poses, plan0.n_poses)).round().astype(int))
             plan0 = Plan(f"{plan0.name}, {len(idx)} poses", plan0.setup, plan0.poses[idx],

@@ -181,6 +181,8 @@ def available_memory() -> int:
 def parse_budget(text: str | None) -> int:
     """``--memory-budget``: '2GB', '500 MB', '0.25' (a fraction of the available memory); None: the default."""
     if text is None:
+        text = os.environ.get("PKMSTIFF_MEMORY_BUDGET") or None
+    if text is None:
         return int(DEFAULT_BUDGET_FRACTION * available_memory())
     t = str(text).strip().upper().replace(" ", "").replace("IB", "B")
     units = {"KB": 1 << 10, "MB": 1 << 20, "GB": 1 << 30, "TB": 1 << 40, "B": 1}
@@ -213,6 +215,8 @@ def human_bytes(n: float) -> str:
 
 
 def human_seconds(s: float) -> str:
+    if s < 10:
+        return f"{s:.1f} s"
     if s < 120:
         return f"{s:.0f} s"
     if s < 7200:
@@ -220,14 +224,57 @@ def human_seconds(s: float) -> str:
     return f"{s / 3600:.1f} h"
 
 
-def announce_cost(command: str, what: str, points: int, bytes_needed: float, seconds: float, budget: int,
-                  quiet: bool = False, unit: str = "points", plan: str | None = None) -> None:
-    """Print what the command will compute (one line on stderr, ending with the parallel ``plan`` when given) and
-    refuse above the memory budget."""
-    if bytes_needed > budget:
-        raise CostLimitError(f"{what}: {points:,} {unit} need about {human_bytes(bytes_needed)}, more than the memory "
-                             f"budget of {human_bytes(budget)}; use a coarser step/resolution or a smaller region, or "
-                             f"raise --memory-budget")
+#: default time budget in CPU seconds (overridable with the environment variable PKMSTIFF_TIME_BUDGET, seconds): work
+#: estimated beyond it is refused like work beyond the memory budget, since it would not end in a working day
+DEFAULT_TIME_BUDGET_S = 24 * 3600.0
+
+
+def time_budget() -> float:
+    """The time budget (s): ``PKMSTIFF_TIME_BUDGET`` if set to a positive number, else :data:`DEFAULT_TIME_BUDGET_S`."""
+    text = os.environ.get("PKMSTIFF_TIME_BUDGET", "")
+    try:
+        val = float(text)
+    except ValueError:
+        return DEFAULT_TIME_BUDGET_S
+    return val if 0 < val < float("inf") else DEFAULT_TIME_BUDGET_S
+
+
+def count_lines(path: str | Path) -> int:
+    """Lines of a text file (newline bytes, read in 1 MiB blocks: a row count before the file is parsed); 0 when it
+    cannot be read here (the reader then reports why)."""
+    n = 0
+    try:
+        if not Path(path).is_file():
+            return 0
+        with open(path, "rb") as fh:
+            while block := fh.read(1 << 20):
+                n += block.count(b"\n")
+    except OSError:
+        return 0
+    return n
+
+
+def add_budget_argument(p) -> None:
+    """The ``--memory-budget`` option of every command that estimates its cost before the work."""
+    p.add_argument("--memory-budget", default=None, metavar="SIZE",
+                   help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory; "
+                        f"default {DEFAULT_BUDGET_FRACTION:g})")
+
+
+def announce(command: str, cost, budget: int, quiet: bool = False, plan: str | None = None) -> None:
+    """Refuse a :class:`~pkmstiff.evaluation.cost.Cost` above the memory budget or the time budget (one line naming
+    the option that sets the size, the estimate and the budget); otherwise print the cost line on stderr (ending with
+    the parallel ``plan`` when given)."""
+    size = f"{cost.count:,.0f} {cost.unit}"
+    opt = f"{cost.option}: " if cost.option else ""
+    if cost.bytes > budget:
+        raise CostLimitError(f"{opt}{cost.what}: {size} need about {human_bytes(cost.bytes)}, more than the memory "
+                             f"budget of {human_bytes(budget)}; {cost.advice}, or raise the budget "
+                             f"(--memory-budget or PKMSTIFF_MEMORY_BUDGET)")
+    limit = time_budget()
+    if cost.seconds > limit:
+        raise CostLimitError(f"{opt}{cost.what}: {size} need about {human_seconds(cost.seconds)} of CPU time, more "
+                             f"than the time budget of {human_seconds(limit)} (PKMSTIFF_TIME_BUDGET); {cost.advice}")
     if not quiet:
-        print(f"pkmstiff {command}: {what}: {points:,} {unit}, about {human_bytes(bytes_needed)} and "
-              f"{human_seconds(seconds)}{f'; {plan}' if plan else ''}", file=sys.stderr, flush=True)
+        print(f"pkmstiff {command}: {cost.what}: {size}, about {human_bytes(cost.bytes)} and "
+              f"{human_seconds(cost.seconds)}{f'; {plan}' if plan else ''}", file=sys.stderr, flush=True)

@@ -32,8 +32,14 @@ def _positive_mm(text: str) -> float:
     return v
 
 
+#: the platform's condensation to the 6×6 stiffness costs about two joint solves of the same size (measured)
+PLATFORM_SOLVES = 2
+
+
 def add_commands(subparsers: Any) -> None:
     """Add the ``fe-joint`` and ``fe-platform`` sub-commands to an argparse sub-parser collection."""
+    from pkmstiff.cli.edges import add_budget_argument
+
     p = subparsers.add_parser(
         "fe-joint", help="FE sweep of a parametric joint over tilt angles -> joint stiffness table (CSV)",
         description="Mesh the joint of PARAMS.toml, compute its axial stiffness along the strut at each tilt angle "
@@ -52,8 +58,7 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument("--png-angle", type=float, default=45.0, help="tilt angle in deg for --png (default 45)")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no result table")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
-    p.add_argument("--memory-budget", default=None, metavar="SIZE",
-                   help="refuse above this memory estimate, e.g. 4GB or 0.8 (fraction of the available memory)")
+    add_budget_argument(p)
     p.set_defaults(func=cmd_fe_joint)
 
     p = subparsers.add_parser(
@@ -69,6 +74,7 @@ def add_commands(subparsers: Any) -> None:
     p.add_argument("--vtu", default=None, help="VTU file of the platform deformed by a unit load case")
     p.add_argument("--quiet", action="store_true", help="no progress output and no result table")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    add_budget_argument(p)
     p.set_defaults(func=cmd_fe_platform)
 
 
@@ -87,27 +93,26 @@ def _progress(total: int, quiet: bool, desc: str) -> tuple[Callable[[float], Non
     return step, bar.close
 
 
-#: memory per FE degree of freedom of the sparse direct solve (assumption: fill-in of 3-D hex meshes at ~1e5 DOFs,
-#: rounded up; the fill grows like n^(4/3), so finer meshes are underestimated rather than over-refused)
-FE_BYTES_PER_DOF = 4096
-#: seconds per DOF and tilt angle (assumption of the same kind: a 1e5-DOF factorisation takes a few seconds)
-FE_SECONDS_PER_DOF = 5e-5
+def _announce_fe(command: str, p: Any, dofs: Callable[[Any], int], args: argparse.Namespace, solves: float,
+                 option: str) -> None:
+    """Estimate an FE run before meshing it: the DOFs of the file's own mesh (built once with the requested element,
+    < 1 s) scaled to ``--mesh-size`` / ``--n-phi`` (:func:`~pkmstiff.evaluation.cost.fe_dofs`); refuse it above the
+    budget, otherwise print the cost line."""
+    from pkmstiff.cli.edges import announce, parse_budget
+    from pkmstiff.evaluation.cost import fe_cost, fe_dofs
 
-
-def _check_fe_cost(p: Any, args: argparse.Namespace) -> None:
-    """Refuse a mesh whose estimated memory exceeds the budget, before meshing it: the DOFs of the file's own mesh
-    size (built once, < 1 s) scaled by (h_file / h)³ for a finer ``--mesh-size``."""
-    if not args.mesh_size or args.mesh_size * 1e-3 >= p.mesh_size:
-        return
-    from pkmstiff.cli.edges import announce_cost, parse_budget
-    from pkmstiff.fe.joints import build_joint_model, parse_angles
-
-    n0 = build_joint_model(p).model.n_fe
-    n = int(n0 * (p.mesh_size / (args.mesh_size * 1e-3)) ** 3)
-    angles = max(len(parse_angles(args.angles)), 1)
-    announce_cost("fe-joint", f"{p.name} at mesh size {args.mesh_size:g} mm", n, n * FE_BYTES_PER_DOF,
-                  n * FE_SECONDS_PER_DOF * angles, parse_budget(getattr(args, "memory_budget", None)),
-                  quiet=args.quiet, unit="degrees of freedom")
+    budget = parse_budget(getattr(args, "memory_budget", None))
+    n_phi0 = int(p["mesh"]["n_phi"])
+    element = getattr(args, "element", None)
+    n0 = dofs(p.with_mesh(element=element) if element else p)
+    size = args.mesh_size * 1e-3 if args.mesh_size else p.mesh_size
+    n = fe_dofs(n0, p.mesh_size, size, n_phi0, getattr(args, "n_phi", None) or n_phi0)
+    if args.mesh_size and args.mesh_size * 1e-3 < p.mesh_size:
+        option = "--mesh-size"
+    elif (getattr(args, "n_phi", None) or 0) > n_phi0:
+        option = "--n-phi"
+    cost = fe_cost(n, solves, f"{p.name} at mesh size {size * 1e3:g} mm", option)
+    announce(command, cost, budget, quiet=args.quiet)
 
 
 def cmd_fe_joint(args: argparse.Namespace) -> int:
@@ -127,9 +132,9 @@ def cmd_fe_joint(args: argparse.Namespace) -> int:
     p = load_joint_parameters(args.params)
     vtu_names = tuple(f"{safe_stem(p.name)}_tilt{a:g}.vtu" for a in angles)
     check_output_dir(args.vtu, "--vtu", getattr(args, "force", False), vtu_names)
-    _check_fe_cost(p, args)
     if args.n_phi is not None and args.n_phi < 8:
         raise InputError("--n-phi", "n_phi", "an integer >= 8", args.n_phi)
+    _announce_fe("fe-joint", p, lambda q: build_joint_model(q).model.n_fe, args, len(angles), "--angles")
     if args.mesh_size is not None or args.n_phi or args.element:
         p = p.with_mesh(size=args.mesh_size * 1e-3 if args.mesh_size else None, element=args.element,
                         n_phi=args.n_phi)
@@ -198,7 +203,13 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
     """``pkmstiff fe-platform``: 6x6 platform stiffness at the spindle reference point -> TOML or CSV."""
     from pkmstiff.cli.edges import check_output_file
     from pkmstiff.fe.export import field_mesh, write_vtu
-    from pkmstiff.fe.platform import component_toml, load_platform_parameters, platform_stiffness, to_dissertation_units
+    from pkmstiff.fe.platform import (
+        build_platform_model,
+        component_toml,
+        load_platform_parameters,
+        platform_stiffness,
+        to_dissertation_units,
+    )
 
     out = Path(args.out)
     if out.suffix not in (".toml", ".csv"):
@@ -208,6 +219,7 @@ def cmd_fe_platform(args: argparse.Namespace) -> int:
         check_output_file(sidecar_path(out), "--out (its metadata)", getattr(args, "force", False), (".json",))
     check_output_file(args.vtu, "--vtu", getattr(args, "force", False), (".vtu",))
     p = load_platform_parameters(args.params)
+    _announce_fe("fe-platform", p, lambda q: build_platform_model(q).n_fe, args, PLATFORM_SOLVES, "--mesh-size")
     if args.mesh_size:
         p = p.with_mesh(size=args.mesh_size * 1e-3)
     if not args.quiet and sys.stderr.isatty():

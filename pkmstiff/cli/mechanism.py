@@ -178,6 +178,16 @@ def info_report(name: str) -> dict[str, Any]:
             "mobility": i.mobility, "drives": list(i.drives), "assumptions": mech.assumptions}
 
 
+def _announce_steps(args) -> None:
+    """Refuse a continuation whose CPU time exceeds the time budget before it starts (cost line from 10,000 steps)."""
+    from pkmstiff.cli.edges import announce, parse_budget
+    from pkmstiff.evaluation.cost import MECHANISM_STEP_SECONDS, rows_cost
+
+    steps = max(int(args.steps), 1)
+    cost = rows_cost(steps, 0.0, MECHANISM_STEP_SECONDS, "continuation from home", "steps", "--steps")
+    announce("mechanism", cost, parse_budget(None), quiet=args.json or steps < 10_000)
+
+
 #: suffixes of the derivative columns of a drive-path file (per s, s², s³)
 _RATE_SUFFIX = ("", "_per_s", "_per_s2", "_per_s3")
 
@@ -301,6 +311,7 @@ def _cmd(args) -> int:
                 raise _cli_error("solve: give either --pose (inverse kinematics) or --drives (forward kinematics)")
             if args.steps < 1:
                 raise _cli_error(f"--steps: expected a positive number of continuation steps, found {args.steps}")
+            _announce_steps(args)
             rep = solve_report(args.mechanism, args.pose, args.drives, args.steps, args.start_pose,
                                args.start_drives)
         elif args.action == "path":

@@ -316,10 +316,15 @@ def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | 
 
 
 def _point_batch(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import announce, count_lines, parse_budget
     from pkmstiff.cli.pose import check_batch_out, read_pose_file, write_batch
+    from pkmstiff.evaluation.cost import POINT_ROW_BYTES, POINT_ROW_SECONDS, rows_cost
 
     check_point_options(args.tool_length, args.modes)
     out = check_batch_out(args)
+    rows = count_lines(args.poses)
+    announce("point", rows_cost(rows, POINT_ROW_BYTES, POINT_ROW_SECONDS, f"{args.poses}", "pose rows", "--poses"),
+             parse_budget(getattr(args, "memory_budget", None)), quiet=rows < 10_000)
     poses = read_pose_file(args.poses)
     head, rows = point_rows(args.machine, poses, args.tool_length, args.modes, args.skip_check)
     write_batch(out, head, rows, args, "point")
@@ -407,11 +412,13 @@ def add_commands(sub: Any) -> None:
                    help="tool length in mm (default: machine file)")
     p.add_argument("--modes", type=int, default=6, metavar="N",
                    help=f"number of natural frequencies, 0..{MODES_LIMIT} (0: none; default 6)")
+    from pkmstiff.cli.edges import add_budget_argument
     from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument, add_spindle_argument
 
     add_spindle_argument(p)
     add_frame_argument(p)
     add_skip_check_argument(p)
+    add_budget_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--figures", metavar="DIR", default=None,
                    help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")

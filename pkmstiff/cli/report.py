@@ -9,10 +9,11 @@ from pathlib import Path
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import check_jobs, check_output_dir
+    from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget
     from pkmstiff.report.build import run_spec
 
     check_jobs(args.jobs)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     check_output_dir(args.out, "--out", getattr(args, "force", False), ("report.html", "report.md"))
     t0 = time.perf_counter()
 
@@ -21,7 +22,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
             print(f"  [{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
 
     paths = run_spec(args.spec, Path(args.out), fast=args.fast, n_jobs=args.jobs, log=log,
-                     scheduler=getattr(args, "scheduler", None))
+                     scheduler=getattr(args, "scheduler", None),
+                     check=lambda cost: announce("report", cost, budget, quiet=args.quiet))
     print(f"pkmstiff report: wrote {paths['html']} and {paths['md']} ({time.perf_counter() - t0:.1f} s)")
     return 0
 
@@ -41,4 +43,7 @@ def add_commands(sub) -> None:
                    help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate sections and workspace there")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--force", action="store_true", help="overwrite an existing report in --out")
+    from pkmstiff.cli.edges import add_budget_argument
+
+    add_budget_argument(p)
     p.set_defaults(func=_cmd_report)

@@ -19,22 +19,6 @@ FORMATS = ("png", "vtu", "csv", "npz")
 
 
 
-#: cost model of a section (measured by benchmarks/bench_section.py on the CI machine, rounded up): bytes per raster
-#: point (pose, mask, reasons, coordinates, VTU/CSV export) plus per quantity, and the chunk working set
-BYTES_PER_POINT = 400
-BYTES_PER_POINT_QUANTITY = 40
-CHUNK_WORKING_SET = 64 << 20
-#: seconds per point: admissibility, and per structural quantity (a 24×24 solve / eigenproblem per point)
-SECONDS_PER_POINT = 20e-6
-SECONDS_PER_POINT_QUANTITY = 60e-6
-
-
-def section_cost(n_points: int, n_quantities: int) -> tuple[float, float]:
-    """(bytes, seconds) estimated for a section of ``n_points`` raster points and ``n_quantities`` quantities."""
-    mem = n_points * (BYTES_PER_POINT + BYTES_PER_POINT_QUANTITY * n_quantities) + CHUNK_WORKING_SET
-    return mem, n_points * (SECONDS_PER_POINT + SECONDS_PER_POINT_QUANTITY * n_quantities)
-
-
 def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.targets import Kind, dispatch
 
@@ -55,10 +39,18 @@ def _mechanism_section(args: argparse.Namespace) -> int:
 
 
 def _machine_section(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce_cost, check_jobs, check_output_dir, parse_budget, predicted_plan
+    from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import CliError
+    from pkmstiff.evaluation.cost import PLOT_LIBRARY_SECONDS, PNG_SECONDS
     from pkmstiff.evaluation.quantities import get_quantity
-    from pkmstiff.evaluation.sections import axis_plane, evaluate_section, raster_count, section_summary
+    from pkmstiff.evaluation.requests import SectionRequest
+    from pkmstiff.evaluation.sections import (
+        axis_plane,
+        evaluate_section,
+        near_singular_line,
+        section_summary,
+        statistics_line,
+    )
     from pkmstiff.io.ranges import parse_names, parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.admissibility.checks import checks_without, left_out_text
@@ -108,14 +100,19 @@ def _machine_section(args: argparse.Namespace) -> int:
         fitted = True
     else:
         fitted = False
-    (u0, u1), (v0, v1) = ranges[plane_kind[0]], ranges[plane_kind[1]]
-    n_points = raster_count(u0, u1, step) * raster_count(v0, v1, step)
     all_names = list(dict.fromkeys(names + [r.quantity for r in requirements]))
-    mem, secs = section_cost(n_points, len(all_names))
     window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())
-    plan = predicted_plan(n_points, secs, args.jobs, getattr(args, "scheduler", None), "points", granule=4096)
-    announce_cost("section", f"{plane_kind.upper()} window {window}{' (fitted to the workspace)' if fitted else ''}",
-                  n_points, mem, secs, budget, quiet=args.quiet or args.json, plan=plan)
+    fmts = formats if args.out else []
+    cost = SectionRequest(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step,
+                          tuple(all_names), tuple(ori), frame=args.frame, skip_checks=tuple(args.skip_check)).cost(
+        machine, len(names) if "png" in fmts else 0, write=bool(set(fmts) & {"vtu", "csv", "npz"}))
+    if "png" in fmts or getattr(args, "reasons_map", False):
+        cost = cost.plus(PLOT_LIBRARY_SECONDS + (PNG_SECONDS if getattr(args, "reasons_map", False) else 0.0))
+    plan = predicted_plan(int(cost.count), cost.seconds, args.jobs, getattr(args, "scheduler", None), "points",
+                          granule=4096)
+    announce("section", cost.named(f"{plane_kind.upper()} window {window}"
+                                   f"{' (fitted to the workspace)' if fitted else ''}"),
+             budget, quiet=args.quiet or args.json, plan=plan)
     try:
         plane = axis_plane(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step)
     except SectionError as exc:
@@ -131,7 +128,8 @@ def _machine_section(args: argparse.Namespace) -> int:
             d.pop(extra, None)
     res.settings["window_fitted_to_workspace"] = fitted
     seconds = time.perf_counter() - t0
-    paths = write_section_outputs(res, Path(args.out), formats, stem) if args.out else []
+    paths = write_section_outputs(res, Path(args.out), formats, stem, progress=False if args.quiet else None) \
+        if args.out else []
     if args.out and getattr(args, "reasons_map", False):
         from pkmstiff.plots.section_maps import plot_reasons
 
@@ -154,8 +152,9 @@ def _machine_section(args: argparse.Namespace) -> int:
     if requirements:
         print(f"  requirements {', '.join(r.text for r in requirements)}: {failed_requirements} admissible points "
               f"fail them (masked)")
-    for n, st in res.statistics().items():
-        print(f"  {n:<16} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
+    for n, st in summary["statistics"].items():
+        print(statistics_line(n, st))
+    print(near_singular_line(summary))
     reasons = {k: v for k, v in res.reason_counts().items() if v}
     if reasons:
         print("  inadmissible points by reason: " + ", ".join(f"{k} {v}" for k, v in reasons.items()))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -11,18 +12,31 @@ EXIT_SOME_TASKS_FAILED = 4
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import check_jobs, check_output_file
+    from pkmstiff.cli.edges import announce, check_jobs, check_output_file, parse_budget
     from pkmstiff.errors import CliError
+    from pkmstiff.evaluation.cost import sweep_cost
     from pkmstiff.evaluation.sweep import SweepError, run_sweep, sidecar_path
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.report.sweep_evaluations import evaluation_cost
     from pkmstiff.report.sweep_file import load_sweep
 
     check_jobs(args.jobs)
+    budget = parse_budget(getattr(args, "memory_budget", None))
     out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
     check_output_file(sidecar_path(out), "--out (its metadata)", getattr(args, "force", False), (".json",))
     sweep = load_sweep(args.sweep_file)
     _check_sweep_quantities(sweep, args.sweep_file)
     _check_sweep_paths(sweep, args.sweep_file)
-    n = len(sweep.points())
+    n = sweep.n_tasks
+    try:
+        task = evaluation_cost(sweep.evaluation, load_machine(sweep.machine))
+    except (ValueError, KeyError) as exc:  # an evaluation the base machine cannot estimate: the tasks report it
+        raise CliError(f"{args.sweep_file}: evaluations: {exc}") from None
+    jobs = 1 if args.scheduler else (args.jobs if args.jobs > 0 else (os.cpu_count() or 1))
+    cost = sweep_cost(n, task, min(jobs, max(n, 1)))
+    size_key = "evaluations (step_mm / resolution_mm)" if task.bytes > budget else (
+        "parameters (values per parameter)" if sweep.mode == "grid" else "sweep.samples")
+    announce("sweep", cost.named(cost.what, f"{args.sweep_file}: {size_key}"), budget, quiet=args.quiet)
     where = f"Dask scheduler {args.scheduler}" if args.scheduler else (
         "serial" if args.jobs == 1 else f"{args.jobs if args.jobs > 0 else 'all'} local processes")
     if not args.quiet:
@@ -95,4 +109,7 @@ def add_commands(sub) -> None:
                    help="Dask scheduler address, e.g. tcp://10.0.0.5:8786 (needs pip install 'pkmstiff[dask]')")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    from pkmstiff.cli.edges import add_budget_argument
+
+    add_budget_argument(p)
     p.set_defaults(func=_cmd_sweep)

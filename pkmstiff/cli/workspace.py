@@ -8,6 +8,7 @@ import json
 import math
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -138,12 +139,24 @@ def _requirements(args: argparse.Namespace) -> list[Any]:
 WORKSPACE_FILES = ("workspace.json", "boundary_points.csv", "workspace_surface.stl", "workspace_surface.vtp")
 
 
-def _cmd_workspace(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import (announce_cost, check_jobs, check_output_dir, old_range_form, parse_budget,
-                                    predicted_plan)
-    from pkmstiff.machine.frames import frame_text
+@contextmanager
+def _octree_input_errors():
+    """Bad octree/oracle input (and a box the chains cannot reach) as one-line command-line errors."""
     from pkmstiff.workspace.octree import OctreeInputError
     from pkmstiff.workspace.oracle import OracleInputError
+
+    try:
+        yield
+    except (OctreeInputError, OracleInputError, ValueError) as exc:
+        if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
+            raise _cli_error(str(exc)) from None
+        raise
+
+
+def _cmd_workspace(args: argparse.Namespace) -> int:
+    from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, old_range_form, parse_budget, predicted_plan
+    from pkmstiff.evaluation.cost import FIGURE_3D_BYTES, FIGURE_3D_LIBRARY_SECONDS, FIGURE_3D_SECONDS
+    from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
     from pkmstiff.workspace.volume import HEADLINE_METHOD, METHOD_NOTES
@@ -182,33 +195,25 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
                              f"found {args.range!r}")
         (axis, (lo, hi)), = r.items()
         rng = (axis, math.radians(lo), math.radians(hi))
-    from pkmstiff.workspace.translational import reach_box
 
-    lo_box, hi_box = (box if box is not None else reach_box(machine))
-    ext = np.maximum(np.asarray(hi_box) - np.asarray(lo_box), eps)
-    # the octree evaluates boundary voxels: ~ surface / eps² points, each ~ 3 kB of pose pipeline state and
-    # ~ 30 µs (bench_workspace.py); the full lattice bounds it from above
-    surface_pts = 2.0 * (ext[0] * ext[1] + ext[1] * ext[2] + ext[0] * ext[2]) / eps ** 2 * 8
-    lattice = float(np.prod(ext / eps + 1))
-    n_est = int(min(surface_pts, lattice))
     n_ori = 1 if rng is None else max(1, int((rng[2] - rng[1]) / math.radians(max(args.range_step, 1e-9))) + 1)
+    range_step = math.radians(_positive(args.range_step, "--range-step", "deg"))
+    options = {"orientation_range": rng, "range_step": range_step, "range_mode": args.range_mode,
+               "refine_steps": args.refine, "min_level": args.min_level}
+    req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
+                           neglect_spindle=args.neglect_spindle, skip_checks=tuple(args.skip_check))
+    with _octree_input_errors():
+        cost = req.cost(machine, n_ori, **options)  # a pilot octree: input errors surface here, before the work
+    if args.out and not args.no_plot:
+        cost = cost.plus(FIGURE_3D_LIBRARY_SECONDS + FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
     # the finest level holds about half the evaluations: it sets the plan (20,000 poses per oracle chunk)
-    plan = predicted_plan(n_est * n_ori // 2, n_est * n_ori * 15e-6, jobs, scheduler, "points", granule=20_000)
-    announce_cost("workspace", f"octree at resolution {args.resolution:g} mm", n_est * n_ori,
-                  n_est * n_ori * 3000.0 + (64 << 20), n_est * n_ori * 30e-6, budget, quiet=args.quiet or args.json,
-                  plan=plan if plan == "serial" else f"finest level: {plan}")
+    plan = predicted_plan(int(cost.count) // 2, cost.seconds / 2, jobs, scheduler, "points", granule=20_000)
+    announce("workspace", cost.named(f"octree at resolution {args.resolution:g} mm"), budget,
+             quiet=args.quiet or args.json, plan=plan if plan == "serial" else f"finest level: {plan}")
     progress = _Progress(not args.quiet, "octree")
     try:
-        req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
-                               neglect_spindle=args.neglect_spindle, skip_checks=tuple(args.skip_check))
-        res = req.evaluate(machine, orientation_range=rng,
-                           range_step=math.radians(_positive(args.range_step, "--range-step", "deg")),
-                           range_mode=args.range_mode, refine_steps=args.refine, min_level=args.min_level,
-                           progress=progress, n_jobs=jobs, scheduler=scheduler)
-    except (OctreeInputError, OracleInputError, ValueError) as exc:
-        if isinstance(exc, (OctreeInputError, OracleInputError)) or "reach boxes" in str(exc):
-            raise _cli_error(str(exc)) from None
-        raise
+        with _octree_input_errors():
+            res = req.evaluate(machine, progress=progress, n_jobs=jobs, scheduler=scheduler, **options)
     finally:
         progress.close()
     summary = res.summary()
@@ -279,8 +284,9 @@ def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict
 
 
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import check_output_dir
-    from pkmstiff.evaluation.sections import raster
+    from pkmstiff.cli.edges import announce, check_output_dir, parse_budget
+    from pkmstiff.evaluation.cost import admissible_fraction, plane_points, rotation_map_cost
+    from pkmstiff.evaluation.sections import raster, raster_count
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
     from pkmstiff.workspace.rotation import DIRECTIONS, RotationMapError, rotational_workspace_map
@@ -301,18 +307,39 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
         raise _cli_error(f"--directions: expected a comma-separated list of {', '.join(DIRECTIONS)}, "
                          f"found {args.directions!r}")
     method = {"pc": "predictor_corrector", "predictor_corrector": "predictor_corrector", "plain": "plain"}[args.method]
+    budget = parse_budget(getattr(args, "memory_budget", None))
+    if args.point:
+        if len(dirs) != 1 or len(dirs[0]) != 2:
+            raise _cli_error("--point (rotational workspace): expected exactly one single-axis direction, "
+                             f"e.g. --directions +a, found {args.directions!r}")
+        others = [c for c in "abc" if c != dirs[0][1]]
+        axes, unit = "".join(others), "deg"
+        rng = _map_ranges(args, axes, unit, {others[0]: (-30.0, 30.0), others[1]: (-60.0, 60.0)})
+    else:
+        if args.plane not in PLANES:
+            raise _cli_error(f"--plane: expected one of {', '.join(PLANES)}, found {args.plane!r}")
+        axes, unit = args.plane, "mm"
+        rng = _map_ranges(args, axes, unit)
+    step = _positive(args.step, "--step", unit)
+    (u0, u1), (v0, v1) = rng[axes[0]], rng[axes[1]]
+    nu, nv = raster_count(u0, u1, step), raster_count(v0, v1, step)
+    frac = 1.0  # at a point every raster orientation may be admissible
+    if not args.point:  # the admissible fraction of the plane at the base orientation, on a sub-raster
+        ua, va, normal = PLANES[args.plane]
+        origin = np.zeros(3)
+        origin[normal] = args.at * 1e-3
+        pts = plane_points((u0 * 1e-3, u1 * 1e-3), (v0 * 1e-3, v1 * 1e-3), step * 1e-3,
+                           to_machine_frame(machine, origin, args.frame), ua, va)
+        frac = admissible_fraction(machine, pts, ori, checks_without(args.skip_check, "--skip-check"))
+    cost = rotation_map_cost(nu * nv, frac, nu + nv - 1, len(dirs), inc, amax, method == "plain", args.verify)
+    announce("rotation-map", cost.named(f"{len(dirs)} direction(s) on {nu * nv:,} raster points, increment "
+                                        f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json)
     t0 = time.perf_counter()
     try:
         if args.point:
             point = np.array(_floats(args.point, 3, "--point", "x,y,z in mm")) * 1e-3
-            if len(dirs) != 1 or len(dirs[0]) != 2:
-                raise _cli_error("--point (rotational workspace): expected exactly one single-axis direction, "
-                                 f"e.g. --directions +a, found {args.directions!r}")
-            step = math.radians(_positive(args.step, "--step", "deg"))
-            others = [c for c in "abc" if c != dirs[0][1]]
-            rng = _map_ranges(args, "".join(others), "deg", {others[0]: (-30.0, 30.0), others[1]: (-60.0, 60.0)})
-            u = np.radians(raster(*rng[others[0]], math.degrees(step)))
-            v = np.radians(raster(*rng[others[1]], math.degrees(step)))
+            u = np.radians(raster(*rng[others[0]], step))
+            v = np.radians(raster(*rng[others[1]], step))
             res = rotational_workspace_map(machine, to_machine_frame(machine, point, args.frame), dirs[0], u, v, ori,
                                            inc, amax,
                                            requirements=_requirements(args), method=method, verify=args.verify,
@@ -321,13 +348,6 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             title = (f"{machine.name}: max. rotation {dirs[0]} at x,y,z = {args.point} mm "
                      f"({frame_text(machine, args.frame).split(' (')[0]})")
         else:
-            if args.plane not in PLANES:
-                raise _cli_error(f"--plane: expected one of {', '.join(PLANES)}, found {args.plane!r}")
-            ua, va, normal = PLANES[args.plane]
-            origin = np.zeros(3)
-            origin[normal] = args.at * 1e-3
-            rng = _map_ranges(args, args.plane, "mm")
-            step = _positive(args.step, "--step", "mm")
             u = raster(*rng[args.plane[0]], step) * 1e-3
             v = raster(*rng[args.plane[1]], step) * 1e-3
             req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
@@ -469,8 +489,10 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
+    from pkmstiff.cli.edges import add_budget_argument
     from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument, add_spindle_argument
 
+    add_budget_argument(p)
     add_frame_argument(p)
     add_spindle_argument(p)
     add_skip_check_argument(p)

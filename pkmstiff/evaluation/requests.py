@@ -25,6 +25,7 @@ import numpy as np
 
 from pkmstiff.admissibility.checks import checks_left_out, checks_without
 from pkmstiff.admissibility.pipeline import evaluate_poses
+from pkmstiff.evaluation.cost import Cost
 from pkmstiff.evaluation.quantities import EvalContext, evaluate_quantities, get_quantity
 from pkmstiff.evaluation.sections import SectionResult, axis_plane, evaluate_section
 from pkmstiff.machine.frames import check_frame, neglect_spindle, to_machine_frame
@@ -32,19 +33,23 @@ from pkmstiff.machine.model import Machine
 
 #: statistics of a section quantity -> (label, unit override or None = the quantity's display unit)
 STATISTICS = {"min": ("min", None), "mean": ("mean", None), "max": ("max", None),
-              "area": ("admissible area", "m^2"), "count": ("admissible points", "1")}
+              "p1": ("1 % quantile", None), "p5": ("5 % quantile", None), "p95": ("95 % quantile", None),
+              "p99": ("99 % quantile", None),
+              "area": ("admissible area", "m^2"), "count": ("admissible points", "1"),
+              "near_singular": ("near-singular points", "1")}
 
 
 def statistic(stats: dict[str, float], name: str) -> float:
     """The statistic ``name`` (one of :data:`STATISTICS`) from one entry of :meth:`SectionResult.statistics`.
 
-    ``area`` is the admissible area [m²], ``count`` the number of admissible points with a finite value; min, mean
-    and max are in the quantity's display unit and NaN when there is no admissible point.
+    ``area`` is the admissible area [m²], ``count`` the number of admissible points with a finite value,
+    ``near_singular`` those of them near the singularity threshold; min, the quantiles p1..p99, mean and max are in
+    the quantity's display unit and NaN when there is no admissible point.
     """
     if name == "area":
         return stats["admissible_area_m2"]
-    if name == "count":
-        return float(stats["count"])
+    if name in ("count", "near_singular"):
+        return float(stats["count" if name == "count" else "near_singular_points"])
     return stats[name]
 
 
@@ -72,6 +77,26 @@ class SectionRequest:
         return evaluate_section(neglect_spindle(machine, self.neglect_spindle), plane, self.quantities,
                                 orientation=self.orientation, tool_length=self.tool_length, n_jobs=n_jobs,
                                 progress=progress, frame=self.frame, checks=checks, scheduler=scheduler)
+
+    def cost(self, machine: Machine, n_png: int = 0, write: bool = False) -> Cost:
+        """The :class:`~pkmstiff.evaluation.cost.Cost` of :meth:`evaluate` (plus ``n_png`` maps and, ``write``, the
+        VTU/CSV/NPZ files): raster points, the admissible fraction measured on a sub-raster (only admissible points
+        get quantities), kinematic and structure quantities. The raster itself is not built."""
+        from pkmstiff.evaluation.cost import STRUCTURE_GROUPS, admissible_fraction, plane_points, section_cost
+        from pkmstiff.evaluation.sections import AXES, raster_count
+        from pkmstiff.machine.frames import frame_origin
+
+        kind = self.plane.lower()
+        n_points = raster_count(*self.u_range, self.step) * raster_count(*self.v_range, self.step)
+        normal = ({"x", "y", "z"} - set(kind)).pop()
+        origin = AXES[normal] * self.at + frame_origin(machine, self.frame)
+        pts = plane_points(self.u_range, self.v_range, self.step, origin, AXES[kind[0]], AXES[kind[1]])
+        frac = admissible_fraction(machine, pts, self.orientation,
+                                   checks_without(self.skip_checks, "SectionRequest"))
+        qs = [get_quantity(n) for n in dict.fromkeys(self.quantities)]
+        structure = sum(q.group in STRUCTURE_GROUPS for q in qs)
+        return section_cost(n_points, frac, len(qs) - structure, structure, any(q.group == "modal" for q in qs),
+                            n_png, write)
 
 
 @dataclass(frozen=True)

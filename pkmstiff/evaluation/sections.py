@@ -16,7 +16,13 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
-from pkmstiff.admissibility.checks import ALL_CHECKS, Reason, checks_left_out
+from pkmstiff.admissibility.checks import (
+    ALL_CHECKS,
+    NEAR_SINGULAR_FRACTION,
+    Reason,
+    checks_left_out,
+    near_singular_limit,
+)
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import SectionError  # noqa: F401 (re-exported)
 from pkmstiff.evaluation import parallel
@@ -24,6 +30,10 @@ from pkmstiff.evaluation.progress import callback as progress_callback
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin
 from pkmstiff.machine.model import Machine
+
+#: quantiles of the section statistics (linear interpolation between order statistics, numpy's default)
+QUANTILES = (0.01, 0.05, 0.95, 0.99)
+QUANTILE_KEYS = ("p1", "p5", "p95", "p99")
 
 AXES = {"x": np.array([1.0, 0.0, 0.0]), "y": np.array([0.0, 1.0, 0.0]), "z": np.array([0.0, 0.0, 1.0])}
 
@@ -144,21 +154,40 @@ class SectionResult:
     frame: dict[str, Any] = field(default_factory=lambda: {"frame": "machine", "frame_origin_mm": [0.0, 0.0, 0.0]})
     #: how the points were split over workers (:mod:`pkmstiff.evaluation.parallel`); not part of the written results
     plan: parallel.Plan | None = None
+    kappa: np.ndarray | None = None  # (nv, nu) κ of the admissible points (NaN elsewhere); None: not computed
+
+    @property
+    def near_singular(self) -> np.ndarray:
+        """(nv, nu) bool: admissible points with κ above ``settings["near_singular_kappa"]`` (the singularity margin,
+        :data:`pkmstiff.admissibility.checks.NEAR_SINGULAR_FRACTION` of the machine's threshold)."""
+        limit = self.settings.get("near_singular_kappa")
+        if self.kappa is None or limit is None:
+            return np.zeros(self.ok.shape, bool)
+        with np.errstate(invalid="ignore"):
+            return self.ok & (self.kappa > limit)
 
     def display(self, name: str) -> np.ndarray:
         """Values of ``name`` in its display unit."""
         return get_quantity(name).to_display(self.values[name])
 
     def statistics(self) -> dict[str, dict[str, float]]:
-        """Per quantity over the admissible points: min, mean, max (display unit), count, admissible area (m²)."""
+        """Per quantity over the admissible points: min, the 1 %, 5 %, 95 % and 99 % quantiles (p1, p5, p95, p99),
+        mean, max (display unit), count, the near-singular points among them (:attr:`near_singular`), admissible
+        points and area (m²). Min and max are often set by near-singular points; the quantiles are not (unless more
+        than 1 % or 5 % of the points are near-singular)."""
         area = float(self.ok.sum()) * self.plane.cell_area
+        near = self.near_singular
         out = {}
         for name in self.values:
-            d = self.display(name)[self.ok]
-            d = d[np.isfinite(d)]
+            vals = self.display(name)
+            finite = self.ok & np.isfinite(vals)
+            d = vals[finite]
+            q = np.quantile(d, QUANTILES) if d.size else np.full(len(QUANTILES), np.nan)
             out[name] = {"unit": self.units[name], "min": float(d.min()) if d.size else float("nan"),
+                         **{key: float(v) for key, v in zip(QUANTILE_KEYS, q)},
                          "mean": float(d.mean()) if d.size else float("nan"),
                          "max": float(d.max()) if d.size else float("nan"), "count": int(d.size),
+                         "near_singular_points": int(np.count_nonzero(near & finite)),
                          "admissible_points": int(self.ok.sum()), "admissible_area_m2": area}
         return out
 
@@ -192,12 +221,14 @@ class SectionResult:
 
 def _evaluate_chunk(machine: Machine, poses: np.ndarray, names: Sequence[str], tool_length: float | None,
                     options: dict[str, Any], checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(ok, reasons, values (len(names), n) SI) of one chunk of poses."""
+    """(ok, reasons, values (len(names) + 1, n) SI) of one chunk of poses; the last row is κ of the admissible
+    poses (the near-singular margin, :attr:`SectionResult.near_singular`)."""
     ev = evaluate_poses(machine, poses, checks=checks)
     ok = ev.ok.copy()
-    vals = np.full((len(names), len(poses)), np.nan)
-    if ok.any() and names:
+    vals = np.full((len(names) + 1, len(poses)), np.nan)
+    if ok.any():
         sub = ev if ok.all() else ev.subset(ok)
+        vals[-1, ok] = sub.kappa
         ctx = EvalContext(machine, sub, tool_length, options)
         for i, n in enumerate(names):
             vals[i, ok] = np.asarray(get_quantity(n).compute(ctx), float)
@@ -282,8 +313,10 @@ def evaluate_section(
         machine=machine.name, plane=plane, orientation=np.asarray(orientation, float), tool_length=tool_length,
         values={n: vals[i].reshape(shape) for i, n in enumerate(names)}, units={n: q.unit for n, q in qs.items()},
         si_units={n: q.si_unit for n, q in qs.items()}, labels={n: q.label for n, q in qs.items()},
-        ok=ok.reshape(shape), reasons=reasons.reshape(shape), settings=settings,
+        ok=ok.reshape(shape), reasons=reasons.reshape(shape),
+        settings={**settings, "near_singular_kappa": near_singular_limit(machine)},
         frame=frame_metadata(machine, frame), plan=dataclasses.replace(plan, items=len(poses)),
+        kappa=vals[-1].reshape(shape),
     )
 
 
@@ -303,6 +336,20 @@ def evaluate_three_planes(machine: Machine, planes: list[Plane], quantities: Seq
     return [evaluate_section(machine, p, quantities, **kw) for p in planes]
 
 
+def statistics_line(name: str, st: dict[str, Any]) -> str:
+    """One text line of a quantity's statistics, led by the 5 % quantile, the mean and the 95 % quantile (not set by
+    near-singular points), then min / 1 % / 99 % / max in parentheses."""
+    return (f"  {name:<16} [{st['unit']}]  p5 {st['p5']:.4g}  mean {st['mean']:.4g}  p95 {st['p95']:.4g}  "
+            f"(min {st['min']:.4g}, p1 {st['p1']:.4g}, p99 {st['p99']:.4g}, max {st['max']:.4g})")
+
+
+def near_singular_line(summary: dict[str, Any]) -> str:
+    """The count of near-singular points of a :func:`section_summary`, one text line."""
+    ns = summary["near_singular"]
+    return (f"  near-singular (kappa above {ns['kappa_above']:.3g} = {ns['fraction_of_threshold']:g} x the singularity "
+            f"threshold): {ns['points']} of {summary['admissible_points']} admissible points")
+
+
 def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
     """Plane, admissible points and area, orientation, tool length, statistics and reasons (JSON-ready, units in keys)."""
     d = {"machine": res.machine, "plane": res.plane.name, "points": int(res.ok.size),
@@ -315,7 +362,12 @@ def section_summary(res: SectionResult, seconds: float | None = None) -> dict:
          "statistics": res.statistics(), "inadmissible_reasons": {k: v for k, v in res.reason_counts().items() if v},
          "window_mm": {res.plane.u_name: [float(res.plane.u_values[0]) * 1e3, float(res.plane.u_values[-1]) * 1e3],
                        res.plane.v_name: [float(res.plane.v_values[0]) * 1e3, float(res.plane.v_values[-1]) * 1e3]},
-         "window_touches_admissible_region": res.touching_edges(), "warnings": []}
+         "window_touches_admissible_region": res.touching_edges(), "warnings": [],
+         "near_singular": {"points": int(res.near_singular.sum()),
+                           "kappa_above": res.settings.get("near_singular_kappa"),
+                           "fraction_of_threshold": NEAR_SINGULAR_FRACTION,
+                           "note": "admissible points near the singularity threshold (docs/theory/kinematics.md); "
+                                   "min/max are often set by them, the quantiles p1..p99 are not"}}
     w = res.clipping_warning()
     if w:
         d["warnings"].append(w)

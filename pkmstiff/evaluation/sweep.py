@@ -266,6 +266,13 @@ class Sweep:
         if not callable(self.evaluation):
             raise SweepError(f"evaluation: expected a function of the machine, found {self.evaluation!r}")
 
+    @property
+    def n_tasks(self) -> int:
+        """Number of tasks, without expanding them (a grid's product of value counts can be astronomical)."""
+        if self.mode == "grid":
+            return math.prod(len(p.values) for p in self.parameters)
+        return int(self.n_samples)
+
     def points(self) -> list[dict[str, Any]]:
         """Parameter values per task: [{path: value}]."""
         if self.mode == "grid":

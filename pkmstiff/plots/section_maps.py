@@ -284,8 +284,17 @@ def plot_reasons(res: SectionResult, path: str | Path, window_size: tuple[int, i
     fig, ax = _map_figure(res, window_size, 1.8)
     ax.pcolormesh(res.plane.u_values * MM, res.plane.v_values * MM, index, shading="nearest",
                   cmap=ListedColormap(colours), vmin=-0.5, vmax=len(present) - 0.5)
-    fig.legend(handles=[Patch(color=c, label=n) for c, n in zip(colours, names)], loc="outside right center",
-               fontsize=9, frameon=False)
+    handles = [Patch(color=c, label=n) for c, n in zip(colours, names)]
+    near = res.near_singular
+    if near.any():  # the singularity margin: admissible, but κ above a fraction of the threshold
+        from matplotlib.lines import Line2D
+
+        vv, uu = np.nonzero(near)
+        ax.scatter(res.plane.u_values[uu] * MM, res.plane.v_values[vv] * MM, s=9, marker="x", c="black",
+                   linewidths=0.8, zorder=3)
+        handles.append(Line2D([], [], ls="", marker="x", color="black",
+                              label=f"near-singular ({int(near.sum())}):\nkappa > {res.settings['near_singular_kappa']:.3g}"))
+    fig.legend(handles=handles, loc="outside right center", fontsize=9, frameon=False)
     ax.set_title("admissibility: first failing check per point", fontsize=10)
     fig.suptitle(_map_title(res), fontsize=9)
     return _save(fig, path)

@@ -7,6 +7,7 @@ Every evaluation goes through the request model (:mod:`pkmstiff.evaluation.reque
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 import re
 import time
 from pathlib import Path
@@ -16,6 +17,14 @@ import numpy as np
 
 from pkmstiff.admissibility.checks import checks_left_out, checks_without, left_out_text
 from pkmstiff.errors import SpecError
+from pkmstiff.evaluation.cost import (
+    FIGURE_3D_BYTES,
+    FIGURE_3D_LIBRARY_SECONDS,
+    FIGURE_3D_SECONDS,
+    PLOT_LIBRARY_SECONDS,
+    Cost,
+    total,
+)
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
 from pkmstiff.machine.frames import frame_origin, frame_text
@@ -184,9 +193,9 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
     vols: dict[str, list[float | None]] = {m: [] for m in ws.methods}
     for v, m in pairs:
         t0 = time.perf_counter()
-        ori = ws.orientation if ws.orientation is not None else v.orientation
-        res = WorkspaceRequest(ws.resolution, ws.box, ws.requirements, ori, ws.methods, frame=spec.frame,
-                               neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks).evaluate(m, **par)
+        req = _workspace_request(spec, v)
+        ori = req.orientation
+        res = req.evaluate(m, **par)
         for meth in ws.methods:
             vols[meth].append(res.volumes.get(meth))
         if res.octree.touches_box:
@@ -203,17 +212,48 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
     return figs
 
 
+def _workspace_request(spec: ReportSpec, v: Variant) -> WorkspaceRequest:
+    ws = spec.workspace
+    ori = ws.orientation if ws.orientation is not None else v.orientation
+    return WorkspaceRequest(ws.resolution, ws.box, ws.requirements, ori, ws.methods, frame=spec.frame,
+                            neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks)
+
+
+def _section_request(sec: SectionSpec, v: Variant, frame: str) -> SectionRequest:
+    return SectionRequest(sec.plane, sec.at, sec.u_range, sec.v_range, sec.step, sec.quantities,
+                          sec.orientation if sec.orientation is not None else v.orientation,
+                          sec.tool_length if sec.tool_length is not None else v.tool_length,
+                          frame=frame, neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks)
+
+
+def spec_cost(spec: ReportSpec, fast: bool = False) -> Cost:
+    """The :class:`~pkmstiff.evaluation.cost.Cost` of :func:`build_report` (one process, so the peaks do not add):
+    every variant's workspace (pilot octree, growth law) and sections (with their maps)."""
+    if fast:
+        spec = fast_spec(spec)
+    parts = []
+    for v in spec.variants:
+        m = _load_variant(v)
+        if spec.workspace is not None:
+            c = _workspace_request(spec, v).cost(m)
+            parts.append(c.plus(FIGURE_3D_SECONDS, FIGURE_3D_BYTES) if spec.workspace.figures else c)
+        for sec in spec.sections:
+            parts.append(_section_request(sec, v, spec.frame).cost(m, len(sec.quantities) if sec.maps else 0))
+    what = (f"{len(spec.variants)} variant(s), {len(spec.sections)} section(s)"
+            + (f", workspace at {spec.workspace.resolution * 1e3:g} mm" if spec.workspace is not None else ""))
+    libraries = (PLOT_LIBRARY_SECONDS if any(sec.maps for sec in spec.sections) else 0.0) + (
+        FIGURE_3D_LIBRARY_SECONDS if spec.workspace is not None and spec.workspace.figures else 0.0)
+    out = total(parts, what, "the spec's step_mm / resolution_mm").plus(libraries)
+    return replace(out, unit="octree evaluations and raster points")
+
+
 def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, par: dict[str, Any], out: Path,
              log: Callable[[str], None], frame: str = "machine") -> list[Figure]:
     """Evaluate one section for every variant, add its rows; the maps' figures (one colour scale per quantity)."""
     results = []
     for v, m in pairs:
         t0 = time.perf_counter()
-        req = SectionRequest(sec.plane, sec.at, sec.u_range, sec.v_range, sec.step, sec.quantities,
-                             sec.orientation if sec.orientation is not None else v.orientation,
-                             sec.tool_length if sec.tool_length is not None else v.tool_length,
-                             frame=frame, neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks)
-        res = req.evaluate(m, **par)
+        res = _section_request(sec, v, frame).evaluate(m, **par)
         res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
         if res.tool_length is None:
             res.tool_length = m.tool.length
@@ -284,12 +324,16 @@ def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) 
 
 
 def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
-             log: Callable[[str], None] | None = None, scheduler: Any = None) -> dict[str, Path]:
-    """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths."""
+             log: Callable[[str], None] | None = None, scheduler: Any = None,
+             check: Callable[[Cost], None] | None = None) -> dict[str, Path]:
+    """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths.
+    ``check`` receives the :func:`spec_cost` before any work (and may refuse it by raising)."""
     from pkmstiff.report.render import run_info, write_report
 
     t0 = time.perf_counter()
     spec = load_spec(path)
+    if check is not None:
+        check(spec_cost(spec, fast))
     report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log, scheduler=scheduler)
     info = run_info()
     info["run time"] = f"{time.perf_counter() - t0:.1f} s"

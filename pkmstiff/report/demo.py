@@ -11,7 +11,14 @@ import argparse
 import time
 from pathlib import Path
 
-from pkmstiff.evaluation.sections import evaluate_section, evaluate_three_planes, section_summary, three_planes
+from pkmstiff.evaluation.sections import (
+    evaluate_section,
+    evaluate_three_planes,
+    near_singular_line,
+    section_summary,
+    statistics_line,
+    three_planes,
+)
 from pkmstiff.machine.loader import load_machine
 from pkmstiff.report.outputs import write_section_outputs
 
@@ -63,7 +70,8 @@ def run(args: argparse.Namespace) -> int:
           f"admissible, "
           f"{seconds:.1f} s")
     for n, st in info["statistics"].items():
-        print(f"  {n:<4} [{st['unit']}]  min {st['min']:.4g}  mean {st['mean']:.4g}  max {st['max']:.4g}")
+        print(statistics_line(n, st))
+    print(near_singular_line(info))
     n_data = len(output_files()) - 2  # besides summary.md and summary.html (the list is checked by a test)
     print(f"  wrote {out / 'summary.md'}, {out / 'summary.html'} and {n_data} figure/data files")
     return 0
@@ -85,10 +93,16 @@ def _write_summary(out: Path, title: str, info: dict, images: list[Path], assump
                          f"0 mm, K_U neglected (platform and spindle rigid, Cobet 4.2.4); "
                          f"{info['admissible_points']} of {info['points']} raster points admissible "
                          f"({info['admissible_area_m2']:.3f} m²); run time {info['run_time_s']:.1f} s.")
-    table = Table("Statistics over the admissible points", ["min", "mean", "max", "admissible points"])
+    # led by the 5 % quantile, mean and 95 % quantile: min and max are set by the near-singular points at the
+    # workspace boundary (counted in the last column)
+    table = Table("Statistics over the admissible points",
+                  ["p5", "mean", "p95", "min", "p1", "max", "admissible points", "near-singular"])
     for n, st in info["statistics"].items():
-        table.add(n, st["unit"].replace("um", "µm"), [st["min"], st["mean"], st["max"], st["count"]])
-    sec = rep.section("Section maps", f"Inadmissible points by reason: {reasons}.")
+        table.add(n, st["unit"].replace("um", "µm"), [*(st[k] for k in ("p5", "mean", "p95", "min", "p1", "max")),
+                                                     st["count"], st["near_singular_points"]])
+    note = ("p5 / p95: 5 % and 95 % quantiles over the admissible points (the headline figures); min and max are set "
+            f"by the few points next to the singularity boundary. {near_singular_line(info).strip()}.")
+    sec = rep.section("Section maps", f"{note}\n\nInadmissible points by reason: {reasons}.")
     sec.tables.append(table)
     for p in images:
         key = p.stem.removeprefix("hexaglide_yz_").removeprefix("hexaglide_")

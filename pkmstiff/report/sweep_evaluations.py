@@ -21,6 +21,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from pkmstiff.errors import InadmissiblePoseError, SectionArgumentError
+from pkmstiff.evaluation.cost import POINT_SECONDS, Cost, rows_cost, total
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
 from pkmstiff.evaluation.sweep import SweepError
@@ -248,3 +249,13 @@ class Combined:
                 raise SweepError(f"Combined: output {clash[0]!r} is produced twice; give PointValues a suffix")
             out.update(d)
         return out
+
+
+def evaluation_cost(ev: Callable[[Machine], Mapping[str, Any]], machine: Machine) -> Cost:
+    """The :class:`~pkmstiff.evaluation.cost.Cost` of one sweep evaluation on ``machine``: a section or workspace by
+    its request's estimate, a point (or an evaluation of another kind) by the cost of one structure evaluation."""
+    if isinstance(ev, Combined):
+        return total((evaluation_cost(p, machine) for p in ev.parts), "combined evaluations")
+    if isinstance(ev, (SectionStatistics, WorkspaceVolume)):
+        return ev.request().cost(machine)
+    return rows_cost(1, 0.0, POINT_SECONDS, "a point", "points", "")

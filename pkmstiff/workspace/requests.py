@@ -4,13 +4,16 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
 
 from pkmstiff.admissibility.checks import checks_without
+from pkmstiff.evaluation.cost import STRUCTURE_GROUPS, Cost, octree_pilot_halvings, workspace_cost
 from pkmstiff.machine.frames import check_frame, frame_metadata, neglect_spindle, to_machine_frame
 from pkmstiff.machine.model import Machine
+from pkmstiff.workspace.requirements import parse_requirements
 from pkmstiff.workspace.rotation import RotationMapResult, rotation_angle_map
 from pkmstiff.workspace.translational import WorkspaceResult, constant_orientation_workspace
 
@@ -45,6 +48,28 @@ class WorkspaceRequest:
         res.frame = frame_metadata(machine, self.frame)
         res.settings["neglect_spindle"] = self.neglect_spindle
         return res
+
+    def cost(self, machine: Machine, orientations: int = 1, **options: Any) -> Cost:
+        """The :class:`~pkmstiff.evaluation.cost.Cost` of :meth:`evaluate` by the octree's growth law: evaluations
+        ×4 per halving of eps (the boundary area over eps²). Large runs are extrapolated from a pilot run at
+        ``eps·2^k`` of about :data:`~pkmstiff.evaluation.cost.OCTREE_PILOT_EVALUATIONS` evaluations (≤ 1/16 of the
+        run), which measures the machine's own boundary area; small ones use the reach box's surface.
+        ``orientations``: orientations checked per point (a range); ``options`` as for :meth:`evaluate`."""
+        from pkmstiff.evaluation.quantities import get_quantity
+        from pkmstiff.workspace.translational import reach_box
+
+        lo, hi = self.box if self.box is not None else reach_box(neglect_spindle(machine, self.neglect_spindle))
+        extent = np.asarray(hi, float) - np.asarray(lo, float)
+        structure = any(get_quantity(r.quantity).group in STRUCTURE_GROUPS
+                        for r in parse_requirements(self.requirements))
+        k = octree_pilot_halvings(extent, self.resolution, orientations)
+        pilot = None
+        if k:
+            eps_p = self.resolution * 2.0 ** k
+            options = {key: v for key, v in options.items() if key != "progress"}
+            res = replace(self, resolution=eps_p, methods=("surface_nets",)).evaluate(machine, **options)
+            pilot = (eps_p, res.octree.evaluations)
+        return workspace_cost(extent, self.resolution, orientations, structure, pilot)
 
 
 @dataclass(frozen=True)
