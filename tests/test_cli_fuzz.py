@@ -141,6 +141,13 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["sweep", SWEEP, "--out", "{existing_csv}"], 2, "--force"),
         (["sweep", SWEEP, "--out", "r.csv", "--jobs", "0"], 2, "--jobs"),
     ],
+    "optimise": [
+        (["optimise", "{nonutf8}", "--out", "opt"], 2, "UTF-8"),
+        (["optimise", "missing.toml", "--out", "opt"], 2, "missing.toml"),
+        (["optimise", "hexaglide_joint_orientation", "--out", "{file}"], 2, "--out"),
+        (["optimise", "hexaglide_joint_orientation", "--out", "opt", "--budget", "0"], 2, "--budget"),
+        (["optimise", "hexaglide_joint_orientation", "--out", "opt", "--jobs", "0"], 2, "--jobs"),
+    ],
     "fe-joint": [
         (["fe-joint", JOINT, "--out", "t.csv", "--n-phi", "100000"], 2, "--n-phi"),
         (["fe-joint", JOINT, "--out", "t.csv", "--mesh-size", "0.1"], 2, "--mesh-size"),

@@ -9,13 +9,14 @@ import sys
 def _cmd_optimise(args: argparse.Namespace) -> int:
     import importlib.util
 
-    from pkmstiff.cli.edges import check_jobs
+    from pkmstiff.cli.edges import check_jobs, check_output_dir
     from pkmstiff.errors import CliError
     from pkmstiff.optimise.engine import INSTALL_HINT
 
     if importlib.util.find_spec("pymoo") is None:
         raise CliError(INSTALL_HINT)
     check_jobs(args.jobs)
+    check_output_dir(args.out)  # a directory (or creatable); a run already there is the engine's --resume/--force
     for opt, v, lo in (("--budget", args.budget, 1), ("--seed", args.seed, 0)):
         if v is not None and v < lo:
             raise CliError(f"{opt}: expected a whole number >= {lo}, found {v}")
