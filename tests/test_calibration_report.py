@@ -54,8 +54,8 @@ plane = "XZ"
 points = 48
 """
 
-SECTIONS = ("Plan", "Identifiability", "Identified parameters", "Residuals before and after", "Cross-validation",
-            "Deflection contribution")
+SECTIONS = ("Plan", "Identifiability", "Identified parameters", "Residuals before and after", "Model-fit diagnostics",
+            "Cross-validation", "Deflection contribution")
 
 
 def _run(capsys, *argv):

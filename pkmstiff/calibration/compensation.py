@@ -8,7 +8,9 @@ parameters (ball offset, fixed ball, ...) belong to the measurement, not to the 
 
 Check (validation on any data): the readings are predicted as the machine under test moving to the drive values
 the *nominal* controller commanded for the measurement's poses (the controller that took the measurement), with
-the nominal instrument set-up of the measurement file.
+the nominal instrument set-up of the measurement file — or, with set-up blocks (``--with``), with the set-up
+parameters of that measurement fitted first (Gauss–Newton on the set-up columns only, the machine held fixed),
+since a set-up error belongs to each measurement and not to the machine.
 """
 
 from __future__ import annotations
@@ -20,10 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats
-from pkmstiff.calibration.instruments import readings
+from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats, setup_at
+from pkmstiff.calibration.instruments import readings, target_points
+from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.measurement import commanded_drives
-from pkmstiff.calibration.perturb import machine_file_text
+from pkmstiff.calibration.parameters import error_model
+from pkmstiff.calibration.perturb import machine_file_text, perturbed_state
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.calibration.uncertainty import Uncertainty
 from pkmstiff.errors import InadmissibleError, InputError, NumericalError
@@ -126,14 +130,51 @@ def moved_poses(real: Machine, drives: np.ndarray, start: np.ndarray, tol: float
     return fk.poses
 
 
+def _reached_frames(machine: Machine, controller: Machine, plan: Plan):
+    x = as_poses(plan.poses)
+    reached = moved_poses(machine, commanded_drives(controller, x), x)
+    return reached[:, :3], cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5]), \
+        cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
+
+
 def predicted_readings(machine: Machine, controller: Machine, plan: Plan) -> np.ndarray:
     """Readings (N, k) predicted by ``machine`` for the drive values ``controller`` commands for the plan's poses
     (nominal set-up of the plan)."""
-    x = as_poses(plan.poses)
-    reached = moved_poses(machine, commanded_drives(controller, x), x)
-    R = cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
-    Rc = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
-    return readings(plan.setup, plan.setup.state(), reached[:, :3], R, Rc)
+    o, R, Rc = _reached_frames(machine, controller, plan)
+    return readings(plan.setup, plan.setup.state(), o, R, Rc)
+
+
+#: Gauss–Newton iterations of :func:`fit_setup` (the set-up model is smooth; 3–5 suffice from the nominal set-up)
+SETUP_FIT_ITERATIONS = 20
+
+
+def fit_setup(machine: Machine, controller: Machine, plan: Plan, measured: np.ndarray,
+              blocks: tuple[str, ...]) -> tuple[np.ndarray, tuple[tuple[str, float, str], ...]]:
+    """Residuals (m, weighted rows as in the identification) of ``machine`` against ``measured`` with the set-up
+    ``blocks`` of the measurement fitted (the machine held fixed): Gauss–Newton min ‖W (y − y(s))‖ over the
+    set-up parameters s (minimum-norm steps, so set-up directions the readings do not see stay at zero).
+    Returns (residual, ((parameter name, value, unit), ...)) in SI."""
+    inst = plan.instrument
+    params = error_model(machine, setup=plan.setup, setup_blocks=blocks)
+    idx = np.flatnonzero(params.chain < 0)
+    o, R, Rc = _reached_frames(machine, controller, plan)
+    y = np.asarray(measured, dtype=float).reshape(-1)
+    N, k = plan.n_poses, inst.n_readings
+    w = reading_weights(machine, inst, N)
+    d = np.zeros(params.n)
+    scale = params.scale[idx]
+    for _ in range(SETUP_FIT_ITERATIONS):
+        st = perturbed_state(plan.setup, params, d)
+        r = w * (y - readings(plan.setup, st, o, R, Rc).reshape(-1))
+        J = np.zeros((N, k, params.n))
+        inst.setup_jacobian(J, params, setup_at(plan.setup, params, d), R, target_points(st, o, R))
+        A = w[:, None] * J.reshape(N * k, params.n)[:, idx] * scale[None, :]
+        step = np.linalg.lstsq(A, r, rcond=1e-10)[0]
+        d[idx] += scale * step
+        if np.max(np.abs(step)) < 1e-12:  # scaled unknowns (1 mm, 1 mrad): below 1 fm
+            break
+    r = w * (y - readings(plan.setup, perturbed_state(plan.setup, params, d), o, R, Rc).reshape(-1))
+    return r, tuple((params.names[i], float(d[i]), params.units[i]) for i in idx)
 
 
 @dataclass(frozen=True)
@@ -143,19 +184,29 @@ class Check:
     machine: str
     controller: str
     residual: np.ndarray
+    setup: tuple[tuple[str, float, str], ...] | None = None  # fitted set-up (name, value, unit), SI; None: nominal
 
     def to_dict(self) -> dict:
-        return {"machine": self.machine, "controller": self.controller, "n_readings": int(self.residual.size),
-                **residual_stats(self.residual)}
+        out = {"machine": self.machine, "controller": self.controller, "n_readings": int(self.residual.size),
+               **residual_stats(self.residual)}
+        if self.setup is not None:
+            out["setup_fitted"] = [{"name": nm, "value_mm" if u == "m" else "value_mrad": v * 1e3}
+                                   for nm, v, u in self.setup]
+        return out
 
 
-def check(machine: Machine, controller: Machine, plan: Plan, measured: np.ndarray) -> Check:
+def check(machine: Machine, controller: Machine, plan: Plan, measured: np.ndarray,
+          setup_blocks: tuple[str, ...] = ()) -> Check:
     """Residuals of ``machine`` against readings ``measured`` (N, k) taken with ``controller`` commanding
-    ``plan`` (validation of a calibrated machine on data not used for identification)."""
+    ``plan`` (validation of a calibrated machine on data not used for identification); ``setup_blocks``
+    (``--with``) are fitted to the measurement first (:func:`fit_setup`)."""
     y = np.asarray(measured, dtype=float).reshape(plan.n_poses, -1)
     if y.shape[1] != plan.setup.n_readings:
         raise InputError(plan.name, "readings", f"{plan.setup.n_readings} readings per pose",
                                     y.shape[1])
+    if setup_blocks:
+        r, fitted = fit_setup(machine, controller, plan, y, tuple(setup_blocks))
+        return Check(machine.name, controller.name, r, fitted)
     return Check(machine.name, controller.name, (y - predicted_readings(machine, controller, plan)).reshape(-1))
 
 

@@ -150,7 +150,11 @@ def _distinct(runs: list[Optimum], rtol: float = 1e-3, key: Callable[[np.ndarray
 def multistart(f, x0: np.ndarray, sample: Callable[[np.random.Generator], np.ndarray], starts: int, seed: int,
                **kw) -> tuple[list[Optimum], float]:
     """Run :func:`armijo_minimise` from ``x0`` and ``starts − 1`` seeded random starts (``sample(rng)``; starts
-    that ``kw['feasible']`` rejects are redrawn up to 20 times). Returns (runs, Ω(x0))."""
+    that ``kw['feasible']`` rejects are redrawn up to 20 times). Returns (runs, Ω(x0)).
+
+    The start is kept: the descent runs on Ω + μ b, so its end point may have a larger Ω than where it began; a run
+    that ends worse than its own start returns its start (0 iterations), so no run — and no best plan — is ever
+    worse than ``x0``."""
     rng = np.random.default_rng(seed)
     feasible = kw.get("feasible")
     f0 = f(x0)
@@ -165,7 +169,10 @@ def multistart(f, x0: np.ndarray, sample: Callable[[np.random.Generator], np.nda
             else:
                 continue
         x, v, it = armijo_minimise(f, xs, **kw)
-        runs.append(Optimum(x, float(v), float(f(xs)), it, j))
+        fs = float(f(xs))
+        if not v <= fs:  # worse than (or not comparable with) its start: keep the start
+            x, v, it = np.asarray(xs, dtype=float).copy(), fs, 0
+        runs.append(Optimum(x, float(v), fs, it, j))
     return runs, float(f0)
 
 

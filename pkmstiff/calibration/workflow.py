@@ -7,7 +7,8 @@ render.
   model, the identifiability of the measured poses (computed once and shared by every identification of that
   plan), the identification (:func:`~pkmstiff.calibration.identification.identify`) and its uncertainty
   (:func:`~pkmstiff.calibration.uncertainty.uncertainty`); with ``deflection="gravity"`` the predicted gravity
-  deflection is subtracted first and its contribution analysed (:mod:`pkmstiff.calibration.deflection`);
+  deflection is subtracted first and its contribution analysed (:mod:`pkmstiff.calibration.deflection`); the
+  model-fit diagnostics of the result (:func:`fit_diagnostics`, :mod:`pkmstiff.calibration.diagnostics`);
 * :func:`run_calibration` — that, for a ball-bar file, plus the calibrated machine, the ball-bar circles of the
   measurement evaluated before and after (:mod:`pkmstiff.calibration.circles`) and the residuals of the nominal and
   the calibrated machine on every validation file (:func:`~pkmstiff.calibration.compensation.check`).
@@ -15,8 +16,9 @@ render.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -29,15 +31,17 @@ from pkmstiff.calibration.deflection import (
     deflection_analysis,
     subtract_deflection,
 )
+from pkmstiff.calibration.diagnostics import Candidate, FitDiagnostics, diagnose
 from pkmstiff.calibration.identifiability import Identifiability, check_identifiable, identifiability
-from pkmstiff.calibration.identification import Identification, ResidualStats, identify
+from pkmstiff.calibration.identification import Identification, ResidualStats, identify, jacobian_at
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
+from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.measurement_file import Measurement, read_measurement
-from pkmstiff.calibration.parameters import ParameterSet, error_model
+from pkmstiff.calibration.parameters import ParameterSet, error_model, parse_with
 from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
 from pkmstiff.calibration.uncertainty import Uncertainty, uncertainty
-from pkmstiff.errors import InputError
+from pkmstiff.errors import InputError, NumericalError
 from pkmstiff.machine import Machine
 
 #: ``--deflection`` values of ``calibrate report`` ("none": the report says "not computed")
@@ -60,6 +64,7 @@ class IdentificationRun:
     res: Identification
     unc: Uncertainty
     deflection: DeflectionAnalysis | None = None
+    diagnostics: FitDiagnostics | None = None
 
     @property
     def before(self) -> ResidualStats:
@@ -81,16 +86,19 @@ class IdentificationRun:
 
 def identify_file(machine: Machine, measurements: str, *, meas: Measurement | None = None, method: str = "lm",
                   loss: str = "linear", frame: str = "cartesian", monte_carlo: int = 0, outlier_threshold: float = 3.0,
-                  expected: str | None = None, deflection: str = "none", load: Any | None = None) -> IdentificationRun:
+                  expected: str | None = None, deflection: str = "none", load: Any | None = None,
+                  with_: str | None = None) -> IdentificationRun:
     """Identify ``machine`` from the measurement file ``measurements`` (already read: ``meas``); ``expected``
     names the instrument the file must hold (``--instrument``); ``deflection="gravity"`` subtracts the predicted
-    deflection (with the extra ``load`` at the target, N or N and N m) and analyses its bias."""
+    deflection (with the extra ``load`` at the target, N or N and N m) and analyses its bias; ``with_`` (``--with``
+    tokens, e.g. ``"bar-offset"``) adds the set-up parameters of the measurement to the unknowns."""
     meas = read_measurement(measurements) if meas is None else meas
     if expected is not None and instrument(expected) != meas.instrument:
         raise InputError(measurements, "instrument", f"'{expected}' (--instrument), but the file holds "
                                     f"{meas.instrument} readings (header instrument_type)", meas.instrument.kind)
+    blocks = parse_with(with_, meas.instrument)
     plan, y = measurement_plan(meas, machine.name, measurements)
-    params = error_model(machine, frame=frame, setup=plan.setup)
+    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=blocks)
     ident = identifiability(machine, params, plan)
     check_identifiable(ident, measurements)  # an ill-posed measurement fails here, not after minutes of LM
     kw = dict(loss=loss, outlier_threshold=outlier_threshold, source=measurements, ident=ident)
@@ -100,8 +108,47 @@ def identify_file(machine: Machine, measurements: str, *, meas: Measurement | No
         res = analysis.corrected
     else:
         res = identify(machine, params, plan, y, method, **kw)
-    return IdentificationRun(measurements, meas, plan, y, params, ident, res, uncertainty(res, monte_carlo=monte_carlo),
-                             analysis)
+    unc = uncertainty(res, monte_carlo=monte_carlo)
+    refit = None
+    if analysis is None:
+        def refit(a: int, b: int) -> np.ndarray | None:
+            yr = y.copy()
+            yr[a:b] = y[a:b][::-1]
+            try:
+                return identify(machine, params, plan, yr, method, **kw).residual_after
+            except NumericalError:  # diverged or not evaluable: the hypothesis does not fit
+                return None
+    diag = fit_diagnostics(machine, meas, plan, params, res, unc, refit)
+    return IdentificationRun(measurements, meas, plan, y, params, ident, res, unc, analysis, diag)
+
+
+def fit_diagnostics(machine: Machine, meas: Measurement, plan: Plan, params: ParameterSet, res: Identification,
+                    unc: Uncertainty, refit_reversed: Callable[[int, int], np.ndarray | None] | None = None
+                    ) -> FitDiagnostics:
+    """:func:`~pkmstiff.calibration.diagnostics.diagnose` of an identification: the stated σ of the measurement's
+    device, its sample times and directions, and every set-up parameter of the instrument not identified as an
+    added-variable candidate (its Jacobian columns at the solution)."""
+    inst = plan.instrument
+    done = {params.blocks[i] for i in np.flatnonzero(params.chain < 0)}
+    todo = {tok: blk for tok, blk in inst.setup_tokens.items() if blk not in done}
+    cands = []
+    if todo:
+        full = error_model(machine, frame=params.frame, setup=plan.setup,
+                           setup_blocks=tuple(sorted(done)) + tuple(todo.values()))
+        d = np.zeros(full.n)
+        d[full.indices(params.names)] = res.delta
+        w = reading_weights(machine, inst, plan.n_poses)
+        J = w[:, None] * jacobian_at(machine, full, plan, d)
+        for tok, blk in todo.items():
+            idx = np.flatnonzero(full.mask(blk))
+            cands.append(Candidate(f"setup:{tok}", f"set-up parameter {tok} not identified", J[:, idx],
+                                   tuple(full.names[i] for i in idx), tuple(full.units[i] for i in idx),
+                                   f"identify with --with {tok}"))
+    direction = getattr(meas, "direction", None)
+    return diagnose(res.J, res.residual_after, inst.reading_sigma(meas),
+                    reading_weights(machine, inst, 1), unc.sigma, reading_names=inst.reading_names,
+                    reading_units=inst.reading_units, t=np.asarray(meas.t, dtype=float), direction=direction,
+                    candidates=tuple(cands), refit_reversed=refit_reversed)
 
 
 @dataclass
@@ -138,6 +185,7 @@ class CalibrationRun:
     plan_file: Plan | None = None
     plan_path: str | None = None
     frame: str = "cartesian"
+    with_: str | None = None
 
     # the parts of the identification the report shows
     @property
@@ -196,12 +244,15 @@ def _circles(meas: BallbarMeasurement, plan: Plan, before: np.ndarray, after: np
 
 def run_calibration(machine: Machine, measurements: str, *, plan_path: str | None = None,
                     validate: Sequence[str] = (), method: str = "lm", loss: str = "linear",
-                    frame: str = "cartesian", monte_carlo: int = 0, deflection: str = "none") -> CalibrationRun:
+                    frame: str = "cartesian", monte_carlo: int = 0, deflection: str = "none",
+                    with_: str | None = None) -> CalibrationRun:
     """Identify ``machine``'s base parameters from the ball-bar file ``measurements`` and check the result on every
     ``validate`` file (module docstring). ``plan_path`` (a plan file) is only described and drawn; the
     identification uses the commanded poses of the measurement. ``deflection="gravity"`` does what
     ``calibrate identify/check --deflection gravity`` do: the predicted gravity deflection is subtracted from the
-    readings before identification and validation, and the bias without it is recorded."""
+    readings before identification and validation, and the bias without it is recorded. ``with_`` (``--with``)
+    identifies the set-up parameters with the machine and fits them anew on every validation file (a set-up
+    error belongs to its measurement)."""
     plan_file = read_plan(plan_path) if plan_path else None
     if plan_file is not None and plan_file.instrument != BALL_BAR:
         raise InputError(plan_path, "plan.instrument", "a ball-bar plan (the measurement is a ball-bar "
@@ -212,7 +263,8 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
         vm = _ballbar_file(v)
         vals.append((v, vm, *measurement_plan(vm, machine.name, v)))
     run = identify_file(machine, measurements, meas=meas, method=method, loss=loss, frame=frame,
-                        monte_carlo=monte_carlo, deflection=deflection)
+                        monte_carlo=monte_carlo, deflection=deflection, with_=with_)
+    blocks = parse_with(with_, meas.instrument)
     calibrated = run.calibrated_machine(machine)
     found = _circles(meas, run.plan, run.res.residual_before, run.res.residual_after, measurements)
     validations = []
@@ -221,12 +273,12 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
         if deflection == "gravity":  # each machine's own deflection at the poses it reaches
             y0, _ = subtract_deflection(machine, machine, vplan, vy)
             y1, _ = subtract_deflection(calibrated, machine, vplan, vy)
-        r0 = check(machine, machine, vplan, y0).residual
-        r1 = check(calibrated, machine, vplan, y1).residual
+        r0 = check(machine, machine, vplan, y0, blocks).residual
+        r1 = check(calibrated, machine, vplan, y1, blocks).residual
         validations.append(Validation(v, r0, r1, _circles(vm, vplan, r0, r1, v)))
     return CalibrationRun(machine=machine, run=run, calibrated=calibrated, circles=found, validations=validations,
-                          plan_file=plan_file, plan_path=plan_path, frame=frame)
+                          plan_file=plan_file, plan_path=plan_path, frame=frame, with_=with_)
 
 
-__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "identify_file",
+__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "fit_diagnostics", "identify_file",
            "run_calibration"]

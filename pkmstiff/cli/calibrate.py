@@ -72,6 +72,13 @@ def _print_identifiability(rep: dict) -> None:
     print(f"base parameters ({len(rep['base_parameters'])}): " + ", ".join(rep["base_parameters"]))
 
 
+def add_with_option(p: argparse.ArgumentParser, what: str = "include") -> None:
+    """The ``--with LIST`` option (set-up and instrument parameters) of identifiability, identify, check, report."""
+    p.add_argument("--with", dest="with_", metavar="LIST",
+                   help=f"set-up parameters to {what}: ball-offset,fixed-ball,bar-offset (ball bar), "
+                        "target-offset,instrument-frame (tracker, pose)")
+
+
 def _cmd_identifiability(args: argparse.Namespace) -> int:
     rep = identifiability_report(args.machine, args.instrument, args.plan, args.with_, args.frame)
     if args.json:
@@ -91,9 +98,7 @@ def _add_identifiability(sub) -> None:
     p.add_argument("machine", help="bundled machine name or machine file")
     p.add_argument("--instrument", required=True, choices=kinds())
     p.add_argument("--plan", help="plan file (TOML); default: the instrument's default plan")
-    p.add_argument("--with", dest="with_", metavar="LIST",
-                   help="set-up parameters to include: ball-offset,fixed-ball,bar-offset (ball bar), "
-                        "target-offset,instrument-frame (tracker, pose)")
+    add_with_option(p)
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian",
                    help="frame of the joint-position parameters (default cartesian)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")

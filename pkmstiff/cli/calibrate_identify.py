@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 
 import numpy as np
 
@@ -16,8 +17,10 @@ from pkmstiff.cli.edges import check_number, check_output_file
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
                     out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
                     outlier_threshold: float = 3.0, instrument: str | None = None, deflection: str = "none",
-                    load: str | None = None) -> dict:
+                    load: str | None = None, with_: str | None = None, accept_misfit: bool = False) -> dict:
     """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict.
+    The model-fit diagnostics are under ``diagnostics``; when the fit is inconsistent the calibrated machine is
+    written only with ``accept_misfit``.
     ``deflection="gravity"``: the predicted deflection is subtracted from the readings and the bias an
     identification without it would have is reported (key ``deflection``, :mod:`pkmstiff.calibration.deflection`)."""
     from pkmstiff.calibration.compensation import write_calibrated_machine
@@ -31,14 +34,16 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     wrench = parse_load(load)
     machine = load_machine(machine_name)
     run = identify_file(machine, measurements, method=method, loss=loss, frame=frame, monte_carlo=monte_carlo,
-                        outlier_threshold=outlier_threshold, expected=instrument, deflection=deflection, load=wrench)
+                        outlier_threshold=outlier_threshold, expected=instrument, deflection=deflection, load=wrench,
+                        with_=with_)
     res, unc, defl = run.res, run.unc, run.deflection
     rep = res.to_dict()
     if defl is not None:
         rep["deflection"] = defl.report()
     rep["measurement_file"] = measurements
     rep["uncertainty"] = unc.to_dict()
-    if out:
+    rep["diagnostics"] = run.diagnostics.to_dict()
+    if out and (run.diagnostics.consistent or accept_misfit):
         subtracted = "none" if defl is None else "gravity" + ("" if load is None else f" + load {load} (N, N m)")
         write_calibrated_machine(out, res, unc, measurements, deflection=subtracted)
         rep["calibrated_machine_file"] = out
@@ -92,8 +97,20 @@ def _print_identify(rep: dict) -> None:
         print(f"outliers (|r| > threshold x s): {len(rep['outliers'])}, first at pose {rep['outliers'][0]['pose']}")
     if "deflection" in rep:
         _print_deflection(rep["deflection"])
+    _print_diagnostics(rep["diagnostics"])
     if "calibrated_machine_file" in rep:
         print(f"calibrated machine written to {rep['calibrated_machine_file']}")
+
+
+def _print_diagnostics(d: dict) -> None:
+    """One line (every test is in --json and the report), then one line per failed test."""
+    chi = next(f for f in d["findings"] if f["key"] == "chi2")
+    failed = [f for f in d["findings"] if f["failed"]]
+    print(f"model fit: {'consistent' if d['consistent'] else 'INCONSISTENT'}, chi2/dof {chi['statistic']:.4g} "
+          f"(limit {chi['threshold']:.4g}); {len(d['findings'])} tests at false-alarm probability {d['alpha']:g}, "
+          f"{len(failed)} failed")
+    for f in failed:
+        print(f"  FAIL {f['title']}: {f['statistic']:.4g} (limit {f['threshold']:.4g})")
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
@@ -101,21 +118,35 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     check_number(args.monte_carlo, "--monte-carlo", 0, 100000, unit="runs")
     check_number(args.outlier_threshold, "--outlier-threshold", 0, lo_open=True)
     rep = identify_report(args.machine, args.measurements, args.method, args.loss, args.out, args.monte_carlo,
-                          args.frame, args.outlier_threshold, args.instrument, args.deflection, args.load)
+                          args.frame, args.outlier_threshold, args.instrument, args.deflection, args.load,
+                          args.with_, args.accept_misfit)
     if args.json:
         print(json.dumps(rep, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o)))
     else:
         _print_identify(rep)
+    if not rep["diagnostics"]["consistent"]:
+        msg = rep["diagnostics"]["summary"]
+        if not args.accept_misfit:
+            print(f"error: {msg} (nothing written; --accept-misfit to accept the result)", file=sys.stderr)
+            return MISFIT_EXIT
+        print(f"warning (accepted): {msg}", file=sys.stderr)
     return 0
 
 
+#: exit status of ``calibrate identify`` when the model does not fit the measurement (2: bad input, 3:
+#: inadmissible/unreachable; 4: the readings are inconsistent with the model and the instrument's stated accuracy)
+MISFIT_EXIT = 4
+
+
 def check_report(machine_name: str, measurements: str, controller: str | None = None, deflection: str = "none",
-                 load: str | None = None) -> dict:
+                 load: str | None = None, with_: str | None = None) -> dict:
     """Residuals of a machine file against a measurement (JSON-ready dict, µm); ``deflection="gravity"``
-    subtracts the deflection of the machine under test at the poses it reaches from the readings first."""
+    subtracts the deflection of the machine under test at the poses it reaches from the readings first;
+    ``with_`` (``--with`` tokens) fits those set-up parameters of the measurement first."""
     from pkmstiff.calibration.compensation import check, measurement_plan
     from pkmstiff.calibration.deflection import check_deflection, subtract_deflection
     from pkmstiff.calibration.measurement_file import read_measurement
+    from pkmstiff.calibration.parameters import parse_with
     from pkmstiff.errors import InputError
     from pkmstiff.machine import load_machine
 
@@ -124,20 +155,21 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
     wrench = parse_load(load)
     machine = load_machine(machine_name)
     meas = read_measurement(measurements)
+    blocks = parse_with(with_, meas.instrument)
     ctrl_name = controller or machine.calibration.get("nominal_machine") or meas.machine or machine_name
     ctrl = load_machine(ctrl_name)
     plan, y = measurement_plan(meas, ctrl.name, measurements)
     if deflection == "gravity":
         yc, dr = subtract_deflection(machine, ctrl, plan, y, wrench)
-        rep = check(machine, ctrl, plan, yc).to_dict()
+        rep = check(machine, ctrl, plan, yc, blocks).to_dict()
         rep["deflection"] = {"model": deflection, "rms_reading_um": float(np.sqrt(np.mean(dr ** 2))) * 1e6,
                              "max_reading_um": float(np.max(np.abs(dr))) * 1e6}
         return {"measurement_file": measurements, **rep}
-    return {"measurement_file": measurements, **check(machine, ctrl, plan, y).to_dict()}
+    return {"measurement_file": measurements, **check(machine, ctrl, plan, y, blocks).to_dict()}
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
-    rep = check_report(args.machine, args.measurements, args.controller, args.deflection, args.load)
+    rep = check_report(args.machine, args.measurements, args.controller, args.deflection, args.load, args.with_)
     if args.json:
         print(json.dumps(rep, indent=2))
     else:
@@ -146,12 +178,17 @@ def _cmd_check(args: argparse.Namespace) -> int:
               f"mean {rep['mean_um']:.4g} µm"
               + (f" (gravity deflection subtracted: RMS {rep['deflection']['rms_reading_um']:.4g} µm)"
                  if "deflection" in rep else ""))
+        if "setup_fitted" in rep:
+            print("set-up fitted to the measurement: " + ", ".join(
+                f"{r['name']} {r['value_mm']:+.6f} mm" if "value_mm" in r else f"{r['name']} {r['value_mrad']:+.6f} mrad"
+                for r in rep["setup_fitted"]))
     return 0
 
 
 def _add_identify(sub) -> None:
     from pkmstiff.calibration.identification import LOSSES, METHODS
     from pkmstiff.calibration.instruments import kinds
+    from pkmstiff.cli.calibrate import add_with_option
 
     p = sub.add_parser("identify", help="identify the base parameters from a measurement",
                        description="Identify the machine's base error parameters from a ball-bar, laser-tracker or "
@@ -177,11 +214,17 @@ def _add_identify(sub) -> None:
                    help="with --deflection gravity: an extra load at the ball / target in N (and N m)")
     p.add_argument("--outlier-threshold", type=float, default=3.0, metavar="K",
                    help="report readings with |residual| > K s (default 3)")
+    add_with_option(p, "identify with the machine (they belong to the measurement and are not written into the "
+                       "calibrated machine)")
+    p.add_argument("--accept-misfit", action="store_true",
+                   help="write the calibrated machine and exit 0 although the model-fit diagnostics fail (without "
+                        "it such a fit exits with status 4 and writes nothing)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_cmd_identify)
 
 
 def _add_check(sub) -> None:
+    from pkmstiff.cli.calibrate import add_with_option
 
     p = sub.add_parser("check", help="residuals of a machine file against a measurement",
                        description="Residuals of any machine file against a measurement: the readings it predicts "
@@ -195,6 +238,7 @@ def _add_check(sub) -> None:
                         "model) from the readings (default none)")
     p.add_argument("--load", metavar="FX,FY,FZ[,MX,MY,MZ]",
                    help="with --deflection gravity: an extra load at the ball / target in N (and N m)")
+    add_with_option(p, "fit to the measurement before the residuals are computed (the machine held fixed)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_check)
 

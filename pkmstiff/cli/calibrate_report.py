@@ -30,13 +30,14 @@ def report_command(args: argparse.Namespace) -> dict:
         require_structure_model(machine)
     run = run_calibration(machine, args.measurements, plan_path=args.plan, validate=args.validate or (),
                           method=args.method, loss=args.loss, frame=args.frame, monte_carlo=args.monte_carlo,
-                          deflection=args.deflection)
+                          deflection=args.deflection, with_=args.with_)
     paths = write_calibration_report(run, args.out)
     return {"machine": machine.name, "measurement_file": args.measurements, "n_readings": run.res.n_readings,
             "rank": run.res.rank, "n_parameters": run.params.n, "rms_before_um": run.run.before.rms * 1e6,
             "rms_after_um": run.run.after.rms * 1e6, "circles": len(run.circles),
             "validation": [{"file": v.path, "rms_nominal_um": v.before_stats.rms * 1e6,
                             "rms_calibrated_um": v.after_stats.rms * 1e6} for v in run.validations],
+            "diagnostics": run.run.diagnostics.to_dict(),
             "html": str(paths["html"]), "md": str(paths["md"]), "figures": len(paths["figures"])}
 
 
@@ -52,12 +53,14 @@ def _cmd_report(args: argparse.Namespace) -> int:
           f"{'' if rep['circles'] == 1 else 's'} evaluated)")
     for v in rep["validation"]:
         print(f"  validation {Path(v['file']).name}: RMS {v['rms_nominal_um']:.4g} -> {v['rms_calibrated_um']:.4g} µm")
+    print(f"model fit: {rep['diagnostics']['summary']}")
     print(f"wrote {rep['html']} and {rep['md']} ({rep['figures']} figures)")
     return 0
 
 
 def _add_report(sub) -> None:
     from pkmstiff.calibration.identification import LOSSES, METHODS
+    from pkmstiff.cli.calibrate import add_with_option
 
     p = sub.add_parser("report", help="calibration report (HTML + Markdown): plan, identifiability, parameters, "
                                       "residuals, cross-validation",
@@ -82,6 +85,7 @@ def _add_report(sub) -> None:
                         "identification and validation (as calibrate identify/check --deflection gravity) and report "
                         "its contribution and the bias it would cause (needs a machine with stiffness data); "
                         "default none: not computed")
+    add_with_option(p, "identify with the machine (and fit anew on every validation file)")
     p.add_argument("--force", action="store_true", help="overwrite an existing report in --out")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_cmd_report)

@@ -18,6 +18,7 @@ import numpy as np
 from pkmstiff.calibration.circles import PLANE_TOL, CircleRun
 from pkmstiff.calibration.compensation import file_sha256
 from pkmstiff.calibration.deflection import DeflectionSummary
+from pkmstiff.calibration.diagnostics import ALPHA
 from pkmstiff.calibration.identification import ResidualStats
 from pkmstiff.calibration.workflow import CalibrationRun
 from pkmstiff.io.atomic import atomic_path
@@ -230,6 +231,29 @@ def _residual_section(report: Report, run: CalibrationRun, fig_dir: Path) -> Non
         _polar_pair(sec, c, fig_dir, f"circle{k}", "identification measurement")
 
 
+def _diagnostics_section(report: Report, run: CalibrationRun) -> None:
+    """Every model-fit diagnostic (:class:`~pkmstiff.calibration.diagnostics.FitDiagnostics`) and the outliers."""
+    d = run.run.diagnostics
+    sec = report.section("Model-fit diagnostics")
+    sigma = ", ".join(f"{v * 1e6:.4g} {'µm' if u == 'm' else 'µrad'}" for v, u in zip(d.sigma, d.reading_units))
+    sec.text = (f"Does the model explain the readings? Each test below has a false-alarm probability of "
+                f"{ALPHA:g} when the model and the instrument's stated noise (σ = {sigma}: its accuracy read as a "
+                "2σ bound) are right (pkmstiff.calibration.diagnostics). Statistics: χ²/dof (χ² test), χ² of the "
+                "added column (drift, set-up, CW/CCW), variance ratio F (runs), robust z (outliers). Result: "
+                + d.summary() + ".")
+    t = Table("Diagnostics", ["statistic", "limit", "failed (1 = yes)"], digits=4)
+    for f in d.findings:
+        t.add(f.title, "–", [f.statistic, f.threshold, float(f.failed)])
+    sec.tables.append(t)
+    if d.outliers:
+        o = Table("Outliers", ["t (s)", "residual", "robust z"], digits=4)
+        for row in d.outliers:
+            key = "residual_um" if "residual_um" in row else "residual_urad"
+            o.add(f"sample {row['sample']} ({row['reading']})", "µm" if key == "residual_um" else "µrad",
+                  [row["t_s"], row[key], row["robust_z"]])
+        sec.tables.append(o)
+
+
 def _validation_section(report: Report, run: CalibrationRun, fig_dir: Path) -> None:
     sec = report.section("Cross-validation")
     if not run.validations:
@@ -276,11 +300,13 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path) -> Report:
         if sel.size:
             parts.append(f"{_fmt(float(sel.min()) * f)} … {_fmt(float(sel.max()) * f)} {name}")
     summary.append("σ of the identified parameters: " + ", ".join(parts) + ".")
+    summary.append("Model fit: " + run.run.diagnostics.summary() + ".")
     rep.summary = "\n\n".join(summary)
     _plan_section(rep, run, fig_dir)
     _identifiability_section(rep, run)
     _parameters_section(rep, run, fig_dir)
     _residual_section(rep, run, fig_dir)
+    _diagnostics_section(rep, run)
     _validation_section(rep, run, fig_dir)
     deflection = run.deflection
     deflection_section(rep, deflection)
@@ -296,7 +322,7 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path) -> Report:
     rep.settings = {"machine": run.machine.name, "measurements": str(run.measurements),
                     "measurement sha256": file_sha256(run.measurements), "plan": run.plan_path or "(none)",
                     "validate": [str(v.path) for v in run.validations], "method": res.method, "loss": res.loss,
-                    "frame": run.frame, "deflection": "(not computed)" if deflection is None else "computed"}
+                    "frame": run.frame, "with": run.with_ or "(none)", "deflection": "(not computed)" if deflection is None else "computed"}
     return rep
 
 

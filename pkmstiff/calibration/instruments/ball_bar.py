@@ -299,6 +299,9 @@ class BallBar(Instrument):
                       measuring_range=max(abs(meas.range[0]), abs(meas.range[1])))
         return setup, (np.asarray(meas.reading, dtype=float) + meas.bar_length)[:, None]
 
+    def reading_sigma(self, meas: BallbarMeasurement) -> np.ndarray:
+        return np.array([meas.accuracy / 2.0])
+
     def range_violations(self, meas: BallbarMeasurement) -> np.ndarray:
         lo, hi = meas.range
         return np.flatnonzero((meas.reading < lo) | (meas.reading > hi))

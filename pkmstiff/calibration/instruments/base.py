@@ -159,6 +159,12 @@ class Instrument:
         """Nominal set-up and readings (N, k) (SI, :attr:`reading_names` order) of a measurement."""
         raise NotImplementedError
 
+    def reading_sigma(self, meas: Any) -> np.ndarray:
+        """The noise σ (k,) (SI) the device of ``meas`` states for each reading: its accuracy read as a 2σ bound
+        (k = 2), as the simulation's ``instrument`` noise model (model-fit diagnostics,
+        :mod:`pkmstiff.calibration.diagnostics`)."""
+        raise NotImplementedError
+
     def range_violations(self, meas: Any) -> np.ndarray:
         """Indices of the samples whose reading lies outside the device's range."""
         raise NotImplementedError

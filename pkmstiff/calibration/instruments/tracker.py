@@ -237,6 +237,11 @@ class Tracker(Instrument):
     def measured(self, meas: PointMeasurement) -> tuple[Setup, np.ndarray]:
         return Setup(self, target=np.asarray(meas.target, dtype=float)), np.asarray(meas.readings, dtype=float)
 
+    def reading_sigma(self, meas: PointMeasurement) -> np.ndarray:
+        """Position: MPE at the standoff / 2; orientation (pose): angle MPE / 2 (as :class:`TrackerDevice`)."""
+        pos = (meas.accuracy + meas.accuracy_per_m * meas.standoff) / 2.0
+        return np.array([pos if u == "m" else meas.angle_accuracy / 2.0 for u in self.reading_units])
+
     def range_violations(self, meas: PointMeasurement) -> np.ndarray:
         return np.flatnonzero(np.linalg.norm(meas.position, axis=1) > meas.volume_radius)
 
