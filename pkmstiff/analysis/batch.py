@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike
 import pkmstiff.multibody as sde
 from pkmstiff.admissibility.pipeline import PoseEvaluation
 from pkmstiff.analysis._common import Array, load_body
+from pkmstiff.errors import NumericalError
 from pkmstiff.kinematics import as_poses
 from pkmstiff.machine.model import Machine
 from pkmstiff.multibody.assembly import stiffness_matrix
@@ -79,10 +80,10 @@ def _evaluate_chunk(st: PKMStructure, tool_length: float | ArrayLike | None, n_m
             return st, np.zeros((0, 6, 6)), np.zeros((0, n_modes))
         try:
             return (st, *_chunk_results(st, tool_length, n_modes))
-        except sde.NumericalError:
+        except NumericalError:
             model = st.dynamic_model if st.massless_spindle else st.model
             st = st.without(_not_pd(np.ascontiguousarray(stiffness_matrix(model))), NOT_POSITIVE_DEFINITE)
-    raise sde.NumericalError("stiffness matrix still singular after removing the non-positive-definite poses")
+    raise NumericalError("stiffness matrix still singular after removing the non-positive-definite poses")
 
 
 def _chunk_results(st: PKMStructure, tool_length: float | ArrayLike | None, n_modes: int) -> tuple[Array, Array]:
