@@ -134,15 +134,19 @@ def _is_count(token: str) -> bool:
     return digits.isdigit() and len(digits) <= 3
 
 
+def _last_digit_unit(token: str) -> float:
+    """One unit in the last printed digit of a number as printed ("0.25" -> 0.01, "1.2e+04" -> 1e3, "42" -> 1)."""
+    mantissa, _, exponent = token.lstrip("+-").lower().partition("e")
+    decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+    return 10.0 ** (int(exponent or 0) - decimals)
+
+
 def _numbers_agree(expected: str, actual: str) -> bool:
     if _is_count(expected) or _is_count(actual):
         return expected.lstrip("+") == actual.lstrip("+")
     e, a = float(expected), float(actual)
-    mantissa = expected.lstrip("+-").split("e")[0].split("E")[0]
-    last_digit = 10.0 ** -len(mantissa.split(".")[1]) if "." in mantissa else 1.0
-    exponent = 10.0 ** int(expected.lower().split("e")[1]) if "e" in expected.lower() else 1.0
     # one unit in the last printed digit as the absolute floor: values printed near zero with fixed decimals
-    return abs(e - a) <= max(_RTOL * max(abs(e), abs(a)), last_digit * exponent)
+    return abs(e - a) <= max(_RTOL * max(abs(e), abs(a)), _last_digit_unit(expected))
 
 
 #: counts set by an iterative solver's stopping test (scipy's least_squares stops when the cost changes by less than
@@ -317,10 +321,7 @@ def _same_printed_line(expected: str, actual: str) -> bool:
     if re.sub(r"\s+", "", _COMMENT_NUMBER.sub("#", expected)) != re.sub(r"\s+", "", _COMMENT_NUMBER.sub("#", actual)):
         return False
     for e, a in zip(exp_nums, act_nums):
-        mantissa = re.split(r"[eE]", e)[0]
-        digits = len(mantissa.split(".")[1]) if "." in mantissa else 0
-        exponent = int(re.split(r"[eE]", e)[1]) if re.search(r"[eE]", e) else 0
-        if abs(float(a) - float(e)) > 1.01 * 10.0 ** (exponent - digits):
+        if abs(float(a) - float(e)) > 1.01 * _last_digit_unit(e):
             return False
     return len(exp_nums) == len(act_nums)
 
