@@ -1,4 +1,6 @@
-import time, pkmstiff
-t=time.perf_counter()
-res = pkmstiff.optimise("hexaglide_joint_orientation", out="/tmp/opt1", budget=24, force=True)
-print(time.perf_counter()-t, res.meta["references"], res.meta["outputs"])
+import time, sys, pkmstiff
+for name in sys.argv[1:]:
+    t=time.perf_counter()
+    res = pkmstiff.optimise(name, out=f"/tmp/opt_{name}", force=True)
+    print(name, round(time.perf_counter()-t,1), len(res.front), [(c.values, c.outputs) for c in res.front][:6])
+    print(res.meta["references"])

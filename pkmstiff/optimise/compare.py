@@ -112,13 +112,18 @@ def _front_axes(ax: Any, res: OptimisationResult, compared: list[Compared], a: i
     front = sorted(res.front, key=lambda c: _value(c, la))
     ax.plot([_value(c, la) for c in front], [_value(c, lb) for c in front], "o-", ms=5, lw=1.5, color="C0",
             label=f"Pareto front ({len(front)} designs)")
+    cats = [i for i, v in enumerate(design.variables) if v.kind == "categorical"]
+    if cats and len(front) <= 8:  # name the catalogue choices of each front design
+        for c in front:
+            ax.annotate(", ".join(str(c.values[i]) for i in cats), (_value(c, la), _value(c, lb)),
+                        textcoords="offset points", xytext=(6, -12), fontsize=_SMALL, color="C0")
     k = 0
     for c in compared:
         x, y = _value(c, la), _value(c, lb)
         if c.kind == "optimised" or not (math.isfinite(x) and math.isfinite(y)):
             continue
         if c.kind == "base":
-            ax.plot(x, y, "*", ms=16, color="k", label=f"base design ({c.name})", zorder=5)
+            ax.plot(x, y, "*", ms=16, color="k", label="base design", zorder=5)
         else:
             ax.plot(x, y, _MARKERS[k % len(_MARKERS)], ms=10, color=f"C{(k + 1) % 10}", mec="k",
                     label=f"reference: {c.name}", zorder=5)
