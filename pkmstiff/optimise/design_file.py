@@ -366,6 +366,20 @@ def load_design(path: str | Path) -> Design:
     return design
 
 
+def _largest_possible(m: Any) -> float | None:
+    """The largest value a measure can take whatever the design (None where unbounded): the admissible area of a
+    section is at most its whole raster, the admissible fraction of a task box 1."""
+    if isinstance(m, TaskBoxMeasure):
+        return 1.0
+    if isinstance(m, SectionMeasure) and m.statistic == "area":
+        from pkmstiff.evaluation.sections import axis_plane
+
+        q = m.request
+        plane = axis_plane(q.plane, q.at, q.u_range, q.v_range, q.step)
+        return float(plane.u_values.size * plane.v_values.size) * plane.cell_area
+    return None
+
+
 def check_design(design: Design, reader: _Reader | None = None) -> None:
     """Try every variable on the base machine (bounds, every categorical value) and every quantity name, before
     any evaluation; raise :class:`DesignFileError` naming the variable's line."""
@@ -400,6 +414,11 @@ def check_design(design: Design, reader: _Reader | None = None) -> None:
             machine_with(ref.machine)
         except Exception as exc:  # noqa: BLE001 - an unknown option or bundled name, or an invalid machine file
             raise r.error("reference", i, ref.key, "a machine that loads", str(exc)) from None
+    for i, c in enumerate(design.constraints):
+        most = _largest_possible(c.measure)
+        if most is not None and c.lower is not None and c.lower > most * (1 + 1e-9):
+            raise r.error("constraints", i, "min", f"a bound some design can meet (infeasible everywhere: "
+                          f"{c.measure.name} is at most {most:.6g} {c.measure.unit})", c.lower)
     for array, items in (("objectives", design.objectives), ("constraints", design.constraints)):
         for i, it in enumerate(items):
             q = getattr(it.measure, "quantity", None) or next(iter(getattr(getattr(it.measure, "evaluation", None),
