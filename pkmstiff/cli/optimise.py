@@ -36,8 +36,9 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
                      for o in design.objectives)
     front = f"front of {len(res.front)} design(s); first: " if len(design.objectives) > 1 else "best: "
     print(f"pkmstiff optimise: {len(res.history)} evaluations ({res.evaluated} run, {res.cached} cached: repeated "
-          f"or read from the checkpoint), {res.wall_time_s:.1f} s; {front}{text}; wrote {res.meta['outputs']['front']}, "
-          f"{res.meta['outputs']['summary']}")
+          f"or read from the checkpoint), {res.wall_time_s:.1f} s; {front}{text}; wrote "
+          + ", ".join(res.meta["outputs"][k] for k in ("front", "front_plot", "report", "summary")
+                      if k in res.meta["outputs"]))
     return 0
 
 

@@ -33,6 +33,7 @@ class Compared:
     machine: str
     outputs: dict[str, float]
     error: str = ""
+    note: str = ""  # an optimised design's variable values
 
 
 def evaluate_references(design: Design, jobs: int = 1) -> list[Compared]:
@@ -55,7 +56,18 @@ def compared_designs(res: OptimisationResult, names: list[str], files: list[str]
     if len(front) > limit:
         front = [front[round(i)] for i in np.linspace(0, len(front) - 1, limit)]
     out = [Compared(**c) for c in res.meta.get("references", [])]
-    return out + [Compared(n, "optimised", f, dict(c.outputs), c.error) for n, f, c in front]
+    return out + [Compared(n, "optimised", f, dict(c.outputs), c.error, _values_text(res.design, c.values))
+                  for n, f, c in front]
+
+
+def _values_text(design: Design, values: list[Any]) -> str:
+    """"name = value unit" of every variable (a direction as polar, azimuth)."""
+    parts = []
+    for v, val in zip(design.variables, values):
+        text = ", ".join(f"{x:.6g}" for x in val) if v.kind == "direction" else (
+            f"{val:.6g}" if isinstance(val, float) else str(val))
+        parts.append(f"{v.name} = {text}" + (f" {v.unit}" if v.unit and v.kind != "categorical" else ""))
+    return "; ".join(parts)
 
 
 def _value(c: Candidate | Compared, label: str) -> float:

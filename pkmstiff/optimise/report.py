@@ -25,8 +25,8 @@ def _variant(c: Compared, options: tuple[str, ...], request: Any) -> Any:
     if c.kind == "optimised":
         opts = list(options)  # a front design's file extends the base without its options
     what = {"base": "The base design.", "reference": "A reference design of the design file.",
-            "optimised": "An optimised design (a machine file extending the base)."}[c.kind]
-    return Variant(c.name, machine, tuple(opts), description=what,
+            "optimised": "An optimised design (a machine file extending the base):"}[c.kind]
+    return Variant(c.name, machine, tuple(opts), description=f"{what} {c.note}".strip(),
                    neglect_spindle=bool(getattr(request, "neglect_spindle", False)),
                    skip_checks=tuple(getattr(request, "skip_checks", ())))
 
