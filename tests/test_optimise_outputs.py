@@ -48,6 +48,7 @@ def test_catalogue_loads_and_every_entry_builds():
     cat = load_catalogue("pod_ballscrews")
     assert list(cat.entries) == ["bs_32x20", "bs_32x40", "bs_40x20", "bs_40x40", "bs_50x20", "bs_50x40"]
     assert cat.title and cat.provenance
+    assert len(load_catalogue("iwf_joints").entries) == 6
 
 
 def test_catalogue_variable_sets_the_entry_and_its_mass():
@@ -189,3 +190,22 @@ def test_geometry_example_design_and_group_paths():
     m = machine_with(d.machine, ov)
     np.testing.assert_allclose(m.chains.strut_length[[0, 1, 4, 5]], [1.1, 1.1, 1.2, 1.2], rtol=1e-12)
     assert [r.name for r in d.references] == ["Hexaglide", "variant 2"]
+
+
+def test_joint_type_from_the_joint_catalogue(tmp_path):
+    """A joint type's stiffness picked from the bundled IWF joint catalogue: the variant's drive joints use the
+    entry's table (the same spline as the bundled table itself)."""
+    from components.joint_tables import load_joint_table
+    from pkmstiff.machine.roles import machine_components
+
+    f = _design(tmp_path, 'machine = "hexaglide"\n[[variables]]\nname = "drive_joint"\nkind = "categorical"\n'
+                          'catalogue = "iwf_joints"\nvalues = ["iwf_3dof_improved_measured", "iwf_3dof_old_fe"]\n'
+                          'path = "joint_types.iwf_3dof.stiffness"\n'
+                          '[[objectives]]\nname = "m"\nkind = "moving_mass"\n')
+    d = load_design(f)
+    m = machine_with(d.machine, d.overrides(["iwf_3dof_old_fe"]))
+    joint = machine_components(m).drive_joint[0]
+    table = load_joint_table("iwf_3dof_old_fe")
+    assert joint.name == "iwf_3dof_old_fe" and Path(joint.table_name).stem == "iwf_3dof_old_fe"
+    np.testing.assert_array_equal(joint.k_nodes, table.stiffness)  # the same file read the same way
+    np.testing.assert_array_equal(joint.tilt_nodes, table.tilt)

@@ -49,7 +49,7 @@ def evaluate_references(design: Design, jobs: int = 1) -> list[Compared]:
                      row.get("error", "")) for (name, kind, machine), row in zip(named, rows)]
 
 
-def compared_designs(res: OptimisationResult, names: list[str], files: list[str], limit: int = 5) -> list[Compared]:
+def compared_designs(res: OptimisationResult, names: list[str], files: list[str], limit: int = 4) -> list[Compared]:
     """Base, references (``res.meta["references"]``) and the optimised designs: one objective the best, several
     at most ``limit`` front designs spread evenly along the front (its two ends included)."""
     front = list(zip(names, files, res.front))

@@ -116,6 +116,8 @@ def _convergence_png(res: OptimisationResult, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from pkmstiff.plots.section_maps import pretty_unit
+
     design = res.design
     n = len(design.objectives)
     fig, axes = plt.subplots(1, n, figsize=(5.5 * n, 3.8), squeeze=False)
@@ -129,10 +131,10 @@ def _convergence_png(res: OptimisationResult, path: Path) -> None:
         okb = np.isfinite(best)
         ax.step(idx[okb], sign * best[okb], where="post", color="C0", lw=2, label="best so far")
         ax.set_xlabel("evaluation")
-        ax.set_ylabel(o.measure.label)
+        ax.set_ylabel(f"{o.measure.name} [{pretty_unit(o.measure.unit)}]")
         ax.set_title(f"{o.sense} {o.measure.name}")
         ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
+        ax.legend(loc="best", fontsize=9)
     fig.suptitle(f"{Path(design.source).name}: {res.algorithm}, {len(res.history)} evaluations", fontsize=10)
     fig.tight_layout()
     buf = io.BytesIO()

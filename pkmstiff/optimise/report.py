@@ -90,7 +90,7 @@ def _optimisation_section(report: Any, res: OptimisationResult, compared: list[C
     front = "the best design" if len(design.objectives) == 1 else f"{len(res.front)} designs on the Pareto front"
     text = (f"{len(res.history)} evaluations ({res.evaluated} run) with {res.algorithm}, seed "
             f"{res.meta.get('seed')}: {front}. The compared designs: base (the design file's machine), the "
-            f"references of the design file, and the optimised designs (the best, or at most five front designs "
+            f"references of the design file, and the optimised designs (the best, or at most four front designs "
             f"spread along the front; each is a machine file in designs/ that extends the base).")
     sec = report.section("Optimisation", text + ("\n\nDesigns that could not be evaluated:\n\n" + "\n".join(failed)
                                                  if failed else ""))
