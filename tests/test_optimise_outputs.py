@@ -209,3 +209,8 @@ def test_joint_type_from_the_joint_catalogue(tmp_path):
     assert joint.name == "iwf_3dof_old_fe" and Path(joint.table_name).stem == "iwf_3dof_old_fe"
     np.testing.assert_array_equal(joint.k_nodes, table.stiffness)  # the same file read the same way
     np.testing.assert_array_equal(joint.tilt_nodes, table.tilt)
+
+
+def test_reference_names_are_distinct_columns(tmp_path, capsys):
+    text = SELECTION.read_text().replace('name = "6X, eq. 3.3"', 'name = "base"')
+    _one_line_error(capsys, _design(tmp_path, text), tmp_path / "o", "reference[1].name", "base")

@@ -358,10 +358,16 @@ def load_design(path: str | Path) -> Design:
     refs = raw.get("reference", [])
     if not isinstance(refs, list):
         raise r.error(None, 0, "reference", "an array of [[reference]] tables", refs)
+    references = tuple(_reference(r, t, i, machine, path) for i, t in enumerate(refs))
+    taken = {"base"}  # the names are the columns of the comparison: base, the references, design_NNN
+    for i, ref in enumerate(references):
+        if ref.name in taken or re.fullmatch(r"design_\d+", ref.name):
+            raise r.error("reference", i, "name", "a name other than 'base', 'design_NNN' and the other references'",
+                          ref.name)
+        taken.add(ref.name)
     design = Design(machine, variables, tuple(Objective(m, s) for m, (_, s) in zip(built, objs)),
                     tuple(Constraint(m, lo, hi) for m, (_, lo, hi) in zip(built[len(objs):], cons)),
-                    algorithm=algorithm, source=str(path), **ints,
-                    references=tuple(_reference(r, t, i, machine, path) for i, t in enumerate(refs)))
+                    algorithm=algorithm, source=str(path), **ints, references=references)
     check_design(design, r)
     return design
 
