@@ -49,8 +49,8 @@ def add_commands(sub) -> None:
                                    "NSGA-II); evaluations are cached and checkpointed in --out.")
     p.add_argument("design_file", help="design file (TOML) or a bundled example name (hexaglide_joint_orientation, "
                                        "pod_ballscrew_selection, hexaglide_strut_lengths)")
-    p.add_argument("--out", required=True, help="output folder (front.csv, designs/, front.png, convergence.png, report/, "
-                                             "summary.json)")
+    p.add_argument("--out", required=True, help="output folder (front.csv, designs/, front.png, convergence.png, "
+                                             "report/, summary.json)")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes (-1: all cores; default 1)")
     p.add_argument("--budget", type=int, default=None, help="evaluations (default: the design file's)")
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the design file's)")

@@ -147,8 +147,9 @@ def _convergence_png(res: OptimisationResult, path: Path) -> None:
 
 def write_outputs(res: OptimisationResult, out: str | Path, *, report: bool = True, jobs: int = 1) -> dict[str, Path]:
     """Write front.csv, history.csv, designs/*.toml, convergence.png, front.png, the comparison report (unless
-    ``report`` is False; its sections evaluated in ``jobs`` processes) and summary.json into ``out``. The base design
-    and the references are those of ``res.meta["references"]`` (:func:`pkmstiff.optimise.compare.evaluate_references`)."""
+    ``report`` is False; its sections evaluated in ``jobs`` processes) and summary.json into ``out``. The base
+    design and the references are those of ``res.meta["references"]``
+    (:func:`pkmstiff.optimise.compare.evaluate_references`)."""
     from pkmstiff.optimise.compare import compared_designs, plot_comparison
 
     out = Path(out)
