@@ -214,3 +214,24 @@ def test_joint_type_from_the_joint_catalogue(tmp_path):
 def test_reference_names_are_distinct_columns(tmp_path, capsys):
     text = SELECTION.read_text().replace('name = "6X, eq. 3.3"', 'name = "base"')
     _one_line_error(capsys, _design(tmp_path, text), tmp_path / "o", "reference[1].name", "base")
+
+
+def _f3(m) -> float:
+    return ((m.tool.length - 0.15) / 0.1) ** 2
+
+
+def test_three_objectives_draw_every_pair(tmp_path):
+    """Three objectives: one panel per pair of objectives (3), side by side at 6.4 in x 150 dpi each."""
+    from PIL import Image
+
+    from pkmstiff.optimise import Design, FunctionMeasure, Objective, Variable
+
+    from tests.test_optimise import _f1, _f2
+
+    design = Design("hexaglide", (Variable("L", ("tool.length",), "continuous", (50.0,), (250.0,), "mm"),),
+                    tuple(Objective(FunctionMeasure(n, "1", f)) for n, f in (("f1", _f1), ("f2", _f2), ("f3", _f3))),
+                    budget=16, population=8)
+    res = optimise(design, tmp_path / "o", report=False)
+    assert len(res.front) >= 2
+    w, h = Image.open(tmp_path / "o" / "front.png").size
+    assert (w, h) == (3 * 960, 720)

@@ -122,8 +122,10 @@ def _front_axes(ax: Any, res: OptimisationResult, compared: list[Compared], a: i
     ax.plot([_value(c, la) for c in feas], [_value(c, lb) for c in feas], ".", ms=5, color="0.55",
             label="feasible candidate")
     front = sorted(res.front, key=lambda c: _value(c, la))
-    ax.plot([_value(c, la) for c in front], [_value(c, lb) for c in front], "o-", ms=5, lw=1.5, color="C0",
-            label=f"Pareto front ({len(front)} designs)")
+    # with more than two objectives the front is non-dominated in all of them, not in this pair: no line
+    pair = len(design.objectives) == 2
+    ax.plot([_value(c, la) for c in front], [_value(c, lb) for c in front], "o-" if pair else "o", ms=5, lw=1.5,
+            color="C0", label=f"Pareto front ({len(front)} designs{'' if pair else ', all objectives'})")
     cats = [i for i, v in enumerate(design.variables) if v.kind == "categorical"]
     if cats and len(front) <= 8:  # name the catalogue choices of each front design
         for c in front:
