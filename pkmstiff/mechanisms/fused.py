@@ -52,17 +52,19 @@ class FusedPlan:
 
 def elimination_order(n_links: int, edges: list[tuple[int, int]], active: np.ndarray) -> list[int]:
     """Minimum-degree elimination order of the ``active`` links of a graph (edges between links that share a
-    constraint): repeatedly the link with the fewest remaining neighbours (ties: lowest index), whose neighbours
-    then become mutually adjacent (the fill of eliminating it)."""
+    constraint): repeatedly the link with the fewest remaining neighbours (ties: fewest neighbours in the whole
+    graph, then lowest index: hubs last), whose neighbours then become mutually adjacent (the fill of eliminating
+    it)."""
     adj = [set() for _ in range(n_links)]
     for a, b in edges:
         if a != b and active[a] and active[b]:
             adj[a].add(b)
             adj[b].add(a)
     left = set(np.flatnonzero(active).tolist())
+    deg0 = [len(a) for a in adj]
     order = []
     while left:
-        li = min(left, key=lambda x: (len(adj[x] & left), x))
+        li = min(left, key=lambda x: (len(adj[x] & left), deg0[x], x))
         nb = adj[li] & left
         for x in nb:
             adj[x] |= nb - {x}
