@@ -84,7 +84,7 @@ class App:
             s[k] = 0.0
         s.pose_lo, s.pose_hi = [-1000.0] * 3 + [-60.0] * 3, [1000.0] * 3 + [60.0] * 3
         s.map_src, s.map_summary, s.map_geometry, s.map_version = "", "", "{}", 0
-        s.picked, s.point_rows, s.weak_rows, s.weak_dirs, s.mode_items = "", [], [], [], []
+        s.picked, s.point_rows, s.weak_rows, s.weak_dirs, s.mode_items = "click the map", [], [], [], []
         s.point_admissible, s.mode, s.animate, s.mode_shown = "", None, False, ""
         s.section_command, s.point_command, s.export_folder = "", "", ""
         s.status, s.error = "starting", ""

@@ -11,6 +11,11 @@ from pkmstiff.errors import ArgumentError, ResourceError
 def _cmd_app(args: argparse.Namespace) -> int:
     if not 0 <= args.port <= 65535:
         raise ArgumentError(option="--port", expected="a port 0..65535 (0: a free one)", found=args.port)
+    from pathlib import Path
+
+    if Path(args.out).exists() and not Path(args.out).is_dir():
+        raise ArgumentError(option="--out", expected="a directory for the exports (made on the first export)",
+                            found=args.out)
     try:
         import trame  # noqa: F401
         import trame_vtk  # noqa: F401
