@@ -151,3 +151,13 @@ def test_scene_animates_the_mode_shape_about_the_pose(session, view):
     assert scene.png()[:8] == b"\x89PNG\r\n\x1a\n"
     scene.clear_mode(m, pose)
     assert not scene.mode_frames and not any(a.startswith("mode_") for a in scene.plotter.actors)
+
+
+def test_a_machine_file_works_like_its_bundled_name(session, view, tmp_path):
+    from pkmstiff.machine.loader import bundled_machine_dir
+
+    path = tmp_path / "my hexaglide.toml"
+    path.write_text((bundled_machine_dir() / "hexaglide.toml").read_text(encoding="utf-8"), encoding="utf-8")
+    from_file = session.section(MachineChoice(str(path)), COARSE)
+    np.testing.assert_array_equal(from_file.map.display("kx"), view.map.display("kx"))  # the same machine data
+    assert shlex.split(COARSE.command(MachineChoice(str(path))))[2] == str(path)

@@ -140,6 +140,22 @@ def test_app_in_chromium_shows_the_command_lines_numbers(tmp_path, capsys):
         assert json.loads(_cli(capsys, *shlex.split(point_cmd)[1:], "--json"))["k_N_per_um"] == pytest.approx(
             ref["k_N_per_um"], rel=1e-12)  # 10-digit pose in the command vs the %g pose typed above
 
+        # a typed pose, analysed on request; then a variant option of the machine recomputes the map
+        ab.type_into(driver, "pose-z", f"{v[k] + 50:g}")
+        ab.wait_for(driver, lambda d: d.find_element("id", "pose-z").get_attribute("value") == f"{v[k] + 50:g}",
+                    "the typed pose")
+        old_kx = ab.text(driver, "k-kx")
+        driver.find_element("id", "analyse").click()
+        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") != old_kx and ab.text(d, "status") == "ready",
+                    "the analysis of the typed pose")
+        typed = json.loads(_cli(capsys, "point", "hexaglide", f"--pose={u[k]:g},0,{v[k] + 50:g},0,0,0", "--json"))
+        assert abs(float(ab.text(driver, "k-kx")) - typed["k_N_per_um"]["x"]) <= 5e-4 + 1e-9 * typed["k_N_per_um"]["x"]
+        version = ab.geometry(driver)["version"]
+        ab.choose(driver, "option", "printed_values")
+        ab.wait_map(driver, version)
+        assert "hexaglide:printed_values --plane xz" in ab.text(driver, "commands")
+        assert not ab.text(driver, "error")
+
         # no network: everything the page loaded came from the app itself (trame serves its own JS, CSS and fonts)
         loaded = driver.execute_script("return performance.getEntriesByType('resource').map(e => e.name)")
         assert loaded and all(x.startswith(url) for x in loaded), [x for x in loaded if not x.startswith(url)]

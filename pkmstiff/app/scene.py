@@ -45,7 +45,7 @@ class Scene:
         self.set_pose(machine, pose)
         bounds = np.array(self.plotter.bounds).reshape(3, 2)
         add_mm_axes(self.plotter, bounds.ravel(), VIEW_DIRECTION, font_size=12)
-        frame_camera(self.plotter, VIEW_DIRECTION, bounds, zoom=1.25)
+        frame_camera(self.plotter, VIEW_DIRECTION, bounds, zoom=1.1)
 
     def set_pose(self, machine: "Machine", pose: np.ndarray) -> None:
         """The machine at ``pose`` (x, y, z [m], a, b, c [rad], machine frame); ghosted while a mode is shown."""

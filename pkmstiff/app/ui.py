@@ -109,6 +109,13 @@ class App:
 
     # ---- handlers ----------------------------------------------------------------------------------------------
 
+    def _new_machine(self, **_: Any) -> None:
+        """Another machine: its options replace the old machine's (the option goes back to none)."""
+        if self.state.option != NO_OPTION:
+            self.state.option = NO_OPTION  # the option handler then loads the machine
+        else:
+            self._machine_changed()
+
     def _machine_changed(self, **_: Any) -> None:
         """A machine or option chosen: load it, offer its options, set the pose limits, recompute the map."""
         s = self.state
@@ -184,6 +191,9 @@ class App:
         except Exception as exc:
             self._fail(exc)
             return
+        for key in POSE_KEYS:  # a typed value arrives as text: the sliders need the number
+            if isinstance(self.state[key], str):
+                self.state[key] = as_float(self.state[key], key)
         self.state.animate = False
         if self.scene.mode_frames:
             self.scene.clear_mode(m, pose)
@@ -298,7 +308,8 @@ class App:
         from vtkmodules.vtkRenderingCore import vtkRenderWindowInteractor
 
         s, ctrl = self.state, self.server.controller
-        s.change("machine", "option")(self._machine_changed)
+        s.change("machine")(self._new_machine)
+        s.change("option")(self._machine_changed)
         s.change("plane", "at_mm", "step_mm", "quantity", "ori_a", "ori_b", "ori_c")(self._section_changed)
         s.change(*POSE_KEYS)(self._pose_changed)
         s.change("mode")(self._mode_changed)
@@ -336,7 +347,7 @@ class App:
                                        step=1 if i < 3 else 0.5, hide_details=True, density="compact",
                                        label=name)
                         with v3.VCol(cols=4):
-                            v3.VTextField(v_model=(key,), suffix=unit, id=f"pose-{name}", **field)
+                            v3.VTextField(v_model=(key,), suffix=unit, id=f"pose-{name}", type="number", **field)
                 v3.VBtn("analyse this pose", click=self.analyse_pose, block=True, classes="mb-2", id="analyse")
                 v3.VBtn("export PNG, CSV, commands", click=self.export_shown, block=True, color="primary",
                         id="export")
