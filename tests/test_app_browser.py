@@ -11,6 +11,7 @@ import json
 import re
 import shlex
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -40,7 +41,7 @@ def _listening_addresses(port: int) -> set[str]:
     found = set()
     for table in ("/proc/net/tcp", "/proc/net/tcp6"):
         try:
-            lines = open(table).read().splitlines()[1:]
+            lines = Path(table).read_text().splitlines()[1:]
         except OSError:
             continue
         for line in lines:
@@ -122,10 +123,7 @@ def test_app_in_chromium_shows_the_command_lines_numbers(tmp_path, capsys):
 
         # export: the map equals the CLI's; the exported command reproduces it; the point command is the one checked
         driver.find_element("id", "export").click()
-        folder = ab.wait_for(driver, lambda d: ab.text(d, "export-folder"), "the export folder")
-        from pathlib import Path
-
-        folder = Path(folder)
+        folder = Path(ab.wait_for(driver, lambda d: ab.text(d, "export-folder"), "the export folder"))
         app_csv = _read_csv(folder / "hexaglide_xz.csv")
         assert set(app_csv) == set(cli)
         for name in cli:  # the same evaluation (StudyMachine.section = evaluate_section with the CLI's window,

@@ -35,7 +35,7 @@ class Scene:
         self.mode_frames: list = []
         self.mode_text = ""
 
-    def set_machine(self, machine: "Machine", pose: np.ndarray) -> None:
+    def set_machine(self, machine: Machine, pose: np.ndarray) -> None:
         """A new machine: clear the view, draw the machine at ``pose`` with mm axes around it and aim the camera at
         it (the view stays while the pose changes; the user turns and zooms it with the mouse)."""
         from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
@@ -47,7 +47,7 @@ class Scene:
         add_mm_axes(self.plotter, bounds.ravel(), VIEW_DIRECTION, font_size=12)
         frame_camera(self.plotter, VIEW_DIRECTION, bounds, zoom=1.1)
 
-    def set_pose(self, machine: "Machine", pose: np.ndarray) -> None:
+    def set_pose(self, machine: Machine, pose: np.ndarray) -> None:
         """The machine at ``pose`` (x, y, z [m], a, b, c [rad], machine frame); ghosted while a mode is shown."""
         add_sketch(self.plotter, machine, pose, opacity=0.25 if self.mode_frames else 1.0,
                    colour="gray" if self.mode_frames else None, name="machine")
@@ -56,7 +56,7 @@ class Scene:
                               + (f"\n{self.mode_text}" if self.mode_frames else ""),
                               position="upper_left", font_size=10, color="black", name="title")
 
-    def set_section(self, view: "SectionView") -> None:
+    def set_section(self, view: SectionView) -> None:
         """The section plane in its place, coloured by the map's quantity on the map's colour scale."""
         from pkmstiff.plots.section_maps import pretty_unit, robust_clim
 
@@ -77,7 +77,7 @@ class Scene:
                                                "position_y": 0.4, "width": 0.06, "height": 0.45, "color": "black",
                                                "title_font_size": 14, "label_font_size": 12, "fmt": "%.3g"})
 
-    def set_mode(self, machine: "Machine", pose: np.ndarray, mode: int) -> None:
+    def set_mode(self, machine: Machine, pose: np.ndarray, mode: int) -> None:
         """Mode ``mode`` (1 = lowest) at ``pose``: the machine ghosted grey and :data:`MODE_FRAMES` frames of one
         period of the deformed machine (orange), peak displacement :data:`MODE_AMPLITUDE` on screen."""
         from pkmstiff.plots.modes import deformed_sketch, mode_shape
@@ -96,13 +96,13 @@ class Scene:
         self.set_pose(machine, pose)
         self.show_mode_frame(machine, pose, 0)
 
-    def show_mode_frame(self, machine: "Machine", pose: np.ndarray, k: int) -> None:
+    def show_mode_frame(self, machine: Machine, pose: np.ndarray, k: int) -> None:
         """Frame ``k`` (modulo :data:`MODE_FRAMES`) of the animated mode shape."""
         if self.mode_frames:
             add_sketch(self.plotter, machine, pose, sketch=self.mode_frames[k % len(self.mode_frames)],
                        colour="darkorange", name="mode")
 
-    def clear_mode(self, machine: "Machine", pose: np.ndarray) -> None:
+    def clear_mode(self, machine: Machine, pose: np.ndarray) -> None:
         """No mode shape: the machine drawn solid again."""
         for name in [a for a in self.plotter.actors if a.startswith("mode_")]:
             self.plotter.remove_actor(name, render=False)

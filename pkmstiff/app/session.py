@@ -63,7 +63,7 @@ class SectionChoice:
     quantity: str = "kx"
     orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
-    def checked(self, n_chains: int) -> "SectionChoice":
+    def checked(self, n_chains: int) -> SectionChoice:
         """This choice, or an :class:`~pkmstiff.errors.ArgumentError` (one line naming the field, what was
         expected and what was found) before any work."""
         from pkmstiff.evaluation.quantities import check_quantity
@@ -102,7 +102,7 @@ class SectionView:
     """A computed section map as the app shows it: the map, its PNG and where the map axes lie in the PNG."""
 
     choice: SectionChoice
-    map: "SectionMap"
+    map: SectionMap
     png: bytes
     size_px: tuple[int, int]  # (width, height) of the PNG
     axes_px: tuple[float, float, float, float]  # left, top, right, bottom of the map axes, pixels from the top left
@@ -139,7 +139,7 @@ class SectionView:
 
     def pose_at(self, row: int, col: int) -> np.ndarray:
         """(6,) pose of raster point (row, column): x, y, z [m] (machine frame) and the map's a, b, c [rad]."""
-        nv, nu = self.map.plane.shape
+        nu = self.map.plane.shape[1]
         return np.concatenate([self.map.plane.points()[row * nu + col], np.radians(self.choice.orientation_deg)])
 
     def value_at(self, row: int, col: int) -> float:
@@ -173,7 +173,7 @@ class PointView:
     """The point analysis at one pose as the app shows it (the numbers ``pkmstiff point`` prints)."""
 
     pose: np.ndarray  # (6,) m, rad, machine frame
-    result: "PointResults"
+    result: PointResults
     command: str
 
     @property
@@ -205,9 +205,9 @@ class PointView:
 class Session:
     """Machines loaded once per variant, and the app's requests on them."""
 
-    _machines: dict[str, "StudyMachine"] = field(default_factory=dict)
+    _machines: dict[str, StudyMachine] = field(default_factory=dict)
 
-    def machine(self, choice: MachineChoice) -> "StudyMachine":
+    def machine(self, choice: MachineChoice) -> StudyMachine:
         """The machine of ``choice`` (loaded on first use; a bad name, file or option is one clear error)."""
         from pkmstiff.api import load_machine
 

@@ -31,6 +31,7 @@ from pkmstiff.app.session import (
     describe_error,
     export,
     machine_options,
+    pose_text,
 )
 
 MM = 1e3
@@ -65,7 +66,7 @@ class App:
         self.point: PointView | None = None
         self._token = 0
         self._animating = False
-        self._pose_from_map = False
+        self._scene_machine = ""  # the machine the 3-D view was set up for (spec)
         self._init_state(machine)
         self._build()
         self.server.controller.on_server_ready.add(lambda **_: self._machine_changed())
@@ -129,18 +130,18 @@ class App:
             self._fail(exc)
             return
         s.error = ""
-        self._request_section(first=True)
+        self._request_section()
 
     def _section_changed(self, **_: Any) -> None:
         self._request_section()
 
-    def _request_section(self, first: bool = False) -> None:
+    def _request_section(self) -> None:
         from trame.app import asynchronous
 
         self._token += 1
-        asynchronous.create_task(self._compute_section(self._token, first))
+        asynchronous.create_task(self._compute_section(self._token))
 
-    async def _compute_section(self, token: int, first: bool) -> None:
+    async def _compute_section(self, token: int) -> None:
         s = self.state
         await asyncio.sleep(SETTLE_SECONDS)
         if token != self._token:  # superseded while settling
@@ -171,10 +172,11 @@ class App:
                                          "limits_mm": view.limits_mm, "quantity": sc.quantity, "unit": view.unit})
             s.section_command = sc.command(mc)
             node = view.central_node()
-            if first:  # a new machine: start at the middle of the admissible region, the camera on the machine
+            if self._scene_machine != mc.spec:  # a new machine: start at the middle of the admissible region
                 if node is not None:
                     self._set_pose(view.pose_at(*node))
-                self.scene.set_machine(self.session.machine(mc), self.pose())
+                self.scene.set_machine(self.session.machine(mc), self.pose())  # and aim the camera at it
+                self._scene_machine = mc.spec
             self.scene.set_section(view)
             self._update_view()
             s.status = "ready"
@@ -191,10 +193,7 @@ class App:
         except Exception as exc:
             self._fail(exc)
             return
-        for key in POSE_KEYS:  # a typed value arrives as text: the sliders need the number
-            if isinstance(self.state[key], str):
-                self.state[key] = as_float(self.state[key], key)
-        self.state.animate = False
+        self.state.animate, self.state.error = False, ""
         if self.scene.mode_frames:
             self.scene.clear_mode(m, pose)
             self.state.mode, self.state.mode_shown = None, ""
@@ -218,13 +217,22 @@ class App:
                              f"{pl.v_name} = {pl.v_values[node[0]] * MM:.1f} mm: {self.view.choice.quantity} = "
                              + ("inadmissible" if math.isnan(value) else f"{value:.6g} {self.view.unit}"))
         self._set_pose(pose)
-        self.analyse_pose()
+        self._start_analysis(pose)
 
     def analyse_pose(self) -> None:
-        """The point analysis at the current pose (in a worker thread)."""
+        """The button: the point analysis at the pose of the sliders and fields."""
+        try:
+            pose = self.pose()
+        except Exception as exc:
+            self._fail(exc)
+            return
+        self.state.picked = f"pose {pose_text(pose)}"
+        self._start_analysis(pose)
+
+    def _start_analysis(self, pose: np.ndarray) -> None:
         from trame.app import asynchronous
 
-        asynchronous.create_task(self._analyse(self.machine_choice(), self.pose()))
+        asynchronous.create_task(self._analyse(self.machine_choice(), pose))
 
     async def _analyse(self, mc: MachineChoice, pose: np.ndarray) -> None:
         s = self.state
@@ -347,7 +355,7 @@ class App:
                                        step=1 if i < 3 else 0.5, hide_details=True, density="compact",
                                        label=name)
                         with v3.VCol(cols=4):
-                            v3.VTextField(v_model=(key,), suffix=unit, id=f"pose-{name}", type="number", **field)
+                            v3.VTextField(v_model=(key,), suffix=unit, id=f"pose-{name}", **field)
                 v3.VBtn("analyse this pose", click=self.analyse_pose, block=True, classes="mb-2", id="analyse")
                 v3.VBtn("export PNG, CSV, commands", click=self.export_shown, block=True, color="primary",
                         id="export")
@@ -361,8 +369,8 @@ class App:
                     with v3.VRow(dense=True):
                         with v3.VCol(cols=12, lg=6):
                             html.Img(src=("map_src",), id="section-map", style="width: 100%; cursor: crosshair",
-                                     click=(self.on_map_click, "[$event.offsetX, $event.offsetY, "
-                                                               "$event.target.clientWidth, $event.target.clientHeight]"))
+                                     click=(self.on_map_click, ("[$event.offsetX, $event.offsetY, "
+                                                                "$event.target.clientWidth, $event.target.clientHeight]")))
                             html.Div("{{ map_summary }}", id="map-summary", classes="text-caption")
                             html.Div("{{ map_geometry }}", id="map-geometry", style="display: none")
                         with v3.VCol(cols=12, lg=6):
