@@ -140,8 +140,7 @@ def test_app_in_chromium_shows_the_command_lines_numbers(tmp_path, capsys):
 
         # a typed pose, analysed on request; then a variant option of the machine recomputes the map
         ab.type_into(driver, "pose-z", f"{v[k] + 50:g}")
-        ab.wait_for(driver, lambda d: d.find_element("id", "pose-z").get_attribute("value") == f"{v[k] + 50:g}",
-                    "the typed pose")
+        ab.wait_for(driver, lambda d: f", {v[k] + 50:.1f} mm" in ab.text(d, "pose-shown"), "the typed pose")
         old_kx = ab.text(driver, "k-kx")
         driver.find_element("id", "analyse").click()
         ab.wait_for(driver, lambda d: ab.text(d, "k-kx") != old_kx and ab.text(d, "status") == "ready",

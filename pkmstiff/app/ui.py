@@ -43,6 +43,8 @@ FRAME_SECONDS = 0.1
 SETTLE_SECONDS = 0.6
 POSE_KEYS = ("pose_x", "pose_y", "pose_z", "pose_a", "pose_b", "pose_c")
 NO_OPTION = "(none)"
+#: what a number field holds while a number is being typed (no error for these)
+INCOMPLETE = ("", "-", "+", ".", "-.", "+.")
 
 
 def _quantity_names() -> list[str]:
@@ -88,7 +90,7 @@ class App:
         s.picked, s.point_rows, s.weak_rows, s.weak_dirs, s.mode_items = "click the map", [], [], [], []
         s.point_admissible, s.mode, s.animate, s.mode_shown = "", None, False, ""
         s.section_command, s.point_command, s.export_folder = "", "", ""
-        s.status, s.error = "starting", ""
+        s.status, s.error, s.pose_shown = "starting", "", ""
 
     def machine_choice(self) -> MachineChoice:
         option = self.state.option
@@ -187,13 +189,16 @@ class App:
         self.state.update({k: round(float(v), 6) for k, v in zip(POSE_KEYS, values)})
 
     def _pose_changed(self, **_: Any) -> None:
+        if any(str(self.state[k]).strip() in INCOMPLETE for k in POSE_KEYS):
+            return  # still typing
         try:
             mc, pose = self.machine_choice(), self.pose()
             m = self.session.machine(mc)
         except Exception as exc:
             self._fail(exc)
             return
-        self.state.animate, self.state.error = False, ""
+        self.state.animate, self.state.error, self.state.status = False, "", "ready"
+        self.state.pose_shown = pose_text(pose)
         if self.scene.mode_frames:
             self.scene.clear_mode(m, pose)
             self.state.mode, self.state.mode_shown = None, ""
@@ -374,6 +379,7 @@ class App:
                             html.Div("{{ map_summary }}", id="map-summary", classes="text-caption")
                             html.Div("{{ map_geometry }}", id="map-geometry", style="display: none")
                         with v3.VCol(cols=12, lg=6):
+                            html.Div("machine at {{ pose_shown }}", id="pose-shown", classes="text-caption")
                             with html.Div(id="view-3d", style="height: 520px; border: 1px solid #ddd"):
                                 view = vtk_widgets.VtkRemoteView(ren_win, ref="view3d", interactive_ratio=1)
                                 ctrl.view_update = view.update
