@@ -420,10 +420,16 @@ class App:
 
     def start(self, port: int = 0, open_browser: bool = True) -> None:
         """Serve on 127.0.0.1:``port`` (0: a free port) until interrupted; the URL is printed."""
+        import os
         import sys
 
-        argv, sys.argv = sys.argv, sys.argv[:1]  # trame reads its own options from sys.argv: give it none
+        # trame reads its own options (--host among them) from sys.argv and TRAME_ARGS: give it none, so that the
+        # app binds to HOST whatever the command line or the environment say
+        argv, sys.argv = sys.argv, sys.argv[:1]
+        trame_args = os.environ.pop("TRAME_ARGS", None)
         try:
             self.server.start(port=port, host=HOST, open_browser=open_browser, timeout=0)
         finally:
             sys.argv = argv
+            if trame_args is not None:
+                os.environ["TRAME_ARGS"] = trame_args
