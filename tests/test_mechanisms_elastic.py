@@ -1,0 +1,97 @@
+"""Elastic model of mechanism files (issue 27, items 1–3): the Hexaglide and the 6X written as mechanisms give the
+structure model's stiffness and natural frequencies (the same components, placed as docs/theory/structure.md
+places them, assembled by the same multibody layer)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import pkmstiff.multibody as sde
+from pkmstiff.analysis import evaluate_structure
+from pkmstiff.errors import InputError
+from pkmstiff.machine import load_machine
+from pkmstiff.mechanisms import load_mechanism, mechanism_from_dict
+from pkmstiff.mechanisms.generate import HOME_POSES, mechanism_dict
+from pkmstiff.mechanisms.structure import mechanism_structure
+
+#: the generic solver's configurations agree with the closed-form inverse kinematics to ~1e-13 m; the stiffness
+#: and frequencies inherit that (measured ≤ 1e-11 relative), the issue asks for 1e-9
+RTOL = 1e-9
+
+
+def _poses(home, n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.asarray(home) + np.column_stack([rng.uniform(-0.1, 0.1, (n, 3)), rng.uniform(-0.08, 0.08, (n, 3))])
+
+
+@pytest.mark.parametrize("machine_name, mech_name", [("hexaglide", "hexaglide_generic"),
+                                                     ("hexapod_6x", "hexapod_6x_generic")])
+def test_mechanism_file_reproduces_the_structure_model(machine_name, mech_name):
+    machine, mech = load_machine(machine_name), load_mechanism(mech_name)
+    poses = _poses(HOME_POSES[machine_name], 100, 7)
+    ms = mechanism_structure(mech, poses)
+    ev = sde.evaluate_point(ms.model, ms.load_body, ms.load_point, 6)
+    k_mech = ms.scatter(1.0 / np.diagonal(ev.compliance, axis1=1, axis2=2))
+    f_mech = ms.scatter(ev.frequencies_hz)
+    ref = evaluate_structure(machine, poses, tool_length=0.0, n_modes=6)
+    assert ms.ok.all() and ref.ok.all()
+    np.testing.assert_allclose(k_mech[:, :3], ref.stiffness[:, :3], rtol=RTOL)
+    np.testing.assert_allclose(f_mech, ref.frequencies_hz, rtol=RTOL)
+
+
+def test_generated_files_are_the_generator_output():
+    """The bundled files carry the machines' components unchanged (regenerate with `python -m
+    pkmstiff.mechanisms.generate`): component tables equal the machine file's, nothing tuned."""
+    machine = load_machine("hexaglide")
+    table = mechanism_dict(machine, np.array(HOME_POSES["hexaglide"]), "hexaglide_generic")
+    mech = load_mechanism("hexaglide_generic")
+    assert set(mech.elastic.components) == set(table["components"])
+    for name, raw in table["components"].items():
+        assert raw == machine.components[name]
+
+
+def test_components_change_the_result_where_they_sit():
+    """A stiffer strut component raises k_V, hence the stiffness (the element uses the component, not a copy)."""
+    machine = load_machine("hexaglide")
+    table = mechanism_dict(machine, np.array(HOME_POSES["hexaglide"]), "hexaglide_generic")
+    pose = np.array([HOME_POSES["hexaglide"]])
+    base = mechanism_structure(mechanism_from_dict(table, "a.toml"), pose)
+    table["components"]["strut_1000"]["k"] = "3260 N/um"
+    table["components"]["strut_950"]["k"] = "3440 N/um"
+    stiff = mechanism_structure(mechanism_from_dict(table, "b.toml"), pose)
+    c0 = sde.point_compliance(base.model, base.load_body, base.load_point)
+    c1 = sde.point_compliance(stiff.model, stiff.load_body, stiff.load_point)
+    assert np.all(np.diagonal(c1, axis1=1, axis2=2)[:, :3] < np.diagonal(c0, axis1=1, axis2=2)[:, :3])
+
+
+@pytest.mark.parametrize("edit, key", [
+    (lambda t: t["elastic"]["joints"]["carriage1"].update(drive="nope"), "elastic.joints.carriage1.drive"),
+    (lambda t: t["elastic"]["links"].update(frame={"model": "strut"}), "elastic.links.frame"),
+    (lambda t: t["elastic"]["links"]["strut1"].update(model="beam"), "elastic.links.strut1.model"),
+    (lambda t: t["elastic"]["joints"]["platform1"].update(drive="linear_motor_1"),
+     "elastic.joints.platform1.drive"),
+    (lambda t: t["elastic"]["joints"]["carriage1"].update(guide="strut_1000"), "elastic.joints.carriage1.guide"),
+])
+def test_bad_elastic_data_is_refused_naming_the_key(edit, key):
+    table = mechanism_dict(load_machine("hexaglide"), np.array(HOME_POSES["hexaglide"]), "hexaglide_generic")
+    edit(table)
+    with pytest.raises(InputError) as exc:
+        mechanism_from_dict(table, "m.toml")
+    assert key in str(exc.value) and "m.toml" in str(exc.value)
+
+
+def test_angular_binding_removes_exactly_the_rotation_about_its_axis():
+    """The multibody layer's ``angular`` binding (locked tilt of a revolute joint): a body on a diagonal 6×6
+    spring keeps 1/k in every direction but the bound rotation, which becomes rigid (compliance 0)."""
+    k = np.array([1e8, 2e8, 3e8, 4e5, 5e5, 6e5])
+    axis = np.array([0.0, 0.6, 0.8])
+    model = sde.SDEModel()
+    model.add_rigid_body("b", 1.0, np.zeros(3), np.eye(3))
+    model.add_sde("s", sde.FRAME, "b", np.zeros(3), stiffness=np.diag(k))
+    model.add_rigid_binding("lock", "b", sde.FRAME, np.zeros(3), kind="angular", axis=axis)
+    c = sde.point_compliance(model, "b")[0]
+    np.testing.assert_allclose(np.diag(c)[:3], 1 / k[:3], rtol=1e-12)
+    assert abs(axis @ c[3:, 3:] @ axis) < 1e-20  # the bound rotation: rigid
+    ex = np.array([1.0, 0.0, 0.0])  # ⟂ the axis: free, only the spring
+    np.testing.assert_allclose(ex @ c[3:, 3:] @ ex, 1 / k[3], rtol=1e-12)
