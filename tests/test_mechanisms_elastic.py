@@ -95,3 +95,27 @@ def test_angular_binding_removes_exactly_the_rotation_about_its_axis():
     assert abs(axis @ c[3:, 3:] @ axis) < 1e-20  # the bound rotation: rigid
     ex = np.array([1.0, 0.0, 0.0])  # ⟂ the axis: free, only the spring
     np.testing.assert_allclose(ex @ c[3:, 3:] @ ex, 1 / k[3], rtol=1e-12)
+
+
+def test_component_shares_equal_the_structure_models_weak_points():
+    """share_* of a mechanism: drive, guide, strut and link flexibility (= K_U) as the structure model's weak points;
+    the joints' share is the drive-joint plus the platform-joint share. Both are the same strain energies; the
+    tolerance covers the configurations' ~1e-13 m difference from the closed-form IK."""
+    from pkmstiff.analysis import weak_points
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+    from pkmstiff.mechanisms.structure import LABELS
+    from pkmstiff.structure import build_structure
+
+    poses = _poses(HOME_POSES["hexaglide"], 5, 3)
+    res = evaluate_mechanism(load_mechanism("hexaglide_generic"), inverse(load_mechanism("hexaglide_generic"),
+                                                                          poses), 0, ("x", "y", "z"))
+    st = build_structure(load_machine("hexaglide"), poses)
+    for d in "xyz":
+        wp = weak_points(st, d)
+        ref = dict(zip(wp.component_labels, wp.component_shares.T))
+        got = dict(zip(LABELS, res.shares[d].T))
+        for mine, theirs in (("drive", ref["drive"]), ("guide", ref["guide"]), ("strut", ref["strut"]),
+                             ("joint", ref["drive_joint"] + ref["platform_joint"]), ("link", ref["platform_spindle"])):
+            np.testing.assert_allclose(got[mine], theirs, rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(res.shares[d].sum(axis=1), 1.0, rtol=1e-12)
