@@ -119,3 +119,37 @@ def test_component_shares_equal_the_structure_models_weak_points():
                              ("joint", ref["drive_joint"] + ref["platform_joint"]), ("link", ref["platform_spindle"])):
             np.testing.assert_allclose(got[mine], theirs, rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(res.shares[d].sum(axis=1), 1.0, rtol=1e-12)
+
+
+def test_point_command_accepts_a_mechanism_and_prints_the_machines_numbers(capsys):
+    """`pkmstiff point` on the Hexaglide's mechanism file: the stiffness and frequencies the machine prints (the
+    JSON keys of schema pkmstiff/point/1; kinetostatic keys null for a mechanism)."""
+    import json
+
+    from pkmstiff.cli import main
+
+    assert main(["point", "hexaglide_generic", "--pose", "30,280,-950,2,-1,3", "--json"]) == 0
+    mech = json.loads(capsys.readouterr().out)
+    assert main(["point", "hexaglide", "--pose", "30,280,-950,2,-1,3", "--json"]) == 0
+    machine = json.loads(capsys.readouterr().out)
+    for key in ("k_N_per_um", "rotational_stiffness_Nm_per_urad"):
+        for ax in "xyz":
+            assert mech[key][ax] == pytest.approx(machine[key][ax], rel=RTOL)
+    np.testing.assert_allclose(mech["frequencies_Hz"], machine["frequencies_Hz"], rtol=RTOL)
+    assert mech["mode_descriptions"] == machine["mode_descriptions"]
+    assert mech["transmission_quality"] is None and set(mech["drives"]) == {f"lambda{i}_mm" for i in range(1, 7)}
+
+
+def test_point_command_refuses_machine_options_and_mechanisms_without_elastic_data(capsys, tmp_path):
+    from pkmstiff.cli import main
+
+    assert main(["point", "slider_crank", "--pose", "100,0,0"]) == 2
+    assert "no [elastic] table" in capsys.readouterr().err
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-900,0,0,0", "--tool-length", "100"]) == 2
+    assert "--tool-length: not available for a mechanism" in capsys.readouterr().err
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-3000,0,0,0"]) == 3  # no configuration: refused
+    capsys.readouterr()
+    # a configuration near the drive plane whose stiffness matrix is singular: not modelled, said so, no number
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0"]) == 0
+    out = capsys.readouterr().out
+    assert "pose not modelled: not positive definite" in out and "k_x =      n/a" in out

@@ -592,3 +592,70 @@ def add_commands(sub: Any) -> None:
                    help="also print every link frame (position mm, angles phi_x, phi_y, phi_z deg, R = Rz Ry Rx)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_cmd)
+
+
+def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bool,
+                 unavailable: dict[str, bool]) -> dict[str, Any]:
+    """``pkmstiff point MECHANISM --pose …``: the elastic model (issue 27) at one pose, as the machines' report
+    (schema ``pkmstiff/point/1``: stiffness N/µm and N·m/µrad at the output point, frequencies Hz, weak points %);
+    the kinetostatic keys of machines are absent. ``unavailable``: machine-only options given."""
+    import pkmstiff.multibody as sde
+    from pkmstiff.cli.point import SCHEMA, STIFFNESS_MATRIX_UNITS, WEAK_POINT_DIRECTIONS, _num, _refuse
+    from pkmstiff.mechanisms import evaluate, reason_names
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+    from pkmstiff.mechanisms.structure import LABELS, STATUS_BITS, mechanism_structure
+
+    mech = _load(name)
+    for opt, given in unavailable.items():
+        if given:
+            raise ArgumentError(f"{opt}: not available for a mechanism ('{mech.name}'): the stiffness is evaluated at "
+                                "the output point of the mechanism file")
+    if mech.elastic is None:
+        raise ArgumentError(f"mechanism '{mech.name}' has no [elastic] table: no stiffness model (see "
+                            "docs/user-guide/mechanisms.md, elastic model)")
+    pose = _parse_poses(mech, [pose_text], "--pose")
+    ev = evaluate(mech, pose)
+    reasons = reason_names(int(ev.reasons[0]))
+    names = _pose_names(mech)
+    pose_out = {f"{n}_{u}": float(v * (1e3 if u == "mm" else 180 / math.pi)) for (n, u), v in zip(names, pose[0])}
+    if reasons and not allow_inadmissible:
+        raise _refuse(mech.name, ", ".join(f"{n} = {v:g} {u}" for (n, u), v in
+                                           zip(names, pose_out.values())), [r.lower().replace("_", " ")
+                                                                            for r in reasons])
+    ms = mechanism_structure(mech, solution=ev.solution) if ev.solution.ok[0] else None
+    if ms is not None and ms.model is not None:  # at most the dynamic DOFs (massless and bound ones excluded)
+        n_modes = min(n_modes, ms.model.n_dof - ms.model.n_constraints - len(ms.model.massless_dofs))
+    res = evaluate_mechanism(mech, ev.solution, n_modes, WEAK_POINT_DIRECTIONS)
+    comp = res.compliance[0]
+    rot = ms is not None and ms.model is not None and isinstance(ms.model.body(ms.load_body), sde.RigidBody)
+    rep: dict[str, Any] = {
+        "schema": SCHEMA, "machine": mech.name, "machine_type": "mechanism", "frame": "machine",
+        "frame_origin_mm": [0.0, 0.0, 0.0], "pose": pose_out,
+        "admissible": not reasons, "reasons": [r.lower().replace("_", " ") for r in reasons],
+        "analysed_although_inadmissible": bool(reasons),
+        "modelled": bool(res.ok[0]), "model_reasons": [k.lower().replace("_", " ") for k, b in STATUS_BITS.items()
+                                                       if int(res.status[0]) & b],
+        "model": {"bodies": [] if ms is None else ms.model.body_names, "dof": 0 if ms is None else ms.model.n_dof,
+                  "constraints": 0 if ms is None else ms.model.n_constraints,
+                  "tcp_body": "" if ms is None else ms.load_body},
+        "drives": {f"{n}_{'mm' if u == 'm' else 'deg'}": _num(v * (1e3 if u == "m" else 180 / math.pi))
+                   for n, u, v in zip(mech.drive_names, mech.drive_units, ev.drives[0])},
+    }
+    d = 6 if rot else 3
+    rep["stiffness_matrix_SI"] = _num(np.linalg.inv(comp[:d, :d])) if np.all(np.isfinite(comp[:d, :d])) else None
+    rep["stiffness_matrix_SI_units"] = STIFFNESS_MATRIX_UNITS if rot else "N/m (translations at a point mass)"
+    rep["k_N_per_um"] = {ax: _num(res.stiffness[0, i] / 1e6) for i, ax in enumerate("xyz")}
+    if rot:
+        rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(res.stiffness[0, 3 + i] / 1e6) for i, ax in enumerate("xyz")}
+    rep["weak_points_percent"] = {dd: {lab: _num(100 * res.shares[dd][0, j]) for j, lab in enumerate(LABELS)}
+                                  for dd in WEAK_POINT_DIRECTIONS}
+    rep["frequencies_Hz"] = _num(res.frequencies_hz[0]) if n_modes else []
+    rep["mode_descriptions"] = []
+    # kinetostatics (drive data, velocities, accelerations) are not defined for a mechanism file: null / empty
+    rep.update(transmission_quality=None, v_max_m_per_s={}, v_max_m_per_min={}, a_max_m_per_s2={},
+               static_drive_loads_N=None)
+    if n_modes and rot and res.ok[0]:
+        mr = sde.modes(ms.model, n_modes, shapes=True)
+        idx, share = sde.describe_modes(ms.model, mr.shapes, ms.output_body)
+        rep["mode_descriptions"] = [sde.mode_label(idx[0, k], share[0, k]) for k in range(n_modes)]
+    return rep

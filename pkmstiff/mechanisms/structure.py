@@ -261,6 +261,12 @@ class MechanismStructure:
     energy_split: dict[str, list[tuple[str, Any]]] = field(default_factory=dict)
 
     @property
+    def output_body(self) -> str:
+        """The body whose motion describes a mode: the output link's (its main body where the link is flexible)."""
+        kind, ref, _ = self.plan.load
+        return self.plan.body_name(ref) if kind == "tool" else self.load_body
+
+    @property
     def mech(self) -> Mechanism:
         return self.plan.mech
 
@@ -291,16 +297,18 @@ def mechanism_structure(mech: Mechanism, poses: ArrayLike | None = None, solutio
     poses_arr = np.asarray(solution.poses if poses is None else np.atleast_2d(np.asarray(poses, float)), float)
     status = np.where(solution.ok, 0, STATUS_BITS["NO_CONFIGURATION"]).astype(np.uint8)
     idx = np.flatnonzero(status == 0)
-    model, load_point, split, good = _build(pl, solution.q[idx])
-    status[idx[~good]] |= STATUS_BITS["COMPONENT_FAILED"]
-    if not good.all():
-        idx = idx[good]
-        model, load_point, split, _ = _build(pl, solution.q[idx])
+    model, load_point, split = None, np.zeros((0, 3)), {}
+    if idx.size:
+        model, load_point, split, good = _build(pl, solution.q[idx])
+        status[idx[~good]] |= STATUS_BITS["COMPONENT_FAILED"]
+        if not good.all():
+            idx = idx[good]
+            model, load_point, split = (_build(pl, solution.q[idx])[:3] if idx.size else
+                                        (None, np.zeros((0, 3)), {}))
     kind, ref, _ = pl.load
     body = (pl.nodes[ref].name if kind == "node" else
             f"{mech.links[ref]}.tool" if kind == "tool" else pl.body_name(ref))
-    return MechanismStructure(pl, poses_arr, solution, idx, status, model if len(idx) else None, body, load_point,
-                              split)
+    return MechanismStructure(pl, poses_arr, solution, idx, status, model, body, load_point, split)
 
 
 def _build(pl: Plan, q: Array) -> tuple[sde.SDEModel, Array, dict, Array]:
