@@ -153,3 +153,41 @@ def test_point_command_refuses_machine_options_and_mechanisms_without_elastic_da
     assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0"]) == 0
     out = capsys.readouterr().out
     assert "pose not modelled: not positive definite" in out and "k_x =      n/a" in out
+
+
+def test_section_of_a_mechanism_gives_the_machines_stiffness_map():
+    """`section` quantities kx, f1, share_* of the Hexaglide's mechanism file equal the structure model's at the
+    raster poses (yz plane; x is irrelevant for the Hexaglide, whose guides run along x)."""
+    from pkmstiff.mechanisms.section import evaluate_section, plane_poses
+
+    mech = load_mechanism("hexaglide_generic")
+    sec = evaluate_section(mech, "yz", 0.0, (0.1, 0.5), (-1.1, -0.7), 0.1, names=("kx", "kz", "f1", "share_drive_y"))
+    P = plane_poses(mech, "yz", 0.0, sec.u_values, sec.v_values, np.zeros(3))
+    ref = evaluate_structure(load_machine("hexaglide"), P, tool_length=0.0, n_modes=1)
+    assert sec.ok.all() and ref.ok.all()
+    np.testing.assert_allclose(sec.values["kx"].ravel(), ref.stiffness[:, 0], rtol=RTOL)
+    np.testing.assert_allclose(sec.values["kz"].ravel(), ref.stiffness[:, 2], rtol=RTOL)
+    np.testing.assert_allclose(sec.values["f1"].ravel(), ref.frequencies_hz[:, 0], rtol=RTOL)
+    assert sec.units["kx"] == "N/um" and sec.scales["kx"] == 1e-6 and sec.units["share_drive_y"] == "%"
+
+
+def test_section_points_are_solved_from_their_neighbours(monkeypatch):
+    """The raster continuation solves one point from home; every other point of a connected plane starts from an
+    already solved neighbour (one raster step away), and the configurations solve the IK."""
+    import pkmstiff.mechanisms.section as sec_mod
+
+    calls = []
+    real = sec_mod.inverse
+
+    def counting(mech, poses, start=None, **kw):
+        calls.append(start is None)
+        return real(mech, poses, start=start, **kw)
+
+    monkeypatch.setattr(sec_mod, "inverse", counting)
+    mech = load_mechanism("hexaglide_generic")
+    uu, vv = np.linspace(0.1, 0.5, 9), np.linspace(-1.1, -0.7, 9)
+    P = sec_mod.plane_poses(mech, "yz", 0.0, uu, vv, np.zeros(3))
+    sol = sec_mod.raster_inverse(mech, P, (9, 9), **sec_mod.NEIGHBOUR)
+    assert sol.ok.all()
+    np.testing.assert_allclose(sol.poses, P, atol=1e-12)
+    assert calls.count(True) == 2 and len(calls) > 3  # the home configuration and the seed point from home

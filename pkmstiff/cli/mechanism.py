@@ -448,7 +448,7 @@ def section_report(args) -> dict[str, Any]:
 
     from pkmstiff.errors import ArgumentError
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
-    from pkmstiff.mechanisms.section import evaluate_section, fit_window, quantity_names
+    from pkmstiff.mechanisms.section import check_quantities, evaluate_section, fit_window, quantity_names
 
     mech = _load(args.machine)
     plane = args.plane.lower()
@@ -457,7 +457,7 @@ def section_report(args) -> dict[str, Any]:
                        ("--skip-check", bool(args.skip_check))):
         if given:
             raise ArgumentError(f"{opt}: not available for a mechanism ('{mech.name}'): a mechanism section has the "
-                                f"kinematic quantities {', '.join(quantity_names(mech))}")
+                                f"quantities {', '.join(quantity_names(mech))}")
     ranges = parse_ranges(args.range, plane) if args.range else None
     ori = parse_triple_deg(args.orientation, "--orientation")
     if not (args.step > 0 and math.isfinite(args.step)):
@@ -477,11 +477,7 @@ def section_report(args) -> dict[str, Any]:
         raise ArgumentError(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
     t0 = time.process_time()
     try:
-        known = quantity_names(mech)
-        unknown = [n for n in names if n not in known]
-        if unknown:
-            raise ArgumentError(f"--quantities: expected names from {', '.join(known)} for mechanism '{mech.name}', "
-                                f"found {', '.join(unknown)}")
+        check_quantities(mech, names)
         fitted = ranges is None
         if fitted:
             (u0, u1), (v0, v1) = fit_window(mech, plane, at, ori, step)
