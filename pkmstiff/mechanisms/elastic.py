@@ -25,7 +25,8 @@ docs/theory/components.md); the ``[elastic]`` table places them on the mechanism
     axis = [0, 0, -1]                    # joint axis and swivel reference (home, on the joint's non-strut link)
     reference = [-1, 0, 0]
     convention = "axis"                  # tilt convention of the joint (docs/theory/kinematics.md): axis | normal
-    stiffness = "bearing"                # 6×6 joint stiffness between two rigid links, joint axes (x' = axis)
+    stiffness = "bearing"                # 6×6 joint stiffness between two rigid links, in the axes of the
+                                         # joint's first link (world axes at home); 0 in the joint's free directions
     mass = "2.3 kg"                      # joint mass (at the node, else on the joint's non-strut link)
 
 Element placement (the structure model of docs/theory/structure.md, generalised): a strut's end is a point-mass

@@ -45,12 +45,6 @@ def _perp(a: Array) -> Array:
     return v / np.linalg.norm(v)
 
 
-def _frame(axis: Array) -> Array:
-    """Columns x' = axis, y', z' (right-handed) of a joint frame at home."""
-    y = _perp(axis)
-    return np.stack([axis, y, np.cross(axis, y)], axis=1)
-
-
 @dataclass(frozen=True)
 class StrutEnd:
     joint: int
@@ -500,14 +494,14 @@ def _joint_elements(pl: Plan, ji: int, g: _Geometry, model: sde.SDEModel, split:
     k6 = np.zeros((m, 6, 6))
     parts = []
     trans, rots = _constrained(mech, ji, g)
-    if je.stiffness is not None:
-        axis = _home3(mech, jt.axis) if jt.axis is not None else np.eye(3)[0]
-        f_home = _frame(axis)
-        F = f_home if a in mech.ground else g.R[:, a] @ f_home
-        h = np.zeros((m, 6, 6))
-        h[:, :3, :3] = h[:, 3:, 3:] = F
+    if je.stiffness is not None:  # given in the axes of the joint's first link (world axes at home)
         kl = np.asarray(je.stiffness.stiffness(_state(1)), float).reshape(6, 6)
-        k6 += h @ kl @ np.swapaxes(h, 1, 2)
+        if a in mech.ground:
+            k6 += kl
+        else:
+            h = np.zeros((m, 6, 6))
+            h[:, :3, :3] = h[:, 3:, 3:] = g.R[:, a]
+            k6 += h @ kl @ np.swapaxes(h, 1, 2)
         parts.append(("bearing", None))
     drive_dir = None
     if jt.drive is not None:
