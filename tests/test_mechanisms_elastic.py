@@ -191,3 +191,95 @@ def test_section_points_are_solved_from_their_neighbours(monkeypatch):
     assert sol.ok.all()
     np.testing.assert_allclose(sol.poses, P, atol=1e-12)
     assert calls.count(True) == 2 and len(calls) > 3  # the home configuration and the seed point from home
+
+
+def _raw(name: str) -> dict:
+    from pkmstiff.io import read_toml
+    from pkmstiff.mechanisms.loader import bundled_mechanism_dir
+
+    return read_toml(bundled_mechanism_dir() / f"{name}.toml", "mechanism file")
+
+
+def test_five_bar_output_stiffness_equals_the_closed_form():
+    """Planar five-bar: each coupler is a two-force member in series with its crank turning against the motor,
+    an axial spring along n_i = (P − B_i)/|P − B_i| with compliance 1/k_coupler + ((B_i − A_i) × n_i)_z² / k_motor;
+    K_P = Σ n_i n_iᵀ / c_i (the bearings and the out-of-plane motions rigid)."""
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+
+    mech = load_mechanism("five_bar")
+    comps = mech.elastic.components
+    poses = np.array([[0.1, 0.3, 0.0], [0.13, 0.27, 0.0], [0.06, 0.32, 0.0]])
+    sol = inverse(mech, poses)
+    res = evaluate_mechanism(mech, sol, 4)
+    t = sol.q[:, :, :2]
+    phi = sol.q[:, :, 2]
+    L = {n: i for i, n in enumerate(mech.links)}
+    jp = {j.name: j.point for j in mech.joints}
+    for i in range(len(poses)):
+        K = np.zeros((2, 2))
+        for crank, a, b in (("crank1", "A1", "B1"), ("crank2", "A2", "B2")):
+            c, s = np.cos(phi[i, L[crank]]), np.sin(phi[i, L[crank]])
+            rot = np.array([[c, -s], [s, c]])
+            A = jp[a]
+            B = t[i, L[crank]] + rot @ jp[b]
+            n = (poses[i, :2] - B) / np.linalg.norm(poses[i, :2] - B)
+            r = B - A
+            comp = 1 / comps["coupler"].k + (r[0] * n[1] - r[1] * n[0]) ** 2 / comps["motor"].k
+            K += np.outer(n, n) / comp
+        np.testing.assert_allclose(res.compliance[i, :2, :2], np.linalg.inv(K), rtol=1e-10,
+                                   atol=1e-12 * np.abs(np.linalg.inv(K)).max())
+        assert res.compliance[i, 2, 2] == pytest.approx(0.0, abs=1e-20)  # out of plane: bound
+
+
+def test_hexa_6rus_with_rigid_servos_is_the_strut_closed_form():
+    """6-RUS with the servos rigid (drive without component: exact angular binding) and rigid crank bearings: the
+    platform hangs on six axial springs along the rods, K = Σ k_i w_i w_iᵀ, w_i = (n_i, (p_i − O) × n_i),
+    1/k_i = 1/k_rod + 1/k_cardan + 1/k_ball (Cobet eq. 4.48)."""
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+
+    raw = _raw("hexa_6rus")
+    for i in range(1, 7):
+        del raw["elastic"]["joints"][f"R{i}"]
+    mech = mechanism_from_dict(raw, "hexa_rigid_servos.toml")
+    comps = mech.elastic.components
+    poses = np.array([[0.0, 0.0, -0.4, 0, 0, 0], [0.02, -0.03, -0.42, 0.05, -0.03, 0.08]])
+    sol = inverse(mech, poses)
+    res = evaluate_mechanism(mech, sol, 0)
+    k = 1 / (1 / comps["rod"].k + 1 / comps["cardan"].k + 1 / comps["ball"].k)
+    from pkmstiff.mechanisms.constraints import link_rotations
+
+    R, _ = link_rotations(sol.q[..., 3:], 3)
+    L = {n: i for i, n in enumerate(mech.links)}
+    jp = {j.name: j.point for j in mech.joints}
+    for i in range(len(poses)):
+        K = np.zeros((6, 6))
+        for c in range(1, 7):
+            rod = L[f"rod{c}"]
+            u_pt = sol.q[i, rod, :3] + R[i, rod] @ jp[f"U{c}"]
+            s_pt = sol.q[i, rod, :3] + R[i, rod] @ jp[f"S{c}"]
+            n = (s_pt - u_pt) / np.linalg.norm(s_pt - u_pt)
+            w = np.concatenate([n, np.cross(s_pt - poses[i, :3], n)])
+            K += k * np.outer(w, w)
+        np.testing.assert_allclose(res.compliance[i], np.linalg.inv(K), rtol=1e-9,
+                                   atol=1e-12 * np.abs(np.linalg.inv(K)).max())
+
+
+def test_hexa_6rus_servo_stiffness_enters_about_the_drive_axis():
+    """With elastic servos the platform is softer than with rigid ones, and the servos' share of the compliance is
+    the largest (82 % at home with the bundled data)."""
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+    from pkmstiff.mechanisms.structure import LABELS
+
+    mech = load_mechanism("hexa_6rus")
+    res = evaluate_mechanism(mech, inverse(mech, [[0.0, 0.0, -0.4, 0, 0, 0]]), 6, ("x", "z"))
+    raw = _raw("hexa_6rus")
+    for i in range(1, 7):
+        del raw["elastic"]["joints"][f"R{i}"]
+    rigid = evaluate_mechanism(mechanism_from_dict(raw, "r.toml"), inverse(mech, [[0.0, 0.0, -0.4, 0, 0, 0]]), 0)
+    assert np.all(np.diag(res.compliance[0]) > np.diag(rigid.compliance[0]))
+    assert np.argmax(res.shares["x"][0]) == LABELS.index("drive")
+    np.testing.assert_allclose(res.shares["z"][0].sum(), 1.0, rtol=1e-12)
+    assert np.all(np.isfinite(res.frequencies_hz)) and np.all(np.diff(res.frequencies_hz[0]) >= 0)

@@ -526,4 +526,5 @@ def _joint_elements(pl: Plan, ji: int, g: _Geometry, model: sde.SDEModel, split:
         beta = el.damping_beta
         model.add_sde(name, na, nb, point, stiffness=k6, damping=beta * k6 if beta else None, group="J",
                       check_psd=False)
-        split[name] = parts + ([] if any(p[0] == "bearing" for p in parts) else [("bearing", None)])
+        # the rest of the element's energy: the bearing's; without a bearing stiffness all of it is the drive's
+        split[name] = parts if je.stiffness is not None else [("drive", None)]
