@@ -119,15 +119,17 @@ class BodyStiffness(Component):
     """
 
     kind: ClassVar[str] = "matrix6"
+    what: ClassVar[str] = "body stiffness"
+    semi_definite: ClassVar[bool] = False
     matrix: np.ndarray
 
     def __post_init__(self) -> None:
         K = np.asarray(self.matrix, dtype=float)
         if K.shape != (6, 6) or not np.all(np.isfinite(K)):
-            raise ArgumentError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape "
+            raise ArgumentError(f"{self.what} '{self.name}': expected a finite (6, 6) matrix, found shape "
                                      f"{K.shape}")
-        _check_symmetric(K, f"body stiffness '{self.name}'")
-        _check_positive_definite(K, f"body stiffness '{self.name}'")
+        _check_symmetric(K, f"{self.what} '{self.name}'")
+        _check_positive_definite(K, f"{self.what} '{self.name}'", semi=self.semi_definite)
         object.__setattr__(self, "matrix", 0.5 * (K + K.T))
 
     @classmethod
@@ -172,14 +174,8 @@ class JointStiffness(BodyStiffness):
     """Constant 6×6 stiffness of a joint or bearing between two links (mechanism files): symmetric positive
     semi-definite, 0 in the directions the joint leaves free (e.g. the rotation of a revolute joint)."""
 
-    def __post_init__(self) -> None:
-        K = np.asarray(self.matrix, dtype=float)
-        if K.shape != (6, 6) or not np.all(np.isfinite(K)):
-            raise ArgumentError(f"joint stiffness '{self.name}': expected a finite (6, 6) matrix, found shape "
-                                f"{K.shape}")
-        _check_symmetric(K, f"joint stiffness '{self.name}'")
-        _check_positive_definite(K, f"joint stiffness '{self.name}'", semi=True)
-        object.__setattr__(self, "matrix", 0.5 * (K + K.T))
+    what: ClassVar[str] = "joint stiffness"
+    semi_definite: ClassVar[bool] = True
 
 
 # --------------------------------------------------------------------------------------------- machine files

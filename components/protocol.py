@@ -222,19 +222,11 @@ class ConstantAxial(Component):
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class RotaryDrive(Component):
+class RotaryDrive(ConstantAxial):
     """Rotary drive of constant torsional stiffness ``k`` [N m/rad] about its axis (motor + gear + control, as seen
     at the driven joint; ``np.inf`` = rigid); ``mass`` [kg] of the parts moving with the driven link."""
 
     kind: ClassVar[StiffnessKind] = "torsional"
-    k: float
-
-    def __post_init__(self) -> None:
-        if not self.k > 0:
-            raise ArgumentError(f"component '{self.name}': k must be positive, found {self.k!r}")
-
-    def stiffness(self, state: ComponentState) -> np.ndarray:
-        return _full(state, self.k)
 
 
 MODELS: tuple[ModelSpec, ...] = (ModelSpec(

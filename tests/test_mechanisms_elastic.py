@@ -283,3 +283,18 @@ def test_hexa_6rus_servo_stiffness_enters_about_the_drive_axis():
     assert np.argmax(res.shares["x"][0]) == LABELS.index("drive")
     np.testing.assert_allclose(res.shares["z"][0].sum(), 1.0, rtol=1e-12)
     assert np.all(np.isfinite(res.frequencies_hz)) and np.all(np.diff(res.frequencies_hz[0]) >= 0)
+
+
+def test_frf_at_zero_frequency_is_the_static_compliance_and_peaks_at_a_natural_frequency():
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism, frf
+
+    mech = load_mechanism("hexa_6rus")
+    sol = inverse(mech, [[0.01, 0.02, -0.41, 0.0, 0.02, 0.0]])
+    res = evaluate_mechanism(mech, sol, 6)
+    ms = mechanism_structure(mech, solution=sol)
+    f1 = res.frequencies_hz[0, 0]
+    h = frf(ms, [0.0, f1], "x", zeta=0.02)
+    # modal superposition over all modes at 0 Hz = K⁻¹ (round-off of the eigen decomposition)
+    assert h[0, 0].real == pytest.approx(res.compliance[0, 0, 0], rel=1e-9)
+    assert abs(h[0, 1]) > 5 * abs(h[0, 0])  # resonance of a mode with x motion (ζ = 2 %: amplification ≤ 25)

@@ -122,26 +122,26 @@ def evaluate_mechanism(mech: Mechanism, solution: Solution, n_modes: int = 6, di
     shares = {d: np.full((n, len(LABELS)), np.nan) for d in directions}
     status = np.zeros(n, np.uint8)
     for s0 in range(0, n, chunk_size):
-        sl = np.arange(s0, min(s0 + chunk_size, n))
-        ms = mechanism_structure(mech, solution=take(solution, sl))
-        status[sl] = ms.status
-        idx = ms.index
-        while idx.size:
+        rows = np.arange(s0, min(s0 + chunk_size, n))
+        for _ in range(3):  # the not positive definite poses are found at the first failure, once more is a safety
+            ms = mechanism_structure(mech, solution=take(solution, rows))
+            status[rows] |= ms.status
+            rows = rows[ms.index]
+            if not rows.size:
+                break
             try:
                 c, f, sh = _chunk(ms, n_modes, directions)
                 break
             except NumericalError:
                 bad = _not_pd(ms)
-                status[sl[idx[bad]]] |= STATUS_BITS["NOT_POSITIVE_DEFINITE"]
-                idx = idx[~bad]
-                ms = mechanism_structure(mech, solution=take(solution, sl[idx]))
-                ms.index = idx if ms.index.size == idx.size else idx[ms.index]
-        if not idx.size:
-            continue
-        comp[sl[idx]] = c
-        freq[sl[idx]] = f
-        for d in directions:
-            shares[d][sl[idx]] = sh[d]
+                status[rows[bad]] |= STATUS_BITS["NOT_POSITIVE_DEFINITE"]
+                rows = rows[~bad]
+        else:
+            raise NumericalError("stiffness matrix still singular after removing the non-positive-definite poses")
+        if rows.size:
+            comp[rows], freq[rows] = c, f
+            for d in directions:
+                shares[d][rows] = sh[d]
     with np.errstate(divide="ignore", invalid="ignore"):
         stiff = 1.0 / np.diagonal(comp, axis1=1, axis2=2)
     return MechanismStiffness(comp, stiff, freq, shares, status)
