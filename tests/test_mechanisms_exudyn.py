@@ -16,10 +16,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import scipy.linalg
 
 exu = pytest.importorskip("exudyn", reason="exudyn is a test-only dependency (extra 'test'); not installed here")
-from exudyn.itemInterface import (  # noqa: E402
+from exudyn.itemInterface import (
     LoadForceVector,
     LoadTorqueVector,
     MarkerBodyPosition,
@@ -33,14 +32,13 @@ from exudyn.itemInterface import (  # noqa: E402
     ObjectMassPoint,
     ObjectRigidBody,
 )
-from exudyn.rigidBodyUtilities import RotationMatrix2RotXYZ  # noqa: E402
+from exudyn.rigidBodyUtilities import RotationMatrix2RotXYZ
 
-from tests.test_exudyn_crosscheck import RTOL, _central, assert_blocks_close, exudyn_frequencies, inertia6  # noqa: E402
-
-from components.protocol import ComponentState  # noqa: E402
-from pkmstiff.mechanisms import inverse, load_mechanism  # noqa: E402
-from pkmstiff.mechanisms.constraints import link_rotations  # noqa: E402
-from pkmstiff.mechanisms.stiffness import evaluate_mechanism  # noqa: E402
+from components.protocol import ComponentState
+from pkmstiff.mechanisms import inverse, load_mechanism
+from pkmstiff.mechanisms.constraints import link_rotations
+from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+from tests.test_exudyn_crosscheck import RTOL, _central, assert_blocks_close, exudyn_frequencies, inertia6
 
 MECH = load_mechanism("hybrid_tripod_wrist")
 #: admissible tool poses (x, y, z [m], a, b, c [rad]) around home (0, 0.1, -1.0732; tool axis tilted 30° about x)
@@ -132,7 +130,7 @@ def exudyn_hybrid(q: np.ndarray):
         k6 = comps[bearing].matrix.copy()
         k6[3 + axis % 3, 3 + axis % 3] += comps[motor].k  # V1 about the plate's z, V2 about the fork's x
         spring6(a, b, t[L[b]] + R[L[b]] @ jp[joint], k6)
-    o_tool, i_tool, cog_tool = bodies["tool"]
+    o_tool, _, cog_tool = bodies["tool"]
     tcp_local = list(MECH.output.point - cog_tool)
     m_tf = mbs.AddMarker(MarkerBodyPosition(bodyNumber=o_tool, localPosition=tcp_local))
     m_tm = mbs.AddMarker(MarkerBodyRigid(bodyNumber=o_tool, localPosition=tcp_local))

@@ -641,8 +641,9 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
     dirs = ([0, 1] + ([5] if rot else [])) if mech.dim == 2 else list(range(6 if rot else 3))
     sub = comp[np.ix_(dirs, dirs)]
     rep["stiffness_matrix_SI"] = _num(np.linalg.inv(sub)) if np.all(np.isfinite(sub)) else None
+    labels = ("x", "y", "z", "rx", "ry", "rz")
     rep["stiffness_matrix_SI_units"] = (STIFFNESS_MATRIX_UNITS if rot and mech.dim == 3 else
-                                        f"N/m, N/rad, N*m/rad over ({', '.join('x y z rx ry rz'.split()[i] for i in dirs)})")
+                                        f"N/m, N/rad, N*m/rad over ({', '.join(labels[i] for i in dirs)})")
     rep["k_N_per_um"] = {ax: _num(res.stiffness[0, i] / 1e6) for i, ax in enumerate("xyz")}
     if rot:
         rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(res.stiffness[0, 3 + i] / 1e6) for i, ax in enumerate("xyz")}

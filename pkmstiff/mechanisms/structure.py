@@ -22,7 +22,7 @@ import pkmstiff.multibody as sde
 from pkmstiff.errors import InputError
 from pkmstiff.kinematics.joint_angles import joint_angles_along
 from pkmstiff.mechanisms.constraints import link_rotations
-from pkmstiff.mechanisms.elastic import ElasticData, JointElastic
+from pkmstiff.mechanisms.elastic import ElasticData
 from pkmstiff.mechanisms.model import JOINT_TYPES_2D, JOINT_TYPES_3D, Mechanism
 from pkmstiff.mechanisms.solver import Solution, inverse, joint_values
 from pkmstiff.structure.layout import PKSBody, combine_bodies
