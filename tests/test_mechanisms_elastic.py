@@ -298,3 +298,23 @@ def test_frf_at_zero_frequency_is_the_static_compliance_and_peaks_at_a_natural_f
     # modal superposition over all modes at 0 Hz = K⁻¹ (round-off of the eigen decomposition)
     assert h[0, 0].real == pytest.approx(res.compliance[0, 0, 0], rel=1e-9)
     assert abs(h[0, 1]) > 5 * abs(h[0, 0])  # resonance of a mode with x motion (ζ = 2 %: amplification ≤ 25)
+
+
+def test_stiffness_at_another_point_of_the_output_link_is_the_transferred_compliance():
+    """C at a tool tip r = output point + Δ is N(Δ) C N(Δ)ᵀ (rigid-body transfer, docs/theory/structure.md)."""
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.constraints import link_rotations
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+
+    mech = load_mechanism("hexa_6rus")
+    sol = inverse(mech, [[0.01, -0.02, -0.41, 0.03, 0.0, -0.02]])
+    tip = np.array([0.0, 0.0, -0.55])  # 150 mm below the output point at home
+    at_tip = evaluate_mechanism(mech, sol, 0, point=tip).compliance[0]
+    c = evaluate_mechanism(mech, sol, 0).compliance[0]
+    R, _ = link_rotations(sol.q[0, mech.link_index("platform"), 3:], 3)
+    delta = R @ (tip - mech.output.point)
+    n = sde.linalg.reference_matrix(delta[None])[0]
+    np.testing.assert_allclose(at_tip, n @ c @ n.T, rtol=1e-9, atol=1e-9 * np.abs(at_tip).max())
+    with pytest.raises(InputError, match="point"):
+        mechanism_structure(load_mechanism("five_bar"), solution=inverse(load_mechanism("five_bar"),
+                                                                         [[0.1, 0.3, 0.0]]), point=[0.1, 0.3])

@@ -11,6 +11,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
+from numpy.typing import ArrayLike
+
 import numpy as np
 
 import pkmstiff.multibody as sde
@@ -111,10 +113,10 @@ def _chunk(ms: MechanismStructure, n_modes: int, directions: tuple[str, ...]) ->
 
 
 def evaluate_mechanism(mech: Mechanism, solution: Solution, n_modes: int = 6, directions: tuple[str, ...] = (),
-                       chunk_size: int = CHUNK) -> MechanismStiffness:
-    """Compliance and stiffness at the output point, the ``n_modes`` lowest natural frequencies and the component
-    shares along ``directions`` (subset of x, y, z) at the configurations of ``solution`` (chunks of
-    ``chunk_size``).  A configuration whose stiffness matrix is not positive definite (a structurally singular
+                       chunk_size: int = CHUNK, point: ArrayLike | None = None) -> MechanismStiffness:
+    """Compliance and stiffness at the output point (or at ``point``, home coordinates on the output link, e.g. a
+    tool tip), the ``n_modes`` lowest natural frequencies and the component shares along ``directions`` (subset of
+    x, y, z) at the configurations of ``solution`` (chunks of ``chunk_size``).  A configuration whose stiffness matrix is not positive definite (a structurally singular
     pose) gets NaN and the status bit NOT_POSITIVE_DEFINITE; a chunk never raises because of single poses."""
     n = solution.q.shape[0]
     comp = np.full((n, 6, 6), np.nan)
@@ -124,7 +126,7 @@ def evaluate_mechanism(mech: Mechanism, solution: Solution, n_modes: int = 6, di
     for s0 in range(0, n, chunk_size):
         rows = np.arange(s0, min(s0 + chunk_size, n))
         for _ in range(3):  # the not positive definite poses are found at the first failure, once more is a safety
-            ms = mechanism_structure(mech, solution=take(solution, rows))
+            ms = mechanism_structure(mech, solution=take(solution, rows), point=point)
             status[rows] |= ms.status
             rows = rows[ms.index]
             if not rows.size:
@@ -157,11 +159,6 @@ def _not_pd(ms: MechanismStructure) -> Array:
         k = np.swapaxes(z, 1, 2) @ k @ z
     eig = np.linalg.eigvalsh(k)
     return ~(eig[:, 0] > 1e-13 * np.abs(eig[:, -1]))
-
-
-def modal(ms: MechanismStructure, n_modes: int = 6) -> Any:
-    """Frequencies, mode shapes and their descriptions (:func:`pkmstiff.multibody.modes`)."""
-    return sde.modes(ms.model, n_modes, shapes=True)
 
 
 def frf(ms: MechanismStructure, freq_hz: Any, direction: str = "x", zeta: Any = 0.02) -> Array:

@@ -12,7 +12,7 @@ out-of-plane motions bound rigidly.  Quantities and units as for the structure m
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -282,10 +282,20 @@ STATUS_BITS = {"NO_CONFIGURATION": 1, "COMPONENT_FAILED": 2, "NOT_POSITIVE_DEFIN
 
 
 def mechanism_structure(mech: Mechanism, poses: ArrayLike | None = None, solution: Solution | None = None,
-                        **solve_kw: Any) -> MechanismStructure:
+                        point: ArrayLike | None = None, **solve_kw: Any) -> MechanismStructure:
     """Elastic model of ``mech`` at the poses (inverse kinematics, continuation from home or ``solve_kw``) or at the
-    configurations of ``solution``."""
+    configurations of ``solution``; loads and responses at the output point or at ``point`` (3,) [m], home
+    coordinates of a point of the output link (a rigid link)."""
     pl = plan(mech)
+    if point is not None:
+        kind, ref, _ = pl.load
+        if kind == "node":
+            raise InputError(mech.path or mech.name, "point", "a point of a rigid output link (the output of this "
+                             "file is a point mass where struts meet)", point)
+        p = np.asarray(point, float).reshape(-1)
+        if p.shape != (mech.dim,) or not np.all(np.isfinite(p)):
+            raise InputError(mech.path or mech.name, "point", f"{mech.dim} finite coordinates in m", point)
+        pl = replace(pl, load=(kind, ref, _home3(mech, p)))
     if solution is None:
         solution = inverse(mech, np.atleast_2d(np.asarray(poses, float)), **solve_kw)
     poses_arr = np.asarray(solution.poses if poses is None else np.atleast_2d(np.asarray(poses, float)), float)
