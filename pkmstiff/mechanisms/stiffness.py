@@ -11,9 +11,8 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
-from numpy.typing import ArrayLike
-
 import numpy as np
+from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
 from pkmstiff.errors import NumericalError
