@@ -40,9 +40,15 @@ def test_mechanism_file_reproduces_the_structure_model(machine_name, mech_name):
     np.testing.assert_allclose(f_mech, ref.frequencies_hz, rtol=RTOL)
 
 
-def test_generated_files_are_the_generator_output():
+def test_generated_files_are_the_generator_output(tmp_path):
     """The bundled files carry the machines' components unchanged (regenerate with `python -m
-    pkmstiff.mechanisms.generate`): component tables equal the machine file's, nothing tuned."""
+    pkmstiff.mechanisms.generate`): the files are the generator's output and their component tables equal the
+    machine file's, nothing tuned."""
+    from pkmstiff.mechanisms.generate import write_bundled
+    from pkmstiff.mechanisms.loader import bundled_mechanism_dir
+
+    for path in write_bundled(tmp_path):
+        assert path.read_text(encoding="utf-8") == (bundled_mechanism_dir() / path.name).read_text(encoding="utf-8")
     machine = load_machine("hexaglide")
     table = mechanism_dict(machine, np.array(HOME_POSES["hexaglide"]), "hexaglide_generic")
     mech = load_mechanism("hexaglide_generic")
