@@ -324,3 +324,22 @@ def test_stiffness_at_another_point_of_the_output_link_is_the_transferred_compli
     with pytest.raises(InputError, match="point"):
         mechanism_structure(load_mechanism("five_bar"), solution=inverse(load_mechanism("five_bar"),
                                                                          [[0.1, 0.3, 0.0]]), point=[0.1, 0.3])
+
+
+def test_joint_angles_along_equal_the_machines_joint_angles():
+    """The generic joint angles (one joint, its link's rotation, the strut direction) are the pose pipeline's."""
+    from pkmstiff.kinematics import inverse_kinematics
+    from pkmstiff.kinematics.joint_angles import joint_angles, joint_angles_along
+
+    machine = load_machine("hexaglide")
+    ik = inverse_kinematics(machine, _poses(HOME_POSES["hexaglide"], 20, 5))
+    ja = joint_angles(machine, ik)
+    ch = machine.chains
+    for i in range(6):
+        u = ik.unit_d[:, i]
+        tilt, swivel = joint_angles_along(u, None, ch.drive_axis[i], ch.drive_reference[i], False)
+        np.testing.assert_allclose(tilt, ja.drive.tilt[:, i], rtol=0, atol=1e-14)
+        np.testing.assert_allclose(swivel, ja.drive.swivel[:, i], rtol=0, atol=1e-14, equal_nan=True)
+        tilt, swivel = joint_angles_along(-u, ik.R, ch.platform_axis[i], ch.platform_reference[i], False)
+        np.testing.assert_allclose(tilt, ja.platform.tilt[:, i], rtol=0, atol=1e-14)
+        np.testing.assert_allclose(swivel, ja.platform.swivel[:, i], rtol=0, atol=1e-14, equal_nan=True)

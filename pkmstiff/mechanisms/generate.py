@@ -4,7 +4,9 @@ A pod chain (fixed base joint q_i, telescopic strut, platform joint p_i) is a st
 at q_i and the platform point on the strut axis (1E: prismatic + spherical, patent Fig. 1E); its drive is the strut
 length (offset = home length).  A glide chain (carriage on guide s_i + λ r_i, constant strut) is a strut link whose
 drive-side point lies on the guide line (1E: carriage + 3-DOF joint) and a Cardan joint at the platform; its drive is
-λ_i (offset = home λ).  The platform's output point is O' at the home pose; orientation "full".
+λ_i (offset = home λ).  The platform's output point is O' at the home pose; orientation "full".  The machine's
+components follow in ``[components]`` and ``[elastic]`` (:func:`_elastic_tables`), placed as the structure model
+places them, so that the elastic model of the file is the machine's structure model (issue 27).
 """
 
 from __future__ import annotations
