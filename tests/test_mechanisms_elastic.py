@@ -343,3 +343,19 @@ def test_joint_angles_along_equal_the_machines_joint_angles():
         tilt, swivel = joint_angles_along(-u, ik.R, ch.platform_axis[i], ch.platform_reference[i], False)
         np.testing.assert_allclose(tilt, ja.platform.tilt[:, i], rtol=0, atol=1e-14)
         np.testing.assert_allclose(swivel, ja.platform.swivel[:, i], rtol=0, atol=1e-14, equal_nan=True)
+
+
+def test_point_batch_of_a_mechanism_has_the_machines_columns(tmp_path, capsys):
+    from pkmstiff.cli import main
+
+    poses = tmp_path / "p.csv"
+    poses.write_text("30,280,-950,2,-1,3\n0,300,-3000,0,0,0\n", encoding="utf-8")
+    assert main(["point", "hexaglide_generic", "--poses", str(poses), "--modes", "2"]) == 0
+    mech_rows = capsys.readouterr().out.strip().splitlines()
+    assert main(["point", "hexaglide", "--poses", str(poses), "--modes", "2"]) == 0
+    machine_rows = capsys.readouterr().out.strip().splitlines()
+    assert mech_rows[0] == machine_rows[0]
+    got = [float(v) for v in mech_rows[1].split(",")[8:]]
+    ref = [float(v) for v in machine_rows[1].split(",")[8:]]
+    np.testing.assert_allclose(got, ref, rtol=1e-5)  # printed with 6 significant digits
+    assert mech_rows[2].endswith("False,no solution,,,,,")

@@ -590,6 +590,51 @@ def add_commands(sub: Any) -> None:
     p.set_defaults(func=_cmd)
 
 
+def _elastic_mechanism(name: str, unavailable: dict[str, bool]):
+    """The mechanism ``name`` if it has elastic data and no machine-only option was given (else one line, exit 2)."""
+    mech = _load(name)
+    for opt, given in unavailable.items():
+        if given:
+            raise ArgumentError(f"{opt}: not available for a mechanism ('{mech.name}'): the stiffness is evaluated at "
+                                "the output point of the mechanism file")
+    if mech.elastic is None:
+        raise ArgumentError(f"mechanism '{mech.name}' has no [elastic] table: no stiffness model (see "
+                            "docs/user-guide/mechanisms.md, elastic model)")
+    return mech
+
+
+def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[str, bool]
+               ) -> tuple[list[str], list[list]]:
+    """``pkmstiff point MECHANISM --poses FILE``: the machines' CSV columns (pose mm/deg, admissible, reasons,
+    k_x, k_y, k_z N/µm, f1… Hz); empty result cells where a pose is inadmissible or not modelled."""
+    from pkmstiff.mechanisms import evaluate, reason_names
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism, take
+    from pkmstiff.mechanisms.structure import STATUS_BITS
+
+    mech = _elastic_mechanism(name, unavailable)
+    if mech.dim != 3:
+        raise ArgumentError(f"--poses: a file of x,y,z,a,b,c poses is for spatial mechanisms; '{mech.name}' is planar "
+                            "(use --pose x,y,phi)")
+    ev = evaluate(mech, poses_si)
+    ok = np.flatnonzero(ev.admissible)
+    n = len(poses_si)
+    k = np.full((n, 3), np.nan)
+    f = np.full((n, n_modes), np.nan)
+    status = np.zeros(n, np.uint8)
+    if ok.size:
+        res = evaluate_mechanism(mech, take(ev.solution, ok), n_modes)
+        k[ok], f[ok], status[ok] = res.stiffness[:, :3] / 1e6, res.frequencies_hz, res.status
+    head = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg", "admissible", "reasons", "kx_N_per_um",
+            "ky_N_per_um", "kz_N_per_um"] + [f"f{i + 1}_Hz" for i in range(n_modes)]
+    pose_out = np.column_stack([poses_si[:, :3] * 1e3, np.rad2deg(poses_si[:, 3:])])
+    rows = []
+    for i in range(n):
+        why = [r.lower().replace("_", " ") for r in reason_names(int(ev.reasons[i]))]
+        why += [b.lower().replace("_", " ") for b, bit in STATUS_BITS.items() if int(status[i]) & bit]
+        rows.append([*pose_out[i], bool(ev.admissible[i]), "; ".join(why), *k[i], *f[i]])
+    return head, rows
+
+
 def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bool,
                  unavailable: dict[str, bool]) -> dict[str, Any]:
     """``pkmstiff point MECHANISM --pose …``: the elastic model (issue 27) at one pose, as the machines' report
@@ -601,14 +646,7 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
     from pkmstiff.mechanisms.stiffness import evaluate_mechanism
     from pkmstiff.mechanisms.structure import LABELS, STATUS_BITS, mechanism_structure
 
-    mech = _load(name)
-    for opt, given in unavailable.items():
-        if given:
-            raise ArgumentError(f"{opt}: not available for a mechanism ('{mech.name}'): the stiffness is evaluated at "
-                                "the output point of the mechanism file")
-    if mech.elastic is None:
-        raise ArgumentError(f"mechanism '{mech.name}' has no [elastic] table: no stiffness model (see "
-                            "docs/user-guide/mechanisms.md, elastic model)")
+    mech = _elastic_mechanism(name, unavailable)
     pose = _parse_poses(mech, [pose_text], "--pose")
     ev = evaluate(mech, pose)
     reasons = reason_names(int(ev.reasons[0]))

@@ -302,8 +302,14 @@ def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | 
     from pkmstiff.admissibility.checks import checks_without
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import natural_frequencies, tcp_compliance
+    from pkmstiff.cli.targets import Kind, resolve
     from pkmstiff.structure import build_structure
 
+    if resolve(machine_name).kind is Kind.MECHANISM:
+        from pkmstiff.cli.mechanism import point_rows as mechanism_rows
+
+        return mechanism_rows(machine_name, poses_si, n_modes, {"--tool-length": tool_length_mm is not None,
+                                                                "--skip-check": bool(skip_checks)})
     m = load_machine(machine_name)
     adm = evaluate_poses(m, poses_si, checks=checks_without(skip_checks, "--skip-check")).admissibility
     ok = adm.ok
