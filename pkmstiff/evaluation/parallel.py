@@ -341,9 +341,14 @@ def dask_setup(worker: Any) -> None:
 
 # ------------------------------------------------------------------------------------------------------------- run
 def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, scheduler: Any = None,
-              progress: Callable[[int], None] | None = None) -> list[T]:
+              progress: Callable[[int], None] | None = None, *,
+              meanwhile: Callable[[], None] | None = None) -> list[T]:
     """``[fn(*args) for args in payloads]`` in order: in this process (serial plan), in the local pool or on the Dask
-    cluster. ``progress(k)`` is called after each finished task (any order) with the number finished."""
+    cluster. ``progress(k)`` is called after each finished task (any order) with the number finished.
+    ``meanwhile()`` runs in this process once the tasks are submitted (first, for a serial plan): work of its own
+    that would otherwise make the workers wait."""
+    if meanwhile is not None and not (payloads and p.parallel):
+        meanwhile()
     if not payloads:
         return []
     if not p.parallel:
@@ -363,6 +368,8 @@ def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, schedule
         except BrokenProcessPool as exc:
             _POOLS.pop(p.workers, None)
             raise ResourceError(f"local worker pool broke: {exc}") from None
+    if meanwhile is not None:
+        meanwhile()
     if progress:
         _report_progress(futures, progress, scheduler is not None)
     try:
