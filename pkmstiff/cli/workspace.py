@@ -191,7 +191,8 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
                            neglect_spindle=args.neglect_spindle, skip_checks=tuple(args.skip_check))
     with _octree_input_errors():
-        cost = req.cost(machine, n_ori, **options)  # a pilot octree: input errors surface here, before the work
+        # a pilot octree (in the workers too): input errors surface here, before the work
+        cost = req.cost(machine, n_ori, n_jobs=jobs, scheduler=scheduler, **options)
     if args.out and not args.no_plot:
         cost = cost.plus(FIGURE_3D_LIBRARY_SECONDS + FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
     # the finest level holds about half the evaluations: it sets the plan (20,000 poses per oracle chunk)

@@ -340,6 +340,15 @@ def dask_setup(worker: Any) -> None:
 
 
 # ------------------------------------------------------------------------------------------------------------- run
+_MEANWHILE_CPU = [0.0]
+
+
+def meanwhile_cpu_seconds() -> float:
+    """CPU seconds this process has spent in :func:`run_tasks`' ``meanwhile`` work while its workers ran (parallel
+    work done here: a benchmark's serial fraction leaves it out)."""
+    return _MEANWHILE_CPU[0]
+
+
 def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, scheduler: Any = None,
               progress: Callable[[int], None] | None = None, *,
               meanwhile: Callable[[], None] | None = None) -> list[T]:
@@ -369,7 +378,9 @@ def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, schedule
             _POOLS.pop(p.workers, None)
             raise ResourceError(f"local worker pool broke: {exc}") from None
     if meanwhile is not None:
+        c0 = time.process_time()
         meanwhile()
+        _MEANWHILE_CPU[0] += time.process_time() - c0
     if progress:
         _report_progress(futures, progress, scheduler is not None)
     try:
@@ -399,6 +410,7 @@ __all__ = [
     "client",
     "connected",
     "plan",
+    "meanwhile_cpu_seconds",
     "pool",
     "resolve_workers",
     "round_trip",
