@@ -292,9 +292,10 @@ def evaluate_section(
     """Evaluate ``quantities`` (names, see :mod:`pkmstiff.evaluation.quantities`) on a plane, masked by admissibility.
 
     ``orientation`` = (a, b, c) in rad, fixed over the plane; ``tool_length`` in m (None: the machine's).
-    ``n_jobs`` > 1 (-1: all cores) evaluates the chunks in the run's worker pool, ``scheduler`` (a Dask address or
-    client) on a cluster (:mod:`pkmstiff.evaluation.parallel`): the first chunk runs here and its measured time sizes
-    the tasks (too little work stays serial). Every chunk is evaluated alone whatever the plan, so the result is the
+    ``n_jobs`` > 1 (-1: all cores) evaluates the chunks in the run's worker pool, in tasks of whole chunks, about
+    four per worker, while the first chunk runs here; ``scheduler`` (a Dask address or client) on a cluster
+    (:mod:`pkmstiff.evaluation.parallel`): the first chunk runs here first and its measured time sizes the tasks (too
+    little work stays serial). Every chunk is evaluated alone whatever the plan, so the result is the
     same bytes for any ``n_jobs``/``scheduler``; ``result.plan`` keeps the plan (not written to files).
     ``progress``: None = a progress bar only on a terminal when the section is large.
     ``checks``: the admissibility checks to apply (default all, see :data:`pkmstiff.admissibility.checks.ALL_CHECKS`).
@@ -314,18 +315,33 @@ def evaluate_section(
         settings["neglect_spindle"] = True
     if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
         progress = n * (1 + len(names)) > 20_000
-    t0 = time.perf_counter()
     n_first = min(chunk_size, n)
-    first = _evaluate_chunk(machine, _raster_poses(raster, 0, n_first), names, tool_length, opts, checks)
     rest = n - n_first
+    first: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    seconds = [0.0]
+
+    def run_first() -> None:
+        t0 = time.perf_counter()
+        first.append(_evaluate_chunk(machine, _raster_poses(raster, 0, n_first), names, tool_length, opts, checks))
+        seconds[0] = (time.perf_counter() - t0) / n_first
+
+    # local workers: tasks of whole chunks (a chunk outlasts a local task's overhead), sent before the first chunk is
+    # evaluated here meanwhile; on Dask the first chunk's measured time decides whether the cluster pays
+    ahead = scheduler is None and parallel.resolve_workers(n_jobs) > 1
+    if not ahead:
+        run_first()
     with parallel.connected(scheduler):
-        plan = parallel.plan(rest, (time.perf_counter() - t0) / n_first, n_jobs, scheduler, granule=chunk_size)
+        plan = parallel.plan(rest, parallel.MIN_LOCAL_TASK_SECONDS / chunk_size if ahead else seconds[0], n_jobs,
+                             scheduler, granule=chunk_size)
         bounds = parallel.split(rest, plan if plan.parallel else dataclasses.replace(plan, task_items=chunk_size))
         shared = parallel.Shared(machine)
         payloads = [(shared, raster, n_first + a, n_first + b, chunk_size, names, tool_length, opts, checks)
                     for a, b in bounds]
         step = progress_callback(len(payloads), progress, "section", "task" if plan.parallel else "chunk")
-        parts = [first, *parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step)]
+        parts = parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step,
+                                   meanwhile=run_first if ahead else None)
+    parts = [*first, *parts]
+    plan = dataclasses.replace(plan, item_seconds=seconds[0])
     ok, reasons, vals = _concat(parts)
     shape = plane.shape
     return SectionResult(
