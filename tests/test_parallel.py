@@ -226,26 +226,31 @@ def test_rotation_map_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeyp
     _same_files_but_timing(tmp_path / "1", tmp_path / "dask", "rotation_map.json")
 
 
-def test_workspace_files_are_the_same_for_any_jobs(tmp_path, monkeypatch, capsys):
+def test_workspace_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
     _split_small_work(monkeypatch)
     base = ["workspace", "hexaglide", "--resolution", "50", "--no-plot", "--quiet"]
-    for name in ("1", "2"):
-        assert main([*base, "--jobs", name, "--out", str(tmp_path / name)]) == 0
+    for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
+        assert main([*base, *extra, "--out", str(tmp_path / name)]) == 0
     capsys.readouterr()
     _same_files_but_timing(tmp_path / "1", tmp_path / "2", "workspace.json")
+    _same_files_but_timing(tmp_path / "1", tmp_path / "dask", "workspace.json")
 
 
-def test_report_is_the_same_for_any_jobs_and_its_cost_line_states_the_plan(tmp_path, monkeypatch, capsys):
+def test_report_is_the_same_for_any_jobs_and_dask_and_its_cost_line_states_the_plan(tmp_path, monkeypatch, capsys,
+                                                                                   dask_address):
     _split_small_work(monkeypatch)
     spec = tmp_path / "mini.toml"
     spec.write_text('[report]\ntitle = "mini"\nbaseline = "orig"\n\n[[variants]]\nname = "orig"\nmachine = "hexaglide"\n'
                     'tool_length_mm = 150\n\n[[sections]]\nplane = "yz"\nat_mm = 0\nrange = "y=-200:800,z=-1100:-500"\n'
                     'step_mm = 25\nquantities = ["kx", "U"]\nstatistics = ["min", "mean", "max", "area"]\nmaps = false\n')
-    for jobs in ("1", "2"):
-        assert main(["report", str(spec), "--out", str(tmp_path / jobs), "--jobs", jobs]) == 0
+    runs = {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--jobs", "1", "--scheduler", dask_address]}
+    for name, extra in runs.items():
+        assert main(["report", str(spec), "--out", str(tmp_path / name), *extra]) == 0
     err = capsys.readouterr().err
     assert "; sections and workspace on 2 local workers, each split into tasks by its measured cost" in err
+    assert f"; sections and workspace on the Dask cluster {dask_address}, each split" in err
     # the settings table names the jobs, the header the date and the run time; everything else is the same text
-    one, two = ([x for x in (tmp_path / j / "report.md").read_text(encoding="utf-8").splitlines()
-                 if not x.startswith(("*pkmstiff ", "| run time |", "| date |"))] for j in ("1", "2"))
+    one, two, dask = ([x for x in (tmp_path / j / "report.md").read_text(encoding="utf-8").splitlines()
+                       if not x.startswith(("*pkmstiff ", "| run time |", "| date |"))] for j in runs)
     assert len(one) == len(two) > 50 and [a for a, b in zip(one, two) if a != b] == ["| jobs | 1 |"]
+    assert dask == one
