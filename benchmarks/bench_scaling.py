@@ -166,7 +166,7 @@ def main() -> None:
               f"{'jobs 2 s':>10}{'ratio':>8}{'s_cpu':>8}  plan of --jobs 2")
         for name, r in pairs.items():
             print(f"{name:<14}{r['1']['wall_s']:>10.2f}{r['2']['wall_s']:>10.2f}{r['ratio']:>7.2f}×"
-                  f"{cpu_serial_fraction(r['2']):>8.3f}  {r['plan'].split(' | ')[0].rsplit('; ', 1)[-1][:110]}")
+                  f"{cpu_serial_fraction(r['2']):>8.3f}  {r['plan'].split(' | ')[0].split('; ', 1)[-1][:110]}")
     info["load_average_end"] = os.getloadavg()
     print(f"load average at the end {info['load_average_end'][0]:.1f}")
     if a.json:
