@@ -172,15 +172,17 @@ _WARM = False
 
 
 def warm_up() -> None:
-    """Import what workers run and load the compiled kernels from the on-disk cache by evaluating one small section
-    (once per process; forked workers inherit both from the process that forks them)."""
+    """Import what workers run and load the compiled kernels from the on-disk cache (once per process; forked workers
+    inherit both from the process that forks them): build a machine from its file, as a sweep's variants are built
+    (the builder's imports), and evaluate a section of 441 points on it — enough that the compiled kernels, not the
+    interpreted ones of small calls (:mod:`pkmstiff.kinematics.dispatch`), run and load."""
     global _WARM
     if _WARM:
         return
     from pkmstiff.evaluation.sections import axis_plane, evaluate_section
-    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.machine.variants import machine_with
 
-    evaluate_section(load_machine("hexaglide"), axis_plane("yz", 0.0, (0.0, 0.1), (-1.0, -0.9), 0.05), ["kx", "f1"],
+    evaluate_section(machine_with("hexaglide"), axis_plane("yz", 0.0, (0.0, 0.1), (-1.0, -0.9), 0.005), ["kx", "f1"],
                      progress=False)
     _WARM = True
 
