@@ -246,7 +246,7 @@ def program_runs(plan: Plan, options: NCOptions | None = None) -> list[Run]:
 
 
 def _word(letter: str, v: np.ndarray) -> np.ndarray:
-    return np.char.add(letter, np.char.mod(f"%.{DECIMALS}f", v))
+    return np.char.add(letter, np.char.mod(f"%.{DECIMALS}f", np.round(v, DECIMALS) + 0.0))  # no "-0.000000"
 
 
 def program_text(plan: Plan, runs: list[Run], options: NCOptions, machine: str) -> str:

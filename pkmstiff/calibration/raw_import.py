@@ -52,7 +52,8 @@ MAX_KINK = 0.25
 class Sync:
     """The synchronisation of one raw series with its run: ``start`` t₀ [s] in the file's time, ``residual`` RMS
     of the signature fit [m], ``end_shift`` [s] (t₀ from the feed-out ramp − t₀ from the feed-in ramp),
-    ``n_window`` samples in the feed-in window, ``given`` whether t₀ was given, ``kept`` samples mapped."""
+    ``n_window`` samples in the feed-in window, ``given`` whether t₀ was given, ``kept`` samples mapped, ``sigma``
+    the standard deviation of t₀ [s] from the fit (a timing error δt moves every sample by F δt along the path)."""
 
     file: str
     run: int
@@ -62,11 +63,12 @@ class Sync:
     n_window: int
     given: bool
     kept: int
+    sigma: float = math.nan
 
     def to_dict(self) -> dict:
         return {"file": self.file, "run": self.run, "start_s": self.start, "residual_um": self.residual * 1e6,
-                "end_shift_ms": self.end_shift * 1e3, "window_samples": self.n_window, "given": self.given,
-                "samples": self.kept}
+                "start_sigma_ms": self.sigma * 1e3, "end_shift_ms": self.end_shift * 1e3,
+                "window_samples": self.n_window, "given": self.given, "samples": self.kept}
 
 
 def kink_times(run: Run, fixed_ball: np.ndarray, bar_length: float) -> tuple[float, float, float, float]:
@@ -99,11 +101,12 @@ def _reversals(machine: Machine | None, run: Run, target: np.ndarray, tau: np.nd
 
 def _fit(t: np.ndarray, y: np.ndarray, run: Run, fixed_ball: np.ndarray, bar_length: float, t0: float,
          knots: tuple[float, float], window: tuple[float, float], machine: Machine | None = None,
-         target: np.ndarray | None = None) -> tuple[float, int, float]:
+         target: np.ndarray | None = None, vector: bool = False, w: np.ndarray | None = None):
     """RMS residual (m), sample count and the larger of the fitted slope changes at the two kinks relative to the
-    nominal ramp slope, for start ``t0`` (module docstring)."""
+    nominal ramp slope, for start ``t0`` (module docstring); ``vector``: the residual vector on the samples ``w``."""
     tau = t - t0
-    w = (tau >= window[0]) & (tau <= window[1])
+    if w is None:
+        w = (tau >= window[0]) & (tau <= window[1])
     if w.sum() < MIN_WINDOW:
         return math.inf, int(w.sum()), 0.0
     u = tau[w] - knots[1]
@@ -114,19 +117,24 @@ def _fit(t: np.ndarray, y: np.ndarray, run: Run, fixed_ball: np.ndarray, bar_len
     r = y[w] - run.nominal_reading(tau[w], fixed_ball, bar_length)
     coef, *_ = np.linalg.lstsq(A, r, rcond=None)
     res = r - A @ coef
+    if vector:
+        return res, A.shape[1] + 1
     slope = abs(run.nominal_reading(np.array([knots[0] + 0.5 * (knots[1] - knots[0])]), fixed_ball, bar_length)[0]
                 - run.nominal_reading(np.array([knots[0]]), fixed_ball, bar_length)[0]) / (0.5 * (knots[1] - knots[0]))
     return float(np.sqrt(np.mean(res ** 2))), int(w.sum()), float(np.max(np.abs(coef[:2])) / slope)
 
 
 def _search(t, y, run, fb, L, guess, knots, window, span, machine, target) -> float:
+    """t₀ within ``guess`` ± ``span`` of least residual among the fits whose kink slopes are plausible (a window
+    beside the true ramp fits it with kinks as steep as the ramp's)."""
     def f(t0):
-        return _fit(t, y, run, fb, L, t0, knots, window, machine, target)[0]
+        res, _, kink = _fit(t, y, run, fb, L, t0, knots, window, machine, target)
+        if not np.isfinite(res):
+            return 1e3
+        return res if kink <= MAX_KINK else 1.0 + kink  # above every plausible fit (m), finite for Brent
 
     grid = guess + np.linspace(-span, span, 61)
     vals = np.array([f(g) for g in grid])
-    if not np.isfinite(vals).any():
-        return guess
     k = int(np.argmin(vals))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
     res = minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": 1e-10})
@@ -148,6 +156,19 @@ def _ramp_mid(run: Run, fixed_ball: np.ndarray, bar_length: float, a: float, b: 
     return float(tt[np.argmin(np.abs(g - level))])
 
 
+def _timing_sigma(t, y, run, fb, L, t0, knots, window, machine, target) -> float:
+    """σ of t₀ (s): s / ‖∂r/∂t₀‖ with r the projected residual on the fixed window samples, s² = ‖r‖²/(n − p)
+    (central difference, h = 1 µs)."""
+    w = ((t - t0) >= window[0]) & ((t - t0) <= window[1])
+    r, p = _fit(t, y, run, fb, L, t0, knots, window, machine, target, True, w)
+    h = 1e-6
+    d = (_fit(t, y, run, fb, L, t0 + h, knots, window, machine, target, True, w)[0]
+         - _fit(t, y, run, fb, L, t0 - h, knots, window, machine, target, True, w)[0]) / (2 * h)
+    dof = max(len(r) - p, 1)
+    nd = float(np.linalg.norm(d))
+    return float(np.linalg.norm(r) / math.sqrt(dof) / nd) if nd > 0 else math.inf
+
+
 def synchronise(series: RawSeries, run: Run, fixed_ball: np.ndarray, bar_length: float, *,
                 limit: float | None = None, machine: Machine | None = None,
                 target: np.ndarray | None = None) -> Sync:
@@ -162,14 +183,14 @@ def synchronise(series: RawSeries, run: Run, fixed_ball: np.ndarray, bar_length:
     depth = bar_length - float(np.linalg.norm(run.tcp[0] - fixed_ball))
     what = (f"feed {run.feed * 60e3:g} mm/min, sample rate {rate:g} Hz, run {run.number} "
             f"({run.label}, {run.direction}, {run.length * 1e3:.1f} mm)")
-    if 3 * Tr * rate < MIN_WINDOW:
+    if 2 * Tr * rate < MIN_WINDOW:
         raise InputError(src, key="sample_rate_hz", reason=f"the feed-in ramp lasts {Tr * 1e3:.3g} ms = "
-                         f"{Tr * rate:.1f} samples at {what}: expected at least {MIN_WINDOW / 3:.0f} samples on "
+                         f"{Tr * rate:.1f} samples at {what}: expected at least {MIN_WINDOW / 2:.0f} samples on "
                          f"it (a longer --ramp, a lower feed or a higher sample rate)")
     acc = series.accuracy if series.accuracy is not None else QC10.accuracy
     limit = max(4 * acc / 2, 1e-6) if limit is None else limit
-    win_in, win_out = (t1 - Tr, t2 + Tr), (t3 - Tr, t4 + Tr)
-    span = Tr / 3
+    win_in, win_out = (t1 - Tr / 2, t2 + Tr / 2), (t3 - Tr / 2, t4 + Tr / 2)
+    span = Tr
     given = series.start_offset is not None
     level = y[0] + depth / 2  # the standstill before the feed-in + half the depth
     tc = _crossing(t, y, level, True)
@@ -192,7 +213,7 @@ def synchronise(series: RawSeries, run: Run, fixed_ball: np.ndarray, bar_length:
                          "rate, path or start offset?")
     te = _crossing(t, y, y[-1] + depth / 2, False)
     shift = math.inf if te is None else te - _ramp_mid(run, fixed_ball, bar_length, t3, t4, -depth / 2) - t0
-    if abs(shift) <= span:
+    if abs(shift) <= 2 * span:
         t0_out = _search(t, y, run, fixed_ball, bar_length, t0 + shift, (t3, t4), win_out, span, machine, target)
         r_out, _, k_out = _fit(t, y, run, fixed_ball, bar_length, t0_out, (t3, t4), win_out, machine, target)
         shift = t0_out - t0 if (r_out <= limit and k_out <= MAX_KINK) else math.inf
@@ -202,7 +223,8 @@ def synchronise(series: RawSeries, run: Run, fixed_ball: np.ndarray, bar_length:
             else ""
         raise InputError(src, reason=f"the feed-out ramp is {found} (expected within one sample, "
                          f"{1e3 / rate:.3g} ms{ratio}; {what}): wrong feed, sample rate or path")
-    return Sync(src, run.number, t0, res, shift, n, given, 0)
+    return Sync(src, run.number, t0, res, shift, n, given, 0,
+                _timing_sigma(t, y, run, fixed_ball, bar_length, t0, (t1, t2), win_in, machine, target))
 
 
 def match_runs(series: list[RawSeries], runs: list[Run]) -> list[Run]:
@@ -280,7 +302,8 @@ def import_raw(machine: Machine, plan: Plan, runs: list[Run], series: list[RawSe
     notes = [f"imported by pkmstiff from raw ball-bar series along plan '{plan.name}' (Assumption: constant feed "
              "from the feed-in ramp to the feed-out ramp)"]
     notes += [f"{sy.file}: run {sy.run}, feed-in start t = {sy.start:.6f} s ({'given' if sy.given else 'found'}), "
-              f"synchronisation residual {sy.residual * 1e6:.3g} um, feed-out shift {sy.end_shift * 1e3:+.3g} ms"
+              f"synchronisation residual {sy.residual * 1e6:.3g} um, sigma {sy.sigma * 1e3:.2g} ms, feed-out shift "
+              f"{sy.end_shift * 1e3:+.3g} ms"
               for sy in syncs]
     meas = BallbarMeasurement(bar_length=L, fixed_ball=fb.copy(), t=np.concatenate(t_all),
                               reading=np.concatenate(dev), poses=np.concatenate(poses), feed=np.concatenate(feed),
