@@ -93,7 +93,8 @@ def _reversals(machine: Machine | None, run: Run, target: np.ndarray, tau: np.nd
     samples ``tau``: a reversal steps the deviation by the drive's backlash (module docstring)."""
     if machine is None:
         return []
-    s = held_signs(commanded_drives(machine, run.poses(tau, target)), [0])
+    before = tau[0] - (tau[1] - tau[0])  # the sample before the window gives its first sample's direction
+    s = held_signs(commanded_drives(machine, run.poses(np.r_[before, tau], target)), [0])[1:]
     flip = np.flatnonzero(np.any(s[1:] != s[:-1], axis=0))
     u = tau - tau.mean()
     return [c for j in flip for c in (s[:, j], s[:, j] * u)]
@@ -133,7 +134,8 @@ def _search(t, y, run, fb, L, guess, knots, window, span, machine, target) -> fl
             return 1e3
         return res if kink <= MAX_KINK else 1.0 + kink  # above every plausible fit (m), finite for Brent
 
-    grid = guess + np.linspace(-span, span, 61)
+    step = min(span / 60, 0.25 * float(np.median(np.diff(t))))  # finer than the valley (a fraction of a sample)
+    grid = guess + np.linspace(-span, span, 2 * math.ceil(span / step) + 1)
     vals = np.array([f(g) for g in grid])
     k = int(np.argmin(vals))
     lo, hi = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
@@ -184,8 +186,8 @@ def synchronise(series: RawSeries, run: Run, fixed_ball: np.ndarray, bar_length:
     what = (f"feed {run.feed * 60e3:g} mm/min, sample rate {rate:g} Hz, run {run.number} "
             f"({run.label}, {run.direction}, {run.length * 1e3:.1f} mm)")
     if 2 * Tr * rate < MIN_WINDOW:
-        raise InputError(src, key="sample_rate_hz", reason=f"the feed-in ramp lasts {Tr * 1e3:.3g} ms = "
-                         f"{Tr * rate:.1f} samples at {what}: expected at least {MIN_WINDOW / 2:.0f} samples on "
+        raise InputError(src, key="sample_rate_hz", reason=f"key 'sample_rate_hz': the feed-in ramp lasts {Tr * 1e3:.3g} ms = "
+                         f"{Tr * rate:.2f} samples at {what}: expected at least {MIN_WINDOW / 2:.0f} samples on "
                          f"it (a longer --ramp, a lower feed or a higher sample rate)")
     acc = series.accuracy if series.accuracy is not None else QC10.accuracy
     limit = max(4 * acc / 2, 1e-6) if limit is None else limit
@@ -202,7 +204,7 @@ def synchronise(series: RawSeries, run: Run, fixed_ball: np.ndarray, bar_length:
     t0 = float(series.start_offset) if given else _search(t, y, run, fixed_ball, bar_length, guess, (t1, t2),
                                                           win_in, span, machine, target)
     if t0 + win_in[0] < t[0] or t0 + win_out[1] > t[-1]:
-        raise InputError(src, line=int(series.lines[-1]), reason=f"the series covers t = {t[0]:g} .. {t[-1]:g} s "
+        raise InputError(src, line=None if series.lines is None else int(series.lines[-1]), reason=f"the series covers t = {t[0]:g} .. {t[-1]:g} s "
                          f"but the run, starting at t = {t0:.4f} s, needs t = {t0 + win_in[0]:.4f} .. "
                          f"{t0 + win_out[1]:.4f} s ({what}): wrong feed, sample rate or path?")
     res, n, kink = _fit(t, y, run, fixed_ball, bar_length, t0, (t1, t2), win_in, machine, target)
@@ -236,30 +238,30 @@ def match_runs(series: list[RawSeries], runs: list[Run]) -> list[Run]:
     for k, s in enumerate(series):
         if s.run is not None:
             if s.run not in by_num:
-                raise InputError(s.path, key="run", reason=f"expected a run 1..{len(runs)} of the program, found "
+                raise InputError(s.path, key="run", reason=f"key 'run': expected a run 1..{len(runs)} of the program, found "
                                  f"{s.run} ({s.where('run')})")
             out.append(by_num[s.run])
             continue
         if s.direction is not None:
             seg = (s.segment - 1) if s.segment is not None else (segs[0] if len(segs) == 1 else None)
             if seg is None:
-                raise InputError(s.path, key="segment", reason=f"expected the path segment (1..{len(segs)}) of "
+                raise InputError(s.path, key="segment", reason=f"key 'segment': expected the path segment (1..{len(segs)}) of "
                                  "this run (header '# segment: 1' or --segment), found none")
             hit = [r for r in runs if r.segment == seg and r.direction == s.direction]
             if not hit:
-                raise InputError(s.path, key="direction", reason=f"expected a run of the program, found segment "
+                raise InputError(s.path, key="direction", reason=f"key 'direction': expected a run of the program, found segment "
                                  f"{seg + 1} {s.direction} ({s.where('direction')})")
             out.append(hit[0])
             continue
         if k >= len(runs):
-            raise InputError(s.path, key="run", reason=f"expected at most {len(runs)} series (the program's runs), "
+            raise InputError(s.path, key="run", reason=f"key 'run': expected at most {len(runs)} series (the program's runs), "
                              f"found series {k + 1}")
         out.append(runs[k])
     nums = [r.number for r in out]
     dup = next((n for n in nums if nums.count(n) > 1), None)
     if dup is not None:
         files = [s.path for s, r in zip(series, out) if r.number == dup]
-        raise InputError(files[1], key="run", reason=f"expected one series per run, found run {dup} also in "
+        raise InputError(files[1], key="run", reason=f"key 'run': expected one series per run, found run {dup} also in "
                          f"{files[0]}")
     return out
 
@@ -274,13 +276,13 @@ def import_raw(machine: Machine, plan: Plan, runs: list[Run], series: list[RawSe
     parts, syncs = [], []
     for s, run in zip(series, matched):
         if s.bar_length is not None and not math.isclose(s.bar_length, L, rel_tol=1e-9):
-            raise InputError(s.path, key="bar_length_mm", reason=f"expected the plan's bar length {L * 1e3:g} mm, "
+            raise InputError(s.path, key="bar_length_mm", reason=f"key 'bar_length_mm': expected the plan's bar length {L * 1e3:g} mm, "
                              f"found {s.bar_length * 1e3:g} mm ({s.where('bar_length')})")
         if s.feed is not None and not math.isclose(s.feed, run.feed, rel_tol=1e-9):
-            raise InputError(s.path, key="feed_mm_min", reason=f"expected the program's feed {run.feed * 60e3:g} "
+            raise InputError(s.path, key="feed_mm_min", reason=f"key 'feed_mm_min': expected the program's feed {run.feed * 60e3:g} "
                              f"mm/min, found {s.feed * 60e3:g} mm/min ({s.where('feed')})")
         if s.direction is not None and s.direction != run.direction:
-            raise InputError(s.path, key="direction", reason=f"expected {run.direction} (run {run.number}), found "
+            raise InputError(s.path, key="direction", reason=f"key 'direction': expected {run.direction} (run {run.number}), found "
                              f"{s.direction} ({s.where('direction')})")
         sync = synchronise(s, run, fb, L, limit=limit, machine=machine, target=st.target)
         a, b = run.path_times

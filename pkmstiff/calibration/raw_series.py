@@ -68,31 +68,31 @@ class RawSeries:
 
     def where(self, attr: str) -> str:
         """'header line N' or the option that set ``attr``."""
-        return self.sources.get(attr, "default")
+        return self.sources.get(attr, "as given")
 
 
 def _value(src: str, no: int, key: str, text: str):
     attr = KEYS[key]
     if attr in ("direction",):
         if text.lower() not in ("ccw", "cw"):
-            raise InputError(src, key=key, line=no, reason=f"expected ccw or cw, found {text!r}")
+            raise InputError(src, key=key, line=no, reason=f"key '{key}': expected ccw or cw, found {text!r}")
         return text.lower()
     if attr in ("unit",):
         if text.lower() not in ("mm", "um", "µm"):
-            raise InputError(src, key=key, line=no, reason=f"expected mm or um, found {text!r}")
+            raise InputError(src, key=key, line=no, reason=f"key '{key}': expected mm or um, found {text!r}")
         return "um" if text.lower() in ("um", "µm") else "mm"
     if attr == "device":
         return text
     try:
         v = float(text)
     except ValueError:
-        raise InputError(src, key=key, line=no, reason=f"expected a number, found {text!r}") from None
+        raise InputError(src, key=key, line=no, reason=f"key '{key}': expected a number, found {text!r}") from None
     if attr in ("segment", "run"):
         if v != int(v) or v < 1:
-            raise InputError(src, key=key, line=no, reason=f"expected a positive integer, found {text!r}")
+            raise InputError(src, key=key, line=no, reason=f"key '{key}': expected a positive integer, found {text!r}")
         return int(v)
     if not np.isfinite(v) or (v <= 0 and attr != "start_offset") or v < 0:
-        raise InputError(src, key=key, line=no, reason=f"expected a positive number, found {text!r}")
+        raise InputError(src, key=key, line=no, reason=f"key '{key}': expected a positive number, found {text!r}")
     return v * {"bar_length": 1e-3, "feed": 1e-3 / 60, "accuracy": 1e-6}.get(attr, 1.0)
 
 
@@ -125,7 +125,7 @@ def read_raw(path: str | Path, options: dict | None = None) -> RawSeries:
                 key, val = (p.strip() for p in body.split(":", 1))
                 if key in KEYS:
                     if key in head:
-                        raise InputError(src, key=key, line=no, reason=f"repeated header key (first on line "
+                        raise InputError(src, key=key, line=no, reason=f"key '{key}': repeated header key (first on line "
                                                                        f"{head[key][0]})")
                     head[key] = (no, _value(src, no, key, val))
             continue
@@ -163,7 +163,7 @@ def read_raw(path: str | Path, options: dict | None = None) -> RawSeries:
         have = getattr(series, attr)
         if attr in series.sources and not _same(have, v):
             raise InputError(src, key=_key(attr), line=int(series.sources[attr].split()[-1]),
-                             reason=f"the header gives {_show(attr, have)}, the command line "
+                             reason=f"key '{_key(attr)}': the header gives {_show(attr, have)}, the command line "
                                     f"{_show(attr, v)}")
         setattr(series, attr, v)
         series.sources.setdefault(attr, f"--{attr.replace('_', '-')}")
@@ -179,13 +179,13 @@ def read_raw(path: str | Path, options: dict | None = None) -> RawSeries:
             raise InputError(src, line=lines[i], reason=f"time must increase, found {t[i]:g} s after {t[i - 1]:g} s")
         rate = 1.0 / float(np.median(dt))
         if series.sample_rate is not None and abs(rate / series.sample_rate - 1) > 0.01:
-            raise InputError(src, key="sample_rate_hz", reason=f"expected the time column's rate "
+            raise InputError(src, key="sample_rate_hz", reason=f"key 'sample_rate_hz': expected the time column's rate "
                              f"{rate:.6g} Hz (within 1 %), found {series.sample_rate:g} Hz ({series.where('sample_rate')})")
         series.sample_rate = series.sample_rate or rate
         series.t = t
     else:
         if series.sample_rate is None:
-            raise InputError(src, key="sample_rate_hz", reason="expected the sample rate (header '# sample_rate_hz: "
+            raise InputError(src, key="sample_rate_hz", reason="key 'sample_rate_hz': expected the sample rate (header '# sample_rate_hz: "
                                                                "250' or --sample-rate) for a series without times")
         series.t = np.arange(len(data)) / series.sample_rate
     return series
