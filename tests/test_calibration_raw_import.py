@@ -130,7 +130,7 @@ def test_simulated_backlash_is_identified_from_a_measurement_file(felix, plan, t
 
 
 def test_run_starts_of_a_measurement():
-    t = np.r_[np.arange(5) * 0.1, 2 + np.arange(5) * 0.1]
+    t = np.r_[np.arange(5) * 0.1, 2 + np.arange(5) * 0.1]  # a gap of 20 steps
     d = np.array(["ccw"] * 3 + ["cw"] * 7)
     assert run_starts_of_samples(t, d) == (3, 5)
     assert run_starts_of_samples(t, d, feed=np.zeros(10)) == (3,)  # static poses: no cut at time gaps
@@ -235,7 +235,7 @@ def test_given_start_offset_is_checked(felix, plan, runs, noise_free):
     raws, syncs = noise_free[0], noise_free[1]
     r = raws[0]
     good = type(r)(r.path, r.t, r.deviation, sample_rate=50.0, run=1, start_offset=syncs[0].start)
-    meas, s = import_raw(felix, plan, runs, [good])
+    _meas, s = import_raw(felix, plan, runs, [good])
     assert s[0].given and s[0].residual < 1e-9
     bad = type(r)(r.path, r.t, r.deviation, sample_rate=50.0, run=1, start_offset=syncs[0].start + 0.02)
     with pytest.raises(InputError, match="signature does not fit"):

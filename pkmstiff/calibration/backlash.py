@@ -19,6 +19,8 @@ reversal compensation does); ``identify`` reports it.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 #: the parameter block (one scalar per chain, m) and its ``--with`` token
@@ -32,15 +34,15 @@ def has_backlash(params) -> bool:
 
 
 def held_signs(drives: np.ndarray, starts: np.ndarray | list[int]) -> np.ndarray:
-    """s (N, n): sign of the drive velocity per sample from consecutive drive values (N, n) of each run (runs start
-    at ``starts``, 0 included), held through standstill, leading samples at the sign of the first motion (loop over
-    runs only)."""
+    """s (N, n): sign of the drive velocity per sample from the step q_k − q_{k−1} of the drive values (N, n) of
+    each run (runs start at ``starts``, 0 included), held through standstill, leading samples at the sign of the
+    first motion (loop over runs only)."""
     drives = np.asarray(drives, dtype=float)
     N = len(drives)
     out = np.zeros_like(drives)
     edges = np.unique(np.r_[0, np.asarray(starts, dtype=int), N])
     edges = edges[(edges >= 0) & (edges <= N)]
-    for a, e in zip(edges[:-1], edges[1:]):
+    for a, e in itertools.pairwise(edges):
         sgn = np.sign(np.diff(drives[a:e], axis=0, prepend=drives[a:a + 1]))
         m = len(sgn)
         idx = np.maximum.accumulate(np.where(sgn != 0, np.arange(m)[:, None], 0), axis=0)
@@ -54,7 +56,7 @@ def held_signs(drives: np.ndarray, starts: np.ndarray | list[int]) -> np.ndarray
 def run_starts_of_samples(t: np.ndarray, direction: np.ndarray | None, poses: np.ndarray | None = None,
                           feed: np.ndarray | None = None, jump: float = 5.0) -> tuple[int, ...]:
     """Indices where a new run starts in a measurement's samples: the direction label changes, the time step
-    between two path samples (``feed`` > 0; all when no feed is given) is more than 1.5 × the median step, or the
+    between two path samples (``feed`` > 0; all when no feed is given) is more than 10 × the median step, or the
     commanded position jumps more than ``jump`` × the median step. Static poses (feed 0) stay in one run: each
     is approached from the one before."""
     t = np.asarray(t, dtype=float)
@@ -64,7 +66,7 @@ def run_starts_of_samples(t: np.ndarray, direction: np.ndarray | None, poses: np
         moving = np.ones(len(t), dtype=bool) if feed is None else np.asarray(feed, dtype=float) > 0
         both = moving[1:] & moving[:-1]
         if both.any():
-            cut |= both & (dt > 1.5 * np.median(dt[both]))
+            cut |= both & (dt > 10 * np.median(dt[both]))
         if poses is not None:
             ds = np.linalg.norm(np.diff(np.asarray(poses)[:, :3], axis=0), axis=1)
             med = np.median(ds)

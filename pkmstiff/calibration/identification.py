@@ -32,10 +32,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import differential_evolution, least_squares, linprog
 
+from pkmstiff.calibration.backlash import has_backlash, held_signs, plan_run_starts
 from pkmstiff.calibration.identifiability import GaugeFreedom, Identifiability, identifiability
 from pkmstiff.calibration.instruments import Setup
 from pkmstiff.calibration.jacobian import identification_jacobian, reading_weights
-from pkmstiff.calibration.backlash import has_backlash, held_signs, plan_run_starts
 from pkmstiff.calibration.measurement import commanded_drives, reached_poses, simulate_readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state

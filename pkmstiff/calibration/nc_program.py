@@ -255,10 +255,10 @@ def program_text(plan: Plan, runs: list[Run], options: NCOptions, machine: str) 
     mm = ", ".join(f"{v * 1e3:g}" for v in st.target)
     fb = ", ".join(f"{v * 1e3:g}" for v in st.fixed_ball)
     out = ["%", f"(pkmstiff ball-bar measuring program: plan '{plan.name}', machine {machine})",
-           "(dialect: ISO 6983 / DIN 66025 - G90 absolute, G21 mm, G94 mm/min; G01 interpolates X Y Z A B C "
-           "linearly; G04 P dwell in s)",
-           f"(X Y Z: TCP = moving-ball centre, mm, machine frame; controller tool offset = ball offset {mm} mm in "
-           "the platform frame)",
+           ("(dialect: ISO 6983 / DIN 66025 - G90 absolute, G21 mm, G94 mm/min; G01 interpolates X Y Z A B C "
+           "linearly; G04 P dwell in s)"),
+           (f"(X Y Z: TCP = moving-ball centre, mm, machine frame; controller tool offset = ball offset {mm} mm in "
+           "the platform frame)"),
            "(A B C: platform orientation, deg, R = Rx(A) Ry(B) Rz(C) as in the machine file)",
            f"(fixed ball {fb} mm; bar length {st.bar_length * 1e3:g} mm)",
            f"({options.describe()})",

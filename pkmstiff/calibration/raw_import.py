@@ -30,8 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from pkmstiff.calibration.instruments import QC10, BallbarMeasurement, readings
 from pkmstiff.calibration.backlash import held_signs
+from pkmstiff.calibration.instruments import QC10, BallbarMeasurement, readings
 from pkmstiff.calibration.measurement import commanded_drives, reached_poses
 from pkmstiff.calibration.nc_program import NCOptions, Run
 from pkmstiff.calibration.parameters import ParameterSet
@@ -301,8 +301,8 @@ def import_raw(machine: Machine, plan: Plan, runs: list[Run], series: list[RawSe
         offset += run.duration + 1.0  # runs 1 s apart (the dwells between them are not recorded)
     s0 = series[0]
     rng = st.measuring_range or QC10.range[1]
-    notes = [f"imported by pkmstiff from raw ball-bar series along plan '{plan.name}' (Assumption: constant feed "
-             "from the feed-in ramp to the feed-out ramp)"]
+    notes = [(f"imported by pkmstiff from raw ball-bar series along plan '{plan.name}' (Assumption: constant feed "
+             "from the feed-in ramp to the feed-out ramp)")]
     notes += [f"{sy.file}: run {sy.run}, feed-in start t = {sy.start:.6f} s ({'given' if sy.given else 'found'}), "
               f"synchronisation residual {sy.residual * 1e6:.3g} um, sigma {sy.sigma * 1e3:.2g} ms, feed-out shift "
               f"{sy.end_shift * 1e3:+.3g} ms"

@@ -31,8 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from pkmstiff.calibration.instruments import BallbarDevice, Setup, TrackerDevice, readings, target_points
 from pkmstiff.calibration.backlash import held_signs
+from pkmstiff.calibration.instruments import BallbarDevice, Setup, TrackerDevice, readings, target_points
 from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_state

@@ -22,7 +22,8 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.calibration.backlash import BLOCK as BACKLASH, has_backlash
+from pkmstiff.calibration.backlash import BLOCK as BACKLASH
+from pkmstiff.calibration.backlash import has_backlash
 from pkmstiff.calibration.ballbar import ball_positions
 from pkmstiff.calibration.circles import CircleRun, circles
 from pkmstiff.calibration.compensation import check, measurement_plan
