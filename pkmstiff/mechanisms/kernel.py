@@ -84,8 +84,22 @@ def _rotations(q, L, R, dR, om, W, T7, given):  # pragma: no cover - compiled
     ``T7`` (7, 3, 3): zero-initialised work matrices."""
     Rx, Ry, Rz, dX, dY, dZ, T = T7[0], T7[1], T7[2], T7[3], T7[4], T7[5], T7[6]
     for l in range(L):
-        if given and om[l]:
-            for c in range(3):
+        if not (given and om[l]):
+            x, y, z = q[6 * l + 3], q[6 * l + 4], q[6 * l + 5]
+            cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+            Rx[0, 0] = 1.0
+            Rx[1, 1], Rx[1, 2], Rx[2, 1], Rx[2, 2] = cx, -sx, sx, cx
+            dX[1, 1], dX[1, 2], dX[2, 1], dX[2, 2] = -sx, -cx, cx, -sx
+            Ry[1, 1] = 1.0
+            Ry[0, 0], Ry[0, 2], Ry[2, 0], Ry[2, 2] = cy, sy, -sy, cy
+            dY[0, 0], dY[0, 2], dY[2, 0], dY[2, 2] = -sy, cy, -cy, -sy
+            Rz[2, 2] = 1.0
+            Rz[0, 0], Rz[0, 1], Rz[1, 0], Rz[1, 1] = cz, -sz, sz, cz
+            dZ[0, 0], dZ[0, 1], dZ[1, 0], dZ[1, 1] = -sz, -cz, cz, -sz
+            _mm3(Rz, Ry, T)
+            _mm3(T, Rx, R[l])
+        if om[l]:
+            for c in range(3):  # [e_c]× R: row a of e_c × (column of R); its angular velocity is e_c
                 c1 = (c + 1) % 3
                 c2 = (c + 2) % 3
                 for b in range(3):
@@ -95,32 +109,11 @@ def _rotations(q, L, R, dR, om, W, T7, given):  # pragma: no cover - compiled
                 for a in range(3):
                     W[l, c, a] = 1.0 if a == c else 0.0
             continue
-        x, y, z = q[6 * l + 3], q[6 * l + 4], q[6 * l + 5]
-        cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
-        Rx[0, 0] = 1.0
-        Rx[1, 1], Rx[1, 2], Rx[2, 1], Rx[2, 2] = cx, -sx, sx, cx
-        dX[1, 1], dX[1, 2], dX[2, 1], dX[2, 2] = -sx, -cx, cx, -sx
-        Ry[1, 1] = 1.0
-        Ry[0, 0], Ry[0, 2], Ry[2, 0], Ry[2, 2] = cy, sy, -sy, cy
-        dY[0, 0], dY[0, 2], dY[2, 0], dY[2, 2] = -sy, cy, -cy, -sy
-        Rz[2, 2] = 1.0
-        Rz[0, 0], Rz[0, 1], Rz[1, 0], Rz[1, 1] = cz, -sz, sz, cz
-        dZ[0, 0], dZ[0, 1], dZ[1, 0], dZ[1, 1] = -sz, -cz, cz, -sz
-        _mm3(Rz, Ry, T)
-        _mm3(T, Rx, R[l])
         _mm3(T, dX, dR[l, 0])
         _mm3(Rz, dY, T)
         _mm3(T, Rx, dR[l, 1])
         _mm3(dZ, Ry, T)
         _mm3(T, Rx, dR[l, 2])
-        if om[l]:
-            for c in range(3):  # [e_c]× R: row a of e_c × (column of R)
-                c1 = (c + 1) % 3
-                c2 = (c + 2) % 3
-                for b in range(3):
-                    dR[l, c, c, b] = 0.0
-                    dR[l, c, c1, b] = -R[l, c2, b]
-                    dR[l, c, c2, b] = R[l, c1, b]
         for c in range(3):
             for a in range(3):
                 a1 = (a + 1) % 3
