@@ -190,7 +190,7 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
                 t2 += v * v
                 if not abs(v) <= tmax:
                     tmax = abs(v)
-            if t2 == t2 and (t2 <= a2 * r2 or tmax <= tol):  # accepted full step: its residual and Jacobian next
+            if math.isfinite(t2) and (t2 <= a2 * r2 or tmax <= tol):  # accepted: its r, J next
                 qc[:] = qt
                 Rc[:] = Rtr
                 acc += 1
@@ -207,7 +207,7 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
                 t2 = 0.0
                 for i in range(roff, m):
                     t2 += rt[i] * rt[i]
-                if t2 == t2 and t2 <= (1.0 - armijo * alpha) ** 2 * r2:
+                if math.isfinite(t2) and t2 <= (1.0 - armijo * alpha) ** 2 * r2:
                     ok = True
                     break
                 alpha *= 0.5
@@ -238,7 +238,7 @@ def _newton_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m,
                       resid, rcond, steps, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
-_OPTS = dict(cache=True, nogil=True, error_model="numpy")
+_OPTS = {"cache": True, "nogil": True, "error_model": "numpy"}
 _step = numba.njit(**_OPTS)(_step)
 _sync_angles = numba.njit(**_OPTS)(_sync_angles)
 _newton_chunk = numba.njit(**_OPTS)(_newton_chunk)
@@ -323,7 +323,8 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
             w[a] = 0.0
         for a in range(3):
             for c in range(3):
-                Dw[a, c] = dR[olink, c, a, 0] * opoint[0] + dR[olink, c, a, 1] * opoint[1] + dR[olink, c, a, 2] * opoint[2]
+                Dw[a, c] = (dR[olink, c, a, 0] * opoint[0] + dR[olink, c, a, 1] * opoint[1]
+                            + dR[olink, c, a, 2] * opoint[2])
         for i in range(nc):
             ca = ocoords[i]
             if cmap[co + ca] >= 0:

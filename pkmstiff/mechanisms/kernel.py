@@ -234,7 +234,8 @@ def _eval_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff
 
 def _scratch(L):  # pragma: no cover - compiled
     """Work arrays of one evaluation (per thread, reused for every pose it evaluates)."""
-    return (np.zeros((7, 3, 3)), np.empty((L, 3, 3)), np.empty((L, 3, 3, 3)), np.empty((L, 3, 3)), np.empty((3, 3)), np.empty((3, 3)),
+    return (np.zeros((7, 3, 3)), np.empty((L, 3, 3)), np.empty((L, 3, 3, 3)), np.empty((L, 3, 3)), np.empty((3, 3)),
+            np.empty((3, 3)),
             np.empty(3), np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3),
             np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3), np.empty(3))
 

@@ -232,8 +232,8 @@ def _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, p0, p1):  # prag
 
 
 def _normal_pose(Jp, rp, cols, cnt, sweeps, A, g, first, x, dxp):  # pragma: no cover - compiled
-    """One pose of :func:`_normal_impl`: dxp (n,) ← −(JᵀJ)⁻¹Jᵀr; returns the σ_min/σ_max estimate (0 where the
-    Cholesky factor breaks down: dxp is then left as it was).  ``A`` keeps the skyline Cholesky factor L of JᵀJ
+    """One pose of :func:`_normal_impl`: dxp (n,) ← −(JᵀJ)⁻¹Jᵀr; returns the σ_min/σ_max estimate (0 where
+    the Cholesky factor breaks down: dxp is then left as it was).  ``A`` keeps the skyline Cholesky factor L of JᵀJ
     (rows from ``first``) for further solves (:func:`_skyline_solve`)."""
     m, n = Jp.shape
     A[:] = 0.0
