@@ -144,7 +144,7 @@ def diagnose(ev: "BallbarEvaluation", *, tolerance: float | None = None, lead: f
         if need_both and not both:
             not_fitted[label] = "needs runs in both directions"
         elif need_lead and lead is None:
-            not_fitted[label] = "needs the screw lead (--lead)"
+            not_fitted[label] = "needs the screw lead"
         else:
             cols.append((name, label, unit, f))
             if name in _CYCLIC_SIN:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from pkmstiff.cli.edges import check_output_dir
+from pkmstiff.cli.edges import check_output_dir, length_option
 from pkmstiff.errors import ArgumentError, InputError
 
 
@@ -51,19 +51,6 @@ def _start_pose(text: str | None) -> list[float] | None:
         return None
     vals = parse_numbers(text, 6, "--start-pose", "x,y,z,a,b,c (mm, deg)")
     return [v * 1e-3 for v in vals[:3]] + [math.radians(v) for v in vals[3:]]
-
-
-def _length_option(text: str | None, option: str) -> float | None:
-    """A length with its unit (``10um``, ``0.01 mm``) -> m; None stays None."""
-    from pkmstiff.units import parse_quantity
-
-    if text is None:
-        return None
-    try:
-        return float(parse_quantity(text, "m", positive=True))
-    except InputError:
-        raise ArgumentError(option=option, expected="a positive length with its unit, e.g. 10um or 0.01mm",
-                            found=text) from None
 
 
 def analyse_file(path: str, harmonics: int | str = "auto", plot_dir: str | None = None,
@@ -146,8 +133,8 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
     harmonics = _harmonics_arg(args.harmonics)
     if not 0.0 < args.alpha < 1.0:
         raise ArgumentError(option="--alpha", expected="a probability in (0, 1)", found=args.alpha)
-    tolerance = _length_option(args.tolerance, "--tolerance")
-    lead = _length_option(args.lead, "--lead")
+    tolerance = length_option(args.tolerance, "--tolerance")
+    lead = length_option(args.lead, "--lead")
     if args.plot is not None:
         stem = Path(args.file).stem
         check_output_dir(args.plot, "--plot", args.force,
