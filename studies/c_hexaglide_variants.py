@@ -276,7 +276,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         clim = shared_clim(*vals.values())
         for lab in labels:
             s = stats[lab][q]
-            unit = "" if s["unit"] == "1" else f" {s['unit']}"
+            unit = "" if s["unit"] == "1" else f" {s['unit'].replace('um', 'µm')}"
             panels.append(MapPanel(secs[lab], vals[lab], f"{lab}: {QLABEL[q][0]}\nmax {s['max']:.4g}, "
                                    f"mean {s['mean']:.4g}{unit}", f"{q} [{s['unit']}]", clim=clim))
     fig_maps = plot_maps(panels, out / "c_section_maps.png",

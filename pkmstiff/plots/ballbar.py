@@ -88,7 +88,7 @@ def diagnosis_figure(ev: "BallbarEvaluation", diag: "BallbarDiagnosis", *, title
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(12.0, 7.0))
-    ax = fig.add_axes((0.06, 0.07, 0.44, 0.8), projection="polar")
+    ax = fig.add_axes((0.05, 0.05, 0.45, 0.84), projection="polar")
     devs = np.concatenate([r.fit.residual for r in ev.runs.values()]) * 1e6
     tol_um = None if diag.tolerance is None else diag.tolerance * 1e6
     lo, hi, step = _radial_scale(devs if tol_um is None else np.append(devs, [-tol_um / 2, tol_um / 2]))
