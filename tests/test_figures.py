@@ -183,12 +183,17 @@ def test_rotation_map_colour_map_is_perceptual_with_zero_as_data(tmp_path, hexag
     real = wsplots._figure
     monkeypatch.setattr(wsplots, "_figure", lambda size: figs.append(real(size)) or figs[-1])
     wsplots.plot_rotation_maps(res, tmp_path / "rot.png", ("y [mm]", "z [mm]"), (1e3, 1e3), "hexaglide: test")
-    fig = figs[0]
-    assert smallest_text_pt(fig) >= MIN_PT
-    cs = [c for ax in fig.axes for c in ax.collections if c.get_array() is not None]
-    assert cs and all(c.get_cmap().name == "viridis" for c in cs)
-    white = np.array([1.0, 1.0, 1.0, 1.0])
-    assert not np.allclose(cs[0].get_cmap()(0.0), white)  # 0° is a colour, not the background
+    from pkmstiff.workspace.rotation import rotational_workspace_map
+
+    rw = [rotational_workspace_map(hexaglide, (0.0, 0.4, -1.0), "+a", np.radians(np.arange(-30, 30.1, 15.0)),
+                                   np.radians(np.arange(-60, 60.1, 30.0)))]
+    wsplots.plot_rotational_workspace(rw, tmp_path / "rotws.png", "test")
+    for fig in figs:  # the rotation maps and the rotational workspace at a point
+        assert smallest_text_pt(fig) >= MIN_PT
+        cs = [c for ax in fig.axes for c in ax.collections if c.get_array() is not None]
+        assert cs and all(c.get_cmap().name == "viridis" for c in cs)
+        white = np.array([1.0, 1.0, 1.0, 1.0])
+        assert not np.allclose(cs[0].get_cmap()(0.0), white)  # 0° is a colour, not the background
 
 
 def test_fe_joint_image_fills_the_canvas(tmp_path):
