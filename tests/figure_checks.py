@@ -54,12 +54,11 @@ def _text_actors(plotter) -> list:
 
     ren = plotter.renderer
     found = []
+    text_kinds = (vtk.vtkTextActor, vtk.vtkCornerAnnotation, vtk.vtkScalarBarActor, vtk.vtkCubeAxesActor,
+                  vtk.vtkCubeAxesActor2D)
+    label_mappers = (vtk.vtkLabelPlacementMapper, vtk.vtkLabeledDataMapper)
     for a in ren.actors.values():
-        if isinstance(a, (vtk.vtkTextActor, vtk.vtkCornerAnnotation, vtk.vtkScalarBarActor, vtk.vtkCubeAxesActor,
-                          vtk.vtkCubeAxesActor2D)):
-            found.append(a)
-        elif isinstance(a, vtk.vtkActor2D) and isinstance(a.GetMapper(), (vtk.vtkLabelPlacementMapper,
-                                                                          vtk.vtkLabeledDataMapper)):
+        if isinstance(a, text_kinds) or (isinstance(a, vtk.vtkActor2D) and isinstance(a.GetMapper(), label_mappers)):
             found.append(a)
     axes = getattr(ren, "cube_axes_actor", None)
     if axes is not None and axes not in found:

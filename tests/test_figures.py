@@ -15,6 +15,7 @@ import pytest
 
 from tests.figure_checks import MIN_FILL, MIN_PT, fill_fraction, pyvista_text_pt, smallest_text_pt
 
+
 @pytest.fixture(scope="module")
 def yz_section(hexaglide):
     from pkmstiff.evaluation.sections import evaluate_section

@@ -37,15 +37,16 @@ not add, so the shares do not sum to 100 %; the residual (what no source explain
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 if TYPE_CHECKING:  # pragma: no cover
     from pkmstiff.calibration.ballbar import BallbarEvaluation
 
-__all__ = ["DiagnosedSource", "BallbarDiagnosis", "axis_names", "diagnose", "SPIKE_WIDTH"]
+__all__ = ["SPIKE_WIDTH", "BallbarDiagnosis", "DiagnosedSource", "axis_names", "diagnose"]
 
 SPIKE_WIDTH = math.radians(3.0)  # decay angle w of a reversal spike (a few degrees of travel, as stick-slip shows)
 
