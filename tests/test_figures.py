@@ -355,9 +355,17 @@ def _kind_study_maps(tmp, m, yz):
     plot_maps(panels, tmp / "study.png", "Study maps")
 
 
+def _kind_optimise(tmp, m, yz):
+    from pkmstiff.cli import main
+
+    assert main(["optimise", "hexaglide_joint_orientation", "--out", str(tmp / "opt"), "--budget", "4", "--quiet",
+                 "--no-report"]) == 0
+
+
 FIGURE_KINDS = {f.__name__.removeprefix("_kind_"): f for f in (
     _kind_section_maps, _kind_three_planes, _kind_mode_shape, _kind_workspace, _kind_rotation, _kind_workspace_curves,
-    _kind_mechanisms, _kind_fe_joint, _kind_calibration, _kind_ballbar, _kind_api_plots, _kind_study_maps)}
+    _kind_mechanisms, _kind_fe_joint, _kind_calibration, _kind_ballbar, _kind_api_plots, _kind_study_maps,
+    _kind_optimise)}
 
 
 def _watch_figures(monkeypatch):
