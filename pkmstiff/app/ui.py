@@ -59,7 +59,8 @@ def _quantity_names() -> list[str]:
 class App:
     """One app: a trame server, its session and its 3-D scene."""
 
-    def __init__(self, machine: str = "hexaglide", out: str | Path = "pkmstiff-app", server: Any = None):
+    def __init__(self, machine: str = "hexaglide", out: str | Path = "pkmstiff-app", server: Any = None,
+                 step_mm: float = 25.0):
         from trame.app import get_server
 
         self.server = server or get_server("pkmstiff", client_type="vue3")
@@ -72,19 +73,19 @@ class App:
         self._token = 0
         self._animating = False
         self._scene_machine = ""  # the machine the 3-D view was set up for (spec)
-        self._init_state(machine)
+        self._init_state(machine, step_mm)
         self._build()
         self.server.controller.on_server_ready.add(lambda **_: self._machine_changed())
 
     # ---- state -------------------------------------------------------------------------------------------------
 
-    def _init_state(self, machine: str) -> None:
+    def _init_state(self, machine: str, step_mm: float) -> None:
         s = self.state
         s.trame__title = "pkmstiff app"
         s.machines = bundled_machines()
         s.machine, s.option, s.options = machine, NO_OPTION, [NO_OPTION]
         s.plane, s.planes = "yz", list(PLANES)
-        s.at_mm, s.step_mm, s.quantity, s.quantities = 0.0, 25.0, "kx", _quantity_names()
+        s.at_mm, s.step_mm, s.quantity, s.quantities = 0.0, step_mm, "kx", _quantity_names()
         s.ori_a, s.ori_b, s.ori_c = 0.0, 0.0, 0.0
         s.tool_length_mm, s.skip_checks, s.checks, s.neglect_spindle = "", [], list(ALL_CHECKS), False
         s.frame, s.frames = "machine", list(FRAMES)
@@ -139,8 +140,8 @@ class App:
         s = self.state
         try:
             mc = self.machine_choice()
+            self.session.machine(mc)  # a mechanism or planar example: one line says why it is not shown
             s.options = [NO_OPTION, *machine_options(mc.machine)]
-            self.session.machine(mc)
             lo, hi = self.session.pose_limits(mc)
             s.pose_lo, s.pose_hi = lo.tolist(), hi.tolist()
         except Exception as exc:  # the message bar says what is wrong; the app stays up
