@@ -219,7 +219,9 @@ def test_app_in_chromium_shows_the_command_lines_numbers(driver, reports, tmp_pa
         loaded = driver.execute_script("return performance.getEntriesByType('resource').map(e => e.name)")
         assert loaded and all(x.startswith(url) for x in loaded), [x for x in loaded if not x.startswith(url)]
         assert proc.poll() is None
-    assert time.monotonic() - t0 < 120  # about 20 s on two shared cores; the budget catches a hang early
+    # about 20 s of CPU (app, browser driver and CLI together); the wall time grows with the machine's load (120 s at
+    # a load of 14 on two cores, the reports building beside it): the budget only catches a hang early
+    assert time.monotonic() - t0 < 300
 
 
 @pytest.mark.parametrize("kind", ["design", "calibration"])
