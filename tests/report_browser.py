@@ -6,10 +6,11 @@ docs/make_images.py (the reports' screenshots in docs/images)."""
 from __future__ import annotations
 
 import os
-import re
 import subprocess
 import sys
 from pathlib import Path
+
+from tests.report_checks import _ABSOLUTE, _MARKDOWN  # the HTML checks' markers, here on the rendered text
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -131,12 +132,6 @@ return {
   height: Math.max(document.body.scrollHeight, root.scrollHeight),
 };
 """
-
-#: Markdown a renderer leaked into the visible text (tests/report_checks.py's markers, on lines of innerText)
-_MARKDOWN = [re.compile(p, re.MULTILINE) for p in (r"^\s*[-*] \S", r"^\s*#{1,6} ", r"\*\*\S", r"!\[", r"\]\(")]
-#: an absolute path of this machine or a Windows drive path
-_ABSOLUTE = re.compile(r"(?<![\w.~])(/(?:tmp|home|work|usr|root|opt|var)/|site-packages|[A-Z]:\\)")
-
 
 def look_at(driver, html: Path, screenshot: Path) -> list[str]:
     """Open ``html`` at :data:`WIDTH` px, save a screenshot of its first :data:`MAX_HEIGHT` px to ``screenshot`` and

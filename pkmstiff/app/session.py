@@ -246,7 +246,6 @@ class PointView:
     pose: np.ndarray  # (6,) m, rad, machine frame
     result: PointResults
     command: str
-    settings: ModelSettings = ModelSettings()
 
     @property
     def admissible(self) -> bool:
@@ -325,8 +324,7 @@ class Session:
         m = self.machine(machine, settings.checked().neglect_spindle)
         res = m.point(x, tool_length=settings.tool_length, n_modes=N_MODES, kinetostatics=False,
                       skip_checks=settings.skip_checks)
-        return PointView(x, res, point_command(machine, x, settings, m.to_machine_frame(np.zeros(3), settings.frame)),
-                         settings)
+        return PointView(x, res, point_command(machine, x, settings, m.to_machine_frame(np.zeros(3), settings.frame)))
 
     def pose_limits(self, machine: MachineChoice) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (6,) slider limits of the pose in mm and degrees: the chains' reach box and ±:data:`ANGLE_LIMIT_DEG`."""
