@@ -125,7 +125,8 @@ def test_example_runs_and_writes_outputs(tmp_path, capsys):
 
 
 def test_nothing_feasible_is_exit_3(tmp_path, capsys):
-    text = EXAMPLE.read_text().replace("min = 0.95", "min = 5.0")  # 5 times the original's area: more than the window
+    # twice the original's admissible area (0.38 m² of the 1.26 m² window): no orientation adds admissible points
+    text = EXAMPLE.read_text().replace("min = 0.95", "min = 2.0")
     f = tmp_path / "d.toml"
     f.write_text(text)
     assert main(["optimise", str(f), "--out", str(tmp_path / "o"), "--budget", "4", "--quiet"]) == 3

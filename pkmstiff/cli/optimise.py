@@ -44,7 +44,7 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
     try:
         res = optimise(design, args.out, jobs=args.jobs, scheduler=args.scheduler, budget=args.budget,
                        time_budget=time_budget, seed=args.seed, resume=args.resume, force=args.force,
-                       progress=progress)
+                       progress=progress, report=not args.no_report)
     except KeyboardInterrupt:
         from pathlib import Path
 
@@ -62,7 +62,8 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
             f"{res.meta['refined']['search_step_mm']:g} mm)" if "refined" in res.meta else "")
     print(f"pkmstiff optimise: {len(res.history)} evaluations{stop} ({res.evaluated} run, {res.cached} cached: "
           f"repeated or read from the checkpoint), {res.wall_time_s:.1f} s; {front}{text}{fine}; wrote "
-          f"{res.meta['outputs']['front']}, {res.meta['outputs']['summary']}")
+          + ", ".join(res.meta["outputs"][k] for k in ("front", "front_plot", "report", "summary")
+                      if k in res.meta["outputs"]))
     return 0
 
 
@@ -71,8 +72,10 @@ def add_commands(sub) -> None:
                        description="Optimise the variables of a design file (TOML: base machine, variables as "
                                    "dotted machine-file paths, objectives, constraints) with pymoo (DE, CMA-ES, "
                                    "NSGA-II); evaluations are cached and checkpointed in --out.")
-    p.add_argument("design_file", help="design file (TOML) or a bundled example name (hexaglide_joint_orientation)")
-    p.add_argument("--out", required=True, help="output folder (front.csv, designs/, convergence.png, summary.json)")
+    p.add_argument("design_file", help="design file (TOML) or a bundled example name (hexaglide_joint_orientation, "
+                                       "pod_ballscrew_selection, hexaglide_strut_lengths)")
+    p.add_argument("--out", required=True, help="output folder (front.csv, designs/, front.png, convergence.png, "
+                                             "report/, summary.json)")
     p.add_argument("--jobs", type=int, default=1,
                    help="local worker processes evaluating the candidates of a generation (-1: all cores; default 1)")
     p.add_argument("--scheduler", default=None, metavar="ADDR",
@@ -85,5 +88,6 @@ def add_commands(sub) -> None:
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the design file's)")
     p.add_argument("--resume", action="store_true", help="continue the run checkpointed in --out")
     p.add_argument("--force", action="store_true", help="start afresh in an --out that holds a run")
+    p.add_argument("--no-report", action="store_true", help="no HTML comparison report (report/report.html)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_cmd_optimise)
