@@ -93,7 +93,7 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["section", "{nonutf8}"], 2, "UTF-8"),
         (["section", "hexaglide", "--orientation", "0,0"], 2, "--orientation"),
         (["section", "slider_crank", "--plane", "yz"], 2, "--plane"),
-        (["section", "hybrid_tripod_wrist", "--quantities", "kx"], 2, "kx"),
+        (["section", "hybrid_tripod_wrist", "--quantities", "vmax_x"], 2, "vmax_x"),
         (["section", "hybrid_tripod_wrist", "--tool-length", "100"], 2, "--tool-length"),
         (["section", "hybrid_tripod_wrist", "--plane", "xy", "--range", "x=-10:10,y=0:10", "--step", "1e-4"], 2,
          "--step"),
