@@ -3,11 +3,13 @@ content hash of the machine variant, checkpointed as JSON lines) and tells the a
 constraint violations G (<= 0 feasible).
 
 * **Parallel candidates.** The new candidates of a generation are evaluated together: in this process (``jobs`` 1),
-  in the run's forked process pool (``jobs`` > 1) or on a Dask cluster (``scheduler``), split into tasks by
-  :func:`pkmstiff.evaluation.parallel.plan` from the cost per candidate measured in the previous generation. The
-  base machine travels to each worker once (:class:`~pkmstiff.evaluation.parallel.Shared`), a task carries only the
-  candidates' overrides, and a candidate's own evaluation runs serially in its worker (no nested pools). Results come
-  back in candidate order, so a run gives the same history whatever ``jobs``/``scheduler``.
+  in the run's forked process pool (``jobs`` > 1: tasks of single candidates, which the free worker takes) or on a
+  Dask cluster (``scheduler``: tasks sized by :func:`pkmstiff.evaluation.parallel.plan` from the cost per candidate
+  measured in the previous generation). The run's context (the base machine's name or file and the evaluation) is a
+  :class:`~pkmstiff.evaluation.parallel.Shared`, unpickled once per worker; a task adds only its candidates'
+  overrides, from which the worker builds each variant; a candidate's own evaluation runs serially in its worker (no
+  nested pools). Results come back in candidate order, so a run gives the same history whatever
+  ``jobs``/``scheduler``.
 * **Budgets.** The run stops after ``budget`` evaluations or, checked between generations, once ``time_budget``
   seconds have passed; either way it reports the best feasible design found so far.
 * **Coarse-to-fine.** With ``Design.coarse_step`` the search evaluates every section on that raster; afterwards the
