@@ -203,7 +203,7 @@ def plot_tilts(secs: dict[str, SectionMap], machine: Machine, path: Path) -> Pat
     """Joint stiffness over the tilt with the distribution of all six drive-joint tilts per orientation."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(9.0, 4.2))
-    fig.subplots_adjust(left=0.08, right=0.66, bottom=0.13, top=0.9)
+    fig.subplots_adjust(left=0.08, right=0.62, bottom=0.13, top=0.9)
     grid = np.linspace(0.0, 90.0, 181)
     ax.plot(grid, joint_stiffness(machine, grid) / 1e6, color="black", lw=2, label="3-DOF joint stiffness")
     ax.axvline(math.degrees(machine.joint_types["iwf_3dof"].tilt_min), color="red", lw=1, ls=":",
@@ -218,7 +218,7 @@ def plot_tilts(secs: dict[str, SectionMap], machine: Machine, path: Path) -> Pat
     ax2.set_ylabel("share of joint poses [1/deg]")
     h1, l1 = ax.get_legend_handles_labels()
     h2, l2 = ax2.get_legend_handles_labels()
-    ax.legend(h1 + h2, l1 + l2, fontsize=9, loc="upper left", bbox_to_anchor=(1.1, 1.0))
+    ax.legend(h1 + h2, l1 + l2, fontsize=9, loc="upper left", bbox_to_anchor=(1.16, 1.0))
     ax.set_title("Drive-joint tilts of all six joints on the YZ plane and the joint stiffness", fontsize=10)
     ax.grid(alpha=0.3)
     fig.savefig(path, dpi=100)
