@@ -136,7 +136,7 @@ def test_time_budget_from_the_design_file_and_the_cli(tmp_path, capsys):
     assert main(["optimise", str(f), "--out", str(out), "--time-budget", "0s", "--quiet"]) == 2  # not positive
     assert main(["optimise", str(f), "--out", str(out), "--time-budget", "1ms", "--quiet"]) == 0
     text = capsys.readouterr().out
-    assert "4 evaluations (stopped: time budget of 0.001 s)" in text  # one generation, then the clock is checked
+    assert "4 evaluations (stopped: time budget of 0.001 s)" in text  # the first generation always runs
     bad = _section_file(tmp_path, extra='time_budget = "5 mm"')
     assert main(["optimise", str(bad), "--out", str(tmp_path / "b"), "--quiet"]) == 2
     err = capsys.readouterr().err
@@ -231,7 +231,7 @@ def test_sigint_then_resume_reevaluates_nothing_checkpointed(tmp_path, jobs):
     assert front == (tmp_path / "fresh" / "front.csv").read_text().replace(str(tmp_path / "fresh"), str(out))
 
 
-def test_budget_time_parse_and_scheduler_with_jobs_is_refused(tmp_path, capsys):
+def test_jobs_and_scheduler_together_is_one_line_before_any_evaluation(tmp_path, capsys):
     f = _section_file(tmp_path)
     assert main(["optimise", str(f), "--out", str(tmp_path / "o"), "--jobs", "2", "--scheduler",
                  "tcp://127.0.0.1:1", "--quiet"]) == 2

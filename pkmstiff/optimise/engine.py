@@ -372,7 +372,7 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
         ev = _Evaluator(design.machine, evaluation, jobs, scheduler)
         search = _absolute(search, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=False))
         while algo.has_next() and len(history) < budget:
-            if time_budget is not None and time.perf_counter() - t0 >= time_budget:
+            if history and time_budget is not None and time.perf_counter() - t0 >= time_budget:
                 stopped = f"time budget of {time_budget:g} s"
                 break
             X = algo.ask(budget - len(history))
