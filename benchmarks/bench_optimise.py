@@ -1,11 +1,11 @@
-"""Parallel candidates of ``pkmstiff optimise`` (issue 24): the same run with ``--jobs 1`` and ``--jobs 2`` side by side.
+"""Parallel candidates of ``pkmstiff optimise`` (issue 24): one run with ``--jobs 1`` and ``--jobs 2``, side by side.
 
-Work: the bundled ``hexaglide_joint_orientation`` example (six drive-joint angles, mean k_x and admissible area of
-the YZ section, CMA-ES with 12 candidates per generation, searched on its 25 mm raster and the best 10 re-evaluated
-on 10 mm) with a budget of 96 evaluations (8 generations), run through ``pkmstiff.cli.main`` in this process. The runs alternate (1, 2, 1, 2, ...)
-``--repeat`` times each and the fastest of each is compared: on a shared machine the other load only slows a run
-down. The worker pool is stopped after each run, so every parallel run pays its workers' start-up and their CPU
-time is counted (``RUSAGE_CHILDREN`` once they are reaped).
+Work: the bundled ``hexaglide_joint_orientation`` example (six drive-joint angles, mean k_x and admissible area of the
+YZ section, CMA-ES with 12 candidates per generation, searched on its 25 mm raster and the best 10 re-evaluated on 10
+mm) with a budget of 96 evaluations (8 generations), run through ``pkmstiff.cli.main`` in this process. The runs
+alternate (1, 2, 1, 2, ...) ``--repeat`` times each and the fastest of each is compared: on a shared machine the other
+load only slows a run down. The worker pool is stopped after each run, so every parallel run pays its workers'
+start-up and their CPU time is counted (``RUSAGE_CHILDREN`` once they are reaped).
 
 Two wall times per run: the whole command (start-up checks, the references, the output files and plots included:
 serial work) and the optimisation itself (the time the command prints: the search and the re-evaluation on the

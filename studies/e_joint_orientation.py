@@ -1,4 +1,4 @@
-"""Study e — Hexaglide drive-joint orientation: original vs the published optimum vs ``pkmstiff optimise`` (Cobet 5.4).
+"""Study e — Hexaglide drive-joint orientation: original vs published optimum vs ``pkmstiff optimise`` (Cobet 5.4).
 
 1. Original orientation (joint axes a_i vertical) vs the dissertation's optimised orientation (Cobet Table 5.4,
    option ``hexaglide:optimised_drive_joints``): drive-joint tilt distribution with the joint stiffness at the
@@ -20,8 +20,8 @@ import argparse
 import dataclasses
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 
@@ -38,8 +38,8 @@ DESIGN = "hexaglide_joint_orientation"  # the bundled design file (pkmstiff/opti
 #: objective -> (statistic of the design file's section measure, meaning)
 OBJECTIVES = {
     "mean": ("mean", "mean k_x over the admissible points of the YZ plane"),
-    "p05": ("q05", "5 % quantile of k_x over the admissible points (the stiffness reached on 95 % of the admissible "
-                   "area)"),
+    "p05": ("q05", ("5 % quantile of k_x over the admissible points (the stiffness reached on 95 % of the "
+                    "admissible area)")),
     "min": ("min", "minimum k_x over the admissible points of the raster"),
 }
 TOOL_LENGTH = 0.0  # m, Cobet 5.4 (as in 5.3)
@@ -171,7 +171,8 @@ def _plt():
     return plt
 
 
-def plot_history(runs: dict[str, pkmstiff.optimise.OptimisationResult], refs: dict[str, dict[str, float]], path: Path) -> Path:
+def plot_history(runs: dict[str, pkmstiff.optimise.OptimisationResult], refs: dict[str, dict[str, float]],
+                 path: Path) -> Path:
     """Best feasible objective over the evaluations (search raster), one panel per run, with the original and
     published values on the same raster."""
     plt = _plt()
@@ -385,8 +386,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             + " ".join(f"Optimum ({o}): {vector_text(machines[f'optimum ({o})'].chains.drive_axis)} (b_i as the "
                        f"original's: not a variable)." for o in runs)
             + " " + " ".join(convergence_text(o, r) for o, r in runs.items()))
-        to = Table("Optimiser runs (search raster) and the optimum on the study's raster", [f"optimum ({o})" for o in runs],
-                   digits=4)
+        to = Table("Optimiser runs (search raster) and the optimum on the study's raster",
+                   [f"optimum ({o})" for o in runs], digits=4)
         lbl = {o: r.design.objectives[0].measure.label for o, r in runs.items()}
         to.add("objective on the search raster: original", "N/um", [kcoarse[ORIGINAL][o] for o in runs])
         to.add("objective on the search raster: published", "N/um", [kcoarse[PUBLISHED][o] for o in runs])

@@ -118,7 +118,8 @@ def test_example_runs_and_writes_outputs(tmp_path, capsys):
     # the example searches on 25 mm and re-evaluates its best on the requested 10 mm raster: the best design is one
     # of the history's (on the search raster), its front row carries the 10 mm values
     assert len(hist) == 24
-    row = hist[(hist["a12_polar_deg"] == front["a12_polar_deg"][0]) & (hist["a56_azimuth_deg"] == front["a56_azimuth_deg"][0])]
+    row = hist[(hist["a12_polar_deg"] == front["a12_polar_deg"][0])
+               & (hist["a56_azimuth_deg"] == front["a56_azimuth_deg"][0])]
     assert len(row) >= 1 and row["feasible"].iloc[0] == 1
     assert summary["front"][0]["variables"]["kx_mean [N/um]"] == pytest.approx(front["kx_mean_N_per_um"][0], rel=1e-12)
     assert (out / "convergence.png").read_bytes()[:4] == b"\x89PNG"
