@@ -3,9 +3,8 @@ content hash of the machine variant, checkpointed as JSON lines) and tells the a
 constraint violations G (<= 0 feasible).
 
 * **Parallel candidates.** The new candidates of a generation are evaluated together: in this process (``jobs`` 1),
-  in the run's forked process pool (``jobs`` > 1: tasks of single candidates, which the free worker takes) or on a
-  Dask cluster (``scheduler``: tasks sized by :func:`pkmstiff.evaluation.parallel.plan` from the cost per candidate
-  measured in the previous generation). The run's context (the base machine's name or file and the evaluation) is a
+  in the run's forked process pool (``jobs`` > 1) or on a Dask cluster (``scheduler``), in tasks sized by
+  :func:`pkmstiff.evaluation.parallel.plan` from the cost per candidate measured in the previous generation. The run's context (the base machine's name or file and the evaluation) is a
   :class:`~pkmstiff.evaluation.parallel.Shared`, unpickled once per worker; a task adds only its candidates'
   overrides, from which the worker builds each variant; a candidate's own evaluation runs serially in its worker (no
   nested pools). Results come back in candidate order, so a run gives the same history whatever
@@ -43,8 +42,6 @@ __all__ = ["CHECKPOINT", "INSTALL_HINT", "Candidate", "DesignEvaluation", "Optim
 
 CHECKPOINT = "evaluations.jsonl"
 INSTALL_HINT = "pkmstiff optimise needs pymoo: pip install 'pkmstiff[optimise]'"
-#: a local task holds candidates worth at least this (s): sending a task and its result costs about a millisecond
-_TASK_SECONDS = 0.02
 #: F of a failed or NaN candidate (it is also infeasible, G = 1, so it is never reported as the best)
 _FAILED_F = 1e30
 
@@ -258,16 +255,16 @@ def _evaluate_batch(context: Any, overrides: Sequence[dict[str, Any]]) -> list[t
 
 class _Evaluator:
     """Evaluates candidates' overrides with one evaluation, serially, in the local pool or on Dask (results in
-    order); ``seconds`` is the measured cost of one candidate (the median of the last batch). Local tasks are single
-    candidates (cheap ones grouped up to :data:`_TASK_SECONDS`), taken by whichever worker is free: a generation of
-    12 candidates on 2 workers ends when the slower worker's share does, not after a fixed 8 + 4 split."""
+    order); ``seconds`` is the measured cost of one candidate (the median of the last batch), from which
+    :func:`pkmstiff.evaluation.parallel.plan` sizes the tasks: several small tasks per worker, taken by whichever
+    worker is free, so a generation of 12 candidates on 2 workers ends when the slower worker's share does."""
 
     def __init__(self, machine: str, evaluation: DesignEvaluation, jobs: int, scheduler: Any):
         from pkmstiff.evaluation import parallel
 
         self.shared = parallel.Shared(_Context(machine, evaluation))
         self.jobs, self.scheduler = jobs, scheduler
-        self.seconds = _TASK_SECONDS  # until measured: one candidate per task
+        self.seconds = parallel.MIN_LOCAL_TASK_SECONDS  # until measured: small tasks
         self.where = "serial"
 
     def __call__(self, overrides: Sequence[dict[str, Any]]) -> list[tuple[dict[str, float], str, float]]:
@@ -275,15 +272,7 @@ class _Evaluator:
 
         if not overrides:
             return []
-        n = len(overrides)
-        if self.scheduler is not None:
-            p = parallel.plan(n, self.seconds, self.jobs, self.scheduler)
-        else:  # tasks of one candidate unless candidates are too cheap to send alone: balanced over the workers
-            size = max(1, math.ceil(_TASK_SECONDS / self.seconds))
-            tasks = math.ceil(n / size)
-            workers = min(parallel.resolve_workers(self.jobs), tasks)
-            p = (parallel.Plan(n, workers, tasks, size, self.seconds, "local") if workers > 1
-                 else parallel.Plan(n, 1, 1, n, self.seconds))
+        p = parallel.plan(len(overrides), self.seconds, self.jobs, self.scheduler)
         payloads = [(self.shared, list(overrides[a:b])) for a, b in parallel.split(len(overrides), p)]
         done = parallel.run_tasks(_evaluate_batch, payloads, p, self.scheduler)
         rows = [r for task in done for r in task]
