@@ -40,6 +40,15 @@ def _length_design(**kw) -> Design:
                   (Objective(FunctionMeasure("f", "m^2", kw.pop("f", _toy))),), **kw)
 
 
+#: the section of both measures: YZ plane at x = 0, tool length 0, K_U neglected (study e's)
+PLANE = """\
+plane = "yz"
+at_mm = 0
+range = "y=-300:1100,z=-1300:-400"
+step_mm = {step}
+tool_length_mm = 0
+neglect_spindle = true
+"""
 #: a small real design: one mirrored drive-joint direction, mean k_x and admissible area of a coarse YZ section
 SECTION = """\
 machine = "hexaglide"
@@ -64,33 +73,21 @@ sense = "maximise"
 kind = "section"
 quantity = "kx"
 statistic = "mean"
-plane = "yz"
-at_mm = 0
-range = "y=-300:1100,z=-1300:-400"
-step_mm = {step}
-tool_length_mm = 0
-neglect_spindle = true
-
+{section}
 [[constraints]]
 name = "admissible_area"
 kind = "section"
 quantity = "kx"
 statistic = "area"
-plane = "yz"
-at_mm = 0
-range = "y=-300:1100,z=-1300:-400"
-step_mm = {step}
-tool_length_mm = 0
-neglect_spindle = true
-{constraint}
+{section}{constraint}
 """
 
 
 def _section_file(tmp_path: Path, budget: int = 16, population: int = 8, step: float = 100, extra: str = "",
                   constraint: str = "min = 0.3") -> Path:
     f = tmp_path / "design.toml"
-    f.write_text(SECTION.format(budget=budget, population=population, step=step, extra=extra,
-                                constraint=constraint))
+    f.write_text(SECTION.format(budget=budget, population=population, extra=extra, constraint=constraint,
+                                section=PLANE.format(step=step)))
     return f
 
 
