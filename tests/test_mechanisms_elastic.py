@@ -143,7 +143,33 @@ def test_point_command_accepts_a_mechanism_and_prints_the_machines_numbers(capsy
             assert mech[key][ax] == pytest.approx(machine[key][ax], rel=RTOL)
     np.testing.assert_allclose(mech["frequencies_Hz"], machine["frequencies_Hz"], rtol=RTOL)
     assert mech["mode_descriptions"] == machine["mode_descriptions"]
-    assert mech["transmission_quality"] is None and set(mech["drives"]) == {f"lambda{i}_mm" for i in range(1, 7)}
+    assert set(mech["drives"]) == {f"lambda{i}_mm" for i in range(1, 7)}
+    # the tool tip along the tool axis (-z, the machines' default): the machine's stiffness at the same tool length
+    assert main(["point", "hexaglide_generic", "--pose", "30,280,-950,2,-1,3", "--json", "--tool-length", "150",
+                 "--modes", "0"]) == 0
+    mech = json.loads(capsys.readouterr().out)
+    assert main(["point", "hexaglide", "--pose", "30,280,-950,2,-1,3", "--json", "--tool-length", "150",
+                 "--modes", "0"]) == 0
+    machine = json.loads(capsys.readouterr().out)
+    assert mech["tool_length_mm"] == 150.0
+    for ax in "xyz":
+        assert mech["k_N_per_um"][ax] == pytest.approx(machine["k_N_per_um"][ax], rel=RTOL)
+
+
+def test_point_of_a_planar_mechanism_has_no_z_column(capsys):
+    """A planar mechanism (the five-bar) reports x and y only: k, weak points and kinetostatics without z."""
+    import json
+
+    from pkmstiff.cli import main
+
+    assert main(["point", "five_bar", "--pose", "90,310,0", "--json", "--modes", "2"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert set(rep["k_N_per_um"]) == set(rep["weak_points_percent"]) == {"x", "y"}
+    assert set(rep["v_max_m_per_s"]) == {"x", "y"} and set(rep["a_max_m_per_s2"]) == {"x", "-x", "y", "-y"}
+    assert rep["machine_type"] == "planar mechanism" and rep["static_drive_torques_Nm"] == [0.0, 0.0]
+    assert main(["point", "five_bar", "--pose", "90,310,0", "--modes", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "k_z" not in out and "force along x, y)" in out
 
 
 def test_point_command_refuses_machine_options_and_mechanisms_without_elastic_data(capsys, tmp_path):
@@ -151,8 +177,10 @@ def test_point_command_refuses_machine_options_and_mechanisms_without_elastic_da
 
     assert main(["point", "slider_crank", "--pose", "100,0,0"]) == 2
     assert "no [elastic] table" in capsys.readouterr().err
-    assert main(["point", "hexaglide_generic", "--pose", "0,300,-900,0,0,0", "--tool-length", "100"]) == 2
-    assert "--tool-length: not available for a mechanism" in capsys.readouterr().err
+    assert main(["point", "five_bar", "--pose", "90,310,0", "--tool-length", "100"]) == 2
+    assert "--tool-length: not available for mechanism 'five_bar'" in capsys.readouterr().err
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-900,0,0,0", "--neglect-spindle"]) == 2
+    assert "--neglect-spindle: not available for a mechanism" in capsys.readouterr().err
     assert main(["point", "hexaglide_generic", "--pose", "0,300,-3000,0,0,0"]) == 3  # no configuration: refused
     capsys.readouterr()
     # a configuration near the drive plane whose stiffness matrix is singular: not modelled, said so, no number

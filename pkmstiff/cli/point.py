@@ -90,8 +90,8 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         from pkmstiff.cli.mechanism import point_report as mechanism_report
 
         return mechanism_report(machine_name, pose_text, n_modes, allow_inadmissible,
-                                {"--tool-length": tool_length_mm is not None, "--neglect-spindle": neglect_spindle,
-                                 "--frame": frame != "machine", "--skip-check": bool(skip_checks)})
+                                {"--neglect-spindle": neglect_spindle, "--frame": frame != "machine",
+                                 "--skip-check": bool(skip_checks)}, tool_length_mm)
 
     return dispatch(machine_name, {
         Kind.SPATIAL: lambda _: _machine_report(machine_name, pose_text, tool_length_mm, n_modes, neglect_spindle,
@@ -272,12 +272,10 @@ def _print_report(rep: dict) -> None:
         wp = rep["weak_points_percent"]
         dirs = list(wp)
         labels = list(next(iter(wp.values())))
-        print("weak points (share of the TCP compliance for a force along x, y, z) [%]:")
+        print(f"weak points (share of the TCP compliance for a force along {', '.join(dirs)}) [%]:")
         print(f"  {'component':<18}" + "".join(f"{d:>9}" for d in dirs))
         for lab in labels:
             print(f"  {lab:<18}" + "".join(_f(wp[d][lab], '9.1f') for d in dirs))
-    if rep["transmission_quality"] is None and not rep["v_max_m_per_s"]:  # a mechanism: no kinetostatics
-        return
     tq = rep["transmission_quality"]
     w = rep.get("transmission_weight_m_per_rad")
     print(f"transmission quality: {_f(tq, '.4f')}" + (f"  (w = {w:.4f} m/rad)" if w else ""))
@@ -287,8 +285,11 @@ def _print_report(rep: dict) -> None:
     am, lim = rep["a_max_m_per_s2"], rep["a_limiting_drive"]
     print("maximum acceleration: " + "   ".join(
         f"{d}: {_f(am[d], '.2f')} m/s²" + (f" (drive {lim[d]})" if lim.get(d) else "") for d in am))
-    loads = rep["static_drive_loads_N"]
-    if loads is not None:
+    loads, torques = rep["static_drive_loads_N"], rep.get("static_drive_torques_Nm")
+    if torques is not None:  # a mechanism with rotary drives: each drive in its unit
+        print("static drive loads:   " + "  ".join(f"{_f(t, '.2f')} N·m" if f is None else f"{_f(f, '.1f')} N"
+                                                  for f, t in zip(loads, torques)))
+    elif loads is not None:
         print("static drive loads:   " + "  ".join(_f(v, '.1f') for v in loads) + " N")
     for note in rep.get("notes", []):
         print(f"  note: {note}")
@@ -308,8 +309,7 @@ def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | 
     if resolve(machine_name).kind is Kind.MECHANISM:
         from pkmstiff.cli.mechanism import point_rows as mechanism_rows
 
-        return mechanism_rows(machine_name, poses_si, n_modes, {"--tool-length": tool_length_mm is not None,
-                                                                "--skip-check": bool(skip_checks)})
+        return mechanism_rows(machine_name, poses_si, n_modes, {"--skip-check": bool(skip_checks)}, tool_length_mm)
     m = load_machine(machine_name)
     adm = evaluate_poses(m, poses_si, checks=checks_without(skip_checks, "--skip-check")).admissibility
     ok = adm.ok
