@@ -387,3 +387,35 @@ def test_point_batch_of_a_mechanism_has_the_machines_columns(tmp_path, capsys):
     ref = [float(v) for v in machine_rows[1].split(",")[8:]]
     np.testing.assert_allclose(got, ref, rtol=1e-5)  # printed with 6 significant digits
     assert mech_rows[2].endswith("False,no solution,,,,,")
+
+
+def test_mode_shape_points_move_consistently_and_figures_are_written(tmp_path, capsys):
+    """Mode shapes of a mechanism: a joint point shared by two drawn links moves the same on both (the strut end and
+    the crank tip of the 6-RUS), the ground does not move; `point --figures` writes one PNG per mode (--gif: one
+    line, exit 2)."""
+    from pkmstiff.cli import main
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.modeshape import link_points, mode_shapes
+
+    mech = load_mechanism("hexa_6rus")
+    sol = inverse(mech, [[0.02, -0.03, -0.42, 0.05, -0.03, 0.08]])
+    shapes = mode_shapes(mech, sol, 2)
+    pts = link_points(mech)
+    for sh in shapes:
+        by_joint: dict[int, list] = {}
+        for li, plist in pts.items():
+            if li in sh.world:
+                for (_, ji), x, d in zip(plist, sh.world[li], sh.displacement[li]):
+                    by_joint.setdefault(ji, []).append((x, d))
+        for ji, seen in by_joint.items():
+            for x, d in seen[1:]:  # same point, same motion (1e-12: rounding of R p and of the rigid-body map)
+                np.testing.assert_allclose(x, seen[0][0], atol=1e-12)
+                np.testing.assert_allclose(d, seen[0][1], atol=1e-9 * np.abs(seen[0][1]).max() + 1e-12)
+        assert sh.frequency_hz > 0 and sh.description
+    assert main(["point", "hexa_6rus", "--pose", "20,-30,-420,3,-2,5", "--modes", "2", "--figures",
+                 str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hexa_6rus_mode1.png", "hexa_6rus_mode2.png"]
+    capsys.readouterr()
+    assert main(["point", "hexa_6rus", "--pose", "20,-30,-420,3,-2,5", "--figures", str(tmp_path / "g"),
+                 "--gif"]) == 2
+    assert "--gif: not available for a mechanism" in capsys.readouterr().err

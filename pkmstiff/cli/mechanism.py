@@ -743,3 +743,28 @@ def _kinetostatics_report(mech, sol) -> dict[str, Any]:
     if ks.rotary.any():
         out["static_drive_torques_Nm"] = _num(np.where(ks.rotary, loads, np.nan))
     return out
+
+
+def mode_figures(name: str, pose_text: str, n_modes: int, out: str, names: tuple[str, ...],
+                 tool_length_mm: float | None = None) -> list:
+    """``pkmstiff point MECHANISM --figures DIR``: one mode-shape PNG per mode (``names``) of the elastic model at
+    the pose (:func:`pkmstiff.plots.mechanism.mechanism_mode_figure`)."""
+    from pathlib import Path
+
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.modeshape import mode_shapes
+    from pkmstiff.plots.mechanism import mechanism_mode_figure
+
+    mech = _elastic_mechanism(name, {})
+    pose = _parse_poses(mech, [pose_text], "--pose")
+    sol = inverse(mech, pose)
+    if not sol.ok[0]:
+        return []
+    where = ", ".join(f"{n} = {v * (1e3 if u == 'mm' else 180 / math.pi):g} {u}"
+                      for (n, u), v in zip(_pose_names(mech), pose[0]))
+    files = []
+    for ms in mode_shapes(mech, sol, n_modes, tool_point(mech, tool_length_mm)):
+        title = (f"{mech.name}: mode {ms.mode}, {ms.frequency_hz:.2f} Hz"
+                 + (f", {ms.description}" if ms.description else "") + f"\npose {where}")
+        files.append(mechanism_mode_figure(mech, ms, output_path(Path(out), names[ms.mode - 1]), title))
+    return files

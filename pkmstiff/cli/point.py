@@ -388,6 +388,12 @@ def _mode_figures(args: argparse.Namespace) -> list:
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
 
+    from pkmstiff.cli.targets import Kind, resolve
+
+    if resolve(args.machine).kind is Kind.MECHANISM:
+        from pkmstiff.cli.mechanism import mode_figures
+
+        return mode_figures(args.machine, args.pose, args.modes, args.figures, _figure_names(args), args.tool_length)
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     pose = to_machine_frame(machine, parse_pose(args.pose), args.frame)
     out = Path(args.figures)
@@ -402,9 +408,18 @@ def _figure_names(args: argparse.Namespace) -> tuple[str, ...]:
     """The file names ``--figures`` writes: ``<machine>_mode<k>.png`` (and ``<machine>_mode1.gif`` with ``--gif``)."""
     from pkmstiff.cli.targets import Kind, resolve
 
-    if resolve(args.machine).kind is Kind.PLANAR:
+    kind = resolve(args.machine).kind
+    if kind is Kind.PLANAR:
         return ()
-    stem = safe_stem(load_machine(args.machine).name)
+    if kind is Kind.MECHANISM:
+        if args.gif:
+            raise ArgumentError(f"--gif: not available for a mechanism ('{args.machine}'): --figures writes one PNG "
+                                "per mode")
+        from pkmstiff.mechanisms import load_mechanism
+
+        stem = safe_stem(load_mechanism(args.machine).name)
+    else:
+        stem = safe_stem(load_machine(args.machine).name)
     return tuple(f"{stem}_mode{k}.png" for k in range(1, args.modes + 1)) + ((f"{stem}_mode1.gif",) if args.gif else ())
 
 
@@ -425,7 +440,8 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--out", default=None, metavar="FILE.csv", help="with --poses: write the CSV here")
     p.add_argument("--force", action="store_true", help="overwrite existing output files (--out, --figures)")
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
-                   help="tool length in mm (default: machine file)")
+                   help="tool length in mm (default: machine file; a mechanism: from its output point along the "
+                        "tool axis, [output] axis or -z)")
     p.add_argument("--modes", type=int, default=6, metavar="N",
                    help=f"number of natural frequencies, 0..{MODES_LIMIT} (0: none; default 6)")
     from pkmstiff.cli.edges import add_budget_argument
@@ -437,7 +453,7 @@ def add_commands(sub: Any) -> None:
     add_budget_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--figures", metavar="DIR", default=None,
-                   help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")
+                   help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines and mechanisms)")
     p.add_argument("--gif", action="store_true", help="with --figures: also an animated GIF of mode 1")
     p.add_argument("--allow-inadmissible", action="store_true",
                    help="analyse an inadmissible pose anyway (every result is marked); default: refuse, exit 3")
