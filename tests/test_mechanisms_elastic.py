@@ -227,6 +227,35 @@ def test_section_points_are_solved_from_their_neighbours(monkeypatch):
     assert calls.count(True) == 2 and len(calls) > 3  # the home configuration and the seed point from home
 
 
+def test_a_section_point_failing_from_one_neighbour_is_retried_from_another(monkeypatch):
+    """A point whose continuation from its first solved neighbour fails (forced here: the solver reports no solution
+    for it from its first start) is solved again from another neighbour, not from home, and recovered with the
+    configuration of the inverse kinematics."""
+    import pkmstiff.mechanisms.section as sec_mod
+
+    real = sec_mod.inverse
+    mech = load_mechanism("hexaglide_generic")
+    uu, vv = np.linspace(0.1, 0.5, 5), np.linspace(-1.1, -0.7, 5)
+    P = sec_mod.plane_poses(mech, "yz", 0.0, uu, vv, np.zeros(3))
+    victim = P[13]  # next to the centre (the seed, nearest home): four neighbours
+    starts = []
+
+    def failing_once(mech_, poses, start=None, **kw):
+        sol = real(mech_, poses, start=start, **kw)
+        hit = np.flatnonzero(np.all(np.isclose(np.atleast_2d(poses), victim), axis=1))
+        if hit.size:
+            starts.append(None if start is None else np.asarray(start)[hit[0]].copy())
+            if len(starts) == 1:
+                sol.status[hit] = "no_solution"
+        return sol
+
+    monkeypatch.setattr(sec_mod, "inverse", failing_once)
+    sol = sec_mod.raster_inverse(mech, P, (5, 5), **sec_mod.NEIGHBOUR)
+    assert sol.ok.all() and len(starts) == 2
+    assert starts[0] is not None and starts[1] is not None and not np.allclose(starts[0], starts[1])
+    np.testing.assert_allclose(sol.poses[13], victim, atol=1e-12)
+
+
 def _raw(name: str) -> dict:
     from pkmstiff.io import read_toml
     from pkmstiff.mechanisms.loader import bundled_mechanism_dir

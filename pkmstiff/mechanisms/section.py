@@ -124,15 +124,18 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], **solve_kw
     """Inverse kinematics of the raster poses P (nv·nu, pose_size), row-major over ``shape`` = (nv, nu), by
     continuation from neighbouring points: the point nearest home is solved from home, then in waves every unsolved
     4-neighbour of a point solved in the last wave starts from that point's configuration (one raster step: the
-    branch of the neighbour is kept).  Points no wave reaches (a part of the plane not connected to the seed through
-    reachable points) are solved from home at once and the waves go on from those solved."""
+    branch of the neighbour is kept).  A point that fails from one neighbour is tried again from each other
+    neighbour solved later (at most once per direction), and a point still unsolved when the waves stop — one that
+    failed from every neighbour or that no wave reached (a part of the plane not connected to the seed through
+    reachable points) — is tried once from home; the waves go on from the points solved there."""
     nv, nu = shape
     n = nv * nu
     home_pose = mech.home_output_pose
     q0 = inverse(mech, home_pose[None]).q[0]
     sol = None
-    attempted = np.zeros(n, bool)
+    tried = np.zeros(n, np.uint8)  #: bit d: tried from the neighbour in direction d; bit 4: tried from home
     ok = np.zeros(n, bool)
+    steps = ((0, 1), (0, -1), (1, 0), (-1, 0))
 
     def solve(idx: Array, start: Array | None) -> Array:
         nonlocal sol
@@ -140,32 +143,43 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], **solve_kw
         if sol is None:
             sol = _empty_like(part, n, q0)
         for f in ("q", "status", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
-            getattr(sol, f)[idx] = getattr(part, f)
-        attempted[idx] = True
+            getattr(sol, f)[idx] = getattr(part, f)  # idx are unsolved points: the last try is their result
         ok[idx] = part.ok
         return idx[part.ok]
 
     d = np.linalg.norm(P[:, :mech.dim] - home_pose[None, :mech.dim], axis=1)
-    frontier = solve(np.array([int(np.argmin(d))]), None)
+    seed = np.array([int(np.argmin(d))])
+    tried[seed] |= 16
+    frontier = solve(seed, None)
     grid = np.arange(n).reshape(nv, nu)
+    empty = np.zeros(0, int)
+    pending = (empty, empty, empty)  # (point, source, direction bit) not yet tried, from earlier waves
     while True:
-        while frontier.size:
-            cand, src = [], []
-            for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-                iv, iu = np.divmod(frontier, nu)
+        while True:
+            cand, src, bit = [pending[0]], [pending[1]], [pending[2]]
+            iv, iu = np.divmod(frontier, nu)
+            for k, (di, dj) in enumerate(steps):
                 jv, ju = iv + di, iu + dj
                 inside = (jv >= 0) & (jv < nv) & (ju >= 0) & (ju < nu)
-                nb = grid[jv[inside], ju[inside]]
-                fresh = ~attempted[nb]
-                cand.append(nb[fresh])
-                src.append(frontier[inside][fresh])
-            cand_all, first = np.unique(np.concatenate(cand), return_index=True)
-            if not cand_all.size:
+                cand.append(grid[jv[inside], ju[inside]])
+                src.append(frontier[inside])
+                bit.append(np.full(int(inside.sum()), 1 << k))
+            c, sr, b = (np.concatenate(a).astype(int) for a in (cand, src, bit))
+            keep = ~ok[c] & (tried[c] & b == 0)
+            c, sr, b = c[keep], sr[keep], b[keep]
+            if not c.size:
                 break
-            frontier = solve(cand_all, sol.q[np.concatenate(src)[first]])
-        rest = np.flatnonzero(~attempted)
+            cand_all, first = np.unique(c, return_index=True)
+            tried[cand_all] |= b[first].astype(np.uint8)
+            rest = np.ones(c.size, bool)
+            rest[first] = False
+            pending = (c[rest], sr[rest], b[rest])  # other solved neighbours: tried if this one fails
+            frontier = solve(cand_all, sol.q[sr[first]])
+        rest = np.flatnonzero(~ok & (tried & 16 == 0))
         if not rest.size:
             break
+        tried[rest] |= 16
+        pending = (empty, empty, empty)
         frontier = solve(rest, None)
     return sol
 
