@@ -82,6 +82,22 @@ ELASTIC = ("kx", "ky", "kz", "krx", "kry", "krz")
 _FREQ = re.compile(r"f([1-9]\d*)$")
 
 
+def quantity_label(name: str) -> str:
+    """The text a figure or table shows for a section quantity: the machines' label for the stiffness and frequency
+    quantities (:mod:`pkmstiff.evaluation.quantities`), the same wording for the component shares."""
+    from pkmstiff.evaluation.quantities import get_quantity
+
+    if name == "kappa":
+        return "condition number of dx/ds"
+    if name == "kappa_out":
+        return "condition number of the controlled outputs"
+    if name.startswith("share_"):
+        return f"share of the {name[len('share_'):-2]} in the TCP compliance along {name[-1]}"
+    if name in ELASTIC or _FREQ.match(name):
+        return get_quantity(name).label
+    return f"drive {name}"
+
+
 def _known(mech: Mechanism, name: str) -> bool:
     m = _FREQ.match(name)
     return name in quantity_names(mech) or (mech.elastic is not None and m is not None)
