@@ -452,7 +452,7 @@ def section_report(args) -> dict[str, Any]:
 
     mech = _load(args.machine)
     plane = args.plane.lower()
-    for opt, given in (("--tool-length", args.tool_length is not None), ("--require", bool(args.require)),
+    for opt, given in (("--require", bool(args.require)),
                        ("--frame", args.frame != "machine"), ("--neglect-spindle", args.neglect_spindle),
                        ("--skip-check", bool(args.skip_check))):
         if given:
@@ -467,6 +467,14 @@ def section_report(args) -> dict[str, Any]:
     names = parse_names(args.quantities, "--quantities")
     formats = parse_names(args.formats, "--formats", ("png", "vtu", "csv", "npz"))
     step, at = args.step * 1e-3, args.at * 1e-3
+    if args.tool_length is not None:
+        from pkmstiff.cli.point import check_point_options
+
+        check_point_options(args.tool_length, 0)
+        if mech.elastic is None:
+            raise ArgumentError(f"--tool-length: mechanism '{mech.name}' has no [elastic] table (the tool length "
+                                "moves the point of the stiffness quantities)")
+    tip = tool_point(mech, args.tool_length) if mech.elastic is not None else None
     stem = f"{safe_stem(mech.name)}_{plane}"
     from pkmstiff.cli.edges import check_output_dir
 
@@ -487,12 +495,16 @@ def section_report(args) -> dict[str, Any]:
         if n_points > SECTION_MAX_POINTS:
             raise ArgumentError(f"--step: {n_points} raster points, expected at most {SECTION_MAX_POINTS} for a "
                                 f"mechanism section (a larger step or a smaller --range)")
-        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names)
+        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names, tip)
+        if tip is not None:
+            sec.settings["tool_length_mm"] = float(args.tool_length)
     except PkmstiffError as exc:
         raise ArgumentError(str(exc)) from None
     cpu = time.process_time() - t0
     where = {"mechanism": mech.name, "plane": plane, "at_mm": None if mech.dim == 2 else args.at,
              "orientation_deg": [float(np.degrees(a)) for a in ori]}
+    if tip is not None:
+        where["tool_length_mm"] = float(args.tool_length)
     files = _write_section(sec, Path(args.out), stem, formats, where) if args.out else []
     stats = sec.statistics()
     return {**where,
@@ -548,7 +560,8 @@ def print_section(rep: dict[str, Any]) -> None:
     where = "plane of motion" if rep["at_mm"] is None else \
         f"{rep['plane']} plane at {({'x', 'y', 'z'} - set(rep['plane'])).pop()} = {rep['at_mm']:g} mm"
     ori = ",".join(f"{a:g}" for a in rep["orientation_deg"])
-    print(f"{rep['mechanism']} (mechanism): {where}, orientation {ori} deg, window {win}"
+    tool = f", tool {rep['tool_length_mm']:g} mm" if "tool_length_mm" in rep else ""
+    print(f"{rep['mechanism']} (mechanism): {where}, orientation {ori} deg{tool}, window {win}"
           f"{' (fitted)' if rep['window_fitted_to_workspace'] else ''}: {rep['admissible_points']} of "
           f"{rep['points']} points admissible ({rep['admissible_area_m2']:.4g} m²)")
     for n, st in rep["statistics"].items():

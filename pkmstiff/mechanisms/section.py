@@ -111,17 +111,18 @@ def check_quantities(mech: Mechanism, names) -> None:
                             f"'{mech.name}', found {', '.join(bad)}")
 
 
-def elastic_values(mech: Mechanism, sol: Solution, names) -> tuple[dict[str, Array], dict[str, str],
-                                                                   dict[str, float]]:
+def elastic_values(mech: Mechanism, sol: Solution, names, point: Array | None = None
+                   ) -> tuple[dict[str, Array], dict[str, str], dict[str, float]]:
     """SI values (N,), display units and scales of the elastic quantities among ``names`` at the configurations of
-    ``sol`` (:func:`~pkmstiff.mechanisms.stiffness.evaluate_mechanism`, chunked)."""
+    ``sol`` (:func:`~pkmstiff.mechanisms.stiffness.evaluate_mechanism`, chunked; at ``point``, home coordinates on
+    the output link, instead of the output point)."""
     from pkmstiff.mechanisms.stiffness import evaluate_mechanism
 
     freq = [int(m.group(1)) for n in names if (m := _FREQ.match(n))]
     dirs = tuple(sorted({n[-1] for n in names if n.startswith("share_")}))
     if not freq and not dirs and not any(n in ELASTIC for n in names):
         return {}, {}, {}
-    res = evaluate_mechanism(mech, sol, max(freq, default=0), dirs)
+    res = evaluate_mechanism(mech, sol, max(freq, default=0), dirs, point=point)
     values, units, scales = {}, {}, {}
     for n in names:
         if n in ELASTIC:
@@ -297,8 +298,10 @@ def fit_window(mech: Mechanism, plane: str, at: float, orientation: Array, step:
 
 def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[float, float],
                      v_range: tuple[float, float], step: float, orientation=(0.0, 0.0, 0.0),
-                     names=("kappa",)) -> MechanismSection:
-    """Quantities ``names`` and admissibility on an axis plane (ranges, step, ``at`` in m; orientation rad)."""
+                     names=("kappa",), point: Array | None = None) -> MechanismSection:
+    """Quantities ``names`` and admissibility on an axis plane (ranges, step, ``at`` in m; orientation rad); the
+    elastic quantities at ``point`` (home coordinates on the output link, e.g. a tool tip) instead of the output
+    point."""
     check_quantities(mech, names)
     ori = np.asarray(orientation, dtype=float)
     uu, vv = raster(*u_range, step), raster(*v_range, step)
@@ -320,7 +323,7 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
             units[dn], scales[dn] = ("mm", 1e3) if du == "m" else ("deg", 180.0 / np.pi)
     ok = ev.admissible
     idx = np.flatnonzero(ok)
-    ev_vals, ev_units, ev_scales = elastic_values(mech, take(ev.solution, idx), names)
+    ev_vals, ev_units, ev_scales = elastic_values(mech, take(ev.solution, idx), names, point)
     for n, v in ev_vals.items():
         values[n] = np.full(ok.shape, np.nan)
         values[n][idx] = v

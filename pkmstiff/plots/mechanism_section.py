@@ -42,8 +42,9 @@ def _axes(sec, title: str):
     else:
         normal = ({"x", "y", "z"} - set(sec.plane)).pop()
         ori = ", ".join(f"{np.degrees(a):g}°" for a in sec.orientation)
+        tool = sec.settings.get("tool_length_mm")
         where = (f"{sec.plane.upper()} plane at {normal} = {sec.at * MM:g} mm (machine frame), {rng}\n"
-                 f"a, b, c = {ori}")
+                 f"a, b, c = {ori}" + ("" if tool is None else f", tool {tool:g} mm"))
     fig.suptitle(f"{sec.mechanism}: {where}", fontsize=9)
     ax.set_title(title, fontsize=10)
     return fig, ax
