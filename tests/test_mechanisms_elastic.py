@@ -184,9 +184,10 @@ def test_point_command_refuses_machine_options_and_mechanisms_without_elastic_da
     assert main(["point", "hexaglide_generic", "--pose", "0,300,-3000,0,0,0"]) == 3  # no configuration: refused
     capsys.readouterr()
     # a configuration near the drive plane whose stiffness matrix is singular: not modelled, said so, no number
-    assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0"]) == 0
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0", "--figures", str(tmp_path / "f")]) == 0
     out = capsys.readouterr().out
     assert "pose not modelled: not positive definite" in out and "k_x =      n/a" in out
+    assert "no mode-shape figures: the pose is not modelled" in out and not (tmp_path / "f").exists()
 
 
 def test_section_of_a_mechanism_gives_the_machines_stiffness_map():

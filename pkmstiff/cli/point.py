@@ -367,7 +367,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
         from pkmstiff.errors import ArgumentError
 
         raise ArgumentError(str(exc)) from None
-    figures = _mode_figures(args) if args.figures else []
+    # no mode shapes where the structure model is not built (unreachable, singular or not positive definite)
+    figures = _mode_figures(args) if args.figures and rep["modelled"] else []
     if figures:
         rep["figures"] = [str(f) for f in figures]
     if args.json:
@@ -376,6 +377,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
         _print_report(rep)
         for f in figures:
             print(f"wrote {f}")
+        if args.figures and not rep["modelled"]:
+            print("no mode-shape figures: the pose is not modelled")
     return 0
 
 
