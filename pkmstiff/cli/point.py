@@ -387,11 +387,10 @@ def _mode_figures(args: argparse.Namespace) -> list:
     from pathlib import Path
 
     from pkmstiff.cli.pose import parse_pose
+    from pkmstiff.cli.targets import Kind, resolve
     from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
-
-    from pkmstiff.cli.targets import Kind, resolve
 
     if resolve(args.machine).kind is Kind.MECHANISM:
         from pkmstiff.cli.mechanism import mode_figures

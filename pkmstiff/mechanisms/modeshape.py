@@ -80,7 +80,7 @@ def mode_shapes(mech: Mechanism, sol: Solution, n_modes: int, point: Array | Non
     for k in range(n_modes):
         v = mr.shapes[0, k]
 
-        def motion(body: str, x: Array) -> Array:
+        def motion(body: str, x: Array, v: Array = v) -> Array:
             b = v[model.dof_index(body)]
             u = np.zeros(3)
             u[:min(3, b.size)] = b[:3]
