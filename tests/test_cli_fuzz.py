@@ -41,6 +41,13 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["machines", "{v7}"], 2, "format_version"),
         (["machines", "{absurd}"], 2, "plausible"),
     ],
+    "app": [  # every refusal comes before the server starts
+        (["app", "no_such_machine", "--no-browser"], 2, "no_such_machine"),
+        (["app", "{nonutf8}", "--no-browser"], 2, "UTF-8"),
+        (["app", "hexaglide:no_such_option", "--no-browser"], 2, "no_such_option"),
+        (["app", "hexaglide", "--port", "70000", "--no-browser"], 2, "--port"),
+        (["app", "hexaglide", "--out", "{file}", "--no-browser"], 2, "--out"),
+    ],
     "demo": [
         (["demo", "--step", "0"], 2, "--step"),
         (["demo", "--step", "-5"], 2, "--step"),

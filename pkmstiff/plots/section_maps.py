@@ -207,11 +207,18 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size: t
     ``window_size`` (px) fixes
     the canvas; by default it follows the plane's aspect so that the map fills the figure.
     """
+    return _save(section_figure(res, name, window_size, cmap, clim)[0], path)
+
+
+def section_figure(res: SectionResult, name: str, window_size: tuple[int, int] | None = None, cmap: str = "viridis",
+                   clim: tuple[float, float] | None = None):
+    """The matplotlib Figure of :func:`plot_section` and its map axes (data coordinates in mm), not yet saved (the
+    browser app maps clicks on the picture back to the plane through the axes)."""
     fig, ax = _map_figure(res, window_size, 1.3)
     draw_map(fig, ax, res.plane.u_values, res.plane.v_values, res.display(name), res.ok, name, res.labels[name],
              res.units[name], cmap, clim)
     fig.suptitle(_map_title(res), fontsize=9)
-    return _save(fig, path)
+    return fig, ax
 
 
 def draw_map(fig, ax, u_values: np.ndarray, v_values: np.ndarray, values: np.ndarray, ok: np.ndarray, name: str,
