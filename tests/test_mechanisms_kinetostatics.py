@@ -79,11 +79,14 @@ def test_hexaglide_mechanism_velocities_equal_the_machines(capsys):
     assert 0 < mech["transmission_quality"] <= 1 and mech["controlled_outputs"][:3] == ["x", "y", "z"]
 
 
-def test_acceleration_bound_is_the_drive_force_balance():
+@pytest.mark.parametrize("name, pose", [("hexaglide_generic", [0.03, 0.28, -0.95, 0.0, 0.0, 0.0]),
+                                        ("hexa_6rus", [0.02, -0.03, -0.42, 0.05, -0.03, 0.08])])
+def test_acceleration_bound_is_the_drive_force_balance(name, pose):
     """a_max in a direction e: the limiting drive's force τ_g + c + a·μ reaches its available force T exactly, and
-    no drive exceeds it (the hexaglide file: all limits given)."""
-    mech = load_mechanism("hexaglide_generic")
-    sol = inverse(mech, [[0.03, 0.28, -0.95, 0.0, 0.0, 0.0]])
+    no drive exceeds it; v_max drives the limiting drive at its speed limit (linear drives: N, m/s; the 6-RUS's
+    rotary drives: N m, rad/s from max_torque, max_angular_speed)."""
+    mech = load_mechanism(name)
+    sol = inverse(mech, [pose])
     ks = mechanism_kinetostatics(mech, sol)
     from pkmstiff.mechanisms.kinetostatics import ACCELERATION_DIRECTIONS, _drive_limits
 
@@ -96,3 +99,9 @@ def test_acceleration_bound_is_the_drive_force_balance():
         force = ks.drive_loads[0] + coul * np.sign(qdd) + ks.a_max[0, k] * (ks.mass_matrix[0] @ qdd)
         assert np.all(np.abs(force) <= avail * (1 + 1e-9))
         assert abs(force[ks.a_limiting[0, k]]) == pytest.approx(avail[ks.a_limiting[0, k]], rel=1e-9)
+    speed = _drive_limits(mech, "max_speed", np.nan)
+    assert np.all(np.isfinite(speed)) and np.all(np.isfinite(ks.a_max))
+    for k, lab in enumerate(ks.velocity_labels):
+        rates = np.abs(ks.jinv[0, :, "xyz".index(lab)]) * ks.v_max[0, k]
+        assert np.all(rates <= speed * (1 + 1e-12))
+        assert rates[ks.v_limiting[0, k]] == pytest.approx(speed[ks.v_limiting[0, k]], rel=1e-12)

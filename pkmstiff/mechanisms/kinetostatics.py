@@ -7,7 +7,7 @@ implicit differentiation, no finite differences) and the masses of the elastic m
 * Transmission quality ``U = σ_min/σ_max`` of ``W_x J W_s⁻¹`` (eq. 4.75, 4.77) with W_x = 1 on the point rows and w
   on the orientation rows, W_s = 1 for linear drives and w for rotary drives; w [m/rad] = the mechanism's length
   scale (so that rotary and linear drives compare in one unit).
-* v_max (eq. 4.79) with the drive components' ``max_speed``; a_max from standstill (eq. 4.80–4.93) with
+* v_max (eq. 4.79) with the drive components' ``max_speed`` (rotary: ``max_angular_speed``); a_max from standstill (eq. 4.80–4.93) with
   ``μ = M_s J⁻¹ e``, ``M_s = Σ_b J_bᵀ M_b J_b`` the mass matrix of every body of the elastic model in drive
   coordinates (J_b: the body's twist per drive rate) — for a pod/glide machine ``M_A + J_Cᵀ M_P J_C`` (eq. 4.86).
 * Static drive loads τ_g = Σ_b J_{b,v}ᵀ (−m_b g) (eq. 4.90): the forces (N) or torques (N m) that hold every body
@@ -113,13 +113,21 @@ def mass_and_gravity(mech: Mechanism, q: Array, q_s: Array) -> tuple[Array, Arra
     return M, tau
 
 
+#: the rotary drives' limit of each linear-drive limit (components.limits.ROTARY_DRIVE_LIMITS)
+_ROTARY_KEY = {"max_speed": "max_angular_speed", "max_force": "max_torque", "force_reserve": "torque_reserve",
+               "coulomb_friction": "coulomb_torque"}
+
+
 def _drive_limits(mech: Mechanism, key: str, default: float) -> Array:
+    """The drive components' limit ``key`` (linear drives; a rotary drive's torque/angular-speed counterpart) per
+    drive, SI (``default`` where not given)."""
     out = []
     for ji, jt in enumerate(mech.joints):
         if jt.drive is None:
             continue
         c = mech.elastic.joint(ji).drive
-        out.append(float((getattr(c, "limits", None) or {}).get(key, default)))
+        k = _ROTARY_KEY[key] if jt.variable == "angle" else key
+        out.append(float((getattr(c, "limits", None) or {}).get(k, default)))
     return np.array(out)
 
 
