@@ -4,9 +4,10 @@ implicit differentiation, no finite differences) and the masses of the elastic m
 
 * Drive rates per output rate J⁻¹ (n×n, the controlled outputs of the file: as many as drives); a direction e is a
   translation of the output point along x, y or z with the other controlled outputs (orientation, tool axis) held.
-* Transmission quality ``U = σ_min/σ_max`` of ``W_x J W_s⁻¹`` (eq. 4.75, 4.77) with W_x = 1 on the point rows and w
-  on the orientation rows, W_s = 1 for linear drives and w for rotary drives; w [m/rad] = the mechanism's length
-  scale (so that rotary and linear drives compare in one unit).
+* Transmission quality ``U = (σ_min/σ_max)^½`` of ``W_x J W_s⁻¹`` (eq. 4.75, 4.77; the machines' default form
+  ``inverse_sqrt_kappa``, :func:`pkmstiff.kinematics.transmission_quality`) with W_x = 1 on the point rows and w
+  on the orientation rows, W_s = 1 for linear drives and w for rotary drives; w [m/rad] = ``[elastic]
+  transmission_weight``, default the mechanism's length scale (so that rotary and linear drives compare in one unit).
 * v_max (eq. 4.79) with the drive components' ``max_speed`` (rotary: ``max_angular_speed``); a_max from standstill (eq. 4.80–4.93) with
   ``μ = M_s J⁻¹ e``, ``M_s = Σ_b J_bᵀ M_b J_b`` the mass matrix of every body of the elastic model in drive
   coordinates (J_b: the body's twist per drive rate) — for a pod/glide machine ``M_A + J_Cᵀ M_P J_C`` (eq. 4.86).
@@ -145,7 +146,7 @@ def mechanism_kinetostatics(mech: Mechanism, sol: Solution) -> MechanismKinetost
     jinv = np.full((N, n, len(outputs)), np.nan)
     M = np.full((N, n, n), np.nan)
     tau = np.full((N, n), np.nan)
-    w = float(mech.length_scale)
+    w = float(mech.length_scale if mech.elastic.transmission_weight is None else mech.elastic.transmission_weight)
     tq = np.full(N, np.nan)
     if len(outputs) != n:
         notes.append(f"{len(outputs)} controlled outputs ({', '.join(outputs)}) for {n} drives: no drive Jacobian "
@@ -156,7 +157,7 @@ def mechanism_kinetostatics(mech: Mechanism, sol: Solution) -> MechanismKinetost
         wx = np.array([1.0 if o in "xyz" else w for o in outputs])
         ws = np.where(rotary, w, 1.0)
         s = np.linalg.svd(wx[None, :, None] * J / ws[None, None, :], compute_uv=False)
-        tq[ok] = s[:, -1] / s[:, 0]
+        tq[ok] = np.sqrt(s[:, -1] / s[:, 0])  # the machines' default form (inverse_sqrt_kappa, eq. 4.75 note)
         good = s[:, -1] > 1e-12 * s[:, 0]
         with np.errstate(all="ignore"):
             inv = np.linalg.inv(np.where(good[:, None, None], J, np.eye(n)))
