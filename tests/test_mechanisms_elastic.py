@@ -78,6 +78,8 @@ def test_components_change_the_result_where_they_sit():
     (lambda t: t["elastic"]["joints"]["platform1"].update(drive="linear_motor_1"),
      "elastic.joints.platform1.drive"),
     (lambda t: t["elastic"]["joints"]["carriage1"].update(guide="strut_1000"), "elastic.joints.carriage1.guide"),
+    (lambda t: t["elastic"].update(transmission_weight="-1 m/rad"), "elastic.transmission_weight"),
+    (lambda t: t["output"].update(orientation="none", axis=[0, 0, -1]), "output.axis"),
 ])
 def test_bad_elastic_data_is_refused_naming_the_key(edit, key):
     table = mechanism_dict(load_machine("hexaglide"), np.array(HOME_POSES["hexaglide"]), "hexaglide_generic")
