@@ -459,3 +459,6 @@ def test_mode_shape_points_move_consistently_and_figures_are_written(tmp_path, c
     assert main(["point", "hexa_6rus", "--pose", "20,-30,-420,3,-2,5", "--figures", str(tmp_path / "g"),
                  "--gif"]) == 2
     assert "--gif: not available for a mechanism" in capsys.readouterr().err
+    assert main(["point", "hexa_6rus", "--pose", "20,-30,-420,3,-2,5", "--figures", str(tmp_path / "g"),
+                 "--modes", "0"]) == 2
+    assert "--figures: expected --modes 1 or more" in capsys.readouterr().err and not (tmp_path / "g").exists()

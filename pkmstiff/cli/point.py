@@ -358,6 +358,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
         return _point_batch(args)
     check_point_options(args.tool_length, args.modes)
     if args.figures is not None:
+        if args.modes == 0:
+            raise ArgumentError("--figures: expected --modes 1 or more (one mode-shape figure per mode), found 0")
         check_output_dir(args.figures, "--figures", getattr(args, "force", False), _figure_names(args))
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
