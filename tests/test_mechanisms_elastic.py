@@ -131,7 +131,7 @@ def test_component_shares_equal_the_structure_models_weak_points():
 
 def test_point_command_accepts_a_mechanism_and_prints_the_machines_numbers(capsys):
     """`pkmstiff point` on the Hexaglide's mechanism file: the stiffness and frequencies the machine prints (the
-    JSON keys of schema pkmstiff/point/1; kinetostatic keys null for a mechanism)."""
+    JSON keys of schema pkmstiff/point/1; the tool tip at --tool-length along the tool axis)."""
     import json
 
     from pkmstiff.cli import main
