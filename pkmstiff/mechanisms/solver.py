@@ -205,12 +205,12 @@ def _newton_loop(system: System, q: Array, target: Array | None, tol: float, max
                  watchdog: bool = False) -> tuple[Array, Array, Array, Array, Array, Array, Array]:
     """:func:`newton` vectorised over the poses in numpy (planar systems, and poses needing the pivoted QR).
 
-    ``watchdog``: a full step that the Armijo test rejects is still taken where one more full Newton step from it
-    passes the test against the residual before both (the watchdog technique, Chamberlain et al. 1982; Nocedal &
+    ``watchdog``: a full step that the Armijo test rejects is still taken where, after up to
+    ``_WATCHDOG_STEPS`` − 1 further full Newton steps from it, the residual passes the test against the one before (the watchdog technique, Chamberlain et al. 1982; Nocedal &
     Wright §15.6).  Near a singularity of the solved outputs (the hybrid's wrist: the tool axis 1e-7 rad from the
     strut, V1 0.7 rad off) the full step overshoots in the well-determined coordinates by the square of the large
-    step in the ill-determined one, and the next step removes that: the monotone line search creeps there with
-    ~1 % steps (``max_iter``), the watchdog converges in three."""
+    step in the ill-determined one, and the next steps remove that: the monotone line search creeps there with
+    ~1 % steps (``max_iter``); with the watchdog the final continuation step converges in 7 Newton steps."""
     N = q.shape[0]
     L, d = len(system.mech.links), system.mech.dof_per_link
     q = q.copy()
@@ -497,7 +497,8 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
     :func:`forward` (changes of the controlled point coordinates against :data:`MAX_LENGTH_STEP`, the turn of the
     controlled orientation against :data:`MAX_ANGLE_STEP`).  ``output_check``: ``Solution.output_kappa`` (κ of
     ∂x_c/∂s at the drive values found) and ``singular`` above 1/``singular_tol``, as in :func:`forward`; near an
-    output singularity the drive values are determined only to ~κ·ε (the Newton steps there: :func:`_newton_loop`)."""
+    output singularity a residual at rounding level leaves the ill-determined drive uncertain by ~ε·κ/|x_c| (the
+    hybrid's V1 to ~1e-16/tilt rad; the Newton steps there: :func:`_newton_loop`)."""
     if mech.output is None:
         raise ArgumentError(f"mechanism '{mech.name}' has no [output]: inverse kinematics undefined")
     units = "m, m, m, rad, rad, rad" if mech.dim == 3 else "m, m, rad"
