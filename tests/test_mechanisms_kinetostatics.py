@@ -151,3 +151,30 @@ def test_drive_load_strut_mass_is_a_fraction():
     table["elastic"]["drive_load_strut_mass"] = 1.5
     with pytest.raises(InputError, match="drive_load_strut_mass"):
         mechanism_from_dict(table, "<test>")
+
+
+def test_6x_mechanism_drive_loads_equal_the_machines_and_a_max_lacks_only_m_a():
+    """The 6X's mechanism file gives the machine's static drive loads (eq. 4.90, platform only: rtol 1e-9 as above);
+    its a_max is the machine's eq. 4.86 with M_A = 0 (documented gap: the telescopic drive's mass sits at the fixed
+    base joint of the file, the machine accelerates M_A = 49.19 kg along each strut)."""
+    from pkmstiff.analysis.kinetostatics import drive_data, kinetostatics, max_acceleration
+    from pkmstiff.kinematics import inverse_jacobian, inverse_kinematics, jacobian_and_condition
+    from pkmstiff.machine import load_machine
+    from pkmstiff.structure import mass_matrix_about_origin
+
+    poses = np.array([[0.0, 0.0, 1.3, 0.0, 0.0, 0.0], [0.05, -0.04, 1.25, 0.03, 0.02, -0.04]])
+    machine = load_machine("hexapod_6x")
+    ref = kinetostatics(machine, poses)
+    mech = load_mechanism("hexapod_6x_generic")
+    ks = mechanism_kinetostatics(mech, inverse(mech, poses))
+    np.testing.assert_allclose(ks.drive_loads, ref.drive_loads, rtol=0, atol=1e-9 * np.abs(ref.drive_loads).max())
+    ik = inverse_kinematics(machine, poses)
+    jinv = inverse_jacobian(machine, ik)
+    jc, _ = jacobian_and_condition(jinv)
+    d = drive_data(machine)
+    assert np.all(d.mass > 0)
+    a0, _, _ = max_acceleration(jinv, jc, ref.acceleration_directions, np.zeros(6),
+                                mass_matrix_about_origin(d.body, np.asarray(ik.R)), ref.drive_loads,
+                                d.available_force, d.coulomb)
+    np.testing.assert_allclose(ks.a_max, a0, rtol=1e-9)
+    assert np.all(ks.a_max > ref.a_max)
