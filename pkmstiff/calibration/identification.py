@@ -26,6 +26,7 @@ orientation readings, which only slows Gauss–Newton, not its fixed point in th
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -136,17 +137,32 @@ def setup_at(setup: Setup, params: ParameterSet, delta: np.ndarray) -> Setup:
     """The nominal set-up with the set-up errors of ``delta`` applied (target, fixed ball), for Jacobians."""
     st = perturbed_state(setup, params, delta)
     return Setup(setup.instrument, target=st.target, fixed_ball=st.fixed_ball, bar_length=setup.bar_length,
-                 measuring_range=setup.measuring_range)
+                 measuring_range=setup.measuring_range, placing_pose=setup.placing_pose)
 
 
 def jacobian_at(machine: Machine, params: ParameterSet, plan: Plan, delta: np.ndarray) -> np.ndarray:
     """Identification Jacobian (m, n), unweighted, SI, at the error vector ``delta``: the perturbed machine at the
     poses it reaches for the plan's nominal drive values (see the module docstring)."""
+    from pkmstiff.calibration.setups import PlanSet, actual_state, parts
+
+    if isinstance(plan, PlanSet):
+        J = np.zeros((plan.n_readings, params.n))
+        k = plan.instrument.n_readings
+        for part, sub, idx, rows in parts(plan, params):
+            J[rows.start * k:rows.stop * k, idx] = jacobian_at(machine, sub, part, delta[idx])
+        return J
     if not np.any(delta):
         return identification_jacobian(machine, params, plan).J
     x = plan.poses if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, plan.poses)
     real = perturbed_machine(machine, params, delta)
-    return identification_jacobian(real, params, Plan(plan.name, setup_at(plan.setup, params, delta), x)).J
+    setup = setup_at(plan.setup, params, delta)
+    if setup.placing_pose is not None:  # the ball where the machine put it, the pose it reached there
+        xc = plan.setup.placing_pose[None, :]
+        if np.any(delta[params.chain >= 0]):
+            xc = reached_poses(machine, params, delta, xc)
+        setup = dataclasses.replace(setup, fixed_ball=actual_state(machine, params, delta, plan.setup).fixed_ball,
+                                    placing_pose=xc[0])
+    return identification_jacobian(real, params, Plan(plan.name, setup, x)).J
 
 
 class _Model:
