@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import hashlib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -50,10 +51,13 @@ def _q(value: float, unit: str) -> str:
     return f'"{value * 1e3:.9g} mm"' if unit == "m" else f'"{value * 1e3:.9g} mrad"'
 
 
-def provenance(res: Identification, unc: Uncertainty | None = None, measurement: str | Path | None = None,
-               date: str | None = None, deflection: str = "none") -> dict:
+def provenance(res: Identification, unc: Uncertainty | None = None,
+               measurement: str | Path | Sequence[str | Path] | None = None, date: str | None = None,
+               deflection: str = "none") -> dict:
     """The ``[calibration]`` table of a calibrated machine file (units in the key names or values); ``deflection``
-    records what was subtracted from the readings before identification ("none", "gravity", "gravity + load …")."""
+    records what was subtracted from the readings before identification ("none", "gravity", "gravity + load …");
+    several measurement files (one per set-up): the first as ``measurement_file``, the others in
+    ``more_measurement_files`` / ``more_measurement_sha256``."""
     import pkmstiff
 
     r0, r1 = residual_stats(res.residual_before), residual_stats(res.residual_after)
@@ -64,12 +68,18 @@ def provenance(res: Identification, unc: Uncertainty | None = None, measurement:
            "date": date or _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
            "toolkit_version": pkmstiff.__version__, "scaling": res.scaling,
            "gauge_freedoms": [g.label() for g in res.gauge_freedoms], "deflection": deflection}
+    more = []
+    if measurement is not None and not isinstance(measurement, (str, Path)):
+        measurement, *more = list(measurement)
     if measurement is not None:
         out["measurement_file"] = str(Path(measurement).name)
         out["measurement_sha256"] = file_sha256(measurement)
         header = Path(measurement).with_suffix(".json")  # the header beside the CSV (files written since issue 22)
         if header.is_file():
             out["measurement_header_sha256"] = file_sha256(header)
+    if more:
+        out["more_measurement_files"] = [str(Path(p).name) for p in more]
+        out["more_measurement_sha256"] = [file_sha256(p) for p in more]
     out["identified"] = {nm: float(res.delta[i]) for nm, i in zip(res.base_names, res.base)}
     if unc is not None:
         out["sigma"] = {nm: float(s) for nm, s in zip(unc.names, unc.sigma)}
@@ -91,7 +101,7 @@ def _toml_scalar(v: object) -> str:
 
 
 def calibrated_machine_text(res: Identification, unc: Uncertainty | None = None,
-                            measurement: str | Path | None = None, name: str | None = None,
+                            measurement: str | Path | Sequence[str | Path] | None = None, name: str | None = None,
                             date: str | None = None, deflection: str = "none") -> str:
     """TOML of the calibrated machine: ``extends`` the nominal machine, the identified chain geometry and the
     ``[calibration]`` provenance block (identified values and σ as quantities in mm / mrad)."""
@@ -114,7 +124,7 @@ def calibrated_machine_text(res: Identification, unc: Uncertainty | None = None,
 
 
 def write_calibrated_machine(path: str | Path, res: Identification, unc: Uncertainty | None = None,
-                             measurement: str | Path | None = None, name: str | None = None,
+                             measurement: str | Path | Sequence[str | Path] | None = None, name: str | None = None,
                              deflection: str = "none") -> Path:
     p = Path(path)
     atomic_write_text(p, calibrated_machine_text(res, unc, measurement, name, deflection=deflection))

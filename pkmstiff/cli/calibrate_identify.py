@@ -33,7 +33,9 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
         raise InputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
     wrench = parse_load(load)
     machine = load_machine(machine_name)
-    run = identify_file(machine, measurements, method=method, loss=loss, frame=frame, monte_carlo=monte_carlo,
+    files = measurements if isinstance(measurements, str) else list(measurements)
+    measurements = files if isinstance(files, str) else files[0] if len(files) == 1 else ", ".join(files)
+    run = identify_file(machine, files, method=method, loss=loss, frame=frame, monte_carlo=monte_carlo,
                         outlier_threshold=outlier_threshold, expected=instrument, deflection=deflection, load=wrench,
                         with_=with_)
     res, unc, defl = run.res, run.unc, run.deflection
@@ -45,7 +47,7 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     rep["diagnostics"] = run.diagnostics.to_dict()
     if out and (run.diagnostics.consistent or accept_misfit):
         subtracted = "none" if defl is None else "gravity" + ("" if load is None else f" + load {load} (N, N m)")
-        write_calibrated_machine(out, res, unc, measurements, deflection=subtracted)
+        write_calibrated_machine(out, res, unc, files, deflection=subtracted)
         rep["calibrated_machine_file"] = out
     return rep
 
@@ -197,8 +199,10 @@ def _add_identify(sub) -> None:
                                    "global stage with LM polish; sigma and correlations; optionally the "
                                    "calibrated machine file.")
     p.add_argument("machine", help="nominal machine (bundled name or machine file)")
-    p.add_argument("--measurements", required=True, metavar="MEAS.csv",
-                   help="measurement file (ball bar, tracker or pose; docs/user-guide/calibration-simulation.md)")
+    p.add_argument("--measurements", required=True, metavar="MEAS.csv", nargs="+",
+                   help="measurement file (ball bar, tracker or pose; docs/user-guide/calibration-simulation.md); "
+                        "several files (one set-up each: fixed-ball positions, bar lengths, tracker stations) are "
+                        "identified together")
     p.add_argument("--method", choices=METHODS, default="lm")
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
     p.add_argument("--out", metavar="CALIBRATED.toml", help="write the calibrated machine file")

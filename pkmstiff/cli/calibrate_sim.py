@@ -79,6 +79,29 @@ def simulate_command(args: argparse.Namespace) -> dict:
     for opt in ("sample_rate", "range", "resolution", "accuracy", "angle_accuracy"):
         check_number(getattr(args, opt, None), "--" + opt.replace("_", "-"), 0, lo_open=True)
     from pkmstiff.calibration import check_plan, read_plan
+    from pkmstiff.calibration.setups import PlanSet
+    from pkmstiff.machine import load_machine
+
+    machine = load_machine(args.machine)
+    plans = read_plan(args.plan, plan_check())
+    if not isinstance(plans, PlanSet):
+        return _simulate_one(args, machine, plans, args.out)
+    outs = [out.with_name(f"{out.stem}_setup{k + 1}{out.suffix}") for k in range(plans.n_setups)]
+    for o in outs:  # every file is checked before the first is simulated
+        check_output_file(o, "--out (one file per set-up)", getattr(args, "force", False), (".csv",))
+        check_output_file(o.with_suffix(".json"), "--out (its header file)", getattr(args, "force", False),
+                          (".json",))
+    for part in plans.parts:
+        check_plan(machine, part)
+    return {"machine": machine.name, "plan": plans.name,
+            "setups": [_simulate_one(args, machine, part, str(o), k) for k, (part, o) in enumerate(zip(plans.parts,
+                                                                                                      outs))]}
+
+
+def _simulate_one(args: argparse.Namespace, machine, plan, out: str, k: int = 0) -> dict:
+    """``calibrate simulate`` of one set-up's plan into the file ``out``; set-up ``k`` draws its noise with the
+    seed ``--seed`` + k (independent noise per set-up)."""
+    from pkmstiff.calibration import check_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
         SimulationOptions,
@@ -89,16 +112,14 @@ def simulate_command(args: argparse.Namespace) -> dict:
         to_measurement,
     )
     from pkmstiff.errors import ArgumentError
-    from pkmstiff.machine import load_machine
 
-    machine = load_machine(args.machine)
-    plan = read_plan(args.plan, plan_check())
     check_plan(machine, plan)
     inst = _instrument(args, plan)
     dirs = tuple(d.strip() for d in args.directions.split(",") if d.strip())
     opts = SimulationOptions(feed=args.feed / 60e3, directions=dirs, noise=_noise(args.noise),
                              quantise=not args.no_quantise, backlash=args.backlash * 1e-6, drift_dT=args.drift,
-                             drift_tau=args.drift_tau, seed=args.seed, deflection=args.deflection)
+                             drift_tau=args.drift_tau,
+                             seed=None if args.seed is None else args.seed + k, deflection=args.deflection)
     params, delta = read_errors(args.errors, machine, plan)
     smp = sample_plan(plan, inst, opts)
     check_samples(machine, plan, smp)  # the poses between the plan's nodes, too
@@ -109,8 +130,8 @@ def simulate_command(args: argparse.Namespace) -> dict:
         raise ArgumentError(msg + (" (use --saturate to write them clipped at the range limits)"
                                       if saturates else ""))
     meas = to_measurement(machine, plan, res, inst, saturate=args.saturate)
-    write_measurement(args.out, meas)
-    rep = {"machine": machine.name, "plan": plan.name, "instrument": plan.instrument.kind, "out": str(args.out),
+    write_measurement(out, meas)
+    rep = {"machine": machine.name, "plan": plan.name, "instrument": plan.instrument.kind, "out": str(out),
            "n_samples": len(res.readings), "duration_s": float(res.samples.t[-1])}
     rep.update(plan.instrument.simulation_summary(plan, res))
     rep.update({"range_violations": int(res.violations.size), "noise_sigma_um": float(res.sigma.max() * 1e6),
@@ -133,19 +154,24 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     rep = simulate_command(args)
     if args.json:
         print(json.dumps(rep, indent=2))
-    else:
-        if "reading_min_um" in rep:
-            what = f"readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} µm"
-        else:
-            what = f"position error up to {rep['position_error_max_um']:.2f} µm" + (
-                f", orientation error up to {rep['orientation_error_max_urad']:.2f} µrad"
-                if "orientation_error_max_urad" in rep else "")
-        print(f"{rep['machine']}: plan '{rep['plan']}' -> {rep['out']}: {rep['n_samples']} samples over "
-              f"{rep['duration_s']:.1f} s, {what} (noise sigma {rep['noise_sigma_um']:.3g} µm)"
-              + (f", {rep['range_violations']} range violations clipped" if rep["range_violations"] else ""))
-        for n in rep["notes"]:
-            print("  " + n)
+        return 0
+    for one in rep.get("setups", [rep]):
+        _print_simulation(one)
     return 0
+
+
+def _print_simulation(rep: dict) -> None:
+    if "reading_min_um" in rep:
+        what = f"readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} µm"
+    else:
+        what = f"position error up to {rep['position_error_max_um']:.2f} µm" + (
+            f", orientation error up to {rep['orientation_error_max_urad']:.2f} µrad"
+            if "orientation_error_max_urad" in rep else "")
+    print(f"{rep['machine']}: plan '{rep['plan']}' -> {rep['out']}: {rep['n_samples']} samples over "
+          f"{rep['duration_s']:.1f} s, {what} (noise sigma {rep['noise_sigma_um']:.3g} µm)"
+          + (f", {rep['range_violations']} range violations clipped" if rep["range_violations"] else ""))
+    for n in rep["notes"]:
+        print("  " + n)
 
 
 def _add_simulate(sub) -> None:
