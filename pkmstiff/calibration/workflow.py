@@ -16,6 +16,7 @@ render.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,9 +37,9 @@ from pkmstiff.calibration.diagnostics import Candidate, FitDiagnostics, diagnose
 from pkmstiff.calibration.identifiability import Identifiability, check_identifiable, identifiability
 from pkmstiff.calibration.identification import Identification, ResidualStats, identify, jacobian_at
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
-from pkmstiff.calibration.jacobian import reading_weights
+from pkmstiff.calibration.jacobian import identification_jacobian, reading_weights
 from pkmstiff.calibration.measurement_file import Measurement, read_measurement
-from pkmstiff.calibration.parameters import ParameterSet, parse_with
+from pkmstiff.calibration.parameters import ParameterSet, error_model, parse_with
 from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
 from pkmstiff.calibration.setups import PlanSet, setups_error_model
@@ -90,11 +91,12 @@ def identify_file(machine: Machine, measurements: str | Sequence[str], *, meas: 
                   method: str = "lm",
                   loss: str = "linear", frame: str = "cartesian", monte_carlo: int = 0, outlier_threshold: float = 3.0,
                   expected: str | None = None, deflection: str = "none", load: Any | None = None,
-                  with_: str | None = None) -> IdentificationRun:
+                  with_: str | None = None, robust: str | None = None) -> IdentificationRun:
     """Identify ``machine`` from the measurement file ``measurements`` (already read: ``meas``); ``expected``
     names the instrument the file must hold (``--instrument``); ``deflection="gravity"`` subtracts the predicted
     deflection (with the extra ``load`` at the target, N or N and N m) and analyses its bias; ``with_`` (``--with``
-    tokens, e.g. ``"bar-offset"``) adds the set-up parameters of the measurement to the unknowns.
+    tokens, e.g. ``"bar-offset"``) adds the set-up parameters of the measurement to the unknowns; ``robust``
+    (``huber``, ``tukey``) down-weights outliers (IRLS, :func:`~pkmstiff.calibration.identification.identify`).
 
     Several files (``measurements`` a sequence; issue 26 item 3): one set-up each (fixed-ball position, bar length,
     ball offset or tracker station), identified together — the machine's parameters once, the ``--with`` set-up
@@ -124,7 +126,7 @@ def identify_file(machine: Machine, measurements: str | Sequence[str], *, meas: 
     params = setups_error_model(machine, plan, frame, blocks)
     ident = identifiability(machine, params, plan)
     check_identifiable(ident, measurements)  # an ill-posed measurement fails here, not after minutes of LM
-    kw = dict(loss=loss, outlier_threshold=outlier_threshold, source=measurements, ident=ident)
+    kw = dict(loss=loss, outlier_threshold=outlier_threshold, source=measurements, ident=ident, robust=robust)
     analysis = None
     if deflection == "gravity":
         analysis = deflection_analysis(machine, params, plan, y, method, load=load, **kw)
@@ -171,15 +173,13 @@ def fit_diagnostics(machine: Machine, meas: Measurement, plan: Plan, params: Par
     return diagnose(res.J, res.residual_after, inst.reading_sigma(meas),
                     reading_weights(machine, inst, 1), unc.sigma, reading_names=inst.reading_names,
                     reading_units=inst.reading_units, t=np.asarray(meas.t, dtype=float), direction=direction,
-                    candidates=tuple(cands), refit_reversed=refit_reversed)
+                    candidates=tuple(cands), refit_reversed=refit_reversed, robust_weights=res.robust_weights)
 
 
 def _stacked_times(metas: Sequence[Measurement]) -> Measurement:
     """The first measurement with the sample times and directions of all laid end to end (each file starts one
     sample interval after the previous one ends): what the diagnostics of a stacked identification read (only
     its times, directions and device figures)."""
-    import dataclasses
-
     t, off = [], 0.0
     for mm in metas:
         tt = np.asarray(mm.t, dtype=float)
@@ -285,7 +285,7 @@ def _circles(meas: BallbarMeasurement, plan: Plan, before: np.ndarray, after: np
 def run_calibration(machine: Machine, measurements: str, *, plan_path: str | None = None,
                     validate: Sequence[str] = (), method: str = "lm", loss: str = "linear",
                     frame: str = "cartesian", monte_carlo: int = 0, deflection: str = "none",
-                    with_: str | None = None) -> CalibrationRun:
+                    with_: str | None = None, robust: str | None = None) -> CalibrationRun:
     """Identify ``machine``'s base parameters from the ball-bar file ``measurements`` and check the result on every
     ``validate`` file (module docstring). ``plan_path`` (a plan file) is only described and drawn; the
     identification uses the commanded poses of the measurement. ``deflection="gravity"`` does what
@@ -303,7 +303,7 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
         vm = _ballbar_file(v)
         vals.append((v, vm, *measurement_plan(vm, machine.name, v)))
     run = identify_file(machine, measurements, meas=meas, method=method, loss=loss, frame=frame,
-                        monte_carlo=monte_carlo, deflection=deflection, with_=with_)
+                        monte_carlo=monte_carlo, deflection=deflection, with_=with_, robust=robust)
     blocks = parse_with(with_, meas.instrument)
     calibrated = run.calibrated_machine(machine)
     found = _circles(meas, run.plan, run.res.residual_before, run.res.residual_after, measurements)
@@ -320,5 +320,38 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
                           plan_file=plan_file, plan_path=plan_path, frame=frame, with_=with_)
 
 
-__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "fit_diagnostics", "identify_file",
-           "run_calibration"]
+
+
+def check_diagnostics(machine: Machine, controller: Machine, meas: Measurement, plan: Plan, residual: np.ndarray,
+                      blocks: tuple[str, ...] = ()) -> FitDiagnostics:
+    """The model-fit diagnostics of ``calibrate check`` (:mod:`pkmstiff.calibration.diagnostics`): the residual of
+    a machine file against a measurement, with nothing fitted but the set-up ``blocks`` (``--with``; their columns
+    at the nominal set-up); the set-up parameters not fitted are tested as candidates, as in ``identify``."""
+    inst = plan.instrument
+    full = error_model(machine, setup=plan.setup, setup_blocks=tuple(inst.setup_tokens.values()))
+    w = reading_weights(machine, inst, plan.n_poses)
+    Jall = w[:, None] * identification_jacobian(controller, dataclasses.replace(full, machine=controller.name),
+                                                plan).J
+    fitted = np.flatnonzero(np.isin(full.blocks, blocks) & (full.chain < 0))
+    J = Jall[:, fitted]
+    psig = np.ones(fitted.size)
+    if fitted.size:
+        from pkmstiff.calibration.uncertainty import covariance
+
+        psig = np.sqrt(np.diag(covariance(J, residual, fitted.size)[0]))
+    cands = []
+    for tok, blk in inst.setup_tokens.items():
+        if blk in blocks:
+            continue
+        idx = np.flatnonzero(full.mask(blk))
+        cands.append(Candidate(f"setup:{tok}", f"set-up parameter {tok} not fitted", Jall[:, idx],
+                               tuple(full.names[i] for i in idx), tuple(full.units[i] for i in idx),
+                               f"check with --with {tok}"))
+    return diagnose(J, residual, inst.reading_sigma(meas), reading_weights(machine, inst, 1), psig,
+                    reading_names=inst.reading_names, reading_units=inst.reading_units,
+                    t=np.asarray(meas.t, dtype=float), direction=getattr(meas, "direction", None),
+                    candidates=tuple(cands))
+
+
+__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "check_diagnostics",
+           "fit_diagnostics", "identify_file", "run_calibration"]

@@ -231,6 +231,8 @@ def plan_command(args: argparse.Namespace) -> dict:
     from pkmstiff.calibration.instruments import instrument
     from pkmstiff.calibration.planning import (
         HemisphereSpec,
+        default_node_count,
+        default_schedule,
         objective_label,
         optimise_hemisphere,
         optimise_pose_set,
@@ -243,7 +245,7 @@ def plan_command(args: argparse.Namespace) -> dict:
     inst = instrument(args.instrument)
     machine = load_machine(args.machine)
     for key in ("starts", "iterations", "nodes", "points", "poses"):
-        if getattr(args, key) < 1:
+        if getattr(args, key) is not None and getattr(args, key) < 1:
             raise InputError(f"--{key}", key, "a positive integer", getattr(args, key))
     max_tilt = np.radians(args.max_tilt)
     if inst.path_plans:
@@ -253,24 +255,28 @@ def plan_command(args: argparse.Namespace) -> dict:
                                         "the default plan is used; its nodes are optimised)", args.start)
         d = default_plan(machine, inst)
         side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
+        tilt, torsion = default_schedule(d, side)
         spec = HemisphereSpec(d.setup, n=args.points, turns=args.turns, side=side, max_tilt=max_tilt,
-                              max_torsion=max_tilt)
+                              max_torsion=max_tilt, tilt=tilt, torsion=torsion)
+        nodes = args.nodes if args.nodes is not None else default_node_count(args.turns)
         params = error_model(machine, frame=args.frame)
         res = None
         for f in (0.6, 0.3, 0.15):  # a start whose every pose is admissible (tilt reduced until it is)
-            nodes0 = start_nodes(args.nodes, f * max_tilt, 0.25 * f * max_tilt)
+            nodes0 = start_nodes(nodes, f * max_tilt, 0.25 * f * max_tilt)
             try:
                 res = optimise_hemisphere(machine, params, spec, nodes0, args.objective, starts=args.starts,
-                                          seed=args.seed, max_iter=args.iterations)
+                                          seed=args.seed, max_iter=args.iterations, reference=spec.default_path())
                 break
             except InadmissibleError:
                 continue
         if res is None:
             raise InadmissibleError(f"machine '{machine.name}': no admissible start hemisphere path with "
-                                   f"{args.nodes} nodes up to {args.max_tilt:g} deg tilt")
-        text = plan_toml(res.best_plan, f"{machine.name} hemisphere, optimised ({args.objective})",
+                                   f"{nodes} nodes up to {args.max_tilt:g} deg tilt")
+        what = "default orientation schedule (no optimum beat it)" if res.kept_reference else \
+            f"optimised ({args.objective})"
+        text = plan_toml(res.best_plan, f"{machine.name} hemisphere, {what}",
                          f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}",
-                         hemisphere=spec, nodes=res.best.x)
+                         hemisphere=spec, nodes=None if res.kept_reference else res.best.x)
     else:
         plan0 = read_plan(args.start, plan_check()) if args.start else default_plan(machine, inst)
         if not args.start:  # a subset of the default grid: the gradient costs 12 plan evaluations per pose
@@ -287,10 +293,14 @@ def plan_command(args: argparse.Namespace) -> dict:
     atomic_write_text(args.out, text)
     lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
     start = objective_label(args.objective, res.start_value)
+    best = res.reference_value if res.kept_reference else res.best.value
+    extra = {} if res.reference_value is None else {
+        f"default_path_{lab}": objective_label(args.objective, res.reference_value),
+        "kept_default_path": res.kept_reference, "nodes": nodes}
     return {"machine": machine.name, "instrument": inst.kind, "objective": args.objective,
             "out": str(args.out), "seed": args.seed, "starts": args.starts,
-            f"start_{lab}": start,
-            f"best_{lab}": objective_label(args.objective, res.best.value),
+            f"start_{lab}": start, **extra,
+            f"best_{lab}": objective_label(args.objective, best),
             "distinct_optima": [{lab: objective_label(args.objective, o.value), "start": o.start,
                                  "iterations": o.iterations} for o in res.distinct],
             "lower_is_better": not args.objective.startswith("O")}
@@ -306,6 +316,10 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     better = "lower" if rep["lower_is_better"] else "higher"
     print(f"{rep['machine']}, {rep['instrument']}: {lab} {a:.6g} (start plan) -> {b:.6g} (best of "
           f"{rep['starts']} starts, seed {rep['seed']}; {better} is better) -> {rep['out']}")
+    if f"default_path_{lab}" in rep:
+        print(f"{rep['nodes']} nodes; default path (unoptimised schedule) {lab} {rep[f'default_path_{lab}']:.6g}: "
+              + ("no optimum beats it, the default path is written" if rep["kept_default_path"]
+                 else "the optimised plan is better"))
     print(f"distinct optima ({len(rep['distinct_optima'])}): "
           + ", ".join(f"{o[lab]:.6g} (start {o['start']})" for o in rep["distinct_optima"]))
     return 0
@@ -329,7 +343,9 @@ def _add_plan(sub) -> None:
     p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
     p.add_argument("--poses", type=int, default=12,
                    help="tracker/pose without --start: poses taken from the default grid (default 12)")
-    p.add_argument("--nodes", type=int, default=6, help="orientation nodes of the hemisphere path (default 6)")
+    p.add_argument("--nodes", type=int, default=None,
+                   help="orientation nodes of the hemisphere path (default: by the measured rule, "
+                        "docs/user-guide/calibration-simulation.md)")
     p.add_argument("--points", type=int, default=240, help="poses of the hemisphere path (default 240)")
     p.add_argument("--turns", type=float, default=4.0, help="turns of the hemisphere spiral (default 4)")
     p.add_argument("--max-tilt", type=float, default=20.0, help="largest tilt B and torsion in deg (default 20)")

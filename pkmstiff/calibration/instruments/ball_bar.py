@@ -20,6 +20,8 @@ Array = NDArray[np.float64]
 TAB_4_5_FEED = np.array([0.0, 100.0, 500.0, 1000.0, 2000.0]) / 60e3  # m/s
 TAB_4_5_UNCERTAINTY = np.array([15.0, 22.0, 22.0, 36.0, 54.0]) * 1e-6  # m
 NOISE_MODELS = ("none", "instrument", "procedure")
+#: (tilt, torsion) amplitudes in deg of the default hemisphere's orientation schedule, tried in this order
+DEFAULT_SCHEDULES = tuple((t, min(t, 15.0)) for t in (20.0, 15.0, 10.0, 5.0))
 #: file units of a pose (x, y, z mm; a, b, c deg) -> SI
 _POSE_FILE_SCALE = np.array([1e-3] * 3 + [np.pi / 180] * 3)
 UNITS_LINE = ("t_s s; x_mm y_mm z_mm mm; a_deg b_deg c_deg deg; q<i>_mm mm (linear drive); q<i>_deg deg (rotary "
@@ -234,8 +236,7 @@ class BallBar(Instrument):
         side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
         offsets = [np.array([0.0, dy, dz * side]) for dz in (0.0, -0.15, 0.15, -0.3) for dy in (0.0, -0.1, 0.1)]
         for bar in (0.3, 0.15, 0.1):  # QC10 bar lengths (Szatmári Tab. 4.3)
-            for tilt in (20.0, 15.0, 10.0, 5.0):
-                torsion = min(tilt, 15.0)
+            for tilt, torsion in DEFAULT_SCHEDULES:
                 for off in offsets:
                     st = Setup(self, target=setup.target, fixed_ball=centre + off, bar_length=bar)
                     yield hemisphere_plan(st, tilt=np.radians(tilt), torsion=np.radians(torsion), side=side,
