@@ -296,6 +296,7 @@ def plan_command(args: argparse.Namespace) -> dict:
     best = res.reference_value if res.kept_reference else res.best.value
     extra = {} if res.reference_value is None else {
         f"default_path_{lab}": objective_label(args.objective, res.reference_value),
+        f"optimised_{lab}": objective_label(args.objective, res.best.value),
         "kept_default_path": res.kept_reference, "nodes": nodes}
     return {"machine": machine.name, "instrument": inst.kind, "objective": args.objective,
             "out": str(args.out), "seed": args.seed, "starts": args.starts,
