@@ -119,15 +119,17 @@ class BodyStiffness(Component):
     """
 
     kind: ClassVar[str] = "matrix6"
+    what: ClassVar[str] = "body stiffness"
+    semi_definite: ClassVar[bool] = False
     matrix: np.ndarray
 
     def __post_init__(self) -> None:
         K = np.asarray(self.matrix, dtype=float)
         if K.shape != (6, 6) or not np.all(np.isfinite(K)):
-            raise ArgumentError(f"body stiffness '{self.name}': expected a finite (6, 6) matrix, found shape "
+            raise ArgumentError(f"{self.what} '{self.name}': expected a finite (6, 6) matrix, found shape "
                                      f"{K.shape}")
-        _check_symmetric(K, f"body stiffness '{self.name}'")
-        _check_positive_definite(K, f"body stiffness '{self.name}'")
+        _check_symmetric(K, f"{self.what} '{self.name}'")
+        _check_positive_definite(K, f"{self.what} '{self.name}'", semi=self.semi_definite)
         object.__setattr__(self, "matrix", 0.5 * (K + K.T))
 
     @classmethod
@@ -167,6 +169,15 @@ class BodyStiffness(Component):
         return H @ self.matrix @ np.swapaxes(H, -1, -2)
 
 
+@dataclass(frozen=True, kw_only=True, eq=False)
+class JointStiffness(BodyStiffness):
+    """Constant 6×6 stiffness of a joint or bearing between two links (mechanism files): symmetric positive
+    semi-definite, 0 in the directions the joint leaves free (e.g. the rotation of a revolute joint)."""
+
+    what: ClassVar[str] = "joint stiffness"
+    semi_definite: ClassVar[bool] = True
+
+
 # --------------------------------------------------------------------------------------------- machine files
 def _rigid_body(p: "Params") -> Component:
     inertia_raw = p.raw("inertia", None)
@@ -182,7 +193,7 @@ def _rigid_body(p: "Params") -> Component:
 _UNIT_PARAMS = (("translational_unit", "N/m"), ("rotational_unit", "N*m/rad"), ("coupling_unit", "N/rad"))
 
 
-def _body_stiffness(p: "Params") -> Component:
+def _body_stiffness(p: "Params", cls: type = BodyStiffness) -> Component:
     t_unit, r_unit, c_unit = (p[key] for key, _ in _UNIT_PARAMS)
     for (key, dim), unit in zip(_UNIT_PARAMS, (t_unit, r_unit, c_unit)):
         try:
@@ -204,7 +215,7 @@ def _body_stiffness(p: "Params") -> Component:
         K[3:, 3:] = p.quantity_in("matrix", "N*m/rad", r_unit, shape=(6, 6))[3:, 3:]
         coupling = p.quantity_in("matrix", "N/rad", c_unit, shape=(6, 6))
         K[:3, 3:], K[3:, :3] = coupling[:3, 3:], coupling[3:, :3]
-    return BodyStiffness(name=p.name, matrix=K, assumptions=notes)
+    return cls(name=p.name, matrix=K, assumptions=notes)
 
 
 MODELS: tuple[ModelSpec, ...] = (
@@ -225,4 +236,14 @@ MODELS: tuple[ModelSpec, ...] = (
                      kind="string"),
                Param("coupling_unit", "-", "N/urad", "unit of bare coupling entries", kind="string")),
               _body_stiffness),
+    ModelSpec("joint_stiffness", "constant 6x6 joint/bearing stiffness, 0 in the joint's free directions "
+              "(mechanism files)", "docs/user-guide/mechanisms.md",
+              (Param("diagonal", "N/m, N*m/rad", None, "6 diagonal values (instead of matrix)",
+                     required="unless matrix", kind="raw", shape=(6,)),
+               Param("matrix", "N/m, N/rad, N*m/rad", None, "6x6 matrix (instead of diagonal)",
+                     required="unless diagonal", kind="raw", shape=(6, 6)),
+               Param("translational_unit", "-", "N/um", "unit of bare translational entries", kind="string"),
+               Param("rotational_unit", "-", "N*m/urad", "unit of bare rotational entries", kind="string"),
+               Param("coupling_unit", "-", "N/urad", "unit of bare coupling entries", kind="string")),
+              lambda p: _body_stiffness(p, JointStiffness)),
 )

@@ -24,7 +24,7 @@ from components.limits import DRIVE_LIMITS, drive_limits
 from components.params import ModelSpec, Param
 from pkmstiff.errors import ArgumentError, ComponentRangeError  # noqa: F401 (components.protocol.*)
 
-StiffnessKind = Literal["axial", "matrix3", "matrix6", "body"]
+StiffnessKind = Literal["axial", "torsional", "matrix3", "matrix6", "body"]
 
 #: SI unit of every key that may appear in :attr:`Component.limits`.
 LIMIT_UNITS: dict[str, str] = {
@@ -221,8 +221,23 @@ class ConstantAxial(Component):
         return _full(state, self.k)
 
 
+@dataclass(frozen=True, kw_only=True, eq=False)
+class RotaryDrive(ConstantAxial):
+    """Rotary drive of constant torsional stiffness ``k`` [N m/rad] about its axis (motor + gear + control, as seen
+    at the driven joint; ``np.inf`` = rigid); ``mass`` [kg] of the parts moving with the driven link."""
+
+    kind: ClassVar[StiffnessKind] = "torsional"
+
+
 MODELS: tuple[ModelSpec, ...] = (ModelSpec(
     "constant_axial", "constant axial stiffness (drive, strut or any axial element)", "k = const",
     (Param("k", "N/m", None, "axial stiffness", required=True, positive=True, rigid_ok=True),
      Param("mass", "kg", 0.0, "moved mass", min_value=0.0)) + DRIVE_LIMITS,
-    lambda p: ConstantAxial(name=p.name, k=p["k"], mass=p["mass"], limits=drive_limits(p))),)
+    lambda p: ConstantAxial(name=p.name, k=p["k"], mass=p["mass"], limits=drive_limits(p))),
+    ModelSpec(
+    "rotary_drive", "rotary drive: constant torsional stiffness about the drive axis (mechanism files)",
+    "M = k dtheta",
+    (Param("k", "N*m/rad", None, "torsional stiffness about the drive axis", required=True, positive=True,
+           rigid_ok=True),
+     Param("mass", "kg", 0.0, "mass moving with the driven link", min_value=0.0)),
+    lambda p: RotaryDrive(name=p.name, k=p["k"], mass=p["mass"])),)

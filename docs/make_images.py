@@ -1,6 +1,6 @@
 """The docs' figures that no command, docs page or study writes itself (``python docs/make_images.py [OUTDIR]
 [NAME ...]`` from the repository root with pkmstiff importable; default docs/images, all names): the mode shape,
-the mechanism pictures and the deformed FE joint. The other figures in docs/images come from ``pkmstiff demo``
+the mechanism pictures, the deformed FE joint and the screenshots of ``pkmstiff app`` (headless Chromium). The other figures in docs/images come from ``pkmstiff demo``
 (hexaglide_yz_*, hexaglide_three_planes_kx), ``python -m pkmstiff.plots.workspace_figures``, ``pkmstiff calibrate
 report`` (the calibration walk-through's commands) and ``studies/``.
 """
@@ -74,7 +74,36 @@ def figures_page(out: Path) -> list[Path]:
             plot_workspace(ws, m, out / "figures_workspace.png")]
 
 
-FIGURES = {"mode1": mode1, "figures_page": figures_page, "mechanisms": mechanisms, "fe_joint": fe_joint}
+def app(out: Path) -> list[Path]:
+    """docs/user-guide/app.md: ``pkmstiff app hexaglide`` in headless Chromium (tests/app_browser.py drives it as
+    tests/test_app_browser.py does): the start (YZ plane, k_x), then the raster step 50 mm, a click on the admissible
+    point nearest the middle of the map and mode 1 shown in the 3-D view."""
+    import tempfile
+    import time
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests import app_browser as ab
+
+    files = [out / "app_start.png", out / "app_point.png"]
+    with tempfile.TemporaryDirectory() as tmp, ab.running_app(Path(tmp)) as (url, _, _), ab.chromium() as driver:
+        driver.get(url)
+        g = ab.wait_map(driver)
+        time.sleep(1.0)  # the 3-D view's first image
+        driver.save_screenshot(str(files[0]))
+        ab.type_into(driver, "step", "50")
+        g = ab.wait_map(driver, g["version"])
+        u0, u1, v0, v1 = g["limits_mm"]
+        ab.click_map(driver, u0 + 0.55 * (u1 - u0), v0 + 0.45 * (v1 - v0))
+        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
+        first = ab.wait_for(driver, lambda d: d.find_element("css selector", "#modes li").text, "the modes")
+        ab.choose(driver, "mode", f"1: {first}")
+        ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
+        time.sleep(1.0)
+        driver.save_screenshot(str(files[1]))
+    return files
+
+
+FIGURES = {"mode1": mode1, "figures_page": figures_page, "mechanisms": mechanisms, "fe_joint": fe_joint, "app": app}
 
 
 def main(out: str = "docs/images", *names: str) -> list[Path]:

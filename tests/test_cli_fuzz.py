@@ -41,6 +41,13 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["machines", "{v7}"], 2, "format_version"),
         (["machines", "{absurd}"], 2, "plausible"),
     ],
+    "app": [  # every refusal comes before the server starts
+        (["app", "no_such_machine", "--no-browser"], 2, "no_such_machine"),
+        (["app", "{nonutf8}", "--no-browser"], 2, "UTF-8"),
+        (["app", "hexaglide:no_such_option", "--no-browser"], 2, "no_such_option"),
+        (["app", "hexaglide", "--port", "70000", "--no-browser"], 2, "--port"),
+        (["app", "hexaglide", "--out", "{file}", "--no-browser"], 2, "--out"),
+    ],
     "demo": [
         (["demo", "--step", "0"], 2, "--step"),
         (["demo", "--step", "-5"], 2, "--step"),
@@ -93,7 +100,7 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["section", "{nonutf8}"], 2, "UTF-8"),
         (["section", "hexaglide", "--orientation", "0,0"], 2, "--orientation"),
         (["section", "slider_crank", "--plane", "yz"], 2, "--plane"),
-        (["section", "hybrid_tripod_wrist", "--quantities", "kx"], 2, "kx"),
+        (["section", "hybrid_tripod_wrist", "--quantities", "vmax_x"], 2, "vmax_x"),
         (["section", "hybrid_tripod_wrist", "--tool-length", "100"], 2, "--tool-length"),
         (["section", "hybrid_tripod_wrist", "--plane", "xy", "--range", "x=-10:10,y=0:10", "--step", "1e-4"], 2,
          "--step"),

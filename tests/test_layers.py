@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = [
     ("units", "errors"), ("io",), ("machine",), ("kinematics",), ("admissibility",), ("multibody",), ("structure",),
     ("analysis",), ("evaluation",), ("workspace",), ("fe",), ("calibration", "mechanisms"), ("plots",), ("report",),
-    ("api",), ("optimise",), ("cli",),
+    ("api",), ("optimise",), ("app",), ("cli",),
 ]
 RANK = {name: i for i, names in enumerate(LAYERS) for name in names}
 #: the package root is a thin facade over machine, kinematics and the study API (``pkmstiff.load_machine``, ...)

@@ -16,7 +16,8 @@ from pkmstiff.errors import ArgumentError, InadmissibleError, InputError, Numeri
 _COMMAND_MODULES = ("pkmstiff.cli.machines", "pkmstiff.cli.components", "pkmstiff.cli.demo", "pkmstiff.cli.pose",
                     "pkmstiff.cli.point", "pkmstiff.cli.section", "pkmstiff.cli.workspace", "pkmstiff.cli.report",
                     "pkmstiff.cli.sweep", "pkmstiff.cli.fe", "pkmstiff.cli.ballbar",
-                    "pkmstiff.cli.calibrate", "pkmstiff.cli.mechanism", "pkmstiff.cli.optimise")
+                    "pkmstiff.cli.calibrate", "pkmstiff.cli.mechanism", "pkmstiff.cli.optimise",
+                    "pkmstiff.cli.app")
 
 
 class _Parser(argparse.ArgumentParser):

@@ -6,17 +6,14 @@ from __future__ import annotations
 import argparse
 import json
 
-from pkmstiff.machine.loader import bundled_machines, load_machine, raw_machine
+from pkmstiff.machine.loader import bundled_machines, load_machine, machine_options, raw_machine
 
 
 def machine_info(name: str) -> dict:
     """Options (with their descriptions where the file gives one), assumptions and components of a machine."""
     m = load_machine(name)
-    raw, src, _ = raw_machine(name)
-    options = {}
-    for opt, tab in (raw.get("options") or {}).items():
-        desc = tab.get("description") if isinstance(tab, dict) else None
-        options[opt] = desc if isinstance(desc, str) else ", ".join(sorted(tab)) if isinstance(tab, dict) else ""
+    _, src, _ = raw_machine(name)
+    options = machine_options(name)
     comps = {}
     for cname, cdata in m.components.items():
         comps[cname] = str(cdata.get("model", "")) if isinstance(cdata, dict) else ""

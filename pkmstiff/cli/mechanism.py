@@ -448,7 +448,7 @@ def section_report(args) -> dict[str, Any]:
 
     from pkmstiff.errors import ArgumentError
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
-    from pkmstiff.mechanisms.section import evaluate_section, fit_window, quantity_names
+    from pkmstiff.mechanisms.section import check_quantities, evaluate_section, fit_window, quantity_names
 
     mech = _load(args.machine)
     plane = args.plane.lower()
@@ -457,7 +457,7 @@ def section_report(args) -> dict[str, Any]:
                        ("--skip-check", bool(args.skip_check))):
         if given:
             raise ArgumentError(f"{opt}: not available for a mechanism ('{mech.name}'): a mechanism section has the "
-                                f"kinematic quantities {', '.join(quantity_names(mech))}")
+                                f"quantities {', '.join(quantity_names(mech))}")
     ranges = parse_ranges(args.range, plane) if args.range else None
     ori = parse_triple_deg(args.orientation, "--orientation")
     if not (args.step > 0 and math.isfinite(args.step)):
@@ -477,11 +477,7 @@ def section_report(args) -> dict[str, Any]:
         raise ArgumentError(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
     t0 = time.process_time()
     try:
-        known = quantity_names(mech)
-        unknown = [n for n in names if n not in known]
-        if unknown:
-            raise ArgumentError(f"--quantities: expected names from {', '.join(known)} for mechanism '{mech.name}', "
-                                f"found {', '.join(unknown)}")
+        check_quantities(mech, names)
         fitted = ranges is None
         if fitted:
             (u0, u1), (v0, v1) = fit_window(mech, plane, at, ori, step)
@@ -592,3 +588,112 @@ def add_commands(sub: Any) -> None:
                    help="also print every link frame (position mm, angles phi_x, phi_y, phi_z deg, R = Rz Ry Rx)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_cmd)
+
+
+def _elastic_mechanism(name: str, unavailable: dict[str, bool]):
+    """The mechanism ``name`` if it has elastic data and no machine-only option was given (else one line, exit 2)."""
+    mech = _load(name)
+    for opt, given in unavailable.items():
+        if given:
+            raise ArgumentError(f"{opt}: not available for a mechanism ('{mech.name}'): the stiffness is evaluated at "
+                                "the output point of the mechanism file")
+    if mech.elastic is None:
+        raise ArgumentError(f"mechanism '{mech.name}' has no [elastic] table: no stiffness model (see "
+                            "docs/user-guide/mechanisms.md, elastic model)")
+    return mech
+
+
+def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[str, bool]
+               ) -> tuple[list[str], list[list]]:
+    """``pkmstiff point MECHANISM --poses FILE``: the machines' CSV columns (pose mm/deg, admissible, reasons,
+    k_x, k_y, k_z N/µm, f1… Hz); empty result cells where a pose is inadmissible or not modelled."""
+    from pkmstiff.mechanisms import evaluate, reason_names
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism, take
+    from pkmstiff.mechanisms.structure import STATUS_BITS
+
+    mech = _elastic_mechanism(name, unavailable)
+    if mech.dim != 3:
+        raise ArgumentError(f"--poses: a file of x,y,z,a,b,c poses is for spatial mechanisms; '{mech.name}' is planar "
+                            "(use --pose x,y,phi)")
+    ev = evaluate(mech, poses_si)
+    ok = np.flatnonzero(ev.admissible)
+    n = len(poses_si)
+    k = np.full((n, 3), np.nan)
+    f = np.full((n, n_modes), np.nan)
+    status = np.zeros(n, np.uint8)
+    if ok.size:
+        res = evaluate_mechanism(mech, take(ev.solution, ok), n_modes)
+        k[ok], f[ok], status[ok] = res.stiffness[:, :3] / 1e6, res.frequencies_hz, res.status
+    head = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg", "admissible", "reasons", "kx_N_per_um",
+            "ky_N_per_um", "kz_N_per_um"] + [f"f{i + 1}_Hz" for i in range(n_modes)]
+    pose_out = np.column_stack([poses_si[:, :3] * 1e3, np.rad2deg(poses_si[:, 3:])])
+    rows = []
+    for i in range(n):
+        why = [r.lower().replace("_", " ") for r in reason_names(int(ev.reasons[i]))]
+        why += [b.lower().replace("_", " ") for b, bit in STATUS_BITS.items() if int(status[i]) & bit]
+        rows.append([*pose_out[i], bool(ev.admissible[i]), "; ".join(why), *k[i], *f[i]])
+    return head, rows
+
+
+def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bool,
+                 unavailable: dict[str, bool]) -> dict[str, Any]:
+    """``pkmstiff point MECHANISM --pose …``: the elastic model (issue 27) at one pose, as the machines' report
+    (schema ``pkmstiff/point/1``: stiffness N/µm and N·m/µrad at the output point, frequencies Hz, weak points %);
+    the kinetostatic keys of machines are absent. ``unavailable``: machine-only options given."""
+    import pkmstiff.multibody as sde
+    from pkmstiff.cli.point import SCHEMA, STIFFNESS_MATRIX_UNITS, WEAK_POINT_DIRECTIONS, _num, _refuse
+    from pkmstiff.mechanisms import evaluate, reason_names
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+    from pkmstiff.mechanisms.structure import LABELS, STATUS_BITS, mechanism_structure
+
+    mech = _elastic_mechanism(name, unavailable)
+    pose = _parse_poses(mech, [pose_text], "--pose")
+    ev = evaluate(mech, pose)
+    reasons = reason_names(int(ev.reasons[0]))
+    names = _pose_names(mech)
+    pose_out = {f"{n}_{u}": float(v * (1e3 if u == "mm" else 180 / math.pi)) for (n, u), v in zip(names, pose[0])}
+    if reasons and not allow_inadmissible:
+        raise _refuse(mech.name, ", ".join(f"{n} = {v:g} {u}" for (n, u), v in
+                                           zip(names, pose_out.values())), [r.lower().replace("_", " ")
+                                                                            for r in reasons])
+    ms = mechanism_structure(mech, solution=ev.solution) if ev.solution.ok[0] else None
+    if ms is not None and ms.model is not None:  # at most the dynamic DOFs (massless and bound ones excluded)
+        n_modes = min(n_modes, ms.model.n_dof - ms.model.n_constraints - len(ms.model.massless_dofs))
+    res = evaluate_mechanism(mech, ev.solution, n_modes, WEAK_POINT_DIRECTIONS)
+    comp = res.compliance[0]
+    rot = ms is not None and ms.model is not None and isinstance(ms.model.body(ms.load_body), sde.RigidBody)
+    rep: dict[str, Any] = {
+        "schema": SCHEMA, "machine": mech.name, "machine_type": "mechanism", "frame": "machine",
+        "frame_origin_mm": [0.0, 0.0, 0.0], "pose": pose_out,
+        "admissible": not reasons, "reasons": [r.lower().replace("_", " ") for r in reasons],
+        "analysed_although_inadmissible": bool(reasons),
+        "modelled": bool(res.ok[0]), "model_reasons": [k.lower().replace("_", " ") for k, b in STATUS_BITS.items()
+                                                       if int(res.status[0]) & b],
+        "model": {"bodies": [] if ms is None else ms.model.body_names, "dof": 0 if ms is None else ms.model.n_dof,
+                  "constraints": 0 if ms is None else ms.model.n_constraints,
+                  "tcp_body": "" if ms is None else ms.load_body},
+        "drives": {f"{n}_{'mm' if u == 'm' else 'deg'}": _num(v * (1e3 if u == "m" else 180 / math.pi))
+                   for n, u, v in zip(mech.drive_names, mech.drive_units, ev.drives[0])},
+    }
+    # the directions the model moves in: planar x, y (and the rotation about z); spatial 6 or 3 (a point mass)
+    dirs = ([0, 1] + ([5] if rot else [])) if mech.dim == 2 else list(range(6 if rot else 3))
+    sub = comp[np.ix_(dirs, dirs)]
+    rep["stiffness_matrix_SI"] = _num(np.linalg.inv(sub)) if np.all(np.isfinite(sub)) else None
+    labels = ("x", "y", "z", "rx", "ry", "rz")
+    rep["stiffness_matrix_SI_units"] = (STIFFNESS_MATRIX_UNITS if rot and mech.dim == 3 else
+                                        f"N/m, N/rad, N*m/rad over ({', '.join(labels[i] for i in dirs)})")
+    rep["k_N_per_um"] = {ax: _num(res.stiffness[0, i] / 1e6) for i, ax in enumerate("xyz")}
+    if rot:
+        rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(res.stiffness[0, 3 + i] / 1e6) for i, ax in enumerate("xyz")}
+    rep["weak_points_percent"] = {dd: {lab: _num(100 * res.shares[dd][0, j]) for j, lab in enumerate(LABELS)}
+                                  for dd in WEAK_POINT_DIRECTIONS}
+    rep["frequencies_Hz"] = _num(res.frequencies_hz[0]) if n_modes else []
+    rep["mode_descriptions"] = []
+    # kinetostatics (drive data, velocities, accelerations) are not defined for a mechanism file: null / empty
+    rep.update(transmission_quality=None, v_max_m_per_s={}, v_max_m_per_min={}, a_max_m_per_s2={},
+               static_drive_loads_N=None)
+    if n_modes and rot and res.ok[0]:
+        mr = sde.modes(ms.model, n_modes, shapes=True)
+        idx, share = sde.describe_modes(ms.model, mr.shapes, ms.output_body)
+        rep["mode_descriptions"] = [sde.mode_label(idx[0, k], share[0, k]) for k in range(n_modes)]
+    return rep

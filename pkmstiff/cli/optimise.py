@@ -30,14 +30,15 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
               f"{design.resolved_algorithm()}, budget {budget}, {args.jobs} process(es)")
     progress = None if args.quiet else (lambda line: print(f"  {line}", file=sys.stderr))
     res = optimise(design, args.out, jobs=args.jobs, budget=args.budget, seed=args.seed, resume=args.resume,
-                   force=args.force, progress=progress)
+                   force=args.force, progress=progress, report=not args.no_report)
     best = res.best
     text = ", ".join(f"{o.measure.name} = {best.outputs[o.measure.label]:.6g} {o.measure.unit}"
                      for o in design.objectives)
     front = f"front of {len(res.front)} design(s); first: " if len(design.objectives) > 1 else "best: "
     print(f"pkmstiff optimise: {len(res.history)} evaluations ({res.evaluated} run, {res.cached} cached: repeated "
-          f"or read from the checkpoint), {res.wall_time_s:.1f} s; {front}{text}; wrote {res.meta['outputs']['front']}, "
-          f"{res.meta['outputs']['summary']}")
+          f"or read from the checkpoint), {res.wall_time_s:.1f} s; {front}{text}; wrote "
+          + ", ".join(res.meta["outputs"][k] for k in ("front", "front_plot", "report", "summary")
+                      if k in res.meta["outputs"]))
     return 0
 
 
@@ -46,12 +47,15 @@ def add_commands(sub) -> None:
                        description="Optimise the variables of a design file (TOML: base machine, variables as "
                                    "dotted machine-file paths, objectives, constraints) with pymoo (DE, CMA-ES, "
                                    "NSGA-II); evaluations are cached and checkpointed in --out.")
-    p.add_argument("design_file", help="design file (TOML) or a bundled example name (hexaglide_joint_orientation)")
-    p.add_argument("--out", required=True, help="output folder (front.csv, designs/, convergence.png, summary.json)")
+    p.add_argument("design_file", help="design file (TOML) or a bundled example name (hexaglide_joint_orientation, "
+                                       "pod_ballscrew_selection, hexaglide_strut_lengths)")
+    p.add_argument("--out", required=True, help="output folder (front.csv, designs/, front.png, convergence.png, "
+                                             "report/, summary.json)")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes (-1: all cores; default 1)")
     p.add_argument("--budget", type=int, default=None, help="evaluations (default: the design file's)")
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the design file's)")
     p.add_argument("--resume", action="store_true", help="continue the run checkpointed in --out")
     p.add_argument("--force", action="store_true", help="start afresh in an --out that holds a run")
+    p.add_argument("--no-report", action="store_true", help="no HTML comparison report (report/report.html)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.set_defaults(func=_cmd_optimise)

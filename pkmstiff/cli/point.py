@@ -86,10 +86,17 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
             raise ArgumentError(f"--skip-check: not available for the planar example '{machine_name}'")
         return _planar_report(machine_name, parse_values(pose_text, 2, "x,y (mm)"), allow_inadmissible)
 
+    def mechanism(_: object) -> dict:
+        from pkmstiff.cli.mechanism import point_report as mechanism_report
+
+        return mechanism_report(machine_name, pose_text, n_modes, allow_inadmissible,
+                                {"--tool-length": tool_length_mm is not None, "--neglect-spindle": neglect_spindle,
+                                 "--frame": frame != "machine", "--skip-check": bool(skip_checks)})
+
     return dispatch(machine_name, {
         Kind.SPATIAL: lambda _: _machine_report(machine_name, pose_text, tool_length_mm, n_modes, neglect_spindle,
                                                 frame, allow_inadmissible, checks),
-        Kind.PLANAR: planar})
+        Kind.PLANAR: planar, Kind.MECHANISM: mechanism})
 
 
 def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | None, n_modes: int,
@@ -235,6 +242,9 @@ def _print_report(rep: dict) -> None:
         from pkmstiff.admissibility.checks import left_out_text
 
         builtins.print(left_out_text(rep["checks_left_out"]))
+    if rep.get("drives"):
+        builtins.print("drives: " + ", ".join(f"{k.rsplit('_', 1)[0]} = {_f(v, '.3f')} {k.rsplit('_', 1)[1]}"
+                                              for k, v in rep["drives"].items()))
     if rep["admissible"]:
         builtins.print("admissible: yes")
     else:
@@ -266,6 +276,8 @@ def _print_report(rep: dict) -> None:
         print(f"  {'component':<18}" + "".join(f"{d:>9}" for d in dirs))
         for lab in labels:
             print(f"  {lab:<18}" + "".join(_f(wp[d][lab], '9.1f') for d in dirs))
+    if rep["transmission_quality"] is None and not rep["v_max_m_per_s"]:  # a mechanism: no kinetostatics
+        return
     tq = rep["transmission_quality"]
     w = rep.get("transmission_weight_m_per_rad")
     print(f"transmission quality: {_f(tq, '.4f')}" + (f"  (w = {w:.4f} m/rad)" if w else ""))
@@ -290,8 +302,14 @@ def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | 
     from pkmstiff.admissibility.checks import checks_without
     from pkmstiff.admissibility.pipeline import evaluate_poses
     from pkmstiff.analysis import natural_frequencies, tcp_compliance
+    from pkmstiff.cli.targets import Kind, resolve
     from pkmstiff.structure import build_structure
 
+    if resolve(machine_name).kind is Kind.MECHANISM:
+        from pkmstiff.cli.mechanism import point_rows as mechanism_rows
+
+        return mechanism_rows(machine_name, poses_si, n_modes, {"--tool-length": tool_length_mm is not None,
+                                                                "--skip-check": bool(skip_checks)})
     m = load_machine(machine_name)
     adm = evaluate_poses(m, poses_si, checks=checks_without(skip_checks, "--skip-check")).admissibility
     ok = adm.ok
@@ -396,8 +414,9 @@ def add_commands(sub: Any) -> None:
                                    "frequencies with mode descriptions, weak points, transmission quality, maximum "
                                    "velocity and acceleration, static drive loads. Units on the command line: mm and "
                                    "degrees.")
-    p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines'), machine file, or a planar "
-                                   "example ('biglide', 'bipod')")
+    p.add_argument("machine", help="bundled machine name (see 'pkmstiff machines'), machine file, a planar "
+                                   "example ('biglide', 'bipod'), or a mechanism with an [elastic] table (stiffness "
+                                   "at its output point)")
     p.add_argument("--pose", default=None, help="x,y,z,a,b,c in mm and degrees, e.g. 0,0,-1000,0,0,0 "
                                                 "(planar examples: x,y in mm)")
     p.add_argument("--poses", default=None, metavar="FILE",

@@ -120,3 +120,19 @@ def joint_angles(machine: Machine, ik: IK, signed: bool = True, parallel_tol: fl
             sides[side] = _side_angles(d, R, ch.platform_axis, ch.platform_reference, True, sign, normal,
                                        parallel_tol, signed)
     return JointAngles(drive=sides["drive"], platform=sides["platform"])
+
+
+def joint_angles_along(u: Array, R: Array | None, axis0: Array, ref0: Array, normal: bool,
+                       parallel_tol: float = PARALLEL_TOL) -> tuple[Array, Array]:
+    """Tilt (in the joint's convention: normal-referenced if ``normal``) and unsigned swivel (N,) in rad of one
+    joint of a generic mechanism (:mod:`pkmstiff.mechanisms.elastic`): axis ``axis0`` and swivel reference
+    ``ref0`` (3,) on the joint's link, rotated by that link's ``R`` (N, 3, 3) (None: a link that does not rotate),
+    strut directions ``u`` (N, 3) from the joint into the strut. The same arithmetic as :func:`joint_angles`
+    (eq. 3.25–3.29, :func:`pkmstiff.kinematics.kernels.side_angles`)."""
+    n_p = u.shape[0]
+    d = np.ascontiguousarray(np.asarray(u, float).T[:, None, :])  # (3, 1, N)
+    rot = np.broadcast_to(np.eye(3), (n_p, 3, 3)) if R is None else R
+    side = _side_angles(d, np.ascontiguousarray(_to_soa(np.asarray(rot, float), 2)), np.asarray(axis0, float)[None],
+                        np.asarray(ref0, float)[None], R is not None, np.ones(1), np.array([normal]), parallel_tol,
+                        False)
+    return side.tilt[:, 0], side.swivel[:, 0]

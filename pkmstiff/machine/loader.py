@@ -132,6 +132,17 @@ def raw_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> tuple[
     return raw, src, opts
 
 
+def machine_options(name_or_path: str | Path) -> dict[str, str]:
+    """The ``[options.NAME]`` variants of a machine: name -> its description (the file's ``description``, else the
+    tables it changes)."""
+    raw, _, _ = raw_machine(name_or_path)
+    out = {}
+    for opt, tab in (raw.get("options") or {}).items():
+        desc = tab.get("description") if isinstance(tab, dict) else None
+        out[opt] = desc if isinstance(desc, str) else ", ".join(sorted(tab)) if isinstance(tab, dict) else ""
+    return out
+
+
 def load_machine(name_or_path: str | Path, options: Iterable[str] = ()) -> Machine:
     """Load and validate a machine by bundled name (``"hexaglide"``, ``"linapod:printed_values"``) or path.
 

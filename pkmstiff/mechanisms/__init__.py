@@ -13,7 +13,10 @@ Modules: :mod:`~pkmstiff.mechanisms.model` (links, joints), :mod:`~pkmstiff.mech
 :mod:`~pkmstiff.mechanisms.continuation` (drive ranges), :mod:`~pkmstiff.mechanisms.derivatives` (velocities,
 accelerations), :mod:`~pkmstiff.mechanisms.evaluate` (machine-like evaluation, joint limits),
 :mod:`~pkmstiff.mechanisms.identification` (calibration parameters and Jacobian),
-:mod:`~pkmstiff.mechanisms.generate` (generic mechanisms of the closed-form machines), :mod:`~pkmstiff.mechanisms.info`.
+:mod:`~pkmstiff.mechanisms.generate` (generic mechanisms of the closed-form machines), :mod:`~pkmstiff.mechanisms.info`,
+:mod:`~pkmstiff.mechanisms.elastic` (``[components]``/``[elastic]`` of a file), :mod:`~pkmstiff.mechanisms.structure`
+(the elastic model in the multibody layer), :mod:`~pkmstiff.mechanisms.stiffness` (stiffness, modes, weak points,
+FRF).
 """
 
 from pkmstiff.mechanisms.continuation import DriveRange, RangeEnd, drive_ranges

@@ -46,9 +46,10 @@ class MechanismEvaluation:
         return self.solution.status
 
 
-def evaluate(mech: Mechanism, poses: ArrayLike, **solve_kw) -> MechanismEvaluation:
-    """Inverse kinematics of N poses, drive values, joint variables against their limits and reason codes."""
-    sol = inverse(mech, poses, **solve_kw)
+def evaluate(mech: Mechanism, poses: ArrayLike, solution: Solution | None = None, **solve_kw) -> MechanismEvaluation:
+    """Inverse kinematics of N poses (or their given ``solution``), drive values, joint variables against their
+    limits and reason codes."""
+    sol = inverse(mech, poses, **solve_kw) if solution is None else solution
     limited = [i for i, j in enumerate(mech.joints) if np.isfinite(j.limits).any()]
     vals = joint_values(mech, sol.q, limited) if limited else np.zeros((sol.q.shape[0], 0))
     lo = np.array([mech.joints[i].limits[0] for i in limited])

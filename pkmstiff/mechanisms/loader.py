@@ -25,6 +25,7 @@ cardan axes not perpendicular, and over-constrained rigid structures (rank by si
 from __future__ import annotations
 
 import importlib.resources
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -32,11 +33,12 @@ import numpy as np
 
 from pkmstiff.errors import ArgumentError, InputError
 from pkmstiff.io import check_keys, read_toml, require
+from pkmstiff.mechanisms.elastic import parse_elastic
 from pkmstiff.mechanisms.model import (COORDINATES, JOINT_TYPES_2D, JOINT_TYPES_3D, NOMINAL_RANK, Drive, Joint,
                                        Mechanism, Output)
 from pkmstiff.units import parse_quantity
 
-_TOP = {"format_version", "mechanism", "joints", "output", "assumptions"}
+_TOP = {"format_version", "mechanism", "joints", "output", "assumptions", "components", "elastic"}
 _MECH = {"name", "title", "source", "dimension", "links", "ground", "notes"}
 _JOINT = {"name", "type", "links", "point", "axis", "axes", "drive", "limits", "coordinates", "values", "notes"}
 _OUTPUT = {"link", "point", "orientation", "axis", "coordinates"}
@@ -229,7 +231,8 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
     check_home(mech, src)
     check_redundancy(mech, src)
     check_mobility(mech, src)
-    return mech
+    elastic = parse_elastic(raw, mech, src)
+    return mech if elastic is None else replace(mech, elastic=elastic)
 
 
 def check_connected(mech: Mechanism, src: str = "") -> None:

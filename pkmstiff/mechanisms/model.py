@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -105,6 +106,8 @@ class Mechanism:
     assumptions: dict[str, str] = field(default_factory=dict)
     source: str = ""
     path: str = ""
+    #: components on joints and links (:class:`pkmstiff.mechanisms.elastic.ElasticData`); None: kinematics only
+    elastic: Any = None
 
     @property
     def dof_per_link(self) -> int:

@@ -20,6 +20,7 @@ plane is an output pose (position = the point, orientation fixed), solved by the
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -30,7 +31,9 @@ from pkmstiff.evaluation.sections import raster
 from pkmstiff.mechanisms.evaluate import REASONS, evaluate
 from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.mechanisms.outputs import condition_numbers, configuration_rates, output_condition
-from pkmstiff.mechanisms.solver import Solution, output_pose
+from pkmstiff.mechanisms.solver import Solution, inverse, output_pose
+from pkmstiff.mechanisms.stiffness import take
+from pkmstiff.mechanisms.structure import LABELS
 
 Array = NDArray[np.float64]
 
@@ -64,8 +67,113 @@ def kinematic_jacobian(sol: Solution, h: float = 1e-6) -> Array:
 
 
 def quantity_names(mech: Mechanism) -> tuple[str, ...]:
-    """Quantities a mechanism section offers: ``kappa``, ``kappa_out`` and every drive name."""
-    return ("kappa", "kappa_out") + mech.drive_names
+    """Quantities a mechanism section offers: ``kappa``, ``kappa_out``, every drive name and, with elastic data
+    (:mod:`pkmstiff.mechanisms.elastic`), the stiffness at the output point ``kx`` … ``krz``, natural frequencies
+    ``f1``, ``f2``, … and component shares ``share_<component>_<x|y|z>`` (as the machines' quantities)."""
+    out = ("kappa", "kappa_out") + mech.drive_names
+    if mech.elastic is not None:
+        out += ELASTIC + tuple(f"f{i}" for i in range(1, 7)) + tuple(
+            f"share_{lab}_{d}" for lab in LABELS for d in "xyz")
+    return out
+
+
+#: stiffness quantities of an elastic mechanism: k = 1/C_jj at the output point (N/µm, N·m/µrad displayed)
+ELASTIC = ("kx", "ky", "kz", "krx", "kry", "krz")
+_FREQ = re.compile(r"f([1-9]\d*)$")
+
+
+def _known(mech: Mechanism, name: str) -> bool:
+    m = _FREQ.match(name)
+    return name in quantity_names(mech) or (mech.elastic is not None and m is not None)
+
+
+def check_quantities(mech: Mechanism, names) -> None:
+    """Raise :class:`ArgumentError` naming the quantities ``mech`` does not offer."""
+    bad = [n for n in names if not _known(mech, n)]
+    if bad:
+        raise ArgumentError(f"quantities: expected names from {', '.join(quantity_names(mech))} for mechanism "
+                            f"'{mech.name}', found {', '.join(bad)}")
+
+
+def elastic_values(mech: Mechanism, sol: Solution, names) -> tuple[dict[str, Array], dict[str, str],
+                                                                   dict[str, float]]:
+    """SI values (N,), display units and scales of the elastic quantities among ``names`` at the configurations of
+    ``sol`` (:func:`~pkmstiff.mechanisms.stiffness.evaluate_mechanism`, chunked)."""
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+
+    freq = [int(m.group(1)) for n in names if (m := _FREQ.match(n))]
+    dirs = tuple(sorted({n[-1] for n in names if n.startswith("share_")}))
+    if not freq and not dirs and not any(n in ELASTIC for n in names):
+        return {}, {}, {}
+    res = evaluate_mechanism(mech, sol, max(freq, default=0), dirs)
+    values, units, scales = {}, {}, {}
+    for n in names:
+        if n in ELASTIC:
+            i = ELASTIC.index(n)
+            values[n] = res.stiffness[:, i]
+            units[n], scales[n] = ("N/um", 1e-6) if i < 3 else ("N*m/urad", 1e-6)
+        elif (m := _FREQ.match(n)):
+            values[n], units[n], scales[n] = res.frequencies_hz[:, int(m.group(1)) - 1], "Hz", 1.0
+        elif n.startswith("share_"):
+            lab = n[len("share_"):-2]
+            values[n], units[n], scales[n] = res.shares[n[-1]][:, LABELS.index(lab)], "%", 100.0
+    return values, units, scales
+
+
+def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], **solve_kw) -> Solution:
+    """Inverse kinematics of the raster poses P (nv·nu, pose_size), row-major over ``shape`` = (nv, nu), by
+    continuation from neighbouring points: the point nearest home is solved from home, then in waves every unsolved
+    4-neighbour of a point solved in the last wave starts from that point's configuration (one raster step: the
+    branch of the neighbour is kept).  Points no wave reaches (a part of the plane not connected to the seed through
+    reachable points) are solved from home at once and the waves go on from those solved."""
+    nv, nu = shape
+    n = nv * nu
+    home_pose = mech.home_output_pose
+    q0 = inverse(mech, home_pose[None]).q[0]
+    sol = None
+    attempted = np.zeros(n, bool)
+    ok = np.zeros(n, bool)
+
+    def solve(idx: Array, start: Array | None) -> Array:
+        nonlocal sol
+        part = inverse(mech, P[idx], start=start, **solve_kw)
+        if sol is None:
+            sol = _empty_like(part, n, q0)
+        for f in ("q", "status", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
+            getattr(sol, f)[idx] = getattr(part, f)
+        attempted[idx] = True
+        ok[idx] = part.ok
+        return idx[part.ok]
+
+    d = np.linalg.norm(P[:, :mech.dim] - home_pose[None, :mech.dim], axis=1)
+    frontier = solve(np.array([int(np.argmin(d))]), None)
+    grid = np.arange(n).reshape(nv, nu)
+    while True:
+        while frontier.size:
+            cand, src = [], []
+            for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+                iv, iu = np.divmod(frontier, nu)
+                jv, ju = iv + di, iu + dj
+                inside = (jv >= 0) & (jv < nv) & (ju >= 0) & (ju < nu)
+                nb = grid[jv[inside], ju[inside]]
+                fresh = ~attempted[nb]
+                cand.append(nb[fresh])
+                src.append(frontier[inside][fresh])
+            cand_all, first = np.unique(np.concatenate(cand), return_index=True)
+            if not cand_all.size:
+                break
+            frontier = solve(cand_all, sol.q[np.concatenate(src)[first]])
+        rest = np.flatnonzero(~attempted)
+        if not rest.size:
+            break
+        frontier = solve(rest, None)
+    return sol
+
+
+def _empty_like(part: Solution, n: int, q0: Array) -> Solution:
+    return Solution(part.mech, np.broadcast_to(q0, (n,) + q0.shape).copy(), np.full(n, "no_solution", dtype=part.status.dtype),
+                    np.zeros(n, part.iterations.dtype), np.full(n, np.nan), np.zeros(n, part.rank.dtype), part.n_free,
+                    np.full(n, np.nan), np.full(n, np.nan))
 
 
 @dataclass
@@ -131,6 +239,8 @@ def plane_poses(mech: Mechanism, plane: str, at: float, u_values: Array, v_value
 #: solver options of a section raster: continuation in 4 steps from home, one refinement (8 steps), and at most 6
 #: step halvings — most raster points of a section are unreachable, and they must be given up quickly
 SOLVE = {"steps": 4, "max_refine": 1, "max_backtrack": 6}
+#: from a neighbouring raster point (one step away; larger steps are split by the solver's default continuation)
+NEIGHBOUR = {"steps": 1, "max_refine": 1, "max_backtrack": 6}
 
 
 def fit_window(mech: Mechanism, plane: str, at: float, orientation: Array, step: float,
@@ -159,18 +269,14 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
                      v_range: tuple[float, float], step: float, orientation=(0.0, 0.0, 0.0),
                      names=("kappa",)) -> MechanismSection:
     """Quantities ``names`` and admissibility on an axis plane (ranges, step, ``at`` in m; orientation rad)."""
-    known = quantity_names(mech)
-    bad = [n for n in names if n not in known]
-    if bad:
-        raise ArgumentError(f"quantities: expected names from {', '.join(known)} for mechanism "
-                                  f"'{mech.name}', found {', '.join(bad)}")
+    check_quantities(mech, names)
     ori = np.asarray(orientation, dtype=float)
     uu, vv = raster(*u_range, step), raster(*v_range, step)
     if uu.size < 2 or vv.size < 2:
         raise ArgumentError("section: the window must span at least two raster steps along each axis")
     P = plane_poses(mech, plane, at, uu, vv, ori)
-    ev = evaluate(mech, P, **SOLVE)
     shape = (vv.size, uu.size)
+    ev = evaluate(mech, P, solution=raster_inverse(mech, P, shape, **NEIGHBOUR))
     values, units, scales = {}, {}, {}
     if "kappa" in names:
         kap = condition_numbers(kinematic_jacobian(ev.solution))
@@ -183,6 +289,13 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
             values[dn] = ev.drives[:, i]
             units[dn], scales[dn] = ("mm", 1e3) if du == "m" else ("deg", 180.0 / np.pi)
     ok = ev.admissible
+    idx = np.flatnonzero(ok)
+    ev_vals, ev_units, ev_scales = elastic_values(mech, take(ev.solution, idx), names)
+    for n, v in ev_vals.items():
+        values[n] = np.full(ok.shape, np.nan)
+        values[n][idx] = v
+    units.update(ev_units)
+    scales.update(ev_scales)
     values = {n: np.where(ok, values[n], np.nan).reshape(shape) for n in names}
     return MechanismSection(mech.name, plane.lower(), at, uu, vv, ori, values, units, scales,
                             ev.reasons.reshape(shape), ev.status.reshape(shape),

@@ -1,6 +1,7 @@
 """Rigid bindings eliminated by a null-space basis (docs/theory/structure.md, the preferred method).
 
-Each binding gives constraint rows ``Φ q = 0`` (``Φ = P [G_a, −G_b]`` with ``P`` = axisᵀ, I3 or I6).  The basis
+Each binding gives constraint rows ``Φ q = 0`` (``Φ = P [G_a, −G_b]`` with ``P`` = axisᵀ, I3 or I6; for an angular
+binding ``P = [0, axisᵀ]`` on ``G = N(Δ)``: the rotation rows only).  The basis
 ``Z`` (N, n, n − n_c) of the null space of Φ is the complement of ``Φᵀ``'s column space from a complete QR
 factorisation; the reduced system is ``Zᵀ K Z``, ``Zᵀ M Z``, ``Zᵀ C Z``, ``Zᵀ f`` and ``q = Z q_r``.  Unlike a
 penalty stiffness this is exact and produces no spurious modes.
@@ -33,13 +34,13 @@ def constraint_matrix(model: SDEModel) -> np.ndarray:
     phi = np.zeros((n_p, model.n_constraints, n))
     row = 0
     for b in model.bindings:
-        dim = 6 if b.kind == "full" else 3
+        dim = 6 if b.kind in ("full", "angular") else 3
         for name, sign in ((b.body_a, 1.0), (b.body_b, -1.0)):
             s, g = _side(model, name, b.point, dim)
             if s is None:
                 continue
-            if b.kind == "axial":
-                rows = (b.axis[:, None, :] @ g)[:, 0, :]  # axisᵀ G, broadcast over poses
+            if b.kind in ("axial", "angular"):
+                rows = (b.axis[:, None, :] @ g[:, -3:])[:, 0, :]  # axisᵀ G (translation or rotation rows)
                 phi[:, row, s] += sign * rows
             else:
                 phi[:, row:row + dim, s] += sign * g

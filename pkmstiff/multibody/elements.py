@@ -21,7 +21,7 @@ import numpy as np
 from pkmstiff.errors import InputError
 from pkmstiff.multibody.inputs import pose_array, take
 
-BindingKind = Literal["axial", "point", "full"]
+BindingKind = Literal["axial", "point", "full", "angular"]
 
 
 @dataclass(frozen=True)
@@ -139,7 +139,8 @@ class RigidBinding:
 
     ``kind``: ``"axial"`` = no relative translation along ``axis`` (rigid strut, 1 constraint), ``"point"`` = no
     relative translation (3 constraints, a spherical joint), ``"full"`` = no relative translation or rotation
-    (6 constraints, both bodies rigid or frame).
+    (6 constraints, both bodies rigid or frame), ``"angular"`` = no relative rotation about ``axis`` (1 constraint,
+    both bodies rigid or frame; e.g. the locked tilt of a revolute joint).
     """
 
     name: str
@@ -147,11 +148,11 @@ class RigidBinding:
     body_b: str
     point: np.ndarray  # (P, 3)
     kind: BindingKind
-    axis: np.ndarray | None  # (P, 3) unit, for "axial"
+    axis: np.ndarray | None  # (P, 3) unit, for "axial" and "angular"
 
     @property
     def n_constraints(self) -> int:
-        return {"axial": 1, "point": 3, "full": 6}[self.kind]
+        return {"axial": 1, "angular": 1, "point": 3, "full": 6}[self.kind]
 
     def poses(self, sl: slice) -> "RigidBinding":
         return replace(self, point=take(self.point, sl), axis=None if self.axis is None else take(self.axis, sl))

@@ -180,7 +180,8 @@ class SDEModel:
         """Rigid connection at ``point`` (m), eliminated exactly by a null-space basis (docs/theory/structure.md, preferred method).
 
         ``kind``: ``"axial"`` (needs ``axis``: rigid strut), ``"point"`` (no relative translation), ``"full"`` (also
-        no relative rotation; both sides rigid or frame).  Default: ``"axial"`` if ``axis`` is given, else ``"full"``
+        no relative rotation; both sides rigid or frame), ``"angular"`` (needs ``axis``: no relative rotation about
+        it; both sides rigid or frame).  Default: ``"axial"`` if ``axis`` is given, else ``"full"``
         between rigid bodies/frame and ``"point"`` otherwise.
         """
         self._check_mutable()
@@ -192,12 +193,12 @@ class SDEModel:
             raise InputError(source, "body_a/body_b", "two different bodies, at least one moving", (body_a, body_b))
         if kind is None:
             kind = "axial" if axis is not None else ("point" if "point" in (ka, kb) else "full")
-        if kind not in ("axial", "point", "full"):
-            raise InputError(source, "kind", "'axial', 'point' or 'full'", kind)
-        if kind == "full" and "point" in (ka, kb):
+        if kind not in ("axial", "point", "full", "angular"):
+            raise InputError(source, "kind", "'axial', 'point', 'full' or 'angular'", kind)
+        if kind in ("full", "angular") and "point" in (ka, kb):
             raise InputError(source, "kind", "'point' or 'axial' for a point mass", kind)
         ax = None
-        if kind == "axial":
+        if kind in ("axial", "angular"):
             if axis is None:
                 raise InputError(source, "axis", "a direction (3,) for an axial binding", None)
             ax = pose_array(axis, (3,), source, "axis")

@@ -17,8 +17,10 @@ from pkmstiff.optimise.design import (
     Constraint,
     Design,
     FunctionMeasure,
+    MovingMassMeasure,
     Objective,
     PointMeasure,
+    Reference,
     SectionMeasure,
     TaskBoxMeasure,
     Variable,
@@ -27,26 +29,34 @@ from pkmstiff.optimise.design import (
 from pkmstiff.optimise.design_file import load_design
 from pkmstiff.optimise.engine import OptimisationResult, run_optimisation
 
-__all__ = ["Constraint", "Design", "FunctionMeasure", "Objective", "OptimisationResult", "PointMeasure",
-           "SectionMeasure", "TaskBoxMeasure", "Variable", "WorkspaceMeasure", "load_design", "optimise"]
+__all__ = ["Constraint", "Design", "FunctionMeasure", "MovingMassMeasure", "Objective", "OptimisationResult",
+           "PointMeasure", "Reference", "SectionMeasure", "TaskBoxMeasure", "Variable", "WorkspaceMeasure",
+           "load_design", "optimise"]
 
 #: the bundled example design files
 EXAMPLES = Path(__file__).parent / "examples"
 
 
 def optimise(design: Design | str | Path, out: str | Path, *, jobs: int = 1, budget: int | None = None,
-             seed: int | None = None, resume: bool = False, force: bool = False, progress=None) -> OptimisationResult:
+             seed: int | None = None, resume: bool = False, force: bool = False, progress=None,
+             report: bool = True) -> OptimisationResult:
     """Run ``design`` (a :class:`Design` or a design file) and write its outputs into ``out`` (front.csv,
-    history.csv, designs/*.toml, convergence.png, summary.json; the checkpoint evaluations.jsonl). ``budget``
-    and ``seed`` override the design's; ``resume`` continues an interrupted run without re-evaluating its
-    checkpointed candidates; ``force`` starts afresh in an ``out`` that holds a run."""
+    history.csv, designs/*.toml, convergence.png, front.png, report/report.html unless ``report`` is False,
+    summary.json; the checkpoint evaluations.jsonl). ``budget`` and ``seed`` override the design's; ``resume``
+    continues an interrupted run without re-evaluating its checkpointed candidates; ``force`` starts afresh in an
+    ``out`` that holds a run. The base design and the design's references are evaluated with the same measures
+    (``res.meta["references"]``)."""
+    from dataclasses import asdict
+
+    from pkmstiff.optimise.compare import evaluate_references
     from pkmstiff.optimise.outputs import write_outputs
 
     if not isinstance(design, Design):
         design = load_design(design)
     res = run_optimisation(design, out, jobs=jobs, budget=budget, seed=seed, resume=resume, force=force,
                            progress=progress)
-    res.meta["outputs"] = {k: str(v) for k, v in write_outputs(res, out).items()}
+    res.meta["references"] = [asdict(c) for c in evaluate_references(design, jobs)]
+    res.meta["outputs"] = {k: str(v) for k, v in write_outputs(res, out, report=report, jobs=jobs).items()}
     return res
 
 

@@ -5,13 +5,16 @@ set from one decision coordinate (a *group*; ``mirror`` gives each path a sign).
 
 * ``continuous``: ``low``/``high`` in ``unit`` (any unit pint knows; the override is written ``"<value> <unit>"``);
 * ``integer``: ``low``/``high`` whole numbers;
-* ``categorical``: ``values`` (e.g. component names, joint tables of the catalogue, model names);
+* ``categorical``: ``values`` (e.g. component names, joint tables of the catalogue, model names); with ``entries``
+  (a catalogue of the component library, :mod:`components.library`) each value names an entry: the entry's component
+  table is added to the machine as ``components.<entry>`` and the paths are set to its name;
 * ``direction``: a unit vector from spherical angles (``polar``/``azimuth`` bounds in ``unit``), a = (sin t cos p,
   sin t sin p, -cos t) — the tilt t from -z, as study e; a mirror sign -1 reflects x (the YZ plane).
 
 Objectives and constraints are :class:`Measure` s — functions of the machine variant with a name and a unit: a
 section statistic (min, q05, mean, max, area), the workspace volume, a point quantity at a pose, the admissible
-fraction of a task-workspace box, or (from Python) any function of the machine.
+fraction of a task-workspace box, the moving mass, or (from Python) any function of the machine. A design's
+:class:`Reference` s (e.g. a hand-optimised option of the base machine) are evaluated with the same measures.
 """
 
 from __future__ import annotations
@@ -33,8 +36,10 @@ __all__ = [
     "Design",
     "FunctionMeasure",
     "Measure",
+    "MovingMassMeasure",
     "Objective",
     "PointMeasure",
+    "Reference",
     "SectionMeasure",
     "TaskBoxMeasure",
     "Variable",
@@ -58,6 +63,9 @@ class Variable:
     unit: str | None = None
     values: tuple[Any, ...] = ()  # categorical
     mirror: tuple[float, ...] = ()  # one sign per path (default all +1)
+    # categorical from a component catalogue: (entry name, component table as in a machine file) per value
+    entries: tuple[tuple[str, Any], ...] = field(default=(), compare=False)
+    catalogue: str | None = None  # the catalogue's name (outputs)
 
     @property
     def dims(self) -> int:
@@ -92,6 +100,8 @@ class Variable:
                 a = [math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), -math.cos(t)]
                 out[path] = [s * a[0], a[1], a[2]]
             elif self.kind == "categorical":
+                if self.entries:  # the entry's table as a new component of that name, referenced by the paths
+                    out.setdefault(f"components.{value}", dict(self.entries)[value])
                 out[path] = value
             elif self.kind == "integer":
                 out[path] = int(s * value)
@@ -199,6 +209,28 @@ class TaskBoxMeasure(Measure):
 
 
 @dataclass(frozen=True)
+class MovingMassMeasure(Measure):
+    """Mass of the moving parts [kg] from the machine's component data: the total mass of the structure model
+    (:func:`pkmstiff.structure.layout.structure_layout`, docs/theory/structure.md),
+
+        m = m_P + m_U + Σ_i (m_A,i + m_W,i + m_S,i + m_GA,i + m_GP,i + m_strut,i (s_A + s_P)),
+
+    platform m_P and spindle m_U, per chain the drive m_A (a ball screw's includes its apparent spindle mass,
+    Cobet eq. 3.4), guide carriages m_W, drive suspension m_S, drive- and platform-joint masses m_GA, m_GP and the
+    strut shares s_A, s_P that the machine file lumps at the joints (``strut_mass_shares``; 0 where the drive and
+    platform masses already hold the struts, as the Hexaglide's)."""
+
+    name: str
+    unit: str = "kg"
+
+    def __call__(self, machine: Machine, memo: dict) -> float:
+        from pkmstiff.structure.layout import structure_layout
+
+        lay = structure_layout(machine)
+        return float(lay.platform.mass + lay.spindle.mass + np.sum(lay.drive_mass))
+
+
+@dataclass(frozen=True)
 class FunctionMeasure(Measure):
     """Any picklable function of the machine (Python API; e.g. a closed form for tests)."""
 
@@ -241,6 +273,16 @@ class Constraint:
 
 
 @dataclass(frozen=True)
+class Reference:
+    """A design to compare the optimised ones with, evaluated with the same measures: ``machine`` is a bundled
+    name with options (``"hexaglide:optimised_drive_joints"``) or a machine file."""
+
+    name: str
+    machine: str
+    key: str = "machine"  # the design-file key it came from ("option" or "machine"), for error messages
+
+
+@dataclass(frozen=True)
 class Design:
     """A design question. ``algorithm``: "auto" (DE for one objective, NSGA-II for more), "de", "cmaes", "nsga2";
     ``budget``: evaluations; ``population``: per generation."""
@@ -255,6 +297,7 @@ class Design:
     seed: int = 1
     source: str = "(design)"
     options: Mapping[str, Any] = field(default_factory=dict)
+    references: tuple[Reference, ...] = ()
 
     def __post_init__(self) -> None:
         names = [v.name for v in self.variables]

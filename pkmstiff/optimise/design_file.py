@@ -13,16 +13,23 @@
     mirror = [1, -1]
     low = 0; high = 30; unit = "deg"
     # kind = "integer" (low/high), "categorical" (values = [...]), "direction" (polar = [lo, hi], azimuth = [lo, hi])
+    # categorical from the component library: catalogue = "pod_ballscrews" (or a file), values = entry names
+    # (default: every entry); path = the component reference to set, e.g. "chain_defaults.components.drive"
 
     [[objectives]]
     name = "kx_mean"; sense = "maximise"
     kind = "section"; quantity = "kx"; statistic = "mean"   # min | q05 | mean | max | area
     plane = "yz"; at_mm = 0; range = "y=-200:800,z=-1100:-500"; step_mm = 50
-    # kind = "point" (pose = [x, y, z mm, a, b, c deg], quantity), "workspace" (resolution_mm, box_mm, ...)
+    # kind = "point" (pose = [x, y, z mm, a, b, c deg], quantity), "workspace" (resolution_mm, box_mm, ...),
+    # "moving_mass" (kg, from the component data)
 
     [[constraints]]
     name = "area"; kind = "section"; quantity = "kx"; statistic = "area"; ...; min = 0.3   # and/or max
     # kind = "task_box": box_mm = [[x0, y0, z0], [x1, y1, z1]], step_mm, orientations_deg = [[0, 0, 0]]; min = 1
+
+    [[reference]]                               # designs evaluated with the same measures, marked in the outputs
+    name = "hand-optimised"; option = "optimised_drive_joints"    # an option of the base machine, or
+    # machine = "other.toml"                                      # a bundled machine or machine file
 
 Every error is a :class:`DesignFileError` naming ``file:line``, the key, what was expected and what was found; every
 variable is tried on the base machine at its bounds and every categorical value (the machine file's own validation:
@@ -46,8 +53,10 @@ from pkmstiff.optimise.design import (
     Constraint,
     Design,
     FunctionMeasure,
+    MovingMassMeasure,
     Objective,
     PointMeasure,
+    Reference,
     SectionMeasure,
     TaskBoxMeasure,
     Variable,
@@ -56,9 +65,10 @@ from pkmstiff.optimise.design import (
 
 __all__ = ["check_design", "load_design", "resolve_design"]
 
-_TOP = {"machine", "optimiser", "variables", "objectives", "constraints"}
+_TOP = {"machine", "optimiser", "variables", "objectives", "constraints", "reference"}
 _OPT = {"algorithm", "budget", "population", "seed"}
-_VAR = {"name", "path", "paths", "kind", "low", "high", "unit", "values", "mirror", "polar", "azimuth"}
+_VAR = {"name", "path", "paths", "kind", "low", "high", "unit", "values", "mirror", "polar", "azimuth",
+        "catalogue"}
 _COMMON = {"name", "kind", "sense", "min", "max"}
 _SECTION = {"quantity", "statistic", "plane", "at_mm", "range", "step_mm", "tool_length_mm", "orientation_deg",
             "frame", "neglect_spindle", "skip_checks"}
@@ -66,7 +76,9 @@ _POINT = {"quantity", "pose", "tool_length_mm", "frame", "neglect_spindle", "ski
 _WORKSPACE = {"resolution_mm", "box_mm", "requirements", "orientation_deg", "method", "frame", "neglect_spindle",
               "skip_checks"}
 _TASK_BOX = {"box_mm", "step_mm", "orientations_deg"}
-_KINDS = {"section": _SECTION, "point": _POINT, "workspace": _WORKSPACE, "task_box": _TASK_BOX}
+_KINDS = {"section": _SECTION, "point": _POINT, "workspace": _WORKSPACE, "task_box": _TASK_BOX,
+          "moving_mass": set()}
+_REFERENCE = {"name", "option", "machine"}
 _ALGORITHMS = ("auto", "de", "cmaes", "nsga2")
 
 
@@ -150,8 +162,21 @@ def _variable(r: _Reader, tab: Any, i: int) -> Variable:
     low: tuple[float, ...] = ()
     high: tuple[float, ...] = ()
     values: tuple[Any, ...] = ()
+    entries: tuple[tuple[str, Any], ...] = ()
+    catalogue = tab.get("catalogue")
+    if catalogue is not None and kind != "categorical":
+        raise r.error("variables", i, "catalogue", "a catalogue only with kind = 'categorical'", kind)
     if kind == "categorical":
         values = tuple(tab.get("values", ()))
+        if catalogue is not None:
+            cat = _catalogue(r, catalogue, i)
+            values = values or tuple(cat.entries)
+            for v in values:
+                if v not in cat.entries:
+                    raise r.error("variables", i, "values", f"entries of the catalogue '{cat.name}' "
+                                  f"({', '.join(cat.entries)})", v)
+            entries = tuple((v, cat.entries[v]) for v in values)
+            catalogue = cat.name
         if not values:
             raise r.error("variables", i, "values", "a non-empty list of values", tab.get("values", "missing key"))
     elif kind == "direction":
@@ -174,7 +199,22 @@ def _variable(r: _Reader, tab: Any, i: int) -> Variable:
         if kind == "integer" and (lo != int(lo) or hi != int(hi)):
             raise r.error("variables", i, "low", "whole numbers for an integer variable", [tab["low"], tab["high"]])
         low, high = (lo,), (hi,)
-    return Variable(name.strip(), tuple(paths), kind, low, high, unit, values, tuple(float(s) for s in mirror))
+    return Variable(name.strip(), tuple(paths), kind, low, high, unit, values, tuple(float(s) for s in mirror),
+                    entries, catalogue)
+
+
+def _catalogue(r: _Reader, name: Any, i: int) -> Any:
+    """A catalogue of the component library (:mod:`components.library`; a path relative to the design file)."""
+    from components.library import bundled_catalogues, load_catalogue
+
+    if not isinstance(name, str) or not name:
+        raise r.error("variables", i, "catalogue", "a catalogue name or file (text)", name)
+    try:
+        return load_catalogue(name, r.path.parent)
+    except InputError as exc:
+        found = name if exc.key == "catalogue" else str(exc)
+        raise r.error("variables", i, "catalogue", f"a bundled catalogue ({', '.join(bundled_catalogues())}) or a "
+                      "valid catalogue file", found) from None
 
 
 def _measure(r: _Reader, array: str, tab: dict, i: int, sections: dict) -> Any:
@@ -204,6 +244,8 @@ def _measure(r: _Reader, array: str, tab: dict, i: int, sections: dict) -> Any:
             return PointMeasure(name, get_quantity(q).unit, ev)
         if kind == "workspace":
             return WorkspaceMeasure(name, "m^3", WorkspaceVolume(**kw))
+        if kind == "moving_mass":
+            return MovingMassMeasure(name)
         box = tab.get("box_mm")
         if (not isinstance(box, list) or len(box) != 2
                 or not all(isinstance(c, list) and len(c) == 3 for c in box)):
@@ -219,6 +261,27 @@ def _measure(r: _Reader, array: str, tab: dict, i: int, sections: dict) -> Any:
         raise
     except (ArgumentError, TypeError, ValueError, KeyError) as exc:
         raise r.error(array, i, None, f"valid {kind} settings", str(exc)) from None
+
+
+def _reference(r: _Reader, tab: Any, i: int, machine: str, path: Path) -> Reference:
+    """A [[reference]]: an ``option`` of the base machine or another ``machine`` (bundled or a file)."""
+    tab = r.keys(tab, _REFERENCE, "reference", i)
+    if ("option" in tab) == ("machine" in tab):
+        raise r.error("reference", i, "option", "exactly one of 'option' (of the base machine) or 'machine'",
+                      "both" if "option" in tab else "neither")
+    key = "option" if "option" in tab else "machine"
+    value = tab[key]
+    if not isinstance(value, str) or not value:
+        raise r.error("reference", i, key, "a name (text)", value)
+    if key == "option":
+        spec = f"{machine},{value}" if ":" in machine else f"{machine}:{value}"
+    else:
+        base = value.split(":", 1)[0]
+        spec = str(path.parent / value) if base.endswith(".toml") and not Path(base).is_absolute() else value
+    name = tab.get("name", value)
+    if not isinstance(name, str) or not name.strip():
+        raise r.error("reference", i, "name", "a name (text)", name)
+    return Reference(name.strip(), spec, key)
 
 
 def _section_measures(r: _Reader, raw: list, sections: dict[tuple, set[str]]) -> list:
@@ -292,11 +355,35 @@ def load_design(path: str | Path) -> Design:
             raise r.error("constraints", i, "max", f"max >= min = {lo:g}", hi)
         cons.append((m, lo, hi))
     built = _section_measures(r, [m for m, _ in objs] + [m for m, _, _ in cons], sections)
+    refs = raw.get("reference", [])
+    if not isinstance(refs, list):
+        raise r.error(None, 0, "reference", "an array of [[reference]] tables", refs)
+    references = tuple(_reference(r, t, i, machine, path) for i, t in enumerate(refs))
+    taken = {"base"}  # the names are the columns of the comparison: base, the references, design_NNN
+    for i, ref in enumerate(references):
+        if ref.name in taken or re.fullmatch(r"design_\d+", ref.name):
+            raise r.error("reference", i, "name", "a name other than 'base', 'design_NNN' and the other references'",
+                          ref.name)
+        taken.add(ref.name)
     design = Design(machine, variables, tuple(Objective(m, s) for m, (_, s) in zip(built, objs)),
                     tuple(Constraint(m, lo, hi) for m, (_, lo, hi) in zip(built[len(objs):], cons)),
-                    algorithm=algorithm, source=str(path), **ints)
+                    algorithm=algorithm, source=str(path), **ints, references=references)
     check_design(design, r)
     return design
+
+
+def _largest_possible(m: Any) -> float | None:
+    """The largest value a measure can take whatever the design (None where unbounded): the admissible area of a
+    section is at most its whole raster, the admissible fraction of a task box 1."""
+    if isinstance(m, TaskBoxMeasure):
+        return 1.0
+    if isinstance(m, SectionMeasure) and m.statistic == "area":
+        from pkmstiff.evaluation.sections import axis_plane
+
+        q = m.request
+        plane = axis_plane(q.plane, q.at, q.u_range, q.v_range, q.step)
+        return float(plane.u_values.size * plane.v_values.size) * plane.cell_area
+    return None
 
 
 def check_design(design: Design, reader: _Reader | None = None) -> None:
@@ -324,10 +411,20 @@ def check_design(design: Design, reader: _Reader | None = None) -> None:
             try:
                 machine_with(design.machine, v.overrides(value))
             except InputError as exc:
-                key = "values" if v.kind == "categorical" else ("path" if isinstance(exc, OverrideError)
-                                                               else "unit" if v.unit else "low")
+                key = ("path" if isinstance(exc, OverrideError) else "values" if v.kind == "categorical"
+                       else "unit" if v.unit else "low")
                 raise r.error("variables", i, key, f"a value the machine accepts at {value!r} "
                               f"({exc.key}: {exc.expected})", exc.found) from None
+    for i, ref in enumerate(design.references):
+        try:
+            machine_with(ref.machine)
+        except Exception as exc:  # noqa: BLE001 - an unknown option or bundled name, or an invalid machine file
+            raise r.error("reference", i, ref.key, "a machine that loads", str(exc)) from None
+    for i, c in enumerate(design.constraints):
+        most = _largest_possible(c.measure)
+        if most is not None and c.lower is not None and c.lower > most * (1 + 1e-9):
+            raise r.error("constraints", i, "min", f"a bound some design can meet (infeasible everywhere: "
+                          f"{c.measure.name} is at most {most:.6g} {c.measure.unit})", c.lower)
     for array, items in (("objectives", design.objectives), ("constraints", design.constraints)):
         for i, it in enumerate(items):
             q = getattr(it.measure, "quantity", None) or next(iter(getattr(getattr(it.measure, "evaluation", None),

@@ -1,6 +1,8 @@
 """What ``pkmstiff optimise`` writes into ``--out``: ``front.csv`` (the feasible non-dominated designs; one objective:
 the best), ``history.csv`` (every evaluation), ``designs/design_NNN.toml`` (each front design as a machine file that
-``extends`` the base), ``convergence.png`` and ``summary.json``. Columns are named by the file rule
+``extends`` the base), ``convergence.png``, ``front.png`` (the Pareto front with the base design and the references
+marked, or their bar comparison for one objective), ``report/report.html`` (the comparison report,
+:mod:`pkmstiff.optimise.report`) and ``summary.json``. Columns are named by the file rule
 (:func:`pkmstiff.io.columns.label_column`: ``<name>_<unit>``); every file is written atomically."""
 
 from __future__ import annotations
@@ -114,6 +116,8 @@ def _convergence_png(res: OptimisationResult, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from pkmstiff.plots.section_maps import pretty_unit
+
     design = res.design
     n = len(design.objectives)
     fig, axes = plt.subplots(1, n, figsize=(5.5 * n, 3.8), squeeze=False)
@@ -127,10 +131,10 @@ def _convergence_png(res: OptimisationResult, path: Path) -> None:
         okb = np.isfinite(best)
         ax.step(idx[okb], sign * best[okb], where="post", color="C0", lw=2, label="best so far")
         ax.set_xlabel("evaluation")
-        ax.set_ylabel(o.measure.label)
+        ax.set_ylabel(f"{o.measure.name} [{pretty_unit(o.measure.unit)}]")
         ax.set_title(f"{o.sense} {o.measure.name}")
         ax.grid(alpha=0.3)
-        ax.legend(loc="best", fontsize=8)
+        ax.legend(loc="best", fontsize=9)
     fig.suptitle(f"{Path(design.source).name}: {res.algorithm}, {len(res.history)} evaluations", fontsize=10)
     fig.tight_layout()
     buf = io.BytesIO()
@@ -141,12 +145,17 @@ def _convergence_png(res: OptimisationResult, path: Path) -> None:
     tmp.replace(path)
 
 
-def write_outputs(res: OptimisationResult, out: str | Path) -> dict[str, Path]:
-    """Write front.csv, history.csv, designs/*.toml, convergence.png and summary.json into ``out``."""
+def write_outputs(res: OptimisationResult, out: str | Path, *, report: bool = True, jobs: int = 1) -> dict[str, Path]:
+    """Write front.csv, history.csv, designs/*.toml, convergence.png, front.png, the comparison report (unless
+    ``report`` is False; its sections evaluated in ``jobs`` processes) and summary.json into ``out``. The base
+    design and the references are those of ``res.meta["references"]``
+    (:func:`pkmstiff.optimise.compare.evaluate_references`)."""
+    from pkmstiff.optimise.compare import compared_designs, plot_comparison
+
     out = Path(out)
     design = res.design
     paths = {"front": out / "front.csv", "history": out / "history.csv", "convergence": out / "convergence.png",
-             "summary": out / "summary.json"}
+             "front_plot": out / "front.png", "summary": out / "summary.json"}
     names = [f"design_{i + 1:03d}" for i in range(len(res.front))]
     atomic_write_text(paths["front"], _csv(design, res.front, {"design": names}))
     atomic_write_text(paths["history"], _csv(design, res.history, {"evaluation": [c.index + 1 for c in res.history]}))
@@ -157,6 +166,14 @@ def write_outputs(res: OptimisationResult, out: str | Path) -> dict[str, Path]:
         atomic_write_text(p, design_machine_toml(design, c, name))
         files.append(str(p))
     _convergence_png(res, paths["convergence"])
+    compared = compared_designs(res, names, files)
+    plot_comparison(res, compared, paths["front_plot"])
+    if report:
+        from pkmstiff.optimise.report import write_comparison_report
+
+        paths["report"] = write_comparison_report(res, compared, out, {"front": paths["front_plot"],
+                                                                       "convergence": paths["convergence"]},
+                                                  jobs=jobs)["html"]
     summary = {
         "design_file": design.source, "machine": design.machine, "algorithm": res.algorithm, **res.meta,
         "evaluations": len(res.history), "evaluated": res.evaluated, "read_from_checkpoint": res.cached,

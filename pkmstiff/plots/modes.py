@@ -73,7 +73,8 @@ def mode_shape(machine: Machine, pose, mode: int = 1, n_modes: int | None = None
                      rigid(p), None if hull is None else rigid(hull))
 
 
-def _deformed(machine: Machine, ms: ModeShape, factor: float):
+def deformed_sketch(machine: Machine, ms: ModeShape, factor: float):
+    """The machine sketch with the mode's displacements times ``factor`` added to its points."""
     return sketch_from_points(machine, ms.q + factor * ms.dq, ms.p + factor * ms.dp,
                               None if ms.hull is None else ms.hull + factor * ms.dhull)
 
@@ -123,7 +124,7 @@ def plot_mode_shape(machine: Machine, pose, path: str | Path, mode: int = 1, amp
     factor = ms.scale_for(amplitude)
     p = pv.Plotter(off_screen=True, window_size=window_size)
     add_sketch(p, machine, pose, opacity=0.3, colour="gray")
-    deformed = _deformed(machine, ms, factor)
+    deformed = deformed_sketch(machine, ms, factor)
     if "guides" in deformed.keys():
         deformed.pop("guides")  # the guides do not move; drawn once, grey
     add_sketch(p, machine, pose, sketch=deformed, colour="darkorange")
@@ -162,7 +163,7 @@ def animate_mode_shape(machine: Machine, pose, path: str | Path, mode: int = 1, 
     for k in range(frames):
         p = pv.Plotter(off_screen=True, window_size=window_size)
         add_sketch(p, machine, pose, opacity=0.2, colour="gray")
-        add_sketch(p, machine, pose, sketch=_deformed(machine, ms, factor * np.sin(2 * np.pi * k / frames)))
+        add_sketch(p, machine, pose, sketch=deformed_sketch(machine, ms, factor * np.sin(2 * np.pi * k / frames)))
         p.add_text(f"mode {mode}: {ms.frequency_hz:.2f} Hz, {ms.description}", position="upper_left",
                    font_size=10, color="black")
         p.set_background("white")

@@ -207,6 +207,13 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size: t
     ``window_size`` (px) fixes
     the canvas; by default it follows the plane's aspect so that the map fills the figure.
     """
+    return _save(section_figure(res, name, window_size, cmap, clim)[0], path)
+
+
+def section_figure(res: SectionResult, name: str, window_size: tuple[int, int] | None = None, cmap: str = "viridis",
+                   clim: tuple[float, float] | None = None):
+    """The matplotlib Figure of :func:`plot_section` and its map axes (data coordinates in mm), not yet saved (the
+    browser app maps clicks on the picture back to the plane through the axes)."""
     u, v = res.plane.u_values * MM, res.plane.v_values * MM
     values = res.display(name)
     scale = robust_clim(values) if clim is None else ColourScale(*clim)
@@ -220,7 +227,7 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size: t
     scale.label_colorbar(cb, f"{name} [{unit}]")
     ax.set_title(f"{res.labels[name]} [{unit}]", fontsize=10)
     fig.suptitle(_map_title(res), fontsize=9)
-    return _save(fig, path)
+    return fig, ax
 
 
 def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Machine, reference_pose, path: str | Path,

@@ -51,17 +51,23 @@ def sketch_from_points(machine: Machine, q: np.ndarray, p: np.ndarray, hull_poin
     return blocks
 
 
-def add_sketch(plotter, machine: Machine, pose, opacity: float = 1.0, sketch=None, colour: str | None = None) -> None:
-    """Draw the sketch (of ``pose``, or a given ``sketch``) into a plotter with consistent colours."""
+def add_sketch(plotter, machine: Machine, pose, opacity: float = 1.0, sketch=None, colour: str | None = None,
+               name: str | None = None) -> None:
+    """Draw the sketch (of ``pose``, or a given ``sketch``) into a plotter with consistent colours; with ``name``
+    the actors are named ``<name>_<block>`` and replace those of an earlier call with the same ``name``."""
     sk = machine_sketch(machine, pose) if sketch is None else sketch
     colours = {"guides": "dimgray", "struts": "steelblue", "drive_joints": "black", "platform_joints": "black",
                "platform": "lightgray"}
-    for name in sk.keys():
-        mesh = sk[name]
+    for block in sk.keys():
+        mesh = sk[block]
         if mesh is None or mesh.n_points == 0:
+            if name is not None:
+                plotter.remove_actor(f"{name}_{block}", render=False)
             continue
-        kw = {"line_width": 4} if name == "guides" else {}
-        plotter.add_mesh(mesh, color=colour or colours.get(name, "gray"), opacity=opacity, **kw)
+        kw: dict = {"line_width": 4} if block == "guides" else {}
+        if name is not None:
+            kw["name"] = f"{name}_{block}"
+        plotter.add_mesh(mesh, color=colour or colours.get(block, "gray"), opacity=opacity, **kw)
 
 
 def _lines(segments: np.ndarray, pv):

@@ -29,7 +29,7 @@ def _state_kwargs(role: str, cols: list[int], arrays: dict[str, Array]) -> dict[
     return out
 
 
-def _evaluate(component: Any, kwargs: dict[str, Array], n_values: int) -> tuple[Array, Array]:
+def evaluate_component(component: Any, kwargs: dict[str, Array], n_values: int) -> tuple[Array, Array]:
     """Stiffness of ``component`` for ``n_values`` states and a per-value ok mask (bisection on range errors)."""
     from components.protocol import ComponentRangeError, ComponentState
 
@@ -81,7 +81,7 @@ def _role_stiffness(instances: Sequence[Any], role: str, arrays: dict[str, Array
             groups.setdefault(id(c), []).append(i)
     for cols in groups.values():
         comp = instances[cols[0]]
-        vals, good = _evaluate(comp, _state_kwargs(role, cols, arrays), n_poses * len(cols))
+        vals, good = evaluate_component(comp, _state_kwargs(role, cols, arrays), n_poses * len(cols))
         vals = vals.reshape((len(cols), n_poses) + vals.shape[1:])
         out[:, cols] = np.moveaxis(vals, 0, 1)
         ok &= good.reshape(len(cols), n_poses).all(axis=0)

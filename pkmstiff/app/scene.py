@@ -1,0 +1,120 @@
+"""The 3-D view of ``pkmstiff app``: an off-screen pyvista plotter with the machine at the chosen pose, the section
+plane coloured by its quantity, and a mode shape animated over the ghosted machine (coordinates in mm, as in every
+figure of the toolkit). No browser needed: the trame view streams this plotter's render window, and the tests
+render it to PNG."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from pkmstiff.plots import offscreen
+from pkmstiff.plots.sketch import add_sketch
+
+if TYPE_CHECKING:
+    from pkmstiff.app.session import SectionView
+    from pkmstiff.machine import Machine
+
+MM = 1e3
+#: the view direction of the toolkit's 3-D figures (front right, from above; plots.section_maps, plots.modes)
+VIEW_DIRECTION = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])
+#: frames per period of the animated mode shape, and its peak displacement [m] on screen
+MODE_FRAMES = 16
+MODE_AMPLITUDE = 0.08
+
+
+class Scene:
+    """The plotter and what it shows; every method changes named actors only, so a change redraws no more than
+    itself."""
+
+    def __init__(self, window_size: tuple[int, int] = (900, 700)):
+        pv = offscreen()
+        self.plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+        self.plotter.set_background("white")
+        self.mode_frames: list = []
+        self.mode_text = ""
+
+    def set_machine(self, machine: Machine, pose: np.ndarray) -> None:
+        """A new machine: clear the view, draw the machine at ``pose`` with mm axes around it and aim the camera at
+        it (the view stays while the pose changes; the user turns and zooms it with the mouse)."""
+        from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
+
+        self.plotter.clear_actors()
+        self.mode_frames = []
+        self.set_pose(machine, pose)
+        bounds = np.array(self.plotter.bounds).reshape(3, 2)
+        add_mm_axes(self.plotter, bounds.ravel(), VIEW_DIRECTION, font_size=12)
+        frame_camera(self.plotter, VIEW_DIRECTION, bounds, zoom=1.1)
+
+    def set_pose(self, machine: Machine, pose: np.ndarray) -> None:
+        """The machine at ``pose`` (x, y, z [m], a, b, c [rad], machine frame); ghosted while a mode is shown."""
+        add_sketch(self.plotter, machine, pose, opacity=0.25 if self.mode_frames else 1.0,
+                   colour="gray" if self.mode_frames else None, name="machine")
+        self.plotter.add_text(f"{machine.name}: x, y, z = {', '.join(f'{v * MM:.0f}' for v in pose[:3])} mm; "
+                              f"a, b, c = {', '.join(f'{np.degrees(v):.1f}' for v in pose[3:6])}°"
+                              + (f"\n{self.mode_text}" if self.mode_frames else ""),
+                              position="upper_left", font_size=10, color="black", name="title")
+
+    def set_section(self, view: SectionView) -> None:
+        """The section plane in its place, coloured by the map's quantity on the map's colour scale."""
+        from pkmstiff.plots.section_maps import pretty_unit, robust_clim
+
+        pv = offscreen()
+        pl = view.map.plane
+        nv, nu = pl.shape
+        grid = pv.StructuredGrid()
+        grid.points = pl.points() * MM
+        grid.dimensions = (nu, nv, 1)
+        values = view.map.display(view.choice.quantity)
+        grid.point_data[view.choice.quantity] = values.ravel()
+        scale = robust_clim(values)
+        title = f"{view.choice.quantity} [{pretty_unit(view.unit)}]"
+        self.plotter.remove_scalar_bar() if self.plotter.scalar_bars else None
+        self.plotter.add_mesh(grid, scalars=view.choice.quantity, cmap="viridis", clim=(scale.lo, scale.hi),
+                              log_scale=scale.log, nan_opacity=0.0, name="section", opacity=0.85,
+                              scalar_bar_args={"title": title, "vertical": True, "position_x": 0.03,
+                                               "position_y": 0.4, "width": 0.06, "height": 0.45, "color": "black",
+                                               "title_font_size": 14, "label_font_size": 12, "fmt": "%.3g"})
+
+    def set_mode(self, machine: Machine, pose: np.ndarray, mode: int) -> None:
+        """Mode ``mode`` (1 = lowest) at ``pose``: the machine ghosted grey and :data:`MODE_FRAMES` frames of one
+        period of the deformed machine (orange), peak displacement :data:`MODE_AMPLITUDE` on screen."""
+        from pkmstiff.plots.modes import deformed_sketch, mode_shape
+
+        ms = mode_shape(machine, pose, mode)
+        factor = ms.scale_for(MODE_AMPLITUDE)
+        frames = []
+        for k in range(MODE_FRAMES):
+            sk = deformed_sketch(machine, ms, factor * np.sin(2 * np.pi * k / MODE_FRAMES))
+            if "guides" in sk.keys():
+                sk.pop("guides")  # the guides do not move: drawn once, with the ghosted machine
+            frames.append(sk)
+        self.mode_frames = frames
+        self.mode_text = (f"mode {mode}: {ms.frequency_hz:.2f} Hz, {ms.description} (orange, "
+                          f"{MODE_AMPLITUDE * MM:g} mm peak displacement on screen, x{factor:.3g})")
+        self.set_pose(machine, pose)
+        self.show_mode_frame(machine, pose, 0)
+
+    def show_mode_frame(self, machine: Machine, pose: np.ndarray, k: int) -> None:
+        """Frame ``k`` (modulo :data:`MODE_FRAMES`) of the animated mode shape."""
+        if self.mode_frames:
+            add_sketch(self.plotter, machine, pose, sketch=self.mode_frames[k % len(self.mode_frames)],
+                       colour="darkorange", name="mode")
+
+    def clear_mode(self, machine: Machine, pose: np.ndarray) -> None:
+        """No mode shape: the machine drawn solid again."""
+        for name in [a for a in self.plotter.actors if a.startswith("mode_")]:
+            self.plotter.remove_actor(name, render=False)
+        self.mode_frames = []
+        self.set_pose(machine, pose)
+
+    def png(self) -> bytes:
+        """The view as PNG bytes."""
+        import io
+
+        from PIL import Image
+
+        buf = io.BytesIO()
+        Image.fromarray(self.plotter.screenshot(return_img=True)).save(buf, format="PNG")
+        return buf.getvalue()

@@ -1,0 +1,310 @@
+"""The logic of ``pkmstiff app`` without a browser: what the user chose → the request → the result shown.
+
+A :class:`Session` turns a :class:`MachineChoice` (a bundled machine or file, and a variant option) and a
+:class:`SectionChoice` (plane, position, raster step, quantity, tool orientation) into a :class:`SectionView`: the
+public API's :meth:`pkmstiff.api.StudyMachine.section` (the map ``pkmstiff section`` computes for the same inputs)
+drawn as ``pkmstiff section`` draws it (:func:`pkmstiff.plots.section_maps.section_figure`), with the map axes'
+pixel box so that a click on the picture finds its raster point. A picked point gives a :class:`PointView`
+(:meth:`~pkmstiff.api.StudyMachine.point`: stiffness, weak points, modes). :func:`export` writes what is shown and
+the commands that reproduce it. Units: SI inside; mm and degrees in the choices and on screen (the command line's).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import shlex
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from pkmstiff.errors import ArgumentError
+from pkmstiff.machine.loader import bundled_machines, machine_options  # noqa: F401 (the app's choices)
+
+if TYPE_CHECKING:
+    from pkmstiff.api import PointResults, SectionMap, StudyMachine
+
+MM = 1e3
+#: the section planes offered (those of ``pkmstiff section --plane``)
+PLANES = ("yz", "xz", "xy")
+#: raster steps (mm) the app accepts: a map is recomputed on every change, so the raster is bounded to keep a
+#: change interactive (the Hexaglide's YZ plane at 25 mm: 1551 points, about 4 s on one core; the time grows with
+#: 1/step²)
+STEP_LIMITS_MM = (5.0, 200.0)
+#: largest tool angle (deg) the app accepts for a, b, c (the orientation sliders' range)
+ANGLE_LIMIT_DEG = 60.0
+#: natural frequencies and mode shapes of a point analysis
+N_MODES = 6
+
+
+@dataclass(frozen=True)
+class MachineChoice:
+    """A bundled machine name or machine file, and an ``[options.NAME]`` variant of it ("" for none)."""
+
+    machine: str = "hexaglide"
+    option: str = ""
+
+    @property
+    def spec(self) -> str:
+        """The machine as the command line names it: ``hexaglide`` or ``hexaglide:printed_values``."""
+        return f"{self.machine}:{self.option}" if self.option else self.machine
+
+
+@dataclass(frozen=True)
+class SectionChoice:
+    """A section map as ``pkmstiff section`` takes it: ``--plane``, ``--at`` [mm], ``--step`` [mm],
+    ``--quantities`` (one) and ``--orientation`` a, b, c [deg]; the window is fitted to the workspace."""
+
+    plane: str = "yz"
+    at_mm: float = 0.0
+    step_mm: float = 25.0
+    quantity: str = "kx"
+    orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def checked(self, n_chains: int) -> SectionChoice:
+        """This choice, or an :class:`~pkmstiff.errors.ArgumentError` (one line naming the field, what was
+        expected and what was found) before any work."""
+        from pkmstiff.evaluation.quantities import check_quantity
+
+        if self.plane not in PLANES:
+            raise ArgumentError(option="plane", expected=f"one of {', '.join(PLANES)}", found=self.plane)
+        lo, hi = STEP_LIMITS_MM
+        if not (math.isfinite(self.step_mm) and lo <= self.step_mm <= hi):
+            raise ArgumentError(option="step", expected=f"a raster step {lo:g}..{hi:g} mm", found=self.step_mm)
+        if not math.isfinite(self.at_mm):
+            raise ArgumentError(option="at", expected="a finite position in mm", found=self.at_mm)
+        if len(self.orientation_deg) != 3 or not all(math.isfinite(a) and abs(a) <= ANGLE_LIMIT_DEG
+                                                     for a in self.orientation_deg):
+            raise ArgumentError(option="orientation", expected=f"a, b, c within ±{ANGLE_LIMIT_DEG:g} deg",
+                                found=tuple(self.orientation_deg))
+        check_quantity(self.quantity, n_chains)
+        return self
+
+    def command(self, machine: MachineChoice, out: str = "OUT") -> str:
+        """The ``pkmstiff section`` command that computes and writes (PNG, CSV into ``out``) this map."""
+        ori = ",".join(f"{a:g}" for a in self.orientation_deg)
+        return shlex.join(["pkmstiff", "section", machine.spec, "--plane", self.plane, "--at", f"{self.at_mm:g}",
+                           "--step", f"{self.step_mm:g}", f"--orientation={ori}", "--quantities", self.quantity,
+                           "--out", out, "--formats", "png,csv"])
+
+
+def point_command(machine: MachineChoice, pose: Sequence[float]) -> str:
+    """The ``pkmstiff point`` command of the point analysis at ``pose`` (x, y, z [m], a, b, c [rad], machine
+    frame), printed in mm and degrees to 10 significant digits (a raster point's position exactly as shown)."""
+    mm_deg = [*(v * MM for v in pose[:3]), *(math.degrees(v) for v in pose[3:6])]
+    return shlex.join(["pkmstiff", "point", machine.spec, f"--pose={','.join(f'{v:.10g}' for v in mm_deg)}"])
+
+
+@dataclass
+class SectionView:
+    """A computed section map as the app shows it: the map, its PNG and where the map axes lie in the PNG."""
+
+    choice: SectionChoice
+    map: SectionMap
+    png: bytes
+    size_px: tuple[int, int]  # (width, height) of the PNG
+    axes_px: tuple[float, float, float, float]  # left, top, right, bottom of the map axes, pixels from the top left
+    seconds: float
+
+    @property
+    def limits_mm(self) -> tuple[float, float, float, float]:
+        """u_min, u_max, v_min, v_max [mm] of the map axes (the raster's first and last values)."""
+        pl = self.map.plane
+        return (pl.u_values[0] * MM, pl.u_values[-1] * MM, pl.v_values[0] * MM, pl.v_values[-1] * MM)
+
+    def node_at_pixel(self, x_px: float, y_px: float) -> tuple[int, int] | None:
+        """(row, column) of the raster point nearest the PNG pixel (x right, y down), None outside the map axes."""
+        left, top, right, bottom = self.axes_px
+        if not (left <= x_px <= right and top <= y_px <= bottom):
+            return None
+        u0, u1, v0, v1 = self.limits_mm
+        u = u0 + (x_px - left) / (right - left) * (u1 - u0)
+        v = v1 - (y_px - top) / (bottom - top) * (v1 - v0)
+        return self.node_at(u, v)
+
+    def node_at(self, u_mm: float, v_mm: float) -> tuple[int, int]:
+        """(row, column) of the raster point nearest the in-plane position (u, v) [mm]."""
+        pl = self.map.plane
+        return (int(np.argmin(np.abs(pl.v_values * MM - v_mm))), int(np.argmin(np.abs(pl.u_values * MM - u_mm))))
+
+    def pixel_of(self, row: int, col: int) -> tuple[float, float]:
+        """The PNG pixel (x right, y down) of raster point (row, column): the inverse of :meth:`node_at_pixel`."""
+        left, top, right, bottom = self.axes_px
+        u0, u1, v0, v1 = self.limits_mm
+        pl = self.map.plane
+        u, v = pl.u_values[col] * MM, pl.v_values[row] * MM
+        return (left + (u - u0) / (u1 - u0) * (right - left), top + (v1 - v) / (v1 - v0) * (bottom - top))
+
+    def pose_at(self, row: int, col: int) -> np.ndarray:
+        """(6,) pose of raster point (row, column): x, y, z [m] (machine frame) and the map's a, b, c [rad]."""
+        nu = self.map.plane.shape[1]
+        return np.concatenate([self.map.plane.points()[row * nu + col], np.radians(self.choice.orientation_deg)])
+
+    def value_at(self, row: int, col: int) -> float:
+        """The map's value at raster point (row, column) in its display unit (NaN where inadmissible)."""
+        return float(self.map.display(self.choice.quantity)[row, col])
+
+    @property
+    def unit(self) -> str:
+        return self.map.units[self.choice.quantity]
+
+    def central_node(self) -> tuple[int, int] | None:
+        """The admissible raster point nearest the centroid of the admissible region (None if there is none)."""
+        rows, cols = np.nonzero(self.map.ok)
+        if not rows.size:
+            return None
+        k = int(np.argmin((rows - rows.mean()) ** 2 + (cols - cols.mean()) ** 2))
+        return int(rows[k]), int(cols[k])
+
+    def summary(self) -> str:
+        """One line: admissible points and area, the quantity's range and the time taken."""
+        ok = self.map.ok
+        st = self.map.statistics().get(self.choice.quantity, {})
+        rng = (f", {self.choice.quantity} {st['min']:.4g} … {st['max']:.4g} {self.unit}"
+               if st.get("count") else "")
+        return (f"{int(ok.sum())} of {ok.size} points admissible "
+                f"({float(ok.sum()) * self.map.plane.cell_area:.4g} m²){rng}; computed in {self.seconds:.2f} s")
+
+
+@dataclass
+class PointView:
+    """The point analysis at one pose as the app shows it (the numbers ``pkmstiff point`` prints)."""
+
+    pose: np.ndarray  # (6,) m, rad, machine frame
+    result: PointResults
+    command: str
+
+    @property
+    def admissible(self) -> bool:
+        return bool(self.result.admissible[0])
+
+    @property
+    def reasons(self) -> list[str]:
+        return self.result.reasons[0]
+
+    def stiffness(self) -> dict[str, float]:
+        """k_x, k_y, k_z [N/µm] and k_rx, k_ry, k_rz [N·m/µrad] (1/C_jj of the TCP compliance)."""
+        k = self.result.stiffness[0] / 1e6
+        return {f"k{ax}": float(k[i]) for i, ax in enumerate("xyz")} | {
+            f"kr{ax}": float(k[3 + i]) for i, ax in enumerate("xyz")}
+
+    def weak_points(self) -> dict[str, dict[str, float]]:
+        """Component -> direction -> share of the TCP compliance [%] (columns of ``pkmstiff point``)."""
+        wp = self.result.weak_points
+        components = list(next(iter(wp.values()))) if wp else []
+        return {c: {d: float(100.0 * wp[d][c][0]) for d in wp} for c in components}
+
+    def modes(self) -> list[tuple[float, str]]:
+        """(frequency [Hz], description) of each computed mode, lowest first."""
+        return [(float(f), d) for f, d in zip(self.result.frequencies_hz[0], self.result.mode_descriptions[0])]
+
+
+@dataclass
+class Session:
+    """Machines loaded once per variant, and the app's requests on them."""
+
+    _machines: dict[str, StudyMachine] = field(default_factory=dict)
+
+    def machine(self, choice: MachineChoice) -> StudyMachine:
+        """The machine of ``choice`` (loaded on first use; a bad name, file or option is one clear error)."""
+        from pkmstiff.api import load_machine
+
+        if choice.spec not in self._machines:
+            self._machines[choice.spec] = load_machine(choice.spec)
+        return self._machines[choice.spec]
+
+    def section(self, machine: MachineChoice, choice: SectionChoice) -> SectionView:
+        """The map of ``choice`` (as ``pkmstiff section`` computes it: the same window, raster and masking)."""
+        import time
+
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        from pkmstiff.plots.section_maps import section_figure
+
+        m = self.machine(machine)
+        choice.checked(m.n_chains)
+        t0 = time.perf_counter()
+        smap = m.section(choice.plane, at=choice.at_mm / MM, step=choice.step_mm / MM, quantities=[choice.quantity],
+                         orientation=np.radians(choice.orientation_deg))
+        seconds = time.perf_counter() - t0
+        fig, ax = section_figure(smap.result, choice.quantity)
+        FigureCanvasAgg(fig)
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=100, facecolor="white")  # as pkmstiff section saves its PNG
+        width, height = (int(round(v)) for v in fig.get_size_inches() * 100)
+        box = ax.get_window_extent()  # after savefig: the constrained layout as drawn; origin bottom left
+        return SectionView(choice, smap, buf.getvalue(), (width, height),
+                           (float(box.x0), height - float(box.y1), float(box.x1), height - float(box.y0)), seconds)
+
+    def point(self, machine: MachineChoice, pose: Sequence[float]) -> PointView:
+        """The point analysis at ``pose`` (x, y, z [m], a, b, c [rad], machine frame): stiffness, weak points and
+        :data:`N_MODES` modes, as ``pkmstiff point`` computes them (the kinetostatics are left out)."""
+        x = np.asarray(pose, float)
+        res = self.machine(machine).point(x, n_modes=N_MODES, kinetostatics=False)
+        return PointView(x, res, point_command(machine, x))
+
+    def pose_limits(self, machine: MachineChoice) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) (6,) slider limits of the pose in mm and degrees: the chains' reach box and ±:data:`ANGLE_LIMIT_DEG`."""
+        from pkmstiff.workspace.translational import reach_box
+
+        lo, hi = reach_box(self.machine(machine))
+        a = np.full(3, ANGLE_LIMIT_DEG)
+        return np.concatenate([np.floor(lo * MM), -a]), np.concatenate([np.ceil(hi * MM), a])
+
+
+def pose_text(pose: Sequence[float]) -> str:
+    """x, y, z [mm] and a, b, c [deg] of a pose (m, rad) for the screen."""
+    return (", ".join(f"{v * MM:.1f}" for v in pose[:3]) + " mm; "
+            + ", ".join(f"{math.degrees(v):.1f}" for v in pose[3:6]) + " deg")
+
+
+def export(out_dir: str | Path, machine: MachineChoice, view: SectionView | None, point: PointView | None,
+           scene_png: bytes | None = None) -> Path:
+    """Write what is shown into a new folder ``out_dir/export-NNN`` (nothing existing is overwritten): the map as
+    ``pkmstiff section --out`` writes it (PNG, CSV with its JSON metadata, statistics; same file names), the point
+    analysis as a one-row CSV (``point.csv``, the columns of :meth:`PointResults.to_pandas`), the 3-D view
+    (``view_3d.png``) and ``commands.txt``: the commands that reproduce the map and the point analysis."""
+    from pkmstiff.io.atomic import atomic_path, atomic_write_text, safe_stem
+    from pkmstiff.report.outputs import write_section_outputs
+
+    base = Path(out_dir)
+    base.mkdir(parents=True, exist_ok=True)
+    k = 1 + max((int(p.name[7:]) for p in base.glob("export-[0-9][0-9][0-9]") if p.name[7:].isdigit()), default=0)
+    folder = base / f"export-{k:03d}"
+    folder.mkdir()
+    commands = []
+    if view is not None:
+        stem = f"{safe_stem(view.map.result.machine)}_{view.choice.plane}"
+        write_section_outputs(view.map.result, folder, ["png", "csv"], stem, progress=False)
+        commands.append(view.choice.command(machine, str(folder / "cli")))
+    if point is not None:
+        with atomic_path(folder / "point.csv") as tmp:
+            point.result.to_pandas().to_csv(tmp, index=False)
+        commands.append(point.command)
+    if scene_png is not None:
+        with atomic_path(folder / "view_3d.png") as tmp:
+            Path(tmp).write_bytes(scene_png)
+    atomic_write_text(folder / "commands.txt", "".join(c + "\n" for c in commands))
+    return folder
+
+
+def describe_error(exc: BaseException) -> str:
+    """One line for the app's message bar (the command line's wording for the toolkit's errors)."""
+    from pkmstiff.errors import PkmstiffError
+
+    text = " ".join(str(exc).split())
+    return text if isinstance(exc, PkmstiffError) else f"internal error {type(exc).__name__}: {text}"
+
+
+def as_float(value: Any, name: str) -> float:
+    """A number typed into a field, or an :class:`~pkmstiff.errors.ArgumentError` naming the field."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise ArgumentError(option=name, expected="a number", found=value) from None
+    if not math.isfinite(out):
+        raise ArgumentError(option=name, expected="a finite number", found=value)
+    return out

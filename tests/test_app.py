@@ -1,0 +1,163 @@
+"""The logic of ``pkmstiff app`` without a browser (pkmstiff.app.session, pkmstiff.app.scene): the map equals
+``pkmstiff section``'s, a click finds its raster point, the point analysis is ``pkmstiff point``'s, exports never
+overwrite, bad choices fail with one line before any work. The browser itself: tests/test_app_browser.py."""
+
+from __future__ import annotations
+
+import io
+import json
+import shlex
+
+import numpy as np
+import pytest
+
+from pkmstiff.app.session import MachineChoice, SectionChoice, Session, export
+from pkmstiff.errors import ArgumentError, InputError
+
+HEXAGLIDE = MachineChoice("hexaglide")
+COARSE = SectionChoice(plane="yz", step_mm=50.0, quantity="kx")
+
+
+@pytest.fixture(scope="module")
+def session():
+    return Session()
+
+
+@pytest.fixture(scope="module")
+def view(session):
+    return session.section(HEXAGLIDE, COARSE)
+
+
+def _cli(capsys, *args: str) -> str:
+    from pkmstiff.cli import main
+
+    capsys.readouterr()
+    assert main(list(args)) == 0
+    return capsys.readouterr().out
+
+
+def test_exported_map_and_its_command_equal_the_cli_section(view, tmp_path, capsys):
+    folder = export(tmp_path, HEXAGLIDE, view, None)
+    section_cmd = (folder / "commands.txt").read_text().splitlines()[0]
+    assert section_cmd == COARSE.command(HEXAGLIDE, str(folder / "cli"))
+    _cli(capsys, *shlex.split(section_cmd)[1:], "--quiet")
+    # one evaluation function (evaluate_section) with the same window, raster and checks in one program: the
+    # 10-digit CSV texts are equal, not merely close
+    assert (folder / "hexaglide_yz.csv").read_text() == (folder / "cli" / "hexaglide_yz.csv").read_text()
+    assert (folder / "hexaglide_yz_kx.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_click_finds_its_raster_point_and_the_picture_shows_it_there(view):
+    from PIL import Image
+
+    nv, nu = view.map.ok.shape
+    for row in range(nv):
+        for col in range(nu):
+            assert view.node_at_pixel(*view.pixel_of(row, col)) == (row, col)
+    left, top, right, bottom = view.axes_px
+    assert view.node_at_pixel(left - 2, top + 5) is None and view.node_at_pixel(right + 2, bottom - 5) is None
+    img = np.asarray(Image.open(io.BytesIO(view.png)).convert("RGB")).astype(int)
+    assert img.shape[1::-1] == view.size_px
+    # an admissible point away from the boundary line is coloured, an inadmissible one far from it is white
+    ok = view.map.ok
+    inner = ok & np.roll(ok, 1, 0) & np.roll(ok, -1, 0) & np.roll(ok, 1, 1) & np.roll(ok, -1, 1)
+    outer = ~ok & ~np.roll(ok, 1, 0) & ~np.roll(ok, -1, 0) & ~np.roll(ok, 1, 1) & ~np.roll(ok, -1, 1)
+    inside = np.zeros_like(ok)
+    inside[1:-1, 1:-1] = True  # the first and last rows and columns lie on the axes' frame (black)
+    inner, outer = inner & inside, outer & inside
+    assert inner.sum() > 10 and outer.sum() > 10
+    for mask, white in ((inner, False), (outer, True)):
+        for row, col in zip(*np.nonzero(mask)):
+            x, y = view.pixel_of(row, col)
+            assert bool((img[int(round(y)), int(round(x))] >= 250).all()) is white, (row, col)
+
+
+def test_point_view_is_the_cli_point_analysis(session, view, capsys):
+    node = view.central_node()
+    pose = view.pose_at(*node)
+    pv = session.point(HEXAGLIDE, pose)
+    ref = json.loads(_cli(capsys, *shlex.split(pv.command)[1:], "--json"))
+    k = pv.stiffness()
+    # same structure model at the same pose (the command's 10-digit pose): round-off only
+    for ax in "xyz":
+        assert k[f"k{ax}"] == pytest.approx(ref["k_N_per_um"][ax], rel=1e-9)
+        assert k[f"kr{ax}"] == pytest.approx(ref["rotational_stiffness_Nm_per_urad"][ax], rel=1e-9)
+    assert [f for f, _ in pv.modes()] == pytest.approx(ref["frequencies_Hz"], rel=1e-9)
+    assert [d for _, d in pv.modes()] == ref["mode_descriptions"]
+    for comp, shares in pv.weak_points().items():
+        for d, share in shares.items():
+            assert share == pytest.approx(ref["weak_points_percent"][d][comp], abs=1e-9)
+    # the map's value at the point is the point analysis' (the section's chunked evaluation vs one pose)
+    assert view.value_at(*node) == pytest.approx(k["kx"], rel=1e-9)
+
+
+def test_exports_go_to_new_folders(view, session, tmp_path):
+    pv = session.point(HEXAGLIDE, view.pose_at(*view.central_node()))
+    first = export(tmp_path, HEXAGLIDE, view, pv, scene_png=b"\x89PNG\r\n\x1a\n")
+    second = export(tmp_path, HEXAGLIDE, None, pv)
+    assert (first.name, second.name) == ("export-001", "export-002")
+    assert (first / "commands.txt").read_text().splitlines()[1] == pv.command
+    assert (second / "commands.txt").read_text() == pv.command + "\n"
+    import pandas
+
+    row = pandas.read_csv(second / "point.csv")
+    assert row["kx_N_per_um"][0] == pytest.approx(pv.stiffness()["kx"], rel=1e-12)
+    assert (first / "view_3d.png").is_file() and not (second / "hexaglide_yz.csv").exists()
+
+
+@pytest.mark.parametrize("choice, field", [
+    (SectionChoice(plane="ab"), "plane"), (SectionChoice(step_mm=0.5), "step"), (SectionChoice(step_mm=float("nan")), "step"),
+    (SectionChoice(at_mm=float("inf")), "at"), (SectionChoice(orientation_deg=(0.0, 90.0, 0.0)), "orientation"),
+    (SectionChoice(quantity="kq"), "kq"), (SectionChoice(quantity="drive_9"), "drive_9")])
+def test_bad_choices_fail_in_one_line_before_any_work(session, choice, field):
+    with pytest.raises(ArgumentError, match=field) as info:
+        session.section(HEXAGLIDE, choice)
+    assert "\n" not in str(info.value)
+
+
+def test_variant_options_and_bad_machines(session):
+    from pkmstiff.machine.loader import machine_options
+
+    assert "printed_values" in machine_options("hexaglide")
+    m = session.machine(MachineChoice("hexaglide", "printed_values"))
+    assert m.name == "hexaglide:printed_values"
+    with pytest.raises(InputError, match="options"):
+        session.machine(MachineChoice("hexaglide", "no_such_option"))
+
+
+def test_command_lines_quote_and_keep_negative_values():
+    cmd = SectionChoice(plane="xz", at_mm=-100.0, orientation_deg=(-10.0, 0.0, 5.0)).command(
+        MachineChoice("my machine.toml"), "out dir")
+    assert shlex.split(cmd) == ["pkmstiff", "section", "my machine.toml", "--plane", "xz", "--at", "-100", "--step",
+                                "25", "--orientation=-10,0,5", "--quantities", "kx", "--out", "out dir", "--formats",
+                                "png,csv"]
+
+
+def test_scene_animates_the_mode_shape_about_the_pose(session, view):
+    from pkmstiff.app.scene import MODE_FRAMES, Scene
+
+    m = session.machine(HEXAGLIDE)
+    pose = view.pose_at(*view.central_node())
+    scene = Scene(window_size=(400, 300))
+    scene.set_machine(m, pose)
+    scene.set_section(view)
+    scene.set_mode(m, pose, 1)
+    assert len(scene.mode_frames) == MODE_FRAMES and "mode 1" in scene.mode_text
+    # sin(2πk/N): frame 0 is the undeformed machine, frames k and k + N/2 are mirror images about it
+    p0, pk, pm = (scene.mode_frames[k]["platform_joints"].points for k in (0, 4, 4 + MODE_FRAMES // 2))
+    assert np.abs(pk - p0).max() > 1.0  # mm: the frame moves visibly
+    # the glyph points are float32: at ~1000 mm one unit in the last place is 6e-5 mm
+    np.testing.assert_allclose(pk - p0, -(pm - p0), atol=1e-3)
+    assert scene.png()[:8] == b"\x89PNG\r\n\x1a\n"
+    scene.clear_mode(m, pose)
+    assert not scene.mode_frames and not any(a.startswith("mode_") for a in scene.plotter.actors)
+
+
+def test_a_machine_file_works_like_its_bundled_name(session, view, tmp_path):
+    from pkmstiff.machine.loader import bundled_machine_dir
+
+    path = tmp_path / "my hexaglide.toml"
+    path.write_text((bundled_machine_dir() / "hexaglide.toml").read_text(encoding="utf-8"), encoding="utf-8")
+    from_file = session.section(MachineChoice(str(path)), COARSE)
+    np.testing.assert_array_equal(from_file.map.display("kx"), view.map.display("kx"))  # the same machine data
+    assert shlex.split(COARSE.command(MachineChoice(str(path))))[2] == str(path)

@@ -1,0 +1,160 @@
+"""``pkmstiff app`` in a real browser (issue 28 item 4): headless Chromium (Selenium) opens the app, changes the raster
+step, the plane and the quantity, clicks a map point, shows a mode, exports; the shown values are checked against
+the command line's (``pkmstiff section … --formats csv`` and ``pkmstiff point --json``) and the exported map must
+equal the CLI's. Screenshots go to the test's tmp dir (docs/make_images.py copies the same views into docs/images).
+Skipped, with the reason, only where Chromium or chromedriver cannot be found."""
+
+from __future__ import annotations
+
+import csv
+import json
+import re
+import shlex
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests import app_browser as ab
+
+pytestmark = pytest.mark.skipif(ab.missing_browser() is not None, reason=str(ab.missing_browser()))
+
+
+def _read_csv(path) -> dict[str, np.ndarray]:
+    with open(path, newline="", encoding="utf-8") as fh:
+        rows = list(csv.reader(fh))
+    return {name: np.array([np.nan if r[j] == "" else float(r[j]) for r in rows[1:]])
+            for j, name in enumerate(rows[0])}
+
+
+def _cli(capsys, *args: str) -> str:
+    from pkmstiff.cli import main
+
+    capsys.readouterr()
+    assert main(list(args)) == 0
+    return capsys.readouterr().out
+
+
+def _listening_addresses(port: int) -> set[str]:
+    """Local addresses (hex, /proc/net/tcp{,6}) of the sockets listening on ``port``."""
+    found = set()
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        try:
+            lines = Path(table).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            local, state = line.split()[1], line.split()[3]
+            if state == "0A" and int(local.rsplit(":", 1)[1], 16) == port:
+                found.add(local.rsplit(":", 1)[0])
+    return found
+
+
+def test_app_in_chromium_shows_the_command_lines_numbers(tmp_path, capsys):
+    t0 = time.monotonic()
+    shots = tmp_path / "screenshots"
+    shots.mkdir()
+    with ab.running_app(tmp_path) as (url, proc, port), ab.chromium() as driver:
+        # served on this computer only: every listening socket of the port is 127.0.0.1
+        if _listening_addresses(port):
+            assert _listening_addresses(port) == {"0100007F"}, _listening_addresses(port)
+        driver.get(url)
+        g = ab.wait_map(driver)
+        assert g["quantity"] == "kx"
+        driver.save_screenshot(str(shots / "app_start.png"))
+        # the user types a coarser step, then picks the XZ plane and the quantity kz: each change recomputes
+        ab.type_into(driver, "step", "50")
+        g = ab.wait_map(driver, g["version"])
+        ab.choose(driver, "plane", "xz")
+        g = ab.wait_map(driver, g["version"])
+        ab.type_into(driver, "quantity", "kz")
+        g = ab.wait_map(driver, g["version"], quantity="kz")
+        command = ab.text(driver, "commands")
+        assert all(f in command for f in ("--plane xz", "--step 50", "--quantities kz")), command
+
+        # the same map by the command line
+        cli_dir = tmp_path / "cli"
+        _cli(capsys, "section", "hexaglide", "--plane", "xz", "--at", "0", "--step", "50", "--quantities", "kz",
+             "--out", str(cli_dir), "--formats", "csv", "--quiet")
+        cli = _read_csv(cli_dir / "hexaglide_xz.csv")
+        ok = cli["admissible"] == 1
+        u, v = cli["u_mm"][ok], cli["v_mm"][ok]
+        k = int(np.argmin((u - u.mean()) ** 2 + (v - v.mean()) ** 2))  # the admissible point nearest the centroid
+
+        # a click on that point: its pose, its map value and its point analysis
+        ab.click_map(driver, u[k], v[k])
+        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
+        picked = ab.text(driver, "picked")
+        assert f"x = {u[k]:.1f} mm" in picked and f"z = {v[k]:.1f} mm" in picked, picked
+        shown = float(re.search(r"kz = ([-+0-9.e]+) N/um", picked).group(1))
+        # shown with 6 significant digits: within half a unit of the 6th digit of the CLI's (10-digit) value
+        assert abs(shown - cli["kz_N_per_um"][ok][k]) <= 5e-6 * abs(cli["kz_N_per_um"][ok][k])
+        pose = [float(driver.find_element("id", f"pose-{n}").get_attribute("value")) for n in "xyzabc"]
+        assert pose[:3] == pytest.approx([u[k], 0.0, v[k]], abs=1e-6)
+        ref = json.loads(_cli(capsys, "point", "hexaglide", f"--pose={','.join(f'{p:g}' for p in pose)}", "--json"))
+        # the app prints k with 3 decimals as pkmstiff point does: within half a unit of the last digit (the two
+        # computations are the same model on the same pose; their difference is round-off, ~1e-12 relative)
+        for name, value in ref["k_N_per_um"].items():
+            assert abs(float(ab.text(driver, f"k-k{name}")) - value) <= 5e-4 + 1e-9 * abs(value), name
+        for name, value in ref["rotational_stiffness_Nm_per_urad"].items():
+            assert abs(float(ab.text(driver, f"k-kr{name}")) - value) <= 5e-4 + 1e-9 * abs(value), name
+        modes = ab.text(driver, "modes")
+        for f, d in zip(ref["frequencies_Hz"], ref["mode_descriptions"]):
+            assert f"{f:.2f} Hz, {d}" in modes  # 2 decimals, as pkmstiff point prints them
+        rows = driver.find_elements("css selector", "#weak-points tbody tr")
+        shares = {r.find_elements("tag name", "td")[0].text: [float(c.text) for c in r.find_elements("tag name", "td")[1:]]
+                  for r in rows}
+        assert set(shares) == set(ref["weak_points_percent"]["x"])
+        for j, d in enumerate(ref["weak_points_percent"]):  # 1 decimal, as pkmstiff point prints them
+            for comp, value in ref["weak_points_percent"][d].items():
+                assert abs(shares[comp][j] - value) <= 0.05 + 1e-9, (comp, d)
+
+        # mode 1 animated in the 3-D view: two screenshots of the view differ
+        first_mode = f"{ref['frequencies_Hz'][0]:.2f} Hz, {ref['mode_descriptions'][0]}"
+        ab.choose(driver, "mode", f"1: {first_mode}")
+        ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
+        driver.find_element("id", "animate").click()
+        view = driver.find_element("id", "view-3d")
+        time.sleep(1.0)
+        first = view.screenshot_as_png
+        ab.wait_for(driver, lambda d: view.screenshot_as_png != first, "the mode shape to move", timeout=15)
+        driver.save_screenshot(str(shots / "app_point.png"))
+
+        # export: the map equals the CLI's; the exported command reproduces it; the point command is the one checked
+        driver.find_element("id", "export").click()
+        folder = Path(ab.wait_for(driver, lambda d: ab.text(d, "export-folder"), "the export folder"))
+        app_csv = _read_csv(folder / "hexaglide_xz.csv")
+        assert set(app_csv) == set(cli)
+        for name in cli:  # the same evaluation (StudyMachine.section = evaluate_section with the CLI's window,
+            # raster and checks) on the same inputs in the same program: equal to the 10 digits written
+            np.testing.assert_array_equal(app_csv[name], cli[name], err_msg=name)
+        assert (folder / "hexaglide_xz_kz.png").is_file() and (folder / "view_3d.png").is_file()
+        section_cmd, point_cmd = (folder / "commands.txt").read_text().splitlines()
+        _cli(capsys, *shlex.split(section_cmd)[1:], "--quiet")
+        again = _read_csv(folder / "cli" / "hexaglide_xz.csv")
+        for name in cli:
+            np.testing.assert_array_equal(again[name], cli[name], err_msg=name)
+        assert json.loads(_cli(capsys, *shlex.split(point_cmd)[1:], "--json"))["k_N_per_um"] == pytest.approx(
+            ref["k_N_per_um"], rel=1e-12)  # 10-digit pose in the command vs the %g pose typed above
+
+        # a typed pose, analysed on request; then a variant option of the machine recomputes the map
+        ab.type_into(driver, "pose-z", f"{v[k] + 50:g}")
+        ab.wait_for(driver, lambda d: f", {v[k] + 50:.1f} mm" in ab.text(d, "pose-shown"), "the typed pose")
+        old_kx = ab.text(driver, "k-kx")
+        driver.find_element("id", "analyse").click()
+        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") != old_kx and ab.text(d, "status") == "ready",
+                    "the analysis of the typed pose")
+        typed = json.loads(_cli(capsys, "point", "hexaglide", f"--pose={u[k]:g},0,{v[k] + 50:g},0,0,0", "--json"))
+        assert abs(float(ab.text(driver, "k-kx")) - typed["k_N_per_um"]["x"]) <= 5e-4 + 1e-9 * typed["k_N_per_um"]["x"]
+        version = ab.geometry(driver)["version"]
+        ab.choose(driver, "option", "printed_values")
+        ab.wait_map(driver, version)
+        assert "hexaglide:printed_values --plane xz" in ab.text(driver, "commands")
+        assert not ab.text(driver, "error")
+
+        # no network: everything the page loaded came from the app itself (trame serves its own JS, CSS and fonts)
+        loaded = driver.execute_script("return performance.getEntriesByType('resource').map(e => e.name)")
+        assert loaded and all(x.startswith(url) for x in loaded), [x for x in loaded if not x.startswith(url)]
+        assert proc.poll() is None
+    assert time.monotonic() - t0 < 120  # about 35 s on two shared cores; the budget catches a hang early
