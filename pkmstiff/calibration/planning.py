@@ -36,7 +36,7 @@ from pkmstiff.machine import Machine
 
 OBJECTIVES = ("cond", "orthogonality", "O1", "O2", "O3", "O4", "O5")
 #: orientation nodes per turn of the hemisphere spiral when none are given (:func:`default_node_count`)
-NODES_PER_TURN = 2
+NODES_PER_TURN = 6
 
 
 @dataclass
