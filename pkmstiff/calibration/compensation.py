@@ -15,6 +15,7 @@ since a set-up error belongs to each measurement and not to the machine.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import hashlib
 from collections.abc import Sequence
@@ -24,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats, setup_at
-from pkmstiff.calibration.instruments import readings, target_points
+from pkmstiff.calibration.instruments import Setup, SetupState, readings, target_points
 from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.measurement import commanded_drives
 from pkmstiff.calibration.parameters import error_model
@@ -151,7 +152,19 @@ def predicted_readings(machine: Machine, controller: Machine, plan: Plan) -> np.
     """Readings (N, k) predicted by ``machine`` for the drive values ``controller`` commands for the plan's poses
     (nominal set-up of the plan)."""
     o, R, Rc = _reached_frames(machine, controller, plan)
-    return readings(plan.setup, plan.setup.state(), o, R, Rc)
+    return readings(plan.setup, placed_state(machine, controller, plan.setup), o, R, Rc)
+
+
+def placed_state(machine: Machine, controller: Machine, setup: Setup) -> SetupState:
+    """The nominal set-up state, with a fixed ball placed by the machine (:mod:`.setups`) where ``machine`` puts it
+    for the drive values ``controller`` commands at the placing pose."""
+    st = setup.state()
+    if setup.placing_pose is None:
+        return st
+    probe = Plan("placing pose", setup, setup.placing_pose[None, :])
+    (o,), (R,), _ = _reached_frames(machine, controller, probe)
+    (oc,), (Rc,), _ = _reached_frames(controller, controller, probe)
+    return dataclasses.replace(st, fixed_ball=st.fixed_ball + (o + R @ setup.target) - (oc + Rc @ setup.target))
 
 
 #: Gauss–Newton iterations of :func:`fit_setup` (the set-up model is smooth; 3–5 suffice from the nominal set-up)
@@ -173,8 +186,16 @@ def fit_setup(machine: Machine, controller: Machine, plan: Plan, measured: np.nd
     w = reading_weights(machine, inst, N)
     d = np.zeros(params.n)
     scale = params.scale[idx]
-    for _ in range(SETUP_FIT_ITERATIONS):
+    placed = placed_state(machine, controller, plan.setup)
+
+    def state(d: np.ndarray) -> SetupState:  # the set-up errors on top of where the machine placed the fixed ball
         st = perturbed_state(plan.setup, params, d)
+        if plan.setup.placing_pose is None:
+            return st
+        return dataclasses.replace(st, fixed_ball=st.fixed_ball + placed.fixed_ball - plan.setup.fixed_ball)
+
+    for _ in range(SETUP_FIT_ITERATIONS):
+        st = state(d)
         r = w * (y - readings(plan.setup, st, o, R, Rc).reshape(-1))
         J = np.zeros((N, k, params.n))
         inst.setup_jacobian(J, params, setup_at(plan.setup, params, d), R, target_points(st, o, R))
@@ -183,7 +204,7 @@ def fit_setup(machine: Machine, controller: Machine, plan: Plan, measured: np.nd
         d[idx] += scale * step
         if np.max(np.abs(step)) < 1e-12:  # scaled unknowns (1 mm, 1 mrad): below 1 fm
             break
-    r = w * (y - readings(plan.setup, perturbed_state(plan.setup, params, d), o, R, Rc).reshape(-1))
+    r = w * (y - readings(plan.setup, state(d), o, R, Rc).reshape(-1))
     return r, tuple((params.names[i], float(d[i]), params.units[i]) for i in idx)
 
 
