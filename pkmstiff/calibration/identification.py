@@ -290,7 +290,7 @@ def robust_weights(u: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray, np
 
 
 def robust_covariance(J: np.ndarray, r: np.ndarray, scale: float, kind: str) -> tuple[np.ndarray, float]:
-    """Huber's covariance of an M-estimate (Huber 1981 §7.6, eq. 6.5; statsmodels' RLM "H1"):
+    """Huber's covariance of an M-estimate (Huber 1981, Robust Statistics, §7.6; statsmodels' RLM "H1"):
 
         Σ = K² · [Σ ψ(u_i)² / (m − p)] / [(Σ ψ'(u_i) / m)²] · ŝ² (JᵀJ)⁻¹,   K = 1 + (p/m) var ψ' / (mean ψ')²,
 
