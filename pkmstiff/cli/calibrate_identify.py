@@ -159,11 +159,11 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
     (key ``diagnostics``, :func:`~pkmstiff.calibration.workflow.check_diagnostics`); ``deflection="gravity"``
     subtracts the deflection of the machine under test at the poses it reaches from the readings first;
     ``with_`` (``--with`` tokens) fits those set-up parameters of the measurement first."""
-    from pkmstiff.calibration.workflow import check_diagnostics
     from pkmstiff.calibration.compensation import check, measurement_plan
     from pkmstiff.calibration.deflection import check_deflection, subtract_deflection
     from pkmstiff.calibration.measurement_file import read_measurement
     from pkmstiff.calibration.parameters import parse_with
+    from pkmstiff.calibration.workflow import check_diagnostics
     from pkmstiff.errors import InputError
     from pkmstiff.machine import load_machine
 
