@@ -34,20 +34,21 @@ def test_plan_covers_every_item_once_with_tasks_of_whole_granules(items, us, job
     if p.parallel:
         assert 2 <= p.tasks == len(bounds) and p.workers <= min(jobs, p.tasks)
         assert p.task_items % granule == 0  # the serial run's chunks, so the same bytes
-        # every task but the last runs at least MIN_TASK_SECONDS at the measured cost (one granule may be less)
-        assert p.task_items * us * 1e-6 >= min(parallel.MIN_TASK_SECONDS, granule * us * 1e-6) * (1 - 1e-12)
+        # every task but the last runs at least MIN_LOCAL_TASK_SECONDS at the measured cost (one granule may be less)
+        least = parallel.MIN_LOCAL_TASK_SECONDS
+        assert p.task_items * us * 1e-6 >= min(least, granule * us * 1e-6) * (1 - 1e-12)
         # no more than TASKS_PER_WORKER tasks per worker unless a task is one granule already
         assert p.tasks <= jobs * parallel.TASKS_PER_WORKER + 1 or p.task_items == granule or \
-            p.task_items * us * 1e-6 < 2 * parallel.MIN_TASK_SECONDS + granule * us * 1e-6
+            p.task_items * us * 1e-6 < 2 * least + granule * us * 1e-6
     else:
-        assert jobs == 1 or items * us * 1e-6 < 2 * parallel.MIN_TASK_SECONDS + 2 * granule * us * 1e-6
+        assert jobs == 1 or items * us * 1e-6 < 2 * parallel.MIN_LOCAL_TASK_SECONDS + 2 * granule * us * 1e-6
 
 
 def test_plan_text_names_workers_tasks_and_task_size():
     p = parallel.plan(1_000_000, 50e-6, 2, granule=4096)
     assert p.parallel and p.workers == 2 and p.tasks == 8  # 50 s of work: 4 tasks per worker
     assert p.text() == f"2 local workers, 8 tasks of {p.task_items} points (≈ {p.task_items * 50e-6:.2f} s each)"
-    assert parallel.plan(1000, 50e-6, 2).text().startswith("serial")  # 0.05 s: not worth a worker
+    assert parallel.plan(300, 50e-6, 2).text().startswith("serial")  # 15 ms: not worth a worker
 
 
 def test_bad_n_jobs_is_one_clear_error():
@@ -80,12 +81,20 @@ def dask_address():
         yield c.scheduler_address
 
 
+def _split_small_work(monkeypatch):
+    """Split even the small work of these tests into tasks, locally and on Dask."""
+    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)
+    monkeypatch.setattr(parallel, "MIN_LOCAL_TASK_SECONDS", 0.0)
+    monkeypatch.setattr(parallel, "DASK_OVERHEAD_FACTOR", 0.0)
+    monkeypatch.setattr(parallel, "round_trip", lambda scheduler: 0.0)
+
+
 def _digests(folder: Path) -> dict[str, str]:
     return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir())}
 
 
 def test_section_files_are_the_same_bytes_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
-    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)  # split even this small section into tasks
+    _split_small_work(monkeypatch)  # split even this small section into tasks
     base = ["section", "hexaglide", "--plane", "yz", "--step", "10", "--range", "y=-200:600,z=-1130:-500",
             "--quantities", "kx,kappa", "--formats", "csv,npz,vtu", "--quiet"]
     runs = {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}
@@ -97,7 +106,7 @@ def test_section_files_are_the_same_bytes_for_any_jobs_and_dask(tmp_path, monkey
 
 
 def test_section_cost_line_states_the_plan(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)
+    _split_small_work(monkeypatch)
     assert main(["section", "hexaglide", "--plane", "yz", "--step", "10", "--jobs", "2", "--range",
                  "y=-200:600,z=-1130:-500", "--quantities", "kx", "--formats", "csv", "--out", str(tmp_path)]) == 0
     line = next(x for x in capsys.readouterr().err.splitlines() if x.startswith("pkmstiff section:"))
@@ -105,7 +114,7 @@ def test_section_cost_line_states_the_plan(tmp_path, monkeypatch, capsys):
 
 
 def test_sweep_csv_is_the_same_bytes_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
-    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)
+    _split_small_work(monkeypatch)
     for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
         assert main(["sweep", str(SWEEP), "--out", str(tmp_path / f"{name}.csv"), "--quiet", *extra]) == 0
     out = capsys.readouterr().out
@@ -115,7 +124,7 @@ def test_sweep_csv_is_the_same_bytes_for_any_jobs_and_dask(tmp_path, monkeypatch
 
 
 def test_workspace_oracle_gives_the_same_answer_and_counts_on_workers(monkeypatch):
-    monkeypatch.setattr(parallel, "MIN_TASK_SECONDS", 0.0)
+    _split_small_work(monkeypatch)
     m = load_machine("hexaglide")
     rng = np.random.default_rng(3)
     pts = np.column_stack([rng.uniform(-0.4, 0.9, 6000), rng.uniform(-0.3, 0.3, 6000), rng.uniform(-1.2, -0.5, 6000)])
@@ -146,6 +155,7 @@ def test_small_work_on_cold_dask_workers_stays_here_and_warms_them(monkeypatch):
     assert warmed == ["tcp://h:8786"]
     registered = []
     monkeypatch.setattr(parallel, "client", lambda s: type("C", (), {"register_plugin": registered.append})())
+    monkeypatch.setattr(parallel, "round_trip", lambda scheduler: 0.005)
     big = parallel.plan(1000, 0.1, scheduler="tcp://h:8786")  # 100 s: worth waiting for the warm-up
     assert big.parallel and big.workers == 2 and len(registered) == 1
     assert big.text("tasks", "batches").startswith("Dask (2 workers at tcp://h:8786), 8 batches of 125 tasks")
@@ -161,3 +171,86 @@ def test_progress_callback_reports_tasks_finished_out_of_order(monkeypatch, caps
         step(k)
     err = capsys.readouterr().err
     assert "section:" in err and "/4 tasks" in err and "(3/4 tasks)" in err
+
+
+def test_raster_rows_made_alone_are_the_same_bytes_as_the_whole_raster():
+    from pkmstiff.evaluation.sections import axis_plane
+
+    plane = axis_plane("yz", 0.1, (-0.2, 0.61), (-1.2, -0.5), 0.0125)
+    whole = plane.points()
+    for a, b in [(0, 7), (13, plane.size // 2), (plane.size - 5, plane.size)]:
+        assert np.array_equal(plane.points(a, b), whole[a:b])  # each worker makes its own rows of the raster
+
+
+def test_work_that_dask_would_not_finish_sooner_stays_here_and_the_plan_says_why(monkeypatch):
+    monkeypatch.setattr(parallel, "round_trip", lambda scheduler: 0.02)  # 20 ms per task: tasks of >= 0.4 s
+    monkeypatch.setattr(parallel, "_register_preload", lambda scheduler: None)
+    monkeypatch.setattr(parallel, "_dask_workers", lambda scheduler: (16, 0))  # 16 warm workers
+    tiny = parallel.plan(7, 0.05, scheduler="tcp://h:8786")  # 0.35 s: less than two tasks of 20 round trips
+    assert not tiny.parallel
+    assert tiny.text().startswith("serial: here ≈ 0.35 s, too little for two Dask tasks of ≥ 0.40 s (20 ms per task")
+    two = parallel.plan(3, 0.5, scheduler="tcp://h:8786")  # 1.5 s in tasks of 0.5 s on 2 workers: 1 wave
+    assert two.parallel and two.tasks == 3
+    monkeypatch.setattr(parallel, "_dask_workers", lambda scheduler: (2, 0))
+    slow = parallel.plan(3, 0.5, scheduler="tcp://h:8786")  # 2 waves of 0.5 s + 20 ms < 1.5 s: still worth it
+    assert slow.parallel
+    monkeypatch.setattr(parallel, "_dask_workers", lambda scheduler: (1, 0))
+    assert parallel.plan(100, 0.5, scheduler="tcp://h:8786").where == "serial: the Dask cluster has one worker thread"
+    monkeypatch.setattr(parallel, "_dask_workers", lambda scheduler: (16, 0))
+    big = parallel.plan(1000, 0.05, scheduler="tcp://h:8786")  # 50 s of work
+    assert big.parallel and big.task_items * 0.05 >= parallel.DASK_OVERHEAD_FACTOR * 0.02
+
+
+def _same_files_but_timing(a: Path, b: Path, summary: str) -> None:
+    """Every file of ``a`` and ``b`` the same bytes, the summary JSON the same but for run times and paths."""
+    import json
+
+    da, db = _digests(a), _digests(b)
+    assert da.keys() == db.keys() and len(da) >= 3
+    assert {k: v for k, v in da.items() if k != summary} == {k: v for k, v in db.items() if k != summary}
+    drop = ("run_time_s", "evaluation_time_s", "octree_overhead_s", "files", "time_prefilter_s", "time_pipeline_s",
+            "time_requirements_s")
+    ja, jb = (json.loads((f / summary).read_text()) for f in (a, b))
+    assert {k: v for k, v in ja.items() if k not in drop} == {k: v for k, v in jb.items() if k not in drop}
+
+
+def test_rotation_map_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
+    _split_small_work(monkeypatch)
+    base = ["rotation-map", "hexaglide", "--plane", "yz", "--range", "y=-200:900,z=-1200:-500", "--step", "50",
+            "--increment", "2", "--directions", "+a,-a,+b", "--no-plot"]
+    for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
+        assert main([*base, *extra, "--out", str(tmp_path / name)]) == 0
+    err = capsys.readouterr().err
+    assert "2 local workers, 3 tasks of 1 directions" in err  # the cost line states the plan
+    _same_files_but_timing(tmp_path / "1", tmp_path / "2", "rotation_map.json")
+    _same_files_but_timing(tmp_path / "1", tmp_path / "dask", "rotation_map.json")
+
+
+def test_workspace_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
+    _split_small_work(monkeypatch)
+    base = ["workspace", "hexaglide", "--resolution", "50", "--no-plot", "--quiet"]
+    for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
+        assert main([*base, *extra, "--out", str(tmp_path / name)]) == 0
+    capsys.readouterr()
+    _same_files_but_timing(tmp_path / "1", tmp_path / "2", "workspace.json")
+    _same_files_but_timing(tmp_path / "1", tmp_path / "dask", "workspace.json")
+
+
+def test_report_is_the_same_for_any_jobs_and_dask_and_its_cost_line_states_the_plan(tmp_path, monkeypatch, capsys,
+                                                                                   dask_address):
+    _split_small_work(monkeypatch)
+    spec = tmp_path / "mini.toml"
+    spec.write_text('[report]\ntitle = "mini"\nbaseline = "orig"\n\n[[variants]]\nname = "orig"\nmachine = "hexaglide"\n'
+                    'tool_length_mm = 150\n\n[[sections]]\nplane = "yz"\nat_mm = 0\nrange = "y=-200:800,z=-1100:-500"\n'
+                    'step_mm = 25\nquantities = ["kx", "U"]\nstatistics = ["min", "mean", "max", "area"]\nmaps = false\n')
+    runs = {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--jobs", "1", "--scheduler", dask_address]}
+    for name, extra in runs.items():
+        assert main(["report", str(spec), "--out", str(tmp_path / name), *extra]) == 0
+    err = capsys.readouterr().err
+    assert "; sections and workspace on 2 local workers, each split into tasks by its measured cost" in err
+    assert f"; sections and workspace on the Dask cluster {dask_address}, each split" in err
+    # the settings table names the jobs, the header the date and the run time; everything else is the same text
+    one, two, dask = ([x for x in (tmp_path / j / "report.md").read_text(encoding="utf-8").splitlines()
+                       if not x.startswith(("*pkmstiff ", "| run time |", "| date |"))] for j in runs)
+    assert len(one) == len(two) > 50 and [a for a, b in zip(one, two) if a != b] == ["| jobs | 1 |"]
+    assert dask == one

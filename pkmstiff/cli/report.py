@@ -23,9 +23,21 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     paths = run_spec(args.spec, Path(args.out), fast=args.fast, n_jobs=args.jobs, log=log,
                      scheduler=getattr(args, "scheduler", None),
-                     check=lambda cost: announce("report", cost, budget, quiet=args.quiet))
+                     check=lambda cost: announce("report", cost, budget, quiet=args.quiet, plan=_plan(args)))
     print(f"pkmstiff report: wrote {paths['html']} and {paths['md']} ({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+def _plan(args: argparse.Namespace) -> str:
+    """The cost line's plan: where the sections and the workspace run (each splits itself into tasks by its measured
+    cost, :mod:`pkmstiff.evaluation.parallel`; figures and the report files are made here)."""
+    if args.scheduler:
+        where = f"on the Dask cluster {args.scheduler}"
+    elif args.jobs is None:
+        where = "with the spec's options.jobs"
+    else:
+        where = "serially" if args.jobs == 1 else f"on {args.jobs if args.jobs > 0 else 'all'} local workers"
+    return f"sections and workspace {where}, each split into tasks by its measured cost; figures here"
 
 
 def add_commands(sub) -> None:

@@ -89,7 +89,8 @@ def _machine_section(args: argparse.Namespace) -> int:
         from pkmstiff.workspace.windows import window_ranges
 
         ranges = dict(zip(plane_kind, window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori,
-                                                    args.frame, checks)))
+                                                    args.frame, checks, n_jobs=args.jobs,
+                                                    scheduler=getattr(args, "scheduler", None))))
         fitted = True
     else:
         fitted = False

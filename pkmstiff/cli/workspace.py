@@ -191,7 +191,8 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     req = WorkspaceRequest(eps, box, tuple(_requirements(args)), tuple(ori), DEFAULT_METHODS, frame=args.frame,
                            neglect_spindle=args.neglect_spindle, skip_checks=tuple(args.skip_check))
     with _octree_input_errors():
-        cost = req.cost(machine, n_ori, **options)  # a pilot octree: input errors surface here, before the work
+        # a pilot octree (in the workers too): input errors surface here, before the work
+        cost = req.cost(machine, n_ori, n_jobs=jobs, scheduler=scheduler, **options)
     if args.out and not args.no_plot:
         cost = cost.plus(FIGURE_3D_LIBRARY_SECONDS + FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
     # the finest level holds about half the evaluations: it sets the plan (20,000 poses per oracle chunk)
@@ -272,7 +273,7 @@ def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict
 
 
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
-    from pkmstiff.cli.edges import announce, check_output_dir, parse_budget
+    from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import ArgumentError
     from pkmstiff.evaluation.cost import admissible_fraction, plane_points, rotation_map_cost
     from pkmstiff.evaluation.sections import raster, raster_count
@@ -297,6 +298,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                             f"found {args.directions!r}")
     method = {"pc": "predictor_corrector", "predictor_corrector": "predictor_corrector", "plain": "plain"}[args.method]
     budget = parse_budget(getattr(args, "memory_budget", None))
+    jobs, scheduler = check_jobs(args.jobs), args.scheduler
     if args.point:
         if len(dirs) != 1 or len(dirs[0]) != 2:
             raise ArgumentError("--point (rotational workspace): expected exactly one single-axis direction, "
@@ -321,8 +323,9 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                            to_machine_frame(machine, origin, args.frame), ua, va)
         frac = admissible_fraction(machine, pts, ori, checks_without(args.skip_check, "--skip-check"))
     cost = rotation_map_cost(nu * nv, frac, nu + nv - 1, len(dirs), inc, amax, method == "plain", args.verify)
+    plan = predicted_plan(len(dirs), cost.seconds, jobs, scheduler, "directions")  # directions are the tasks
     announce("rotation-map", cost.named(f"{len(dirs)} direction(s) on {nu * nv:,} raster points, increment "
-                                        f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json)
+                                        f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json, plan=plan)
     t0 = time.perf_counter()
     try:
         if args.point:
@@ -342,7 +345,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
             req = RotationMapRequest(tuple(origin), tuple(ua), tuple(va), tuple(u), tuple(v), tuple(dirs), tuple(ori),
                                      inc, amax, tuple(_requirements(args)), method, frame=args.frame,
                                      skip_checks=tuple(args.skip_check))
-            res = req.evaluate(machine, verify=args.verify)
+            res = req.evaluate(machine, verify=args.verify, n_jobs=jobs, scheduler=scheduler)
             labels = (f"{args.plane[0]} [mm]", f"{args.plane[1]} [mm]")
             scale = (1e3, 1e3)
             title = (f"{machine.name}: max. rotation angles on the {args.plane.upper()} plane at "
@@ -474,6 +477,10 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--no-plot", action="store_true", help="no PNG figure")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--jobs", type=int, default=1,
+                   help="parallel processes: the directions are searched side by side (-1: all cores; default 1)")
+    p.add_argument("--scheduler", default=None, metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: search the directions on that cluster")
     p.add_argument("--force", action="store_true", help="overwrite an earlier result in --out")
     from pkmstiff.cli.edges import add_budget_argument
     from pkmstiff.cli.frame_options import add_frame_argument, add_skip_check_argument, add_spindle_argument

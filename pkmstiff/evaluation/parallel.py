@@ -26,6 +26,7 @@ import os
 import pickle
 import sys
 import time
+import weakref
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -37,8 +38,14 @@ from pkmstiff.errors import ArgumentError, ResourceError
 
 T = TypeVar("T")
 
-#: a task should run at least this long (s): below it, sending it and collecting its result cost a noticeable share
+#: a Dask task should run at least this long (s): below it, sending it and collecting its result cost a noticeable
+#: share (and at least :data:`DASK_OVERHEAD_FACTOR` times the measured round trip of an empty task)
 MIN_TASK_SECONDS = 0.2
+#: a task in the local (forked) pool should run at least this long (s): a local task costs ~1 ms to send and collect
+#: (measured), so 20 ms keeps that below 5 % while 16 workers still get several tasks each of a 2 s section
+MIN_LOCAL_TASK_SECONDS = 0.02
+#: Dask tasks last at least this many measured round trips of an empty task: the scheduler's share stays below 5 %
+DASK_OVERHEAD_FACTOR = 20
 #: seconds a fresh (cold) Dask worker needs to import pkmstiff and load the compiled kernels from the on-disk cache
 #: (measured ~2.6 s on the shared 2-core machine): work shorter than that stays here while the workers warm up
 COLD_WORKER_SECONDS = 3.0
@@ -82,22 +89,41 @@ def resolve_workers(n_jobs: int) -> int:
 
 def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None, granule: int = 1) -> Plan:
     """Split ``items`` items (each ``item_seconds`` s, measured) into tasks for ``n_jobs`` local workers or a Dask
-    cluster: tasks of a whole number of ``granule`` items, each ≥ :data:`MIN_TASK_SECONDS`, about
-    :data:`TASKS_PER_WORKER` per worker. Too little work for two such tasks runs serially (workers=1, tasks=1)."""
-    workers, cold = _dask_workers(scheduler) if scheduler is not None else (resolve_workers(n_jobs), 0)
-    where = "local" if scheduler is None else f"Dask ({workers} workers at {_address(scheduler)})"
-    if cold and items * item_seconds < COLD_WORKER_SECONDS + items * item_seconds / workers:
-        _warm_in_background(scheduler)  # not worth waiting for them now; warm for the next run
-        return Plan(items, 1, min(items, 1), items, item_seconds, "serial: the Dask workers are still cold")
+    cluster: tasks of a whole number of ``granule`` items, each ≥ :data:`MIN_LOCAL_TASK_SECONDS` (local) or
+    ≥ :data:`MIN_TASK_SECONDS` and :data:`DASK_OVERHEAD_FACTOR` measured round trips (Dask), about
+    :data:`TASKS_PER_WORKER` per worker. Too little work for two such tasks runs serially (workers=1, tasks=1), and
+    so does work that the cluster would not finish sooner than this process (its text says why)."""
+    work = items * max(item_seconds, 0.0)
+    rtt = 0.0
+    if scheduler is None:
+        workers, least_seconds, where = resolve_workers(n_jobs), MIN_LOCAL_TASK_SECONDS, "local"
+    else:
+        workers, cold = _dask_workers(scheduler)
+        where = f"Dask ({workers} workers at {_address(scheduler)})"
+        if cold and work < COLD_WORKER_SECONDS + work / workers:
+            _warm_in_background(scheduler)  # not worth waiting for them now; warm for the next run
+            return Plan(items, 1, min(items, 1), items, item_seconds, "serial: the Dask workers are still cold")
+        rtt = round_trip(scheduler)
+        least_seconds = max(MIN_TASK_SECONDS, DASK_OVERHEAD_FACTOR * rtt)
     granules = math.ceil(items / granule) if items else 0
     per_granule = max(item_seconds, 0.0) * granule
-    least = max(1, math.ceil(MIN_TASK_SECONDS / per_granule)) if per_granule > 0 else 1
+    least = max(1, math.ceil(least_seconds / per_granule)) if per_granule > 0 else 1
     size = max(least, math.ceil(granules / (workers * TASKS_PER_WORKER))) if workers > 1 else granules
     tasks = math.ceil(granules / size) if size else 0
+    if tasks < 2 and scheduler is not None and items:
+        return Plan(items, 1, 1, items, item_seconds,
+                    f"serial: here ≈ {work:.2f} s, too little for two Dask tasks of ≥ {least_seconds:.2f} s "
+                    f"({rtt * 1e3:.0f} ms per task measured)" if workers > 1 else "serial: the Dask cluster has one "
+                    "worker thread")
     if tasks < 2:
         return Plan(items, 1, min(tasks, 1), items, item_seconds)
-    if scheduler is not None:  # waits until every worker is warm (warm ones answer at once)
-        client(scheduler).register_plugin(PreloadPlugin())
+    if scheduler is not None:
+        on_dask = math.ceil(tasks / workers) * (size * per_granule + rtt)  # waves of tasks, each with its round trip
+        if on_dask >= work:
+            return Plan(items, 1, 1, items, item_seconds,
+                        f"serial: here ≈ {work:.2f} s, on Dask ≈ {on_dask:.2f} s ({rtt * 1e3:.0f} ms per task "
+                        f"measured)")
+        _register_preload(scheduler)  # waits until every worker is warm (warm ones answer at once)
     return Plan(items, min(workers, tasks), tasks, size * granule, item_seconds, where)
 
 
@@ -146,15 +172,17 @@ _WARM = False
 
 
 def warm_up() -> None:
-    """Import what workers run and load the compiled kernels from the on-disk cache by evaluating one small section
-    (once per process; forked workers inherit both from the process that forks them)."""
+    """Import what workers run and load the compiled kernels from the on-disk cache (once per process; forked workers
+    inherit both from the process that forks them): build a machine from its file, as a sweep's variants are built
+    (the builder's imports), and evaluate a section of 441 points on it — enough that the compiled kernels, not the
+    interpreted ones of small calls (:mod:`pkmstiff.kinematics.dispatch`), run and load."""
     global _WARM
     if _WARM:
         return
     from pkmstiff.evaluation.sections import axis_plane, evaluate_section
-    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.machine.variants import machine_with
 
-    evaluate_section(load_machine("hexaglide"), axis_plane("yz", 0.0, (0.0, 0.1), (-1.0, -0.9), 0.05), ["kx", "f1"],
+    evaluate_section(machine_with("hexaglide"), axis_plane("yz", 0.0, (0.0, 0.1), (-1.0, -0.9), 0.005), ["kx", "f1"],
                      progress=False)
     _WARM = True
 
@@ -252,6 +280,36 @@ def _dask_workers(scheduler: Any) -> tuple[int, int]:
             sum(1 for v in warm.values() if not v))
 
 
+_ROUND_TRIP: dict[str, float] = {}
+_REGISTERED: weakref.WeakSet = weakref.WeakSet()  # clients that registered the plugin
+
+
+def _noop() -> None:
+    return None
+
+
+def round_trip(scheduler: Any) -> float:
+    """Seconds to submit an empty task to the cluster and collect its result (best of three, measured once per
+    address): the scheduler's overhead per task."""
+    key = _address(scheduler)
+    if key not in _ROUND_TRIP:
+        c, best = client(scheduler), float("inf")
+        for _ in range(3):
+            t0 = time.perf_counter()
+            c.submit(_noop, pure=False).result()
+            best = min(best, time.perf_counter() - t0)
+        _ROUND_TRIP[key] = best
+    return _ROUND_TRIP[key]
+
+
+def _register_preload(scheduler: Any) -> None:
+    """Register :class:`PreloadPlugin` once per client (it then also warms workers that join later)."""
+    c = client(scheduler)
+    if c not in _REGISTERED:
+        c.register_plugin(PreloadPlugin())
+        _REGISTERED.add(c)
+
+
 def _warm_in_background(scheduler: Any) -> None:
     """One warm-up task per cold worker, not waited for."""
     from distributed import fire_and_forget
@@ -284,10 +342,24 @@ def dask_setup(worker: Any) -> None:
 
 
 # ------------------------------------------------------------------------------------------------------------- run
+_MEANWHILE_CPU = [0.0]
+
+
+def meanwhile_cpu_seconds() -> float:
+    """CPU seconds this process has spent in :func:`run_tasks`' ``meanwhile`` work while its workers ran (parallel
+    work done here: a benchmark's serial fraction leaves it out)."""
+    return _MEANWHILE_CPU[0]
+
+
 def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, scheduler: Any = None,
-              progress: Callable[[int], None] | None = None) -> list[T]:
+              progress: Callable[[int], None] | None = None, *,
+              meanwhile: Callable[[], None] | None = None) -> list[T]:
     """``[fn(*args) for args in payloads]`` in order: in this process (serial plan), in the local pool or on the Dask
-    cluster. ``progress(k)`` is called after each finished task (any order) with the number finished."""
+    cluster. ``progress(k)`` is called after each finished task (any order) with the number finished.
+    ``meanwhile()`` runs in this process once the tasks are submitted (first, for a serial plan): work of its own
+    that would otherwise make the workers wait."""
+    if meanwhile is not None and not (payloads and p.parallel):
+        meanwhile()
     if not payloads:
         return []
     if not p.parallel:
@@ -307,6 +379,10 @@ def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, schedule
         except BrokenProcessPool as exc:
             _POOLS.pop(p.workers, None)
             raise ResourceError(f"local worker pool broke: {exc}") from None
+    if meanwhile is not None:
+        c0 = time.thread_time()  # this thread's CPU only: the pool's own threads are not the meanwhile work
+        meanwhile()
+        _MEANWHILE_CPU[0] += time.thread_time() - c0
     if progress:
         _report_progress(futures, progress, scheduler is not None)
     try:
@@ -326,6 +402,8 @@ def _report_progress(futures: list, progress: Callable[[int], None], dask: bool)
 
 
 __all__ = [
+    "DASK_OVERHEAD_FACTOR",
+    "MIN_LOCAL_TASK_SECONDS",
     "MIN_TASK_SECONDS",
     "TASKS_PER_WORKER",
     "Plan",
@@ -333,9 +411,11 @@ __all__ = [
     "Shared",
     "client",
     "connected",
+    "meanwhile_cpu_seconds",
     "plan",
     "pool",
     "resolve_workers",
+    "round_trip",
     "run_tasks",
     "shutdown",
     "split",

@@ -74,9 +74,17 @@ class Plane:
     def normal(self) -> np.ndarray:
         return np.cross(self.u_axis, self.v_axis)
 
-    def points(self) -> np.ndarray:
-        """Raster points (nv * nu, 3) in m, row-major: index = iv * nu + iu."""
-        uu, vv = np.meshgrid(self.u_values, self.v_values)
+    @property
+    def size(self) -> int:
+        """Number of raster points nv * nu."""
+        return len(self.v_values) * len(self.u_values)
+
+    def points(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Raster points ``start`` … ``stop`` - 1 (default all, (nv * nu, 3)) in m, row-major: index = iv * nu + iu.
+        A range is computed alone (a worker makes its own points) and gives the same bytes as those rows of all."""
+        idx = np.arange(start, self.size if stop is None else stop)
+        nu = len(self.u_values)
+        uu, vv = self.u_values[idx % nu], self.v_values[idx // nu]
         return self.origin + uu.reshape(-1, 1) * self.u_axis + vv.reshape(-1, 1) * self.v_axis
 
     @property
@@ -235,14 +243,15 @@ def _evaluate_chunk(machine: Machine, poses: np.ndarray, names: Sequence[str], t
     return ok, ev.admissibility.reasons, vals
 
 
-def _evaluate_task(machine: parallel.Shared[Machine], poses: np.ndarray, chunk_size: int, names: Sequence[str],
-                   tool_length: float | None, options: dict[str, Any],
-                   checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One parallel task: consecutive chunks of ``chunk_size`` poses (the chunks the serial run evaluates, so the
-    values are the same bytes), returned as three compact arrays."""
+def _evaluate_task(machine: parallel.Shared[Machine], raster: tuple[Plane, np.ndarray, np.ndarray], start: int,
+                   stop: int, chunk_size: int, names: Sequence[str], tool_length: float | None,
+                   options: dict[str, Any], checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One task: raster points ``start`` … ``stop`` - 1 of ``raster`` = (plane, orientation, frame origin), made here
+    and evaluated in consecutive chunks of ``chunk_size`` (the chunks the serial run evaluates), returned as three
+    compact arrays."""
     m = machine.get()
-    parts = [_evaluate_chunk(m, poses[s:s + chunk_size], names, tool_length, options, checks)
-             for s in range(0, len(poses), chunk_size)]
+    parts = [_evaluate_chunk(m, _raster_poses(raster, a, min(a + chunk_size, stop)), names, tool_length, options,
+                             checks) for a in range(start, stop, chunk_size)]
     return _concat(parts)
 
 
@@ -251,10 +260,19 @@ def _concat(parts: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> tuple
             np.concatenate([p[2] for p in parts], axis=1))
 
 
-def section_poses(plane: Plane, orientation: Iterable[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
-    pts = plane.points()
+def section_poses(plane: Plane, orientation: Iterable[float] = (0.0, 0.0, 0.0), start: int = 0,
+                  stop: int | None = None) -> np.ndarray:
+    """Poses (n, 6) of raster points ``start`` … ``stop`` - 1 (default all) of ``plane`` at ``orientation``."""
+    pts = plane.points(start, stop)
     ori = np.broadcast_to(np.asarray(orientation, float), (len(pts), 3))
     return np.concatenate([pts, ori], axis=1)
+
+
+def _raster_poses(raster: tuple[Plane, np.ndarray, np.ndarray], start: int, stop: int) -> np.ndarray:
+    plane, orientation, offset = raster
+    poses = section_poses(plane, orientation, start, stop)
+    poses[:, :3] += offset
+    return poses
 
 
 def evaluate_section(
@@ -274,9 +292,10 @@ def evaluate_section(
     """Evaluate ``quantities`` (names, see :mod:`pkmstiff.evaluation.quantities`) on a plane, masked by admissibility.
 
     ``orientation`` = (a, b, c) in rad, fixed over the plane; ``tool_length`` in m (None: the machine's).
-    ``n_jobs`` > 1 (-1: all cores) evaluates the chunks in the run's worker pool, ``scheduler`` (a Dask address or
-    client) on a cluster (:mod:`pkmstiff.evaluation.parallel`): the first chunk runs here and its measured time sizes
-    the tasks (too little work stays serial). Every chunk is evaluated alone whatever the plan, so the result is the
+    ``n_jobs`` > 1 (-1: all cores) evaluates the chunks in the run's worker pool, in tasks of whole chunks, about
+    four per worker, while the first chunk runs here; ``scheduler`` (a Dask address or client) on a cluster
+    (:mod:`pkmstiff.evaluation.parallel`): the first chunk runs here first and its measured time sizes the tasks (too
+    little work stays serial). Every chunk is evaluated alone whatever the plan, so the result is the
     same bytes for any ``n_jobs``/``scheduler``; ``result.plan`` keeps the plan (not written to files).
     ``progress``: None = a progress bar only on a terminal when the section is large.
     ``checks``: the admissibility checks to apply (default all, see :data:`pkmstiff.admissibility.checks.ALL_CHECKS`).
@@ -286,8 +305,8 @@ def evaluate_section(
     names = list(dict.fromkeys(quantities))
     qs = {n: get_quantity(n) for n in names}  # raises early for unknown names
     parallel.resolve_workers(n_jobs)
-    poses = section_poses(plane, orientation)
-    poses[:, :3] += frame_origin(machine, frame)
+    raster = (plane, np.asarray(orientation, float), np.asarray(frame_origin(machine, frame), float))
+    n = plane.size
     opts = dict(options or {})
     # K_U left out is the machine's field (pkmstiff.machine.frames.neglect_spindle): every quantity honours it; the
     # settings state it
@@ -295,18 +314,34 @@ def evaluate_section(
     if machine.spindle_neglected:
         settings["neglect_spindle"] = True
     if progress is None:  # a bar on a terminal, periodic lines otherwise (pkmstiff.evaluation.progress)
-        progress = len(poses) * (1 + len(names)) > 20_000
-    t0 = time.perf_counter()
-    first = _evaluate_chunk(machine, poses[:chunk_size], names, tool_length, opts, checks)
-    n_first = min(chunk_size, len(poses))
-    rest = poses[n_first:]
+        progress = n * (1 + len(names)) > 20_000
+    n_first = min(chunk_size, n)
+    rest = n - n_first
+    first: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    seconds = [0.0]
+
+    def run_first() -> None:
+        t0 = time.perf_counter()
+        first.append(_evaluate_chunk(machine, _raster_poses(raster, 0, n_first), names, tool_length, opts, checks))
+        seconds[0] = (time.perf_counter() - t0) / n_first
+
+    # local workers: tasks of whole chunks (a chunk outlasts a local task's overhead), sent before the first chunk is
+    # evaluated here meanwhile; on Dask the first chunk's measured time decides whether the cluster pays
+    ahead = scheduler is None and parallel.resolve_workers(n_jobs) > 1
+    if not ahead:
+        run_first()
     with parallel.connected(scheduler):
-        plan = parallel.plan(len(rest), (time.perf_counter() - t0) / n_first, n_jobs, scheduler, granule=chunk_size)
-        bounds = parallel.split(len(rest), plan if plan.parallel else dataclasses.replace(plan, task_items=chunk_size))
+        plan = parallel.plan(rest, parallel.MIN_LOCAL_TASK_SECONDS / chunk_size if ahead else seconds[0], n_jobs,
+                             scheduler, granule=chunk_size)
+        bounds = parallel.split(rest, plan if plan.parallel else dataclasses.replace(plan, task_items=chunk_size))
         shared = parallel.Shared(machine)
-        payloads = [(shared, rest[a:b], chunk_size, names, tool_length, opts, checks) for a, b in bounds]
+        payloads = [(shared, raster, n_first + a, n_first + b, chunk_size, names, tool_length, opts, checks)
+                    for a, b in bounds]
         step = progress_callback(len(payloads), progress, "section", "task" if plan.parallel else "chunk")
-        parts = [first, *parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step)]
+        parts = parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step,
+                                   meanwhile=run_first if ahead else None)
+    parts = [*first, *parts]
+    plan = dataclasses.replace(plan, item_seconds=seconds[0])
     ok, reasons, vals = _concat(parts)
     shape = plane.shape
     return SectionResult(
@@ -315,7 +350,7 @@ def evaluate_section(
         si_units={n: q.si_unit for n, q in qs.items()}, labels={n: q.label for n, q in qs.items()},
         ok=ok.reshape(shape), reasons=reasons.reshape(shape),
         settings={**settings, "near_singular_kappa": near_singular_limit(machine)},
-        frame=frame_metadata(machine, frame), plan=dataclasses.replace(plan, items=len(poses)),
+        frame=frame_metadata(machine, frame), plan=dataclasses.replace(plan, items=n),
         kappa=vals[-1].reshape(shape),
     )
 

@@ -33,7 +33,15 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 import numpy as np
 
 from pkmstiff.errors import ArgumentError
-from pkmstiff.evaluation.parallel import Plan, connected, plan, run_tasks, split
+from pkmstiff.evaluation.parallel import (
+    MIN_LOCAL_TASK_SECONDS,
+    Plan,
+    connected,
+    plan,
+    resolve_workers,
+    run_tasks,
+    split,
+)
 from pkmstiff.evaluation.progress import callback as progress_callback
 from pkmstiff.io.atomic import atomic_open, atomic_write_text
 from pkmstiff.io.columns import label_column, sidecar_path, text_cell
@@ -354,16 +362,32 @@ def _run_batch(tasks: Sequence[SweepTask]) -> list[dict[str, Any]]:
 
 
 def _run(tasks: Sequence[SweepTask], n_jobs: int, scheduler: Any, progress: bool) -> tuple[list[dict[str, Any]], Plan]:
-    """Rows in task order: the first task runs here and its measured time sizes batches of the others
-    (:func:`pkmstiff.evaluation.parallel.plan`; too little work stays serial)."""
+    """Rows in task order. On Dask or serially the first task runs here and its measured time sizes batches of the
+    others (:func:`pkmstiff.evaluation.parallel.plan`; too little work stays serial). In the local pool the others
+    are sent at once, in batches sized as if a task took :data:`~pkmstiff.evaluation.parallel.MIN_LOCAL_TASK_SECONDS`
+    (a sweep task builds and evaluates a machine: far longer), and the first runs here meanwhile, so that the workers
+    do not wait for it; its time is the plan's measured cost."""
+    first: list[dict[str, Any]] = []
     t0 = time.perf_counter()
-    rows = [run_task(tasks[0])] if tasks else []
     rest = list(tasks[1:])
-    p = plan(len(rest), time.perf_counter() - t0, n_jobs, scheduler)
+    ahead = scheduler is None and len(rest) > 1 and resolve_workers(n_jobs) > 1
+    if ahead:
+        p = plan(len(rest), MIN_LOCAL_TASK_SECONDS, n_jobs)
+    else:
+        first = [run_task(tasks[0])] if tasks else []
+        p = plan(len(rest), time.perf_counter() - t0, n_jobs, scheduler)
     batches = split(len(rest), p if p.parallel else replace(p, task_items=1))
     step = progress_callback(len(batches), progress, "sweep" if scheduler is None else "sweep (dask)", "batch")
-    done = run_tasks(_run_batch, [(rest[a:b],) for a, b in batches], p, scheduler, step)
-    return rows + [r for batch in done for r in batch], replace(p, items=len(tasks))
+
+    def run_first() -> None:
+        t = time.perf_counter()
+        first.append(run_task(tasks[0]))
+        nonlocal p
+        p = replace(p, item_seconds=time.perf_counter() - t)
+
+    done = run_tasks(_run_batch, [(rest[a:b],) for a, b in batches], p, scheduler, step,
+                     meanwhile=run_first if ahead else None)
+    return first + [r for batch in done for r in batch], replace(p, items=len(tasks))
 
 
 def run_sweep(sweep: Sweep | Sequence[SweepTask], *, n_jobs: int = 1, scheduler: Any = None,

@@ -33,7 +33,8 @@ base check); ``plain_sequential[dir]`` = what a plain search stopping at the fir
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+import time
+from dataclasses import dataclass, field, replace
 from typing import Any, Iterable, Literal, Sequence
 
 import numpy as np
@@ -41,6 +42,7 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.errors import ArgumentError
+from pkmstiff.evaluation import parallel
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.oracle import EvaluationStats, staged_admissible
 from pkmstiff.workspace.requirements import Requirement, parse_requirements
@@ -51,6 +53,10 @@ DIRECTIONS: dict[str, tuple[int, int, int]] = {
 }
 SIX_DIRECTIONS = ("+a", "-a", "+b", "-b", "+a+b", "-a-b")
 Method = Literal["predictor_corrector", "plain"]
+#: the time of one direction's search in units of the base check of the raster (measured ≈ 6–7 on the Hexaglide's
+#: documented 25 mm map: ~3 poses per admissible point plus one batch per anti-diagonal step): sizes the parallel
+#: tasks before any search has run
+POSES_PER_POINT = 6.0
 
 
 
@@ -73,6 +79,8 @@ class RotationMapResult:
     max_angle: float
     method: str
     settings: dict[str, Any] = field(default_factory=dict)
+    #: how the directions were split over workers (:mod:`pkmstiff.evaluation.parallel`); not part of the written results
+    plan: parallel.Plan | None = None
 
     @property
     def angle(self) -> np.ndarray:
@@ -148,8 +156,15 @@ def angle_search(
     method: Method = "predictor_corrector",
     verify: bool = False,
     block: int = 8,
+    n_jobs: int = 1,
+    scheduler: Any = None,
 ) -> RotationMapResult:
-    """Maximum admissible angles from ``base_poses`` (nv, nu, 6) on the raster (u_values, v_values); see module doc."""
+    """Maximum admissible angles from ``base_poses`` (nv, nu, 6) on the raster (u_values, v_values); see module doc.
+
+    ``n_jobs`` > 1 (-1: all cores) / ``scheduler`` (Dask): the directions are searched as separate tasks in the run's
+    worker pool / on the cluster (:mod:`pkmstiff.evaluation.parallel`; the searches of different directions do not
+    interact, so the angles and counts are the same whatever the plan); the base check runs here and its measured
+    time, times :data:`POSES_PER_POINT`, sizes the tasks; ``result.plan`` keeps the plan."""
     u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
     base = np.asarray(base_poses, float)
     if base.shape != (v.size, u.size, 6) or not np.isfinite(base).all():
@@ -166,19 +181,24 @@ def angle_search(
     K = int(math.floor(max_angle / increment + 1e-9))
     dvec = np.zeros((len(dirs), 6))
     dvec[:, 3:] = np.array([DIRECTIONS[d] for d in dirs], float)
+    parallel.resolve_workers(n_jobs)
     ev = _Evaluator(machine, checks, reqs)
     nv, nu = base.shape[:2]
     flat = base.reshape(-1, 6)
+    t0 = time.perf_counter()
     base_ok = ev(flat)
     base_evals = flat.shape[0]
-    kbest = np.full((flat.shape[0], len(dirs)), -1, np.int64)  # -1 = outside
-    evals = np.zeros(len(dirs), np.int64)
-    fixes = np.zeros(len(dirs), np.int64)
-    if method == "plain":
-        _plain(ev, flat, base_ok, dvec, increment, K, block, kbest, evals)
-    else:
-        _predictor_corrector(ev, flat.reshape(nv, nu, 6), base_ok.reshape(nv, nu), u, v, dvec, increment, K,
-                             verify, kbest.reshape(nv, nu, -1), evals, fixes)
+    search = (u, v, increment, K, method, verify, block)
+    with parallel.connected(scheduler):
+        p = parallel.plan(len(dirs), (time.perf_counter() - t0) * POSES_PER_POINT, n_jobs, scheduler)
+        if p.parallel:
+            shared = parallel.Shared(machine)
+            parts = parallel.run_tasks(_search_task, [(shared, checks, reqs, flat.reshape(nv, nu, 6), base_ok, dvec[a:b],
+                                                       search) for a, b in parallel.split(len(dirs), p)], p, scheduler)
+            kbest, evals, fixes = (np.concatenate([part[i] for part in parts], axis=-1 if i == 0 else 0)
+                                   for i in range(3))
+        else:
+            kbest, evals, fixes = _search(ev, flat.reshape(nv, nu, 6), base_ok, dvec, search)
     angles, at_limit, plain_seq = {}, {}, {}
     for j, d in enumerate(dirs):
         k = kbest[:, j]
@@ -191,7 +211,31 @@ def angle_search(
     return RotationMapResult(u, v, base, angles, at_limit, base_ok.reshape(nv, nu),
                              {d: int(evals[j]) for j, d in enumerate(dirs)}, plain_seq, base_evals,
                              {d: int(fixes[j]) for j, d in enumerate(dirs)}, float(increment), float(max_angle),
-                             method, settings)
+                             method, settings, plan=replace(p, items=len(dirs)))
+
+
+def _search(ev: _Evaluator, base: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray,
+            search: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(kbest (P, D) last admissible increment, -1 outside; evaluations (D,); corrections (D,)) of the directions
+    ``dvec`` (D, 6) from the base poses (nv, nu, 6) with admissibility ``base_ok`` (P,)."""
+    u, v, inc, K, method, verify, block = search
+    nv, nu = base.shape[:2]
+    D = dvec.shape[0]
+    kbest = np.full((nv * nu, D), -1, np.int64)  # -1 = outside
+    evals, fixes = np.zeros(D, np.int64), np.zeros(D, np.int64)
+    if method == "plain":
+        _plain(ev, base.reshape(-1, 6), base_ok, dvec, inc, K, block, kbest, evals)
+    else:
+        _predictor_corrector(ev, base, base_ok.reshape(nv, nu), u, v, dvec, inc, K, verify, kbest.reshape(nv, nu, -1),
+                             evals, fixes)
+    return kbest, evals, fixes
+
+
+def _search_task(machine: parallel.Shared[Machine], checks: Sequence[str], reqs: Sequence[Requirement],
+                 base: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray,
+                 search: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One task: :func:`_search` of some directions in a worker."""
+    return _search(_Evaluator(machine.get(), checks, reqs), base, base_ok, dvec, search)
 
 
 def _plain(ev: _Evaluator, flat: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray, inc: float, K: int,

@@ -5,26 +5,27 @@ gives the in-plane extent of the admissible region, so that a default section ne
 from __future__ import annotations
 
 import math
-from typing import Iterable, Sequence
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 
 from pkmstiff.admissibility.checks import ALL_CHECKS
-from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import ArgumentError
-from pkmstiff.evaluation.sections import axis_plane, section_poses
+from pkmstiff.evaluation.sections import axis_plane, evaluate_section
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.translational import reach_box
 
 #: coarse raster points along the longer in-plane side of the reach box
 COARSE_POINTS = 120
+#: raster points per chunk of the coarse pass (its ~10,000 points then make tasks for several workers)
+COARSE_CHUNK = 512
 #: windows are rounded outward to multiples of this length (m), so that titles and ticks show round numbers
 ROUND_TO = 0.01
 
 
 def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[float] = (0.0, 0.0, 0.0),
-               margin_steps: float = 1.5, checks: Sequence[str] = ALL_CHECKS,
-               ) -> tuple[tuple[float, float], tuple[float, float]]:
+               margin_steps: float = 1.5, checks: Sequence[str] = ALL_CHECKS, n_jobs: int = 1,
+               scheduler: Any = None) -> tuple[tuple[float, float], tuple[float, float]]:
     """In-plane ranges (m) of plane ``kind`` ('yz', 'xz', 'xy') at ``at`` (m) that contain the admissible region.
 
     A raster of :data:`COARSE_POINTS` points along the longer side of the chains' reach box
@@ -34,14 +35,17 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
     :data:`ROUND_TO`. It is not clipped to the reach box: where the region ends at a frame limit, the margin shows
     inadmissible points, so the window's edge never cuts the region. Raises :class:`ArgumentError` when no coarse
     point is admissible.
-    ``checks``: the admissibility checks that define the region (those the section will apply).
+    ``checks``: the admissibility checks that define the region (those the section will apply). ``n_jobs`` /
+    ``scheduler``: the coarse pass runs in the run's worker pool / on a Dask cluster like a section
+    (:func:`~pkmstiff.evaluation.sections.evaluate_section`); the window is the same whatever the plan.
     """
     kind = kind.lower()
     lo, hi = reach_box(machine)
     iu, iv = "xyz".index(kind[0]), "xyz".index(kind[1])
     step = max(hi[iu] - lo[iu], hi[iv] - lo[iv]) / COARSE_POINTS
     plane = axis_plane(kind, at, (lo[iu], hi[iu]), (lo[iv], hi[iv]), step)
-    ok = evaluate_poses(machine, section_poses(plane, orientation), checks=checks).ok.reshape(plane.shape)
+    ok = evaluate_section(machine, plane, (), orientation, chunk_size=COARSE_CHUNK, n_jobs=n_jobs, progress=False,
+                          checks=checks, scheduler=scheduler).ok
     if not ok.any():
         raise ArgumentError(f"{machine.name}: no admissible point on the {kind.upper()} plane at "
                            f"{'xyz'[3 - iu - iv]} = {at * 1e3:g} mm in the chains' reach box (coarse step "
@@ -59,17 +63,18 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
 
 
 def window_ranges(machine: Machine, kind: str, at: float, step: float, orientation: Iterable[float] = (0.0, 0.0, 0.0),
-                  frame: str = "machine", checks: Sequence[str] = ALL_CHECKS,
-                  ) -> tuple[tuple[float, float], tuple[float, float]]:
+                  frame: str = "machine", checks: Sequence[str] = ALL_CHECKS, n_jobs: int = 1,
+                  scheduler: Any = None) -> tuple[tuple[float, float], tuple[float, float]]:
     """The in-plane ranges (m) of :func:`fit_window`, upper ends extended to whole raster steps (:func:`snap_to_step`)
     so that the raster's last row and column lie outside the admissible region too. ``at`` and the ranges are in
-    ``frame`` (:mod:`pkmstiff.machine.frames`); the fit itself runs in the machine frame."""
+    ``frame`` (:mod:`pkmstiff.machine.frames`); the fit itself runs in the machine frame (``n_jobs`` / ``scheduler``:
+    see :func:`fit_window`)."""
     from pkmstiff.machine.frames import frame_origin
 
     kind = kind.lower()
     o = frame_origin(machine, frame)
     normal = "xyz".index(({"x", "y", "z"} - set(kind)).pop())
-    ur, vr = fit_window(machine, kind, at + o[normal], orientation, checks=checks)
+    ur, vr = fit_window(machine, kind, at + o[normal], orientation, checks=checks, n_jobs=n_jobs, scheduler=scheduler)
     iu, iv = "xyz".index(kind[0]), "xyz".index(kind[1])
     return (snap_to_step((ur[0] - o[iu], ur[1] - o[iu]), step), snap_to_step((vr[0] - o[iv], vr[1] - o[iv]), step))
 
