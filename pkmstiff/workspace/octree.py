@@ -46,6 +46,14 @@ Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so 
 CORNER_OFFSETS = np.array([[c & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], dtype=np.int64)
 # the eight corner flags of a voxel read as one uint64 (one byte per corner): 0 = no admissible corner, ALL = all eight
 ALL_CORNERS = np.uint64(0x0101010101010101)
+# per axis: the bytes of the code that hold the corners at the voxel's upper end along that axis
+AXIS_UPPER_BYTES = [sum(1 << (8 * c) for c in range(8) if c >> a & 1) for a in range(3)]
+
+
+def _byte_sum(code: np.ndarray) -> np.ndarray:
+    """(M,) int64 sum of the eight bytes (each 0 or 1) of every code: multiplying by 0x0101... adds all bytes into
+    the top one (at most 8, no carry out)."""
+    return ((code * ALL_CORNERS) >> np.uint64(56)).astype(np.int64)
 
 
 def corner_code(corners: np.ndarray) -> np.ndarray:
@@ -89,8 +97,10 @@ class OctreeResult:
     @cached_property
     def boundary_points(self) -> np.ndarray:
         """(M, 3) centroids of the admissible corners of the leaf voxels (eq. 4.1)."""
-        n = self.leaf_corners.sum(axis=1, keepdims=True)
-        offs = (self.leaf_corners[:, :, None] * CORNER_OFFSETS[None]).sum(axis=1) / n
+        code = corner_code(self.leaf_corners)
+        # admissible corners in all / with offset 1 along x, y, z: bytes 0-7 / 1,3,5,7 / 2,3,6,7 / 4-7 of the code
+        along = [_byte_sum(code & np.uint64(m)) for m in AXIS_UPPER_BYTES]
+        offs = np.stack(along, axis=1) / _byte_sum(code)[:, None]
         return self.lo + (self.leaf_index + offs) * self.spacing
 
     @cached_property
@@ -112,7 +122,7 @@ class OctreeResult:
         vkeys = lat.key(self.leaf_index)
         order = np.argsort(vkeys, kind="stable")  # unique keys: the same order as any sort, faster
         ring = lat.key(start)[:, None] + lat.ring_offsets()[axis]
-        pos = np.minimum(np.searchsorted(vkeys, ring, sorter=order), max(vkeys.size - 1, 0))
+        pos = np.minimum(np.searchsorted(vkeys[order], ring), max(vkeys.size - 1, 0))  # direct: cache-friendlier
         vid = order[pos]
         return np.where(vkeys[vid] == ring, vid, -1)
 

@@ -138,10 +138,10 @@ def boundary_surface(
     else:
         mids, extra = _edge_midpoints(res, lat, start, axis, low_adm, refine_steps, admissible)
         # each edge contributes its crossing to its four voxels; vertex = mean of the contributions
-        acc = np.zeros((vox.shape[0], 3))
-        cnt = np.zeros(vox.shape[0])
-        np.add.at(acc, vid.ravel(), np.repeat(mids, 4, axis=0))
-        np.add.at(cnt, vid.ravel(), 1.0)
+        # bincount adds in input order like np.add.at (the same sums, bit for bit), several times faster
+        flat = vid.ravel()
+        acc = np.stack([np.bincount(flat, np.repeat(mids[:, k], 4), vox.shape[0]) for k in range(3)], axis=1)
+        cnt = np.bincount(flat, minlength=vox.shape[0]).astype(float)
         verts = res.lo + acc / cnt[:, None] * lat.h
     # quad normal is +axis with the ring order; outward = from admissible to inadmissible
     flip = ~low_adm
