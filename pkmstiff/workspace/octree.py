@@ -330,7 +330,7 @@ def octree_boundary(
             progress(level, lmax, ev.count)
 
     closure_added, edges = 0, None
-    ckeys = lat.key(vox[:, None, :] + CORNER_OFFSETS[None])
+    ckeys = lat.key(vox)[:, None] + CORNER_OFFSETS @ lat.strides  # keys are linear in the index
     known, admis = _KeySet(ckeys.ravel()), _KeySet(ckeys[corners])
     if closure and vox.shape[0]:
         before = ev.count
