@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pkmstiff.calibration.backlash import run_starts_of_samples
 from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats, setup_at
 from pkmstiff.calibration.instruments import readings, target_points
 from pkmstiff.calibration.jacobian import reading_weights
@@ -238,4 +239,6 @@ def measurement_plan(meas: object, machine_name: str, source: str) -> tuple[Plan
         raise InputError(source, "x_mm ... c_deg", "the commanded pose columns (identification needs the "
                                     "commanded poses; export them with the readings)", "drive columns only")
     setup, y = meas.instrument.measured(meas)
-    return Plan(f"measurement {Path(source).name}", setup, np.asarray(meas.poses, dtype=float)), y
+    poses = np.asarray(meas.poses, dtype=float)
+    runs = run_starts_of_samples(meas.t, getattr(meas, "direction", None), poses, getattr(meas, "feed", None))
+    return Plan(f"measurement {Path(source).name}", setup, poses, runs=runs), y

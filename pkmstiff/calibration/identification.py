@@ -32,10 +32,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import differential_evolution, least_squares, linprog
 
+from pkmstiff.calibration.backlash import has_backlash, held_signs, plan_run_starts
 from pkmstiff.calibration.identifiability import GaugeFreedom, Identifiability, identifiability
 from pkmstiff.calibration.instruments import Setup
 from pkmstiff.calibration.jacobian import identification_jacobian, reading_weights
-from pkmstiff.calibration.measurement import reached_poses, simulate_readings
+from pkmstiff.calibration.measurement import commanded_drives, reached_poses, simulate_readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
 from pkmstiff.calibration.plans import Plan
@@ -144,9 +145,13 @@ def jacobian_at(machine: Machine, params: ParameterSet, plan: Plan, delta: np.nd
     poses it reaches for the plan's nominal drive values (see the module docstring)."""
     if not np.any(delta):
         return identification_jacobian(machine, params, plan).J
-    x = plan.poses if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, plan.poses)
+    starts = plan_run_starts(plan)
+    x = plan.poses if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, plan.poses,
+                                                                             starts=starts)
     real = perturbed_machine(machine, params, delta)
-    return identification_jacobian(real, params, Plan(plan.name, setup_at(plan.setup, params, delta), x)).J
+    signs = held_signs(commanded_drives(machine, plan.poses), starts) if has_backlash(params) else None
+    return identification_jacobian(real, params, Plan(plan.name, setup_at(plan.setup, params, delta), x),
+                                   signs=signs).J
 
 
 class _Model:

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from pkmstiff.calibration.backlash import has_backlash, held_signs, plan_run_starts
 from pkmstiff.calibration.instruments import Instrument
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.plans import Plan
@@ -73,9 +74,12 @@ def rotation_length(machine: Machine) -> float:
     return float(np.mean(np.linalg.norm(machine.chains.platform_joint, axis=1)))
 
 
-def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) -> IdentificationJacobian:
+def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan,
+                            signs: np.ndarray | None = None) -> IdentificationJacobian:
     """Analytic identification Jacobian of ``plan`` on ``machine`` for the parameters ``params`` at the nominal
-    geometry (see the module docstring), shape (N k, n); k readings per pose."""
+    geometry (see the module docstring), shape (N k, n); k readings per pose. Backlash columns
+    (:mod:`pkmstiff.calibration.backlash`, ∂q_i/∂b_i = s_i/2) use the drives' directions of motion ``signs``
+    (N, n), by default those of ``machine``'s inverse kinematics along the plan's runs."""
     if params.machine != machine.name or params.kind != machine.kind:
         raise ArgumentError(f"error model of '{params.machine}' used with machine '{machine.name}'")
     x = as_poses(plan.poses, f"plan '{plan.name}'")
@@ -125,6 +129,8 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan) 
                "platform_joint": np.einsum("nij,ncj->nci", Rt, w)}
         sca = {"strut_length": -ch.strut_length[None, :] / den, "drive_zero": -np.ones((N, n_ch))}
 
+    if has_backlash(params):
+        sca["backlash"] = 0.5 * (held_signs(ik.drive, plan_run_starts(plan)) if signs is None else signs)
     J = np.zeros((N, k, params.n))
     for block, P in vec.items():
         idx = np.flatnonzero(params.mask(block))

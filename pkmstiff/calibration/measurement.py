@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pkmstiff.calibration.backlash import drive_offsets, has_backlash, held_signs, plan_run_starts
 from pkmstiff.calibration.instruments import readings
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
@@ -27,11 +28,15 @@ def commanded_drives(machine: Machine, poses: np.ndarray) -> np.ndarray:
 
 
 def reached_poses(machine: Machine, params: ParameterSet, delta: np.ndarray, poses: np.ndarray,
-                  tol: float = 1e-13) -> np.ndarray:
+                  tol: float = 1e-13, starts: np.ndarray | list[int] = (0,)) -> np.ndarray:
     """The poses (N, 6) the machine with errors ``delta`` reaches for the nominal drive values of ``poses``
-    (forward kinematics started at the commanded pose; Newton to ``tol`` m in the drive residual)."""
+    (forward kinematics started at the commanded pose; Newton to ``tol`` m in the drive residual); backlash
+    parameters shift each drive by −b/2 · sign(q̇) with the direction of motion taken per run (runs start at
+    ``starts``, :mod:`pkmstiff.calibration.backlash`)."""
     x = as_poses(poses)
     u = commanded_drives(machine, x)
+    if has_backlash(params):
+        u = u + drive_offsets(params, delta, held_signs(u, starts))
     real = perturbed_machine(machine, params, delta)
     fk = forward_kinematics(real, u, x, tol_q=tol, tol_x=tol)
     if not fk.converged.all():
@@ -45,7 +50,8 @@ def simulate_readings(machine: Machine, params: ParameterSet, delta: np.ndarray,
     noise-free (Szatmári §4.2.4). A zero ``delta`` gives the nominal readings (ball bar: the bar length)."""
     delta = params.check_vector(delta)
     x = as_poses(plan.poses)
-    reached = x if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, x)
+    reached = x if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, x,
+                                                                            starts=plan_run_starts(plan))
     R = cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
     Rc = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
     return readings(plan.setup, perturbed_state(plan.setup, params, delta), reached[:, :3], R, Rc)

@@ -15,6 +15,8 @@ Per chain (chain numbers 1-based, as ``chains[i]`` in machine files):
 Set-up parameters (selected by the tokens of :func:`setup_tokens`): ball-bar ``ball_offset`` Δv (PKS, 3),
 ``fixed_ball`` position (MKS, 3), ``bar_offset`` Δr (1); tracker/pose ``target_offset`` (PKS, 3) and
 ``instrument_frame`` (translation x, y, z and rotation rx, ry, rz of the instrument's frame in the MKS, 6).
+Machine parameters outside the geometry (token ``backlash``, :data:`MACHINE_TOKENS`): per-drive reversal backlash
+``chain<i>.backlash`` (1 per chain, m; :mod:`pkmstiff.calibration.backlash`).
 
 Parameter frames (Szatmári §4.4.2.3): ``cartesian`` (x, y, z of the machine or platform frame) or ``cylindrical``
 (r radial, t tangential, z with respect to the joint circle: the z axis through the centroid of the points of a
@@ -190,6 +192,11 @@ class _Builder:
                             scale=np.array(scale, dtype=float))
 
 
+#: ``--with`` tokens of machine parameters outside the geometric error model -> block: per-drive reversal backlash
+#: (:mod:`pkmstiff.calibration.backlash`, issue 26 item 6)
+MACHINE_TOKENS = {"backlash": "backlash"}
+
+
 def setup_tokens() -> dict[str, str]:
     """Every set-up parameter token (command line ``--with``) -> its block, over all instruments
     (:attr:`pkmstiff.calibration.instruments.Instrument.setup_tokens`)."""
@@ -210,8 +217,12 @@ def parse_with(tokens: str | Iterable[str] | None, instrument: Instrument | str,
     items = [t.strip() for t in (tokens.split(",") if isinstance(tokens, str) else tokens) if t.strip()]
     out = []
     for t in items:
+        if t in MACHINE_TOKENS:  # machine parameters any instrument can see
+            if MACHINE_TOKENS[t] not in out:
+                out.append(MACHINE_TOKENS[t])
+            continue
         if t not in known:
-            raise InputError(source, t, f"one of {', '.join(known)}", "unknown set-up parameter")
+            raise InputError(source, t, f"one of {', '.join([*known, *MACHINE_TOKENS])}", "unknown set-up parameter")
         block = known[t]
         if t not in inst.setup_tokens:
             owners = "/".join(str(i) for i in instruments() if t in i.setup_tokens)
@@ -258,6 +269,10 @@ def error_model(machine: Machine, frame: str = "cartesian", setup: object | None
             b.point(pre, "platform_joint", i, ch.platform_joint[i], plat_ax[i], labels, L)
             b.scalar(pre + "drive_zero", "drive_zero", i, "m", ch.drive_offset[i], L)
     blocks = tuple(setup_blocks)
+    if "backlash" in blocks:  # a machine parameter: one per drive, m (:mod:`pkmstiff.calibration.backlash`)
+        for i in range(ch.n):
+            b.scalar(f"chain{i + 1}.backlash", "backlash", i, "m", 0.0, L)
+        blocks = tuple(blk for blk in blocks if blk != "backlash")
     if blocks and setup is None:
         raise InputError(machine.path or machine.name, "setup", "an instrument set-up for set-up "
                                     "parameters", None)

@@ -43,12 +43,15 @@ class Segment:
 
 @dataclass(frozen=True)
 class Plan:
-    """Commanded platform poses (N, 6) in SI with an instrument set-up (Szatmári §4.4)."""
+    """Commanded platform poses (N, 6) in SI with an instrument set-up (Szatmári §4.4); ``runs``: further indices
+    where a measuring run starts besides the segment starts (the drives' direction of motion is taken per run,
+    :mod:`pkmstiff.calibration.backlash`)."""
 
     name: str
     setup: Setup
     poses: np.ndarray
     segments: tuple[Segment, ...] = field(default=())
+    runs: tuple[int, ...] = field(default=())
 
     @property
     def instrument(self) -> Instrument:
@@ -68,7 +71,9 @@ class Plan:
             raise InputError(self.name, "setup", "plans with the same instrument set-up", other.name)
         off = self.n_poses
         segs = self.segments + tuple(Segment(s.label, s.start + off, s.stop + off, s.kind) for s in other.segments)
-        return Plan(name or f"{self.name} + {other.name}", self.setup, np.vstack([self.poses, other.poses]), segs)
+        runs = self.runs + (off,) + tuple(r + off for r in other.runs)
+        return Plan(name or f"{self.name} + {other.name}", self.setup, np.vstack([self.poses, other.poses]), segs,
+                    runs)
 
 
 def _same_setup(a: Setup, b: Setup) -> bool:

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from pkmstiff.calibration.backlash import held_signs
 from pkmstiff.calibration.instruments import BallbarDevice, Setup, TrackerDevice, readings, target_points
 from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
@@ -193,24 +194,18 @@ def sample_plan(plan: Plan, device: Device, options: SimulationOptions) -> Sampl
 # ------------------------------------------------------------------------------------------------- disturbances
 
 
+def _run_cuts(segment: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """Indices where a new run starts: the segment or the direction changes."""
+    return np.flatnonzero((segment[1:] != segment[:-1]) | (direction[1:] != direction[:-1])) + 1
+
+
 def backlash_offsets(drives: np.ndarray, segment: np.ndarray, direction: np.ndarray, b: float) -> np.ndarray:
     """Δq (N, n) = −b/2 · sign(q̇): the direction of motion of each drive from the commanded drive values of
     consecutive samples of one run, held through standstill; samples before a drive's first motion in a run take
-    the sign of that first motion (loop over runs only, vectorised within a run)."""
-    out = np.zeros_like(drives)
+    the sign of that first motion (:func:`pkmstiff.calibration.backlash.held_signs`)."""
     if b == 0 or len(drives) == 0:
-        return out
-    cut = np.flatnonzero((segment[1:] != segment[:-1]) | (direction[1:] != direction[:-1])) + 1
-    for a, e in zip(np.r_[0, cut], np.r_[cut, len(drives)]):
-        sgn = np.sign(np.diff(drives[a:e], axis=0, prepend=drives[a:a + 1]))
-        m = len(sgn)
-        idx = np.maximum.accumulate(np.where(sgn != 0, np.arange(m)[:, None], 0), axis=0)
-        held = np.take_along_axis(sgn, idx, axis=0)
-        first = np.argmax(sgn != 0, axis=0)
-        lead = np.arange(m)[:, None] < first[None, :]
-        held = np.where(lead, sgn[first, np.arange(sgn.shape[1])][None, :], held)
-        out[a:e] = -0.5 * b * held
-    return out
+        return np.zeros_like(drives)
+    return -0.5 * b * held_signs(drives, _run_cuts(segment, direction))
 
 
 def thermal_growth(t: np.ndarray, dT: float, tau: float) -> np.ndarray:
@@ -258,7 +253,8 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
     if bad.size:
         raise InadmissibleError(f"plan '{plan.name}': {bad.size} sampled poses unreachable by the nominal inverse "
                                f"kinematics, first sample {int(bad[0]) + 1}")
-    reached = x if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, x)
+    reached = x if not np.any(delta[params.chain >= 0]) else reached_poses(
+        machine, params, delta, x, starts=_run_cuts(smp.segment, smp.direction))
     o, R = reached[:, :3], cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
     Rc = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
     rise = thermal_growth(smp.t, options.drift_dT, options.drift_tau)

@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from pkmstiff.calibration.backlash import BLOCK as BACKLASH
+from pkmstiff.calibration.backlash import has_backlash
 from pkmstiff.calibration.ballbar import ball_positions
 from pkmstiff.calibration.circles import CircleRun, circles
 from pkmstiff.calibration.compensation import check, measurement_plan
@@ -129,7 +131,7 @@ def fit_diagnostics(machine: Machine, meas: Measurement, plan: Plan, params: Par
     device, its sample times and directions, and every set-up parameter of the instrument not identified as an
     added-variable candidate (its Jacobian columns at the solution)."""
     inst = plan.instrument
-    done = {params.blocks[i] for i in np.flatnonzero(params.chain < 0)}
+    done = {params.blocks[i] for i in np.flatnonzero(params.chain < 0)} | ({BACKLASH} if has_backlash(params) else set())
     todo = {tok: blk for tok, blk in inst.setup_tokens.items() if blk not in done}
     cands = []
     if todo:

@@ -76,7 +76,8 @@ def add_with_option(p: argparse.ArgumentParser, what: str = "include") -> None:
     """The ``--with LIST`` option (set-up and instrument parameters) of identifiability, identify, check, report."""
     p.add_argument("--with", dest="with_", metavar="LIST",
                    help=f"set-up parameters to {what}: ball-offset,fixed-ball,bar-offset (ball bar), "
-                        "target-offset,instrument-frame (tracker, pose)")
+                        "target-offset,instrument-frame (tracker, pose); backlash (per-drive reversal backlash, "
+                        "any instrument)")
 
 
 def _cmd_identifiability(args: argparse.Namespace) -> int:
@@ -108,10 +109,11 @@ def _add_identifiability(sub) -> None:
 def subcommands() -> dict[str, Callable]:
     """The ``calibrate`` sub-commands, name -> parser builder, in the order a calibration runs."""
     from pkmstiff.cli.calibrate_identify import SUBCOMMANDS as identify  # identify, check (issue 17)
+    from pkmstiff.cli.calibrate_import import SUBCOMMANDS as raw_import  # import (issue 26)
     from pkmstiff.cli.calibrate_report import SUBCOMMANDS as report  # report (issue 17 item 5)
     from pkmstiff.cli.calibrate_sim import SUBCOMMANDS as simulation  # simulate, plan (issue 16)
 
-    return {"identifiability": _add_identifiability, **simulation, **identify, **report}
+    return {"identifiability": _add_identifiability, **simulation, **raw_import, **identify, **report}
 
 
 def add_commands(sub) -> None:

@@ -9,7 +9,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from pkmstiff.cli.calibrate_import import add_nc_options
 from pkmstiff.cli.edges import check_number, check_output_file
+from pkmstiff.errors import ArgumentError
 from pkmstiff.io.atomic import atomic_write_text
 
 
@@ -32,6 +34,8 @@ def read_errors(path: str | None, machine, plan):
     if not isinstance(raw.get("errors"), dict) or not raw["errors"]:
         raise InputError(path, "errors", "an [errors] table with at least one parameter = quantity "
                                     "(omit --errors for the nominal machine)", raw.get("errors", "missing"))
+    if any(str(k).endswith(".backlash") for k in raw["errors"]):  # per-drive reversal backlash (issue 26 item 6)
+        blocks += ("backlash",)
     params = error_model(machine, frame=str(raw.get("frame", "cartesian")), setup=plan.setup, setup_blocks=blocks)
     return params, parse_errors(raw["errors"], params, source=path)
 
@@ -69,8 +73,14 @@ def plan_check(command: str = "calibrate") -> Callable[[int, str], None]:
 
 def simulate_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate simulate`` does; returns the JSON-ready summary (keys name their units)."""
-    out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
-    check_output_file(out.with_suffix(".json"), "--out (its header file)", getattr(args, "force", False), (".json",))
+    raw = getattr(args, "raw", None)
+    if (args.out is None) == (raw is None):
+        raise ArgumentError("calibrate simulate: expected --out FILE.csv (a measurement) or --raw FOLDER (raw "
+                            "ball-bar series), found " + ("both" if raw else "neither"))
+    if raw is None:
+        out = check_output_file(args.out, "--out", getattr(args, "force", False), (".csv",))
+        check_output_file(out.with_suffix(".json"), "--out (its header file)", getattr(args, "force", False),
+                          (".json",))
     check_number(args.seed, "--seed", 0)
     check_number(args.feed, "--feed", 0, lo_open=True, unit="mm/min")
     check_number(args.backlash, "--backlash", 0, unit="um")
@@ -88,13 +98,17 @@ def simulate_command(args: argparse.Namespace) -> dict:
         simulate,
         to_measurement,
     )
-    from pkmstiff.errors import ArgumentError
     from pkmstiff.machine import load_machine
 
     machine = load_machine(args.machine)
     plan = read_plan(args.plan, plan_check())
     check_plan(machine, plan)
     inst = _instrument(args, plan)
+    if raw is not None:  # raw ball-bar series along the plan's NC program (issue 26)
+        from pkmstiff.cli.calibrate_import import simulate_raw_command
+
+        params, delta = read_errors(args.errors, machine, plan)
+        return simulate_raw_command(args, machine, plan, params, delta, inst)
     dirs = tuple(d.strip() for d in args.directions.split(",") if d.strip())
     opts = SimulationOptions(feed=args.feed / 60e3, directions=dirs, noise=_noise(args.noise),
                              quantise=not args.no_quantise, backlash=args.backlash * 1e-6, drift_dT=args.drift,
@@ -133,6 +147,10 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     rep = simulate_command(args)
     if args.json:
         print(json.dumps(rep, indent=2))
+    elif "raw" in rep:
+        print(f"{rep['machine']}: plan '{rep['plan']}' -> {len(rep['raw'])} raw series ({', '.join(rep['raw'])}): "
+              f"{rep['n_samples']} samples at {rep['sample_rate_hz']:g} Hz, feed {rep['feed_mm_min']:g} mm/min "
+              f"(noise sigma {rep['noise_sigma_um']:.3g} µm)")
     else:
         if "reading_min_um" in rep:
             what = f"readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} µm"
@@ -162,7 +180,11 @@ def _add_simulate(sub) -> None:
                    help="plan file (TOML; ball bar, tracker or pose), or example:NAME (bundled example)")
     p.add_argument("--errors", help="error file (TOML: [errors] name = \"0.1 mm\"), or example:NAME (bundled "
                                     "example); default: nominal machine")
-    p.add_argument("--out", required=True, help="measurement CSV to write")
+    p.add_argument("--out", help="measurement CSV to write")
+    p.add_argument("--raw", metavar="FOLDER", help="instead of --out: write the raw ball-bar series of each run of "
+                                                   "the plan's NC program as FOLDER/run<k>.txt (calibrate import)")
+    p.add_argument("--start-delay", type=float, help="--raw: capture start to feed-in start in s (default: random "
+                                                     "0.2-1.2 s per run from --seed)")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--noise", default="instrument",
                    help="none | instrument (sigma = accuracy/2) | procedure (Tab. 4.5 vs feed, sigma = U/2) | "
@@ -191,12 +213,30 @@ def _add_simulate(sub) -> None:
     p.add_argument("--saturate", action="store_true",
                    help="write out-of-range readings clipped at the range limits instead of failing")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
+    add_nc_options(p, feed=False)
     p.set_defaults(func=_cmd_simulate)
 
 
 def plan_command(args: argparse.Namespace) -> dict:
-    """Everything ``calibrate plan`` does; writes the optimised plan and returns the JSON-ready summary."""
+    """Everything ``calibrate plan`` does; writes the optimised plan (and with ``--nc`` its NC program) and returns
+    the JSON-ready summary."""
+    if getattr(args, "plan", None):  # the NC program of an existing plan, no optimisation (issue 26 item 2)
+        from pkmstiff.calibration import check_plan, read_plan
+        from pkmstiff.cli.calibrate_import import write_nc
+        from pkmstiff.machine import load_machine
+
+        if not args.nc or args.out:
+            raise ArgumentError("calibrate plan --plan: expected --nc FILE (the NC program of that plan) and no --out")
+        machine = load_machine(args.machine)
+        plan = read_plan(args.plan, plan_check())
+        check_plan(machine, plan)
+        return {"machine": machine.name, "plan": plan.name, **write_nc(args.nc, plan, machine.name, args, args.force)}
+    if not args.out or not args.instrument:
+        raise ArgumentError("calibrate plan: expected --instrument and --out FILE.toml (the optimised plan), or "
+                            "--plan FILE --nc FILE")
     check_output_file(args.out, "--out", getattr(args, "force", False), (".toml",))
+    if args.nc:
+        check_output_file(args.nc, "--nc", getattr(args, "force", False), (".nc", ".ngc", ".mpf", ".txt"))
     check_number(args.seed, "--seed", 0)
     check_number(args.turns, "--turns", 0, lo_open=True)
     check_number(args.max_tilt, "--max-tilt", 0, 90, lo_open=True, unit="deg")
@@ -261,7 +301,12 @@ def plan_command(args: argparse.Namespace) -> dict:
     atomic_write_text(args.out, text)
     lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
     start = objective_label(args.objective, res.start_value)
-    return {"machine": machine.name, "instrument": inst.kind, "objective": args.objective,
+    nc = {}
+    if args.nc:
+        from pkmstiff.cli.calibrate_import import write_nc
+
+        nc = write_nc(args.nc, res.best_plan, machine.name, args, args.force)
+    return {**nc, "machine": machine.name, "instrument": inst.kind, "objective": args.objective,
             "out": str(args.out), "seed": args.seed, "starts": args.starts,
             f"start_{lab}": start,
             f"best_{lab}": objective_label(args.objective, res.best.value),
@@ -275,6 +320,12 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(rep, indent=2))
         return 0
+    if "nc_program" in rep:
+        print(f"{rep['machine']}: NC program of plan '{rep.get('plan', 'optimised')}' -> {rep['nc_program']}: "
+              f"{rep['runs']} runs, {rep['program_points']} points, {rep['duration_s']:.1f} s at "
+              f"{rep['feed_mm_min']:g} mm/min")
+        if "objective" not in rep:
+            return 0
     lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
     a, b = rep[f"start_{lab}"], rep[f"best_{lab}"]
     better = "lower" if rep["lower_is_better"] else "higher"
@@ -295,11 +346,14 @@ def _add_plan(sub) -> None:
                                    "(Denkena Gl. 90-92). Gradient method with Armijo steps on a barrier-augmented "
                                    "objective, admissibility as constraints, seeded multi-start.")
     p.add_argument("machine", help="bundled machine name or machine file")
-    p.add_argument("--instrument", required=True, choices=kinds())
+    p.add_argument("--instrument", choices=kinds(), help="required unless --plan")
     p.add_argument("--objective", default="orthogonality", choices=OBJECTIVES,
                    help="cond (min), orthogonality (largest entry, min; eq. 4.8), O1..O5 (max)")
-    p.add_argument("--out", required=True, help="plan file (TOML) to write")
-    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.add_argument("--out", help="plan file (TOML) to write")
+    p.add_argument("--nc", metavar="FILE", help="also write the plan's measuring program as G-code (ball bar; "
+                                                "docs: 'From a real ball-bar session')")
+    p.add_argument("--plan", help="with --nc: the NC program of this plan file (or example:NAME), no optimisation")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out / --nc file")
     p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
     p.add_argument("--poses", type=int, default=12,
                    help="tracker/pose without --start: poses taken from the default grid (default 12)")
@@ -312,6 +366,7 @@ def _add_plan(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed of the starts (default 0)")
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    add_nc_options(p)
     p.set_defaults(func=_cmd_plan)
 
 
