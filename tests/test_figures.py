@@ -338,7 +338,7 @@ def _kind_ballbar(tmp, m, yz):
 def _kind_api_plots(tmp, m, yz):
     import pkmstiff
 
-    pts = pkmstiff.load_machine("hexaglide").point([[0, 0.1 * k, -1.0, 0, 0, 0] for k in range(4)])
+    pts = m.point([[0, 0.1 * k, -1.0, 0, 0, 0] for k in range(4)])
     pts.plot("kx_N_per_um", path=str(tmp / "points.png"))
 
 
@@ -362,10 +362,68 @@ def _kind_optimise(tmp, m, yz):
                  "--no-report"]) == 0
 
 
+def _study(name: str):
+    """A study script (studies/NAME.py) as a module: its plot functions, driven here on small inputs."""
+    import importlib
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
+    try:
+        return importlib.import_module(name)
+    finally:
+        sys.path.pop(0)
+
+
+def _kind_study_curves(tmp, m, yz):
+    # the component curves of studies a (drive), b and d (joints) and study f's weak-point bars
+    a, b, d, f = (_study(n) for n in ("a_hexapod_drive_model", "b_hexaglide_joint_model", "d_joint_components",
+                                      "f_measurement_point"))
+    lengths = np.linspace(1.2, 1.9, 8)
+    a.plot_drive_curves({label: (40 + 10 * k) * 1e6 / lengths for k, (label, _) in enumerate(a.VARIANTS)}, lengths,
+                        (1.4, 1.7), tmp / "a_drive.png")
+    sm = m
+    tilts = {label: {"tilt min": 10.0, "tilt max": 40.0, "tilt mean": 25.0} for label, _, _ in b.JOINTS}
+    b.plot_joint_curves({b.BASELINE: sm, b.CONSTANT: sm}, tilts, tmp / "b_joints.png")
+    d.plot_joint_curves({d.BASELINE: sm}, tmp / "d_joints.png")
+    keys = [(dd, L) for L in f.TOOL_LENGTHS for dd in f.DIRECTIONS]
+    weak = {k: {"drive": 50.0, "drive_joint": 30.0, "platform_joint": 20.0} for k in keys}
+    f.plot_weak_points({"measured": {"weak": weak}, "FE joints": {"weak": weak}}, tmp / "f_weak.png")
+
+
+def _kind_study_c_panels(tmp, m, yz):
+    # study c's rotational-workspace grid and its admissibility-reason maps
+    c = _study("c_hexaglide_variants")
+    sm = m
+    u, v = np.radians(np.arange(-30.0, 30.1, 30.0)), np.radians(np.arange(-60.0, 60.1, 60.0))
+    points = {"original": {"dissertation": (0.0, 0.4, -1.0), "centre": (0.0, 0.1, -0.9)}}
+    rot = {lab: {w: {d: sm.orientation_map(p, d, u_values=u, v_values=v, increment=np.radians(10.0))
+                     for d in ("+a", "+b")} for w, p in pts.items()} for lab, pts in points.items()}
+    c.plot_rotational(rot, points, tmp / "c_rot.png")
+    sec = sm.section("yz", 0.0, 0.1, ())
+    c.plot_reason_maps({"original": sec, "variant": sec}, tmp / "c_reasons.png")
+
+
+def _kind_study_g_rotation(tmp, m, yz):
+    g = _study("g_machine_comparison")
+    r = m.rotation_map("yz", at=0.0, step=0.1, u_range=(-0.3, 0.6),
+                                                        v_range=(-1.2, -0.5), increment=np.radians(10.0))
+    g.plot_rotation_panels({"Hexaglide": r, "copy": r}, {"Hexaglide": 0.0, "copy": 0.0},
+                           {"Hexaglide": (-1.0, -0.7), "copy": None}, tmp / "g_rot.png")
+
+
+def _kind_validation_causes(tmp, m, yz):
+    val = _study("validation_hexaglide")
+    res = m.section("yz", 0.0, 0.1, (), u_range=(-0.7, 0.9), v_range=(-1.4, -0.1),
+                                                     frame="report")
+    b, c = val.boundary_causes(res)
+    val.plot_cause_map(res, b, c, tmp / "causes.png", "Hexaglide: YZ section at x = 0 mm\nboundary causes")
+
+
 FIGURE_KINDS = {f.__name__.removeprefix("_kind_"): f for f in (
     _kind_section_maps, _kind_three_planes, _kind_mode_shape, _kind_workspace, _kind_rotation, _kind_workspace_curves,
     _kind_mechanisms, _kind_fe_joint, _kind_calibration, _kind_ballbar, _kind_api_plots, _kind_study_maps,
-    _kind_optimise)}
+    _kind_optimise, _kind_study_curves, _kind_study_c_panels, _kind_study_g_rotation, _kind_validation_causes)}
 
 
 def _watch_figures(monkeypatch):
