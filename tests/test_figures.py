@@ -501,3 +501,56 @@ def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
     bad = _check_watched(seen, tmp_path)
     assert any(b.startswith("bad_mpl.png: fill") for b in bad) and any(b.startswith("bad_mpl.png: text") for b in bad)
     assert any(b.startswith("bad_pv.png: fill") for b in bad) and any(b.startswith("bad_pv.png: text") for b in bad)
+
+
+# ------------------------------------------------------------------------------------- every image in the docs
+# Each PNG in docs/images and the figure kind that draws it (the kind's function above runs the same plot function
+# on small inputs); a new image must be added here, to a kind or to DOCS_IMAGES_UNCHECKED with its reason.
+DOCS_IMAGE_KINDS = {
+    "section_maps": ["figures_admissibility", "figures_section_kx", "hexaglide_yz_admissibility",
+                     "hexaglide_yz_deflection_gravity", "hexaglide_yz_f1", "hexaglide_yz_kx"],
+    "three_planes": ["hexaglide_three_planes_kx"],
+    "mode_shape": ["figures_mode1", "hexaglide_mode1", "study_f_mode1"],
+    "workspace": ["figures_workspace", "workspace_hexaglide", "validation_hexaglide_workspace"],
+    "rotation": ["workspace_rotation_map_yz", "workspace_rotational_point"],
+    "workspace_curves": ["workspace_volume_convergence", "workspace_volume_vs_orientation"],
+    "mechanisms": ["mechanism_slider_crank", "mechanism_hybrid", "mechanism_6rus_f1", "mechanism_6rus_kx",
+                   "mechanism_hybrid_f1", "mechanism_hybrid_kx", "mechanism_section_admissibility",
+                   "mechanism_section_kappa"],
+    "fe_joint": ["fe_joint_deformed"],
+    "calibration": ["calibration_walkthrough_felix_parameters", "calibration_walkthrough_felix_path",
+                    "calibration_walkthrough_hexaglide_path"],
+    "ballbar": ["ballbar_diagnosis", "ballbar_polar", "ballbar_spectrum", "calibration_simulation_felix_polar",
+                "calibration_walkthrough_felix_circle_after", "calibration_walkthrough_felix_circle_before",
+                "calibration_walkthrough_felix_validation_after", "calibration_walkthrough_hexaglide_circle_after",
+                "calibration_walkthrough_hexaglide_circle_before",
+                "calibration_walkthrough_hexaglide_validation_after"],
+    "study_maps": ["study_a_kz_maps", "study_b_kx_maps", "study_c_section_maps", "study_d_stiffness_maps",
+                   "study_e_kx_tilt_maps"],
+    "optimise": ["optimise_convergence", "optimise_front_geometry", "optimise_front_selection"],
+    "study_g_rotation": ["study_g_rotation_a"],
+    "validation_causes": ["validation_hexaglide_causes_xz", "validation_hexaglide_causes_yz"],
+}
+DOCS_IMAGES_UNCHECKED = {
+    # browser screenshots of HTML pages: no figure kind draws them (their own tests take and check them)
+    "app_start": "screenshot of `pkmstiff app` in headless Chromium (docs/make_images.py)",
+    "app_point": "screenshot of `pkmstiff app` in headless Chromium (docs/make_images.py)",
+    "demo_summary": "screenshot of the demo's summary.html in headless Chromium",
+    "optimise_report": "screenshot of the optimisation's HTML report in headless Chromium",
+    "report_calibration": "screenshot of the calibration HTML report in headless Chromium",
+    "report_design": "screenshot of the design comparison HTML report in headless Chromium",
+    "report_design_evaluation": "screenshot of the design comparison HTML report in headless Chromium",
+}
+
+
+def test_every_docs_image_has_a_checked_figure_kind():
+    from pathlib import Path
+
+    images = {p.stem for p in (Path(__file__).resolve().parents[1] / "docs" / "images").glob("*.png")}
+    mapped = [name for names in DOCS_IMAGE_KINDS.values() for name in names]
+    assert len(mapped) == len(set(mapped)) and not set(mapped) & set(DOCS_IMAGES_UNCHECKED), "an image listed twice"
+    assert set(DOCS_IMAGE_KINDS) <= set(FIGURE_KINDS), set(DOCS_IMAGE_KINDS) - set(FIGURE_KINDS)
+    unknown = images - set(mapped) - set(DOCS_IMAGES_UNCHECKED)
+    assert not unknown, f"docs/images without a figure kind in tests/test_figures.py: {sorted(unknown)}"
+    gone = (set(mapped) | set(DOCS_IMAGES_UNCHECKED)) - images
+    assert not gone, f"listed but not in docs/images: {sorted(gone)}"
