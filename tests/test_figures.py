@@ -382,10 +382,9 @@ def _kind_study_curves(tmp, m, yz):
     lengths = np.linspace(1.2, 1.9, 8)
     a.plot_drive_curves({label: (40 + 10 * k) * 1e6 / lengths for k, (label, _) in enumerate(a.VARIANTS)}, lengths,
                         (1.4, 1.7), tmp / "a_drive.png")
-    sm = m
     tilts = {label: {"tilt min": 10.0, "tilt max": 40.0, "tilt mean": 25.0} for label, _, _ in b.JOINTS}
-    b.plot_joint_curves({b.BASELINE: sm, b.CONSTANT: sm}, tilts, tmp / "b_joints.png")
-    d.plot_joint_curves({d.BASELINE: sm}, tmp / "d_joints.png")
+    b.plot_joint_curves({b.BASELINE: m, b.CONSTANT: m}, tilts, tmp / "b_joints.png")
+    d.plot_joint_curves({d.BASELINE: m}, tmp / "d_joints.png")
     keys = [(dd, L) for L in f.TOOL_LENGTHS for dd in f.DIRECTIONS]
     weak = {k: {"drive": 50.0, "drive_joint": 30.0, "platform_joint": 20.0} for k in keys}
     f.plot_weak_points({"measured": {"weak": weak}, "FE joints": {"weak": weak}}, tmp / "f_weak.png")
@@ -394,22 +393,24 @@ def _kind_study_curves(tmp, m, yz):
 def _kind_study_c_panels(tmp, m, yz):
     # study c's rotational-workspace grid and its admissibility-reason maps
     c = _study("c_hexaglide_variants")
-    sm = m
     u, v = np.radians(np.arange(-30.0, 30.1, 30.0)), np.radians(np.arange(-60.0, 60.1, 60.0))
-    points = {"original": {"dissertation": (0.0, 0.4, -1.0), "centre": (0.0, 0.1, -0.9)}}
-    rot = {lab: {w: {d: sm.orientation_map(p, d, u_values=u, v_values=v, increment=np.radians(10.0))
-                     for d in ("+a", "+b")} for w, p in pts.items()} for lab, pts in points.items()}
+    where = {"dissertation": (0.0, 0.4, -1.0), "centre": (0.0, 0.1, -0.9)}
+    one = {w: {d: m.orientation_map(p, d, u_values=u, v_values=v, increment=np.radians(10.0)) for d in ("+a", "+b")}
+           for w, p in where.items()}
+    labels = [lab for lab, _ in c.VARIANTS]  # the study's rows, one machine's maps here
+    rot, points = dict.fromkeys(labels, one), dict.fromkeys(labels, where)
     c.plot_rotational(rot, points, tmp / "c_rot.png")
-    sec = sm.section("yz", 0.0, 0.1, ())
+    sec = m.section("yz", 0.0, 0.1, ())
     c.plot_reason_maps({"original": sec, "variant": sec}, tmp / "c_reasons.png")
 
 
 def _kind_study_g_rotation(tmp, m, yz):
     g = _study("g_machine_comparison")
-    r = m.rotation_map("yz", at=0.0, step=0.1, u_range=(-0.3, 0.6),
-                                                        v_range=(-1.2, -0.5), increment=np.radians(10.0))
-    g.plot_rotation_panels({"Hexaglide": r, "copy": r}, {"Hexaglide": 0.0, "copy": 0.0},
-                           {"Hexaglide": (-1.0, -0.7), "copy": None}, tmp / "g_rot.png")
+    # the Hexaglide's window of the study (about 1.1 m wide, 1.9 m high), coarse
+    r = m.rotation_map("yz", at=0.0, step=0.1, u_range=(-0.2, 0.9), v_range=(-1.3, 0.6), increment=np.radians(10.0))
+    labels = ("Hexaglide", "6X Hexapod", "Linapod", "Paralix")  # the study's four panels, one map here
+    g.plot_rotation_panels(dict.fromkeys(labels, r), dict.fromkeys(labels, 0.0),
+                           {lab: (-1.0, -0.7) if k == 0 else None for k, lab in enumerate(labels)}, tmp / "g_rot.png")
 
 
 def _kind_validation_causes(tmp, m, yz):
