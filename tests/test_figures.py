@@ -3,9 +3,12 @@ at least 80 % of the canvas (bounding box of the non-background pixels), every t
 (matplotlib: at the figure's size in inches; pyvista: measured in the rendered image, tests/figure_checks.py), maps
 carry µm/° units, titles state the real window ranges, colour scales show the structure where one hot spot dominates.
 
-``test_every_figure_kind_fills_its_canvas_with_readable_text`` runs every figure kind of the package (and the studies'
-map panels) with ``Figure.savefig`` and ``Plotter.screenshot`` watched: every saved figure and screenshot is checked;
-``test_the_checks_fail_on_a_bad_figure`` shows that the checks can fail.
+``test_every_figure_kind_fills_its_canvas_with_readable_text`` runs every figure kind of the package and of the
+studies (map panels, component curves, rotation panels, the validation's cause maps; their own plot functions on small
+inputs) with ``Figure.savefig`` and ``Plotter.screenshot`` watched: every saved figure and screenshot is checked;
+``test_the_checks_fail_on_a_bad_figure`` shows that the checks can fail;
+``test_every_docs_image_has_a_checked_figure_kind`` maps every PNG in docs/images to its kind (or to a reasoned
+exclusion: browser screenshots), so that a new image without a checked kind fails.
 """
 
 from __future__ import annotations
@@ -236,6 +239,19 @@ def test_remaining_matplotlib_kinds_have_readable_text(tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------------------------------- every figure kind
+def _study(name: str):
+    """A study script (studies/NAME.py) as a module: its plot functions, driven here on small inputs."""
+    import importlib
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
+    try:
+        return importlib.import_module(name)
+    finally:
+        sys.path.pop(0)
+
+
 def _kind_section_maps(tmp, m, yz):
     from pkmstiff.plots.section_maps import plot_reasons, plot_section
 
@@ -338,19 +354,13 @@ def _kind_ballbar(tmp, m, yz):
 def _kind_api_plots(tmp, m, yz):
     import pkmstiff
 
-    pts = m.point([[0, 0.1 * k, -1.0, 0, 0, 0] for k in range(4)])
+    pts = pkmstiff.load_machine("hexaglide").point([[0, 0.1 * k, -1.0, 0, 0, 0] for k in range(4)])
     pts.plot("kx_N_per_um", path=str(tmp / "points.png"))
 
 
 def _kind_study_maps(tmp, m, yz):
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
-    try:
-        from _study_common import MapPanel, plot_maps
-    finally:
-        sys.path.pop(0)
+    common = _study("_study_common")
+    MapPanel, plot_maps = common.MapPanel, common.plot_maps
     panels = [MapPanel(yz, yz.display("kx"), f"variant {k}: k_x", "N/um") for k in (1, 2)]
     plot_maps(panels, tmp / "study.png", "Study maps")
 
@@ -360,19 +370,6 @@ def _kind_optimise(tmp, m, yz):
 
     assert main(["optimise", "hexaglide_joint_orientation", "--out", str(tmp / "opt"), "--budget", "4", "--quiet",
                  "--no-report"]) == 0
-
-
-def _study(name: str):
-    """A study script (studies/NAME.py) as a module: its plot functions, driven here on small inputs."""
-    import importlib
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
-    try:
-        return importlib.import_module(name)
-    finally:
-        sys.path.pop(0)
 
 
 def _kind_study_curves(tmp, m, yz):
