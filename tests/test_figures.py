@@ -410,6 +410,13 @@ def _kind_study_g_rotation(tmp, m, yz):
                            {lab: (-1.0, -0.7) if k == 0 else None for k, lab in enumerate(labels)}, tmp / "g_rot.png")
 
 
+def _kind_study_e_tilts(tmp, m, yz):
+    # study e's tilt distribution over the joint stiffness (its optimiser-history plot needs optimiser runs: not here)
+    e = _study("e_joint_orientation")
+    sec = m.section("yz", 0.0, 0.1, e.TILTS)
+    e.plot_tilts({"original": sec, "optimised": sec}, m, tmp / "e_tilts.png")
+
+
 def _kind_validation_causes(tmp, m, yz):
     val = _study("validation_hexaglide")
     res = m.section("yz", 0.0, 0.1, (), u_range=(-0.7, 0.9), v_range=(-1.4, -0.1),
@@ -421,7 +428,8 @@ def _kind_validation_causes(tmp, m, yz):
 FIGURE_KINDS = {f.__name__.removeprefix("_kind_"): f for f in (
     _kind_section_maps, _kind_three_planes, _kind_mode_shape, _kind_workspace, _kind_rotation, _kind_workspace_curves,
     _kind_mechanisms, _kind_fe_joint, _kind_calibration, _kind_ballbar, _kind_api_plots, _kind_study_maps,
-    _kind_optimise, _kind_study_curves, _kind_study_c_panels, _kind_study_g_rotation, _kind_validation_causes)}
+    _kind_optimise, _kind_study_curves, _kind_study_c_panels, _kind_study_g_rotation, _kind_study_e_tilts,
+    _kind_validation_causes)}
 
 
 def _watch_figures(monkeypatch):
