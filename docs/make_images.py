@@ -1,7 +1,7 @@
 """The docs' figures that no command, docs page or study writes itself (``python docs/make_images.py [OUTDIR]
 [NAME ...]`` from the repository root with pkmstiff importable; default docs/images, all names): the mode shape,
-the mechanism pictures and section maps, the deformed FE joint and the screenshots of ``pkmstiff app`` (headless
-Chromium). The other figures in docs/images come from ``pkmstiff demo``
+the mechanism pictures and section maps, the deformed FE joint, the screenshots of ``pkmstiff app`` and of both
+report kinds (headless Chromium). The other figures in docs/images come from ``pkmstiff demo``
 (hexaglide_yz_*, hexaglide_three_planes_kx), ``python -m pkmstiff.plots.workspace_figures``, ``pkmstiff calibrate
 report`` (the calibration walk-through's commands) and ``studies/``.
 """
@@ -121,8 +121,27 @@ def app(out: Path) -> list[Path]:
     return files
 
 
+def reports(out: Path) -> list[Path]:
+    """docs/user-guide/reports.md: both report kinds as tests/test_app_browser.py builds and looks at them
+    (tests/report_browser.py: a small design comparison and a small Felix calibration), headless Chromium at
+    1400 px, the first 2000 px."""
+    import tempfile
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests import app_browser as ab
+    from tests import report_browser as rb
+
+    files = [out / "report_design.png", out / "report_calibration.png"]
+    with tempfile.TemporaryDirectory() as tmp, ab.chromium() as driver:
+        for html, png in zip(rb.build_reports(Path(tmp)), files):
+            problems = rb.look_at(driver, html, png)
+            if problems:
+                raise RuntimeError(f"{html.name}: {problems}")
+    return files
+
+
 FIGURES = {"mode1": mode1, "figures_page": figures_page, "mechanisms": mechanisms,
-           "mechanism_sections": mechanism_sections, "fe_joint": fe_joint, "app": app}
+           "mechanism_sections": mechanism_sections, "fe_joint": fe_joint, "app": app, "reports": reports}
 
 
 def main(out: str = "docs/images", *names: str) -> list[Path]:
