@@ -267,14 +267,16 @@ def match_runs(series: list[RawSeries], runs: list[Run]) -> list[Run]:
 
 
 def import_raw(machine: Machine, plan: Plan, runs: list[Run], series: list[RawSeries], *,
-               limit: float | None = None) -> tuple[BallbarMeasurement, list[Sync]]:
+               limit: float | None = None, syncs: list[Sync] | None = None) -> tuple[BallbarMeasurement, list[Sync]]:
     """The measurement of raw ``series`` taken on ``machine`` along ``runs`` of ``plan`` (module docstring) and
-    the synchronisation of each."""
+    the synchronisation of each; ``syncs`` (one per series, e.g. refined by :mod:`.sync_refine`) replace the
+    feed-in synchronisation."""
     st = plan.setup
     fb, L = st.fixed_ball, float(st.bar_length)
     matched = match_runs(series, runs)
-    parts, syncs = [], []
-    for s, run in zip(series, matched):
+    given, syncs = syncs, []
+    parts = []
+    for k, (s, run) in enumerate(zip(series, matched)):
         if s.bar_length is not None and not math.isclose(s.bar_length, L, rel_tol=1e-9):
             raise InputError(s.path, key="bar_length_mm", reason=f"key 'bar_length_mm': expected the plan's bar length {L * 1e3:g} mm, "
                              f"found {s.bar_length * 1e3:g} mm ({s.where('bar_length')})")
@@ -284,10 +286,14 @@ def import_raw(machine: Machine, plan: Plan, runs: list[Run], series: list[RawSe
         if s.direction is not None and s.direction != run.direction:
             raise InputError(s.path, key="direction", reason=f"key 'direction': expected {run.direction} (run {run.number}), found "
                              f"{s.direction} ({s.where('direction')})")
-        sync = synchronise(s, run, fb, L, limit=limit, machine=machine, target=st.target)
+        sync = synchronise(s, run, fb, L, limit=limit, machine=machine, target=st.target) if given is None \
+            else given[k]
         a, b = run.path_times
         tau = s.t - sync.start
+        # the first path sample is left out: its step from the feed-in ramp (radial motion) is not a path step, so
+        # the drives' directions of motion of the path (backlash) start with the sample after it
         keep = (tau >= a - 1e-12) & (tau <= b + 1e-12)
+        keep[np.argmax(keep)] = False
         parts.append((tau[keep], s.deviation[keep], run, s))
         syncs.append(Sync(**{**sync.__dict__, "kept": int(keep.sum())}))
     t_all, dev, poses, direction, feed = [], [], [], [], []

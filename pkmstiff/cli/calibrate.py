@@ -33,10 +33,16 @@ def identifiability_report(machine_name: str, instrument: str, plan_path: str | 
     else:
         plan = default_plan(machine, inst)
     check_plan(machine, plan)
-    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=parse_with(with_, inst))
+    blocks = parse_with(with_, inst)
+    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=blocks)
+    if "backlash" in blocks and plan.instrument.kind == "ballbar":
+        from pkmstiff.calibration.nc_program import programmed_plan
+
+        plan = programmed_plan(plan)  # backlash: the drives' directions of motion are those of the NC program's runs
     res = identifiability(machine, params, plan)
     out = {"machine": machine.name, "instrument": inst.kind,
-           "plan": {"name": plan.name, "n_poses": plan.n_poses, "source": plan_path or "default"},
+           "plan": {"name": plan.name, "n_poses": plan.n_poses, "source": plan_path or "default",
+                    "runs": "as programmed" if plan.segments and plan.segments[0].label.endswith(" ccw") else "as given"},
            "setup": {"target_mm": (plan.setup.target * 1e3).tolist()}}
     if plan.setup.fixed_ball is not None:
         out["setup"].update({"fixed_ball_mm": (plan.setup.fixed_ball * 1e3).tolist(),
@@ -50,7 +56,8 @@ MAX_UNNAMED = 5
 
 
 def _print_identifiability(rep: dict) -> None:
-    print(f"{rep['machine']}, {rep['instrument']}: plan '{rep['plan']['name']}' ({rep['plan']['n_poses']} poses, "
+    runs = " in both directions, as the NC program runs it" if rep["plan"].get("runs") == "as programmed" else ""
+    print(f"{rep['machine']}, {rep['instrument']}: plan '{rep['plan']['name']}'{runs} ({rep['plan']['n_poses']} poses, "
           f"{rep['n_readings']} readings), {rep['frame']} parameters")
     print(f"parameters: {rep['n_parameters']}   rank: {rep['rank']} (singular-value gap "
           f"{rep['gap_ratio']:.3g})   not identifiable: {rep['null_dimension']}")
