@@ -142,7 +142,7 @@ def plot_maps(panels: Sequence[MapPanel], path: str | Path, title: str, ncols: i
         ax.set_ylabel(f"{pl.v_name} [mm]")
         ax.set_title(pan.title, fontsize=10)
         cb = fig.colorbar(mesh, ax=ax, shrink=0.85, extend=scale.extend(pan.values))
-        scale.label_colorbar(cb, pan.unit.replace("N/um", "N/µm"))
+        scale.label_colorbar(cb, pan.unit.replace("urad", "µrad").replace("um", "µm"))
     fig.suptitle(title, fontsize=11)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -178,18 +178,18 @@ def plot_rotational(rot: dict[str, dict[str, dict[str, Any]]], points: dict[str,
             ax.set_facecolor("#f2d7d5")
             U, V = np.meshgrid(np.degrees(r.u_values), np.degrees(r.v_values))
             if np.isfinite(a).any():  # cells, not contours: isolated admissible orientations stay visible
-                ax.pcolormesh(U, V, np.ma.masked_invalid(a), cmap="gray_r", vmin=0.0, vmax=vmax, shading="nearest")
+                ax.pcolormesh(U, V, np.ma.masked_invalid(a), cmap="viridis", vmin=0.0, vmax=vmax, shading="nearest")
             else:
                 ax.text(0.5, 0.5, "no admissible\norientation", ha="center", va="center", transform=ax.transAxes,
                         fontsize=9)
             p = np.asarray(points[lab][where]) * 1e3
-            ax.set_title(f"{lab}: max. {d} at ({p[0]:.0f}, {p[1]:.0f}, {p[2]:.0f}) mm", fontsize=8)
+            ax.set_title(f"{lab}: max. {d} at ({p[0]:.0f}, {p[1]:.0f}, {p[2]:.0f}) mm", fontsize=9)
             ax.set_xlim(U.min(), U.max())
             ax.set_ylim(V.min(), V.max())
             ax.set_xlabel(f"{r.settings['u_angle']} [deg]")
             ax.set_ylabel(f"{r.settings['v_angle']} [deg]")
     if any(np.isfinite(rot[lab][w][d].angle).any() for lab in labels for w in rot[lab] for d in ("+a", "+b")):
-        fig.colorbar(plt.cm.ScalarMappable(norm=plt.Normalize(0.0, vmax), cmap="gray_r"),
+        fig.colorbar(plt.cm.ScalarMappable(norm=plt.Normalize(0.0, vmax), cmap="viridis"),
                      cax=fig.add_axes((0.89, 0.2, 0.015, 0.6)), label="max. rotation [deg]")
     fig.suptitle("Rotational workspace: max. +a over (b, c) and max. +b over (a, c) "
                  "(shaded: base orientation inadmissible)", fontsize=10)
@@ -276,7 +276,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         clim = shared_clim(*vals.values())
         for lab in labels:
             s = stats[lab][q]
-            unit = "" if s["unit"] == "1" else f" {s['unit']}"
+            unit = "" if s["unit"] == "1" else f" {s['unit'].replace('um', 'µm')}"
             panels.append(MapPanel(secs[lab], vals[lab], f"{lab}: {QLABEL[q][0]}\nmax {s['max']:.4g}, "
                                    f"mean {s['mean']:.4g}{unit}", f"{q} [{s['unit']}]", clim=clim))
     fig_maps = plot_maps(panels, out / "c_section_maps.png",

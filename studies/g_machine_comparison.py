@@ -125,7 +125,8 @@ def map_stats(r: RotationMap, zlim: tuple[float, float] | None = None) -> dict[s
 
 def plot_rotation_panels(maps: dict[str, RotationMap], xs: dict[str, float],
                          usable: dict[str, tuple[float, float] | None], path: Path) -> Path:
-    """One grey-scale panel of max. +a per machine (Cobet's display), shared scale; dashed: usable-part limit."""
+    """One panel of max. +a per machine (viridis: 0° is a colour, not the background), shared scale; dashed:
+    usable-part limit."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -141,10 +142,10 @@ def plot_rotation_panels(maps: dict[str, RotationMap], xs: dict[str, float],
         ax.set_facecolor("#f2d7d5")
         U, V = np.meshgrid(r.u_values * 1e3, r.v_values * 1e3)
         if np.isfinite(a).any():
-            ax.contourf(U, V, np.ma.masked_invalid(a), levels=levels, cmap="gray_r")
+            ax.contourf(U, V, np.ma.masked_invalid(a), levels=levels, cmap="viridis")
             st = map_stats(r)
             ax.set_title(f"{lab}, x = {xs[lab] * 1e3:.0f} mm\nmax {st['max_deg']:.0f} deg, "
-                         f"mean {st['mean_deg']:.1f} deg", fontsize=9)
+                         f"mean {st['mean_deg']:.1f} deg", fontsize=10)
         lim = usable[lab]
         if lim is not None:
             for z in lim:
@@ -155,10 +156,10 @@ def plot_rotation_panels(maps: dict[str, RotationMap], xs: dict[str, float],
         ax.set_aspect("equal")
         ax.set_xlabel("y [mm]")
         ax.set_ylabel("z [mm]")
-    fig.colorbar(plt.cm.ScalarMappable(norm=plt.Normalize(0.0, MAX_ANGLE), cmap="gray_r"),
+    fig.colorbar(plt.cm.ScalarMappable(norm=plt.Normalize(0.0, MAX_ANGLE), cmap="viridis"),
                  cax=fig.add_axes((0.92, 0.2, 0.012, 0.6)), label="max. +a [deg]")
     fig.suptitle("Maximum admissible rotation +a from a = b = c = 0 (shaded: base orientation inadmissible; "
-                 "dashed: limit of the usable part)", fontsize=10)
+                 "dashed: limit of the usable part)", fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)
     return path

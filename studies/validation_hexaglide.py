@@ -418,8 +418,9 @@ def plot_cause_map(res: pkmstiff.SectionMap, boundary: np.ndarray, cause: np.nda
     ax.set_aspect("equal")
     ax.set_xlabel(f"{pl.u_name} [mm] (report frame)")
     ax.set_ylabel(f"{pl.v_name} [mm] (report frame)")
-    ax.set_title(title, fontsize=10)
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="limiting check")
+    ax.set_title(title, fontsize=11)
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=10, title="limiting check",
+              title_fontsize=10)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120, bbox_inches="tight")  # the legend sits outside the axes
     return path

@@ -54,7 +54,8 @@ plane = "XZ"
 points = 48
 """
 
-SECTIONS = ("Plan", "Identifiability", "Identified parameters", "Residuals before and after", "Model-fit diagnostics",
+SECTIONS = ("Plan", "Identifiability", "Identified parameters", "Residuals before and after", "Ball-bar diagnostics",
+            "Model-fit diagnostics",
             "Cross-validation", "Deflection contribution")
 
 
@@ -81,7 +82,8 @@ def files(tmp_path_factory):
 def report(files):
     out = files / "rep"
     code = main(["calibrate", "report", "felix", "--measurements", str(files / "meas.csv"), "--plan",
-                 str(files / "plan.toml"), "--validate", str(files / "val.csv"), "--out", str(out)])
+                 str(files / "plan.toml"), "--validate", str(files / "val.csv"), "--out", str(out),
+                 "--tolerance", "20um"])
     assert code == 0
     return out
 
@@ -93,6 +95,16 @@ def test_report_has_every_section(report):
     assert "Not computed — run with --deflection gravity." in md
     assert "base frame rotation about the fixed-ball centre" in md  # gauge freedoms named
     assert "observability O5" in md and "condition number" in md
+
+
+def test_ballbar_diagnostics_section_lists_the_sources_with_their_share(report):
+    md = (report / "report.md").read_text(encoding="utf-8")
+    sec = md.split("\n## Ball-bar diagnostics\n")[1].split("\n## ")[0]
+    rows = _md_rows(sec)
+    for label in ("scale mismatch", "squareness", "servo mismatch", "backlash X", "reversal spikes Y"):
+        assert label in rows, (label, list(rows))
+    assert "Tolerance on G: 20 µm." in sec and "tolerance." in sec
+    assert "circle1_diagnosis.png" in sec
 
 
 def _md_rows(md: str) -> dict[str, list[str]]:
@@ -167,15 +179,15 @@ def test_html_is_well_formed_and_self_contained(report):
     c.close()
     assert not c.errors and not c.stack, (c.errors[:3], c.stack)
     assert text.count("<section") == len(SECTIONS) + 3  # + assumptions, settings, run
-    assert text.count('src="data:image/png;base64,') == 6
+    assert text.count('src="data:image/png;base64,') == 7
     assert "<script" not in text
 
 
 def test_figures_exist_and_are_pngs(report):
     md = (report / "report.md").read_text(encoding="utf-8")
     links = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md)
-    # path, parameters, one circle before/after in the measurement, one in the validation file
-    assert len(links) == 6
+    # path, parameters, one circle before/after + its diagnostics page in the measurement, one in the validation file
+    assert len(links) == 7
     for rel in links:
         data = (report / rel).read_bytes()
         assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 5000, rel

@@ -1,10 +1,11 @@
 """Figures a user would put in a report (issue 12, item 5; issue 28, item 1): the drawing of every figure kind fills
-at least 80 % of the canvas (bounding box of the non-background pixels), maps carry µm/° units, titles state the real
-window ranges, every text of a matplotlib figure is at least 9 pt at the figure's print size, colour scales show
-the structure where one hot spot dominates.
+at least 80 % of the canvas (bounding box of the non-background pixels), every text is at least 9 pt at print size
+(matplotlib: at the figure's size in inches; pyvista: measured in the rendered image, tests/figure_checks.py), maps
+carry µm/° units, titles state the real window ranges, colour scales show the structure where one hot spot dominates.
 
-The fill fraction is the area of the bounding box of pixels that differ from the corner (background) colour by more
-than 30 (sum over RGB, out of 765) divided by the canvas area; antialiasing halos stay below that threshold.
+``test_every_figure_kind_fills_its_canvas_with_readable_text`` runs every figure kind of the package (and the studies'
+map panels) with ``Figure.savefig`` and ``Plotter.screenshot`` watched: every saved figure and screenshot is checked;
+``test_the_checks_fail_on_a_bad_figure`` shows that the checks can fail.
 """
 
 from __future__ import annotations
@@ -12,30 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-MIN_FILL = 0.80
-MIN_PT = 9.0  # readable at print size: the figure is printed at its own size in inches (points are 1/72 in)
-
-
-def smallest_text_pt(fig) -> float:
-    """Smallest font size [pt] of the visible, non-empty texts of a matplotlib figure (ticks, labels, legends)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.text import Text
-
-    FigureCanvasAgg(fig)
-    fig.draw_without_rendering()
-    sizes = [t.get_fontsize() for t in fig.findobj(Text) if t.get_visible() and t.get_text().strip()]
-    assert sizes, "figure without text"
-    return min(sizes)
-
-
-def fill_fraction(path) -> float:
-    from PIL import Image
-
-    img = np.asarray(Image.open(path).convert("RGB")).astype(int)
-    mask = np.abs(img - img[0, 0]).sum(axis=2) > 30
-    ys, xs = np.nonzero(mask)
-    assert ys.size, f"{path} is blank"
-    return (ys.max() - ys.min() + 1) * (xs.max() - xs.min() + 1) / mask.size
+from tests.figure_checks import MIN_FILL, MIN_PT, fill_fraction, pyvista_text_pt, smallest_text_pt
 
 
 @pytest.fixture(scope="module")
@@ -206,12 +184,17 @@ def test_rotation_map_colour_map_is_perceptual_with_zero_as_data(tmp_path, hexag
     real = wsplots._figure
     monkeypatch.setattr(wsplots, "_figure", lambda size: figs.append(real(size)) or figs[-1])
     wsplots.plot_rotation_maps(res, tmp_path / "rot.png", ("y [mm]", "z [mm]"), (1e3, 1e3), "hexaglide: test")
-    fig = figs[0]
-    assert smallest_text_pt(fig) >= MIN_PT
-    cs = [c for ax in fig.axes for c in ax.collections if c.get_array() is not None]
-    assert cs and all(c.get_cmap().name == "viridis" for c in cs)
-    white = np.array([1.0, 1.0, 1.0, 1.0])
-    assert not np.allclose(cs[0].get_cmap()(0.0), white)  # 0° is a colour, not the background
+    from pkmstiff.workspace.rotation import rotational_workspace_map
+
+    rw = [rotational_workspace_map(hexaglide, (0.0, 0.4, -1.0), "+a", np.radians(np.arange(-30, 30.1, 15.0)),
+                                   np.radians(np.arange(-60, 60.1, 30.0)))]
+    wsplots.plot_rotational_workspace(rw, tmp_path / "rotws.png", "test")
+    for fig in figs:  # the rotation maps and the rotational workspace at a point
+        assert smallest_text_pt(fig) >= MIN_PT
+        cs = [c for ax in fig.axes for c in ax.collections if c.get_array() is not None]
+        assert cs and all(c.get_cmap().name == "viridis" for c in cs)
+        white = np.array([1.0, 1.0, 1.0, 1.0])
+        assert not np.allclose(cs[0].get_cmap()(0.0), white)  # 0° is a colour, not the background
 
 
 def test_fe_joint_image_fills_the_canvas(tmp_path):
@@ -250,3 +233,213 @@ def test_remaining_matplotlib_kinds_have_readable_text(tmp_path, monkeypatch):
     wsplots.plot_convergence(eps, {"sphere": {"surface_nets": eps ** 2 * 1e-3, "tetrahedron": eps * 1e-2}},
                              tmp_path / "conv.png")
     assert len(figs) == 2 and all(smallest_text_pt(f) >= MIN_PT for f in figs)
+
+
+# ------------------------------------------------------------------------------------------- every figure kind
+def _kind_section_maps(tmp, m, yz):
+    from pkmstiff.plots.section_maps import plot_reasons, plot_section
+
+    plot_section(yz, "kx", tmp / "kx.png")
+    plot_reasons(yz, tmp / "reasons.png")
+
+
+def _kind_three_planes(tmp, m, yz):
+    from pkmstiff.evaluation.sections import evaluate_three_planes, three_planes
+    from pkmstiff.plots.section_maps import plot_three_planes
+
+    rs = evaluate_three_planes(m, three_planes((0, 0.1, -0.9), (0.5, 0.6, 0.3), 0.1), ["kx"])
+    plot_three_planes(rs, "kx", m, [0, 0, -1.0, 0, 0, 0], tmp / "three.png")
+
+
+def _kind_mode_shape(tmp, m, yz):
+    from pkmstiff.plots.modes import plot_mode_shape
+
+    plot_mode_shape(m, np.array([0, 0.3, -0.9, 0, 0, 0]), tmp / "mode.png")
+
+
+def _kind_workspace(tmp, m, yz):
+    from pkmstiff.plots.workspace import plot_workspace
+    from pkmstiff.workspace.requests import WorkspaceRequest
+    from pkmstiff.workspace.translational import DEFAULT_METHODS
+
+    res = WorkspaceRequest(0.08, None, (), (0.0, 0.0, 0.0), DEFAULT_METHODS).evaluate(m)
+    plot_workspace(res, m, tmp / "ws.png")
+
+
+def _kind_rotation(tmp, m, yz):
+    from pkmstiff.plots.workspace import plot_rotation_maps, plot_rotational_workspace
+    from pkmstiff.workspace.requests import RotationMapRequest
+    from pkmstiff.workspace.rotation import rotational_workspace_map
+
+    u, v = tuple(np.arange(-0.2, 0.61, 0.2)), tuple(np.arange(-1.05, -0.49, 0.2))
+    req = RotationMapRequest((0.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0), u, v, ("+a",), (0.0, 0.0, 0.0),
+                             np.radians(5.0), np.radians(60.0), (), "predictor_corrector")
+    plot_rotation_maps(req.evaluate(m), tmp / "rot.png", ("y [mm]", "z [mm]"), (1e3, 1e3), "hexaglide: test")
+    rw = [rotational_workspace_map(m, (0.0, 0.4, -1.0), d, np.radians(np.arange(-30, 30.1, 10.0)),
+                                   np.radians(np.arange(-60, 60.1, 20.0))) for d in ("+a", "+b")]
+    plot_rotational_workspace(rw, tmp / "rotws.png", "Hexaglide: rotational workspace")
+
+
+def _kind_workspace_curves(tmp, m, yz):
+    from pkmstiff.plots.workspace import plot_convergence, plot_volume_vs_orientation
+
+    ang = np.radians(np.arange(-10.0, 10.1, 5.0))
+    plot_volume_vs_orientation(ang, {"a": 0.3 - 0.001 * ang ** 2, "b": 0.29 - 0.002 * ang ** 2}, tmp / "vol.png",
+                               "test")
+    eps = np.array([50.0, 25.0, 12.5])
+    plot_convergence(eps, {"sphere": {"surface_nets": eps ** 2 * 1e-3, "tetrahedron": eps * 1e-2}}, tmp / "conv.png")
+
+
+def _kind_mechanisms(tmp, m, yz):
+    import pkmstiff.mechanisms as mm
+    from pkmstiff.cli import main
+    from pkmstiff.plots.mechanism import mechanism_figure
+
+    sc = mm.load_mechanism("slider_crank")
+    mechanism_figure(sc, mm.forward(sc, [[0.0], [-0.080]], steps=4).q, tmp / "sc.png", labels=["home", "s = -80 mm"])
+    assert main(["section", "hybrid_tripod_wrist", "--plane", "xy", "--at", "-1073.205", "--step", "40",
+                 "--quantities", "kappa", "--out", str(tmp / "mech")]) == 0
+
+
+def _kind_fe_joint(tmp, m, yz):
+    from pathlib import Path
+
+    from pkmstiff.cli.fe import joint_image
+    from pkmstiff.fe.joints import build_joint_model, load_joint_parameters
+
+    params = Path(__file__).resolve().parents[1] / "pkmstiff" / "fe" / "params" / "iwf_2dof_improved.toml"
+    joint_image(build_joint_model(load_joint_parameters(params)), 45.0, tmp / "joint.png")
+
+
+def _kind_calibration(tmp, m, yz):
+    from pkmstiff.plots.calibration import parameter_figure, path_figure
+
+    t = np.linspace(0, 2 * np.pi, 200)
+    pts = np.column_stack([0.3 * np.cos(t), 0.3 * np.sin(t), 0.1 + 0 * t])
+    path_figure(pts, np.zeros(200, int), ["circle"], np.zeros(3)).savefig(tmp / "path.png", dpi=100)
+    parameter_figure([f"p{i}" for i in range(4)], np.array([2e-3, -1e-3, 2e-4, -3e-4]), np.full(4, 5e-6),
+                     ["m", "m", "rad", "rad"]).savefig(tmp / "params.png", dpi=100)
+
+
+def _kind_ballbar(tmp, m, yz):
+    from pkmstiff.calibration.ballbar import evaluate_circular_test
+    from pkmstiff.calibration.ballbar_diagnosis import diagnose
+    from pkmstiff.plots.ballbar import save_ballbar_figures
+    from tests.ballbar_synth import circle_run
+
+    ccw = circle_run(0.15, 600, radius_error=3e-6, lobes={2: (8e-6, 0.3), 3: (2e-6, 0.0)}, noise=0.3e-6)
+    cw = circle_run(0.15, 600, radius_error=3e-6, lobes={2: (8e-6, 0.3), 3: (2e-6, 0.0)}, noise=0.3e-6,
+                    direction=-1, seed=1)
+    ev = evaluate_circular_test(np.vstack([ccw.positions, cw.positions]), np.concatenate([ccw.reading, cw.reading]),
+                                (0, 0, 0), 0.15, direction=np.array(["ccw"] * 600 + ["cw"] * 600))
+    save_ballbar_figures(ev, tmp, "bb", diagnose(ev, tolerance=15e-6))
+
+
+def _kind_api_plots(tmp, m, yz):
+    import pkmstiff
+
+    pts = pkmstiff.load_machine("hexaglide").point([[0, 0.1 * k, -1.0, 0, 0, 0] for k in range(4)])
+    pts.plot("kx_N_per_um", path=str(tmp / "points.png"))
+
+
+def _kind_study_maps(tmp, m, yz):
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
+    try:
+        from _study_common import MapPanel, plot_maps
+    finally:
+        sys.path.pop(0)
+    panels = [MapPanel(yz, yz.display("kx"), f"variant {k}: k_x", "N/um") for k in (1, 2)]
+    plot_maps(panels, tmp / "study.png", "Study maps")
+
+
+def _kind_optimise(tmp, m, yz):
+    from pkmstiff.cli import main
+
+    assert main(["optimise", "hexaglide_joint_orientation", "--out", str(tmp / "opt"), "--budget", "4", "--quiet",
+                 "--no-report"]) == 0
+
+
+FIGURE_KINDS = {f.__name__.removeprefix("_kind_"): f for f in (
+    _kind_section_maps, _kind_three_planes, _kind_mode_shape, _kind_workspace, _kind_rotation, _kind_workspace_curves,
+    _kind_mechanisms, _kind_fe_joint, _kind_calibration, _kind_ballbar, _kind_api_plots, _kind_study_maps,
+    _kind_optimise)}
+
+
+def _watch_figures(monkeypatch):
+    """Record every matplotlib figure saved (with the file) and the measured text of every pyvista screenshot."""
+    import pyvista as pv
+    from matplotlib.figure import Figure
+
+    seen = {"mpl": [], "pv": []}
+    save, shot = Figure.savefig, pv.Plotter.screenshot
+
+    def savefig(self, fname, *a, **k):
+        out = save(self, fname, *a, **k)
+        seen["mpl"].append((self, fname))
+        return out
+
+    def screenshot(self, filename=None, *a, **k):
+        if filename is not None and not k.get("return_img"):
+            seen["pv"].append((pyvista_text_pt(self), filename))
+        return shot(self, filename, *a, **k)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    monkeypatch.setattr(pv.Plotter, "screenshot", screenshot)
+    return seen
+
+
+def _check_watched(seen, tmp_path) -> list[str]:
+    """What is wrong with the watched figures: fill below MIN_FILL or text below MIN_PT (empty: all fine)."""
+    from pathlib import Path
+
+    bad = []
+    files = sorted(p for p in Path(tmp_path).rglob("*.png"))
+    assert files, "no figure written"
+    for f in files:
+        if fill_fraction(f) < MIN_FILL:
+            bad.append(f"{f.name}: fill {fill_fraction(f):.2f} < {MIN_FILL}")
+    for fig, fname in seen["mpl"]:
+        if smallest_text_pt(fig) < MIN_PT:
+            bad.append(f"{Path(str(fname)).name}: text {smallest_text_pt(fig):.1f} pt < {MIN_PT}")
+    for sizes, fname in seen["pv"]:
+        assert sizes, f"{fname}: no text found in the screenshot"
+        small = {k: round(v, 1) for k, v in sizes.items() if v < MIN_PT}
+        if small:
+            bad.append(f"{Path(str(fname)).name}: text {small} pt < {MIN_PT}")
+    return bad
+
+
+@pytest.mark.parametrize("kind", list(FIGURE_KINDS))
+def test_every_figure_kind_fills_its_canvas_with_readable_text(kind, tmp_path, hexaglide, yz_section, monkeypatch):
+    seen = _watch_figures(monkeypatch)
+    FIGURE_KINDS[kind](tmp_path, hexaglide, yz_section)
+    assert seen["mpl"] or seen["pv"], f"{kind}: no figure saved through matplotlib or pyvista"
+    assert _check_watched(seen, tmp_path) == []
+
+
+def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
+    # a matplotlib figure with 6 pt ticks and its drawing in one corner, a pyvista window with a small mesh in a
+    # corner and 4-px text: every check must report them
+    import pyvista as pv
+    from matplotlib.figure import Figure
+
+    seen = _watch_figures(monkeypatch)
+    fig = Figure(figsize=(6.0, 4.0))
+    ax = fig.add_axes((0.02, 0.02, 0.2, 0.2))
+    ax.plot([0, 1], [0, 1])
+    ax.tick_params(labelsize=6)
+    fig.savefig(tmp_path / "bad_mpl.png", dpi=100)
+    p = pv.Plotter(off_screen=True, window_size=(600, 400))
+    p.set_background("white")
+    p.add_mesh(pv.Sphere(radius=0.1, center=(2.0, 1.5, 0.0)), color="black")
+    p.add_mesh(pv.Sphere(radius=0.001), color="white")  # keeps the camera wide: the black sphere sits in a corner
+    p.camera_position = [(0, 0, 10), (0, 0, 0), (0, 1, 0)]
+    p.add_text("tiny", position=(300, 200), font_size=3, color="black")
+    p.screenshot(str(tmp_path / "bad_pv.png"))
+    p.close()
+    bad = _check_watched(seen, tmp_path)
+    assert any(b.startswith("bad_mpl.png: fill") for b in bad) and any(b.startswith("bad_mpl.png: text") for b in bad)
+    assert any(b.startswith("bad_pv.png: fill") for b in bad) and any(b.startswith("bad_pv.png: text") for b in bad)

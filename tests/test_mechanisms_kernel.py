@@ -93,3 +93,55 @@ def test_compiled_rotation_step_equals_rodrigues_and_link_angles():
     # each (measured 3e-14); the angles follow link_angles' convention (atan2 of the same entries)
     assert np.abs(link_rotations(got, 3)[0] - ref).max() < 1e-13
     assert np.abs(got - link_angles(ref)).max() < 1e-11
+
+
+@pytest.mark.parametrize("which", ["fk", "ik"])
+def test_fused_newton_equals_the_numpy_loop(which, monkeypatch):
+    """The compiled per-pose Newton (pkmstiff.mechanisms.fused) takes the numpy loop's steps: same configurations,
+    statuses and step counts, on the parallel and the serial kernel."""
+    from pkmstiff.mechanisms import fused, solver
+
+    rng = np.random.default_rng(4)
+    monkeypatch.setattr(fused, "PARALLEL_MIN", 64)
+    for name in ("hexapod_6ups", "hybrid_tripod_wrist", "hexaglide_generic"):
+        mech = mm.load_mechanism(name)
+        sysm = fk_system(mech) if which == "fk" else ik_system(mech)
+        if which == "fk":
+            fk = mm.forward(mech, mm.inverse(mech, mech.home_output_pose[None]).drives)
+            tg = fk.drives + rng.uniform(-0.02, 0.02, (200, len(mech.drives)))
+        else:
+            tg = mech.home_output_pose + np.column_stack([rng.uniform(-0.02, 0.02, (200, 3)),
+                                                          rng.uniform(-0.05, 0.05, (200, 3))])
+        q0 = np.broadcast_to(solver.home(mech), (200, len(mech.links), 6))
+        tol = 1e-13 * mech.length_scale
+        for n in (200, 3):
+            a = solver.newton(sysm, q0[:n], tg[:n], tol)
+            b = solver._newton_loop(sysm, q0[:n].reshape(n, -1), tg[:n], tol, 30, 30)
+            assert (a[1] == b[1]).all() and (a[4] == b[4]).all() and (a[6] == b[6]).all(), name
+            # the same steps in another summation order: a residual that lands within rounding of the tolerance
+            # may need one step more or less (seen: 1 pose in 200), never more
+            assert np.abs(a[2] - b[2]).max() <= 1 and (a[2] != b[2]).sum() <= 0.02 * n + 1, name
+            # converged configurations agree to the tolerance's scale (1e-13 m) times the conditioning (≲ 1e2)
+            assert np.abs(a[0] - b[0]).max() < 1e-10, name
+
+
+def test_fused_newton_hands_rank_deficient_poses_to_the_qr_loop():
+    # the wrist singularity of the hybrid (V2 = 0): the σ-ratio screen fails and the pivoted QR finishes the solve
+    mech = mm.load_mechanism("hybrid_tripod_wrist")
+    fk = mm.forward(mech, [[0.05, -0.02, 0.01, 0.4, 0.0]], steps=4)
+    ik = mm.inverse(mech, fk.poses)
+    assert ik.status[0] == "singular" and ik.rank[0] == ik.n_free - 1
+
+
+def test_elimination_order_puts_hubs_last():
+    from pkmstiff.mechanisms.fused import elimination_order, fused_plan
+
+    # a star: links 1…4 each joined to the hub 5 and to the ground 0 (inactive)
+    edges = [(0, i) for i in range(1, 5)] + [(i, 5) for i in range(1, 5)]
+    active = np.array([False] + [True] * 5)
+    assert elimination_order(6, edges, active) == [1, 2, 3, 4, 5]
+    # the 6-UPS: the six struts before the platform; each strut row of JᵀJ touches only its own block and the
+    # platform's (an arrowhead envelope)
+    mech = mm.load_mechanism("hexapod_6ups")
+    fp = fused_plan(fk_system(mech))
+    assert (fp.cols[-6:] // 6 == mech.link_index("platform")).all()

@@ -417,11 +417,27 @@ def test_weighted_evaluation_section_and_html_checks(tmp_path):
     check_report(out["html"].read_text(encoding="utf-8"), out["md"].read_text(encoding="utf-8"))
 
 
-def test_evaluation_metric_must_be_a_table_row(tmp_path):
+def test_evaluation_metric_must_be_a_table_row(tmp_path, monkeypatch):
     from pkmstiff.errors import InputError
+    from pkmstiff.report import build
+    from pkmstiff.report.build import comparison_labels
 
     spec = load_spec(_mini(tmp_path, extra='[[evaluation]]\nmetric = "nope"\n'))
-    with pytest.raises(InputError, match=r"evaluation\[1\].metric.*'nope'"):
-        build_report(spec, tmp_path / "out")
+
+    def no_evaluation(*a, **k):
+        raise AssertionError("evaluated before the spec's metric was checked")
+
+    with monkeypatch.context() as mp:  # the one-line error comes before any machine is loaded or evaluated
+        mp.setattr(build, "_load_variant", no_evaluation)
+        mp.setattr(build, "spec_cost", no_evaluation)
+        with pytest.raises(InputError, match=r"evaluation\[1\].metric.*'nope'"):
+            build_report(spec, tmp_path / "out")
+        with pytest.raises(InputError, match=r"evaluation\[1\].metric.*'nope'"):
+            build.run_spec(_mini(tmp_path, extra='[[evaluation]]\nmetric = "nope"\n'), tmp_path / "out2",
+                           check=no_evaluation)
+    assert not (tmp_path / "out").exists() and not (tmp_path / "out2").exists()
+    # the labels known before the evaluation are the rows the evaluation fills
+    good = load_spec(_mini(tmp_path))
+    assert comparison_labels(good) == list(_rows(build_report(good, tmp_path / "out3")))
     with pytest.raises(InputError, match="evaluation\\[1\\].better"):
         load_spec(_mini(tmp_path, extra='[[evaluation]]\nmetric = "kx mean"\nbetter = "more"\n'))

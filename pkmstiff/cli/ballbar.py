@@ -3,7 +3,9 @@
 Prints the ISO 230-4 style figures (G, F, H), centre offset, radius deviation, circularity (least-squares and
 minimum-zone centre) and the Fourier
 harmonics (Szatmári eq. 4.9/4.10) per direction; ``--json`` prints one object whose keys name their units (µm, mm,
-deg); ``--plot DIR`` writes the polar deviation plot and the harmonic spectrum as PNG.
+deg); ``--plot DIR`` writes the polar deviation plot and the harmonic spectrum as PNG, and the diagnostics page
+(:mod:`pkmstiff.calibration.ballbar_diagnosis`: the error sources of ball-bar software with their share of G, the
+polar plot with the ``--tolerance`` band).
 """
 
 from __future__ import annotations
@@ -14,7 +16,9 @@ import math
 from pathlib import Path
 from typing import Any
 
-from pkmstiff.cli.edges import check_output_dir
+import numpy as np
+
+from pkmstiff.cli.edges import check_output_dir, length_option
 from pkmstiff.errors import ArgumentError, InputError
 
 
@@ -50,9 +54,12 @@ def _start_pose(text: str | None) -> list[float] | None:
 
 
 def analyse_file(path: str, harmonics: int | str = "auto", plot_dir: str | None = None,
-                 alpha: float = 0.01, machine: str | None = None, start_pose: str | None = None) -> dict[str, Any]:
-    """Everything ``pkmstiff ballbar analyse`` prints, as a JSON-ready dict (keys name their units)."""
+                 alpha: float = 0.01, machine: str | None = None, start_pose: str | None = None,
+                 tolerance: float | None = None, lead: float | None = None) -> dict[str, Any]:
+    """Everything ``pkmstiff ballbar analyse`` prints, as a JSON-ready dict (keys name their units); ``tolerance``
+    [m] on G and the screw ``lead`` [m] go to the diagnosis."""
     from pkmstiff.calibration.ballbar import evaluate_measurement
+    from pkmstiff.calibration.ballbar_diagnosis import diagnose
     from pkmstiff.calibration.measurement_file import read_measurement
 
     meas = read_measurement(path)
@@ -68,12 +75,14 @@ def analyse_file(path: str, harmonics: int | str = "auto", plot_dir: str | None 
         model = load_machine(name)
     ev = evaluate_measurement(meas, harmonics=harmonics, alpha=alpha, machine=model, start_pose=x0,
                               source=str(path))
+    feed = None if meas.feed is None or not np.all(np.isfinite(meas.feed)) else float(np.median(meas.feed))
+    diag = diagnose(ev, tolerance=tolerance, lead=lead, feed=feed)
     out = {"file": str(path), "machine": meas.machine, "instrument": meas.device, "samples": meas.n_samples,
-           **ev.to_dict()}
+           **ev.to_dict(), "diagnosis": diag.to_dict()}
     if plot_dir is not None:
         from pkmstiff.plots.ballbar import save_ballbar_figures
 
-        out["plots"] = [str(p) for p in save_ballbar_figures(ev, plot_dir, Path(path).stem)]
+        out["plots"] = [str(p) for p in save_ballbar_figures(ev, plot_dir, Path(path).stem, diag)]
     return _clean(out)
 
 
@@ -101,17 +110,35 @@ def _print_text(rep: dict[str, Any]) -> None:
     else:
         print(f"  circularity {rep['circularity_um']:.3f} µm (least squares), {rep['circularity_min_zone_um']:.3f} µm "
               "(minimum zone; one direction only: no hysteresis)")
+    _print_diagnosis(rep["diagnosis"])
     for p in rep.get("plots", []):
         print(f"  wrote {p}")
+
+
+def _print_diagnosis(d: dict[str, Any]) -> None:
+    print("  diagnosis (classic circle error model; share = peak-to-valley of the source / G of its run):")
+    for s in d["sources"]:
+        print(f"    {s['label']:<22} {s['value']:+9.3f} ± {s['sigma']:.3f} {s['unit']:<5} "
+              f"{s['share_of_G_percent']:5.1f} % of G")
+    print(f"    {'unexplained':<22} {d['residual_pv_um']:9.3f} µm p-v    {d['residual_share_of_G_percent']:5.1f} % "
+          f"of G (rms {d['residual_rms_um']:.3f} µm)")
+    for name, why in d["not_fitted"].items():
+        print(f"    {name}: not fitted, {why}")
+    if d["tolerance_um"] is not None:
+        verdicts = ", ".join(f"{lab.upper()} {'pass' if ok else 'FAIL'}" for lab, ok in d["passed"].items())
+        print(f"  tolerance G <= {d['tolerance_um']:g} µm: {verdicts}")
 
 
 def _cmd_analyse(args: argparse.Namespace) -> int:
     harmonics = _harmonics_arg(args.harmonics)
     if not 0.0 < args.alpha < 1.0:
         raise ArgumentError(option="--alpha", expected="a probability in (0, 1)", found=args.alpha)
+    tolerance = length_option(args.tolerance, "--tolerance")
+    lead = length_option(args.lead, "--lead")
     if args.plot is not None:
         stem = Path(args.file).stem
-        check_output_dir(args.plot, "--plot", args.force, (f"{stem}_polar.png", f"{stem}_spectrum.png"))
+        check_output_dir(args.plot, "--plot", args.force,
+                         tuple(f"{stem}_{k}.png" for k in ("polar", "spectrum", "diagnosis")))
     from pkmstiff.cli.edges import announce, count_lines, parse_budget
     from pkmstiff.evaluation.cost import BALLBAR_BASE_BYTES, BALLBAR_ROW_BYTES, BALLBAR_ROW_SECONDS, rows_cost
 
@@ -120,7 +147,7 @@ def _cmd_analyse(args: argparse.Namespace) -> int:
                      base_bytes=BALLBAR_BASE_BYTES)
     announce("ballbar", cost, parse_budget(getattr(args, "memory_budget", None)), quiet=args.json or rows < 100_000)
     rep = analyse_file(args.file, harmonics=harmonics, plot_dir=args.plot, alpha=args.alpha, machine=args.machine,
-                       start_pose=args.start_pose)
+                       start_pose=args.start_pose, tolerance=tolerance, lead=lead)
     if args.json:
         print(json.dumps(rep, indent=2))
     else:
@@ -145,7 +172,13 @@ def add_commands(sub: Any) -> None:
     a.add_argument("--machine", help="machine for a drive-only file (default: the file's 'machine' header)")
     a.add_argument("--start-pose", metavar="x,y,z,a,b,c",
                    help="start pose (mm, deg) of the forward kinematics for a drive-only file")
-    a.add_argument("--plot", metavar="DIR", help="write the polar deviation plot and harmonic spectrum (PNG) here")
+    a.add_argument("--tolerance", metavar="LENGTH",
+                   help="tolerance on the circular deviation G with its unit (e.g. 10um): band in the diagnostics "
+                        "plot, pass/fail per run")
+    a.add_argument("--lead", metavar="LENGTH",
+                   help="lead of the axis screws with its unit (e.g. 10mm): fits the cyclic error")
+    a.add_argument("--plot", metavar="DIR",
+                   help="write the polar deviation plot, harmonic spectrum and diagnostics page (PNG) here")
     a.add_argument("--force", action="store_true", help="overwrite existing plots in --plot")
     a.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     from pkmstiff.cli.edges import add_budget_argument

@@ -16,12 +16,13 @@ def report_command(args: argparse.Namespace) -> dict:
     """Everything ``calibrate report`` does; returns a JSON-ready summary (keys name their units)."""
     from pkmstiff.calibration.deflection import require_structure_model
     from pkmstiff.calibration.workflow import run_calibration
-    from pkmstiff.cli.edges import check_output_dir
+    from pkmstiff.cli.edges import check_output_dir, length_option
     from pkmstiff.errors import InputError
     from pkmstiff.machine import load_machine
     from pkmstiff.report.calibration import REPORT_FILES, write_calibration_report
 
     check_output_dir(args.out, "--out", args.force, REPORT_FILES)
+    tolerance = length_option(args.tolerance, "--tolerance")
     if args.monte_carlo < 0:
         raise InputError("--monte-carlo", "monte_carlo", "a number of runs >= 0", args.monte_carlo)
     wants_deflection = args.deflection != "none"
@@ -31,7 +32,7 @@ def report_command(args: argparse.Namespace) -> dict:
     run = run_calibration(machine, args.measurements, plan_path=args.plan, validate=args.validate or (),
                           method=args.method, loss=args.loss, frame=args.frame, monte_carlo=args.monte_carlo,
                           deflection=args.deflection, with_=args.with_)
-    paths = write_calibration_report(run, args.out)
+    paths = write_calibration_report(run, args.out, tolerance=tolerance)
     return {"machine": machine.name, "measurement_file": args.measurements, "n_readings": run.res.n_readings,
             "rank": run.res.rank, "n_parameters": run.params.n, "rms_before_um": run.run.before.rms * 1e6,
             "rms_after_um": run.run.after.rms * 1e6, "circles": len(run.circles),
@@ -86,6 +87,9 @@ def _add_report(sub) -> None:
                         "its contribution and the bias it would cause (needs a machine with stiffness data); "
                         "default none: not computed")
     add_with_option(p, "identify with the machine (and fit anew on every validation file)")
+    p.add_argument("--tolerance", metavar="LENGTH",
+                   help="tolerance on the circular deviation G with its unit (e.g. 10um): band in the ball-bar "
+                        "diagnostics plots, pass/fail per circle")
     p.add_argument("--force", action="store_true", help="overwrite an existing report in --out")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_cmd_report)

@@ -274,3 +274,17 @@ def announce(command: str, cost, budget: int, quiet: bool = False, plan: str | N
     if not quiet:
         print(f"pkmstiff {command}: {cost.what}: {size}, about {human_bytes(cost.bytes)} and "
               f"{human_seconds(cost.seconds)}{f'; {plan}' if plan else ''}", file=sys.stderr, flush=True)
+
+
+def length_option(text: str | None, option: str) -> float | None:
+    """A length with its unit (``10um``, ``0.01 mm``) -> m; None stays None."""
+    from pkmstiff.errors import InputError
+    from pkmstiff.units import parse_quantity
+
+    if text is None:
+        return None
+    try:
+        return float(parse_quantity(text, "m", positive=True))
+    except InputError:
+        raise ArgumentError(option=option, expected="a positive length with its unit, e.g. 10um or 0.01mm",
+                            found=text) from None

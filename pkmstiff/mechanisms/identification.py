@@ -93,8 +93,9 @@ def identification_jacobian(mech: Mechanism, drives: ArrayLike, start: Solution 
     rows, free = system.solve_rows, system.free
     N, L, d = sol.q.shape
     tg = np.asarray(drives, dtype=float).reshape(N, -1)
-    _, J = system.evaluate(sol.q, tg)
-    Fq = J[:, rows][:, :, free]
+    # configuration changes in the Newton coordinates (incremental rotation vectors of the links, System.step):
+    # regular at every link orientation, also where a link's Euler angle φy = ±90°
+    _, Fq = system.evaluate(sol.q, tg, reduced=True, omega=True)
     hp = h * max(1.0, mech.length_scale)
     Fp = np.empty((N, rows.size, len(sel)))
     Pp = np.empty((N, mech.pose_size, len(sel)))
@@ -115,10 +116,10 @@ def identification_jacobian(mech: Mechanism, drives: ArrayLike, start: Solution 
     Pq = np.empty((N, mech.pose_size, free.size))
     hq = 1e-7
     qf = sol.q.reshape(N, -1)
-    for c, col in enumerate(free):
-        qp, qm = qf.copy(), qf.copy()
-        qp[:, col] += hq
-        qm[:, col] -= hq
+    for c in range(free.size):
+        e = np.zeros((N, free.size))
+        e[:, c] = hq
+        qp, qm = system.step(qf, e), system.step(qf, -e)
         Pq[:, :, c] = (output_pose(mech, qp.reshape(N, L, d)) - output_pose(mech, qm.reshape(N, L, d))) / (2 * hq)
     Jid = np.einsum("npf,nfk->npk", Pq, dq) + Pp
     Jid[~sol.ok] = np.nan

@@ -76,44 +76,44 @@ def _mm3(X, Y, out):  # pragma: no cover - compiled
             out[r, c] = X[r, 0] * Y[0, c] + X[r, 1] * Y[1, c] + X[r, 2] * Y[2, c]
 
 
-def _rotations(q, L, R, dR, om, W):  # pragma: no cover - compiled
+def _rotations(q, L, R, dR, om, W, T7, given):  # pragma: no cover - compiled
     """R = Rz(φz) Ry(φy) Rx(φx) (eq. 2) of every link and dR[l, c] = ∂R/∂φ_c, or for the links with om[l] = 1
     dR[l, c] = [e_c]× R = ∂R/∂ω_c (an incremental world-frame rotation vector ω: no parametrisation singularity);
-    W[l, c] = vee(dR[l, c] Rᵀ), the angular velocity per unit rate of coordinate c."""
-    Rx = np.zeros((3, 3))
-    Ry = np.zeros((3, 3))
-    Rz = np.zeros((3, 3))
-    dX = np.zeros((3, 3))
-    dY = np.zeros((3, 3))
-    dZ = np.zeros((3, 3))
-    T = np.zeros((3, 3))
+    W[l, c] = vee(dR[l, c] Rᵀ), the angular velocity per unit rate of coordinate c.  ``given``: R of the om links
+    is already in ``R`` (the fused Newton keeps it as its state) and their angles in q are not read.
+    ``T7`` (7, 3, 3): zero-initialised work matrices."""
+    Rx, Ry, Rz, dX, dY, dZ, T = T7[0], T7[1], T7[2], T7[3], T7[4], T7[5], T7[6]
     for l in range(L):
-        x, y, z = q[6 * l + 3], q[6 * l + 4], q[6 * l + 5]
-        cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
-        Rx[0, 0] = 1.0
-        Rx[1, 1], Rx[1, 2], Rx[2, 1], Rx[2, 2] = cx, -sx, sx, cx
-        dX[1, 1], dX[1, 2], dX[2, 1], dX[2, 2] = -sx, -cx, cx, -sx
-        Ry[1, 1] = 1.0
-        Ry[0, 0], Ry[0, 2], Ry[2, 0], Ry[2, 2] = cy, sy, -sy, cy
-        dY[0, 0], dY[0, 2], dY[2, 0], dY[2, 2] = -sy, cy, -cy, -sy
-        Rz[2, 2] = 1.0
-        Rz[0, 0], Rz[0, 1], Rz[1, 0], Rz[1, 1] = cz, -sz, sz, cz
-        dZ[0, 0], dZ[0, 1], dZ[1, 0], dZ[1, 1] = -sz, -cz, cz, -sz
-        _mm3(Rz, Ry, T)
-        _mm3(T, Rx, R[l])
-        _mm3(T, dX, dR[l, 0])
-        _mm3(Rz, dY, T)
-        _mm3(T, Rx, dR[l, 1])
-        _mm3(dZ, Ry, T)
-        _mm3(T, Rx, dR[l, 2])
+        if not (given and om[l]):
+            x, y, z = q[6 * l + 3], q[6 * l + 4], q[6 * l + 5]
+            cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+            Rx[0, 0] = 1.0
+            Rx[1, 1], Rx[1, 2], Rx[2, 1], Rx[2, 2] = cx, -sx, sx, cx
+            dX[1, 1], dX[1, 2], dX[2, 1], dX[2, 2] = -sx, -cx, cx, -sx
+            Ry[1, 1] = 1.0
+            Ry[0, 0], Ry[0, 2], Ry[2, 0], Ry[2, 2] = cy, sy, -sy, cy
+            dY[0, 0], dY[0, 2], dY[2, 0], dY[2, 2] = -sy, cy, -cy, -sy
+            Rz[2, 2] = 1.0
+            Rz[0, 0], Rz[0, 1], Rz[1, 0], Rz[1, 1] = cz, -sz, sz, cz
+            dZ[0, 0], dZ[0, 1], dZ[1, 0], dZ[1, 1] = -sz, -cz, cz, -sz
+            _mm3(Rz, Ry, T)
+            _mm3(T, Rx, R[l])
         if om[l]:
-            for c in range(3):  # [e_c]× R: row a of e_c × (column of R)
+            for c in range(3):  # [e_c]× R: row a of e_c × (column of R); its angular velocity is e_c
                 c1 = (c + 1) % 3
                 c2 = (c + 2) % 3
                 for b in range(3):
                     dR[l, c, c, b] = 0.0
                     dR[l, c, c1, b] = -R[l, c2, b]
                     dR[l, c, c2, b] = R[l, c1, b]
+                for a in range(3):
+                    W[l, c, a] = 1.0 if a == c else 0.0
+            continue
+        _mm3(T, dX, dR[l, 0])
+        _mm3(Rz, dY, T)
+        _mm3(T, Rx, dR[l, 1])
+        _mm3(dZ, Ry, T)
+        _mm3(T, Rx, dR[l, 2])
         for c in range(3):
             for a in range(3):
                 a1 = (a + 1) % 3
@@ -199,26 +199,26 @@ def _mmT(X, Y, out):  # pragma: no cover - compiled
             out[a, b] = X[a, 0] * Y[b, 0] + X[a, 1] * Y[b, 1] + X[a, 2] * Y[b, 2]
 
 
-def _log_rows(r, J, n, r0, cj, M, Wr, j, x, Ji, jac, roff, cmap):  # pragma: no cover - compiled
+def _log_rows(r, J, r0, cj, M, Wr, j, x, Ji, jac, roff, cmap):  # pragma: no cover - compiled
     """Rows r0…r0+2: log M (M = R_j ·ᵀ, a rotation of link j against another) and ∂/∂q_j,c = J_l⁻¹(log M) w_j,c;
     leaves log M in x and J_l⁻¹ in Ji."""
     _logm(M, x)
     for a in range(3):
-        r[n, r0 + a] = x[a]
+        r[r0 + a] = x[a]
     if jac:
         _jlinv(x, Ji)
         for c in range(3):
             for a in range(3):
-                _put(J, n, r0 + a, cj + 3 + c, Ji[a, 0] * Wr[j, c, 0] + Ji[a, 1] * Wr[j, c, 1]
+                _put(J, r0 + a, cj + 3 + c, Ji[a, 0] * Wr[j, c, 0] + Ji[a, 1] * Wr[j, c, 1]
                      + Ji[a, 2] * Wr[j, c, 2], roff, cmap)
 
 
-def _put(J, n, row, col, val, roff, cmap):  # pragma: no cover - compiled
+def _put(J, row, col, val, roff, cmap):  # pragma: no cover - compiled
     rr = row - roff
     if rr >= 0:
         cc = cmap[col]
         if cc >= 0:
-            J[n, rr, cc] = val
+            J[rr, cc] = val
 
 
 def _eval_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J):
@@ -232,187 +232,187 @@ def _eval_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff
                     ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
+def _scratch(L):  # pragma: no cover - compiled
+    """Work arrays of one evaluation (per thread, reused for every pose it evaluates)."""
+    return (np.zeros((7, 3, 3)), np.empty((L, 3, 3)), np.empty((L, 3, 3, 3)), np.empty((L, 3, 3)), np.empty((3, 3)),
+            np.empty((3, 3)),
+            np.empty(3), np.empty(3), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3),
+            np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty(3), np.empty(3))
+
+
 def _eval_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, r, J, L, ni,
                 n0, n1):  # pragma: no cover - compiled
-    R = np.empty((L, 3, 3))
-    dR = np.empty((L, 3, 3, 3))
-    Wr = np.empty((L, 3, 3))
-    M = np.empty((3, 3))
-    Ji = np.empty((3, 3))
-    wj = np.empty(3)
-    wk = np.empty(3)
-    Dwj = np.empty((3, 3))
-    Dwk = np.empty((3, 3))
-    U = np.empty(3)
-    V = np.empty(3)
-    W = np.empty(3)
-    DU = np.empty((3, 3))
-    DV = np.empty((3, 3))
-    DW = np.empty((3, 3))
-    d = np.empty(3)
-    x1 = np.empty(3)
-    x2 = np.empty(3)
-    x3 = np.empty(3)
+    S = _scratch(L)
     for n in range(n0, n1):
-        qn = q[n]
-        _rotations(qn, L, R, dR, om, Wr)
-        for i in range(ni):
-            kd = kind[i]
-            j = lj[i]
-            k = lk[i]
-            r0 = row[i]
-            cj = 6 * j
-            ck = 6 * k
-            if kd == 0:  # fixed coordinate (eq. 15-16)
-                r[n, r0] = qn[cj + coord[i]] - value[i]
+        _eval_pose(q[n], target[min(n, target.shape[0] - 1)], om, Rt[min(n, Rt.shape[0] - 1)], kind, lj, lk, row,
+                   coord, value, P, A, B, roff, cmap, jac, r[n], J[min(n, J.shape[0] - 1)], L, ni, S, False)
+
+
+def _eval_pose(qn, tn, om, Rtn, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, jac, rn, Jn, L, ni,
+               S, given):  # pragma: no cover - compiled
+    """Residual rn (m,) and Jacobian Jn (m − roff, ncol) (only the constraints' entries are written: Jn starts
+    zeroed) at the link coordinates qn (L·6,) for the control values tn (drive values / output pose) and Rtn (the
+    output pose's rotation); ``S`` from :func:`_scratch`; ``given``: see :func:`_rotations` (R in ``S[1]``)."""
+    T7, R, dR, Wr, M, Ji, wj, wk, Dwj, Dwk, U, V, W, DU, DV, DW, d, x1, x2, x3 = S
+    _rotations(qn, L, R, dR, om, Wr, T7, given)
+    for i in range(ni):
+        kd = kind[i]
+        j = lj[i]
+        k = lk[i]
+        r0 = row[i]
+        cj = 6 * j
+        ck = 6 * k
+        if kd == 0:  # fixed coordinate (eq. 15-16)
+            rn[r0] = qn[cj + coord[i]] - value[i]
+            if jac:
+                _put(Jn, r0, cj + coord[i], 1.0, roff, cmap)
+        elif kd == 1:  # 1A common point (eq. 3)
+            _point(qn, R, dR, j, P[i], wj, Dwj)
+            _point(qn, R, dR, k, P[i], wk, Dwk)
+            for a in range(3):
+                rn[r0 + a] = wj[a] - wk[a]
                 if jac:
-                    _put(J, n, r0, cj + coord[i], 1.0, roff, cmap)
-            elif kd == 1:  # 1A common point (eq. 3)
-                _point(qn, R, dR, j, P[i], wj, Dwj)
-                _point(qn, R, dR, k, P[i], wk, Dwk)
-                for a in range(3):
-                    r[n, r0 + a] = wj[a] - wk[a]
-                    if jac:
-                        _put(J, n, r0 + a, cj + a, 1.0, roff, cmap)
-                        _put(J, n, r0 + a, ck + a, -1.0, roff, cmap)
-                        for c in range(3):
-                            _put(J, n, r0 + a, cj + 3 + c, Dwj[a, c], roff, cmap)
-                            _put(J, n, r0 + a, ck + 3 + c, -Dwk[a, c], roff, cmap)
-            elif kd == 2:  # 1B equal orientation (eq. 4) as log(R_j R_kᵀ) = 0 (see constraints.block_eval)
-                _mmT(R[j], R[k], M)
-                _log_rows(r, J, n, r0, cj, M, Wr, j, x1, Ji, jac, roff, cmap)
-                if jac:
+                    _put(Jn, r0 + a, cj + a, 1.0, roff, cmap)
+                    _put(Jn, r0 + a, ck + a, -1.0, roff, cmap)
                     for c in range(3):
-                        for a in range(3):  # ∂r/∂q_k,c = −J⁻¹ M w_k,c
-                            x2[a] = M[a, 0] * Wr[k, c, 0] + M[a, 1] * Wr[k, c, 1] + M[a, 2] * Wr[k, c, 2]
-                        for a in range(3):
-                            _put(J, n, r0 + a, ck + 3 + c, -(Ji[a, 0] * x2[0] + Ji[a, 1] * x2[1] + Ji[a, 2] * x2[2]),
-                                 roff, cmap)
-            elif kd == 3:  # 1C common axis direction (eq. 5)
-                _vector(R, dR, j, A[i], U, DU)
-                _vector(R, dR, k, A[i], V, DV)
-                for a in range(3):
-                    r[n, r0 + a] = U[a] - V[a]
-                    if jac:
-                        for c in range(3):
-                            _put(J, n, r0 + a, cj + 3 + c, DU[a, c], roff, cmap)
-                            _put(J, n, r0 + a, ck + 3 + c, -DV[a, c], roff, cmap)
-            elif kd == 4:  # 1D perpendicular axes (eq. 6)
-                _vector(R, dR, j, A[i], U, DU)
-                _vector(R, dR, k, B[i], V, DV)
-                r[n, r0] = U[0] * V[0] + U[1] * V[1] + U[2] * V[2]
-                if jac:
-                    for c in range(3):
-                        _put(J, n, r0, cj + 3 + c, DU[0, c] * V[0] + DU[1, c] * V[1] + DU[2, c] * V[2], roff, cmap)
-                        _put(J, n, r0, ck + 3 + c, DV[0, c] * U[0] + DV[1, c] * U[1] + DV[2, c] * U[2], roff, cmap)
-            elif kd == 5:  # 1E point on axis (eq. 7): (w_j − w_k) × u_j
-                _point(qn, R, dR, j, P[i], wj, Dwj)
-                _point(qn, R, dR, k, P[i], wk, Dwk)
-                _vector(R, dR, j, A[i], U, DU)
-                for a in range(3):
-                    d[a] = wj[a] - wk[a]
-                _cross(d, U, x1)
-                for a in range(3):
-                    r[n, r0 + a] = x1[a]
-                if jac:
-                    # ∂/∂t_j: e_c × u (columns), ∂/∂t_k the negative
-                    _put(J, n, r0 + 0, cj + 1, U[2], roff, cmap)
-                    _put(J, n, r0 + 0, cj + 2, -U[1], roff, cmap)
-                    _put(J, n, r0 + 1, cj + 0, -U[2], roff, cmap)
-                    _put(J, n, r0 + 1, cj + 2, U[0], roff, cmap)
-                    _put(J, n, r0 + 2, cj + 0, U[1], roff, cmap)
-                    _put(J, n, r0 + 2, cj + 1, -U[0], roff, cmap)
-                    _put(J, n, r0 + 0, ck + 1, -U[2], roff, cmap)
-                    _put(J, n, r0 + 0, ck + 2, U[1], roff, cmap)
-                    _put(J, n, r0 + 1, ck + 0, U[2], roff, cmap)
-                    _put(J, n, r0 + 1, ck + 2, -U[0], roff, cmap)
-                    _put(J, n, r0 + 2, ck + 0, -U[1], roff, cmap)
-                    _put(J, n, r0 + 2, ck + 1, U[0], roff, cmap)
-                    for c in range(3):
-                        for a in range(3):
-                            x2[a] = Dwj[a, c]
-                            x3[a] = DU[a, c]
-                        _cross(x2, U, W)
-                        _cross(d, x3, x1)
-                        for a in range(3):
-                            _put(J, n, r0 + a, cj + 3 + c, W[a] + x1[a], roff, cmap)
-                        for a in range(3):
-                            x2[a] = Dwk[a, c]
-                        _cross(x2, U, W)
-                        for a in range(3):
-                            _put(J, n, r0 + a, ck + 3 + c, -W[a], roff, cmap)
-            elif kd == 6 or kd == 7:  # 1F point in plane u_j·(w_j − w_k); drive (eq. 8) u·(w_k − w_j) + off − s
-                sg = 1.0 if kd == 6 else -1.0
-                _point(qn, R, dR, j, P[i], wj, Dwj)
-                _point(qn, R, dR, k, P[i], wk, Dwk)
-                _vector(R, dR, j, A[i], U, DU)
-                for a in range(3):
-                    d[a] = wj[a] - wk[a]
-                res = sg * (d[0] * U[0] + d[1] * U[1] + d[2] * U[2])
-                if kd == 7:
-                    res += value[i] - target[n, coord[i]]
-                r[n, r0] = res
-                if jac:
+                        _put(Jn, r0 + a, cj + 3 + c, Dwj[a, c], roff, cmap)
+                        _put(Jn, r0 + a, ck + 3 + c, -Dwk[a, c], roff, cmap)
+        elif kd == 2:  # 1B equal orientation (eq. 4) as log(R_j R_kᵀ) = 0 (see constraints.block_eval)
+            _mmT(R[j], R[k], M)
+            _log_rows(rn, Jn, r0, cj, M, Wr, j, x1, Ji, jac, roff, cmap)
+            if jac:
+                for c in range(3):
+                    for a in range(3):  # ∂r/∂q_k,c = −J⁻¹ M w_k,c
+                        x2[a] = M[a, 0] * Wr[k, c, 0] + M[a, 1] * Wr[k, c, 1] + M[a, 2] * Wr[k, c, 2]
                     for a in range(3):
-                        _put(J, n, r0, cj + a, sg * U[a], roff, cmap)
-                        _put(J, n, r0, ck + a, -sg * U[a], roff, cmap)
-                    for c in range(3):
-                        gj = 0.0
-                        gk = 0.0
-                        for a in range(3):
-                            gj += Dwj[a, c] * U[a] + d[a] * DU[a, c]
-                            gk += Dwk[a, c] * U[a]
-                        _put(J, n, r0, cj + 3 + c, sg * gj, roff, cmap)
-                        _put(J, n, r0, ck + 3 + c, -sg * gk, roff, cmap)
-            elif kd == 8:  # revolute drive: wrapped relative angle about the axis a (see block_eval)
-                th = target[n, coord[i]] - value[i]
-                c0, s0 = math.cos(th), math.sin(th)
-                _vector(R, dR, j, A[i], W, DW)  # A
-                _vector(R, dR, j, B[i], U, DU)  # U
-                _vector(R, dR, k, B[i], V, DV)  # V
-                _cross(U, V, x1)
-                S = W[0] * x1[0] + W[1] * x1[1] + W[2] * x1[2]
-                C = U[0] * V[0] + U[1] * V[1] + U[2] * V[2]
-                r[n, r0] = math.atan2(c0 * S - s0 * C, c0 * C + s0 * S)
-                n2 = S * S + C * C
+                        _put(Jn, r0 + a, ck + 3 + c, -(Ji[a, 0] * x2[0] + Ji[a, 1] * x2[1] + Ji[a, 2] * x2[2]),
+                             roff, cmap)
+        elif kd == 3:  # 1C common axis direction (eq. 5)
+            _vector(R, dR, j, A[i], U, DU)
+            _vector(R, dR, k, A[i], V, DV)
+            for a in range(3):
+                rn[r0 + a] = U[a] - V[a]
                 if jac:
-                    _cross(V, W, x2)
-                    _cross(W, U, x3)
                     for c in range(3):
-                        dSj = 0.0
-                        dSk = 0.0
-                        dCj = 0.0
-                        dCk = 0.0
-                        for a in range(3):
-                            dSj += DW[a, c] * x1[a] + DU[a, c] * x2[a]
-                            dSk += DV[a, c] * x3[a]
-                            dCj += DU[a, c] * V[a]
-                            dCk += DV[a, c] * U[a]
-                        _put(J, n, r0, cj + 3 + c, (C * dSj - S * dCj) / n2, roff, cmap)
-                        _put(J, n, r0, ck + 3 + c, (C * dSk - S * dCk) / n2, roff, cmap)
-            elif kd == 9:  # output point coordinate
-                _point(qn, R, dR, j, P[i], wj, Dwj)
-                c_ = coord[i]
-                r[n, r0] = wj[c_] - target[n, c_]
-                if jac:
-                    _put(J, n, r0, cj + c_, 1.0, roff, cmap)
-                    for c in range(3):
-                        _put(J, n, r0, cj + 3 + c, Dwj[c_, c], roff, cmap)
-            elif kd == 10:  # output orientation: log(R_j R(target)ᵀ) = 0
-                _mmT(R[j], Rt[n], M)
-                _log_rows(r, J, n, r0, cj, M, Wr, j, x1, Ji, jac, roff, cmap)
-            else:  # output axis: R_j a = R(target) a
-                _vector(R, dR, j, A[i], U, DU)
+                        _put(Jn, r0 + a, cj + 3 + c, DU[a, c], roff, cmap)
+                        _put(Jn, r0 + a, ck + 3 + c, -DV[a, c], roff, cmap)
+        elif kd == 4:  # 1D perpendicular axes (eq. 6)
+            _vector(R, dR, j, A[i], U, DU)
+            _vector(R, dR, k, B[i], V, DV)
+            rn[r0] = U[0] * V[0] + U[1] * V[1] + U[2] * V[2]
+            if jac:
+                for c in range(3):
+                    _put(Jn, r0, cj + 3 + c, DU[0, c] * V[0] + DU[1, c] * V[1] + DU[2, c] * V[2], roff, cmap)
+                    _put(Jn, r0, ck + 3 + c, DV[0, c] * U[0] + DV[1, c] * U[1] + DV[2, c] * U[2], roff, cmap)
+        elif kd == 5:  # 1E point on axis (eq. 7): (w_j − w_k) × u_j
+            _point(qn, R, dR, j, P[i], wj, Dwj)
+            _point(qn, R, dR, k, P[i], wk, Dwk)
+            _vector(R, dR, j, A[i], U, DU)
+            for a in range(3):
+                d[a] = wj[a] - wk[a]
+            _cross(d, U, x1)
+            for a in range(3):
+                rn[r0 + a] = x1[a]
+            if jac:
+                # ∂/∂t_j: e_c × u (columns), ∂/∂t_k the negative
+                _put(Jn, r0 + 0, cj + 1, U[2], roff, cmap)
+                _put(Jn, r0 + 0, cj + 2, -U[1], roff, cmap)
+                _put(Jn, r0 + 1, cj + 0, -U[2], roff, cmap)
+                _put(Jn, r0 + 1, cj + 2, U[0], roff, cmap)
+                _put(Jn, r0 + 2, cj + 0, U[1], roff, cmap)
+                _put(Jn, r0 + 2, cj + 1, -U[0], roff, cmap)
+                _put(Jn, r0 + 0, ck + 1, -U[2], roff, cmap)
+                _put(Jn, r0 + 0, ck + 2, U[1], roff, cmap)
+                _put(Jn, r0 + 1, ck + 0, U[2], roff, cmap)
+                _put(Jn, r0 + 1, ck + 2, -U[0], roff, cmap)
+                _put(Jn, r0 + 2, ck + 0, -U[1], roff, cmap)
+                _put(Jn, r0 + 2, ck + 1, U[0], roff, cmap)
+                for c in range(3):
+                    for a in range(3):
+                        x2[a] = Dwj[a, c]
+                        x3[a] = DU[a, c]
+                    _cross(x2, U, W)
+                    _cross(d, x3, x1)
+                    for a in range(3):
+                        _put(Jn, r0 + a, cj + 3 + c, W[a] + x1[a], roff, cmap)
+                    for a in range(3):
+                        x2[a] = Dwk[a, c]
+                    _cross(x2, U, W)
+                    for a in range(3):
+                        _put(Jn, r0 + a, ck + 3 + c, -W[a], roff, cmap)
+        elif kd == 6 or kd == 7:  # 1F point in plane u_j·(w_j − w_k); drive (eq. 8) u·(w_k − w_j) + off − s
+            sg = 1.0 if kd == 6 else -1.0
+            _point(qn, R, dR, j, P[i], wj, Dwj)
+            _point(qn, R, dR, k, P[i], wk, Dwk)
+            _vector(R, dR, j, A[i], U, DU)
+            for a in range(3):
+                d[a] = wj[a] - wk[a]
+            res = sg * (d[0] * U[0] + d[1] * U[1] + d[2] * U[2])
+            if kd == 7:
+                res += value[i] - tn[coord[i]]
+            rn[r0] = res
+            if jac:
                 for a in range(3):
-                    r[n, r0 + a] = U[a] - (Rt[n, a, 0] * A[i, 0] + Rt[n, a, 1] * A[i, 1] + Rt[n, a, 2] * A[i, 2])
-                    if jac:
-                        for c in range(3):
-                            _put(J, n, r0 + a, cj + 3 + c, DU[a, c], roff, cmap)
+                    _put(Jn, r0, cj + a, sg * U[a], roff, cmap)
+                    _put(Jn, r0, ck + a, -sg * U[a], roff, cmap)
+                for c in range(3):
+                    gj = 0.0
+                    gk = 0.0
+                    for a in range(3):
+                        gj += Dwj[a, c] * U[a] + d[a] * DU[a, c]
+                        gk += Dwk[a, c] * U[a]
+                    _put(Jn, r0, cj + 3 + c, sg * gj, roff, cmap)
+                    _put(Jn, r0, ck + 3 + c, -sg * gk, roff, cmap)
+        elif kd == 8:  # revolute drive: wrapped relative angle about the axis a (see block_eval)
+            th = tn[coord[i]] - value[i]
+            c0, s0 = math.cos(th), math.sin(th)
+            _vector(R, dR, j, A[i], W, DW)  # A
+            _vector(R, dR, j, B[i], U, DU)  # U
+            _vector(R, dR, k, B[i], V, DV)  # V
+            _cross(U, V, x1)
+            S = W[0] * x1[0] + W[1] * x1[1] + W[2] * x1[2]
+            C = U[0] * V[0] + U[1] * V[1] + U[2] * V[2]
+            rn[r0] = math.atan2(c0 * S - s0 * C, c0 * C + s0 * S)
+            n2 = S * S + C * C
+            if jac:
+                _cross(V, W, x2)
+                _cross(W, U, x3)
+                for c in range(3):
+                    dSj = 0.0
+                    dSk = 0.0
+                    dCj = 0.0
+                    dCk = 0.0
+                    for a in range(3):
+                        dSj += DW[a, c] * x1[a] + DU[a, c] * x2[a]
+                        dSk += DV[a, c] * x3[a]
+                        dCj += DU[a, c] * V[a]
+                        dCk += DV[a, c] * U[a]
+                    _put(Jn, r0, cj + 3 + c, (C * dSj - S * dCj) / n2, roff, cmap)
+                    _put(Jn, r0, ck + 3 + c, (C * dSk - S * dCk) / n2, roff, cmap)
+        elif kd == 9:  # output point coordinate
+            _point(qn, R, dR, j, P[i], wj, Dwj)
+            c_ = coord[i]
+            rn[r0] = wj[c_] - tn[c_]
+            if jac:
+                _put(Jn, r0, cj + c_, 1.0, roff, cmap)
+                for c in range(3):
+                    _put(Jn, r0, cj + 3 + c, Dwj[c_, c], roff, cmap)
+        elif kd == 10:  # output orientation: log(R_j R(target)ᵀ) = 0
+            _mmT(R[j], Rtn, M)
+            _log_rows(rn, Jn, r0, cj, M, Wr, j, x1, Ji, jac, roff, cmap)
+        else:  # output axis: R_j a = R(target) a
+            _vector(R, dR, j, A[i], U, DU)
+            for a in range(3):
+                rn[r0 + a] = U[a] - (Rtn[a, 0] * A[i, 0] + Rtn[a, 1] * A[i, 1] + Rtn[a, 2] * A[i, 2])
+                if jac:
+                    for c in range(3):
+                        _put(Jn, r0 + a, cj + 3 + c, DU[a, c], roff, cmap)
 
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy")
 _helpers = {}
-for _f in (_mm3, _mmT, _rotations, _point, _vector, _cross, _logm, _jlinv, _put, _log_rows, _eval_chunk):
+for _f in (_mm3, _mmT, _rotations, _point, _vector, _cross, _logm, _jlinv, _put, _log_rows, _scratch, _eval_pose,
+           _eval_chunk):
     _helpers[_f.__name__] = numba.njit(**_OPTS)(_f)
     globals()[_f.__name__] = _helpers[_f.__name__]
 
@@ -428,42 +428,73 @@ def _renamed(fn, name):
     return out
 
 
+def _rotate_link(x, y, z, w0, w1, w2, out):  # pragma: no cover - compiled
+    """out[:3] ← angles φ' of exp([w]×) R(φ) for the link angles φ = (x, y, z) and the rotation vector w."""
+    cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+    # R = Rz Ry Rx (eq. 2)
+    R00, R01, R02 = cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx
+    R10, R11, R12 = sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx
+    R20, R21, R22 = -sy, cy * sx, cy * cx
+    th2 = w0 * w0 + w1 * w1 + w2 * w2
+    th = math.sqrt(th2)
+    if th < 1e-8:
+        a, b = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
+    else:
+        a, b = math.sin(th) / th, (1.0 - math.cos(th)) / th2
+    # E = I + a K + b K², K = [w]× (Rodrigues)
+    E00, E11, E22 = 1.0 - b * (w1 * w1 + w2 * w2), 1.0 - b * (w0 * w0 + w2 * w2), 1.0 - b * (w0 * w0 + w1 * w1)
+    E01, E10 = -a * w2 + b * w0 * w1, a * w2 + b * w0 * w1
+    E02, E20 = a * w1 + b * w0 * w2, -a * w1 + b * w0 * w2
+    E12, E21 = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
+    N00 = E00 * R00 + E01 * R10 + E02 * R20
+    N10 = E10 * R00 + E11 * R10 + E12 * R20
+    N20 = E20 * R00 + E21 * R10 + E22 * R20
+    N01 = E00 * R01 + E01 * R11 + E02 * R21
+    N11 = E10 * R01 + E11 * R11 + E12 * R21
+    N02 = E00 * R02 + E01 * R12 + E02 * R22
+    N12 = E10 * R02 + E11 * R12 + E12 * R22
+    _angles(N00, N10, N20, N01, N11, N02, N12, out)
+
+
+def _angles(N00, N10, N20, N01, N11, N02, N12, out):  # pragma: no cover - compiled
+    """out[:3] ← link angles (φx, φy, φz) of the rotation N as constraints.link_angles (exact at φy = ±90°)."""
+    py = math.atan2(-N20, math.hypot(N00, N10))
+    pz = math.atan2(N10, N00)
+    c, s_ = math.cos(pz), math.sin(pz)
+    out[0] = math.atan2(-(-s_ * N02 + c * N12), -s_ * N01 + c * N11)
+    out[1] = py
+    out[2] = pz
+
+
+def _exp_left(w0, w1, w2, R, out):  # pragma: no cover - compiled
+    """out ← exp([w]×) R (Rodrigues: I + a K + b K², K = [w]×)."""
+    th2 = w0 * w0 + w1 * w1 + w2 * w2
+    if th2 < 1e-16:
+        a, b = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
+    else:
+        th = math.sqrt(th2)
+        a, b = math.sin(th) / th, (1.0 - math.cos(th)) / th2
+    E00, E11, E22 = 1.0 - b * (w1 * w1 + w2 * w2), 1.0 - b * (w0 * w0 + w2 * w2), 1.0 - b * (w0 * w0 + w1 * w1)
+    E01, E10 = -a * w2 + b * w0 * w1, a * w2 + b * w0 * w1
+    E02, E20 = a * w1 + b * w0 * w2, -a * w1 + b * w0 * w2
+    E12, E21 = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
+    for c in range(3):
+        x, y, z = R[0, c], R[1, c], R[2, c]
+        out[0, c] = E00 * x + E01 * y + E02 * z
+        out[1, c] = E10 * x + E11 * y + E12 * z
+        out[2, c] = E20 * x + E21 * y + E22 * z
+
+
+_angles = numba.njit(**_OPTS)(_angles)
+_exp_left = numba.njit(**_OPTS)(_exp_left)
+_rotate_link = numba.njit(**_OPTS)(_rotate_link)
+
+
 @numba.njit(**_OPTS)
 def _rotate_impl(phi, w, out):  # pragma: no cover - compiled
     for n in range(phi.shape[0]):
         for l in range(phi.shape[1]):
-            x, y, z = phi[n, l, 0], phi[n, l, 1], phi[n, l, 2]
-            cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
-            # R = Rz Ry Rx (eq. 2)
-            R00, R01, R02 = cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx
-            R10, R11, R12 = sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx
-            R20, R21, R22 = -sy, cy * sx, cy * cx
-            w0, w1, w2 = w[n, l, 0], w[n, l, 1], w[n, l, 2]
-            th2 = w0 * w0 + w1 * w1 + w2 * w2
-            th = math.sqrt(th2)
-            if th < 1e-8:
-                a, b = 1.0 - th2 / 6.0, 0.5 - th2 / 24.0
-            else:
-                a, b = math.sin(th) / th, (1.0 - math.cos(th)) / th2
-            # E = I + a K + b K², K = [w]× (Rodrigues)
-            E00, E11, E22 = 1.0 - b * (w1 * w1 + w2 * w2), 1.0 - b * (w0 * w0 + w2 * w2), 1.0 - b * (w0 * w0 + w1 * w1)
-            E01, E10 = -a * w2 + b * w0 * w1, a * w2 + b * w0 * w1
-            E02, E20 = a * w1 + b * w0 * w2, -a * w1 + b * w0 * w2
-            E12, E21 = -a * w0 + b * w1 * w2, a * w0 + b * w1 * w2
-            N00 = E00 * R00 + E01 * R10 + E02 * R20
-            N10 = E10 * R00 + E11 * R10 + E12 * R20
-            N20 = E20 * R00 + E21 * R10 + E22 * R20
-            N01 = E00 * R01 + E01 * R11 + E02 * R21
-            N11 = E10 * R01 + E11 * R11 + E12 * R21
-            N02 = E00 * R02 + E01 * R12 + E02 * R22
-            N12 = E10 * R02 + E11 * R12 + E12 * R22
-            # angles as constraints.link_angles (exact at φy = ±90°)
-            py = math.atan2(-N20, math.hypot(N00, N10))
-            pz = math.atan2(N10, N00)
-            c, s_ = math.cos(pz), math.sin(pz)
-            out[n, l, 0] = math.atan2(-(-s_ * N02 + c * N12), -s_ * N01 + c * N11)
-            out[n, l, 1] = py
-            out[n, l, 2] = pz
+            _rotate_link(phi[n, l, 0], phi[n, l, 1], phi[n, l, 2], w[n, l, 0], w[n, l, 1], w[n, l, 2], out[n, l])
 
 
 def rotate(phi: Array, w: Array) -> Array:

@@ -221,81 +221,83 @@ _skyline_solve = numba.njit(cache=True, nogil=True, fastmath=_FM)(_skyline_solve
 
 
 def _normal_chunk(J, r, cols, cnt, screen, sweeps, dx, est, ok, p0, p1):  # pragma: no cover - compiled
-    N, m, n = J.shape
+    n = J.shape[2]
     A = np.empty((n, n))
     g = np.empty(n)
     first = np.empty(n, dtype=np.int64)
-    y = np.empty(n)
     x = np.empty(n)
     for p in range(p0, p1):
-        A[:] = 0.0
-        g[:] = 0.0
-        for i in range(m):
-            ri = r[p, i]
-            for a_ in range(cnt[i]):
-                ca = cols[i, a_]
-                va = J[p, i, ca]
-                if va == 0.0:
-                    continue
-                g[ca] += va * ri
-                for b_ in range(a_ + 1):
-                    cb = cols[i, b_]
-                    A[ca, cb] += va * J[p, i, cb]
-        tr = 0.0
-        for i in range(n):
-            tr += A[i, i]
-            f = i
-            for c in range(i):
-                if A[i, c] != 0.0:
-                    f = c
-                    break
-            first[i] = f
-        if not tr > 0.0:
-            continue
-        good = True
-        for k in range(n):
-            s = A[k, k]
-            for t in range(first[k], k):
-                s -= A[k, t] * A[k, t]
-            if not s > 1e-15 * tr:
-                good = False
-                break
-            lkk = math.sqrt(s)
-            A[k, k] = lkk
-            for i in range(k + 1, n):
-                if first[i] > k:
-                    continue
-                s = A[i, k]
-                for t in range(max(first[i], first[k]), k):
-                    s -= A[i, t] * A[k, t]
-                A[i, k] = s / lkk
-        if not good:
-            continue
-        for i in range(n):  # solve L Lᵀ dx = −g
-            y[i] = -g[i]
-        _skyline_solve(A, first, y)
-        for i in range(n):
-            dx[p, i] = y[i]
-        # inverse iteration for λ_min(JᵀJ)
-        nx = 0.0
-        for i in range(n):
-            x[i] = 1.0 + 0.5 * math.sin(1.7 * i + 0.3)
-            nx += x[i] * x[i]
-        nx = math.sqrt(nx)
-        lam = tr
-        for _ in range(sweeps):
-            for i in range(n):
-                x[i] /= nx
-            _skyline_solve(A, first, x)
-            nx = 0.0
-            for i in range(n):
-                nx += x[i] * x[i]
-            nx = math.sqrt(nx)
-            lam = 1.0 / nx
-        est[p] = math.sqrt(lam / tr)
+        est[p] = _normal_pose(J[p], r[p], cols, cnt, sweeps, A, g, first, x, dx[p])
         ok[p] = est[p] >= screen
 
 
+def _normal_pose(Jp, rp, cols, cnt, sweeps, A, g, first, x, dxp):  # pragma: no cover - compiled
+    """One pose of :func:`_normal_impl`: dxp (n,) ← −(JᵀJ)⁻¹Jᵀr; returns the σ_min/σ_max estimate (0 where
+    the Cholesky factor breaks down: dxp is then left as it was).  ``A`` keeps the skyline Cholesky factor L of JᵀJ
+    (rows from ``first``) for further solves (:func:`_skyline_solve`)."""
+    m, n = Jp.shape
+    A[:] = 0.0
+    g[:] = 0.0
+    for i in range(m):
+        ri = rp[i]
+        for a_ in range(cnt[i]):
+            ca = cols[i, a_]
+            va = Jp[i, ca]
+            if va == 0.0:
+                continue
+            g[ca] += va * ri
+            for b_ in range(a_ + 1):
+                cb = cols[i, b_]
+                A[ca, cb] += va * Jp[i, cb]
+    tr = 0.0
+    for i in range(n):
+        tr += A[i, i]
+        f = i
+        for c in range(i):
+            if A[i, c] != 0.0:
+                f = c
+                break
+        first[i] = f
+    if not tr > 0.0:
+        return 0.0
+    for k in range(n):
+        s = A[k, k]
+        for t in range(first[k], k):
+            s -= A[k, t] * A[k, t]
+        if not s > 1e-15 * tr:
+            return 0.0
+        lkk = math.sqrt(s)
+        A[k, k] = lkk
+        for i in range(k + 1, n):
+            if first[i] > k:
+                continue
+            s = A[i, k]
+            for t in range(max(first[i], first[k]), k):
+                s -= A[i, t] * A[k, t]
+            A[i, k] = s / lkk
+    for i in range(n):  # solve L Lᵀ dx = −g
+        dxp[i] = -g[i]
+    _skyline_solve(A, first, dxp)
+    # inverse iteration for λ_min(JᵀJ)
+    nx = 0.0
+    for i in range(n):
+        x[i] = 1.0 + 0.5 * math.sin(1.7 * i + 0.3)
+        nx += x[i] * x[i]
+    nx = math.sqrt(nx)
+    lam = tr
+    for _ in range(sweeps):
+        for i in range(n):
+            x[i] /= nx
+        _skyline_solve(A, first, x)
+        nx = 0.0
+        for i in range(n):
+            nx += x[i] * x[i]
+        nx = math.sqrt(nx)
+        lam = 1.0 / nx
+    return math.sqrt(lam / tr)
+
+
+_normal_pose = numba.njit(cache=True, nogil=True, fastmath=_FM)(_normal_pose)
 _normal_chunk = numba.njit(cache=True, nogil=True, fastmath=_FM)(_normal_chunk)
 _normal_parallel = numba.njit(cache=True, parallel=True, nogil=True, fastmath=_FM)(_normal_impl)
 _normal_serial = numba.njit(cache=True, nogil=True, fastmath=_FM)(_renamed(_normal_impl, "_normal_serial_impl"))

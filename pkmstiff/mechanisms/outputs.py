@@ -118,6 +118,13 @@ def output_jacobian(mech: Mechanism, q: Array, drives: Array) -> Array:
     """∂x_c/∂s (N, n_c, n_drives) of the controlled outputs (SI), NaN where q or the drives are not finite."""
     good = np.isfinite(q).all(axis=(1, 2)) & np.isfinite(drives).all(axis=1)
     out = np.full((q.shape[0], len(controlled_output_names(mech)), len(mech.drives)), np.nan)
+    system = fk_system(mech)
+    if system.plan is not None and good.any():  # spatial: compiled per pose (pkmstiff.mechanisms.fused)
+        from pkmstiff.mechanisms.fused import output_jacobian as compiled
+
+        idx = np.flatnonzero(good)
+        out[idx] = compiled(system, q[idx], drives[idx], out.shape[1])
+        good[idx[np.isfinite(out[idx]).all(axis=(1, 2))]] = False  # the rest: singular normal matrix, below
     if good.any():
         out[good] = output_rate_matrix(mech, q[good]) @ configuration_rates(mech, q[good], drives[good])
     return out

@@ -158,6 +158,42 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
     for b in system.blocks:
         if b.kind == "fixed":
             q[:, b.j * d + b.coord] = b.value
+    if system.plan is not None and N:
+        return _newton_fused(system, q, target, tol, max_iter, max_backtrack)
+    return _newton_loop(system, q, target, tol, max_iter, max_backtrack)
+
+
+def _newton_fused(system: System, q: Array, target: Array | None, tol: float, max_iter: int, max_backtrack: int
+                  ) -> tuple[Array, Array, Array, Array, Array, Array, Array]:
+    """:func:`newton` by the compiled per-pose solve (:func:`pkmstiff.mechanisms.fused.newton`); the poses that
+    need the rank-revealing step go on in :func:`_newton_loop` from where they stopped, with the iterations left."""
+    from pkmstiff.mechanisms import fused
+    from pkmstiff.mechanisms.linalg import NORMAL_SCREEN
+
+    N = q.shape[0]
+    L, d = len(system.mech.links), system.mech.dof_per_link
+    Rt = cardan_pose_rotation(np.asarray(target, dtype=float)[:, 3:6]) if system._has_rt else None
+    q, code, iters, resid, rcond, spent = fused.newton(system, q, target, Rt, tol, max_iter, max_backtrack,
+                                                       NORMAL_SCREEN, 2, _ARMIJO)
+    status = np.array(["converged", "no_solution", "max_iter", "running"])[code]
+    rank = np.full(N, system.free.size, dtype=int)
+    chol = np.isfinite(rcond)
+    fb = np.flatnonzero(code == fused.FALLBACK)
+    for left in np.unique(max_iter - spent[fb]):
+        idx = fb[max_iter - spent[fb] == left]
+        qq, st, it, rs, rk, rc, ch = _newton_loop(system, q[idx], None if target is None else target[idx], tol,
+                                                  int(left), max_backtrack)
+        q[idx] = qq.reshape(idx.size, -1)
+        status[idx], iters[idx], resid[idx], rank[idx], rcond[idx], chol[idx] = st, iters[idx] + it, rs, rk, rc, ch
+    return q.reshape(N, L, d), status.astype(str), iters, resid, rank, rcond, chol
+
+
+def _newton_loop(system: System, q: Array, target: Array | None, tol: float, max_iter: int, max_backtrack: int
+                 ) -> tuple[Array, Array, Array, Array, Array, Array, Array]:
+    """:func:`newton` vectorised over the poses in numpy (planar systems, and poses needing the pivoted QR)."""
+    N = q.shape[0]
+    L, d = len(system.mech.links), system.mech.dof_per_link
+    q = q.copy()
     free = system.free
     status = np.full(N, "running", dtype=object)
     iters = np.zeros(N, dtype=int)

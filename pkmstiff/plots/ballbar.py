@@ -13,12 +13,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from pkmstiff.calibration.ballbar_diagnosis import axis_names
 from pkmstiff.io.atomic import atomic_path, output_path
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.figure import Figure
 
     from pkmstiff.calibration.ballbar import BallbarEvaluation
+    from pkmstiff.calibration.ballbar_diagnosis import BallbarDiagnosis
 
 _COLOURS = {"ccw": "tab:blue", "cw": "tab:red"}
 
@@ -44,20 +46,12 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
     fig = Figure(figsize=(10.0, 7.0))
     ax = fig.add_axes((0.08, 0.06, 0.52, 0.84), projection="polar")  # room for the 180° label
     devs = np.concatenate([r.deviation for r in ev.runs.values()]) * 1e6
-    lo_d, hi_d = float(min(devs.min(), 0.0)), float(max(devs.max(), 0.0))
-    span = max(hi_d - lo_d, 1e-3)
-    step = _nice_step(span * 0.8)  # about five divisions across the traces
-    lo = math.floor(lo_d / step) * step - 2 * step  # two divisions inside the most negative point: limits distortion
-    hi = math.ceil(hi_d / step) * step + 0.5 * step
+    lo, hi, step = _radial_scale(devs)
     for lab, run in ev.runs.items():
-        order = np.argsort(np.mod(run.theta, 2 * np.pi))
-        every = max(1, len(order) // max_points)
-        idx = order[::every]
-        th = np.append(np.mod(run.theta[idx], 2 * np.pi), np.mod(run.theta[idx[0]], 2 * np.pi) + 2 * np.pi)
-        d = np.append(run.deviation[idx], run.deviation[idx[0]]) * 1e6
         colour = _COLOURS.get(lab, "k")
-        ax.plot(th, d - lo, color=colour, lw=0.8, alpha=0.55 if show_filtered else 1.0,
-                label=f"{lab.upper()} readings (G = {run.circular_deviation * 1e6:.2f} µm)")
+        _trace(ax, run.theta, run.deviation, lo, max_points, color=colour, lw=0.8,
+               alpha=0.55 if show_filtered else 1.0,
+               label=f"{lab.upper()} readings (G = {run.circular_deviation * 1e6:.2f} µm)")
         if show_filtered:
             grid = np.linspace(0, 2 * np.pi, 721)
             f = run.harmonics.evaluate(grid, run.choice.n) * 1e6
@@ -65,17 +59,7 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
                     label=f"{lab.upper()} filtered, {run.choice.n} harmonic{'s' if run.choice.n != 1 else ''}")
     ring = np.linspace(0, 2 * np.pi, 361)
     ax.plot(ring, np.full_like(ring, -lo), color="k", lw=1.4, label="nominal circle (0 µm)")
-    ax.set_ylim(0, hi - lo)
-    ticks = np.arange(lo + step, hi + 1e-9, step)
-    ax.set_yticks(ticks - lo)
-    ax.set_yticklabels([("0" if abs(t) <= 1e-9 * step else f"{t:+.0f}" if step >= 1 else f"{t:+.3g}")
-                        for t in ticks], fontsize=10)  # whole µm when the step is (no "+4e+03")
-    ax.set_rlabel_position(67.5)
-    ax.set_xticks(np.radians(np.arange(0, 360, 45)))
-    ax.grid(True, lw=0.4)
-    e1, e2 = _axis_names(ev)
-    ax.set_xticklabels([f"0° (+{e1})", "45°", f"90° (+{e2})", "135°", f"180° (−{e1})", "225°", f"270° (−{e2})",
-                        "315°"], fontsize=10)
+    _polar_axes(ax, ev, lo, hi, step)
     lines = [f"bar {ev.bar_length * 1e3:g} mm, plane {ev.plane.name}", f"scale {step:g} µm/div", ""]
     for lab, run in ev.runs.items():
         tag = lab.upper() + ":"
@@ -95,9 +79,76 @@ def polar_deviation_figure(ev: "BallbarEvaluation", *, title: str | None = None,
     return fig
 
 
-def _axis_names(ev: "BallbarEvaluation") -> tuple[str, str]:
-    names = {"XY": ("X", "Y"), "YZ": ("Y", "Z"), "ZX": ("Z", "X"), "XZ": ("X", "Z")}
-    return names.get(ev.plane.name, ("e1", "e2"))
+def diagnosis_figure(ev: "BallbarEvaluation", diag: "BallbarDiagnosis", *, title: str | None = None,
+                     max_points: int = 4000) -> "Figure":
+    """The diagnostics page: each run's deviation from its own least-squares circle (centre offset and radius
+    removed, as ball-bar software shows a test) in a polar plot with the tolerance band ±T/2 about that circle
+    (when ``diag.tolerance`` is set), beside the table of diagnosed sources (value ± σ, share of G;
+    :func:`pkmstiff.calibration.ballbar_diagnosis.diagnose`)."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12.0, 7.0))
+    ax = fig.add_axes((0.05, 0.05, 0.45, 0.84), projection="polar")
+    devs = np.concatenate([r.fit.residual for r in ev.runs.values()]) * 1e6
+    tol_um = None if diag.tolerance is None else diag.tolerance * 1e6
+    lo, hi, step = _radial_scale(devs if tol_um is None else np.append(devs, [-tol_um / 2, tol_um / 2]))
+    ring = np.linspace(0, 2 * np.pi, 361)
+    if tol_um is not None:
+        ax.fill_between(ring, -tol_um / 2 - lo, tol_um / 2 - lo, color="tab:green", alpha=0.15, lw=0,
+                        label=f"tolerance band ±{tol_um / 2:g} µm (T = {tol_um:g} µm)")
+    for lab, run in ev.runs.items():
+        verdict = "" if lab not in diag.passed else (" ≤ T" if diag.passed[lab] else " > T")
+        _trace(ax, run.theta, run.fit.residual, lo, max_points, color=_COLOURS.get(lab, "k"), lw=1.0,
+               label=f"{lab.upper()} (G = {run.circular_deviation * 1e6:.2f} µm{verdict})")
+    ax.plot(ring, np.full_like(ring, -lo), color="k", lw=1.4, label="least-squares circle (0 µm)")
+    _polar_axes(ax, ev, lo, hi, step)
+    fig.legend(*ax.get_legend_handles_labels(), loc="upper left", bbox_to_anchor=(0.55, 0.93), fontsize=10,
+               frameon=False)
+    rows = [f"{'source':<22}{'value':>16}  {'share of G':>10}"]
+    for src in diag.sources:
+        val = f"{src.value:+.2f} ± {src.sigma:.2f}"
+        rows.append(f"{src.label:<22}{val:>13} {src.unit:<5}{src.share * 100:7.0f} %")
+    rows.append(f"{'unexplained (p-v)':<22}{diag.residual_pv * 1e6:>13.2f} {'µm':<5}{diag.residual_share * 100:7.0f} %")
+    rows += [f"  {name}: not fitted, {why}" for name, why in diag.not_fitted.items()]
+    rows += ["", f"bar {ev.bar_length * 1e3:g} mm, plane {ev.plane.name}, scale {step:g} µm/div",
+             "share = peak-to-valley of the source / G of its run"]
+    fig.text(0.55, 0.70, "\n".join(rows), fontsize=9.5, va="top", family="monospace")
+    fig.suptitle(title or "Ball-bar diagnostics: deviation from the least-squares circle [µm]", fontsize=13, x=0.3)
+    return fig
+
+
+def _radial_scale(devs_um: np.ndarray) -> tuple[float, float, float]:
+    """Radial limits (lo, hi) and division step [µm] of a polar deviation plot: about five divisions across the
+    traces, two divisions inside the most negative point (limits the distortion of the offset radial axis)."""
+    lo_d, hi_d = float(min(devs_um.min(), 0.0)), float(max(devs_um.max(), 0.0))
+    span = max(hi_d - lo_d, 1e-3)
+    step = _nice_step(span * 0.8)
+    return math.floor(lo_d / step) * step - 2 * step, math.ceil(hi_d / step) * step + 0.5 * step, step
+
+
+def _trace(ax, theta: np.ndarray, dev: np.ndarray, lo: float, max_points: int, **kw) -> None:
+    """One run's deviation [m] drawn at radius deviation − lo [µm], sorted by angle and closed; thinned to
+    ``max_points`` for drawing only."""
+    order = np.argsort(np.mod(theta, 2 * np.pi))
+    idx = order[::max(1, len(order) // max_points)]
+    th = np.append(np.mod(theta[idx], 2 * np.pi), np.mod(theta[idx[0]], 2 * np.pi) + 2 * np.pi)
+    ax.plot(th, np.append(dev[idx], dev[idx[0]]) * 1e6 - lo, **kw)
+
+
+def _polar_axes(ax, ev: "BallbarEvaluation", lo: float, hi: float, step: float) -> None:
+    """Radial ticks labelled in µm of deviation (whole µm when the step is: no "+4e+03"), angle ticks with the
+    plane's axis names."""
+    ax.set_ylim(0, hi - lo)
+    ticks = np.arange(lo + step, hi + 1e-9, step)
+    ax.set_yticks(ticks - lo)
+    ax.set_yticklabels([("0" if abs(t) <= 1e-9 * step else f"{t:+.0f}" if step >= 1 else f"{t:+.3g}")
+                        for t in ticks], fontsize=10)
+    ax.set_rlabel_position(67.5)
+    ax.set_xticks(np.radians(np.arange(0, 360, 45)))
+    ax.grid(True, lw=0.4)
+    e1, e2 = axis_names(ev)
+    ax.set_xticklabels([f"0° (+{e1})", "45°", f"90° (+{e2})", "135°", f"180° (−{e1})", "225°", f"270° (−{e2})",
+                        "315°"], fontsize=10)
 
 
 def harmonic_spectrum_figure(ev: "BallbarEvaluation", *, n_show: int | None = None,
@@ -135,12 +186,17 @@ def harmonic_spectrum_figure(ev: "BallbarEvaluation", *, n_show: int | None = No
     return fig
 
 
-def save_ballbar_figures(ev: "BallbarEvaluation", out_dir: str | Path, stem: str = "ballbar") -> list[Path]:
-    """Write ``<stem>_polar.png`` and ``<stem>_spectrum.png`` into ``out_dir``; returns the paths."""
+def save_ballbar_figures(ev: "BallbarEvaluation", out_dir: str | Path, stem: str = "ballbar",
+                         diag: "BallbarDiagnosis | None" = None) -> list[Path]:
+    """Write ``<stem>_polar.png``, ``<stem>_spectrum.png`` and (with ``diag``) ``<stem>_diagnosis.png`` into
+    ``out_dir``; returns the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [output_path(out, f"{stem}_polar.png"), output_path(out, f"{stem}_spectrum.png")]
-    for path, fig in zip(paths, (polar_deviation_figure(ev), harmonic_spectrum_figure(ev))):
+    figs = {"polar": polar_deviation_figure(ev), "spectrum": harmonic_spectrum_figure(ev)}
+    if diag is not None:
+        figs["diagnosis"] = diagnosis_figure(ev, diag)
+    paths = [output_path(out, f"{stem}_{k}.png") for k in figs]
+    for path, fig in zip(paths, figs.values()):
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=130)
     return paths

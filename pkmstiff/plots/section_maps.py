@@ -248,7 +248,8 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
                    scalar_bar_args={"title": quantity_title(results[0], name), "vertical": False,
                                     "position_x": 0.52, "position_y": 0.83, "width": 0.45, "height": 0.06,
                                     "title_font_size": 22, "label_font_size": 20, "color": "black",
-                                    "n_labels": 5, "fmt": "%.0f" if clim and clim[1] >= 10 else "%.3g"})
+                                    # an even number of values: none under the centred title
+                                    "n_labels": 4, "fmt": "%.0f" if clim and clim[1] >= 10 else "%.3g"})
     # the machine ghosted (light, transparent) so that the planes in front of and behind it stay visible
     add_sketch(p, machine, reference_pose, opacity=0.2, colour="gray")
     direction = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])  # front right, from above
@@ -260,7 +261,7 @@ def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Mach
                                np.max([b[:, 1] for b in data_bounds], axis=0)])
         add_mm_axes(p, box.ravel(), direction)
     p.add_text(f"{results[0].machine}: {name} on three section planes (machine ghosted grey)",
-               position="upper_left", font_size=13, color="black")
+               position=(0.02, 0.955), viewport=True, font_size=13, color="black")  # a margin to the left edge
     p.set_background("white")
     frame_camera(p, direction, box, zoom=1.3)
     path = Path(path)

@@ -76,7 +76,9 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
         f"{c} {a * 1e3:.0f}…{b * 1e3:.0f} mm" for c, a, b in zip("xyz", lo, hi)))
     title = (f"{machine.name}: workspace (machine frame) at {orientation}, resolution {s['resolution_mm']:g} mm\n"
              f"V = {res.volume:.4f} m³{extent}; {s['boundary_points']:,} boundary points")
-    pl.add_text(title + "\nmachine ghosted grey", font_size=12, color="black")
+    text = pl.add_text(title + "\nmachine ghosted grey", position=(0.01, 0.985), viewport=True, font_size=8,
+                       color="black")  # a margin to the edges; a text actor's font is 2 x font_size px
+    text.GetTextProperty().SetVerticalJustificationToTop()
     direction = np.asarray((1.0, 1.0, 1.0) if view is None else view, float)
     direction = direction / np.linalg.norm(direction)
     from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
@@ -84,13 +86,40 @@ def plot_workspace(res: WorkspaceResult, machine: Machine, path: str | Path, pos
     box = np.column_stack([lo, hi]) * 1e3 if np.isfinite(lo).all() else None
     if box is not None:
         add_mm_axes(pl, box.ravel(), direction)
-    frame_camera(pl, direction, box, zoom=1.25)  # the camera frames the volume; the machine may leave the view
+    frame_camera(pl, direction, box, zoom=1.35)  # the camera frames the volume; the machine may leave the view
+    _fill_bottom(pl)
     with atomic_path(path) as tmp:
         pl.screenshot(str(tmp))
     pl.close()
     return path
 
 
+
+
+def _fill_bottom(pl, margin: float = 0.03) -> None:
+    """Pan the camera along its view-up so that the drawing reaches down to ``margin`` × the window height from
+    the bottom: the title takes the top of the canvas, the empty bottom is given to the data (the ghosted machine
+    above may leave the view)."""
+    pl.render_window.Render()
+    img = np.asarray(pl.screenshot(return_img=True)).astype(int)
+    rows = np.flatnonzero((np.abs(img - img[0, 0]).sum(axis=2) > 30).any(axis=1))
+    if rows.size == 0:
+        return
+    ren, cam = pl.renderer, pl.camera
+    up, focus = np.asarray(cam.GetViewUp()), np.asarray(cam.GetFocalPoint())
+
+    def display_y(p) -> float:
+        ren.SetWorldPoint(*p, 1.0)
+        ren.WorldToDisplay()
+        return ren.GetDisplayPoint()[1]
+
+    px_per_mm = display_y(focus + up) - display_y(focus)  # screen pixels per mm along view-up at the focus
+    empty = img.shape[0] - 1 - int(rows.max()) - margin * img.shape[0]
+    if px_per_mm > 0 and empty > 0:
+        shift = empty / px_per_mm * up  # the camera up = the drawing down
+        cam.SetFocalPoint(*(focus + shift))
+        cam.SetPosition(*(np.asarray(cam.GetPosition()) + shift))
+        pl.render_window.Render()  # the screenshot after this one takes the window's image as it is
 
 
 def _figure(figsize: tuple[float, float]):
@@ -169,7 +198,7 @@ def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.nd
     """|relative volume error| [%] over eps [mm], log-log, one panel per body, one curve per method."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig = _figure((5.6 * len(errors), 4.2))
+    fig = _figure((5.6 * len(errors), 5.0))
     axes = fig.subplots(1, len(errors), squeeze=False)
     for ax, (body, by_method) in zip(axes.ravel(), errors.items()):
         for meth, err in by_method.items():
@@ -181,15 +210,18 @@ def plot_convergence(eps_mm: np.ndarray, errors: Mapping[str, Mapping[str, np.nd
         ax.set_ylabel("|volume error| [%]")
         ax.set_title(body, fontsize=10)
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=9)
-    fig.tight_layout()
+    handles, labels = axes[0, 0].get_legend_handles_labels()  # one legend below the panels: no curve hidden
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 4 if len(errors) > 1 else 2), fontsize=9,
+               frameon=False)
+    rows = 1 + (len(labels) - 1) // (4 if len(errors) > 1 else 2)
+    fig.tight_layout(rect=(0, 0.03 + 0.045 * rows, 1, 1))
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=110)
     return path
 
 
 def plot_rotational_workspace(results: Sequence[RotationMapResult], path: str | Path, title: str = "",
-                              cmap: str = "gray_r") -> Path:
+                              cmap: str = "viridis") -> Path:
     """Projections of the rotational workspace at a point (docs/theory/workspace.md): one panel per result, e.g. max. +a over
     (b, c) and max. +b over (a, c); axes and values in degrees."""
     path = Path(path)

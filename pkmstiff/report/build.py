@@ -33,7 +33,7 @@ from pkmstiff.report.model import Figure, Report, Table
 from pkmstiff.report.spec import MACHINE_ROWS, PointSpec, ReportSpec, SectionSpec, Variant, fast_spec, load_spec
 from pkmstiff.workspace.requests import WorkspaceRequest
 
-__all__ = ["build_report", "run_spec"]
+__all__ = ["build_report", "check_evaluation", "comparison_labels", "run_spec"]
 
 
 def _load_variant(v: Variant) -> Machine:
@@ -46,14 +46,46 @@ def _slug(text: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "x"
 
 
+def _section_label(sec: SectionSpec, q: str, stat: str, multi: bool) -> str:
+    return f"{q} {STATISTICS[stat][0]}" + (f" ({sec.name})" if multi else "")
+
+
+def _workspace_label(method: str) -> str:
+    return f"workspace volume ({method.replace('_', ' ')})"
+
+
+def _point_label(pt: PointSpec, q: str) -> str:
+    return f"{q} at {pt.name}"
+
+
+def comparison_labels(spec: ReportSpec) -> list[str]:
+    """The row labels of the comparison table :func:`build_report` fills, in order, from the spec alone (the same
+    label functions fill the table)."""
+    multi = len(spec.sections) > 1
+    return ([_workspace_label(m) for m in spec.workspace.methods] if spec.workspace is not None else []) + \
+        [_section_label(sec, q, stat, multi) for sec in spec.sections for q in sec.quantities
+         for stat in sec.statistics] + \
+        [_point_label(pt, q) for pt in spec.points for q in pt.quantities] + \
+        [MACHINE_ROWS[key][0] for key in spec.machine_rows]
+
+
+def check_evaluation(spec: ReportSpec) -> None:
+    """One line (:class:`InputError`) for an ``[[evaluation]]`` metric that is no row of the comparison table:
+    raised before anything is evaluated."""
+    labels = comparison_labels(spec)
+    for i, c in enumerate(spec.evaluation):
+        if c.metric not in labels:
+            raise InputError(spec.source, f"evaluation[{i + 1}].metric",
+                             f"a row label of the comparison table ({', '.join(repr(k) for k in labels)})", c.metric)
+
+
 def _section_rows(sec: SectionSpec, results: list, table: Table, multi: bool) -> None:
-    where = f" ({sec.name})" if multi else ""
     for q in sec.quantities:
         unit = get_quantity(q).unit
         for stat in sec.statistics:
-            label, unit_override = STATISTICS[stat]
             vals = [statistic(res.statistics()[q], stat) for res in results]
-            table.add(f"{q} {label}{where}", unit_override or unit, [None if v != v else v for v in vals])
+            table.add(_section_label(sec, q, stat, multi), STATISTICS[stat][1] or unit,
+                      [None if v != v else v for v in vals])
 
 
 def _fmt_deg(o: Sequence[float]) -> str:
@@ -74,6 +106,7 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     step.
     """
     log = log or (lambda msg: None)
+    check_evaluation(spec)
     if fast:
         spec = fast_spec(spec)
     jobs = spec.jobs if n_jobs is None else n_jobs
@@ -139,11 +172,7 @@ def _weighted_section(report: Report, spec: ReportSpec, table: Table) -> None:
     variant, and how the ranking changes when one weight is set to 0 or doubled."""
     from pkmstiff.report import weighted
 
-    rows = {r.label: r for r in table.rows}
-    for i, c in enumerate(spec.evaluation):
-        if c.metric not in rows:
-            raise InputError(spec.source, f"evaluation[{i + 1}].metric",
-                            f"a row label of the comparison table ({', '.join(repr(k) for k in rows)})", c.metric)
+    rows = {r.label: r for r in table.rows}  # every metric is a row: check_evaluation ran before the evaluation
     crit = spec.evaluation
     x = np.array([[np.nan if v is None else v for v in rows[c.metric].values] for c in crit]).T
     w = np.array([c.weight for c in crit])
@@ -208,7 +237,7 @@ def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str
             figs.append(Figure(path, f"{v.name}: workspace at a, b, c = {_fmt_deg(ori)} deg, "
                                      f"resolution {ws.resolution * 1e3:g} mm, V = {res.volume:.4g} m^3"))
     for meth in ws.methods:
-        table.add(f"workspace volume ({meth.replace('_', ' ')})", "m^3", vols[meth])
+        table.add(_workspace_label(meth), "m^3", vols[meth])
     return figs
 
 
@@ -290,7 +319,7 @@ def _point_rows(pt: PointSpec, pairs: list, table: Table, notes: list[str], fram
         for q in pt.quantities:
             rows[q].append(res.values.get(q))
     for q in pt.quantities:
-        table.add(f"{q} at {pt.name}", get_quantity(q).unit, rows[q])
+        table.add(_point_label(pt, q), get_quantity(q).unit, rows[q])
 
 
 def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) -> dict[str, Any]:
@@ -332,6 +361,7 @@ def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_job
 
     t0 = time.perf_counter()
     spec = load_spec(path)
+    check_evaluation(spec)  # a bad [[evaluation]] metric: one line before the cost and any evaluation
     if check is not None:
         check(spec_cost(spec, fast))
     report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log, scheduler=scheduler)

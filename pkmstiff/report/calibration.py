@@ -231,6 +231,46 @@ def _residual_section(report: Report, run: CalibrationRun, fig_dir: Path) -> Non
         _polar_pair(sec, c, fig_dir, f"circle{k}", "identification measurement")
 
 
+def _ballbar_section(report: Report, run: CalibrationRun, fig_dir: Path, tolerance: float | None) -> None:
+    """Per identification circle: the error sources of ball-bar software (classic circle error model,
+    :func:`pkmstiff.calibration.ballbar_diagnosis.diagnose`) in the residuals before and after, with their share of
+    G, and the diagnostics page of the residual before calibration (tolerance band when ``tolerance`` [m] is set)."""
+    from pkmstiff.calibration.ballbar_diagnosis import diagnose
+    from pkmstiff.plots.ballbar import diagnosis_figure
+
+    if not run.circles:
+        return
+    sec = report.section("Ball-bar diagnostics")
+    sec.text = ("The residual of each circle split into the error sources ball-bar software names (classic circle "
+                "error model, Kakino et al. 1993; docs/theory/calibration.md): one least-squares fit of scale "
+                "mismatch, squareness, servo mismatch, backlash, lateral play, reversal spikes (and cyclic error when "
+                "the screw lead is known) with the centre offset and radius of each run. Share of G = peak-to-valley "
+                "of the source alone / G of its run: the shares do not add up to 100 %. On a parallel machine the "
+                "'axes' are the plane's axes, not drives: a source names the pattern, not the drive that causes it."
+                + ("" if tolerance is None else f"\n\nTolerance on G: {tolerance * 1e6:g} µm."))
+    feed = run.meas.feed
+    for k, c in enumerate(run.circles, 1):
+        f = None if feed is None else float(np.median(feed[c.index]))
+        before = diagnose(c.before, tolerance=tolerance, feed=f)
+        after = {s.name: s for s in diagnose(c.after, tolerance=tolerance, feed=f).sources}
+        name = c.label.split(":")[0]
+        t = Table(f"{name}: diagnosed error sources (± σ)", ["before", "σ before", "% of G before", "after",
+                                                             "σ after", "% of G after"], digits=3)
+        for s in before.sources:
+            a = after.get(s.name)
+            t.add(s.label, s.unit, [s.value, s.sigma, s.share * 100] + ([a.value, a.sigma, a.share * 100] if a
+                                                                         else [None, None, None]))
+        sec.tables.append(t)
+        if before.passed:
+            sec.text += f"\n\n{name} before calibration: " + ", ".join(
+                f"{lab.upper()} G = {before.G[lab] * 1e6:.2f} µm {'≤' if ok else '>'} tolerance"
+                for lab, ok in before.passed.items()) + "."
+        fig = diagnosis_figure(c.before, before, title=f"{name}, before calibration: deviation from the "
+                                                         "least-squares circle [µm]")
+        sec.figures.append(Figure(_save(fig, fig_dir / f"circle{k}_diagnosis.png"),
+                                  f"{c.label}: diagnostics of the residual before calibration"))
+
+
 def _diagnostics_section(report: Report, run: CalibrationRun) -> None:
     """Every model-fit diagnostic (:class:`~pkmstiff.calibration.diagnostics.FitDiagnostics`) and the outliers."""
     d = run.run.diagnostics
@@ -277,8 +317,9 @@ def _validation_section(report: Report, run: CalibrationRun, fig_dir: Path) -> N
             _polar_pair(sec, c, fig_dir, f"validation{j}_circle{k}", Path(v.path).name)
 
 
-def calibration_report(run: CalibrationRun, out_dir: str | Path) -> Report:
-    """The report of a calibration run (figures written to ``out_dir/figures``)."""
+def calibration_report(run: CalibrationRun, out_dir: str | Path, tolerance: float | None = None) -> Report:
+    """The report of a calibration run (figures written to ``out_dir/figures``); ``tolerance`` [m] on the circular
+    deviation G of the ball-bar diagnostics."""
     out = Path(out_dir)
     fig_dir = out / "figures"
     res, unc = run.res, run.unc
@@ -306,6 +347,7 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path) -> Report:
     _identifiability_section(rep, run)
     _parameters_section(rep, run, fig_dir)
     _residual_section(rep, run, fig_dir)
+    _ballbar_section(rep, run, fig_dir, tolerance)
     _diagnostics_section(rep, run)
     _validation_section(rep, run, fig_dir)
     deflection = run.deflection
@@ -327,11 +369,11 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path) -> Report:
 
 
 def write_calibration_report(run: CalibrationRun, out_dir: str | Path,
-                             run_info: dict[str, str] | None = None) -> dict[str, Path]:
+                             run_info: dict[str, str] | None = None, tolerance: float | None = None) -> dict[str, Path]:
     """Build and write ``report.html`` / ``report.md`` (+ ``figures/``) into ``out_dir``."""
     from pkmstiff.report.render import write_report
 
-    rep = calibration_report(run, out_dir)
+    rep = calibration_report(run, out_dir, tolerance)
     paths = write_report(rep, out_dir, run=run_info)
     paths["figures"] = [f.path for s in rep.sections for f in s.figures]
     return paths
