@@ -18,7 +18,10 @@ error, never a silent shift. A given start offset skips the search but not the c
 
 **Mapping (Assumption: constant feed, see :mod:`.nc_program`).** A sample at t lies at arc length
 s = F (t − t₀) along the run's polyline; samples on the feed-in, overshoot and feed-out arcs are dropped, the
-others get the commanded pose there (TCP and A B C interpolated linearly, o = TCP − R v). Times in the measurement
+others get the commanded pose there (TCP and A B C interpolated linearly, o = TCP − R v); leading path samples
+are left out until the drives' directions of motion the measurement will give them (the step to the next sample)
+are those the machine ran them with (the step from the sample before, :func:`_lead_in`). A refined
+synchronisation against the identified machine: :mod:`.sync_refine`. Times in the measurement
 run on across runs (each run's duration plus two dwells).
 """
 
@@ -229,6 +232,22 @@ def synchronise(series: RawSeries, run: Run, fixed_ball: np.ndarray, bar_length:
                 _timing_sigma(t, y, run, fixed_ball, bar_length, t0, (t1, t2), win_in, machine, target))
 
 
+def _lead_in(machine: Machine, run: Run, target: np.ndarray, tau: np.ndarray, first: int) -> int:
+    """Index of the first sample to keep from ``first`` (the first on the path) on: a measurement gives its first
+    sample the drives' directions of motion of the step to the second (:func:`~.backlash.held_signs`), whereas
+    the machine ran into it from the sample before (on the feed-in ramp, or across a drive reversal); samples are
+    left out until the two agree for every drive (at most 5)."""
+    n = min(first + 7, len(tau))
+    if first < 1 or n - first < 3:
+        return first
+    q = commanded_drives(machine, run.poses(tau[first - 1:n], target))
+    step = np.sign(np.diff(q, axis=0))  # step[i]: into sample first + i
+    for i in range(min(5, len(step) - 1)):
+        if np.array_equal(step[i], step[i + 1]):
+            return first + i
+    return first + 5
+
+
 def match_runs(series: list[RawSeries], runs: list[Run]) -> list[Run]:
     """The run of each raw series: header/option ``run``, else ``segment`` (1 if the program has one) and
     ``direction``, else the series' position."""
@@ -290,10 +309,8 @@ def import_raw(machine: Machine, plan: Plan, runs: list[Run], series: list[RawSe
             else given[k]
         a, b = run.path_times
         tau = s.t - sync.start
-        # the first path sample is left out: its step from the feed-in ramp (radial motion) is not a path step, so
-        # the drives' directions of motion of the path (backlash) start with the sample after it
         keep = (tau >= a - 1e-12) & (tau <= b + 1e-12)
-        keep[np.argmax(keep)] = False
+        keep[:_lead_in(machine, run, st.target, tau, int(np.argmax(keep)))] = False
         parts.append((tau[keep], s.deviation[keep], run, s))
         syncs.append(Sync(**{**sync.__dict__, "kept": int(keep.sum())}))
     t_all, dev, poses, direction, feed = [], [], [], [], []
