@@ -9,7 +9,6 @@ import pytest
 from pkmstiff.calibration import error_model, identifiability
 from pkmstiff.calibration.compensation import measurement_plan
 from pkmstiff.calibration.identification import identify
-from pkmstiff.calibration.instruments import instrument
 from pkmstiff.calibration.nc_program import NCOptions, program_runs, programmed_plan
 from pkmstiff.calibration.raw_import import import_raw, simulate_raw
 from pkmstiff.calibration.sync_refine import import_refined
@@ -18,22 +17,22 @@ from pkmstiff.calibration.workflow import fit_diagnostics
 from tests.test_calibration_raw_import import FEED, PLAN, _run, felix, plan, runs, truth  # noqa: F401 (fixtures)
 
 
-def _fit(felix, params, meas):
+def _fit(machine, params, meas):
     mp, y = measurement_plan(meas, "felix", "raw")
-    res = identify(felix, params, mp, y)
+    res = identify(machine, params, mp, y)
     unc = uncertainty(res)
-    return res, unc, fit_diagnostics(felix, meas, mp, params, res, unc)
+    return res, unc, fit_diagnostics(machine, meas, mp, params, res, unc)
 
 
 @pytest.fixture(scope="module")
-def noisy(felix, plan, truth):
+def noisy(felix, plan, truth):  # noqa: F811 (fixture imported above)
     """25 Hz, σ = 0.25 µm, a 10 mm ramp (7.5 samples): the feed-in ramp alone fixes t₀ to ≈ 0.1-1 ms."""
     params, delta = truth
-    runs = program_runs(plan, NCOptions(feed=FEED, ramp=10e-3))
-    raws = simulate_raw(felix, params, delta, plan, runs, sample_rate=25, sigma=0.25e-6, resolution=0.1e-6, seed=11)
-    true = np.random.default_rng(11).uniform(0.2, 1.2, len(runs))  # simulate_raw's delays for this seed
-    before = import_raw(felix, plan, runs, raws)
-    after = import_refined(felix, plan, runs, raws, lambda m: _fit(felix, params, m)[0].delta, params)
+    runs10 = program_runs(plan, NCOptions(feed=FEED, ramp=10e-3))
+    raws = simulate_raw(felix, params, delta, plan, runs10, sample_rate=25, sigma=0.25e-6, resolution=0.1e-6, seed=11)
+    true = np.random.default_rng(11).uniform(0.2, 1.2, len(runs10))  # simulate_raw's delays for this seed
+    before = import_raw(felix, plan, runs10, raws)
+    after = import_refined(felix, plan, runs10, raws, lambda m: _fit(felix, params, m)[0].delta, params)
     return params, delta, true, before, after
 
 
@@ -49,8 +48,8 @@ def test_refined_starts_are_closer_and_their_sigma_honest(noisy):
     assert np.max(e1) < np.max(e0)
 
 
-def test_refined_import_fits_the_model_without_outliers(noisy, felix):
-    params, delta, _true, (m0, _s0), (m1, _s1, _k) = noisy
+def test_refined_import_fits_the_model_without_outliers(noisy, felix):  # noqa: F811 (fixture imported above)
+    params, delta, _true, (_m0, _s0), (m1, _s1, _k) = noisy
     res, unc, diag = _fit(felix, params, m1)
     assert diag.consistent, diag.summary()
     assert not any(f.key == "outliers" and f.failed for f in diag.findings)
@@ -63,7 +62,7 @@ def test_refined_import_fits_the_model_without_outliers(noisy, felix):
     assert np.max(np.abs(res.delta[bl] - delta[bl]) / unc.sigma[np.isin(res.base, np.flatnonzero(bl))]) < 3.5
 
 
-def test_refinement_keeps_a_noise_free_import_exact(felix, plan, runs, truth):
+def test_refinement_keeps_a_noise_free_import_exact(felix, plan, runs, truth):  # noqa: F811 (fixture imported above)
     params, delta = truth
     raws = simulate_raw(felix, params, delta, plan, runs, sample_rate=50, seed=4)
     meas, syncs, _k = import_refined(felix, plan, runs, raws, lambda m: _fit(felix, params, m)[0].delta, params,
@@ -74,7 +73,7 @@ def test_refinement_keeps_a_noise_free_import_exact(felix, plan, runs, truth):
     assert np.max(np.abs(res.delta - delta)) <= 1e-9  # as the unrefined noise-free import
 
 
-def test_identifiability_with_backlash_counts_both_directions(felix, plan):
+def test_identifiability_with_backlash_counts_both_directions(felix, plan):  # noqa: F811 (fixture imported above)
     both = programmed_plan(plan)
     assert both.n_poses == 2 * plan.n_poses + 2  # each run of the closed circle ends at its first point
     params = error_model(felix, setup=plan.setup, setup_blocks=("backlash",))
@@ -98,17 +97,17 @@ def test_identifiability_command_line_runs_the_program(capsys):
 
 
 def test_check_and_report_with_backlash(tmp_path, capsys):
-    plan = tmp_path / "plan.toml"
-    plan.write_text(PLAN)
+    plan_file = tmp_path / "plan.toml"
+    plan_file.write_text(PLAN)
     errors = tmp_path / "errors.toml"
     errors.write_text('[errors]\n"chain1.strut_offset" = "30 um"\n"chain2.backlash" = "40 um"\n'
                       '"chain5.backlash" = "25 um"\n')
     raw = tmp_path / "raw"
-    code, _, _ = _run(capsys, "calibrate", "simulate", "felix", "--plan", plan, "--errors", errors, "--feed", 2000,
+    code, _, _ = _run(capsys, "calibrate", "simulate", "felix", "--plan", plan_file, "--errors", errors, "--feed", 2000,
                       "--ramp", 5, "--sample-rate", 50, "--raw", raw, "--seed", 1, "--noise", "none", "--no-quantise")
     assert code == 0
     csv = tmp_path / "m.csv"
-    code, out, _ = _run(capsys, "calibrate", "import", "felix", *sorted(raw.glob("run*.txt")), "--plan", plan,
+    code, out, _ = _run(capsys, "calibrate", "import", "felix", *sorted(raw.glob("run*.txt")), "--plan", plan_file,
                         "--feed", 2000, "--ramp", 5, "--out", csv, "--refine", "--with", "backlash")
     assert code == 0 and "refined" in out
     cal = tmp_path / "cal.toml"

@@ -34,7 +34,7 @@ from pkmstiff.calibration.nc_program import Run
 from pkmstiff.calibration.parameters import ParameterSet
 from pkmstiff.calibration.perturb import perturbed_state
 from pkmstiff.calibration.plans import Plan
-from pkmstiff.calibration.raw_import import Sync, import_raw
+from pkmstiff.calibration.raw_import import import_raw
 from pkmstiff.calibration.raw_series import RawSeries
 from pkmstiff.kinematics.rotation import cardan_matrix
 from pkmstiff.machine import Machine
@@ -61,7 +61,6 @@ def resynchronise(machine: Machine, params: ParameterSet, delta: np.ndarray, pla
     """t₀ [s], its σ [s] and the RMS residual [m] of ``series`` against the machine with errors ``delta`` along
     ``run`` (module docstring), Gauss-Newton from ``start``."""
     t, y = series.t, series.deviation
-    dt = float(np.median(np.diff(t)))
     t0 = float(start)
     sigma, rms = np.inf, np.inf
     for _ in range(iterations):
