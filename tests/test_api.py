@@ -197,10 +197,9 @@ def test_workspace_wrapper_equals_the_request(m):
 # ------------------------------------------------------------------------------- only the public API in examples
 #: scripts in studies/ that demonstrate a library layer rather than a design study: they import that layer
 LAYER_EXAMPLES = {"example_spring_mass.py": "pkmstiff.multibody"}
-#: besides the standard library: the API, numpy, matplotlib and the studies' shared helpers; study e's optimiser is
-#: scipy's differential evolution (the optimisation issue replaces it)
+#: besides the standard library: the API, numpy, matplotlib and the studies' shared helpers
 ALLOWED_TOP_LEVEL = {"pkmstiff", "numpy", "matplotlib", "_study_common", "__future__"}
-EXTRA_ALLOWED = {"e_joint_orientation.py": {"scipy"}}
+EXTRA_ALLOWED: dict[str, set[str]] = {}
 
 
 def _pkmstiff_submodule_imports(code: str) -> list[str]:

@@ -191,6 +191,16 @@ def _is_warm() -> bool:
     return _WARM
 
 
+def _worker_init(warm: bool) -> None:
+    """A local worker leaves Ctrl-C (SIGINT to the process group) to the main process, which stops the run and
+    reports once; ``warm``: import and load the kernels (spawned workers)."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if warm:
+        warm_up()
+
+
 def _context() -> multiprocessing.context.BaseContext:
     if sys.platform.startswith("linux"):
         return multiprocessing.get_context("fork")
@@ -202,8 +212,8 @@ def pool(workers: int) -> ProcessPoolExecutor:
     p = _POOLS.get(workers)
     if p is None:
         ctx = _context()
-        p = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=ctx,
-                                                  initializer=None if ctx.get_start_method() == "fork" else warm_up)
+        p = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init,
+                                                  initargs=(ctx.get_start_method() != "fork",))
     return p
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import sys
 import types
 from pathlib import Path
+from typing import Any
 
 from pkmstiff.optimise.design import (
     Constraint,
@@ -37,15 +38,16 @@ __all__ = ["Constraint", "Design", "FunctionMeasure", "MovingMassMeasure", "Obje
 EXAMPLES = Path(__file__).parent / "examples"
 
 
-def optimise(design: Design | str | Path, out: str | Path, *, jobs: int = 1, budget: int | None = None,
-             seed: int | None = None, resume: bool = False, force: bool = False, progress=None,
-             report: bool = True) -> OptimisationResult:
+def optimise(design: Design | str | Path, out: str | Path, *, jobs: int = 1, scheduler: Any = None,
+             budget: int | None = None, time_budget: float | None = None, seed: int | None = None,
+             resume: bool = False, force: bool = False, progress=None, report: bool = True) -> OptimisationResult:
     """Run ``design`` (a :class:`Design` or a design file) and write its outputs into ``out`` (front.csv,
     history.csv, designs/*.toml, convergence.png, front.png, report/report.html unless ``report`` is False,
-    summary.json; the checkpoint evaluations.jsonl). ``budget`` and ``seed`` override the design's; ``resume``
-    continues an interrupted run without re-evaluating its checkpointed candidates; ``force`` starts afresh in an
-    ``out`` that holds a run. The base design and the design's references are evaluated with the same measures
-    (``res.meta["references"]``)."""
+    summary.json; the checkpoint evaluations.jsonl). ``jobs`` local processes or a Dask ``scheduler`` (address or
+    client) evaluate the candidates; ``budget`` (evaluations), ``time_budget`` (s) and ``seed`` override the
+    design's; ``resume`` continues an interrupted run without re-evaluating its checkpointed candidates; ``force``
+    starts afresh in an ``out`` that holds a run. The base design and the design's references are evaluated with
+    the same measures (``res.meta["references"]``)."""
     from dataclasses import asdict
 
     from pkmstiff.optimise.compare import evaluate_references
@@ -53,8 +55,8 @@ def optimise(design: Design | str | Path, out: str | Path, *, jobs: int = 1, bud
 
     if not isinstance(design, Design):
         design = load_design(design)
-    res = run_optimisation(design, out, jobs=jobs, budget=budget, seed=seed, resume=resume, force=force,
-                           progress=progress)
+    res = run_optimisation(design, out, jobs=jobs, scheduler=scheduler, budget=budget, time_budget=time_budget,
+                           seed=seed, resume=resume, force=force, progress=progress)
     res.meta["references"] = [asdict(c) for c in evaluate_references(design, jobs)]
     res.meta["outputs"] = {k: str(v) for k, v in write_outputs(res, out, report=report, jobs=jobs).items()}
     return res

@@ -254,11 +254,20 @@ class Objective:
 
 @dataclass(frozen=True)
 class Constraint:
-    """``lower <= measure <= upper`` (either bound may be None)."""
+    """``lower <= measure <= upper`` (either bound may be None); ``relative``: the bounds are fractions of the base
+    machine's value of the measure on the same raster (the engine resolves them with :meth:`absolute`)."""
 
     measure: Measure
     lower: float | None = None
     upper: float | None = None
+    relative: bool = False
+
+    def absolute(self, base_value: float) -> Constraint:
+        """This constraint with its bounds in the measure's unit, given the base machine's value."""
+        if not self.relative:
+            return self
+        return Constraint(self.measure, None if self.lower is None else self.lower * base_value,
+                          None if self.upper is None else self.upper * base_value)
 
     def violation(self, value: float) -> float:
         """> 0 where violated, scaled by the bound's magnitude (pymoo's G <= 0 convention); NaN counts as 1."""
@@ -285,7 +294,10 @@ class Reference:
 @dataclass(frozen=True)
 class Design:
     """A design question. ``algorithm``: "auto" (DE for one objective, NSGA-II for more), "de", "cmaes", "nsga2";
-    ``budget``: evaluations; ``population``: per generation."""
+    ``budget``: evaluations; ``time_budget``: seconds (None: none; checked between generations); ``population``: per
+    generation. Coarse-to-fine: ``coarse_step`` [m] is the raster of every section during the search (None: the
+    requested ones); afterwards the ``refine`` best feasible candidates (one objective) or the search front (several)
+    are re-evaluated on the requested rasters."""
 
     machine: str
     variables: tuple[Variable, ...]
@@ -295,6 +307,9 @@ class Design:
     budget: int = 200
     population: int = 20
     seed: int = 1
+    time_budget: float | None = None
+    coarse_step: float | None = None
+    refine: int = 10
     source: str = "(design)"
     options: Mapping[str, Any] = field(default_factory=dict)
     references: tuple[Reference, ...] = ()

@@ -4,8 +4,12 @@
     [optimiser]
     algorithm = "auto"                          # auto | de | cmaes | nsga2
     budget = 200                                # evaluations
+    time_budget = "5 min"                       # optional: a duration (pint) or seconds; checked between generations
     population = 20
     seed = 1
+    coarse_step_mm = 25                         # optional coarse-to-fine: every section searched on this raster,
+    refine = 10                                 # then the 10 best (several objectives: the front) re-evaluated on
+                                                # the sections' own step_mm
 
     [[variables]]
     name = "tilt"                               # a continuous variable tied to two paths (a mirror-symmetric pair)
@@ -25,6 +29,7 @@
 
     [[constraints]]
     name = "area"; kind = "section"; quantity = "kx"; statistic = "area"; ...; min = 0.3   # and/or max
+    # relative_to = "base": min/max are fractions of the base machine's value (on the same raster)
     # kind = "task_box": box_mm = [[x0, y0, z0], [x1, y1, z1]], step_mm, orientations_deg = [[0, 0, 0]]; min = 1
 
     [[reference]]                               # designs evaluated with the same measures, marked in the outputs
@@ -63,13 +68,13 @@ from pkmstiff.optimise.design import (
     WorkspaceMeasure,
 )
 
-__all__ = ["check_design", "load_design", "resolve_design"]
+__all__ = ["check_design", "load_design", "parse_duration", "resolve_design"]
 
 _TOP = {"machine", "optimiser", "variables", "objectives", "constraints", "reference"}
-_OPT = {"algorithm", "budget", "population", "seed"}
+_OPT = {"algorithm", "budget", "time_budget", "population", "seed", "coarse_step_mm", "refine"}
 _VAR = {"name", "path", "paths", "kind", "low", "high", "unit", "values", "mirror", "polar", "azimuth",
         "catalogue"}
-_COMMON = {"name", "kind", "sense", "min", "max"}
+_COMMON = {"name", "kind", "sense", "min", "max", "relative_to"}
 _SECTION = {"quantity", "statistic", "plane", "at_mm", "range", "step_mm", "tool_length_mm", "orientation_deg",
             "frame", "neglect_spindle", "skip_checks"}
 _POINT = {"quantity", "pose", "tool_length_mm", "frame", "neglect_spindle", "skip_checks"}
@@ -301,6 +306,14 @@ def _section_measures(r: _Reader, raw: list, sections: dict[tuple, set[str]]) ->
     return out
 
 
+def parse_duration(value: Any, source: str, key: str) -> float:
+    """A time budget [s]: seconds as a number, or a duration pint understands (``"300 s"``, ``"300s"``, ``"5 min"``,
+    ``"1.5 h"``); positive."""
+    from pkmstiff.units import parse_quantity
+
+    return float(parse_quantity(value, "s", source=source, key=key, positive=True, plausible=False))
+
+
 def resolve_design(path: str | Path) -> Path:
     """A design file path, or the name of a bundled example (``"hexaglide_joint_orientation"``)."""
     from pkmstiff.optimise import EXAMPLES
@@ -327,12 +340,19 @@ def load_design(path: str | Path) -> Design:
     algorithm = opt.get("algorithm", "auto")
     if algorithm not in _ALGORITHMS:
         raise r.error(None, 0, "algorithm", f"one of {list(_ALGORITHMS)}", algorithm)
-    ints = {}
-    for key, default, lo in (("budget", 200, 1), ("population", 20, 2), ("seed", 1, 0)):
+    ints: dict[str, Any] = {}
+    for key, default, lo in (("budget", 200, 1), ("population", 20, 2), ("seed", 1, 0), ("refine", 10, 1)):
         v = opt.get(key, default)
         if isinstance(v, bool) or not isinstance(v, int) or v < lo:
             raise r.error(None, 0, key, f"a whole number >= {lo}", v)
         ints[key] = v
+    if "time_budget" in opt:
+        ints["time_budget"] = parse_duration(opt["time_budget"], f"{path}:{r.lines.line(None, 0, 'time_budget')}",
+                                             "optimiser.time_budget")
+    if "coarse_step_mm" in opt:
+        ints["coarse_step"] = r.number(opt, "coarse_step_mm", None, 0) * 1e-3
+        if ints["coarse_step"] <= 0:
+            raise r.error(None, 0, "coarse_step_mm", "a positive raster step in mm", opt["coarse_step_mm"])
     for array in ("variables", "objectives"):
         if not isinstance(raw.get(array), list) or not raw[array]:
             raise r.error(None, 0, array, f"an array of at least one [[{array}]] table", raw.get(array, "missing"))
@@ -343,6 +363,9 @@ def load_design(path: str | Path) -> Design:
         sense = t.get("sense", "minimise") if isinstance(t, dict) else None
         if sense not in ("minimise", "maximise"):
             raise r.error("objectives", i, "sense", "'minimise' or 'maximise'", sense)
+        if "relative_to" in t:
+            raise r.error("objectives", i, "relative_to", "no 'relative_to' in an objective (constraints only)",
+                          t["relative_to"])
         objs.append((_measure(r, "objectives", t, i, sections), sense))
     for i, t in enumerate(raw.get("constraints", [])):
         m = _measure(r, "constraints", t, i, sections)
@@ -353,8 +376,12 @@ def load_design(path: str | Path) -> Design:
         hi = None if hi is None else r.number(t, "max", "constraints", i)
         if lo is not None and hi is not None and not lo <= hi:
             raise r.error("constraints", i, "max", f"max >= min = {lo:g}", hi)
-        cons.append((m, lo, hi))
-    built = _section_measures(r, [m for m, _ in objs] + [m for m, _, _ in cons], sections)
+        rel = t.get("relative_to")
+        if rel not in (None, "base"):
+            raise r.error("constraints", i, "relative_to", "'base' (min/max are fractions of the base machine's "
+                          "value)", rel)
+        cons.append((m, lo, hi, rel == "base"))
+    built = _section_measures(r, [m for m, _ in objs] + [m for m, *_ in cons], sections)
     refs = raw.get("reference", [])
     if not isinstance(refs, list):
         raise r.error(None, 0, "reference", "an array of [[reference]] tables", refs)
@@ -366,7 +393,7 @@ def load_design(path: str | Path) -> Design:
                           ref.name)
         taken.add(ref.name)
     design = Design(machine, variables, tuple(Objective(m, s) for m, (_, s) in zip(built, objs)),
-                    tuple(Constraint(m, lo, hi) for m, (_, lo, hi) in zip(built[len(objs):], cons)),
+                    tuple(Constraint(m, lo, hi, rel) for m, (_, lo, hi, rel) in zip(built[len(objs):], cons)),
                     algorithm=algorithm, source=str(path), **ints, references=references)
     check_design(design, r)
     return design
@@ -422,7 +449,7 @@ def check_design(design: Design, reader: _Reader | None = None) -> None:
             raise r.error("reference", i, ref.key, "a machine that loads", str(exc)) from None
     for i, c in enumerate(design.constraints):
         most = _largest_possible(c.measure)
-        if most is not None and c.lower is not None and c.lower > most * (1 + 1e-9):
+        if most is not None and not c.relative and c.lower is not None and c.lower > most * (1 + 1e-9):
             raise r.error("constraints", i, "min", f"a bound some design can meet (infeasible everywhere: "
                           f"{c.measure.name} is at most {most:.6g} {c.measure.unit})", c.lower)
     for array, items in (("objectives", design.objectives), ("constraints", design.constraints)):

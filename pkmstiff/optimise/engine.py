@@ -1,14 +1,28 @@
 """The optimisation loop: a pymoo algorithm asks for candidates, the engine evaluates the new ones (cached by the
-content hash of the machine variant, checkpointed as JSON lines, in local processes through the sweep's machinery)
-and tells the algorithm the objectives F and the constraint violations G (<= 0 feasible).
+content hash of the machine variant, checkpointed as JSON lines) and tells the algorithm the objectives F and the
+constraint violations G (<= 0 feasible).
 
-An interrupted run resumes with ``resume=True``: the algorithm restarts with the same seed, so it asks for the same
-candidates, and every candidate already in the checkpoint is read instead of evaluated.
+* **Parallel candidates.** The new candidates of a generation are evaluated together: in this process (``jobs`` 1),
+  in the run's forked process pool (``jobs`` > 1) or on a Dask cluster (``scheduler``), in tasks sized by
+  :func:`pkmstiff.evaluation.parallel.plan` from the cost per candidate measured in the previous generation. The run's context (the base machine's name or file and the evaluation) is a
+  :class:`~pkmstiff.evaluation.parallel.Shared`, unpickled once per worker; a task adds only its candidates'
+  overrides, from which the worker builds each variant; a candidate's own evaluation runs serially in its worker (no
+  nested pools). Results come back in candidate order, so a run gives the same history whatever
+  ``jobs``/``scheduler``.
+* **Budgets.** The run stops after ``budget`` evaluations or, checked between generations, once ``time_budget``
+  seconds have passed; either way it reports the best feasible design found so far.
+* **Coarse-to-fine.** With ``Design.coarse_step`` the search evaluates every section on that raster; afterwards the
+  best ``Design.refine`` feasible candidates (one objective) or the feasible front (several) are re-evaluated on the
+  requested rasters, and the front is taken from those values.
+* **Resume.** An interrupted run resumes with ``resume=True``: the algorithm restarts with the same seed, so it asks
+  for the same candidates, and every candidate already in the checkpoint is read instead of evaluated.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import importlib.util
 import json
 import math
 import time
@@ -34,7 +48,7 @@ _FAILED_F = 1e30
 
 @dataclass(frozen=True)
 class DesignEvaluation:
-    """The sweep evaluation of one candidate: every measure of the design, one section per settings (memo)."""
+    """The evaluation of one candidate: every measure of the design, one section per settings (memo)."""
 
     measures: tuple
 
@@ -53,6 +67,7 @@ class Candidate:
     outputs: dict[str, float]
     error: str = ""
     index: int = 0  # evaluation order (requested by the algorithm, cached ones included)
+    search_outputs: dict[str, float] | None = None  # coarse-to-fine: the outputs on the search (coarse) raster
 
     def objective_vector(self, design: Design) -> np.ndarray:
         out = []
@@ -78,12 +93,13 @@ class Candidate:
 class OptimisationResult:
     design: Design
     history: list[Candidate]  # in evaluation order (a candidate requested twice appears twice)
-    front: list[Candidate]  # feasible, non-dominated (one objective: the best)
-    evaluated: int  # evaluations actually run (not read from the checkpoint)
+    front: list[Candidate]  # feasible, non-dominated (one objective: the best); coarse-to-fine: requested raster
+    evaluated: int  # evaluations actually run (not read from the checkpoint), refinement included
     cached: int
     wall_time_s: float
     algorithm: str
-    meta: dict[str, Any] = field(default_factory=dict)
+    meta: dict[str, Any] = field(default_factory=dict)  # seed, budget, jobs, stopped (why the search ended), ...
+    search_design: Design | None = None  # as searched: coarse rasters, relative bounds resolved (history's terms)
 
     @property
     def best(self) -> Candidate:
@@ -112,21 +128,92 @@ def _read_checkpoint(path: Path) -> dict[str, dict[str, Any]]:
     return out
 
 
-def _algorithm(name: str, population: int, n_obj: int, x0: np.ndarray | None) -> Any:
+class _Pymoo:
+    """A pymoo algorithm through the engine's ask/tell: ``ask() -> X`` (decision vectors), ``tell(F, G)``."""
+
+    def __init__(self, algorithm: Any, lo: np.ndarray, hi: np.ndarray, n_obj: int, n_g: int, budget: int,
+                 seed: int):
+        from pymoo.core.problem import Problem
+
+        self.algo = algorithm
+        self.problem = Problem(n_var=len(lo), n_obj=n_obj, n_ieq_constr=n_g, xl=lo, xu=hi)
+        self.algo.setup(self.problem, termination=("n_eval", budget), seed=seed, verbose=False)
+        self.pop: Any = None
+
+    def has_next(self) -> bool:
+        return bool(self.algo.has_next())
+
+    def ask(self, most: int) -> np.ndarray:
+        self.pop = self.algo.ask()
+        X = np.atleast_2d(self.pop.get("X"))[:most]
+        self.pop = self.pop[: len(X)]
+        return X
+
+    def tell(self, F: np.ndarray, G: np.ndarray) -> None:
+        from pymoo.core.evaluator import Evaluator
+        from pymoo.problems.static import StaticProblem
+
+        Evaluator().eval(StaticProblem(self.problem, F=F, G=G), self.pop)
+        self.algo.tell(infills=self.pop)
+
+
+class _CMAES:
+    """CMA-ES (the ``cma`` package) through the engine's ask/tell, on the decision vector scaled to [0, 1] (cma's
+    bound handling), initial step 0.3, from the middle of the box. Constraints by ranking: an infeasible candidate
+    ranks after the worst feasible one seen so far, by its violation. The budget ends the run, not cma's own
+    tolerances."""
+
+    def __init__(self, lo: np.ndarray, hi: np.ndarray, population: int, seed: int):
+        import cma
+
+        self.lo, self.span = lo, hi - lo
+        self.es = cma.CMAEvolutionStrategy(np.full(len(lo), 0.5), 0.3, {
+            "bounds": [0.0, 1.0], "popsize": population, "seed": seed + 1,  # cma: seed 0 = from the clock
+            "verbose": -9, "tolfun": 0.0, "tolx": 0.0, "tolfunhist": 0.0, "tolflatfitness": 10**9,
+            "tolstagnation": 10**9})
+        self.worst = -np.inf
+        self.U: list[np.ndarray] = []
+
+    def has_next(self) -> bool:
+        return not self.es.stop()
+
+    def ask(self, most: int) -> np.ndarray:
+        self.U = self.es.ask()
+        return self.lo + self.span * np.array(self.U)[:most]
+
+    def tell(self, F: np.ndarray, G: np.ndarray) -> None:
+        f = F[:, 0].astype(float)
+        v = np.maximum(G, 0.0).sum(axis=1)
+        ok = v <= 0.0
+        if ok.any():
+            self.worst = max(self.worst, float(f[ok].max()))
+        base = self.worst if np.isfinite(self.worst) else 0.0
+        ranked = np.where(ok, f, base + 1.0 + v)
+        if len(ranked) < len(self.U):  # the budget cut the generation: cma needs all of it
+            self.U = self.U[: len(ranked)]
+            return
+        self.es.tell(self.U, ranked.tolist())
+
+
+def _algorithm(name: str, design: Design, budget: int, seed: int) -> Any:
+    lo, hi = design.bounds()
+    n_obj = len(design.objectives)
+    if name != "nsga2" and n_obj > 1:
+        raise PkmstiffError(f"algorithm {name!r} is single-objective; the design has {n_obj} objectives (use nsga2)")
+    if name == "cmaes":
+        return _CMAES(lo, hi, design.population, seed)
     if name == "nsga2":
         from pymoo.algorithms.moo.nsga2 import NSGA2
 
-        return NSGA2(pop_size=population)
-    if n_obj > 1:
-        raise PkmstiffError(f"algorithm {name!r} is single-objective; the design has {n_obj} objectives (use nsga2)")
-    if name == "cmaes":
-        from pymoo.algorithms.soo.nonconvex.cmaes import CMAES
+        algo = NSGA2(pop_size=design.population)
+    else:
+        from pymoo.algorithms.soo.nonconvex.de import DE
+        from pymoo.operators.sampling.lhs import LHS
 
-        # the budget ends the run, not cma's own tolerances (they stop at absolute f changes of 1e-11)
-        return CMAES(popsize=population, restarts=0, tolfun=0.0, tolx=0.0, tolfunhist=0.0)
-    from pymoo.algorithms.soo.nonconvex.de import DE
-
-    return DE(pop_size=population, variant="DE/rand/1/bin", CR=0.9, F=0.7)
+        # best/1/bin, CR 0.7 (scipy's defaults) from a Latin hypercube: on the Hexaglide example it reaches in 900
+        # evaluations what rand/1/bin (CR 0.9, F 0.7) had not reached (32.96 vs 31.99 N/um, docs/user-guide/optimise.md)
+        algo = DE(pop_size=design.population, sampling=LHS(), variant="DE/best/1/bin", CR=0.7, F=0.6)
+    return _Pymoo(algo, lo, hi, n_obj, max(1, len(design.constraints) + 1), budget, seed)
 
 
 def _front(design: Design, cands: Sequence[Candidate]) -> list[Candidate]:
@@ -142,23 +229,96 @@ def _front(design: Design, cands: Sequence[Candidate]) -> list[Candidate]:
     return sorted((feas[i] for i in idx), key=lambda c: tuple(c.objective_vector(design)))
 
 
-def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, budget: int | None = None,
-                     seed: int | None = None, resume: bool = False, force: bool = False,
+# ---------------------------------------------------------------------------------------------------- evaluation
+@dataclass(frozen=True)
+class _Context:
+    """What every candidate of a run shares: the base machine (name or file) and the evaluation."""
+
+    machine: str
+    evaluation: DesignEvaluation
+
+
+def _evaluate_batch(context: Any, overrides: Sequence[dict[str, Any]]) -> list[tuple[dict[str, float], str, float]]:
+    """(outputs, error, seconds) of each candidate of a task, in order (a worker's task, or the serial run); a
+    candidate's error is recorded, never raised."""
+    from pkmstiff.evaluation.sweep import SweepTask, run_task
+
+    ctx: _Context = context.get()
+    out = []
+    for ov in overrides:
+        t0 = time.perf_counter()
+        row = run_task(SweepTask(0, ctx.machine, {}, ov, {}, ctx.evaluation))
+        out.append(({k: v for k, v in row.items() if k not in ("task", "error")}, row["error"],
+                    time.perf_counter() - t0))
+    return out
+
+
+class _Evaluator:
+    """Evaluates candidates' overrides with one evaluation, serially, in the local pool or on Dask (results in
+    order); ``seconds`` is the measured cost of one candidate (the median of the last batch), from which
+    :func:`pkmstiff.evaluation.parallel.plan` sizes the tasks: several small tasks per worker, taken by whichever
+    worker is free, so a generation of 12 candidates on 2 workers ends when the slower worker's share does."""
+
+    def __init__(self, machine: str, evaluation: DesignEvaluation, jobs: int, scheduler: Any):
+        from pkmstiff.evaluation import parallel
+
+        self.shared = parallel.Shared(_Context(machine, evaluation))
+        self.jobs, self.scheduler = jobs, scheduler
+        self.seconds = parallel.MIN_LOCAL_TASK_SECONDS  # until measured: small tasks
+        self.where = "serial"
+
+    def __call__(self, overrides: Sequence[dict[str, Any]]) -> list[tuple[dict[str, float], str, float]]:
+        from pkmstiff.evaluation import parallel
+
+        if not overrides:
+            return []
+        p = parallel.plan(len(overrides), self.seconds, self.jobs, self.scheduler)
+        payloads = [(self.shared, list(overrides[a:b])) for a, b in parallel.split(len(overrides), p)]
+        done = parallel.run_tasks(_evaluate_batch, payloads, p, self.scheduler)
+        rows = [r for task in done for r in task]
+        self.seconds = max(float(np.median([r[2] for r in rows])), 1e-4)
+        self.where = p.where if p.parallel else self.where
+        return rows
+
+
+def _coarse(design: Design) -> Design:
+    """``design`` with every section request on the coarse raster (sections that shared one request still do)."""
+    from pkmstiff.optimise.design import SectionMeasure
+
+    if design.coarse_step is None:
+        return design
+    swapped: dict[Any, Any] = {}
+
+    def measure(m: Any) -> Any:
+        if not isinstance(m, SectionMeasure):
+            return m
+        req = swapped.setdefault(m.request, dataclasses.replace(m.request, step=design.coarse_step))
+        return dataclasses.replace(m, request=req)
+
+    return dataclasses.replace(
+        design, objectives=tuple(dataclasses.replace(o, measure=measure(o.measure)) for o in design.objectives),
+        constraints=tuple(dataclasses.replace(c, measure=measure(c.measure)) for c in design.constraints))
+
+
+# ---------------------------------------------------------------------------------------------------------- run
+def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, scheduler: Any = None,
+                     budget: int | None = None, time_budget: float | None = None, seed: int | None = None,
+                     resume: bool = False, force: bool = False,
                      progress: Callable[[str], None] | None = None) -> OptimisationResult:
     """Optimise ``design``; the checkpoint ``out/evaluations.jsonl`` grows as candidates are evaluated.
 
-    ``out`` must not hold a checkpoint unless ``resume`` (continue it) or ``force`` (start afresh). Raises
-    :class:`InadmissibleError` (exit 3) when no evaluated candidate satisfies every constraint.
+    ``jobs``: local worker processes (-1: all cores); ``scheduler``: a Dask scheduler address or client (``jobs`` is
+    then ignored). ``budget`` (evaluations), ``time_budget`` (s) and ``seed`` override the design's. ``out`` must not
+    hold a checkpoint unless ``resume`` (continue it) or ``force`` (start afresh). Raises :class:`InadmissibleError`
+    (exit 3) when no evaluated candidate satisfies every constraint.
     """
-    try:
-        from pymoo.core.evaluator import Evaluator
-        from pymoo.core.problem import Problem
-        from pymoo.problems.static import StaticProblem
-    except ImportError:
-        raise ArgumentError(INSTALL_HINT) from None
-    from pkmstiff.evaluation.sweep import SweepTask, run_sweep
+    if importlib.util.find_spec("pymoo") is None:
+        raise ArgumentError(INSTALL_HINT)
+    from pkmstiff.evaluation.parallel import connected, resolve_workers
     from pkmstiff.machine.variants import raw_machine
 
+    if scheduler is None:
+        resolve_workers(jobs)
     out = Path(out)
     ckpt = out / CHECKPOINT
     if ckpt.exists() and not (resume or force):
@@ -170,57 +330,131 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, budget: 
     if resume and ckpt.exists():  # drop a torn last line before appending to the file
         atomic_write_text(ckpt, "".join(json.dumps(rec, default=repr) + "\n" for rec in cache.values()))
     budget = design.budget if budget is None else budget
+    time_budget = design.time_budget if time_budget is None else time_budget
     seed = design.seed if seed is None else seed
-    evaluation = DesignEvaluation(design.measures())
+    search = _coarse(design)
     raw, _, _ = raw_machine(design.machine)
-    lo, hi = design.bounds()
-    n_obj = len(design.objectives)
-    n_g = max(1, len(design.constraints) + 1)
-    problem = Problem(n_var=design.n_var, n_obj=n_obj, n_ieq_constr=n_g, xl=lo, xu=hi)
     name = design.resolved_algorithm()
-    algo = _algorithm(name, design.population, n_obj, (lo + hi) / 2)
-    algo.setup(problem, termination=("n_eval", budget), seed=seed, verbose=False)
+    algo = _algorithm(name, design, budget, seed)
     history: list[Candidate] = []
-    evaluated = cached = 0
+    counts = {"evaluated": 0, "cached": 0}
+    stopped = f"budget of {budget} evaluations"
     t0 = time.perf_counter()
-    with open(ckpt, "a", encoding="utf-8") as log:
+
+    def evaluate(batch: list[Candidate], ev: _Evaluator, log: Any, count: bool = True) -> None:
+        """Fill ``batch``'s outputs: from the checkpoint or evaluated (and appended to it)."""
+        new = list({c.key: c for c in batch if c.key not in cache}.values())
+        for c, (outputs, error, _) in zip(new, ev([c.overrides for c in new])):
+            rec = {"key": c.key, "values": c.values, "overrides": c.overrides, "error": error, "outputs": outputs}
+            cache[c.key] = rec
+            log.write(json.dumps(rec, default=repr) + "\n")
+        log.flush()
+        if count:
+            counts["evaluated"] += len(new)
+            counts["cached"] += len(batch) - len(new)
+        for c in batch:
+            rec = cache[c.key]
+            c.outputs, c.error = dict(rec["outputs"]), rec["error"]
+
+    with connected(scheduler), open(ckpt, "a", encoding="utf-8") as log:
+        evaluation = DesignEvaluation(search.measures())
+        ev = _Evaluator(design.machine, evaluation, jobs, scheduler)
+        search = _absolute(search, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=False))
         while algo.has_next() and len(history) < budget:
-            pop = algo.ask()
-            X = np.atleast_2d(pop.get("X"))[: budget - len(history)]
-            pop = pop[: len(X)]
+            if history and time_budget is not None and time.perf_counter() - t0 >= time_budget:
+                stopped = f"time budget of {time_budget:g} s"
+                break
+            X = algo.ask(budget - len(history))
             batch = []
             for x in X:
                 values = design.split(x)
                 ov = design.overrides(values)
-                batch.append(Candidate(_variant_hash(raw, ov, evaluation), values, ov, {}, index=len(history)
-                                       + len(batch)))
-            new = {c.key: c for c in batch if c.key not in cache}
-            tasks = [SweepTask(i, design.machine, {}, c.overrides, {}, evaluation) for i, c in enumerate(new.values())]
-            rows = run_sweep(tasks, n_jobs=jobs).rows if tasks else []
-            for c, row in zip(new.values(), rows):
-                rec = {"key": c.key, "values": c.values, "overrides": c.overrides, "error": row.get("error", ""),
-                       "outputs": {k: v for k, v in row.items() if k not in ("task", "error")}}
-                cache[c.key] = rec
-                log.write(json.dumps(rec, default=repr) + "\n")
-            log.flush()
-            evaluated += len(rows)
-            cached += len(batch) - len(new)
-            for c in batch:
-                rec = cache[c.key]
-                c.outputs, c.error = dict(rec["outputs"]), rec["error"]
+                batch.append(Candidate(_variant_hash(raw, ov, evaluation), values, ov, {},
+                                       index=len(history) + len(batch)))
+            evaluate(batch, ev, log)
             history += batch
-            static = StaticProblem(problem, F=np.array([c.objective_vector(design) for c in batch]),
-                                   G=np.array([c.violations(design) for c in batch]))
-            Evaluator().eval(static, pop)
-            algo.tell(infills=pop)
+            algo.tell(np.array([c.objective_vector(search) for c in batch]),
+                      np.array([c.violations(search) for c in batch]))
             if progress is not None:
-                front = _front(design, history)
-                best = ", ".join(f"{o.measure.name} {v:.6g}" for o, v in
-                                 zip(design.objectives, front[0].outputs.values())) if front else "none feasible"
-                progress(f"{len(history)}/{budget} evaluations ({evaluated} run, {cached} cached); best: {best}")
-    front = _front(design, history)
+                progress(_progress_line(search, history, budget, counts, time.perf_counter() - t0))
+        front = _front(search, history)
+        refined: list[Candidate] | None = None
+        if design.coarse_step is not None and front:
+            design, refined = _refine(design, search, history, front, raw, jobs, scheduler, evaluate, log)
+            front = _front(design, refined)
+        elif refined is None:
+            design = search
     if not front:
-        raise InadmissibleError(f"no feasible design among {len(history)} evaluations of {design.source} "
-                                   f"(every candidate violates a constraint or failed); nothing reported as best")
-    return OptimisationResult(design, history, front, evaluated, cached, time.perf_counter() - t0, name,
-                              {"seed": seed, "budget": budget, "jobs": jobs})
+        where = " on the requested raster" if refined is not None else ""
+        raise InadmissibleError(f"no feasible design{where} among {len(history)} evaluations of {design.source} "
+                                f"(every candidate violates a constraint or failed); nothing reported as best")
+    meta = {"seed": seed, "budget": budget, "time_budget_s": time_budget, "jobs": jobs, "stopped": stopped,
+            "parallel": ev.where}
+    if scheduler is not None:
+        meta["scheduler"] = scheduler if isinstance(scheduler, str) else repr(scheduler)
+    if refined is not None:
+        meta["refined"] = {"search_step_mm": design.coarse_step * 1e3, "candidates": len(refined)}
+    return OptimisationResult(design, history, front, counts["evaluated"], counts["cached"],
+                              time.perf_counter() - t0, name, meta, search)
+
+
+#: coarse-to-fine, one objective: at most this many batches of ``Design.refine`` candidates are re-evaluated
+REFINE_BATCHES = 5
+
+
+def _refine(design: Design, search: Design, history: list[Candidate], front: list[Candidate], raw: dict, jobs: int,
+            scheduler: Any, evaluate: Callable, log: Any) -> tuple[Design, list[Candidate]]:
+    """Re-evaluate search candidates on the requested rasters; their ``search_outputs`` keep the coarse values.
+
+    One objective: the feasible search candidates in order of their objective, in batches of ``design.refine``,
+    until a batch holds one that is feasible on the requested rasters too (a search that converged onto an active
+    constraint leaves many candidates just inside it on the coarse raster and just outside on the fine one), at
+    most :data:`REFINE_BATCHES` batches. Several objectives: the feasible search front. Returns the design with
+    its relative constraints resolved on the requested rasters, and the re-evaluated candidates."""
+    evaluation = DesignEvaluation(design.measures())
+    ev = _Evaluator(design.machine, evaluation, jobs, scheduler)
+    design = _absolute(design, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=False))
+
+    def fine(picked: list[Candidate]) -> list[Candidate]:
+        out = [Candidate(_variant_hash(raw, c.overrides, evaluation), c.values, c.overrides, {}, index=c.index,
+                         search_outputs=c.outputs) for c in picked]
+        evaluate(out, ev, log)
+        return out
+
+    if len(design.objectives) > 1:
+        return design, fine(front)
+    feas = sorted({c.key: c for c in history if c.feasible(search)}.values(),
+                  key=lambda c: float(c.objective_vector(search)[0]))
+    done: list[Candidate] = []
+    for k in range(0, min(len(feas), REFINE_BATCHES * design.refine), design.refine):
+        done += fine(feas[k:k + design.refine])
+        if any(c.feasible(design) for c in done):
+            break
+    return design, done
+
+
+def _absolute(design: Design, raw: dict, evaluation: DesignEvaluation, ev: _Evaluator,
+              evaluate: Callable[[list[Candidate]], None]) -> Design:
+    """``design`` with its relative constraints' bounds resolved from the base machine's values (evaluated with
+    ``evaluation``, checkpointed like a candidate, not counted as one)."""
+    if not any(c.relative for c in design.constraints):
+        return design
+    base = Candidate(_variant_hash(raw, {}, evaluation), [], {}, {})
+    evaluate([base])
+    cons = []
+    for c in design.constraints:
+        v = base.outputs.get(c.measure.label, float("nan"))
+        if c.relative and (base.error or not math.isfinite(v) or v == 0.0):
+            raise InadmissibleError(f"{design.source}: constraint {c.measure.name!r} is relative to the base "
+                                    f"machine, whose value is {base.error or v}")
+        cons.append(c.absolute(v))
+    return dataclasses.replace(design, constraints=tuple(cons))
+
+
+def _progress_line(design: Design, history: list[Candidate], budget: int, counts: dict[str, int],
+                   elapsed: float) -> str:
+    front = _front(design, history)
+    best = ", ".join(f"{o.measure.name} {front[0].outputs[o.measure.label]:.6g} {o.measure.unit}"
+                     for o in design.objectives) if front else "none feasible"
+    return (f"{len(history)}/{budget} evaluations ({counts['evaluated']} run, {counts['cached']} cached), "
+            f"{elapsed:.0f} s; best: {best}")
