@@ -26,6 +26,8 @@ from pkmstiff.machine.loader import bundled_machines, machine_options  # noqa: F
 
 if TYPE_CHECKING:
     from pkmstiff.api import PointResults, SectionMap, StudyMachine
+    from pkmstiff.app.mechanisms import MechanismPointView, MechanismSectionView
+    from pkmstiff.mechanisms.model import Mechanism
 
 MM = 1e3
 #: the section planes offered (those of ``pkmstiff section --plane``)
@@ -130,6 +132,13 @@ class SectionChoice:
         expected and what was found) before any work."""
         from pkmstiff.evaluation.quantities import check_quantity
 
+        self.checked_raster()
+        check_quantity(self.quantity, n_chains)
+        self.settings.checked()
+        return self
+
+    def checked_raster(self) -> SectionChoice:
+        """This choice's plane, step, position and orientation checked (one line, before any work)."""
         if self.plane not in PLANES:
             raise ArgumentError(option="plane", expected=f"one of {', '.join(PLANES)}", found=self.plane)
         lo, hi = STEP_LIMITS_MM
@@ -141,8 +150,6 @@ class SectionChoice:
                                                      for a in self.orientation_deg):
             raise ArgumentError(option="orientation", expected=f"a, b, c within ±{ANGLE_LIMIT_DEG:g} deg",
                                 found=tuple(self.orientation_deg))
-        check_quantity(self.quantity, n_chains)
-        self.settings.checked()
         return self
 
     def command(self, machine: MachineChoice, out: str = "OUT") -> str:
@@ -277,6 +284,7 @@ class Session:
     """Machines loaded once per variant, and the app's requests on them."""
 
     _machines: dict[str, StudyMachine] = field(default_factory=dict)
+    _mechanisms: dict[str, Mechanism] = field(default_factory=dict)
 
     def machine(self, choice: MachineChoice, neglect_spindle: bool = False) -> StudyMachine:
         """The machine of ``choice`` (loaded on first use; a bad name, file or option is one clear error), with
@@ -326,6 +334,27 @@ class Session:
                       skip_checks=settings.skip_checks)
         return PointView(x, res, point_command(machine, x, settings, m.to_machine_frame(np.zeros(3), settings.frame)))
 
+    def mechanism(self, name: str) -> Mechanism:
+        """The mechanism ``name`` (bundled or file; loaded on first use)."""
+        from pkmstiff.mechanisms import load_mechanism
+
+        if name not in self._mechanisms:
+            self._mechanisms[name] = load_mechanism(name)
+        return self._mechanisms[name]
+
+    def mechanism_section(self, name: str, choice: SectionChoice) -> MechanismSectionView:
+        """The section map of ``choice`` on the mechanism ``name`` (as ``pkmstiff section NAME``)."""
+        from pkmstiff.app.mechanisms import mechanism_section
+
+        return mechanism_section(self.mechanism(name), choice)
+
+    def mechanism_point(self, name: str, pose: Sequence[float],
+                        settings: ModelSettings = ModelSettings()) -> MechanismPointView:
+        """The point analysis of the mechanism ``name`` at the output ``pose`` (SI; as ``pkmstiff point NAME``)."""
+        from pkmstiff.app.mechanisms import mechanism_point
+
+        return mechanism_point(self.mechanism(name), np.asarray(pose, float), settings, N_MODES)
+
     def pose_limits(self, machine: MachineChoice) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (6,) slider limits of the pose in mm and degrees: the chains' reach box and ±:data:`ANGLE_LIMIT_DEG`."""
         from pkmstiff.workspace.translational import reach_box
@@ -341,12 +370,13 @@ def pose_text(pose: Sequence[float]) -> str:
             + ", ".join(f"{math.degrees(v):.1f}" for v in pose[3:6]) + " deg")
 
 
-def export(out_dir: str | Path, machine: MachineChoice, view: SectionView | None, point: PointView | None,
-           scene_png: bytes | None = None) -> Path:
+def export(out_dir: str | Path, machine: MachineChoice, view: SectionView | MechanismSectionView | None,
+           point: PointView | MechanismPointView | None, scene_png: bytes | None = None) -> Path:
     """Write what is shown into a new folder ``out_dir/export-NNN`` (nothing existing is overwritten): the map as
     ``pkmstiff section --out`` writes it (PNG, CSV with its JSON metadata, statistics; same file names), the point
     analysis as a one-row CSV (``point.csv``, the columns of :meth:`PointResults.to_pandas`), the 3-D view
     (``view_3d.png``) and ``commands.txt``: the commands that reproduce the map and the point analysis."""
+    from pkmstiff.app.mechanisms import MechanismSectionView
     from pkmstiff.io.atomic import atomic_path, atomic_write_text, safe_stem
     from pkmstiff.report.outputs import write_section_outputs
 
@@ -356,13 +386,17 @@ def export(out_dir: str | Path, machine: MachineChoice, view: SectionView | None
     folder = base / f"export-{k:03d}"
     folder.mkdir()
     commands = []
-    if view is not None:
+    if isinstance(view, MechanismSectionView):
+        view.write(folder)
+        commands.append(view.choice.command(machine, str(folder / "cli")))
+    elif view is not None:
         stem = f"{safe_stem(view.map.result.machine)}_{view.choice.plane}"
         write_section_outputs(view.map.result, folder, ["png", "csv"], stem, progress=False)
         commands.append(view.choice.command(machine, str(folder / "cli")))
-    if point is not None:
+    if isinstance(point, PointView):
         with atomic_path(folder / "point.csv") as tmp:
             point.result.to_pandas().to_csv(tmp, index=False)
+    if point is not None:
         commands.append(point.command)
     if scene_png is not None:
         with atomic_path(folder / "view_3d.png") as tmp:
