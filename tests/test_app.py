@@ -273,3 +273,17 @@ def test_mechanism_without_elastic_data_gets_one_line(session):
     with pytest.raises(ArgumentError, match=r"\[elastic\]") as info:
         session.mechanism_section("slider_crank", SectionChoice(plane="xy", quantity="kappa"))
     assert "\n" not in str(info.value)
+
+
+def test_a_click_on_a_mechanism_map_finds_its_raster_point(mechanism_view):
+    name, mv = mechanism_view
+    left, top, right, bottom = mv.axes_px
+    assert mv.node_at_pixel(left - 2, top + 5) is None
+    u0, u1, v0, v1 = mv.limits_mm
+    nv, nu = mv.map.ok.shape
+    for row, col in ((0, 0), (nv - 1, nu - 1), (nv // 2, nu // 3)):
+        u, v = mv.map.u_values[col] * 1e3, mv.map.v_values[row] * 1e3
+        x = left + (u - u0) / (u1 - u0) * (right - left)
+        y = top + (v1 - v) / (v1 - v0) * (bottom - top)
+        assert mv.node_at_pixel(x, y) == (row, col)
+    assert mv.picked_text(0, 0).endswith(f"{mv.choice.quantity} = inadmissible") or "N/um" in mv.picked_text(0, 0)

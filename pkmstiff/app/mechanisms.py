@@ -84,6 +84,20 @@ class MechanismSectionView:
         """The map's value at raster point (row, column) in its display unit (NaN where inadmissible)."""
         return float(self.map.display(self.choice.quantity)[row, col])
 
+    def node_at_pixel(self, x_px: float, y_px: float) -> tuple[int, int] | None:
+        """(row, column) of the raster point nearest the PNG pixel (x right, y down), None outside the map axes."""
+        from pkmstiff.app.session import node_at_pixel
+
+        return node_at_pixel(self, x_px, y_px)
+
+    def picked_text(self, row: int, col: int) -> str:
+        """One line for the picked raster point: its in-plane position [mm] and the map's value there."""
+        from pkmstiff.app.session import value_text
+
+        m, (u, v) = self.map, self.choice.plane
+        return (f"{u} = {m.u_values[col] * MM:.1f} mm, {v} = {m.v_values[row] * MM:.1f} mm: "
+                + value_text(self.choice.quantity, self.value_at(row, col), self.unit))
+
     def pose_at(self, row: int, col: int) -> np.ndarray:
         """The mechanism's output pose (SI: x, y, z, a, b, c or planar x, y, φ) of raster point (row, column)."""
         from pkmstiff.mechanisms.section import plane_poses

@@ -72,6 +72,14 @@ def check_spatial(machine: str) -> None:
                             found=f"{machine} ({kind})")
 
 
+def is_mechanism_target(machine: str) -> bool:
+    """Whether ``machine`` names a mechanism (bundled name or mechanism file), as the command line resolves it
+    (a bundled spatial machine's name first)."""
+    from pkmstiff.mechanisms.loader import is_mechanism
+
+    return machine not in bundled_machines() and is_mechanism(machine)
+
+
 @dataclass(frozen=True)
 class ModelSettings:
     """What the map and the point analysis share, as ``pkmstiff section`` and ``pkmstiff point`` take it:
@@ -170,6 +178,23 @@ def point_command(machine: MachineChoice, pose: Sequence[float], settings: Model
                        *settings.args()])
 
 
+def node_at_pixel(view: SectionView | MechanismSectionView, x_px: float, y_px: float) -> tuple[int, int] | None:
+    """(row, column) of the raster point of ``view`` nearest the PNG pixel (x right, y down), None outside its map
+    axes (``view.axes_px``; the axes span ``view.limits_mm``)."""
+    left, top, right, bottom = view.axes_px
+    if not (left <= x_px <= right and top <= y_px <= bottom):
+        return None
+    u0, u1, v0, v1 = view.limits_mm
+    u = u0 + (x_px - left) / (right - left) * (u1 - u0)
+    v = v1 - (y_px - top) / (bottom - top) * (v1 - v0)
+    return view.node_at(u, v)
+
+
+def value_text(quantity: str, value: float, unit: str) -> str:
+    """``kx = 1.23 N/um`` or ``kx = inadmissible`` (NaN)."""
+    return f"{quantity} = " + ("inadmissible" if math.isnan(value) else f"{value:.6g} {unit}")
+
+
 @dataclass
 class SectionView:
     """A computed section map as the app shows it: the map, its PNG and where the map axes lie in the PNG."""
@@ -194,13 +219,15 @@ class SectionView:
 
     def node_at_pixel(self, x_px: float, y_px: float) -> tuple[int, int] | None:
         """(row, column) of the raster point nearest the PNG pixel (x right, y down), None outside the map axes."""
-        left, top, right, bottom = self.axes_px
-        if not (left <= x_px <= right and top <= y_px <= bottom):
-            return None
-        u0, u1, v0, v1 = self.limits_mm
-        u = u0 + (x_px - left) / (right - left) * (u1 - u0)
-        v = v1 - (y_px - top) / (bottom - top) * (v1 - v0)
-        return self.node_at(u, v)
+        return node_at_pixel(self, x_px, y_px)
+
+    def picked_text(self, row: int, col: int) -> str:
+        """One line for the picked raster point: its in-plane position [mm] and the map's value there."""
+        pl = self.map.plane
+        frame = self.choice.settings.frame
+        return ((f"{frame} frame: " if frame != "machine" else "")
+                + f"{pl.u_name} = {pl.u_values[col] * MM:.1f} mm, {pl.v_name} = {pl.v_values[row] * MM:.1f} mm: "
+                + value_text(self.choice.quantity, self.value_at(row, col), self.unit))
 
     def node_at(self, u_mm: float, v_mm: float) -> tuple[int, int]:
         """(row, column) of the raster point nearest the in-plane position (u, v) [mm]."""
