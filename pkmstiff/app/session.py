@@ -56,9 +56,8 @@ class MachineChoice:
 
 
 def check_spatial(machine: str) -> None:
-    """An :class:`~pkmstiff.errors.ArgumentError` (one line) for a mechanism or a planar example: the app shows
-    spatial machines (a mechanism's or planar example's maps and point analyses: ``pkmstiff section`` and
-    ``pkmstiff point`` with its name)."""
+    """An :class:`~pkmstiff.errors.ArgumentError` (one line) for a mechanism or a planar example: the spatial
+    machines' path of the app (a mechanism with an ``[elastic]`` table takes :meth:`Session.mechanism_section`)."""
     from pkmstiff.analysis.planar import bundled_planar
     from pkmstiff.mechanisms.loader import is_mechanism
 
@@ -402,7 +401,8 @@ def export(out_dir: str | Path, machine: MachineChoice, view: SectionView | Mech
     """Write what is shown into a new folder ``out_dir/export-NNN`` (nothing existing is overwritten): the map as
     ``pkmstiff section --out`` writes it (PNG, CSV with its JSON metadata, statistics; same file names), the point
     analysis as a one-row CSV (``point.csv``, the columns of :meth:`PointResults.to_pandas`), the 3-D view
-    (``view_3d.png``) and ``commands.txt``: the commands that reproduce the map and the point analysis."""
+    (``view_3d.png``) and ``commands.txt``: the commands that reproduce the map and the point analysis. A mechanism's
+    map is written as ``pkmstiff section MECHANISM --out`` writes it (no ``point.csv``)."""
     from pkmstiff.app.mechanisms import MechanismSectionView
     from pkmstiff.io.atomic import atomic_path, atomic_write_text, safe_stem
     from pkmstiff.report.outputs import write_section_outputs
