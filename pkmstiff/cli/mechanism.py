@@ -105,7 +105,7 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
                  steps: int = 1, start_pose: str | None = None, start_drives: str | None = None) -> dict[str, Any]:
     """Everything ``pkmstiff mechanism solve`` prints, as a JSON-ready dict."""
     import pkmstiff.mechanisms as mm
-    from pkmstiff.mechanisms.outputs import controlled_output_names, output_condition
+    from pkmstiff.mechanisms.outputs import controlled_output_names
 
     mech = _load(name)
     units = [_unit_scale(u) for u in mech.drive_units]
@@ -116,7 +116,6 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
         P = _parse_poses(mech, poses, "--pose")
         ev = mm.evaluate(mech, P, steps=steps, start=start)
         sol = ev.solution
-        kap = output_condition(mech, np.where(sol.ok[:, None, None], sol.q, np.nan), sol.drives)
         for i in range(len(P)):
             results.append({
                 "status": str(sol.status[i]), "iterations": int(sol.iterations[i]),
@@ -125,7 +124,7 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
                 "pose": {f"{n}_{u}": _num(v * (1e3 if u == "mm" else 180 / math.pi))
                          for (n, u), v in zip(pose_names, P[i])},
                 "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, ev.drives[i])},
-                "output_condition_number": _num(kap[i]),
+                "output_condition_number": _num(sol.output_kappa[i]),
                 "links": _links(mech, sol.q[i]) if sol.ok[i] else None,
             })
     else:
