@@ -201,7 +201,7 @@ def test_cli_counts_search_cached_and_reevaluated_apart(tmp_path, capsys):
     summary = json.loads((out / "summary.json").read_text())
     assert run + cached == summary["evaluations"] == 12
     assert run == summary["evaluated"] and cached == summary["read_from_checkpoint"]
-    assert "cached: repeated or read from the checkpoint, 3 re-evaluated on the requested raster" in line, line
+    assert "cached: repeated or read from the checkpoint; 3 re-evaluated on the requested raster after" in line, line
     assert summary["reevaluated_on_requested_raster"] == 3
 
 

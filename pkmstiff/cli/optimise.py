@@ -63,8 +63,8 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
         print(f"pkmstiff optimise: time budget of {res.meta['time_budget_s']:g} s spent by the re-evaluation on the "
               f"requested raster; it went on until one re-evaluated design was feasible "
               f"({refined['candidates']} re-evaluated)", file=sys.stderr)
-    fine = (f", {res.reevaluated} re-evaluated on the requested raster (searched on "
-            f"{refined['search_step_mm']:g} mm)" if refined else "")
+    fine = (f"; {res.reevaluated} re-evaluated on the requested raster after the search on "
+            f"{refined['search_step_mm']:g} mm" if refined else "")
     print(f"pkmstiff optimise: {len(res.history)} evaluations{stop} ({res.evaluated} run, {res.cached} cached: "
           f"repeated or read from the checkpoint{fine}), {res.wall_time_s:.1f} s; {front}{text}; wrote "
           + ", ".join(res.meta["outputs"][k] for k in ("front", "front_plot", "report", "summary")
