@@ -22,10 +22,20 @@ DRIVE_LIMITS: tuple[Param, ...] = (
 )
 
 
-def drive_limits(p: "Params") -> dict[str, float]:
-    """The drive limits given in the table (declared in :data:`DRIVE_LIMITS`), SI."""
+#: the limits of a rotary drive (mechanism files): torques and angular speed, the counterparts of DRIVE_LIMITS
+ROTARY_DRIVE_LIMITS: tuple[Param, ...] = (
+    Param("max_torque", "N*m", None, "maximum drive torque", min_value=0.0),
+    Param("torque_reserve", "N*m", None, "torque reserve (static friction + safety)", min_value=0.0),
+    Param("max_angular_speed", "rad/s", None, "maximum drive angular speed", min_value=0.0),
+    Param("coulomb_torque", "N*m", None, "Coulomb friction torque C (eq. 4.89)", min_value=0.0),
+)
+
+
+def drive_limits(p: "Params", declared: tuple[Param, ...] = DRIVE_LIMITS) -> dict[str, float]:
+    """The drive limits given in the table (declared in ``declared``: :data:`DRIVE_LIMITS` or
+    :data:`ROTARY_DRIVE_LIMITS`), SI."""
     out = {}
-    for decl in DRIVE_LIMITS:
+    for decl in declared:
         value = p[decl.key]
         if value is not None:
             out[decl.key] = value

@@ -20,7 +20,7 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 
-from components.limits import DRIVE_LIMITS, drive_limits
+from components.limits import DRIVE_LIMITS, ROTARY_DRIVE_LIMITS, drive_limits
 from components.params import ModelSpec, Param
 from pkmstiff.errors import ArgumentError, ComponentRangeError  # noqa: F401 (components.protocol.*)
 
@@ -33,6 +33,10 @@ LIMIT_UNITS: dict[str, str] = {
     "max_speed": "m/s",
     "coulomb_friction": "N",
     "viscous_friction": "N*s/m",
+    "max_torque": "N*m",
+    "torque_reserve": "N*m",
+    "max_angular_speed": "rad/s",
+    "coulomb_torque": "N*m",
     "tilt_min": "rad",
     "tilt_max": "rad",
     "swivel_min": "rad",
@@ -239,5 +243,5 @@ MODELS: tuple[ModelSpec, ...] = (ModelSpec(
     "M = k dtheta",
     (Param("k", "N*m/rad", None, "torsional stiffness about the drive axis", required=True, positive=True,
            rigid_ok=True),
-     Param("mass", "kg", 0.0, "mass moving with the driven link", min_value=0.0)),
-    lambda p: RotaryDrive(name=p.name, k=p["k"], mass=p["mass"])),)
+     Param("mass", "kg", 0.0, "mass moving with the driven link", min_value=0.0)) + ROTARY_DRIVE_LIMITS,
+    lambda p: RotaryDrive(name=p.name, k=p["k"], mass=p["mass"], limits=drive_limits(p, ROTARY_DRIVE_LIMITS))),)

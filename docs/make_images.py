@@ -1,6 +1,7 @@
 """The docs' figures that no command, docs page or study writes itself (``python docs/make_images.py [OUTDIR]
 [NAME ...]`` from the repository root with pkmstiff importable; default docs/images, all names): the mode shape,
-the mechanism pictures, the deformed FE joint and the screenshots of ``pkmstiff app`` (headless Chromium). The other figures in docs/images come from ``pkmstiff demo``
+the mechanism pictures and section maps, the deformed FE joint, the screenshots of ``pkmstiff app`` and of both
+report kinds (headless Chromium). The other figures in docs/images come from ``pkmstiff demo``
 (hexaglide_yz_*, hexaglide_three_planes_kx), ``python -m pkmstiff.plots.workspace_figures``, ``pkmstiff calibrate
 report`` (the calibration walk-through's commands) and ``studies/``.
 """
@@ -41,6 +42,23 @@ def mechanisms(out: Path) -> list[Path]:
     q = mm.forward(hyb, d, steps=4).q
     mechanism_figure(hyb, q, files[1], labels=["home", "second"],
                      title="Hybrid tripod with wrist: home (solid) and a second configuration")
+    return files
+
+
+def mechanism_sections(out: Path) -> list[Path]:
+    """k_x and f1 of the 6-RUS at z = -400 mm and of the hybrid at its tool plane z = -1073.205 mm (orientation 0,
+    window fitted, 10 mm raster; docs/user-guide/mechanisms.md, elastic model)."""
+    import pkmstiff.mechanisms as mm
+    from pkmstiff.mechanisms.section import evaluate_section, fit_window
+    from pkmstiff.plots.mechanism_section import plot_mechanism_quantity
+
+    files = []
+    for name, stem, at in (("hexa_6rus", "mechanism_6rus", -0.4), ("hybrid_tripod_wrist", "mechanism_hybrid",
+                                                                    -1.073205)):
+        mech = mm.load_mechanism(name)
+        u, v = fit_window(mech, "xy", at, np.zeros(3), 0.01)
+        sec = evaluate_section(mech, "xy", at, u, v, 0.01, names=("kx", "f1"))
+        files += [plot_mechanism_quantity(sec, q, out / f"{stem}_{q}.png") for q in ("kx", "f1")]
     return files
 
 
@@ -103,7 +121,27 @@ def app(out: Path) -> list[Path]:
     return files
 
 
-FIGURES = {"mode1": mode1, "figures_page": figures_page, "mechanisms": mechanisms, "fe_joint": fe_joint, "app": app}
+def reports(out: Path) -> list[Path]:
+    """docs/user-guide/reports.md: both report kinds as tests/test_app_browser.py builds and looks at them
+    (tests/report_browser.py: a small design comparison and a small Felix calibration), headless Chromium at
+    1400 px, the first 2000 px."""
+    import tempfile
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests import app_browser as ab
+    from tests import report_browser as rb
+
+    files = [out / "report_design.png", out / "report_calibration.png"]
+    with tempfile.TemporaryDirectory() as tmp, ab.chromium() as driver:
+        for html, png in zip(rb.build_reports(Path(tmp)), files):
+            problems = rb.look_at(driver, html, png)
+            if problems:
+                raise RuntimeError(f"{html.name}: {problems}")
+    return files
+
+
+FIGURES = {"mode1": mode1, "figures_page": figures_page, "mechanisms": mechanisms,
+           "mechanism_sections": mechanism_sections, "fe_joint": fe_joint, "app": app, "reports": reports}
 
 
 def main(out: str = "docs/images", *names: str) -> list[Path]:

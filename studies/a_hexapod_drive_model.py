@@ -96,7 +96,7 @@ def plot_drive_curves(curves: dict[str, np.ndarray], lengths: np.ndarray, used: 
     ax.set_ylabel("drive stiffness k_A [N/um]")
     ax.set_title("6X telescopic strut: drive stiffness over the strut length")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9)
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

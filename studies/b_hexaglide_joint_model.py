@@ -111,7 +111,7 @@ def plot_joint_curves(machines: dict[str, Any], tilts: dict[str, dict[str, float
         ax.set_xlabel("tilt angle (axis-referenced) [deg]")
         ax.set_ylabel("joint stiffness [N/um]")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=9)
     fig.suptitle("Hexaglide joint stiffness over the tilt angle (spline of Cobet 3.2.5)", fontsize=11)
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -222,7 +222,7 @@ def plot_reason_maps(secs: dict[str, pkmstiff.SectionMap], path: Path) -> Path:
         ax.set_xlabel("y [mm]")
         ax.set_ylabel("z [mm]")
     fig.legend(handles=[Patch(color=colours[k], label=names[k]) for k in sorted(used)], loc="outside lower center",
-               ncol=min(6, len(used)), fontsize=8)
+               ncol=min(6, len(used)), fontsize=9)
     fig.suptitle("YZ plane at x = 0, a = b = c = 0: first failing admissibility check", fontsize=11)
     fig.savefig(path, dpi=100)
     plt.close(fig)

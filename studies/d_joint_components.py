@@ -108,7 +108,7 @@ def plot_joint_curves(machines: dict[str, Any], path: Path) -> Path:
         ax.set_ylabel("joint stiffness [N/um]")
         ax.set_ylim(bottom=0)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=9)
     fig.suptitle("Joint stiffness of the variants (spline of Cobet 3.2.5)", fontsize=11)
     fig.savefig(path, dpi=110)
     plt.close(fig)

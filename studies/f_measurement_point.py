@@ -123,7 +123,7 @@ def plot_weak_points(results: dict[str, dict[str, Any]], path: Path) -> Path:
         ax.set_title(label, fontsize=10)
         ax.set_ylabel("share of the TCP compliance [%]")
         ax.set_ylim(0, 100)
-    axes[-1].legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5))
+    axes[-1].legend(fontsize=9, loc="center left", bbox_to_anchor=(1.0, 0.5))
     fig.suptitle("Hexaglide at x = y = 0, z = -1000 mm: weak points (load direction, tool length)", fontsize=11)
     fig.savefig(path, dpi=110)
     plt.close(fig)

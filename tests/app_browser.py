@@ -41,12 +41,13 @@ def free_port() -> int:
 
 
 @contextlib.contextmanager
-def running_app(out: Path, machine: str = "hexaglide", timeout: float = 60.0):
-    """``pkmstiff app MACHINE --port P --no-browser --out OUT`` in a subprocess; yields (url, process)."""
+def running_app(out: Path, machine: str = "hexaglide", timeout: float = 60.0, step_mm: float = 25.0):
+    """``pkmstiff app MACHINE --port P --no-browser --out OUT --step STEP`` in a subprocess; yields (url, process,
+    port)."""
     port = free_port()
     log = open(out / "app.log", "w")
     proc = subprocess.Popen([sys.executable, "-m", "pkmstiff.cli", "app", machine, "--port", str(port), "--no-browser",
-                             "--out", str(out)], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
+                             "--out", str(out), "--step", f"{step_mm:g}"], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
                             env={**os.environ, "PYTHONPATH": str(ROOT)})
     url = f"http://127.0.0.1:{port}/"
     try:

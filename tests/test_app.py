@@ -11,7 +11,7 @@ import shlex
 import numpy as np
 import pytest
 
-from pkmstiff.app.session import MachineChoice, SectionChoice, Session, export
+from pkmstiff.app.session import MachineChoice, ModelSettings, SectionChoice, Session, export
 from pkmstiff.errors import ArgumentError, InputError
 
 HEXAGLIDE = MachineChoice("hexaglide")
@@ -161,3 +161,58 @@ def test_a_machine_file_works_like_its_bundled_name(session, view, tmp_path):
     from_file = session.section(MachineChoice(str(path)), COARSE)
     np.testing.assert_array_equal(from_file.map.display("kx"), view.map.display("kx"))  # the same machine data
     assert shlex.split(COARSE.command(MachineChoice(str(path))))[2] == str(path)
+
+
+SETTINGS = ModelSettings(tool_length_mm=150.0, skip_checks=("platform_collision", "drive_load"), neglect_spindle=True,
+                         frame="report")
+
+
+def test_model_settings_reach_the_map_the_point_and_their_commands(session, tmp_path, capsys):
+    choice = SectionChoice(plane="xz", at_mm=100.0, step_mm=100.0, quantity="kz", settings=SETTINGS)
+    view = session.section(HEXAGLIDE, choice)
+    cmd = shlex.split(choice.command(HEXAGLIDE, str(tmp_path / "cli")))
+    for opt in (["--tool-length", "150"], ["--skip-check", "platform_collision"], ["--skip-check", "drive_load"],
+                ["--neglect-spindle"], ["--frame", "report"]):
+        assert any(cmd[i:i + len(opt)] == opt for i in range(len(cmd))), opt
+    folder = export(tmp_path, HEXAGLIDE, view, None)
+    _cli(capsys, *cmd[1:], "--quiet")
+    # the same evaluation on the same inputs: the 10-digit CSV texts are equal
+    assert (folder / "hexaglide_xz.csv").read_text() == (tmp_path / "cli" / "hexaglide_xz.csv").read_text()
+    plain = session.section(HEXAGLIDE, SectionChoice(plane="xz", at_mm=100.0, step_mm=100.0, quantity="kz"))
+    # every setting changes the map: the report frame shifts the window, K_U and the tool change k_z
+    assert not np.array_equal(view.map.plane.u_values, plain.map.plane.u_values) or not np.allclose(
+        view.map.display("kz"), plain.map.display("kz"), equal_nan=True)
+    # the raster point's pose is in the machine frame: the report frame's origin added
+    node = view.central_node()
+    origin = session.machine(HEXAGLIDE).to_machine_frame(np.zeros(3), "report")
+    nu = view.map.plane.shape[1]
+    np.testing.assert_allclose(view.pose_at(*node)[:3], view.map.plane.points()[node[0] * nu + node[1]] + origin)
+    pv = session.point(HEXAGLIDE, view.pose_at(*node), SETTINGS)
+    ref = json.loads(_cli(capsys, *shlex.split(pv.command)[1:], "--json"))
+    assert all(o in pv.command for o in ("--tool-length 150", "--neglect-spindle", "--frame report"))
+    # the map's value is the point analysis' and the CLI's (same model, same pose: round-off; 10-digit pose)
+    assert view.value_at(*node) == pytest.approx(pv.stiffness()["kz"], rel=1e-9)
+    assert pv.stiffness()["kz"] == pytest.approx(ref["k_N_per_um"]["z"], rel=1e-9)
+    without = session.point(HEXAGLIDE, view.pose_at(*node))
+    assert without.stiffness()["kz"] != pytest.approx(pv.stiffness()["kz"], rel=1e-6)  # the settings act
+
+
+@pytest.mark.parametrize("settings, field", [
+    (ModelSettings(tool_length_mm=-1.0), "tool length"), (ModelSettings(skip_checks=("nope",)), "skip checks"),
+    (ModelSettings(frame="world"), "frame")])
+def test_bad_settings_fail_in_one_line(session, settings, field):
+    with pytest.raises(ArgumentError, match=field):
+        session.section(HEXAGLIDE, SectionChoice(settings=settings))
+    with pytest.raises(ArgumentError, match=field):
+        session.point(HEXAGLIDE, np.array([0, 0, -1.0, 0, 0, 0]), settings)
+
+
+@pytest.mark.parametrize("name, kind", [("slider_crank", "a mechanism"), ("five_bar", "a planar example")])
+def test_mechanisms_and_planar_examples_get_one_line(session, name, kind):
+    from pkmstiff.analysis.planar import bundled_planar
+
+    if kind == "a planar example" and name not in bundled_planar():
+        name = bundled_planar()[0]
+    with pytest.raises(ArgumentError, match=kind) as info:
+        session.machine(MachineChoice(name))
+    assert "pkmstiff section" in str(info.value) and "\n" not in str(info.value)

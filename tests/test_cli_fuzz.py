@@ -101,7 +101,8 @@ CASES: dict[str, list[tuple[list[str], int, str]]] = {
         (["section", "hexaglide", "--orientation", "0,0"], 2, "--orientation"),
         (["section", "slider_crank", "--plane", "yz"], 2, "--plane"),
         (["section", "hybrid_tripod_wrist", "--quantities", "vmax_x"], 2, "vmax_x"),
-        (["section", "hybrid_tripod_wrist", "--tool-length", "100"], 2, "--tool-length"),
+        (["section", "hybrid_tripod_wrist", "--tool-length", "-5"], 2, "--tool-length"),
+        (["section", "five_bar", "--plane", "xy", "--tool-length", "100"], 2, "--tool-length"),  # planar: no axis
         (["section", "hybrid_tripod_wrist", "--plane", "xy", "--range", "x=-10:10,y=0:10", "--step", "1e-4"], 2,
          "--step"),
         (["section", "hybrid_tripod_wrist", "--plane", "xy", "--range", "x=5:1,y=0:10"], 2, "--range"),

@@ -59,3 +59,11 @@ def test_point_document_validates_and_stiffness_matrix_is_symmetric(capsys):
 def test_planar_point_document_validates(capsys):
     doc = _json(capsys, "point", "bipod", "--pose", "0,-707", "--json")
     jsonschema.validate(doc, load_schema("point"))
+
+
+@pytest.mark.parametrize("argv", [["hexa_6rus", "--pose", "20,-30,-420,3,-2,5"], ["five_bar", "--pose", "90,310,0"],
+                                  ["hybrid_tripod_wrist", "--pose", "0,100,-1073.2,10,0,0", "--tool-length", "50"]])
+def test_mechanism_point_documents_validate(capsys, argv):
+    """Mechanisms: rotary drive torques, controlled outputs, planar pose (phi_deg) are in the schema."""
+    doc = _json(capsys, "point", *argv, "--modes", "2", "--json")
+    jsonschema.validate(doc, load_schema("point"))

@@ -3,9 +3,12 @@ at least 80 % of the canvas (bounding box of the non-background pixels), every t
 (matplotlib: at the figure's size in inches; pyvista: measured in the rendered image, tests/figure_checks.py), maps
 carry µm/° units, titles state the real window ranges, colour scales show the structure where one hot spot dominates.
 
-``test_every_figure_kind_fills_its_canvas_with_readable_text`` runs every figure kind of the package (and the studies'
-map panels) with ``Figure.savefig`` and ``Plotter.screenshot`` watched: every saved figure and screenshot is checked;
-``test_the_checks_fail_on_a_bad_figure`` shows that the checks can fail.
+``test_every_figure_kind_fills_its_canvas_with_readable_text`` runs every figure kind of the package and of the
+studies (map panels, component curves, rotation panels, the validation's cause maps; their own plot functions on small
+inputs) with ``Figure.savefig`` and ``Plotter.screenshot`` watched: every saved figure and screenshot is checked;
+``test_the_checks_fail_on_a_bad_figure`` shows that the checks can fail;
+``test_every_docs_image_has_a_checked_figure_kind`` maps every PNG in docs/images to its kind (or to a reasoned
+exclusion: browser screenshots), so that a new image without a checked kind fails.
 """
 
 from __future__ import annotations
@@ -236,6 +239,19 @@ def test_remaining_matplotlib_kinds_have_readable_text(tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------------------------------- every figure kind
+def _study(name: str):
+    """A study script (studies/NAME.py) as a module: its plot functions, driven here on small inputs."""
+    import importlib
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
+    try:
+        return importlib.import_module(name)
+    finally:
+        sys.path.pop(0)
+
+
 def _kind_section_maps(tmp, m, yz):
     from pkmstiff.plots.section_maps import plot_reasons, plot_section
 
@@ -343,14 +359,8 @@ def _kind_api_plots(tmp, m, yz):
 
 
 def _kind_study_maps(tmp, m, yz):
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "studies"))
-    try:
-        from _study_common import MapPanel, plot_maps
-    finally:
-        sys.path.pop(0)
+    common = _study("_study_common")
+    MapPanel, plot_maps = common.MapPanel, common.plot_maps
     panels = [MapPanel(yz, yz.display("kx"), f"variant {k}: k_x", "N/um") for k in (1, 2)]
     plot_maps(panels, tmp / "study.png", "Study maps")
 
@@ -362,10 +372,64 @@ def _kind_optimise(tmp, m, yz):
                  "--no-report"]) == 0
 
 
+def _kind_study_curves(tmp, m, yz):
+    # the component curves of studies a (drive), b and d (joints) and study f's weak-point bars
+    a, b, d, f = (_study(n) for n in ("a_hexapod_drive_model", "b_hexaglide_joint_model", "d_joint_components",
+                                      "f_measurement_point"))
+    lengths = np.linspace(1.2, 1.9, 8)
+    a.plot_drive_curves({label: (40 + 10 * k) * 1e6 / lengths for k, (label, _) in enumerate(a.VARIANTS)}, lengths,
+                        (1.4, 1.7), tmp / "a_drive.png")
+    tilts = {label: {"tilt min": 10.0, "tilt max": 40.0, "tilt mean": 25.0} for label, _, _ in b.JOINTS}
+    b.plot_joint_curves({b.BASELINE: m, b.CONSTANT: m}, tilts, tmp / "b_joints.png")
+    d.plot_joint_curves({d.BASELINE: m}, tmp / "d_joints.png")
+    keys = [(dd, L) for L in f.TOOL_LENGTHS for dd in f.DIRECTIONS]
+    weak = {k: {"drive": 50.0, "drive_joint": 30.0, "platform_joint": 20.0} for k in keys}
+    f.plot_weak_points({"measured": {"weak": weak}, "FE joints": {"weak": weak}}, tmp / "f_weak.png")
+
+
+def _kind_study_c_panels(tmp, m, yz):
+    # study c's rotational-workspace grid and its admissibility-reason maps
+    c = _study("c_hexaglide_variants")
+    u, v = np.radians(np.arange(-30.0, 30.1, 30.0)), np.radians(np.arange(-60.0, 60.1, 60.0))
+    where = {"dissertation": (0.0, 0.4, -1.0), "centre": (0.0, 0.1, -0.9)}
+    one = {w: {d: m.orientation_map(p, d, u_values=u, v_values=v, increment=np.radians(10.0)) for d in ("+a", "+b")}
+           for w, p in where.items()}
+    labels = [lab for lab, _ in c.VARIANTS]  # the study's rows, one machine's maps here
+    rot, points = dict.fromkeys(labels, one), dict.fromkeys(labels, where)
+    c.plot_rotational(rot, points, tmp / "c_rot.png")
+    sec = m.section("yz", 0.0, 0.1, ())
+    c.plot_reason_maps({"original": sec, "variant": sec}, tmp / "c_reasons.png")
+
+
+def _kind_study_g_rotation(tmp, m, yz):
+    g = _study("g_machine_comparison")
+    # the Hexaglide's window of the study (about 1.1 m wide, 1.9 m high), coarse
+    r = m.rotation_map("yz", at=0.0, step=0.1, u_range=(-0.2, 0.9), v_range=(-1.3, 0.6), increment=np.radians(10.0))
+    labels = ("Hexaglide", "6X Hexapod", "Linapod", "Paralix")  # the study's four panels, one map here
+    g.plot_rotation_panels(dict.fromkeys(labels, r), dict.fromkeys(labels, 0.0),
+                           {lab: (-1.0, -0.7) if k == 0 else None for k, lab in enumerate(labels)}, tmp / "g_rot.png")
+
+
+def _kind_study_e_tilts(tmp, m, yz):
+    # study e's tilt distribution over the joint stiffness (its optimiser-history plot needs optimiser runs: not here)
+    e = _study("e_joint_orientation")
+    sec = m.section("yz", 0.0, 0.1, e.TILTS)
+    e.plot_tilts({"original": sec, "optimised": sec}, m, tmp / "e_tilts.png")
+
+
+def _kind_validation_causes(tmp, m, yz):
+    val = _study("validation_hexaglide")
+    res = m.section("yz", 0.0, 0.1, (), u_range=(-0.7, 0.9), v_range=(-1.4, -0.1),
+                                                     frame="report")
+    b, c = val.boundary_causes(res)
+    val.plot_cause_map(res, b, c, tmp / "causes.png", "Hexaglide: YZ section at x = 0 mm\nboundary causes")
+
+
 FIGURE_KINDS = {f.__name__.removeprefix("_kind_"): f for f in (
     _kind_section_maps, _kind_three_planes, _kind_mode_shape, _kind_workspace, _kind_rotation, _kind_workspace_curves,
     _kind_mechanisms, _kind_fe_joint, _kind_calibration, _kind_ballbar, _kind_api_plots, _kind_study_maps,
-    _kind_optimise)}
+    _kind_optimise, _kind_study_curves, _kind_study_c_panels, _kind_study_g_rotation, _kind_study_e_tilts,
+    _kind_validation_causes)}
 
 
 def _watch_figures(monkeypatch):
@@ -443,3 +507,56 @@ def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
     bad = _check_watched(seen, tmp_path)
     assert any(b.startswith("bad_mpl.png: fill") for b in bad) and any(b.startswith("bad_mpl.png: text") for b in bad)
     assert any(b.startswith("bad_pv.png: fill") for b in bad) and any(b.startswith("bad_pv.png: text") for b in bad)
+
+
+# ------------------------------------------------------------------------------------- every image in the docs
+# Each PNG in docs/images and the figure kind that draws it (the kind's function above runs the same plot function
+# on small inputs); a new image must be added here, to a kind or to DOCS_IMAGES_UNCHECKED with its reason.
+DOCS_IMAGE_KINDS = {
+    "section_maps": ["figures_admissibility", "figures_section_kx", "hexaglide_yz_admissibility",
+                     "hexaglide_yz_deflection_gravity", "hexaglide_yz_f1", "hexaglide_yz_kx"],
+    "three_planes": ["hexaglide_three_planes_kx"],
+    "mode_shape": ["figures_mode1", "hexaglide_mode1", "study_f_mode1"],
+    "workspace": ["figures_workspace", "workspace_hexaglide", "validation_hexaglide_workspace"],
+    "rotation": ["workspace_rotation_map_yz", "workspace_rotational_point"],
+    "workspace_curves": ["workspace_volume_convergence", "workspace_volume_vs_orientation"],
+    "mechanisms": ["mechanism_slider_crank", "mechanism_hybrid", "mechanism_6rus_f1", "mechanism_6rus_kx",
+                   "mechanism_hybrid_f1", "mechanism_hybrid_kx", "mechanism_section_admissibility",
+                   "mechanism_section_kappa"],
+    "fe_joint": ["fe_joint_deformed"],
+    "calibration": ["calibration_walkthrough_felix_parameters", "calibration_walkthrough_felix_path",
+                    "calibration_walkthrough_hexaglide_path"],
+    "ballbar": ["ballbar_diagnosis", "ballbar_polar", "ballbar_spectrum", "calibration_simulation_felix_polar",
+                "calibration_walkthrough_felix_circle_after", "calibration_walkthrough_felix_circle_before",
+                "calibration_walkthrough_felix_validation_after", "calibration_walkthrough_hexaglide_circle_after",
+                "calibration_walkthrough_hexaglide_circle_before",
+                "calibration_walkthrough_hexaglide_validation_after"],
+    "study_maps": ["study_a_kz_maps", "study_b_kx_maps", "study_c_section_maps", "study_d_stiffness_maps",
+                   "study_e_kx_tilt_maps"],
+    "optimise": ["optimise_convergence", "optimise_front_geometry", "optimise_front_selection"],
+    "study_g_rotation": ["study_g_rotation_a"],
+    "validation_causes": ["validation_hexaglide_causes_xz", "validation_hexaglide_causes_yz"],
+}
+DOCS_IMAGES_UNCHECKED = {
+    # browser screenshots of HTML pages: no figure kind draws them (their own tests take and check them)
+    "app_start": "screenshot of `pkmstiff app` in headless Chromium (docs/make_images.py)",
+    "app_point": "screenshot of `pkmstiff app` in headless Chromium (docs/make_images.py)",
+    "demo_summary": "screenshot of the demo's summary.html in headless Chromium",
+    "optimise_report": "screenshot of the optimisation's HTML report in headless Chromium",
+    "report_calibration": "screenshot of the calibration HTML report in headless Chromium",
+    "report_design": "screenshot of the design comparison HTML report in headless Chromium",
+    "report_design_evaluation": "screenshot of the design comparison HTML report in headless Chromium",
+}
+
+
+def test_every_docs_image_has_a_checked_figure_kind():
+    from pathlib import Path
+
+    images = {p.stem for p in (Path(__file__).resolve().parents[1] / "docs" / "images").glob("*.png")}
+    mapped = [name for names in DOCS_IMAGE_KINDS.values() for name in names]
+    assert len(mapped) == len(set(mapped)) and not set(mapped) & set(DOCS_IMAGES_UNCHECKED), "an image listed twice"
+    assert set(DOCS_IMAGE_KINDS) <= set(FIGURE_KINDS), set(DOCS_IMAGE_KINDS) - set(FIGURE_KINDS)
+    unknown = images - set(mapped) - set(DOCS_IMAGES_UNCHECKED)
+    assert not unknown, f"docs/images without a figure kind in tests/test_figures.py: {sorted(unknown)}"
+    gone = (set(mapped) | set(DOCS_IMAGES_UNCHECKED)) - images
+    assert not gone, f"listed but not in docs/images: {sorted(gone)}"

@@ -78,6 +78,8 @@ def test_components_change_the_result_where_they_sit():
     (lambda t: t["elastic"]["joints"]["platform1"].update(drive="linear_motor_1"),
      "elastic.joints.platform1.drive"),
     (lambda t: t["elastic"]["joints"]["carriage1"].update(guide="strut_1000"), "elastic.joints.carriage1.guide"),
+    (lambda t: t["elastic"].update(transmission_weight="-1 m/rad"), "elastic.transmission_weight"),
+    (lambda t: t["output"].update(orientation="none", axis=[0, 0, -1]), "output.axis"),
 ])
 def test_bad_elastic_data_is_refused_naming_the_key(edit, key):
     table = mechanism_dict(load_machine("hexaglide"), np.array(HOME_POSES["hexaglide"]), "hexaglide_generic")
@@ -129,7 +131,7 @@ def test_component_shares_equal_the_structure_models_weak_points():
 
 def test_point_command_accepts_a_mechanism_and_prints_the_machines_numbers(capsys):
     """`pkmstiff point` on the Hexaglide's mechanism file: the stiffness and frequencies the machine prints (the
-    JSON keys of schema pkmstiff/point/1; kinetostatic keys null for a mechanism)."""
+    JSON keys of schema pkmstiff/point/1; the tool tip at --tool-length along the tool axis)."""
     import json
 
     from pkmstiff.cli import main
@@ -143,7 +145,33 @@ def test_point_command_accepts_a_mechanism_and_prints_the_machines_numbers(capsy
             assert mech[key][ax] == pytest.approx(machine[key][ax], rel=RTOL)
     np.testing.assert_allclose(mech["frequencies_Hz"], machine["frequencies_Hz"], rtol=RTOL)
     assert mech["mode_descriptions"] == machine["mode_descriptions"]
-    assert mech["transmission_quality"] is None and set(mech["drives"]) == {f"lambda{i}_mm" for i in range(1, 7)}
+    assert set(mech["drives"]) == {f"lambda{i}_mm" for i in range(1, 7)}
+    # the tool tip along the tool axis (-z, the machines' default): the machine's stiffness at the same tool length
+    assert main(["point", "hexaglide_generic", "--pose", "30,280,-950,2,-1,3", "--json", "--tool-length", "150",
+                 "--modes", "0"]) == 0
+    mech = json.loads(capsys.readouterr().out)
+    assert main(["point", "hexaglide", "--pose", "30,280,-950,2,-1,3", "--json", "--tool-length", "150",
+                 "--modes", "0"]) == 0
+    machine = json.loads(capsys.readouterr().out)
+    assert mech["tool_length_mm"] == 150.0
+    for ax in "xyz":
+        assert mech["k_N_per_um"][ax] == pytest.approx(machine["k_N_per_um"][ax], rel=RTOL)
+
+
+def test_point_of_a_planar_mechanism_has_no_z_column(capsys):
+    """A planar mechanism (the five-bar) reports x and y only: k, weak points and kinetostatics without z."""
+    import json
+
+    from pkmstiff.cli import main
+
+    assert main(["point", "five_bar", "--pose", "90,310,0", "--json", "--modes", "2"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert set(rep["k_N_per_um"]) == set(rep["weak_points_percent"]) == {"x", "y"}
+    assert set(rep["v_max_m_per_s"]) == {"x", "y"} and set(rep["a_max_m_per_s2"]) == {"x", "-x", "y", "-y"}
+    assert rep["machine_type"] == "planar mechanism" and rep["static_drive_torques_Nm"] == [0.0, 0.0]
+    assert main(["point", "five_bar", "--pose", "90,310,0", "--modes", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "k_z" not in out and "force along x, y)" in out
 
 
 def test_point_command_refuses_machine_options_and_mechanisms_without_elastic_data(capsys, tmp_path):
@@ -151,14 +179,17 @@ def test_point_command_refuses_machine_options_and_mechanisms_without_elastic_da
 
     assert main(["point", "slider_crank", "--pose", "100,0,0"]) == 2
     assert "no [elastic] table" in capsys.readouterr().err
-    assert main(["point", "hexaglide_generic", "--pose", "0,300,-900,0,0,0", "--tool-length", "100"]) == 2
-    assert "--tool-length: not available for a mechanism" in capsys.readouterr().err
+    assert main(["point", "five_bar", "--pose", "90,310,0", "--tool-length", "100"]) == 2
+    assert "--tool-length: not available for mechanism 'five_bar'" in capsys.readouterr().err
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-900,0,0,0", "--neglect-spindle"]) == 2
+    assert "--neglect-spindle: not available for a mechanism" in capsys.readouterr().err
     assert main(["point", "hexaglide_generic", "--pose", "0,300,-3000,0,0,0"]) == 3  # no configuration: refused
     capsys.readouterr()
     # a configuration near the drive plane whose stiffness matrix is singular: not modelled, said so, no number
-    assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0"]) == 0
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0", "--figures", str(tmp_path / "f")]) == 0
     out = capsys.readouterr().out
     assert "pose not modelled: not positive definite" in out and "k_x =      n/a" in out
+    assert "no mode-shape figures: the pose is not modelled" in out and not (tmp_path / "f").exists()
 
 
 def test_section_of_a_mechanism_gives_the_machines_stiffness_map():
@@ -175,6 +206,14 @@ def test_section_of_a_mechanism_gives_the_machines_stiffness_map():
     np.testing.assert_allclose(sec.values["kz"].ravel(), ref.stiffness[:, 2], rtol=RTOL)
     np.testing.assert_allclose(sec.values["f1"].ravel(), ref.frequencies_hz[:, 0], rtol=RTOL)
     assert sec.units["kx"] == "N/um" and sec.scales["kx"] == 1e-6 and sec.units["share_drive_y"] == "%"
+    # at a tool tip 150 mm along the tool axis (-z, the machines' default): the machine's map at that tool length
+    from pkmstiff.cli.mechanism import tool_point
+
+    tip = evaluate_section(mech, "yz", 0.0, (0.1, 0.5), (-1.1, -0.7), 0.1, names=("kx", "ky"),
+                           point=tool_point(mech, 150.0))
+    ref = evaluate_structure(load_machine("hexaglide"), P, tool_length=0.15, n_modes=0)
+    np.testing.assert_allclose(tip.values["kx"].ravel(), ref.stiffness[:, 0], rtol=RTOL)
+    np.testing.assert_allclose(tip.values["ky"].ravel(), ref.stiffness[:, 1], rtol=RTOL)
 
 
 def test_section_points_are_solved_from_their_neighbours(monkeypatch):
@@ -197,6 +236,35 @@ def test_section_points_are_solved_from_their_neighbours(monkeypatch):
     assert sol.ok.all()
     np.testing.assert_allclose(sol.poses, P, atol=1e-12)
     assert calls.count(True) == 2 and len(calls) > 3  # the home configuration and the seed point from home
+
+
+def test_a_section_point_failing_from_one_neighbour_is_retried_from_another(monkeypatch):
+    """A point whose continuation from its first solved neighbour fails (forced here: the solver reports no solution
+    for it from its first start) is solved again from another neighbour, not from home, and recovered with the
+    configuration of the inverse kinematics."""
+    import pkmstiff.mechanisms.section as sec_mod
+
+    real = sec_mod.inverse
+    mech = load_mechanism("hexaglide_generic")
+    uu, vv = np.linspace(0.1, 0.5, 5), np.linspace(-1.1, -0.7, 5)
+    P = sec_mod.plane_poses(mech, "yz", 0.0, uu, vv, np.zeros(3))
+    victim = P[13]  # next to the centre (the seed, nearest home): four neighbours
+    starts = []
+
+    def failing_once(mech_, poses, start=None, **kw):
+        sol = real(mech_, poses, start=start, **kw)
+        hit = np.flatnonzero(np.all(np.isclose(np.atleast_2d(poses), victim), axis=1))
+        if hit.size:
+            starts.append(None if start is None else np.asarray(start)[hit[0]].copy())
+            if len(starts) == 1:
+                sol.status[hit] = "no_solution"
+        return sol
+
+    monkeypatch.setattr(sec_mod, "inverse", failing_once)
+    sol = sec_mod.raster_inverse(mech, P, (5, 5), **sec_mod.NEIGHBOUR)
+    assert sol.ok.all() and len(starts) == 2
+    assert starts[0] is not None and starts[1] is not None and not np.allclose(starts[0], starts[1])
+    np.testing.assert_allclose(sol.poses[13], victim, atol=1e-12)
 
 
 def _raw(name: str) -> dict:
@@ -359,3 +427,38 @@ def test_point_batch_of_a_mechanism_has_the_machines_columns(tmp_path, capsys):
     ref = [float(v) for v in machine_rows[1].split(",")[8:]]
     np.testing.assert_allclose(got, ref, rtol=1e-5)  # printed with 6 significant digits
     assert mech_rows[2].endswith("False,no solution,,,,,")
+
+
+def test_mode_shape_points_move_consistently_and_figures_are_written(tmp_path, capsys):
+    """Mode shapes of a mechanism: a joint point shared by two drawn links moves the same on both (the strut end and
+    the crank tip of the 6-RUS), the ground does not move; `point --figures` writes one PNG per mode (--gif: one
+    line, exit 2)."""
+    from pkmstiff.cli import main
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.modeshape import link_points, mode_shapes
+
+    mech = load_mechanism("hexa_6rus")
+    sol = inverse(mech, [[0.02, -0.03, -0.42, 0.05, -0.03, 0.08]])
+    shapes = mode_shapes(mech, sol, 2)
+    pts = link_points(mech)
+    for sh in shapes:
+        by_joint: dict[int, list] = {}
+        for li, plist in pts.items():
+            if li in sh.world:
+                for (_, ji), x, d in zip(plist, sh.world[li], sh.displacement[li]):
+                    by_joint.setdefault(ji, []).append((x, d))
+        for ji, seen in by_joint.items():
+            for x, d in seen[1:]:  # same point, same motion (1e-12: rounding of R p and of the rigid-body map)
+                np.testing.assert_allclose(x, seen[0][0], atol=1e-12)
+                np.testing.assert_allclose(d, seen[0][1], atol=1e-9 * np.abs(seen[0][1]).max() + 1e-12)
+        assert sh.frequency_hz > 0 and sh.description
+    assert main(["point", "hexa_6rus", "--pose", "20,-30,-420,3,-2,5", "--modes", "2", "--figures",
+                 str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["hexa_6rus_mode1.png", "hexa_6rus_mode2.png"]
+    capsys.readouterr()
+    assert main(["point", "hexa_6rus", "--pose", "20,-30,-420,3,-2,5", "--figures", str(tmp_path / "g"),
+                 "--gif"]) == 2
+    assert "--gif: not available for a mechanism" in capsys.readouterr().err
+    assert main(["point", "hexa_6rus", "--pose", "20,-30,-420,3,-2,5", "--figures", str(tmp_path / "g"),
+                 "--modes", "0"]) == 2
+    assert "--figures: expected --modes 1 or more" in capsys.readouterr().err and not (tmp_path / "g").exists()

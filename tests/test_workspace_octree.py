@@ -225,3 +225,22 @@ def test_bad_input_names_the_argument():
         octree_boundary(sphere, [0, 0, 0], [1, 1, 1], -1.0)
     with pytest.raises(ArgumentError, match="shape"):
         octree_boundary(lambda p: np.ones(3, bool), [0, 0, 0], [1, 1, 1], 0.5)
+
+
+def test_unique_inverse_matches_numpy_unique():
+    from pkmstiff.workspace.octree import unique_inverse
+
+    rng = np.random.default_rng(7)
+    for keys in (rng.integers(0, 50, 1000), np.arange(10)[::-1].copy(), np.empty(0, np.int64)):
+        keys = keys.astype(np.int64)
+        u, inv = unique_inverse(keys)
+        u_ref, inv_ref = np.unique(keys, return_inverse=True)
+        assert np.array_equal(u, u_ref) and np.array_equal(inv, inv_ref.ravel())
+
+
+def test_boundary_points_are_the_centroids_of_the_admissible_corners():
+    res = octree_boundary(lambda p: np.linalg.norm(p, axis=1) < 0.7, (-1, -1, -1), (1, 1, 1), 0.1)
+    c = res.leaf_corners
+    ref = res.lo + (res.leaf_index + (c[:, :, None] * CORNER_OFFSETS[None]).sum(1) / c.sum(1, keepdims=True)) \
+        * res.spacing
+    assert np.array_equal(res.boundary_points, ref)  # small integer sums over a count: exact in any order

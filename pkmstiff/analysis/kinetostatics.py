@@ -137,6 +137,14 @@ def max_acceleration(jinv: Array, jc: Array, directions: Array, m_a: Array, m_p:
     """
     qdd = np.einsum("nij,kj->nki", jinv, directions)  # J_C⁻¹ e (N, k, n)
     mu = m_a * qdd + np.einsum("nji,njl,kl->nki", jc, m_p, directions)  # M_q e = M_A J⁻¹e + J_Cᵀ M_P e
+    return acceleration_bounds(qdd, mu, tau_g, available, coulomb)
+
+
+def acceleration_bounds(qdd: Array, mu: Array, tau_g: Array, available: Array, coulomb: Array
+                        ) -> tuple[Array, Array, Array]:
+    """a_max (N, k), limiting drive (N, k) and ``infeasible`` (N, k) from the drive accelerations per unit tool
+    acceleration ``qdd`` = J⁻¹ e (N, k, n) and the drive forces per unit tool acceleration ``mu`` = M_q e (N, k, n)
+    (the sign-aware bound of :func:`max_acceleration`)."""
     c = coulomb * np.sign(qdd)
     load = tau_g[:, None, :] + c  # gravity + friction to be overcome (N, k, n)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -144,8 +152,8 @@ def max_acceleration(jinv: Array, jc: Array, directions: Array, m_a: Array, m_p:
     static_bad = (mu == 0) & (np.abs(load) > available)
     bound = np.where(np.isnan(mu) | np.isnan(load), np.nan, bound)
     pick = np.where(np.isnan(bound), np.inf, bound)
-    limiting = np.argmin(pick, axis=-1)
-    amin = np.min(bound, axis=-1)
+    limiting = np.argmin(pick, axis=-1) if pick.shape[-1] else np.zeros(pick.shape[:-1], int)
+    amin = np.min(bound, axis=-1) if bound.shape[-1] else np.full(bound.shape[:-1], np.nan)
     infeasible = (amin < 0) | static_bad.any(axis=-1)
     amax = np.where(infeasible, 0.0, amin)
     limiting = np.where(np.isfinite(amin), limiting, -1)

@@ -226,22 +226,26 @@ class StudyMachine(Machine):
         from pkmstiff.evaluation.sections import evaluate_section
 
         ori = tuple(float(v) for v in orientation)
-        res = evaluate_section(self, self._plane(plane, at, step, u_range, v_range, ori, frame), list(quantities),
-                               orientation=ori, tool_length=tool_length, n_jobs=n_jobs, progress=progress,
-                               frame=check_frame(frame), checks=_checks(skip_checks))
+        checks = _checks(skip_checks)
+        res = evaluate_section(self, self._plane(plane, at, step, u_range, v_range, ori, frame, checks),
+                               list(quantities), orientation=ori, tool_length=tool_length, n_jobs=n_jobs,
+                               progress=progress, frame=check_frame(frame), checks=checks)
         return SectionMap(res)
 
     def _plane(self, plane: str, at: float, step: float, u_range: tuple[float, float] | None,
-               v_range: tuple[float, float] | None, orientation: Iterable[float], frame: str) -> Any:
-        """The axis plane of a section or rotation map; a range not given is fitted to the workspace on the plane
-        (:func:`pkmstiff.workspace.windows.window_ranges`, as ``pkmstiff section`` does)."""
+               v_range: tuple[float, float] | None, orientation: Iterable[float], frame: str,
+               checks: Sequence[str] | None = None) -> Any:
+        """The axis plane of a section or rotation map; a range not given is fitted to the region where
+        ``checks`` (None: all) pass on the plane (:func:`pkmstiff.workspace.windows.window_ranges`, as
+        ``pkmstiff section`` does, also with ``--skip-check``)."""
         from pkmstiff.evaluation.sections import axis_plane
 
         kind = plane.lower()
         if u_range is None or v_range is None:
             from pkmstiff.workspace.windows import window_ranges
 
-            fitted = window_ranges(self, kind, at, step, tuple(orientation), check_frame(frame))
+            fitted = window_ranges(self, kind, at, step, tuple(orientation), check_frame(frame),
+                                   *(() if checks is None else (checks,)))
             u_range = fitted[0] if u_range is None else u_range
             v_range = fitted[1] if v_range is None else v_range
         return axis_plane(kind, at, u_range, v_range, step)

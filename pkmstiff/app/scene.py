@@ -64,7 +64,7 @@ class Scene:
         pl = view.map.plane
         nv, nu = pl.shape
         grid = pv.StructuredGrid()
-        grid.points = pl.points() * MM
+        grid.points = view.machine_points() * MM
         grid.dimensions = (nu, nv, 1)
         values = view.map.display(view.choice.quantity)
         grid.point_data[view.choice.quantity] = values.ravel()

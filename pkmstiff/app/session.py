@@ -53,16 +53,77 @@ class MachineChoice:
         return f"{self.machine}:{self.option}" if self.option else self.machine
 
 
+def check_spatial(machine: str) -> None:
+    """An :class:`~pkmstiff.errors.ArgumentError` (one line) for a mechanism or a planar example: the app shows
+    spatial machines (a mechanism's or planar example's maps and point analyses: ``pkmstiff section`` and
+    ``pkmstiff point`` with its name)."""
+    from pkmstiff.analysis.planar import bundled_planar
+    from pkmstiff.mechanisms.loader import is_mechanism
+
+    if machine in bundled_machines():
+        return
+    kind = ("a planar example" if machine in bundled_planar() else
+            "a mechanism" if is_mechanism(machine) else "")
+    if kind:
+        raise ArgumentError(option="machine", expected="a spatial machine (the app does not show planar examples "
+                            "or mechanisms yet: use pkmstiff section / pkmstiff point with its name)",
+                            found=f"{machine} ({kind})")
+
+
+@dataclass(frozen=True)
+class ModelSettings:
+    """What the map and the point analysis share, as ``pkmstiff section`` and ``pkmstiff point`` take it:
+    ``--tool-length`` [mm] (None: the machine file's), ``--skip-check`` (admissibility checks left out),
+    ``--neglect-spindle`` (K_U left out, Cobet 4.2.4) and ``--frame`` (positions given and shown in the machine or
+    the report frame)."""
+
+    tool_length_mm: float | None = None
+    skip_checks: tuple[str, ...] = ()
+    neglect_spindle: bool = False
+    frame: str = "machine"
+
+    def checked(self) -> ModelSettings:
+        """These settings, or an :class:`~pkmstiff.errors.ArgumentError` (one line) before any work."""
+        from pkmstiff.admissibility.checks import ALL_CHECKS
+        from pkmstiff.machine.frames import FRAMES
+
+        t = self.tool_length_mm
+        if t is not None and not (math.isfinite(t) and t >= 0.0):
+            raise ArgumentError(option="tool length", expected="a length >= 0 mm (empty: the machine file's)",
+                                found=t)
+        bad = [c for c in self.skip_checks if c not in ALL_CHECKS]
+        if bad:
+            raise ArgumentError(option="skip checks", expected=f"names of {', '.join(ALL_CHECKS)}",
+                                found=", ".join(bad))
+        if self.frame not in FRAMES:
+            raise ArgumentError(option="frame", expected=f"one of {', '.join(FRAMES)}", found=self.frame)
+        return self
+
+    @property
+    def tool_length(self) -> float | None:
+        """The tool length [m] (None: the machine file's)."""
+        return None if self.tool_length_mm is None else self.tool_length_mm / MM
+
+    def args(self) -> list[str]:
+        """The command-line options of these settings (none for the defaults)."""
+        out = [] if self.tool_length_mm is None else ["--tool-length", f"{self.tool_length_mm:g}"]
+        out += [a for c in self.skip_checks for a in ("--skip-check", c)]
+        out += ["--neglect-spindle"] if self.neglect_spindle else []
+        return out + ([] if self.frame == "machine" else ["--frame", self.frame])
+
+
 @dataclass(frozen=True)
 class SectionChoice:
     """A section map as ``pkmstiff section`` takes it: ``--plane``, ``--at`` [mm], ``--step`` [mm],
-    ``--quantities`` (one) and ``--orientation`` a, b, c [deg]; the window is fitted to the workspace."""
+    ``--quantities`` (one), ``--orientation`` a, b, c [deg] and the :class:`ModelSettings`; the window is fitted to
+    the workspace."""
 
     plane: str = "yz"
     at_mm: float = 0.0
     step_mm: float = 25.0
     quantity: str = "kx"
     orientation_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    settings: ModelSettings = ModelSettings()
 
     def checked(self, n_chains: int) -> SectionChoice:
         """This choice, or an :class:`~pkmstiff.errors.ArgumentError` (one line naming the field, what was
@@ -81,6 +142,7 @@ class SectionChoice:
             raise ArgumentError(option="orientation", expected=f"a, b, c within ±{ANGLE_LIMIT_DEG:g} deg",
                                 found=tuple(self.orientation_deg))
         check_quantity(self.quantity, n_chains)
+        self.settings.checked()
         return self
 
     def command(self, machine: MachineChoice, out: str = "OUT") -> str:
@@ -88,14 +150,17 @@ class SectionChoice:
         ori = ",".join(f"{a:g}" for a in self.orientation_deg)
         return shlex.join(["pkmstiff", "section", machine.spec, "--plane", self.plane, "--at", f"{self.at_mm:g}",
                            "--step", f"{self.step_mm:g}", f"--orientation={ori}", "--quantities", self.quantity,
-                           "--out", out, "--formats", "png,csv"])
+                           *self.settings.args(), "--out", out, "--formats", "png,csv"])
 
 
-def point_command(machine: MachineChoice, pose: Sequence[float]) -> str:
+def point_command(machine: MachineChoice, pose: Sequence[float], settings: ModelSettings = ModelSettings(),
+                  origin_m: Sequence[float] = (0.0, 0.0, 0.0)) -> str:
     """The ``pkmstiff point`` command of the point analysis at ``pose`` (x, y, z [m], a, b, c [rad], machine
-    frame), printed in mm and degrees to 10 significant digits (a raster point's position exactly as shown)."""
-    mm_deg = [*(v * MM for v in pose[:3]), *(math.degrees(v) for v in pose[3:6])]
-    return shlex.join(["pkmstiff", "point", machine.spec, f"--pose={','.join(f'{v:.10g}' for v in mm_deg)}"])
+    frame) with ``settings``, the position in the settings' frame (origin ``origin_m`` in the machine frame),
+    printed in mm and degrees to 10 significant digits (a raster point's position exactly as shown)."""
+    mm_deg = [*((v - o) * MM for v, o in zip(pose[:3], origin_m)), *(math.degrees(v) for v in pose[3:6])]
+    return shlex.join(["pkmstiff", "point", machine.spec, f"--pose={','.join(f'{v:.10g}' for v in mm_deg)}",
+                       *settings.args()])
 
 
 @dataclass
@@ -108,6 +173,11 @@ class SectionView:
     size_px: tuple[int, int]  # (width, height) of the PNG
     axes_px: tuple[float, float, float, float]  # left, top, right, bottom of the map axes, pixels from the top left
     seconds: float
+    origin_m: np.ndarray = field(default_factory=lambda: np.zeros(3))  # the map frame's origin in the machine frame
+
+    def machine_points(self) -> np.ndarray:
+        """(nv·nu, 3) raster points [m] in the machine frame (the map's plane is in the settings' frame)."""
+        return self.map.plane.points() + self.origin_m
 
     @property
     def limits_mm(self) -> tuple[float, float, float, float]:
@@ -141,7 +211,7 @@ class SectionView:
     def pose_at(self, row: int, col: int) -> np.ndarray:
         """(6,) pose of raster point (row, column): x, y, z [m] (machine frame) and the map's a, b, c [rad]."""
         nu = self.map.plane.shape[1]
-        return np.concatenate([self.map.plane.points()[row * nu + col], np.radians(self.choice.orientation_deg)])
+        return np.concatenate([self.machine_points()[row * nu + col], np.radians(self.choice.orientation_deg)])
 
     def value_at(self, row: int, col: int) -> float:
         """The map's value at raster point (row, column) in its display unit (NaN where inadmissible)."""
@@ -208,13 +278,16 @@ class Session:
 
     _machines: dict[str, StudyMachine] = field(default_factory=dict)
 
-    def machine(self, choice: MachineChoice) -> StudyMachine:
-        """The machine of ``choice`` (loaded on first use; a bad name, file or option is one clear error)."""
+    def machine(self, choice: MachineChoice, neglect_spindle: bool = False) -> StudyMachine:
+        """The machine of ``choice`` (loaded on first use; a bad name, file or option is one clear error), with
+        the platform-spindle stiffness K_U left out if ``neglect_spindle`` (as ``--neglect-spindle``)."""
         from pkmstiff.api import load_machine
 
         if choice.spec not in self._machines:
+            check_spatial(choice.machine)
             self._machines[choice.spec] = load_machine(choice.spec)
-        return self._machines[choice.spec]
+        m = self._machines[choice.spec]
+        return m.with_(neglect_spindle=True) if neglect_spindle else m
 
     def section(self, machine: MachineChoice, choice: SectionChoice) -> SectionView:
         """The map of ``choice`` (as ``pkmstiff section`` computes it: the same window, raster and masking)."""
@@ -224,11 +297,13 @@ class Session:
 
         from pkmstiff.plots.section_maps import section_figure
 
-        m = self.machine(machine)
+        st = choice.settings
+        m = self.machine(machine, st.neglect_spindle)
         choice.checked(m.n_chains)
         t0 = time.perf_counter()
         smap = m.section(choice.plane, at=choice.at_mm / MM, step=choice.step_mm / MM, quantities=[choice.quantity],
-                         orientation=np.radians(choice.orientation_deg))
+                         orientation=np.radians(choice.orientation_deg), tool_length=st.tool_length,
+                         frame=st.frame, skip_checks=st.skip_checks)
         seconds = time.perf_counter() - t0
         fig, ax = section_figure(smap.result, choice.quantity)
         FigureCanvasAgg(fig)
@@ -237,14 +312,19 @@ class Session:
         width, height = (int(round(v)) for v in fig.get_size_inches() * 100)
         box = ax.get_window_extent()  # after savefig: the constrained layout as drawn; origin bottom left
         return SectionView(choice, smap, buf.getvalue(), (width, height),
-                           (float(box.x0), height - float(box.y1), float(box.x1), height - float(box.y0)), seconds)
+                           (float(box.x0), height - float(box.y1), float(box.x1), height - float(box.y0)), seconds,
+                           m.to_machine_frame(np.zeros(3), st.frame))
 
-    def point(self, machine: MachineChoice, pose: Sequence[float]) -> PointView:
-        """The point analysis at ``pose`` (x, y, z [m], a, b, c [rad], machine frame): stiffness, weak points and
-        :data:`N_MODES` modes, as ``pkmstiff point`` computes them (the kinetostatics are left out)."""
+    def point(self, machine: MachineChoice, pose: Sequence[float],
+              settings: ModelSettings = ModelSettings()) -> PointView:
+        """The point analysis at ``pose`` (x, y, z [m], a, b, c [rad], machine frame) with ``settings``: stiffness,
+        weak points and :data:`N_MODES` modes, as ``pkmstiff point`` computes them (the kinetostatics are left
+        out)."""
         x = np.asarray(pose, float)
-        res = self.machine(machine).point(x, n_modes=N_MODES, kinetostatics=False)
-        return PointView(x, res, point_command(machine, x))
+        m = self.machine(machine, settings.checked().neglect_spindle)
+        res = m.point(x, tool_length=settings.tool_length, n_modes=N_MODES, kinetostatics=False,
+                      skip_checks=settings.skip_checks)
+        return PointView(x, res, point_command(machine, x, settings, m.to_machine_frame(np.zeros(3), settings.frame)))
 
     def pose_limits(self, machine: MachineChoice) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (6,) slider limits of the pose in mm and degrees: the chains' reach box and ±:data:`ANGLE_LIMIT_DEG`."""

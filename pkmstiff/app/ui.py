@@ -18,10 +18,12 @@ from typing import Any
 
 import numpy as np
 
+from pkmstiff.admissibility.checks import ALL_CHECKS
 from pkmstiff.app.scene import Scene
 from pkmstiff.app.session import (
     PLANES,
     MachineChoice,
+    ModelSettings,
     PointView,
     SectionChoice,
     SectionView,
@@ -33,6 +35,7 @@ from pkmstiff.app.session import (
     machine_options,
     pose_text,
 )
+from pkmstiff.machine.frames import FRAMES
 
 MM = 1e3
 #: the host the app binds to: this computer only
@@ -56,7 +59,8 @@ def _quantity_names() -> list[str]:
 class App:
     """One app: a trame server, its session and its 3-D scene."""
 
-    def __init__(self, machine: str = "hexaglide", out: str | Path = "pkmstiff-app", server: Any = None):
+    def __init__(self, machine: str = "hexaglide", out: str | Path = "pkmstiff-app", server: Any = None,
+                 step_mm: float = 25.0):
         from trame.app import get_server
 
         self.server = server or get_server("pkmstiff", client_type="vue3")
@@ -69,20 +73,22 @@ class App:
         self._token = 0
         self._animating = False
         self._scene_machine = ""  # the machine the 3-D view was set up for (spec)
-        self._init_state(machine)
+        self._init_state(machine, step_mm)
         self._build()
         self.server.controller.on_server_ready.add(lambda **_: self._machine_changed())
 
     # ---- state -------------------------------------------------------------------------------------------------
 
-    def _init_state(self, machine: str) -> None:
+    def _init_state(self, machine: str, step_mm: float) -> None:
         s = self.state
         s.trame__title = "pkmstiff app"
         s.machines = bundled_machines()
         s.machine, s.option, s.options = machine, NO_OPTION, [NO_OPTION]
         s.plane, s.planes = "yz", list(PLANES)
-        s.at_mm, s.step_mm, s.quantity, s.quantities = 0.0, 25.0, "kx", _quantity_names()
+        s.at_mm, s.step_mm, s.quantity, s.quantities = 0.0, step_mm, "kx", _quantity_names()
         s.ori_a, s.ori_b, s.ori_c = 0.0, 0.0, 0.0
+        s.tool_length_mm, s.skip_checks, s.checks, s.neglect_spindle = "", [], list(ALL_CHECKS), False
+        s.frame, s.frames = "machine", list(FRAMES)
         for k in POSE_KEYS:
             s[k] = 0.0
         s.pose_lo, s.pose_hi = [-1000.0] * 3 + [-60.0] * 3, [1000.0] * 3 + [60.0] * 3
@@ -96,10 +102,20 @@ class App:
         option = self.state.option
         return MachineChoice(str(self.state.machine).strip(), "" if option in (None, NO_OPTION) else str(option))
 
+    def settings(self) -> ModelSettings:
+        s = self.state
+        tool = None if str(s.tool_length_mm).strip() == "" else as_float(s.tool_length_mm, "tool length")
+        return ModelSettings(tool, tuple(s.skip_checks or ()), bool(s.neglect_spindle), str(s.frame))
+
     def section_choice(self) -> SectionChoice:
         s = self.state
         return SectionChoice(str(s.plane), as_float(s.at_mm, "at"), as_float(s.step_mm, "step"), str(s.quantity),
-                             (as_float(s.ori_a, "a"), as_float(s.ori_b, "b"), as_float(s.ori_c, "c")))
+                             (as_float(s.ori_a, "a"), as_float(s.ori_b, "b"), as_float(s.ori_c, "c")),
+                             self.settings())
+
+    def analysed_machine(self):
+        """The machine as the point analysis and the mode shapes see it (K_U left out if asked)."""
+        return self.session.machine(self.machine_choice(), bool(self.state.neglect_spindle))
 
     def pose(self) -> np.ndarray:
         """The pose of the sliders/fields: x, y, z [m], a, b, c [rad]."""
@@ -124,8 +140,8 @@ class App:
         s = self.state
         try:
             mc = self.machine_choice()
+            self.session.machine(mc)  # a mechanism or planar example: one line says why it is not shown
             s.options = [NO_OPTION, *machine_options(mc.machine)]
-            self.session.machine(mc)
             lo, hi = self.session.pose_limits(mc)
             s.pose_lo, s.pose_hi = lo.tolist(), hi.tolist()
         except Exception as exc:  # the message bar says what is wrong; the app stays up
@@ -218,7 +234,9 @@ class App:
         value = self.view.value_at(*node)
         pose = self.view.pose_at(*node)
         pl = self.view.map.plane
-        self.state.picked = (f"{pl.u_name} = {pl.u_values[node[1]] * MM:.1f} mm, "
+        frame = self.view.choice.settings.frame
+        self.state.picked = ((f"{frame} frame: " if frame != "machine" else "")
+                             + f"{pl.u_name} = {pl.u_values[node[1]] * MM:.1f} mm, "
                              f"{pl.v_name} = {pl.v_values[node[0]] * MM:.1f} mm: {self.view.choice.quantity} = "
                              + ("inadmissible" if math.isnan(value) else f"{value:.6g} {self.view.unit}"))
         self._set_pose(pose)
@@ -237,14 +255,19 @@ class App:
     def _start_analysis(self, pose: np.ndarray) -> None:
         from trame.app import asynchronous
 
-        asynchronous.create_task(self._analyse(self.machine_choice(), pose))
+        try:
+            settings = self.settings()
+        except Exception as exc:
+            self._fail(exc)
+            return
+        asynchronous.create_task(self._analyse(self.machine_choice(), pose, settings))
 
-    async def _analyse(self, mc: MachineChoice, pose: np.ndarray) -> None:
+    async def _analyse(self, mc: MachineChoice, pose: np.ndarray, settings: ModelSettings) -> None:
         s = self.state
         with s:
             s.status = "analysing the point…"
         try:
-            pv = await asyncio.get_running_loop().run_in_executor(None, self.session.point, mc, pose)
+            pv = await asyncio.get_running_loop().run_in_executor(None, self.session.point, mc, pose, settings)
         except Exception as exc:
             with s:
                 self._fail(exc)
@@ -267,7 +290,7 @@ class App:
             s.status = "ready"
 
     def _mode_changed(self, mode: int | None = None, **_: Any) -> None:
-        m, pose = self.session.machine(self.machine_choice()), self.pose()
+        m, pose = self.analysed_machine(), self.pose()
         try:
             if mode:
                 self.scene.set_mode(m, pose, int(mode))
@@ -287,7 +310,7 @@ class App:
 
     async def _animation(self) -> None:
         self._animating = True
-        m, pose, k = self.session.machine(self.machine_choice()), self.pose(), 0
+        m, pose, k = self.analysed_machine(), self.pose(), 0
         try:
             while self.state.animate and self.scene.mode_frames:
                 k += 1
@@ -323,7 +346,8 @@ class App:
         s, ctrl = self.state, self.server.controller
         s.change("machine")(self._new_machine)
         s.change("option")(self._machine_changed)
-        s.change("plane", "at_mm", "step_mm", "quantity", "ori_a", "ori_b", "ori_c")(self._section_changed)
+        s.change("plane", "at_mm", "step_mm", "quantity", "ori_a", "ori_b", "ori_c", "tool_length_mm", "skip_checks",
+                 "neglect_spindle", "frame")(self._section_changed)
         s.change(*POSE_KEYS)(self._pose_changed)
         s.change("mode")(self._mode_changed)
         s.change("animate")(self._animate_changed)
@@ -350,6 +374,16 @@ class App:
                     for key, name in (("ori_a", "a"), ("ori_b", "b"), ("ori_c", "c")):
                         with v3.VCol():
                             v3.VTextField(label=f"tool {name} [deg]", v_model=(key,), id=f"ori-{name}", **field)
+                with v3.VRow(dense=True):
+                    with v3.VCol():
+                        v3.VTextField(label="tool length [mm]", v_model=("tool_length_mm",), id="tool-length",
+                                      placeholder="machine file", persistent_placeholder=True, **field)
+                    with v3.VCol():
+                        v3.VSelect(label="frame", v_model=("frame",), items=("frames",), id="frame", **field)
+                v3.VSelect(label="checks left out", v_model=("skip_checks",), items=("checks",), id="skip-checks",
+                           multiple=True, chips=True, closable_chips=True, **field)
+                v3.VCheckbox(label="neglect the spindle stiffness K_U", v_model=("neglect_spindle",),
+                             id="neglect-spindle", density="compact", hide_details=True)
                 html.Div("pose (machine frame; drag or type)", classes="text-subtitle-2 mt-2")
                 for i, key in enumerate(POSE_KEYS):
                     name = key.removeprefix("pose_")

@@ -13,6 +13,12 @@ def _cmd_app(args: argparse.Namespace) -> int:
         raise ArgumentError(option="--port", expected="a port 0..65535 (0: a free one)", found=args.port)
     from pathlib import Path
 
+    from pkmstiff.app.session import STEP_LIMITS_MM
+
+    lo, hi = STEP_LIMITS_MM
+    if not lo <= args.step <= hi:
+        raise ArgumentError(option="--step", expected=f"a raster step {lo:g}..{hi:g} mm", found=args.step)
+
     if Path(args.out).exists() and not Path(args.out).is_dir():
         raise ArgumentError(option="--out", expected="a directory for the exports (made on the first export)",
                             found=args.out)
@@ -27,7 +33,7 @@ def _cmd_app(args: argparse.Namespace) -> int:
     from pkmstiff.app.ui import App
 
     Session().machine(MachineChoice(args.machine))  # a bad machine name or file: one line before serving
-    App(args.machine, out=args.out).start(port=args.port, open_browser=not args.no_browser)
+    App(args.machine, out=args.out, step_mm=args.step).start(port=args.port, open_browser=not args.no_browser)
     return 0
 
 
@@ -43,5 +49,7 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--port", type=int, default=8080, help="port on 127.0.0.1 (default 8080; 0: a free port)")
     p.add_argument("--out", default="pkmstiff-app",
                    help="export directory: each export goes into a new folder export-NNN in it (default pkmstiff-app)")
+    p.add_argument("--step", type=float, default=25.0,
+                   help="raster step of the first section map [mm] (default 25; changed in the app)")
     p.add_argument("--no-browser", action="store_true", help="do not open the system browser (print the URL only)")
     p.set_defaults(func=_cmd_app)

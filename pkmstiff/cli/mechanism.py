@@ -452,7 +452,7 @@ def section_report(args) -> dict[str, Any]:
 
     mech = _load(args.machine)
     plane = args.plane.lower()
-    for opt, given in (("--tool-length", args.tool_length is not None), ("--require", bool(args.require)),
+    for opt, given in (("--require", bool(args.require)),
                        ("--frame", args.frame != "machine"), ("--neglect-spindle", args.neglect_spindle),
                        ("--skip-check", bool(args.skip_check))):
         if given:
@@ -467,6 +467,14 @@ def section_report(args) -> dict[str, Any]:
     names = parse_names(args.quantities, "--quantities")
     formats = parse_names(args.formats, "--formats", ("png", "vtu", "csv", "npz"))
     step, at = args.step * 1e-3, args.at * 1e-3
+    if args.tool_length is not None:
+        from pkmstiff.cli.point import check_point_options
+
+        check_point_options(args.tool_length, 0)
+        if mech.elastic is None:
+            raise ArgumentError(f"--tool-length: mechanism '{mech.name}' has no [elastic] table (the tool length "
+                                "moves the point of the stiffness quantities)")
+    tip = tool_point(mech, args.tool_length) if mech.elastic is not None else None
     stem = f"{safe_stem(mech.name)}_{plane}"
     from pkmstiff.cli.edges import check_output_dir
 
@@ -487,12 +495,16 @@ def section_report(args) -> dict[str, Any]:
         if n_points > SECTION_MAX_POINTS:
             raise ArgumentError(f"--step: {n_points} raster points, expected at most {SECTION_MAX_POINTS} for a "
                                 f"mechanism section (a larger step or a smaller --range)")
-        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names)
+        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names, tip)
+        if tip is not None:
+            sec.settings["tool_length_mm"] = float(args.tool_length)
     except PkmstiffError as exc:
         raise ArgumentError(str(exc)) from None
     cpu = time.process_time() - t0
     where = {"mechanism": mech.name, "plane": plane, "at_mm": None if mech.dim == 2 else args.at,
              "orientation_deg": [float(np.degrees(a)) for a in ori]}
+    if tip is not None:
+        where["tool_length_mm"] = float(args.tool_length)
     files = _write_section(sec, Path(args.out), stem, formats, where) if args.out else []
     stats = sec.statistics()
     return {**where,
@@ -548,7 +560,8 @@ def print_section(rep: dict[str, Any]) -> None:
     where = "plane of motion" if rep["at_mm"] is None else \
         f"{rep['plane']} plane at {({'x', 'y', 'z'} - set(rep['plane'])).pop()} = {rep['at_mm']:g} mm"
     ori = ",".join(f"{a:g}" for a in rep["orientation_deg"])
-    print(f"{rep['mechanism']} (mechanism): {where}, orientation {ori} deg, window {win}"
+    tool = f", tool {rep['tool_length_mm']:g} mm" if "tool_length_mm" in rep else ""
+    print(f"{rep['mechanism']} (mechanism): {where}, orientation {ori} deg{tool}, window {win}"
           f"{' (fitted)' if rep['window_fitted_to_workspace'] else ''}: {rep['admissible_points']} of "
           f"{rep['points']} points admissible ({rep['admissible_area_m2']:.4g} m²)")
     for n, st in rep["statistics"].items():
@@ -603,8 +616,23 @@ def _elastic_mechanism(name: str, unavailable: dict[str, bool]):
     return mech
 
 
-def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[str, bool]
-               ) -> tuple[list[str], list[list]]:
+def tool_point(mech, tool_length_mm: float | None) -> np.ndarray | None:
+    """Home coordinates [m] of the tool tip ``--tool-length`` mm from the output point along the tool axis: the
+    file's ``[output] axis`` (orientation "axis", or the optional tool axis of "full"), else −z as the machines'
+    default tool axis; None without ``--tool-length``. A planar mechanism or an output without orientation has no
+    tool axis: one line, exit 2."""
+    if tool_length_mm is None:
+        return None
+    o = mech.output
+    if mech.dim != 3 or o.orientation == "none":
+        raise ArgumentError(f"--tool-length: not available for mechanism '{mech.name}': its output has no "
+                            f"orientation ({'planar' if mech.dim != 3 else 'orientation = none'}), so no tool axis")
+    axis = o.axis if o.axis is not None else np.array([0.0, 0.0, -1.0])
+    return np.asarray(o.point, float) + tool_length_mm * 1e-3 * axis
+
+
+def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[str, bool],
+               tool_length_mm: float | None = None) -> tuple[list[str], list[list]]:
     """``pkmstiff point MECHANISM --poses FILE``: the machines' CSV columns (pose mm/deg, admissible, reasons,
     k_x, k_y, k_z N/µm, f1… Hz); empty result cells where a pose is inadmissible or not modelled."""
     from pkmstiff.mechanisms import evaluate, reason_names
@@ -615,6 +643,7 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
     if mech.dim != 3:
         raise ArgumentError(f"--poses: a file of x,y,z,a,b,c poses is for spatial mechanisms; '{mech.name}' is planar "
                             "(use --pose x,y,phi)")
+    tip = tool_point(mech, tool_length_mm)
     ev = evaluate(mech, poses_si)
     ok = np.flatnonzero(ev.admissible)
     n = len(poses_si)
@@ -622,7 +651,7 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
     f = np.full((n, n_modes), np.nan)
     status = np.zeros(n, np.uint8)
     if ok.size:
-        res = evaluate_mechanism(mech, take(ev.solution, ok), n_modes)
+        res = evaluate_mechanism(mech, take(ev.solution, ok), n_modes, point=tip)
         k[ok], f[ok], status[ok] = res.stiffness[:, :3] / 1e6, res.frequencies_hz, res.status
     head = ["x_mm", "y_mm", "z_mm", "a_deg", "b_deg", "c_deg", "admissible", "reasons", "kx_N_per_um",
             "ky_N_per_um", "kz_N_per_um"] + [f"f{i + 1}_Hz" for i in range(n_modes)]
@@ -636,17 +665,20 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
 
 
 def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bool,
-                 unavailable: dict[str, bool]) -> dict[str, Any]:
+                 unavailable: dict[str, bool], tool_length_mm: float | None = None) -> dict[str, Any]:
     """``pkmstiff point MECHANISM --pose …``: the elastic model (issue 27) at one pose, as the machines' report
-    (schema ``pkmstiff/point/1``: stiffness N/µm and N·m/µrad at the output point, frequencies Hz, weak points %);
-    the kinetostatic keys of machines are absent. ``unavailable``: machine-only options given."""
+    (schema ``pkmstiff/point/1``: stiffness N/µm and N·m/µrad at the output point or the tool tip
+    ``tool_length_mm`` along the tool axis, frequencies Hz, weak points %, kinetostatics of
+    :mod:`pkmstiff.mechanisms.kinetostatics`). A planar mechanism reports x, y (and the rotation about z) only.
+    ``unavailable``: machine-only options given."""
     import pkmstiff.multibody as sde
-    from pkmstiff.cli.point import SCHEMA, STIFFNESS_MATRIX_UNITS, WEAK_POINT_DIRECTIONS, _num, _refuse
+    from pkmstiff.cli.point import SCHEMA, STIFFNESS_MATRIX_UNITS, _num, _refuse
     from pkmstiff.mechanisms import evaluate, reason_names
     from pkmstiff.mechanisms.stiffness import evaluate_mechanism
     from pkmstiff.mechanisms.structure import LABELS, STATUS_BITS, mechanism_structure
 
     mech = _elastic_mechanism(name, unavailable)
+    tip = tool_point(mech, tool_length_mm)
     pose = _parse_poses(mech, [pose_text], "--pose")
     ev = evaluate(mech, pose)
     reasons = reason_names(int(ev.reasons[0]))
@@ -656,17 +688,22 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
         raise _refuse(mech.name, ", ".join(f"{n} = {v:g} {u}" for (n, u), v in
                                            zip(names, pose_out.values())), [r.lower().replace("_", " ")
                                                                             for r in reasons])
-    ms = mechanism_structure(mech, solution=ev.solution) if ev.solution.ok[0] else None
+    ms = mechanism_structure(mech, solution=ev.solution, point=tip) if ev.solution.ok[0] else None
     if ms is not None and ms.model is not None:  # at most the dynamic DOFs (massless and bound ones excluded)
         n_modes = min(n_modes, ms.model.n_dof - ms.model.n_constraints - len(ms.model.massless_dofs))
-    res = evaluate_mechanism(mech, ev.solution, n_modes, WEAK_POINT_DIRECTIONS)
+    axes = "xyz"[:mech.dim]  # a planar mechanism has no z stiffness, no z weak points
+    res = evaluate_mechanism(mech, ev.solution, n_modes, tuple(axes), point=tip)
     comp = res.compliance[0]
     rot = ms is not None and ms.model is not None and isinstance(ms.model.body(ms.load_body), sde.RigidBody)
     rep: dict[str, Any] = {
-        "schema": SCHEMA, "machine": mech.name, "machine_type": "mechanism", "frame": "machine",
-        "frame_origin_mm": [0.0, 0.0, 0.0], "pose": pose_out,
+        "schema": SCHEMA, "machine": mech.name, "machine_type": "mechanism" if mech.dim == 3 else "planar mechanism",
+        "frame": "machine", "frame_origin_mm": [0.0, 0.0, 0.0], "pose": pose_out,
         "admissible": not reasons, "reasons": [r.lower().replace("_", " ") for r in reasons],
         "analysed_although_inadmissible": bool(reasons),
+    }
+    if tip is not None:
+        rep["tool_length_mm"] = float(tool_length_mm)
+    rep.update({
         "modelled": bool(res.ok[0]), "model_reasons": [k.lower().replace("_", " ") for k, b in STATUS_BITS.items()
                                                        if int(res.status[0]) & b],
         "model": {"bodies": [] if ms is None else ms.model.body_names, "dof": 0 if ms is None else ms.model.n_dof,
@@ -674,7 +711,7 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
                   "tcp_body": "" if ms is None else ms.load_body},
         "drives": {f"{n}_{'mm' if u == 'm' else 'deg'}": _num(v * (1e3 if u == "m" else 180 / math.pi))
                    for n, u, v in zip(mech.drive_names, mech.drive_units, ev.drives[0])},
-    }
+    })
     # the directions the model moves in: planar x, y (and the rotation about z); spatial 6 or 3 (a point mass)
     dirs = ([0, 1] + ([5] if rot else [])) if mech.dim == 2 else list(range(6 if rot else 3))
     sub = comp[np.ix_(dirs, dirs)]
@@ -682,18 +719,65 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
     labels = ("x", "y", "z", "rx", "ry", "rz")
     rep["stiffness_matrix_SI_units"] = (STIFFNESS_MATRIX_UNITS if rot and mech.dim == 3 else
                                         f"N/m, N/rad, N*m/rad over ({', '.join(labels[i] for i in dirs)})")
-    rep["k_N_per_um"] = {ax: _num(res.stiffness[0, i] / 1e6) for i, ax in enumerate("xyz")}
+    rep["k_N_per_um"] = {ax: _num(res.stiffness[0, i] / 1e6) for i, ax in enumerate(axes)}
     if rot:
-        rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(res.stiffness[0, 3 + i] / 1e6) for i, ax in enumerate("xyz")}
+        rep["rotational_stiffness_Nm_per_urad"] = {ax: _num(res.stiffness[0, 3 + i] / 1e6) for i, ax in
+                                                   enumerate("xyz") if mech.dim == 3 or ax == "z"}
     rep["weak_points_percent"] = {dd: {lab: _num(100 * res.shares[dd][0, j]) for j, lab in enumerate(LABELS)}
-                                  for dd in WEAK_POINT_DIRECTIONS}
+                                  for dd in axes}
     rep["frequencies_Hz"] = _num(res.frequencies_hz[0]) if n_modes else []
     rep["mode_descriptions"] = []
-    # kinetostatics (drive data, velocities, accelerations) are not defined for a mechanism file: null / empty
-    rep.update(transmission_quality=None, v_max_m_per_s={}, v_max_m_per_min={}, a_max_m_per_s2={},
-               static_drive_loads_N=None)
     if n_modes and rot and res.ok[0]:
         mr = sde.modes(ms.model, n_modes, shapes=True)
         idx, share = sde.describe_modes(ms.model, mr.shapes, ms.output_body)
         rep["mode_descriptions"] = [sde.mode_label(idx[0, k], share[0, k]) for k in range(n_modes)]
+    rep.update(_kinetostatics_report(mech, ev.solution))
     return rep
+
+
+def _kinetostatics_report(mech, sol) -> dict[str, Any]:
+    """The machines' kinetostatic keys of ``point`` for a mechanism (:mod:`pkmstiff.mechanisms.kinetostatics`);
+    static loads of rotary drives in N·m (``static_drive_torques_Nm``, null for linear drives and vice versa)."""
+    from pkmstiff.cli.point import _drive, _num
+    from pkmstiff.mechanisms.kinetostatics import mechanism_kinetostatics
+
+    ks = mechanism_kinetostatics(mech, sol)
+    loads = ks.drive_loads[0]
+    out = {"transmission_quality": _num(ks.transmission_quality[0]), "transmission_weight_m_per_rad": ks.weight,
+           "controlled_outputs": list(ks.outputs),
+           "v_max_m_per_s": {lab: _num(ks.v_max[0, i]) for i, lab in enumerate(ks.velocity_labels)},
+           "v_max_m_per_min": {lab: _num(ks.v_max[0, i] * 60) for i, lab in enumerate(ks.velocity_labels)},
+           "v_limiting_drive": {lab: _drive(ks.v_limiting[0, i]) for i, lab in enumerate(ks.velocity_labels)},
+           "a_max_m_per_s2": {lab: _num(ks.a_max[0, i]) for i, lab in enumerate(ks.acceleration_labels)},
+           "a_limiting_drive": {lab: _drive(ks.a_limiting[0, i]) for i, lab in enumerate(ks.acceleration_labels)},
+           "a_infeasible": {lab: bool(ks.a_infeasible[0, i]) for i, lab in enumerate(ks.acceleration_labels)},
+           "static_drive_loads_N": _num(np.where(ks.rotary, np.nan, loads)),
+           "notes": ks.notes}
+    if ks.rotary.any():
+        out["static_drive_torques_Nm"] = _num(np.where(ks.rotary, loads, np.nan))
+    return out
+
+
+def mode_figures(name: str, pose_text: str, n_modes: int, out: str, names: tuple[str, ...],
+                 tool_length_mm: float | None = None) -> list:
+    """``pkmstiff point MECHANISM --figures DIR``: one mode-shape PNG per mode (``names``) of the elastic model at
+    the pose (:func:`pkmstiff.plots.mechanism.mechanism_mode_figure`)."""
+    from pathlib import Path
+
+    from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.modeshape import mode_shapes
+    from pkmstiff.plots.mechanism import mechanism_mode_figure
+
+    mech = _elastic_mechanism(name, {})
+    pose = _parse_poses(mech, [pose_text], "--pose")
+    sol = inverse(mech, pose)
+    if not sol.ok[0]:
+        return []
+    where = ", ".join(f"{n} = {v * (1e3 if u == 'mm' else 180 / math.pi):g} {u}"
+                      for (n, u), v in zip(_pose_names(mech), pose[0]))
+    files = []
+    for ms in mode_shapes(mech, sol, n_modes, tool_point(mech, tool_length_mm)):
+        title = (f"{mech.name}: mode {ms.mode}, {ms.frequency_hz:.2f} Hz"
+                 + (f", {ms.description}" if ms.description else "") + f"\npose {where}")
+        files.append(mechanism_mode_figure(mech, ms, output_path(Path(out), names[ms.mode - 1]), title))
+    return files

@@ -90,8 +90,8 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
         from pkmstiff.cli.mechanism import point_report as mechanism_report
 
         return mechanism_report(machine_name, pose_text, n_modes, allow_inadmissible,
-                                {"--tool-length": tool_length_mm is not None, "--neglect-spindle": neglect_spindle,
-                                 "--frame": frame != "machine", "--skip-check": bool(skip_checks)})
+                                {"--neglect-spindle": neglect_spindle, "--frame": frame != "machine",
+                                 "--skip-check": bool(skip_checks)}, tool_length_mm)
 
     return dispatch(machine_name, {
         Kind.SPATIAL: lambda _: _machine_report(machine_name, pose_text, tool_length_mm, n_modes, neglect_spindle,
@@ -272,12 +272,10 @@ def _print_report(rep: dict) -> None:
         wp = rep["weak_points_percent"]
         dirs = list(wp)
         labels = list(next(iter(wp.values())))
-        print("weak points (share of the TCP compliance for a force along x, y, z) [%]:")
+        print(f"weak points (share of the TCP compliance for a force along {', '.join(dirs)}) [%]:")
         print(f"  {'component':<18}" + "".join(f"{d:>9}" for d in dirs))
         for lab in labels:
             print(f"  {lab:<18}" + "".join(_f(wp[d][lab], '9.1f') for d in dirs))
-    if rep["transmission_quality"] is None and not rep["v_max_m_per_s"]:  # a mechanism: no kinetostatics
-        return
     tq = rep["transmission_quality"]
     w = rep.get("transmission_weight_m_per_rad")
     print(f"transmission quality: {_f(tq, '.4f')}" + (f"  (w = {w:.4f} m/rad)" if w else ""))
@@ -287,8 +285,11 @@ def _print_report(rep: dict) -> None:
     am, lim = rep["a_max_m_per_s2"], rep["a_limiting_drive"]
     print("maximum acceleration: " + "   ".join(
         f"{d}: {_f(am[d], '.2f')} m/s²" + (f" (drive {lim[d]})" if lim.get(d) else "") for d in am))
-    loads = rep["static_drive_loads_N"]
-    if loads is not None:
+    loads, torques = rep["static_drive_loads_N"], rep.get("static_drive_torques_Nm")
+    if torques is not None:  # a mechanism with rotary drives: each drive in its unit
+        print("static drive loads:   " + "  ".join(f"{_f(t, '.2f')} N·m" if f is None else f"{_f(f, '.1f')} N"
+                                                  for f, t in zip(loads, torques)))
+    elif loads is not None:
         print("static drive loads:   " + "  ".join(_f(v, '.1f') for v in loads) + " N")
     for note in rep.get("notes", []):
         print(f"  note: {note}")
@@ -308,8 +309,7 @@ def point_rows(machine_name: str, poses_si: np.ndarray, tool_length_mm: float | 
     if resolve(machine_name).kind is Kind.MECHANISM:
         from pkmstiff.cli.mechanism import point_rows as mechanism_rows
 
-        return mechanism_rows(machine_name, poses_si, n_modes, {"--tool-length": tool_length_mm is not None,
-                                                                "--skip-check": bool(skip_checks)})
+        return mechanism_rows(machine_name, poses_si, n_modes, {"--skip-check": bool(skip_checks)}, tool_length_mm)
     m = load_machine(machine_name)
     adm = evaluate_poses(m, poses_si, checks=checks_without(skip_checks, "--skip-check")).admissibility
     ok = adm.ok
@@ -358,6 +358,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
         return _point_batch(args)
     check_point_options(args.tool_length, args.modes)
     if args.figures is not None:
+        if args.modes == 0:
+            raise ArgumentError("--figures: expected --modes 1 or more (one mode-shape figure per mode), found 0")
         check_output_dir(args.figures, "--figures", getattr(args, "force", False), _figure_names(args))
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
@@ -367,7 +369,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
         from pkmstiff.errors import ArgumentError
 
         raise ArgumentError(str(exc)) from None
-    figures = _mode_figures(args) if args.figures else []
+    # no mode shapes where the structure model is not built (unreachable, singular or not positive definite)
+    figures = _mode_figures(args) if args.figures and rep["modelled"] else []
     if figures:
         rep["figures"] = [str(f) for f in figures]
     if args.json:
@@ -376,6 +379,8 @@ def _cmd_point(args: argparse.Namespace) -> int:
         _print_report(rep)
         for f in figures:
             print(f"wrote {f}")
+        if args.figures and not rep["modelled"]:
+            print("no mode-shape figures: the pose is not modelled")
     return 0
 
 
@@ -384,10 +389,15 @@ def _mode_figures(args: argparse.Namespace) -> list:
     from pathlib import Path
 
     from pkmstiff.cli.pose import parse_pose
+    from pkmstiff.cli.targets import Kind, resolve
     from pkmstiff.machine.frames import neglect_spindle, to_machine_frame
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.plots.modes import animate_mode_shape, plot_mode_shape
 
+    if resolve(args.machine).kind is Kind.MECHANISM:
+        from pkmstiff.cli.mechanism import mode_figures
+
+        return mode_figures(args.machine, args.pose, args.modes, args.figures, _figure_names(args), args.tool_length)
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     pose = to_machine_frame(machine, parse_pose(args.pose), args.frame)
     out = Path(args.figures)
@@ -402,9 +412,18 @@ def _figure_names(args: argparse.Namespace) -> tuple[str, ...]:
     """The file names ``--figures`` writes: ``<machine>_mode<k>.png`` (and ``<machine>_mode1.gif`` with ``--gif``)."""
     from pkmstiff.cli.targets import Kind, resolve
 
-    if resolve(args.machine).kind is Kind.PLANAR:
+    kind = resolve(args.machine).kind
+    if kind is Kind.PLANAR:
         return ()
-    stem = safe_stem(load_machine(args.machine).name)
+    if kind is Kind.MECHANISM:
+        if args.gif:
+            raise ArgumentError(f"--gif: not available for a mechanism ('{args.machine}'): --figures writes one PNG "
+                                "per mode")
+        from pkmstiff.mechanisms import load_mechanism
+
+        stem = safe_stem(load_mechanism(args.machine).name)
+    else:
+        stem = safe_stem(load_machine(args.machine).name)
     return tuple(f"{stem}_mode{k}.png" for k in range(1, args.modes + 1)) + ((f"{stem}_mode1.gif",) if args.gif else ())
 
 
@@ -425,7 +444,8 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--out", default=None, metavar="FILE.csv", help="with --poses: write the CSV here")
     p.add_argument("--force", action="store_true", help="overwrite existing output files (--out, --figures)")
     p.add_argument("--tool-length", type=float, default=None, metavar="MM",
-                   help="tool length in mm (default: machine file)")
+                   help="tool length in mm (default: machine file; a mechanism: from its output point along the "
+                        "tool axis, [output] axis or -z)")
     p.add_argument("--modes", type=int, default=6, metavar="N",
                    help=f"number of natural frequencies, 0..{MODES_LIMIT} (0: none; default 6)")
     from pkmstiff.cli.edges import add_budget_argument
@@ -437,7 +457,7 @@ def add_commands(sub: Any) -> None:
     add_budget_argument(p)
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.add_argument("--figures", metavar="DIR", default=None,
-                   help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines)")
+                   help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines and mechanisms)")
     p.add_argument("--gif", action="store_true", help="with --figures: also an animated GIF of mode 1")
     p.add_argument("--allow-inadmissible", action="store_true",
                    help="analyse an inadmissible pose anyway (every result is marked); default: refuse, exit 3")

@@ -6,6 +6,7 @@ docs/theory/components.md); the ``[elastic]`` table places them on the mechanism
     [elastic]
     vertical = [0, 0, 1]                 # upward direction: guide carriage frames (z' = vertical, Cobet eq. 3.6)
     damping_beta = "0 s"                 # stiffness-proportional damping C = β K of every element
+    transmission_weight = "1.43 m/rad"  # w of the transmission quality (eq. 4.77; default: the length scale)
 
     [elastic.links.platform]             # a rigid link: one rigid body (6 DOF)
     body = "platform"                    # rigid_body component; its CoG and inertia in link axes about `origin`
@@ -53,7 +54,7 @@ from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.structure.layout import PKSBody, component_body
 from pkmstiff.units import parse_quantity
 
-_ELASTIC = {"vertical", "damping_beta", "links", "joints", "notes"}
+_ELASTIC = {"vertical", "damping_beta", "transmission_weight", "links", "joints", "notes"}
 _LINK = {"model", "body", "origin", "flexibility", "tool_body", "component", "mass_shares", "notes"}
 _JOINT = {"drive", "guide", "joint", "axis", "reference", "convention", "stiffness", "mass", "notes"}
 #: component kinds each role accepts (``kind`` of :mod:`components.protocol`)
@@ -99,6 +100,7 @@ class ElasticData:
     joints: dict[int, JointElastic]
     vertical: np.ndarray
     damping_beta: float = 0.0
+    transmission_weight: float | None = None  #: m/rad (None: the mechanism's length scale)
 
     def link(self, i: int) -> LinkElastic:
         return self.links.get(i, LinkElastic())
@@ -215,5 +217,10 @@ def parse_elastic(raw: dict[str, Any], mech: Mechanism, src: str) -> ElasticData
     beta = float(parse_quantity(el.get("damping_beta", 0.0), "s", source=src, key="elastic.damping_beta"))
     if not (np.isfinite(beta) and beta >= 0):
         raise InputError(src, "elastic.damping_beta", "a time >= 0 s", beta)
-    return ElasticData(comps, links, joints, vertical / np.linalg.norm(vertical), beta)
+    weight = None
+    if "transmission_weight" in el:
+        weight = float(parse_quantity(el["transmission_weight"], "m/rad", source=src, key="elastic.transmission_weight"))
+        if not (np.isfinite(weight) and weight > 0):
+            raise InputError(src, "elastic.transmission_weight", "a length per angle > 0 m/rad", weight)
+    return ElasticData(comps, links, joints, vertical / np.linalg.norm(vertical), beta, weight)
 

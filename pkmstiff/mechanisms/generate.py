@@ -136,7 +136,10 @@ def _elastic_tables(machine: Machine, home_pose: np.ndarray, joints: list[dict[s
         if ch.kind == "glide" and use(comps.get("guide")) is not None:
             elastic_joints[drive_joint]["guide"] = comps["guide"]
     return {"components": {c: machine.components[c] for c in used},
-            "elastic": {"vertical": f(vertical_direction(machine)), "links": links, "joints": elastic_joints}}
+            "elastic": {"vertical": f(vertical_direction(machine)),
+                        **({} if machine.transmission_weight is None else
+                           {"transmission_weight": f"{float(machine.transmission_weight)!r} m/rad"}),
+                        "links": links, "joints": elastic_joints}}
 
 
 def from_machine(machine: Machine, home_pose: np.ndarray, name: str | None = None) -> Mechanism:

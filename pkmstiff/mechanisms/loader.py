@@ -217,6 +217,10 @@ def _from_dict(raw: dict[str, Any], src: str) -> Mechanism:
         if orient == "axis":
             oaxis = _vec(require(ot, "axis", src, "output.", "the tool axis at home"),
                          "dimensionless", 3, src, "output.axis", True)
+        elif "axis" in ot:  # "full": the tool axis of `point --tool-length` (not a controlled output)
+            if orient != "full" or dim != 3:
+                raise _err(src, "output.axis", "a tool axis only with orientation 'full' or 'axis' (spatial)", orient)
+            oaxis = _vec(ot["axis"], "dimensionless", 3, src, "output.axis", True)
         cn = ot.get("coordinates", list("xyz"[:dim]))
         if not isinstance(cn, list) or not cn or not all(c in "xyz"[:dim] for c in cn) or len(set(cn)) != len(cn):
             raise _err(src, "output.coordinates", f"a list of distinct names from {list('xyz'[:dim])}", cn)

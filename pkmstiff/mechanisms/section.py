@@ -82,6 +82,22 @@ ELASTIC = ("kx", "ky", "kz", "krx", "kry", "krz")
 _FREQ = re.compile(r"f([1-9]\d*)$")
 
 
+def quantity_label(name: str) -> str:
+    """The text a figure or table shows for a section quantity: the machines' label for the stiffness and frequency
+    quantities (:mod:`pkmstiff.evaluation.quantities`), the same wording for the component shares."""
+    from pkmstiff.evaluation.quantities import get_quantity
+
+    if name == "kappa":
+        return "condition number of dx/ds"
+    if name == "kappa_out":
+        return "condition number of the controlled outputs"
+    if name.startswith("share_"):
+        return f"share of the {name[len('share_'):-2]} in the TCP compliance along {name[-1]}"
+    if name in ELASTIC or _FREQ.match(name):
+        return get_quantity(name).label
+    return f"drive {name}"
+
+
 def _known(mech: Mechanism, name: str) -> bool:
     m = _FREQ.match(name)
     return name in quantity_names(mech) or (mech.elastic is not None and m is not None)
@@ -95,17 +111,18 @@ def check_quantities(mech: Mechanism, names) -> None:
                             f"'{mech.name}', found {', '.join(bad)}")
 
 
-def elastic_values(mech: Mechanism, sol: Solution, names) -> tuple[dict[str, Array], dict[str, str],
-                                                                   dict[str, float]]:
+def elastic_values(mech: Mechanism, sol: Solution, names, point: Array | None = None
+                   ) -> tuple[dict[str, Array], dict[str, str], dict[str, float]]:
     """SI values (N,), display units and scales of the elastic quantities among ``names`` at the configurations of
-    ``sol`` (:func:`~pkmstiff.mechanisms.stiffness.evaluate_mechanism`, chunked)."""
+    ``sol`` (:func:`~pkmstiff.mechanisms.stiffness.evaluate_mechanism`, chunked; at ``point``, home coordinates on
+    the output link, instead of the output point)."""
     from pkmstiff.mechanisms.stiffness import evaluate_mechanism
 
     freq = [int(m.group(1)) for n in names if (m := _FREQ.match(n))]
     dirs = tuple(sorted({n[-1] for n in names if n.startswith("share_")}))
     if not freq and not dirs and not any(n in ELASTIC for n in names):
         return {}, {}, {}
-    res = evaluate_mechanism(mech, sol, max(freq, default=0), dirs)
+    res = evaluate_mechanism(mech, sol, max(freq, default=0), dirs, point=point)
     values, units, scales = {}, {}, {}
     for n in names:
         if n in ELASTIC:
@@ -124,15 +141,18 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], **solve_kw
     """Inverse kinematics of the raster poses P (nv·nu, pose_size), row-major over ``shape`` = (nv, nu), by
     continuation from neighbouring points: the point nearest home is solved from home, then in waves every unsolved
     4-neighbour of a point solved in the last wave starts from that point's configuration (one raster step: the
-    branch of the neighbour is kept).  Points no wave reaches (a part of the plane not connected to the seed through
-    reachable points) are solved from home at once and the waves go on from those solved."""
+    branch of the neighbour is kept).  A point that fails from one neighbour is tried again from each other
+    neighbour solved later (at most once per direction), and a point still unsolved when the waves stop — one that
+    failed from every neighbour or that no wave reached (a part of the plane not connected to the seed through
+    reachable points) — is tried once from home; the waves go on from the points solved there."""
     nv, nu = shape
     n = nv * nu
     home_pose = mech.home_output_pose
     q0 = inverse(mech, home_pose[None]).q[0]
     sol = None
-    attempted = np.zeros(n, bool)
+    tried = np.zeros(n, np.uint8)  #: bit d: tried from the neighbour in direction d; bit 4: tried from home
     ok = np.zeros(n, bool)
+    steps = ((0, 1), (0, -1), (1, 0), (-1, 0))
 
     def solve(idx: Array, start: Array | None) -> Array:
         nonlocal sol
@@ -140,32 +160,43 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], **solve_kw
         if sol is None:
             sol = _empty_like(part, n, q0)
         for f in ("q", "status", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
-            getattr(sol, f)[idx] = getattr(part, f)
-        attempted[idx] = True
+            getattr(sol, f)[idx] = getattr(part, f)  # idx are unsolved points: the last try is their result
         ok[idx] = part.ok
         return idx[part.ok]
 
     d = np.linalg.norm(P[:, :mech.dim] - home_pose[None, :mech.dim], axis=1)
-    frontier = solve(np.array([int(np.argmin(d))]), None)
+    seed = np.array([int(np.argmin(d))])
+    tried[seed] |= 16
+    frontier = solve(seed, None)
     grid = np.arange(n).reshape(nv, nu)
+    empty = np.zeros(0, int)
+    pending = (empty, empty, empty)  # (point, source, direction bit) not yet tried, from earlier waves
     while True:
-        while frontier.size:
-            cand, src = [], []
-            for di, dj in ((0, 1), (0, -1), (1, 0), (-1, 0)):
-                iv, iu = np.divmod(frontier, nu)
+        while True:
+            cand, src, bit = [pending[0]], [pending[1]], [pending[2]]
+            iv, iu = np.divmod(frontier, nu)
+            for k, (di, dj) in enumerate(steps):
                 jv, ju = iv + di, iu + dj
                 inside = (jv >= 0) & (jv < nv) & (ju >= 0) & (ju < nu)
-                nb = grid[jv[inside], ju[inside]]
-                fresh = ~attempted[nb]
-                cand.append(nb[fresh])
-                src.append(frontier[inside][fresh])
-            cand_all, first = np.unique(np.concatenate(cand), return_index=True)
-            if not cand_all.size:
+                cand.append(grid[jv[inside], ju[inside]])
+                src.append(frontier[inside])
+                bit.append(np.full(int(inside.sum()), 1 << k))
+            c, sr, b = (np.concatenate(a).astype(int) for a in (cand, src, bit))
+            keep = ~ok[c] & (tried[c] & b == 0)
+            c, sr, b = c[keep], sr[keep], b[keep]
+            if not c.size:
                 break
-            frontier = solve(cand_all, sol.q[np.concatenate(src)[first]])
-        rest = np.flatnonzero(~attempted)
+            cand_all, first = np.unique(c, return_index=True)
+            tried[cand_all] |= b[first].astype(np.uint8)
+            rest = np.ones(c.size, bool)
+            rest[first] = False
+            pending = (c[rest], sr[rest], b[rest])  # other solved neighbours: tried if this one fails
+            frontier = solve(cand_all, sol.q[sr[first]])
+        rest = np.flatnonzero(~ok & (tried & 16 == 0))
         if not rest.size:
             break
+        tried[rest] |= 16
+        pending = (empty, empty, empty)
         frontier = solve(rest, None)
     return sol
 
@@ -267,8 +298,10 @@ def fit_window(mech: Mechanism, plane: str, at: float, orientation: Array, step:
 
 def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[float, float],
                      v_range: tuple[float, float], step: float, orientation=(0.0, 0.0, 0.0),
-                     names=("kappa",)) -> MechanismSection:
-    """Quantities ``names`` and admissibility on an axis plane (ranges, step, ``at`` in m; orientation rad)."""
+                     names=("kappa",), point: Array | None = None) -> MechanismSection:
+    """Quantities ``names`` and admissibility on an axis plane (ranges, step, ``at`` in m; orientation rad); the
+    elastic quantities at ``point`` (home coordinates on the output link, e.g. a tool tip) instead of the output
+    point."""
     check_quantities(mech, names)
     ori = np.asarray(orientation, dtype=float)
     uu, vv = raster(*u_range, step), raster(*v_range, step)
@@ -290,7 +323,7 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
             units[dn], scales[dn] = ("mm", 1e3) if du == "m" else ("deg", 180.0 / np.pi)
     ok = ev.admissible
     idx = np.flatnonzero(ok)
-    ev_vals, ev_units, ev_scales = elastic_values(mech, take(ev.solution, idx), names)
+    ev_vals, ev_units, ev_scales = elastic_values(mech, take(ev.solution, idx), names, point)
     for n, v in ev_vals.items():
         values[n] = np.full(ok.shape, np.nan)
         values[n][idx] = v

@@ -3,7 +3,7 @@
 VTK's cube-axes actor (``show_bounds``) puts its labels at evenly spaced, odd values (−158, 379, 917), in a small
 font, and the end labels of the three axes overlap at the shared corner. Here each axis gets 3–6 ticks at a round
 step (1, 2, 2.5 or 5 × 10^k mm) inside its range, labels in a large font placed outward from the box, and an axis title
-with its unit at the middle of the edge; the edges are those on the camera's side of the box (bottom x and y edges,
+with its unit at the middle of the edge (z: above the top of its labels, where no tick label can be); the edges are those on the camera's side of the box (bottom x and y edges,
 a vertical silhouette edge for z), and tick labels next to the corner where two axes meet are left out.
 """
 
@@ -73,9 +73,14 @@ def add_mm_axes(plotter, bounds_mm: Sequence[float], view_direction: Sequence[fl
             lines.append((p, p + 0.4 * off * outward))
             label_pts.append(p + 1.6 * off * outward)
             labels.append(_fmt(t))
-        mid = start.copy()
-        mid[axis] = 0.5 * (lo + hi)
-        title_pts.append(mid + 3.6 * off * outward)
+        if axis < 2:
+            mid = start.copy()
+            mid[axis] = 0.5 * (lo + hi)
+            title_pts.append(mid + 3.6 * off * outward)
+        else:  # above the column of the z labels: beside them, a perspective view can put it on a label
+            top = end + 1.6 * off * outward
+            top[2] = ticks[-1] + 1.1 * off
+            title_pts.append(top)
     segs = np.array([pt for seg in lines for pt in seg])
     cells = np.hstack([[2, 2 * i, 2 * i + 1] for i in range(len(lines))])
     plotter.add_mesh(pv.PolyData(segs, lines=cells), color=color, line_width=2)

@@ -19,15 +19,9 @@ MM = 1e3
 
 
 def _link_points(mech: Mechanism) -> dict[int, list[np.ndarray]]:
-    pts: dict[int, list[np.ndarray]] = {i: [] for i in range(len(mech.links))}
-    for jt in mech.joints:
-        if jt.type in ("fixed", "equal_orientation", "common_axis", "perpendicular_axes"):
-            continue
-        for li in set(jt.links):
-            pts[li].append(jt.point)
-    if mech.output is not None:
-        pts[mech.output.link].append(mech.output.point)
-    return pts
+    from pkmstiff.mechanisms.modeshape import link_points
+
+    return {li: [p for p, _ in pl] for li, pl in link_points(mech).items()}
 
 
 def mechanism_figure(mech: Mechanism, q: np.ndarray, path: str | Path | None = None, title: str | None = None,
@@ -106,3 +100,67 @@ def mechanism_figure(mech: Mechanism, q: np.ndarray, path: str | Path | None = N
         with atomic_path(path) as tmp:
             fig.savefig(tmp, dpi=110, facecolor="white")
     return fig
+
+
+def _triad(ax, lo: np.ndarray, size: float, dim: int) -> None:
+    """Axes x, y (, z) as red, green (, blue) arrows with labels at the lower corner of the drawing (mm)."""
+    length = 0.15 * size
+    origin = lo - 0.05 * size
+    for k, colour in enumerate(("red", "green", "blue")[:dim]):
+        d = np.zeros(dim)
+        d[k] = length
+        if dim == 3:
+            ax.quiver(*origin, *d, color=colour, lw=2, arrow_length_ratio=0.25)
+        else:
+            ax.annotate("", origin + d, origin, arrowprops={"arrowstyle": "-|>", "color": colour, "lw": 2})
+        ax.text(*(origin + 1.2 * d), "xyz"[k], color=colour, fontsize=10)
+
+
+def mechanism_mode_figure(mech: Mechanism, shape, path: str | Path, title: str, amplitude: float | None = None,
+                          elev: float = 20.0, azim: float = -60.0) -> Path:
+    """PNG of a mode shape (:class:`~pkmstiff.mechanisms.modeshape.MechanismModeShape`): the undeformed links
+    (grey) and the links displaced by the mode scaled to ``amplitude`` [m] peak displacement (orange; default a
+    tenth of the drawing's size), axes in mm (the scale), an x, y, z triad and a legend stating the amplitude and
+    the scale factor — the machines' mode-shape figure (:func:`pkmstiff.plots.modes.plot_mode_shape`)."""
+    from matplotlib.figure import Figure
+
+    D = mech.dim
+    world = {li: w[:, :D] * MM for li, w in shape.world.items()}
+    every = np.concatenate(list(world.values()))
+    lo, hi = every.min(axis=0), every.max(axis=0)
+    size = float(np.max(hi - lo))
+    amplitude = 0.1 * size / MM if amplitude is None else amplitude
+    factor = shape.scale_for(amplitude)
+    fig = Figure(figsize=(8.0, 6.6), layout="constrained")
+    ax = fig.add_subplot(111, projection="3d" if D == 3 else None)
+    for k, (li, w) in enumerate(world.items()):
+        moved = w + factor * shape.displacement[li][:, :D] * MM
+        for pts, colour, lw, label in ((w, "0.6", 1.6, "undeformed" if k == 0 else None),
+                                       (moved, "darkorange", 2.4, f"mode {shape.mode}" if k == 0 else None)):
+            closed = np.vstack([pts, pts[:1]]) if len(pts) > 2 else pts
+            ax.plot(*closed.T, "-", color=colour, lw=lw, label=label)
+            ax.plot(*pts.T, "o", color=colour, ms=3)
+    margin = 0.12 * size + 5.0
+    _triad(ax, lo, size, D)
+    ax.set_xlabel("x [mm]")
+    ax.set_ylabel("y [mm]")
+    if D == 3:
+        ax.set_zlabel("z [mm]")
+        ax.view_init(elev=elev, azim=azim)
+        for setter, a in ((ax.set_xlim3d, 0), (ax.set_ylim3d, 1), (ax.set_zlim3d, 2)):
+            setter(lo[a] - margin, hi[a] + margin)
+        ax.set_aspect("equal")
+    else:
+        ax.set_xlim(lo[0] - margin, hi[0] + margin)
+        ax.set_ylim(lo[1] - margin, hi[1] + margin)
+        ax.set_aspect("equal")
+        ax.grid(True, lw=0.3)
+    ax.set_title(title, fontsize=10)
+    ax.legend(loc="upper right", fontsize=9, frameon=False,
+              title=f"mode {shape.mode} scaled to {amplitude * MM:.3g} mm peak displacement (x{factor:.3g})",
+              title_fontsize=9)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, facecolor="white")
+    return path

@@ -28,7 +28,6 @@ def _axes(sec, title: str):
     from matplotlib.figure import Figure
 
     u, v = sec.plane[0], sec.plane[1]
-    nu, nv = sec.u_values.size, sec.v_values.size
     aspect = (sec.v_values[-1] - sec.v_values[0]) / max(sec.u_values[-1] - sec.u_values[0], 1e-12)
     w = 5.2
     fig = Figure(figsize=(w + 2.2, max(3.2, min(8.0, w * aspect + 1.2))), layout="constrained")
@@ -36,13 +35,17 @@ def _axes(sec, title: str):
     ax.set_aspect("equal")
     ax.set_xlabel(f"{u} [mm]")
     ax.set_ylabel(f"{v} [mm]")
-    if sec.settings.get("planar"):
-        where = f"plane of motion\nphi = {np.degrees(sec.orientation[0]):g} deg"
+    rng = (f"{u} {sec.u_values[0] * MM:g}…{sec.u_values[-1] * MM:g} mm, "
+           f"{v} {sec.v_values[0] * MM:g}…{sec.v_values[-1] * MM:g} mm")
+    if sec.settings.get("planar"):  # the machines' map title: plane, frame, window, orientation
+        where = f"plane of motion (machine frame), {rng}\nphi = {np.degrees(sec.orientation[0]):g}°"
     else:
         normal = ({"x", "y", "z"} - set(sec.plane)).pop()
-        ori = ", ".join(f"{np.degrees(a):g}" for a in sec.orientation)
-        where = f"{sec.plane} plane at {normal} = {sec.at * MM:g} mm\norientation a,b,c = {ori} deg"
-    fig.suptitle(f"{sec.mechanism}: {where}, {nu}×{nv} points", fontsize=9)
+        ori = ", ".join(f"{np.degrees(a):g}°" for a in sec.orientation)
+        tool = sec.settings.get("tool_length_mm")
+        where = (f"{sec.plane.upper()} plane at {normal} = {sec.at * MM:g} mm (machine frame), {rng}\n"
+                 f"a, b, c = {ori}" + ("" if tool is None else f", tool {tool:g} mm"))
+    fig.suptitle(f"{sec.mechanism}: {where}", fontsize=9)
     ax.set_title(title, fontsize=10)
     return fig, ax
 
@@ -65,16 +68,17 @@ def plot_mechanism_reasons(sec, path: str | Path) -> Path:
 
 
 def plot_mechanism_quantity(sec, name: str, path: str | Path) -> Path:
-    """PNG of one quantity over the admissible points (colour bar in its display unit); others light grey."""
-    vals = sec.display(name)
-    fig, ax = _axes(sec, f"{name} [{sec.units[name]}]")
-    ax.pcolormesh(sec.u_values * MM, sec.v_values * MM, np.where(sec.ok, np.nan, 1.0), shading="nearest",
-                  cmap="Greys", vmin=0.0, vmax=4.0)
-    finite = np.isfinite(vals)
-    if finite.any():
-        m = ax.pcolormesh(sec.u_values * MM, sec.v_values * MM, np.ma.masked_invalid(vals), shading="nearest",
-                          cmap="viridis")
-        fig.colorbar(m, ax=ax, label=f"{name} [{sec.units[name]}]")
+    """PNG of one quantity over the admissible points, drawn as the machines' section maps
+    (:func:`pkmstiff.plots.section_maps.draw_map`: colour bar in the display unit, boundary of the admissible
+    region, inadmissible points white)."""
+    from pkmstiff.mechanisms.section import quantity_label
+    from pkmstiff.plots.section_maps import draw_map
+
+    fig, ax = _axes(sec, "")
+    ax.set_xlim(sec.u_values[0] * MM, sec.u_values[-1] * MM)
+    ax.set_ylim(sec.v_values[0] * MM, sec.v_values[-1] * MM)
+    draw_map(fig, ax, sec.u_values, sec.v_values, sec.display(name), sec.ok, name, quantity_label(name),
+             sec.units[name])
     return _save(fig, path)
 
 

@@ -214,20 +214,29 @@ def section_figure(res: SectionResult, name: str, window_size: tuple[int, int] |
                    clim: tuple[float, float] | None = None):
     """The matplotlib Figure of :func:`plot_section` and its map axes (data coordinates in mm), not yet saved (the
     browser app maps clicks on the picture back to the plane through the axes)."""
-    u, v = res.plane.u_values * MM, res.plane.v_values * MM
-    values = res.display(name)
-    scale = robust_clim(values) if clim is None else ColourScale(*clim)
-    clim = (scale.lo, scale.hi)
     fig, ax = _map_figure(res, window_size, 1.3)
-    mesh = ax.pcolormesh(u, v, np.ma.masked_invalid(values), shading="nearest", cmap=cmap, norm=scale.norm())
-    if res.ok.any() and not res.ok.all():
-        ax.contour(u, v, res.ok.astype(float), levels=[0.5], colors="black", linewidths=1.2)
-    unit = pretty_unit(res.units[name])
-    cb = fig.colorbar(mesh, ax=ax, fraction=0.06, pad=0.02, extend=_extend(values, clim))
-    scale.label_colorbar(cb, f"{name} [{unit}]")
-    ax.set_title(f"{res.labels[name]} [{unit}]", fontsize=10)
+    draw_map(fig, ax, res.plane.u_values, res.plane.v_values, res.display(name), res.ok, name, res.labels[name],
+             res.units[name], cmap, clim)
     fig.suptitle(_map_title(res), fontsize=9)
     return fig, ax
+
+
+def draw_map(fig, ax, u_values: np.ndarray, v_values: np.ndarray, values: np.ndarray, ok: np.ndarray, name: str,
+             label: str, unit: str, cmap: str = "viridis", clim: tuple[float, float] | None = None) -> None:
+    """One quantity's map on ``ax`` (raster u, v in m; display values, NaN = white): colour scale of
+    :func:`robust_clim` unless ``clim``, the boundary of the admissible region ``ok`` as a black line, colour bar
+    ``name [unit]`` outside the data and the title ``label [unit]`` (``unit`` in ASCII, shown by
+    :func:`pretty_unit`) — the maps of machine and mechanism sections."""
+    u, v = u_values * MM, v_values * MM
+    scale = robust_clim(values) if clim is None else ColourScale(*clim)
+    clim = (scale.lo, scale.hi)
+    mesh = ax.pcolormesh(u, v, np.ma.masked_invalid(values), shading="nearest", cmap=cmap, norm=scale.norm())
+    if ok.any() and not ok.all():
+        ax.contour(u, v, ok.astype(float), levels=[0.5], colors="black", linewidths=1.2)
+    unit = pretty_unit(unit)
+    cb = fig.colorbar(mesh, ax=ax, fraction=0.06, pad=0.02, extend=_extend(values, clim))
+    scale.label_colorbar(cb, f"{name} [{unit}]")
+    ax.set_title(f"{label} [{unit}]", fontsize=10)
 
 
 def plot_three_planes(results: Sequence[SectionResult], name: str, machine: Machine, reference_pose, path: str | Path,

@@ -44,6 +44,22 @@ Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so 
 
 # corner c of a voxel = lower corner + (c & 1, (c >> 1) & 1, (c >> 2) & 1) cells (e2 - e1 along x, ...)
 CORNER_OFFSETS = np.array([[c & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], dtype=np.int64)
+# the eight corner flags of a voxel read as one uint64 (one byte per corner): 0 = no admissible corner, ALL = all eight
+ALL_CORNERS = np.uint64(0x0101010101010101)
+# per axis: the bytes of the code that hold the corners at the voxel's upper end along that axis
+AXIS_UPPER_BYTES = [sum(1 << (8 * c) for c in range(8) if c >> a & 1) for a in range(3)]
+
+
+def _byte_sum(code: np.ndarray) -> np.ndarray:
+    """(M,) int64 sum of the eight bytes (each 0 or 1) of every code: multiplying by 0x0101... adds all bytes into
+    the top one (at most 8, no carry out)."""
+    return ((code * ALL_CORNERS) >> np.uint64(56)).astype(np.int64)
+
+
+def corner_code(corners: np.ndarray) -> np.ndarray:
+    """(M,) uint64: the (M, 8) bool corner flags of each voxel as one number (a view, no copy where contiguous), so
+    that "none" / "all admissible" are one comparison instead of a sum over eight columns."""
+    return np.ascontiguousarray(corners, dtype=bool).view(np.uint64).reshape(-1)
 
 
 
@@ -81,8 +97,10 @@ class OctreeResult:
     @cached_property
     def boundary_points(self) -> np.ndarray:
         """(M, 3) centroids of the admissible corners of the leaf voxels (eq. 4.1)."""
-        n = self.leaf_corners.sum(axis=1, keepdims=True)
-        offs = (self.leaf_corners[:, :, None] * CORNER_OFFSETS[None]).sum(axis=1) / n
+        code = corner_code(self.leaf_corners)
+        # admissible corners in all / with offset 1 along x, y, z: bytes 0-7 / 1,3,5,7 / 2,3,6,7 / 4-7 of the code
+        along = [_byte_sum(code & np.uint64(m)) for m in AXIS_UPPER_BYTES]
+        offs = np.stack(along, axis=1) / _byte_sum(code)[:, None]
         return self.lo + (self.leaf_index + offs) * self.spacing
 
     @cached_property
@@ -102,9 +120,9 @@ class OctreeResult:
         start, axis, _ = self.sign_change_edges()
         lat = self.lattice
         vkeys = lat.key(self.leaf_index)
-        order = np.argsort(vkeys)
+        order = np.argsort(vkeys, kind="stable")  # unique keys: the same order as any sort, faster
         ring = lat.key(start)[:, None] + lat.ring_offsets()[axis]
-        pos = np.minimum(np.searchsorted(vkeys, ring, sorter=order), max(vkeys.size - 1, 0))
+        pos = np.minimum(np.searchsorted(vkeys[order], ring), max(vkeys.size - 1, 0))  # direct: cache-friendlier
         vid = order[pos]
         return np.where(vkeys[vid] == ring, vid, -1)
 
@@ -118,11 +136,28 @@ class OctreeResult:
 
 
 def unique_sorted(keys: np.ndarray) -> np.ndarray:
-    """Sorted unique int64 keys (a plain sort; faster here than numpy's hash-based ``np.unique``)."""
-    k = np.sort(np.asarray(keys, np.int64).ravel())
+    """Sorted unique int64 keys (a plain sort; faster here than numpy's hash-based ``np.unique``).
+
+    The sorts here are ``kind="stable"``: lattice keys come in long ascending runs (voxel by voxel, corner by
+    corner), which numpy's stable sort merges 3-4 times faster than its default introsort (measured on the 3.125 mm
+    Hexaglide workspace); the sorted values are the same whatever the algorithm.
+    """
+    k = np.sort(np.asarray(keys, np.int64).ravel(), kind="stable")
     if k.size:
         k = k[np.concatenate([[True], k[1:] != k[:-1]])]
     return k
+
+
+def unique_inverse(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(keys, return_inverse=True)`` for int64 keys by a stable argsort (see :func:`unique_sorted`)."""
+    order = np.argsort(keys, kind="stable")
+    k = keys[order]
+    first = np.empty(k.size, bool)
+    first[:1] = True
+    np.not_equal(k[1:], k[:-1], out=first[1:])
+    inv = np.empty(k.size, np.int64)
+    inv[order] = np.cumsum(first) - 1
+    return k[first], inv
 
 
 def _in_sorted(arr: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -280,10 +315,10 @@ def octree_boundary(
     inside_volume = 0.0
     level = l0
     while True:
-        n_adm = corners.sum(axis=1)
+        code = corner_code(corners)
         size = 1 << (levels - np.minimum(level, levels))
-        inside_volume += float(np.count_nonzero(n_adm == 8)) * float(np.prod(size * lat.h))
-        bnd = (n_adm > 0) & (n_adm < 8)
+        inside_volume += float(np.count_nonzero(code == ALL_CORNERS)) * float(np.prod(size * lat.h))
+        bnd = (code != 0) & (code != ALL_CORNERS)
         vox, corners = vox[bnd], corners[bnd]
         if level >= lmax or vox.shape[0] == 0:
             break
@@ -295,22 +330,28 @@ def octree_boundary(
             progress(level, lmax, ev.count)
 
     closure_added, edges = 0, None
-    ckeys = lat.key(vox[:, None, :] + CORNER_OFFSETS[None])
+    ckeys = lat.key(vox)[:, None] + CORNER_OFFSETS @ lat.strides  # keys are linear in the index
     known, admis = _KeySet(ckeys.ravel()), _KeySet(ckeys[corners])
     if closure and vox.shape[0]:
         before = ev.count
         vox, corners, edges, closure_added = _close(vox, corners, known, admis, lat, ev)
         per_level.append((-1, ev.count - before))
 
-    all_idx = vox[:, None, :] + CORNER_OFFSETS[None]
-    on_face = np.any((all_idx == 0) | (all_idx == lat.n), axis=-1) & lat.inside(all_idx)
-    touches = bool(np.any(on_face & corners))
+    touches = _touches_box(vox, corners, lat)
     return OctreeResult(
         lo=lo_a, hi=hi_a, eps=eps, levels=levels, spacing=lat.h, leaf_index=vox, leaf_corners=corners,
         inside_volume=inside_volume, evaluations=ev.count, evaluations_per_level=per_level,
         closure_voxels=closure_added, touches_box=touches, time_total=time.perf_counter() - t_start,
         time_evaluation=ev.time, known_keys=known.array(), admissible_keys=admis.array(), edges=edges,
     )
+
+
+def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
+    """An admissible corner of a finest voxel lies on the box boundary (only voxels at the boundary are looked at)."""
+    near = np.flatnonzero(np.any((vox <= 0) | (vox + 1 >= lat.n), axis=1))
+    all_idx = vox[near, None, :] + CORNER_OFFSETS[None]
+    on_face = np.any((all_idx == 0) | (all_idx == lat.n), axis=-1) & lat.inside(all_idx)
+    return bool(np.any(on_face & corners[near]))
 
 
 def _split(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray, lat: Lattice,
@@ -329,7 +370,7 @@ def _split(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray,
     for c, o in enumerate(CORNER_OFFSETS):
         val[:, o[0] * (m[0] - 1), o[1] * (m[1] - 1), o[2] * (m[2] - 1)] = corners[:, c]
     keys = (lat.key(vox)[:, None] + (new_sub * step) @ lat.strides).ravel()  # (M * S') keys of the new points
-    ukeys, inv = np.unique(keys, return_inverse=True)
+    ukeys, inv = unique_inverse(keys)
     uval = ev(lat.unkey(ukeys))
     nv = uval[inv].reshape(M, -1)
     val[:, new_sub[:, 0], new_sub[:, 1], new_sub[:, 2]] = nv

@@ -44,8 +44,7 @@ class BoundarySurface:
 
     def signed_volume(self) -> float:
         """Divergence theorem: V = sum over triangles of p1 . (p2 x p3) / 6 (exact for the closed mesh)."""
-        p = self.vertices[self.triangles]
-        return float(np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6.0)
+        return float(six_volumes(self.vertices, self.triangles).sum() / 6.0)
 
     def area(self) -> float:
         p = self.vertices[self.triangles]
@@ -77,6 +76,13 @@ class BoundarySurface:
         with atomic_path(path) as tmp:
             mesh.save(str(tmp), binary=True)
         return path
+
+
+def six_volumes(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """(T,) p1 . (p2 x p3) of every triangle: six times the signed volume of its tetrahedron with the origin
+    (eq. 4.14); one contiguous gather per corner instead of a (T, 3, 3) copy."""
+    p1, p2, p3 = (vertices[triangles[:, k]] for k in range(3))
+    return np.einsum("ij,ij->i", p1, np.cross(p2, p3))
 
 
 def _edge_midpoints(res: OctreeResult, lat: Lattice, start: np.ndarray, axis: np.ndarray,
@@ -138,10 +144,10 @@ def boundary_surface(
     else:
         mids, extra = _edge_midpoints(res, lat, start, axis, low_adm, refine_steps, admissible)
         # each edge contributes its crossing to its four voxels; vertex = mean of the contributions
-        acc = np.zeros((vox.shape[0], 3))
-        cnt = np.zeros(vox.shape[0])
-        np.add.at(acc, vid.ravel(), np.repeat(mids, 4, axis=0))
-        np.add.at(cnt, vid.ravel(), 1.0)
+        # bincount adds in input order like np.add.at (the same sums, bit for bit), several times faster
+        flat = vid.ravel()
+        acc = np.stack([np.bincount(flat, np.repeat(mids[:, k], 4), vox.shape[0]) for k in range(3)], axis=1)
+        cnt = np.bincount(flat, minlength=vox.shape[0]).astype(float)
         verts = res.lo + acc / cnt[:, None] * lat.h
     # quad normal is +axis with the ring order; outward = from admissible to inadmissible
     flip = ~low_adm
@@ -150,4 +156,4 @@ def boundary_surface(
     return BoundarySurface(verts, tris, vertices, refine_evaluations=extra)
 
 
-__all__ = ["BoundarySurface", "boundary_surface"]
+__all__ = ["BoundarySurface", "boundary_surface", "six_volumes"]

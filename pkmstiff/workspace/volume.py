@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
 from pkmstiff.workspace.octree import OctreeResult
-from pkmstiff.workspace.surface import BoundarySurface, boundary_surface
+from pkmstiff.workspace.surface import BoundarySurface, boundary_surface, six_volumes
 
 METHODS = ("surface_nets", "divergence", "tetrahedron", "pyramid", "voxels")
 DEFAULT_METHODS = ("surface_nets", "divergence", "tetrahedron", "pyramid")
@@ -67,8 +67,7 @@ def tetrahedron_volume(mesh: BoundarySurface, z: ArrayLike | None = None, signed
     if mesh.triangles.shape[0] == 0:
         return 0.0
     zz = cloud_centre(mesh.vertices) if z is None else np.asarray(z, float)
-    p = mesh.vertices[mesh.triangles] - zz
-    six_v = np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2]))
+    six_v = six_volumes(mesh.vertices - zz, mesh.triangles)  # (v - z)[t] == v[t] - z, element by element
     return float((six_v.sum() if signed else np.abs(six_v).sum()) / 6.0)
 
 

@@ -1,0 +1,111 @@
+"""Kinetostatics of mechanisms (issue 27, item 1): drive Jacobian, static drive loads and mass matrix against finite
+differences of the kinematics; v_max of the Hexaglide's mechanism file equals the machine's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pkmstiff.mechanisms import forward, inverse, load_mechanism
+from pkmstiff.mechanisms.constraints import Frames
+from pkmstiff.mechanisms.kinetostatics import G, _bodies, mechanism_kinetostatics
+
+CASES = [("hexa_6rus", [0.02, -0.03, -0.42, 0.05, -0.03, 0.08]),
+         ("hybrid_tripod_wrist", [0.0, 0.1, -1.0732, 0.17, 0.0, 0.0]),
+         ("five_bar", [0.09, 0.31, 0.0])]
+
+
+def _positions(mech, q: np.ndarray) -> np.ndarray:
+    """World positions (N, B, 3) of every mass of the elastic model."""
+    F = Frames(q, mech.dim, derivatives=False)
+    out = []
+    for li, cog, _, _ in _bodies(mech):
+        p = F.t[:, li] + np.einsum("nab,b->na", F.R[:, li], cog[:mech.dim])
+        out.append(np.concatenate([p, np.zeros((q.shape[0], 3 - mech.dim))], axis=1))
+    return np.stack(out, axis=1)
+
+
+@pytest.mark.parametrize("name, pose", CASES)
+def test_drive_jacobian_loads_and_masses_equal_finite_differences(name, pose):
+    """J⁻¹ = ∂s/∂x_c by central differences of the inverse kinematics; τ_g = ∂V/∂s (V = Σ m (−g)·r, virtual work)
+    and the translational part of M_s = Σ m J_vᵀ J_v by central differences of the forward kinematics. Step h =
+    1e-6 (m or rad): truncation O(h²) ≈ 1e-12, the solver's 1e-12 residual / h ≈ 1e-6 relative: rtol 1e-5."""
+    mech = load_mechanism(name)
+    sol = inverse(mech, [pose])
+    ks = mechanism_kinetostatics(mech, sol)
+    n = len(mech.drives)
+    h = 1e-6
+    # drive rates per output rate: the directions of the point coordinates (orientation held) are columns of J⁻¹
+    for r, o in enumerate(ks.outputs):
+        if o not in "xyz":
+            continue
+        dp = np.zeros(mech.pose_size)
+        dp["xyz".index(o)] = h
+        s_p = inverse(mech, [np.asarray(pose) + dp], start=sol).drives[0]
+        s_m = inverse(mech, [np.asarray(pose) - dp], start=sol).drives[0]
+        np.testing.assert_allclose(ks.jinv[0, :, r], (s_p - s_m) / (2 * h), rtol=1e-5, atol=1e-6)
+    masses = np.array([b[2] for b in _bodies(mech)])
+    g = -G * mech.elastic.vertical
+    Jv = np.zeros((len(masses), 3, n))
+    for c in range(n):
+        ds = np.zeros(n)
+        ds[c] = h
+        pp = _positions(mech, forward(mech, sol.drives + ds, start=sol).q)[0]
+        pm = _positions(mech, forward(mech, sol.drives - ds, start=sol).q)[0]
+        Jv[:, :, c] = (pp - pm) / (2 * h)
+        dV = np.sum(masses * ((pp - pm) @ -g)) / (2 * h)
+        assert ks.drive_loads[0, c] == pytest.approx(dV, rel=1e-5, abs=1e-6 * np.abs(ks.drive_loads).max())
+    m_trans = np.einsum("b,bic,bid->cd", masses, Jv, Jv)
+    # the rotational inertia part of M_s is positive semidefinite: M_s − M_trans ⪰ 0, and equal where no inertia
+    rot = ks.mass_matrix[0] - m_trans
+    assert np.linalg.eigvalsh(rot).min() > -1e-5 * np.abs(ks.mass_matrix[0]).max()
+
+
+def test_hexaglide_mechanism_velocities_equal_the_machines(capsys):
+    """v_max (eq. 4.79) and U depend only on J⁻¹, the drive speed limits and w: the Hexaglide's mechanism file gives the
+    machine's v_max (the limiting drive may differ among tied drives; rtol 1e-9: the two inverse kinematics agree to 1e-12)."""
+    import json
+
+    from pkmstiff.cli import main
+
+    assert main(["point", "hexaglide_generic", "--pose", "30,280,-950,2,-1,3", "--json", "--modes", "0"]) == 0
+    mech = json.loads(capsys.readouterr().out)
+    assert main(["point", "hexaglide", "--pose", "30,280,-950,2,-1,3", "--json", "--modes", "0"]) == 0
+    machine = json.loads(capsys.readouterr().out)
+    for ax in "xyz":
+        assert mech["v_max_m_per_s"][ax] == pytest.approx(machine["v_max_m_per_s"][ax], rel=1e-9)
+    assert set(mech["a_max_m_per_s2"]) == set(machine["a_max_m_per_s2"])
+    assert all(v > 0 for v in mech["a_max_m_per_s2"].values())
+    assert mech["controlled_outputs"][:3] == ["x", "y", "z"]
+    # U = (σ_min/σ_max)^½ of W J_C with the machine's weight w (written by the generator): the machine's value, whose
+    # κ is certified to rtol 1e-4 (kinematics.condition_number, method "fast"; U = κ^-½: 5e-5), ours is an SVD
+    assert mech["transmission_weight_m_per_rad"] == pytest.approx(machine["transmission_weight_m_per_rad"], rel=1e-15)
+    assert mech["transmission_quality"] == pytest.approx(machine["transmission_quality"], rel=1e-4)
+
+
+@pytest.mark.parametrize("name, pose", [("hexaglide_generic", [0.03, 0.28, -0.95, 0.0, 0.0, 0.0]),
+                                        ("hexa_6rus", [0.02, -0.03, -0.42, 0.05, -0.03, 0.08])])
+def test_acceleration_bound_is_the_drive_force_balance(name, pose):
+    """a_max in a direction e: the limiting drive's force τ_g + c + a·μ reaches its available force T exactly, and
+    no drive exceeds it; v_max drives the limiting drive at its speed limit (linear drives: N, m/s; the 6-RUS's
+    rotary drives: N m, rad/s from max_torque, max_angular_speed)."""
+    mech = load_mechanism(name)
+    sol = inverse(mech, [pose])
+    ks = mechanism_kinetostatics(mech, sol)
+    from pkmstiff.mechanisms.kinetostatics import ACCELERATION_DIRECTIONS, _drive_limits
+
+    avail = _drive_limits(mech, "max_force", np.nan) - _drive_limits(mech, "force_reserve", 0.0)
+    coul = _drive_limits(mech, "coulomb_friction", 0.0)
+    for k, lab in enumerate(ACCELERATION_DIRECTIONS):
+        e = np.zeros(6)
+        e["xyz".index(lab[-1])] = -1.0 if lab.startswith("-") else 1.0
+        qdd = ks.jinv[0] @ e
+        force = ks.drive_loads[0] + coul * np.sign(qdd) + ks.a_max[0, k] * (ks.mass_matrix[0] @ qdd)
+        assert np.all(np.abs(force) <= avail * (1 + 1e-9))
+        assert abs(force[ks.a_limiting[0, k]]) == pytest.approx(avail[ks.a_limiting[0, k]], rel=1e-9)
+    speed = _drive_limits(mech, "max_speed", np.nan)
+    assert np.all(np.isfinite(speed)) and np.all(np.isfinite(ks.a_max))
+    for k, lab in enumerate(ks.velocity_labels):
+        rates = np.abs(ks.jinv[0, :, "xyz".index(lab)]) * ks.v_max[0, k]
+        assert np.all(rates <= speed * (1 + 1e-12))
+        assert rates[ks.v_limiting[0, k]] == pytest.approx(speed[ks.v_limiting[0, k]], rel=1e-12)
