@@ -218,7 +218,7 @@ def test_refinement_keeps_to_a_spent_time_budget_until_one_is_feasible(tmp_path,
     assert len(res.refined) < 6 or feas[:6] == [False] * 5 + [True]
     assert main(["optimise", str(f), "--out", str(tmp_path / "c"), "--no-report"]) == 0
     err = capsys.readouterr().err
-    assert "time budget of 0.001 s spent by the re-evaluation on the requested raster" in err
+    assert "time budget of 0.001 s spent before the re-evaluation on the requested raster ended" in err
 
 
 def test_convergence_judges_each_raster_by_its_own_constraint(tmp_path, monkeypatch):

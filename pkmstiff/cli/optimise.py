@@ -60,8 +60,8 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
     stop = "" if res.meta["stopped"].startswith("budget of") else f" (stopped: {res.meta['stopped']})"
     refined = res.meta.get("refined")
     if refined and refined.get("time_budget_spent") and not args.quiet:
-        print(f"pkmstiff optimise: time budget of {res.meta['time_budget_s']:g} s spent by the re-evaluation on the "
-              f"requested raster; it went on until one re-evaluated design was feasible "
+        print(f"pkmstiff optimise: time budget of {res.meta['time_budget_s']:g} s spent before the re-evaluation on "
+              f"the requested raster ended; it went on until one re-evaluated design was feasible "
               f"({refined['candidates']} re-evaluated)", file=sys.stderr)
     fine = (f"; {res.reevaluated} re-evaluated on the requested raster after the search on "
             f"{refined['search_step_mm']:g} mm" if refined else "")

@@ -456,7 +456,7 @@ def _refine(design: Design, search: Design, history: list[Candidate], front: lis
         k += size
         if single and any(c.feasible(design) for c in done):
             break
-    return design, done, spent
+    return design, done, spent or (deadline is not None and time.perf_counter() >= deadline)
 
 
 def _workers(jobs: int, scheduler: Any) -> int:
