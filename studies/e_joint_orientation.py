@@ -256,8 +256,8 @@ def convergence_text(obj: str, res: pkmstiff.optimise.OptimisationResult) -> str
     """One sentence on the run's effort and when its best value last improved."""
     h = history(res)
     last = h[-1][0] if h else 0
-    return (f"Run '{obj}': {len(res.history)} candidate evaluations ({res.evaluated} run, incl. "
-            f"{res.meta['refined']['candidates'] if 'refined' in res.meta else 0} re-evaluated on the requested "
+    return (f"Run '{obj}': {len(res.history)} candidate evaluations ({res.evaluated + res.reevaluated} run, incl. "
+            f"{res.reevaluated} re-evaluated on the requested "
             f"raster), {res.wall_time_s:.1f} s; last improvement on the search raster after {last} evaluations.")
 
 
@@ -433,7 +433,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "search": {"step_m": search_step, "kx": kcoarse},
         "optimiser": [{"objective": o, "angles_deg": angles(r), "outputs": r.best.outputs,
                        "search_outputs": r.best.search_outputs, "evaluations": len(r.history),
-                       "evaluated": r.evaluated, "run_time_s": r.wall_time_s, "history": history(r),
+                       "evaluated": r.evaluated + r.reevaluated, "run_time_s": r.wall_time_s, "history": history(r),
                        "constraint_min_m2": r.design.constraints[0].lower,
                        "beats_published": bool(kstats[f"optimum ({o})"]["kx"][o] > kstats[PUBLISHED]["kx"][o])}
                       for o, r in runs.items()],

@@ -149,7 +149,7 @@ def test_coarse_to_fine_searches_coarse_and_reports_the_requested_raster(tmp_pat
     assert d.coarse_step == pytest.approx(0.1)
     res = optimise(d, tmp_path / "o")
     assert res.meta["refined"] == {"search_step_mm": 100.0, "candidates": 3}
-    assert res.evaluated == len({c.key for c in res.history}) + 3
+    assert res.evaluated == len({c.key for c in res.history}) and res.reevaluated == len(res.refined) == 3
 
     def section(overrides, step):
         r = pkmstiff.StudyMachine.of(machine_with("hexaglide", overrides)).with_(neglect_spindle=True).section(
@@ -176,7 +176,73 @@ def test_relative_constraint_is_a_fraction_of_the_base_on_each_raster(tmp_path):
     base_area = float(np.count_nonzero(r.ok)) * 0.05 ** 2
     assert res.design.constraints[0].lower == pytest.approx(0.9 * base_area, rel=1e-12)  # the requested raster's
     assert res.best.outputs["admissible_area [m^2]"] >= 0.9 * base_area
-    assert res.evaluated == len({c.key for c in res.history}) + 2  # the base machine is not counted
+    assert res.evaluated == len({c.key for c in res.history})  # the base machine is not counted
+    assert res.reevaluated == len(res.refined) == 2
+
+
+def test_progress_shows_the_best_feasible_value_so_far(tmp_path):
+    """Each progress line (one per generation) names the best value among the feasible candidates so far."""
+    design = _length_design(budget=12, population=4)
+    lines: list[str] = []
+    res = optimise(design, tmp_path / "o", progress=lines.append)
+    assert len(lines) == 3
+    for g, line in enumerate(lines):
+        so_far = min(c.outputs["f [m^2]"] for c in res.history[:4 * (g + 1)])
+        assert f"best feasible so far: f {so_far:.6g} m^2" in line, line
+
+
+def test_cli_counts_search_cached_and_reevaluated_apart(tmp_path, capsys):
+    """run + cached = the search's evaluations; the re-evaluated candidates are counted on their own."""
+    f = _section_file(tmp_path, budget=12, population=6, step=50, extra="coarse_step_mm = 100\nrefine = 3")
+    out = tmp_path / "o"
+    assert main(["optimise", str(f), "--out", str(out), "--quiet", "--no-report"]) == 0
+    line = capsys.readouterr().out.splitlines()[-1]
+    run, cached = _run_line(line)
+    summary = json.loads((out / "summary.json").read_text())
+    assert run + cached == summary["evaluations"] == 12
+    assert run == summary["evaluated"] and cached == summary["read_from_checkpoint"]
+    assert "cached: repeated or read from the checkpoint; 3 re-evaluated on the requested raster after" in line, line
+    assert summary["reevaluated_on_requested_raster"] == 3
+
+
+def test_refinement_keeps_to_a_spent_time_budget_until_one_is_feasible(tmp_path, capsys):
+    """With the time budget spent by the search, the re-evaluation goes one candidate at a time (one worker) and
+    stops at the first that is feasible on the requested raster, not after ``refine`` = 6; the CLI says so."""
+    f = _section_file(tmp_path, budget=10_000, population=6, step=50,
+                      extra='coarse_step_mm = 100\nrefine = 6\ntime_budget = "1ms"')
+    d = load_design(f)
+    res = optimise(d, tmp_path / "o", report=False)
+    assert res.meta["refined"]["time_budget_spent"] is True
+    feas = [c.feasible(res.design) for c in res.refined]
+    assert feas == [False] * (len(feas) - 1) + [True]
+    assert len(res.refined) < 6 or feas[:6] == [False] * 5 + [True]
+    assert main(["optimise", str(f), "--out", str(tmp_path / "c"), "--no-report"]) == 0
+    err = capsys.readouterr().err
+    assert "time budget of 0.001 s spent before the re-evaluation on the requested raster ended" in err
+
+
+def test_convergence_judges_each_raster_by_its_own_constraint(tmp_path, monkeypatch):
+    """History values come from the search raster and are coloured by the search design's constraints; the
+    re-evaluated ones by the requested design's. A candidate feasible on one and not on the other shows it."""
+    import dataclasses
+
+    from pkmstiff.optimise import outputs
+    from pkmstiff.optimise.engine import Candidate
+
+    f = _section_file(tmp_path, budget=8, population=4, step=50, extra="coarse_step_mm = 100\nrefine = 2")
+    res = optimise(load_design(f), tmp_path / "o", report=False)
+    calls = []
+    real = outputs.convergence_series
+    monkeypatch.setattr(outputs, "convergence_series", lambda c, d, j: calls.append((c, d)) or real(c, d, j))
+    outputs._convergence_png(res, tmp_path / "c.png")
+    assert calls[0][0] is res.history and calls[0][1] is res.search_design
+    assert calls[1][0] is res.refined and calls[1][1] is res.design
+    # the same outputs, feasible against a 0.3 m^2 bound and not against 0.4 m^2
+    c = Candidate("k", [], {}, {"kx_mean [N/um]": 1.0, "admissible_area [m^2]": 0.35})
+    lo = res.design
+    hi = dataclasses.replace(lo, constraints=(dataclasses.replace(lo.constraints[0], lower=0.4),))
+    assert real([c], lo, 0)[1].tolist() == [True] and real([c], hi, 0)[1].tolist() == [False]
+    assert real([c], lo, 0)[0].tolist() == [-1.0]  # maximised: the minimised sense
 
 
 def _checkpoint_lines(path: Path) -> list[dict]:

@@ -58,10 +58,15 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
                      for o in design.objectives)
     front = f"front of {len(res.front)} design(s); first: " if len(design.objectives) > 1 else "best: "
     stop = "" if res.meta["stopped"].startswith("budget of") else f" (stopped: {res.meta['stopped']})"
-    fine = (f", re-evaluated on the requested raster ({res.meta['refined']['candidates']} candidates searched on "
-            f"{res.meta['refined']['search_step_mm']:g} mm)" if "refined" in res.meta else "")
+    refined = res.meta.get("refined")
+    if refined and refined.get("time_budget_spent") and not args.quiet:
+        print(f"pkmstiff optimise: time budget of {res.meta['time_budget_s']:g} s spent before the re-evaluation on "
+              f"the requested raster ended; it went on until one re-evaluated design was feasible "
+              f"({refined['candidates']} re-evaluated)", file=sys.stderr)
+    fine = (f"; {res.reevaluated} re-evaluated on the requested raster after the search on "
+            f"{refined['search_step_mm']:g} mm" if refined else "")
     print(f"pkmstiff optimise: {len(res.history)} evaluations{stop} ({res.evaluated} run, {res.cached} cached: "
-          f"repeated or read from the checkpoint), {res.wall_time_s:.1f} s; {front}{text}{fine}; wrote "
+          f"repeated or read from the checkpoint{fine}), {res.wall_time_s:.1f} s; {front}{text}; wrote "
           + ", ".join(res.meta["outputs"][k] for k in ("front", "front_plot", "report", "summary")
                       if k in res.meta["outputs"]))
     return 0
@@ -83,8 +88,10 @@ def add_commands(sub) -> None:
                         "(needs pip install 'pkmstiff[dask]')")
     p.add_argument("--budget", type=int, default=None, help="evaluations (default: the design file's)")
     p.add_argument("--time-budget", default=None, metavar="DURATION",
-                   help="stop after this time, checked between generations (e.g. 300s, '5 min'; default: the "
-                        "design file's time_budget, else none)")
+                   help="stop the search after this time, checked between generations (e.g. 300s, '5 min'; "
+                        "default: the design file's time_budget, else none); the re-evaluation on the requested "
+                        "raster (coarse_step_mm) follows the search and keeps to what is left where it can, but "
+                        "runs until one re-evaluated design is feasible")
     p.add_argument("--seed", type=int, default=None, help="random seed (default: the design file's)")
     p.add_argument("--resume", action="store_true", help="continue the run checkpointed in --out")
     p.add_argument("--force", action="store_true", help="start afresh in an --out that holds a run")

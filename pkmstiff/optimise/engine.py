@@ -10,7 +10,9 @@ constraint violations G (<= 0 feasible).
   nested pools). Results come back in candidate order, so a run gives the same history whatever
   ``jobs``/``scheduler``.
 * **Budgets.** The run stops after ``budget`` evaluations or, checked between generations, once ``time_budget``
-  seconds have passed; either way it reports the best feasible design found so far.
+  seconds have passed; either way it reports the best feasible design found so far. The re-evaluation on the
+  requested raster (coarse-to-fine) comes after the search: it keeps to what is left of ``time_budget`` where it can,
+  but always runs until one re-evaluated design is feasible, so a run may end after its ``time_budget``.
 * **Coarse-to-fine.** With ``Design.coarse_step`` the search evaluates every section on that raster; afterwards the
   best ``Design.refine`` feasible candidates (one objective) or the feasible front (several) are re-evaluated on the
   requested rasters, and the front is taken from those values.
@@ -94,12 +96,14 @@ class OptimisationResult:
     design: Design
     history: list[Candidate]  # in evaluation order (a candidate requested twice appears twice)
     front: list[Candidate]  # feasible, non-dominated (one objective: the best); coarse-to-fine: requested raster
-    evaluated: int  # evaluations actually run (not read from the checkpoint), refinement included
-    cached: int
+    evaluated: int  # search evaluations actually run (not read from the checkpoint nor repeated)
+    cached: int  # search candidates repeated or read from the checkpoint
+    reevaluated: int  # coarse-to-fine: candidates re-evaluated on the requested raster (run or from the checkpoint)
     wall_time_s: float
     algorithm: str
     meta: dict[str, Any] = field(default_factory=dict)  # seed, budget, jobs, stopped (why the search ended), ...
     search_design: Design | None = None  # as searched: coarse rasters, relative bounds resolved (history's terms)
+    refined: list[Candidate] = field(default_factory=list)  # coarse-to-fine: every re-evaluated candidate
 
     @property
     def best(self) -> Candidate:
@@ -337,19 +341,22 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
     name = design.resolved_algorithm()
     algo = _algorithm(name, design, budget, seed)
     history: list[Candidate] = []
-    counts = {"evaluated": 0, "cached": 0}
+    counts = {"evaluated": 0, "cached": 0, "reevaluated": 0}
     stopped = f"budget of {budget} evaluations"
     t0 = time.perf_counter()
 
-    def evaluate(batch: list[Candidate], ev: _Evaluator, log: Any, count: bool = True) -> None:
-        """Fill ``batch``'s outputs: from the checkpoint or evaluated (and appended to it)."""
+    def evaluate(batch: list[Candidate], ev: _Evaluator, log: Any, count: str | None = "search") -> None:
+        """Fill ``batch``'s outputs: from the checkpoint or evaluated (and appended to it); ``count`` "search"
+        counts them as evaluated or cached, "refine" as re-evaluated, None not at all."""
         new = list({c.key: c for c in batch if c.key not in cache}.values())
         for c, (outputs, error, _) in zip(new, ev([c.overrides for c in new])):
             rec = {"key": c.key, "values": c.values, "overrides": c.overrides, "error": error, "outputs": outputs}
             cache[c.key] = rec
             log.write(json.dumps(rec, default=repr) + "\n")
         log.flush()
-        if count:
+        if count == "refine":
+            counts["reevaluated"] += len(batch)
+        elif count == "search":
             counts["evaluated"] += len(new)
             counts["cached"] += len(batch) - len(new)
         for c in batch:
@@ -359,7 +366,7 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
     with connected(scheduler), open(ckpt, "a", encoding="utf-8") as log:
         evaluation = DesignEvaluation(search.measures())
         ev = _Evaluator(design.machine, evaluation, jobs, scheduler)
-        search = _absolute(search, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=False))
+        search = _absolute(search, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=None))
         while algo.has_next() and len(history) < budget:
             if history and time_budget is not None and time.perf_counter() - t0 >= time_budget:
                 stopped = f"time budget of {time_budget:g} s"
@@ -380,7 +387,9 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
         front = _front(search, history)
         refined: list[Candidate] | None = None
         if design.coarse_step is not None and front:
-            design, refined = _refine(design, search, history, front, raw, jobs, scheduler, evaluate, log)
+            deadline = None if time_budget is None else t0 + time_budget
+            design, refined, spent = _refine(design, search, history, front, raw, jobs, scheduler, evaluate, log,
+                                             deadline)
             front = _front(design, refined)
         elif refined is None:
             design = search
@@ -394,8 +403,10 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
         meta["scheduler"] = scheduler if isinstance(scheduler, str) else repr(scheduler)
     if refined is not None:
         meta["refined"] = {"search_step_mm": design.coarse_step * 1e3, "candidates": len(refined)}
+        if spent:
+            meta["refined"]["time_budget_spent"] = True
     return OptimisationResult(design, history, front, counts["evaluated"], counts["cached"],
-                              time.perf_counter() - t0, name, meta, search)
+                              counts["reevaluated"], time.perf_counter() - t0, name, meta, search, refined or [])
 
 
 #: coarse-to-fine, one objective: at most this many batches of ``Design.refine`` candidates are re-evaluated
@@ -403,34 +414,60 @@ REFINE_BATCHES = 5
 
 
 def _refine(design: Design, search: Design, history: list[Candidate], front: list[Candidate], raw: dict, jobs: int,
-            scheduler: Any, evaluate: Callable, log: Any) -> tuple[Design, list[Candidate]]:
+            scheduler: Any, evaluate: Callable, log: Any,
+            deadline: float | None = None) -> tuple[Design, list[Candidate], bool]:
     """Re-evaluate search candidates on the requested rasters; their ``search_outputs`` keep the coarse values.
 
     One objective: the feasible search candidates in order of their objective, in batches of ``design.refine``,
     until a batch holds one that is feasible on the requested rasters too (a search that converged onto an active
     constraint leaves many candidates just inside it on the coarse raster and just outside on the fine one), at
-    most :data:`REFINE_BATCHES` batches. Several objectives: the feasible search front. Returns the design with
-    its relative constraints resolved on the requested rasters, and the re-evaluated candidates."""
+    most :data:`REFINE_BATCHES` batches. Several objectives: the feasible search front, in one batch. Once the
+    time budget (``deadline``, a :func:`time.perf_counter` time) is spent, no further batch starts when a
+    re-evaluated design is feasible already; until one is, the batches shrink to one candidate per worker. Returns
+    the design with its relative constraints resolved on the requested rasters, the re-evaluated candidates, and
+    whether the time budget was spent before the re-evaluation ended."""
     evaluation = DesignEvaluation(design.measures())
     ev = _Evaluator(design.machine, evaluation, jobs, scheduler)
-    design = _absolute(design, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=False))
+    design = _absolute(design, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=None))
 
     def fine(picked: list[Candidate]) -> list[Candidate]:
         out = [Candidate(_variant_hash(raw, c.overrides, evaluation), c.values, c.overrides, {}, index=c.index,
                          search_outputs=c.outputs) for c in picked]
-        evaluate(out, ev, log)
+        evaluate(out, ev, log, count="refine")
         return out
 
-    if len(design.objectives) > 1:
-        return design, fine(front)
-    feas = sorted({c.key: c for c in history if c.feasible(search)}.values(),
-                  key=lambda c: float(c.objective_vector(search)[0]))
+    single = len(design.objectives) == 1
+    if single:
+        pool = sorted({c.key: c for c in history if c.feasible(search)}.values(),
+                      key=lambda c: float(c.objective_vector(search)[0]))[:REFINE_BATCHES * design.refine]
+    else:
+        pool = list(front)
+    size = design.refine if single else len(pool)
     done: list[Candidate] = []
-    for k in range(0, min(len(feas), REFINE_BATCHES * design.refine), design.refine):
-        done += fine(feas[k:k + design.refine])
-        if any(c.feasible(design) for c in done):
+    spent = False
+    k = 0
+    while k < len(pool):
+        if deadline is not None and time.perf_counter() >= deadline:
+            spent = True
+            if any(c.feasible(design) for c in done):
+                break
+            size = min(size, _workers(jobs, scheduler))
+        done += fine(pool[k:k + size])
+        k += size
+        if single and any(c.feasible(design) for c in done):
             break
-    return design, done
+    return design, done, spent or (deadline is not None and time.perf_counter() >= deadline)
+
+
+def _workers(jobs: int, scheduler: Any) -> int:
+    """How many candidates one batch needs to keep every worker busy (a cluster: one per Dask worker)."""
+    if scheduler is not None:
+        from pkmstiff.evaluation.parallel import client
+
+        return max(1, len(client(scheduler).scheduler_info().get("workers", {})))
+    from pkmstiff.evaluation.parallel import resolve_workers
+
+    return max(1, resolve_workers(jobs))
 
 
 def _absolute(design: Design, raw: dict, evaluation: DesignEvaluation, ev: _Evaluator,
@@ -457,4 +494,4 @@ def _progress_line(design: Design, history: list[Candidate], budget: int, counts
     best = ", ".join(f"{o.measure.name} {front[0].outputs[o.measure.label]:.6g} {o.measure.unit}"
                      for o in design.objectives) if front else "none feasible"
     return (f"{len(history)}/{budget} evaluations ({counts['evaluated']} run, {counts['cached']} cached), "
-            f"{elapsed:.0f} s; best: {best}")
+            f"{elapsed:.0f} s; best feasible so far: {best}")

@@ -110,6 +110,16 @@ def design_machine_toml(design: Design, c: Candidate, title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def convergence_series(cands: list[Candidate], design: Design, j: int) -> tuple[np.ndarray, np.ndarray]:
+    """Objective ``j`` of ``cands`` (minimised sense; NaN where failed) and whether each is feasible, both judged
+    with ``design``, whose rasters and constraint bounds must be those the candidates' outputs come from."""
+    vals = np.array([c.outputs.get(design.objectives[j].measure.label, np.nan) if not c.error else np.nan
+                     for c in cands], dtype=float)
+    if design.objectives[j].sense == "maximise":
+        vals = -vals
+    return vals, np.array([c.feasible(design) for c in cands], dtype=bool)
+
+
 def _convergence_png(res: OptimisationResult, path: Path) -> None:
     import matplotlib
 
@@ -119,17 +129,30 @@ def _convergence_png(res: OptimisationResult, path: Path) -> None:
     from pkmstiff.plots.section_maps import pretty_unit
 
     design = res.design
+    search = res.search_design or design  # history's values are on the search raster, judged by its constraints
+    if res.refined:
+        on = (f" (search raster, {res.meta['refined']['search_step_mm']:g} mm)", " (requested raster)")
+    else:
+        on = ("", "")
     n = len(design.objectives)
     fig, axes = plt.subplots(1, n, figsize=(5.5 * n, 3.8), squeeze=False)
     for j, (o, ax) in enumerate(zip(design.objectives, axes[0])):
         sign = -1.0 if o.sense == "maximise" else 1.0
-        vals = np.array([c.objective_vector(design)[j] if c.feasible(design) else np.inf for c in res.history])
-        best = np.minimum.accumulate(vals)
+        vals, feas = convergence_series(res.history, search, j)
+        best = np.minimum.accumulate(np.where(feas, vals, np.inf))
         idx = np.arange(1, len(vals) + 1)
         ok = np.isfinite(vals)
-        ax.plot(idx[ok], sign * vals[ok], ".", ms=3, color="0.6", label="feasible candidate")
+        ax.plot(idx[ok & feas], sign * vals[ok & feas], ".", ms=3, color="0.45", label="feasible" + on[0])
+        ax.plot(idx[ok & ~feas], sign * vals[ok & ~feas], "x", ms=3, color="C3", alpha=0.5,
+                label="infeasible" + on[0])
         okb = np.isfinite(best)
-        ax.step(idx[okb], sign * best[okb], where="post", color="C0", lw=2, label="best so far")
+        ax.step(idx[okb], sign * best[okb], where="post", color="C0", lw=2, label="best feasible so far" + on[0])
+        if res.refined:
+            rv, rf = convergence_series(res.refined, design, j)
+            ri = np.array([c.index + 1 for c in res.refined])
+            rok = np.isfinite(rv)
+            ax.plot(ri[rok & rf], sign * rv[rok & rf], "o", mfc="none", color="C2", label="feasible" + on[1])
+            ax.plot(ri[rok & ~rf], sign * rv[rok & ~rf], "o", mfc="none", color="C1", label="infeasible" + on[1])
         ax.set_xlabel("evaluation")
         ax.set_ylabel(f"{o.measure.name} [{pretty_unit(o.measure.unit)}]")
         ax.set_title(f"{o.sense} {o.measure.name}")
@@ -177,6 +200,7 @@ def write_outputs(res: OptimisationResult, out: str | Path, *, report: bool = Tr
     summary = {
         "design_file": design.source, "machine": design.machine, "algorithm": res.algorithm, **res.meta,
         "evaluations": len(res.history), "evaluated": res.evaluated, "read_from_checkpoint": res.cached,
+        "reevaluated_on_requested_raster": res.reevaluated,
         "wall_time_s": round(res.wall_time_s, 3),
         "objectives": [{"name": o.measure.name, "unit": o.measure.unit, "sense": o.sense} for o in design.objectives],
         "constraints": [{"name": c.measure.name, "unit": c.measure.unit, "min": c.lower, "max": c.upper}
