@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.figure_checks import MIN_FILL, MIN_PT, fill_fraction, pyvista_text_pt, smallest_text_pt
+from tests.figure_checks import EDGE_PX, MIN_FILL, MIN_PT, edge_pixels, fill_fraction, pyvista_text_pt, smallest_text_pt
 
 
 @pytest.fixture(scope="module")
@@ -433,7 +433,10 @@ FIGURE_KINDS = {f.__name__.removeprefix("_kind_"): f for f in (
 
 
 def _watch_figures(monkeypatch):
-    """Record every matplotlib figure saved (with the file) and the measured text of every pyvista screenshot."""
+    """Record every matplotlib figure saved (with the file and its drawn edge pixels) and the measured text of every
+    pyvista screenshot."""
+    from pathlib import Path
+
     import pyvista as pv
     from matplotlib.figure import Figure
 
@@ -442,7 +445,9 @@ def _watch_figures(monkeypatch):
 
     def savefig(self, fname, *a, **k):
         out = save(self, fname, *a, **k)
-        seen["mpl"].append((self, fname))
+        # the edge is read now: an atomic write renames the file right after
+        png = isinstance(fname, (str, Path)) and str(fname).endswith(".png")
+        seen["mpl"].append((self, fname, edge_pixels(fname) if png else None))
         return out
 
     def screenshot(self, filename=None, *a, **k):
@@ -456,7 +461,8 @@ def _watch_figures(monkeypatch):
 
 
 def _check_watched(seen, tmp_path) -> list[str]:
-    """What is wrong with the watched figures: fill below MIN_FILL or text below MIN_PT (empty: all fine)."""
+    """What is wrong with the watched figures: fill below MIN_FILL, text below MIN_PT, matplotlib drawing within
+    EDGE_PX of the canvas edge (empty: all fine)."""
     from pathlib import Path
 
     bad = []
@@ -465,9 +471,11 @@ def _check_watched(seen, tmp_path) -> list[str]:
     for f in files:
         if fill_fraction(f) < MIN_FILL:
             bad.append(f"{f.name}: fill {fill_fraction(f):.2f} < {MIN_FILL}")
-    for fig, fname in seen["mpl"]:
+    for fig, fname, edge in seen["mpl"]:
         if smallest_text_pt(fig) < MIN_PT:
             bad.append(f"{Path(str(fname)).name}: text {smallest_text_pt(fig):.1f} pt < {MIN_PT}")
+        if edge:
+            bad.append(f"{Path(str(fname)).name}: edge {edge} px drawn within {EDGE_PX} px of the border")
     for sizes, fname in seen["pv"]:
         assert sizes, f"{fname}: no text found in the screenshot"
         small = {k: round(v, 1) for k, v in sizes.items() if v < MIN_PT}
@@ -485,8 +493,8 @@ def test_every_figure_kind_fills_its_canvas_with_readable_text(kind, tmp_path, h
 
 
 def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
-    # a matplotlib figure with 6 pt ticks and its drawing in one corner, a pyvista window with a small mesh in a
-    # corner and 4-px text: every check must report them
+    # a matplotlib figure with 6 pt ticks and its drawing in one corner, one with its y label cut at the left edge,
+    # a pyvista window with a small mesh in a corner and 4-px text: every check must report them
     import pyvista as pv
     from matplotlib.figure import Figure
 
@@ -496,6 +504,11 @@ def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
     ax.plot([0, 1], [0, 1])
     ax.tick_params(labelsize=6)
     fig.savefig(tmp_path / "bad_mpl.png", dpi=100)
+    cut = Figure(figsize=(6.0, 4.0))
+    ax = cut.add_axes((0.03, 0.12, 0.9, 0.8))  # the y tick labels and label left of the canvas
+    ax.plot([0, 1], [0, 1000])
+    ax.set_ylabel("z [mm]", fontsize=10)
+    cut.savefig(tmp_path / "cut_mpl.png", dpi=100)
     p = pv.Plotter(off_screen=True, window_size=(600, 400))
     p.set_background("white")
     p.add_mesh(pv.Sphere(radius=0.1, center=(2.0, 1.5, 0.0)), color="black")
@@ -506,6 +519,8 @@ def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
     p.close()
     bad = _check_watched(seen, tmp_path)
     assert any(b.startswith("bad_mpl.png: fill") for b in bad) and any(b.startswith("bad_mpl.png: text") for b in bad)
+    assert any(b.startswith("cut_mpl.png: edge") for b in bad)
+    assert not any(b.startswith("bad_pv.png: edge") for b in bad)  # pyvista screenshots: no edge check
     assert any(b.startswith("bad_pv.png: fill") for b in bad) and any(b.startswith("bad_pv.png: text") for b in bad)
 
 
