@@ -411,10 +411,16 @@ def _kind_study_g_rotation(tmp, m, yz):
 
 
 def _kind_study_e_tilts(tmp, m, yz):
-    # study e's tilt distribution over the joint stiffness (its optimiser-history plot needs optimiser runs: not here)
+    # study e's tilt distribution over the joint stiffness and its optimiser history (one short run of the study's
+    # fast design, 4 evaluations, shown in the panels of two objectives; reference lines at made-up k_x values)
+    from pkmstiff.optimise import run_optimisation
+
     e = _study("e_joint_orientation")
     sec = m.section("yz", 0.0, 0.1, e.TILTS)
     e.plot_tilts({"original": sec, "optimised": sec}, m, tmp / "e_tilts.png")
+    run = run_optimisation(e.design("mean", fast=True), tmp / "e_run", budget=4)
+    refs = {"original": 20.0, "published": 25.0}
+    e.plot_history({"mean": run, "p05": run}, {"mean": refs, "p05": refs}, tmp / "e_history.png")
 
 
 def _kind_validation_causes(tmp, m, yz):
