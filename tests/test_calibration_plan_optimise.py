@@ -8,8 +8,12 @@ from hypothesis import strategies as st
 
 from pkmstiff.calibration import Plan, Segment, check_plan, default_plan, error_model, read_plan
 from pkmstiff.calibration.planning import (
+    NODES_PER_TURN,
     HemisphereSpec,
     armijo_minimise,
+    base_columns,
+    default_node_count,
+    default_schedule,
     optimise_hemisphere,
     optimise_pendulum,
     optimise_pose_set,
@@ -18,6 +22,8 @@ from pkmstiff.calibration.planning import (
     start_nodes,
 )
 from pkmstiff.cli import main
+from pkmstiff.errors import InadmissibleError
+from pkmstiff.machine import load_machine
 
 
 def test_armijo_with_a_barrier_stops_at_the_bound():
@@ -142,3 +148,57 @@ def test_multistart_never_returns_worse_than_its_start(seed, starts, mu):
     assert runs[0].value <= f0  # the run from the start
     assert all(o.value <= o.start_value for o in runs)
     assert _distinct(runs)[0].value <= f0
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 2**31 - 1), nodes=st.integers(1, 3), tilt=st.floats(0.2, 0.9))
+def test_hemisphere_optimisation_is_never_worse_than_its_start_or_the_default_path(felix, seed, nodes, tilt):
+    """Over random start nodes (issue 26 item 7): the best plan's criterion is at most the start's and at most the
+    unoptimised default path's (on the same sampling and base parameters); when no optimum beats the default path,
+    the default path is the best plan."""
+    spec = _hemi(felix, np.radians(20))
+    spec = HemisphereSpec(spec.setup, n=60, turns=1.0, side=spec.side, max_tilt=spec.max_tilt,
+                          max_torsion=spec.max_torsion)
+    params = error_model(felix)
+    rng = np.random.default_rng(seed)
+    nodes0 = np.c_[rng.uniform(0.1, 1.0, nodes) * tilt * spec.max_tilt, rng.uniform(0, 2 * np.pi, nodes),
+                   rng.uniform(-0.2, 0.2, nodes) * spec.max_torsion]
+    try:
+        res = optimise_hemisphere(felix, params, spec, nodes0, "cond", starts=2, seed=seed, max_iter=2,
+                                  reference=spec.default_path())
+    except InadmissibleError:  # a random start outside the workspace: refused before any optimisation
+        return
+    best = res.reference_value if res.kept_reference else res.best.value
+    assert best <= res.start_value and best <= res.reference_value
+    cols = base_columns(felix, params, spec.default_path())
+    assert plan_objective(felix, params, res.best_plan, "cond", cols) == pytest.approx(best, rel=1e-12)
+    if res.kept_reference:
+        assert np.array_equal(res.best_plan.poses, spec.default_path().poses)
+
+
+def test_plan_command_compares_with_the_default_path(tmp_path, capsys):
+    """Two nodes cannot beat the default orientation schedule on Felix (κ 1.4e8 start): the command says so, prints
+    the start, default-path and final criterion, and writes the default path, which reads back to its poses."""
+    import json
+
+    out = tmp_path / "p.toml"
+    code = main(["calibrate", "plan", "felix", "--instrument", "ballbar", "--objective", "cond", "--nodes", "2",
+                 "--points", "60", "--turns", "1", "--starts", "1", "--iterations", "1", "--out", str(out), "--json"])
+    rep = json.loads(capsys.readouterr().out)
+    assert code == 0 and rep["kept_default_path"] and rep["nodes"] == 2
+    assert rep["best_cond"] == rep["default_path_cond"] <= min(rep["start_cond"], rep["optimised_cond"])
+    plan = read_plan(out)
+    d = default_plan(load_machine("felix"), "ballbar")
+    tilt, torsion = default_schedule(d, 1.0)
+    spec = HemisphereSpec(d.setup, n=60, turns=1.0, side=1.0, tilt=tilt, torsion=torsion)
+    assert np.allclose(plan.poses, spec.default_path().poses, rtol=0, atol=1e-12)  # written with 17 digits
+    code = main(["calibrate", "plan", "felix", "--instrument", "ballbar", "--objective", "cond", "--nodes", "2",
+                 "--points", "60", "--turns", "1", "--starts", "1", "--iterations", "1", "--out", str(out),
+                 "--force"])
+    text = capsys.readouterr().out
+    assert code == 0 and "(start plan) ->" in text and "default path (unoptimised schedule) cond" in text
+    assert "no optimum beats it, the default path is written" in text
+
+
+def test_default_node_count_rule():
+    assert default_node_count(4.0) == NODES_PER_TURN * 4 and default_node_count(0.5) == NODES_PER_TURN

@@ -15,8 +15,10 @@ since a set-up error belongs to each measurement and not to the machine.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as _dt
 import hashlib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,7 +26,7 @@ import numpy as np
 
 from pkmstiff.calibration.backlash import run_starts_of_samples
 from pkmstiff.calibration.identification import Identification, noise_estimate, residual_stats, setup_at
-from pkmstiff.calibration.instruments import readings, target_points
+from pkmstiff.calibration.instruments import Setup, SetupState, readings, target_points
 from pkmstiff.calibration.jacobian import reading_weights
 from pkmstiff.calibration.measurement import commanded_drives
 from pkmstiff.calibration.parameters import error_model
@@ -51,10 +53,13 @@ def _q(value: float, unit: str) -> str:
     return f'"{value * 1e3:.9g} mm"' if unit == "m" else f'"{value * 1e3:.9g} mrad"'
 
 
-def provenance(res: Identification, unc: Uncertainty | None = None, measurement: str | Path | None = None,
-               date: str | None = None, deflection: str = "none") -> dict:
+def provenance(res: Identification, unc: Uncertainty | None = None,
+               measurement: str | Path | Sequence[str | Path] | None = None, date: str | None = None,
+               deflection: str = "none") -> dict:
     """The ``[calibration]`` table of a calibrated machine file (units in the key names or values); ``deflection``
-    records what was subtracted from the readings before identification ("none", "gravity", "gravity + load …")."""
+    records what was subtracted from the readings before identification ("none", "gravity", "gravity + load …");
+    several measurement files (one per set-up): the first as ``measurement_file``, the others in
+    ``more_measurement_files`` / ``more_measurement_sha256``."""
     import pkmstiff
 
     r0, r1 = residual_stats(res.residual_before), residual_stats(res.residual_after)
@@ -65,12 +70,18 @@ def provenance(res: Identification, unc: Uncertainty | None = None, measurement:
            "date": date or _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
            "toolkit_version": pkmstiff.__version__, "scaling": res.scaling,
            "gauge_freedoms": [g.label() for g in res.gauge_freedoms], "deflection": deflection}
+    more = []
+    if measurement is not None and not isinstance(measurement, (str, Path)):
+        measurement, *more = list(measurement)
     if measurement is not None:
         out["measurement_file"] = str(Path(measurement).name)
         out["measurement_sha256"] = file_sha256(measurement)
         header = Path(measurement).with_suffix(".json")  # the header beside the CSV (files written since issue 22)
         if header.is_file():
             out["measurement_header_sha256"] = file_sha256(header)
+    if more:
+        out["more_measurement_files"] = [str(Path(p).name) for p in more]
+        out["more_measurement_sha256"] = [file_sha256(p) for p in more]
     out["identified"] = {nm: float(res.delta[i]) for nm, i in zip(res.base_names, res.base)}
     if unc is not None:
         out["sigma"] = {nm: float(s) for nm, s in zip(unc.names, unc.sigma)}
@@ -92,7 +103,7 @@ def _toml_scalar(v: object) -> str:
 
 
 def calibrated_machine_text(res: Identification, unc: Uncertainty | None = None,
-                            measurement: str | Path | None = None, name: str | None = None,
+                            measurement: str | Path | Sequence[str | Path] | None = None, name: str | None = None,
                             date: str | None = None, deflection: str = "none") -> str:
     """TOML of the calibrated machine: ``extends`` the nominal machine, the identified chain geometry and the
     ``[calibration]`` provenance block (identified values and σ as quantities in mm / mrad)."""
@@ -115,7 +126,7 @@ def calibrated_machine_text(res: Identification, unc: Uncertainty | None = None,
 
 
 def write_calibrated_machine(path: str | Path, res: Identification, unc: Uncertainty | None = None,
-                             measurement: str | Path | None = None, name: str | None = None,
+                             measurement: str | Path | Sequence[str | Path] | None = None, name: str | None = None,
                              deflection: str = "none") -> Path:
     p = Path(path)
     atomic_write_text(p, calibrated_machine_text(res, unc, measurement, name, deflection=deflection))
@@ -142,7 +153,19 @@ def predicted_readings(machine: Machine, controller: Machine, plan: Plan) -> np.
     """Readings (N, k) predicted by ``machine`` for the drive values ``controller`` commands for the plan's poses
     (nominal set-up of the plan)."""
     o, R, Rc = _reached_frames(machine, controller, plan)
-    return readings(plan.setup, plan.setup.state(), o, R, Rc)
+    return readings(plan.setup, placed_state(machine, controller, plan.setup), o, R, Rc)
+
+
+def placed_state(machine: Machine, controller: Machine, setup: Setup) -> SetupState:
+    """The nominal set-up state, with a fixed ball placed by the machine (:mod:`.setups`) where ``machine`` puts it
+    for the drive values ``controller`` commands at the placing pose."""
+    st = setup.state()
+    if setup.placing_pose is None:
+        return st
+    probe = Plan("placing pose", setup, setup.placing_pose[None, :])
+    (o,), (R,), _ = _reached_frames(machine, controller, probe)
+    (oc,), (Rc,), _ = _reached_frames(controller, controller, probe)
+    return dataclasses.replace(st, fixed_ball=st.fixed_ball + (o + R @ setup.target) - (oc + Rc @ setup.target))
 
 
 #: Gauss–Newton iterations of :func:`fit_setup` (the set-up model is smooth; 3–5 suffice from the nominal set-up)
@@ -156,6 +179,9 @@ def fit_setup(machine: Machine, controller: Machine, plan: Plan, measured: np.nd
     set-up parameters s (minimum-norm steps, so set-up directions the readings do not see stay at zero).
     Returns (residual, ((parameter name, value, unit), ...)) in SI."""
     inst = plan.instrument
+    if "backlash" in blocks:  # a machine parameter: fitting it needs the perturbed forward kinematics
+        raise InputError("--with", "backlash", "set-up parameters only (the machine is held fixed; identify the "
+                         "backlash with calibrate identify --with backlash)", "backlash")
     params = error_model(machine, setup=plan.setup, setup_blocks=blocks)
     idx = np.flatnonzero(params.chain < 0)
     o, R, Rc = _reached_frames(machine, controller, plan)
@@ -164,8 +190,16 @@ def fit_setup(machine: Machine, controller: Machine, plan: Plan, measured: np.nd
     w = reading_weights(machine, inst, N)
     d = np.zeros(params.n)
     scale = params.scale[idx]
-    for _ in range(SETUP_FIT_ITERATIONS):
+    placed = placed_state(machine, controller, plan.setup)
+
+    def state(d: np.ndarray) -> SetupState:  # the set-up errors on top of where the machine placed the fixed ball
         st = perturbed_state(plan.setup, params, d)
+        if plan.setup.placing_pose is None:
+            return st
+        return dataclasses.replace(st, fixed_ball=st.fixed_ball + placed.fixed_ball - plan.setup.fixed_ball)
+
+    for _ in range(SETUP_FIT_ITERATIONS):
+        st = state(d)
         r = w * (y - readings(plan.setup, st, o, R, Rc).reshape(-1))
         J = np.zeros((N, k, params.n))
         inst.setup_jacobian(J, params, setup_at(plan.setup, params, d), R, target_points(st, o, R))
@@ -174,7 +208,7 @@ def fit_setup(machine: Machine, controller: Machine, plan: Plan, measured: np.nd
         d[idx] += scale * step
         if np.max(np.abs(step)) < 1e-12:  # scaled unknowns (1 mm, 1 mrad): below 1 fm
             break
-    r = w * (y - readings(plan.setup, perturbed_state(plan.setup, params, d), o, R, Rc).reshape(-1))
+    r = w * (y - readings(plan.setup, state(d), o, R, Rc).reshape(-1))
     return r, tuple((params.names[i], float(d[i]), params.units[i]) for i in idx)
 
 

@@ -26,6 +26,7 @@ The fit is *consistent* when no test fails.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -140,20 +141,34 @@ def _fmt(v: float, unit: str) -> str:
 def diagnose(J: np.ndarray, r: np.ndarray, sigma: np.ndarray, weights: np.ndarray, param_sigma: np.ndarray, *,
              reading_names: tuple[str, ...], reading_units: tuple[str, ...], t: np.ndarray,
              direction: np.ndarray | None = None, candidates: tuple[Candidate, ...] = (),
-             refit_reversed: Callable[[int, int], np.ndarray | None] | None = None, max_reversed: int = 4) -> FitDiagnostics:
+             refit_reversed: Callable[[int, int], np.ndarray | None] | None = None, max_reversed: int = 4,
+             robust_weights: np.ndarray | None = None) -> FitDiagnostics:
     """Model-fit diagnostics (module docstring) of a fit with weighted residual ``r`` (m,) and Jacobian ``J``
     (m, n_b): k = len(``reading_names``) readings per sample with stated σ ``sigma`` (k,, SI) and row weights
     ``weights`` (k,); parameter σ ``param_sigma`` (n_b,), sample times ``t`` (N,) and directions (N,);
     ``candidates`` are extra column blocks in weighted rows (set-up parameters not identified);
     ``refit_reversed(start, stop)`` returns the residual of the identification with the readings of samples
     start..stop−1 reversed, or None if that cannot be identified (tried for up to ``max_reversed`` runs when χ²
-    fails; ``None``: not tried)."""
+    fails; ``None``: not tried). ``robust_weights`` (m,): the IRLS weights of a robust identification — the
+    outliers it down-weighted (weight < 1/2) are listed with their weight and left out of every other test (their
+    rows zeroed, the degrees of freedom reduced), and the outlier test fails only for an outlier not down-weighted."""
+    raw = np.asarray(r, dtype=float)
     m, nb = J.shape
     k = len(reading_names)
     n = m // k
-    dof = m - nb
     w = np.asarray(weights, dtype=float)
     sigma_rows = np.tile(np.asarray(sigma, dtype=float) * w, n)
+    u = raw / sigma_rows  # in units of the stated noise
+    med = float(np.median(u))
+    s_rob = max(1.4826 * float(np.median(np.abs(u - med))), 1.0)  # not below the stated noise
+    z = float(stats.norm.isf(ALPHA / (2 * m)))
+    flagged = np.abs(u - med) > z * s_rob
+    dropped = flagged & (np.asarray(robust_weights) < 0.5) if robust_weights is not None else np.zeros(m, bool)
+    if dropped.any():
+        keep = (~dropped).astype(float)
+        r, J = raw * keep, J * keep[:, None]
+        candidates = tuple(dataclasses.replace(c, columns=c.columns * keep[:, None]) for c in candidates)
+    dof = m - nb - int(dropped.sum())
     # residual scale of the added-variable tests: the fit's s, but not below the stated noise (a fit better than the
     # instrument's accuracy — e.g. noise-free simulations — must not turn rounding noise into "significant" effects)
     s = max(float(np.sqrt(r @ r / dof)), float(np.sqrt(np.mean(sigma_rows ** 2))))
@@ -229,21 +244,22 @@ def diagnose(J: np.ndarray, r: np.ndarray, sigma: np.ndarray, weights: np.ndarra
                         {"run": no, "rms_um": float(np.sqrt(np.mean(r ** 2))) * 1e6,
                          "rms_reversed_um": float(np.sqrt(np.mean(rrev ** 2))) * 1e6}))
 
-    u = r / sigma_rows  # in units of the stated noise
-    med = float(np.median(u))
-    s_rob = max(1.4826 * float(np.median(np.abs(u - med))), 1.0)  # not below the stated noise
-    z = float(stats.norm.isf(ALPHA / (2 * m)))
     out = []
-    for i in np.flatnonzero(np.abs(u - med) > z * s_rob):
+    for i in np.flatnonzero(flagged):
         out.append({"sample": int(i // k) + 1, "reading": reading_names[i % k], "t_s": float(t[i // k]),
-                    "residual_um" if reading_units[i % k] == "m" else "residual_urad": float(r[i] / w[i % k]) * 1e6,
+                    "residual_um" if reading_units[i % k] == "m" else "residual_urad": float(raw[i] / w[i % k]) * 1e6,
                     "robust_z": float(abs(u[i] - med) / s_rob)})
+        if robust_weights is not None:
+            out[-1]["weight"] = float(robust_weights[i])
     big = max((o["robust_z"] for o in out), default=0.0)
+    kept = [o for o in out if o.get("weight", 1.0) >= 0.5]  # outliers the fit still trusts
     first = "" if not out else (f", first sample {out[0]['sample']} (t = {out[0]['t_s']:.4g} s, "
                                 f"{next(v for kk, v in out[0].items() if kk.startswith('residual')):+.3g} µm)")
     findings.append(Finding(
-        "outliers", "single readings far off (robust z-score, Bonferroni)", big, z, bool(out),
-        f"{len(out)} outlier(s) beyond {z:.3g} robust sigma{first}: remove them or identify with a robust --loss",
+        "outliers", "single readings far off (robust z-score, Bonferroni)", big, z, bool(kept),
+        f"{len(out)} outlier(s) beyond {z:.3g} robust sigma{first}"
+        + (f", {len(out) - len(kept)} down-weighted by the robust fit" if robust_weights is not None else "")
+        + ": remove them or identify with --robust huber|tukey",
         {"count": len(out), "robust_sigma_over_stated": s_rob}))
     return FitDiagnostics(tuple(findings), tuple(out), tuple(float(v) for v in sigma), tuple(reading_units))
 

@@ -20,6 +20,7 @@ Which candidates (or which of their sub-directions) lie in the null space is dec
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,24 +42,36 @@ class GaugeCandidate:
     kind: str  # "rigid", "combination" or "parameter"
 
 
-def _nominal_points(machine: Machine, params: ParameterSet, setup: Setup | None) -> dict[str, np.ndarray]:
+def _setups(setup: Setup | Sequence[Setup] | None) -> tuple[Setup, ...]:
+    return () if setup is None else (setup,) if isinstance(setup, Setup) else tuple(setup)
+
+
+def _row(params: ParameterSet, k: int) -> int:
+    """Row of parameter k's point: its chain, or for a set-up parameter its set-up (chain −1, −2, …)."""
+    c = int(params.chain[k])
+    return c if c >= 0 else -c - 1
+
+
+def _nominal_points(machine: Machine, params: ParameterSet, setup: Setup | Sequence[Setup] | None
+                    ) -> dict[str, np.ndarray]:
     ch = machine.chains
     pts = {"base_joint": ch.drive_joint, "guide_start": ch.guide_start, "platform_joint": ch.platform_joint,
            "drive_joint": ch.drive_joint}
-    if setup is not None:
-        pts["ball_offset"] = pts["target_offset"] = setup.target[None, :]
-        if setup.fixed_ball is not None:
-            pts["fixed_ball"] = setup.fixed_ball[None, :]
+    sts = _setups(setup)
+    if sts:
+        pts["ball_offset"] = pts["target_offset"] = np.array([st.target for st in sts])
+        if sts[0].fixed_ball is not None:
+            pts["fixed_ball"] = np.array([st.fixed_ball for st in sts])
     return pts
 
 
-def _base_motion(machine: Machine, params: ParameterSet, setup: Setup | None, t: np.ndarray, w: np.ndarray,
-                 c: np.ndarray) -> np.ndarray:
+def _base_motion(machine: Machine, params: ParameterSet, setup: Setup | Sequence[Setup] | None, t: np.ndarray,
+                 w: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Parameter deviation of a first-order rigid motion (t, ω about c) of everything fixed to the base."""
     pts = _nominal_points(machine, params, setup)
     out = np.zeros(params.n)
     for k in range(params.n):
-        blk, i, a = params.blocks[k], max(params.chain[k], 0), params.axis[k]
+        blk, i, a = params.blocks[k], _row(params, k), params.axis[k]
         if blk in BASE_POINTS:
             out[k] = a @ (t + np.cross(w, pts[blk][i] - c))
         elif blk == "drive_joint":  # glide drive-joint offset: a vector fixed to the base
@@ -71,37 +84,43 @@ def _base_motion(machine: Machine, params: ParameterSet, setup: Setup | None, t:
     return out
 
 
-def _platform_motion(machine: Machine, params: ParameterSet, setup: Setup | None, t: np.ndarray, w: np.ndarray,
-                     c: np.ndarray) -> np.ndarray:
+def _platform_motion(machine: Machine, params: ParameterSet, setup: Setup | Sequence[Setup] | None, t: np.ndarray,
+                     w: np.ndarray, c: np.ndarray) -> np.ndarray:
     """Parameter deviation of a first-order rigid motion (t, ω about c, PKS) of everything fixed to the platform."""
     pts = _nominal_points(machine, params, setup)
     out = np.zeros(params.n)
     for k in range(params.n):
-        blk, i, a = params.blocks[k], max(params.chain[k], 0), params.axis[k]
+        blk, i, a = params.blocks[k], _row(params, k), params.axis[k]
         if blk in ("platform_joint", "ball_offset", "target_offset"):
             out[k] = a @ (t + np.cross(w, pts[blk][i] - c))
     return out
 
 
-def gauge_candidates(machine: Machine, params: ParameterSet, setup: Setup | None) -> list[GaugeCandidate]:
-    """The named candidate gauge groups for ``params`` (see the module docstring), most physical first."""
+def gauge_candidates(machine: Machine, params: ParameterSet, setup: Setup | Sequence[Setup] | None
+                     ) -> list[GaugeCandidate]:
+    """The named candidate gauge groups for ``params`` (see the module docstring), most physical first; with
+    several set-ups (:mod:`.setups`) the rigid motions move every set-up's points and name the first set-up's
+    centres."""
     cands: list[GaugeCandidate] = []
+    setups = setup
+    setup = _setups(setups)[0] if _setups(setups) else None
     xyz = ("x", "y", "z")
     if setup is not None and setup.fixed_ball is not None:
-        c_base, where = setup.fixed_ball, "the fixed-ball centre"
+        c_base = setup.fixed_ball
+        where = "the fixed-ball centre" if len(_setups(setups)) == 1 else "the fixed-ball centre of set-up 1"
     else:
         c_base, where = np.zeros(3), "the MKS origin"
     target = setup.target if setup is not None else np.zeros(3)
     zero = np.zeros(3)
     cands.append(GaugeCandidate("base frame translation", np.stack(
-        [_base_motion(machine, params, setup, _E[j], zero, c_base) for j in range(3)], 1), xyz, "rigid"))
+        [_base_motion(machine, params, setups, _E[j], zero, c_base) for j in range(3)], 1), xyz, "rigid"))
     cands.append(GaugeCandidate(f"base frame rotation about {where}", np.stack(
-        [_base_motion(machine, params, setup, zero, _E[j], c_base) for j in range(3)], 1), xyz, "rigid"))
+        [_base_motion(machine, params, setups, zero, _E[j], c_base) for j in range(3)], 1), xyz, "rigid"))
     tgt_name = setup.instrument.target_name if setup is not None else "target point"
     cands.append(GaugeCandidate("platform frame translation", np.stack(
-        [_platform_motion(machine, params, setup, _E[j], zero, target) for j in range(3)], 1), xyz, "rigid"))
+        [_platform_motion(machine, params, setups, _E[j], zero, target) for j in range(3)], 1), xyz, "rigid"))
     cands.append(GaugeCandidate(f"platform frame rotation about the {tgt_name}", np.stack(
-        [_platform_motion(machine, params, setup, zero, _E[j], target) for j in range(3)], 1), xyz, "rigid"))
+        [_platform_motion(machine, params, setups, zero, _E[j], target) for j in range(3)], 1), xyz, "rigid"))
     if machine.kind == "glide":
         r = machine.chains.guide_direction
         n_ch = machine.n_chains

@@ -289,8 +289,10 @@ def name_gauges(Js: np.ndarray, scale: np.ndarray, params: ParameterSet, candida
     return tuple(out)
 
 
-def analyse(jac: IdentificationJacobian, machine: Machine, setup: Setup | None) -> Identifiability:
-    """Identifiability from an identification Jacobian (see the module docstring)."""
+def analyse(jac: IdentificationJacobian, machine: Machine, setup: Setup | tuple[Setup, ...] | None
+            ) -> Identifiability:
+    """Identifiability from an identification Jacobian (see the module docstring); ``setup`` one set-up or the
+    set-ups of a :class:`~pkmstiff.calibration.setups.PlanSet`."""
     params = jac.params
     Js = jac.scaled()
     m, n = Js.shape
@@ -325,7 +327,9 @@ def analyse(jac: IdentificationJacobian, machine: Machine, setup: Setup | None) 
 
 def identifiability(machine: Machine, params: ParameterSet, plan: Plan) -> Identifiability:
     """Identification Jacobian of the plan and its identifiability analysis in one call."""
-    return analyse(identification_jacobian(machine, params, plan), machine, plan.setup)
+    from pkmstiff.calibration.setups import setups_of
+
+    return analyse(identification_jacobian(machine, params, plan), machine, setups_of(plan))
 
 
 def check_identifiable(ident: Identifiability, source: str) -> None:

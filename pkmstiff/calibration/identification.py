@@ -17,6 +17,11 @@ Identification finds Δp with y(Δp) ≈ y_measured.
   followed by a Levenberg–Marquardt polish on the full model).
 * **Robust loss** (``loss`` other than ``"linear"``): ``least_squares(method="trf", loss=...)`` with ``f_scale``
   2.5 × the MAD-based noise estimate of the least-squares residuals (``lm`` does not support robust losses).
+* **Robust weights** (``robust`` = ``huber`` or ``tukey``; issue 26 item 5): iteratively reweighted least squares
+  (IRLS) from the least-squares solution: scale ŝ = 1.4826 · MAD of the residuals, u = r/ŝ, weight ψ(u)/u (Huber,
+  c = 1.345; Tukey's biweight, c = 4.685: 95 % efficiency at the normal distribution), each weighted problem
+  solved by Levenberg–Marquardt, until the weights settle; σ then follows Huber's sandwich covariance
+  (:func:`robust_covariance`), not s²(JᵀJ)⁻¹ of the down-weighted fit.
 * **Outliers**: readings whose residual exceeds ``outlier_threshold`` × s (s² = ‖r‖²/(m − rank)) are listed.
 
 The Jacobian at an estimate is the analytic identification Jacobian of the *perturbed* machine at the *reached*
@@ -26,7 +31,9 @@ orientation readings, which only slows Gauss–Newton, not its fixed point in th
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -45,6 +52,12 @@ from pkmstiff.machine import Machine
 
 METHODS = ("lm", "gauss-newton", "minimax", "ga+lm")
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
+#: IRLS weight functions of ``robust`` and their tuning constants c (95 % efficiency at the normal distribution:
+#: Huber 1981 §7; Beaton & Tukey 1974)
+ROBUST = {"huber": 1.345, "tukey": 4.685}
+#: IRLS stops when no weight changes by more than this (or after :data:`ROBUST_ITERATIONS`)
+ROBUST_TOL = 1e-6
+ROBUST_ITERATIONS = 30
 
 #: how unknowns and residuals are scaled (written into every result)
 SCALING = ("unknowns x = delta_p / scale (scale 1 mm for lengths, 1 mrad for angles); residual rows in m, "
@@ -77,6 +90,9 @@ class Identification:
     iterations: int
     outliers: list[dict] = field(default_factory=list)
     scaling: str = SCALING
+    robust: str | None = None  # IRLS weight function ("huber", "tukey") or None (least squares)
+    robust_weights: np.ndarray | None = None  # (m,) final IRLS weights in [0, 1]
+    robust_scale: float | None = None  # ŝ (m), 1.4826 · MAD of the final residuals
 
     @property
     def base_names(self) -> tuple[str, ...]:
@@ -101,6 +117,8 @@ class Identification:
             "residual_before": residual_stats(self.residual_before),
             "residual_after": residual_stats(self.residual_after),
             "outliers": self.outliers,
+            **({} if self.robust is None else {"robust": self.robust, "robust_scale_um": self.robust_scale * 1e6,
+                                               "down_weighted": int(np.sum(self.robust_weights < 0.5))}),
         }
 
 
@@ -137,21 +155,35 @@ def setup_at(setup: Setup, params: ParameterSet, delta: np.ndarray) -> Setup:
     """The nominal set-up with the set-up errors of ``delta`` applied (target, fixed ball), for Jacobians."""
     st = perturbed_state(setup, params, delta)
     return Setup(setup.instrument, target=st.target, fixed_ball=st.fixed_ball, bar_length=setup.bar_length,
-                 measuring_range=setup.measuring_range)
+                 measuring_range=setup.measuring_range, placing_pose=setup.placing_pose)
 
 
 def jacobian_at(machine: Machine, params: ParameterSet, plan: Plan, delta: np.ndarray) -> np.ndarray:
     """Identification Jacobian (m, n), unweighted, SI, at the error vector ``delta``: the perturbed machine at the
     poses it reaches for the plan's nominal drive values (see the module docstring)."""
+    from pkmstiff.calibration.setups import PlanSet, actual_state, parts
+
+    if isinstance(plan, PlanSet):
+        J = np.zeros((plan.n_readings, params.n))
+        k = plan.instrument.n_readings
+        for part, sub, idx, rows in parts(plan, params):
+            J[rows.start * k:rows.stop * k, idx] = jacobian_at(machine, sub, part, delta[idx])
+        return J
     if not np.any(delta):
         return identification_jacobian(machine, params, plan).J
     starts = plan_run_starts(plan)
     x = plan.poses if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, plan.poses,
                                                                              starts=starts)
     real = perturbed_machine(machine, params, delta)
+    setup = setup_at(plan.setup, params, delta)
+    if setup.placing_pose is not None:  # the ball where the machine put it, the pose it reached there
+        xc = plan.setup.placing_pose[None, :]
+        if np.any(delta[params.chain >= 0]):
+            xc = reached_poses(machine, params, delta, xc)
+        setup = dataclasses.replace(setup, fixed_ball=actual_state(machine, params, delta, plan.setup).fixed_ball,
+                                    placing_pose=xc[0])
     signs = held_signs(commanded_drives(machine, plan.poses), starts) if has_backlash(params) else None
-    return identification_jacobian(real, params, Plan(plan.name, setup_at(plan.setup, params, delta), x),
-                                   signs=signs).J
+    return identification_jacobian(real, params, Plan(plan.name, setup, x), signs=signs).J
 
 
 class _Model:
@@ -165,6 +197,11 @@ class _Model:
         self.w = reading_weights(machine, plan.instrument, plan.n_poses)
         self.s = params.scale[base]
         self.n_eval = 0
+        self.rw = np.ones(self.y.size)  # √(IRLS weights); 1 for least squares
+
+    def plain_residual(self, x: np.ndarray) -> np.ndarray:
+        """The residual without IRLS weights."""
+        return self.w * (self.y - simulate_readings(self.machine, self.params, self.delta(x), self.plan).reshape(-1))
 
     def delta(self, x: np.ndarray) -> np.ndarray:
         d = self.delta0.copy()
@@ -173,12 +210,12 @@ class _Model:
 
     def residual(self, x: np.ndarray) -> np.ndarray:
         self.n_eval += 1
-        return self.w * (self.y - simulate_readings(self.machine, self.params, self.delta(x), self.plan).reshape(-1))
+        return self.rw * self.plain_residual(x)
 
     def jac(self, x: np.ndarray) -> np.ndarray:
         """∂residual/∂x = −W J_b S."""
         J = jacobian_at(self.machine, self.params, self.plan, self.delta(x))
-        return -(self.w[:, None] * J[:, self.base]) * self.s[None, :]
+        return -((self.rw * self.w)[:, None] * J[:, self.base]) * self.s[None, :]
 
 
 def _check_measured(plan: Plan, measured: np.ndarray, source: str) -> np.ndarray:
@@ -236,6 +273,71 @@ def _robust(model: _Model, x: np.ndarray, loss: str, f_scale: float | None, tol:
         raise NumericalError(f"robust identification (loss {loss}) did not converge ({res.message.strip()}); "
                                "try another --loss or a larger f_scale")
     return res.x, int(res.nfev)
+
+
+def robust_scale(r: np.ndarray) -> float:
+    """ŝ = 1.4826 · median |r − median r| (MAD; consistent for normal noise)."""
+    return 1.4826 * float(np.median(np.abs(r - np.median(r))))
+
+
+def robust_weights(u: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """IRLS weights w = ψ(u)/u, ψ(u) and ψ'(u) of the standardised residuals u = r/ŝ (:data:`ROBUST`): Huber
+    ψ = clip(u, ±c); Tukey's biweight ψ = u (1 − (u/c)²)² for |u| < c, else 0."""
+    c = ROBUST[kind]
+    a = np.abs(u)
+    if kind == "huber":
+        inside = a <= c
+        psi = np.clip(u, -c, c)
+        return np.where(inside, 1.0, c / np.maximum(a, 1e-300)), psi, inside.astype(float)
+    z = np.where(a < c, 1.0 - (u / c) ** 2, 0.0)
+    return z ** 2, u * z ** 2, np.where(a < c, z * (1.0 - 5.0 * (u / c) ** 2), 0.0)
+
+
+def robust_covariance(J: np.ndarray, r: np.ndarray, scale: float, kind: str) -> tuple[np.ndarray, float]:
+    """Huber's covariance of an M-estimate (Huber 1981, Robust Statistics, §7.6; statsmodels' RLM "H1"):
+
+        Σ = K² · [Σ ψ(u_i)² / (m − p)] / [(Σ ψ'(u_i) / m)²] · ŝ² (JᵀJ)⁻¹,   K = 1 + (p/m) var ψ' / (mean ψ')²,
+
+    u = r/ŝ, J (m, p) the Jacobian without IRLS weights. Returns (Σ, s_eff) with s_eff the scale that replaces s
+    in s²(JᵀJ)⁻¹ (for normal noise without outliers s_eff ≈ s)."""
+    m, p = J.shape
+    _, psi, dpsi = robust_weights(r / scale, kind)
+    mean = float(np.mean(dpsi))
+    if not mean > 0:
+        from pkmstiff.errors import NumericalError
+        raise NumericalError(f"robust identification ({kind}): no reading inside the weight function's core; "
+                             "the residual scale is degenerate")
+    K = 1.0 + p / m * float(np.var(dpsi)) / mean ** 2
+    s_eff = scale * K * float(np.sqrt(np.sum(psi ** 2) / (m - p))) / mean
+    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    Vs = Vt.T / sv[None, :]
+    return s_eff ** 2 * (Vs @ Vs.T), s_eff
+
+
+def irls(residual: Callable[[np.ndarray], np.ndarray], set_weights: Callable[[np.ndarray], None],
+         solve: Callable[[np.ndarray], tuple[np.ndarray, int]], x: np.ndarray, kind: str
+         ) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """Iteratively reweighted least squares (module docstring): ``residual(x)`` the plain residual,
+    ``set_weights(√w)`` installs the row weights of the next ``solve(x) -> (x, evaluations)``. Starts from ``x``
+    (the least-squares solution). Returns (x, weights, ŝ, evaluations)."""
+    if kind not in ROBUST:
+        raise InputError("--robust", "robust", f"one of {', '.join(ROBUST)}", kind)
+    w = np.ones(residual(x).size)
+    evals = 0
+    for _ in range(ROBUST_ITERATIONS):
+        r = residual(x)
+        scale = robust_scale(r)
+        if not scale > 0:
+            break
+        w_new = robust_weights(r / scale, kind)[0]
+        if np.max(np.abs(w_new - w)) <= ROBUST_TOL:
+            break
+        w = w_new
+        set_weights(np.sqrt(w))
+        x, n = solve(x)
+        evals += n
+    r = residual(x)
+    return x, w, robust_scale(r), evals
 
 
 def _minimax(model: _Model, x: np.ndarray, max_iter: int = 30, radius: float = 0.1) -> tuple[np.ndarray, int]:
@@ -297,16 +399,20 @@ def identify(machine: Machine, params: ParameterSet, plan: Plan, measured: np.nd
              base: np.ndarray | None = None, tol: float = 1e-12, max_iter: int = 50,
              outlier_threshold: float = 3.0, bounds: float = 5.0, seed: int | None = 0,
              de_maxiter: int = 200, source: str = "measurement",
-             ident: Identifiability | None = None) -> Identification:
+             ident: Identifiability | None = None, robust: str | None = None) -> Identification:
     """Identify the base parameters of ``params`` from ``measured`` readings (N, k) of ``plan`` (SI) (Szatmári
     §4.6; see the module docstring). ``base`` (indices) overrides the base parameters of the identifiability
     analysis; ``delta0`` is the start (default zero), also the value of the parameters held fixed. ``ident`` is the
     identifiability of ``plan`` with ``params`` when already computed (it depends on neither the readings nor the
-    start, so repeated identifications of one plan share it)."""
+    start, so repeated identifications of one plan share it). ``robust`` (``huber``, ``tukey``) down-weights
+    outliers by IRLS after the least-squares solution (module docstring)."""
     if method not in METHODS:
         raise InputError(source, "method", f"one of {', '.join(METHODS)}", method)
     if loss not in LOSSES:
         raise InputError(source, "loss", f"one of {', '.join(LOSSES)}", loss)
+    if robust is not None and (robust not in ROBUST or loss != "linear" or method not in ("lm", "gauss-newton")):
+        raise InputError(source, "robust", f"one of {', '.join(ROBUST)} with --loss linear and --method lm or "
+                                           "gauss-newton", f"{robust} with --loss {loss}, --method {method}")
     y = _check_measured(plan, measured, source)
     ident = identifiability(machine, params, plan) if ident is None else ident
     b = np.array([params.index(nm) for nm in ident.base_parameters], dtype=int) if base is None else \
@@ -336,6 +442,15 @@ def identify(machine: Machine, params: ParameterSet, plan: Plan, measured: np.nd
         else:
             xg = _global(model, x0, bounds, seed, de_maxiter)
             x, it = _lm(model, xg, tol, max_iter * (b.size + 1))
+        weights = scale = None
+        if robust is not None:
+            def set_weights(rw: np.ndarray) -> None:
+                model.rw = rw
+
+            x, weights, scale, it2 = irls(model.plain_residual, set_weights,
+                                          lambda xs: _lm(model, xs, tol, max_iter * (b.size + 1)), x, robust)
+            it += it2
+            model.rw = np.ones(model.y.size)  # residuals and Jacobian of the result: without IRLS weights
     except NumericalError:  # the solver's own failure: its message says what to try
         raise
     except PkmstiffError as exc:
@@ -352,7 +467,8 @@ def identify(machine: Machine, params: ParameterSet, plan: Plan, measured: np.nd
     cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
     res = Identification(machine=machine, params=params, plan=plan, method=method, loss=loss, delta=delta, base=b,
                          rank=int(b.size), condition_number=cond, gauge_freedoms=ident.gauge_freedoms,
-                         residual_before=r_before, residual_after=r_after, J=Jw, iterations=int(it))
+                         residual_before=r_before, residual_after=r_after, J=Jw, iterations=int(it), robust=robust,
+                         robust_weights=weights, robust_scale=scale)
     res.outliers = outlier_report(res, outlier_threshold)
     return res
 

@@ -79,9 +79,23 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan,
     """Analytic identification Jacobian of ``plan`` on ``machine`` for the parameters ``params`` at the nominal
     geometry (see the module docstring), shape (N k, n); k readings per pose. Backlash columns
     (:mod:`pkmstiff.calibration.backlash`, ∂q_i/∂b_i = s_i/2) use the drives' directions of motion ``signs``
-    (N, n), by default those of ``machine``'s inverse kinematics along the plan's runs."""
+    (N, n), by default those of ``machine``'s inverse kinematics along the plan's runs. A plan of several set-ups
+    (:class:`~pkmstiff.calibration.setups.PlanSet`) stacks the rows of its parts, each with the machine's columns
+    and its own set-up's (``signs`` per part from its own runs)."""
     if params.machine != machine.name or params.kind != machine.kind:
         raise ArgumentError(f"error model of '{params.machine}' used with machine '{machine.name}'")
+    from pkmstiff.calibration.setups import PlanSet, parts, placed_ball_jacobian
+
+    if isinstance(plan, PlanSet):
+        k = plan.instrument.n_readings
+        J = np.zeros((plan.n_readings, params.n))
+        for part, sub, idx, rows in parts(plan, params):
+            J[rows.start * k:rows.stop * k, idx] = identification_jacobian(machine, sub, part).J
+        inst = plan.instrument
+        return IdentificationJacobian(J=J, params=params, plan_name=plan.name, instrument=inst,
+                                      n_poses=plan.n_poses, reading_names=inst.reading_names,
+                                      reading_units=inst.reading_units,
+                                      row_scale=reading_weights(machine, inst, plan.n_poses))
     x = as_poses(plan.poses, f"plan '{plan.name}'")
     N, n_ch = x.shape[0], machine.n_chains
     inst = plan.instrument
@@ -144,6 +158,9 @@ def identification_jacobian(machine: Machine, params: ParameterSet, plan: Plan,
             c = params.chain[idx]
             J[:, :, idx] = -LamT[:, c, :].transpose(0, 2, 1) * g_all[:, c][:, None, :]
     inst.setup_jacobian(J, params, setup, R, m)
+    if setup.placing_pose is not None:  # r = |m - s(p)|: the fixed ball moves with the machine that placed it
+        u = (m - setup.fixed_ball) / np.linalg.norm(m - setup.fixed_ball, axis=1)[:, None]
+        J[:, 0, :] -= u @ placed_ball_jacobian(machine, params, setup)
     names, units = inst.reading_names, inst.reading_units
     row_scale = reading_weights(machine, inst, N)
     return IdentificationJacobian(J=J.reshape(N * k, params.n), params=params, plan_name=plan.name, instrument=inst,

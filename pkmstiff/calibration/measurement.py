@@ -9,7 +9,7 @@ import numpy as np
 from pkmstiff.calibration.backlash import drive_offsets, has_backlash, held_signs, plan_run_starts
 from pkmstiff.calibration.instruments import readings
 from pkmstiff.calibration.parameters import ParameterSet
-from pkmstiff.calibration.perturb import perturbed_machine, perturbed_state
+from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan
 from pkmstiff.errors import InadmissibleError, NumericalError
 from pkmstiff.kinematics import as_poses, forward_kinematics, inverse_kinematics
@@ -49,9 +49,14 @@ def simulate_readings(machine: Machine, params: ParameterSet, delta: np.ndarray,
     """Readings (N, k) of the plan's instrument on the machine with errors ``delta`` (machine and set-up errors),
     noise-free (Szatmári §4.2.4). A zero ``delta`` gives the nominal readings (ball bar: the bar length)."""
     delta = params.check_vector(delta)
+    from pkmstiff.calibration.setups import PlanSet, actual_state, parts
+
+    if isinstance(plan, PlanSet):
+        return np.vstack([simulate_readings(machine, sub, delta[idx], part)
+                          for part, sub, idx, _ in parts(plan, params)])
     x = as_poses(plan.poses)
     reached = x if not np.any(delta[params.chain >= 0]) else reached_poses(machine, params, delta, x,
                                                                             starts=plan_run_starts(plan))
     R = cardan_matrix(reached[:, 3], reached[:, 4], reached[:, 5])
     Rc = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
-    return readings(plan.setup, perturbed_state(plan.setup, params, delta), reached[:, :3], R, Rc)
+    return readings(plan.setup, actual_state(machine, params, delta, plan.setup), reached[:, :3], R, Rc)

@@ -35,6 +35,8 @@ from pkmstiff.errors import InadmissibleError, InputError
 from pkmstiff.machine import Machine
 
 OBJECTIVES = ("cond", "orthogonality", "O1", "O2", "O3", "O4", "O5")
+#: orientation nodes per turn of the hemisphere spiral when none are given (:func:`default_node_count`)
+NODES_PER_TURN = 6
 
 
 @dataclass
@@ -59,6 +61,8 @@ class PlanOptimisation:
     distinct: list[Optimum]
     best_plan: Plan | None = None
     notes: list[str] = field(default_factory=list)
+    reference_value: float | None = None  # Ω of the reference plan (the unoptimised default path), if given
+    kept_reference: bool = False  # the reference was at least as good as every optimum: it is the best plan
 
     @property
     def best(self) -> Optimum:
@@ -219,7 +223,9 @@ def objective_label(objective: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class HemisphereSpec:
-    """The fixed part of a hemisphere plan whose orientation nodes are optimised."""
+    """The fixed part of a hemisphere plan whose orientation nodes are optimised; ``tilt``/``torsion`` the
+    amplitudes of the default orientation schedule of :func:`~.plans.hemisphere_plan` (the plan without nodes,
+    :meth:`default_path`)."""
 
     setup: object
     n: int = 240
@@ -228,10 +234,35 @@ class HemisphereSpec:
     side: float = 1.0
     max_tilt: float = np.radians(25)
     max_torsion: float = np.radians(25)
+    tilt: float = np.radians(20)
+    torsion: float = np.radians(15)
 
     def plan(self, nodes: np.ndarray, name: str = "hemisphere") -> Plan:
         return hemisphere_plan(self.setup, n=self.n, turns=self.turns, polar=self.polar, side=self.side,
                                nodes=np.asarray(nodes).reshape(-1, 3), name=name)
+
+    def default_path(self, name: str = "hemisphere, default orientation schedule") -> Plan:
+        """The same path with the default orientation schedule (no nodes) of amplitudes ``tilt``, ``torsion``."""
+        return hemisphere_plan(self.setup, n=self.n, turns=self.turns, polar=self.polar, side=self.side,
+                               tilt=self.tilt, torsion=self.torsion, name=name)
+
+
+def default_schedule(plan: Plan, side: float) -> tuple[float, float]:
+    """(tilt, torsion) in rad of the default orientation schedule of the ball bar's default hemisphere ``plan``
+    (:data:`~pkmstiff.calibration.instruments.ball_bar.DEFAULT_SCHEDULES`, the one that rebuilds its poses)."""
+    from pkmstiff.calibration.instruments.ball_bar import DEFAULT_SCHEDULES
+
+    for t, d in DEFAULT_SCHEDULES:
+        p = hemisphere_plan(plan.setup, n=plan.n_poses, side=side, tilt=np.radians(t), torsion=np.radians(d))
+        if np.allclose(p.poses, plan.poses, rtol=0.0, atol=1e-12):
+            return float(np.radians(t)), float(np.radians(d))
+    raise InputError(plan.name, "plan", "the default hemisphere plan of a ball bar", "another plan")
+
+
+def default_node_count(turns: float) -> int:
+    """Orientation nodes of a hemisphere path when none are given (the rule measured in
+    docs/user-guide/calibration-simulation.md, "How many nodes")."""
+    return NODES_PER_TURN * max(1, int(np.ceil(turns)))
 
 
 def start_nodes(k: int, tilt: float, torsion: float) -> np.ndarray:
@@ -252,14 +283,23 @@ def _admissible(machine: Machine, plan: Plan) -> bool:
 
 def optimise_hemisphere(machine: Machine, params: ParameterSet, spec: HemisphereSpec, nodes0: np.ndarray,
                         objective: str = "orthogonality", starts: int = 3, seed: int = 0, max_iter: int = 15,
-                        step_max: float = np.radians(5), mu: float = 1e-6) -> PlanOptimisation:
+                        step_max: float = np.radians(5), mu: float = 1e-6,
+                        reference: Plan | None = None) -> PlanOptimisation:
     """Optimise the orientation nodes of a hemisphere path (Szatmári §4.4.3, eq. 4.8 for ``orthogonality``):
-    bounds 0 ≤ B ≤ max_tilt, |D| ≤ max_torsion by a log barrier, admissibility of every pose by rejection."""
+    bounds 0 ≤ B ≤ max_tilt, |D| ≤ max_torsion by a log barrier, admissibility of every pose by rejection.
+
+    ``reference`` (e.g. :meth:`HemisphereSpec.default_path`, the unoptimised default path on the same sampling):
+    judged on the same base-parameter columns; when no optimum beats it, it is the best plan
+    (``kept_reference``), so the result is never worse than the reference either (issue 26 item 7)."""
     nodes0 = np.asarray(nodes0, float)
     plan0 = spec.plan(nodes0)
     if not _admissible(machine, plan0):
         check_plan(machine, plan0)  # raises the one-line reason
-    cols = base_columns(machine, params, plan0)
+    if reference is not None and not _admissible(machine, reference):
+        reference = None
+    # the base parameters every plan is judged on: the reference's (the default path sees all it can), else the
+    # start's (a start with few nodes may see fewer)
+    cols = base_columns(machine, params, plan0 if reference is None else reference)
 
     def f(x):  # eq. 4.8 on the plain maximum: its central-difference gradient is that of the active entry
         return plan_objective(machine, params, spec.plan(x), objective, cols)
@@ -282,7 +322,15 @@ def optimise_hemisphere(machine: Machine, params: ParameterSet, spec: Hemisphere
     start_value = f0
     distinct = _distinct(runs, rtol=1e-6)  # entries of O near 1 differ in the 4th to 6th digit
     best = spec.plan(distinct[0].x, name=f"hemisphere, optimised nodes ({objective})")
-    return PlanOptimisation(objective, start_value, runs, distinct, best)
+    out = PlanOptimisation(objective, start_value, runs, distinct, best)
+    if reference is not None:
+        out.reference_value = plan_objective(machine, params, reference, objective, cols)
+        if out.reference_value <= out.best.value:
+            out.best_plan, out.kept_reference = reference, True
+            out.notes.append(f"no optimum beats the reference plan '{reference.name}' ({objective} "
+                             f"{objective_label(objective, out.reference_value):.6g} against "
+                             f"{objective_label(objective, out.best.value):.6g}): the reference is kept")
+    return out
 
 
 # ------------------------------------------------------------------------------------------- pose sets
@@ -398,9 +446,10 @@ def optimise_pendulum(p: tuple[float, float] = (1.0, 1.0), measurements: int = 2
     return PlanOptimisation("cond", f0, runs, distinct)
 
 
-__all__ = ("OBJECTIVES", "HemisphereSpec", "Optimum", "PlanOptimisation", "armijo_minimise", "base_columns",
-           "multistart", "objective_label", "optimise_hemisphere", "optimise_pendulum", "optimise_pose_set",
-           "pendulum_cond", "plan_objective", "plan_toml", "start_nodes")
+__all__ = ("NODES_PER_TURN", "OBJECTIVES", "HemisphereSpec", "Optimum", "PlanOptimisation", "armijo_minimise",
+           "base_columns", "default_node_count", "default_schedule", "multistart", "objective_label",
+           "optimise_hemisphere", "optimise_pendulum", "optimise_pose_set", "pendulum_cond", "plan_objective",
+           "plan_toml", "start_nodes")
 
 
 # ------------------------------------------------------------------------------------------- plan files
@@ -417,7 +466,8 @@ def _q(v: float, unit: str, scale: float) -> str:
 def plan_toml(plan: Plan, name: str, description: str = "", hemisphere: HemisphereSpec | None = None,
               nodes: np.ndarray | None = None) -> str:
     """A plan file :func:`~.plans.read_plan` reads back to the same poses: a hemisphere path with its orientation
-    nodes (deg), or the poses (platform origin in mm, Cardan angles in deg, full precision)."""
+    nodes (deg) or, without ``nodes``, with its default schedule (``tilt``, ``torsion``), or the poses (platform
+    origin in mm, Cardan angles in deg, full precision)."""
     st = plan.setup
     lines = ["[plan]", f"name = {name!r}".replace("'", '"'), f'instrument = "{st.instrument.kind}"']
     if description:
@@ -425,13 +475,14 @@ def plan_toml(plan: Plan, name: str, description: str = "", hemisphere: Hemisphe
     lines += ["", "[setup]", "target = [" + ", ".join(_q(v, "mm", 1e-3) for v in st.target) + "]"]
     lines += st.instrument.setup_toml(st, _q)
     lines += ["", "[[paths]]"]
-    if hemisphere is not None and nodes is not None:
+    if hemisphere is not None:
         h = hemisphere
         lines += ['kind = "hemisphere"', f"points = {h.n}", f"turns = {_num(h.turns)}",
                   f"polar_min = {_q(h.polar[0], 'deg', np.pi / 180)}",
-                  f"polar_max = {_q(h.polar[1], 'deg', np.pi / 180)}", f"side = {_num(h.side)}",
-                  "nodes = [" + ", ".join("[" + ", ".join(_q(v, "deg", np.pi / 180) for v in row) + "]"
-                                          for row in np.asarray(nodes).reshape(-1, 3)) + "]"]
+                  f"polar_max = {_q(h.polar[1], 'deg', np.pi / 180)}", f"side = {_num(h.side)}"]
+        lines += [f"tilt = {_q(h.tilt, 'deg', np.pi / 180)}", f"torsion = {_q(h.torsion, 'deg', np.pi / 180)}"] \
+            if nodes is None else ["nodes = [" + ", ".join("[" + ", ".join(_q(v, "deg", np.pi / 180) for v in row)
+                                                            + "]" for row in np.asarray(nodes).reshape(-1, 3)) + "]"]
     else:
         x = plan.poses
         lines += ['kind = "poses"',

@@ -14,9 +14,11 @@ tilt-and-torsion form without a singularity at B = 0).
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +30,9 @@ from pkmstiff.kinematics import as_poses
 from pkmstiff.kinematics.rotation import cardan_angles
 from pkmstiff.machine import Machine
 from pkmstiff.units import parse_quantity
+
+if TYPE_CHECKING:
+    from pkmstiff.calibration.setups import PlanSet
 
 
 @dataclass(frozen=True)
@@ -325,9 +330,10 @@ def default_plan(machine: Machine, kind: Instrument | str) -> Plan:
 
 # ---------------------------------------------------------------------------------------------- TOML plans
 
-_PLAN_KEYS = {"plan", "setup", "paths"}
+_PLAN_KEYS = {"plan", "setup", "setups", "paths"}
 _PLAN_TABLE = {"name", "instrument", "description"}
-_SETUP_KEYS = {"target", "fixed_ball", "bar_length", "measuring_range", "max_mount_angle"}
+_SETUP_KEYS = {"target", "fixed_ball", "bar_length", "measuring_range", "max_mount_angle",
+               "placed_by_machine"}
 _PATH_KEYS = {"circle": {"kind", "label", "plane", "normal", "points", "centre", "radius", "tilt", "tilt_azimuth",
                          "torsion", "nodes"},
               "hemisphere": {"kind", "label", "points", "turns", "polar_min", "polar_max", "tilt", "torsion", "side",
@@ -337,8 +343,9 @@ _PATH_KEYS = {"circle": {"kind", "label", "plane", "normal", "points", "centre",
 _KINDS = "circle, hemisphere, grid or poses"
 
 
-def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None) -> Plan:
-    """Read a TOML plan (format in docs/user-guide/calibration-identifiability.md); SI for bare numbers.
+def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None) -> Plan | PlanSet:
+    """Read a TOML plan (format in docs/user-guide/calibration-identifiability.md); SI for bare numbers. A plan
+    with ``[[setups]]`` tables is a :class:`~pkmstiff.calibration.setups.PlanSet` (its paths built per set-up).
     ``example:NAME`` reads a bundled example plan (:mod:`pkmstiff.calibration.examples`). ``check(poses, key)``
     is called with the running pose count before each path is built (a cost check may refuse it by raising)."""
     from pkmstiff.calibration.examples import resolve
@@ -373,7 +380,48 @@ def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None)
             raise InputError(src, prefix + key, "a whole number of points", table[key])
         return int(v)
 
-    setup = inst.setup_from_toml(st, q, q(st, "target", "m", "setup.", np.zeros(3), (3,)))
+    setups = _setups(raw, st, inst, q, src)
+    plans = [_paths(raw, setup, q, count, check, src, str(pt.get("name", Path(src).stem))) for setup in setups]
+    if len(plans) == 1:
+        return plans[0]
+    from pkmstiff.calibration.setups import PlanSet
+
+    return PlanSet(plans[0].name, tuple(Plan(f"{p.name}, set-up {k + 1}", p.setup, p.poses, p.segments)
+                                        for k, p in enumerate(plans)))
+
+
+def _setups(raw: dict, st: dict, inst: Instrument, q: Callable, src: str) -> list[Setup]:
+    """The ``[setup]`` table, or one set-up per ``[[setups]]`` table (its keys override ``[setup]``'s; issue 26:
+    several fixed-ball positions, bar lengths, ball offsets or tracker stations in one plan)."""
+    tables = raw.get("setups")
+    if tables is None:
+        items = [(st, "setup.")]
+    elif not isinstance(tables, list) or not tables or not all(isinstance(t, dict) for t in tables):
+        raise InputError(src, "setups", "[[setups]] tables (keys of [setup] that change per set-up)", tables)
+    else:
+        items = [({**st, **check_keys(t, _SETUP_KEYS, src, f"setups[{i + 1}].")}, f"setups[{i + 1}].")
+                 for i, t in enumerate(tables)]
+    out = []
+    for table, pre in items:
+        def qk(tab, key, unit, prefix, *a, _pre=pre, **kw):
+            return q(tab, key, unit, _pre, *a, **kw)
+
+        setup = inst.setup_from_toml(table, qk, qk(table, "target", "m", pre, np.zeros(3), (3,)))
+        placed = table.get("placed_by_machine", False)
+        if not isinstance(placed, bool):
+            raise InputError(src, pre + "placed_by_machine", "true or false", placed)
+        if placed:
+            if setup.fixed_ball is None:
+                raise InputError(src, pre + "placed_by_machine", "a ball-bar set-up (a fixed ball)", inst.kind)
+            place = poses_for_target(setup.fixed_ball[None, :], np.eye(3)[None], setup.target)[0]
+            setup = dataclasses.replace(setup, placing_pose=place)
+        out.append(setup)
+    return out
+
+
+def _paths(raw: dict, setup: Setup, q: Callable, count: Callable, check: Callable | None, src: str,
+           name: str) -> Plan:
+    """The ``[[paths]]`` of a plan file built for one set-up."""
     paths = raw.get("paths")
     if not isinstance(paths, list) or not paths:
         raise InputError(src, "paths", "at least one [[paths]] table", paths)
@@ -431,7 +479,7 @@ def read_plan(path: str | Path, check: Callable[[int, str], None] | None = None)
         plan = part if plan is None else plan.concat(part)
         total = plan.n_poses
     assert plan is not None
-    return Plan(str(pt.get("name", Path(src).stem)), setup, plan.poses, plan.segments)
+    return Plan(name, setup, plan.poses, plan.segments)
 
 
 def _path_poses(kind: str, p: dict, q: Callable, pre: str) -> int:

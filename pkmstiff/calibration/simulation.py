@@ -35,7 +35,6 @@ from pkmstiff.calibration.backlash import held_signs
 from pkmstiff.calibration.instruments import BallbarDevice, Setup, TrackerDevice, readings, target_points
 from pkmstiff.calibration.measurement import reached_poses
 from pkmstiff.calibration.parameters import ParameterSet
-from pkmstiff.calibration.perturb import perturbed_state
 from pkmstiff.calibration.plans import Plan, poses_for_target
 from pkmstiff.errors import InadmissibleError, InputError
 from pkmstiff.kinematics import as_poses, inverse_jacobian, inverse_kinematics
@@ -268,7 +267,9 @@ def simulate(machine: Machine, params: ParameterSet, delta: np.ndarray, plan: Pl
         if options.backlash > 0:
             notes.append(f"reversal backlash {options.backlash * 1e6:g} µm per drive")
         o, R = displaced_frames(o, R, inverse_jacobian(machine, ik), dq)
-    state = perturbed_state(plan.setup, params, delta)
+    from pkmstiff.calibration.setups import actual_state
+
+    state = actual_state(machine, params, delta, plan.setup)
     if options.deflection == "gravity":  # the real (perturbed) machine deflects under its weight at reached poses
         from pkmstiff.calibration.deflection import deflect_frames, frame_deflection
         from pkmstiff.calibration.perturb import perturbed_machine

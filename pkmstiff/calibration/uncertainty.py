@@ -7,6 +7,8 @@ Linearised at the solution, with weighted Jacobian J (m × n_b, SI) of the base 
 (JᵀJ)⁻¹ is formed from the SVD of J (no normal equations). The Monte-Carlo check (Szatmári §5.4.2) adds
 normal noise of standard deviation s to the readings predicted at the solution, re-identifies with the linearised
 model (one least-squares solve per run, all runs at once) and compares the spread of the estimates with σ.
+A robust (IRLS) identification uses Huber's covariance of the M-estimate instead
+(:func:`~pkmstiff.calibration.identification.robust_covariance`; s is then its effective scale).
 """
 
 from __future__ import annotations
@@ -88,6 +90,10 @@ def uncertainty(res: Identification, monte_carlo: int = 0, seed: int | None = 0)
     """Covariance, σ and correlations of the identified base parameters; ``monte_carlo`` > 0 runs that many
     linearised Monte-Carlo re-identifications (Szatmári §5.4.2) and reports their spread."""
     Sigma, s, dof = covariance(res.J, res.residual_after, res.rank)
+    if res.robust is not None:  # M-estimate: Huber's sandwich covariance, not s²(JᵀJ)⁻¹ of the weighted fit
+        from pkmstiff.calibration.identification import robust_covariance
+
+        Sigma, s = robust_covariance(res.J, res.residual_after, res.robust_scale, res.robust)
     sigma = np.sqrt(np.diag(Sigma))
     corr = Sigma / np.outer(sigma, sigma)
     names = res.base_names

@@ -16,8 +16,10 @@ render.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -37,11 +39,12 @@ from pkmstiff.calibration.diagnostics import Candidate, FitDiagnostics, diagnose
 from pkmstiff.calibration.identifiability import Identifiability, check_identifiable, identifiability
 from pkmstiff.calibration.identification import Identification, ResidualStats, identify, jacobian_at
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
-from pkmstiff.calibration.jacobian import reading_weights
+from pkmstiff.calibration.jacobian import identification_jacobian, reading_weights
 from pkmstiff.calibration.measurement_file import Measurement, read_measurement
 from pkmstiff.calibration.parameters import ParameterSet, error_model, parse_with
 from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
+from pkmstiff.calibration.setups import PlanSet, setups_error_model
 from pkmstiff.calibration.uncertainty import Uncertainty, uncertainty
 from pkmstiff.errors import InputError, NumericalError
 from pkmstiff.machine import Machine
@@ -86,24 +89,46 @@ class IdentificationRun:
         return perturbed_machine(machine, self.params, delta)
 
 
-def identify_file(machine: Machine, measurements: str, *, meas: Measurement | None = None, method: str = "lm",
+def identify_file(machine: Machine, measurements: str | Sequence[str], *, meas: Measurement | None = None,
+                  method: str = "lm",
                   loss: str = "linear", frame: str = "cartesian", monte_carlo: int = 0, outlier_threshold: float = 3.0,
                   expected: str | None = None, deflection: str = "none", load: Any | None = None,
-                  with_: str | None = None) -> IdentificationRun:
+                  with_: str | None = None, robust: str | None = None) -> IdentificationRun:
     """Identify ``machine`` from the measurement file ``measurements`` (already read: ``meas``); ``expected``
     names the instrument the file must hold (``--instrument``); ``deflection="gravity"`` subtracts the predicted
     deflection (with the extra ``load`` at the target, N or N and N m) and analyses its bias; ``with_`` (``--with``
-    tokens, e.g. ``"bar-offset"``) adds the set-up parameters of the measurement to the unknowns."""
-    meas = read_measurement(measurements) if meas is None else meas
-    if expected is not None and instrument(expected) != meas.instrument:
-        raise InputError(measurements, "instrument", f"'{expected}' (--instrument), but the file holds "
-                                    f"{meas.instrument} readings (header instrument_type)", meas.instrument.kind)
+    tokens, e.g. ``"bar-offset"``) adds the set-up parameters of the measurement to the unknowns; ``robust``
+    (``huber``, ``tukey``) down-weights outliers (IRLS, :func:`~pkmstiff.calibration.identification.identify`).
+
+    Several files (``measurements`` a sequence; issue 26 item 3): one set-up each (fixed-ball position, bar length,
+    ball offset or tracker station), identified together — the machine's parameters once, the ``--with`` set-up
+    parameters per file (:mod:`pkmstiff.calibration.setups`); the diagnostics run on the stacked residuals with
+    the files' sample times laid end to end."""
+    paths = [measurements] if isinstance(measurements, str) else list(measurements)
+    metas = [read_measurement(p) if (meas is None or k) else meas for k, p in enumerate(paths)]
+    for p, mm in zip(paths, metas):
+        if expected is not None and instrument(expected) != mm.instrument:
+            raise InputError(p, "instrument", f"'{expected}' (--instrument), but the file holds "
+                                        f"{mm.instrument} readings (header instrument_type)", mm.instrument.kind)
+        if mm.instrument != metas[0].instrument:
+            raise InputError(p, "instrument_type", f"{metas[0].instrument} readings as {paths[0]} (one instrument "
+                                                   "per identification)", mm.instrument.kind)
+    if len(paths) > 1 and deflection != "none":
+        raise InputError("--deflection", "deflection", "'none' with several measurement files (the deflection "
+                                                       "is subtracted from one file's readings)", deflection)
+    meas = metas[0]
     blocks = parse_with(with_, meas.instrument)
-    plan, y = measurement_plan(meas, machine.name, measurements)
-    params = error_model(machine, frame=frame, setup=plan.setup, setup_blocks=blocks)
+    plans = [measurement_plan(mm, machine.name, p) for p, mm in zip(paths, metas)]
+    if len(plans) == 1:
+        plan, y = plans[0]
+    else:
+        plan = PlanSet(" + ".join(Path(p).name for p in paths), tuple(pl for pl, _ in plans))
+        y = np.vstack([yy for _, yy in plans])
+    measurements = paths[0] if len(paths) == 1 else ", ".join(paths)
+    params = setups_error_model(machine, plan, frame, blocks)
     ident = identifiability(machine, params, plan)
     check_identifiable(ident, measurements)  # an ill-posed measurement fails here, not after minutes of LM
-    kw = dict(loss=loss, outlier_threshold=outlier_threshold, source=measurements, ident=ident)
+    kw = dict(loss=loss, outlier_threshold=outlier_threshold, source=measurements, ident=ident, robust=robust)
     analysis = None
     if deflection == "gravity":
         analysis = deflection_analysis(machine, params, plan, y, method, load=load, **kw)
@@ -120,7 +145,8 @@ def identify_file(machine: Machine, measurements: str, *, meas: Measurement | No
                 return identify(machine, params, plan, yr, method, **kw).residual_after
             except NumericalError:  # diverged or not evaluable: the hypothesis does not fit
                 return None
-    diag = fit_diagnostics(machine, meas, plan, params, res, unc, refit)
+    diag = fit_diagnostics(machine, meas if len(metas) == 1 else _stacked_times(metas), plan, params, res, unc,
+                           refit)
     return IdentificationRun(measurements, meas, plan, y, params, ident, res, unc, analysis, diag)
 
 
@@ -135,8 +161,7 @@ def fit_diagnostics(machine: Machine, meas: Measurement, plan: Plan, params: Par
     todo = {tok: blk for tok, blk in inst.setup_tokens.items() if blk not in done}
     cands = []
     if todo:
-        full = error_model(machine, frame=params.frame, setup=plan.setup,
-                           setup_blocks=tuple(sorted(done)) + tuple(todo.values()))
+        full = setups_error_model(machine, plan, params.frame, tuple(sorted(done)) + tuple(todo.values()))
         d = np.zeros(full.n)
         d[full.indices(params.names)] = res.delta
         w = reading_weights(machine, inst, plan.n_poses)
@@ -150,7 +175,22 @@ def fit_diagnostics(machine: Machine, meas: Measurement, plan: Plan, params: Par
     return diagnose(res.J, res.residual_after, inst.reading_sigma(meas),
                     reading_weights(machine, inst, 1), unc.sigma, reading_names=inst.reading_names,
                     reading_units=inst.reading_units, t=np.asarray(meas.t, dtype=float), direction=direction,
-                    candidates=tuple(cands), refit_reversed=refit_reversed)
+                    candidates=tuple(cands), refit_reversed=refit_reversed, robust_weights=res.robust_weights)
+
+
+def _stacked_times(metas: Sequence[Measurement]) -> Measurement:
+    """The first measurement with the sample times and directions of all laid end to end (each file starts one
+    sample interval after the previous one ends): what the diagnostics of a stacked identification read (only
+    its times, directions and device figures)."""
+    t, off = [], 0.0
+    for mm in metas:
+        tt = np.asarray(mm.t, dtype=float)
+        t.append(tt - tt[0] + off)
+        off = t[-1][-1] + (1.0 / mm.sample_rate if getattr(mm, "sample_rate", 0) else 1.0)
+    dirs = [getattr(mm, "direction", None) for mm in metas]
+    direction = None if any(d is None for d in dirs) else np.concatenate(dirs)
+    extra = {"direction": direction} if hasattr(metas[0], "direction") else {}
+    return dataclasses.replace(metas[0], t=np.concatenate(t), **extra)
 
 
 @dataclass
@@ -247,7 +287,7 @@ def _circles(meas: BallbarMeasurement, plan: Plan, before: np.ndarray, after: np
 def run_calibration(machine: Machine, measurements: str, *, plan_path: str | None = None,
                     validate: Sequence[str] = (), method: str = "lm", loss: str = "linear",
                     frame: str = "cartesian", monte_carlo: int = 0, deflection: str = "none",
-                    with_: str | None = None) -> CalibrationRun:
+                    with_: str | None = None, robust: str | None = None) -> CalibrationRun:
     """Identify ``machine``'s base parameters from the ball-bar file ``measurements`` and check the result on every
     ``validate`` file (module docstring). ``plan_path`` (a plan file) is only described and drawn; the
     identification uses the commanded poses of the measurement. ``deflection="gravity"`` does what
@@ -265,7 +305,7 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
         vm = _ballbar_file(v)
         vals.append((v, vm, *measurement_plan(vm, machine.name, v)))
     run = identify_file(machine, measurements, meas=meas, method=method, loss=loss, frame=frame,
-                        monte_carlo=monte_carlo, deflection=deflection, with_=with_)
+                        monte_carlo=monte_carlo, deflection=deflection, with_=with_, robust=robust)
     blocks = parse_with(with_, meas.instrument)
     calibrated = run.calibrated_machine(machine)
     found = _circles(meas, run.plan, run.res.residual_before, run.res.residual_after, measurements)
@@ -282,5 +322,38 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
                           plan_file=plan_file, plan_path=plan_path, frame=frame, with_=with_)
 
 
-__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "fit_diagnostics", "identify_file",
-           "run_calibration"]
+
+
+def check_diagnostics(machine: Machine, controller: Machine, meas: Measurement, plan: Plan, residual: np.ndarray,
+                      blocks: tuple[str, ...] = ()) -> FitDiagnostics:
+    """The model-fit diagnostics of ``calibrate check`` (:mod:`pkmstiff.calibration.diagnostics`): the residual of
+    a machine file against a measurement, with nothing fitted but the set-up ``blocks`` (``--with``; their columns
+    at the nominal set-up); the set-up parameters not fitted are tested as candidates, as in ``identify``."""
+    inst = plan.instrument
+    full = error_model(machine, setup=plan.setup, setup_blocks=tuple(inst.setup_tokens.values()))
+    w = reading_weights(machine, inst, plan.n_poses)
+    Jall = w[:, None] * identification_jacobian(controller, dataclasses.replace(full, machine=controller.name),
+                                                plan).J
+    fitted = np.flatnonzero(np.isin(full.blocks, blocks) & (full.chain < 0))
+    J = Jall[:, fitted]
+    psig = np.ones(fitted.size)
+    if fitted.size:
+        from pkmstiff.calibration.uncertainty import covariance
+
+        psig = np.sqrt(np.diag(covariance(J, residual, fitted.size)[0]))
+    cands = []
+    for tok, blk in inst.setup_tokens.items():
+        if blk in blocks:
+            continue
+        idx = np.flatnonzero(full.mask(blk))
+        cands.append(Candidate(f"setup:{tok}", f"set-up parameter {tok} not fitted", Jall[:, idx],
+                               tuple(full.names[i] for i in idx), tuple(full.units[i] for i in idx),
+                               f"check with --with {tok}"))
+    return diagnose(J, residual, inst.reading_sigma(meas), reading_weights(machine, inst, 1), psig,
+                    reading_names=inst.reading_names, reading_units=inst.reading_units,
+                    t=np.asarray(meas.t, dtype=float), direction=getattr(meas, "direction", None),
+                    candidates=tuple(cands))
+
+
+__all__ = ["DEFLECTION_LOADS", "CalibrationRun", "IdentificationRun", "Validation", "check_diagnostics",
+           "fit_diagnostics", "identify_file", "run_calibration"]

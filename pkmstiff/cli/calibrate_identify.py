@@ -17,7 +17,8 @@ from pkmstiff.cli.edges import check_number, check_output_file
 def identify_report(machine_name: str, measurements: str, method: str = "lm", loss: str = "linear",
                     out: str | None = None, monte_carlo: int = 0, frame: str = "cartesian",
                     outlier_threshold: float = 3.0, instrument: str | None = None, deflection: str = "none",
-                    load: str | None = None, with_: str | None = None, accept_misfit: bool = False) -> dict:
+                    load: str | None = None, with_: str | None = None, accept_misfit: bool = False,
+                    robust: str | None = None) -> dict:
     """Identify, estimate the uncertainty and (``out``) write the calibrated machine; a JSON-ready dict.
     The model-fit diagnostics are under ``diagnostics``; when the fit is inconsistent the calibrated machine is
     written only with ``accept_misfit``.
@@ -33,9 +34,11 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
         raise InputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
     wrench = parse_load(load)
     machine = load_machine(machine_name)
-    run = identify_file(machine, measurements, method=method, loss=loss, frame=frame, monte_carlo=monte_carlo,
+    files = measurements if isinstance(measurements, str) else list(measurements)
+    measurements = files if isinstance(files, str) else files[0] if len(files) == 1 else ", ".join(files)
+    run = identify_file(machine, files, method=method, loss=loss, frame=frame, monte_carlo=monte_carlo,
                         outlier_threshold=outlier_threshold, expected=instrument, deflection=deflection, load=wrench,
-                        with_=with_)
+                        with_=with_, robust=robust)
     res, unc, defl = run.res, run.unc, run.deflection
     rep = res.to_dict()
     if defl is not None:
@@ -45,7 +48,7 @@ def identify_report(machine_name: str, measurements: str, method: str = "lm", lo
     rep["diagnostics"] = run.diagnostics.to_dict()
     if out and (run.diagnostics.consistent or accept_misfit):
         subtracted = "none" if defl is None else "gravity" + ("" if load is None else f" + load {load} (N, N m)")
-        write_calibrated_machine(out, res, unc, measurements, deflection=subtracted)
+        write_calibrated_machine(out, res, unc, files, deflection=subtracted)
         rep["calibrated_machine_file"] = out
     return rep
 
@@ -59,6 +62,15 @@ def parse_load(text: str | None):
     n = text.count(",") + 1
     return np.array(parse_numbers(text, n if n in (3, 6) else 3, "--load", "Fx,Fy,Fz [N] or Fx,Fy,Fz,Mx,My,Mz "
                                   "[N, N m]", count_text="3 or 6"))
+
+
+def add_robust_option(p: argparse.ArgumentParser) -> None:
+    """``--robust huber|tukey`` of identify and report."""
+    from pkmstiff.calibration.identification import ROBUST
+
+    p.add_argument("--robust", choices=tuple(ROBUST), default=None,
+                   help="down-weight outliers by iteratively reweighted least squares (Huber or Tukey weights; "
+                        "sigma from Huber's covariance of the M-estimate); default: plain least squares")
 
 
 def _print_deflection(d: dict) -> None:
@@ -95,6 +107,9 @@ def _print_identify(rep: dict) -> None:
     print(f"largest correlation: {c['value']:.3f} ({' / '.join(c['pair'])})")
     if rep["outliers"]:
         print(f"outliers (|r| > threshold x s): {len(rep['outliers'])}, first at pose {rep['outliers'][0]['pose']}")
+    if "robust" in rep:
+        print(f"robust ({rep['robust']} weights, IRLS): scale {rep['robust_scale_um']:.4g} µm, "
+              f"{rep['down_weighted']} readings down-weighted below 1/2; sigma from Huber's covariance")
     if "deflection" in rep:
         _print_deflection(rep["deflection"])
     _print_diagnostics(rep["diagnostics"])
@@ -119,7 +134,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     check_number(args.outlier_threshold, "--outlier-threshold", 0, lo_open=True)
     rep = identify_report(args.machine, args.measurements, args.method, args.loss, args.out, args.monte_carlo,
                           args.frame, args.outlier_threshold, args.instrument, args.deflection, args.load,
-                          args.with_, args.accept_misfit)
+                          args.with_, args.accept_misfit, args.robust)
     if args.json:
         print(json.dumps(rep, indent=2, default=lambda o: o.tolist() if isinstance(o, np.ndarray) else str(o)))
     else:
@@ -140,13 +155,15 @@ MISFIT_EXIT = 4
 
 def check_report(machine_name: str, measurements: str, controller: str | None = None, deflection: str = "none",
                  load: str | None = None, with_: str | None = None) -> dict:
-    """Residuals of a machine file against a measurement (JSON-ready dict, µm); ``deflection="gravity"``
+    """Residuals of a machine file against a measurement (JSON-ready dict, µm) and their model-fit diagnostics
+    (key ``diagnostics``, :func:`~pkmstiff.calibration.workflow.check_diagnostics`); ``deflection="gravity"``
     subtracts the deflection of the machine under test at the poses it reaches from the readings first;
     ``with_`` (``--with`` tokens) fits those set-up parameters of the measurement first."""
     from pkmstiff.calibration.compensation import check, measurement_plan
     from pkmstiff.calibration.deflection import check_deflection, subtract_deflection
     from pkmstiff.calibration.measurement_file import read_measurement
     from pkmstiff.calibration.parameters import parse_with
+    from pkmstiff.calibration.workflow import check_diagnostics
     from pkmstiff.errors import InputError
     from pkmstiff.machine import load_machine
 
@@ -161,11 +178,15 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
     plan, y = measurement_plan(meas, ctrl.name, measurements)
     if deflection == "gravity":
         yc, dr = subtract_deflection(machine, ctrl, plan, y, wrench)
-        rep = check(machine, ctrl, plan, yc, blocks).to_dict()
+        res = check(machine, ctrl, plan, yc, blocks)
+        rep = res.to_dict()
         rep["deflection"] = {"model": deflection, "rms_reading_um": float(np.sqrt(np.mean(dr ** 2))) * 1e6,
                              "max_reading_um": float(np.max(np.abs(dr))) * 1e6}
-        return {"measurement_file": measurements, **rep}
-    return {"measurement_file": measurements, **check(machine, ctrl, plan, y, blocks).to_dict()}
+    else:
+        res = check(machine, ctrl, plan, y, blocks)
+        rep = res.to_dict()
+    rep["diagnostics"] = check_diagnostics(machine, ctrl, meas, plan, res.residual, blocks).to_dict()
+    return {"measurement_file": measurements, **rep}
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
@@ -182,6 +203,7 @@ def _cmd_check(args: argparse.Namespace) -> int:
             print("set-up fitted to the measurement: " + ", ".join(
                 f"{r['name']} {r['value_mm']:+.6f} mm" if "value_mm" in r else f"{r['name']} {r['value_mrad']:+.6f} mrad"
                 for r in rep["setup_fitted"]))
+        _print_diagnostics(rep["diagnostics"])
     return 0
 
 
@@ -197,10 +219,13 @@ def _add_identify(sub) -> None:
                                    "global stage with LM polish; sigma and correlations; optionally the "
                                    "calibrated machine file.")
     p.add_argument("machine", help="nominal machine (bundled name or machine file)")
-    p.add_argument("--measurements", required=True, metavar="MEAS.csv",
-                   help="measurement file (ball bar, tracker or pose; docs/user-guide/calibration-simulation.md)")
+    p.add_argument("--measurements", required=True, metavar="MEAS.csv", nargs="+",
+                   help="measurement file (ball bar, tracker or pose; docs/user-guide/calibration-simulation.md); "
+                        "several files (one set-up each: fixed-ball positions, bar lengths, tracker stations) are "
+                        "identified together")
     p.add_argument("--method", choices=METHODS, default="lm")
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
+    add_robust_option(p)
     p.add_argument("--out", metavar="CALIBRATED.toml", help="write the calibrated machine file")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check with N runs")

@@ -31,7 +31,7 @@ def report_command(args: argparse.Namespace) -> dict:
         require_structure_model(machine)
     run = run_calibration(machine, args.measurements, plan_path=args.plan, validate=args.validate or (),
                           method=args.method, loss=args.loss, frame=args.frame, monte_carlo=args.monte_carlo,
-                          deflection=args.deflection, with_=args.with_)
+                          deflection=args.deflection, with_=args.with_, robust=args.robust)
     paths = write_calibration_report(run, args.out, tolerance=tolerance)
     return {"machine": machine.name, "measurement_file": args.measurements, "n_readings": run.res.n_readings,
             "rank": run.res.rank, "n_parameters": run.params.n, "rms_before_um": run.run.before.rms * 1e6,
@@ -62,6 +62,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 def _add_report(sub) -> None:
     from pkmstiff.calibration.identification import LOSSES, METHODS
     from pkmstiff.cli.calibrate import add_with_option
+    from pkmstiff.cli.calibrate_identify import add_robust_option
 
     p = sub.add_parser("report", help="calibration report (HTML + Markdown): plan, identifiability, parameters, "
                                       "residuals, cross-validation",
@@ -79,6 +80,7 @@ def _add_report(sub) -> None:
                    help="measurement files not used for the identification (cross-validation)")
     p.add_argument("--method", choices=METHODS, default="lm")
     p.add_argument("--loss", choices=LOSSES, default="linear", help="robust loss (default linear: least squares)")
+    add_robust_option(p)
     p.add_argument("--frame", choices=("cartesian", "cylindrical"), default="cartesian")
     p.add_argument("--monte-carlo", type=int, default=0, metavar="N", help="Monte-Carlo check of sigma with N runs")
     p.add_argument("--deflection", choices=DEFLECTION_LOADS, default="none",

@@ -89,6 +89,32 @@ def simulate_command(args: argparse.Namespace) -> dict:
     for opt in ("sample_rate", "range", "resolution", "accuracy", "angle_accuracy"):
         check_number(getattr(args, opt, None), "--" + opt.replace("_", "-"), 0, lo_open=True)
     from pkmstiff.calibration import check_plan, read_plan
+    from pkmstiff.calibration.setups import PlanSet
+    from pkmstiff.machine import load_machine
+
+    machine = load_machine(args.machine)
+    plans = read_plan(args.plan, plan_check())
+    if not isinstance(plans, PlanSet):
+        return _simulate_one(args, machine, plans, args.out)
+    if raw is not None:
+        raise ArgumentError(f"calibrate simulate --raw: expected a plan of one set-up, found {plans.n_setups} "
+                            f"set-ups in {args.plan} (simulate each set-up's raw series from its own plan)")
+    outs = [out.with_name(f"{out.stem}_setup{k + 1}{out.suffix}") for k in range(plans.n_setups)]
+    for o in outs:  # every file is checked before the first is simulated
+        check_output_file(o, "--out (one file per set-up)", getattr(args, "force", False), (".csv",))
+        check_output_file(o.with_suffix(".json"), "--out (its header file)", getattr(args, "force", False),
+                          (".json",))
+    for part in plans.parts:
+        check_plan(machine, part)
+    return {"machine": machine.name, "plan": plans.name,
+            "setups": [_simulate_one(args, machine, part, str(o), k) for k, (part, o) in enumerate(zip(plans.parts,
+                                                                                                      outs))]}
+
+
+def _simulate_one(args: argparse.Namespace, machine, plan, out: str, k: int = 0) -> dict:
+    """``calibrate simulate`` of one set-up's plan into the file ``out``; set-up ``k`` draws its noise with the
+    seed ``--seed`` + k (independent noise per set-up)."""
+    from pkmstiff.calibration import check_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
         SimulationOptions,
@@ -98,12 +124,10 @@ def simulate_command(args: argparse.Namespace) -> dict:
         simulate,
         to_measurement,
     )
-    from pkmstiff.machine import load_machine
 
-    machine = load_machine(args.machine)
-    plan = read_plan(args.plan, plan_check())
     check_plan(machine, plan)
     inst = _instrument(args, plan)
+    raw = getattr(args, "raw", None)
     if raw is not None:  # raw ball-bar series along the plan's NC program (issue 26)
         from pkmstiff.cli.calibrate_import import simulate_raw_command
 
@@ -112,7 +136,8 @@ def simulate_command(args: argparse.Namespace) -> dict:
     dirs = tuple(d.strip() for d in args.directions.split(",") if d.strip())
     opts = SimulationOptions(feed=args.feed / 60e3, directions=dirs, noise=_noise(args.noise),
                              quantise=not args.no_quantise, backlash=args.backlash * 1e-6, drift_dT=args.drift,
-                             drift_tau=args.drift_tau, seed=args.seed, deflection=args.deflection)
+                             drift_tau=args.drift_tau,
+                             seed=None if args.seed is None else args.seed + k, deflection=args.deflection)
     params, delta = read_errors(args.errors, machine, plan)
     smp = sample_plan(plan, inst, opts)
     check_samples(machine, plan, smp)  # the poses between the plan's nodes, too
@@ -123,8 +148,8 @@ def simulate_command(args: argparse.Namespace) -> dict:
         raise ArgumentError(msg + (" (use --saturate to write them clipped at the range limits)"
                                       if saturates else ""))
     meas = to_measurement(machine, plan, res, inst, saturate=args.saturate)
-    write_measurement(args.out, meas)
-    rep = {"machine": machine.name, "plan": plan.name, "instrument": plan.instrument.kind, "out": str(args.out),
+    write_measurement(out, meas)
+    rep = {"machine": machine.name, "plan": plan.name, "instrument": plan.instrument.kind, "out": str(out),
            "n_samples": len(res.readings), "duration_s": float(res.samples.t[-1])}
     rep.update(plan.instrument.simulation_summary(plan, res))
     rep.update({"range_violations": int(res.violations.size), "noise_sigma_um": float(res.sigma.max() * 1e6),
@@ -147,23 +172,29 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     rep = simulate_command(args)
     if args.json:
         print(json.dumps(rep, indent=2))
-    elif "raw" in rep:
+        return 0
+    if "raw" in rep:
         print(f"{rep['machine']}: plan '{rep['plan']}' -> {len(rep['raw'])} raw series ({', '.join(rep['raw'])}): "
               f"{rep['n_samples']} samples at {rep['sample_rate_hz']:g} Hz, feed {rep['feed_mm_min']:g} mm/min "
               f"(noise sigma {rep['noise_sigma_um']:.3g} µm)")
-    else:
-        if "reading_min_um" in rep:
-            what = f"readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} µm"
-        else:
-            what = f"position error up to {rep['position_error_max_um']:.2f} µm" + (
-                f", orientation error up to {rep['orientation_error_max_urad']:.2f} µrad"
-                if "orientation_error_max_urad" in rep else "")
-        print(f"{rep['machine']}: plan '{rep['plan']}' -> {rep['out']}: {rep['n_samples']} samples over "
-              f"{rep['duration_s']:.1f} s, {what} (noise sigma {rep['noise_sigma_um']:.3g} µm)"
-              + (f", {rep['range_violations']} range violations clipped" if rep["range_violations"] else ""))
-        for n in rep["notes"]:
-            print("  " + n)
+        return 0
+    for one in rep.get("setups", [rep]):
+        _print_simulation(one)
     return 0
+
+
+def _print_simulation(rep: dict) -> None:
+    if "reading_min_um" in rep:
+        what = f"readings {rep['reading_min_um']:+.2f} .. {rep['reading_max_um']:+.2f} µm"
+    else:
+        what = f"position error up to {rep['position_error_max_um']:.2f} µm" + (
+            f", orientation error up to {rep['orientation_error_max_urad']:.2f} µrad"
+            if "orientation_error_max_urad" in rep else "")
+    print(f"{rep['machine']}: plan '{rep['plan']}' -> {rep['out']}: {rep['n_samples']} samples over "
+          f"{rep['duration_s']:.1f} s, {what} (noise sigma {rep['noise_sigma_um']:.3g} µm)"
+          + (f", {rep['range_violations']} range violations clipped" if rep["range_violations"] else ""))
+    for n in rep["notes"]:
+        print("  " + n)
 
 
 def _add_simulate(sub) -> None:
@@ -227,8 +258,13 @@ def plan_command(args: argparse.Namespace) -> dict:
 
         if not args.nc or args.out:
             raise ArgumentError("calibrate plan --plan: expected --nc FILE (the NC program of that plan) and no --out")
+        from pkmstiff.calibration.setups import PlanSet
+
         machine = load_machine(args.machine)
         plan = read_plan(args.plan, plan_check())
+        if isinstance(plan, PlanSet):
+            raise ArgumentError(f"calibrate plan --plan {args.plan} --nc: expected a plan of one set-up, found "
+                                f"{plan.n_setups} set-ups (write one plan file per set-up for its NC program)")
         check_plan(machine, plan)
         return {"machine": machine.name, "plan": plan.name, **write_nc(args.nc, plan, machine.name, args, args.force)}
     if not args.out or not args.instrument:
@@ -245,6 +281,8 @@ def plan_command(args: argparse.Namespace) -> dict:
     from pkmstiff.calibration.instruments import instrument
     from pkmstiff.calibration.planning import (
         HemisphereSpec,
+        default_node_count,
+        default_schedule,
         objective_label,
         optimise_hemisphere,
         optimise_pose_set,
@@ -257,7 +295,7 @@ def plan_command(args: argparse.Namespace) -> dict:
     inst = instrument(args.instrument)
     machine = load_machine(args.machine)
     for key in ("starts", "iterations", "nodes", "points", "poses"):
-        if getattr(args, key) < 1:
+        if getattr(args, key) is not None and getattr(args, key) < 1:
             raise InputError(f"--{key}", key, "a positive integer", getattr(args, key))
     max_tilt = np.radians(args.max_tilt)
     if inst.path_plans:
@@ -267,24 +305,28 @@ def plan_command(args: argparse.Namespace) -> dict:
                                         "the default plan is used; its nodes are optimised)", args.start)
         d = default_plan(machine, inst)
         side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
+        tilt, torsion = default_schedule(d, side)
         spec = HemisphereSpec(d.setup, n=args.points, turns=args.turns, side=side, max_tilt=max_tilt,
-                              max_torsion=max_tilt)
+                              max_torsion=max_tilt, tilt=tilt, torsion=torsion)
+        nodes = args.nodes if args.nodes is not None else default_node_count(args.turns)
         params = error_model(machine, frame=args.frame)
         res = None
         for f in (0.6, 0.3, 0.15):  # a start whose every pose is admissible (tilt reduced until it is)
-            nodes0 = start_nodes(args.nodes, f * max_tilt, 0.25 * f * max_tilt)
+            nodes0 = start_nodes(nodes, f * max_tilt, 0.25 * f * max_tilt)
             try:
                 res = optimise_hemisphere(machine, params, spec, nodes0, args.objective, starts=args.starts,
-                                          seed=args.seed, max_iter=args.iterations)
+                                          seed=args.seed, max_iter=args.iterations, reference=spec.default_path())
                 break
             except InadmissibleError:
                 continue
         if res is None:
             raise InadmissibleError(f"machine '{machine.name}': no admissible start hemisphere path with "
-                                   f"{args.nodes} nodes up to {args.max_tilt:g} deg tilt")
-        text = plan_toml(res.best_plan, f"{machine.name} hemisphere, optimised ({args.objective})",
+                                   f"{nodes} nodes up to {args.max_tilt:g} deg tilt")
+        what = "default orientation schedule (no optimum beat it)" if res.kept_reference else \
+            f"optimised ({args.objective})"
+        text = plan_toml(res.best_plan, f"{machine.name} hemisphere, {what}",
                          f"pkmstiff calibrate plan --objective {args.objective} --seed {args.seed}",
-                         hemisphere=spec, nodes=res.best.x)
+                         hemisphere=spec, nodes=None if res.kept_reference else res.best.x)
     else:
         plan0 = read_plan(args.start, plan_check()) if args.start else default_plan(machine, inst)
         if not args.start:  # a subset of the default grid: the gradient costs 12 plan evaluations per pose
@@ -301,6 +343,11 @@ def plan_command(args: argparse.Namespace) -> dict:
     atomic_write_text(args.out, text)
     lab = args.objective if args.objective != "orthogonality" else "max_orthogonality"
     start = objective_label(args.objective, res.start_value)
+    best = res.reference_value if res.kept_reference else res.best.value
+    extra = {} if res.reference_value is None else {
+        f"default_path_{lab}": objective_label(args.objective, res.reference_value),
+        f"optimised_{lab}": objective_label(args.objective, res.best.value),
+        "kept_default_path": res.kept_reference, "nodes": nodes}
     nc = {}
     if args.nc:
         from pkmstiff.cli.calibrate_import import write_nc
@@ -308,8 +355,8 @@ def plan_command(args: argparse.Namespace) -> dict:
         nc = write_nc(args.nc, res.best_plan, machine.name, args, args.force)
     return {**nc, "machine": machine.name, "instrument": inst.kind, "objective": args.objective,
             "out": str(args.out), "seed": args.seed, "starts": args.starts,
-            f"start_{lab}": start,
-            f"best_{lab}": objective_label(args.objective, res.best.value),
+            f"start_{lab}": start, **extra,
+            f"best_{lab}": objective_label(args.objective, best),
             "distinct_optima": [{lab: objective_label(args.objective, o.value), "start": o.start,
                                  "iterations": o.iterations} for o in res.distinct],
             "lower_is_better": not args.objective.startswith("O")}
@@ -331,6 +378,10 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     better = "lower" if rep["lower_is_better"] else "higher"
     print(f"{rep['machine']}, {rep['instrument']}: {lab} {a:.6g} (start plan) -> {b:.6g} (best of "
           f"{rep['starts']} starts, seed {rep['seed']}; {better} is better) -> {rep['out']}")
+    if f"default_path_{lab}" in rep:
+        print(f"{rep['nodes']} nodes; default path (unoptimised schedule) {lab} {rep[f'default_path_{lab}']:.6g}: "
+              + ("no optimum beats it, the default path is written" if rep["kept_default_path"]
+                 else "the optimised plan is better"))
     print(f"distinct optima ({len(rep['distinct_optima'])}): "
           + ", ".join(f"{o[lab]:.6g} (start {o['start']})" for o in rep["distinct_optima"]))
     return 0
@@ -357,7 +408,9 @@ def _add_plan(sub) -> None:
     p.add_argument("--start", help="start pose set (TOML; tracker/pose); default: the instrument's default plan")
     p.add_argument("--poses", type=int, default=12,
                    help="tracker/pose without --start: poses taken from the default grid (default 12)")
-    p.add_argument("--nodes", type=int, default=6, help="orientation nodes of the hemisphere path (default 6)")
+    p.add_argument("--nodes", type=int, default=None,
+                   help="orientation nodes of the hemisphere path (default: by the measured rule, "
+                        "docs/user-guide/calibration-simulation.md)")
     p.add_argument("--points", type=int, default=240, help="poses of the hemisphere path (default 240)")
     p.add_argument("--turns", type=float, default=4.0, help="turns of the hemisphere spiral (default 4)")
     p.add_argument("--max-tilt", type=float, default=20.0, help="largest tilt B and torsion in deg (default 20)")

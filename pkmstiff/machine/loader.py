@@ -264,6 +264,7 @@ def _build(raw: dict[str, Any], src: str, options: list[str]) -> Machine:
 #: key -> kind of value
 _CALIBRATION_KEYS = {"nominal_machine": "str", "measurement_file": "str", "measurement_sha256": "sha256",
                      "measurement_header_sha256": "sha256",  # the measurement's header file <name>.json
+                     "more_measurement_files": "strings", "more_measurement_sha256": "strings",  # set-ups 2, 3, …
                      "method": "str", "loss": "str", "rank": "count", "n_readings": "count",
                      "condition_number": "number", "rms_before_um": "number", "rms_after_um": "number",
                      "max_before_um": "number", "max_after_um": "number", "s_um": "number", "date": "str",

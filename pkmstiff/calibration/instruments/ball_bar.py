@@ -20,6 +20,10 @@ Array = NDArray[np.float64]
 TAB_4_5_FEED = np.array([0.0, 100.0, 500.0, 1000.0, 2000.0]) / 60e3  # m/s
 TAB_4_5_UNCERTAINTY = np.array([15.0, 22.0, 22.0, 36.0, 54.0]) * 1e-6  # m
 NOISE_MODELS = ("none", "instrument", "procedure")
+#: (tilt, torsion) amplitudes in deg of the default hemisphere's orientation schedule, tried in this order
+DEFAULT_SCHEDULES = tuple((t, min(t, 15.0)) for t in (20.0, 15.0, 10.0, 5.0))
+#: file units of a pose (x, y, z mm; a, b, c deg) -> SI
+_POSE_FILE_SCALE = np.array([1e-3] * 3 + [np.pi / 180] * 3)
 UNITS_LINE = ("t_s s; x_mm y_mm z_mm mm; a_deg b_deg c_deg deg; q<i>_mm mm (linear drive); q<i>_deg deg (rotary "
               "drive); reading_mm mm (measured distance - bar_length); feed_mm_min mm/min; temperature_C degC")
 
@@ -101,6 +105,7 @@ class BallbarMeasurement:
     plane: str = "auto"
     notes: list[str] = field(default_factory=list)
     lines: NDArray[np.int64] | None = None
+    placing_pose: Array | None = None  # (6,) m, rad: the machine placed the fixed ball at this commanded pose
 
     @property
     def instrument(self) -> BallBar:
@@ -121,7 +126,7 @@ class BallBar(Instrument):
     setup_tokens = {"ball-offset": "ball_offset", "fixed-ball": "fixed_ball", "bar-offset": "bar_offset"}
     target_name = "moving-ball centre"
     file_columns = ("reading_mm",)
-    header_keys = ("bar_length_mm", "fixed_ball_mm", "ball_offset_mm", "range_mm", "plane")
+    header_keys = ("bar_length_mm", "fixed_ball_mm", "ball_offset_mm", "range_mm", "plane", "fixed_ball_placed_at")
     path_plans = True
     saturates = True
 
@@ -231,8 +236,7 @@ class BallBar(Instrument):
         side = 1.0 if machine.tool.axis[2] <= 0 else -1.0
         offsets = [np.array([0.0, dy, dz * side]) for dz in (0.0, -0.15, 0.15, -0.3) for dy in (0.0, -0.1, 0.1)]
         for bar in (0.3, 0.15, 0.1):  # QC10 bar lengths (Szatmári Tab. 4.3)
-            for tilt in (20.0, 15.0, 10.0, 5.0):
-                torsion = min(tilt, 15.0)
+            for tilt, torsion in DEFAULT_SCHEDULES:
                 for off in offsets:
                     st = Setup(self, target=setup.target, fixed_ball=centre + off, bar_length=bar)
                     yield hemisphere_plan(st, tilt=np.radians(tilt), torsion=np.radians(torsion), side=side,
@@ -290,13 +294,14 @@ class BallBar(Instrument):
                                   machine=machine.name, device=device.name, range=device.range,
                                   resolution=device.resolution, accuracy=device.accuracy,
                                   sample_rate=device.sample_rate,
-                                  plane=plane if plane in ("XY", "XZ", "YZ") else "auto", notes=notes)
+                                  plane=plane if plane in ("XY", "XZ", "YZ") else "auto", notes=notes,
+                                  placing_pose=plan.setup.placing_pose)
 
     # ---------------------------------------------------------------------------------------------- measurements
     def measured(self, meas: BallbarMeasurement) -> tuple[Setup, np.ndarray]:
         """The full ball distance: the file's reading + bar length, (N, 1) m."""
         setup = Setup(self, target=meas.ball_offset, fixed_ball=meas.fixed_ball, bar_length=meas.bar_length,
-                      measuring_range=max(abs(meas.range[0]), abs(meas.range[1])))
+                      measuring_range=max(abs(meas.range[0]), abs(meas.range[1])), placing_pose=meas.placing_pose)
         return setup, (np.asarray(meas.reading, dtype=float) + meas.bar_length)[:, None]
 
     def reading_sigma(self, meas: BallbarMeasurement) -> np.ndarray:
@@ -320,7 +325,8 @@ class BallBar(Instrument):
                 f"# resolution_um: {fmt(meas.resolution / 1e-6)}",
                 f"# accuracy_um: {fmt(meas.accuracy / 1e-6)}",
                 f"# sample_rate_hz: {fmt(meas.sample_rate)}",
-                f"# plane: {meas.plane}",
+                f"# plane: {meas.plane}"] + ([] if meas.placing_pose is None else [
+                "# fixed_ball_placed_at: " + ", ".join(fmt(x) for x in np.asarray(meas.placing_pose) / _POSE_FILE_SCALE)]) + [
                 f"# units: {UNITS_LINE}"]
 
     def reading_columns(self, meas: BallbarMeasurement) -> list[tuple[str, np.ndarray]]:
@@ -358,6 +364,8 @@ class BallBar(Instrument):
                 raise InputError(src, line=h[0], reason=f"header key 'plane': expected XY, YZ, ZX, XZ or auto, "
                                            f"found {h[1]!r}")
             meta["plane"] = h[1].upper() if h[1].upper() != "AUTO" else "auto"
+        if (h := header.get("fixed_ball_placed_at")) is not None:  # x, y, z mm, a, b, c deg of the placing pose
+            meta["placing_pose"] = np.array(numbers(src, h[0], "fixed_ball_placed_at", h[1], 6)) * _POSE_FILE_SCALE
         return meta
 
     def from_columns(self, src: str, column: Callable[[str], np.ndarray], common: dict, check_range: bool,

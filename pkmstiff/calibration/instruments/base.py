@@ -203,7 +203,9 @@ class Setup:
     the PKS (m); ball bar: ``fixed_ball`` s_7 in the MKS (m) and the nominal ``bar_length`` (m);
     ``measuring_range`` (m) about it (default: the device's, QC10 ±1 mm); ``max_mount_angle`` (rad, optional) the largest angle between
     the bar (moving ball → fixed ball) and the tool axis that the magnetic cup permits (Szatmári §4.4.3, collision
-    check; no value given there, so unchecked unless set)."""
+    check; no value given there, so unchecked unless set); ``placing_pose`` (6,) (m, rad, optional) the commanded pose
+    at which the machine itself placed the fixed ball (centre mount in the tool cup, driven there and locked): its
+    actual position then follows the machine's errors (:mod:`pkmstiff.calibration.setups`)."""
 
     instrument: Instrument
     target: np.ndarray = field(default_factory=lambda: np.zeros(3))
@@ -211,12 +213,17 @@ class Setup:
     bar_length: float | None = None
     measuring_range: float | None = None
     max_mount_angle: float | None = None
+    placing_pose: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         from pkmstiff.calibration.instruments.registry import instrument
 
         object.__setattr__(self, "instrument", instrument(self.instrument, "setup"))
         object.__setattr__(self, "target", np.asarray(self.target, dtype=float).reshape(3))
+        if self.placing_pose is not None:
+            object.__setattr__(self, "placing_pose", np.asarray(self.placing_pose, dtype=float).reshape(6))
+            if self.fixed_ball is None:
+                raise InputError("setup", "placing_pose", "a set-up with a fixed ball (ball bar)", "no fixed ball")
         self.instrument.check_setup(self)
 
     @property
