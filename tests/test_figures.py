@@ -1,6 +1,7 @@
 """Figures a user would put in a report (issue 12, item 5; issue 28, item 1): the drawing of every figure kind fills
 at least 80 % of the canvas (bounding box of the non-background pixels), every text is at least 9 pt at print size
-(matplotlib: at the figure's size in inches; pyvista: measured in the rendered image, tests/figure_checks.py), maps
+(matplotlib: at the figure's size in inches; pyvista: measured in the rendered image, tests/figure_checks.py), a
+saved matplotlib figure keeps a background border of EDGE_PX pixels (nothing cut at the canvas edge), maps
 carry µm/° units, titles state the real window ranges, colour scales show the structure where one hot spot dominates.
 
 ``test_every_figure_kind_fills_its_canvas_with_readable_text`` runs every figure kind of the package and of the
