@@ -165,9 +165,10 @@ def plot_rotational(rot: dict[str, dict[str, dict[str, Any]]], points: dict[str,
 
     labels = list(rot)
     cols = [(where, d) for where in ("dissertation", "centre") for d in ("+a", "+b")]
+    # constrained layout: the figure title gets its own row above the panel titles, whatever the number of rows
     fig, axes = plt.subplots(len(labels), len(cols), figsize=(3.4 * len(cols) + 1.2, 2.9 * len(labels) + 0.6),
-                             squeeze=False)
-    fig.subplots_adjust(left=0.06, right=0.86, bottom=0.07, top=0.9, wspace=0.35, hspace=0.5)
+                             squeeze=False, layout="constrained")
+    fig.get_layout_engine().set(w_pad=8 / 72, h_pad=12 / 72, hspace=0.02, wspace=0.04)
     vmax = max([float(np.nanmax(np.degrees(r.angle))) for lab in labels for w in rot[lab] for r in rot[lab][w].values()
                 if np.isfinite(r.angle).any()] + [1.0])
     for i, lab in enumerate(labels):
@@ -189,8 +190,8 @@ def plot_rotational(rot: dict[str, dict[str, dict[str, Any]]], points: dict[str,
             ax.set_xlabel(f"{r.settings['u_angle']} [deg]")
             ax.set_ylabel(f"{r.settings['v_angle']} [deg]")
     if any(np.isfinite(rot[lab][w][d].angle).any() for lab in labels for w in rot[lab] for d in ("+a", "+b")):
-        fig.colorbar(plt.cm.ScalarMappable(norm=plt.Normalize(0.0, vmax), cmap="viridis"),
-                     cax=fig.add_axes((0.89, 0.2, 0.015, 0.6)), label="max. rotation [deg]")
+        fig.colorbar(plt.cm.ScalarMappable(norm=plt.Normalize(0.0, vmax), cmap="viridis"), ax=axes, shrink=0.6,
+                     fraction=0.03, label="max. rotation [deg]")
     fig.suptitle("Rotational workspace: max. +a over (b, c) and max. +b over (a, c) "
                  "(shaded: base orientation inadmissible)", fontsize=10)
     fig.savefig(path, dpi=100)

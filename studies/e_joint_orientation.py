@@ -186,6 +186,7 @@ def plot_history(runs: dict[str, pkmstiff.optimise.OptimisationResult], refs: di
         for (lab, val), c in zip(refs[obj].items(), ("C3", "C2")):
             ax.axhline(val, color=c, ls="--", lw=1, label=lab)
         ax.set_xlim(0, len(res.history))
+        ax.xaxis.set_major_locator(plt.MaxNLocator(integer=True))  # evaluations are counted
         ax.set_xlabel(f"candidate evaluations ({res.meta['refined']['search_step_mm']:g} mm raster)"
                       if "refined" in res.meta else "candidate evaluations")
         ax.set_ylabel(f"k_x {obj} [N/um]")

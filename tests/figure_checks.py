@@ -3,6 +3,10 @@ figures and pyvista screenshots alike.
 
 * **Fill**: the area of the bounding box of the pixels that differ from the corner (background) colour by more than
   30 (sum over RGB, out of 765) over the canvas area; antialiasing halos stay below that threshold.
+* **Edge** (matplotlib figures): the outermost :data:`EDGE_PX` pixels of the saved image are all background (within
+  the same 30 of the corner colour): nothing is cut at the canvas edge and no label touches it. Not applied to pyvista
+  screenshots: their 3-D scene is framed by the camera, and a plane or a machine part may run off the window on
+  purpose.
 * **Text, matplotlib**: the smallest font size [pt] of the visible, non-empty texts at the figure's own size in
   inches (points are 1/72 in).
 * **Text, pyvista**: VTK's font sizes are not what it draws (corner annotations and scalar bars scale with the
@@ -21,16 +25,30 @@ import numpy as np
 
 MIN_FILL = 0.80
 MIN_PT = 9.0  # readable at print size
+EDGE_PX = 2  # background border a saved matplotlib figure keeps
 PRINT_PX_PER_IN = 100.0
 CAP_HEIGHT = 22.0 / 30.0  # cap height / font size of VTK's text (measured: 22 px at a 30 px font)
 
 
-def fill_fraction(path_or_img) -> float:
+def _drawn(path_or_img) -> np.ndarray:
+    """Mask of the pixels that differ from the corner (background) colour by more than 30 (sum over RGB)."""
     from PIL import Image
 
     img = path_or_img if isinstance(path_or_img, np.ndarray) else np.asarray(Image.open(path_or_img).convert("RGB"))
     img = img[..., :3].astype(int)
-    mask = np.abs(img - img[0, 0]).sum(axis=2) > 30
+    return np.abs(img - img[0, 0]).sum(axis=2) > 30
+
+
+def edge_pixels(path_or_img, width: int = EDGE_PX) -> int:
+    """Number of drawn pixels in the outermost ``width`` pixels of the image (0: a clean background border)."""
+    mask = _drawn(path_or_img)
+    inner = np.zeros_like(mask)
+    inner[width:-width, width:-width] = True
+    return int((mask & ~inner).sum())
+
+
+def fill_fraction(path_or_img) -> float:
+    mask = _drawn(path_or_img)
     ys, xs = np.nonzero(mask)
     assert ys.size, "blank image"
     return (ys.max() - ys.min() + 1) * (xs.max() - xs.min() + 1) / mask.size

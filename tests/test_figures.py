@@ -1,6 +1,7 @@
 """Figures a user would put in a report (issue 12, item 5; issue 28, item 1): the drawing of every figure kind fills
 at least 80 % of the canvas (bounding box of the non-background pixels), every text is at least 9 pt at print size
-(matplotlib: at the figure's size in inches; pyvista: measured in the rendered image, tests/figure_checks.py), maps
+(matplotlib: at the figure's size in inches; pyvista: measured in the rendered image, tests/figure_checks.py), a
+saved matplotlib figure keeps a background border of EDGE_PX pixels (nothing cut at the canvas edge), maps
 carry µm/° units, titles state the real window ranges, colour scales show the structure where one hot spot dominates.
 
 ``test_every_figure_kind_fills_its_canvas_with_readable_text`` runs every figure kind of the package and of the
@@ -16,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.figure_checks import MIN_FILL, MIN_PT, fill_fraction, pyvista_text_pt, smallest_text_pt
+from tests.figure_checks import EDGE_PX, MIN_FILL, MIN_PT, edge_pixels, fill_fraction, pyvista_text_pt, smallest_text_pt
 
 
 @pytest.fixture(scope="module")
@@ -411,10 +412,16 @@ def _kind_study_g_rotation(tmp, m, yz):
 
 
 def _kind_study_e_tilts(tmp, m, yz):
-    # study e's tilt distribution over the joint stiffness (its optimiser-history plot needs optimiser runs: not here)
+    # study e's tilt distribution over the joint stiffness and its optimiser history (one short run of the study's
+    # fast design, 4 evaluations, shown in the panels of two objectives; reference lines at made-up k_x values)
+    from pkmstiff.optimise import run_optimisation
+
     e = _study("e_joint_orientation")
     sec = m.section("yz", 0.0, 0.1, e.TILTS)
     e.plot_tilts({"original": sec, "optimised": sec}, m, tmp / "e_tilts.png")
+    run = run_optimisation(e.design("mean", fast=True), tmp / "e_run", budget=4)
+    refs = {"original": 20.0, "published": 25.0}
+    e.plot_history({"mean": run, "p05": run}, {"mean": refs, "p05": refs}, tmp / "e_history.png")
 
 
 def _kind_validation_causes(tmp, m, yz):
@@ -433,7 +440,10 @@ FIGURE_KINDS = {f.__name__.removeprefix("_kind_"): f for f in (
 
 
 def _watch_figures(monkeypatch):
-    """Record every matplotlib figure saved (with the file) and the measured text of every pyvista screenshot."""
+    """Record every matplotlib figure saved (with the file and its drawn edge pixels) and the measured text of every
+    pyvista screenshot."""
+    from pathlib import Path
+
     import pyvista as pv
     from matplotlib.figure import Figure
 
@@ -442,7 +452,9 @@ def _watch_figures(monkeypatch):
 
     def savefig(self, fname, *a, **k):
         out = save(self, fname, *a, **k)
-        seen["mpl"].append((self, fname))
+        # the edge is read now: an atomic write renames the file right after
+        png = isinstance(fname, (str, Path)) and str(fname).endswith(".png")
+        seen["mpl"].append((self, fname, edge_pixels(fname) if png else None))
         return out
 
     def screenshot(self, filename=None, *a, **k):
@@ -456,7 +468,8 @@ def _watch_figures(monkeypatch):
 
 
 def _check_watched(seen, tmp_path) -> list[str]:
-    """What is wrong with the watched figures: fill below MIN_FILL or text below MIN_PT (empty: all fine)."""
+    """What is wrong with the watched figures: fill below MIN_FILL, text below MIN_PT, matplotlib drawing within
+    EDGE_PX of the canvas edge (empty: all fine)."""
     from pathlib import Path
 
     bad = []
@@ -465,9 +478,11 @@ def _check_watched(seen, tmp_path) -> list[str]:
     for f in files:
         if fill_fraction(f) < MIN_FILL:
             bad.append(f"{f.name}: fill {fill_fraction(f):.2f} < {MIN_FILL}")
-    for fig, fname in seen["mpl"]:
+    for fig, fname, edge in seen["mpl"]:
         if smallest_text_pt(fig) < MIN_PT:
             bad.append(f"{Path(str(fname)).name}: text {smallest_text_pt(fig):.1f} pt < {MIN_PT}")
+        if edge:
+            bad.append(f"{Path(str(fname)).name}: edge {edge} px drawn within {EDGE_PX} px of the border")
     for sizes, fname in seen["pv"]:
         assert sizes, f"{fname}: no text found in the screenshot"
         small = {k: round(v, 1) for k, v in sizes.items() if v < MIN_PT}
@@ -485,8 +500,8 @@ def test_every_figure_kind_fills_its_canvas_with_readable_text(kind, tmp_path, h
 
 
 def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
-    # a matplotlib figure with 6 pt ticks and its drawing in one corner, a pyvista window with a small mesh in a
-    # corner and 4-px text: every check must report them
+    # a matplotlib figure with 6 pt ticks and its drawing in one corner, one with its y label cut at the left edge,
+    # a pyvista window with a small mesh in a corner and 4-px text: every check must report them
     import pyvista as pv
     from matplotlib.figure import Figure
 
@@ -496,6 +511,11 @@ def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
     ax.plot([0, 1], [0, 1])
     ax.tick_params(labelsize=6)
     fig.savefig(tmp_path / "bad_mpl.png", dpi=100)
+    cut = Figure(figsize=(6.0, 4.0))
+    ax = cut.add_axes((0.03, 0.12, 0.9, 0.8))  # the y tick labels and label left of the canvas
+    ax.plot([0, 1], [0, 1000])
+    ax.set_ylabel("z [mm]", fontsize=10)
+    cut.savefig(tmp_path / "cut_mpl.png", dpi=100)
     p = pv.Plotter(off_screen=True, window_size=(600, 400))
     p.set_background("white")
     p.add_mesh(pv.Sphere(radius=0.1, center=(2.0, 1.5, 0.0)), color="black")
@@ -506,6 +526,8 @@ def test_the_checks_fail_on_a_bad_figure(tmp_path, monkeypatch):
     p.close()
     bad = _check_watched(seen, tmp_path)
     assert any(b.startswith("bad_mpl.png: fill") for b in bad) and any(b.startswith("bad_mpl.png: text") for b in bad)
+    assert any(b.startswith("cut_mpl.png: edge") for b in bad)
+    assert not any(b.startswith("bad_pv.png: edge") for b in bad)  # pyvista screenshots: no edge check
     assert any(b.startswith("bad_pv.png: fill") for b in bad) and any(b.startswith("bad_pv.png: text") for b in bad)
 
 

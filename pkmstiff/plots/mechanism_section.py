@@ -25,12 +25,12 @@ def _categories(sec) -> np.ndarray:
 
 
 def _axes(sec, title: str):
-    from matplotlib.figure import Figure
+    from pkmstiff.plots.section_maps import map_canvas
 
     u, v = sec.plane[0], sec.plane[1]
     aspect = (sec.v_values[-1] - sec.v_values[0]) / max(sec.u_values[-1] - sec.u_values[0], 1e-12)
     w = 5.2
-    fig = Figure(figsize=(w + 2.2, max(3.2, min(8.0, w * aspect + 1.2))), layout="constrained")
+    fig = map_canvas((w + 2.2, max(3.2, min(8.0, w * aspect + 1.2))))
     ax = fig.add_subplot()
     ax.set_aspect("equal")
     ax.set_xlabel(f"{u} [mm]")
@@ -62,8 +62,8 @@ def plot_mechanism_reasons(sec, path: str | Path) -> Path:
     fig, ax = _axes(sec, "admissibility: first failing check per point")
     ax.pcolormesh(sec.u_values * MM, sec.v_values * MM, index, shading="nearest", cmap=ListedColormap(colours),
                   vmin=-0.5, vmax=len(present) - 0.5)
-    fig.legend(handles=[Patch(color=_CATEGORIES[k][1], label=_CATEGORIES[k][0]) for k in present],
-               loc="outside right center", fontsize=9, frameon=False)
+    ax.legend(handles=[Patch(color=_CATEGORIES[k][1], label=_CATEGORIES[k][0]) for k in present],
+              loc="center left", bbox_to_anchor=(1.02, 0.5), fontsize=9, frameon=False)
     return _save(fig, path)
 
 

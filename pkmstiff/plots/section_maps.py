@@ -166,10 +166,20 @@ def _map_title(res: SectionResult) -> str:
     return title
 
 
-def _map_figure(res: SectionResult, window_size: tuple[int, int] | None, legend_width: float):
-    """A matplotlib Figure sized to the plane's aspect (unless ``window_size`` in px is given) and its axes."""
+def map_canvas(figsize: tuple[float, float], dpi: float | None = None):
+    """A constrained-layout Figure for an equal-aspect map, with 8 pt (about 11 px) margins instead of the default 3 pt
+    so that no tick label or axis label reaches the canvas edge. A legend beside such a map belongs to the axes
+    (``ax.legend(loc="center left", bbox_to_anchor=(1.02, 0.5))``): a figure legend placed "outside right" lets
+    constrained layout push the equal-aspect axes and its y label against the left edge."""
     from matplotlib.figure import Figure
 
+    fig = Figure(figsize=figsize, dpi=dpi, layout="constrained")
+    fig.get_layout_engine().set(w_pad=8 / 72, h_pad=8 / 72)
+    return fig
+
+
+def _map_figure(res: SectionResult, window_size: tuple[int, int] | None, legend_width: float):
+    """A matplotlib Figure sized to the plane's aspect (unless ``window_size`` in px is given) and its axes."""
     pl = res.plane
     if window_size is None:
         du = float(pl.u_values[-1] - pl.u_values[0]) or 1.0
@@ -179,7 +189,7 @@ def _map_figure(res: SectionResult, window_size: tuple[int, int] | None, legend_
         figsize = (width, height)
     else:
         figsize = (window_size[0] / 100, window_size[1] / 100)
-    fig = Figure(figsize=figsize, dpi=100, layout="constrained")
+    fig = map_canvas(figsize, dpi=100)
     ax = fig.add_subplot()
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel(f"{pl.u_name} [mm]")
@@ -311,7 +321,7 @@ def plot_reasons(res: SectionResult, path: str | Path, window_size: tuple[int, i
                    linewidths=0.8, zorder=3)
         handles.append(Line2D([], [], ls="", marker="x", color="black",
                               label=f"near-singular ({int(near.sum())}):\nkappa > {res.settings['near_singular_kappa']:.3g}"))
-    fig.legend(handles=handles, loc="outside right center", fontsize=9, frameon=False)
+    ax.legend(handles=handles, loc="center left", bbox_to_anchor=(1.02, 0.5), fontsize=9, frameon=False)
     ax.set_title("admissibility: first failing check per point", fontsize=10)
     fig.suptitle(_map_title(res), fontsize=9)
     return _save(fig, path)
