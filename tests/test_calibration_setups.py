@@ -173,3 +173,46 @@ def test_machine_placed_ball_round_trip_on_the_command_line(tmp_path, capsys):
 
     rep = json.loads(capsys.readouterr().out)
     assert rep["rms_um"] < 0.35 and rep["diagnostics"]["consistent"]  # 0.25 µm noise + 0.1 µm quantisation
+
+
+def _simulate_setups(tmp_path, *extra: str):
+    from pkmstiff.cli import main
+
+    plan = tmp_path / "plan.toml"
+    text = resolve("example:felix_setups_plan.toml").read_text(encoding="utf-8")
+    plan.write_text(text.replace("points = 360", "points = 60"), encoding="utf-8")
+    out = tmp_path / ("one.csv" if extra else "m.csv")
+    assert main(["calibrate", "simulate", "felix", "--plan", str(plan), "--errors", "example:felix_errors.toml",
+                 "--noise", "0", "--no-quantise", "--feed", "2000", "--sample-rate", "5", "--out", str(out),
+                 *extra]) == 0
+    return out
+
+
+def test_one_file_with_several_setups_round_trip(tmp_path):
+    """``calibrate simulate --one-file``: one CSV with a 'setup' column and the set-ups in its header; it reads back
+    as the three set-ups, identifies noise-free to the residual floor and gives what the three files give."""
+    from pkmstiff.calibration.measurement_file import read_measurement, read_measurement_setups
+    from pkmstiff.calibration.workflow import identify_file
+
+    one = _simulate_setups(tmp_path, "--one-file")
+    _simulate_setups(tmp_path)
+    files = [str(tmp_path / f"m_setup{k}.csv") for k in (1, 2, 3)]
+    metas = read_measurement_setups(one)
+    assert [tuple(m.fixed_ball) for m in metas] == [tuple(read_measurement(f).fixed_ball) for f in files]
+    for a, f in zip(metas, files):
+        b = read_measurement(f)
+        assert np.array_equal(a.reading, b.reading) and np.array_equal(a.poses, b.poses)  # same text, same parse
+    with pytest.raises(InputError, match="several set-ups"):
+        read_measurement(one)
+    m = _felix()
+    r1 = identify_file(m, str(one), with_="fixed-ball")
+    r3 = identify_file(m, files, with_="fixed-ball")
+    assert r1.params.names == r3.params.names and r1.plan.n_setups == 3
+    # the same readings and plan: the same iterations, equal up to round-off (1e-12 m ≪ the 1e-9 m floor)
+    assert np.allclose(r1.res.delta, r3.res.delta, rtol=0, atol=1e-12)
+    # noise-free, not quantised: the model reproduces the readings to LM's convergence floor
+    assert np.sqrt(np.mean(r1.res.residual_after ** 2)) < 1e-9
+    bad = tmp_path / "one.csv"
+    bad.write_text(bad.read_text().replace("\n3,", "\n4,", 1))
+    with pytest.raises(InputError, match="set-up number 1 … 3"):
+        read_measurement_setups(bad)

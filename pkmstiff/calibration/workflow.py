@@ -40,7 +40,7 @@ from pkmstiff.calibration.identifiability import Identifiability, check_identifi
 from pkmstiff.calibration.identification import Identification, ResidualStats, identify, jacobian_at
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
 from pkmstiff.calibration.jacobian import identification_jacobian, reading_weights
-from pkmstiff.calibration.measurement_file import Measurement, read_measurement
+from pkmstiff.calibration.measurement_file import Measurement, read_measurement, read_measurement_setups
 from pkmstiff.calibration.parameters import ParameterSet, error_model, parse_with
 from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
@@ -104,8 +104,12 @@ def identify_file(machine: Machine, measurements: str | Sequence[str], *, meas: 
     ball offset or tracker station), identified together — the machine's parameters once, the ``--with`` set-up
     parameters per file (:mod:`pkmstiff.calibration.setups`); the diagnostics run on the stacked residuals with
     the files' sample times laid end to end."""
-    paths = [measurements] if isinstance(measurements, str) else list(measurements)
-    metas = [read_measurement(p) if (meas is None or k) else meas for k, p in enumerate(paths)]
+    files = [measurements] if isinstance(measurements, str) else list(measurements)
+    paths, metas = [], []
+    for k, p in enumerate(files):  # a file with a 'setup' column holds several set-ups
+        got = [meas] if (meas is not None and not k) else read_measurement_setups(p)
+        paths += [p] if len(got) == 1 else [f"{p} set-up {i + 1}" for i in range(len(got))]
+        metas += got
     for p, mm in zip(paths, metas):
         if expected is not None and instrument(expected) != mm.instrument:
             raise InputError(p, "instrument", f"'{expected}' (--instrument), but the file holds "
@@ -124,7 +128,7 @@ def identify_file(machine: Machine, measurements: str | Sequence[str], *, meas: 
     else:
         plan = PlanSet(" + ".join(Path(p).name for p in paths), tuple(pl for pl, _ in plans))
         y = np.vstack([yy for _, yy in plans])
-    measurements = paths[0] if len(paths) == 1 else ", ".join(paths)
+    measurements = ", ".join(files)
     params = setups_error_model(machine, plan, frame, blocks)
     ident = identifiability(machine, params, plan)
     check_identifiable(ident, measurements)  # an ill-posed measurement fails here, not after minutes of LM
