@@ -216,3 +216,41 @@ def test_one_file_with_several_setups_round_trip(tmp_path):
     bad.write_text(bad.read_text().replace("\n3,", "\n4,", 1))
     with pytest.raises(InputError, match="set-up number 1 … 3"):
         read_measurement_setups(bad)
+
+
+def test_report_of_several_setups(tmp_path, capsys):
+    """``calibrate report`` of a file with three set-ups: a Set-ups section whose per-set-up residuals are the joint
+    fit's residuals split by set-up and whose identifiability gain is the stacked rank over the best set-up alone;
+    the three-file route gives the same summary numbers."""
+    import json
+
+    from pkmstiff.calibration.workflow import run_calibration
+    from pkmstiff.cli import main
+    from tests.report_checks import check_report
+
+    one = _simulate_setups(tmp_path, "--one-file")
+    _simulate_setups(tmp_path)
+    out = tmp_path / "rep"
+    capsys.readouterr()
+    assert main(["calibrate", "report", "felix", "--measurements", str(one), "--out", str(out), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["n_setups"] == 3
+    html = (out / "report.html").read_text(encoding="utf-8")
+    md = (out / "report.md").read_text(encoding="utf-8")
+    check_report(html, md)
+    assert "Set-ups" in md and "set-up 3" in md
+    files = [str(tmp_path / f"m_setup{k}.csv") for k in (1, 2, 3)]
+    assert main(["calibrate", "report", "felix", "--measurements", *files, "--out", str(tmp_path / "rep3"),
+                 "--json"]) == 0
+    rep3 = json.loads(capsys.readouterr().out)
+    # the same readings: the same fit, equal up to round-off (1e-6 µm ≪ the quantities compared)
+    for key in ("rank", "n_parameters", "n_readings"):
+        assert rep3[key] == rep[key]
+    assert rep3["rms_before_um"] == pytest.approx(rep["rms_before_um"], abs=1e-6)
+    run = run_calibration(_felix(), str(one))
+    ends = np.cumsum([0] + [s.meas.n_samples for s in run.setups])
+    assert [s.rows for s in run.setups] == [slice(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:])]
+    assert ends[-1] == run.res.n_readings
+    gain = run.ident.rank - max(s.ident.rank for s in run.setups)
+    assert gain > 0  # balls at other places see directions one ball cannot (test_more_fixed_balls_...)
+    assert f"(gain {gain})" in md
