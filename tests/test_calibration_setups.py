@@ -254,3 +254,43 @@ def test_report_of_several_setups(tmp_path, capsys):
     gain = run.ident.rank - max(s.ident.rank for s in run.setups)
     assert gain > 0  # balls at other places see directions one ball cannot (test_more_fixed_balls_...)
     assert f"(gain {gain})" in md
+
+
+def test_tracker_stations_are_set_ups(tmp_path):
+    """A laser tracker moved to two stations: each station its own instrument frame (``--with instrument-frame``
+    per set-up), the machine once. Noise-free readings of a perturbed Felix fit to the forward kinematics' floor,
+    the second station adds exactly its own six frame parameters to the rank, and the one-file route (a 'setup'
+    column in a tracker file) gives the same identification."""
+    from pkmstiff.calibration.instruments import TRACKER
+    from pkmstiff.calibration.measurement_file import read_measurement_setups, write_measurement_setups
+    from pkmstiff.calibration.plans import default_plan
+    from pkmstiff.calibration.simulation import SimulationOptions, simulate, to_measurement
+    from pkmstiff.calibration.workflow import identify_file
+
+    m = _felix()
+    base = default_plan(m, TRACKER)
+    station2 = dataclasses.replace(base, name="station 2", poses=base.poses[::-1].copy())
+    ps = PlanSet("two stations", (base, station2))
+    params = setups_error_model(m, ps, setup_blocks=("instrument_frame",))
+    assert params.n == setups_error_model(m, ps).n + 12 and set(params.chain[params.chain < 0]) == {-1, -2}
+    one = identifiability(m, setups_error_model(m, base, setup_blocks=("instrument_frame",)), base)
+    both = identifiability(m, params, ps)
+    assert both.rank == one.rank + 6  # the second station's frame is seen (relative to the first), nothing else
+    rng = np.random.default_rng(7)
+    true = rng.uniform(-1, 1, params.n) * 1e-4
+    res = identify(m, params, ps, simulate_readings(m, params, true, ps))
+    assert np.max(np.abs(res.residual_after)) < 1e-9  # m; the forward kinematics solves to 1e-13
+    # the same through the files: one tracker file holding both stations
+    opts = SimulationOptions(noise="none", quantise=False)
+    metas = []
+    for k, part in enumerate(ps.parts):
+        sub, idx = part_parameters(params, k)
+        inst = TRACKER.device(part.setup)
+        metas.append(to_measurement(m, part, simulate(m, sub, true[idx], part, inst, opts), inst))
+    path = tmp_path / "tracker.csv"
+    write_measurement_setups(path, metas)
+    back = read_measurement_setups(path)
+    assert len(back) == 2 and all(b.instrument == TRACKER for b in back)
+    run = identify_file(m, str(path), with_="instrument-frame")
+    assert run.params.names == params.names
+    assert np.sqrt(np.mean(run.res.residual_after ** 2)) < 1e-9
