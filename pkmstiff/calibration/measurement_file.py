@@ -504,7 +504,7 @@ def write_measurement_setups(path: str | Path, metas: list[Measurement], *, allo
              f"# machine: {metas[0].machine}", f"# instrument: {metas[0].device}"]
     own = [dict(_header_pair(line) for line in inst.header_lines(mm)) for mm in metas]
     shared = {key: v for key, v in own[0].items() if all(o.get(key) == v for o in own[1:])}
-    head = first + [f"# {key}: {v}" for key, v in shared.items()] + [f"# note: {n}" for n in metas[0].notes]
+    head = first + [f"# {key}: {v}" for key, v in shared.items()] + [f"# note: {n}" for n in dict.fromkeys(n for mm in metas for n in mm.notes)]
     sets = [{key: (v if key in _TEXT_KEYS else _json_value(v)) for key, v in o.items() if key not in shared}
             for o in own]
     return _write_table(path, head, cols, len(cols[0][1]), extra={SETUPS_KEY: sets})
