@@ -2,6 +2,7 @@
 set-up, and a fixed ball placed by the machine itself."""
 
 import dataclasses
+import itertools
 from functools import cache
 
 import numpy as np
@@ -249,7 +250,7 @@ def test_report_of_several_setups(tmp_path, capsys):
     assert rep3["rms_before_um"] == pytest.approx(rep["rms_before_um"], abs=1e-6)
     run = run_calibration(_felix(), str(one))
     ends = np.cumsum([0] + [s.meas.n_samples for s in run.setups])
-    assert [s.rows for s in run.setups] == [slice(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:])]
+    assert [s.rows for s in run.setups] == [slice(int(a), int(b)) for a, b in itertools.pairwise(ends)]
     assert ends[-1] == run.res.n_readings
     gain = run.ident.rank - max(s.ident.rank for s in run.setups)
     assert gain > 0  # balls at other places see directions one ball cannot (test_more_fixed_balls_...)

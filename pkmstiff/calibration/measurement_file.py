@@ -276,8 +276,9 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     parsed = _parse_file(path)
     src, columns, col_line = parsed[0], parsed[4], parsed[5]
     if SETUP_COLUMN in columns:
-        raise InputError(src, line=col_line, reason=f"column '{SETUP_COLUMN}': this file holds several set-ups "
-                                                    "(read it with read_measurement_setups)")
+        raise InputError(src, line=col_line, reason=f"column '{SETUP_COLUMN}': this file holds several set-ups; "
+                                                    "expected one set-up here (calibrate identify and report read "
+                                                    "several: read_measurement_setups)")
     return _measurement(*parsed, check_range)
 
 
