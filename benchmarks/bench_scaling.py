@@ -220,7 +220,7 @@ def pair_workloads(quick: bool, tmp: Path) -> dict[str, list[str]]:
         "section": ["section", "hexaglide", "--plane", "yz", "--step", "1.25" if quick else "0.625"],
         "workspace": ["workspace", "hexaglide", "--resolution", "3.125" if quick else "2", "--memory-budget", "1TB"],
         "rotation-map": ["rotation-map", "hexaglide", "--plane", "yz", "--range", "y=-200:1100,z=-1250:-400",
-                         "--step", "12.5" if quick else "6.25", "--increment", "1"],
+                         "--step", "6.25" if quick else "3.125", "--increment", "1"],
         "report": ["report", str(_report_spec(tmp, quick)), "--fast", "--force", "--out", str(tmp / "report")],
         "sweep": ["sweep", str(_sweep_file(tmp, 10 if quick else 5)), "--force", "--out", str(tmp / "pair.csv")],
     }

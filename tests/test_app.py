@@ -216,3 +216,74 @@ def test_mechanisms_and_planar_examples_get_one_line(session, name, kind):
     with pytest.raises(ArgumentError, match=kind) as info:
         session.machine(MachineChoice(name))
     assert "pkmstiff section" in str(info.value) and "\n" not in str(info.value)
+
+
+#: one planar and one spatial mechanism with an [elastic] table, each on a coarse raster (the map is computed twice)
+MECHANISM_MAPS = [("five_bar", SectionChoice(plane="xy", step_mm=50.0, quantity="kx")),
+                  ("hexa_6rus", SectionChoice(plane="xy", at_mm=-400.0, step_mm=100.0, quantity="kz"))]
+
+
+@pytest.fixture(scope="module", params=MECHANISM_MAPS, ids=[n for n, _ in MECHANISM_MAPS])
+def mechanism_view(request, session):
+    name, choice = request.param
+    return name, session.mechanism_section(name, choice)
+
+
+def test_mechanism_map_equals_the_cli_section(mechanism_view, tmp_path, capsys):
+    name, mv = mechanism_view
+    folder = export(tmp_path, MachineChoice(name), mv, None)
+    cmd = (folder / "commands.txt").read_text().splitlines()[0]
+    assert cmd == mv.choice.command(MachineChoice(name), str(folder / "cli"))
+    _cli(capsys, *shlex.split(cmd)[1:])
+    # the same functions (fit_window, evaluate_section, the section writer) in one program: equal texts
+    stem = f"{name}_{mv.choice.plane}"
+    assert (folder / f"{stem}.csv").read_text() == (folder / "cli" / f"{stem}.csv").read_text()
+    assert (folder / f"{stem}.json").read_text() == (folder / "cli" / f"{stem}.json").read_text()
+    assert (folder / f"{stem}_{mv.choice.quantity}.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert mv.png[:8] == b"\x89PNG\r\n\x1a\n" and mv.map.ok.sum() > 3
+
+
+def test_mechanism_point_equals_the_cli_point(mechanism_view, session, capsys):
+    name, mv = mechanism_view
+    rows, cols = np.nonzero(mv.map.ok)
+    node = int(rows[len(rows) // 2]), int(cols[len(rows) // 2])
+    pv = session.mechanism_point(name, mv.pose_at(*node))
+    ref = json.loads(_cli(capsys, *shlex.split(pv.command)[1:], "--json"))
+    assert pv.admissible and ref["admissible"]
+    k = pv.stiffness()
+    # one elastic model at the same pose (the command's 10-digit pose): round-off only
+    for ax, v in ref["k_N_per_um"].items():
+        assert k[f"k{ax}"] == pytest.approx(v, rel=1e-9)
+    for ax, v in ref.get("rotational_stiffness_Nm_per_urad", {}).items():
+        assert k[f"kr{ax}"] == pytest.approx(v, rel=1e-9)
+    assert set(k) == {f"k{a}" for a in ref["k_N_per_um"]} | {
+        f"kr{a}" for a in ref.get("rotational_stiffness_Nm_per_urad", {})}
+    assert [f for f, _ in pv.modes()] == pytest.approx(ref["frequencies_Hz"], rel=1e-9)
+    assert [d for _, d in pv.modes()][:len(ref["mode_descriptions"])] == ref["mode_descriptions"]
+    for comp, shares in pv.weak_points().items():
+        for d, share in shares.items():
+            assert share == pytest.approx(ref["weak_points_percent"][d][comp], abs=1e-9)
+    # the map's value at the point is the point analysis' (the raster's continuation vs one solve: the same
+    # configuration to the solver's tolerance)
+    q = mv.choice.quantity
+    assert mv.value_at(*node) == pytest.approx(k[q], rel=1e-6)
+
+
+def test_mechanism_without_elastic_data_gets_one_line(session):
+    with pytest.raises(ArgumentError, match=r"\[elastic\]") as info:
+        session.mechanism_section("slider_crank", SectionChoice(plane="xy", quantity="kappa"))
+    assert "\n" not in str(info.value)
+
+
+def test_a_click_on_a_mechanism_map_finds_its_raster_point(mechanism_view):
+    name, mv = mechanism_view
+    left, top, right, bottom = mv.axes_px
+    assert mv.node_at_pixel(left - 2, top + 5) is None
+    u0, u1, v0, v1 = mv.limits_mm
+    nv, nu = mv.map.ok.shape
+    for row, col in ((0, 0), (nv - 1, nu - 1), (nv // 2, nu // 3)):
+        u, v = mv.map.u_values[col] * 1e3, mv.map.v_values[row] * 1e3
+        x = left + (u - u0) / (u1 - u0) * (right - left)
+        y = top + (v1 - v) / (v1 - v0) * (bottom - top)
+        assert mv.node_at_pixel(x, y) == (row, col)
+    assert mv.picked_text(0, 0).endswith(f"{mv.choice.quantity} = inadmissible") or "N/um" in mv.picked_text(0, 0)

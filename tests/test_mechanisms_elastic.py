@@ -207,7 +207,7 @@ def test_section_of_a_mechanism_gives_the_machines_stiffness_map():
     np.testing.assert_allclose(sec.values["f1"].ravel(), ref.frequencies_hz[:, 0], rtol=RTOL)
     assert sec.units["kx"] == "N/um" and sec.scales["kx"] == 1e-6 and sec.units["share_drive_y"] == "%"
     # at a tool tip 150 mm along the tool axis (-z, the machines' default): the machine's map at that tool length
-    from pkmstiff.cli.mechanism import tool_point
+    from pkmstiff.mechanisms.stiffness import tool_point
 
     tip = evaluate_section(mech, "yz", 0.0, (0.1, 0.5), (-1.1, -0.7), 0.1, names=("kx", "ky"),
                            point=tool_point(mech, 150.0))

@@ -58,6 +58,25 @@ def test_wrist_singularity_detected(mech):
     assert ok.status[0] == "converged"
 
 
+@pytest.mark.parametrize("tilt", [1e-7, 1e-6, 1e-5])
+def test_ik_from_home_near_the_wrist_singularity(mech, tilt):
+    # issue 27 item 4: home is at the wrist singularity (V2 = 0), so continuation from home turns the tool axis by
+    # only `tilt` while V1 must swing by 0.7 rad; the damped Newton crept there (max_iter), the watchdog solves it
+    d = np.array([[0.02, -0.03, 0.01, 0.7, tilt]])
+    fk = mm.forward(mech, d, steps=4)
+    ik = mm.inverse(mech, fk.poses)
+    assert ik.ok[0]
+    err = np.abs(ik.drives - d)[0]
+    assert err[:3].max() < 1e-12  # carriages: regular, measured ~1e-15
+    # V1 moves the tool axis by tilt·ΔV1 only, so a residual at rounding level (~1e-16) leaves ΔV1 ~ 1e-16/tilt:
+    # measured 9e-10 at 1e-7, 2e-10 at 1e-6, 6e-12 at 1e-5; bound 10× that rounding floor
+    assert err[3] <= 1e-15 / tilt and err[4] < 1e-12
+    kappa = ik.output_kappa[0]
+    assert kappa == pytest.approx(fk.output_kappa[0], rel=1e-6)  # same configuration, same κ
+    assert (ik.status[0] == "singular") == (kappa > 1e7 or ik.sigma_ratio[0] < 1e-7)
+    assert ik.status[0] == ("converged" if tilt == 1e-5 else "singular")
+
+
 def test_joint_limits(mech):
     d = np.array([[0.0, 0.0, 0.0, 0.0, np.radians(30)], [0.0, 0.0, 0.0, 0.0, np.radians(85)],
                   [0.3, 0.0, 0.0, 0.0, np.radians(30)]])

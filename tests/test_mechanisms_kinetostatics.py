@@ -109,3 +109,72 @@ def test_acceleration_bound_is_the_drive_force_balance(name, pose):
         rates = np.abs(ks.jinv[0, :, "xyz".index(lab)]) * ks.v_max[0, k]
         assert np.all(rates <= speed * (1 + 1e-12))
         assert rates[ks.v_limiting[0, k]] == pytest.approx(speed[ks.v_limiting[0, k]], rel=1e-12)
+
+
+HEXAGLIDE_POSES = [[0.0, 0.0, -1.0, 0.0, 0.0, 0.0], [0.03, 0.28, -0.95, 0.03, -0.02, 0.05],
+                   [-0.2, 0.5, -1.1, 0.0, 0.05, 0.0], [0.25, 0.1, -0.85, -0.04, 0.0, 0.1]]
+
+
+@pytest.mark.parametrize("option, strut_share", [("", 1.0), (":drive_load_platform_only", 0.0)])
+def test_hexaglide_mechanism_accelerations_and_drive_loads_equal_the_machines(option, strut_share):
+    """The machine's a_max and static drive loads (eq. 4.86, 4.90 with M_A = drives, M_P = platform, gravity on
+    platform + ``drive_load_strut_mass`` × the six struts at the platform CoG) from the mechanism file's lumped masses
+    and its ``[elastic] drive_load_strut_mass`` (written by the generator from the machine's limits key). Both use the
+    same formulas; J⁻¹ of the two inverse kinematics agree to ~1e-12 relative, so rtol 1e-9 leaves 1000× margin for
+    the linear solves (κ(J) ≲ 1e2 here). The platform-only option checks that the strut share is the only
+    difference (without it the loads were 117.24 / 187.58 = 0.625 of the machine's)."""
+    import dataclasses
+
+    from pkmstiff.analysis.kinetostatics import kinetostatics
+    from pkmstiff.machine import load_machine
+
+    machine = kinetostatics(load_machine("hexaglide" + option), np.array(HEXAGLIDE_POSES))
+    mech = load_mechanism("hexaglide_generic")
+    assert mech.elastic.drive_load_strut_mass == 1.0
+    mech = dataclasses.replace(mech, elastic=dataclasses.replace(mech.elastic, drive_load_strut_mass=strut_share))
+    ks = mechanism_kinetostatics(mech, inverse(mech, HEXAGLIDE_POSES))
+    assert ks.acceleration_labels == machine.acceleration_labels
+    assert np.all(np.isfinite(machine.a_max)) and np.all(machine.a_max > 0)
+    np.testing.assert_allclose(ks.a_max, machine.a_max, rtol=1e-9)
+    np.testing.assert_allclose(ks.drive_loads, machine.drive_loads, rtol=0,
+                               atol=1e-9 * np.abs(machine.drive_loads).max())
+
+
+def test_drive_load_strut_mass_is_a_fraction():
+    """``[elastic] drive_load_strut_mass`` outside [0, 1] is refused at load, naming the key."""
+    from pkmstiff.errors import InputError
+    from pkmstiff.machine import load_machine
+    from pkmstiff.mechanisms.generate import HOME_POSES, mechanism_dict
+    from pkmstiff.mechanisms.loader import mechanism_from_dict
+
+    table = mechanism_dict(load_machine("hexaglide"), np.array(HOME_POSES["hexaglide"]))
+    table["elastic"]["drive_load_strut_mass"] = 1.5
+    with pytest.raises(InputError, match="drive_load_strut_mass"):
+        mechanism_from_dict(table, "<test>")
+
+
+def test_6x_mechanism_drive_loads_equal_the_machines_and_a_max_lacks_only_m_a():
+    """The 6X's mechanism file gives the machine's static drive loads (eq. 4.90, platform only: rtol 1e-9 as above);
+    its a_max is the machine's eq. 4.86 with M_A = 0 (documented gap: the telescopic drive's mass sits at the fixed
+    base joint of the file, the machine accelerates M_A = 49.19 kg along each strut)."""
+    from pkmstiff.analysis.kinetostatics import drive_data, kinetostatics, max_acceleration
+    from pkmstiff.kinematics import inverse_jacobian, inverse_kinematics, jacobian_and_condition
+    from pkmstiff.machine import load_machine
+    from pkmstiff.structure import mass_matrix_about_origin
+
+    poses = np.array([[0.0, 0.0, 1.3, 0.0, 0.0, 0.0], [0.05, -0.04, 1.25, 0.03, 0.02, -0.04]])
+    machine = load_machine("hexapod_6x")
+    ref = kinetostatics(machine, poses)
+    mech = load_mechanism("hexapod_6x_generic")
+    ks = mechanism_kinetostatics(mech, inverse(mech, poses))
+    np.testing.assert_allclose(ks.drive_loads, ref.drive_loads, rtol=0, atol=1e-9 * np.abs(ref.drive_loads).max())
+    ik = inverse_kinematics(machine, poses)
+    jinv = inverse_jacobian(machine, ik)
+    jc, _ = jacobian_and_condition(jinv)
+    d = drive_data(machine)
+    assert np.all(d.mass > 0)
+    a0, _, _ = max_acceleration(jinv, jc, ref.acceleration_directions, np.zeros(6),
+                                mass_matrix_about_origin(d.body, np.asarray(ik.R)), ref.drive_loads,
+                                d.available_force, d.coulomb)
+    np.testing.assert_allclose(ks.a_max, a0, rtol=1e-9)
+    assert np.all(ks.a_max > ref.a_max)

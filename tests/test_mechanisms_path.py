@@ -128,3 +128,35 @@ def test_cli_path_over_a_drive_file(tmp_path, capsys):
     assert main(["mechanism", "path", "slider_crank", "--drives-file", str(f), "--out", str(out), "--force"]) == 0
     rows = list(csv.DictReader(out.open()))
     assert abs(float(rows[3]["x_mm_per_s2"]) - 80.0) < 1e-6 and abs(float(rows[3]["x_mm_per_s3"])) < 1e-5
+
+
+@pytest.mark.parametrize("q1_deg", [90.0, 90.0 + 1e-5, -90.0, 60.0])
+def test_link_rates_at_phi_y_90_degrees_equal_the_closed_form(tmp_path, q1_deg):
+    # the arm turns about y (its Euler angle φy = q1: the parametrisation singularity at ±90°), the hand about the
+    # arm's x axis: ω_arm = q̇1 e_y, ω_hand = q̇1 e_y + q̇2 u with u = Ry(q1) e_x, and the hand point w = Ry Rx p
+    # has ẇ = ω×w, ẅ = ω̇×w + ω×ẇ, w⃛ = ω̈×w + 2ω̇×ẇ + ω×ẅ; the series run in rotation-vector coordinates
+    from tests.test_mechanisms_solver import ARM
+
+    p = tmp_path / "arm.toml"
+    p.write_text(ARM)
+    mech = mm.load_mechanism(p)
+    d = np.radians([[q1_deg, 30.0]])
+    sd, sdd, sddd = np.array([[0.7, -0.4]]), np.array([[0.3, 0.9]]), np.array([[-1.1, 0.5]])
+    pd = path_derivatives(mech, d, sd, sdd, sddd)
+    assert pd.solution.converged.all()
+    ey = np.array([0.0, 1.0, 0.0])
+    q1 = d[0, 0]
+    u = np.array([np.cos(q1), 0.0, -np.sin(q1)])
+    wa = [sd[0, 0] * ey, sdd[0, 0] * ey, sddd[0, 0] * ey]
+    du = np.cross(wa[0], u)
+    ddu = np.cross(wa[1], u) + np.cross(wa[0], du)
+    wh = [wa[0] + sd[0, 1] * u, wa[1] + sdd[0, 1] * u + sd[0, 1] * du,
+          wa[2] + sddd[0, 1] * u + 2 * sdd[0, 1] * du + sd[0, 1] * ddu]
+    # rounding only: exact series arithmetic on O(1) quantities (measured ≤ 1e-15)
+    assert np.abs(pd.link_omega[:, 0, 1] - np.array(wa)).max() < 1e-12
+    assert np.abs(pd.link_omega[:, 0, 2] - np.array(wh)).max() < 1e-12
+    w = pd.point[0, 0]
+    wd = np.cross(wh[0], w)
+    wdd = np.cross(wh[1], w) + np.cross(wh[0], wd)
+    wddd = np.cross(wh[2], w) + 2 * np.cross(wh[1], wd) + np.cross(wh[0], wdd)
+    assert np.abs(pd.point[1:, 0] - np.array([wd, wdd, wddd])).max() < 1e-12

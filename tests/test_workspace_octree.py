@@ -244,3 +244,51 @@ def test_boundary_points_are_the_centroids_of_the_admissible_corners():
     ref = res.lo + (res.leaf_index + (c[:, :, None] * CORNER_OFFSETS[None]).sum(1) / c.sum(1, keepdims=True)) \
         * res.spacing
     assert np.array_equal(res.boundary_points, ref)  # small integer sums over a count: exact in any order
+
+
+@pytest.mark.parametrize("n_slices", [2, 3, 7])
+def test_refining_slices_separately_gives_the_same_leaves(n_slices):
+    """The design that lets workers refine subtrees (docs/user-guide/parallel.md): contiguous slices of a level's
+    boundary voxels, refined to the finest level each with its own evaluator and joined in slice order, give the
+    octree's leaves in the same order, the same inside volume (per-level counts summed level by level, bit for bit)
+    and the same evaluations per level once the points evaluated by two slices are counted once (by key)."""
+    from pkmstiff.workspace import octree as O
+
+    def body(p):  # a sphere with a thin slot: voxels of several levels are discarded on both sides
+        return sphere(p) & ~((np.abs(p[:, 2] - CENTRE[2]) < 0.03) & (np.linalg.norm(p - CENTRE, axis=1) > 0.2))
+
+    lo, hi, eps = BOX[0], BOX[1], 0.0125
+    ref = octree_boundary(body, lo, hi, eps, closure=False)
+    levels = levels_for(lo, hi, eps)
+    lat = O.Lattice(lo, hi, levels)
+
+    class KeyedEvaluator(O._Evaluator):  # also records the keys it evaluated
+        def __call__(self, idx):
+            self.keys.append(lat.key(idx))
+            return super().__call__(idx)
+
+    l0 = 4  # split the work below the start level (3) so both levels' voxels come from the serial path
+    # the same octree stopped at level l0 (the box's edges are 2**k times eps: its lattice points are the same)
+    pre = octree_boundary(body, lo, hi, float(hi[0] - lo[0]) / 2 ** l0, closure=False)
+    start = [l for l, _ in ref.evaluations_per_level]
+    assert start[0] == 3 and l0 in start
+    # the boundary voxels of level l0 of the full octree with their corners (the leaves of a level-l0 octree)
+    size = 1 << (levels - l0)
+    vox, corners = pre.leaf_index * size, pre.leaf_corners
+    parts, keys = [], []
+    for v, c in zip(np.array_split(vox, n_slices), np.array_split(corners, n_slices)):
+        ev = KeyedEvaluator(body, lat)
+        ev.keys = []
+        parts.append(O._refine(v, c, l0, levels, lat, ev, []))
+        keys.append(np.concatenate(ev.keys))
+    assert np.array_equal(np.concatenate([p[0] for p in parts]), ref.leaf_index)
+    assert np.array_equal(np.concatenate([p[1] for p in parts]), ref.leaf_corners)
+    inside = [sum(p[2][level] for p in parts) for level in range(int(levels.max()) + 1)]
+    inside[:l0 + 1] = [0] * (l0 + 1)
+    volume = pre.inside_volume
+    for level, count in enumerate(inside[l0 + 1:], l0 + 1):
+        volume += float(count) * float(np.prod((1 << (levels - level)) * lat.h))
+    assert volume == ref.inside_volume  # bit for bit: the same products summed in the same order
+    evaluated = np.concatenate(keys)
+    assert O.unique_sorted(evaluated).size == ref.evaluations - pre.evaluations
+    assert evaluated.size > ref.evaluations - pre.evaluations  # slices share points on their common faces

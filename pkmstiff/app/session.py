@@ -26,6 +26,8 @@ from pkmstiff.machine.loader import bundled_machines, machine_options  # noqa: F
 
 if TYPE_CHECKING:
     from pkmstiff.api import PointResults, SectionMap, StudyMachine
+    from pkmstiff.app.mechanisms import MechanismPointView, MechanismSectionView
+    from pkmstiff.mechanisms.model import Mechanism
 
 MM = 1e3
 #: the section planes offered (those of ``pkmstiff section --plane``)
@@ -54,9 +56,8 @@ class MachineChoice:
 
 
 def check_spatial(machine: str) -> None:
-    """An :class:`~pkmstiff.errors.ArgumentError` (one line) for a mechanism or a planar example: the app shows
-    spatial machines (a mechanism's or planar example's maps and point analyses: ``pkmstiff section`` and
-    ``pkmstiff point`` with its name)."""
+    """An :class:`~pkmstiff.errors.ArgumentError` (one line) for a mechanism or a planar example: the spatial
+    machines' path of the app (a mechanism with an ``[elastic]`` table takes :meth:`Session.mechanism_section`)."""
     from pkmstiff.analysis.planar import bundled_planar
     from pkmstiff.mechanisms.loader import is_mechanism
 
@@ -68,6 +69,14 @@ def check_spatial(machine: str) -> None:
         raise ArgumentError(option="machine", expected="a spatial machine (the app does not show planar examples "
                             "or mechanisms yet: use pkmstiff section / pkmstiff point with its name)",
                             found=f"{machine} ({kind})")
+
+
+def is_mechanism_target(machine: str) -> bool:
+    """Whether ``machine`` names a mechanism (bundled name or mechanism file), as the command line resolves it
+    (a bundled spatial machine's name first)."""
+    from pkmstiff.mechanisms.loader import is_mechanism
+
+    return machine not in bundled_machines() and is_mechanism(machine)
 
 
 @dataclass(frozen=True)
@@ -130,6 +139,13 @@ class SectionChoice:
         expected and what was found) before any work."""
         from pkmstiff.evaluation.quantities import check_quantity
 
+        self.checked_raster()
+        check_quantity(self.quantity, n_chains)
+        self.settings.checked()
+        return self
+
+    def checked_raster(self) -> SectionChoice:
+        """This choice's plane, step, position and orientation checked (one line, before any work)."""
         if self.plane not in PLANES:
             raise ArgumentError(option="plane", expected=f"one of {', '.join(PLANES)}", found=self.plane)
         lo, hi = STEP_LIMITS_MM
@@ -141,8 +157,6 @@ class SectionChoice:
                                                      for a in self.orientation_deg):
             raise ArgumentError(option="orientation", expected=f"a, b, c within ±{ANGLE_LIMIT_DEG:g} deg",
                                 found=tuple(self.orientation_deg))
-        check_quantity(self.quantity, n_chains)
-        self.settings.checked()
         return self
 
     def command(self, machine: MachineChoice, out: str = "OUT") -> str:
@@ -161,6 +175,23 @@ def point_command(machine: MachineChoice, pose: Sequence[float], settings: Model
     mm_deg = [*((v - o) * MM for v, o in zip(pose[:3], origin_m)), *(math.degrees(v) for v in pose[3:6])]
     return shlex.join(["pkmstiff", "point", machine.spec, f"--pose={','.join(f'{v:.10g}' for v in mm_deg)}",
                        *settings.args()])
+
+
+def node_at_pixel(view: SectionView | MechanismSectionView, x_px: float, y_px: float) -> tuple[int, int] | None:
+    """(row, column) of the raster point of ``view`` nearest the PNG pixel (x right, y down), None outside its map
+    axes (``view.axes_px``; the axes span ``view.limits_mm``)."""
+    left, top, right, bottom = view.axes_px
+    if not (left <= x_px <= right and top <= y_px <= bottom):
+        return None
+    u0, u1, v0, v1 = view.limits_mm
+    u = u0 + (x_px - left) / (right - left) * (u1 - u0)
+    v = v1 - (y_px - top) / (bottom - top) * (v1 - v0)
+    return view.node_at(u, v)
+
+
+def value_text(quantity: str, value: float, unit: str) -> str:
+    """``kx = 1.23 N/um`` or ``kx = inadmissible`` (NaN)."""
+    return f"{quantity} = " + ("inadmissible" if math.isnan(value) else f"{value:.6g} {unit}")
 
 
 @dataclass
@@ -187,13 +218,15 @@ class SectionView:
 
     def node_at_pixel(self, x_px: float, y_px: float) -> tuple[int, int] | None:
         """(row, column) of the raster point nearest the PNG pixel (x right, y down), None outside the map axes."""
-        left, top, right, bottom = self.axes_px
-        if not (left <= x_px <= right and top <= y_px <= bottom):
-            return None
-        u0, u1, v0, v1 = self.limits_mm
-        u = u0 + (x_px - left) / (right - left) * (u1 - u0)
-        v = v1 - (y_px - top) / (bottom - top) * (v1 - v0)
-        return self.node_at(u, v)
+        return node_at_pixel(self, x_px, y_px)
+
+    def picked_text(self, row: int, col: int) -> str:
+        """One line for the picked raster point: its in-plane position [mm] and the map's value there."""
+        pl = self.map.plane
+        frame = self.choice.settings.frame
+        return ((f"{frame} frame: " if frame != "machine" else "")
+                + f"{pl.u_name} = {pl.u_values[col] * MM:.1f} mm, {pl.v_name} = {pl.v_values[row] * MM:.1f} mm: "
+                + value_text(self.choice.quantity, self.value_at(row, col), self.unit))
 
     def node_at(self, u_mm: float, v_mm: float) -> tuple[int, int]:
         """(row, column) of the raster point nearest the in-plane position (u, v) [mm]."""
@@ -277,6 +310,7 @@ class Session:
     """Machines loaded once per variant, and the app's requests on them."""
 
     _machines: dict[str, StudyMachine] = field(default_factory=dict)
+    _mechanisms: dict[str, Mechanism] = field(default_factory=dict)
 
     def machine(self, choice: MachineChoice, neglect_spindle: bool = False) -> StudyMachine:
         """The machine of ``choice`` (loaded on first use; a bad name, file or option is one clear error), with
@@ -326,6 +360,27 @@ class Session:
                       skip_checks=settings.skip_checks)
         return PointView(x, res, point_command(machine, x, settings, m.to_machine_frame(np.zeros(3), settings.frame)))
 
+    def mechanism(self, name: str) -> Mechanism:
+        """The mechanism ``name`` (bundled or file; loaded on first use)."""
+        from pkmstiff.mechanisms import load_mechanism
+
+        if name not in self._mechanisms:
+            self._mechanisms[name] = load_mechanism(name)
+        return self._mechanisms[name]
+
+    def mechanism_section(self, name: str, choice: SectionChoice) -> MechanismSectionView:
+        """The section map of ``choice`` on the mechanism ``name`` (as ``pkmstiff section NAME``)."""
+        from pkmstiff.app.mechanisms import mechanism_section
+
+        return mechanism_section(self.mechanism(name), choice)
+
+    def mechanism_point(self, name: str, pose: Sequence[float],
+                        settings: ModelSettings = ModelSettings()) -> MechanismPointView:
+        """The point analysis of the mechanism ``name`` at the output ``pose`` (SI; as ``pkmstiff point NAME``)."""
+        from pkmstiff.app.mechanisms import mechanism_point
+
+        return mechanism_point(self.mechanism(name), np.asarray(pose, float), settings, N_MODES)
+
     def pose_limits(self, machine: MachineChoice) -> tuple[np.ndarray, np.ndarray]:
         """(lo, hi) (6,) slider limits of the pose in mm and degrees: the chains' reach box and ±:data:`ANGLE_LIMIT_DEG`."""
         from pkmstiff.workspace.translational import reach_box
@@ -341,12 +396,14 @@ def pose_text(pose: Sequence[float]) -> str:
             + ", ".join(f"{math.degrees(v):.1f}" for v in pose[3:6]) + " deg")
 
 
-def export(out_dir: str | Path, machine: MachineChoice, view: SectionView | None, point: PointView | None,
-           scene_png: bytes | None = None) -> Path:
+def export(out_dir: str | Path, machine: MachineChoice, view: SectionView | MechanismSectionView | None,
+           point: PointView | MechanismPointView | None, scene_png: bytes | None = None) -> Path:
     """Write what is shown into a new folder ``out_dir/export-NNN`` (nothing existing is overwritten): the map as
     ``pkmstiff section --out`` writes it (PNG, CSV with its JSON metadata, statistics; same file names), the point
     analysis as a one-row CSV (``point.csv``, the columns of :meth:`PointResults.to_pandas`), the 3-D view
-    (``view_3d.png``) and ``commands.txt``: the commands that reproduce the map and the point analysis."""
+    (``view_3d.png``) and ``commands.txt``: the commands that reproduce the map and the point analysis. A mechanism's
+    map is written as ``pkmstiff section MECHANISM --out`` writes it (no ``point.csv``)."""
+    from pkmstiff.app.mechanisms import MechanismSectionView
     from pkmstiff.io.atomic import atomic_path, atomic_write_text, safe_stem
     from pkmstiff.report.outputs import write_section_outputs
 
@@ -356,13 +413,17 @@ def export(out_dir: str | Path, machine: MachineChoice, view: SectionView | None
     folder = base / f"export-{k:03d}"
     folder.mkdir()
     commands = []
-    if view is not None:
+    if isinstance(view, MechanismSectionView):
+        view.write(folder)
+        commands.append(view.choice.command(machine, str(folder / "cli")))
+    elif view is not None:
         stem = f"{safe_stem(view.map.result.machine)}_{view.choice.plane}"
         write_section_outputs(view.map.result, folder, ["png", "csv"], stem, progress=False)
         commands.append(view.choice.command(machine, str(folder / "cli")))
-    if point is not None:
+    if isinstance(point, PointView):
         with atomic_path(folder / "point.csv") as tmp:
             point.result.to_pandas().to_csv(tmp, index=False)
+    if point is not None:
         commands.append(point.command)
     if scene_png is not None:
         with atomic_path(folder / "view_3d.png") as tmp:

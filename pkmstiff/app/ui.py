@@ -30,6 +30,7 @@ from pkmstiff.app.session import (
     Session,
     as_float,
     bundled_machines,
+    is_mechanism_target,
     describe_error,
     export,
     machine_options,
@@ -73,6 +74,7 @@ class App:
         self._token = 0
         self._animating = False
         self._scene_machine = ""  # the machine the 3-D view was set up for (spec)
+        self.mechanism = False  # the chosen machine is a mechanism (map and point analysis only, no 3-D view)
         self._init_state(machine, step_mm)
         self._build()
         self.server.controller.on_server_ready.add(lambda **_: self._machine_changed())
@@ -96,7 +98,7 @@ class App:
         s.picked, s.point_rows, s.weak_rows, s.weak_dirs, s.mode_items = "click the map", [], [], [], []
         s.point_admissible, s.mode, s.animate, s.mode_shown = "", None, False, ""
         s.section_command, s.point_command, s.export_folder = "", "", ""
-        s.status, s.error, s.pose_shown = "starting", "", ""
+        s.status, s.error, s.pose_shown, s.scene_note = "starting", "", "", ""
 
     def machine_choice(self) -> MachineChoice:
         option = self.state.option
@@ -140,10 +142,22 @@ class App:
         s = self.state
         try:
             mc = self.machine_choice()
-            self.session.machine(mc)  # a mechanism or planar example: one line says why it is not shown
-            s.options = [NO_OPTION, *machine_options(mc.machine)]
-            lo, hi = self.session.pose_limits(mc)
-            s.pose_lo, s.pose_hi = lo.tolist(), hi.tolist()
+            self.mechanism = is_mechanism_target(mc.machine)
+            if self.mechanism:
+                from pkmstiff.app.mechanisms import elastic_mechanism
+                from pkmstiff.mechanisms.section import quantity_names
+
+                mech = elastic_mechanism(self.session.mechanism(mc.machine))  # none: one line says why
+                s.options, s.quantities = [NO_OPTION], list(quantity_names(mech))
+                s.scene_note = ("no 3-D view of a mechanism in the app (pkmstiff point NAME --figures DIR draws its "
+                                "mode shapes)")
+                if mech.dim == 2:
+                    s.plane = "xy"
+            else:
+                self.session.machine(mc)  # a planar example: one line says why it is not shown
+                s.options, s.quantities, s.scene_note = [NO_OPTION, *machine_options(mc.machine)], _quantity_names(), ""
+                lo, hi = self.session.pose_limits(mc)
+                s.pose_lo, s.pose_hi = lo.tolist(), hi.tolist()
         except Exception as exc:  # the message bar says what is wrong; the app stays up
             self._fail(exc)
             return
@@ -173,7 +187,9 @@ class App:
         with s:
             s.status, s.error = "computing the section map…", ""
         try:
-            view = await asyncio.get_running_loop().run_in_executor(None, self.session.section, mc, sc)
+            compute = self.session.mechanism_section if self.mechanism else self.session.section
+            view = await asyncio.get_running_loop().run_in_executor(
+                None, compute, mc.machine if self.mechanism else mc, sc)
         except Exception as exc:
             if token == self._token:
                 with s:
@@ -189,6 +205,9 @@ class App:
             s.map_geometry = json.dumps({"version": s.map_version, "size_px": view.size_px, "axes_px": view.axes_px,
                                          "limits_mm": view.limits_mm, "quantity": sc.quantity, "unit": view.unit})
             s.section_command = sc.command(mc)
+            if self.mechanism:
+                s.status = "ready"
+                return
             node = view.central_node()
             if self._scene_machine != mc.spec:  # a new machine: start at the middle of the admissible region
                 if node is not None:
@@ -205,6 +224,8 @@ class App:
         self.state.update({k: round(float(v), 6) for k, v in zip(POSE_KEYS, values)})
 
     def _pose_changed(self, **_: Any) -> None:
+        if self.mechanism:
+            return  # the pose sliders move a spatial machine's 3-D view
         if any(str(self.state[k]).strip() in INCOMPLETE for k in POSE_KEYS):
             return  # still typing
         try:
@@ -231,14 +252,11 @@ class App:
         node = self.view.node_at_pixel(x * w / width, y * h / height)
         if node is None:
             return
-        value = self.view.value_at(*node)
         pose = self.view.pose_at(*node)
-        pl = self.view.map.plane
-        frame = self.view.choice.settings.frame
-        self.state.picked = ((f"{frame} frame: " if frame != "machine" else "")
-                             + f"{pl.u_name} = {pl.u_values[node[1]] * MM:.1f} mm, "
-                             f"{pl.v_name} = {pl.v_values[node[0]] * MM:.1f} mm: {self.view.choice.quantity} = "
-                             + ("inadmissible" if math.isnan(value) else f"{value:.6g} {self.view.unit}"))
+        self.state.picked = self.view.picked_text(*node)
+        if self.mechanism:
+            self._start_analysis(pose)  # no pose sliders and no 3-D view for a mechanism
+            return
         self._set_pose(pose)
         self._start_analysis(pose)
 
@@ -267,7 +285,9 @@ class App:
         with s:
             s.status = "analysing the point…"
         try:
-            pv = await asyncio.get_running_loop().run_in_executor(None, self.session.point, mc, pose, settings)
+            analyse = self.session.mechanism_point if self.mechanism else self.session.point
+            pv = await asyncio.get_running_loop().run_in_executor(
+                None, analyse, mc.machine if self.mechanism else mc, pose, settings)
         except Exception as exc:
             with s:
                 self._fail(exc)
@@ -276,10 +296,8 @@ class App:
             self.point = pv
             k = pv.stiffness()
             s.point_admissible = "admissible" if pv.admissible else "NOT admissible: " + "; ".join(pv.reasons)
-            s.point_rows = (
-                [{"id": f"k-{n}", "name": f"k_{n[1:]}", "value": f"{k[n]:.3f}", "unit": "N/µm"} for n in ("kx", "ky", "kz")]
-                + [{"id": f"k-{n}", "name": f"k_{n[1:]}", "value": f"{k[n]:.3f}", "unit": "N·m/µrad"}
-                   for n in ("krx", "kry", "krz")])
+            s.point_rows = [{"id": f"k-{n}", "name": f"k_{n[1:]}", "value": f"{v:.3f}",
+                             "unit": "N·m/µrad" if n.startswith("kr") else "N/µm"} for n, v in k.items()]
             wp = pv.weak_points()
             s.weak_dirs = list(next(iter(wp.values()))) if wp else []
             s.weak_rows = [{"component": c, "shares": [f"{v:.1f}" for v in d.values()]} for c, d in wp.items()]
@@ -290,6 +308,8 @@ class App:
             s.status = "ready"
 
     def _mode_changed(self, mode: int | None = None, **_: Any) -> None:
+        if self.mechanism:
+            return  # no 3-D view: the frequencies and descriptions are the list itself
         m, pose = self.analysed_machine(), self.pose()
         try:
             if mode:
@@ -323,7 +343,8 @@ class App:
     def export_shown(self) -> None:
         """PNG, CSV and the commands of what is shown, into a new folder under the export directory."""
         try:
-            folder = export(self.out, self.machine_choice(), self.view, self.point, self.scene.png())
+            folder = export(self.out, self.machine_choice(), self.view, self.point,
+                            None if self.mechanism else self.scene.png())
         except Exception as exc:
             self._fail(exc)
             return
@@ -414,6 +435,7 @@ class App:
                             html.Div("{{ map_geometry }}", id="map-geometry", style="display: none")
                         with v3.VCol(cols=12, lg=6):
                             html.Div("machine at {{ pose_shown }}", id="pose-shown", classes="text-caption")
+                            html.Div("{{ scene_note }}", id="scene-note", classes="text-caption")
                             with html.Div(id="view-3d", style="height: 520px; border: 1px solid #ddd"):
                                 view = vtk_widgets.VtkRemoteView(ren_win, ref="view3d", interactive_ratio=1)
                                 ctrl.view_update = view.update

@@ -179,6 +179,9 @@ def fit_setup(machine: Machine, controller: Machine, plan: Plan, measured: np.nd
     set-up parameters s (minimum-norm steps, so set-up directions the readings do not see stay at zero).
     Returns (residual, ((parameter name, value, unit), ...)) in SI."""
     inst = plan.instrument
+    if "backlash" in blocks:  # a machine parameter: fitting it needs the perturbed forward kinematics
+        raise InputError("--with", "backlash", "set-up parameters only (the machine is held fixed; identify the "
+                         "backlash with calibrate identify --with backlash)", "backlash")
     params = error_model(machine, setup=plan.setup, setup_blocks=blocks)
     idx = np.flatnonzero(params.chain < 0)
     o, R, Rc = _reached_frames(machine, controller, plan)

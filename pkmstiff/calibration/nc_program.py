@@ -42,7 +42,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from pkmstiff.calibration.instruments import BALL_BAR
-from pkmstiff.calibration.plans import Plan, poses_for_target
+from pkmstiff.calibration.plans import Plan, Segment, poses_for_target
 from pkmstiff.errors import InputError
 from pkmstiff.kinematics.rotation import cardan_angles, cardan_matrix
 
@@ -194,6 +194,34 @@ def _closed(P: np.ndarray) -> bool:
     return _is_closed(P)
 
 
+def run_order(plan: Plan, seg: Segment, direction: str) -> np.ndarray:
+    """Plan pose indices of ``seg`` in the order a run in ``direction`` visits them: ``cw`` reversed, a closed
+    path (first and last TCP 1 µm apart or less) closed by its first point (module docstring)."""
+    ids = np.arange(seg.start, seg.stop)
+    x = plan.poses[ids]
+    Rn = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
+    closed = _closed(x[:, :3] + np.einsum("nij,j->ni", Rn, plan.setup.target))
+    order = ids if direction == "ccw" else ids[::-1]
+    if closed and direction == "cw":
+        order = np.roll(order, 1)
+    return np.r_[order, order[0]] if closed else order
+
+
+def programmed_plan(plan: Plan, directions: tuple[str, ...] = NCOptions.directions) -> Plan:
+    """The plan as its NC program runs it: every path segment once per direction, in the order of
+    :func:`run_order`, each run a segment of its own (so the drives' directions of motion, and with them the
+    backlash columns, are those of the runs); point segments unchanged."""
+    segs, idx = [], []
+    for seg in plan.segments or (Segment(plan.name, 0, plan.n_poses),):
+        dirs = directions if seg.kind == "path" else ("ccw",)
+        for d in dirs:
+            order = run_order(plan, seg, d) if seg.kind == "path" else np.arange(seg.start, seg.stop)
+            label = f"{seg.label} {d}" if seg.kind == "path" else seg.label
+            segs.append(Segment(label, len(idx), len(idx) + len(order), seg.kind))
+            idx.extend(order.tolist())
+    return Plan(plan.name, plan.setup, plan.poses[np.array(idx, dtype=int)], tuple(segs))
+
+
 def program_runs(plan: Plan, options: NCOptions | None = None) -> list[Run]:
     """The runs of a ball-bar plan's path segments, each in every direction of ``options`` (module docstring),
     rounded to the program's decimals."""
@@ -212,16 +240,8 @@ def program_runs(plan: Plan, options: NCOptions | None = None) -> list[Run]:
     for j, seg in enumerate(plan.segments or ()):
         if seg.kind != "path":
             raise InputError(plan.name, f"segment '{seg.label}'", "measuring paths (a ball-bar plan)", seg.kind)
-        ids = np.arange(seg.start, seg.stop)
-        x = plan.poses[ids]
-        Rn = cardan_matrix(x[:, 3], x[:, 4], x[:, 5])
-        closed = _closed(x[:, :3] + np.einsum("nij,j->ni", Rn, st.target))
         for d in opts.directions:
-            order = ids if d == "ccw" else ids[::-1]
-            if closed and d == "cw":
-                order = np.roll(order, 1)
-            if closed:
-                order = np.r_[order, order[0]]
+            order = run_order(plan, seg, d)
             xs = plan.poses[order]
             P, R, nodes = _dense_path(plan, xs, step)
             tin = P[1] - P[0]

@@ -18,7 +18,10 @@ error, never a silent shift. A given start offset skips the search but not the c
 
 **Mapping (Assumption: constant feed, see :mod:`.nc_program`).** A sample at t lies at arc length
 s = F (t − t₀) along the run's polyline; samples on the feed-in, overshoot and feed-out arcs are dropped, the
-others get the commanded pose there (TCP and A B C interpolated linearly, o = TCP − R v). Times in the measurement
+others get the commanded pose there (TCP and A B C interpolated linearly, o = TCP − R v); leading path samples
+are left out until the drives' directions of motion the measurement will give them (the step to the next sample)
+are those the machine ran them with (the step from the sample before, :func:`_lead_in`). A refined
+synchronisation against the identified machine: :mod:`.sync_refine`. Times in the measurement
 run on across runs (each run's duration plus two dwells).
 """
 
@@ -229,6 +232,22 @@ def synchronise(series: RawSeries, run: Run, fixed_ball: np.ndarray, bar_length:
                 _timing_sigma(t, y, run, fixed_ball, bar_length, t0, (t1, t2), win_in, machine, target))
 
 
+def _lead_in(machine: Machine, run: Run, target: np.ndarray, tau: np.ndarray, first: int) -> int:
+    """Index of the first sample to keep from ``first`` (the first on the path) on: a measurement gives its first
+    sample the drives' directions of motion of the step to the second (:func:`~.backlash.held_signs`), whereas
+    the machine ran into it from the sample before (on the feed-in ramp, or across a drive reversal); samples are
+    left out until the two agree for every drive (at most 5)."""
+    n = min(first + 7, len(tau))
+    if first < 1 or n - first < 3:
+        return first
+    q = commanded_drives(machine, run.poses(tau[first - 1:n], target))
+    step = np.sign(np.diff(q, axis=0))  # step[i]: into sample first + i
+    for i in range(min(5, len(step) - 1)):
+        if np.array_equal(step[i], step[i + 1]):
+            return first + i
+    return first + 5
+
+
 def match_runs(series: list[RawSeries], runs: list[Run]) -> list[Run]:
     """The run of each raw series: header/option ``run``, else ``segment`` (1 if the program has one) and
     ``direction``, else the series' position."""
@@ -267,14 +286,16 @@ def match_runs(series: list[RawSeries], runs: list[Run]) -> list[Run]:
 
 
 def import_raw(machine: Machine, plan: Plan, runs: list[Run], series: list[RawSeries], *,
-               limit: float | None = None) -> tuple[BallbarMeasurement, list[Sync]]:
+               limit: float | None = None, syncs: list[Sync] | None = None) -> tuple[BallbarMeasurement, list[Sync]]:
     """The measurement of raw ``series`` taken on ``machine`` along ``runs`` of ``plan`` (module docstring) and
-    the synchronisation of each."""
+    the synchronisation of each; ``syncs`` (one per series, e.g. refined by :mod:`.sync_refine`) replace the
+    feed-in synchronisation."""
     st = plan.setup
     fb, L = st.fixed_ball, float(st.bar_length)
     matched = match_runs(series, runs)
-    parts, syncs = [], []
-    for s, run in zip(series, matched):
+    given, syncs = syncs, []
+    parts = []
+    for k, (s, run) in enumerate(zip(series, matched)):
         if s.bar_length is not None and not math.isclose(s.bar_length, L, rel_tol=1e-9):
             raise InputError(s.path, key="bar_length_mm", reason=f"key 'bar_length_mm': expected the plan's bar length {L * 1e3:g} mm, "
                              f"found {s.bar_length * 1e3:g} mm ({s.where('bar_length')})")
@@ -284,10 +305,12 @@ def import_raw(machine: Machine, plan: Plan, runs: list[Run], series: list[RawSe
         if s.direction is not None and s.direction != run.direction:
             raise InputError(s.path, key="direction", reason=f"key 'direction': expected {run.direction} (run {run.number}), found "
                              f"{s.direction} ({s.where('direction')})")
-        sync = synchronise(s, run, fb, L, limit=limit, machine=machine, target=st.target)
+        sync = synchronise(s, run, fb, L, limit=limit, machine=machine, target=st.target) if given is None \
+            else given[k]
         a, b = run.path_times
         tau = s.t - sync.start
         keep = (tau >= a - 1e-12) & (tau <= b + 1e-12)
+        keep[:_lead_in(machine, run, st.target, tau, int(np.argmax(keep)))] = False
         parts.append((tau[keep], s.deviation[keep], run, s))
         syncs.append(Sync(**{**sync.__dict__, "kept": int(keep.sum())}))
     t_all, dev, poses, direction, feed = [], [], [], [], []

@@ -20,6 +20,7 @@ def identifiability_report(machine_name: str, instrument: str, plan_path: str | 
     ``fixed_balls`` (``--fixed-ball X,Y,Z`` in mm, repeatable): the plan measured once about each of these fixed
     balls (moved rigidly), identified together; ``placed_by_machine``: the machine places each of them."""
     from pkmstiff.calibration import check_plan, default_plan, identifiability, parse_with, read_plan
+    from pkmstiff.calibration.instruments import BALL_BAR
     from pkmstiff.calibration.instruments import instrument as lookup
     from pkmstiff.calibration.setups import PlanSet, moved_plan, setups_error_model, setups_of
     from pkmstiff.errors import InputError
@@ -46,10 +47,21 @@ def identifiability_report(machine_name: str, instrument: str, plan_path: str | 
                                         for b in (balls or [plan.setup.fixed_ball])))
     for part in plan.parts if isinstance(plan, PlanSet) else (plan,):
         check_plan(machine, part)
-    params = setups_error_model(machine, plan, frame, parse_with(with_, inst))
+    blocks = parse_with(with_, inst)
+    first = plan.parts[0] if isinstance(plan, PlanSet) else plan
+    if "backlash" in blocks and first.instrument is BALL_BAR:
+        from pkmstiff.calibration.nc_program import programmed_plan
+
+        # backlash: the drives' directions of motion are those of the NC program's runs
+        plan = (PlanSet(plan.name, tuple(programmed_plan(part) for part in plan.parts)) if isinstance(plan, PlanSet)
+                else programmed_plan(plan))
+        first = plan.parts[0] if isinstance(plan, PlanSet) else plan
+    params = setups_error_model(machine, plan, frame, blocks)
     res = identifiability(machine, params, plan)
+    programmed = bool(first.segments) and first.segments[0].label.endswith(" ccw")
     out = {"machine": machine.name, "instrument": inst.kind,
-           "plan": {"name": plan.name, "n_poses": plan.n_poses, "source": plan_path or "default"},
+           "plan": {"name": plan.name, "n_poses": plan.n_poses, "source": plan_path or "default",
+                    "runs": "as programmed" if programmed else "as given"},
            "setups": [_setup_dict(st) for st in setups_of(plan)]}
     out["setup"] = out["setups"][0]
     out.update(res.to_dict())
@@ -70,7 +82,8 @@ MAX_UNNAMED = 5
 
 
 def _print_identifiability(rep: dict) -> None:
-    print(f"{rep['machine']}, {rep['instrument']}: plan '{rep['plan']['name']}' ({rep['plan']['n_poses']} poses, "
+    runs = " in both directions, as the NC program runs it" if rep["plan"].get("runs") == "as programmed" else ""
+    print(f"{rep['machine']}, {rep['instrument']}: plan '{rep['plan']['name']}'{runs} ({rep['plan']['n_poses']} poses, "
           f"{rep['n_readings']} readings), {rep['frame']} parameters")
     if len(rep["setups"]) > 1:
         print(f"set-ups ({len(rep['setups'])}): " + "; ".join(

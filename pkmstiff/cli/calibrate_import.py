@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pkmstiff.cli.calibrate import add_with_option
 from pkmstiff.cli.edges import check_number, check_output_file
 
 
@@ -108,11 +109,32 @@ def import_command(args: argparse.Namespace) -> dict:
                          f"{sorted(f * 60e3 for f in feeds)} mm/min")
     machine, plan, runs = _plan_and_runs(args, feeds.pop() if feeds else None)
     limit = None if args.max_residual is None else args.max_residual * 1e-6
-    meas, syncs = import_raw(machine, plan, runs, series, limit=limit)
+    rounds = 0
+    if args.refine:
+        meas, syncs, rounds = _import_refined(args, machine, plan, runs, series, limit)
+    else:
+        meas, syncs = import_raw(machine, plan, runs, series, limit=limit)
     write_measurement(out, meas)
     return {"machine": machine.name, "plan": plan.name, "out": str(out), "n_samples": meas.n_samples,
-            "runs": [s.to_dict() for s in syncs],
+            "runs": [s.to_dict() for s in syncs], "refine_rounds": rounds,
             "assumption": "constant path feed from the feed-in ramp to the feed-out ramp"}
+
+
+def _import_refined(args: argparse.Namespace, machine, plan, runs, series, limit):
+    """``import --refine``: synchronisation and identification (cartesian error model + ``--with``, Levenberg-
+    Marquardt) iterated (:mod:`pkmstiff.calibration.sync_refine`)."""
+    from pkmstiff.calibration import error_model, parse_with
+    from pkmstiff.calibration.compensation import measurement_plan
+    from pkmstiff.calibration.identification import identify
+    from pkmstiff.calibration.sync_refine import import_refined
+
+    params = error_model(machine, setup=plan.setup, setup_blocks=parse_with(args.with_, plan.instrument))
+
+    def delta(meas):
+        mp, y = measurement_plan(meas, machine.name, args.out)
+        return identify(machine, params, mp, y, "lm").delta
+
+    return import_refined(machine, plan, runs, series, delta, params, limit=limit)
 
 
 def _cmd_import(args: argparse.Namespace) -> int:
@@ -122,6 +144,9 @@ def _cmd_import(args: argparse.Namespace) -> int:
         return 0
     print(f"{rep['machine']}: {len(rep['runs'])} raw series along plan '{rep['plan']}' -> {rep['out']}: "
           f"{rep['n_samples']} samples on the measuring paths")
+    if rep["refine_rounds"]:
+        print(f"synchronisation refined against the identified machine: {rep['refine_rounds']} rounds of "
+              "re-synchronisation and identification (residuals and sigmas of the whole runs)")
     for r in rep["runs"]:
         print(f"  {Path(r['file']).name}: run {r['run']}, feed-in at t = {r['start_s']:.4f} s "
               f"({'given' if r['given'] else 'found'}, sigma {r['start_sigma_ms']:.2g} ms), synchronisation residual "
@@ -155,6 +180,11 @@ def _add_import(sub) -> None:
     g.add_argument("--max-residual", type=float, help="largest synchronisation residual in um (default max(4 "
                                                       "sigma, 1 um), sigma = accuracy/2)")
     add_nc_options(p)
+    g = p.add_argument_group("refinement")
+    g.add_argument("--refine", action="store_true", help="iterate: identify, re-synchronise every run on all its "
+                                                         "samples against the identified machine, re-import, until "
+                                                         "no start moves by more than 0.1 sigma")
+    add_with_option(g, "identify with (for --refine)")
     p.add_argument("--json", action="store_true", help="print one JSON object (keys name their units)")
     p.set_defaults(func=_cmd_import)
 

@@ -16,8 +16,7 @@ from typing import Any
 import numpy as np
 
 from pkmstiff.errors import ArgumentError, PkmstiffError
-from pkmstiff.io.atomic import atomic_path, output_path, safe_stem
-from pkmstiff.io.columns import column_name
+from pkmstiff.io.atomic import output_path, safe_stem
 from pkmstiff.io.ranges import parse_names, parse_numbers
 
 
@@ -106,7 +105,7 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
                  steps: int = 1, start_pose: str | None = None, start_drives: str | None = None) -> dict[str, Any]:
     """Everything ``pkmstiff mechanism solve`` prints, as a JSON-ready dict."""
     import pkmstiff.mechanisms as mm
-    from pkmstiff.mechanisms.outputs import controlled_output_names, output_condition
+    from pkmstiff.mechanisms.outputs import controlled_output_names
 
     mech = _load(name)
     units = [_unit_scale(u) for u in mech.drive_units]
@@ -117,7 +116,6 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
         P = _parse_poses(mech, poses, "--pose")
         ev = mm.evaluate(mech, P, steps=steps, start=start)
         sol = ev.solution
-        kap = output_condition(mech, np.where(sol.ok[:, None, None], sol.q, np.nan), sol.drives)
         for i in range(len(P)):
             results.append({
                 "status": str(sol.status[i]), "iterations": int(sol.iterations[i]),
@@ -126,7 +124,7 @@ def solve_report(name: str, poses: list[str] | None = None, drives: list[str] | 
                 "pose": {f"{n}_{u}": _num(v * (1e3 if u == "mm" else 180 / math.pi))
                          for (n, u), v in zip(pose_names, P[i])},
                 "drives": {f"{d}_{u}": _num(v * s) for d, (u, s), v in zip(mech.drive_names, units, ev.drives[i])},
-                "output_condition_number": _num(kap[i]),
+                "output_condition_number": _num(sol.output_kappa[i]),
                 "links": _links(mech, sol.q[i]) if sol.ok[i] else None,
             })
     else:
@@ -449,6 +447,8 @@ def section_report(args) -> dict[str, Any]:
     from pkmstiff.errors import ArgumentError
     from pkmstiff.io.ranges import parse_ranges, parse_triple_deg
     from pkmstiff.mechanisms.section import check_quantities, evaluate_section, fit_window, quantity_names
+    from pkmstiff.mechanisms.stiffness import tool_point
+    from pkmstiff.report.mechanism_section import section_where, write_mechanism_section
 
     mech = _load(args.machine)
     plane = args.plane.lower()
@@ -501,11 +501,8 @@ def section_report(args) -> dict[str, Any]:
     except PkmstiffError as exc:
         raise ArgumentError(str(exc)) from None
     cpu = time.process_time() - t0
-    where = {"mechanism": mech.name, "plane": plane, "at_mm": None if mech.dim == 2 else args.at,
-             "orientation_deg": [float(np.degrees(a)) for a in ori]}
-    if tip is not None:
-        where["tool_length_mm"] = float(args.tool_length)
-    files = _write_section(sec, Path(args.out), stem, formats, where) if args.out else []
+    where = section_where(mech, plane, args.at, ori, args.tool_length if tip is not None else None)
+    files = write_mechanism_section(sec, Path(args.out), stem, formats, where) if args.out else []
     stats = sec.statistics()
     return {**where,
             "window_mm": {plane[0]: [u0 * 1e3, sec.u_values[-1] * 1e3], plane[1]: [v0 * 1e3, sec.v_values[-1] * 1e3]},
@@ -513,45 +510,6 @@ def section_report(args) -> dict[str, Any]:
             "admissible_points": int(sec.ok.sum()), "admissible_area_m2": float(sec.ok.sum()) * sec.cell_area,
             "statistics": stats, "inadmissible_reasons": {k: v for k, v in sec.reason_counts().items() if v},
             "cpu_seconds": cpu, "files": [str(p) for p in files]}
-
-
-def _write_section(sec, out, stem: str, formats: list[str], where: dict[str, Any]) -> list:
-    """PNG maps (each quantity and the admissibility reasons), CSV (with ``where``, the units and the reason bits in
-    ``<stem>.json`` beside it) and NPZ of a mechanism section in ``out``."""
-
-    paths = []
-    out.mkdir(parents=True, exist_ok=True)
-    if "png" in formats:
-        from pkmstiff.plots.mechanism_section import plot_mechanism_quantity, plot_mechanism_reasons
-
-        paths += [plot_mechanism_quantity(sec, n, output_path(out, f"{stem}_{n}.png")) for n in sec.values]
-        paths.append(plot_mechanism_reasons(sec, output_path(out, f"{stem}_admissibility.png")))
-    U, V = np.meshgrid(sec.u_values, sec.v_values)
-    u, v = sec.plane[0], sec.plane[1]
-    if "csv" in formats:
-        from pkmstiff.io.columns import write_table
-        from pkmstiff.mechanisms.evaluate import REASONS
-
-        p = output_path(out, f"{stem}.csv")
-        cols = [sec.display(n).ravel() for n in sec.values]
-        rows = ([U.flat[i] * 1e3, V.flat[i] * 1e3, str(sec.status.flat[i]), int(sec.reasons.flat[i]),
-                 int(sec.ok.flat[i])] + [float(c[i]) for c in cols] for i in range(U.size))
-        meta = {**where,
-                "units": {column_name(n, sec.units[n]): sec.units[n] for n in sec.values},
-                "reasons": {"meaning": "bit mask of the inadmissibility reasons (0 = admissible)",
-                            "bits": {k: int(b) for k, b in REASONS.items()}},
-                "empty_cells": "no value (inadmissible point)"}
-        write_table(p, [f"{u}_mm", f"{v}_mm", "status", "reasons", "admissible"]
-                    + [column_name(n, sec.units[n]) for n in sec.values], rows, meta, ".6g")
-        paths.append(p)
-    if "npz" in formats:
-        p = output_path(out, f"{stem}.npz")
-        with atomic_path(p) as tmp:
-            np.savez_compressed(tmp, **{f"{u}_mm": sec.u_values * 1e3, f"{v}_mm": sec.v_values * 1e3,
-                                        "reasons": sec.reasons, "admissible": sec.ok},
-                                **{column_name(n, sec.units[n]): sec.display(n) for n in sec.values})
-        paths.append(p)
-    return paths
 
 
 def print_section(rep: dict[str, Any]) -> None:
@@ -616,27 +574,12 @@ def _elastic_mechanism(name: str, unavailable: dict[str, bool]):
     return mech
 
 
-def tool_point(mech, tool_length_mm: float | None) -> np.ndarray | None:
-    """Home coordinates [m] of the tool tip ``--tool-length`` mm from the output point along the tool axis: the
-    file's ``[output] axis`` (orientation "axis", or the optional tool axis of "full"), else −z as the machines'
-    default tool axis; None without ``--tool-length``. A planar mechanism or an output without orientation has no
-    tool axis: one line, exit 2."""
-    if tool_length_mm is None:
-        return None
-    o = mech.output
-    if mech.dim != 3 or o.orientation == "none":
-        raise ArgumentError(f"--tool-length: not available for mechanism '{mech.name}': its output has no "
-                            f"orientation ({'planar' if mech.dim != 3 else 'orientation = none'}), so no tool axis")
-    axis = o.axis if o.axis is not None else np.array([0.0, 0.0, -1.0])
-    return np.asarray(o.point, float) + tool_length_mm * 1e-3 * axis
-
-
 def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[str, bool],
                tool_length_mm: float | None = None) -> tuple[list[str], list[list]]:
     """``pkmstiff point MECHANISM --poses FILE``: the machines' CSV columns (pose mm/deg, admissible, reasons,
     k_x, k_y, k_z N/µm, f1… Hz); empty result cells where a pose is inadmissible or not modelled."""
     from pkmstiff.mechanisms import evaluate, reason_names
-    from pkmstiff.mechanisms.stiffness import evaluate_mechanism, take
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism, take, tool_point
     from pkmstiff.mechanisms.structure import STATUS_BITS
 
     mech = _elastic_mechanism(name, unavailable)
@@ -674,7 +617,7 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
     import pkmstiff.multibody as sde
     from pkmstiff.cli.point import SCHEMA, STIFFNESS_MATRIX_UNITS, _num, _refuse
     from pkmstiff.mechanisms import evaluate, reason_names
-    from pkmstiff.mechanisms.stiffness import evaluate_mechanism
+    from pkmstiff.mechanisms.stiffness import evaluate_mechanism, tool_point
     from pkmstiff.mechanisms.structure import LABELS, STATUS_BITS, mechanism_structure
 
     mech = _elastic_mechanism(name, unavailable)
@@ -766,6 +709,7 @@ def mode_figures(name: str, pose_text: str, n_modes: int, out: str, names: tuple
 
     from pkmstiff.mechanisms import inverse
     from pkmstiff.mechanisms.modeshape import mode_shapes
+    from pkmstiff.mechanisms.stiffness import tool_point
     from pkmstiff.plots.mechanism import mechanism_mode_figure
 
     mech = _elastic_mechanism(name, {})

@@ -7,6 +7,8 @@ docs/theory/components.md); the ``[elastic]`` table places them on the mechanism
     vertical = [0, 0, 1]                 # upward direction: guide carriage frames (z' = vertical, Cobet eq. 3.6)
     damping_beta = "0 s"                 # stiffness-proportional damping C = β K of every element
     transmission_weight = "1.43 m/rad"  # w of the transmission quality (eq. 4.77; default: the length scale)
+    drive_load_strut_mass = 1.0          # static drive loads only (eq. 4.90): this fraction of every strut's mass
+                                         # added at the output link's CoG (the machines' limits key; default 0)
 
     [elastic.links.platform]             # a rigid link: one rigid body (6 DOF)
     body = "platform"                    # rigid_body component; its CoG and inertia in link axes about `origin`
@@ -54,7 +56,7 @@ from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.structure.layout import PKSBody, component_body
 from pkmstiff.units import parse_quantity
 
-_ELASTIC = {"vertical", "damping_beta", "transmission_weight", "links", "joints", "notes"}
+_ELASTIC = {"vertical", "damping_beta", "transmission_weight", "drive_load_strut_mass", "links", "joints", "notes"}
 _LINK = {"model", "body", "origin", "flexibility", "tool_body", "component", "mass_shares", "notes"}
 _JOINT = {"drive", "guide", "joint", "axis", "reference", "convention", "stiffness", "mass", "notes"}
 #: component kinds each role accepts (``kind`` of :mod:`components.protocol`)
@@ -101,6 +103,9 @@ class ElasticData:
     vertical: np.ndarray
     damping_beta: float = 0.0
     transmission_weight: float | None = None  #: m/rad (None: the mechanism's length scale)
+    #: fraction of every strut's mass added to the output link's moved mass for the static drive loads only (eq. 4.90;
+    #: the machines' ``limits.drive_load_strut_mass``)
+    drive_load_strut_mass: float = 0.0
 
     def link(self, i: int) -> LinkElastic:
         return self.links.get(i, LinkElastic())
@@ -222,5 +227,9 @@ def parse_elastic(raw: dict[str, Any], mech: Mechanism, src: str) -> ElasticData
         weight = float(parse_quantity(el["transmission_weight"], "m/rad", source=src, key="elastic.transmission_weight"))
         if not (np.isfinite(weight) and weight > 0):
             raise InputError(src, "elastic.transmission_weight", "a length per angle > 0 m/rad", weight)
-    return ElasticData(comps, links, joints, vertical / np.linalg.norm(vertical), beta, weight)
+    frac = float(parse_quantity(el.get("drive_load_strut_mass", 0.0), "dimensionless", source=src,
+                                key="elastic.drive_load_strut_mass"))
+    if not 0.0 <= frac <= 1.0:
+        raise InputError(src, "elastic.drive_load_strut_mass", "a fraction in [0, 1]", frac)
+    return ElasticData(comps, links, joints, vertical / np.linalg.norm(vertical), beta, weight, frac)
 

@@ -87,7 +87,8 @@ def _elastic_tables(machine: Machine, home_pose: np.ndarray, joints: list[dict[s
     """``[components]`` and ``[elastic]`` of the generic mechanism: the machine's components placed as its structure
     model places them (docs/theory/structure.md): glide carriage = drive + guide node, pod telescopic drive in the
     strut's series, joint stiffness from the joint types at their axes/references, strut masses by the machine's
-    shares, the platform_spindle stiffness as the platform link's flexibility at O' (platform axes)."""
+    shares, the platform_spindle stiffness as the platform link's flexibility at O' (platform axes), the static
+    drive load's strut share (``limits.drive_load_strut_mass``) as ``[elastic] drive_load_strut_mass``."""
     from pkmstiff.structure.layout import vertical_direction
 
     ch, n = machine.chains, machine.chains.n
@@ -139,6 +140,8 @@ def _elastic_tables(machine: Machine, home_pose: np.ndarray, joints: list[dict[s
             "elastic": {"vertical": f(vertical_direction(machine)),
                         **({} if machine.transmission_weight is None else
                            {"transmission_weight": f"{float(machine.transmission_weight)!r} m/rad"}),
+                        **({"drive_load_strut_mass": float(machine.limits.drive_load_strut_mass)}
+                           if machine.limits.drive_load_strut_mass else {}),
                         "links": links, "joints": elastic_joints}}
 
 

@@ -12,7 +12,10 @@ implicit differentiation, no finite differences) and the masses of the elastic m
   ``μ = M_s J⁻¹ e``, ``M_s = Σ_b J_bᵀ M_b J_b`` the mass matrix of every body of the elastic model in drive
   coordinates (J_b: the body's twist per drive rate) — for a pod/glide machine ``M_A + J_Cᵀ M_P J_C`` (eq. 4.86).
 * Static drive loads τ_g = Σ_b J_{b,v}ᵀ (−m_b g) (eq. 4.90): the forces (N) or torques (N m) that hold every body
-  against gravity, g = −9.81 m/s² · ``[elastic] vertical``.
+  against gravity, g = −9.81 m/s² · ``[elastic] vertical``; plus ``[elastic] drive_load_strut_mass`` × the strut
+  masses at the CoG of the output link's body (+ tool body), in τ_g only — the machines' eq. 4.90 reading
+  (``limits.drive_load_strut_mass``, :func:`pkmstiff.machine.roles.drive_load_data`), so that a generated mechanism
+  file gives its machine's static drive loads and a_max.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pkmstiff.analysis.kinetostatics import acceleration_bounds, max_velocity, twist_directions
+from pkmstiff.errors import InputError
 from pkmstiff.mechanisms.constraints import Frames
 from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.mechanisms.outputs import configuration_rates, controlled_output_names, output_jacobian
@@ -111,7 +115,33 @@ def mass_and_gravity(mech: Mechanism, q: Array, q_s: Array) -> tuple[Array, Arra
             Iw = R @ inertia @ np.swapaxes(R, 1, 2)
             M += np.swapaxes(Jw, 1, 2) @ Iw @ Jw
         tau += np.einsum("nji,j->ni", Jv, -mass * g)
+    extra = _drive_load_strut_mass(mech)
+    if extra is not None:
+        li, cog, mass = extra
+        Jv = (link_twist_matrix(mech, q, li, cog) @ q_s)[:, :3]
+        tau += np.einsum("nji,j->ni", Jv, -mass * g)
     return M, tau
+
+
+def _drive_load_strut_mass(mech: Mechanism) -> tuple[int, Array, float] | None:
+    """(output link, home CoG (3,), mass [kg]) of the strut share of the static drive loads (eq. 4.90 as the machines
+    read it, :func:`pkmstiff.machine.roles.drive_load_data`): ``[elastic] drive_load_strut_mass`` × the strut
+    components' masses at the combined CoG of the output link's body and tool body; None if there is none."""
+    from pkmstiff.mechanisms.structure import _mass
+
+    el = mech.elastic
+    mass = el.drive_load_strut_mass * sum(_mass(el.link(i).component) for i in range(len(mech.links))
+                                          if el.link(i).strut)
+    if not mass > 0:
+        return None
+    li = mech.output.link if mech.output is not None else -1
+    le = el.link(li)
+    carried = [b for b in (le.body, le.tool) if b.mass > 0]
+    if li < 0 or le.strut or not carried:
+        raise InputError(mech.path or mech.name, "elastic.drive_load_strut_mass", "an output link with a body "
+                         "(the strut share is added at its CoG)", mech.links[li] if li >= 0 else "no [output]")
+    cog = sum(b.mass * b.cog for b in carried) / sum(b.mass for b in carried)
+    return li, cog, mass
 
 
 #: the rotary drives' limit of each linear-drive limit (components.limits.ROTARY_DRIVE_LIMITS)

@@ -6,8 +6,9 @@ coefficients q(t₀ + τ) = Σ_k q_k τ^k and s(t₀ + τ) = Σ_k s_k τ^k every
     F_q q_k = E s_k − G_k(q_0, …, q_{k−1}),     k = 1, 2, 3,
 
 where G_k is coefficient k of F evaluated with q_k = s_k = 0 and E selects the drive rows (∂F/∂s = −1 there).
-G_k is computed exactly by truncated power-series (Taylor-mode) arithmetic on the link frames — sin/cos of the
-angles, products of rotation matrices, points and axes, atan2 of the revolute drives and the rotation logarithm of
+G_k is computed exactly by truncated power-series (Taylor-mode) arithmetic on the link frames — spatial link
+rotations as exp([ψ(τ)]×) R₀ in the solver's rotation-vector coordinates (ψ₀ = 0, regular at φy = ±90°), planar
+ones by sin/cos of the angle, products of rotation matrices, points and axes, atan2 of the revolute drives and the rotation logarithm of
 equal orientation — so velocities q̇ = q_1, accelerations q̈ = 2 q_2 and jerk q⃛ = 6 q_3 carry rounding errors only
 (no finite differences).  Each F_q solve is the least-squares step of the Newton solver (redundant model rows).
 The output point's derivatives follow from w = t + R p, the output link's angular velocity, acceleration and its
@@ -160,12 +161,39 @@ def _rotations(phi: Array, dim: int) -> Array:
     return _matmul(_matmul(Rz, Ry), Rx)
 
 
-def taylor_residual(system: System, Q: Array, S: Array) -> Array:
+def _rotvec_rotations(psi: Array, R0: Array) -> Array:
+    """Series of R(τ) = exp([ψ(τ)]×) R₀ (K+1, N, L, 3, 3) for a rotation-vector series ψ (K+1, N, L, 3) with ψ₀ = 0
+    (the solver's world-frame increments, :meth:`System.step`): exp = I + X + X²/2 + X³/6 with X = [ψ]×, exact to
+    order 3 because X has no constant term.  Regular at every orientation (no Euler-angle rates)."""
+    X = _skew(psi)
+    X[0] = 0.0
+    X2 = _matmul(X, X)
+    E = X + 0.5 * X2 + _matmul(X2, X) / 6.0
+    E[0] += np.eye(3)
+    return E @ R0  # R₀ is constant: coefficientwise
+
+
+def _euler_series(R: Array, phi0: Array) -> Array:
+    """Series of the link angles φ (eq. 2, R = Rz Ry Rx) of a rotation series R; coefficient 0 is ``phi0``.
+    φx = atan2(R₂₁, R₂₂), φz = atan2(R₁₀, R₀₀), φy = atan2(−R₂₀, cos φz R₀₀ + sin φz R₁₀): their rates are
+    undefined at φy = ±90° (use :attr:`PathDerivatives.link_omega` there)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = _atan2(R[..., 2, 1], R[..., 2, 2])
+        z = _atan2(R[..., 1, 0], R[..., 0, 0])
+        sz, cz = _sincos(z)
+        y = _atan2(-R[..., 2, 0], _mul(cz, R[..., 0, 0]) + _mul(sz, R[..., 1, 0]))
+    out = np.stack([x, y, z], axis=-1)
+    out[0] = phi0
+    return out
+
+
+def taylor_residual(system: System, Q: Array, S: Array, R: Array | None = None) -> Array:
     """Series of the residual F (K+1, N, m) of a forward-kinematics system along q(τ) = Σ Q_k τ^k (Q (K+1, N, L, d))
-    and drive values s(τ) = Σ S_k τ^k (S (K+1, N, n_drives)); coefficient 0 is ``system.evaluate``'s residual."""
+    and drive values s(τ) = Σ S_k τ^k (S (K+1, N, n_drives)); coefficient 0 is ``system.evaluate``'s residual.
+    ``R``: the link rotation series (K+1, N, L, D, D) (default: from the angles of Q, eq. 2)."""
     mech = system.mech
     D = mech.dim
-    t, R = Q[..., :D], _rotations(Q[..., D:], D)
+    t, R = Q[..., :D], (_rotations(Q[..., D:], D) if R is None else R)
     K1, N = Q.shape[:2]
     out = np.zeros((K1, N, system.m))
 
@@ -251,6 +279,9 @@ class PathDerivatives:
     omega: Array | None  #: (K, N, 3) spatial / (K, N, 1) planar: ω, ω̇, ω̈ of the output link (rad/s^(k+1))
     pose: Array | None  #: (K+1, N, pose_size): output pose x, y, z, a, b, c (Cardan; planar x, y, φ) and its
     #: derivatives (m, rad per s^k)
+    #: (K, N, L, 3) spatial / (K, N, L, 1) planar: ω, ω̇, ω̈ of every link (rad/s^(k+1)), regular at every
+    #: orientation (the angle rates in ``q`` are undefined at φy = ±90°)
+    link_omega: Array | None = None
 
 
 def path_derivatives(mech: Mechanism, drives: ArrayLike, rates: ArrayLike, accelerations: ArrayLike | None = None,
@@ -275,32 +306,46 @@ def path_derivatives(mech: Mechanism, drives: ArrayLike, rates: ArrayLike, accel
     Sser = np.stack(s) / np.array([1.0, 1.0, 2.0, 6.0])[:, None, None]  # Taylor coefficients s^(k)/k!
     Q = np.zeros((ORDER + 1, N, L, d))
     Q[0] = sol.q
-    _, J = system.evaluate(sol.q, s[0], reduced=True)
+    D = mech.dim
+    # spatial links: the rotation series is exp([ψ(τ)]×) R₀ in the solver's rotation-vector coordinates (the
+    # Jacobian with omega=True), regular at φy = ±90°; planar ones keep their angle
+    spatial = D == 3
+    _, J = system.evaluate(sol.q, s[0], reduced=True, omega=spatial)
+    R0 = _rotations(sol.q[None, ..., D:], D)[0]
+    if spatial:
+        Q[0, ..., D:] = 0.0
+
+    def rot(Qs):
+        return _rotvec_rotations(Qs[..., D:], R0) if spatial else _rotations(Qs[..., D:], D)
     roff = system.n_fixed_rows
     free = system.free
     for k in range(1, ORDER + 1):
-        G = taylor_residual(system, Q[:k + 1], Sser[:k + 1])[k]  # with Q_k = 0: coefficient k is −(F_q q_k) + …
+        # with Q_k = 0: coefficient k is −(F_q q_k) + …
+        G = taylor_residual(system, Q[:k + 1], Sser[:k + 1], rot(Q[:k + 1]))[k]
         dq, _, _, _ = lstsq_step(J, G[:, roff:], pattern=system.sparsity)  # F_q q_k = −G_k
         Qk = np.zeros((N, L * d))
         Qk[:, free] = dq
         Q[k] = Qk.reshape(N, L, d)
+    Rser = rot(Q)  # (K+1, N, L, D, D)
     fact = np.array([1.0, 1.0, 2.0, 6.0])[:, None, None, None]
+    Wl = _matmul(_deriv(Rser), np.swapaxes(Rser, -1, -2))  # Ṙ Rᵀ = [ω]× as a series, per link
+    link_omega = (Wl[..., 1, 0][..., None] if D == 2 else _vee_skew(Wl))[:ORDER] * fact[:ORDER]
+    if spatial:
+        Q[..., D:] = _euler_series(Rser, sol.q[..., D:])
     qder = Q * fact
     bad = ~sol.ok
     qder[:, bad] = np.nan
+    link_omega[:, bad] = np.nan
     point = omega = pose = None
     if mech.output is not None:
         o = mech.output
         D = mech.dim
-        R = _rotations(Q[..., D:], D)[:, :, o.link]  # (K+1, N, D, D)
+        R = Rser[:, :, o.link]  # (K+1, N, D, D)
         W = Q[:, :, o.link, :D] + np.einsum("knab,b->kna", R, o.point)
         point = W * fact[..., 0]
-        Rd = _deriv(R)
-        Wm = _matmul(Rd, np.swapaxes(R, -1, -2))  # Ṙ Rᵀ = [ω]× as a series
-        w = Wm[..., 1, 0][..., None] if D == 2 else _vee_skew(Wm)
-        omega = w[:ORDER] * fact[:ORDER, :, :, 0]  # ω, ω̇ = 1!·w_1, ω̈ = 2!·w_2
+        omega = link_omega[:, :, o.link].copy()
         ang = Q[:, :, o.link, 2:3] if D == 2 else cardan_series(R)
         pose = np.concatenate([W, ang], axis=-1) * fact[..., 0]
         for a in (point, omega, pose):
             a[:, bad] = np.nan
-    return PathDerivatives(sol, qder, point, omega, pose)
+    return PathDerivatives(sol, qder, point, omega, pose, link_omega)

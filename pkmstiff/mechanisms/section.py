@@ -156,7 +156,7 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], **solve_kw
 
     def solve(idx: Array, start: Array | None) -> Array:
         nonlocal sol
-        part = inverse(mech, P[idx], start=start, **solve_kw)
+        part = inverse(mech, P[idx], start=start, output_check=False, **solve_kw)  # κ_out: only where asked
         if sol is None:
             sol = _empty_like(part, n, q0)
         for f in ("q", "status", "iterations", "residual", "rank", "rcond", "sigma_ratio"):

@@ -35,6 +35,9 @@ _SUSPECT_RCOND = 1e-5
 #: pose counts as regular without a QR/SVD: 1e3 above the suspect bound and 1e3 above ``singular_tol``
 _FINISH_SCREEN = 1e-4
 _ARMIJO = 1e-4
+#: full Newton steps the watchdog (:func:`_newton_loop`) takes before it judges a rejected step: near the hybrid's
+#: wrist singularity the residual rises ~10⁴-fold after the first step and is below the start after four
+_WATCHDOG_STEPS = 6
 #: default continuation: no step changes an angle (revolute drive, output angle) by more than this [rad] …
 MAX_ANGLE_STEP = np.radians(15.0)
 #: … or a length (linear drive, output position) by more than this fraction of the mechanism's length scale, so that
@@ -159,8 +162,18 @@ def newton(system: System, q0: Array, target: Array | None, tol: float, max_iter
         if b.kind == "fixed":
             q[:, b.j * d + b.coord] = b.value
     if system.plan is not None and N:
-        return _newton_fused(system, q, target, tol, max_iter, max_backtrack)
-    return _newton_loop(system, q, target, tol, max_iter, max_backtrack)
+        out = _newton_fused(system, q, target, tol, max_iter, max_backtrack)
+    else:
+        out = _newton_loop(system, q, target, tol, max_iter, max_backtrack)
+    slow = np.flatnonzero(out[1] == "max_iter")
+    if slow.size:  # creeping damped steps: redo with the watchdog (see _newton_loop)
+        out = (out[0], out[1].astype(f"<U{max(map(len, STATUS))}"), *out[2:])
+        redo = _newton_loop(system, q[slow], None if target is None else target[slow], tol, max_iter,
+                            max_backtrack, watchdog=True)
+        for o, a in zip(out, redo):
+            o[slow] = a
+        out[2][slow] += max_iter
+    return out
 
 
 def _newton_fused(system: System, q: Array, target: Array | None, tol: float, max_iter: int, max_backtrack: int
@@ -188,9 +201,16 @@ def _newton_fused(system: System, q: Array, target: Array | None, tol: float, ma
     return q.reshape(N, L, d), status.astype(str), iters, resid, rank, rcond, chol
 
 
-def _newton_loop(system: System, q: Array, target: Array | None, tol: float, max_iter: int, max_backtrack: int
-                 ) -> tuple[Array, Array, Array, Array, Array, Array, Array]:
-    """:func:`newton` vectorised over the poses in numpy (planar systems, and poses needing the pivoted QR)."""
+def _newton_loop(system: System, q: Array, target: Array | None, tol: float, max_iter: int, max_backtrack: int,
+                 watchdog: bool = False) -> tuple[Array, Array, Array, Array, Array, Array, Array]:
+    """:func:`newton` vectorised over the poses in numpy (planar systems, and poses needing the pivoted QR).
+
+    ``watchdog``: a full step that the Armijo test rejects is still taken where, after up to
+    ``_WATCHDOG_STEPS`` − 1 further full Newton steps from it, the residual passes the test against the one before (the watchdog technique, Chamberlain et al. 1982; Nocedal &
+    Wright §15.6).  Near a singularity of the solved outputs (the hybrid's wrist: the tool axis 1e-7 rad from the
+    strut, V1 0.7 rad off) the full step overshoots in the well-determined coordinates by the square of the large
+    step in the ill-determined one, and the next steps remove that: the monotone line search creeps there with
+    ~1 % steps (``max_iter``); with the watchdog the final continuation step converges in 7 Newton steps."""
     N = q.shape[0]
     L, d = len(system.mech.links), system.mech.dof_per_link
     q = q.copy()
@@ -237,6 +257,29 @@ def _newton_loop(system: System, q: Array, target: Array | None, tol: float, max
             iters[act] += 1
             r, J = rt, Jt
             continue
+        if watchdog:
+            pend, qw, rw, Jw = bad, qt[bad], rt[bad], Jt[bad]
+            for k in range(1, _WATCHDOG_STEPS):
+                fin = np.isfinite(rw).all(axis=1) & np.isfinite(Jw).all(axis=(1, 2))
+                pend, qw, rw, Jw = pend[fin], qw[fin], rw[fin], Jw[fin]
+                if pend.size == 0:
+                    break
+                dxw, _, _, _ = lstsq_step(Jw, rw, pattern=system.sparsity)
+                qw = system.step(qw, dxw)
+                rw, Jw = ev(act[pend], qw)
+                rw2 = np.einsum("nm,nm->n", rw, rw)
+                w = np.isfinite(rw2) & (rw2 <= (1.0 - _ARMIJO) ** 2 * r2[pend])
+                wi = pend[w]
+                qt[wi], rt[wi], Jt[wi] = qw[w], rw[w], Jw[w]
+                iters[act[wi]] += k
+                ok[wi] = True
+                pend, qw, rw, Jw = pend[~w], qw[~w], rw[~w], Jw[~w]
+            bad = np.flatnonzero(~ok)
+            if bad.size == 0:
+                q[act] = qt
+                iters[act] += 1
+                r, J = rt, Jt
+                continue
         q[act[ok]] = qt[ok]
         iters[act[ok]] += 1
         rt[bad], Jt[bad] = r[bad], J[bad]
@@ -428,23 +471,34 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     n = path_steps(tg - t0, np.array([u == "rad" for u in mech.drive_units]), mech.length_scale, steps)
     out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
     sol = _finish(system, *out, tg, singular_tol)
-    sol.output_kappa = np.full(tg.shape[0], np.nan)
-    if output_check and mech.output is not None:
-        ok = np.flatnonzero(sol.ok)
-        kap = output_condition(mech, sol.q[ok], tg[ok])
-        sol.output_kappa[ok] = kap
-        with np.errstate(invalid="ignore"):
-            sol.status[ok[kap * singular_tol > 1.0]] = "singular"
+    if output_check:
+        _flag_outputs(sol, tg, singular_tol)
     return sol
+
+
+def _flag_outputs(sol: Solution, drives: Array, singular_tol: float) -> None:
+    """``sol.output_kappa``: κ of ∂x_c/∂s at every pose with a configuration (drive values ``drives`` (N, n_d)),
+    and the status ``singular`` where κ > 1/``singular_tol`` (an output singularity: the hybrid's wrist)."""
+    sol.output_kappa = np.full(drives.shape[0], np.nan)
+    if sol.mech.output is None:
+        return
+    ok = np.flatnonzero(sol.ok)
+    kap = output_condition(sol.mech, sol.q[ok], drives[ok])
+    sol.output_kappa[ok] = kap
+    with np.errstate(invalid="ignore"):
+        sol.status[ok[kap * singular_tol > 1.0]] = "singular"
 
 
 def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = None, steps: int = 1,
             tol: float | None = None, max_iter: int = 30, max_refine: int = 4,
-            singular_tol: float = 1e-7, max_backtrack: int = 30) -> Solution:
+            singular_tol: float = 1e-7, max_backtrack: int = 30, output_check: bool = True) -> Solution:
     """Inverse kinematics: configurations (and drive values) for output poses (N, 6) x, y, z [m], a, b, c [rad]
     (planar (N, 3) x, y [m], φ [rad]) (patent claim 11).  Continuation from home or ``start`` as in
     :func:`forward` (changes of the controlled point coordinates against :data:`MAX_LENGTH_STEP`, the turn of the
-    controlled orientation against :data:`MAX_ANGLE_STEP`)."""
+    controlled orientation against :data:`MAX_ANGLE_STEP`).  ``output_check``: ``Solution.output_kappa`` (κ of
+    ∂x_c/∂s at the drive values found) and ``singular`` above 1/``singular_tol``, as in :func:`forward`; near an
+    output singularity a residual at rounding level leaves the ill-determined drive uncertain by ~ε·κ/|x_c| (the
+    hybrid's V1 to ~1e-16/tilt rad; the Newton steps there: :func:`_newton_loop`)."""
     if mech.output is None:
         raise ArgumentError(f"mechanism '{mech.name}' has no [output]: inverse kinematics undefined")
     units = "m, m, m, rad, rad, rad" if mech.dim == 3 else "m, m, rad"
@@ -458,7 +512,10 @@ def inverse(mech: Mechanism, poses: ArrayLike, start: Solution | Array | None = 
         t0 = output_pose(mech, q0)
     n = path_steps(_controlled_change(mech, t0, tg), np.array([False, True]), mech.length_scale, steps)
     out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
-    return _finish(system, *out, tg, singular_tol)
+    sol = _finish(system, *out, tg, singular_tol)
+    if output_check:
+        _flag_outputs(sol, sol.drives, singular_tol)
+    return sol
 
 
 def _controlled_change(mech: Mechanism, p0: Array, p1: Array) -> Array:

@@ -15,7 +15,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.multibody as sde
-from pkmstiff.errors import NumericalError
+from pkmstiff.errors import ArgumentError, NumericalError
 from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.mechanisms.solver import Solution
 from pkmstiff.mechanisms.structure import LABELS, STATUS_BITS, MechanismStructure, mechanism_structure
@@ -165,3 +165,18 @@ def frf(ms: MechanismStructure, freq_hz: Any, direction: str = "x", zeta: Any = 
     direction (:func:`pkmstiff.multibody.receptance`, modal damping ratio ``zeta``)."""
     pd = sde.PointDirection(ms.load_body, np.eye(3)["xyz".index(direction)], ms.load_point)
     return sde.receptance(ms.model, freq_hz, pd, pd, zeta=zeta)
+
+
+def tool_point(mech, tool_length_mm: float | None) -> Array | None:
+    """Home coordinates [m] of the tool tip ``--tool-length`` mm from the output point along the tool axis: the
+    file's ``[output] axis`` (orientation "axis", or the optional tool axis of "full"), else −z as the machines'
+    default tool axis; None without ``--tool-length``. A planar mechanism or an output without orientation has no
+    tool axis: one line, exit 2."""
+    if tool_length_mm is None:
+        return None
+    o = mech.output
+    if mech.dim != 3 or o.orientation == "none":
+        raise ArgumentError(f"--tool-length: not available for mechanism '{mech.name}': its output has no "
+                            f"orientation ({'planar' if mech.dim != 3 else 'orientation = none'}), so no tool axis")
+    axis = o.axis if o.axis is not None else np.array([0.0, 0.0, -1.0])
+    return np.asarray(o.point, float) + tool_length_mm * 1e-3 * axis

@@ -71,6 +71,12 @@ def plot_mechanism_quantity(sec, name: str, path: str | Path) -> Path:
     """PNG of one quantity over the admissible points, drawn as the machines' section maps
     (:func:`pkmstiff.plots.section_maps.draw_map`: colour bar in the display unit, boundary of the admissible
     region, inadmissible points white)."""
+    fig, _ = mechanism_quantity_figure(sec, name)
+    return _save(fig, path)
+
+
+def mechanism_quantity_figure(sec, name: str):
+    """(figure, map axes) of :func:`plot_mechanism_quantity` (the app draws it and maps clicks through the axes)."""
     from pkmstiff.mechanisms.section import quantity_label
     from pkmstiff.plots.section_maps import draw_map
 
@@ -79,7 +85,7 @@ def plot_mechanism_quantity(sec, name: str, path: str | Path) -> Path:
     ax.set_ylim(sec.v_values[0] * MM, sec.v_values[-1] * MM)
     draw_map(fig, ax, sec.u_values, sec.v_values, sec.display(name), sec.ok, name, quantity_label(name),
              sec.units[name])
-    return _save(fig, path)
+    return fig, ax
 
 
 def _save(fig, path: str | Path) -> Path:

@@ -312,22 +312,11 @@ def octree_boundary(
     if progress:
         progress(l0, lmax, ev.count)
 
+    vox, corners, inside = _refine(vox, corners, l0, levels, lat, ev, per_level, progress)
     inside_volume = 0.0
-    level = l0
-    while True:
-        code = corner_code(corners)
+    for level, count in enumerate(inside[l0:], l0):  # level by level, as the voxels were discarded
         size = 1 << (levels - np.minimum(level, levels))
-        inside_volume += float(np.count_nonzero(code == ALL_CORNERS)) * float(np.prod(size * lat.h))
-        bnd = (code != 0) & (code != ALL_CORNERS)
-        vox, corners = vox[bnd], corners[bnd]
-        if level >= lmax or vox.shape[0] == 0:
-            break
-        before = ev.count
-        vox, corners = _split(vox, corners, level, levels, lat, ev)
-        level += 1
-        per_level.append((level, ev.count - before))
-        if progress:
-            progress(level, lmax, ev.count)
+        inside_volume += float(count) * float(np.prod(size * lat.h))
 
     closure_added, edges = 0, None
     ckeys = lat.key(vox)[:, None] + CORNER_OFFSETS @ lat.strides  # keys are linear in the index
@@ -344,6 +333,34 @@ def octree_boundary(
         closure_voxels=closure_added, touches_box=touches, time_total=time.perf_counter() - t_start,
         time_evaluation=ev.time, known_keys=known.array(), admissible_keys=admis.array(), edges=edges,
     )
+
+
+def _refine(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray, lat: Lattice, ev: _Evaluator,
+            per_level: list[tuple[int, int]], progress: Progress | None = None
+            ) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    """Refine the voxels of ``level`` (with their corner values) to the finest level: the finest boundary voxels,
+    their corners and the number of voxels discarded as inside on each level (index = level; levels below
+    ``level`` hold 0). Appends (level, new evaluations) to ``per_level`` for every split.
+
+    The children of a voxel follow each other and keep their parents' order, so the leaves come in depth-first order:
+    refining contiguous slices of ``vox`` separately and joining the results in slice order gives the same leaves
+    (``test_refining_slices_separately_gives_the_same_leaves``), which lets subtrees be refined apart.
+    """
+    lmax = int(levels.max())
+    inside = [0] * (lmax + 1)
+    while True:
+        code = corner_code(corners)
+        inside[level] = int(np.count_nonzero(code == ALL_CORNERS))
+        bnd = (code != 0) & (code != ALL_CORNERS)
+        vox, corners = vox[bnd], corners[bnd]
+        if level >= lmax or vox.shape[0] == 0:
+            return vox, corners, inside
+        before = ev.count
+        vox, corners = _split(vox, corners, level, levels, lat, ev)
+        level += 1
+        per_level.append((level, ev.count - before))
+        if progress:
+            progress(level, lmax, ev.count)
 
 
 def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
