@@ -2,6 +2,7 @@
 set-up, and a fixed ball placed by the machine itself."""
 
 import dataclasses
+import itertools
 from functools import cache
 
 import numpy as np
@@ -173,3 +174,124 @@ def test_machine_placed_ball_round_trip_on_the_command_line(tmp_path, capsys):
 
     rep = json.loads(capsys.readouterr().out)
     assert rep["rms_um"] < 0.35 and rep["diagnostics"]["consistent"]  # 0.25 µm noise + 0.1 µm quantisation
+
+
+def _simulate_setups(tmp_path, *extra: str):
+    from pkmstiff.cli import main
+
+    plan = tmp_path / "plan.toml"
+    text = resolve("example:felix_setups_plan.toml").read_text(encoding="utf-8")
+    plan.write_text(text.replace("points = 360", "points = 60"), encoding="utf-8")
+    out = tmp_path / ("one.csv" if extra else "m.csv")
+    assert main(["calibrate", "simulate", "felix", "--plan", str(plan), "--errors", "example:felix_errors.toml",
+                 "--noise", "0", "--no-quantise", "--feed", "2000", "--sample-rate", "5", "--out", str(out),
+                 *extra]) == 0
+    return out
+
+
+def test_one_file_with_several_setups_round_trip(tmp_path):
+    """``calibrate simulate --one-file``: one CSV with a 'setup' column and the set-ups in its header; it reads back
+    as the three set-ups, identifies noise-free to the residual floor and gives what the three files give."""
+    from pkmstiff.calibration.measurement_file import read_measurement, read_measurement_setups
+    from pkmstiff.calibration.workflow import identify_file
+
+    one = _simulate_setups(tmp_path, "--one-file")
+    _simulate_setups(tmp_path)
+    files = [str(tmp_path / f"m_setup{k}.csv") for k in (1, 2, 3)]
+    metas = read_measurement_setups(one)
+    assert [tuple(m.fixed_ball) for m in metas] == [tuple(read_measurement(f).fixed_ball) for f in files]
+    for a, f in zip(metas, files):
+        b = read_measurement(f)
+        assert np.array_equal(a.reading, b.reading) and np.array_equal(a.poses, b.poses)  # same text, same parse
+    with pytest.raises(InputError, match="several set-ups"):
+        read_measurement(one)
+    m = _felix()
+    r1 = identify_file(m, str(one), with_="fixed-ball")
+    r3 = identify_file(m, files, with_="fixed-ball")
+    assert r1.params.names == r3.params.names and r1.plan.n_setups == 3
+    # the same readings and plan: the same iterations, equal up to round-off (1e-12 m ≪ the 1e-9 m floor)
+    assert np.allclose(r1.res.delta, r3.res.delta, rtol=0, atol=1e-12)
+    # noise-free, not quantised: the model reproduces the readings to LM's convergence floor
+    assert np.sqrt(np.mean(r1.res.residual_after ** 2)) < 1e-9
+    bad = tmp_path / "one.csv"
+    bad.write_text(bad.read_text().replace("\n3,", "\n4,", 1))
+    with pytest.raises(InputError, match="set-up number 1 … 3"):
+        read_measurement_setups(bad)
+
+
+def test_report_of_several_setups(tmp_path, capsys):
+    """``calibrate report`` of a file with three set-ups: a Set-ups section whose per-set-up residuals are the joint
+    fit's residuals split by set-up and whose identifiability gain is the stacked rank over the best set-up alone;
+    the three-file route gives the same summary numbers."""
+    import json
+
+    from pkmstiff.calibration.workflow import run_calibration
+    from pkmstiff.cli import main
+    from tests.report_checks import check_report
+
+    one = _simulate_setups(tmp_path, "--one-file")
+    _simulate_setups(tmp_path)
+    out = tmp_path / "rep"
+    capsys.readouterr()
+    assert main(["calibrate", "report", "felix", "--measurements", str(one), "--out", str(out), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert rep["n_setups"] == 3
+    html = (out / "report.html").read_text(encoding="utf-8")
+    md = (out / "report.md").read_text(encoding="utf-8")
+    check_report(html, md)
+    assert "Set-ups" in md and "set-up 3" in md
+    files = [str(tmp_path / f"m_setup{k}.csv") for k in (1, 2, 3)]
+    assert main(["calibrate", "report", "felix", "--measurements", *files, "--out", str(tmp_path / "rep3"),
+                 "--json"]) == 0
+    rep3 = json.loads(capsys.readouterr().out)
+    # the same readings: the same fit, equal up to round-off (1e-6 µm ≪ the quantities compared)
+    for key in ("rank", "n_parameters", "n_readings"):
+        assert rep3[key] == rep[key]
+    assert rep3["rms_before_um"] == pytest.approx(rep["rms_before_um"], abs=1e-6)
+    run = run_calibration(_felix(), str(one))
+    ends = np.cumsum([0] + [s.meas.n_samples for s in run.setups])
+    assert [s.rows for s in run.setups] == [slice(int(a), int(b)) for a, b in itertools.pairwise(ends)]
+    assert ends[-1] == run.res.n_readings
+    gain = run.ident.rank - max(s.ident.rank for s in run.setups)
+    assert gain > 0  # balls at other places see directions one ball cannot (test_more_fixed_balls_...)
+    assert f"(gain {gain})" in md
+
+
+def test_tracker_stations_are_set_ups(tmp_path):
+    """A laser tracker moved to two stations: each station its own instrument frame (``--with instrument-frame``
+    per set-up), the machine once. Noise-free readings of a perturbed Felix fit to the forward kinematics' floor,
+    the second station adds exactly its own six frame parameters to the rank, and the one-file route (a 'setup'
+    column in a tracker file) gives the same identification."""
+    from pkmstiff.calibration.instruments import TRACKER
+    from pkmstiff.calibration.measurement_file import read_measurement_setups, write_measurement_setups
+    from pkmstiff.calibration.plans import default_plan
+    from pkmstiff.calibration.simulation import SimulationOptions, simulate, to_measurement
+    from pkmstiff.calibration.workflow import identify_file
+
+    m = _felix()
+    base = default_plan(m, TRACKER)
+    station2 = dataclasses.replace(base, name="station 2", poses=base.poses[::-1].copy())
+    ps = PlanSet("two stations", (base, station2))
+    params = setups_error_model(m, ps, setup_blocks=("instrument_frame",))
+    assert params.n == setups_error_model(m, ps).n + 12 and set(params.chain[params.chain < 0]) == {-1, -2}
+    one = identifiability(m, setups_error_model(m, base, setup_blocks=("instrument_frame",)), base)
+    both = identifiability(m, params, ps)
+    assert both.rank == one.rank + 6  # the second station's frame is seen (relative to the first), nothing else
+    rng = np.random.default_rng(7)
+    true = rng.uniform(-1, 1, params.n) * 1e-4
+    res = identify(m, params, ps, simulate_readings(m, params, true, ps))
+    assert np.max(np.abs(res.residual_after)) < 1e-9  # m; the forward kinematics solves to 1e-13
+    # the same through the files: one tracker file holding both stations
+    opts = SimulationOptions(noise="none", quantise=False)
+    metas = []
+    for k, part in enumerate(ps.parts):
+        sub, idx = part_parameters(params, k)
+        inst = TRACKER.device(part.setup)
+        metas.append(to_measurement(m, part, simulate(m, sub, true[idx], part, inst, opts), inst))
+    path = tmp_path / "tracker.csv"
+    write_measurement_setups(path, metas)
+    back = read_measurement_setups(path)
+    assert len(back) == 2 and all(b.instrument == TRACKER for b in back)
+    run = identify_file(m, str(path), with_="instrument-frame")
+    assert run.params.names == params.names
+    assert np.sqrt(np.mean(run.res.residual_after ** 2)) < 1e-9

@@ -95,6 +95,9 @@ _OPTIONAL = ("feed_mm_min", "direction", "temperature_C")
 #: header keys of every measurement file (each instrument adds its own, :attr:`Instrument.header_keys`)
 _COMMON_KEYS = ("format_version", "instrument_type", "machine", "instrument", "resolution_um", "accuracy_um",
                 "sample_rate_hz", "units", "note")
+#: column and header key of a file holding several set-ups (:func:`read_measurement_setups`)
+SETUP_COLUMN = "setup"
+SETUPS_KEY = "setups"
 
 
 def range_violations(meas: Measurement) -> NDArray[np.int64]:
@@ -150,7 +153,7 @@ def _json_value(text: str):
 _TEXT_KEYS = ("machine", "instrument", "instrument_type", "plane", "units")
 
 
-def _write_table(path: Path, head: list[str], cols: list, n: int) -> Path:
+def _write_table(path: Path, head: list[str], cols: list, n: int, extra: dict | None = None) -> Path:
     """The CSV (the column row and the samples: ``pandas.read_csv(path)`` reads it with no options) and its header
     as ``<name>.json`` beside it (the ``# key: value`` lines of earlier files, which are still read)."""
     meta: dict = {"file": head[0].lstrip("# ").strip()}
@@ -160,11 +163,14 @@ def _write_table(path: Path, head: list[str], cols: list, n: int) -> Path:
             meta.setdefault("note", []).append(value)
         else:
             meta[key] = value if key in _TEXT_KEYS else _json_value(value)
+    meta.update(extra or {})
     atomic_write_text(sidecar_path(path), json.dumps(meta, indent=2, ensure_ascii=False) + "\n")
     text_cols = []
     for name, values in cols:
         if name == "direction":
             text_cols.append([str(v) for v in values])
+        elif name == SETUP_COLUMN:
+            text_cols.append([str(int(v)) for v in values])
         else:
             text_cols.append([fmt(v) for v in np.asarray(values, dtype=float)])
     rows = [",".join(c[i] for c in text_cols) for i in range(n)]
@@ -211,7 +217,7 @@ def _check_lengths(meas: BallbarMeasurement | PointMeasurement, src: str) -> Non
 
 
 def _header_keys() -> tuple[str, ...]:
-    keys = list(_COMMON_KEYS)
+    keys = list(_COMMON_KEYS) + [SETUPS_KEY]
     for inst in instruments():
         keys += [k for k in inst.header_keys if k not in keys]
     return tuple(keys)
@@ -251,6 +257,9 @@ def _read_sidecar(src: str, known: tuple[str, ...]) -> tuple[dict[str, tuple[int
         if key == "note":
             notes += [str(v) for v in (value if isinstance(value, list) else [value])]
             continue
+        if key == SETUPS_KEY:
+            header[key] = (None, value)  # the set-up tables of a several-set-up file, split by the reader
+            continue
         header[key] = (None, ", ".join(str(v) for v in value) if isinstance(value, list) else str(value))
     return header, notes
 
@@ -264,6 +273,17 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
     number of cells, cells that are not finite numbers (or not ccw/cw), time running backwards, and — with
     ``check_range`` — readings outside the instrument range.
     """
+    parsed = _parse_file(path)
+    src, columns, col_line = parsed[0], parsed[4], parsed[5]
+    if SETUP_COLUMN in columns:
+        raise InputError(src, line=col_line, reason=f"column '{SETUP_COLUMN}': this file holds several set-ups; "
+                                                    "expected one set-up here (calibrate identify and report read "
+                                                    "several: read_measurement_setups)")
+    return _measurement(*parsed, check_range)
+
+
+def _parse_file(path: str | Path) -> tuple:
+    """(src, header source, header, notes, columns, column-row line, data lines, data rows) of a measurement file."""
     path = Path(path)
     src = str(path)
     problem = input_file_problem(path)
@@ -325,6 +345,13 @@ def read_measurement(path: str | Path, *, check_range: bool = True) -> BallbarMe
                                        f"bar_length_mm and fixed_ball_mm)")
         hsrc = str(sidecar_path(path))
         header, notes = _read_sidecar(hsrc, known)
+    return src, hsrc, header, notes, columns, col_line, data_lines, data_rows
+
+
+def _measurement(src: str, hsrc: str, header: dict, notes: list[str], columns: list[str], col_line: int,
+                 data_lines: list[int], data_rows: list[list[str]], check_range: bool) -> Measurement:
+    """The measurement of a parsed header and table (:func:`read_measurement`, one set-up of
+    :func:`read_measurement_setups`)."""
     inst = FILE_DEFAULT
     if "instrument_type" in header:
         no, kind = header["instrument_type"]
@@ -441,3 +468,85 @@ def _parse_columns(src: str, line: int, columns: list[str], inst: Instrument) ->
         raise InputError(src, line=line, reason="expected the commanded pose (x_mm,y_mm,z_mm,a_deg,b_deg,c_deg) or "
                                    "drive values (q1_mm, ...) among the columns")
     return layout
+
+
+# ------------------------------------------------------------------------------------ several set-ups in one file
+
+
+def write_measurement_setups(path: str | Path, metas: list[Measurement], *, allow_out_of_range: bool = False) -> Path:
+    """Write the measurements of several set-ups of one instrument (issue 26 item 3) as one file: the CSV of
+    :func:`write_measurement` with a first column ``setup`` (1, 2, … in the order of ``metas``), and in the JSON
+    header the keys the set-ups share plus ``setups``, a list with each set-up's own instrument keys
+    (``fixed_ball_mm``, ``bar_length_mm``, ``target_mm`` …)."""
+    path = Path(path)
+    src = str(path)
+    inst = metas[0].instrument
+    for k, mm in enumerate(metas):
+        if mm.instrument != inst:
+            raise InputError(src, SETUPS_KEY, f"set-ups of one instrument ({inst}); set-up {k + 1}",
+                             str(mm.instrument))
+        inst.check_measurement(src, mm)
+        _check_lengths(mm, src)
+        bad = inst.range_violations(mm)
+        if bad.size and not allow_out_of_range:
+            raise InputError(src, reason=f"set-up {k + 1}: " + inst.range_message(mm, bad))
+    tables = [_command_cols(mm) + inst.reading_columns(mm) + _optional_cols(mm) for mm in metas]
+    names = [n for n, _ in tables[0]]
+    for k, cols in enumerate(tables):
+        if [n for n, _ in cols] != names:
+            raise InputError(src, SETUP_COLUMN, f"the columns {', '.join(names)} in every set-up; set-up {k + 1}",
+                             ", ".join(n for n, _ in cols))
+    cols = [(SETUP_COLUMN, np.concatenate([np.full(mm.n_samples, k + 1.0) for k, mm in enumerate(metas)]))]
+    for j, name in enumerate(names):
+        vals = [c[j][1] for c in tables]
+        cols.append((name, np.concatenate([np.asarray(v, dtype=object if name == "direction" else float)
+                                           for v in vals])))
+    first = [f"# pkmstiff {inst} measurement", f"# format_version: {FORMAT_VERSION}", f"# instrument_type: {inst}",
+             f"# machine: {metas[0].machine}", f"# instrument: {metas[0].device}"]
+    own = [dict(_header_pair(line) for line in inst.header_lines(mm)) for mm in metas]
+    shared = {key: v for key, v in own[0].items() if all(o.get(key) == v for o in own[1:])}
+    head = first + [f"# {key}: {v}" for key, v in shared.items()] + [f"# note: {n}" for n in dict.fromkeys(n for mm in metas for n in mm.notes)]
+    sets = [{key: (v if key in _TEXT_KEYS else _json_value(v)) for key, v in o.items() if key not in shared}
+            for o in own]
+    return _write_table(path, head, cols, len(cols[0][1]), extra={SETUPS_KEY: sets})
+
+
+def _header_pair(line: str) -> tuple[str, str]:
+    key, value = (p.strip() for p in line.lstrip("# ").split(":", 1))
+    return key, value
+
+
+def read_measurement_setups(path: str | Path, *, check_range: bool = True) -> list[Measurement]:
+    """The measurements of a file: one for a one-set-up file (:func:`read_measurement`), one per set-up for a file
+    with a ``setup`` column (:func:`write_measurement_setups`), in the order of the ``setups`` header list; line
+    numbers in errors are the file's."""
+    src, hsrc, header, notes, columns, col_line, data_lines, data_rows = _parse_file(path)
+    if SETUP_COLUMN not in columns:
+        if SETUPS_KEY in header:
+            raise InputError(hsrc, SETUPS_KEY, f"a '{SETUP_COLUMN}' column in {src} (the header lists set-ups)",
+                             "none")
+        return [_measurement(src, hsrc, header, notes, columns, col_line, data_lines, data_rows, check_range)]
+    sets = header.pop(SETUPS_KEY, (None, None))[1]
+    if not isinstance(sets, list) or not sets or not all(isinstance(t, dict) for t in sets):
+        raise InputError(hsrc, SETUPS_KEY, "a list of set-up tables (one per value of the 'setup' column)",
+                         repr(sets))
+    j = columns.index(SETUP_COLUMN)
+    rest = columns[:j] + columns[j + 1:]
+    known = {str(k) for k in range(1, len(sets) + 1)}
+    for no, r in zip(data_lines, data_rows):
+        if len(r) > j and r[j] not in known:
+            raise InputError(src, SETUP_COLUMN, f"a set-up number 1 … {len(sets)} (the header's set-ups)", r[j],
+                             line=no, column=j + 1)
+    out = []
+    for k, table in enumerate(sets, start=1):
+        rows = [(no, r[:j] + r[j + 1:]) for no, r in zip(data_lines, data_rows) if len(r) > j and r[j] == str(k)]
+        if not rows:
+            raise InputError(src, SETUP_COLUMN, f"rows of set-up {k} (the header lists {len(sets)})", "none")
+        head = dict(header)
+        for key, value in table.items():
+            if key in head:
+                raise InputError(hsrc, f"{SETUPS_KEY}[{k}].{key}", "a key not also given for all set-ups", key)
+            head[key] = (None, ", ".join(str(v) for v in value) if isinstance(value, list) else str(value))
+        out.append(_measurement(src, hsrc, head, notes, rest, col_line, [no for no, _ in rows],
+                                [r for _, r in rows], check_range))
+    return out

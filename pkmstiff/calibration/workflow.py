@@ -40,11 +40,11 @@ from pkmstiff.calibration.identifiability import Identifiability, check_identifi
 from pkmstiff.calibration.identification import Identification, ResidualStats, identify, jacobian_at
 from pkmstiff.calibration.instruments import BALL_BAR, BallbarMeasurement, instrument
 from pkmstiff.calibration.jacobian import identification_jacobian, reading_weights
-from pkmstiff.calibration.measurement_file import Measurement, read_measurement
+from pkmstiff.calibration.measurement_file import Measurement, read_measurement, read_measurement_setups
 from pkmstiff.calibration.parameters import ParameterSet, error_model, parse_with
 from pkmstiff.calibration.perturb import perturbed_machine
 from pkmstiff.calibration.plans import Plan, read_plan
-from pkmstiff.calibration.setups import PlanSet, setups_error_model
+from pkmstiff.calibration.setups import PlanSet, parts, setups_error_model
 from pkmstiff.calibration.uncertainty import Uncertainty, uncertainty
 from pkmstiff.errors import InputError, NumericalError
 from pkmstiff.machine import Machine
@@ -104,8 +104,12 @@ def identify_file(machine: Machine, measurements: str | Sequence[str], *, meas: 
     ball offset or tracker station), identified together — the machine's parameters once, the ``--with`` set-up
     parameters per file (:mod:`pkmstiff.calibration.setups`); the diagnostics run on the stacked residuals with
     the files' sample times laid end to end."""
-    paths = [measurements] if isinstance(measurements, str) else list(measurements)
-    metas = [read_measurement(p) if (meas is None or k) else meas for k, p in enumerate(paths)]
+    files = [measurements] if isinstance(measurements, str) else list(measurements)
+    paths, metas = [], []
+    for k, p in enumerate(files):  # a file with a 'setup' column holds several set-ups
+        got = [meas] if (meas is not None and not k) else read_measurement_setups(p)
+        paths += [p] if len(got) == 1 else [f"{p} set-up {i + 1}" for i in range(len(got))]
+        metas += got
     for p, mm in zip(paths, metas):
         if expected is not None and instrument(expected) != mm.instrument:
             raise InputError(p, "instrument", f"'{expected}' (--instrument), but the file holds "
@@ -124,7 +128,7 @@ def identify_file(machine: Machine, measurements: str | Sequence[str], *, meas: 
     else:
         plan = PlanSet(" + ".join(Path(p).name for p in paths), tuple(pl for pl, _ in plans))
         y = np.vstack([yy for _, yy in plans])
-    measurements = paths[0] if len(paths) == 1 else ", ".join(paths)
+    measurements = ", ".join(files)
     params = setups_error_model(machine, plan, frame, blocks)
     ident = identifiability(machine, params, plan)
     check_identifiable(ident, measurements)  # an ill-posed measurement fails here, not after minutes of LM
@@ -228,11 +232,20 @@ class CalibrationRun:
     plan_path: str | None = None
     frame: str = "cartesian"
     with_: str | None = None
+    #: several set-ups (issue 26 item 3): their measurements, residual row slices and their identifiability
+    #: alone (the stacked one is ``ident``); empty for one set-up
+    setups: list[SetupPart] = field(default_factory=list)
+    files: list[str] = field(default_factory=list)
 
     # the parts of the identification the report shows
     @property
     def measurements(self) -> str:
         return self.run.measurements
+
+    @property
+    def file_names(self) -> str:
+        """The measurement files' names (without folders), comma separated."""
+        return ", ".join(Path(f).name for f in (self.files or [self.measurements]))
 
     @property
     def meas(self) -> BallbarMeasurement:
@@ -264,18 +277,40 @@ class CalibrationRun:
 
     def ball_points(self) -> np.ndarray:
         """Moving-ball centres of the identification measurement's commanded poses (N, 3), m."""
-        return ball_positions(self.plan.poses, self.meas.ball_offset)
+        if not self.setups:
+            return ball_positions(self.plan.poses, self.meas.ball_offset)
+        return np.vstack([ball_positions(self.plan.poses[s.rows], s.meas.ball_offset) for s in self.setups])
+
+
+@dataclass
+class SetupPart:
+    """One set-up of a several-set-up calibration run: its measurement, label, rows of the stacked readings and
+    what it identifies alone (the machine's parameters and its own set-up parameters)."""
+
+    label: str
+    meas: BallbarMeasurement
+    rows: slice
+    ident: Identifiability
+
+
+def _ballbar_files(path: str) -> list[BallbarMeasurement]:
+    """The set-ups of a ball-bar measurement file; another instrument's file is a one-line error (the report's
+    plan, circle and polar-plot parts are ball-bar specific)."""
+    metas = read_measurement_setups(path)
+    for meas in metas:
+        if not isinstance(meas, BallbarMeasurement):
+            raise InputError(path, "instrument", "a ball-bar measurement file (calibrate report evaluates "
+                                        "ball-bar circles; use calibrate identify / check for this file)",
+                                        meas.instrument.kind)
+    return metas
 
 
 def _ballbar_file(path: str) -> BallbarMeasurement:
-    """A ball-bar measurement file; another instrument's file is a one-line error (the report's plan, circle and
-    polar-plot parts are ball-bar specific)."""
-    meas = read_measurement(path)
-    if not isinstance(meas, BallbarMeasurement):
-        raise InputError(path, "instrument", "a ball-bar measurement file (calibrate report evaluates "
-                                    "ball-bar circles; use calibrate identify / check for this file)",
-                                    meas.instrument.kind)
-    return meas
+    metas = _ballbar_files(path)
+    if len(metas) > 1:
+        raise InputError(path, "setup", "a measurement of one set-up (a validation file)",
+                         f"{len(metas)} set-ups")
+    return metas[0]
 
 
 def _circles(meas: BallbarMeasurement, plan: Plan, before: np.ndarray, after: np.ndarray,
@@ -284,7 +319,7 @@ def _circles(meas: BallbarMeasurement, plan: Plan, before: np.ndarray, after: np
                    before, after, source)
 
 
-def run_calibration(machine: Machine, measurements: str, *, plan_path: str | None = None,
+def run_calibration(machine: Machine, measurements: str | Sequence[str], *, plan_path: str | None = None,
                     validate: Sequence[str] = (), method: str = "lm", loss: str = "linear",
                     frame: str = "cartesian", monte_carlo: int = 0, deflection: str = "none",
                     with_: str | None = None, robust: str | None = None) -> CalibrationRun:
@@ -294,21 +329,40 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
     ``calibrate identify/check --deflection gravity`` do: the predicted gravity deflection is subtracted from the
     readings before identification and validation, and the bias without it is recorded. ``with_`` (``--with``)
     identifies the set-up parameters with the machine and fits them anew on every validation file (a set-up
-    error belongs to its measurement)."""
+    error belongs to its measurement).
+
+    Several set-ups (several files, or a file with a ``setup`` column; issue 26 item 3) are identified together
+    (:func:`identify_file`); the run then records each set-up's residual rows, circles and what it would
+    identify alone (:class:`SetupPart`)."""
+    files = [measurements] if isinstance(measurements, str) else list(measurements)
     plan_file = read_plan(plan_path) if plan_path else None
     if plan_file is not None and plan_file.instrument != BALL_BAR:
         raise InputError(plan_path, "plan.instrument", "a ball-bar plan (the measurement is a ball-bar "
                                     "file)", plan_file.instrument.kind)
-    meas = _ballbar_file(measurements)
+    metas, labels = [], []
+    for f in files:
+        got = _ballbar_files(f)
+        metas += got
+        labels += [f] if len(got) == 1 else [f"{f} set-up {i + 1}" for i in range(len(got))]
+    meas = metas[0]
     vals = []
     for v in validate:  # read every file before the (slower) identification: bad input fails fast
         vm = _ballbar_file(v)
         vals.append((v, vm, *measurement_plan(vm, machine.name, v)))
-    run = identify_file(machine, measurements, meas=meas, method=method, loss=loss, frame=frame,
-                        monte_carlo=monte_carlo, deflection=deflection, with_=with_, robust=robust)
+    run = identify_file(machine, files[0] if len(files) == 1 else files, meas=meas if len(metas) == 1 else None,
+                        method=method, loss=loss, frame=frame, monte_carlo=monte_carlo, deflection=deflection,
+                        with_=with_, robust=robust)
     blocks = parse_with(with_, meas.instrument)
     calibrated = run.calibrated_machine(machine)
-    found = _circles(meas, run.plan, run.res.residual_before, run.res.residual_after, measurements)
+    setups, found = [], []
+    if len(metas) == 1:
+        found = _circles(meas, run.plan, run.res.residual_before, run.res.residual_after, files[0])
+    else:
+        for (part, sub, _, rows), mm, lab in zip(parts(run.plan, run.params), metas, labels):
+            setups.append(SetupPart(lab, mm, rows, identifiability(machine, sub, part)))
+            for c in _circles(mm, part, run.res.residual_before[rows], run.res.residual_after[rows], lab):
+                found.append(dataclasses.replace(c, label=f"{Path(lab).name}: {c.label}",
+                                                 index=c.index + rows.start))
     validations = []
     for v, vm, vplan, vy in vals:
         y0 = y1 = vy
@@ -319,7 +373,8 @@ def run_calibration(machine: Machine, measurements: str, *, plan_path: str | Non
         r1 = check(calibrated, machine, vplan, y1, blocks).residual
         validations.append(Validation(v, r0, r1, _circles(vm, vplan, r0, r1, v)))
     return CalibrationRun(machine=machine, run=run, calibrated=calibrated, circles=found, validations=validations,
-                          plan_file=plan_file, plan_path=plan_path, frame=frame, with_=with_)
+                          plan_file=plan_file, plan_path=plan_path, frame=frame, with_=with_, setups=setups,
+                          files=files)
 
 
 

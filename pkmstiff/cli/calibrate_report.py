@@ -29,11 +29,13 @@ def report_command(args: argparse.Namespace) -> dict:
     machine = load_machine(args.machine)
     if wants_deflection:  # fail before the identification, write nothing
         require_structure_model(machine)
-    run = run_calibration(machine, args.measurements, plan_path=args.plan, validate=args.validate or (),
+    files = [args.measurements] if isinstance(args.measurements, str) else list(args.measurements)
+    run = run_calibration(machine, files[0] if len(files) == 1 else files, plan_path=args.plan, validate=args.validate or (),
                           method=args.method, loss=args.loss, frame=args.frame, monte_carlo=args.monte_carlo,
                           deflection=args.deflection, with_=args.with_, robust=args.robust)
     paths = write_calibration_report(run, args.out, tolerance=tolerance)
-    return {"machine": machine.name, "measurement_file": args.measurements, "n_readings": run.res.n_readings,
+    return {"machine": machine.name, "measurement_file": ", ".join(files), "n_readings": run.res.n_readings,
+            "n_setups": max(1, len(run.setups)),
             "rank": run.res.rank, "n_parameters": run.params.n, "rms_before_um": run.run.before.rms * 1e6,
             "rms_after_um": run.run.after.rms * 1e6, "circles": len(run.circles),
             "validation": [{"file": v.path, "rms_nominal_um": v.before_stats.rms * 1e6,
@@ -72,7 +74,9 @@ def _add_report(sub) -> None:
                                    "identified parameters with sigma, residuals before/after with polar plots per "
                                    "circle, residuals on validation measurements, and the deflection contribution.")
     p.add_argument("machine", help="nominal machine (bundled name or machine file)")
-    p.add_argument("--measurements", required=True, metavar="MEAS.csv", help="ball-bar measurement file")
+    p.add_argument("--measurements", required=True, nargs="+", metavar="MEAS.csv",
+                   help="ball-bar measurement file(s): several files, or a file with a 'setup' column, are several "
+                        "set-ups identified together (the report adds a Set-ups section)")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory (report.html, report.md, figures/)")
     p.add_argument("--plan", metavar="PLAN.toml", help="plan file of the measurement (described and drawn; "
                                                        "example:NAME for a bundled example)")

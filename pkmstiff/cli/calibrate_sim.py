@@ -99,21 +99,27 @@ def simulate_command(args: argparse.Namespace) -> dict:
     if raw is not None:
         raise ArgumentError(f"calibrate simulate --raw: expected a plan of one set-up, found {plans.n_setups} "
                             f"set-ups in {args.plan} (simulate each set-up's raw series from its own plan)")
-    outs = [out.with_name(f"{out.stem}_setup{k + 1}{out.suffix}") for k in range(plans.n_setups)]
+    one_file = getattr(args, "one_file", False)
+    outs = ([out] * plans.n_setups if one_file else
+            [out.with_name(f"{out.stem}_setup{k + 1}{out.suffix}") for k in range(plans.n_setups)])
     for o in outs:  # every file is checked before the first is simulated
         check_output_file(o, "--out (one file per set-up)", getattr(args, "force", False), (".csv",))
         check_output_file(o.with_suffix(".json"), "--out (its header file)", getattr(args, "force", False),
                           (".json",))
     for part in plans.parts:
         check_plan(machine, part)
-    return {"machine": machine.name, "plan": plans.name,
-            "setups": [_simulate_one(args, machine, part, str(o), k) for k, (part, o) in enumerate(zip(plans.parts,
-                                                                                                      outs))]}
+    metas: list | None = [] if one_file else None
+    reps = [_simulate_one(args, machine, part, str(o), k, metas) for k, (part, o) in enumerate(zip(plans.parts, outs))]
+    if metas is not None:  # --one-file: every set-up in one file, a 'setup' column names the rows' set-up
+        from pkmstiff.calibration.measurement_file import write_measurement_setups
+
+        write_measurement_setups(out, metas)
+    return {"machine": machine.name, "plan": plans.name, "setups": reps}
 
 
-def _simulate_one(args: argparse.Namespace, machine, plan, out: str, k: int = 0) -> dict:
-    """``calibrate simulate`` of one set-up's plan into the file ``out``; set-up ``k`` draws its noise with the
-    seed ``--seed`` + k (independent noise per set-up)."""
+def _simulate_one(args: argparse.Namespace, machine, plan, out: str, k: int = 0, metas: list | None = None) -> dict:
+    """``calibrate simulate`` of one set-up's plan into the file ``out`` (appended to ``metas`` instead where given:
+    ``--one-file``); set-up ``k`` draws its noise with the seed ``--seed`` + k (independent noise per set-up)."""
     from pkmstiff.calibration import check_plan
     from pkmstiff.calibration.measurement_file import write_measurement
     from pkmstiff.calibration.simulation import (
@@ -148,7 +154,10 @@ def _simulate_one(args: argparse.Namespace, machine, plan, out: str, k: int = 0)
         raise ArgumentError(msg + (" (use --saturate to write them clipped at the range limits)"
                                       if saturates else ""))
     meas = to_measurement(machine, plan, res, inst, saturate=args.saturate)
-    write_measurement(out, meas)
+    if metas is None:
+        write_measurement(out, meas)
+    else:
+        metas.append(meas)
     rep = {"machine": machine.name, "plan": plan.name, "instrument": plan.instrument.kind, "out": str(out),
            "n_samples": len(res.readings), "duration_s": float(res.samples.t[-1])}
     rep.update(plan.instrument.simulation_summary(plan, res))
@@ -216,6 +225,9 @@ def _add_simulate(sub) -> None:
                                                    "the plan's NC program as FOLDER/run<k>.txt (calibrate import)")
     p.add_argument("--start-delay", type=float, help="--raw: capture start to feed-in start in s (default: random "
                                                      "0.2-1.2 s per run from --seed)")
+    p.add_argument("--one-file", action="store_true",
+                   help="a plan of several set-ups: write them all to the one --out file (a 'setup' column; the "
+                        "set-ups' definitions in its header) instead of one file OUT_setupK.csv per set-up")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.add_argument("--noise", default="instrument",
                    help="none | instrument (sigma = accuracy/2) | procedure (Tab. 4.5 vs feed, sigma = U/2) | "

@@ -38,9 +38,10 @@ def path_figure(points: np.ndarray, groups: np.ndarray, labels: Sequence[str], f
             ax2.plot(P[part, 0], P[part, 1], color=colours[k], lw=0.9)
             first = False
     if fixed_ball is not None:
-        c = np.asarray(fixed_ball, dtype=float) * 1e3
-        ax3.scatter([c[0]], [c[1]], [c[2]], color="k", marker="*", s=80, label="fixed ball")
-        ax2.scatter([c[0]], [c[1]], color="k", marker="*", s=80)
+        c = np.atleast_2d(np.asarray(fixed_ball, dtype=float)) * 1e3  # one ball (3,) or one per set-up (K, 3)
+        ax3.scatter(c[:, 0], c[:, 1], c[:, 2], color="k", marker="*", s=80,
+                    label="fixed ball" if len(c) == 1 else "fixed balls")
+        ax2.scatter(c[:, 0], c[:, 1], color="k", marker="*", s=80)
     lo, hi = P.min(axis=0), P.max(axis=0)
     mid, half = (lo + hi) / 2, max(float(np.max(hi - lo)) / 2, 1.0)
     ax3.set_xlim(mid[0] - half, mid[0] + half)

@@ -127,7 +127,15 @@ def _plan_section(report: Report, run: CalibrationRun, fig_dir: Path) -> None:
     groups = circle_of + 1
     if not np.any(groups == 0):
         labels[0] = "(none)"
-    text = [f"Instrument: ball bar ({meas.device}), measurement file {Path(run.measurements).name} "
+    balls = meas.fixed_ball
+    if run.setups:  # several set-ups: the samples outside circles coloured by set-up, every fixed ball drawn
+        k = len(run.setups)
+        groups = np.where(circle_of >= 0, circle_of + k, 0)
+        for j, s in enumerate(run.setups):
+            groups[s.rows] = np.where(circle_of[s.rows] >= 0, groups[s.rows], j)
+        labels = [f"set-up {j + 1}" for j in range(k)] + labels[1:]
+        balls = np.array([s.meas.fixed_ball for s in run.setups])
+    text = [f"Instrument: ball bar ({meas.device}), measurement file {run.file_names} "
             f"({meas.n_samples} samples over {float(meas.t[-1] - meas.t[0]):.1f} s)."]
     if run.plan_file is not None:
         kinds = "; ".join(f"{s.label} ({getattr(s, 'kind', 'path')}, {s.stop - s.start} poses)"
@@ -153,8 +161,8 @@ def _plan_section(report: Report, run: CalibrationRun, fig_dir: Path) -> None:
     t.add("instrument range (upper)", "mm", [meas.range[1] * 1e3])
     t.add("resolution", "µm", [meas.resolution * 1e6])
     sec.tables.append(t)
-    fig = path_figure(P, groups, labels, meas.fixed_ball,
-                      title=f"{run.machine.name}: moving-ball path of {Path(run.measurements).name}")
+    fig = path_figure(P, groups, labels, balls,
+                      title=f"{run.machine.name}: moving-ball path of {run.file_names}")
     sec.figures.append(Figure(_save(fig, fig_dir / "path.png"), "Measured path of the moving ball (mm) with the "
                               "fixed ball; circles coloured separately"))
 
@@ -183,6 +191,36 @@ def _identifiability_section(report: Report, run: CalibrationRun) -> None:
           [ident.max_orthogonality])
     for k, v in ident.observability.items():
         t.add(f"observability {k}", "scaled" if k != "O2" else "–", [v])
+    sec.tables.append(t)
+
+
+def _setups_section(report: Report, run: CalibrationRun) -> None:
+    """Several set-ups (issue 26 item 3): each set-up's instrument placement, its residuals before and after the
+    joint identification, and what it would identify alone against the stacked set-ups (the identifiability
+    gain)."""
+    parts, ident = run.setups, run.ident
+    best = max(s.ident.rank for s in parts)
+    sec = report.section("Set-ups")
+    sec.text = (f"{len(parts)} set-ups identified together: the machine's parameters once, the set-up parameters "
+                f"(--with) per set-up. Alone, the best set-up identifies {best} parameters; together they "
+                f"identify {ident.rank} of {ident.n_parameters} (gain {ident.rank - best}). The residuals are those "
+                "of the joint identification, split by set-up.\n\n"
+                + "\n".join(f"- set-up {k}: {Path(s.label).name}" for k, s in enumerate(parts, 1)))
+    t = Table("Set-ups: placement, identifiability alone and residuals of the joint fit",
+              [f"set-up {k}" for k in range(1, len(parts) + 1)] + ["together"], digits=5)
+    t.add("readings", "count", [s.rows.stop - s.rows.start for s in parts] + [run.res.n_readings])
+    t.add("bar length", "mm", [s.meas.bar_length * 1e3 for s in parts] + [None])
+    for j, ax in enumerate("xyz"):
+        t.add(f"fixed ball {ax}", "mm", [float(s.meas.fixed_ball[j]) * 1e3 for s in parts] + [None])
+    t.add("parameters", "count", [s.ident.n_parameters for s in parts] + [ident.n_parameters])
+    t.add("rank (identified base parameters)", "count", [s.ident.rank for s in parts] + [ident.rank])
+    t.add("κ (base-parameter columns, nominal parameters)", "–",
+          [v if math.isfinite(v) else None for v in [s.ident.condition_number_base for s in parts]
+           + [ident.condition_number_base]])
+    for key, lab in (("residual_before", "residual RMS before"), ("residual_after", "residual RMS after")):
+        r = getattr(run.res, key)
+        t.add(lab, "µm", [float(np.sqrt(np.mean(r[s.rows] ** 2))) * 1e6 for s in parts]
+              + [float(np.sqrt(np.mean(r ** 2))) * 1e6])
     sec.tables.append(t)
 
 
@@ -222,7 +260,7 @@ def _residual_section(report: Report, run: CalibrationRun, fig_dir: Path) -> Non
                 "measurement, before and after; the radial scale of each plot is its own."
                 + ("" if run.circles else "\n\nThe measurement holds no full circle (e.g. only a hemisphere): no "
                                           "polar plots."))
-    t = Table(f"Residuals of {Path(run.measurements).name} ({res.n_readings} readings)", ["before", "after"],
+    t = Table(f"Residuals of {run.file_names} ({res.n_readings} readings)", ["before", "after"],
               digits=4)
     _stats_rows(t, run.run.before, run.run.after)
     _circle_rows(t, run.circles)
@@ -325,7 +363,7 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path, tolerance: floa
     res, unc = run.res, run.unc
     b, a = run.run.before, run.run.after
     rep = Report(f"Calibration of {run.machine.title or run.machine.name}")
-    summary = [f"Machine {run.machine.name}, ball-bar measurement {Path(run.measurements).name} "
+    summary = [f"Machine {run.machine.name}, ball-bar measurement {run.file_names} "
                f"({res.n_readings} readings), method {res.method}: residual RMS {_fmt(b.rms * 1e6)} µm before, "
                f"{_fmt(a.rms * 1e6)} µm after; {res.rank} of {run.params.n} parameters identified "
                f"({run.params.n - res.rank} gauge DOF held fixed), κ = {_fmt(res.condition_number)} at the identified "
@@ -345,6 +383,8 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path, tolerance: floa
     rep.summary = "\n\n".join(summary)
     _plan_section(rep, run, fig_dir)
     _identifiability_section(rep, run)
+    if run.setups:
+        _setups_section(rep, run)
     _parameters_section(rep, run, fig_dir)
     _residual_section(rep, run, fig_dir)
     _ballbar_section(rep, run, fig_dir, tolerance)
@@ -362,7 +402,7 @@ def calibration_report(run: CalibrationRun, out_dir: str | Path, tolerance: floa
                    "run's extent",
     }
     rep.settings = {"machine": run.machine.name, "measurements": str(run.measurements),
-                    "measurement sha256": file_sha256(run.measurements), "plan": run.plan_path or "(none)",
+                    "measurement sha256": ", ".join(file_sha256(f) for f in (run.files or [run.measurements])), "plan": run.plan_path or "(none)",
                     "validate": [str(v.path) for v in run.validations], "method": res.method, "loss": res.loss,
                     "frame": run.frame, "with": run.with_ or "(none)", "deflection": "(not computed)" if deflection is None else "computed"}
     return rep
