@@ -295,3 +295,35 @@ def test_tracker_stations_are_set_ups(tmp_path):
     run = identify_file(m, str(path), with_="instrument-frame")
     assert run.params.names == params.names
     assert np.sqrt(np.mean(run.res.residual_after ** 2)) < 1e-9
+
+
+def test_check_of_a_file_with_several_setups_is_the_check_of_each_setup(tmp_path, capsys):
+    """``calibrate check`` of a one-file measurement of three set-ups: each set-up is checked as its own file is
+    (same readings, same plan: equal statistics up to round-off), and the overall statistics are those of all
+    readings together."""
+    import json
+
+    from pkmstiff.cli import main
+
+    one = _simulate_setups(tmp_path, "--one-file")
+    _simulate_setups(tmp_path)
+    capsys.readouterr()
+    assert main(["calibrate", "check", "felix", "--measurements", str(one), "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    assert [p["setup"] for p in rep["setups"]] == [1, 2, 3]
+    singles = []
+    for k in (1, 2, 3):
+        assert main(["calibrate", "check", "felix", "--measurements", str(tmp_path / f"m_setup{k}.csv"),
+                     "--json"]) == 0
+        singles.append(json.loads(capsys.readouterr().out))
+    for part, single in zip(rep["setups"], singles):
+        assert part["n_readings"] == single["n_readings"]
+        # the same arithmetic on the same parsed numbers; 1e-9 µm absorbs any summation-order round-off
+        assert part["rms_um"] == pytest.approx(single["rms_um"], abs=1e-9)
+        assert part["diagnostics"]["consistent"] == single["diagnostics"]["consistent"]
+    assert rep["n_readings"] == sum(s["n_readings"] for s in singles)
+    ms = sum(s["rms_um"] ** 2 * s["n_readings"] for s in singles) / rep["n_readings"]
+    assert rep["rms_um"] == pytest.approx(np.sqrt(ms), rel=1e-12)  # RMS of all readings from the parts' RMS
+    assert main(["calibrate", "check", "felix", "--measurements", str(one)]) == 0
+    text = capsys.readouterr().out
+    assert text.count("set-up ") >= 3 and "model fit" in text

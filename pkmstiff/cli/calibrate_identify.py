@@ -158,12 +158,14 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
     """Residuals of a machine file against a measurement (JSON-ready dict, µm) and their model-fit diagnostics
     (key ``diagnostics``, :func:`~pkmstiff.calibration.workflow.check_diagnostics`); ``deflection="gravity"``
     subtracts the deflection of the machine under test at the poses it reaches from the readings first;
-    ``with_`` (``--with`` tokens) fits those set-up parameters of the measurement first."""
-    from pkmstiff.calibration.compensation import check, measurement_plan
-    from pkmstiff.calibration.deflection import check_deflection, subtract_deflection
-    from pkmstiff.calibration.measurement_file import read_measurement
+    ``with_`` (``--with`` tokens) fits those set-up parameters of the measurement first.  A file of several set-ups
+    (:func:`~pkmstiff.calibration.measurement_file.read_measurement_setups`) is checked set-up by set-up (each with
+    its own set-up parameters); the result holds the statistics of all readings and one entry per set-up
+    (key ``setups``)."""
+    from pkmstiff.calibration.deflection import check_deflection
+    from pkmstiff.calibration.identification import residual_stats
+    from pkmstiff.calibration.measurement_file import read_measurement_setups
     from pkmstiff.calibration.parameters import parse_with
-    from pkmstiff.calibration.workflow import check_diagnostics
     from pkmstiff.errors import InputError
     from pkmstiff.machine import load_machine
 
@@ -171,11 +173,26 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
         raise InputError("--load", "load", "--deflection gravity together with --load", "--deflection none")
     wrench = parse_load(load)
     machine = load_machine(machine_name)
-    meas = read_measurement(measurements)
-    blocks = parse_with(with_, meas.instrument)
-    ctrl_name = controller or machine.calibration.get("nominal_machine") or meas.machine or machine_name
+    metas = read_measurement_setups(measurements)
+    blocks = parse_with(with_, metas[0].instrument)
+    ctrl_name = controller or machine.calibration.get("nominal_machine") or metas[0].machine or machine_name
     ctrl = load_machine(ctrl_name)
-    plan, y = measurement_plan(meas, ctrl.name, measurements)
+    parts = [_check_setup(machine, ctrl, meas, measurements, deflection, wrench, blocks) for meas in metas]
+    if len(parts) == 1:
+        return {"measurement_file": measurements, **parts[0][0]}
+    residual = np.concatenate([r for _, r in parts])
+    return {"measurement_file": measurements, "machine": machine.name, "controller": ctrl.name,
+            "n_readings": int(residual.size), **residual_stats(residual),
+            "setups": [{"setup": k, **rep} for k, (rep, _) in enumerate(parts, start=1)]}
+
+
+def _check_setup(machine, ctrl, meas, path: str, deflection: str, wrench, blocks) -> tuple[dict, np.ndarray]:
+    """(report dict, residual (m)) of one set-up of a measurement file (see :func:`check_report`)."""
+    from pkmstiff.calibration.compensation import check, measurement_plan
+    from pkmstiff.calibration.deflection import subtract_deflection
+    from pkmstiff.calibration.workflow import check_diagnostics
+
+    plan, y = measurement_plan(meas, ctrl.name, path)
     if deflection == "gravity":
         yc, dr = subtract_deflection(machine, ctrl, plan, y, wrench)
         res = check(machine, ctrl, plan, yc, blocks)
@@ -186,24 +203,28 @@ def check_report(machine_name: str, measurements: str, controller: str | None = 
         res = check(machine, ctrl, plan, y, blocks)
         rep = res.to_dict()
     rep["diagnostics"] = check_diagnostics(machine, ctrl, meas, plan, res.residual, blocks).to_dict()
-    return {"measurement_file": measurements, **rep}
+    return rep, res.residual
 
 
 def _cmd_check(args: argparse.Namespace) -> int:
     rep = check_report(args.machine, args.measurements, args.controller, args.deflection, args.load, args.with_)
     if args.json:
         print(json.dumps(rep, indent=2))
-    else:
-        print(f"{rep['machine']} against {rep['measurement_file']} ({rep['n_readings']} readings, commanded by "
-              f"{rep['controller']}): residual RMS {rep['rms_um']:.4g} µm, max {rep['max_abs_um']:.4g} µm, "
-              f"mean {rep['mean_um']:.4g} µm"
-              + (f" (gravity deflection subtracted: RMS {rep['deflection']['rms_reading_um']:.4g} µm)"
-                 if "deflection" in rep else ""))
-        if "setup_fitted" in rep:
+        return 0
+    print(f"{rep['machine']} against {rep['measurement_file']} ({rep['n_readings']} readings, commanded by "
+          f"{rep['controller']}): residual RMS {rep['rms_um']:.4g} µm, max {rep['max_abs_um']:.4g} µm, "
+          f"mean {rep['mean_um']:.4g} µm"
+          + (f" (gravity deflection subtracted: RMS {rep['deflection']['rms_reading_um']:.4g} µm)"
+             if "deflection" in rep else ""))
+    for part in rep.get("setups", [rep]):
+        if "setups" in rep:
+            print(f"set-up {part['setup']} ({part['n_readings']} readings): residual RMS {part['rms_um']:.4g} µm, "
+                  f"max {part['max_abs_um']:.4g} µm, mean {part['mean_um']:.4g} µm")
+        if "setup_fitted" in part:
             print("set-up fitted to the measurement: " + ", ".join(
                 f"{r['name']} {r['value_mm']:+.6f} mm" if "value_mm" in r else f"{r['name']} {r['value_mrad']:+.6f} mrad"
-                for r in rep["setup_fitted"]))
-        _print_diagnostics(rep["diagnostics"])
+                for r in part["setup_fitted"]))
+        _print_diagnostics(part["diagnostics"])
     return 0
 
 
