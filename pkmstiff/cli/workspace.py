@@ -279,7 +279,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.evaluation.sections import raster, raster_count
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
-    from pkmstiff.workspace.rotation import DIRECTIONS, rotational_workspace_map
+    from pkmstiff.workspace.rotation import DIRECTIONS, direction_group, rotational_workspace_map
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
@@ -323,7 +323,8 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                            to_machine_frame(machine, origin, args.frame), ua, va)
         frac = admissible_fraction(machine, pts, ori, checks_without(args.skip_check, "--skip-check"))
     cost = rotation_map_cost(nu * nv, frac, nu + nv - 1, len(dirs), inc, amax, method == "plain", args.verify)
-    plan = predicted_plan(len(dirs), cost.seconds, jobs, scheduler, "directions")  # directions are the tasks
+    plan = predicted_plan(len(dirs), cost.seconds, jobs, scheduler, "directions",  # directions are the tasks
+                          direction_group(len(dirs), jobs, scheduler))
     announce("rotation-map", cost.named(f"{len(dirs)} direction(s) on {nu * nv:,} raster points, increment "
                                         f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json, plan=plan)
     t0 = time.perf_counter()

@@ -190,7 +190,8 @@ def angle_search(
     base_evals = flat.shape[0]
     search = (u, v, increment, K, method, verify, block)
     with parallel.connected(scheduler):
-        p = parallel.plan(len(dirs), (time.perf_counter() - t0) * POSES_PER_POINT, n_jobs, scheduler)
+        p = parallel.plan(len(dirs), (time.perf_counter() - t0) * POSES_PER_POINT, n_jobs, scheduler,
+                          granule=direction_group(len(dirs), n_jobs, scheduler))
         if p.parallel:
             shared = parallel.Shared(machine)
             parts = parallel.run_tasks(_search_task, [(shared, checks, reqs, flat.reshape(nv, nu, 6), base_ok, dvec[a:b],
@@ -212,6 +213,13 @@ def angle_search(
                              {d: int(evals[j]) for j, d in enumerate(dirs)}, plain_seq, base_evals,
                              {d: int(fixes[j]) for j, d in enumerate(dirs)}, float(increment), float(max_angle),
                              method, settings, plan=replace(p, items=len(dirs)))
+
+
+def direction_group(n_directions: int, n_jobs: int, scheduler: Any = None) -> int:
+    """Directions per task: a search evaluates all its directions in one batch per step, and the fixed cost of a
+    batch (~0.26 ms, most batches holding a few poses) dominates small rasters, so every task repeats it: local
+    workers get one group of directions each (2 workers, 6 directions: 2 tasks of 3, not 6 tasks of 1)."""
+    return 1 if scheduler is not None else math.ceil(n_directions / parallel.resolve_workers(n_jobs))
 
 
 def _search(ev: _Evaluator, base: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray,
