@@ -221,7 +221,7 @@ def test_rotation_map_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeyp
     for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
         assert main([*base, *extra, "--out", str(tmp_path / name)]) == 0
     err = capsys.readouterr().err
-    assert "2 local workers, 3 tasks of 1 directions" in err  # the cost line states the plan
+    assert "2 local workers, 2 tasks of 2 directions" in err  # the plan: one group of directions per worker
     _same_files_but_timing(tmp_path / "1", tmp_path / "2", "rotation_map.json")
     _same_files_but_timing(tmp_path / "1", tmp_path / "dask", "rotation_map.json")
 

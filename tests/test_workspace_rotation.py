@@ -112,3 +112,23 @@ def test_bad_arguments(hexaglide):
         rotation_angle_map(hexaglide, **{**kw, "u_values": [0.1, 0.0]})
     with pytest.raises(ArgumentError, match="method"):
         rotation_angle_map(hexaglide, **kw, method="fast")
+
+
+@pytest.mark.parametrize("lookahead", [2, 8])
+def test_corrector_lookahead_changes_neither_angles_nor_counts(yz_maps, hexaglide, monkeypatch, lookahead):
+    # several increments per batch when few searches are left: the one-at-a-time search's angles and evaluation
+    # counts (the fixture's maps were made with the default lookahead; 1 is the one-at-a-time search itself)
+    import pkmstiff.workspace.rotation as rot
+
+    u, v = yz_maps["predictor_corrector"].u_values, yz_maps["predictor_corrector"].v_values
+    kw = dict(origin=[0, 0, 0], u_axis=[0, 1, 0], v_axis=[0, 0, 1], u_values=u, v_values=v,
+              base_orientation=(0, 0, 0), direction=SIX_DIRECTIONS, increment=INC, method="predictor_corrector")
+    for lo, posed in ((1, 1), (lookahead, 10_000)):  # 10,000: look ahead in every batch
+        monkeypatch.setattr(rot, "LOOKAHEAD", lo)
+        monkeypatch.setattr(rot, "LOOKAHEAD_POSES", posed)
+        for verify in (False, True):
+            res = rotation_angle_map(hexaglide, **kw, verify=verify)
+            ref = yz_maps["verified" if verify else "predictor_corrector"]
+            for d in SIX_DIRECTIONS:
+                assert _same(res.angles[d], ref.angles[d]), (lo, d)
+            assert res.evaluations == ref.evaluations and res.verify_corrections == ref.verify_corrections
