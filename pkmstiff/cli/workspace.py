@@ -275,7 +275,7 @@ def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import ArgumentError
-    from pkmstiff.evaluation.cost import admissible_fraction, plane_points, rotation_map_cost
+    from pkmstiff.evaluation.cost import BASE_SECONDS, admissible_fraction, plane_points, rotation_map_cost
     from pkmstiff.evaluation.sections import raster, raster_count
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
@@ -323,7 +323,7 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                            to_machine_frame(machine, origin, args.frame), ua, va)
         frac = admissible_fraction(machine, pts, ori, checks_without(args.skip_check, "--skip-check"))
     cost = rotation_map_cost(nu * nv, frac, nu + nv - 1, len(dirs), inc, amax, method == "plain", args.verify)
-    plan = predicted_plan(len(dirs), cost.seconds, jobs, scheduler, "directions",  # directions are the tasks
+    plan = predicted_plan(len(dirs), cost.seconds - BASE_SECONDS, jobs, scheduler, "directions",  # start-up: here
                           direction_group(len(dirs), jobs, scheduler))
     announce("rotation-map", cost.named(f"{len(dirs)} direction(s) on {nu * nv:,} raster points, increment "
                                         f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json, plan=plan)

@@ -53,10 +53,10 @@ DIRECTIONS: dict[str, tuple[int, int, int]] = {
 }
 SIX_DIRECTIONS = ("+a", "-a", "+b", "-b", "+a+b", "-a-b")
 Method = Literal["predictor_corrector", "plain"]
-#: the time of one direction's search in units of the base check of the raster (measured ≈ 6–7 on the Hexaglide's
-#: documented 25 mm map: ~3 poses per admissible point plus one batch per anti-diagonal step): sizes the parallel
-#: tasks before any search has run
-POSES_PER_POINT = 6.0
+#: the time of one direction's search in units of the base check of the raster: sizes the parallel tasks before any
+#: search has run (measured 1.3–3.5 on the Hexaglide's yz maps of 6.25–25 mm, directions searched together; ~1.5
+#: times more per direction in a task of fewer directions)
+POSES_PER_POINT = 2.5
 
 
 
