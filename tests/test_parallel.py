@@ -254,3 +254,26 @@ def test_report_is_the_same_for_any_jobs_and_dask_and_its_cost_line_states_the_p
                        if not x.startswith(("*pkmstiff ", "| run time |", "| date |"))] for j in runs)
     assert len(one) == len(two) > 50 and [a for a, b in zip(one, two) if a != b] == ["| jobs | 1 |"]
     assert dask == one
+
+
+def test_dask_sweep_is_sized_by_a_second_task_here(monkeypatch, dask_address):
+    # the first task carries one-off costs: a slow first task (here 2 s longer) must not make the plan believe the
+    # work is long (it did: 4.5 s planned for 1.0 s of a serial run); the second task, run here too, sizes it
+    import time
+
+    import pkmstiff.evaluation.sweep as sw
+    from pkmstiff.evaluation.sweep import run_sweep
+    from pkmstiff.report.sweep_file import load_sweep
+
+    calls = []
+    real = sw.run_task
+
+    def slow_first(task):
+        calls.append(task)
+        if len(calls) == 1:
+            time.sleep(2.0)
+        return real(task)
+
+    monkeypatch.setattr(sw, "run_task", slow_first)
+    res = run_sweep(load_sweep(SWEEP), scheduler=dask_address)
+    assert len(calls) >= 2 and res.plan.item_seconds < 1.0
