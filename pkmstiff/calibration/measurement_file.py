@@ -82,7 +82,7 @@ from pkmstiff.calibration.instruments.registry import FILE_DEFAULT, find, instru
 from pkmstiff.errors import InputError
 from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.io.columns import sidecar_path
-from pkmstiff.io.inputs import input_file_problem
+from pkmstiff.io.inputs import input_file_problem, read_text_file
 
 Array = NDArray[np.float64]
 Measurement = BallbarMeasurement | PointMeasurement
@@ -286,19 +286,7 @@ def _parse_file(path: str | Path) -> tuple:
     """(src, header source, header, notes, columns, column-row line, data lines, data rows) of a measurement file."""
     path = Path(path)
     src = str(path)
-    problem = input_file_problem(path)
-    if problem is not None:
-        raise InputError(src, reason="file not found" if problem == "no such file" else
-                                   f"expected a regular measurement file, found {problem}")
-    try:
-        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark (as spreadsheet programs write) is dropped
-    except FileNotFoundError:
-        raise InputError(src, reason="file not found") from None
-    except UnicodeDecodeError as exc:
-        raise InputError(src, reason=f"expected a UTF-8 text file, found the non-UTF-8 byte "
-                                              f"0x{exc.object[exc.start]:02x} at offset {exc.start}") from None
-    except OSError as exc:
-        raise InputError(src, reason=f"cannot read the file ({exc.__class__.__name__})") from None
+    text = read_text_file(path, "a regular measurement file")
     lines = text.splitlines()
     known = _header_keys()
     header: dict[str, tuple[int, str]] = {}

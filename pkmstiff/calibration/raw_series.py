@@ -34,7 +34,7 @@ import numpy as np
 from pkmstiff.calibration.instruments.file_format import fmt
 from pkmstiff.errors import InputError
 from pkmstiff.io.atomic import atomic_write_text
-from pkmstiff.io.inputs import input_file_problem
+from pkmstiff.io.inputs import read_text_file
 
 #: header keys of a raw series and the attribute each sets
 KEYS = {"sample_rate_hz": "sample_rate", "bar_length_mm": "bar_length", "feed_mm_min": "feed",
@@ -101,15 +101,7 @@ def read_raw(path: str | Path, options: dict | None = None) -> RawSeries:
     what the header does not give (a different value in both is an error). Every problem is a one-line
     :class:`InputError` naming the file, line and key."""
     src = str(path)
-    problem = input_file_problem(src)
-    if problem is not None:
-        raise InputError(src, reason="file not found" if problem == "no such file" else
-                         f"expected a raw ball-bar series, found {problem}")
-    try:
-        text = Path(src).read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise InputError(src, reason=f"expected a UTF-8 text file, found the byte 0x{exc.object[exc.start]:02x} at "
-                                     f"offset {exc.start}") from None
+    text = read_text_file(src, "a raw ball-bar series")
     head: dict[str, tuple[int, object]] = {}
     rows: list[list[float]] = []
     lines: list[int] = []

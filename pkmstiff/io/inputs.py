@@ -41,3 +41,25 @@ def input_file_problem(path: str | Path) -> str | None:
     if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
         return "a device, not a regular file"
     return "not a regular file"
+
+
+def read_text_file(path: str | Path, expected: str) -> str:
+    """The text of the UTF-8 input file ``path`` (a byte-order mark, as spreadsheet programs write, is dropped);
+    every problem is a one-line :class:`~pkmstiff.errors.InputError` naming the file: not a regular file (found
+    what, ``expected`` says what was wanted, e.g. ``"a raw ball-bar series"``), not UTF-8, unreadable."""
+    from pkmstiff.errors import InputError
+
+    src = str(path)
+    problem = input_file_problem(src)
+    if problem is not None:
+        raise InputError(src, reason="file not found" if problem == "no such file" else
+                         f"expected {expected}, found {problem}")
+    try:
+        return Path(src).read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise InputError(src, reason="file not found") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(src, reason=f"expected a UTF-8 text file, found the non-UTF-8 byte "
+                                     f"0x{exc.object[exc.start]:02x} at offset {exc.start}") from None
+    except OSError as exc:
+        raise InputError(src, reason=f"cannot read the file ({exc.__class__.__name__})") from None
