@@ -217,7 +217,8 @@ def add_commands(sub) -> None:
                                    "--skip-check leaves some out). "
                                    "Lengths in mm, angles in degrees. See 'pkmstiff quantities' for names.")
     p.add_argument("machine", help="bundled machine name or machine file; or a mechanism (name or file): then the "
-                                   "quantities are kappa and the drive names (see 'pkmstiff mechanism')")
+                                   "quantities are kappa, the drive names and, with an [elastic] table, kx…krz, fN "
+                                   "and share_* (see 'pkmstiff mechanism')")
     p.add_argument("--plane", default="yz", choices=["yz", "xz", "xy", "YZ", "XZ", "XY"], help="section plane")
     p.add_argument("--at", type=float, default=0.0, help="position of the plane along its normal axis [mm]")
     p.add_argument("--range", default=None,
