@@ -32,7 +32,7 @@ import math
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Callable
+from typing import Any, Callable, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -41,6 +41,9 @@ from pkmstiff.errors import ArgumentError
 
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)
+#: a predicate that also counts per point: ``points (N, 3) -> (bool (N,), int (N, C))`` (C counters of the caller's,
+#: e.g. the poses each point cost), so that points evaluated by two subtrees can be counted once
+CountedPredicate = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 # corner c of a voxel = lower corner + (c & 1, (c >> 1) & 1, (c >> 2) & 1) cells (e2 - e1 along x, ...)
 CORNER_OFFSETS = np.array([[c & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], dtype=np.int64)
@@ -257,21 +260,24 @@ class _Evaluator:
         self.fn, self.lat = fn, lat
         self.count = 0
         self.time = 0.0
+        self.level = 0  # the octree level whose new corners are being evaluated (set by _refine)
 
     def __call__(self, idx: np.ndarray) -> np.ndarray:
         out = np.zeros(idx.shape[0], bool)
         ins = self.lat.inside(idx)
         if ins.any():
-            pts = self.lat.point(idx[ins])
             t0 = time.perf_counter()
-            val = np.asarray(self.fn(pts), bool)
+            val = self._values(idx[ins])
             self.time += time.perf_counter() - t0
-            if val.shape != (pts.shape[0],):
-                raise ArgumentError(f"admissibility predicate: expected a bool array of shape ({pts.shape[0]},), "
+            if val.shape != (int(ins.sum()),):
+                raise ArgumentError(f"admissibility predicate: expected a bool array of shape ({int(ins.sum())},), "
                                        f"found shape {val.shape}")
             out[ins] = val
-            self.count += int(pts.shape[0])
+            self.count += int(val.shape[0])
         return out
+
+    def _values(self, idx: np.ndarray) -> np.ndarray:
+        return np.asarray(self.fn(self.lat.point(idx)), bool)
 
 
 def octree_boundary(
@@ -283,6 +289,7 @@ def octree_boundary(
     min_level: int = 3,
     closure: bool = True,
     progress: Progress | None = None,
+    subtrees: "SubtreeRunner | None" = None,
 ) -> OctreeResult:
     """Boundary voxels and points of the set ``{x : admissible(x)}`` inside the box [lo, hi] (docs/theory/workspace.md).
 
@@ -290,6 +297,11 @@ def octree_boundary(
     on the uniform grid of level ``min_level`` (8 voxels per axis) instead of level 1, so that sets much smaller
     than the box are not missed; ``1`` reproduces the spec's start, where the initial box is split without
     classifying it (``0`` is treated as ``1``).
+
+    ``subtrees`` (parallel runs): once it says so (:meth:`SubtreeRunner.split_here`), the boundary voxels of that level
+    are cut into contiguous slices whose subtrees are refined to the finest level apart (in workers,
+    :func:`refine_subtree`); the leaves, volumes and counts are the same as without (points on the faces between
+    slices, evaluated by both, are counted once).
     """
     lo_a, hi_a, eps = _check_box(lo, hi, eps)
     t_start = time.perf_counter()
@@ -312,7 +324,21 @@ def octree_boundary(
     if progress:
         progress(l0, lmax, ev.count)
 
-    vox, corners, inside = _refine(vox, corners, l0, levels, lat, ev, per_level, progress)
+    n_slices = [0]
+
+    def stop(level: int, n: int) -> bool:
+        n_slices[0] = 0 if subtrees is None else subtrees.slices(level, n, lmax, ev.count)
+        return n_slices[0] >= 2
+
+    vox, corners, inside, level = _refine(vox, corners, l0, levels, lat, ev, per_level, progress, stop)
+    if level < lmax and vox.shape[0]:  # stopped: the subtrees of this level's boundary voxels, refined apart
+        t_sub = time.perf_counter()
+        vox, corners = _refine_apart(vox, corners, level, lat, subtrees, n_slices[0], inside,  # type: ignore[arg-type]
+                                     per_level)
+        ev.count = sum(n for _, n in per_level)
+        ev.time += time.perf_counter() - t_sub
+        if progress:
+            progress(lmax, lmax, ev.count)
     inside_volume = 0.0
     for level, count in enumerate(inside[l0:], l0):  # level by level, as the voxels were discarded
         size = 1 << (levels - np.minimum(level, levels))
@@ -336,11 +362,13 @@ def octree_boundary(
 
 
 def _refine(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray, lat: Lattice, ev: _Evaluator,
-            per_level: list[tuple[int, int]], progress: Progress | None = None
-            ) -> tuple[np.ndarray, np.ndarray, list[int]]:
+            per_level: list[tuple[int, int]], progress: Progress | None = None,
+            stop: Callable[[int, int], bool] | None = None) -> tuple[np.ndarray, np.ndarray, list[int], int]:
     """Refine the voxels of ``level`` (with their corner values) to the finest level: the finest boundary voxels,
-    their corners and the number of voxels discarded as inside on each level (index = level; levels below
-    ``level`` hold 0). Appends (level, new evaluations) to ``per_level`` for every split.
+    their corners, the number of voxels discarded as inside on each level (index = level; levels below
+    ``level`` hold 0) and the level of the returned voxels. Appends (level, new evaluations) to ``per_level`` for
+    every split. ``stop(level, boundary voxels)`` true: return that level's boundary voxels unsplit (to hand their
+    subtrees to workers).
 
     The children of a voxel follow each other and keep their parents' order, so the leaves come in depth-first order:
     refining contiguous slices of ``vox`` separately and joining the results in slice order gives the same leaves
@@ -353,14 +381,148 @@ def _refine(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray
         inside[level] = int(np.count_nonzero(code == ALL_CORNERS))
         bnd = (code != 0) & (code != ALL_CORNERS)
         vox, corners = vox[bnd], corners[bnd]
-        if level >= lmax or vox.shape[0] == 0:
-            return vox, corners, inside
+        if level >= lmax or vox.shape[0] == 0 or (stop is not None and stop(level, vox.shape[0])):
+            return vox, corners, inside, level
         before = ev.count
+        ev.level = level + 1
         vox, corners = _split(vox, corners, level, levels, lat, ev)
         level += 1
         per_level.append((level, ev.count - before))
         if progress:
             progress(level, lmax, ev.count)
+
+
+# ------------------------------------------------------------------------------------------------- subtrees apart
+@dataclass
+class SubtreeTask:
+    """One contiguous slice of a level's boundary voxels, to be refined to the finest level apart (compact arrays).
+
+    ``coarse_keys`` (sorted lattice keys of the lower corners of ALL slices' voxels) and ``coarse_slice`` (the slice
+    of each) tell which evaluated points lie on a face shared with another slice: only those can be evaluated twice.
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+    levels: np.ndarray
+    level: int
+    vox: np.ndarray  # (n, 3) lattice indices of the voxels' lower corners
+    corners: np.ndarray  # (n, 8) bool
+    coarse_keys: np.ndarray
+    coarse_slice: np.ndarray
+    slice: int
+
+
+@dataclass
+class Subtree:
+    """The finest boundary voxels of one :class:`SubtreeTask` and what its counts need to be merged exactly."""
+
+    vox: np.ndarray
+    corners: np.ndarray
+    inside: list[int]  # voxels discarded as inside per level
+    per_level: list[tuple[int, int]]  # (level, new evaluations of this slice)
+    shared_keys: np.ndarray  # (K,) keys of the evaluated points on faces shared with another slice
+    shared_level: np.ndarray  # (K,) their levels
+    shared_counts: np.ndarray  # (K, C) their counters (:data:`CountedPredicate`)
+    info: Any = None  # what the runner adds (the evaluation statistics of the task)
+
+
+class SubtreeRunner(Protocol):
+    """Where the subtrees run (:func:`octree_boundary`'s ``subtrees``)."""
+
+    def slices(self, level: int, voxels: int, lmax: int, evaluations: int) -> int:
+        """Number of slices to cut ``voxels`` boundary voxels of ``level`` into now (< 2: not at this level)."""
+
+    def run(self, tasks: list[SubtreeTask]) -> list[Subtree]:
+        """:func:`refine_subtree` of every task, in task order."""
+
+    def uncount(self, points: int, counts: np.ndarray) -> None:
+        """Take ``points`` points with the summed counters ``counts`` (C,) out of the statistics: they were
+        evaluated by a second slice."""
+
+
+class _CountingEvaluator(_Evaluator):
+    """Evaluator of a subtree: also keeps key, level and counters of the points on faces shared with another slice."""
+
+    def __init__(self, fn: CountedPredicate, lat: Lattice, task: SubtreeTask):
+        super().__init__(fn, lat)  # type: ignore[arg-type]
+        self.task = task
+        self.size = (1 << (task.levels - np.minimum(task.level, task.levels))).astype(np.int64)  # coarse voxel edge
+        self.shared: list[tuple[np.ndarray, int, np.ndarray]] = []
+
+    def _values(self, idx: np.ndarray) -> np.ndarray:
+        val, counts = self.fn(self.lat.point(idx))
+        val = np.asarray(val, bool)
+        sh = self._on_shared_face(idx)
+        if sh.any():
+            self.shared.append((self.lat.key(idx[sh]), self.level, np.asarray(counts)[sh]))
+        return val
+
+    def _on_shared_face(self, idx: np.ndarray) -> np.ndarray:
+        """Points that lie in a voxel (closed) of another slice: one of the up to eight coarse voxels touching them."""
+        t = self.task
+        q, r = np.divmod(idx, self.size)
+        face = np.flatnonzero((r == 0).any(axis=1))
+        out = np.zeros(idx.shape[0], bool)
+        if face.size == 0:
+            return out
+        qf, on = q[face], (r[face] == 0).astype(np.int64)
+        other = np.zeros(face.size, bool)
+        cells = self.lat.n // self.size
+        for o in CORNER_OFFSETS:
+            cand = qf - o * on  # off a face the offset is 0: the same voxel again, harmless
+            valid = np.all((cand >= 0) & (cand < cells), axis=1)
+            ck = self.lat.key(cand * self.size)
+            pos = np.minimum(np.searchsorted(t.coarse_keys, ck), t.coarse_keys.size - 1)
+            other |= valid & (t.coarse_keys[pos] == ck) & (t.coarse_slice[pos] != t.slice)
+        out[face] = other
+        return out
+
+
+def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
+    """Refine one slice (a worker's task): its finest boundary voxels in depth-first order, the per-level counts and
+    the points it shares with other slices (see :func:`octree_boundary`)."""
+    lat = Lattice(task.lo, task.hi, task.levels)
+    ev = _CountingEvaluator(counted, lat, task)
+    per_level: list[tuple[int, int]] = []
+    vox, corners, inside, _ = _refine(task.vox, task.corners, task.level, task.levels, lat, ev, per_level)
+    if ev.shared:
+        keys = np.concatenate([k for k, _, _ in ev.shared])
+        lvl = np.concatenate([np.full(k.size, level, np.int64) for k, level, _ in ev.shared])
+        counts = np.concatenate([c for _, _, c in ev.shared])
+    else:
+        keys, lvl, counts = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0), np.int64)
+    return Subtree(vox, corners, inside, per_level, keys, lvl, counts)
+
+
+def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice, runner: SubtreeRunner,
+                  n_slices: int, inside: list[int], per_level: list[tuple[int, int]]
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Cut the boundary voxels of ``level`` into ``n_slices`` contiguous slices, refine them apart (``runner``) and
+    join the leaves in slice order (the serial order, :func:`_refine`); the inside counts and the evaluations per level
+    are added to ``inside`` and ``per_level``, a point evaluated by k slices counted once (``runner.uncount``)."""
+    bounds = np.linspace(0, vox.shape[0], n_slices + 1).round().astype(np.int64)
+    keys = lat.key(vox)
+    order = np.argsort(keys, kind="stable")
+    owner = np.repeat(np.arange(n_slices), np.diff(bounds))
+    tasks = [SubtreeTask(lat.lo, lat.hi, lat.levels, level, vox[a:b], corners[a:b], keys[order], owner[order], k)
+             for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:]))]
+    parts = runner.run(tasks)
+    new: dict[int, int] = {}
+    for part in parts:
+        for lv, n in enumerate(part.inside):
+            inside[lv] += n
+        for lv, n in part.per_level:
+            new[lv] = new.get(lv, 0) + n
+    shared = [p for p in parts if p.shared_keys.size]
+    if shared:
+        skeys = np.concatenate([p.shared_keys for p in shared])
+        again = np.ones(skeys.size, bool)  # the second and later evaluations of a point
+        again[np.unique(skeys, return_index=True)[1]] = False
+        for lv, n in zip(*np.unique(np.concatenate([p.shared_level for p in shared])[again], return_counts=True)):
+            new[int(lv)] -= int(n)
+        runner.uncount(int(again.sum()), np.concatenate([p.shared_counts for p in shared])[again].sum(axis=0))
+    per_level.extend(sorted(new.items()))
+    return np.concatenate([p.vox for p in parts]), np.concatenate([p.corners for p in parts])
 
 
 def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
