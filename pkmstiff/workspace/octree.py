@@ -38,6 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
+from pkmstiff.workspace.kernels import KeyTable, known_corners, ring_misses
 
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)
@@ -85,9 +86,22 @@ class OctreeResult:
     touches_box: bool  # an admissible corner lies on the box boundary
     time_total: float  # s, wall clock
     time_evaluation: float  # s spent inside the predicate
-    known_keys: np.ndarray = field(repr=False, default_factory=lambda: np.empty(0, np.int64))  # sorted corner keys
-    admissible_keys: np.ndarray = field(repr=False, default_factory=lambda: np.empty(0, np.int64))  # sorted, subset
     edges: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(repr=False, default=None)
+    leaf_table: KeyTable | None = field(repr=False, default=None)  # leaf lower-corner key -> leaf number
+
+    @cached_property
+    def known_keys(self) -> np.ndarray:
+        """Sorted keys of the evaluated corners of the leaves: the octree's leaves' corners and those the closure
+        evaluated (each a corner of a closure voxel)."""
+        return unique_sorted(self._corner_keys())
+
+    @cached_property
+    def admissible_keys(self) -> np.ndarray:
+        """The admissible ones of :attr:`known_keys`."""
+        return unique_sorted(self._corner_keys()[self.leaf_corners])
+
+    def _corner_keys(self) -> np.ndarray:
+        return self.lattice.key(self.leaf_index)[:, None] + CORNER_OFFSETS @ self.lattice.strides
 
     @property
     def n_cells(self) -> np.ndarray:
@@ -122,12 +136,9 @@ class OctreeResult:
         -1 where a voxel is not a leaf (only without the closure step)."""
         start, axis, _ = self.sign_change_edges()
         lat = self.lattice
-        vkeys = lat.key(self.leaf_index)
-        order = np.argsort(vkeys, kind="stable")  # unique keys: the same order as any sort, faster
-        ring = lat.key(start)[:, None] + lat.ring_offsets()[axis]
-        pos = np.minimum(np.searchsorted(vkeys[order], ring), max(vkeys.size - 1, 0))  # direct: cache-friendlier
-        vid = order[pos]
-        return np.where(vkeys[vid] == ring, vid, -1)
+        if self.leaf_table is None:
+            self.leaf_table = KeyTable(lat.key(self.leaf_index))
+        return self.leaf_table.find(lat.key(start)[:, None] + lat.ring_offsets()[axis])
 
     def point(self, idx: np.ndarray) -> np.ndarray:
         """Coordinates of lattice indices ``idx`` (..., 3)."""
@@ -168,28 +179,6 @@ def _in_sorted(arr: np.ndarray, q: np.ndarray) -> np.ndarray:
         return np.zeros(q.shape, bool)
     pos = np.minimum(np.searchsorted(arr, q), arr.size - 1)
     return arr[pos] == q
-
-
-class _KeySet:
-    """Sorted int64 keys with cheap insertion: a sorted base plus a small sorted delta, merged when it grows."""
-
-    def __init__(self, keys: np.ndarray):
-        self.base = unique_sorted(keys)
-        self.delta = np.empty(0, np.int64)
-
-    def contains(self, q: np.ndarray) -> np.ndarray:
-        return _in_sorted(self.base, q) | _in_sorted(self.delta, q)
-
-    def add(self, keys: np.ndarray) -> None:
-        if keys.size == 0:
-            return
-        self.delta = np.sort(np.concatenate([self.delta, keys]), kind="stable")
-        if self.delta.size > max(self.base.size // 8, 1024):
-            self.base = np.sort(np.concatenate([self.base, self.delta]), kind="stable")  # merge of two runs
-            self.delta = np.empty(0, np.int64)
-
-    def array(self) -> np.ndarray:
-        return np.sort(np.concatenate([self.base, self.delta]), kind="stable")
 
 
 class Lattice:
@@ -344,12 +333,10 @@ def octree_boundary(
         size = 1 << (levels - np.minimum(level, levels))
         inside_volume += float(count) * float(np.prod(size * lat.h))
 
-    closure_added, edges = 0, None
-    ckeys = lat.key(vox)[:, None] + CORNER_OFFSETS @ lat.strides  # keys are linear in the index
-    known, admis = _KeySet(ckeys.ravel()), _KeySet(ckeys[corners])
+    closure_added, edges, table = 0, None, None
     if closure and vox.shape[0]:
         before = ev.count
-        vox, corners, edges, closure_added = _close(vox, corners, known, admis, lat, ev)
+        vox, corners, edges, closure_added, table = _close(vox, corners, lat, ev)
         per_level.append((-1, ev.count - before))
 
     touches = _touches_box(vox, corners, lat)
@@ -357,7 +344,7 @@ def octree_boundary(
         lo=lo_a, hi=hi_a, eps=eps, levels=levels, spacing=lat.h, leaf_index=vox, leaf_corners=corners,
         inside_volume=inside_volume, evaluations=ev.count, evaluations_per_level=per_level,
         closure_voxels=closure_added, touches_box=touches, time_total=time.perf_counter() - t_start,
-        time_evaluation=ev.time, known_keys=known.array(), admissible_keys=admis.array(), edges=edges,
+        time_evaluation=ev.time, edges=edges, leaf_table=table,
     )
 
 
@@ -598,41 +585,39 @@ def owned_edges(vox: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.nd
     return vox[vi], axis, corners[vi, 0]
 
 
-def _close(vox: np.ndarray, corners: np.ndarray, known: _KeySet, admis: _KeySet, lat: Lattice, ev: _Evaluator
-           ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int]:
+def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
+           ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int, KeyTable]:
     """Add finest voxels around sign-change edges until every such edge has all four voxels (see module doc).
 
-    Only the voxels added in the previous pass can ask for new neighbours, so each pass looks at that frontier.
-    Returns the leaves, their corners, the sign-change edges of all leaves (each once) and the number of added
-    voxels.
+    Only the voxels added in the previous pass can ask for new neighbours, so each pass looks at that frontier; the
+    voxels of a pass are added in the order of their keys. A corner is known (not evaluated again) when a leaf has it:
+    the corners of the octree's leaves and those evaluated in earlier passes. Returns the leaves, their corners, the
+    sign-change edges of all leaves (each once), the number of added voxels and the leaves' key table (key -> leaf
+    number).
     """
-    leaves = _KeySet(lat.key(vox))
     corner_off = CORNER_OFFSETS @ lat.strides
     ring_off = lat.ring_offsets()
-    f_keys, f_corn = lat.key(vox), corners
-    parts_v, parts_c = [vox], [corners]
+    f_keys, f_corn = lat.key(vox), np.ascontiguousarray(corners)
+    table = KeyTable(f_keys, capacity=f_keys.size // 4)
+    parts_v, parts_c = [vox], [f_corn]
+    all_corn = f_corn
     added = 0
     while f_keys.shape[0]:
-        # sign-change edges of the frontier in key space (lower-end key * 3 + axis), each once
-        vi, ei = np.nonzero(f_corn[:, EDGES[:, 1]] != f_corn[:, EDGES[:, 2]])
-        ek = unique_sorted((f_keys[vi] + corner_off[EDGES[ei, 1]]) * 3 + EDGES[ei, 0])
-        ring = (ek // 3)[:, None] + ring_off[ek % 3]
-        missing = unique_sorted(ring[~leaves.contains(ring)])
+        missing = unique_sorted(ring_misses(table.slots, table.values, table.shift, f_keys, f_corn, corner_off,
+                                            EDGES, ring_off))
         if missing.size == 0:
             break
         ck = (missing[:, None] + corner_off[None]).ravel()
-        kn = known.contains(ck)
-        val = admis.contains(ck)
+        kn, val = known_corners(table.slots, table.values, table.shift, all_corn, ck, corner_off)
         unk = unique_sorted(ck[~kn])
         if unk.size:
             uval = ev(lat.unkey(unk))
             val[~kn] = uval[np.searchsorted(unk, ck[~kn])]
-            known.add(unk)
-            admis.add(unk[uval])
-        leaves.add(missing)
+        table.add(missing)
         f_keys, f_corn = missing, val.reshape(-1, 8)
+        all_corn = np.concatenate([all_corn, f_corn])
         parts_v.append(lat.unkey(missing))
         parts_c.append(f_corn)
         added += missing.size
-    vox, corners = np.concatenate(parts_v), np.concatenate(parts_c)
-    return vox, corners, owned_edges(vox, corners), added
+    vox = np.concatenate(parts_v)
+    return vox, all_corn, owned_edges(vox, all_corn), added, table
