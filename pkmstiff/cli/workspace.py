@@ -195,10 +195,10 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         cost = req.cost(machine, n_ori, n_jobs=jobs, scheduler=scheduler, **options)
     if args.out and not args.no_plot:
         cost = cost.plus(FIGURE_3D_LIBRARY_SECONDS + FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
-    # the finest level holds about half the evaluations: it sets the plan (20,000 poses per oracle chunk)
-    plan = predicted_plan(int(cost.count) // 2, cost.seconds / 2, jobs, scheduler, "points", granule=20_000)
+    # the octree's subtrees below a coarse level go to the workers, each task with about as many points
+    plan = predicted_plan(int(cost.count), cost.seconds, jobs, scheduler, "points")
     announce("workspace", cost.named(f"octree at resolution {args.resolution:g} mm"), budget,
-             quiet=args.quiet or args.json, plan=plan if plan == "serial" else f"finest level: {plan}")
+             quiet=args.quiet or args.json, plan=plan if plan == "serial" else f"octree subtrees: {plan}")
     progress = _Progress(not args.quiet, "octree")
     try:
         with _octree_input_errors():

@@ -72,6 +72,8 @@ def ring_misses(slots, values, shift, keys, corners, corner_off, edges, ring_off
                 a = edges[e, 0]
                 for r in range(4):
                     rk = low + ring_off[a, r]
+                    if rk == keys[m]:  # the voxel itself
+                        continue
                     if _find(slots, values, shift, rk) < 0:
                         if n == out.size:
                             grown = np.empty(2 * n, np.int64)
@@ -126,6 +128,22 @@ def ring_sums(vid, points, n):
             acc[v, 2] += points[e, 2]
             cnt[v] += 1.0
     return acc, cnt
+
+
+@_jit
+def ring_triangles(vid, flip):
+    """(2E, 3) triangles of the quads through the four voxels ``vid`` (E, 4) of each edge, the ring reversed where
+    ``flip``: first the triangles (0, 1, 2) of every quad, then the triangles (0, 2, 3)."""
+    n = vid.shape[0]
+    out = np.empty((2 * n, 3), np.int64)
+    for e in range(n):
+        if flip[e]:
+            q0, q1, q2, q3 = vid[e, 3], vid[e, 2], vid[e, 1], vid[e, 0]
+        else:
+            q0, q1, q2, q3 = vid[e, 0], vid[e, 1], vid[e, 2], vid[e, 3]
+        out[e, 0], out[e, 1], out[e, 2] = q0, q1, q2
+        out[n + e, 0], out[n + e, 1], out[n + e, 2] = q0, q2, q3
+    return out
 
 
 class KeyTable:

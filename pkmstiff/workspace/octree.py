@@ -38,7 +38,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
-from pkmstiff.workspace.kernels import KeyTable, known_corners, ring_misses
+from pkmstiff.workspace.kernels import KeyTable, known_corners, ring_misses, ring_triangles
 
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)
@@ -139,6 +139,14 @@ class OctreeResult:
         if self.leaf_table is None:
             self.leaf_table = KeyTable(lat.key(self.leaf_index))
         return self.leaf_table.find(lat.key(start)[:, None] + lat.ring_offsets()[axis])
+
+    @cached_property
+    def ring_triangles(self) -> np.ndarray:
+        """(2E, 3) leaf numbers of the triangles of the boundary mesh (:mod:`pkmstiff.workspace.surface`): the quad
+        of each sign-change edge's ring, whose normal is +axis in ring order, turned to point outwards (from the
+        admissible to the inadmissible end) and split in two; the same for every vertex placement."""
+        _, _, low_adm = self.sign_change_edges()
+        return ring_triangles(np.ascontiguousarray(self.edge_rings), ~low_adm)
 
     def point(self, idx: np.ndarray) -> np.ndarray:
         """Coordinates of lattice indices ``idx`` (..., 3)."""
@@ -316,7 +324,8 @@ def octree_boundary(
     n_slices = [0]
 
     def stop(level: int, n: int) -> bool:
-        n_slices[0] = 0 if subtrees is None else subtrees.slices(level, n, lmax, ev.count)
+        n_slices[0] = 0 if subtrees is None or level >= lmax - 1 else \
+            subtrees.slices(level, n, _evaluations_after(per_level[-1][1], level, levels))
         return n_slices[0] >= 2
 
     vox, corners, inside, level = _refine(vox, corners, l0, levels, lat, ev, per_level, progress, stop)
@@ -416,8 +425,9 @@ class Subtree:
 class SubtreeRunner(Protocol):
     """Where the subtrees run (:func:`octree_boundary`'s ``subtrees``)."""
 
-    def slices(self, level: int, voxels: int, lmax: int, evaluations: int) -> int:
-        """Number of slices to cut ``voxels`` boundary voxels of ``level`` into now (< 2: not at this level)."""
+    def slices(self, level: int, voxels: int, evaluations: float) -> int:
+        """Number of slices to cut ``voxels`` boundary voxels of ``level`` into now (< 2: not at this level);
+        ``evaluations``: about as many points are left to evaluate below this level."""
 
     def run(self, tasks: list[SubtreeTask]) -> list[Subtree]:
         """:func:`refine_subtree` of every task, in task order."""
@@ -479,6 +489,16 @@ def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
     else:
         keys, lvl, counts = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0), np.int64)
     return Subtree(vox, corners, inside, per_level, keys, lvl, counts)
+
+
+def _evaluations_after(last: int, level: int, levels: np.ndarray) -> float:
+    """Evaluations the levels below ``level`` will take, from the ``last`` level's: a boundary surface cut by
+    halving s axes has 2**(s - 1) times as many voxels (×4 while all three axes are halved, ×1 when one is)."""
+    total, e = 0.0, float(last)
+    for lv in range(level + 1, int(levels.max()) + 1):
+        e *= 2.0 ** (int(np.count_nonzero(levels >= lv)) - 1)
+        total += e
+    return total
 
 
 def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice, runner: SubtreeRunner,
@@ -599,8 +619,9 @@ def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
     ring_off = lat.ring_offsets()
     f_keys, f_corn = lat.key(vox), np.ascontiguousarray(corners)
     table = KeyTable(f_keys, capacity=f_keys.size // 4)
-    parts_v, parts_c = [vox], [f_corn]
-    all_corn = f_corn
+    parts_v = [vox]
+    all_corn = np.empty((f_keys.size + max(f_keys.size // 4, 1024), 8), bool)  # corners by leaf number, grown
+    all_corn[:f_keys.size] = f_corn
     added = 0
     while f_keys.shape[0]:
         missing = unique_sorted(ring_misses(table.slots, table.values, table.shift, f_keys, f_corn, corner_off,
@@ -615,9 +636,10 @@ def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
             val[~kn] = uval[np.searchsorted(unk, ck[~kn])]
         table.add(missing)
         f_keys, f_corn = missing, val.reshape(-1, 8)
-        all_corn = np.concatenate([all_corn, f_corn])
+        if table.size > all_corn.shape[0]:
+            all_corn = np.concatenate([all_corn, np.empty((max(all_corn.shape[0], f_keys.size), 8), bool)])
+        all_corn[table.size - f_keys.size:table.size] = f_corn
         parts_v.append(lat.unkey(missing))
-        parts_c.append(f_corn)
         added += missing.size
-    vox = np.concatenate(parts_v)
-    return vox, all_corn, owned_edges(vox, all_corn), added, table
+    vox, corners = np.concatenate(parts_v), all_corn[:table.size]
+    return vox, corners, owned_edges(vox, corners), added, table

@@ -297,18 +297,17 @@ SUBTREE_VOXELS = 16
 class OracleSubtrees:
     """The octree's :class:`~pkmstiff.workspace.octree.SubtreeRunner` on the oracle's workers (local pool or Dask):
     subtrees are cut as soon as a level has enough boundary voxels for the plan's tasks; the plan is sized from the
-    oracle's measured time per point and the evaluations the remaining levels will take (×4 per level)."""
+    oracle's measured time per point and the evaluations the remaining levels will take."""
 
     def __init__(self, oracle: PoseOracle):
         self.oracle = oracle
         self.plan: parallel.Plan | None = None
 
-    def slices(self, level: int, voxels: int, lmax: int, evaluations: int) -> int:
+    def slices(self, level: int, voxels: int, evaluations: float) -> int:
         o = self.oracle
-        if (o.n_jobs == 1 and o.scheduler is None) or o._point_seconds is None or level >= lmax - 1:
+        if (o.n_jobs == 1 and o.scheduler is None) or o._point_seconds is None:
             return 0
-        remaining = o._point_seconds * evaluations * 4.0 ** (lmax - level)  # s: the octree's growth law
-        p = parallel.plan(voxels, remaining / voxels, o.n_jobs, o.scheduler)
+        p = parallel.plan(voxels, o._point_seconds * evaluations / voxels, o.n_jobs, o.scheduler)
         if not p.parallel or voxels < SUBTREE_VOXELS * p.tasks:
             return 0
         self.plan = p

@@ -146,11 +146,7 @@ def boundary_surface(
         # each edge contributes its crossing to its four voxels; vertex = mean of the contributions
         acc, cnt = kernels.ring_sums(np.ascontiguousarray(vid), np.ascontiguousarray(mids), vox.shape[0])
         verts = res.lo + acc / cnt[:, None] * lat.h
-    # quad normal is +axis with the ring order; outward = from admissible to inadmissible
-    flip = ~low_adm
-    quad = np.where(flip[:, None], vid[:, ::-1], vid)
-    tris = np.concatenate([quad[:, [0, 1, 2]], quad[:, [0, 2, 3]]])
-    return BoundarySurface(verts, tris, vertices, refine_evaluations=extra)
+    return BoundarySurface(verts, res.ring_triangles, vertices, refine_evaluations=extra)
 
 
 __all__ = ["BoundarySurface", "boundary_surface", "six_volumes"]
