@@ -227,13 +227,52 @@ def test_rotation_map_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeyp
 
 
 def test_workspace_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
+    from pkmstiff.workspace.oracle import OracleSubtrees
+
     _split_small_work(monkeypatch)
-    base = ["workspace", "hexaglide", "--resolution", "50", "--no-plot", "--quiet"]
+    monkeypatch.setattr(parallel, "COLD_WORKER_SECONDS", 0.0)  # the subtrees go to Dask workers even while cold
+    tasks: list[int] = []
+    run = OracleSubtrees.run
+    monkeypatch.setattr(OracleSubtrees, "run", lambda self, t: tasks.append(len(t)) or run(self, t))
+    base = ["workspace", "hexaglide", "--resolution", "50", "--no-plot"]
+    printed = {}
     for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
         assert main([*base, *extra, "--out", str(tmp_path / name)]) == 0
-    capsys.readouterr()
+        out, err = capsys.readouterr()
+        # the printed lines but the run time and the folder
+        printed[name] = [x.split("; run time")[0] for x in out.splitlines() if str(tmp_path) not in x]
+        if name == "2":
+            assert "; octree subtrees: 2 local workers, " in err  # the cost line states the plan
+    # the run split into subtrees, in the local workers and on Dask
+    assert len(tasks) == 2 and min(tasks) >= 2
+    assert printed["2"] == printed["1"] and printed["dask"] == printed["1"]
+    assert any("evaluations: " in x for x in printed["1"])
     _same_files_but_timing(tmp_path / "1", tmp_path / "2", "workspace.json")
     _same_files_but_timing(tmp_path / "1", tmp_path / "dask", "workspace.json")
+
+
+def test_workspace_subtrees_count_points_shared_by_two_subtrees_once(monkeypatch):
+    """Subtrees refined apart evaluate the points on their common faces twice; the per-point counters of the oracle
+    take the second evaluations out, so that every count (points, poses of an orientation range, full-pipeline and
+    requirement poses, per level) is that of the serial run."""
+    from pkmstiff.workspace.oracle import OracleSubtrees
+    from pkmstiff.workspace.translational import constant_orientation_workspace
+
+    _split_small_work(monkeypatch)
+    taken: list[int] = []
+    uncount = OracleSubtrees.uncount
+    monkeypatch.setattr(OracleSubtrees, "uncount", lambda self, n, c: taken.append(n) or uncount(self, n, c))
+    m = load_machine("hexaglide")
+    kw = dict(requirements=["kx >= 5 N/um"], orientation_range=("c", -0.2, 0.2), range_step=0.1, methods=("voxels",))
+    one, two = (constant_orientation_workspace(m, 0.025, n_jobs=j, **kw) for j in (1, 2))
+    assert taken and taken[0] > 0  # subtrees ran and shared points
+    counts = ("evaluations", "points", "poses_evaluated", "full_pipeline_poses", "requirement_poses")
+    assert {k: two.stats[k] for k in counts} == {k: one.stats[k] for k in counts}
+    assert one.stats["poses_evaluated"] > one.stats["points"] and one.stats["requirement_poses"] > 0
+    assert two.octree.evaluations_per_level == one.octree.evaluations_per_level
+    assert np.array_equal(two.octree.leaf_index, one.octree.leaf_index)
+    assert np.array_equal(two.octree.leaf_corners, one.octree.leaf_corners)
+    assert two.volumes == one.volumes and two.octree.inside_volume == one.octree.inside_volume
 
 
 def test_report_is_the_same_for_any_jobs_and_dask_and_its_cost_line_states_the_plan(tmp_path, monkeypatch, capsys,
