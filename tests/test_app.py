@@ -334,11 +334,11 @@ def test_scene_draws_a_mechanism_at_its_pose(session, name, pose):
 
 
 def test_scene_shows_a_mechanism_section_and_animates_its_mode(session, mechanism_view):
-    """The section plane of a mechanism's map in its place (z = at for xy; a planar mechanism's plane z = 0), and a
+    """The section plane of a mechanism's map in its place (z = at for xy; a planar mechanism's under its links), and a
     mode shape animated about the configuration: the frequency of ``pkmstiff point``'s analysis, frames k and
     k + N/2 mirror images about the undeformed links."""
     from pkmstiff.app.mechanisms import mechanism_at_pose
-    from pkmstiff.app.scene import MODE_FRAMES, Scene
+    from pkmstiff.app.scene import MODE_FRAMES, PLANAR_OFFSET_MM, Scene
 
     name, mv = mechanism_view
     mech = session.mechanism(name)
@@ -348,7 +348,7 @@ def test_scene_shows_a_mechanism_section_and_animates_its_mode(session, mechanis
     scene.set_machine(at, pose)
     scene.set_section(mv)
     grid = scene.plotter.actors["section"].mapper.dataset
-    z = mv.choice.at_mm if mech.dim == 3 else 0.0
+    z = mv.choice.at_mm if mech.dim == 3 else -PLANAR_OFFSET_MM  # drawn just below a planar mechanism's links
     np.testing.assert_allclose(np.asarray(grid.points)[:, 2], z, atol=1e-6)
     nv, nu = mv.map.ok.shape
     assert grid.n_points == nv * nu

@@ -41,6 +41,16 @@ def elastic_mechanism(mech: Mechanism) -> Mechanism:
     return mech
 
 
+def bundled_elastic_mechanisms() -> list[str]:
+    """Names of the bundled mechanisms with an ``[elastic]`` table (the app's choices besides the machines)."""
+    import tomllib
+
+    from pkmstiff.mechanisms.loader import bundled_mechanism_dir, bundled_mechanisms
+
+    return [n for n in bundled_mechanisms()
+            if "elastic" in tomllib.loads((bundled_mechanism_dir() / f"{n}.toml").read_text(encoding="utf-8"))]
+
+
 def _check_settings(mech: Mechanism, settings: ModelSettings) -> None:
     """The machine-only settings refused for a mechanism, as ``pkmstiff section``/``point`` refuse them."""
     for name, given in (("frame", settings.frame != "machine"), ("neglect spindle", settings.neglect_spindle),
@@ -182,6 +192,10 @@ class MechanismAtPose:
     @property
     def ok(self) -> bool:
         return bool(self.solution.ok[0])
+
+    def pose_values(self) -> np.ndarray:
+        """The app's six pose values of the pose (:func:`app_pose`)."""
+        return app_pose(self.mechanism, self.pose)
 
     def world(self) -> dict[int, np.ndarray]:
         """World points [m] of the links (:func:`pkmstiff.plots.sketch.mechanism_world`)."""

@@ -23,8 +23,12 @@ if TYPE_CHECKING:
 MM = 1e3
 #: the view direction of the toolkit's 3-D figures (front right, from above; plots.section_maps, plots.modes)
 VIEW_DIRECTION = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])
+#: a planar mechanism's: mostly from above its plane of motion z = 0
+PLANAR_VIEW_DIRECTION = np.array([0.2, -0.5, 1.0]) / np.linalg.norm([0.2, -0.5, 1.0])
 #: frames per period of the animated mode shape, and its peak displacement [m] on screen
 MODE_FRAMES = 16
+#: how far below a planar mechanism's links its section plane is drawn [mm]
+PLANAR_OFFSET_MM = 5.0
 MODE_AMPLITUDE = 0.08
 
 
@@ -40,6 +44,10 @@ class Scene:
         self.mode_text = ""
         self._mechanism: MechanismAtPose | None = None  # the mechanism's last configuration found
 
+    @property
+    def _planar(self) -> bool:
+        return self._mechanism is not None and self._mechanism.mechanism.dim == 2
+
     def set_machine(self, machine: Drawn, pose: np.ndarray) -> None:
         """A new machine: clear the view, draw the machine at ``pose`` with mm axes around it and aim the camera at
         it (the view stays while the pose changes; the user turns and zooms it with the mouse)."""
@@ -50,8 +58,9 @@ class Scene:
         self._mechanism = None
         self.set_pose(machine, pose)
         bounds = np.array(self.plotter.bounds).reshape(3, 2)
-        add_mm_axes(self.plotter, bounds.ravel(), VIEW_DIRECTION, font_size=12)
-        frame_camera(self.plotter, VIEW_DIRECTION, bounds, zoom=1.1)
+        direction = PLANAR_VIEW_DIRECTION if self._planar else VIEW_DIRECTION
+        add_mm_axes(self.plotter, bounds.ravel(), direction, font_size=12)
+        frame_camera(self.plotter, direction, bounds, zoom=1.1)
 
     def set_pose(self, machine: Drawn, pose: np.ndarray) -> None:
         """The machine at ``pose`` (x, y, z [m], a, b, c [rad], machine frame), or a mechanism at its pose (its last
@@ -82,7 +91,10 @@ class Scene:
         values = view.map.display(view.choice.quantity)
         nv, nu = values.shape
         grid = pv.StructuredGrid()
-        grid.points = view.machine_points() * MM
+        points = view.machine_points() * MM
+        if self._planar:  # below the links, which lie in the same plane z = 0
+            points[:, 2] -= PLANAR_OFFSET_MM
+        grid.points = points
         grid.dimensions = (nu, nv, 1)
         grid.point_data[view.choice.quantity] = values.ravel()
         scale = robust_clim(values)
@@ -115,7 +127,8 @@ class Scene:
                 sk.pop("guides")  # the guides do not move: drawn once, with the ghosted machine
             frames.append(sk)
         self.mode_frames = frames
-        self.mode_text = (f"mode {mode}: {ms.frequency_hz:.2f} Hz, {ms.description} (orange, "
+        self.mode_text = (f"mode {mode}: {ms.frequency_hz:.2f} Hz{', ' if ms.description else ''}{ms.description} "
+                          "(orange, "
                           f"{MODE_AMPLITUDE * MM:g} mm peak displacement on screen, x{factor:.3g})")
         self.set_pose(machine, pose)
         self.show_mode_frame(machine, pose, 0)

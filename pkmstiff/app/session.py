@@ -67,8 +67,8 @@ def check_spatial(machine: str) -> None:
             "a mechanism" if is_mechanism(machine) else "")
     if kind:
         raise ArgumentError(option="machine", expected="a spatial machine (the app does not show planar examples "
-                            "or mechanisms yet: use pkmstiff section / pkmstiff point with its name)",
-                            found=f"{machine} ({kind})")
+                            "yet, and shows mechanisms by their mechanism path: use pkmstiff section / pkmstiff point "
+                            "with its name)", found=f"{machine} ({kind})")
 
 
 def is_mechanism_target(machine: str) -> bool:

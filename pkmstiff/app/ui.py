@@ -85,7 +85,9 @@ class App:
     def _init_state(self, machine: str, step_mm: float) -> None:
         s = self.state
         s.trame__title = "pkmstiff app"
-        s.machines = bundled_machines()
+        from pkmstiff.app.mechanisms import bundled_elastic_mechanisms
+
+        s.machines = bundled_machines() + bundled_elastic_mechanisms()
         s.machine, s.option, s.options = machine, NO_OPTION, [NO_OPTION]
         s.plane, s.planes = "yz", list(PLANES)
         s.at_mm, s.step_mm, s.quantity, s.quantities = 0.0, step_mm, "kx", _quantity_names()
@@ -257,7 +259,7 @@ class App:
             self._fail(exc)
             return
         self.state.animate, self.state.error, self.state.status = False, "", "ready"
-        self.state.pose_shown = m.title() if self.mechanism else pose_text(pose)
+        self.state.pose_shown = pose_text(m.pose_values() if self.mechanism else pose)
         if self.scene.mode_frames:
             self.scene.clear_mode(m, pose)
             self.state.mode, self.state.mode_shown = None, ""
@@ -320,7 +322,7 @@ class App:
             wp = pv.weak_points()
             s.weak_dirs = list(next(iter(wp.values()))) if wp else []
             s.weak_rows = [{"component": c, "shares": [f"{v:.1f}" for v in d.values()]} for c, d in wp.items()]
-            s.mode_items = [{"title": f"{i + 1}: {f:.2f} Hz, {d}", "value": i + 1, "hz": f"{f:.2f}"}
+            s.mode_items = [{"title": f"{i + 1}: {f:.2f} Hz" + (f", {d}" if d else ""), "value": i + 1, "hz": f"{f:.2f}"}
                             for i, (f, d) in enumerate(pv.modes())]
             s.mode, s.animate = None, False
             s.point_command = pv.command
