@@ -95,7 +95,8 @@ def figures_page(out: Path) -> list[Path]:
 def app(out: Path) -> list[Path]:
     """docs/user-guide/app.md: ``pkmstiff app hexaglide`` in headless Chromium (tests/app_browser.py drives it as
     tests/test_app_browser.py does): the start (YZ plane, k_x), then the raster step 50 mm, a click on the admissible
-    point nearest the middle of the map and mode 1 shown in the 3-D view."""
+    point nearest the middle of the map and mode 1 shown in the 3-D view; then ``pkmstiff app hexa_6rus`` (XY plane at
+    z = −440 mm, a click, mode 1 over its links)."""
     import tempfile
     import time
 
@@ -118,6 +119,22 @@ def app(out: Path) -> list[Path]:
         ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
         time.sleep(1.0)
         driver.save_screenshot(str(files[1]))
+    files.append(out / "app_mechanism.png")
+    with (tempfile.TemporaryDirectory() as tmp, ab.running_app(Path(tmp), "hexa_6rus", step_mm=20.0) as (url, _, _),
+          ab.chromium() as driver):  # a mechanism: its links at a clicked point of the XY map at z = -440 mm
+        driver.get(url)
+        g = ab.wait_map(driver)
+        ab.choose(driver, "plane", "xy")
+        ab.type_into(driver, "at", "-440")
+        g = ab.wait_map(driver, g["version"])
+        u0, u1, v0, v1 = g["limits_mm"]
+        ab.click_map(driver, u0 + 0.65 * (u1 - u0), v0 + 0.5 * (v1 - v0))
+        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
+        first = ab.wait_for(driver, lambda d: d.find_element("css selector", "#modes li").text, "the modes")
+        ab.choose(driver, "mode", f"1: {first}")
+        ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
+        time.sleep(1.0)
+        driver.save_screenshot(str(files[2]))
     return files
 
 
