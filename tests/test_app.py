@@ -215,7 +215,8 @@ def test_mechanisms_and_planar_examples_get_one_line(session, name, kind):
         name = bundled_planar()[0]
     with pytest.raises(ArgumentError, match=kind) as info:
         session.machine(MachineChoice(name))
-    assert "pkmstiff section" in str(info.value) and "\n" not in str(info.value)
+    hint = f"{name}_generic" if kind == "a planar example" else "pkmstiff section"  # where its map is
+    assert hint in str(info.value) and "\n" not in str(info.value)
 
 
 #: one planar and one spatial mechanism with an [elastic] table, each on a coarse raster (the map is computed twice)

@@ -66,9 +66,11 @@ def check_spatial(machine: str) -> None:
     kind = ("a planar example" if machine in bundled_planar() else
             "a mechanism" if is_mechanism(machine) else "")
     if kind:
-        raise ArgumentError(option="machine", expected="a spatial machine (the app does not show planar examples "
-                            "yet, and shows mechanisms by their mechanism path: use pkmstiff section / pkmstiff point "
-                            "with its name)", found=f"{machine} ({kind})")
+        raise ArgumentError(option="machine", expected=(
+            f"a spatial machine or a mechanism; a planar example's map is that of its mechanism file "
+            f"{machine}_generic (the same model)" if kind == "a planar example" else
+            "a spatial machine (a mechanism takes the app's mechanism path: pkmstiff section / pkmstiff point with "
+            "its name)"), found=f"{machine} ({kind})")
 
 
 def is_mechanism_target(machine: str) -> bool:

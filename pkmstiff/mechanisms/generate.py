@@ -1,4 +1,5 @@
-"""Generic mechanisms of pkmstiff's closed-form machines (pod and glide), for cross-checks (issue 14, item 4).
+"""Generic mechanisms of pkmstiff's closed-form machines (pod and glide) and of the planar examples (biglide, bipod:
+:func:`planar_mechanism_dict`), for cross-checks (issue 14, item 4) and their section maps (issue 27).
 
 A pod chain (fixed base joint q_i, telescopic strut, platform joint p_i) is a strut link with a Cardan joint (1A + 1D)
 at q_i and the platform point on the strut axis (1E: prismatic + spherical, patent Fig. 1E); its drive is the strut
@@ -16,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from pkmstiff.analysis.planar import PlanarMachine
 from pkmstiff.io.atomic import atomic_write_text
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
@@ -145,6 +147,95 @@ def _elastic_tables(machine: Machine, home_pose: np.ndarray, joints: list[dict[s
                         "links": links, "joints": elastic_joints}}
 
 
+def planar_mechanism_dict(pm: PlanarMachine, home: np.ndarray, name: str | None = None) -> dict[str, Any]:
+    """Mechanism-file table (``dimension = 2``, with ``[elastic]``) of a planar example with its platform point at
+    ``home`` (x, y [m]), placed as :func:`pkmstiff.analysis.planar.planar_structure` places its elements.
+
+    The limits of a driven joint are those of its drive value (as the solver checks them).
+    Biglide: strut links on ``point_on_axis`` carriages (drive λ_i, offset = home λ, limits 0 … guide length) meeting
+    at the platform point P (a revolute joint carrying the platform mass): each carriage is a node joined to the
+    frame by the drive along the guide and the guide's in-plane transverse stiffness (z' = ``vertical`` = −gravity);
+    rigid struts without mass.  Bipod: strut links on revolute base joints, the platform (a point mass at P) on
+    their axes by ``point_on_axis`` joints (drive l_i = strut length, limits length_min … length_max, the strut
+    stiffness in series); Assumption: the platform's rotation, which nothing drives, is held by an
+    ``equal_orientation`` joint to the frame (no inertia, both struts at one point: it carries no load).
+    """
+    from pkmstiff.analysis.planar import planar_inverse_kinematics
+
+    home = np.asarray(home, dtype=float)
+    ik = planar_inverse_kinematics(pm, home[None])
+    if not np.all(np.isfinite(ik.q)):
+        raise ValueError(f"planar_mechanism_dict: home {home.tolist()} not reachable by '{pm.name}'")
+    f = lambda v: [float(x) for x in np.round(v, 15)]  # noqa: E731
+    struts = [f"strut{i + 1}" for i in range(2)]
+    vertical = -pm.gravity / np.linalg.norm(pm.gravity)
+    joints: list[dict[str, Any]] = []
+    comps: dict[str, Any] = {}
+    links_el: dict[str, Any] = {s: {"model": "strut", "mass_shares": [0.0, 0.0]} for s in struts}
+    joints_el: dict[str, Any] = {}
+    p = ik.p[0]
+
+    def kq(k: float) -> str:
+        return "rigid" if np.isinf(k) else f"{float(k)!r} N/m"
+
+    for i, s in enumerate(struts):
+        drive = {"model": "constant_axial", "k": kq(pm.drive_stiffness[i]), "mass": f"{float(pm.drive_mass[i])!r} kg",
+                 "max_force": f"{float(pm.max_force[i])!r} N", "force_reserve": f"{float(pm.force_reserve[i])!r} N",
+                 "coulomb_friction": f"{float(pm.coulomb_friction[i])!r} N",
+                 "max_speed": f"{float(pm.max_speed[i])!r} m/s"}
+        comps[f"drive{i + 1}"] = drive
+        if pm.kind == "glide":
+            lam = float(ik.drive[0, i])
+            joints.append({"name": f"carriage{i + 1}", "type": "point_on_axis", "links": ["frame", s],
+                           "point": f(ik.q[0, i]), "axis": f(pm.guide_direction[i]),
+                           "drive": {"name": f"lambda{i + 1}", "offset": lam},
+                           "limits": {"min": 0.0, "max": float(pm.guide_length[i])}})
+            # z' = vertical is the in-plane transverse direction; y' (out of the plane) is bound by the plane anyway
+            comps[f"guide{i + 1}"] = {"model": "guide_carriages", "k_horizontal": kq(pm.guide_stiffness[i]),
+                                      "k_vertical": kq(pm.guide_stiffness[i])}
+            joints_el[f"carriage{i + 1}"] = {"drive": f"drive{i + 1}", "guide": f"guide{i + 1}"}
+            if np.isfinite(pm.strut_stiffness[i]):
+                comps[f"strut{i + 1}"] = {"model": "constant_axial", "k": kq(pm.strut_stiffness[i])}
+                links_el[s]["component"] = f"strut{i + 1}"
+        else:
+            length = float(ik.length[0, i])
+            d = (p - pm.drive_point[i]) / length
+            joints.append({"name": f"base{i + 1}", "type": "revolute", "links": ["frame", s],
+                           "point": f(pm.drive_point[i])})
+            joints.append({"name": f"leg{i + 1}", "type": "point_on_axis", "links": [s, "platform"], "point": f(p),
+                           "axis": f(d), "drive": {"name": f"l{i + 1}", "offset": length},
+                           "limits": {"min": float(pm.length_min[i]), "max": float(pm.length_max[i])}})
+            joints_el[f"leg{i + 1}"] = {"drive": f"drive{i + 1}"}
+            comps[f"strut{i + 1}"] = {"model": "constant_axial", "k": kq(pm.strut_stiffness[i])}
+            links_el[s]["component"] = f"strut{i + 1}"
+    platform_mass = f"{float(pm.platform_mass)!r} kg"
+    if pm.kind == "glide":
+        joints.append({"name": "P", "type": "revolute", "links": struts, "point": f(p)})
+        joints_el["P"] = {"mass": platform_mass}
+        links, output_link = ["frame", *struts], struts[0]
+    else:
+        joints.append({"name": "platform_rotation", "type": "equal_orientation", "links": ["frame", "platform"]})
+        comps["platform"] = {"model": "rigid_body", "mass": platform_mass}
+        links_el["platform"] = {"body": "platform", "origin": f(p)}
+        links, output_link = ["frame", *struts, "platform"], "platform"
+    table: dict[str, Any] = {
+        "format_version": 1,
+        "mechanism": {"name": name or f"{pm.name}_generic", "title": f"{pm.title} as a generic mechanism",
+                      "source": f"generated by pkmstiff.mechanisms.generate from the planar example '{pm.name}' "
+                                f"at the home position {f(home)}", "dimension": 2, "links": links,
+                      "ground": "frame"},
+        "joints": joints,
+        "output": {"link": output_link, "point": f(p), "orientation": "none"},
+        "components": comps,
+        "elastic": {"vertical": f(np.append(vertical, 0.0)), "links": links_el, "joints": joints_el},
+        "assumptions": dict(pm.assumptions),
+    }
+    if pm.kind == "pod":
+        table["assumptions"]["joints.platform_rotation"] = ("the bipod's platform is a point: its rotation, which "
+                                                            "nothing drives, is held (no inertia, no load)")
+    return table
+
+
 def from_machine(machine: Machine, home_pose: np.ndarray, name: str | None = None) -> Mechanism:
     """Generic mechanism of a pod or glide machine (see the module docstring)."""
     return mechanism_from_dict(mechanism_dict(machine, home_pose, name), f"<generated from {machine.name}>")
@@ -187,9 +278,10 @@ def write_mechanism(table: dict[str, Any], path: str | Path, header: str = "") -
     atomic_write_text(path, "\n".join(lines) + "\n")
 
 
-#: home poses of the generated bundled mechanisms (workspace centres of tests/kin_fixtures.py)
+#: home poses of the generated bundled mechanisms (workspace centres of tests/kin_fixtures.py; the planar
+#: examples' platform point between the guides / drive points)
 HOME_POSES = {"hexaglide": (0.0, 0.3, -0.9, 0.0, 0.0, 0.0), "hexapod_6x": (0.0, 0.0, 1.3, 0.0, 0.0, 0.0),
-              "hexapod_6ups": (0.0, 0.0, 1.2, 0.0, 0.0, 0.0)}
+              "hexapod_6ups": (0.0, 0.0, 1.2, 0.0, 0.0, 0.0), "biglide": (0.0, 0.5), "bipod": (0.0, 0.5)}
 
 
 def six_ups_machine() -> Machine:
@@ -216,7 +308,8 @@ def six_ups_machine() -> Machine:
 
 
 def write_bundled(directory: str | Path | None = None) -> list[Path]:
-    """(Re)write the generated bundled mechanism files: hexaglide, hexapod_6x, hexapod_6ups."""
+    """(Re)write the generated bundled mechanism files: hexaglide, hexapod_6x, hexapod_6ups, biglide, bipod."""
+    from pkmstiff.analysis.planar import load_planar
     from pkmstiff.machine import load_machine
     from pkmstiff.mechanisms.loader import bundled_mechanism_dir
 
@@ -233,6 +326,14 @@ def write_bundled(directory: str | Path | None = None) -> list[Path]:
         write_mechanism(table, path, f"Generated by `python -m pkmstiff.mechanisms.generate` from the machine "
                                      f"'{name}' (do not edit; regenerate).\nLengths in m, drives: pod strut "
                                      "length / glide carriage position lambda (as the closed-form machine).")
+        paths.append(path)
+    for name in ("biglide", "bipod"):
+        table = planar_mechanism_dict(load_planar(name), np.array(HOME_POSES[name]))
+        path = out_dir / f"{table['mechanism']['name']}.toml"
+        write_mechanism(table, path, f"Generated by `python -m pkmstiff.mechanisms.generate` from the planar example "
+                                     f"'{name}' (do not edit; regenerate).\nLengths in m, drives: "
+                                     + ("carriage position lambda along the guide" if name == "biglide" else
+                                        "strut length") + " (as pkmstiff.analysis.planar).")
         paths.append(path)
     return paths
 
