@@ -47,7 +47,8 @@ def mechanisms(out: Path) -> list[Path]:
 
 def mechanism_sections(out: Path) -> list[Path]:
     """k_x and f1 of the 6-RUS at z = -400 mm and of the hybrid at its tool plane z = -1073.205 mm (orientation 0,
-    window fitted, 10 mm raster; docs/user-guide/mechanisms.md, elastic model)."""
+    window fitted, 10 mm raster; docs/user-guide/mechanisms.md, elastic model); f1 of the bipod's mechanism file in
+    its plane of motion (20 mm raster; docs/user-guide/structure.md)."""
     import pkmstiff.mechanisms as mm
     from pkmstiff.mechanisms.section import evaluate_section, fit_window
     from pkmstiff.plots.mechanism_section import plot_mechanism_quantity
@@ -59,6 +60,10 @@ def mechanism_sections(out: Path) -> list[Path]:
         u, v = fit_window(mech, "xy", at, np.zeros(3), 0.01)
         sec = evaluate_section(mech, "xy", at, u, v, 0.01, names=("kx", "f1"))
         files += [plot_mechanism_quantity(sec, q, out / f"{stem}_{q}.png") for q in ("kx", "f1")]
+    bipod = mm.load_mechanism("bipod_generic")  # the planar example in its plane of motion (docs/user-guide/structure.md)
+    u, v = fit_window(bipod, "xy", 0.0, np.zeros(3), 0.02)
+    sec = evaluate_section(bipod, "xy", 0.0, u, v, 0.02, names=("f1",))
+    files.append(plot_mechanism_quantity(sec, "f1", out / "mechanism_bipod_f1.png"))
     return files
 
 

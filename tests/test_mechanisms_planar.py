@@ -89,3 +89,21 @@ def test_section_of_a_planar_example_names_its_mechanism_file(capsys, tmp_path):
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "pkmstiff section biglide_generic" in err
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("name, pose", [("biglide", "100,600"), ("bipod", "0,-707")])
+def test_point_of_the_mechanism_file_equals_the_planar_point(capsys, name, pose):
+    """``pkmstiff point NAME_generic`` prints the planar example's k_x, k_y and frequencies (rtol 1e-9, as above;
+    the bipod's platform rotation is held: no rotational stiffness, n/a)."""
+    import json
+
+    from pkmstiff.cli import main
+
+    assert main(["point", name, "--pose", pose, "--json"]) == 0
+    ref = json.loads(capsys.readouterr().out)
+    assert main(["point", f"{name}_generic", "--pose", pose + ",0", "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    for ax in "xy":
+        assert got["k_N_per_um"][ax] == pytest.approx(ref["k_N_per_um"][ax], rel=RTOL)
+    assert got["frequencies_Hz"] == pytest.approx(ref["frequencies_Hz"], rel=RTOL)
+    assert got.get("rotational_stiffness_Nm_per_urad", {}).get("z") is None
