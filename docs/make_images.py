@@ -108,38 +108,32 @@ def app(out: Path) -> list[Path]:
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from tests import app_browser as ab
 
-    files = [out / "app_start.png", out / "app_point.png"]
+    def click_and_show_mode_1(driver, g: dict, u: float, v: float, path: Path) -> None:
+        """Click the map at the fractions (u, v) of its axes, show mode 1 of the point analysis, screenshot."""
+        u0, u1, v0, v1 = g["limits_mm"]
+        ab.click_map(driver, u0 + u * (u1 - u0), v0 + v * (v1 - v0))
+        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
+        first = ab.wait_for(driver, lambda d: d.find_element("css selector", "#modes li").text, "the modes")
+        ab.choose(driver, "mode", f"1: {first}")
+        ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
+        time.sleep(1.0)
+        driver.save_screenshot(str(path))
+
+    files = [out / "app_start.png", out / "app_point.png", out / "app_mechanism.png"]
     with tempfile.TemporaryDirectory() as tmp, ab.running_app(Path(tmp)) as (url, _, _), ab.chromium() as driver:
         driver.get(url)
         g = ab.wait_map(driver)
         time.sleep(1.0)  # the 3-D view's first image
         driver.save_screenshot(str(files[0]))
         ab.type_into(driver, "step", "50")
-        g = ab.wait_map(driver, g["version"])
-        u0, u1, v0, v1 = g["limits_mm"]
-        ab.click_map(driver, u0 + 0.55 * (u1 - u0), v0 + 0.45 * (v1 - v0))
-        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
-        first = ab.wait_for(driver, lambda d: d.find_element("css selector", "#modes li").text, "the modes")
-        ab.choose(driver, "mode", f"1: {first}")
-        ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
-        time.sleep(1.0)
-        driver.save_screenshot(str(files[1]))
-    files.append(out / "app_mechanism.png")
+        click_and_show_mode_1(driver, ab.wait_map(driver, g["version"]), 0.55, 0.45, files[1])
     with (tempfile.TemporaryDirectory() as tmp, ab.running_app(Path(tmp), "hexa_6rus", step_mm=20.0) as (url, _, _),
           ab.chromium() as driver):  # a mechanism: its links at a clicked point of the XY map at z = -440 mm
         driver.get(url)
         g = ab.wait_map(driver)
         ab.choose(driver, "plane", "xy")
         ab.type_into(driver, "at", "-440")
-        g = ab.wait_map(driver, g["version"])
-        u0, u1, v0, v1 = g["limits_mm"]
-        ab.click_map(driver, u0 + 0.65 * (u1 - u0), v0 + 0.5 * (v1 - v0))
-        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
-        first = ab.wait_for(driver, lambda d: d.find_element("css selector", "#modes li").text, "the modes")
-        ab.choose(driver, "mode", f"1: {first}")
-        ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
-        time.sleep(1.0)
-        driver.save_screenshot(str(files[2]))
+        click_and_show_mode_1(driver, ab.wait_map(driver, g["version"]), 0.65, 0.5, files[2])
     return files
 
 

@@ -114,11 +114,13 @@ class Scene:
 
         if isinstance(machine, MechanismAtPose):
             ms = _mechanism_mode(machine, mode)
-            deformed = lambda f: mechanism_sketch(machine.mechanism, {  # noqa: E731
-                li: w + f * ms.displacement[li] for li, w in ms.world.items()})
+            def deformed(f: float):
+                return mechanism_sketch(machine.mechanism, {li: w + f * ms.displacement[li]
+                                                            for li, w in ms.world.items()})
         else:
             ms = mode_shape(machine, pose, mode)
-            deformed = lambda f: deformed_sketch(machine, ms, f)  # noqa: E731
+            def deformed(f: float):
+                return deformed_sketch(machine, ms, f)
         factor = ms.scale_for(MODE_AMPLITUDE)
         frames = []
         for k in range(MODE_FRAMES):

@@ -116,9 +116,8 @@ def mechanism_sketch(mech, world: dict[int, np.ndarray], scale: float = MM):
     guides = [(np.asarray(jt.point, float) - s * 0.3 * mech.length_scale * np.asarray(jt.axis, float))
               for jt in mech.joints for s in (1.0, -1.0)
               if jt.axis is not None and jt.variable == "linear" and jt.links[0] in mech.ground]
-    pad = lambda p: np.concatenate([p, np.zeros(3 - mech.dim)])  # noqa: E731
-    blocks["guides"] = (_lines(np.array([pad(p) for p in guides]).reshape(-1, 2, 3) * scale, pv) if guides
-                        else pv.PolyData())
+    ends = np.array([np.concatenate([p, np.zeros(3 - mech.dim)]) for p in guides]).reshape(-1, 2, 3)
+    blocks["guides"] = _lines(ends * scale, pv) if guides else pv.PolyData()
     tubes = pv.MultiBlock()
     position: dict[int, np.ndarray] = {}
     for li, plist in link_points(mech).items():
