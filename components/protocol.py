@@ -249,6 +249,7 @@ MODELS: tuple[ModelSpec, ...] = (ModelSpec(
            rigid_ok=True),
      Param("mass", "kg", 0.0, "mass moving with the driven link", min_value=0.0),
      Param("inertia", "kg*m^2", 0.0, "rotor inertia reflected to the joint (gear ratio^2 x rotor inertia) about the "
-           "drive axis: drive-coordinate inertia of the accelerations (eq. 4.86)", min_value=0.0)) + ROTARY_DRIVE_LIMITS,
+           "drive axis: drive-coordinate inertia of the accelerations (eq. 4.86)", min_value=0.0))
+    + ROTARY_DRIVE_LIMITS,
     lambda p: RotaryDrive(name=p.name, k=p["k"], mass=p["mass"], inertia=p["inertia"],
                           limits=drive_limits(p, ROTARY_DRIVE_LIMITS))),)

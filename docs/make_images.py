@@ -60,7 +60,7 @@ def mechanism_sections(out: Path) -> list[Path]:
         u, v = fit_window(mech, "xy", at, np.zeros(3), 0.01)
         sec = evaluate_section(mech, "xy", at, u, v, 0.01, names=("kx", "f1"))
         files += [plot_mechanism_quantity(sec, q, out / f"{stem}_{q}.png") for q in ("kx", "f1")]
-    bipod = mm.load_mechanism("bipod_generic")  # the planar example in its plane of motion (docs/user-guide/structure.md)
+    bipod = mm.load_mechanism("bipod_generic")  # the planar example in its plane of motion (user-guide/structure.md)
     u, v = fit_window(bipod, "xy", 0.0, np.zeros(3), 0.02)
     sec = evaluate_section(bipod, "xy", 0.0, u, v, 0.02, names=("f1",))
     files.append(plot_mechanism_quantity(sec, "f1", out / "mechanism_bipod_f1.png"))

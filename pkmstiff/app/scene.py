@@ -1,7 +1,7 @@
 """The 3-D view of ``pkmstiff app``: an off-screen pyvista plotter with the machine (or a mechanism's links and
 joints) at the chosen pose, the section plane coloured by its quantity, and a mode shape animated over the ghosted
-machine (coordinates in mm, as in every figure of the toolkit). No browser needed: the trame view streams this plotter's render window, and the tests
-render it to PNG."""
+machine (coordinates in mm, as in every figure of the toolkit). No browser needed: the trame view streams this
+plotter's render window, and the tests render it to PNG."""
 
 from __future__ import annotations
 
@@ -114,11 +114,13 @@ class Scene:
 
         if isinstance(machine, MechanismAtPose):
             ms = _mechanism_mode(machine, mode)
+
             def deformed(f: float):
                 return mechanism_sketch(machine.mechanism, {li: w + f * ms.displacement[li]
                                                             for li, w in ms.world.items()})
         else:
             ms = mode_shape(machine, pose, mode)
+
             def deformed(f: float):
                 return deformed_sketch(machine, ms, f)
         factor = ms.scale_for(MODE_AMPLITUDE)

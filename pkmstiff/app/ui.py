@@ -322,8 +322,8 @@ class App:
             wp = pv.weak_points()
             s.weak_dirs = list(next(iter(wp.values()))) if wp else []
             s.weak_rows = [{"component": c, "shares": [f"{v:.1f}" for v in d.values()]} for c, d in wp.items()]
-            s.mode_items = [{"title": f"{i + 1}: {f:.2f} Hz" + (f", {d}" if d else ""), "value": i + 1, "hz": f"{f:.2f}"}
-                            for i, (f, d) in enumerate(pv.modes())]
+            s.mode_items = [{"title": f"{i + 1}: {f:.2f} Hz" + (f", {d}" if d else ""), "value": i + 1,
+                             "hz": f"{f:.2f}"} for i, (f, d) in enumerate(pv.modes())]
             s.mode, s.animate = None, False
             s.point_command = pv.command
             s.status = "ready"

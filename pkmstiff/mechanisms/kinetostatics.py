@@ -15,8 +15,9 @@ implicit differentiation, no finite differences) and the masses of the elastic m
   drives' rotor ``inertia`` (:attr:`~pkmstiff.mechanisms.structure.Plan.drive_inertias`) — for a pod/glide machine
   ``M_A + J_Cᵀ M_P J_C`` (eq. 4.86; a glide's M_A is its carriage nodes, which move with the drive coordinate).
 * Static drive loads τ_g = Σ_b J_{b,v}ᵀ (−m_b g) (eq. 4.90): the forces (N) or torques (N m) that hold every body
-  against gravity, g = −9.81 m/s² · ``[elastic] vertical`` (M_A carries no weight, as in the machines); plus ``[elastic] drive_load_strut_mass`` × the strut
-  masses at the CoG of the output link's body (+ tool body), in τ_g only — the machines' eq. 4.90 reading
+  against gravity, g = −9.81 m/s² · ``[elastic] vertical`` (M_A carries no weight, as in the machines); plus
+  ``[elastic] drive_load_strut_mass`` × the strut masses at the CoG of the output link's body (+ tool body), in τ_g
+  only — the machines' eq. 4.90 reading
   (``limits.drive_load_strut_mass``, :func:`pkmstiff.machine.roles.drive_load_data`), so that a generated mechanism
   file gives its machine's static drive loads and a_max.
 """
@@ -120,7 +121,7 @@ def mass_and_gravity(mech: Mechanism, q: Array, q_s: Array) -> tuple[Array, Arra
             Iw = R @ inertia @ np.swapaxes(R, 1, 2)
             M += np.swapaxes(Jw, 1, 2) @ Iw @ Jw
         tau += np.einsum("nji,j->ni", Jv, -mass * g)
-    # drive-coordinate masses/inertias M_A (telescopic drives, rotary drives' rotors): M_A s̈, no gravity (eq. 4.86, 4.90)
+    # drive-coordinate masses/inertias M_A (telescopic drives, rotary drives' rotors): M_A s̈, no weight (4.86, 4.90)
     col = {ji: c for c, ji in enumerate(i for i, j in enumerate(mech.joints) if j.drive is not None)}
     for ji, m_a in plan(mech, dynamics=True).drive_inertias.items():
         M[:, col[ji], col[ji]] += m_a
