@@ -263,7 +263,8 @@ def test_workspace_subtrees_count_points_shared_by_two_subtrees_once(monkeypatch
     uncount = OracleSubtrees.uncount
     monkeypatch.setattr(OracleSubtrees, "uncount", lambda self, n, c: taken.append(n) or uncount(self, n, c))
     m = load_machine("hexaglide")
-    kw = dict(requirements=["kx >= 5 N/um"], orientation_range=("c", -0.2, 0.2), range_step=0.1, methods=("voxels",))
+    kw = {"requirements": ["kx >= 5 N/um"], "orientation_range": ("c", -0.2, 0.2), "range_step": 0.1,
+          "methods": ("voxels",)}
     one, two = (constant_orientation_workspace(m, 0.025, n_jobs=j, **kw) for j in (1, 2))
     assert taken and taken[0] > 0  # subtrees ran and shared points
     counts = ("evaluations", "points", "poses_evaluated", "full_pipeline_poses", "requirement_poses")

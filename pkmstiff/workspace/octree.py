@@ -32,7 +32,9 @@ import math
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, Callable, Protocol
+from collections.abc import Callable
+from itertools import pairwise
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -286,7 +288,7 @@ def octree_boundary(
     min_level: int = 3,
     closure: bool = True,
     progress: Progress | None = None,
-    subtrees: "SubtreeRunner | None" = None,
+    subtrees: SubtreeRunner | None = None,
 ) -> OctreeResult:
     """Boundary voxels and points of the set ``{x : admissible(x)}`` inside the box [lo, hi] (docs/theory/workspace.md).
 
@@ -512,7 +514,7 @@ def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice
     order = np.argsort(keys, kind="stable")
     owner = np.repeat(np.arange(n_slices), np.diff(bounds))
     tasks = [SubtreeTask(lat.lo, lat.hi, lat.levels, level, vox[a:b], corners[a:b], keys[order], owner[order], k)
-             for k, (a, b) in enumerate(zip(bounds[:-1], bounds[1:]))]
+             for k, (a, b) in enumerate(pairwise(bounds))]
     parts = runner.run(tasks)
     new: dict[int, int] = {}
     for part in parts:

@@ -24,6 +24,7 @@ import copy
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Iterable, Literal, Sequence
 
@@ -237,7 +238,8 @@ class PoseOracle:
         per = np.zeros((len(points), len(POINT_COUNTERS)), np.int64)
         return self.admissible_poses(self.poses(points), per), per
 
-    def run_split(self, task: Any, payloads: list[tuple], p: parallel.Plan, here: Any) -> list[Any]:
+    def run_split(self, task: Callable[..., tuple[Any, dict[str, float]]], payloads: list[tuple], p: parallel.Plan,
+                  here: Callable[[], Any]) -> list[Any]:
         """``[here(), task(shared oracle, *payloads[0]), ...]``: ``here()`` in this process while the workers run the
         payloads (as a section's first chunk); the statistics of all parts are added to this oracle's."""
         if self._shared is None:
@@ -249,11 +251,9 @@ class PoseOracle:
 
         def run_first() -> None:
             before = dataclasses.asdict(self.stats)
-            out = here()
-            after = dataclasses.asdict(self.stats)
+            first.append(_stats_delta(self, here))
             for k, v in before.items():  # merged below like a worker's part
                 setattr(self.stats, k, v)
-            first.append((out, {k: after[k] - before[k] for k in after}))
 
         parts = first + parallel.run_tasks(task, [(self._shared, *a) for a in payloads], p, self.scheduler,
                                            meanwhile=run_first)
@@ -269,7 +269,8 @@ class PoseOracle:
         return {**self.__dict__, "scheduler": None, "_shared": None}
 
 
-def _stats_delta(o: PoseOracle, fn: Any) -> tuple[Any, dict[str, float]]:
+def _stats_delta(o: PoseOracle, fn: Callable[[], Any]) -> tuple[Any, dict[str, float]]:
+    """``fn()`` and what it added to ``o``'s statistics."""
     before = dataclasses.asdict(o.stats)
     out = fn()
     return out, {k: v - before[k] for k, v in dataclasses.asdict(o.stats).items()}
