@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pkmstiff.mechanisms.kernel import _angles, _eval_pose, _exp_left, _scratch
-from pkmstiff.mechanisms.linalg import _normal_pose, _skyline_solve, sparsity
+from pkmstiff.mechanisms.linalg import BLOCK, _block_normal_pose, _block_solve, block_pattern, block_start
 
 Array = NDArray[np.float64]
 
@@ -39,15 +39,22 @@ PARALLEL_MIN = 2048
 
 @dataclass
 class FusedPlan:
-    """Column order and index maps of a spatial :class:`~pkmstiff.mechanisms.constraints.System` for the fused
-    Newton kernel; built once per system (:func:`fused_plan`)."""
+    """Column order, block structure and index maps of a spatial
+    :class:`~pkmstiff.mechanisms.constraints.System` for the fused Newton kernel; built once per system
+    (:func:`fused_plan`).  The solve columns are 6 per free link (block), blocks in elimination order; a link with
+    fixed coordinates pads them (column −1 in ``cols``)."""
 
-    cmap: np.ndarray  #: (L·6,) full column → column in elimination order, −1 for fixed coordinates
-    cols: np.ndarray  #: (n,) full column of each solve column (elimination order)
+    cmap: np.ndarray  #: (L·6,) full column → solve column, −1 for fixed coordinates
+    cols: np.ndarray  #: (6·nb,) full column of each solve column, −1 on the padding
     rot_links: np.ndarray  #: (nl,) links updated by incremental rotation vectors
-    rot_cols: np.ndarray  #: (nl, 3) their rotation columns in elimination order
-    nz_cols: np.ndarray  #: sparsity of the reduced Jacobian in elimination order (:func:`linalg.sparsity`)
-    nz_cnt: np.ndarray
+    rot_cols: np.ndarray  #: (nl, 3) their rotation columns (solve columns)
+    rb: np.ndarray  #: (m_s, 2) blocks each solved row touches (−1: none)
+    nptr: np.ndarray  #: block pattern of JᵀJ with fill (:func:`linalg.block_pattern`)
+    nidx: np.ndarray
+    slot: np.ndarray
+    nslots: int
+    pad: np.ndarray  #: (nb, 6) 1.0 on padded coordinates
+    x0: np.ndarray  #: (6·nb,) inverse-iteration start vector (:func:`linalg.block_start`)
 
 
 def elimination_order(n_links: int, edges: list[tuple[int, int]], active: np.ndarray) -> list[int]:
@@ -85,22 +92,25 @@ def fused_plan(system) -> FusedPlan:
     has_free[free // d] = True
     edges = [(int(a), int(b)) for bl in system.blocks for a, b in zip(bl.j, bl.k) if b >= 0]
     order = elimination_order(L, edges, has_free)
-    rank = np.empty(L, dtype=int)
-    rank[order] = np.arange(len(order))
-    cols = free[np.lexsort((free, rank[free // d]))]
+    blk = np.full(L, -1, dtype=np.int64)
+    blk[order] = np.arange(len(order))
+    nb = len(order)
     cmap = np.full(system.n, -1, dtype=np.int64)
-    cmap[cols] = np.arange(cols.size)
+    cmap[free] = BLOCK * blk[free // d] + free % d
+    cols = np.full(BLOCK * nb, -1, dtype=np.int64)
+    cols[cmap[free]] = free
+    pad = (cols < 0).astype(float).reshape(nb, BLOCK)
     rot_links = np.flatnonzero(system.omega_links).astype(np.int64)
     rot_cols = cmap[rot_links[:, None] * d + system.mech.dim + np.arange(3)].astype(np.int64).reshape(-1, 3)
     pat_cols, cnt = system.sparsity
-    pos = np.searchsorted(free, cols)  # column of the sorted reduced Jacobian behind each ordered column
-    inv = np.empty(free.size, dtype=np.int64)
-    inv[pos] = np.arange(free.size)
-    pat = np.zeros((cnt.size, free.size), dtype=bool)
+    rb = np.full((cnt.size, 2), -1, dtype=np.int64)
     for i in range(cnt.size):
-        pat[i, inv[pat_cols[i, :cnt[i]]]] = True
-    nz_cols, nz_cnt = sparsity(pat)
-    fp = FusedPlan(cmap, cols.astype(np.int64), rot_links, rot_cols, nz_cols, nz_cnt)
+        b = np.unique(blk[free[pat_cols[i, :cnt[i]]] // d])
+        if b.size > 2:
+            raise ValueError(f"fused_plan: row {i} joins {b.size} links (a constraint joins two)")
+        rb[i, :b.size] = b
+    nptr, nidx, slot, nslots = block_pattern(nb, [(int(a), int(b)) for a, b in rb if b >= 0])
+    fp = FusedPlan(cmap, cols, rot_links, rot_cols, rb, nptr, nidx, slot, nslots, pad, block_start(pad))
     system.__dict__["_fused_plan"] = fp
     return fp
 
@@ -110,7 +120,8 @@ def _step(q, Rq, qt, Rtr, dx, alpha, cols, rot_links, rot_cols):  # pragma: no c
     rotation-vector link becomes exp([α δω]×) R (its angles in qt are not updated: :func:`_sync_angles`)."""
     qt[:] = q
     for c in range(cols.shape[0]):
-        qt[cols[c]] += alpha * dx[c]
+        if cols[c] >= 0:
+            qt[cols[c]] += alpha * dx[c]
     for i in range(rot_links.shape[0]):
         l = rot_links[i]
         _exp_left(alpha * dx[rot_cols[i, 0]], alpha * dx[rot_cols[i, 1]], alpha * dx[rot_cols[i, 2]], Rq[l], Rtr[l])
@@ -125,7 +136,7 @@ def _sync_angles(q, Rq, rot_links):  # pragma: no cover - compiled
 
 
 def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                  rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
+                  rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
                   resid, rcond, steps, n0, n1):  # pragma: no cover - compiled
     L = q.shape[1] // 6
     ni = kind.shape[0]
@@ -140,9 +151,8 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
     qc = np.empty(q.shape[1])
     qt = np.empty(q.shape[1])
     dx = np.empty(n)
-    Ach = np.empty((n, n))
+    Ab = np.empty((nslots, BLOCK, BLOCK))
     g = np.empty(n)
-    first = np.empty(n, dtype=np.int64)
     xw = np.empty(n)
     Rc = np.empty((L, 3, 3))
     Rtr = np.empty((L, 3, 3))
@@ -173,7 +183,7 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
                 break
             if it_ == max_iter:
                 break
-            est = _normal_pose(J, r[roff:], nz_cols, nz_cnt, sweeps, Ach, g, first, xw, dx)
+            est = _block_normal_pose(J, r[roff:], rb, nptr, nidx, slot, pad, x0, sweeps, Ab, g, xw, dx)
             if not est >= screen:
                 st = FALLBACK
                 break
@@ -229,12 +239,12 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
 
 
 def _newton_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                 rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
+                 rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
                  resid, rcond, steps):  # pragma: no cover - compiled
     N = q.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
         _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                      rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
+                      rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
                       resid, rcond, steps, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
@@ -247,10 +257,10 @@ _newton_parallel = numba.njit(parallel=True, **_OPTS)(_newton_impl)
 
 @numba.njit(**_OPTS)
 def _newton_serial(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                   rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
+                   rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
                    resid, rcond, steps):  # pragma: no cover - compiled
     _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                  rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
+                  rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
                   resid, rcond, steps, 0, q.shape[0])
 
 
@@ -272,17 +282,17 @@ def newton(system, q: Array, target: Array | None, Rt: Array | None, tol: float,
     steps = np.zeros(N, dtype=np.int64)
     kern = _newton_parallel if N >= PARALLEL_MIN else _newton_serial
     kern(q, tg, system._om, rt, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b,
-         system.m, system.n_fixed_rows, fp.cmap, fp.cols, fp.rot_links, fp.rot_cols, fp.nz_cols, fp.nz_cnt,
+         system.m, system.n_fixed_rows, fp.cmap, fp.cols, fp.rot_links, fp.rot_cols, fp.rb, fp.nptr, fp.nidx, fp.slot, fp.nslots, fp.pad, fp.x0,
          float(tol), int(max_iter), int(max_backtrack), float(screen), int(sweeps), float(armijo), status, iters,
          resid, rcond, steps)
     return q, status, iters, resid, rcond, steps
 
 
-def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
+def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
                   drive_rows, olink, opoint, ocoords, orient, oaxis, out, n0, n1):  # pragma: no cover - compiled
     L = q.shape[1] // 6
     ni = kind.shape[0]
-    n = cmap.max() + 1
+    n = BLOCK * slot.shape[0]
     ms = m - roff
     nd = drive_rows.shape[0]
     S = _scratch(L)
@@ -290,9 +300,8 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
     rhs = np.zeros(ms)
     J = np.zeros((ms, n))
     X = np.empty((nd, n))
-    Ach = np.empty((n, n))
+    Ab = np.empty((nslots, BLOCK, BLOCK))
     g = np.empty(n)
-    first = np.empty(n, dtype=np.int64)
     xw = np.empty(n)
     Rt = np.zeros((3, 3))
     w = np.empty(3)
@@ -309,13 +318,13 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
         # q_s: F_q q_s = e_c on each drive row c (least squares by the normal equations, one factor for all c)
         rhs[:] = 0.0
         rhs[drive_rows[0]] = -1.0
-        if not _normal_pose(J, rhs, nz_cols, nz_cnt, 1, Ach, g, first, xw, X[0]) > 0.0:
+        if not _block_normal_pose(J, rhs, rb, nptr, nidx, slot, pad, x0, 0, Ab, g, xw, X[0]) > 0.0:
             out[p] = np.nan
             continue
         for c in range(1, nd):
             for i in range(n):
                 X[c, i] = J[drive_rows[c], i]
-            _skyline_solve(Ach, first, X[c])
+            _block_solve(Ab, nptr, nidx, slot, X[c])
         # G = ∂x_c/∂q of the output link's columns (point rows, then ω or the axis turn about e1, e2)
         G[:] = 0.0
         nc = ocoords.shape[0]
@@ -370,11 +379,11 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
                 out[p, i, c] = s
 
 
-def _outjac_impl(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
+def _outjac_impl(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
                  drive_rows, olink, opoint, ocoords, orient, oaxis, out):  # pragma: no cover - compiled
     N = q.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
-        _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
+        _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
                       drive_rows, olink, opoint, ocoords, orient, oaxis, out, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
@@ -383,9 +392,9 @@ _outjac_parallel = numba.njit(parallel=True, **_OPTS)(_outjac_impl)
 
 
 @numba.njit(**_OPTS)
-def _outjac_serial(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
+def _outjac_serial(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
                    drive_rows, olink, opoint, ocoords, orient, oaxis, out):  # pragma: no cover - compiled
-    _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
+    _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
                   drive_rows, olink, opoint, ocoords, orient, oaxis, out, 0, q.shape[0])
 
 
@@ -407,7 +416,7 @@ def output_jacobian(system, q: Array, drives: Array, n_out: int) -> Array:
     kern = _outjac_parallel if N >= PARALLEL_MIN else _outjac_serial
     kern(np.ascontiguousarray(q.reshape(N, -1), dtype=float), np.ascontiguousarray(drives, dtype=float),
          system._om, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b, system.m,
-         system.n_fixed_rows, fp.cmap, fp.nz_cols, fp.nz_cnt, drive_rows, int(o.link),
+         system.n_fixed_rows, fp.cmap, fp.rb, fp.nptr, fp.nidx, fp.slot, fp.nslots, fp.pad, fp.x0, drive_rows, int(o.link),
          np.asarray(o.point, dtype=float), np.asarray(o.coordinates, dtype=np.int64),
          {"none": 0, "full": 1, "axis": 2}[o.orientation],
          np.zeros(3) if o.axis is None else np.asarray(o.axis, dtype=float), out)
