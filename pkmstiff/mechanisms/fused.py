@@ -145,6 +145,7 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
     S = _scratch(L)
     r = np.empty(m)
     rt = np.empty(m)
+    # zeroed once: every evaluation writes the same structural entries (the constraint instances' links)
     J = np.zeros((ms, n))
     Jt = np.zeros((ms, n))
     Jd = np.zeros((1, 1))
@@ -162,7 +163,6 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
         tn = target[min(p, target.shape[0] - 1)]
         Rtn = Rt[min(p, Rt.shape[0] - 1)]
         qc[:] = q[p]
-        J[:] = 0.0
         _eval_pose(qc, tn, om, Rtn, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, True, r, J, L, ni, S,
                    False)
         Rc[:] = Rs
@@ -189,7 +189,6 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
                 break
             rcond[p] = est
             _step(qc, Rc, qt, Rtr, dx, 1.0, cols, rot_links, rot_cols)
-            Jt[:] = 0.0
             Rs[:] = Rtr
             _eval_pose(qt, tn, om, Rtn, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, True, rt, Jt, L, ni, S,
                        True)
@@ -227,7 +226,6 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
             qc[:] = qt
             Rc[:] = Rtr
             acc += 1
-            J[:] = 0.0
             Rs[:] = Rc
             _eval_pose(qc, tn, om, Rtn, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, True, r, J, L, ni, S,
                        True)
@@ -311,8 +309,11 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
     e2 = np.empty(3)
     R, dR, Wr = S[1], S[2], S[3]
     co = 6 * olink
+    g0 = 0
+    for c in range(6):
+        if cmap[co + c] >= 0:
+            g0 = cmap[co + c] - cmap[co + c] % BLOCK
     for p in range(n0, n1):
-        J[:] = 0.0
         _eval_pose(q[p], target[p], om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, True, r, J, L, ni,
                    S, False)
         # q_s: F_q q_s = e_c on each drive row c (least squares by the normal equations, one factor for all c)
@@ -374,7 +375,7 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
         for i in range(out.shape[1]):
             for c in range(nd):
                 s = 0.0
-                for k in range(n):
+                for k in range(g0, g0 + BLOCK):  # G is nonzero on the output link's block only
                     s += G[i, k] * X[c, k]
                 out[p, i, c] = s
 

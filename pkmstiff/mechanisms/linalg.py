@@ -369,13 +369,13 @@ def _block_normal_pose(Jp, rp, rb, nptr, nidx, slot, pad, x0, sweeps, Ab, g, x, 
                 s -= Lk[c, t] * Lk[c, t]
             if not s > 1e-15 * tr:
                 return 0.0
-            d = math.sqrt(s)
+            d = 1.0 / math.sqrt(s)  # the diagonal keeps 1/L_cc: products instead of divisions in every solve
             Lk[c, c] = d
             for a in range(c + 1, BLOCK):
                 s = Lk[a, c]
                 for t in range(c):
                     s -= Lk[a, t] * Lk[c, t]
-                Lk[a, c] = s / d
+                Lk[a, c] = s * d
         for p in range(nptr[k], nptr[k + 1]):  # L_ik = A_ik L_kk⁻ᵀ
             X = Ab[slot[nidx[p], k]]
             for a in range(BLOCK):
@@ -383,7 +383,7 @@ def _block_normal_pose(Jp, rp, rb, nptr, nidx, slot, pad, x0, sweeps, Ab, g, x, 
                     s = X[a, c]
                     for t in range(c):
                         s -= X[a, t] * Lk[c, t]
-                    X[a, c] = s / Lk[c, c]
+                    X[a, c] = s * Lk[c, c]
         for p in range(nptr[k], nptr[k + 1]):  # Schur complement: A_ij −= L_ik L_jkᵀ
             i = nidx[p]
             Li = Ab[slot[i, k]]
@@ -420,7 +420,8 @@ def _block_normal_pose(Jp, rp, rb, nptr, nidx, slot, pad, x0, sweeps, Ab, g, x, 
 
 
 def _block_solve(Ab, nptr, nidx, slot, v):  # pragma: no cover - compiled
-    """v ← (L Lᵀ)⁻¹ v in place for the block Cholesky factor of :func:`_block_normal_pose`."""
+    """v ← (L Lᵀ)⁻¹ v in place for the block Cholesky factor of :func:`_block_normal_pose` (diagonal blocks: L
+    below the diagonal, 1/L_cc on it)."""
     nb = slot.shape[0]
     for k in range(nb):  # forward: L y = v
         Lk = Ab[k]
@@ -429,7 +430,7 @@ def _block_solve(Ab, nptr, nidx, slot, v):  # pragma: no cover - compiled
             s = v[o + c]
             for t in range(c):
                 s -= Lk[c, t] * v[o + t]
-            v[o + c] = s / Lk[c, c]
+            v[o + c] = s * Lk[c, c]
         for p in range(nptr[k], nptr[k + 1]):
             i = nidx[p]
             X = Ab[slot[i, k]]
@@ -455,7 +456,7 @@ def _block_solve(Ab, nptr, nidx, slot, v):  # pragma: no cover - compiled
             s = v[o + c]
             for t in range(c + 1, BLOCK):
                 s -= Lk[t, c] * v[o + t]
-            v[o + c] = s / Lk[c, c]
+            v[o + c] = s * Lk[c, c]
 
 
 _block_solve = numba.njit(cache=True, nogil=True, fastmath=_FM)(_block_solve)
