@@ -151,7 +151,7 @@ def test_block_normal_equations_equal_the_skyline_factor():
     """The fused Newton's block-Schur normal equations (linalg._block_normal_pose) give the skyline Cholesky's step
     and σ-ratio estimate (same matrix, column order and start vector) on a block pattern with fill (a cycle of four
     links) and a padded (fixed) coordinate, and break down where the skyline factor does."""
-    from pkmstiff.mechanisms.linalg import (_block_normal_pose, _normal_pose, block_pattern, block_start, sparsity)
+    from pkmstiff.mechanisms.linalg import _block_normal_pose, _normal_pose, block_pattern, block_start, sparsity
 
     rng = np.random.default_rng(7)
     nb, m = 4, 40

@@ -2,15 +2,18 @@
 
 Same iteration as :func:`pkmstiff.mechanisms.solver.newton` (DE 10 2004 026 707 A1 [0019], [0051]): residual and
 analytic Jacobian (:func:`pkmstiff.mechanisms.kernel._eval_pose`), the normal-equation step with its σ-ratio
-estimate (:func:`pkmstiff.mechanisms.linalg._normal_pose`), the incremental rotation-vector update of the link
-rotations, Armijo halving — but per pose in compiled code with per-thread work arrays of one pose, so no
-(N, m, n) Jacobian stack is built, zeroed or copied, and no Python runs between the phases.
+estimate (:func:`pkmstiff.mechanisms.linalg._normal_pose`, here on link blocks), the incremental rotation-vector
+update of the link rotations, Armijo halving — but per pose in compiled code with per-thread work arrays of one
+pose, so no (N, m, n) Jacobian stack is built, zeroed or copied, and no Python runs between the phases.
 
-The unknowns are ordered once per system by a minimum-degree elimination order of the link graph (links joined by
-a constraint are neighbours; :func:`elimination_order`): a link that only touches the ground and one other link
-(a strut of a 6-UPS leg) comes before the links it joins, so the skyline (envelope) Cholesky factor of JᵀJ has the
-fill of a block elimination onto the hub links (the platform): a Schur complement on the hub's unknowns plus
-small diagonal blocks, with no general sparse-matrix code.
+The unknowns are grouped in blocks of six per free link (δt, δω; a fixed coordinate is padded with a decoupled
+unit pivot), the blocks ordered once per system by a minimum-degree elimination order of the link graph (links
+joined by a constraint are neighbours; :func:`elimination_order`): a link that only touches the ground and one other
+link (a strut of a 6-UPS leg) comes before the link it joins.  The normal equations are then a block Cholesky
+(Schur) elimination with fixed-size 6 × 6 kernels (:func:`pkmstiff.mechanisms.linalg._block_normal_pose`) over
+the block pattern of JᵀJ with the fill of that order (:func:`pkmstiff.mechanisms.linalg.block_pattern`): for the
+6-UPS each strut's block is eliminated onto the platform's Schur complement.  Derived from the constraints' links
+at load, so any spatial mechanism file (6-RUS, hybrid, Hexaglide) takes the same path.
 
 A pose whose σ-ratio estimate is below the screen (rank deficient or badly conditioned: the pivoted-QR step is
 needed) stops with the code ``FALLBACK`` at its current iterate; the solver finishes it with the numpy loop.
@@ -136,8 +139,8 @@ def _sync_angles(q, Rq, rot_links):  # pragma: no cover - compiled
 
 
 def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                  rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                  resid, rcond, steps, n0, n1):  # pragma: no cover - compiled
+                  rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps,
+                  armijo, status, iters, resid, rcond, steps, n0, n1):  # pragma: no cover - compiled
     L = q.shape[1] // 6
     ni = kind.shape[0]
     n = cols.shape[0]
@@ -236,14 +239,14 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
         steps[p] = it_
 
 
-def _newton_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                 rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                 resid, rcond, steps):  # pragma: no cover - compiled
+def _newton_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links, rot_cols,
+                 rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status,
+                 iters, resid, rcond, steps):  # pragma: no cover - compiled
     N = q.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
         _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                      rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                      resid, rcond, steps, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
+                      rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps,
+                      armijo, status, iters, resid, rcond, steps, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
 _OPTS = {"cache": True, "nogil": True, "error_model": "numpy"}
@@ -255,11 +258,11 @@ _newton_parallel = numba.njit(parallel=True, **_OPTS)(_newton_impl)
 
 @numba.njit(**_OPTS)
 def _newton_serial(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                   rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                   resid, rcond, steps):  # pragma: no cover - compiled
+                   rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps,
+                   armijo, status, iters, resid, rcond, steps):  # pragma: no cover - compiled
     _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                  rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                  resid, rcond, steps, 0, q.shape[0])
+                  rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps,
+                  armijo, status, iters, resid, rcond, steps, 0, q.shape[0])
 
 
 def newton(system, q: Array, target: Array | None, Rt: Array | None, tol: float, max_iter: int, max_backtrack: int,
@@ -280,14 +283,15 @@ def newton(system, q: Array, target: Array | None, Rt: Array | None, tol: float,
     steps = np.zeros(N, dtype=np.int64)
     kern = _newton_parallel if N >= PARALLEL_MIN else _newton_serial
     kern(q, tg, system._om, rt, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b,
-         system.m, system.n_fixed_rows, fp.cmap, fp.cols, fp.rot_links, fp.rot_cols, fp.rb, fp.nptr, fp.nidx, fp.slot, fp.nslots, fp.pad, fp.x0,
-         float(tol), int(max_iter), int(max_backtrack), float(screen), int(sweeps), float(armijo), status, iters,
-         resid, rcond, steps)
+         system.m, system.n_fixed_rows, fp.cmap, fp.cols, fp.rot_links, fp.rot_cols, fp.rb, fp.nptr, fp.nidx, fp.slot,
+         fp.nslots, fp.pad, fp.x0, float(tol), int(max_iter), int(max_backtrack), float(screen), int(sweeps),
+         float(armijo), status, iters, resid, rcond, steps)
     return q, status, iters, resid, rcond, steps
 
 
-def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
-                  drive_rows, olink, opoint, ocoords, orient, oaxis, out, n0, n1):  # pragma: no cover - compiled
+def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots,
+                  pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis, out, n0,
+                  n1):  # pragma: no cover - compiled
     L = q.shape[1] // 6
     ni = kind.shape[0]
     n = BLOCK * slot.shape[0]
@@ -380,12 +384,13 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
                 out[p, i, c] = s
 
 
-def _outjac_impl(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
-                 drive_rows, olink, opoint, ocoords, orient, oaxis, out):  # pragma: no cover - compiled
+def _outjac_impl(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots,
+                 pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis, out):  # pragma: no cover - compiled
     N = q.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
-        _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
-                      drive_rows, olink, opoint, ocoords, orient, oaxis, out, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
+        _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot,
+                      nslots, pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis, out, ch * _CHUNK, min(N,
+                      (ch + 1) * _CHUNK))
 
 
 _outjac_chunk = numba.njit(**_OPTS)(_outjac_chunk)
@@ -393,15 +398,16 @@ _outjac_parallel = numba.njit(parallel=True, **_OPTS)(_outjac_impl)
 
 
 @numba.njit(**_OPTS)
-def _outjac_serial(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
-                   drive_rows, olink, opoint, ocoords, orient, oaxis, out):  # pragma: no cover - compiled
-    _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots, pad, x0,
-                  drive_rows, olink, opoint, ocoords, orient, oaxis, out, 0, q.shape[0])
+def _outjac_serial(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot,
+                   nslots, pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis,
+                   out):  # pragma: no cover - compiled
+    _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots,
+                  pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis, out, 0, q.shape[0])
 
 
 def output_jacobian(system, q: Array, drives: Array, n_out: int) -> Array:
     """∂x_c/∂s (N, n_out, n_drives) of the controlled outputs (:mod:`pkmstiff.mechanisms.outputs`) per pose in
-    compiled code: F_q q_s = e_c by the normal equations on the elimination order (one skyline Cholesky factor for
+    compiled code: F_q q_s = e_c by the normal equations on the link blocks (one block Cholesky factor for
     all drives), times the output rates G, both in the Newton coordinates (incremental rotation vectors; κ does not
     depend on the parametrisation).  NaN rows where the normal matrix is singular (the caller falls back)."""
     fp = fused_plan(system)
@@ -415,10 +421,9 @@ def output_jacobian(system, q: Array, drives: Array, n_out: int) -> Array:
     N = q.shape[0]
     out = np.empty((N, n_out, drive_rows.size))
     kern = _outjac_parallel if N >= PARALLEL_MIN else _outjac_serial
-    kern(np.ascontiguousarray(q.reshape(N, -1), dtype=float), np.ascontiguousarray(drives, dtype=float),
-         system._om, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b, system.m,
-         system.n_fixed_rows, fp.cmap, fp.rb, fp.nptr, fp.nidx, fp.slot, fp.nslots, fp.pad, fp.x0, drive_rows, int(o.link),
-         np.asarray(o.point, dtype=float), np.asarray(o.coordinates, dtype=np.int64),
-         {"none": 0, "full": 1, "axis": 2}[o.orientation],
-         np.zeros(3) if o.axis is None else np.asarray(o.axis, dtype=float), out)
+    kern(np.ascontiguousarray(q.reshape(N, -1), dtype=float), np.ascontiguousarray(drives, dtype=float), system._om,
+         plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b, system.m,
+         system.n_fixed_rows, fp.cmap, fp.rb, fp.nptr, fp.nidx, fp.slot, fp.nslots, fp.pad, fp.x0, drive_rows,
+         int(o.link), np.asarray(o.point, dtype=float), np.asarray(o.coordinates, dtype=np.int64), {"none": 0,
+         "full": 1, "axis": 2}[o.orientation], np.zeros(3) if o.axis is None else np.asarray(o.axis, dtype=float), out)
     return out
