@@ -371,8 +371,8 @@ def _run(tasks: Sequence[SweepTask], n_jobs: int, scheduler: Any, progress: bool
     """Rows in task order. In the local pool every task goes to the workers at once, in batches sized as if a task
     took :data:`~pkmstiff.evaluation.parallel.MIN_LOCAL_TASK_SECONDS` (a sweep task builds and evaluates a machine:
     far longer), about four per worker, and none runs here: with as many workers as cores a task here would share a
-    core with a worker, and the one task more that one worker then ends with made the 12-task Hexaglide sweep 6 %
-    slower on 2 workers (docs/parallel.md). The plan's cost per task is the workers' mean. On Dask or serially the
+    core with a worker, and the one task more that one worker then ended with made the 12-task Hexaglide sweep about
+    6 % slower on 2 workers (docs/user-guide/parallel.md). The plan's cost per task is the workers' mean. On Dask or serially the
     first task (on Dask the first two) runs here and the measured time of the last of them sizes batches of the
     others (:func:`pkmstiff.evaluation.parallel.plan`; too little work stays serial)."""
     if scheduler is None and len(tasks) > 1 and resolve_workers(n_jobs) > 1:
