@@ -4,14 +4,14 @@ serial fraction s of an Amdahl fit T(n) = T(1) (s + (1 - s) / n) with the speed-
 
 Comparable runs: every command is first run once untimed (``--jobs 1``, the same arguments), then timed. The first run
 of a command in a process pays one-off costs that a later run does not: the numba kernels it uses are compiled (a
-fresh checkout has no on-disk cache: about 10 s of CPU for the small-N kernel of the sweep's point evaluation) or
-loaded from the cache; the modules it imports (a sweep builds machines from their files: scipy.spatial for the hull,
-the component splines, ≈ 0.7 s); caches inside the process. Timed without the untimed run, whichever run came first
-paid them (a 25 mm sweep measured 1.73 s on 1 worker and 0.51 s on 2, 169 % efficiency; a 5 mm sweep 28.1 s of CPU
-serially against 12.2 s on 16 workers). The local workers are forked from this process after it, so they inherit
-the imports and loaded kernels exactly as the serial run uses them. ``--repeat R`` runs each ``--jobs 1`` /
-``--jobs 2`` pair R times, alternating, and keeps the fastest of each (on a shared machine other load only slows a
-run down).
+fresh checkout has no on-disk cache: about 10 s of CPU in the first 5 mm sweep for kernels that the small section run
+first had not needed, such as the small-N pose kernel of its point evaluation) or loaded from the cache; the modules
+it imports (a sweep builds machines from their files: scipy.spatial for the hull, the component splines, ≈ 0.7 s);
+caches inside the process. Timed without the untimed run, whichever run came first paid them (a 25 mm sweep measured
+1.73 s on 1 worker and 0.51 s on 2, 169 % efficiency; a 5 mm sweep 28.1 s of CPU serially against 12.2 s on 16
+workers). The local workers are forked from this process after it, so they inherit the imports and loaded kernels
+exactly as the serial run uses them. ``--repeat R`` runs each ``--jobs 1`` / ``--jobs 2`` pair R times, alternating,
+and keeps the fastest of each (on a shared machine other load only slows a run down).
 
 Besides the fit from wall times, each parallel run measures the serial fraction from CPU time: the CPU seconds of this
 process (everything not in a worker: planning, sending, collecting, statistics, forks; not the work it does while its
@@ -36,8 +36,8 @@ run so every run pays its workers' start-up):
 cold and once with warm workers.
 
 Usage (from a clone, nothing installed): ``python benchmarks/bench_scaling.py [--max-workers N] [--workers 1,2,4]
-[--quick] [--only section,sweep-25] [--no-table] [--pairs sweep,section] [--repeat R] [--dask] [--json out.json]``. Default workers 1, 2,
-4, … up to N = os.cpu_count(). Runs without pyvista (unless ``--report-figures``).
+[--quick] [--only section,sweep-25] [--no-table] [--pairs sweep,section] [--repeat R] [--dask] [--json out.json]``.
+Default workers 1, 2, 4, … up to N = os.cpu_count(). Runs without pyvista (unless ``--report-figures``).
 """
 
 from __future__ import annotations
@@ -180,7 +180,7 @@ PAIR_SIZES: dict[str, tuple[float, float]] = {
     "section_step": (0.625, 1.25),  # mm
     "workspace_resolution": (2, 3.125),  # mm
     "rotation_map_step": (2, 6.25),  # mm
-    "report_step": (5, 25),  # mm, the sections of the report with --fast
+    "report_step": (4, 25),  # mm, the sections of the report with --fast (5 mm: 5.1 s of CPU serially, too close)
     "report_resolution": (12.5, 25),  # mm, its workspaces
     "sweep_step": (5, 10),  # mm, the sections of the 12-task sweep
     "optimise_budget": (96, 36),  # evaluations
