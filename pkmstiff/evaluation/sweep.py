@@ -8,8 +8,9 @@ of the modified machine returning named numbers (ready-made ones in :mod:`pkmsti
 
 Every task is the pure function :func:`run_task` of a picklable :class:`SweepTask`; a failing task records its
 error message in its row and never stops the sweep. Serial, local-parallel (the run's worker pool) and Dask
-(``dask.distributed.Client(address)``) execution give identical rows in task order; tasks travel in batches sized by
-the measured time of the first task (:mod:`pkmstiff.evaluation.parallel`).
+(``dask.distributed.Client(address)``) execution give identical rows in task order; tasks travel in batches, about
+four per local worker, on Dask sized by the measured time of a task run here first
+(:mod:`pkmstiff.evaluation.parallel`).
 
     from pkmstiff.evaluation.sweep import Parameter, Sweep, run_sweep
     from pkmstiff.report.sweep_evaluations import SectionStatistics
@@ -368,13 +369,13 @@ def _run_timed_batch(tasks: Sequence[SweepTask]) -> tuple[list[dict[str, Any]], 
 
 
 def _run(tasks: Sequence[SweepTask], n_jobs: int, scheduler: Any, progress: bool) -> tuple[list[dict[str, Any]], Plan]:
-    """Rows in task order. In the local pool every task goes to the workers at once, in batches sized as if a task
-    took :data:`~pkmstiff.evaluation.parallel.MIN_LOCAL_TASK_SECONDS` (a sweep task builds and evaluates a machine:
-    far longer), about four per worker, and none runs here: with as many workers as cores a task here would share a
-    core with a worker, and the one task more that one worker then ended with made the 12-task Hexaglide sweep about
-    6 % slower on 2 workers (docs/user-guide/parallel.md). The plan's cost per task is the workers' mean. On Dask or serially the
-    first task (on Dask the first two) runs here and the measured time of the last of them sizes batches of the
-    others (:func:`pkmstiff.evaluation.parallel.plan`; too little work stays serial)."""
+    """Rows in task order. In the local pool every task goes to the workers at once, in batches sized as if a task took
+    :data:`~pkmstiff.evaluation.parallel.MIN_LOCAL_TASK_SECONDS` (a sweep task builds and evaluates a machine: far
+    longer), about four per worker, and none runs here: with as many workers as cores a task here would share a core
+    with a worker, and the one task more that one worker then ended with made the 12-task Hexaglide sweep about 6 %
+    slower on 2 workers (docs/user-guide/parallel.md). The plan's cost per task is the workers' mean. On Dask or
+    serially the first task (on Dask the first two) runs here and the measured time of the last of them sizes
+    batches of the others (:func:`pkmstiff.evaluation.parallel.plan`; too little work stays serial)."""
     if scheduler is None and len(tasks) > 1 and resolve_workers(n_jobs) > 1:
         p = plan(len(tasks), MIN_LOCAL_TASK_SECONDS, n_jobs)
         batches = split(len(tasks), p)
@@ -402,8 +403,9 @@ def run_sweep(sweep: Sweep | Sequence[SweepTask], *, n_jobs: int = 1, scheduler:
 
     ``scheduler``: a Dask scheduler address (``"tcp://host:8786"``) or a ``dask.distributed.Client`` — the tasks
     are submitted to that cluster (``n_jobs`` is ignored). Otherwise ``n_jobs`` = 1 runs serially, > 1 (or -1 =
-    all cores) in the run's local worker pool, all tasks on the workers; serially and on Dask the first task
-    runs here and its time sizes batches of the others (:mod:`pkmstiff.evaluation.parallel`). All give identical rows; ``result.plan`` says how the work was split.
+    all cores) in the run's local worker pool, all tasks on the workers; serially and on Dask the first task runs
+    here and its time sizes batches of the others (:mod:`pkmstiff.evaluation.parallel`). All give identical rows;
+    ``result.plan`` says how the work was split.
     """
     tasks = sweep.tasks() if isinstance(sweep, Sweep) else list(sweep)
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs == 0:
