@@ -337,13 +337,14 @@ def round_trip(scheduler: Any) -> float:
     address and process): the scheduler's overhead per task."""
     rec = _cluster(scheduler)
     if rec.round_trip is None:
-        if not rec.warm:  # a cold worker answers late (it imports pkmstiff): not a measurement of the scheduler
+        warm = [a for a in rec.threads or {} if a in rec.warm]
+        if not warm:  # a cold worker answers late (it imports pkmstiff): not a measurement of the scheduler
             return ROUND_TRIP_SECONDS
         c, best = client(scheduler), float("inf")
         t0 = time.perf_counter()
         for _ in range(3):
             t = time.perf_counter()
-            c.submit(_noop, pure=False, workers=list(rec.warm), allow_other_workers=False).result()
+            c.submit(_noop, pure=False, workers=warm, allow_other_workers=False).result()
             best = min(best, time.perf_counter() - t)
         rec.paid("round trips", t0)
         rec.round_trip = best
@@ -602,10 +603,13 @@ def _run_on_dask(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, sched
             f.add_done_callback(lambda f, i=i: finished(i, f))
 
     def finished(i: int, f: Any) -> None:  # in a thread of the client
-        value = f.result() if f.status == "finished" else None
+        try:
+            value, ok = (f.result(), True) if f.status == "finished" else (None, False)
+        except Exception:  # noqa: BLE001 - a result lost on its way here: this process computes the task
+            value, ok = None, False
         with lock:
             running.pop(i, None)
-            if f.status == "finished" and not done[i]:
+            if ok and not done[i]:
                 out[i], done[i] = value, True
             if f.status != "cancelled":
                 send()
