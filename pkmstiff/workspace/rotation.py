@@ -158,9 +158,9 @@ class _Evaluator:
         out = np.empty(len(poses), bool)
         for s in range(0, len(poses), FUSED_CHUNK):
             x = np.ascontiguousarray(poses[s:s + FUSED_CHUNK])
-            fused = fastpath.evaluate_small(self.machine, x, self.checks, self.load)
-            out[s:s + len(x)] = (fused[0]["admissibility"].ok if fused is not None
-                                 else evaluate_chunk(self.machine, x, self.checks, self.load).admissibility.ok)
+            ok = fastpath.admissible_small(self.machine, x, self.checks, self.load)
+            out[s:s + len(x)] = ok if ok is not None else evaluate_chunk(self.machine, x, self.checks,
+                                                                         self.load).admissibility.ok
         return out
 
 
@@ -207,19 +207,21 @@ def angle_search(
     ev = _Evaluator(machine, checks, reqs)
     nv, nu = base.shape[:2]
     flat = base.reshape(-1, 6)
-    t0 = time.perf_counter()
-    base_ok = ev(flat)
     base_evals = flat.shape[0]
     search = (u, v, increment, K, method, verify, block)
     with parallel.connected(scheduler):
-        p = parallel.plan(len(dirs), (time.perf_counter() - t0) * POSES_PER_POINT, n_jobs, scheduler,
+        base_ok, point_seconds, shared = _base_check(ev, flat, n_jobs, scheduler)
+        p = parallel.plan(len(dirs), point_seconds * flat.shape[0] * POSES_PER_POINT, n_jobs, scheduler,
                           granule=direction_group(len(dirs), n_jobs, scheduler))
         if p.parallel:
-            shared = parallel.Shared(machine)
-            parts = parallel.run_tasks(_search_task, [(shared, checks, reqs, flat.reshape(nv, nu, 6), base_ok, dvec[a:b],
-                                                       search) for a, b in parallel.split(len(dirs), p)], p, scheduler)
-            kbest, evals, fixes = (np.concatenate([part[i] for part in parts], axis=-1 if i == 0 else 0)
-                                   for i in range(3))
+            shared = shared or parallel.Shared(machine)
+            inside = flat[base_ok]
+            parts = parallel.run_tasks(_search_task, [(shared, checks, reqs, (nv, nu), base_ok, inside, dvec[a:b],
+                                                       search) for a, b in parallel.split(len(dirs), p)],
+                                       p, scheduler)
+            kbest = np.full((nv * nu, len(dirs)), -1, np.int64)
+            kbest[base_ok] = np.concatenate([part[0] for part in parts], axis=1)
+            evals, fixes = (np.concatenate([part[i] for part in parts]) for i in (1, 2))
         else:
             kbest, evals, fixes = _search(ev, flat.reshape(nv, nu, 6), base_ok, dvec, search)
     angles, at_limit, plain_seq = {}, {}, {}
@@ -262,10 +264,41 @@ def _search(ev: _Evaluator, base: np.ndarray, base_ok: np.ndarray, dvec: np.ndar
 
 
 def _search_task(machine: parallel.Shared[Machine], checks: Sequence[str], reqs: Sequence[Requirement],
-                 base: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray,
+                 shape: tuple[int, int], base_ok: np.ndarray, inside: np.ndarray, dvec: np.ndarray,
                  search: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One task: :func:`_search` of some directions in a worker."""
-    return _search(_Evaluator(machine.get(), checks, reqs), base, base_ok, dvec, search)
+    """One task: :func:`_search` of some directions in a worker, from the base poses ``inside`` (those where
+    ``base_ok``, the only ones a search evaluates); returns kbest of those points only, in the smallest integer
+    type that holds it (-1 .. K), and the counts."""
+    base = np.zeros((base_ok.size, 6))
+    base[base_ok] = inside
+    kbest, evals, fixes = _search(_Evaluator(machine.get(), checks, reqs), base.reshape(*shape, 6), base_ok, dvec,
+                                  search)
+    return kbest[base_ok].astype(np.min_scalar_type(-max(search[3], 1))), evals, fixes
+
+
+def _base_check(ev: _Evaluator, flat: np.ndarray, n_jobs: int, scheduler: Any
+                ) -> tuple[np.ndarray, float, parallel.Shared[Machine] | None]:
+    """Admissibility of the base poses ``flat`` (P, 6): the first :data:`FUSED_CHUNK` here, timed (seconds per
+    point, which sizes the tasks), the rest in tasks of whole chunks of :data:`FUSED_CHUNK` (the chunks the serial
+    run evaluates) in the workers where that pays. Returns (base_ok, seconds per point, the machine as sent to the
+    workers or None)."""
+    t0 = time.perf_counter()
+    first = ev(flat[:FUSED_CHUNK])
+    seconds = (time.perf_counter() - t0) / max(min(len(flat), FUSED_CHUNK), 1)
+    rest = flat[FUSED_CHUNK:]
+    p = parallel.plan(len(rest), seconds, n_jobs, scheduler, granule=FUSED_CHUNK)
+    if not p.parallel:
+        return np.concatenate([first, ev(rest)]), seconds, None
+    shared = parallel.Shared(ev.machine)
+    parts = parallel.run_tasks(_base_task, [(shared, ev.checks, ev.reqs, rest[a:b])
+                                            for a, b in parallel.split(len(rest), p)], p, scheduler)
+    return np.concatenate([first, *parts]), seconds, shared
+
+
+def _base_task(machine: parallel.Shared[Machine], checks: Sequence[str], reqs: Sequence[Requirement],
+               poses: np.ndarray) -> np.ndarray:
+    """One task of the base check: admissibility of ``poses`` in a worker."""
+    return _Evaluator(machine.get(), checks, reqs)(poses)
 
 
 def _plain(ev: _Evaluator, flat: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray, inc: float, K: int,
@@ -335,33 +368,37 @@ def _steps(ev: _Evaluator, pts: np.ndarray, dvec: np.ndarray, inc: float, K: int
     """One batch of the corrector (in place on ``active``, ``cur``, ``result``, ``evals``; (P, D) arrays): each active
     search walks from ``cur`` upwards (``up``; to the last admissible increment ≤ K) or downwards (to the first
     admissible increment; increment 0 is the base orientation, admissible) by up to L increments."""
-    pi, di = np.nonzero(active)
-    A = pi.size
+    D = active.shape[1]
+    at = np.flatnonzero(active)  # the active (point, direction) pairs, row-major
+    pi, di = np.divmod(at, D)
+    A = at.size
     L = max(1, min(LOOKAHEAD, LOOKAHEAD_POSES // A))
-    u = up[pi, di]
-    c = cur[pi, di]
+    u = up.ravel()[at]
+    c = cur.ravel()[at]
     sign = np.where(u, 1, -1)
-    room = np.where(u, K - c, c - 1)  # increments left before K (up) or before the base orientation (down)
-    n = np.minimum(room, L)
-    j = np.arange(1, L + 1)
-    valid = j[None, :] <= n[:, None]
-    r, col = np.nonzero(valid)  # increment col + 1 of search r
+    n = np.minimum(np.where(u, K - c, c - 1), L)  # increments left before K (up) / the base orientation (down)
+    if L == 1:
+        r = np.flatnonzero(n)
+        col = np.zeros(r.size, np.int64)
+    else:
+        r, col = np.nonzero(np.arange(1, L + 1)[None, :] <= n[:, None])  # increment col + 1 of search r
     ok = np.zeros((A, L), bool)
     if r.size:
         ok[r, col] = ev(pts[pi[r]] + ((c[r] + sign[r] * (col + 1)) * inc)[:, None] * dvec[di[r]])
     # the first increment where the search stops: inadmissible (up) or admissible (down); L + 1 where none
-    stop = np.where(valid & (ok != u[:, None]), j[None, :], L + 1).min(axis=1)
+    j = np.arange(1, L + 1)
+    stop = np.where((j[None, :] <= n[:, None]) & (ok != u[:, None]), j[None, :], L + 1).min(axis=1)
     stopped = stop <= n
     walked = np.where(stopped, stop, n)  # the increments the one-at-a-time search evaluates
-    np.add.at(evals, di, walked)
+    evals += np.bincount(di, walked, D).astype(np.int64)
     new = c + sign * walked
     res = np.where(u, np.where(stopped, new - 1, new), np.where(stopped, new, 0))
     done = stopped | np.where(u, new >= K, new <= 1)
     # upwards: the last admissible increment so far; downwards: set once the search ends (0: the base orientation)
     keep = u | done
-    result[pi[keep], di[keep]] = res[keep]
-    cur[pi, di] = new
-    active[pi[done], di[done]] = False
+    result.ravel()[at[keep]] = res[keep]
+    cur.ravel()[at] = new
+    active.ravel()[at[done]] = False
 
 
 def _prediction(f: np.ndarray, u: np.ndarray, v: np.ndarray, m: np.ndarray, n: np.ndarray) -> np.ndarray:
