@@ -24,7 +24,8 @@ a point admissible up to K reports K * increment (``at_limit``).
   range is checked; a point with an inadmissible gap gets the plain-search result (spec caveat). With it the
   result always equals the plain search.
 
-The base-orientation check is done once per raster point and shared by all directions and both methods.
+The base-orientation check is done once per raster point and shared by all directions and both methods (in tasks of
+whole chunks when the search runs in parallel).
 Evaluation counts: ``evaluations[dir]`` = poses evaluated by the search in that direction (excluding the shared
 base check); ``plain_sequential[dir]`` = what a plain search stopping at the first inadmissible increment needs
 (k* + 2 per point, K + 1 at the limit, 0 outside): the reference for the savings.
@@ -57,9 +58,9 @@ DIRECTIONS: dict[str, tuple[int, int, int]] = {
 SIX_DIRECTIONS = ("+a", "-a", "+b", "-b", "+a+b", "-a-b")
 Method = Literal["predictor_corrector", "plain"]
 #: the time of one direction's search in units of the base check of the raster: sizes the parallel tasks before any
-#: search has run (measured 1.3–3.5 on the Hexaglide's yz maps of 6.25–25 mm, directions searched together; ~1.5
-#: times more per direction in a task of fewer directions)
-POSES_PER_POINT = 2.5
+#: search has run (measured 0.65-0.85 on the Hexaglide's yz maps of 1.5625-3.125 mm, six directions searched
+#: together, both through the fused kernel; ~1.2 times more per direction in a task of three)
+POSES_PER_POINT = 1.0
 
 
 
@@ -183,10 +184,12 @@ def angle_search(
 ) -> RotationMapResult:
     """Maximum admissible angles from ``base_poses`` (nv, nu, 6) on the raster (u_values, v_values); see module doc.
 
-    ``n_jobs`` > 1 (-1: all cores) / ``scheduler`` (Dask): the directions are searched as separate tasks in the run's
-    worker pool / on the cluster (:mod:`pkmstiff.evaluation.parallel`; the searches of different directions do not
-    interact, so the angles and counts are the same whatever the plan); the base check runs here and its measured
-    time, times :data:`POSES_PER_POINT`, sizes the tasks; ``result.plan`` keeps the plan."""
+    ``n_jobs`` > 1 (-1: all cores) / ``scheduler`` (Dask): the base check runs in tasks of whole chunks of
+    :data:`FUSED_CHUNK` points (the first chunk here, timed), then the directions are searched as separate tasks in
+    the run's worker pool / on the cluster (:mod:`pkmstiff.evaluation.parallel`; the searches of different directions
+    do not interact, so the angles and counts are the same whatever the plan); the measured time of the first chunk,
+    times the raster's points and :data:`POSES_PER_POINT`, sizes the search tasks; ``result.plan`` keeps the search's
+    plan."""
     u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
     base = np.asarray(base_poses, float)
     if base.shape != (v.size, u.size, 6) or not np.isfinite(base).all():
@@ -240,9 +243,10 @@ def angle_search(
 
 
 def direction_group(n_directions: int, n_jobs: int, scheduler: Any = None) -> int:
-    """Directions per task: a search evaluates all its directions in one batch per step, and the fixed cost of a
-    batch (~0.26 ms, most batches holding a few poses) dominates small rasters, so every task repeats it: local
-    workers get one group of directions each (2 workers, 6 directions: 2 tasks of 3, not 6 tasks of 1)."""
+    """Directions per task: a search evaluates all its directions in one batch per step, and every task makes about
+    as many batches as the serial search (the anti-diagonals follow one another), each with a fixed cost (~0.25 ms:
+    the corrector's bookkeeping and the kernel call, ~100 poses' worth), so local workers get one group of
+    directions each (2 workers, 6 directions: 2 tasks of 3, not 6 tasks of 1)."""
     return 1 if scheduler is not None else math.ceil(n_directions / parallel.resolve_workers(n_jobs))
 
 
@@ -356,8 +360,9 @@ def _predictor_corrector(ev: _Evaluator, base: np.ndarray, base_ok: np.ndarray, 
 
 
 #: when few searches of an anti-diagonal are still walking, each batch evaluates up to this many next increments of
-#: each at once (most batches held a few poses and cost ~0.26 ms each, ~50 times a pose); only the increments the
-#: one-at-a-time search evaluates are counted and used, so the angles and counts are those of that search
+#: each at once (a batch costs ~0.25 ms besides its poses, ~100 poses' worth; larger look-aheads evaluated more
+#: poses than they saved batches, measured with the fused kernel at 2 mm); only the increments the one-at-a-time
+#: search evaluates are counted and used, so the angles and counts are those of that search
 LOOKAHEAD = 4
 #: ... as long as the batch holds at most this many poses
 LOOKAHEAD_POSES = 64
@@ -377,19 +382,21 @@ def _steps(ev: _Evaluator, pts: np.ndarray, dvec: np.ndarray, inc: float, K: int
     c = cur.ravel()[at]
     sign = np.where(u, 1, -1)
     n = np.minimum(np.where(u, K - c, c - 1), L)  # increments left before K (up) / the base orientation (down)
-    if L == 1:
+    if L == 1:  # most batches: one increment of each search that has one left (n = 0 or 1)
         r = np.flatnonzero(n)
-        col = np.zeros(r.size, np.int64)
+        ok = np.zeros(A, bool)
+        ok[r] = ev(pts[pi[r]] + ((c[r] + sign[r]) * inc)[:, None] * dvec[di[r]])
+        stopped = (n > 0) & (ok != u)
+        walked = n
     else:
         r, col = np.nonzero(np.arange(1, L + 1)[None, :] <= n[:, None])  # increment col + 1 of search r
-    ok = np.zeros((A, L), bool)
-    if r.size:
+        ok = np.zeros((A, L), bool)
         ok[r, col] = ev(pts[pi[r]] + ((c[r] + sign[r] * (col + 1)) * inc)[:, None] * dvec[di[r]])
-    # the first increment where the search stops: inadmissible (up) or admissible (down); L + 1 where none
-    j = np.arange(1, L + 1)
-    stop = np.where((j[None, :] <= n[:, None]) & (ok != u[:, None]), j[None, :], L + 1).min(axis=1)
-    stopped = stop <= n
-    walked = np.where(stopped, stop, n)  # the increments the one-at-a-time search evaluates
+        # the first increment where the search stops: inadmissible (up) or admissible (down); L + 1 where none
+        j = np.arange(1, L + 1)
+        stop = np.where((j[None, :] <= n[:, None]) & (ok != u[:, None]), j[None, :], L + 1).min(axis=1)
+        stopped = stop <= n
+        walked = np.where(stopped, stop, n)  # the increments the one-at-a-time search evaluates
     evals += np.bincount(di, walked, D).astype(np.int64)
     new = c + sign * walked
     res = np.where(u, np.where(stopped, new - 1, new), np.where(stopped, new, 0))
