@@ -150,11 +150,14 @@ class _Evaluator:
         self.machine, self.checks, self.reqs = machine, tuple(checks), list(reqs)
         self.stats = EvaluationStats()
         self.load = drive_load_data(machine)
+        self.fused = False  # set once the fused kernel applies (the compiled kernels load on the first large call)
 
     def __call__(self, poses: np.ndarray) -> np.ndarray:
         if len(poses) == 0:
             return np.zeros(0, bool)
-        if self.reqs or not fastpath.usable(self.machine, 1):  # 1: the machine and the kernels, not the size
+        # usable(.., 1): the machine and the kernels, not the size
+        self.fused = self.fused or (not self.reqs and fastpath.usable(self.machine, 1))
+        if not self.fused:
             return staged_admissible(self.machine, poses, self.checks, self.reqs, self.stats)
         out = np.empty(len(poses), bool)
         for s in range(0, len(poses), FUSED_CHUNK):
