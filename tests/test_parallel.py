@@ -215,7 +215,7 @@ def _same_files_but_timing(a: Path, b: Path, summary: str) -> None:
 
 
 def test_rotation_map_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
-    import pkmstiff.workspace.rotation as rotation
+    from pkmstiff.workspace import rotation
 
     _split_small_work(monkeypatch)
     monkeypatch.setattr(rotation, "FUSED_CHUNK", 64)  # the base check's 345 points: the first 64 here, 5 tasks

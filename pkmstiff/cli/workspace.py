@@ -275,8 +275,13 @@ def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import ArgumentError
-    from pkmstiff.evaluation.cost import (BASE_SECONDS, admissible_fraction, plane_points, rotation_base_seconds,
-                                          rotation_map_cost)
+    from pkmstiff.evaluation.cost import (
+        BASE_SECONDS,
+        admissible_fraction,
+        plane_points,
+        rotation_base_seconds,
+        rotation_map_cost,
+    )
     from pkmstiff.evaluation.sections import raster, raster_count
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest

@@ -42,7 +42,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
-import pkmstiff.admissibility.fastpath as fastpath
+from pkmstiff.admissibility import fastpath
 from pkmstiff.admissibility.pipeline import evaluate_chunk
 from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation import parallel
