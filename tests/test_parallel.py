@@ -247,13 +247,18 @@ def _same_files_but_timing(a: Path, b: Path, summary: str) -> None:
 
 
 def test_rotation_map_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
+    from pkmstiff.workspace import rotation
+
     _split_small_work(monkeypatch)
+    monkeypatch.setattr(rotation, "FUSED_CHUNK", 64)  # the base check's 345 points: the first 64 here, 5 tasks
     base = ["rotation-map", "hexaglide", "--plane", "yz", "--range", "y=-200:900,z=-1200:-500", "--step", "50",
             "--increment", "2", "--directions", "+a,-a,+b", "--no-plot"]
     for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
         assert main([*base, *extra, "--out", str(tmp_path / name)]) == 0
     err = capsys.readouterr().err
-    assert "2 local workers, 2 tasks of 2 directions" in err  # the plan: one group of directions per worker
+    # the plan: the base check in tasks of whole chunks, then one group of directions per worker
+    assert "base check 2 local workers, 5 tasks of 64 points" in err
+    assert "search 2 local workers, 2 tasks of 2 directions" in err
     _same_files_but_timing(tmp_path / "1", tmp_path / "2", "rotation_map.json")
     _same_files_but_timing(tmp_path / "1", tmp_path / "dask", "rotation_map.json")
 
