@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -9,7 +10,7 @@ from typing import Sequence
 import numpy as np
 
 from pkmstiff.evaluation.sections import SectionResult
-from pkmstiff.io.atomic import atomic_path
+from pkmstiff.io.atomic import atomic_open, atomic_path
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch
@@ -217,7 +218,19 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size: t
     ``window_size`` (px) fixes
     the canvas; by default it follows the plane's aspect so that the map fills the figure.
     """
-    return _save(section_figure(res, name, window_size, cmap, clim)[0], path)
+    path = Path(path)
+    with atomic_open(path, "wb") as fh:
+        fh.write(section_png(res, name, window_size, cmap, clim))
+    return path
+
+
+def section_png(res: SectionResult, name: str, window_size: tuple[int, int] | None = None, cmap: str = "viridis",
+                clim: tuple[float, float] | None = None) -> bytes:
+    """The PNG bytes of :func:`plot_section` (the report renders its maps in its worker pool and writes them
+    here)."""
+    buf = io.BytesIO()
+    section_figure(res, name, window_size, cmap, clim)[0].savefig(buf, format="png", dpi=100, facecolor="white")
+    return buf.getvalue()
 
 
 def section_figure(res: SectionResult, name: str, window_size: tuple[int, int] | None = None, cmap: str = "viridis",
