@@ -9,8 +9,9 @@ from __future__ import annotations
 import contextlib
 import math
 import re
+import threading
 import time
-from concurrent.futures import FIRST_COMPLETED, Future, wait
+from concurrent.futures import Future
 from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -242,8 +243,9 @@ def report_plan(spec: ReportSpec, jobs: int, scheduler: Any = None) -> tasks.Rep
 
 
 class _Work:
-    """A report's evaluations and figures, started by a :class:`~pkmstiff.report.tasks.Runner` (sections first, so
-    that their maps can start while the workspaces are evaluated) and collected in the spec's order."""
+    """A report's evaluations and figures, started by a :class:`~pkmstiff.report.tasks.Runner` and collected in the
+    spec's order. A section finished for every variant sends its maps at once (a callback of its futures, also while
+    this thread draws a workspace figure); a finished workspace gets its figure in this thread."""
 
     def __init__(self, spec: ReportSpec, pairs: list, runner: tasks.Runner, out: Path,
                  log: Callable[[str], None]) -> None:
@@ -251,48 +253,40 @@ class _Work:
         if runner.plan.pool and runner.plan.maps:
             import pkmstiff.plots.section_maps  # noqa: F401  (before the pool forks: its workers inherit matplotlib)
         ws = spec.workspace
-        self._section_futures: list[list[Future]] = []
-        self._workspace_futures: list[Future] = []
         self.sections: list[list[SectionResult] | None] = [None] * len(spec.sections)
         self.workspaces: list[WorkspaceResult | None] = [None] * (len(pairs) if ws is not None else 0)
         self._maps: list[list[tuple[Path, str, Future]]] = [[] for _ in spec.sections]
         self._ws_figures: list[Figure | None] = [None] * len(self.workspaces)
+        self._section_futures: list[list[Future]] = []
+        self._workspace_futures: list[Future] = []
+        self._lock, self._changed, self._error = threading.Lock(), threading.Event(), None
         try:
-            for sec in spec.sections:
-                self._section_futures.append([runner.evaluate(_section_request(sec, v, spec.frame), m)
-                                              for v, m in pairs])
-                self._handle()
             for v, m in pairs if ws is not None else []:
                 self._workspace_futures.append(runner.evaluate(_workspace_request(spec, v), m, ws.figures))
-                self._handle()
+                self._workspace_futures[-1].add_done_callback(lambda _: self._changed.set())
+            for k, sec in enumerate(spec.sections):
+                futures = [runner.evaluate(_section_request(sec, v, spec.frame), m) for v, m in pairs]
+                self._section_futures.append(futures)
+                for f in futures:
+                    f.add_done_callback(lambda _, k=k: self._section_finished(k))
         except BaseException:
             self._cancel()
             raise
 
-    def _futures(self) -> list[Future]:
-        return [f for fs in self._section_futures for f in fs] + self._workspace_futures + \
-            [f for maps in self._maps for _, _, f in maps]
-
     def _cancel(self) -> None:
-        for f in self._futures():
+        for f in [*self._workspace_futures, *(f for fs in self._section_futures for f in fs),
+                  *(f for maps in self._maps for _, _, f in maps)]:
             f.cancel()
 
-    def _handle(self) -> bool:
-        """Take the finished evaluations: a section finished for every variant sends its maps, a finished workspace
-        gets its figure (at most one per call, so that finished sections send their maps in between). True when
-        something was taken."""
-        taken = False
-        for k, futures in enumerate(self._section_futures):
-            if self.sections[k] is None and all(f.done() for f in futures):
-                self.sections[k] = self._section_done(k, futures)
-                taken = True
-        for i, f in enumerate(self._workspace_futures):
-            if self.workspaces[i] is None and f.done():
-                self._workspace_done(i, f)
-                if self.spec.workspace.figures:
-                    return True
-                taken = True
-        return taken
+    def _section_finished(self, k: int) -> None:
+        """Callback of section ``k``'s futures: once all are done, take the results and send the maps."""
+        with self._lock:
+            if self.sections[k] is None and all(f.done() for f in self._section_futures[k]):
+                try:
+                    self.sections[k] = self._section_done(k, self._section_futures[k])
+                except BaseException as exc:  # raised in collect(), in the thread that waits
+                    self._error = self._error or exc
+        self._changed.set()
 
     def _section_done(self, k: int, futures: list[Future]) -> list[SectionResult]:
         sec, results = self.spec.sections[k], []
@@ -313,10 +307,15 @@ class _Work:
                 self._maps[k].append((path, caption, self.runner.map_png(res, q, clim)))
         return results
 
-    def _workspace_done(self, i: int, future: Future) -> None:
-        v, m = self.pairs[i]
-        ws = self.spec.workspace
-        res, seconds = self.runner.result(future)
+    def _workspace_finished(self) -> bool:
+        """Take one finished workspace (and draw its figure); False when none is waiting."""
+        for i, f in enumerate(self._workspace_futures):
+            if self.workspaces[i] is None and f.done():
+                break
+        else:
+            return False
+        (v, m), ws = self.pairs[i], self.spec.workspace
+        res, seconds = self.runner.result(f)
         self.workspaces[i] = res
         self.log(f"workspace {v.name}: {res.volume:.4f} m^3 ({seconds:.1f} s)")
         if ws.figures:
@@ -324,17 +323,24 @@ class _Work:
 
             with parallel.meanwhile_work(time.process_time) if self.runner.plan.pool else contextlib.nullcontext():
                 path = plot_workspace(res, m, self.out / "workspace" / f"{_slug(v.name)}.png")
-            ori = _workspace_request(self.spec, v).orientation
-            self._ws_figures[i] = Figure(path, f"{v.name}: workspace at a, b, c = {_fmt_deg(ori)} deg, "
+            self._ws_figures[i] = Figure(path, f"{v.name}: workspace at a, b, c = "
+                                               f"{_fmt_deg(_workspace_request(self.spec, v).orientation)} deg, "
                                                f"resolution {ws.resolution * 1e3:g} mm, V = {res.volume:.4g} m^3")
+        return True
 
     def collect(self) -> tuple[list[Figure], list[tuple[SectionSpec, list[Figure]]]]:
         """Wait for every evaluation and map, write the maps; (workspace figures, (section, its maps) of the
         sections with maps)."""
         try:
-            while any(x is None for x in [*self.sections, *self.workspaces]):
-                if not self._handle():
-                    wait([f for f in self._futures() if not f.done()], return_when=FIRST_COMPLETED)
+            while True:
+                if self._error is not None:
+                    raise self._error
+                if self._workspace_finished():
+                    continue
+                if all(x is not None for x in [*self.sections, *self.workspaces]):
+                    break
+                self._changed.wait()  # set after each change of state: a change before the clear is seen above
+                self._changed.clear()
             maps = []
             for sec, figs in zip(self.spec.sections, self._maps):
                 for path, _, f in figs:
