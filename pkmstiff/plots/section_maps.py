@@ -200,11 +200,16 @@ def _map_figure(res: SectionResult, window_size: tuple[int, int] | None, legend_
     return fig, ax
 
 
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, facecolor="white")
+    return buf.getvalue()
+
+
 def _save(fig, path: str | Path) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, facecolor="white")
+    with atomic_open(path, "wb") as fh:
+        fh.write(_png(fig))
     return path
 
 
@@ -218,19 +223,14 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size: t
     ``window_size`` (px) fixes
     the canvas; by default it follows the plane's aspect so that the map fills the figure.
     """
-    path = Path(path)
-    with atomic_open(path, "wb") as fh:
-        fh.write(section_png(res, name, window_size, cmap, clim))
-    return path
+    return _save(section_figure(res, name, window_size, cmap, clim)[0], path)
 
 
 def section_png(res: SectionResult, name: str, window_size: tuple[int, int] | None = None, cmap: str = "viridis",
                 clim: tuple[float, float] | None = None) -> bytes:
     """The PNG bytes of :func:`plot_section` (the report renders its maps in its worker pool and writes them
     here)."""
-    buf = io.BytesIO()
-    section_figure(res, name, window_size, cmap, clim)[0].savefig(buf, format="png", dpi=100, facecolor="white")
-    return buf.getvalue()
+    return _png(section_figure(res, name, window_size, cmap, clim)[0])
 
 
 def section_figure(res: SectionResult, name: str, window_size: tuple[int, int] | None = None, cmap: str = "viridis",
