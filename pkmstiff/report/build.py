@@ -260,18 +260,29 @@ class _Work:
         self._section_futures: list[list[Future]] = []
         self._workspace_futures: list[Future] = []
         self._lock, self._changed, self._error = threading.Lock(), threading.Event(), None
+        # the longest tasks first (a section outlasts a workspace at the usual steps), and the sections' maps queue
+        # behind the workspaces while the last section runs; but the workspaces first where this process draws
+        # their figures, so that it draws while the workers run
+        starts = [self._start_sections, self._start_workspaces]
         try:
-            for v, m in pairs if ws is not None else []:
-                self._workspace_futures.append(runner.evaluate(_workspace_request(spec, v), m, ws.figures))
-                self._workspace_futures[-1].add_done_callback(lambda _: self._changed.set())
-            for k, sec in enumerate(spec.sections):
-                futures = [runner.evaluate(_section_request(sec, v, spec.frame), m) for v, m in pairs]
-                self._section_futures.append(futures)
-                for f in futures:
-                    f.add_done_callback(lambda _, k=k: self._section_finished(k))
+            for start in starts[::-1] if ws is not None and ws.figures else starts:
+                start()
         except BaseException:
             self._cancel()
             raise
+
+    def _start_sections(self) -> None:
+        for k, sec in enumerate(self.spec.sections):
+            futures = [self.runner.evaluate(_section_request(sec, v, self.spec.frame), m) for v, m in self.pairs]
+            self._section_futures.append(futures)
+            for f in futures:
+                f.add_done_callback(lambda _, k=k: self._section_finished(k))
+
+    def _start_workspaces(self) -> None:
+        for v, m in self.pairs if self.spec.workspace is not None else []:
+            self._workspace_futures.append(self.runner.evaluate(_workspace_request(self.spec, v), m,
+                                                                self.spec.workspace.figures))
+            self._workspace_futures[-1].add_done_callback(lambda _: self._changed.set())
 
     def _cancel(self) -> None:
         for f in [*self._workspace_futures, *(f for fs in self._section_futures for f in fs),
