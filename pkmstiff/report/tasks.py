@@ -108,6 +108,7 @@ class Runner:
         return parallel.submit(self.plan.workers, map_task, res, name, clim)
 
     def result(self, future: Future) -> Any:
+        """The result of a future of :meth:`evaluate` or :meth:`map_png` (a task's exception raised here)."""
         return parallel.result(future, self.plan.workers)
 
 
@@ -129,6 +130,7 @@ def evaluate_task(machine: Machine | parallel.Shared[Machine], request: SectionR
 
 
 def map_task(res: SectionResult, name: str, clim: tuple[float, float] | None) -> bytes:
+    """The PNG bytes of one section map (:func:`pkmstiff.plots.section_maps.section_png`)."""
     from pkmstiff.plots.section_maps import section_png
 
     return section_png(res, name, clim=clim)
