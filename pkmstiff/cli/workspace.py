@@ -275,11 +275,17 @@ def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import ArgumentError
-    from pkmstiff.evaluation.cost import BASE_SECONDS, admissible_fraction, plane_points, rotation_map_cost
+    from pkmstiff.evaluation.cost import (
+        BASE_SECONDS,
+        admissible_fraction,
+        plane_points,
+        rotation_base_seconds,
+        rotation_map_cost,
+    )
     from pkmstiff.evaluation.sections import raster, raster_count
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
-    from pkmstiff.workspace.rotation import DIRECTIONS, direction_group, rotational_workspace_map
+    from pkmstiff.workspace.rotation import DIRECTIONS, FUSED_CHUNK, direction_group, rotational_workspace_map
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
@@ -323,8 +329,12 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                            to_machine_frame(machine, origin, args.frame), ua, va)
         frac = admissible_fraction(machine, pts, ori, checks_without(args.skip_check, "--skip-check"))
     cost = rotation_map_cost(nu * nv, frac, nu + nv - 1, len(dirs), inc, amax, method == "plain", args.verify)
-    plan = predicted_plan(len(dirs), cost.seconds - BASE_SECONDS, jobs, scheduler, "directions",  # start-up: here
-                          direction_group(len(dirs), jobs, scheduler))
+    base_s = rotation_base_seconds(nu * nv)
+    rest = max(nu * nv - FUSED_CHUNK, 0)  # the first chunk of the base check runs here, timed
+    base_plan = predicted_plan(rest, base_s * rest / (nu * nv), jobs, scheduler, "points", FUSED_CHUNK)
+    search_plan = predicted_plan(len(dirs), cost.seconds - BASE_SECONDS - base_s, jobs, scheduler, "directions",
+                                 direction_group(len(dirs), jobs, scheduler))
+    plan = f"base check {base_plan}; search {search_plan}"
     announce("rotation-map", cost.named(f"{len(dirs)} direction(s) on {nu * nv:,} raster points, increment "
                                         f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json, plan=plan)
     t0 = time.perf_counter()
