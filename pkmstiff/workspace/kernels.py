@@ -7,6 +7,8 @@ thousands of points, so there is no interpreted twin.
 
 The hash table: open addressing with linear probing over a power-of-two number of slots, int64 keys >= 0 (the keys of
 lattice points, :class:`pkmstiff.workspace.octree.Lattice`; queries may be any int64), -1 = empty slot; the value of a key is an int64 (a leaf number).
+Key and value of a slot lie side by side (``slots[2 h]``, ``slots[2 h + 1]``): a look-up that finds its key reads
+one cache line, not two (the closure's and the mesh's look-ups are memory-latency bound).
 """
 
 from __future__ import annotations
@@ -25,42 +27,42 @@ def _slot(key, shift):
 
 
 @_jit
-def table_insert(slots, values, shift, keys, vals):
+def table_insert(slots, shift, keys, vals):
     """Insert ``keys`` (distinct from each other and from the table's) with ``vals``."""
-    mask = slots.size - 1
+    mask = slots.size // 2 - 1
     for i in range(keys.size):
         k = keys[i]
         h = _slot(k, shift)
-        while slots[h] != -1:
+        while slots[2 * h] != -1:
             h = (h + 1) & mask
-        slots[h] = k
-        values[h] = vals[i]
+        slots[2 * h] = k
+        slots[2 * h + 1] = vals[i]
 
 
 @_jit
-def _find(slots, values, shift, k):
-    mask = slots.size - 1
+def _find(slots, shift, k):
+    mask = slots.size // 2 - 1
     h = _slot(k, shift)
     while True:
-        s = slots[h]
+        s = slots[2 * h]
         if s == -1:  # first: a query may be -1 (a voxel beyond the lattice's padding), never in the table
             return -1
         if s == k:
-            return values[h]
+            return slots[2 * h + 1]
         h = (h + 1) & mask
 
 
 @_jit
-def table_lookup(slots, values, shift, keys):
+def table_lookup(slots, shift, keys):
     """Value of every key of ``keys`` (flat), -1 where absent."""
     out = np.empty(keys.size, np.int64)
     for i in range(keys.size):
-        out[i] = _find(slots, values, shift, keys[i])
+        out[i] = _find(slots, shift, keys[i])
     return out
 
 
 @_jit
-def ring_misses(slots, values, shift, keys, corners, corner_off, edges, ring_off):
+def ring_misses(slots, shift, keys, corners, corner_off, edges, ring_off):
     """Lower-corner keys of the voxels around the sign-change edges of the voxels ``keys`` (with their (M, 8) corner
     flags) that are not in the table (the closure's missing voxels; repeats possible)."""
     n = 0
@@ -74,7 +76,7 @@ def ring_misses(slots, values, shift, keys, corners, corner_off, edges, ring_off
                     rk = low + ring_off[a, r]
                     if rk == keys[m]:  # the voxel itself
                         continue
-                    if _find(slots, values, shift, rk) < 0:
+                    if _find(slots, shift, rk) < 0:
                         if n == out.size:
                             grown = np.empty(2 * n, np.int64)
                             grown[:n] = out
@@ -85,13 +87,13 @@ def ring_misses(slots, values, shift, keys, corners, corner_off, edges, ring_off
 
 
 @_jit
-def known_corners(slots, values, shift, leaf_corners, keys, corner_off):
+def known_corners(slots, shift, leaf_corners, keys, corner_off):
     """For corner keys ``keys``: whether a voxel of the table has it as a corner (known) and its flag there."""
     known = np.zeros(keys.size, np.bool_)
     flag = np.zeros(keys.size, np.bool_)
     for i in range(keys.size):
         for c in range(8):
-            v = _find(slots, values, shift, keys[i] - corner_off[c])
+            v = _find(slots, shift, keys[i] - corner_off[c])
             if v >= 0:
                 known[i] = True
                 flag[i] = leaf_corners[v, c]
@@ -146,6 +148,56 @@ def ring_triangles(vid, flip):
     return out
 
 
+@_jit
+def ring_lookup(slots, shift, start, axis, dims, ring_off):
+    """(E, 4) values (leaf numbers, -1 where absent) of the lattice keys of the four voxels around each edge: lower end
+    ``start`` (E, 3) lattice indices, ``axis`` (E,), the key of index i being (i0 + 1) + dims0 ((i1 + 1) + dims1 (i2 + 1))
+    (:meth:`pkmstiff.workspace.octree.Lattice.key`), the voxels' key offsets ``ring_off`` (3, 4)."""
+    out = np.empty((start.shape[0], 4), np.int64)
+    for e in range(start.shape[0]):
+        base = (start[e, 0] + 1) + dims[0] * ((start[e, 1] + 1) + dims[1] * (start[e, 2] + 1))
+        for r in range(4):
+            out[e, r] = _find(slots, shift, base + ring_off[axis[e], r])
+    return out
+
+
+@_jit
+def corner_centroids(index, corners, lo, h):
+    """(M, 3) lo + (index + mean offset of the admissible corners) * h of every voxel (eq. 4.1), with numpy's
+    operations on the counts (float quotient, then the sum and the product), so the same numbers bit for bit."""
+    out = np.empty((index.shape[0], 3))
+    for m in range(index.shape[0]):
+        n = 0
+        a0 = 0
+        a1 = 0
+        a2 = 0
+        for c in range(8):
+            if corners[m, c]:
+                n += 1
+                a0 += c & 1
+                a1 += (c >> 1) & 1
+                a2 += (c >> 2) & 1
+        out[m, 0] = lo[0] + (index[m, 0] + np.float64(a0) / np.float64(n)) * h[0]
+        out[m, 1] = lo[1] + (index[m, 1] + np.float64(a1) / np.float64(n)) * h[1]
+        out[m, 2] = lo[2] + (index[m, 2] + np.float64(a2) / np.float64(n)) * h[2]
+    return out
+
+
+@_jit
+def extent_centre(points):
+    """(3,) 0.5 (min + max) of the points (N >= 1, 3) per axis (no NaN)."""
+    lo = points[0].copy()
+    hi = points[0].copy()
+    for i in range(1, points.shape[0]):
+        for k in range(3):
+            v = points[i, k]
+            if v < lo[k]:
+                lo[k] = v
+            elif v > hi[k]:
+                hi[k] = v
+    return 0.5 * (lo + hi)
+
+
 class KeyTable:
     """Lattice keys -> int64 values (leaf numbers), growing as keys are added."""
 
@@ -157,21 +209,20 @@ class KeyTable:
     def _alloc(self, n: int) -> None:
         bits = max(10, int(n - 1).bit_length())
         self.shift = 64 - bits
-        self.slots = np.full(1 << bits, -1, np.int64)
-        self.values = np.empty(1 << bits, np.int64)
+        self.slots = np.full(2 << bits, -1, np.int64)  # (key, value) pairs
 
     def add(self, keys: np.ndarray) -> None:
         """Add distinct new keys; their values are the next numbers (the order of addition)."""
         keys = np.ascontiguousarray(keys, np.int64).ravel()
-        if 2 * (self.size + keys.size) > self.slots.size:  # keep the load below 1/2
-            old = self.slots != -1
-            ok, ov = self.slots[old], self.values[old]
+        if 4 * (self.size + keys.size) > self.slots.size:  # keep the load below 1/2
+            pairs = self.slots.reshape(-1, 2)
+            old = pairs[pairs[:, 0] != -1]
             self._alloc(4 * (self.size + keys.size))
-            table_insert(self.slots, self.values, self.shift, ok, ov)
-        table_insert(self.slots, self.values, self.shift, keys, np.arange(self.size, self.size + keys.size))
+            table_insert(self.slots, self.shift, np.ascontiguousarray(old[:, 0]), np.ascontiguousarray(old[:, 1]))
+        table_insert(self.slots, self.shift, keys, np.arange(self.size, self.size + keys.size))
         self.size += keys.size
 
     def find(self, keys: np.ndarray) -> np.ndarray:
         """Value of each key (shape of ``keys``), -1 where absent."""
         q = np.ascontiguousarray(keys, np.int64)
-        return table_lookup(self.slots, self.values, self.shift, q.ravel()).reshape(q.shape)
+        return table_lookup(self.slots, self.shift, q.ravel()).reshape(q.shape)

@@ -40,7 +40,8 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
-from pkmstiff.workspace.kernels import KeyTable, known_corners, ring_misses, ring_triangles
+from pkmstiff.workspace.kernels import (KeyTable, corner_centroids, known_corners, ring_lookup, ring_misses,
+                                       ring_triangles)
 
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)
@@ -52,14 +53,6 @@ CountedPredicate = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 CORNER_OFFSETS = np.array([[c & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], dtype=np.int64)
 # the eight corner flags of a voxel read as one uint64 (one byte per corner): 0 = no admissible corner, ALL = all eight
 ALL_CORNERS = np.uint64(0x0101010101010101)
-# per axis: the bytes of the code that hold the corners at the voxel's upper end along that axis
-AXIS_UPPER_BYTES = [sum(1 << (8 * c) for c in range(8) if c >> a & 1) for a in range(3)]
-
-
-def _byte_sum(code: np.ndarray) -> np.ndarray:
-    """(M,) int64 sum of the eight bytes (each 0 or 1) of every code: multiplying by 0x0101... adds all bytes into
-    the top one (at most 8, no carry out)."""
-    return ((code * ALL_CORNERS) >> np.uint64(56)).astype(np.int64)
 
 
 def corner_code(corners: np.ndarray) -> np.ndarray:
@@ -116,11 +109,8 @@ class OctreeResult:
     @cached_property
     def boundary_points(self) -> np.ndarray:
         """(M, 3) centroids of the admissible corners of the leaf voxels (eq. 4.1)."""
-        code = corner_code(self.leaf_corners)
-        # admissible corners in all / with offset 1 along x, y, z: bytes 0-7 / 1,3,5,7 / 2,3,6,7 / 4-7 of the code
-        along = [_byte_sum(code & np.uint64(m)) for m in AXIS_UPPER_BYTES]
-        offs = np.stack(along, axis=1) / _byte_sum(code)[:, None]
-        return self.lo + (self.leaf_index + offs) * self.spacing
+        return corner_centroids(np.ascontiguousarray(self.leaf_index, np.int64), np.ascontiguousarray(self.leaf_corners),
+                                np.asarray(self.lo, float), np.asarray(self.spacing, float))
 
     @cached_property
     def lattice(self) -> "Lattice":
@@ -140,7 +130,8 @@ class OctreeResult:
         lat = self.lattice
         if self.leaf_table is None:
             self.leaf_table = KeyTable(lat.key(self.leaf_index))
-        return self.leaf_table.find(lat.key(start)[:, None] + lat.ring_offsets()[axis])
+        return ring_lookup(self.leaf_table.slots, self.leaf_table.shift, np.ascontiguousarray(start, np.int64),
+                           np.ascontiguousarray(axis, np.int64), lat.dims, lat.ring_offsets())
 
     @cached_property
     def ring_triangles(self) -> np.ndarray:
@@ -626,12 +617,12 @@ def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
     all_corn[:f_keys.size] = f_corn
     added = 0
     while f_keys.shape[0]:
-        missing = unique_sorted(ring_misses(table.slots, table.values, table.shift, f_keys, f_corn, corner_off,
+        missing = unique_sorted(ring_misses(table.slots, table.shift, f_keys, f_corn, corner_off,
                                             EDGES, ring_off))
         if missing.size == 0:
             break
         ck = (missing[:, None] + corner_off[None]).ravel()
-        kn, val = known_corners(table.slots, table.values, table.shift, all_corn, ck, corner_off)
+        kn, val = known_corners(table.slots, table.shift, all_corn, ck, corner_off)
         unk = unique_sorted(ck[~kn])
         if unk.size:
             uval = ev(lat.unkey(unk))

@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
+from pkmstiff.workspace import kernels
 from pkmstiff.workspace.octree import OctreeResult
 from pkmstiff.workspace.surface import BoundarySurface, boundary_surface, six_volumes
 
@@ -48,7 +49,7 @@ METHOD_NOTES = {
 
 def cloud_centre(points: np.ndarray) -> np.ndarray:
     """Mid-point of the maximum extent of a point cloud in each direction (Cobet 4.1.4, tetrahedron method)."""
-    return 0.5 * (points.min(axis=0) + points.max(axis=0))
+    return kernels.extent_centre(np.ascontiguousarray(points, float))
 
 
 def pyramid_volume(res: OctreeResult, z: ArrayLike | None = None) -> float:
