@@ -117,19 +117,39 @@ def six_volumes(vertices, triangles):
 
 
 @_jit
-def ring_sums(vid, points, n):
-    """(n, 3) sums and (n,) counts of ``points`` (E, 3) over the four voxels ``vid`` (E, 4) of each edge, added in
-    edge order (as ``np.bincount`` adds)."""
-    acc = np.zeros((n, 3))
-    cnt = np.zeros(n)
+def crossing_vertices(vid, start, axis, t, n, lo, h, n_vox):
+    """(n_vox, 3) vertices of the crossing mesh: per voxel, lo + (mean of the crossing points of the edges ``vid``
+    (E, 4) around it, lattice units) * h. The crossing point of edge e is ``start`` (E, 3) + t_e along ``axis``, where
+    t_e is ``t`` (E,) between two lattice points (0 <= index <= ``n``), 1 where the lower end lies outside and 0
+    where the upper end does (the box face is the cut). Sums in edge order, then the quotient and the product as
+    numpy's ``lo + acc / cnt * h``: the numbers of the numpy formulation, bit for bit."""
+    acc = np.zeros((n_vox, 3))
+    cnt = np.zeros(n_vox)
+    p = np.empty(3)
     for e in range(vid.shape[0]):
+        a = axis[e]
+        lower_in = True
+        upper_in = True
+        for k in range(3):
+            i = start[e, k]
+            if i < 0 or i > n[k]:
+                lower_in = False
+            j = i + 1 if k == a else i
+            if j < 0 or j > n[k]:
+                upper_in = False
+            p[k] = np.float64(i)
+        p[a] += 1.0 if not lower_in else (0.0 if not upper_in else t[e])
         for r in range(4):
             v = vid[e, r]
-            acc[v, 0] += points[e, 0]
-            acc[v, 1] += points[e, 1]
-            acc[v, 2] += points[e, 2]
+            acc[v, 0] += p[0]
+            acc[v, 1] += p[1]
+            acc[v, 2] += p[2]
             cnt[v] += 1.0
-    return acc, cnt
+    out = np.empty((n_vox, 3))
+    for v in range(n_vox):
+        for k in range(3):
+            out[v, k] = lo[k] + acc[v, k] / cnt[v] * h[k]
+    return out
 
 
 @_jit

@@ -85,10 +85,10 @@ def six_volumes(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return kernels.six_volumes(np.ascontiguousarray(vertices, float), np.ascontiguousarray(triangles, np.int64))
 
 
-def _edge_midpoints(res: OctreeResult, lat: Lattice, start: np.ndarray, axis: np.ndarray,
-                    low_adm: np.ndarray, refine_steps: int,
-                    admissible: Callable[[np.ndarray], np.ndarray] | None) -> tuple[np.ndarray, int]:
-    """Estimated crossing point on every sign-change edge (lattice units, (E, 3)) and the evaluations spent."""
+def _edge_brackets(lat: Lattice, start: np.ndarray, axis: np.ndarray, low_adm: np.ndarray, refine_steps: int,
+                   admissible: Callable[[np.ndarray], np.ndarray] | None) -> tuple[np.ndarray, int]:
+    """Estimated crossing parameter t in [0, 1] along every sign-change edge from its lower end (E,) (edges leaving the
+    box are cut at the box face by :func:`pkmstiff.workspace.kernels.crossing_vertices`) and the evaluations spent."""
     t_lo = np.zeros(start.shape[0])  # bracket [t_lo, t_hi] in edge-parameter units, admissible end at 0 or 1
     t_hi = np.ones(start.shape[0])
     evals = 0
@@ -109,13 +109,7 @@ def _edge_midpoints(res: OctreeResult, lat: Lattice, start: np.ndarray, axis: np
             same_as_low = ok == low_adm
             t_lo = np.where(same_as_low & inside, mid, t_lo)
             t_hi = np.where(~same_as_low & inside, mid, t_hi)
-    t = 0.5 * (t_lo + t_hi)
-    # an edge leaving the box ends at a virtual (inadmissible, never evaluated) corner: the box face is the cut
-    end_in = lat.inside(start + np.eye(3, dtype=np.int64)[axis])
-    t = np.where(~lat.inside(start), 1.0, np.where(~end_in, 0.0, t))
-    pt = start.astype(float)
-    pt[np.arange(start.shape[0]), axis] += t
-    return pt, evals
+    return 0.5 * (t_lo + t_hi), evals
 
 
 def boundary_surface(
@@ -142,10 +136,12 @@ def boundary_surface(
     if vertices == "centroid":
         verts = res.boundary_points
     else:
-        mids, extra = _edge_midpoints(res, lat, start, axis, low_adm, refine_steps, admissible)
-        # each edge contributes its crossing to its four voxels; vertex = mean of the contributions
-        acc, cnt = kernels.ring_sums(np.ascontiguousarray(vid), np.ascontiguousarray(mids), vox.shape[0])
-        verts = res.lo + acc / cnt[:, None] * lat.h
+        t, extra = _edge_brackets(lat, start, axis, low_adm, refine_steps, admissible)
+        # each edge contributes its crossing to its four voxels; vertex = mean of the contributions (an edge leaving
+        # the box ends at a virtual, inadmissible, never evaluated corner: the box face is the cut)
+        verts = kernels.crossing_vertices(np.ascontiguousarray(vid), np.ascontiguousarray(start, np.int64),
+                                          np.ascontiguousarray(axis, np.int64), t, lat.n, np.asarray(res.lo, float),
+                                          np.asarray(lat.h, float), vox.shape[0])
     return BoundarySurface(verts, res.ring_triangles, vertices, refine_evaluations=extra)
 
 
