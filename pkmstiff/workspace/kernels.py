@@ -169,13 +169,50 @@ def ring_triangles(vid, flip):
 
 
 @_jit
+def _key(idx, i, dims):
+    return (idx[i, 0] + 1) + dims[0] * ((idx[i, 1] + 1) + dims[1] * (idx[i, 2] + 1))
+
+
+@_jit
+def lattice_keys(idx, dims):
+    """(N,) keys (i0 + 1) + dims0 ((i1 + 1) + dims1 (i2 + 1)) of the lattice indices ``idx`` (N, 3)
+    (:meth:`pkmstiff.workspace.octree.Lattice.key`)."""
+    out = np.empty(idx.shape[0], np.int64)
+    for i in range(idx.shape[0]):
+        out[i] = _key(idx, i, dims)
+    return out
+
+
+@_jit
+def owned_edges(vox, corners):
+    """Sign-change edges at the lower corner of each voxel ``vox`` (E, 3) with flags ``corners`` (E, 8): first those
+    along x in voxel order, then y, then z; (lower end (E, 3), axis (E,), lower end admissible (E,))."""
+    n = 0
+    for a in range(3):
+        for m in range(vox.shape[0]):
+            if corners[m, 0] != corners[m, 1 << a]:
+                n += 1
+    start = np.empty((n, 3), np.int64)
+    axis = np.empty(n, np.int64)
+    low = np.empty(n, np.bool_)
+    e = 0
+    for a in range(3):
+        for m in range(vox.shape[0]):
+            if corners[m, 0] != corners[m, 1 << a]:
+                start[e, 0], start[e, 1], start[e, 2] = vox[m, 0], vox[m, 1], vox[m, 2]
+                axis[e] = a
+                low[e] = corners[m, 0]
+                e += 1
+    return start, axis, low
+
+
+@_jit
 def ring_lookup(slots, shift, start, axis, dims, ring_off):
     """(E, 4) values (leaf numbers, -1 where absent) of the lattice keys of the four voxels around each edge: lower end
-    ``start`` (E, 3) lattice indices, ``axis`` (E,), the key of index i being (i0 + 1) + dims0 ((i1 + 1) + dims1 (i2 + 1))
-    (:meth:`pkmstiff.workspace.octree.Lattice.key`), the voxels' key offsets ``ring_off`` (3, 4)."""
+    ``start`` (E, 3) lattice indices, ``axis`` (E,), keys as :func:`lattice_keys`, the voxels' key offsets ``ring_off`` (3, 4)."""
     out = np.empty((start.shape[0], 4), np.int64)
     for e in range(start.shape[0]):
-        base = (start[e, 0] + 1) + dims[0] * ((start[e, 1] + 1) + dims[1] * (start[e, 2] + 1))
+        base = _key(start, e, dims)
         for r in range(4):
             out[e, r] = _find(slots, shift, base + ring_off[axis[e], r])
     return out

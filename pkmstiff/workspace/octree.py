@@ -40,6 +40,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
+from pkmstiff.workspace import kernels
 from pkmstiff.workspace.kernels import (KeyTable, corner_centroids, known_corners, ring_lookup, ring_misses,
                                        ring_triangles)
 
@@ -206,8 +207,10 @@ class Lattice:
         return out
 
     def key(self, idx: np.ndarray) -> np.ndarray:
-        i = idx.astype(np.int64) + 1
-        return i[..., 0] + self.dims[0] * (i[..., 1] + self.dims[1] * i[..., 2])
+        """Keys of lattice indices ``idx`` (..., 3) (:func:`pkmstiff.workspace.kernels.lattice_keys`)."""
+        idx = np.asarray(idx)
+        flat = np.ascontiguousarray(idx, np.int64).reshape(-1, 3)
+        return kernels.lattice_keys(flat, self.dims).reshape(idx.shape[:-1])
 
     def unkey(self, key: np.ndarray) -> np.ndarray:
         k = np.asarray(key, np.int64)
@@ -592,10 +595,7 @@ def owned_edges(vox: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.nd
     Complete only for a closed leaf set (every voxel around a sign-change edge is a leaf), which the closure step
     guarantees; no sorting needed.
     """
-    parts = [np.flatnonzero(corners[:, 0] != corners[:, 1 << a]) for a in range(3)]
-    vi = np.concatenate(parts)
-    axis = np.concatenate([np.full(p.size, a, np.int64) for a, p in enumerate(parts)])
-    return vox[vi], axis, corners[vi, 0]
+    return kernels.owned_edges(np.ascontiguousarray(vox, np.int64), np.ascontiguousarray(corners, bool))
 
 
 def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
