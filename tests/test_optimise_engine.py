@@ -276,7 +276,8 @@ def test_sigint_then_resume_reevaluates_nothing_checkpointed(tmp_path, jobs):
     assert len(lines) == 1 and "interrupted" in lines[0] and "--resume" in lines[0], err
     assert "Traceback" not in err
     done = _checkpoint_lines(out / CHECKPOINT)  # every line valid JSON (a torn line would raise here)
-    n = len(done)
+    assert [r for r in done if not r["values"]] == done[:1]  # the base machine (for the report), with generation 1
+    n = len(done) - 1
     assert 8 <= n < 2000 and n % 4 == 0  # whole generations
 
     budget = n + 8  # the checkpointed generations and two more

@@ -87,11 +87,13 @@ def resolve_workers(n_jobs: int) -> int:
     return os.cpu_count() or 1 if n_jobs == -1 else n_jobs
 
 
-def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None, granule: int = 1) -> Plan:
+def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None, granule: int = 1, *,
+         tasks_per_worker: int = TASKS_PER_WORKER) -> Plan:
     """Split ``items`` items (each ``item_seconds`` s, measured) into tasks for ``n_jobs`` local workers or a Dask
     cluster: tasks of a whole number of ``granule`` items, each ≥ :data:`MIN_LOCAL_TASK_SECONDS` (local) or
     ≥ :data:`MIN_TASK_SECONDS` and :data:`DASK_OVERHEAD_FACTOR` measured round trips (Dask), about
-    :data:`TASKS_PER_WORKER` per worker. Too little work for two such tasks runs serially (workers=1, tasks=1), and
+    ``tasks_per_worker`` per worker (work that ends at a barrier, such as a generation of candidates, asks for as
+    many as the least task time allows: the smaller the last task, the less a worker waits for the other). Too little work for two such tasks runs serially (workers=1, tasks=1), and
     so does work that the cluster would not finish sooner than this process (its text says why)."""
     work = items * max(item_seconds, 0.0)
     rtt = 0.0
@@ -108,7 +110,7 @@ def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None
     granules = math.ceil(items / granule) if items else 0
     per_granule = max(item_seconds, 0.0) * granule
     least = max(1, math.ceil(least_seconds / per_granule)) if per_granule > 0 else 1
-    size = max(least, math.ceil(granules / (workers * TASKS_PER_WORKER))) if workers > 1 else granules
+    size = max(least, math.ceil(granules / (workers * tasks_per_worker))) if workers > 1 else granules
     tasks = math.ceil(granules / size) if size else 0
     if tasks < 2 and scheduler is not None and items:
         return Plan(items, 1, 1, items, item_seconds,
