@@ -3,12 +3,14 @@ content hash of the machine variant, checkpointed as JSON lines) and tells the a
 constraint violations G (<= 0 feasible).
 
 * **Parallel candidates.** The new candidates of a generation are evaluated together: in this process (``jobs`` 1),
-  in the run's forked process pool (``jobs`` > 1) or on a Dask cluster (``scheduler``), in tasks sized by
-  :func:`pkmstiff.evaluation.parallel.plan` from the cost per candidate measured in the previous generation. The run's context (the base machine's name or file and the evaluation) is a
-  :class:`~pkmstiff.evaluation.parallel.Shared`, unpickled once per worker; a task adds only its candidates'
-  overrides, from which the worker builds each variant; a candidate's own evaluation runs serially in its worker (no
-  nested pools). Results come back in candidate order, so a run gives the same history whatever
-  ``jobs``/``scheduler``.
+  in the run's forked process pool (``jobs`` > 1: one candidate per task, whichever worker is free takes the next) or
+  on a Dask cluster (``scheduler``: tasks sized by :func:`pkmstiff.evaluation.parallel.plan` from the cost per
+  candidate measured in the previous generation). The run's context (the base machine's name or file and the
+  evaluation) is a :class:`~pkmstiff.evaluation.parallel.Shared`, unpickled once per worker; a task adds only its
+  candidates' overrides (or a reference's machine), from which the worker builds each variant; a candidate's own
+  evaluation runs serially in its worker (no nested pools). The base machine and the references are tasks beside
+  the first batch on their rasters, not serial work before or after the search. Results come back in candidate
+  order, so a run gives the same history whatever ``jobs``/``scheduler``.
 * **Budgets.** The run stops after ``budget`` evaluations or, checked between generations, once ``time_budget``
   seconds have passed; either way it reports the best feasible design found so far. The re-evaluation on the
   requested raster (coarse-to-fine) comes after the search: it keeps to what is left of ``time_budget`` where it can,
