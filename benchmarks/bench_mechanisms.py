@@ -1,13 +1,18 @@
 """Speed targets of issue 14 (generic link-and-joint kinematics).
 
-Run from the repository root:  ``python benchmarks/bench_mechanisms.py [--n-ik 10000] [--n-fk 200]``
+Run from the repository root:
+``python benchmarks/bench_mechanisms.py [--n-ik 10000] [--n-fk 200] [--n-vec 10000] [--repeat 3]``
 
 1. Generic 6-UPS forward kinematics, one pose per call from a nearby start (the solution of a pose 1 mm / 0.1°
    away), target ≤ 5 ms per pose.
 2. Inverse kinematics of 10,000 poses of the hybrid machine (``hybrid_tripod_wrist``) in one vectorised call from
    home, target ≤ 2 s.
 3. Forward kinematics of 10,000 6-UPS poses in one vectorised call from home, side by side with a dedicated
-   vectorised Newton on the platform pose (:func:`dedicated_fk_6ups`, issue 27 item 6: target within 3×).
+   vectorised Newton on the platform pose (:func:`dedicated_fk_6ups`, issue 27 item 6: target within 3×).  The
+   generic call solves the 48 × 42 system of all seven links (struts eliminated per Newton step by the block
+   Schur complement of :mod:`pkmstiff.mechanisms.fused`) and then checks the controlled outputs (κ of ∂x_c/∂s,
+   one more factor and an SVD per pose); the dedicated Newton solves 6 × 6 systems and checks nothing.  Compare
+   the CPU ratio: on a shared machine wall-clock time is mostly waiting.
 Both wall-clock and CPU time of this process are printed (on a shared machine wall-clock includes waiting for the
 CPU; the compiled kernels run on numba's threads from 2,048 poses on, so CPU time counts all of them, including
 their spin-waiting on a loaded machine).  The IK is timed with numba's default thread count and with one thread.

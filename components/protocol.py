@@ -228,9 +228,13 @@ class ConstantAxial(Component):
 @dataclass(frozen=True, kw_only=True, eq=False)
 class RotaryDrive(ConstantAxial):
     """Rotary drive of constant torsional stiffness ``k`` [N m/rad] about its axis (motor + gear + control, as seen
-    at the driven joint; ``np.inf`` = rigid); ``mass`` [kg] of the parts moving with the driven link."""
+    at the driven joint; ``np.inf`` = rigid); ``mass`` [kg] of the parts moving with the driven link; ``inertia``
+    [kg m²] the rotor inertia reflected to the joint (gear ratio² × rotor inertia), about the drive axis: the
+    drive-coordinate inertia M_A of the rigid-body dynamics (eq. 4.86, the apparent mass of eq. 3.4 for a rotary
+    drive)."""
 
     kind: ClassVar[StiffnessKind] = "torsional"
+    inertia: float = 0.0
 
 
 MODELS: tuple[ModelSpec, ...] = (ModelSpec(
@@ -243,5 +247,9 @@ MODELS: tuple[ModelSpec, ...] = (ModelSpec(
     "M = k dtheta",
     (Param("k", "N*m/rad", None, "torsional stiffness about the drive axis", required=True, positive=True,
            rigid_ok=True),
-     Param("mass", "kg", 0.0, "mass moving with the driven link", min_value=0.0)) + ROTARY_DRIVE_LIMITS,
-    lambda p: RotaryDrive(name=p.name, k=p["k"], mass=p["mass"], limits=drive_limits(p, ROTARY_DRIVE_LIMITS))),)
+     Param("mass", "kg", 0.0, "mass moving with the driven link", min_value=0.0),
+     Param("inertia", "kg*m^2", 0.0, "rotor inertia reflected to the joint (gear ratio^2 x rotor inertia) about the "
+           "drive axis: drive-coordinate inertia of the accelerations (eq. 4.86)", min_value=0.0))
+    + ROTARY_DRIVE_LIMITS,
+    lambda p: RotaryDrive(name=p.name, k=p["k"], mass=p["mass"], inertia=p["inertia"],
+                          limits=drive_limits(p, ROTARY_DRIVE_LIMITS))),)

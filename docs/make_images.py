@@ -47,7 +47,8 @@ def mechanisms(out: Path) -> list[Path]:
 
 def mechanism_sections(out: Path) -> list[Path]:
     """k_x and f1 of the 6-RUS at z = -400 mm and of the hybrid at its tool plane z = -1073.205 mm (orientation 0,
-    window fitted, 10 mm raster; docs/user-guide/mechanisms.md, elastic model)."""
+    window fitted, 10 mm raster; docs/user-guide/mechanisms.md, elastic model); f1 of the bipod's mechanism file in
+    its plane of motion (20 mm raster; docs/user-guide/structure.md)."""
     import pkmstiff.mechanisms as mm
     from pkmstiff.mechanisms.section import evaluate_section, fit_window
     from pkmstiff.plots.mechanism_section import plot_mechanism_quantity
@@ -59,6 +60,10 @@ def mechanism_sections(out: Path) -> list[Path]:
         u, v = fit_window(mech, "xy", at, np.zeros(3), 0.01)
         sec = evaluate_section(mech, "xy", at, u, v, 0.01, names=("kx", "f1"))
         files += [plot_mechanism_quantity(sec, q, out / f"{stem}_{q}.png") for q in ("kx", "f1")]
+    bipod = mm.load_mechanism("bipod_generic")  # the planar example in its plane of motion (user-guide/structure.md)
+    u, v = fit_window(bipod, "xy", 0.0, np.zeros(3), 0.02)
+    sec = evaluate_section(bipod, "xy", 0.0, u, v, 0.02, names=("f1",))
+    files.append(plot_mechanism_quantity(sec, "f1", out / "mechanism_bipod_f1.png"))
     return files
 
 
@@ -95,29 +100,40 @@ def figures_page(out: Path) -> list[Path]:
 def app(out: Path) -> list[Path]:
     """docs/user-guide/app.md: ``pkmstiff app hexaglide`` in headless Chromium (tests/app_browser.py drives it as
     tests/test_app_browser.py does): the start (YZ plane, k_x), then the raster step 50 mm, a click on the admissible
-    point nearest the middle of the map and mode 1 shown in the 3-D view."""
+    point nearest the middle of the map and mode 1 shown in the 3-D view; then ``pkmstiff app hexa_6rus`` (XY plane at
+    z = −440 mm, a click, mode 1 over its links)."""
     import tempfile
     import time
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from tests import app_browser as ab
 
-    files = [out / "app_start.png", out / "app_point.png"]
+    def click_and_show_mode_1(driver, g: dict, u: float, v: float, path: Path) -> None:
+        """Click the map at the fractions (u, v) of its axes, show mode 1 of the point analysis, screenshot."""
+        u0, u1, v0, v1 = g["limits_mm"]
+        ab.click_map(driver, u0 + u * (u1 - u0), v0 + v * (v1 - v0))
+        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
+        first = ab.wait_for(driver, lambda d: d.find_element("css selector", "#modes li").text, "the modes")
+        ab.choose(driver, "mode", f"1: {first}")
+        ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
+        time.sleep(1.0)
+        driver.save_screenshot(str(path))
+
+    files = [out / "app_start.png", out / "app_point.png", out / "app_mechanism.png"]
     with tempfile.TemporaryDirectory() as tmp, ab.running_app(Path(tmp)) as (url, _, _), ab.chromium() as driver:
         driver.get(url)
         g = ab.wait_map(driver)
         time.sleep(1.0)  # the 3-D view's first image
         driver.save_screenshot(str(files[0]))
         ab.type_into(driver, "step", "50")
-        g = ab.wait_map(driver, g["version"])
-        u0, u1, v0, v1 = g["limits_mm"]
-        ab.click_map(driver, u0 + 0.55 * (u1 - u0), v0 + 0.45 * (v1 - v0))
-        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
-        first = ab.wait_for(driver, lambda d: d.find_element("css selector", "#modes li").text, "the modes")
-        ab.choose(driver, "mode", f"1: {first}")
-        ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
-        time.sleep(1.0)
-        driver.save_screenshot(str(files[1]))
+        click_and_show_mode_1(driver, ab.wait_map(driver, g["version"]), 0.55, 0.45, files[1])
+    with (tempfile.TemporaryDirectory() as tmp, ab.running_app(Path(tmp), "hexa_6rus", step_mm=20.0) as (url, _, _),
+          ab.chromium() as driver):  # a mechanism: its links at a clicked point of the XY map at z = -440 mm
+        driver.get(url)
+        g = ab.wait_map(driver)
+        ab.choose(driver, "plane", "xy")
+        ab.type_into(driver, "at", "-440")
+        click_and_show_mode_1(driver, ab.wait_map(driver, g["version"]), 0.65, 0.5, files[2])
     return files
 
 

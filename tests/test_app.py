@@ -215,7 +215,8 @@ def test_mechanisms_and_planar_examples_get_one_line(session, name, kind):
         name = bundled_planar()[0]
     with pytest.raises(ArgumentError, match=kind) as info:
         session.machine(MachineChoice(name))
-    assert "pkmstiff section" in str(info.value) and "\n" not in str(info.value)
+    hint = f"{name}_generic" if kind == "a planar example" else "pkmstiff section"  # where its map is
+    assert hint in str(info.value) and "\n" not in str(info.value)
 
 
 #: one planar and one spatial mechanism with an [elastic] table, each on a coarse raster (the map is computed twice)
@@ -287,3 +288,78 @@ def test_a_click_on_a_mechanism_map_finds_its_raster_point(mechanism_view):
         y = top + (v1 - v) / (v1 - v0) * (bottom - top)
         assert mv.node_at_pixel(x, y) == (row, col)
     assert mv.picked_text(0, 0).endswith(f"{mv.choice.quantity} = inadmissible") or "N/um" in mv.picked_text(0, 0)
+
+
+def _centres(mesh, n: int) -> np.ndarray:
+    """Centres (n, 3) of the n equal spheres of a glyph mesh (points in order of the glyphs)."""
+    return np.asarray(mesh.points, float).reshape(n, -1, 3).mean(axis=1)
+
+
+@pytest.mark.parametrize("name, pose", [("hexa_6rus", [0.02, -0.03, -0.42, 0.05, -0.03, 0.08]),
+                                        ("five_bar", [0.09, 0.31, 0.0])])
+def test_scene_draws_a_mechanism_at_its_pose(session, name, pose):
+    """The 3-D view of a mechanism: the output sphere at the output pose, the joint spheres at the joints'
+    world points of the configuration (IK of that pose), driven joints separately; a new pose moves them (the
+    configuration continued from the one shown). Glyph points are float32: 1e-3 mm at ~500 mm."""
+    from pkmstiff.app.mechanisms import app_pose, mechanism_at_pose, mechanism_pose
+    from pkmstiff.app.scene import Scene
+    from pkmstiff.mechanisms.constraints import Frames
+
+    mech = session.mechanism(name)
+    pose = np.asarray(pose, float)
+    np.testing.assert_array_equal(mechanism_pose(mech, app_pose(mech, pose)), pose)
+    at = mechanism_at_pose(mech, pose)
+    assert at.ok
+    scene = Scene(window_size=(400, 300))
+    scene.set_machine(at, pose)
+    out = scene.plotter.actors["machine_output"].mapper.dataset
+    xyz = np.concatenate([pose[:mech.dim], np.zeros(3 - mech.dim)])
+    np.testing.assert_allclose(_centres(out, 1)[0], xyz * 1e3, atol=1e-3)
+    F = Frames(at.solution.q, mech.dim, derivatives=False)
+    driven = [j for j in mech.joints if j.drive is not None]
+    want = np.array([np.concatenate([F.t[0, j.links[1]] + F.R[0, j.links[1]] @ j.point, np.zeros(3 - mech.dim)])
+                     for j in driven]) * 1e3
+    got = _centres(scene.plotter.actors["machine_drive_joints"].mapper.dataset, len(driven))
+    np.testing.assert_allclose(got, want, atol=1e-3)
+    assert name in at.title() and "no configuration" not in at.title()
+    moved = pose.copy()
+    moved[1] += 0.01
+    scene.set_pose(mechanism_at_pose(mech, moved, at), moved)
+    out2 = scene.plotter.actors["machine_output"].mapper.dataset
+    np.testing.assert_allclose(_centres(out2, 1)[0] - _centres(out, 1)[0], [0.0, 10.0, 0.0], atol=1e-3)
+    far = mechanism_at_pose(mech, pose + np.r_[10.0, np.zeros(len(pose) - 1)], at)  # out of reach: the last drawn
+    scene.set_pose(far, far.pose)
+    assert not far.ok and "no configuration" in far.title()
+    np.testing.assert_allclose(_centres(scene.plotter.actors["machine_output"].mapper.dataset, 1), _centres(out2, 1))
+    assert scene.png()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_scene_shows_a_mechanism_section_and_animates_its_mode(session, mechanism_view):
+    """The section plane of a mechanism's map in its place (z = at for xy; a planar mechanism's under its links), and a
+    mode shape animated about the configuration: the frequency of ``pkmstiff point``'s analysis, frames k and
+    k + N/2 mirror images about the undeformed links."""
+    from pkmstiff.app.mechanisms import mechanism_at_pose
+    from pkmstiff.app.scene import MODE_FRAMES, PLANAR_OFFSET_MM, Scene
+
+    name, mv = mechanism_view
+    mech = session.mechanism(name)
+    pose = mv.pose_at(*mv.central_node())
+    at = mechanism_at_pose(mech, pose)
+    scene = Scene(window_size=(400, 300))
+    scene.set_machine(at, pose)
+    scene.set_section(mv)
+    grid = scene.plotter.actors["section"].mapper.dataset
+    z = mv.choice.at_mm if mech.dim == 3 else -PLANAR_OFFSET_MM  # drawn just below a planar mechanism's links
+    np.testing.assert_allclose(np.asarray(grid.points)[:, 2], z, atol=1e-6)
+    nv, nu = mv.map.ok.shape
+    assert grid.n_points == nv * nu
+    scene.set_mode(at, pose, 1)
+    pv = session.mechanism_point(name, pose)
+    assert len(scene.mode_frames) == MODE_FRAMES and f"{pv.modes()[0][0]:.2f} Hz" in scene.mode_text
+    # the joint and output spheres translate with their points (the link tubes also turn)
+    p0, pk, pm = (np.vstack([scene.mode_frames[k][b].points for b in ("joints", "output")])
+                  for k in (0, 4, 4 + MODE_FRAMES // 2))
+    assert np.abs(pk - p0).max() > 1.0
+    np.testing.assert_allclose(pk - p0, -(pm - p0), atol=1e-3)
+    scene.clear_mode(at, pose)
+    assert not scene.mode_frames and not any(a.startswith("mode_") for a in scene.plotter.actors)

@@ -224,6 +224,53 @@ def test_app_in_chromium_shows_the_command_lines_numbers(driver, reports, tmp_pa
     assert time.monotonic() - t0 < 300
 
 
+def test_app_in_chromium_draws_a_mechanism_at_its_pose(driver, tmp_path, capsys):
+    """``pkmstiff app five_bar``: the map, the 3-D view of the links at the admissible point nearest the map's
+    centroid, a click moves the pose fields and the drawn configuration to the clicked point (planar: x, y), its
+    point analysis is ``pkmstiff point``'s, mode 1 animates in the view; the export holds the 3-D view."""
+    t0 = time.monotonic()
+    with ab.running_app(tmp_path, machine="five_bar", step_mm=20.0) as (url, _, _):
+        driver.set_window_size(*ab.WINDOW)
+        driver.get(url)
+        ab.wait_map(driver)
+        ab.wait_for(driver, lambda d: ab.text(d, "pose-shown").endswith("deg"), "the drawn pose")
+        assert not ab.text(driver, "error") and "planar" in ab.text(driver, "scene-note")
+        view = driver.find_element("id", "view-3d")
+        first = view.screenshot_as_png
+        cli_dir = tmp_path / "cli"
+        _cli(capsys, "section", "five_bar", "--plane", "xy", "--step", "20", "--quantities", "kx", "--out",
+             str(cli_dir), "--formats", "csv", "--quiet")
+        with open(cli_dir / "five_bar_xy.csv", newline="", encoding="utf-8") as fh:
+            rows = [r for r in csv.DictReader(fh) if r["admissible"] == "1"]
+        u, v = (np.array([float(r[c]) for r in rows]) for c in ("x_mm", "y_mm"))
+        dist = (u - u.mean()) ** 2 + (v - v.mean()) ** 2
+        k = int(np.argsort(dist)[len(dist) // 2])  # away from the start pose, inside the admissible region
+        ab.click_map(driver, u[k], v[k])
+        ab.wait_for(driver, lambda d: ab.text(d, "k-kx") and ab.text(d, "status") == "ready", "the point analysis")
+        pose = [float(driver.find_element("id", f"pose-{n}").get_attribute("value")) for n in "xyzabc"]
+        assert pose == pytest.approx([u[k], v[k], 0, 0, 0, 0], abs=1e-6)
+        assert ab.text(driver, "pose-shown") == f"machine at {u[k]:.1f}, {v[k]:.1f}, 0.0 mm; 0.0, 0.0, 0.0 deg"
+        ab.wait_for(driver, lambda d: view.screenshot_as_png != first, "the links at the clicked pose", timeout=15)
+        ref = json.loads(_cli(capsys, "point", "five_bar", f"--pose={u[k]:g},{v[k]:g},0", "--json"))
+        assert abs(float(ab.text(driver, "k-kx")) - ref["k_N_per_um"]["x"]) <= 5e-4 + 1e-9 * ref["k_N_per_um"]["x"]
+        assert not ref["mode_descriptions"]  # the output is a point mass: modes without a dominant motion
+        ab.choose(driver, "mode", f"1: {ref['frequencies_Hz'][0]:.2f} Hz")
+        ab.wait_for(driver, lambda d: f"mode 1: {ref['frequencies_Hz'][0]:.2f} Hz" in ab.text(d, "mode-shown"),
+                    "mode 1 in the 3-D view")
+        driver.find_element("id", "animate").click()
+        time.sleep(1.0)
+        still = view.screenshot_as_png
+        ab.wait_for(driver, lambda d: view.screenshot_as_png != still, "the mode shape to move", timeout=15)
+        driver.save_screenshot(str(tmp_path / "app_mechanism.png"))
+        driver.find_element("id", "export").click()
+        folder = Path(ab.wait_for(driver, lambda d: ab.text(d, "export-folder"), "the export folder"))
+        # the exported map is the CLI's (the same functions in one program: equal texts)
+        assert (folder / "five_bar_xy.csv").read_text() == (cli_dir / "five_bar_xy.csv").read_text()
+        assert (folder / "view_3d.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+        assert not ab.text(driver, "error")
+    assert time.monotonic() - t0 < 300  # a hang caught early (about 10 s of CPU)
+
+
 @pytest.mark.parametrize("kind", ["design", "calibration"])
 def test_reports_in_chromium_read_well_at_1400_px(driver, reports, kind):
     """What a reader sees: no raw Markdown markers or absolute paths in the visible text, every image loaded, no

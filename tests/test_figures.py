@@ -544,7 +544,7 @@ DOCS_IMAGE_KINDS = {
     "workspace_curves": ["workspace_volume_convergence", "workspace_volume_vs_orientation"],
     "mechanisms": ["mechanism_slider_crank", "mechanism_hybrid", "mechanism_6rus_f1", "mechanism_6rus_kx",
                    "mechanism_hybrid_f1", "mechanism_hybrid_kx", "mechanism_section_admissibility",
-                   "mechanism_section_kappa"],
+                   "mechanism_section_kappa", "mechanism_bipod_f1"],
     "fe_joint": ["fe_joint_deformed"],
     "calibration": ["calibration_walkthrough_felix_parameters", "calibration_walkthrough_felix_path",
                     "calibration_walkthrough_hexaglide_path"],
@@ -563,6 +563,7 @@ DOCS_IMAGES_UNCHECKED = {
     # browser screenshots of HTML pages: no figure kind draws them (their own tests take and check them)
     "app_start": "screenshot of `pkmstiff app` in headless Chromium (docs/make_images.py)",
     "app_point": "screenshot of `pkmstiff app` in headless Chromium (docs/make_images.py)",
+    "app_mechanism": "screenshot of `pkmstiff app hexa_6rus` in headless Chromium (docs/make_images.py)",
     "demo_summary": "screenshot of the demo's summary.html in headless Chromium",
     "optimise_report": "screenshot of the optimisation's HTML report in headless Chromium",
     "report_calibration": "screenshot of the calibration HTML report in headless Chromium",

@@ -59,10 +59,11 @@ def _error(tmp_path, text) -> str:
 def test_bundled_mechanisms_load():
     names = mm.bundled_mechanisms()
     assert {"slider_crank", "five_bar", "hybrid_tripod_wrist", "hexaglide_generic", "hexapod_6x_generic",
-            "hexapod_6ups", "hexa_6rus"} <= set(names)
+            "hexapod_6ups", "hexa_6rus", "biglide_generic", "bipod_generic"} <= set(names)
     mob = {n: mm.info(mm.load_mechanism(n)).mobility for n in names}
     assert mob == {"slider_crank": 1, "five_bar": 2, "hybrid_tripod_wrist": 5, "hexaglide_generic": 6,
-                   "hexapod_6x_generic": 6, "hexapod_6ups": 6, "hexa_6rus": 6}
+                   "hexapod_6x_generic": 6, "hexapod_6ups": 6, "hexa_6rus": 6, "biglide_generic": 2,
+                   "bipod_generic": 2}
 
 
 def test_valid_base_file(tmp_path):

@@ -145,3 +145,51 @@ def test_elimination_order_puts_hubs_last():
     mech = mm.load_mechanism("hexapod_6ups")
     fp = fused_plan(fk_system(mech))
     assert (fp.cols[-6:] // 6 == mech.link_index("platform")).all()
+
+
+def test_block_normal_equations_equal_the_skyline_factor():
+    """The fused Newton's block-Schur normal equations (linalg._block_normal_pose) give the skyline Cholesky's step
+    and σ-ratio estimate (same matrix, column order and start vector) on a block pattern with fill (a cycle of four
+    links) and a padded (fixed) coordinate, and break down where the skyline factor does."""
+    from pkmstiff.mechanisms.linalg import _block_normal_pose, _normal_pose, block_pattern, block_start, sparsity
+
+    rng = np.random.default_rng(7)
+    nb, m = 4, 40
+    pairs = [(1, 0), (2, 1), (3, 0), (3, 2)]  # a cycle: eliminating 0 joins 1 and 3 (fill)
+    pad = np.zeros((nb, 6))
+    pad[2, 4] = 1.0
+    rb = np.full((m, 2), -1, dtype=np.int64)
+    Jp = np.zeros((m, 6 * nb))
+    for i in range(m):
+        b = pairs[i % 4] if i % 5 else (i % nb, -1)
+        rb[i] = b
+        for bl in b:
+            if bl >= 0:
+                Jp[i, 6 * bl:6 * bl + 6] = rng.normal(size=6) * (rng.random(6) < 0.8)
+    Jp[:, pad.reshape(-1) == 1.0] = 0.0
+    r = rng.normal(size=m)
+    nptr, nidx, slot, ns = block_pattern(nb, [tuple(p) for p in pairs])
+    assert slot[3, 1] >= 0  # the fill block
+    real = pad.reshape(-1) == 0.0
+    Jr = np.ascontiguousarray(Jp[:, real])
+    blk = np.flatnonzero(real) // 6  # block of each unpadded column: a row's pattern is its blocks' columns
+    cols, cnt = sparsity((rb[:, :1] == blk) | (rb[:, 1:] == blk))
+    n = Jr.shape[1]
+
+    def both(J, Jpad):
+        A, g, first, x, dx = np.empty((n, n)), np.empty(n), np.empty(n, dtype=np.int64), np.empty(n), np.zeros(n)
+        e1 = _normal_pose(J, r, cols, cnt, 2, A, g, first, x, dx)
+        Ab, gb, xb, dxb = np.empty((ns, 6, 6)), np.empty(6 * nb), np.empty(6 * nb), np.zeros(6 * nb)
+        e2 = _block_normal_pose(Jpad, r, rb, nptr, nidx, slot, pad, block_start(pad), 2, Ab, gb, xb, dxb)
+        return e1, dx, e2, dxb
+
+    e1, dx, e2, dxb = both(Jr, Jp)
+    # the same factorisation in another summation order: a condition number ≲ 1e3 of JᵀJ loses ≲ 1e-13 relative
+    assert e1 > 1e-3 and abs(e2 - e1) < 1e-12 * e1
+    assert np.abs(dxb[real] - dx).max() < 1e-12 * np.abs(dx).max() and dxb[~real].max() == 0.0
+    # rank deficient: a block column repeated (block 1's first coordinate = its second) → both report breakdown 0
+    Jr2, Jp2 = Jr.copy(), Jp.copy()
+    Jp2[:, 6] = Jp2[:, 7]
+    Jr2[:, 6] = Jr2[:, 7]
+    e1, _, e2, _ = both(Jr2, Jp2)
+    assert e1 == 0.0 and e2 == 0.0

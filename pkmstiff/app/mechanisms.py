@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from pkmstiff.app.session import ModelSettings, SectionChoice
     from pkmstiff.mechanisms.model import Mechanism
     from pkmstiff.mechanisms.section import MechanismSection
+    from pkmstiff.mechanisms.solver import Solution
     from pkmstiff.mechanisms.stiffness import MechanismStiffness
 
 MM = 1e3
@@ -38,6 +39,16 @@ def elastic_mechanism(mech: Mechanism) -> Mechanism:
         raise ArgumentError(option="machine", expected="a mechanism with an [elastic] table (a stiffness model; see "
                             "docs/user-guide/mechanisms.md, elastic model)", found=f"{mech.name} (none)")
     return mech
+
+
+def bundled_elastic_mechanisms() -> list[str]:
+    """Names of the bundled mechanisms with an ``[elastic]`` table (the app's choices besides the machines)."""
+    import tomllib
+
+    from pkmstiff.mechanisms.loader import bundled_mechanism_dir, bundled_mechanisms
+
+    return [n for n in bundled_mechanisms()
+            if "elastic" in tomllib.loads((bundled_mechanism_dir() / f"{n}.toml").read_text(encoding="utf-8"))]
 
 
 def _check_settings(mech: Mechanism, settings: ModelSettings) -> None:
@@ -98,6 +109,17 @@ class MechanismSectionView:
         return (f"{u} = {m.u_values[col] * MM:.1f} mm, {v} = {m.v_values[row] * MM:.1f} mm: "
                 + value_text(self.choice.quantity, self.value_at(row, col), self.unit))
 
+    def machine_points(self) -> np.ndarray:
+        """(nv·nu, 3) raster points [m] in world coordinates (a planar mechanism's plane is z = 0)."""
+        m = self.map
+        P = plane_points(self.mechanism, m.plane, m.at, m.u_values, m.v_values)
+        return np.column_stack([P, np.zeros((len(P), 3 - P.shape[1]))])
+
+    def central_node(self) -> tuple[int, int] | None:
+        from pkmstiff.app.session import central_node
+
+        return central_node(self.map.ok)
+
     def pose_at(self, row: int, col: int) -> np.ndarray:
         """The mechanism's output pose (SI: x, y, z, a, b, c or planar x, y, φ) of raster point (row, column)."""
         from pkmstiff.mechanisms.section import plane_poses
@@ -127,6 +149,79 @@ class MechanismSectionView:
 
         return write_mechanism_section(self.map, folder, f"{safe_stem(self.mechanism.name)}_{self.choice.plane}",
                                        ["png", "csv"], self.where())
+
+
+def plane_points(mech: Mechanism, plane: str, at: float, u_values: np.ndarray, v_values: np.ndarray) -> np.ndarray:
+    """World positions (nv·nu, dim) [m] of the raster points of a section (row-major over v, then u)."""
+    from pkmstiff.mechanisms.section import plane_poses
+
+    return plane_poses(mech, plane, at, u_values, v_values, np.zeros(3))[:, :mech.dim]
+
+
+def app_pose(mech: Mechanism, pose: np.ndarray) -> np.ndarray:
+    """The app's six pose values (x, y, z [m], a, b, c [rad]) of a mechanism's output pose: planar (x, y, φ) as
+    x, y and a (the map's tool angle a is a planar mechanism's φ, as in ``pkmstiff section``)."""
+    if mech.dim == 3:
+        return np.asarray(pose, float)
+    return np.array([pose[0], pose[1], 0.0, pose[2], 0.0, 0.0])
+
+
+def mechanism_pose(mech: Mechanism, values: np.ndarray) -> np.ndarray:
+    """A mechanism's output pose from the app's six pose values (inverse of :func:`app_pose`)."""
+    v = np.asarray(values, float)
+    return v.copy() if mech.dim == 3 else np.array([v[0], v[1], v[3]])
+
+
+def pose_limits(mech: Mechanism) -> tuple[np.ndarray, np.ndarray]:
+    """Slider limits of the app's six pose values (mm, deg) for a mechanism: home ± its length scale, ± 60°."""
+    home = app_pose(mech, mech.home_output_pose)
+    reach = np.array([mech.length_scale * MM] * 3 + [60.0] * 3)
+    centre = np.concatenate([home[:3] * MM, np.degrees(home[3:])])
+    return centre - reach, centre + reach
+
+
+@dataclass(frozen=True)
+class MechanismAtPose:
+    """A mechanism at an output pose (SI) with its configuration (``solution`` of one pose; not ``ok`` where none
+    was found): what the app's 3-D view draws."""
+
+    mechanism: Mechanism
+    pose: np.ndarray
+    solution: Solution
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.solution.ok[0])
+
+    def pose_values(self) -> np.ndarray:
+        """The app's six pose values of the pose (:func:`app_pose`)."""
+        return app_pose(self.mechanism, self.pose)
+
+    def world(self) -> dict[int, np.ndarray]:
+        """World points [m] of the links (:func:`pkmstiff.plots.sketch.mechanism_world`)."""
+        from pkmstiff.plots.sketch import mechanism_world
+
+        return mechanism_world(self.mechanism, self.solution.q[0])
+
+    def title(self) -> str:
+        """One line for the view: name, output pose (mm, deg) and, where there is none, that no configuration was
+        found."""
+        m, p = self.mechanism, self.pose
+        n = m.dim
+        text = (f"{m.name}: {', '.join('xyz'[:n])} = {', '.join(f'{v * MM:.0f}' for v in p[:n])} mm; "
+                + (f"a, b, c = {', '.join(f'{np.degrees(v):.1f}' for v in p[3:6])}°" if n == 3 else
+                   f"phi = {np.degrees(p[2]):.1f}°"))
+        return text if self.ok else text + " — no configuration here (the last one found is drawn)"
+
+
+def mechanism_at_pose(mech: Mechanism, pose: np.ndarray, previous: MechanismAtPose | None = None
+                      ) -> MechanismAtPose:
+    """The configuration at the output ``pose`` (SI) by continuation from ``previous`` (the pose shown before; the
+    neighbouring configuration keeps the assembly mode), else from home."""
+    from pkmstiff.mechanisms import inverse
+
+    start = previous.solution if previous is not None and previous.ok else None
+    return MechanismAtPose(mech, np.asarray(pose, float), inverse(mech, np.asarray(pose, float)[None], start=start))
 
 
 def mechanism_section(mech: Mechanism, choice: SectionChoice) -> MechanismSectionView:

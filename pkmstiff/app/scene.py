@@ -1,7 +1,7 @@
-"""The 3-D view of ``pkmstiff app``: an off-screen pyvista plotter with the machine at the chosen pose, the section
-plane coloured by its quantity, and a mode shape animated over the ghosted machine (coordinates in mm, as in every
-figure of the toolkit). No browser needed: the trame view streams this plotter's render window, and the tests
-render it to PNG."""
+"""The 3-D view of ``pkmstiff app``: an off-screen pyvista plotter with the machine (or a mechanism's links and
+joints) at the chosen pose, the section plane coloured by its quantity, and a mode shape animated over the ghosted
+machine (coordinates in mm, as in every figure of the toolkit). No browser needed: the trame view streams this
+plotter's render window, and the tests render it to PNG."""
 
 from __future__ import annotations
 
@@ -10,17 +10,25 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from pkmstiff.plots import offscreen
-from pkmstiff.plots.sketch import add_sketch
+from pkmstiff.plots.sketch import add_sketch, machine_sketch, mechanism_sketch
 
 if TYPE_CHECKING:
+    from pkmstiff.app.mechanisms import MechanismAtPose, MechanismSectionView
     from pkmstiff.app.session import SectionView
     from pkmstiff.machine import Machine
+
+    #: what the view draws: a pod/glide machine (at the pose given with it) or a mechanism at its pose
+    Drawn = Machine | MechanismAtPose
 
 MM = 1e3
 #: the view direction of the toolkit's 3-D figures (front right, from above; plots.section_maps, plots.modes)
 VIEW_DIRECTION = np.array([1.0, -1.4, 0.8]) / np.linalg.norm([1.0, -1.4, 0.8])
+#: a planar mechanism's: mostly from above its plane of motion z = 0
+PLANAR_VIEW_DIRECTION = np.array([0.2, -0.5, 1.0]) / np.linalg.norm([0.2, -0.5, 1.0])
 #: frames per period of the animated mode shape, and its peak displacement [m] on screen
 MODE_FRAMES = 16
+#: how far below a planar mechanism's links its section plane is drawn [mm]
+PLANAR_OFFSET_MM = 5.0
 MODE_AMPLITUDE = 0.08
 
 
@@ -34,39 +42,60 @@ class Scene:
         self.plotter.set_background("white")
         self.mode_frames: list = []
         self.mode_text = ""
+        self._mechanism: MechanismAtPose | None = None  # the mechanism's last configuration found
 
-    def set_machine(self, machine: Machine, pose: np.ndarray) -> None:
+    @property
+    def _planar(self) -> bool:
+        return self._mechanism is not None and self._mechanism.mechanism.dim == 2
+
+    def set_machine(self, machine: Drawn, pose: np.ndarray) -> None:
         """A new machine: clear the view, draw the machine at ``pose`` with mm axes around it and aim the camera at
         it (the view stays while the pose changes; the user turns and zooms it with the mouse)."""
         from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
 
         self.plotter.clear_actors()
         self.mode_frames = []
+        self._mechanism = None
         self.set_pose(machine, pose)
         bounds = np.array(self.plotter.bounds).reshape(3, 2)
-        add_mm_axes(self.plotter, bounds.ravel(), VIEW_DIRECTION, font_size=12)
-        frame_camera(self.plotter, VIEW_DIRECTION, bounds, zoom=1.1)
+        direction = PLANAR_VIEW_DIRECTION if self._planar else VIEW_DIRECTION
+        add_mm_axes(self.plotter, bounds.ravel(), direction, font_size=12)
+        frame_camera(self.plotter, direction, bounds, zoom=1.1)
 
-    def set_pose(self, machine: Machine, pose: np.ndarray) -> None:
-        """The machine at ``pose`` (x, y, z [m], a, b, c [rad], machine frame); ghosted while a mode is shown."""
-        add_sketch(self.plotter, machine, pose, opacity=0.25 if self.mode_frames else 1.0,
-                   colour="gray" if self.mode_frames else None, name="machine")
-        self.plotter.add_text(f"{machine.name}: x, y, z = {', '.join(f'{v * MM:.0f}' for v in pose[:3])} mm; "
-                              f"a, b, c = {', '.join(f'{np.degrees(v):.1f}' for v in pose[3:6])}°"
-                              + (f"\n{self.mode_text}" if self.mode_frames else ""),
+    def set_pose(self, machine: Drawn, pose: np.ndarray) -> None:
+        """The machine at ``pose`` (x, y, z [m], a, b, c [rad], machine frame), or a mechanism at its pose (its last
+        configuration found where the pose has none); ghosted while a mode is shown."""
+        from pkmstiff.app.mechanisms import MechanismAtPose
+
+        if isinstance(machine, MechanismAtPose):
+            if machine.ok:
+                self._mechanism = machine
+            shown = self._mechanism or machine
+            sketch = mechanism_sketch(shown.mechanism, shown.world()) if shown.ok else None
+            title = machine.title()
+        else:
+            sketch = machine_sketch(machine, pose)
+            title = (f"{machine.name}: x, y, z = {', '.join(f'{v * MM:.0f}' for v in pose[:3])} mm; "
+                     f"a, b, c = {', '.join(f'{np.degrees(v):.1f}' for v in pose[3:6])}°")
+        if sketch is not None:
+            add_sketch(self.plotter, None, None, sketch=sketch, opacity=0.25 if self.mode_frames else 1.0,
+                       colour="gray" if self.mode_frames else None, name="machine")
+        self.plotter.add_text(title + (f"\n{self.mode_text}" if self.mode_frames else ""),
                               position="upper_left", font_size=10, color="black", name="title")
 
-    def set_section(self, view: SectionView) -> None:
+    def set_section(self, view: SectionView | MechanismSectionView) -> None:
         """The section plane in its place, coloured by the map's quantity on the map's colour scale."""
         from pkmstiff.plots.section_maps import pretty_unit, robust_clim
 
         pv = offscreen()
-        pl = view.map.plane
-        nv, nu = pl.shape
-        grid = pv.StructuredGrid()
-        grid.points = view.machine_points() * MM
-        grid.dimensions = (nu, nv, 1)
         values = view.map.display(view.choice.quantity)
+        nv, nu = values.shape
+        grid = pv.StructuredGrid()
+        points = view.machine_points() * MM
+        if self._planar:  # below the links, which lie in the same plane z = 0
+            points[:, 2] -= PLANAR_OFFSET_MM
+        grid.points = points
+        grid.dimensions = (nu, nv, 1)
         grid.point_data[view.choice.quantity] = values.ravel()
         scale = robust_clim(values)
         title = f"{view.choice.quantity} [{pretty_unit(view.unit)}]"
@@ -77,32 +106,44 @@ class Scene:
                                                "position_y": 0.4, "width": 0.06, "height": 0.45, "color": "black",
                                                "title_font_size": 14, "label_font_size": 12, "fmt": "%.3g"})
 
-    def set_mode(self, machine: Machine, pose: np.ndarray, mode: int) -> None:
+    def set_mode(self, machine: Drawn, pose: np.ndarray, mode: int) -> None:
         """Mode ``mode`` (1 = lowest) at ``pose``: the machine ghosted grey and :data:`MODE_FRAMES` frames of one
         period of the deformed machine (orange), peak displacement :data:`MODE_AMPLITUDE` on screen."""
+        from pkmstiff.app.mechanisms import MechanismAtPose
         from pkmstiff.plots.modes import deformed_sketch, mode_shape
 
-        ms = mode_shape(machine, pose, mode)
+        if isinstance(machine, MechanismAtPose):
+            ms = _mechanism_mode(machine, mode)
+
+            def deformed(f: float):
+                return mechanism_sketch(machine.mechanism, {li: w + f * ms.displacement[li]
+                                                            for li, w in ms.world.items()})
+        else:
+            ms = mode_shape(machine, pose, mode)
+
+            def deformed(f: float):
+                return deformed_sketch(machine, ms, f)
         factor = ms.scale_for(MODE_AMPLITUDE)
         frames = []
         for k in range(MODE_FRAMES):
-            sk = deformed_sketch(machine, ms, factor * np.sin(2 * np.pi * k / MODE_FRAMES))
+            sk = deformed(factor * np.sin(2 * np.pi * k / MODE_FRAMES))
             if "guides" in sk.keys():
                 sk.pop("guides")  # the guides do not move: drawn once, with the ghosted machine
             frames.append(sk)
         self.mode_frames = frames
-        self.mode_text = (f"mode {mode}: {ms.frequency_hz:.2f} Hz, {ms.description} (orange, "
+        self.mode_text = (f"mode {mode}: {ms.frequency_hz:.2f} Hz{', ' if ms.description else ''}{ms.description} "
+                          "(orange, "
                           f"{MODE_AMPLITUDE * MM:g} mm peak displacement on screen, x{factor:.3g})")
         self.set_pose(machine, pose)
         self.show_mode_frame(machine, pose, 0)
 
-    def show_mode_frame(self, machine: Machine, pose: np.ndarray, k: int) -> None:
+    def show_mode_frame(self, machine: Drawn, pose: np.ndarray, k: int) -> None:
         """Frame ``k`` (modulo :data:`MODE_FRAMES`) of the animated mode shape."""
         if self.mode_frames:
-            add_sketch(self.plotter, machine, pose, sketch=self.mode_frames[k % len(self.mode_frames)],
+            add_sketch(self.plotter, None, None, sketch=self.mode_frames[k % len(self.mode_frames)],
                        colour="darkorange", name="mode")
 
-    def clear_mode(self, machine: Machine, pose: np.ndarray) -> None:
+    def clear_mode(self, machine: Drawn, pose: np.ndarray) -> None:
         """No mode shape: the machine drawn solid again."""
         for name in [a for a in self.plotter.actors if a.startswith("mode_")]:
             self.plotter.remove_actor(name, render=False)
@@ -118,3 +159,17 @@ class Scene:
         buf = io.BytesIO()
         Image.fromarray(self.plotter.screenshot(return_img=True)).save(buf, format="PNG")
         return buf.getvalue()
+
+
+def _mechanism_mode(at: MechanismAtPose, mode: int):
+    """Mode ``mode`` (1 = lowest) of a mechanism's elastic model at its configuration
+    (:func:`pkmstiff.mechanisms.modeshape.mode_shapes`); one line where the pose has no configuration."""
+    from pkmstiff.errors import ArgumentError
+    from pkmstiff.mechanisms.modeshape import mode_shapes
+
+    if not at.ok:
+        raise ArgumentError(option="mode", expected="a pose with a configuration", found="none at this pose")
+    shapes = mode_shapes(at.mechanism, at.solution, mode)
+    if len(shapes) < mode:
+        raise ArgumentError(option="mode", expected=f"at most {len(shapes)} (the model's modes)", found=mode)
+    return shapes[mode - 1]

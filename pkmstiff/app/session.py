@@ -66,9 +66,11 @@ def check_spatial(machine: str) -> None:
     kind = ("a planar example" if machine in bundled_planar() else
             "a mechanism" if is_mechanism(machine) else "")
     if kind:
-        raise ArgumentError(option="machine", expected="a spatial machine (the app does not show planar examples "
-                            "or mechanisms yet: use pkmstiff section / pkmstiff point with its name)",
-                            found=f"{machine} ({kind})")
+        raise ArgumentError(option="machine", expected=(
+            f"a spatial machine or a mechanism; a planar example's map is that of its mechanism file "
+            f"{machine}_generic (the same model)" if kind == "a planar example" else
+            "a spatial machine (a mechanism takes the app's mechanism path: pkmstiff section / pkmstiff point with "
+            "its name)"), found=f"{machine} ({kind})")
 
 
 def is_mechanism_target(machine: str) -> bool:
@@ -255,12 +257,7 @@ class SectionView:
         return self.map.units[self.choice.quantity]
 
     def central_node(self) -> tuple[int, int] | None:
-        """The admissible raster point nearest the centroid of the admissible region (None if there is none)."""
-        rows, cols = np.nonzero(self.map.ok)
-        if not rows.size:
-            return None
-        k = int(np.argmin((rows - rows.mean()) ** 2 + (cols - cols.mean()) ** 2))
-        return int(rows[k]), int(cols[k])
+        return central_node(self.map.ok)
 
     def summary(self) -> str:
         """One line: admissible points and area, the quantity's range and the time taken."""
@@ -388,6 +385,16 @@ class Session:
         lo, hi = reach_box(self.machine(machine))
         a = np.full(3, ANGLE_LIMIT_DEG)
         return np.concatenate([np.floor(lo * MM), -a]), np.concatenate([np.ceil(hi * MM), a])
+
+
+def central_node(ok: np.ndarray) -> tuple[int, int] | None:
+    """The admissible raster point (row, column) nearest the centroid of the admissible region ``ok`` (nv, nu)
+    (None if there is none)."""
+    rows, cols = np.nonzero(ok)
+    if not rows.size:
+        return None
+    k = int(np.argmin((rows - rows.mean()) ** 2 + (cols - cols.mean()) ** 2))
+    return int(rows[k]), int(cols[k])
 
 
 def pose_text(pose: Sequence[float]) -> str:

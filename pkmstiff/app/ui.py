@@ -74,7 +74,8 @@ class App:
         self._token = 0
         self._animating = False
         self._scene_machine = ""  # the machine the 3-D view was set up for (spec)
-        self.mechanism = False  # the chosen machine is a mechanism (map and point analysis only, no 3-D view)
+        self.mechanism = False  # the chosen machine is a mechanism (drawn as links and joints)
+        self.at_pose = None  # the mechanism at the pose of the sliders (MechanismAtPose), None for a machine
         self._init_state(machine, step_mm)
         self._build()
         self.server.controller.on_server_ready.add(lambda **_: self._machine_changed())
@@ -84,7 +85,9 @@ class App:
     def _init_state(self, machine: str, step_mm: float) -> None:
         s = self.state
         s.trame__title = "pkmstiff app"
-        s.machines = bundled_machines()
+        from pkmstiff.app.mechanisms import bundled_elastic_mechanisms
+
+        s.machines = bundled_machines() + bundled_elastic_mechanisms()
         s.machine, s.option, s.options = machine, NO_OPTION, [NO_OPTION]
         s.plane, s.planes = "yz", list(PLANES)
         s.at_mm, s.step_mm, s.quantity, s.quantities = 0.0, step_mm, "kx", _quantity_names()
@@ -120,9 +123,28 @@ class App:
         return self.session.machine(self.machine_choice(), bool(self.state.neglect_spindle))
 
     def pose(self) -> np.ndarray:
-        """The pose of the sliders/fields: x, y, z [m], a, b, c [rad]."""
+        """The pose of the sliders/fields: x, y, z [m], a, b, c [rad]; a mechanism's output pose (planar: x, y and
+        a as φ)."""
         v = [as_float(self.state[k], k.removeprefix("pose_")) for k in POSE_KEYS]
-        return np.array([*(x / MM for x in v[:3]), *(math.radians(a) for a in v[3:])])
+        pose = np.array([*(x / MM for x in v[:3]), *(math.radians(a) for a in v[3:])])
+        if self.mechanism:
+            from pkmstiff.app.mechanisms import mechanism_pose
+
+            return mechanism_pose(self.session.mechanism(self.machine_choice().machine), pose)
+        return pose
+
+    def drawn(self, pose: np.ndarray):
+        """What the 3-D view draws at ``pose``: the machine as analysed, or the mechanism's configuration there
+        (continued from the one shown before)."""
+        if not self.mechanism:
+            return self.analysed_machine()
+        from pkmstiff.app.mechanisms import mechanism_at_pose
+
+        mech = self.session.mechanism(self.machine_choice().machine)
+        prev = self.at_pose if self.at_pose is not None and self.at_pose.mechanism is mech else None
+        if prev is None or not np.array_equal(prev.pose, pose):
+            self.at_pose = mechanism_at_pose(mech, pose, prev)
+        return self.at_pose
 
     def _fail(self, exc: BaseException) -> None:
         self.state.error = describe_error(exc)
@@ -144,13 +166,14 @@ class App:
             mc = self.machine_choice()
             self.mechanism = is_mechanism_target(mc.machine)
             if self.mechanism:
-                from pkmstiff.app.mechanisms import elastic_mechanism
+                from pkmstiff.app.mechanisms import elastic_mechanism, pose_limits
                 from pkmstiff.mechanisms.section import quantity_names
 
                 mech = elastic_mechanism(self.session.mechanism(mc.machine))  # none: one line says why
                 s.options, s.quantities = [NO_OPTION], list(quantity_names(mech))
-                s.scene_note = ("no 3-D view of a mechanism in the app (pkmstiff point NAME --figures DIR draws its "
-                                "mode shapes)")
+                s.scene_note = ("planar mechanism: pose x, y and a = phi (z, b, c unused)" if mech.dim == 2 else "")
+                lo, hi = pose_limits(mech)
+                s.pose_lo, s.pose_hi = lo.tolist(), hi.tolist()
                 if mech.dim == 2:
                     s.plane = "xy"
             else:
@@ -205,37 +228,38 @@ class App:
             s.map_geometry = json.dumps({"version": s.map_version, "size_px": view.size_px, "axes_px": view.axes_px,
                                          "limits_mm": view.limits_mm, "quantity": sc.quantity, "unit": view.unit})
             s.section_command = sc.command(mc)
-            if self.mechanism:
-                s.status = "ready"
-                return
             node = view.central_node()
             if self._scene_machine != mc.spec:  # a new machine: start at the middle of the admissible region
                 if node is not None:
                     self._set_pose(view.pose_at(*node))
-                self.scene.set_machine(self.session.machine(mc), self.pose())  # and aim the camera at it
+                self.at_pose = None
+                pose = self.pose()
+                self.scene.set_machine(self.drawn(pose), pose)  # and aim the camera at it
                 self._scene_machine = mc.spec
             self.scene.set_section(view)
             self._update_view()
             s.status = "ready"
 
     def _set_pose(self, pose: np.ndarray) -> None:
-        """Move the sliders to ``pose`` (the pose handler then redraws the machine)."""
+        """Move the sliders to ``pose`` (a machine's or a mechanism's output pose; the pose handler then redraws)."""
+        if self.mechanism:
+            from pkmstiff.app.mechanisms import app_pose
+
+            pose = app_pose(self.session.mechanism(self.machine_choice().machine), pose)
         values = [*(pose[:3] * MM), *np.degrees(pose[3:6])]
         self.state.update({k: round(float(v), 6) for k, v in zip(POSE_KEYS, values)})
 
     def _pose_changed(self, **_: Any) -> None:
-        if self.mechanism:
-            return  # the pose sliders move a spatial machine's 3-D view
         if any(str(self.state[k]).strip() in INCOMPLETE for k in POSE_KEYS):
             return  # still typing
         try:
-            mc, pose = self.machine_choice(), self.pose()
-            m = self.session.machine(mc)
+            pose = self.pose()
+            m = self.drawn(pose)
         except Exception as exc:
             self._fail(exc)
             return
         self.state.animate, self.state.error, self.state.status = False, "", "ready"
-        self.state.pose_shown = pose_text(pose)
+        self.state.pose_shown = pose_text(m.pose_values() if self.mechanism else pose)
         if self.scene.mode_frames:
             self.scene.clear_mode(m, pose)
             self.state.mode, self.state.mode_shown = None, ""
@@ -254,9 +278,6 @@ class App:
             return
         pose = self.view.pose_at(*node)
         self.state.picked = self.view.picked_text(*node)
-        if self.mechanism:
-            self._start_analysis(pose)  # no pose sliders and no 3-D view for a mechanism
-            return
         self._set_pose(pose)
         self._start_analysis(pose)
 
@@ -301,17 +322,16 @@ class App:
             wp = pv.weak_points()
             s.weak_dirs = list(next(iter(wp.values()))) if wp else []
             s.weak_rows = [{"component": c, "shares": [f"{v:.1f}" for v in d.values()]} for c, d in wp.items()]
-            s.mode_items = [{"title": f"{i + 1}: {f:.2f} Hz, {d}", "value": i + 1, "hz": f"{f:.2f}"}
-                            for i, (f, d) in enumerate(pv.modes())]
+            s.mode_items = [{"title": f"{i + 1}: {f:.2f} Hz" + (f", {d}" if d else ""), "value": i + 1,
+                             "hz": f"{f:.2f}"} for i, (f, d) in enumerate(pv.modes())]
             s.mode, s.animate = None, False
             s.point_command = pv.command
             s.status = "ready"
 
     def _mode_changed(self, mode: int | None = None, **_: Any) -> None:
-        if self.mechanism:
-            return  # no 3-D view: the frequencies and descriptions are the list itself
-        m, pose = self.analysed_machine(), self.pose()
         try:
+            pose = self.pose()
+            m = self.drawn(pose)
             if mode:
                 self.scene.set_mode(m, pose, int(mode))
             else:
@@ -330,7 +350,8 @@ class App:
 
     async def _animation(self) -> None:
         self._animating = True
-        m, pose, k = self.analysed_machine(), self.pose(), 0
+        pose = self.pose()
+        m, k = self.drawn(pose), 0
         try:
             while self.state.animate and self.scene.mode_frames:
                 k += 1
@@ -343,8 +364,7 @@ class App:
     def export_shown(self) -> None:
         """PNG, CSV and the commands of what is shown, into a new folder under the export directory."""
         try:
-            folder = export(self.out, self.machine_choice(), self.view, self.point,
-                            None if self.mechanism else self.scene.png())
+            folder = export(self.out, self.machine_choice(), self.view, self.point, self.scene.png())
         except Exception as exc:
             self._fail(exc)
             return

@@ -29,10 +29,15 @@ def _cmd_app(args: argparse.Namespace) -> int:
     except ImportError as exc:
         raise ResourceError(f"pkmstiff app needs trame ({exc.name} is not installed): "
                             f"pip install 'pkmstiff[app]'") from None
-    from pkmstiff.app.session import MachineChoice, Session
+    from pkmstiff.app.mechanisms import elastic_mechanism
+    from pkmstiff.app.session import MachineChoice, Session, is_mechanism_target
     from pkmstiff.app.ui import App
 
-    Session().machine(MachineChoice(args.machine))  # a bad machine name or file: one line before serving
+    # a bad machine name or file, a mechanism without [elastic]: one line before serving
+    if is_mechanism_target(args.machine):
+        elastic_mechanism(Session().mechanism(args.machine))
+    else:
+        Session().machine(MachineChoice(args.machine))
     App(args.machine, out=args.out, step_mm=args.step).start(port=args.port, open_browser=not args.no_browser)
     return 0
 
@@ -45,7 +50,8 @@ def add_commands(sub: Any) -> None:
                                    "stiffness, weak points and modes, export PNG, CSV and the commands. Stop with "
                                    "Ctrl+C. Needs the optional extra 'app' (trame).")
     p.add_argument("machine", nargs="?", default="hexaglide",
-                   help="bundled machine name or machine file to start with (default hexaglide)")
+                   help="bundled machine name or machine file, or a mechanism with an [elastic] table, to start "
+                        "with (default hexaglide)")
     p.add_argument("--port", type=int, default=8080, help="port on 127.0.0.1 (default 8080; 0: a free port)")
     p.add_argument("--out", default="pkmstiff-app",
                    help="export directory: each export goes into a new folder export-NNN in it (default pkmstiff-app)")

@@ -657,6 +657,7 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
     })
     # the directions the model moves in: planar x, y (and the rotation about z); spatial 6 or 3 (a point mass)
     dirs = ([0, 1] + ([5] if rot else [])) if mech.dim == 2 else list(range(6 if rot else 3))
+    dirs = [d for d in dirs if not comp[d, d] == 0.0]  # a direction held rigidly (bipod_generic's rotation): no K
     sub = comp[np.ix_(dirs, dirs)]
     rep["stiffness_matrix_SI"] = _num(np.linalg.inv(sub)) if np.all(np.isfinite(sub)) else None
     labels = ("x", "y", "z", "rx", "ry", "rz")

@@ -23,7 +23,18 @@ def _cmd_section(args: argparse.Namespace) -> int:
     from pkmstiff.cli.targets import Kind, dispatch
 
     return dispatch(args.machine, {Kind.SPATIAL: lambda _: _machine_section(args),
-                                   Kind.MECHANISM: lambda _: _mechanism_section(args)})
+                                   Kind.MECHANISM: lambda _: _mechanism_section(args),
+                                   Kind.PLANAR: lambda _: _planar_section(args)})
+
+
+def _planar_section(args: argparse.Namespace) -> int:
+    """A planar example: one line naming its mechanism file, whose section maps it (nothing computed)."""
+    from pkmstiff.errors import ArgumentError
+
+    raise ArgumentError(option="machine", expected=f"the mechanism file of the planar example for its section map in "
+                        f"the plane of motion: pkmstiff section {args.machine}_generic (the same model: equal k, f, "
+                        f"a_max; pkmstiff point {args.machine} analyses one point)", found=f"{args.machine} (a planar "
+                        "example)")
 
 
 def _mechanism_section(args: argparse.Namespace) -> int:

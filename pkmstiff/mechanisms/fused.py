@@ -2,15 +2,18 @@
 
 Same iteration as :func:`pkmstiff.mechanisms.solver.newton` (DE 10 2004 026 707 A1 [0019], [0051]): residual and
 analytic Jacobian (:func:`pkmstiff.mechanisms.kernel._eval_pose`), the normal-equation step with its σ-ratio
-estimate (:func:`pkmstiff.mechanisms.linalg._normal_pose`), the incremental rotation-vector update of the link
-rotations, Armijo halving — but per pose in compiled code with per-thread work arrays of one pose, so no
-(N, m, n) Jacobian stack is built, zeroed or copied, and no Python runs between the phases.
+estimate (:func:`pkmstiff.mechanisms.linalg._normal_pose`, here on link blocks), the incremental rotation-vector
+update of the link rotations, Armijo halving — but per pose in compiled code with per-thread work arrays of one
+pose, so no (N, m, n) Jacobian stack is built, zeroed or copied, and no Python runs between the phases.
 
-The unknowns are ordered once per system by a minimum-degree elimination order of the link graph (links joined by
-a constraint are neighbours; :func:`elimination_order`): a link that only touches the ground and one other link
-(a strut of a 6-UPS leg) comes before the links it joins, so the skyline (envelope) Cholesky factor of JᵀJ has the
-fill of a block elimination onto the hub links (the platform): a Schur complement on the hub's unknowns plus
-small diagonal blocks, with no general sparse-matrix code.
+The unknowns are grouped in blocks of six per free link (δt, δω; a fixed coordinate is padded with a decoupled
+unit pivot), the blocks ordered once per system by a minimum-degree elimination order of the link graph (links
+joined by a constraint are neighbours; :func:`elimination_order`): a link that only touches the ground and one other
+link (a strut of a 6-UPS leg) comes before the link it joins.  The normal equations are then a block Cholesky
+(Schur) elimination with fixed-size 6 × 6 kernels (:func:`pkmstiff.mechanisms.linalg._block_normal_pose`) over
+the block pattern of JᵀJ with the fill of that order (:func:`pkmstiff.mechanisms.linalg.block_pattern`): for the
+6-UPS each strut's block is eliminated onto the platform's Schur complement.  Derived from the constraints' links
+at load, so any spatial mechanism file (6-RUS, hybrid, Hexaglide) takes the same path.
 
 A pose whose σ-ratio estimate is below the screen (rank deficient or badly conditioned: the pivoted-QR step is
 needed) stops with the code ``FALLBACK`` at its current iterate; the solver finishes it with the numpy loop.
@@ -26,7 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from pkmstiff.mechanisms.kernel import _angles, _eval_pose, _exp_left, _scratch
-from pkmstiff.mechanisms.linalg import _normal_pose, _skyline_solve, sparsity
+from pkmstiff.mechanisms.linalg import BLOCK, _block_normal_pose, _block_solve, block_pattern, block_start
 
 Array = NDArray[np.float64]
 
@@ -39,15 +42,22 @@ PARALLEL_MIN = 2048
 
 @dataclass
 class FusedPlan:
-    """Column order and index maps of a spatial :class:`~pkmstiff.mechanisms.constraints.System` for the fused
-    Newton kernel; built once per system (:func:`fused_plan`)."""
+    """Column order, block structure and index maps of a spatial
+    :class:`~pkmstiff.mechanisms.constraints.System` for the fused Newton kernel; built once per system
+    (:func:`fused_plan`).  The solve columns are 6 per free link (block), blocks in elimination order; a link with
+    fixed coordinates pads them (column −1 in ``cols``)."""
 
-    cmap: np.ndarray  #: (L·6,) full column → column in elimination order, −1 for fixed coordinates
-    cols: np.ndarray  #: (n,) full column of each solve column (elimination order)
+    cmap: np.ndarray  #: (L·6,) full column → solve column, −1 for fixed coordinates
+    cols: np.ndarray  #: (6·nb,) full column of each solve column, −1 on the padding
     rot_links: np.ndarray  #: (nl,) links updated by incremental rotation vectors
-    rot_cols: np.ndarray  #: (nl, 3) their rotation columns in elimination order
-    nz_cols: np.ndarray  #: sparsity of the reduced Jacobian in elimination order (:func:`linalg.sparsity`)
-    nz_cnt: np.ndarray
+    rot_cols: np.ndarray  #: (nl, 3) their rotation columns (solve columns)
+    rb: np.ndarray  #: (m_s, 2) blocks each solved row touches (−1: none)
+    nptr: np.ndarray  #: block pattern of JᵀJ with fill (:func:`linalg.block_pattern`)
+    nidx: np.ndarray
+    slot: np.ndarray
+    nslots: int
+    pad: np.ndarray  #: (nb, 6) 1.0 on padded coordinates
+    x0: np.ndarray  #: (6·nb,) inverse-iteration start vector (:func:`linalg.block_start`)
 
 
 def elimination_order(n_links: int, edges: list[tuple[int, int]], active: np.ndarray) -> list[int]:
@@ -85,22 +95,25 @@ def fused_plan(system) -> FusedPlan:
     has_free[free // d] = True
     edges = [(int(a), int(b)) for bl in system.blocks for a, b in zip(bl.j, bl.k) if b >= 0]
     order = elimination_order(L, edges, has_free)
-    rank = np.empty(L, dtype=int)
-    rank[order] = np.arange(len(order))
-    cols = free[np.lexsort((free, rank[free // d]))]
+    blk = np.full(L, -1, dtype=np.int64)
+    blk[order] = np.arange(len(order))
+    nb = len(order)
     cmap = np.full(system.n, -1, dtype=np.int64)
-    cmap[cols] = np.arange(cols.size)
+    cmap[free] = BLOCK * blk[free // d] + free % d
+    cols = np.full(BLOCK * nb, -1, dtype=np.int64)
+    cols[cmap[free]] = free
+    pad = (cols < 0).astype(float).reshape(nb, BLOCK)
     rot_links = np.flatnonzero(system.omega_links).astype(np.int64)
     rot_cols = cmap[rot_links[:, None] * d + system.mech.dim + np.arange(3)].astype(np.int64).reshape(-1, 3)
     pat_cols, cnt = system.sparsity
-    pos = np.searchsorted(free, cols)  # column of the sorted reduced Jacobian behind each ordered column
-    inv = np.empty(free.size, dtype=np.int64)
-    inv[pos] = np.arange(free.size)
-    pat = np.zeros((cnt.size, free.size), dtype=bool)
+    rb = np.full((cnt.size, 2), -1, dtype=np.int64)
     for i in range(cnt.size):
-        pat[i, inv[pat_cols[i, :cnt[i]]]] = True
-    nz_cols, nz_cnt = sparsity(pat)
-    fp = FusedPlan(cmap, cols.astype(np.int64), rot_links, rot_cols, nz_cols, nz_cnt)
+        b = np.unique(blk[free[pat_cols[i, :cnt[i]]] // d])
+        if b.size > 2:
+            raise ValueError(f"fused_plan: row {i} joins {b.size} links (a constraint joins two)")
+        rb[i, :b.size] = b
+    nptr, nidx, slot, nslots = block_pattern(nb, [(int(a), int(b)) for a, b in rb if b >= 0])
+    fp = FusedPlan(cmap, cols, rot_links, rot_cols, rb, nptr, nidx, slot, nslots, pad, block_start(pad))
     system.__dict__["_fused_plan"] = fp
     return fp
 
@@ -110,7 +123,8 @@ def _step(q, Rq, qt, Rtr, dx, alpha, cols, rot_links, rot_cols):  # pragma: no c
     rotation-vector link becomes exp([α δω]×) R (its angles in qt are not updated: :func:`_sync_angles`)."""
     qt[:] = q
     for c in range(cols.shape[0]):
-        qt[cols[c]] += alpha * dx[c]
+        if cols[c] >= 0:
+            qt[cols[c]] += alpha * dx[c]
     for i in range(rot_links.shape[0]):
         l = rot_links[i]
         _exp_left(alpha * dx[rot_cols[i, 0]], alpha * dx[rot_cols[i, 1]], alpha * dx[rot_cols[i, 2]], Rq[l], Rtr[l])
@@ -125,8 +139,8 @@ def _sync_angles(q, Rq, rot_links):  # pragma: no cover - compiled
 
 
 def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                  rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                  resid, rcond, steps, n0, n1):  # pragma: no cover - compiled
+                  rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps,
+                  armijo, status, iters, resid, rcond, steps, n0, n1):  # pragma: no cover - compiled
     L = q.shape[1] // 6
     ni = kind.shape[0]
     n = cols.shape[0]
@@ -134,15 +148,15 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
     S = _scratch(L)
     r = np.empty(m)
     rt = np.empty(m)
+    # zeroed once: every evaluation writes the same structural entries (the constraint instances' links)
     J = np.zeros((ms, n))
     Jt = np.zeros((ms, n))
     Jd = np.zeros((1, 1))
     qc = np.empty(q.shape[1])
     qt = np.empty(q.shape[1])
     dx = np.empty(n)
-    Ach = np.empty((n, n))
+    Ab = np.empty((nslots, BLOCK, BLOCK))
     g = np.empty(n)
-    first = np.empty(n, dtype=np.int64)
     xw = np.empty(n)
     Rc = np.empty((L, 3, 3))
     Rtr = np.empty((L, 3, 3))
@@ -152,7 +166,6 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
         tn = target[min(p, target.shape[0] - 1)]
         Rtn = Rt[min(p, Rt.shape[0] - 1)]
         qc[:] = q[p]
-        J[:] = 0.0
         _eval_pose(qc, tn, om, Rtn, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, True, r, J, L, ni, S,
                    False)
         Rc[:] = Rs
@@ -173,13 +186,12 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
                 break
             if it_ == max_iter:
                 break
-            est = _normal_pose(J, r[roff:], nz_cols, nz_cnt, sweeps, Ach, g, first, xw, dx)
+            est = _block_normal_pose(J, r[roff:], rb, nptr, nidx, slot, pad, x0, sweeps, Ab, g, xw, dx)
             if not est >= screen:
                 st = FALLBACK
                 break
             rcond[p] = est
             _step(qc, Rc, qt, Rtr, dx, 1.0, cols, rot_links, rot_cols)
-            Jt[:] = 0.0
             Rs[:] = Rtr
             _eval_pose(qt, tn, om, Rtn, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, True, rt, Jt, L, ni, S,
                        True)
@@ -217,7 +229,6 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
             qc[:] = qt
             Rc[:] = Rtr
             acc += 1
-            J[:] = 0.0
             Rs[:] = Rc
             _eval_pose(qc, tn, om, Rtn, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, True, r, J, L, ni, S,
                        True)
@@ -228,14 +239,14 @@ def _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m
         steps[p] = it_
 
 
-def _newton_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                 rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                 resid, rcond, steps):  # pragma: no cover - compiled
+def _newton_impl(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links, rot_cols,
+                 rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps, armijo, status,
+                 iters, resid, rcond, steps):  # pragma: no cover - compiled
     N = q.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
         _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                      rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                      resid, rcond, steps, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
+                      rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps,
+                      armijo, status, iters, resid, rcond, steps, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
 _OPTS = {"cache": True, "nogil": True, "error_model": "numpy"}
@@ -247,11 +258,11 @@ _newton_parallel = numba.njit(parallel=True, **_OPTS)(_newton_impl)
 
 @numba.njit(**_OPTS)
 def _newton_serial(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                   rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                   resid, rcond, steps):  # pragma: no cover - compiled
+                   rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps,
+                   armijo, status, iters, resid, rcond, steps):  # pragma: no cover - compiled
     _newton_chunk(q, target, om, Rt, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, cols, rot_links,
-                  rot_cols, nz_cols, nz_cnt, tol, max_iter, max_backtrack, screen, sweeps, armijo, status, iters,
-                  resid, rcond, steps, 0, q.shape[0])
+                  rot_cols, rb, nptr, nidx, slot, nslots, pad, x0, tol, max_iter, max_backtrack, screen, sweeps,
+                  armijo, status, iters, resid, rcond, steps, 0, q.shape[0])
 
 
 def newton(system, q: Array, target: Array | None, Rt: Array | None, tol: float, max_iter: int, max_backtrack: int,
@@ -272,17 +283,18 @@ def newton(system, q: Array, target: Array | None, Rt: Array | None, tol: float,
     steps = np.zeros(N, dtype=np.int64)
     kern = _newton_parallel if N >= PARALLEL_MIN else _newton_serial
     kern(q, tg, system._om, rt, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b,
-         system.m, system.n_fixed_rows, fp.cmap, fp.cols, fp.rot_links, fp.rot_cols, fp.nz_cols, fp.nz_cnt,
-         float(tol), int(max_iter), int(max_backtrack), float(screen), int(sweeps), float(armijo), status, iters,
-         resid, rcond, steps)
+         system.m, system.n_fixed_rows, fp.cmap, fp.cols, fp.rot_links, fp.rot_cols, fp.rb, fp.nptr, fp.nidx, fp.slot,
+         fp.nslots, fp.pad, fp.x0, float(tol), int(max_iter), int(max_backtrack), float(screen), int(sweeps),
+         float(armijo), status, iters, resid, rcond, steps)
     return q, status, iters, resid, rcond, steps
 
 
-def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
-                  drive_rows, olink, opoint, ocoords, orient, oaxis, out, n0, n1):  # pragma: no cover - compiled
+def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots,
+                  pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis, out, n0,
+                  n1):  # pragma: no cover - compiled
     L = q.shape[1] // 6
     ni = kind.shape[0]
-    n = cmap.max() + 1
+    n = BLOCK * slot.shape[0]
     ms = m - roff
     nd = drive_rows.shape[0]
     S = _scratch(L)
@@ -290,9 +302,8 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
     rhs = np.zeros(ms)
     J = np.zeros((ms, n))
     X = np.empty((nd, n))
-    Ach = np.empty((n, n))
+    Ab = np.empty((nslots, BLOCK, BLOCK))
     g = np.empty(n)
-    first = np.empty(n, dtype=np.int64)
     xw = np.empty(n)
     Rt = np.zeros((3, 3))
     w = np.empty(3)
@@ -302,20 +313,23 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
     e2 = np.empty(3)
     R, dR, Wr = S[1], S[2], S[3]
     co = 6 * olink
+    g0 = 0
+    for c in range(6):
+        if cmap[co + c] >= 0:
+            g0 = cmap[co + c] - cmap[co + c] % BLOCK
     for p in range(n0, n1):
-        J[:] = 0.0
         _eval_pose(q[p], target[p], om, Rt, kind, lj, lk, row, coord, value, P, A, B, roff, cmap, True, r, J, L, ni,
                    S, False)
         # q_s: F_q q_s = e_c on each drive row c (least squares by the normal equations, one factor for all c)
         rhs[:] = 0.0
         rhs[drive_rows[0]] = -1.0
-        if not _normal_pose(J, rhs, nz_cols, nz_cnt, 1, Ach, g, first, xw, X[0]) > 0.0:
+        if not _block_normal_pose(J, rhs, rb, nptr, nidx, slot, pad, x0, 0, Ab, g, xw, X[0]) > 0.0:
             out[p] = np.nan
             continue
         for c in range(1, nd):
             for i in range(n):
                 X[c, i] = J[drive_rows[c], i]
-            _skyline_solve(Ach, first, X[c])
+            _block_solve(Ab, nptr, nidx, slot, X[c])
         # G = ∂x_c/∂q of the output link's columns (point rows, then ω or the axis turn about e1, e2)
         G[:] = 0.0
         nc = ocoords.shape[0]
@@ -365,17 +379,18 @@ def _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, ro
         for i in range(out.shape[1]):
             for c in range(nd):
                 s = 0.0
-                for k in range(n):
+                for k in range(g0, g0 + BLOCK):  # G is nonzero on the output link's block only
                     s += G[i, k] * X[c, k]
                 out[p, i, c] = s
 
 
-def _outjac_impl(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
-                 drive_rows, olink, opoint, ocoords, orient, oaxis, out):  # pragma: no cover - compiled
+def _outjac_impl(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots,
+                 pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis, out):  # pragma: no cover - compiled
     N = q.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
-        _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
-                      drive_rows, olink, opoint, ocoords, orient, oaxis, out, ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
+        _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot,
+                      nslots, pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis, out, ch * _CHUNK, min(N,
+                      (ch + 1) * _CHUNK))
 
 
 _outjac_chunk = numba.njit(**_OPTS)(_outjac_chunk)
@@ -383,15 +398,16 @@ _outjac_parallel = numba.njit(parallel=True, **_OPTS)(_outjac_impl)
 
 
 @numba.njit(**_OPTS)
-def _outjac_serial(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
-                   drive_rows, olink, opoint, ocoords, orient, oaxis, out):  # pragma: no cover - compiled
-    _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, nz_cols, nz_cnt,
-                  drive_rows, olink, opoint, ocoords, orient, oaxis, out, 0, q.shape[0])
+def _outjac_serial(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot,
+                   nslots, pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis,
+                   out):  # pragma: no cover - compiled
+    _outjac_chunk(q, target, om, kind, lj, lk, row, coord, value, P, A, B, m, roff, cmap, rb, nptr, nidx, slot, nslots,
+                  pad, x0, drive_rows, olink, opoint, ocoords, orient, oaxis, out, 0, q.shape[0])
 
 
 def output_jacobian(system, q: Array, drives: Array, n_out: int) -> Array:
     """∂x_c/∂s (N, n_out, n_drives) of the controlled outputs (:mod:`pkmstiff.mechanisms.outputs`) per pose in
-    compiled code: F_q q_s = e_c by the normal equations on the elimination order (one skyline Cholesky factor for
+    compiled code: F_q q_s = e_c by the normal equations on the link blocks (one block Cholesky factor for
     all drives), times the output rates G, both in the Newton coordinates (incremental rotation vectors; κ does not
     depend on the parametrisation).  NaN rows where the normal matrix is singular (the caller falls back)."""
     fp = fused_plan(system)
@@ -405,10 +421,9 @@ def output_jacobian(system, q: Array, drives: Array, n_out: int) -> Array:
     N = q.shape[0]
     out = np.empty((N, n_out, drive_rows.size))
     kern = _outjac_parallel if N >= PARALLEL_MIN else _outjac_serial
-    kern(np.ascontiguousarray(q.reshape(N, -1), dtype=float), np.ascontiguousarray(drives, dtype=float),
-         system._om, plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b, system.m,
-         system.n_fixed_rows, fp.cmap, fp.nz_cols, fp.nz_cnt, drive_rows, int(o.link),
-         np.asarray(o.point, dtype=float), np.asarray(o.coordinates, dtype=np.int64),
-         {"none": 0, "full": 1, "axis": 2}[o.orientation],
-         np.zeros(3) if o.axis is None else np.asarray(o.axis, dtype=float), out)
+    kern(np.ascontiguousarray(q.reshape(N, -1), dtype=float), np.ascontiguousarray(drives, dtype=float), system._om,
+         plan.kind, plan.j, plan.k, plan.row, plan.coord, plan.value, plan.p, plan.a, plan.b, system.m,
+         system.n_fixed_rows, fp.cmap, fp.rb, fp.nptr, fp.nidx, fp.slot, fp.nslots, fp.pad, fp.x0, drive_rows,
+         int(o.link), np.asarray(o.point, dtype=float), np.asarray(o.coordinates, dtype=np.int64), {"none": 0,
+         "full": 1, "axis": 2}[o.orientation], np.zeros(3) if o.axis is None else np.asarray(o.axis, dtype=float), out)
     return out

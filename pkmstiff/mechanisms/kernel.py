@@ -410,10 +410,13 @@ def _eval_pose(qn, tn, om, Rtn, kind, lj, lk, row, coord, value, P, A, B, roff, 
 
 
 _OPTS = dict(cache=True, nogil=True, error_model="numpy")
+#: the small helpers of the constraint loop are inlined (numba IR level): a call with array arguments costs about
+#: as much as the few products it does (measured: the 6-UPS residual 2.6 → 2.0 µs per pose)
+_INLINE = {f: {"inline": "always"} for f in ("_point", "_vector", "_cross", "_put")}
 _helpers = {}
 for _f in (_mm3, _mmT, _rotations, _point, _vector, _cross, _logm, _jlinv, _put, _log_rows, _scratch, _eval_pose,
            _eval_chunk):
-    _helpers[_f.__name__] = numba.njit(**_OPTS)(_f)
+    _helpers[_f.__name__] = numba.njit(**_OPTS, **_INLINE.get(_f.__name__, {}))(_f)
     globals()[_f.__name__] = _helpers[_f.__name__]
 
 

@@ -9,11 +9,15 @@ implicit differentiation, no finite differences) and the masses of the elastic m
   on the orientation rows, W_s = 1 for linear drives and w for rotary drives; w [m/rad] = ``[elastic]
   transmission_weight``, default the mechanism's length scale (so that rotary and linear drives compare in one unit).
 * v_max (eq. 4.79) with the drive components' ``max_speed`` (rotary: ``max_angular_speed``); a_max from standstill (eq. 4.80–4.93) with
-  ``μ = M_s J⁻¹ e``, ``M_s = Σ_b J_bᵀ M_b J_b`` the mass matrix of every body of the elastic model in drive
-  coordinates (J_b: the body's twist per drive rate) — for a pod/glide machine ``M_A + J_Cᵀ M_P J_C`` (eq. 4.86).
+  ``μ = M_s J⁻¹ e``, ``M_s = M_A + Σ_b J_bᵀ M_b J_b`` the mass matrix of every body of the elastic model in drive
+  coordinates (J_b: the body's twist per drive rate) plus the diagonal drive-coordinate masses M_A of telescopic
+  drives (the drive component's mass: a ball screw's moved + apparent spindle mass, Cobet eq. 3.4) and rotary
+  drives' rotor ``inertia`` (:attr:`~pkmstiff.mechanisms.structure.Plan.drive_inertias`) — for a pod/glide machine
+  ``M_A + J_Cᵀ M_P J_C`` (eq. 4.86; a glide's M_A is its carriage nodes, which move with the drive coordinate).
 * Static drive loads τ_g = Σ_b J_{b,v}ᵀ (−m_b g) (eq. 4.90): the forces (N) or torques (N m) that hold every body
-  against gravity, g = −9.81 m/s² · ``[elastic] vertical``; plus ``[elastic] drive_load_strut_mass`` × the strut
-  masses at the CoG of the output link's body (+ tool body), in τ_g only — the machines' eq. 4.90 reading
+  against gravity, g = −9.81 m/s² · ``[elastic] vertical`` (M_A carries no weight, as in the machines); plus
+  ``[elastic] drive_load_strut_mass`` × the strut masses at the CoG of the output link's body (+ tool body), in τ_g
+  only — the machines' eq. 4.90 reading
   (``limits.drive_load_strut_mass``, :func:`pkmstiff.machine.roles.drive_load_data`), so that a generated mechanism
   file gives its machine's static drive loads and a_max.
 """
@@ -86,7 +90,7 @@ def _bodies(mech: Mechanism):
     rigid links, flexible links' tool parts (kinematically rigid), strut-end nodes (point masses)."""
     from pkmstiff.mechanisms.structure import _home3, plan
 
-    pl = plan(mech)
+    pl = plan(mech, dynamics=True)
     out = [(li, b.cog, b.mass, b.inertia) for li, b in list(pl.bodies.items()) + list(pl.tools.items())]
     out += [(mech.joints[ji].links[1], _home3(mech, mech.joints[ji].point), nd.mass, np.zeros((3, 3)))
             for ji, nd in pl.nodes.items()]
@@ -96,6 +100,8 @@ def _bodies(mech: Mechanism):
 def mass_and_gravity(mech: Mechanism, q: Array, q_s: Array) -> tuple[Array, Array]:
     """M_s (N, n, n) [kg, kg m, kg m² by drive units] and τ_g (N, n) at configurations q (N, L, d) with
     configuration rates q_s (N, L·d, n)."""
+    from pkmstiff.mechanisms.structure import plan
+
     N = q.shape[0]
     n = q_s.shape[2]
     F = Frames(q, mech.dim, derivatives=False)
@@ -115,6 +121,10 @@ def mass_and_gravity(mech: Mechanism, q: Array, q_s: Array) -> tuple[Array, Arra
             Iw = R @ inertia @ np.swapaxes(R, 1, 2)
             M += np.swapaxes(Jw, 1, 2) @ Iw @ Jw
         tau += np.einsum("nji,j->ni", Jv, -mass * g)
+    # drive-coordinate masses/inertias M_A (telescopic drives, rotary drives' rotors): M_A s̈, no weight (4.86, 4.90)
+    col = {ji: c for c, ji in enumerate(i for i, j in enumerate(mech.joints) if j.drive is not None)}
+    for ji, m_a in plan(mech, dynamics=True).drive_inertias.items():
+        M[:, col[ji], col[ji]] += m_a
     extra = _drive_load_strut_mass(mech)
     if extra is not None:
         li, cog, mass = extra

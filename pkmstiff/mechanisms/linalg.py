@@ -302,6 +302,204 @@ _normal_chunk = numba.njit(cache=True, nogil=True, fastmath=_FM)(_normal_chunk)
 _normal_parallel = numba.njit(cache=True, parallel=True, nogil=True, fastmath=_FM)(_normal_impl)
 _normal_serial = numba.njit(cache=True, nogil=True, fastmath=_FM)(_renamed(_normal_impl, "_normal_serial_impl"))
 
+
+# ----------------------------------------------------------------------------------------------------------
+# block normal equations: one 6×6 block per link (the fused Newton, pkmstiff.mechanisms.fused)
+# ----------------------------------------------------------------------------------------------------------
+#: unknowns per block (a spatial link's δt, δω); a link with fixed coordinates pads them
+BLOCK = 6
+
+
+def _block_normal_pose(Jp, rp, rb, nptr, nidx, slot, pad, x0, sweeps, Ab, g, x, dxp):  # pragma: no cover - compiled
+    """:func:`_normal_pose` on the link blocks: dxp ← −(JᵀJ)⁻¹Jᵀr and the same σ_min/σ_max estimate (same
+    matrix, same column order, same start vector and inverse iteration: equal to rounding), by a block Cholesky
+    factor with fixed-size 6×6 kernels instead of the skyline loops.
+
+    Jp (m, 6·nb): columns by block (block b = columns 6b…6b+5, elimination order); ``rb`` (m, 2) the blocks
+    a row touches (−1: none; a constraint joins two links); ``slot`` (nb, nb) the storage slot in ``Ab`` of the
+    lower block (i, j), i ≥ j, of the filled pattern (−1: structurally zero); block k's off-diagonal column is
+    ``nidx[nptr[k]:nptr[k+1]]`` (ascending).  ``pad`` (nb, 6): 1 on the padded (fixed) coordinates, which get a
+    decoupled unit pivot (their step and start-vector entries stay 0).  ``x0``: the inverse-iteration start
+    vector (:func:`block_start`).  Returns 0 where a pivot breaks down (s ≤ 1e-15·trace, as the skyline factor)."""
+    m = Jp.shape[0]
+    nb = slot.shape[0]
+    Ab[:] = 0.0
+    g[:] = 0.0
+    for i in range(m):
+        b1 = rb[i, 0]
+        b2 = rb[i, 1]
+        if b1 < 0:
+            continue
+        ri = rp[i]
+        o1 = BLOCK * b1
+        D = Ab[b1]
+        for a in range(BLOCK):
+            va = Jp[i, o1 + a]
+            g[o1 + a] += va * ri
+            for c in range(BLOCK):
+                D[a, c] += va * Jp[i, o1 + c]
+        if b2 >= 0:
+            o2 = BLOCK * b2
+            D = Ab[b2]
+            for a in range(BLOCK):
+                va = Jp[i, o2 + a]
+                g[o2 + a] += va * ri
+                for c in range(BLOCK):
+                    D[a, c] += va * Jp[i, o2 + c]
+            hi, lo = (o1, o2) if b1 > b2 else (o2, o1)
+            C = Ab[slot[max(b1, b2), min(b1, b2)]]
+            for a in range(BLOCK):
+                va = Jp[i, hi + a]
+                for c in range(BLOCK):
+                    C[a, c] += va * Jp[i, lo + c]
+    tr = 0.0
+    for b in range(nb):
+        for a in range(BLOCK):
+            tr += Ab[b, a, a]
+    if not tr > 0.0:
+        return 0.0
+    for b in range(nb):
+        for a in range(BLOCK):
+            Ab[b, a, a] += pad[b, a]
+    for k in range(nb):
+        Lk = Ab[k]
+        for c in range(BLOCK):  # Cholesky of the (updated) diagonal block
+            s = Lk[c, c]
+            for t in range(c):
+                s -= Lk[c, t] * Lk[c, t]
+            if not s > 1e-15 * tr:
+                return 0.0
+            d = 1.0 / math.sqrt(s)  # the diagonal keeps 1/L_cc: products instead of divisions in every solve
+            Lk[c, c] = d
+            for a in range(c + 1, BLOCK):
+                s = Lk[a, c]
+                for t in range(c):
+                    s -= Lk[a, t] * Lk[c, t]
+                Lk[a, c] = s * d
+        for p in range(nptr[k], nptr[k + 1]):  # L_ik = A_ik L_kk⁻ᵀ
+            X = Ab[slot[nidx[p], k]]
+            for a in range(BLOCK):
+                for c in range(BLOCK):
+                    s = X[a, c]
+                    for t in range(c):
+                        s -= X[a, t] * Lk[c, t]
+                    X[a, c] = s * Lk[c, c]
+        for p in range(nptr[k], nptr[k + 1]):  # Schur complement: A_ij −= L_ik L_jkᵀ
+            i = nidx[p]
+            Li = Ab[slot[i, k]]
+            for p2 in range(nptr[k], p + 1):
+                j = nidx[p2]
+                Lj = Ab[slot[j, k]]
+                T = Ab[slot[i, j]]
+                for a in range(BLOCK):
+                    for c in range(BLOCK):
+                        s = 0.0
+                        for t in range(BLOCK):
+                            s += Li[a, t] * Lj[c, t]
+                        T[a, c] -= s
+    for i in range(dxp.shape[0]):
+        dxp[i] = -g[i]
+    _block_solve(Ab, nptr, nidx, slot, dxp)
+    # inverse iteration for λ_min(JᵀJ) from the fixed start vector (as _normal_pose)
+    nx = 0.0
+    for i in range(x.shape[0]):
+        x[i] = x0[i]
+        nx += x[i] * x[i]
+    nx = math.sqrt(nx)
+    lam = tr
+    for _ in range(sweeps):
+        for i in range(x.shape[0]):
+            x[i] /= nx
+        _block_solve(Ab, nptr, nidx, slot, x)
+        nx = 0.0
+        for i in range(x.shape[0]):
+            nx += x[i] * x[i]
+        nx = math.sqrt(nx)
+        lam = 1.0 / nx
+    return math.sqrt(lam / tr)
+
+
+def _block_solve(Ab, nptr, nidx, slot, v):  # pragma: no cover - compiled
+    """v ← (L Lᵀ)⁻¹ v in place for the block Cholesky factor of :func:`_block_normal_pose` (diagonal blocks: L
+    below the diagonal, 1/L_cc on it)."""
+    nb = slot.shape[0]
+    for k in range(nb):  # forward: L y = v
+        Lk = Ab[k]
+        o = BLOCK * k
+        for c in range(BLOCK):
+            s = v[o + c]
+            for t in range(c):
+                s -= Lk[c, t] * v[o + t]
+            v[o + c] = s * Lk[c, c]
+        for p in range(nptr[k], nptr[k + 1]):
+            i = nidx[p]
+            X = Ab[slot[i, k]]
+            oi = BLOCK * i
+            for a in range(BLOCK):
+                s = 0.0
+                for t in range(BLOCK):
+                    s += X[a, t] * v[o + t]
+                v[oi + a] -= s
+    for k in range(nb - 1, -1, -1):  # backward: Lᵀ x = y
+        Lk = Ab[k]
+        o = BLOCK * k
+        for p in range(nptr[k], nptr[k + 1]):
+            i = nidx[p]
+            X = Ab[slot[i, k]]
+            oi = BLOCK * i
+            for t in range(BLOCK):
+                s = 0.0
+                for a in range(BLOCK):
+                    s += X[a, t] * v[oi + a]
+                v[o + t] -= s
+        for c in range(BLOCK - 1, -1, -1):
+            s = v[o + c]
+            for t in range(c + 1, BLOCK):
+                s -= Lk[t, c] * v[o + t]
+            v[o + c] = s * Lk[c, c]
+
+
+_block_solve = numba.njit(cache=True, nogil=True, fastmath=_FM)(_block_solve)
+_block_normal_pose = numba.njit(cache=True, nogil=True, fastmath=_FM)(_block_normal_pose)
+
+
+def block_pattern(nb: int, pairs: list[tuple[int, int]]) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Filled lower block pattern of JᵀJ for :func:`_block_normal_pose`: the block pairs ``pairs`` (i, j) that
+    share a row (blocks numbered in elimination order), closed under the fill of eliminating the blocks in that
+    order (eliminating k joins all its later neighbours).  Returns nptr, nidx (the later neighbours of each k,
+    ascending), slot (nb, nb) (diagonal i → i, then the off-diagonal blocks) and the number of slots."""
+    nbr = [set() for _ in range(nb)]
+    for i, j in pairs:
+        if i != j:
+            nbr[min(i, j)].add(max(i, j))
+    for k in range(nb):
+        later = sorted(nbr[k])
+        for a, i in enumerate(later):
+            for j in later[:a]:
+                nbr[j].add(i)
+    slot = np.full((nb, nb), -1, dtype=np.int64)
+    slot[np.arange(nb), np.arange(nb)] = np.arange(nb)
+    ns = nb
+    nptr = np.zeros(nb + 1, dtype=np.int64)
+    nidx = []
+    for k in range(nb):
+        for i in sorted(nbr[k]):
+            slot[i, k] = ns
+            ns += 1
+            nidx.append(i)
+        nptr[k + 1] = len(nidx)
+    return nptr, np.array(nidx, dtype=np.int64), slot, ns
+
+
+def block_start(pad: np.ndarray) -> np.ndarray:
+    """The inverse-iteration start vector of :func:`_normal_pose` (1 + ½ sin(1.7 i + 0.3) over the unpadded
+    columns i) on the padded block columns, 0 on the padding."""
+    real = pad.reshape(-1) == 0.0
+    x = np.zeros(real.size)
+    i = np.arange(int(real.sum()))
+    x[real] = 1.0 + 0.5 * np.sin(1.7 * i + 0.3)
+    return x
+
 #: below this many poses the serial normal-equation kernel is used (it is ~5× cheaper per pose than the QR)
 NORMAL_PARALLEL_MIN = 2048
 #: σ_min/σ_max estimate above which the normal-equation step is used (below: pivoted QR).  Squaring the condition

@@ -75,13 +75,24 @@ class Plan:
     tools: dict[int, PKSBody]  #: tool parts of flexible links
     joints: tuple[int, ...]  #: joints between rigid links / ground
     load: tuple[str, int, Array]  #: (kind "body"/"tool"/"node", link or joint, home point) of the output point
+    #: drive-coordinate masses [kg] / inertias [kg m²] per driven joint (the machines' M_A, eq. 4.86): telescopic
+    #: drives' masses and rotary drives' ``inertia``; in the kinetostatics only (see :func:`plan`)
+    drive_inertias: dict[int, float] = field(default_factory=dict)
 
     def body_name(self, link: int) -> str:
         return sde.FRAME if link in self.mech.ground else self.mech.links[link]
 
 
-def plan(mech: Mechanism) -> Plan:
-    """Placement of the elastic model of ``mech`` (raises :class:`InputError` naming the file and key)."""
+def plan(mech: Mechanism, dynamics: bool = False) -> Plan:
+    """Placement of the elastic model of ``mech`` (raises :class:`InputError` naming the file and key).
+
+    A telescopic drive's mass (a ball screw's moved mass + apparent spindle mass, Cobet eq. 3.4) is the machines'
+    drive mass M_A: the structure model (modes, ``dynamics=False``) places it at the drive's node, the strut's
+    other end (the motor, fixed where that end is the ground); the rigid-body dynamics (``dynamics=True``: M_s of
+    the kinetostatics, eq. 4.86) accelerate it with the drive coordinate, M_A s̈, so it is left out of the bodies
+    and listed in :attr:`Plan.drive_inertias` — as is a rotary drive's ``inertia`` (rotor behind its gear, about
+    the drive axis), which no body carries.
+    """
     el = mech.elastic
     src = mech.path or mech.name
     if el is None:
@@ -127,7 +138,7 @@ def plan(mech: Mechanism) -> Plan:
         m_strut = _mass(le.component)
         for e, share in ((e1, le.mass_shares[0]), (e2, le.mass_shares[1])):
             extra = share * m_strut
-            if tele and e is not tele[0]:  # the motor of a telescopic drive sits at the strut's other end
+            if tele and e is not tele[0] and not dynamics:  # the motor of a telescopic drive: the strut's other end
                 extra += _mass(el.joint(tele[0].joint).drive)
             _put_mass(mech, el, e, extra, nodes, node_mass, point_masses)
     for ji, nd in list(nodes.items()):
@@ -155,8 +166,12 @@ def plan(mech: Mechanism) -> Plan:
         bodies[li] = combine_bodies([le.body] + point_masses[li]) if point_masses[li] else le.body
         if le.flexibility is not None:
             tools[li] = le.tool
+    inertias = {e.joint: _mass(el.joint(e.joint).drive) for lst in ends.values() for e in lst if e.telescopic}
+    inertias.update({ji: float(getattr(el.joint(ji).drive, "inertia", 0.0)) for ji in rigid_joints
+                     if mech.joints[ji].drive is not None and mech.joints[ji].variable == "angle"})
     return Plan(mech, el, tuple((li, (e[0], e[1])) for li, e in ends.items()), nodes, bodies, tools,
-                tuple(rigid_joints), _load(mech, src, is_strut, ends, nodes, tools))
+                tuple(rigid_joints), _load(mech, src, is_strut, ends, nodes, tools),
+                {ji: v for ji, v in inertias.items() if v > 0})
 
 
 def _home3(mech: Mechanism, p: Array) -> Array:

@@ -1,4 +1,5 @@
-"""Geometric sketch of a machine at a pose: guides / fixed drive joints, struts, drive and platform joints, hull."""
+"""Geometric sketch of a machine at a pose: guides / fixed drive joints, struts, drive and platform joints, hull; and
+of a mechanism at a configuration: links, joints, output point."""
 
 from __future__ import annotations
 
@@ -51,13 +52,13 @@ def sketch_from_points(machine: Machine, q: np.ndarray, p: np.ndarray, hull_poin
     return blocks
 
 
-def add_sketch(plotter, machine: Machine, pose, opacity: float = 1.0, sketch=None, colour: str | None = None,
+def add_sketch(plotter, machine: Machine | None, pose, opacity: float = 1.0, sketch=None, colour: str | None = None,
                name: str | None = None) -> None:
-    """Draw the sketch (of ``pose``, or a given ``sketch``) into a plotter with consistent colours; with ``name``
+    """Draw the sketch (of ``machine`` at ``pose``, or a given ``sketch``, e.g. :func:`mechanism_sketch`) into a plotter with consistent colours; with ``name``
     the actors are named ``<name>_<block>`` and replace those of an earlier call with the same ``name``."""
     sk = machine_sketch(machine, pose) if sketch is None else sketch
     colours = {"guides": "dimgray", "struts": "steelblue", "drive_joints": "black", "platform_joints": "black",
-               "platform": "lightgray"}
+               "platform": "lightgray", "links": "steelblue", "joints": "black", "output": "crimson"}
     for block in sk.keys():
         mesh = sk[block]
         if mesh is None or mesh.n_points == 0:
@@ -82,3 +83,58 @@ def _spheres(points: np.ndarray, radius: float, pv):
         return pv.PolyData()
     return pv.PolyData(points).glyph(geom=pv.Sphere(radius=radius, theta_resolution=12, phi_resolution=12),
                                      scale=False, orient=False)
+
+
+def mechanism_world(mech, q: np.ndarray) -> dict[int, np.ndarray]:
+    """World positions {link: (P, 3)} [m] of the drawn points of every moving link (its joint points and the output
+    point, in the order of :func:`pkmstiff.mechanisms.modeshape.link_points`) at the configuration q (L, d);
+    planar mechanisms in z = 0."""
+    from pkmstiff.mechanisms.constraints import Frames
+    from pkmstiff.mechanisms.modeshape import link_points
+
+    F = Frames(np.asarray(q, float)[None], mech.dim, derivatives=False)
+    out = {}
+    for li, plist in link_points(mech).items():
+        if plist and li not in mech.ground:
+            w = F.t[0, li] + np.array([p for p, _ in plist]) @ F.R[0, li].T
+            out[li] = np.column_stack([w, np.zeros((len(w), 3 - mech.dim))])
+    return out
+
+
+def mechanism_sketch(mech, world: dict[int, np.ndarray], scale: float = MM):
+    """pyvista MultiBlock of a mechanism (coordinates in mm by default) from the world points of its links
+    (:func:`mechanism_world`, or those points displaced by a mode shape).
+
+    Blocks: ``guides`` (axes of linear joints on the ground), ``links`` (tubes along each link's polygon of joint
+    points), ``joints`` and ``drive_joints`` (spheres; driven joints larger), ``output`` (the output point).
+    """
+    from pkmstiff.mechanisms.modeshape import link_points
+
+    pv = offscreen()
+    radius = 0.008 * mech.length_scale * scale
+    blocks = pv.MultiBlock()
+    guides = [(np.asarray(jt.point, float) - s * 0.3 * mech.length_scale * np.asarray(jt.axis, float))
+              for jt in mech.joints for s in (1.0, -1.0)
+              if jt.axis is not None and jt.variable == "linear" and jt.links[0] in mech.ground]
+    ends = np.array([np.concatenate([p, np.zeros(3 - mech.dim)]) for p in guides]).reshape(-1, 2, 3)
+    blocks["guides"] = _lines(ends * scale, pv) if guides else pv.PolyData()
+    tubes = pv.MultiBlock()
+    position: dict[int, np.ndarray] = {}
+    for li, plist in link_points(mech).items():
+        if li not in world:
+            continue
+        w = world[li] * scale
+        for (_, ji), x in zip(plist, w):
+            position.setdefault(ji, x)
+        ring = np.vstack([w, w[:1]]) if len(w) > 2 else w
+        for k in range(len(ring) - 1):
+            if np.linalg.norm(ring[k + 1] - ring[k]) > 1e-9 * scale:
+                tubes[f"{mech.links[li]} {k}"] = pv.Line(ring[k], ring[k + 1]).tube(radius=radius)
+    blocks["links"] = (tubes.combine().extract_surface(algorithm="dataset_surface") if len(tubes)
+                       else pv.PolyData())
+    driven = [ji for ji in position if ji >= 0 and mech.joints[ji].drive is not None]
+    plain = [ji for ji in position if ji >= 0 and mech.joints[ji].drive is None]
+    blocks["joints"] = _spheres(np.array([position[j] for j in plain]).reshape(-1, 3), 1.6 * radius, pv)
+    blocks["drive_joints"] = _spheres(np.array([position[j] for j in driven]).reshape(-1, 3), 2.2 * radius, pv)
+    blocks["output"] = _spheres(position[-1][None] if -1 in position else np.zeros((0, 3)), 2.2 * radius, pv)
+    return blocks
