@@ -192,7 +192,7 @@ def write_outputs(res: OptimisationResult, out: str | Path, *, report: bool = Tr
     """Write front.csv, history.csv, designs/*.toml, convergence.png, front.png, the comparison report (unless
     ``report`` is False; its sections evaluated in ``jobs`` processes) and summary.json into ``out``. The base
     design and the references are those of ``res.meta["references"]``
-    (:func:`pkmstiff.optimise.compare.evaluate_references`)."""
+    (:func:`pkmstiff.optimise.compare.references_compared`)."""
     from pkmstiff.optimise.compare import compared_designs, plot_comparison
 
     out = Path(out)
