@@ -180,8 +180,8 @@ PAIR_SIZES: dict[str, tuple[float, float]] = {
     "section_step": (0.625, 1.25),  # mm
     "workspace_resolution": (2, 3.125),  # mm
     "rotation_map_step": (1.5625, 6.25),  # mm (2 mm: 4.2 s of CPU serially since the fused-kernel search, too little)
-    "report_step": (4, 25),  # mm, the sections of the report with --fast (5 mm: 5.1 s of CPU serially, too close)
-    "report_resolution": (12.5, 25),  # mm, its workspaces
+    "report_step": (5, 25),  # mm, the sections of the report with --fast
+    "report_resolution": (6.25, 25),  # mm, its workspaces (with 5 mm sections ≈ 7 s of CPU serially)
     "sweep_step": (5, 10),  # mm, the sections of the 12-task sweep
     "optimise_budget": (96, 36),  # evaluations
 }

@@ -30,7 +30,7 @@ import pickle
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -281,6 +281,11 @@ _OPEN = [0]  # depth of nested :func:`connected` blocks
 
 def _address(scheduler: Any) -> str:
     return scheduler if isinstance(scheduler, str) else str(getattr(scheduler, "scheduler", scheduler).address)
+
+
+def address(scheduler: Any) -> str:
+    """The address of a Dask ``scheduler`` (an address or a client), e.g. for a cost line."""
+    return _address(scheduler)
 
 
 def _cluster(scheduler: Any) -> _Cluster:
@@ -554,30 +559,50 @@ def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, schedule
         return out
     if scheduler is not None:
         return _run_on_dask(fn, payloads, p, scheduler, progress, meanwhile)
-    ex = pool(p.workers)
-    try:
-        futures = [ex.submit(fn, *args) for args in payloads]
-    except BrokenProcessPool as exc:
-        _POOLS.pop(p.workers, None)
-        raise ResourceError(f"local worker pool broke: {exc}") from None
+    futures = [submit(p.workers, fn, *args) for args in payloads]
     _meanwhile(meanwhile)
     if progress:
         from concurrent.futures import as_completed
 
         for k, _ in enumerate(as_completed(futures), 1):
             progress(k)
+    return [result(f, p.workers) for f in futures]
+
+
+def submit(workers: int, fn: Callable[..., T], *args: Any) -> Future:
+    """``fn(*args)`` as one task in the local pool of ``workers`` workers, not waited for (a command that schedules
+    tasks of its own, such as a report's whole evaluations and figures); collect it with :func:`result`."""
     try:
-        return [f.result() for f in futures]
+        return pool(workers).submit(fn, *args)
     except BrokenProcessPool as exc:
-        _POOLS.pop(p.workers, None)
+        _POOLS.pop(workers, None)
+        raise ResourceError(f"local worker pool broke: {exc}") from None
+
+
+def result(future: Future, workers: int) -> Any:
+    """The result of a task of :func:`submit` (its exception raised here; a dead worker as one line)."""
+    try:
+        return future.result()
+    except BrokenProcessPool as exc:
+        _POOLS.pop(workers, None)
         raise ResourceError(f"a local worker died ({exc}); rerun with fewer --jobs or a larger memory budget") from None
+
+
+@contextmanager
+def meanwhile_work(clock: Callable[[], float] = time.thread_time) -> Iterator[None]:
+    """Count the CPU time of the enclosed work (by ``clock``; default this thread's only, so the pool's own threads
+    are not counted) as work done here while the workers run (:func:`meanwhile_cpu_seconds`)."""
+    c0 = clock()
+    try:
+        yield
+    finally:
+        _MEANWHILE_CPU[0] += clock() - c0
 
 
 def _meanwhile(meanwhile: Callable[[], None] | None) -> None:
     if meanwhile is not None:
-        c0 = time.thread_time()  # this thread's CPU only: the pool's own threads are not the meanwhile work
-        meanwhile()
-        _MEANWHILE_CPU[0] += time.thread_time() - c0
+        with meanwhile_work():
+            meanwhile()
 
 
 #: a task on Dask that has run this many times its estimated length (plus a round trip) is taken over by this process
@@ -683,16 +708,20 @@ __all__ = [
     "Plan",
     "PreloadPlugin",
     "Shared",
+    "address",
     "client",
     "connected",
     "meanwhile_cpu_seconds",
+    "meanwhile_work",
     "plan",
     "pool",
     "resolve_workers",
+    "result",
     "round_trip",
     "run_tasks",
     "shutdown",
     "split",
     "start_workers",
+    "submit",
     "worker_pids",
 ]
