@@ -102,28 +102,32 @@ def resolve_workers(n_jobs: int) -> int:
     return os.cpu_count() or 1 if n_jobs == -1 else n_jobs
 
 
-def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None, granule: int = 1) -> Plan:
+def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None, granule: int = 1, *,
+         tasks_per_worker: int = TASKS_PER_WORKER) -> Plan:
     """Split ``items`` items (each ``item_seconds`` s, measured) into tasks for ``n_jobs`` local workers or a Dask
     cluster: tasks of a whole number of ``granule`` items, each ≥ :data:`MIN_LOCAL_TASK_SECONDS` (local), about
-    :data:`TASKS_PER_WORKER` per worker. Too little work for two such tasks runs serially (workers=1, tasks=1). On
-    Dask (:func:`_dask_plan`) the work stays here unless the cluster, with this process working beside it, finishes
+    ``tasks_per_worker`` per worker (work that ends at a barrier, such as a generation of candidates, asks for as many
+    as the least task time allows: the smaller the last task, the less a worker waits for the other; locally only).
+    Too little work for two such tasks runs serially (workers=1, tasks=1). On Dask (:func:`_dask_plan`) the work stays here unless the cluster, with this process working beside it, finishes
     it sooner including the cluster's fixed costs; the plan's text says why."""
     if scheduler is not None:
         return _dask_plan(items, item_seconds, scheduler, granule)
     workers = resolve_workers(n_jobs)
-    size, tasks = _task_size(items, item_seconds, granule, workers, MIN_LOCAL_TASK_SECONDS)
+    size, tasks = _task_size(items, item_seconds, granule, workers, MIN_LOCAL_TASK_SECONDS,
+                             tasks_per_worker)
     if tasks < 2:
         return Plan(items, 1, min(tasks, 1), items, item_seconds)
     return Plan(items, min(workers, tasks), tasks, size * granule, item_seconds, "local")
 
 
-def _task_size(items: int, item_seconds: float, granule: int, workers: int, least_seconds: float) -> tuple[int, int]:
+def _task_size(items: int, item_seconds: float, granule: int, workers: int, least_seconds: float,
+               tasks_per_worker: int = TASKS_PER_WORKER) -> tuple[int, int]:
     """(granules per task, tasks) for ``workers`` workers: tasks of ≥ ``least_seconds``, about
-    :data:`TASKS_PER_WORKER` per worker (one task of everything for one worker)."""
+    ``tasks_per_worker`` per worker (one task of everything for one worker)."""
     granules = math.ceil(items / granule) if items else 0
     per_granule = max(item_seconds, 0.0) * granule
     least = max(1, math.ceil(least_seconds / per_granule)) if per_granule > 0 else 1
-    size = max(least, math.ceil(granules / (workers * TASKS_PER_WORKER))) if workers > 1 else granules
+    size = max(least, math.ceil(granules / (workers * tasks_per_worker))) if workers > 1 else granules
     return size, (math.ceil(granules / size) if size else 0)
 
 
