@@ -325,10 +325,11 @@ def octree_boundary(
         return n_slices[0] >= 2
 
     vox, corners, inside, level = _refine(vox, corners, l0, levels, lat, ev, per_level, progress, stop)
+    candidates = None  # the closure's first pass, done by the subtrees
     if level < lmax and vox.shape[0]:  # stopped: the subtrees of this level's boundary voxels, refined apart
         t_sub = time.perf_counter()
-        vox, corners = _refine_apart(vox, corners, level, lat, subtrees, n_slices[0], inside,  # type: ignore[arg-type]
-                                     per_level)
+        vox, corners, candidates = _refine_apart(vox, corners, level, lat, subtrees,  # type: ignore[arg-type]
+                                                 n_slices[0], inside, per_level)
         ev.count = sum(n for _, n in per_level)
         ev.time += time.perf_counter() - t_sub
         if progress:
@@ -341,7 +342,7 @@ def octree_boundary(
     closure_added, edges, table = 0, None, None
     if closure and vox.shape[0]:
         before = ev.count
-        vox, corners, edges, closure_added, table = _close(vox, corners, lat, ev)
+        vox, corners, edges, closure_added, table = _close(vox, corners, lat, ev, candidates)
         per_level.append((-1, ev.count - before))
 
     touches = _touches_box(vox, corners, lat)
@@ -415,6 +416,7 @@ class Subtree:
     shared_keys: np.ndarray  # (K,) keys of the evaluated points on faces shared with another slice
     shared_level: np.ndarray  # (K,) their levels
     shared_counts: np.ndarray  # (K, C) their counters (:data:`CountedPredicate`)
+    ring_misses: np.ndarray | None = None  # sorted keys of voxels around the leaves' sign-change edges not among them
     info: Any = None  # what the runner adds (the evaluation statistics of the task)
 
 
@@ -484,7 +486,16 @@ def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
         counts = np.concatenate([c for _, _, c in ev.shared])
     else:
         keys, lvl, counts = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0), np.int64)
-    return Subtree(vox, corners, inside, per_level, keys, lvl, counts)
+    return Subtree(vox, corners, inside, per_level, keys, lvl, counts, _ring_misses(vox, corners, lat))
+
+
+def _ring_misses(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> np.ndarray:
+    """Sorted keys of the voxels around the sign-change edges of the leaves ``vox`` that are not among them: the
+    closure's first pass over these leaves alone (a superset of its first pass over all leaves, see :func:`_close`)."""
+    keys = lat.key(vox)
+    table = KeyTable(keys)
+    return unique_sorted(ring_misses(table.slots, table.shift, keys, np.ascontiguousarray(corners),
+                                     CORNER_OFFSETS @ lat.strides, EDGES, lat.ring_offsets()))
 
 
 def _evaluations_after(last: int, level: int, levels: np.ndarray) -> float:
@@ -499,10 +510,11 @@ def _evaluations_after(last: int, level: int, levels: np.ndarray) -> float:
 
 def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice, runner: SubtreeRunner,
                   n_slices: int, inside: list[int], per_level: list[tuple[int, int]]
-                  ) -> tuple[np.ndarray, np.ndarray]:
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cut the boundary voxels of ``level`` into ``n_slices`` contiguous slices, refine them apart (``runner``) and
     join the leaves in slice order (the serial order, :func:`_refine`); the inside counts and the evaluations per level
-    are added to ``inside`` and ``per_level``, a point evaluated by k slices counted once (``runner.uncount``)."""
+    are added to ``inside`` and ``per_level``, a point evaluated by k slices counted once (``runner.uncount``). Also
+    returns the slices' ring misses (candidates for the closure's first pass, :func:`_close`)."""
     bounds = np.linspace(0, vox.shape[0], n_slices + 1).round().astype(np.int64)
     keys = lat.key(vox)
     order = np.argsort(keys, kind="stable")
@@ -525,7 +537,8 @@ def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice
             new[int(lv)] -= int(n)
         runner.uncount(int(again.sum()), np.concatenate([p.shared_counts for p in shared])[again].sum(axis=0))
     per_level.extend(sorted(new.items()))
-    return np.concatenate([p.vox for p in parts]), np.concatenate([p.corners for p in parts])
+    return (np.concatenate([p.vox for p in parts]), np.concatenate([p.corners for p in parts]),
+            np.concatenate([p.ring_misses for p in parts]))
 
 
 def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
@@ -598,7 +611,7 @@ def owned_edges(vox: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.nd
     return kernels.owned_edges(np.ascontiguousarray(vox, np.int64), np.ascontiguousarray(corners, bool))
 
 
-def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
+def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator, candidates: np.ndarray | None = None
            ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int, KeyTable]:
     """Add finest voxels around sign-change edges until every such edge has all four voxels (see module doc).
 
@@ -607,6 +620,10 @@ def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
     the corners of the octree's leaves and those evaluated in earlier passes. Returns the leaves, their corners, the
     sign-change edges of all leaves (each once), the number of added voxels and the leaves' key table (key -> leaf
     number).
+
+    ``candidates`` (subtrees refined apart): the ring misses of each subtree's leaves alone (computed in the workers).
+    A voxel missing among all leaves is missing among a subtree's; a candidate of one subtree may be a leaf of
+    another: the first pass keeps the candidates not in the table, which are the misses of a pass over all leaves.
     """
     corner_off = CORNER_OFFSETS @ lat.strides
     ring_off = lat.ring_offsets()
@@ -617,8 +634,12 @@ def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
     all_corn[:f_keys.size] = f_corn
     added = 0
     while f_keys.shape[0]:
-        missing = unique_sorted(ring_misses(table.slots, table.shift, f_keys, f_corn, corner_off,
-                                            EDGES, ring_off))
+        if candidates is not None:
+            missing, candidates = candidates[table.find(candidates) < 0], None
+            missing = unique_sorted(missing)
+        else:
+            missing = unique_sorted(ring_misses(table.slots, table.shift, f_keys, f_corn, corner_off,
+                                                EDGES, ring_off))
         if missing.size == 0:
             break
         ck = (missing[:, None] + corner_off[None]).ravel()
