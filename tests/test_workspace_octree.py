@@ -142,7 +142,7 @@ def _depth_first(fn, lo, hi, eps):
 def test_level_by_level_equals_depth_first_recursion():
     # non-cubic box: the modification (split only axes above eps) changes the number of halvings per axis
     lo, hi, eps = [-0.6, -0.3, -0.45], [0.6, 0.3, 0.45], 0.05
-    fn = lambda p: (np.linalg.norm((p - [0.05, 0.02, 0.0]) / [0.5, 0.25, 0.35], axis=1) <= 1.0)  # noqa: E731
+    fn = lambda p: (np.linalg.norm((p - [0.05, 0.02, 0.0]) / [0.5, 0.25, 0.35], axis=1) <= 1.0)
     ref_leaves, ref_evals = _depth_first(fn, lo, hi, eps)
     res = octree_boundary(fn, lo, hi, eps, min_level=1, closure=False)
     assert res.levels.tolist() == [5, 4, 5]  # 1.2/32, 0.6/16, 0.9/32 <= 0.05
@@ -320,3 +320,42 @@ def test_compiled_triangle_volumes_are_the_numpy_formula():
     assert np.array_equal(six_volumes(v, t), (p1[:, 0] * x[:, 0] + p1[:, 2] * x[:, 2]) + p1[:, 1] * x[:, 1])
     # and einsum's value within rounding (its order of summation is numpy's choice, 1e-15 relative per term)
     assert np.allclose(six_volumes(v, t), np.einsum("ij,ij->i", p1, x), rtol=1e-12, atol=1e-12)
+
+
+def test_compiled_mesh_kernels_are_the_numpy_formulas():
+    """Centroids (eq. 4.1), crossing vertices, owned edges and lattice keys: the numpy formulations they replaced, bit
+    for bit (the same IEEE operations in the same order; no fastmath), on random voxels that also leave the box."""
+    from pkmstiff.workspace import kernels
+
+    rng = np.random.default_rng(11)
+    n = np.array([6, 5, 7])
+    vox = rng.integers(-1, n + 1, (400, 3))  # -1 and n: voxels at and beyond the box faces
+    corners = rng.random((400, 8)) < 0.5
+    corners[~corners.any(axis=1), 0] = True  # a leaf has at least one admissible corner
+    lo, h = np.array([-0.3, 0.1, -1.7]), np.array([0.013, 0.021, 0.0077])
+    cnt = corners.astype(np.int64)
+    offs = np.stack([cnt[:, CORNER_OFFSETS[:, k] == 1].sum(axis=1) for k in range(3)], axis=1) / cnt.sum(axis=1)[:, None]
+    assert np.array_equal(kernels.corner_centroids(vox, corners, lo, h), lo + (vox + offs) * h)
+
+    start, axis = vox, rng.integers(0, 3, 400)
+    vid = rng.integers(0, 50, (400, 4))
+    t = rng.random(400)
+    inside = lambda i: np.all((i >= 0) & (i <= n), axis=-1)
+    tt = np.where(~inside(start), 1.0, np.where(~inside(start + np.eye(3, dtype=np.int64)[axis]), 0.0, t))
+    pt = start.astype(float)
+    pt[np.arange(400), axis] += tt
+    acc = np.stack([np.bincount(vid.ravel(), np.repeat(pt[:, k], 4), minlength=50) for k in range(3)], axis=1)
+    num = np.bincount(vid.ravel(), minlength=50).astype(float)
+    used = num > 0
+    got = kernels.crossing_vertices(vid, start, axis, t, n, lo, h, 50)
+    assert np.array_equal(got[used], (lo + acc / num[:, None] * h)[used])
+
+    parts = [np.flatnonzero(corners[:, 0] != corners[:, 1 << a]) for a in range(3)]
+    vi = np.concatenate(parts)
+    s, a, low = kernels.owned_edges(vox, corners)
+    assert np.array_equal(s, vox[vi]) and np.array_equal(low, corners[vi, 0])
+    assert np.array_equal(a, np.concatenate([np.full(p.size, k) for k, p in enumerate(parts)]))
+
+    dims = n + 3
+    i = vox + 1
+    assert np.array_equal(kernels.lattice_keys(vox, dims), i[:, 0] + dims[0] * (i[:, 1] + dims[1] * i[:, 2]))

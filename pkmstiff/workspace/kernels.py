@@ -8,7 +8,7 @@ thousands of points, so there is no interpreted twin.
 The hash table: open addressing with linear probing over a power-of-two number of slots, int64 keys >= 0 (the keys of
 lattice points, :class:`pkmstiff.workspace.octree.Lattice`; queries may be any int64), -1 = empty slot; the value of a key is an int64 (a leaf number).
 Key and value of a slot lie side by side (``slots[2 h]``, ``slots[2 h + 1]``): a look-up that finds its key reads
-one cache line, not two (the closure's and the mesh's look-ups are memory-latency bound).
+one cache line, not two.
 """
 
 from __future__ import annotations
@@ -209,7 +209,8 @@ def owned_edges(vox, corners):
 @_jit
 def ring_lookup(slots, shift, start, axis, dims, ring_off):
     """(E, 4) values (leaf numbers, -1 where absent) of the lattice keys of the four voxels around each edge: lower end
-    ``start`` (E, 3) lattice indices, ``axis`` (E,), keys as :func:`lattice_keys`, the voxels' key offsets ``ring_off`` (3, 4)."""
+    ``start`` (E, 3) lattice indices, ``axis`` (E,), keys as :func:`lattice_keys`, the voxels' key offsets
+    ``ring_off`` (3, 4)."""
     out = np.empty((start.shape[0], 4), np.int64)
     for e in range(start.shape[0]):
         base = _key(start, e, dims)

@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
-from collections.abc import Callable
 from itertools import pairwise
 from typing import Any, Protocol
 
@@ -41,8 +41,14 @@ from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
 from pkmstiff.workspace import kernels
-from pkmstiff.workspace.kernels import (KeyTable, corner_centroids, known_corners, ring_lookup, ring_misses,
-                                       ring_triangles)
+from pkmstiff.workspace.kernels import (
+    KeyTable,
+    corner_centroids,
+    known_corners,
+    ring_lookup,
+    ring_misses,
+    ring_triangles,
+)
 
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)
