@@ -1,0 +1,414 @@
+"""Forward kinematics on the output body's six coordinates where every leg reduces to a distance constraint
+(issue 27 item 6: speed of the generic solver; an internal fast path of :func:`pkmstiff.mechanisms.solver.forward`).
+
+A *length leg* is a link joined to a ground link by a cardan joint (point b, axis e₁ on the ground, e₂ on the leg)
+and to the output link by a driven ``point_on_axis`` joint (point P, axis a ∥ P − b at home): the leg is a line
+through b and the output point p = t + R P, and the drive equation (eq. 8 on the axis u = R_leg a)
+reads s = σ |p − b| + c with σ = sign((P − b)·a) and c = offset − (P − b)·a (6-UPS, 6X).  A mechanism whose links
+are the ground, the output link and length legs only, with no other joint, is *reducible* (:func:`leg_plan`,
+decided at load from the constraint structure).  Its forward kinematics is then a Newton iteration on the output
+frame (t, R) alone — residual rᵢ = σᵢ|t + R Pᵢ − bᵢ| + cᵢ − sᵢ, Jacobian rows σᵢ[nᵢᵀ, ((R Pᵢ) × nᵢ)ᵀ] for the step
+(δt, δω), R ← exp([δω]×) R, one 6 × 6 solve per step, compiled per pose — and every leg's frame follows in closed
+form (:func:`_legs`): R_leg = Rot(e₁, α) Rot(e₂, β) (the cardan), R_leg a = σ n, t_leg = b − R_leg b, the branch of
+β nearest to the start's leg rotation (the configuration connected to the start, as the full path's continuation).
+
+The controlled-output condition comes from the same 6 × 6 Jacobian: ∂x_c/∂s = G J⁻¹ with G = [[I, −[R o]×], [0, I]]
+for the output point o and ω, so κ(∂x_c/∂s) = κ(J G⁻¹) (one 6 × 6 Jacobi SVD per pose, :func:`_svd6`).
+
+Poses for which the reduced solve does not certify a regular configuration — not converged, σ_min/σ_max of J
+below :data:`REGULAR_SCREEN`, a cardan near its lock (|v·e₁| close to its bound), κ above 1/``singular_tol`` — are
+solved again by the full link-and-joint path from their original start, so statuses, ranks and singular-value
+ratios there are the full path's by construction.  ``PKMSTIFF_FULL_FK=1`` switches the fast path off.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from pkmstiff.mechanisms.kernel import _angles, _exp_left
+from pkmstiff.mechanisms.model import Mechanism
+
+Array = NDArray[np.float64]
+
+#: σ_min/σ_max of the reduced 6 × 6 Jacobian from which a converged pose is regular without the full path's rank
+#: check: 1e4 above the full path's ``singular_tol`` (1e-7); over the bundled 6-UPS/6X workspaces the full
+#: system's σ-ratio is at least 1e-2 of the reduced one (tests/test_mechanism_reduced.py checks the margin)
+REGULAR_SCREEN = 1e-3
+#: a cardan whose leg direction v has |v·e₁| within this of its bound √(a₁² + a₃²) is near its lock: full path
+_LOCK_MARGIN = 1e-6
+#: codes of :func:`newton`
+CONVERGED, FAILED = 0, 1
+_CHUNK = 64
+_PARALLEL_MIN = 2048
+
+
+@dataclass(frozen=True)
+class LegPlan:
+    """The length legs of a reducible mechanism (SI, world coordinates at home), in drive order."""
+
+    out_link: int
+    leg_links: np.ndarray  #: (6,) leg link per drive
+    b: np.ndarray  #: (6, 3) cardan points on the ground
+    P: np.ndarray  #: (6, 3) leg points on the output link (home)
+    a: np.ndarray  #: (6, 3) leg axes at home (unit)
+    e1: np.ndarray  #: (6, 3) cardan axes on the ground
+    e2: np.ndarray  #: (6, 3) cardan axes on the leg (home)
+    sign: np.ndarray  #: (6,) σ
+    c: np.ndarray  #: (6,) c [m]
+    e3: np.ndarray  #: (6, 3) e₁ × e₂
+    ac: np.ndarray  #: (6, 3) a in the basis e₁, e₂, e₃
+    rho: np.ndarray  #: (6,) √(a₁² + a₃²): |v·e₁| ≤ ρ (beyond: the cardan cannot reach v)
+    gam: np.ndarray  #: (6,) atan2(a₃, a₁)
+    o: np.ndarray  #: (3,) the output point (home)
+
+
+def leg_plan(mech: Mechanism) -> LegPlan | None:
+    """The :class:`LegPlan` of a mechanism whose every non-ground link but the output is a length leg, else None
+    (see the module docstring); cached on the mechanism."""
+    cached = mech.__dict__.get("_leg_plan", False)
+    if cached is not False:
+        return cached
+    plan = _find_legs(mech)
+    mech.__dict__["_leg_plan"] = plan
+    return plan
+
+
+def _find_legs(mech: Mechanism) -> LegPlan | None:
+    o = mech.output
+    if mech.dim != 3 or o is None or o.orientation != "full" or len(mech.drives) != 6 or len(mech.ground) != 1:
+        return None
+    g, out = mech.ground[0], o.link
+    legs = [li for li in range(len(mech.links)) if li not in (g, out)]
+    if len(legs) != 6 or len(mech.joints) != 12:
+        return None
+    rows = []
+    for li in legs:
+        js = [jt for jt in mech.joints if li in jt.links]
+        card = [jt for jt in js if jt.type == "cardan" and jt.links == (g, li)]
+        poa = [jt for jt in js if jt.type == "point_on_axis" and jt.links == (li, out) and jt.drive is not None]
+        if len(js) != 2 or len(card) != 1 or len(poa) != 1:
+            return None
+        cj, pj = card[0], poa[0]
+        d = pj.point - cj.point
+        a = pj.axis / np.linalg.norm(pj.axis)
+        if np.linalg.norm(d) < 1e-9 * mech.length_scale or np.linalg.norm(np.cross(d, a)) > 1e-12 * np.linalg.norm(d):
+            return None  # the cardan point is not on the leg's axis: no distance constraint
+        e1 = cj.axis / np.linalg.norm(cj.axis)
+        e2 = cj.axis2 / np.linalg.norm(cj.axis2)
+        da = float(d @ a)
+        rows.append((mech.drives.index(pj), li, cj.point, pj.point, a, e1, e2, np.sign(da), pj.drive.offset - da))
+    rows.sort(key=lambda r: r[0])
+    _, li, b, P, a, e1, e2, sg, c = (np.array(v) for v in zip(*rows))
+    e3 = np.cross(e1, e2)
+    ac = np.stack([np.einsum("ia,ia->i", a, e) for e in (e1, e2, e3)], axis=1)
+    f = np.ascontiguousarray
+    return LegPlan(out, li.astype(np.int64), f(b, dtype=float), f(P, dtype=float), f(a, dtype=float),
+                   f(e1, dtype=float), f(e2, dtype=float), sg.astype(float), c.astype(float), f(e3), f(ac),
+                   np.hypot(ac[:, 0], ac[:, 2]), np.arctan2(ac[:, 2], ac[:, 0]), np.asarray(o.point, dtype=float))
+
+
+def enabled() -> bool:
+    """The fast path is used unless ``PKMSTIFF_FULL_FK`` is set to 1 (tests compare both paths)."""
+    return os.environ.get("PKMSTIFF_FULL_FK", "0") != "1"
+
+
+# ----------------------------------------------------------------------------------------------------------
+# compiled Newton on (t, R) of the output link
+# ----------------------------------------------------------------------------------------------------------
+
+
+def _eval(t, R, P, b, sign, c, s, r, J):  # pragma: no cover - compiled
+    """Residual r (6,) and Jacobian J (6, 6) (columns δt, δω) of the length legs at (t, R)."""
+    for i in range(6):
+        rp0 = R[0, 0] * P[i, 0] + R[0, 1] * P[i, 1] + R[0, 2] * P[i, 2]
+        rp1 = R[1, 0] * P[i, 0] + R[1, 1] * P[i, 1] + R[1, 2] * P[i, 2]
+        rp2 = R[2, 0] * P[i, 0] + R[2, 1] * P[i, 1] + R[2, 2] * P[i, 2]
+        d0, d1, d2 = t[0] + rp0 - b[i, 0], t[1] + rp1 - b[i, 1], t[2] + rp2 - b[i, 2]
+        ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        r[i] = sign[i] * ln + c[i] - s[i]
+        if J.shape[0] == 6:
+            n0, n1, n2 = sign[i] * d0 / ln, sign[i] * d1 / ln, sign[i] * d2 / ln
+            J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
+            J[i, 3], J[i, 4], J[i, 5] = rp1 * n2 - rp2 * n1, rp2 * n0 - rp0 * n2, rp0 * n1 - rp1 * n0
+
+
+def _solve6(A, x):  # pragma: no cover - compiled
+    """x ← A⁻¹ x by Gaussian elimination with partial pivoting (A (6, 6) is overwritten); False if singular."""
+    for k in range(6):
+        p = k
+        for i in range(k + 1, 6):
+            if abs(A[i, k]) > abs(A[p, k]):
+                p = i
+        if not abs(A[p, k]) > 0.0:
+            return False
+        if p != k:
+            for j in range(6):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+            x[k], x[p] = x[p], x[k]
+        for i in range(k + 1, 6):
+            f = A[i, k] / A[k, k]
+            for j in range(k, 6):
+                A[i, j] -= f * A[k, j]
+            x[i] -= f * x[k]
+    for k in range(5, -1, -1):
+        v = x[k]
+        for j in range(k + 1, 6):
+            v -= A[k, j] * x[j]
+        x[k] = v / A[k, k]
+    return True
+
+
+def _svd6(A, sv):  # pragma: no cover - compiled
+    """Singular values sv (6,) of A (6, 6) (overwritten) by one-sided Jacobi rotations (accurate to rounding
+    relative to each σ, unlike the eigenvalues of AᵀA), descending."""
+    for _sweep in range(30):
+        off = 0.0
+        for p in range(5):
+            for q in range(p + 1, 6):
+                al = be = ga = 0.0
+                for i in range(6):
+                    al += A[i, p] * A[i, p]
+                    be += A[i, q] * A[i, q]
+                    ga += A[i, p] * A[i, q]
+                if ga == 0.0 or abs(ga) <= 1e-17 * math.sqrt(al * be):
+                    continue
+                off = max(off, abs(ga) / math.sqrt(al * be))
+                z = (be - al) / (2.0 * ga)
+                tt = (1.0 if z >= 0.0 else -1.0) / (abs(z) + math.sqrt(1.0 + z * z))
+                cs = 1.0 / math.sqrt(1.0 + tt * tt)
+                sn = cs * tt
+                for i in range(6):
+                    x, y = A[i, p], A[i, q]
+                    A[i, p], A[i, q] = cs * x - sn * y, sn * x + cs * y
+        if off <= 6e-16:  # n·ε
+            break
+    for j in range(6):
+        v = 0.0
+        for i in range(6):
+            v += A[i, j] * A[i, j]
+        sv[j] = math.sqrt(v)
+    sv.sort()
+    sv[:] = sv[::-1].copy()
+
+
+def _rot_angles(x, y, z, out):  # pragma: no cover - compiled
+    """out ← Rz(z) Ry(y) Rx(x) (eq. 2)."""
+    cx, sx, cy, sy, cz, sz = math.cos(x), math.sin(x), math.cos(y), math.sin(y), math.cos(z), math.sin(z)
+    out[0, 0], out[0, 1], out[0, 2] = cz * cy, cz * sy * sx - sz * cx, cz * sy * cx + sz * sx
+    out[1, 0], out[1, 1], out[1, 2] = sz * cy, sz * sy * sx + cz * cx, sz * sy * cx - cz * sx
+    out[2, 0], out[2, 1], out[2, 2] = -sy, cy * sx, cy * cx
+
+
+def _rot_axis(e, ang, out):  # pragma: no cover - compiled
+    """out ← rotation about the unit axis e by ang (Rodrigues)."""
+    _exp_left(ang * e[0], ang * e[1], ang * e[2], _EYE, out)
+
+
+def _legs(t, R, q0, q, leg_links, P, b, sign, e1, e2, e3, ac, rho, gam, W):  # pragma: no cover - compiled
+    """Leg frames into q (see :func:`legs`); returns True where a cardan is near its lock."""
+    R0, Ra, Rb, Rl, Rbest = W[0], W[1], W[2], W[3], W[4]
+    lock = False
+    for i in range(6):
+        d0 = t[0] + R[0, 0] * P[i, 0] + R[0, 1] * P[i, 1] + R[0, 2] * P[i, 2] - b[i, 0]
+        d1 = t[1] + R[1, 0] * P[i, 0] + R[1, 1] * P[i, 1] + R[1, 2] * P[i, 2] - b[i, 1]
+        d2 = t[2] + R[2, 0] * P[i, 0] + R[2, 1] * P[i, 1] + R[2, 2] * P[i, 2] - b[i, 2]
+        f = sign[i] / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        v1 = f * (d0 * e1[i, 0] + d1 * e1[i, 1] + d2 * e1[i, 2])
+        v2 = f * (d0 * e2[i, 0] + d1 * e2[i, 1] + d2 * e2[i, 2])
+        v3 = f * (d0 * e3[i, 0] + d1 * e3[i, 1] + d2 * e3[i, 2])
+        x = v1 / rho[i]
+        if abs(x) > 1.0 - _LOCK_MARGIN:
+            lock = True
+        dl = math.acos(min(1.0, max(-1.0, x)))
+        li = leg_links[i]
+        o = 6 * li
+        _rot_angles(q0[o + 3], q0[o + 4], q0[o + 5], R0)
+        best = np.inf
+        for br in (1.0, -1.0):
+            beta = gam[i] + br * dl
+            p3 = ac[i, 2] * math.cos(beta) - ac[i, 0] * math.sin(beta)
+            alpha = math.atan2(v3, v2) - math.atan2(p3, ac[i, 1])
+            _rot_axis(e1[i], alpha, Ra)
+            _rot_axis(e2[i], beta, Rb)
+            dist = 0.0
+            for r_ in range(3):
+                for c_ in range(3):
+                    Rl[r_, c_] = Ra[r_, 0] * Rb[0, c_] + Ra[r_, 1] * Rb[1, c_] + Ra[r_, 2] * Rb[2, c_]
+                    dist += (Rl[r_, c_] - R0[r_, c_]) ** 2
+            if dist < best:
+                best = dist
+                Rbest[:] = Rl
+        for a in range(3):
+            q[o + a] = b[i, a] - (Rbest[a, 0] * b[i, 0] + Rbest[a, 1] * b[i, 1] + Rbest[a, 2] * b[i, 2])
+        _angles(Rbest[0, 0], Rbest[1, 0], Rbest[2, 0], Rbest[0, 1], Rbest[1, 1], Rbest[0, 2], Rbest[1, 2],
+                q[o + 3:o + 6])
+    return lock
+
+
+def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+                  path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, n0,
+                  n1):  # pragma: no cover - compiled
+    r = np.empty(6)
+    rt = np.empty(6)
+    J = np.empty((6, 6))
+    Jt = np.empty((6, 6))
+    Jd = np.empty((1, 1))
+    A = np.empty((6, 6))
+    dx = np.empty(6)
+    sv = np.empty(6)
+    s = np.empty(6)
+    t = np.empty(3)
+    tt = np.empty(3)
+    R = np.empty((3, 3))
+    Rt = np.empty((3, 3))
+    W = np.empty((5, 3, 3))
+    a2 = (1.0 - armijo) ** 2
+    ol = 6 * out_link
+    for p in range(n0, n1):
+        q0 = Q0[min(p, Q0.shape[0] - 1)]
+        s0 = S0[min(p, S0.shape[0] - 1)]
+        t[:] = q0[ol:ol + 3]
+        _rot_angles(q0[ol + 3], q0[ol + 4], q0[ol + 5], R)
+        ns = n_steps[p]
+        st = CONVERGED
+        acc = 0
+        rn = np.inf
+        for k in range(1, ns + 1):
+            for i in range(6):
+                s[i] = s0[i] + (k / ns) * (S1[p, i] - s0[i])
+            tk = tol if k == ns else path_tol
+            _eval(t, R, P, b, sign, c, s, r, J)
+            st = FAILED
+            for it_ in range(max_iter + 1):
+                rn = 0.0
+                r2 = 0.0
+                for i in range(6):
+                    r2 += r[i] * r[i]
+                    if not abs(r[i]) <= rn:
+                        rn = abs(r[i])
+                if rn <= tk:
+                    st = CONVERGED
+                    break
+                if it_ == max_iter:
+                    break
+                A[:] = J
+                for i in range(6):
+                    dx[i] = -r[i]
+                if not _solve6(A, dx):
+                    break
+                alpha = 1.0
+                ok = False
+                for _ in range(max_backtrack + 1):
+                    for i in range(3):
+                        tt[i] = t[i] + alpha * dx[i]
+                    _exp_left(alpha * dx[3], alpha * dx[4], alpha * dx[5], R, Rt)
+                    _eval(tt, Rt, P, b, sign, c, s, rt, Jt if alpha == 1.0 else Jd)
+                    t2 = 0.0
+                    tmax = 0.0
+                    for i in range(6):
+                        t2 += rt[i] * rt[i]
+                        if not abs(rt[i]) <= tmax:
+                            tmax = abs(rt[i])
+                    if math.isfinite(t2) and (t2 <= (1.0 - armijo * alpha) ** 2 * r2
+                                              or (alpha == 1.0 and (t2 <= a2 * r2 or tmax <= tk))):
+                        ok = True
+                        break
+                    alpha *= 0.5
+                if not ok:
+                    st = CONVERGED if rn <= 10.0 * tk else FAILED
+                    break
+                t[:] = tt
+                R[:] = Rt
+                acc += 1
+                if alpha == 1.0:
+                    r, rt = rt, r
+                    J, Jt = Jt, J
+                else:
+                    _eval(t, R, P, b, sign, c, s, r, J)
+            if st != CONVERGED:
+                break
+        code[p] = st
+        iters[p] = acc
+        resid[p] = rn
+        if st != CONVERGED:
+            continue
+        qp = Q[p]
+        qp[:] = 0.0
+        qp[ol:ol + 3] = t
+        _angles(R[0, 0], R[1, 0], R[2, 0], R[0, 1], R[1, 1], R[0, 2], R[1, 2], qp[ol + 3:ol + 6])
+        lock[p] = _legs(t, R, q0, qp, leg_links, P, b, sign, e1, e2, e3, ac, rho, gam, W)
+        # κ(∂x_c/∂s) = κ(J G⁻¹), G⁻¹ = [[I, [R o]×], [0, I]]: the δω columns gain J_t [R o]×
+        _eval(t, R, P, b, sign, c, s, r, J)
+        ro0 = R[0, 0] * o[0] + R[0, 1] * o[1] + R[0, 2] * o[2]
+        ro1 = R[1, 0] * o[0] + R[1, 1] * o[1] + R[1, 2] * o[2]
+        ro2 = R[2, 0] * o[0] + R[2, 1] * o[1] + R[2, 2] * o[2]
+        for i in range(6):
+            A[i, 0], A[i, 1], A[i, 2] = J[i, 0], J[i, 1], J[i, 2]
+            A[i, 3] = J[i, 3] + J[i, 1] * ro2 - J[i, 2] * ro1
+            A[i, 4] = J[i, 4] + J[i, 2] * ro0 - J[i, 0] * ro2
+            A[i, 5] = J[i, 5] + J[i, 0] * ro1 - J[i, 1] * ro0
+        _svd6(A, sv)
+        kappa[p] = sv[0] / sv[5] if sv[5] > 1e-14 * sv[0] else np.inf
+        # J = (J G⁻¹) G: σ_min/σ_max of J ≥ 1/(κ(J G⁻¹) κ(G)), κ(G) = ((|Ro| + √(|Ro|² + 4))/2)²
+        x = math.sqrt(ro0 * ro0 + ro1 * ro1 + ro2 * ro2)
+        rcond[p] = 1.0 / (kappa[p] * (0.5 * (x + math.sqrt(x * x + 4.0))) ** 2)
+
+
+def _newton_impl(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+                 path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
+                 lock):  # pragma: no cover - compiled
+    N = S1.shape[0]
+    for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
+        _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+                      path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock,
+                      ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
+
+
+_EYE = np.eye(3)
+_OPTS = {"cache": True, "nogil": True, "error_model": "numpy"}
+_eval = numba.njit(**_OPTS)(_eval)
+_solve6 = numba.njit(**_OPTS)(_solve6)
+_svd6 = numba.njit(**_OPTS)(_svd6)
+_rot_angles = numba.njit(**_OPTS)(_rot_angles)
+_rot_axis = numba.njit(**_OPTS)(_rot_axis)
+_legs = numba.njit(**_OPTS)(_legs)
+_newton_chunk = numba.njit(**_OPTS)(_newton_chunk)
+_newton_parallel = numba.njit(parallel=True, **_OPTS)(_newton_impl)
+
+
+@numba.njit(**_OPTS)
+def _newton_serial(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+                   path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
+                   lock):  # pragma: no cover - compiled
+    _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+                  path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, 0,
+                  S1.shape[0])
+
+
+def solve(mech: Mechanism, lp: LegPlan, q0: Array, s0: Array, s1: Array, n_steps: Array, tol: float,
+          path_tol: float, max_iter: int, max_backtrack: int, armijo: float) -> tuple:
+    """Continuation in ``n_steps`` (N,) equal drive steps from the start (q0 (1 or N, L, 6), drive values s0
+    (1 or N, 6)) to s1 (N, 6) [m], each a damped Newton on the output frame to ``path_tol`` (intermediate) /
+    ``tol`` (last) on max |r|; then the legs in closed form.  Returns q (N, L, 6), code (N,), accepted steps,
+    max |r|, a lower bound of σ_min/σ_max of J, κ(∂x_c/∂s) and the cardan-lock flag (NaN/False where failed)."""
+    N, L = s1.shape[0], len(mech.links)
+    Q = np.full((N, L * 6), np.nan)
+    code = np.empty(N, dtype=np.int64)
+    iters = np.zeros(N, dtype=np.int64)
+    resid = np.full(N, np.inf)
+    rcond = np.full(N, np.nan)
+    kappa = np.full(N, np.nan)
+    lock = np.zeros(N, dtype=np.bool_)
+    kern = _newton_parallel if N >= _PARALLEL_MIN else _newton_serial
+    f = np.ascontiguousarray
+    kern(f(q0.reshape(q0.shape[0], -1), dtype=float), f(s0, dtype=float), f(s1, dtype=float),
+         f(n_steps, dtype=np.int64), lp.out_link, lp.leg_links, lp.P, lp.b, lp.sign, lp.c, lp.e1, lp.e2, lp.e3,
+         lp.ac, lp.rho, lp.gam, lp.o, float(tol), float(path_tol), int(max_iter), int(max_backtrack), float(armijo),
+         Q, code, iters, resid, rcond, kappa, lock)
+    return Q.reshape(N, L, 6), code, iters, resid, rcond, kappa, lock
