@@ -36,10 +36,11 @@ from pkmstiff.mechanisms.model import Mechanism
 
 Array = NDArray[np.float64]
 
-#: σ_min/σ_max of the reduced 6 × 6 Jacobian from which a converged pose is regular without the full path's rank
-#: check: 1e4 above the full path's ``singular_tol`` (1e-7); over the bundled 6-UPS/6X workspaces the full
-#: system's σ-ratio is at least 1e-2 of the reduced one (tests/test_mechanism_reduced.py checks the margin)
-REGULAR_SCREEN = 1e-3
+#: lower bound of σ_min/σ_max of the reduced 6 × 6 Jacobian from which a converged pose is regular without the full
+#: path's rank check: over the bundled 6-UPS/6X workspaces the full system's exact σ_min/σ_max is at least 0.1 of
+#: the bound (0.3 seen; tests/test_mechanism_reduced.py checks 0.1), so a certified pose has ≥ 1e-5 there, 100 ×
+#: the full path's ``singular_tol`` (1e-7) and far above its gap floor (1e-8): it would be ``converged`` there too
+REGULAR_SCREEN = 1e-4
 #: a cardan whose leg direction v has |v·e₁| within this of its bound √(a₁² + a₃²) is near its lock: full path
 _LOCK_MARGIN = 1e-6
 #: codes of :func:`newton`
