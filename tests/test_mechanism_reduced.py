@@ -40,15 +40,17 @@ def _agree(full, fast):
 
 @pytest.mark.parametrize("name", ["hexapod_6ups", "hexapod_6x_generic"])
 def test_reducible(name):
-    lp = reduced.leg_plan(mm.load_mechanism(name))
+    mech = mm.load_mechanism(name)
+    lp = reduced.leg_plan(mech)
     assert lp is not None and sorted(lp.leg_links.tolist()) == list(range(2, 8))
+    assert mm.info(mech).forward_path == "length_legs"
 
 
 @pytest.mark.parametrize("name", ["hybrid_tripod_wrist", "five_bar", "slider_crank", "biglide_generic",
                                   "bipod_generic", "hexaglide_generic", "hexa_6rus"])
 def test_not_reducible_keeps_full_path(name, monkeypatch):
     mech = mm.load_mechanism(name)
-    assert reduced.leg_plan(mech) is None
+    assert reduced.leg_plan(mech) is None and mm.info(mech).forward_path == "full"
 
     def boom(*a, **k):
         raise AssertionError("reduced path used")
