@@ -15,8 +15,8 @@ form (:func:`_legs`): R_leg = Rot(e₁, α) Rot(e₂, β) (the cardan), R_leg a 
 The controlled-output condition comes from the same 6 × 6 Jacobian: ∂x_c/∂s = G J⁻¹ with G = [[I, −[R o]×], [0, I]]
 for the output point o and ω, so κ(∂x_c/∂s) = κ(J G⁻¹) (one 6 × 6 Jacobi SVD per pose, :func:`_svd6`).
 
-Poses for which the reduced solve does not certify a regular configuration — not converged, σ_min/σ_max of J
-below :data:`REGULAR_SCREEN`, a cardan near its lock (|v·e₁| close to its bound), κ above 1/``singular_tol`` — are
+Poses for which the reduced solve does not certify a regular configuration — not converged, a lower bound of
+σ_min/σ_max of J below :data:`REGULAR_SCREEN`, a cardan near its lock (|v·e₁| close to its bound), κ above 1/``singular_tol`` — are
 solved again by the full link-and-joint path from their original start, so statuses, ranks and singular-value
 ratios there are the full path's by construction.  ``PKMSTIFF_FULL_FK=1`` switches the fast path off.
 """
@@ -43,7 +43,7 @@ Array = NDArray[np.float64]
 REGULAR_SCREEN = 1e-4
 #: a cardan whose leg direction v has |v·e₁| within this of its bound √(a₁² + a₃²) is near its lock: full path
 _LOCK_MARGIN = 1e-6
-#: codes of :func:`newton`
+#: codes of :func:`solve`
 CONVERGED, FAILED = 0, 1
 _CHUNK = 64
 _PARALLEL_MIN = 2048
@@ -82,7 +82,8 @@ def leg_plan(mech: Mechanism) -> LegPlan | None:
 
 def _find_legs(mech: Mechanism) -> LegPlan | None:
     o = mech.output
-    if mech.dim != 3 or o is None or o.orientation != "full" or len(mech.drives) != 6 or len(mech.ground) != 1:
+    if (mech.dim != 3 or o is None or o.orientation != "full" or tuple(o.coordinates) != (0, 1, 2)
+            or len(mech.drives) != 6 or len(mech.ground) != 1):
         return None
     g, out = mech.ground[0], o.link
     legs = [li for li in range(len(mech.links)) if li not in (g, out)]
