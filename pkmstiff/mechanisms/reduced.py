@@ -1,22 +1,29 @@
 """Forward kinematics on the output body's six coordinates where every leg reduces to a distance constraint
 (issue 27 item 6: speed of the generic solver; an internal fast path of :func:`pkmstiff.mechanisms.solver.forward`).
 
-A *length leg* is a link joined to a ground link by a cardan joint (point b, axis e₁ on the ground, e₂ on the leg)
-and to the output link by a driven ``point_on_axis`` joint (point P, axis a ∥ P − b at home): the leg is a line
-through b and the output point p = t + R P, and the drive equation (eq. 8 on the axis u = R_leg a)
-reads s = σ |p − b| + c with σ = sign((P − b)·a) and c = offset − (P − b)·a (6-UPS, 6X).  A mechanism whose links
-are the ground, the output link and length legs only, with no other joint, is *reducible* (:func:`leg_plan`,
-decided at load from the constraint structure).  Its forward kinematics is then a Newton iteration on the output
-frame (t, R) alone — residual rᵢ = σᵢ|t + R Pᵢ − bᵢ| + cᵢ − sᵢ, Jacobian rows σᵢ[nᵢᵀ, ((R Pᵢ) × nᵢ)ᵀ] for the step
-(δt, δω), R ← exp([δω]×) R, one 6 × 6 solve per step, compiled per pose — and every leg's frame follows in closed
-form (:func:`_legs`): R_leg = Rot(e₁, α) Rot(e₂, β) (the cardan), R_leg a = σ n, t_leg = b − R_leg b, the branch of
-β nearest to the start's leg rotation (the configuration connected to the start, as the full path's continuation).
+Two kinds of leg link reduce (:class:`LegPlan`, found by :func:`leg_plan` from the constraint structure at load):
 
-The controlled-output condition comes from the same 6 × 6 Jacobian: ∂x_c/∂s = G J⁻¹ with G = [[I, −[R o]×], [0, I]]
-for the output point o and ω, so κ(∂x_c/∂s) = κ(J G⁻¹) (one 6 × 6 Jacobi SVD per pose, :func:`_svd6`).
+- *telescopic*: joined to the ground by a cardan joint (point b) and to the output link by a driven
+  ``point_on_axis`` joint (point P, axis a ∥ P − b at home): the drive equation (eq. 8 on the axis u = R_leg a)
+  reads s = σ|p − b| + c with p = t + R P, σ = sign((P − b)·a), c = offset − (P − b)·a (6-UPS, 6X);
+- *guided rod*: joined to the ground by a driven ``point_on_axis`` joint (carriage point C on a guide along g) and
+  to the output link by a cardan joint (point P): |p − C − (s − offset) g| = |P − C| (Hexaglide).
+
+A mechanism whose links are the ground, the output link and six such legs, with no other joint, is solved by a
+Newton iteration on the output frame (t, R) alone — residual rᵢ = σᵢ|p − Aᵢ(sᵢ)| + cᵢ − μᵢsᵢ, Jacobian rows
+σᵢ[nᵢᵀ, ((R Pᵢ) × nᵢ)ᵀ] for the step (δt, δω), R ← exp([δω]×) R, one 6 × 6 solve per step, compiled per pose — and
+every leg's frame follows in closed form (:func:`_legs`): the cardan R_rel = Rot(e₁, α) Rot(e₂, β) relative to its
+reference link turns the leg's home direction onto the current one, t_leg from the cardan point; of the two β the
+one nearest to the start's leg rotation (the configuration connected to the start, as the full path's
+continuation).  Legs of two links (the crank and rod of a 6-RUS) do not reduce here: such mechanisms keep the full
+path.
+
+The controlled-output condition comes from the same 6 × 6 Jacobian: ∂x_c/∂s = G J⁻¹ diag(D) with
+G = [[I, −[R o]×], [0, I]] for the output point o and ω and Dᵢ = −∂rᵢ/∂sᵢ, so κ(∂x_c/∂s) = κ(diag(D)⁻¹ J G⁻¹)
+(one 6 × 6 Jacobi SVD per pose, :func:`_svd6`).
 
 Poses for which the reduced solve does not certify a regular configuration — not converged, a lower bound of
-σ_min/σ_max of J below :data:`REGULAR_SCREEN`, a cardan near its lock (|v·e₁| close to its bound), κ above 1/``singular_tol`` — are
+σ_min/σ_max of diag(D)⁻¹ J below :data:`REGULAR_SCREEN`, a cardan near its lock, κ above 1/``singular_tol`` — are
 solved again by the full link-and-joint path from their original start, so statuses, ranks and singular-value
 ratios there are the full path's by construction.  ``PKMSTIFF_FULL_FK=1`` switches the fast path off.
 """
@@ -36,11 +43,12 @@ from pkmstiff.mechanisms.model import Mechanism
 
 Array = NDArray[np.float64]
 
-#: lower bound of σ_min/σ_max of the reduced 6 × 6 Jacobian from which a converged pose is regular without the full
-#: path's rank check: over the bundled 6-UPS/6X workspaces the full system's exact σ_min/σ_max is at least 0.1 of
-#: the bound (0.3 seen; tests/test_mechanism_reduced.py checks 0.1), so a certified pose has ≥ 1e-5 there, 100 ×
-#: the full path's ``singular_tol`` (1e-7) and far above its gap floor (1e-8): it would be ``converged`` there too
-REGULAR_SCREEN = 1e-4
+#: lower bound of σ_min/σ_max of the reduced 6 × 6 Jacobian diag(D)⁻¹ J from which a converged pose is
+#: regular without the full path's rank check: over the bundled 6-UPS/6X/Hexaglide workspaces the full system's
+#: exact σ_min/σ_max is at least 0.01 of the bound (0.3 seen for the 6-UPS, 0.02 for the Hexaglide;
+#: tests/test_mechanism_reduced.py checks 0.01), so a certified pose has ≥ 1e-5 there, 100 × the full path's
+#: ``singular_tol`` (1e-7) and far above its gap floor (1e-8): it would be ``converged`` there too
+REGULAR_SCREEN = 1e-3
 #: a cardan whose leg direction v has |v·e₁| within this of its bound √(a₁² + a₃²) is near its lock: full path
 _LOCK_MARGIN = 1e-6
 #: codes of :func:`solve`
@@ -51,33 +59,67 @@ _PARALLEL_MIN = 2048
 
 @dataclass(frozen=True)
 class LegPlan:
-    """The length legs of a reducible mechanism (SI, world coordinates at home), in drive order."""
+    """The legs of a reducible mechanism (SI, world coordinates at home), in drive order.  Leg i imposes
+    rᵢ = σᵢ|p − Aᵢ| + cᵢ − μᵢ sᵢ = 0 on the output point p = t + R Pᵢ with the anchor Aᵢ = bᵢ + (sᵢ − g0ᵢ) gᵢ:
+    a telescopic leg (cardan on the ground at b, driven ``point_on_axis`` on the output link: σ|p − b| + c = s)
+    or a guided rod (driven ``point_on_axis`` on a ground guide through b along g, cardan on the output link:
+    |p − A(s)| = L).  Its cardan joins it to the reference link (``ref`` 0: ground, 1: output) at K."""
 
     out_link: int
     leg_links: np.ndarray  #: (6,) leg link per drive
-    b: np.ndarray  #: (6, 3) cardan points on the ground
     P: np.ndarray  #: (6, 3) leg points on the output link (home)
-    a: np.ndarray  #: (6, 3) leg axes at home (unit)
-    e1: np.ndarray  #: (6, 3) cardan axes on the ground
-    e2: np.ndarray  #: (6, 3) cardan axes on the leg (home)
+    b: np.ndarray  #: (6, 3) anchor points on the ground (home)
+    g: np.ndarray  #: (6, 3) guide directions (unit; 0 for a telescopic leg)
+    g0: np.ndarray  #: (6,) drive value at which the anchor is at b [m]
     sign: np.ndarray  #: (6,) σ
     c: np.ndarray  #: (6,) c [m]
-    e3: np.ndarray  #: (6, 3) e₁ × e₂
-    ac: np.ndarray  #: (6, 3) a in the basis e₁, e₂, e₃
+    mu: np.ndarray  #: (6,) μ (1 telescopic, 0 guided)
+    K: np.ndarray  #: (6, 3) cardan points (home)
+    ref: np.ndarray  #: (6,) int64 cardan reference link: 0 ground, 1 output
+    e1: np.ndarray  #: (6, 3) cardan axes on the reference link (its frame)
+    e2: np.ndarray  #: (6, 3) cardan axes on the leg (home)
+    ac: np.ndarray  #: (6, 3) the leg direction a = (Q − K)/|Q − K| at home in the basis e₁, e₂, e₁ × e₂
     rho: np.ndarray  #: (6,) √(a₁² + a₃²): |v·e₁| ≤ ρ (beyond: the cardan cannot reach v)
     gam: np.ndarray  #: (6,) atan2(a₃, a₁)
     o: np.ndarray  #: (3,) the output point (home)
 
 
 def leg_plan(mech: Mechanism) -> LegPlan | None:
-    """The :class:`LegPlan` of a mechanism whose every non-ground link but the output is a length leg, else None
-    (see the module docstring); cached on the mechanism."""
+    """The :class:`LegPlan` of a mechanism whose every non-ground link but the output is a telescopic leg or a
+    guided rod, else None (see the module docstring); cached on the mechanism."""
     cached = mech.__dict__.get("_leg_plan", False)
     if cached is not False:
         return cached
     plan = _find_legs(mech)
     mech.__dict__["_leg_plan"] = plan
     return plan
+
+
+def _leg(mech: Mechanism, li: int, g: int, out: int) -> tuple | None:
+    """One leg's row of the :class:`LegPlan` (drive index first), or None if link ``li`` is no such leg."""
+    js = [jt for jt in mech.joints if li in jt.links]
+    if len(js) != 2:
+        return None
+    card = [jt for jt in js if jt.type == "cardan" and jt.links[1] == li and jt.links[0] in (g, out)]
+    poa = [jt for jt in js if jt.type == "point_on_axis" and jt.drive is not None]
+    if len(card) != 1 or len(poa) != 1:
+        return None
+    cj, pj = card[0], poa[0]
+    tol = 1e-12 * mech.length_scale
+    if cj.links[0] == g and pj.links == (li, out):  # telescopic: P on the leg's axis through the cardan point
+        d = pj.point - cj.point
+        if np.linalg.norm(d) < 1e-9 * mech.length_scale or np.linalg.norm(np.cross(d, pj.axis)) > tol:
+            return None
+        da = float(d @ pj.axis)
+        return (mech.drives.index(pj), li, pj.point, cj.point, np.zeros(3), 0.0, np.sign(da), pj.drive.offset - da,
+                1.0, cj.point, 0, cj.axis, cj.axis2, pj.point)
+    if cj.links[0] == out and pj.links == (g, li):  # guided rod: carriage point on a ground guide
+        L = float(np.linalg.norm(cj.point - pj.point))
+        if L < 1e-9 * mech.length_scale:
+            return None
+        return (mech.drives.index(pj), li, cj.point, pj.point, pj.axis, pj.drive.offset, 1.0, -L, 0.0, cj.point, 1,
+                cj.axis, cj.axis2, pj.point)
+    return None
 
 
 def _find_legs(mech: Mechanism) -> LegPlan | None:
@@ -89,29 +131,16 @@ def _find_legs(mech: Mechanism) -> LegPlan | None:
     legs = [li for li in range(len(mech.links)) if li not in (g, out)]
     if len(legs) != 6 or len(mech.joints) != 12:
         return None
-    rows = []
-    for li in legs:
-        js = [jt for jt in mech.joints if li in jt.links]
-        card = [jt for jt in js if jt.type == "cardan" and jt.links == (g, li)]
-        poa = [jt for jt in js if jt.type == "point_on_axis" and jt.links == (li, out) and jt.drive is not None]
-        if len(js) != 2 or len(card) != 1 or len(poa) != 1:
-            return None
-        cj, pj = card[0], poa[0]
-        d = pj.point - cj.point
-        a = pj.axis / np.linalg.norm(pj.axis)
-        if np.linalg.norm(d) < 1e-9 * mech.length_scale or np.linalg.norm(np.cross(d, a)) > 1e-12 * np.linalg.norm(d):
-            return None  # the cardan point is not on the leg's axis: no distance constraint
-        e1 = cj.axis / np.linalg.norm(cj.axis)
-        e2 = cj.axis2 / np.linalg.norm(cj.axis2)
-        da = float(d @ a)
-        rows.append((mech.drives.index(pj), li, cj.point, pj.point, a, e1, e2, np.sign(da), pj.drive.offset - da))
+    rows = [_leg(mech, li, g, out) for li in legs]
+    if any(r is None for r in rows):
+        return None
     rows.sort(key=lambda r: r[0])
-    _, li, b, P, a, e1, e2, sg, c = (np.array(v) for v in zip(*rows))
-    e3 = np.cross(e1, e2)
-    ac = np.stack([np.einsum("ia,ia->i", a, e) for e in (e1, e2, e3)], axis=1)
     f = np.ascontiguousarray
-    return LegPlan(out, li.astype(np.int64), f(b, dtype=float), f(P, dtype=float), f(a, dtype=float),
-                   f(e1, dtype=float), f(e2, dtype=float), sg.astype(float), c.astype(float), f(e3), f(ac),
+    _, li, P, b, gd, g0, sg, c, mu, K, ref, e1, e2, Q = (f(np.array(v)) for v in zip(*rows))
+    a = (Q - K) / np.linalg.norm(Q - K, axis=1, keepdims=True)
+    ac = f(np.stack([np.einsum("ia,ia->i", a, e) for e in (e1, e2, np.cross(e1, e2))], axis=1))
+    return LegPlan(out, li.astype(np.int64), P, b, gd.astype(float), g0.astype(float), sg.astype(float),
+                   c.astype(float), mu.astype(float), K, ref.astype(np.int64), e1, e2, ac,
                    np.hypot(ac[:, 0], ac[:, 2]), np.arctan2(ac[:, 2], ac[:, 0]), np.asarray(o.point, dtype=float))
 
 
@@ -125,19 +154,24 @@ def enabled() -> bool:
 # ----------------------------------------------------------------------------------------------------------
 
 
-def _eval(t, R, P, b, sign, c, s, r, J):  # pragma: no cover - compiled
-    """Residual r (6,) and Jacobian J (6, 6) (columns δt, δω) of the length legs at (t, R)."""
+def _eval(t, R, P, b, g, g0, sign, c, mu, s, r, J, D):  # pragma: no cover - compiled
+    """Residual r (6,) and Jacobian J (6, 6) (columns δt, δω) of the legs at (t, R): rᵢ = σᵢ|p − Aᵢ| + cᵢ − μᵢ sᵢ
+    with the anchor Aᵢ = bᵢ + (sᵢ − g0ᵢ) gᵢ; with J also D (6,) = −∂rᵢ/∂sᵢ = σᵢ nᵢ·gᵢ + μᵢ."""
     for i in range(6):
         rp0 = R[0, 0] * P[i, 0] + R[0, 1] * P[i, 1] + R[0, 2] * P[i, 2]
         rp1 = R[1, 0] * P[i, 0] + R[1, 1] * P[i, 1] + R[1, 2] * P[i, 2]
         rp2 = R[2, 0] * P[i, 0] + R[2, 1] * P[i, 1] + R[2, 2] * P[i, 2]
-        d0, d1, d2 = t[0] + rp0 - b[i, 0], t[1] + rp1 - b[i, 1], t[2] + rp2 - b[i, 2]
+        h = s[i] - g0[i]
+        d0 = t[0] + rp0 - b[i, 0] - h * g[i, 0]
+        d1 = t[1] + rp1 - b[i, 1] - h * g[i, 1]
+        d2 = t[2] + rp2 - b[i, 2] - h * g[i, 2]
         ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        r[i] = sign[i] * ln + c[i] - s[i]
+        r[i] = sign[i] * ln + c[i] - mu[i] * s[i]
         if J.shape[0] == 6:
             n0, n1, n2 = sign[i] * d0 / ln, sign[i] * d1 / ln, sign[i] * d2 / ln
             J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
             J[i, 3], J[i, 4], J[i, 5] = rp1 * n2 - rp2 * n1, rp2 * n0 - rp0 * n2, rp0 * n1 - rp1 * n0
+            D[i] = n0 * g[i, 0] + n1 * g[i, 1] + n2 * g[i, 2] + mu[i]
 
 
 def _solve6(A, x):  # pragma: no cover - compiled
@@ -212,24 +246,45 @@ def _rot_axis(e, ang, out):  # pragma: no cover - compiled
     _exp_left(ang * e[0], ang * e[1], ang * e[2], _EYE, out)
 
 
-def _legs(t, R, q0, q, leg_links, P, b, sign, e1, e2, e3, ac, rho, gam, W):  # pragma: no cover - compiled
-    """Leg frames into q (see :func:`legs`); returns True where a cardan is near its lock."""
+def _legs(t, R, s, q0, q, leg_links, P, b, g, g0, K, ref, e1, e2, ac, rho, gam, W):  # pragma: no cover - compiled
+    """Leg frames into q (see :class:`LegPlan`); returns True where a cardan is near its lock.
+
+    The cardan joins the leg to its reference link (ground: R_ref = I, or the output link: R_ref = R) at K; the
+    leg's home direction a = (Q − K)/|Q − K| turns onto v = (Q' − K')/|Q' − K'| (Q' the output point t + R P or
+    the anchor b + (s − g0) g).  R_rel = Rot(e₁, α) Rot(e₂, β) with R_rel a = R_refᵀ v: of the two β that solve
+    (R_refᵀ v)·e₁ = a₁ cos β + a₃ sin β (a in the basis e₁, e₂, e₃) the one whose R_leg = R_ref R_rel is nearest
+    (Frobenius) to the start's leg rotation; t_leg = K' − R_leg K."""
     R0, Ra, Rb, Rl, Rbest = W[0], W[1], W[2], W[3], W[4]
+    kp = np.empty(3)
+    qp = np.empty(3)
+    w = np.empty(3)
     lock = False
     for i in range(6):
-        d0 = t[0] + R[0, 0] * P[i, 0] + R[0, 1] * P[i, 1] + R[0, 2] * P[i, 2] - b[i, 0]
-        d1 = t[1] + R[1, 0] * P[i, 0] + R[1, 1] * P[i, 1] + R[1, 2] * P[i, 2] - b[i, 1]
-        d2 = t[2] + R[2, 0] * P[i, 0] + R[2, 1] * P[i, 1] + R[2, 2] * P[i, 2] - b[i, 2]
-        f = sign[i] / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        v1 = f * (d0 * e1[i, 0] + d1 * e1[i, 1] + d2 * e1[i, 2])
-        v2 = f * (d0 * e2[i, 0] + d1 * e2[i, 1] + d2 * e2[i, 2])
-        v3 = f * (d0 * e3[i, 0] + d1 * e3[i, 1] + d2 * e3[i, 2])
+        h = s[i] - g0[i]
+        for a in range(3):
+            pa = t[a] + R[a, 0] * P[i, 0] + R[a, 1] * P[i, 1] + R[a, 2] * P[i, 2]
+            if ref[i] == 0:
+                kp[a] = K[i, a]
+                qp[a] = pa
+            else:
+                kp[a] = pa
+                qp[a] = b[i, a] + h * g[i, a]
+        f = 1.0 / math.sqrt((qp[0] - kp[0]) ** 2 + (qp[1] - kp[1]) ** 2 + (qp[2] - kp[2]) ** 2)
+        for a in range(3):  # R_refᵀ v
+            if ref[i] == 0:
+                w[a] = f * (qp[a] - kp[a])
+            else:
+                w[a] = f * (R[0, a] * (qp[0] - kp[0]) + R[1, a] * (qp[1] - kp[1]) + R[2, a] * (qp[2] - kp[2]))
+        e3 = (e1[i, 1] * e2[i, 2] - e1[i, 2] * e2[i, 1], e1[i, 2] * e2[i, 0] - e1[i, 0] * e2[i, 2],
+              e1[i, 0] * e2[i, 1] - e1[i, 1] * e2[i, 0])
+        v1 = w[0] * e1[i, 0] + w[1] * e1[i, 1] + w[2] * e1[i, 2]
+        v2 = w[0] * e2[i, 0] + w[1] * e2[i, 1] + w[2] * e2[i, 2]
+        v3 = w[0] * e3[0] + w[1] * e3[1] + w[2] * e3[2]
         x = v1 / rho[i]
         if abs(x) > 1.0 - _LOCK_MARGIN:
             lock = True
         dl = math.acos(min(1.0, max(-1.0, x)))
-        li = leg_links[i]
-        o = 6 * li
+        o = 6 * leg_links[i]
         _rot_angles(q0[o + 3], q0[o + 4], q0[o + 5], R0)
         best = np.inf
         for br in (1.0, -1.0):
@@ -238,26 +293,34 @@ def _legs(t, R, q0, q, leg_links, P, b, sign, e1, e2, e3, ac, rho, gam, W):  # p
             alpha = math.atan2(v3, v2) - math.atan2(p3, ac[i, 1])
             _rot_axis(e1[i], alpha, Ra)
             _rot_axis(e2[i], beta, Rb)
-            dist = 0.0
             for r_ in range(3):
                 for c_ in range(3):
                     Rl[r_, c_] = Ra[r_, 0] * Rb[0, c_] + Ra[r_, 1] * Rb[1, c_] + Ra[r_, 2] * Rb[2, c_]
+            if ref[i] == 1:
+                for c_ in range(3):
+                    x0, x1, x2 = Rl[0, c_], Rl[1, c_], Rl[2, c_]
+                    for r_ in range(3):
+                        Rl[r_, c_] = R[r_, 0] * x0 + R[r_, 1] * x1 + R[r_, 2] * x2
+            dist = 0.0
+            for r_ in range(3):
+                for c_ in range(3):
                     dist += (Rl[r_, c_] - R0[r_, c_]) ** 2
             if dist < best:
                 best = dist
                 Rbest[:] = Rl
         for a in range(3):
-            q[o + a] = b[i, a] - (Rbest[a, 0] * b[i, 0] + Rbest[a, 1] * b[i, 1] + Rbest[a, 2] * b[i, 2])
+            q[o + a] = kp[a] - (Rbest[a, 0] * K[i, 0] + Rbest[a, 1] * K[i, 1] + Rbest[a, 2] * K[i, 2])
         _angles(Rbest[0, 0], Rbest[1, 0], Rbest[2, 0], Rbest[0, 1], Rbest[1, 1], Rbest[0, 2], Rbest[1, 2],
                 q[o + 3:o + 6])
     return lock
 
 
-def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
                   path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, n0,
                   n1):  # pragma: no cover - compiled
     r = np.empty(6)
     rt = np.empty(6)
+    D = np.empty(6)
     J = np.empty((6, 6))
     Jt = np.empty((6, 6))
     Jd = np.empty((1, 1))
@@ -285,7 +348,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e
             for i in range(6):
                 s[i] = s0[i] + (k / ns) * (S1[p, i] - s0[i])
             tk = tol if k == ns else path_tol
-            _eval(t, R, P, b, sign, c, s, r, J)
+            _eval(t, R, P, b, g, g0, sign, c, mu, s, r, J, D)
             st = FAILED
             for it_ in range(max_iter + 1):
                 rn = 0.0
@@ -310,7 +373,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e
                     for i in range(3):
                         tt[i] = t[i] + alpha * dx[i]
                     _exp_left(alpha * dx[3], alpha * dx[4], alpha * dx[5], R, Rt)
-                    _eval(tt, Rt, P, b, sign, c, s, rt, Jt if alpha == 1.0 else Jd)
+                    _eval(tt, Rt, P, b, g, g0, sign, c, mu, s, rt, Jt if alpha == 1.0 else Jd, D)
                     t2 = 0.0
                     tmax = 0.0
                     for i in range(6):
@@ -332,7 +395,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e
                     r, rt = rt, r
                     J, Jt = Jt, J
                 else:
-                    _eval(t, R, P, b, sign, c, s, r, J)
+                    _eval(t, R, P, b, g, g0, sign, c, mu, s, r, J, D)
             if st != CONVERGED:
                 break
         code[p] = st
@@ -344,9 +407,9 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e
         qp[:] = 0.0
         qp[ol:ol + 3] = t
         _angles(R[0, 0], R[1, 0], R[2, 0], R[0, 1], R[1, 1], R[0, 2], R[1, 2], qp[ol + 3:ol + 6])
-        lock[p] = _legs(t, R, q0, qp, leg_links, P, b, sign, e1, e2, e3, ac, rho, gam, W)
-        # κ(∂x_c/∂s) = κ(J G⁻¹), G⁻¹ = [[I, [R o]×], [0, I]]: the δω columns gain J_t [R o]×
-        _eval(t, R, P, b, sign, c, s, r, J)
+        lock[p] = _legs(t, R, s, q0, qp, leg_links, P, b, g, g0, K, ref, e1, e2, ac, rho, gam, W)
+        # ∂x_c/∂s = G J⁻¹ diag(D): κ = κ(diag(D)⁻¹ J G⁻¹), G⁻¹ = [[I, [R o]×], [0, I]] (δω columns gain J_t [R o]×)
+        _eval(t, R, P, b, g, g0, sign, c, mu, s, r, J, D)
         ro0 = R[0, 0] * o[0] + R[0, 1] * o[1] + R[0, 2] * o[2]
         ro1 = R[1, 0] * o[0] + R[1, 1] * o[1] + R[1, 2] * o[2]
         ro2 = R[2, 0] * o[0] + R[2, 1] * o[1] + R[2, 2] * o[2]
@@ -355,19 +418,21 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e
             A[i, 3] = J[i, 3] + J[i, 1] * ro2 - J[i, 2] * ro1
             A[i, 4] = J[i, 4] + J[i, 2] * ro0 - J[i, 0] * ro2
             A[i, 5] = J[i, 5] + J[i, 0] * ro1 - J[i, 1] * ro0
+            for j in range(6):
+                A[i, j] /= D[i]
         _svd6(A, sv)
         kappa[p] = sv[0] / sv[5] if sv[5] > 1e-14 * sv[0] else np.inf
-        # J = (J G⁻¹) G: σ_min/σ_max of J ≥ 1/(κ(J G⁻¹) κ(G)), κ(G) = ((|Ro| + √(|Ro|² + 4))/2)²
+        # D⁻¹J = (D⁻¹J G⁻¹) G: its σ_min/σ_max ≥ 1/(κ(D⁻¹J G⁻¹) κ(G)), κ(G) = ((|Ro| + √(|Ro|² + 4))/2)²
         x = math.sqrt(ro0 * ro0 + ro1 * ro1 + ro2 * ro2)
         rcond[p] = 1.0 / (kappa[p] * (0.5 * (x + math.sqrt(x * x + 4.0))) ** 2)
 
 
-def _newton_impl(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+def _newton_impl(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
                  path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
                  lock):  # pragma: no cover - compiled
     N = S1.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
-        _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+        _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
                       path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock,
                       ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
@@ -385,10 +450,10 @@ _newton_parallel = numba.njit(parallel=True, **_OPTS)(_newton_impl)
 
 
 @numba.njit(**_OPTS)
-def _newton_serial(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+def _newton_serial(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
                    path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
                    lock):  # pragma: no cover - compiled
-    _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, sign, c, e1, e2, e3, ac, rho, gam, o, tol,
+    _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
                   path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, 0,
                   S1.shape[0])
 
@@ -398,7 +463,7 @@ def solve(mech: Mechanism, lp: LegPlan, q0: Array, s0: Array, s1: Array, n_steps
     """Continuation in ``n_steps`` (N,) equal drive steps from the start (q0 (1 or N, L, 6), drive values s0
     (1 or N, 6)) to s1 (N, 6) [m], each a damped Newton on the output frame to ``path_tol`` (intermediate) /
     ``tol`` (last) on max |r|; then the legs in closed form.  Returns q (N, L, 6), code (N,), accepted steps,
-    max |r|, a lower bound of σ_min/σ_max of J, κ(∂x_c/∂s) and the cardan-lock flag (NaN/False where failed)."""
+    max |r|, a lower bound of σ_min/σ_max of diag(D)⁻¹ J, κ(∂x_c/∂s) and the cardan-lock flag (NaN/False where failed)."""
     N, L = s1.shape[0], len(mech.links)
     Q = np.full((N, L * 6), np.nan)
     code = np.empty(N, dtype=np.int64)
@@ -410,7 +475,7 @@ def solve(mech: Mechanism, lp: LegPlan, q0: Array, s0: Array, s1: Array, n_steps
     kern = _newton_parallel if N >= _PARALLEL_MIN else _newton_serial
     f = np.ascontiguousarray
     kern(f(q0.reshape(q0.shape[0], -1), dtype=float), f(s0, dtype=float), f(s1, dtype=float),
-         f(n_steps, dtype=np.int64), lp.out_link, lp.leg_links, lp.P, lp.b, lp.sign, lp.c, lp.e1, lp.e2, lp.e3,
-         lp.ac, lp.rho, lp.gam, lp.o, float(tol), float(path_tol), int(max_iter), int(max_backtrack), float(armijo),
+         f(n_steps, dtype=np.int64), lp.out_link, lp.leg_links, lp.P, lp.b, lp.g, lp.g0, lp.sign, lp.c, lp.mu, lp.K,
+         lp.ref, lp.e1, lp.e2, lp.ac, lp.rho, lp.gam, lp.o, float(tol), float(path_tol), int(max_iter), int(max_backtrack), float(armijo),
          Q, code, iters, resid, rcond, kappa, lock)
     return Q.reshape(N, L, 6), code, iters, resid, rcond, kappa, lock

@@ -455,7 +455,7 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     see ``Solution.status``: ``singular`` also where the controlled outputs are singular (``output_check``:
     κ of ∂x_c/∂s, ``Solution.output_kappa``, above 1/``singular_tol`` — a wrist singularity, where the forward
     kinematics themselves stay regular).  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
-    targets are given up sooner, as a section raster needs).  A mechanism of length legs (6-UPS, 6X:
+    targets are given up sooner, as a section raster needs).  A mechanism of length legs (6-UPS, 6X, Hexaglide:
     :func:`pkmstiff.mechanisms.reduced.leg_plan`, decided at load) is solved on the output link's 6 coordinates with
     the legs in closed form (:func:`_forward_reduced`; ``PKMSTIFF_FULL_FK=1`` forces the full path).
     """
@@ -496,7 +496,7 @@ def _forward_reduced(lp: reduced.LegPlan, system: System, tg: Array, q0: Array, 
     """:func:`forward` of a mechanism of length legs (:mod:`pkmstiff.mechanisms.reduced`): Newton on the output
     frame, legs in closed form; the poses it does not certify regular go through :func:`_forward_full`.
 
-    ``rcond`` of a certified pose is a lower bound of σ_min/σ_max of the reduced 6 × 6 Jacobian (≥
+    ``rcond`` of a certified pose is a lower bound of σ_min/σ_max of the reduced 6 × 6 Jacobian diag(D)⁻¹ J (≥
     ``reduced.REGULAR_SCREEN``), its rank the full one, ``residual`` max |F| of the drive equations (the legs'
     equations hold to rounding)."""
     mech = system.mech
