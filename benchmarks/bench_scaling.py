@@ -2,13 +2,29 @@
 workers side by side in one run, CPU time (this process and its workers), the per-worker start-up overhead and the
 serial fraction s of an Amdahl fit T(n) = T(1) (s + (1 - s) / n) with the speed-up it predicts on 16 workers.
 
-Besides the fit from wall times, each parallel run measures the serial fraction from CPU time: the CPU seconds of this
-process (everything not in a worker: the first chunk, planning, sending, collecting, statistics, forks; not the work
-it does while its workers run, such as a sweep's first task) over those of this process and its workers together. It does not depend on how loaded the machine is, so it
-predicts the 16-worker speed-up even on a shared 2-core machine (``s_cpu`` and ``pred. 16 (cpu)`` in the table).
+Comparable runs: every command is first run once untimed (``--jobs 1``, the same arguments), then timed. The first run
+of a command in a process pays one-off costs that a later run does not: the numba kernels it uses are compiled (a
+fresh checkout has no on-disk cache: about 10 s of CPU in the first 5 mm sweep for kernels that the small section run
+first had not needed, such as the small-N pose kernel of its point evaluation) or loaded from the cache; the modules
+it imports (a sweep builds machines from their files: scipy.spatial for the hull, the component splines, ≈ 0.7 s);
+caches inside the process. Timed without the untimed run, whichever run came first paid them (a 25 mm sweep measured
+1.73 s on 1 worker and 0.51 s on 2, 169 % efficiency; a 5 mm sweep 28.1 s of CPU serially against 12.2 s on 16
+workers). The local workers are forked from this process after it, so they inherit the imports and loaded kernels
+exactly as the serial run uses them. ``--repeat R`` runs each ``--jobs 1`` / ``--jobs 2`` pair R times, alternating,
+and keeps the fastest of each (on a shared machine other load only slows a run down).
 
-``--jobs 1`` against ``--jobs 2`` for every command with ``--jobs`` (section, workspace, rotation-map, report, sweep)
-on work of about 5 s or more runs after the table (``--no-pairs`` skips it).
+Besides the fit from wall times, each parallel run measures the serial fraction from CPU time: the CPU seconds of this
+process (everything not in a worker: planning, sending, collecting, statistics, forks; not the work it does while its
+workers run, such as a section's first chunk) over those of this process and its workers together. It does not
+depend on how loaded the machine is, so it predicts the 16-worker speed-up even on a shared 2-core machine (``s_cpu``
+and ``pred. 16 (cpu)`` in the table). For the pairs the CPU accounting also predicts the ``--jobs 2`` ratio on two
+free cores (``pred. (cpu)``): T1 = CPU of the serial run, T2 = the serial CPU of this process + the larger of the
+busiest worker's CPU and half of the parallel CPU (workers and the work here meanwhile).
+
+``--jobs 1`` against ``--jobs 2`` for every command with ``--jobs`` (section, workspace, rotation-map, report, sweep,
+optimise) on work of 5 s or more serially on the 2-core machine runs after the table (``--no-pairs`` skips it); the
+sizes are options (``--section-step``, ``--workspace-resolution``, ``--rotation-map-step``, ``--report-step``,
+``--report-resolution``, ``--report-figures``, ``--sweep-step``, ``--optimise-budget``).
 
 Work (the commands themselves, run in this process through ``pkmstiff.cli.main``; the pool is stopped after each
 run so every run pays its workers' start-up):
@@ -20,8 +36,8 @@ run so every run pays its workers' start-up):
 cold and once with warm workers.
 
 Usage (from a clone, nothing installed): ``python benchmarks/bench_scaling.py [--max-workers N] [--workers 1,2,4]
-[--quick] [--only section,sweep-25] [--dask] [--json out.json]``. Default workers 1, 2, 4, … up to N = os.cpu_count();
-on a 16-core machine the default run takes about 3–4 minutes, --quick about a third of that. Runs without pyvista.
+[--quick] [--only section,sweep-25] [--no-table] [--pairs sweep,section] [--repeat R] [--dask] [--json out.json]``.
+Default workers 1, 2, 4, … up to N = os.cpu_count(). Runs without pyvista (unless ``--report-figures``).
 """
 
 from __future__ import annotations
@@ -32,6 +48,7 @@ import io
 import json
 import os
 import platform
+import re
 import resource
 import sys
 import tempfile
@@ -60,12 +77,17 @@ def _sweep_file(tmp: Path, step_mm: float) -> Path:
     return path
 
 
+def _sweep_argv(tmp: Path, step_mm: float) -> list[str]:
+    """The 12-task sweep with ``step_mm`` sections (the same arguments in the table and the pairs: warmed once)."""
+    path = SWEEP if step_mm == 25 else _sweep_file(tmp, step_mm)
+    return ["sweep", str(path), "--force", "--out", str(tmp / f"sweep_{step_mm:g}.csv")]
+
+
 def workloads(quick: bool, tmp: Path) -> dict[str, list[str]]:
     return {
         "section": ["section", "hexaglide", "--plane", "yz", "--step", "2.5" if quick else "1.25"],
-        "sweep-5": ["sweep", str(_sweep_file(tmp, 10 if quick else 5)), "--force", "--out",
-                    str(tmp / "s5.csv")],
-        "sweep-25": ["sweep", str(SWEEP), "--force", "--out", str(tmp / "s25.csv")],
+        "sweep-5": _sweep_argv(tmp, 10 if quick else 5),
+        "sweep-25": _sweep_argv(tmp, 25),
         # the workspace's cost line bounds memory from above (the whole lattice); the octree needs far less
         "workspace": ["workspace", "hexaglide", "--resolution", "6.25" if quick else "3.125",
                       "--memory-budget", "1TB"],
@@ -73,16 +95,40 @@ def workloads(quick: bool, tmp: Path) -> dict[str, list[str]]:
 
 
 PLANS: dict[str, str] = {}  # command line -> the plan it printed (cost line or the sweep's last line)
+WARM: set[str] = set()  # commands (arguments without --jobs) already run once in this process
+
+
+def _worker_cpu(pids: list[int]) -> list[float]:
+    """CPU seconds (user + system) of each running local worker, from /proc (empty where there is no /proc)."""
+    out = []
+    for pid in pids:
+        try:
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        out.append((int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK"))  # utime, stime
+    return out
+
+
+def warm_up(argv: list[str]) -> None:
+    """Run ``argv`` once with ``--jobs 1``, untimed, unless it ran already: the one-off costs of its first run in this
+    process (kernels compiled or loaded, imports, in-process caches) are then paid before any timed run."""
+    key = " ".join(argv)
+    if key not in WARM:
+        run_once([*argv, "--jobs", "1"])
+        WARM.add(key)
 
 
 def run_once(argv: list[str]) -> dict[str, float]:
-    """Wall s, CPU s (all), CPU s of this process (``parent_cpu_s``) and of the local workers (``workers_cpu_s``) of
-    one command, its workers started and stopped inside the measurement."""
+    """Wall s, CPU s (all), CPU s of this process (``parent_cpu_s``), of the local workers (``workers_cpu_s``) and of
+    the busiest worker (``worker_max_cpu_s``) of one command, its workers started and stopped inside the
+    measurement."""
     parallel.shutdown()
     out, err = io.StringIO(), io.StringIO()
     (p0, w0), m0, t0 = _cpu(), parallel.meanwhile_cpu_seconds(), time.perf_counter()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         rc = cli(argv)
+    each = _worker_cpu(parallel.worker_pids())  # before they stop: they are idle now
     parallel.shutdown()  # reaps the workers: their CPU time is counted
     wall, (p1, w1), m1 = time.perf_counter() - t0, _cpu(), parallel.meanwhile_cpu_seconds()
     if rc not in (0,):
@@ -90,13 +136,23 @@ def run_once(argv: list[str]) -> dict[str, float]:
     lines = [x for x in (err.getvalue() + out.getvalue()).splitlines() if x.startswith("pkmstiff ")]
     PLANS[" ".join(argv)] = " | ".join(lines)
     return {"wall_s": wall, "cpu_s": p1 - p0 + w1 - w0, "parent_cpu_s": p1 - p0, "workers_cpu_s": w1 - w0,
-            "parent_meanwhile_cpu_s": m1 - m0}
+            "parent_meanwhile_cpu_s": m1 - m0, "worker_max_cpu_s": max(each, default=0.0), "workers": len(each)}
 
 
 def cpu_serial_fraction(run: dict[str, float]) -> float:
     """Serial fraction from CPU time: this process's CPU, less what it spent on task work while its workers ran
-    (a sweep's first task), over the whole CPU of a parallel run."""
+    (a section's first chunk), over the whole CPU of a parallel run."""
     return (run["parent_cpu_s"] - run.get("parent_meanwhile_cpu_s", 0.0)) / max(run["cpu_s"], 1e-12)
+
+
+def cpu_predicted_wall(run: dict[str, float]) -> float:
+    """The wall time a parallel run's CPU accounting predicts on as many free cores as it had workers: this process's
+    serial CPU, then the parallel phase, which lasts as long as the busiest worker or the parallel CPU (workers and
+    the work here meanwhile) spread over the workers, whichever is longer."""
+    meanwhile = run.get("parent_meanwhile_cpu_s", 0.0)
+    n = max(int(run.get("workers", 0)), 1)
+    return run["parent_cpu_s"] - meanwhile + max(run.get("worker_max_cpu_s", 0.0),
+                                                 (run["workers_cpu_s"] + meanwhile) / n)
 
 
 def startup_overhead(n: int, repeats: int = 3) -> float:
@@ -119,54 +175,89 @@ def amdahl(workers: list[int], speedups: list[float]) -> tuple[float, float]:
     return s, 1 / (s + (1 - s) / 16)
 
 
+#: sizes of the pairs' work (full, --quick): each takes 5 s or more serially on the shared 2-core machine when idle
+PAIR_SIZES: dict[str, tuple[float, float]] = {
+    "section_step": (0.625, 1.25),  # mm
+    "workspace_resolution": (2, 3.125),  # mm
+    "rotation_map_step": (1.5625, 6.25),  # mm (2 mm: 4.2 s of CPU serially since the fused-kernel search, too little)
+    "report_step": (5, 25),  # mm, the sections of the report with --fast
+    "report_resolution": (6.25, 25),  # mm, its workspaces (with 5 mm sections ≈ 7 s of CPU serially)
+    "sweep_step": (5, 10),  # mm, the sections of the 12-task sweep
+    "optimise_budget": (96, 36),  # evaluations
+}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--max-workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--workers", default=None, help="comma-separated worker counts (default 1, 2, 4, … max)")
-    ap.add_argument("--quick", action="store_true", help="coarser section/sweep/workspace (about a third the time)")
+    ap.add_argument("--quick", action="store_true", help="coarser work throughout (about a third the time)")
     ap.add_argument("--only", default=None, help="comma-separated workloads (section, sweep-5, sweep-25, workspace)")
+    ap.add_argument("--no-table", action="store_true", help="skip the table over 1, 2, … N workers")
     ap.add_argument("--dask", action="store_true", help="also sweep-25 and section on a local Dask cluster")
     ap.add_argument("--json", default=None, help="write the table also as JSON to this path")
     ap.add_argument("--no-pairs", action="store_true", help="skip --jobs 1 against --jobs 2 for every command")
+    ap.add_argument("--pairs", default=None, help="comma-separated pairs (section, workspace, rotation-map, report, "
+                                                  "sweep, optimise; default all)")
+    ap.add_argument("--repeat", type=int, default=1, help="timed runs of each pair's --jobs 1 and --jobs 2, "
+                                                          "alternating; the fastest of each counts (default 1)")
+    for key, (full, quick) in PAIR_SIZES.items():
+        ap.add_argument("--" + key.replace("_", "-"), type=float, default=None,
+                        help=f"pair size (default {full:g}, --quick {quick:g})")
+    ap.add_argument("--report-figures", action="store_true", help="the report pair with the 3-D workspace figures "
+                                                                  "(needs pyvista)")
     a = ap.parse_args()
+    sizes = {k: getattr(a, k) if getattr(a, k) is not None else (quick if a.quick else full)
+             for k, (full, quick) in PAIR_SIZES.items()}
     counts = ([int(x) for x in a.workers.split(",")] if a.workers else
               sorted({min(2 ** k, a.max_workers) for k in range(a.max_workers.bit_length() + 1)}))
     if 1 not in counts:
         counts = [1, *counts]
     tmp = Path(tempfile.mkdtemp(prefix="bench_scaling_"))
-    work = workloads(a.quick, tmp)
+    work = {} if a.no_table else workloads(a.quick, tmp)
     if a.only:
         work = {k: v for k, v in work.items() if k in a.only.split(",")}
     load0 = os.getloadavg()
     info = {"cpu_count": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version(),
-            "quick": a.quick, "workers": counts, "load_average_start": load0}
+            "quick": a.quick, "workers": counts, "load_average_start": load0, "pair_sizes": sizes,
+            "repeat": a.repeat, "method": "each command run once untimed (--jobs 1) before its timed runs"}
     print(f"bench_scaling: {os.cpu_count()} cores, load average {load0[0]:.1f} {load0[1]:.1f} {load0[2]:.1f}, "
-          f"workers {counts}{', quick' if a.quick else ''}")
+          f"workers {counts}{', quick' if a.quick else ''}; every command runs once untimed before it is timed")
     run_once(["section", "hexaglide", "--plane", "yz", "--step", "50", "--quiet"])  # compiled kernels loaded once
     startup = {n: startup_overhead(n) for n in sorted({1, 2, max(counts)})}
     print("per-worker start-up overhead: " + ", ".join(f"{n} workers {s * 1e3:.0f} ms" for n, s in startup.items()))
     table: dict[str, dict] = {}
     for name, argv in work.items():
+        warm_up(argv)
         rows = {n: run_once([*argv, "--jobs", str(n)]) for n in counts}
         table[name] = _scaling(argv, rows)
     if a.dask:
         table.update(_dask_runs(work, max(counts)))
-    print(f"\n{'work':<20}" + "".join(f"{f'{n} w: wall s (eff.)':>20}" for n in counts)
-          + f"{'s (wall fit)':>13}{'pred. 16':>9}{'s_cpu':>8}{'pred. 16 (cpu)':>15}")
+    if table:
+        print(f"\n{'work':<20}" + "".join(f"{f'{n} w: wall s (eff.)':>20}" for n in counts)
+              + f"{'s (wall fit)':>13}{'pred. 16':>9}{'s_cpu':>8}{'pred. 16 (cpu)':>15}")
     for name, t in table.items():
         cells = "".join(f"{_cell(t['runs'].get(n)):>20}" for n in counts)
         print(f"{name:<20}{cells}{t['serial_fraction']:>13.3f}{t['predicted_speedup_16']:>8.1f}×"
               f"{_num(t.get('serial_fraction_cpu'), '.3f'):>8}{_num(t.get('predicted_speedup_16_cpu'), '.1f')+'×':>15}")
-    print("CPU s, this process + local workers (Dask workers not counted): " + "; ".join(
-        f"{name} " + ", ".join(f"{n} w {r['parent_cpu_s']:.2f}+{r['workers_cpu_s']:.1f}" for n, r in t["runs"].items())
-        for name, t in table.items()))
-    pairs = {} if a.no_pairs else jobs_pairs(a.quick, tmp, table)
+    if table:
+        print("CPU s, this process + local workers (Dask workers not counted): " + "; ".join(
+            f"{name} " + ", ".join(f"{n} w {r['parent_cpu_s']:.2f}+{r['workers_cpu_s']:.1f}"
+                                   for n, r in t["runs"].items()) for name, t in table.items()))
+    chosen = a.pairs.split(",") if a.pairs else None
+    pairs = {} if a.no_pairs else jobs_pairs(pair_workloads(sizes, a.report_figures, tmp, chosen), a.repeat)
     if pairs:
-        print(f"\n--jobs 1 against --jobs 2 (work of about 5 s or more serially):\n{'command':<14}{'jobs 1 s':>10}"
-              f"{'jobs 2 s':>10}{'ratio':>8}{'s_cpu':>8}  plan of --jobs 2")
+        print(f"\n--jobs 1 against --jobs 2 (work of 5 s or more serially; best of {a.repeat}):\n{'command':<14}"
+              f"{'jobs 1 s':>10}{'jobs 2 s':>10}{'ratio':>8}{'CPU 1 s':>9}{'CPU 2 s':>16}{'s_cpu':>7}"
+              f"{'pred. (cpu)':>12}  plan of --jobs 2")
         for name, r in pairs.items():
-            print(f"{name:<14}{r['1']['wall_s']:>10.2f}{r['2']['wall_s']:>10.2f}{r['ratio']:>7.2f}×"
-                  f"{cpu_serial_fraction(r['2']):>8.3f}  {r['plan'].split(' | ')[0].split('; ', 1)[-1][:110]}")
+            one, two = r["1"], r["2"]
+            cpu2 = f"{two['parent_cpu_s']:.2f}+{two['workers_cpu_s']:.2f}"
+            print(f"{name:<14}{one['wall_s']:>10.2f}{two['wall_s']:>10.2f}{r['ratio']:>7.2f}×{one['cpu_s']:>9.2f}"
+                  f"{cpu2:>16}{cpu_serial_fraction(two):>7.3f}{r['predicted_ratio_cpu']:>11.2f}×  "
+                  f"{_plan_of(r['plan'])[:90]}")
+        print("CPU 2 s: this process + its workers; pred. (cpu): the ratio the CPU accounting predicts on 2 free "
+              "cores")
     info["load_average_end"] = os.getloadavg()
     print(f"load average at the end {info['load_average_end'][0]:.1f}")
     if a.json:
@@ -174,6 +265,12 @@ def main() -> None:
                                             "work": table, "jobs_1_vs_2": pairs, "plans": PLANS}, indent=2,
                                            default=str))
         print(f"wrote {a.json}")
+
+
+def _plan_of(lines: str) -> str:
+    """The plan in a command's printed lines: the part that names the local workers, else the cost line's end."""
+    m = re.search(r"\d+ local workers, [^;]*?\(≈ [^)]*\)", lines)
+    return m.group(0) if m else lines.split(" | ")[0].split("; ", 1)[-1]
 
 
 def _cell(r: dict | None) -> str:
@@ -200,47 +297,57 @@ def _scaling(argv: list[str], rows: dict[int, dict[str, float]]) -> dict:
     return out
 
 
-def _report_spec(tmp: Path, quick: bool) -> Path:
-    """The Hexaglide variants report with --fast at 10 mm sections and 12.5 mm workspaces (--quick: the spec's 25 mm),
-    without the 3-D workspace figures (pyvista is not needed)."""
-    text = (ROOT / "studies" / "specs" / "hexaglide_variants.toml").read_text().replace("figures = true",
-                                                                                       "figures = false")
-    if not quick:
-        text = text.replace("fast_step_mm = 25", "fast_step_mm = 10").replace("fast_resolution_mm = 25",
-                                                                            "fast_resolution_mm = 12.5")
+def _report_spec(tmp: Path, step_mm: float, resolution_mm: float, figures: bool) -> Path:
+    """The Hexaglide variants report for --fast with ``step_mm`` sections and ``resolution_mm`` workspaces, with or
+    without the 3-D workspace figures (without: pyvista is not needed)."""
+    text = (ROOT / "studies" / "specs" / "hexaglide_variants.toml").read_text()
+    text = text.replace("fast_step_mm = 25", f"fast_step_mm = {step_mm:g}").replace(
+        "fast_resolution_mm = 25", f"fast_resolution_mm = {resolution_mm:g}")
+    if not figures:
+        text = text.replace("figures = true", "figures = false")
     path = tmp / "report_spec.toml"
     path.write_text(text)
     return path
 
 
-def pair_workloads(quick: bool, tmp: Path) -> dict[str, list[str]]:
-    """Every command with --jobs on work of about 5 s or more serially on one core of the 16-core machine (--quick:
-    less). Not --quiet: the cost line with the plan is kept."""
-    return {
-        "section": ["section", "hexaglide", "--plane", "yz", "--step", "1.25" if quick else "0.625"],
-        "workspace": ["workspace", "hexaglide", "--resolution", "3.125" if quick else "2", "--memory-budget", "1TB"],
+def pair_workloads(sizes: dict[str, float], figures: bool, tmp: Path,
+                   chosen: list[str] | None = None) -> dict[str, list[str]]:
+    """Every command with --jobs on work of ``sizes`` (:data:`PAIR_SIZES`). Not --quiet (but optimise): the cost line
+    with the plan is kept."""
+    out = {
+        "section": ["section", "hexaglide", "--plane", "yz", "--step", f"{sizes['section_step']:g}"],
+        "workspace": ["workspace", "hexaglide", "--resolution", f"{sizes['workspace_resolution']:g}",
+                      "--memory-budget", "1TB"],
         "rotation-map": ["rotation-map", "hexaglide", "--plane", "yz", "--range", "y=-200:1100,z=-1250:-400",
-                         "--step", "6.25" if quick else "3.125", "--increment", "1"],
-        "report": ["report", str(_report_spec(tmp, quick)), "--fast", "--force", "--out", str(tmp / "report")],
-        "sweep": ["sweep", str(_sweep_file(tmp, 10 if quick else 5)), "--force", "--out", str(tmp / "pair.csv")],
+                         "--step", f"{sizes['rotation_map_step']:g}", "--increment", "1"],
+        "report": ["report", str(_report_spec(tmp, sizes["report_step"], sizes["report_resolution"], figures)),
+                   "--fast", "--force", "--out", str(tmp / "report")],
+        "sweep": _sweep_argv(tmp, sizes["sweep_step"]),
+        # the workload of benchmarks/bench_optimise.py; its progress lines (one per generation) left out
+        "optimise": ["optimise", "hexaglide_joint_orientation", "--out", str(tmp / "optimise"), "--budget",
+                     f"{int(sizes['optimise_budget'])}", "--force", "--quiet", "--no-report"],
     }
+    return {k: v for k, v in out.items() if chosen is None or k in chosen}
 
 
-def jobs_pairs(quick: bool, tmp: Path, table: dict) -> dict[str, dict]:
-    """--jobs 1 and --jobs 2 of every command (a sweep-5 pair already in the table is reused)."""
+def jobs_pairs(work: dict[str, list[str]], repeat: int = 1) -> dict[str, dict]:
+    """--jobs 1 and --jobs 2 of every command, after one untimed run (:func:`warm_up`), ``repeat`` times alternating;
+    the fastest run of each counts."""
     out = {}
-    for name, argv in pair_workloads(quick, tmp).items():
-        if name == "sweep" and "sweep-5" in table and 2 in table["sweep-5"]["runs"]:
-            one, two = table["sweep-5"]["runs"][1], table["sweep-5"]["runs"][2]
-            argv = table["sweep-5"]["argv"]
-        else:
-            try:
-                one, two = run_once([*argv, "--jobs", "1"]), run_once([*argv, "--jobs", "2"])
-            except (SystemExit, Exception) as exc:  # e.g. a library missing on this machine: say so, go on
-                print(f"  {name}: skipped ({type(exc).__name__}: {str(exc)[-200:]})")
-                continue
+    for name, argv in work.items():
+        try:
+            warm_up(argv)
+            runs: dict[int, list[dict[str, float]]] = {1: [], 2: []}
+            for _ in range(repeat):
+                for jobs in (1, 2):
+                    runs[jobs].append(run_once([*argv, "--jobs", str(jobs)]))
+        except (SystemExit, Exception) as exc:  # e.g. a library missing on this machine: say so, go on
+            print(f"  {name}: skipped ({type(exc).__name__}: {str(exc)[-200:]})")
+            continue
+        one, two = (min(runs[jobs], key=lambda r: r["wall_s"]) for jobs in (1, 2))
         out[name] = {"argv": argv, "1": one, "2": two, "ratio": one["wall_s"] / two["wall_s"],
-                     "plan": PLANS.get(" ".join([*argv, "--jobs", "2"]), "")}
+                     "predicted_ratio_cpu": one["cpu_s"] / max(cpu_predicted_wall(two), 1e-12),
+                     "plan": PLANS.get(" ".join([*argv, "--jobs", "2"]), ""), "runs": runs}
     return out
 
 
@@ -254,6 +361,7 @@ def _dask_runs(work: dict[str, list[str]], n: int) -> dict[str, dict]:
         for name in ("sweep-25", "section"):
             if name not in work:
                 continue
+            warm_up(work[name])
             serial = run_once([*work[name], "--jobs", "1"])
             for state in ("cold", "warm"):
                 dask = run_once([*work[name], "--scheduler", cluster.scheduler_address])

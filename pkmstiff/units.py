@@ -66,6 +66,16 @@ def _si_factor(unit: str) -> tuple[float, Any]:
     return float(q.to_base_units().magnitude), q.dimensionality
 
 
+@lru_cache(maxsize=4096)
+def _si_quantity(text: str) -> tuple[float, Any]:
+    """(magnitude in SI base units, dimensionality) of a quantity string; (the number, None) for a plain number.
+    Kept per string: the machine files of a study's variants repeat their component data (pint parses slowly)."""
+    q = ureg()(text)
+    if not isinstance(q, ureg().Quantity):
+        return float(q), None
+    return float(q.to_base_units().magnitude), q.dimensionality
+
+
 #: longest quantity string accepted (a quantity is a number and a unit; longer text is not a quantity)
 MAX_QUANTITY_CHARS = 200
 #: an exponent: ``**`` or ``^`` after a name or digit, then a plain number of at most two digits
@@ -93,15 +103,15 @@ def _scalar(value: Any, unit: str, source: str, key: str) -> float:
     if isinstance(value, str):
         _check_expression(value, f"a quantity in {unit}", source, key)
         try:
-            q = ureg()(value)
+            si, qdim = _si_quantity(value)
         except Exception as exc:  # pint raises several kinds
             raise InputError(source, key, f"a quantity in {unit} (e.g. '1.5 {unit}')", value) from exc
-        if not isinstance(q, ureg().Quantity):
-            return float(q)  # dimensionless string like "2.5"
+        if qdim is None:
+            return si  # dimensionless string like "2.5"
         factor, dim = _si_factor(unit)
-        if q.dimensionality != dim:
-            raise InputError(source, key, f"a quantity with the dimension of {unit}", f"{value} ({q.dimensionality})")
-        return float(q.to_base_units().magnitude) / factor
+        if qdim != dim:
+            raise InputError(source, key, f"a quantity with the dimension of {unit}", f"{value} ({qdim})")
+        return si / factor
     raise InputError(source, key, f"a number or a quantity in {unit}", value)
 
 

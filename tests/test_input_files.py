@@ -72,6 +72,22 @@ def test_plain_powers_still_parse(good, unit, value):
     assert parse_quantity(good, unit, plausible=False) == pytest.approx(value, rel=1e-15)
 
 
+def test_a_quantity_string_parsed_before_still_names_each_files_key():
+    # pint's parse of a string is kept (machine files of a study's variants repeat it); the checks are per call
+    from pkmstiff.errors import InputError
+    from pkmstiff.units import parse_quantity
+
+    assert parse_quantity("1.5 mm", "m", plausible=False) == pytest.approx(1.5e-3, rel=1e-15)
+    assert parse_quantity("1.5 mm", "m", plausible=False) == pytest.approx(1.5e-3, rel=1e-15)
+    assert parse_quantity("1.5 mm", "mm", plausible=False) == pytest.approx(1.5, rel=1e-15)
+    assert parse_quantity("2.5", "dimensionless", plausible=False) == 2.5
+    for source, key in (("a.toml", "strut.k"), ("b.toml", "other.k")):
+        with pytest.raises(InputError, match=f"{source}.*{key}.*dimension of N/m"):
+            parse_quantity("1.5 mm", "N/m", source=source, key=key, plausible=False)
+        with pytest.raises(InputError, match=f"{source}.*{key}"):
+            parse_quantity("1.5 bogons", "m", source=source, key=key, plausible=False)
+
+
 def test_measurement_header_beside_the_csv(tmp_path):
     """New files: the CSV holds only the table (pandas reads it with no options), the header is <name>.json; errors
     in the header name the JSON file; a CSV without either header form says so."""

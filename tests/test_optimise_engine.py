@@ -276,7 +276,8 @@ def test_sigint_then_resume_reevaluates_nothing_checkpointed(tmp_path, jobs):
     assert len(lines) == 1 and "interrupted" in lines[0] and "--resume" in lines[0], err
     assert "Traceback" not in err
     done = _checkpoint_lines(out / CHECKPOINT)  # every line valid JSON (a torn line would raise here)
-    n = len(done)
+    assert [r for r in done if not r["values"]] == done[:1]  # the base machine (for the report), with generation 1
+    n = len(done) - 1
     assert 8 <= n < 2000 and n % 4 == 0  # whole generations
 
     budget = n + 8  # the checkpointed generations and two more
@@ -300,3 +301,19 @@ def test_jobs_and_scheduler_together_is_one_line_before_any_evaluation(tmp_path,
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--scheduler" in err
     assert not (tmp_path / "o").exists()
+
+
+def test_base_and_references_are_tasks_beside_the_first_batch(tmp_path):
+    """``optimise`` with 2 local processes: the base design and the reference are evaluated as tasks (checkpointed,
+    not counted) and give the serial run's values; every output file but the report's run data is the same bytes."""
+    extra = 'coarse_step_mm = 200\nrefine = 2\n[[reference]]\nname = "Cobet"\noption = "optimised_drive_joints"\n'
+    f = _section_file(tmp_path, budget=8, population=4, extra=extra)
+    runs = [optimise(f, tmp_path / f"j{jobs}", jobs=jobs, report=False) for jobs in (1, 2)]
+    assert runs[1].meta["parallel"] == "local"
+    assert runs[0].meta["references"] == runs[1].meta["references"]
+    assert [c["name"] for c in runs[0].meta["references"]] == ["base", "Cobet"]
+    for name in ("front.png", "convergence.png", "history.csv"):
+        assert (tmp_path / "j1" / name).read_bytes() == (tmp_path / "j2" / name).read_bytes(), name
+    ckpt = _checkpoint_lines(tmp_path / "j2" / CHECKPOINT)
+    assert sum(1 for r in ckpt if not r["values"]) == 2  # base and reference on the requested raster, once each
+    assert runs[1].evaluated + runs[1].cached == 8

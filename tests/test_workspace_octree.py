@@ -292,3 +292,31 @@ def test_refining_slices_separately_gives_the_same_leaves(n_slices):
     evaluated = np.concatenate(keys)
     assert O.unique_sorted(evaluated).size == ref.evaluations - pre.evaluations
     assert evaluated.size > ref.evaluations - pre.evaluations  # slices share points on their common faces
+
+
+def test_key_table_finds_every_key_and_nothing_else_while_it_grows():
+    from pkmstiff.workspace.kernels import KeyTable
+
+    rng = np.random.default_rng(5)
+    keys = rng.choice(10**9, 30_000, replace=False).astype(np.int64)
+    table = KeyTable(keys[:1000])  # grows several times below
+    for a in range(1000, keys.size, 7000):
+        table.add(keys[a:a + 7000])
+    assert np.array_equal(table.find(keys), np.arange(keys.size))  # value = order of addition
+    absent = np.setdiff1d(rng.integers(-5, 10**9, 5000), keys)
+    assert np.all(table.find(absent) == -1)
+    assert np.all(table.find(np.array([-1, -2])) == -1)  # -1 marks an empty slot: a query of -1 is absent too
+
+
+def test_compiled_triangle_volumes_are_the_numpy_formula():
+    from pkmstiff.workspace.kernels import six_volumes
+
+    rng = np.random.default_rng(2)
+    v = rng.normal(size=(500, 3))
+    t = rng.integers(0, 500, (2000, 3))
+    p1, p2, p3 = (v[t[:, k]] for k in range(3))
+    x = np.cross(p2, p3)
+    # the kernel's order of the three products, bit for bit
+    assert np.array_equal(six_volumes(v, t), (p1[:, 0] * x[:, 0] + p1[:, 2] * x[:, 2]) + p1[:, 1] * x[:, 1])
+    # and einsum's value within rounding (its order of summation is numpy's choice, 1e-15 relative per term)
+    assert np.allclose(six_volumes(v, t), np.einsum("ij,ij->i", p1, x), rtol=1e-12, atol=1e-12)

@@ -132,3 +132,23 @@ def test_corrector_lookahead_changes_neither_angles_nor_counts(yz_maps, hexaglid
             for d in SIX_DIRECTIONS:
                 assert _same(res.angles[d], ref.angles[d]), (lo, d)
             assert res.evaluations == ref.evaluations and res.verify_corrections == ref.verify_corrections
+
+
+def test_search_evaluator_equals_the_staged_pipeline(hexaglide, monkeypatch):
+    # the searches' evaluator (the fused kernel in chunks, FUSED_CHUNK = 7 here to cross chunk ends) gives the
+    # admissibility of the staged pipeline pose for pose, with the checks subset and with a requirement (which
+    # takes the staged pipeline itself)
+    import pkmstiff.workspace.rotation as rot
+    from pkmstiff.admissibility.checks import ALL_CHECKS
+    from pkmstiff.workspace.oracle import staged_admissible
+    from pkmstiff.workspace.requirements import parse_requirements
+
+    monkeypatch.setenv("PKMSTIFF_JIT", "1")  # the fused kernel runs only with the compiled kernels
+    monkeypatch.setattr(rot, "FUSED_CHUNK", 7)
+    m = hexaglide
+    rng = np.random.default_rng(3)  # about half of these poses are admissible
+    p = rng.uniform([-0.1, 0.0, -1.1, -0.2, -0.2, -0.2], [0.1, 0.9, -0.6, 0.2, 0.2, 0.2], size=(300, 6))
+    for checks, reqs in ((ALL_CHECKS, []), (ALL_CHECKS[:3], []), (ALL_CHECKS, parse_requirements(["kappa < 50"]))):
+        ok = rot._Evaluator(m, checks, reqs)(p)
+        assert np.array_equal(ok, staged_admissible(m, p, checks, reqs))
+        assert ok.any() and not ok.all()

@@ -169,12 +169,18 @@ def usable(machine: Machine, n_poses: int) -> bool:
             and machine.limits.strut_collision_mode in ("exact", "table_B2"))
 
 
-def evaluate_small(machine: Machine, x: np.ndarray, checks: Sequence[str],
-                   drive_load_data: DriveLoadData | None) -> tuple[dict[str, Any], np.ndarray] | None:
-    """The fields of :class:`pkmstiff.admissibility.pipeline.PoseEvaluation` (the inverse kinematics included, as
-    views of the kernel's outputs) for poses ``x`` (N, 6) and the (N,)
-    reachability of the poses, or None where the general path must run (a pose needs an exact κ). Call only where
-    :func:`usable` holds."""
+def admissible_small(machine: Machine, x: np.ndarray, checks: Sequence[str],
+                     drive_load_data: DriveLoadData | None) -> np.ndarray | None:
+    """Only ``admissibility.ok`` of :func:`evaluate_small` (N,), without the other fields (for searches that need
+    nothing else); None where the general path must run."""
+    run = _run(machine, x, checks, drive_load_data)
+    return None if run is None else run[14] == 0
+
+
+def _run(machine: Machine, x: np.ndarray, checks: Sequence[str], drive_load_data: DriveLoadData | None
+         ) -> tuple | None:
+    """The fused kernel over poses ``x`` (N, 6): (constants, N, strut pairs, then its output arrays as
+    :func:`evaluate_small` unpacks them, the reasons 15th), or None where a pose needs an exact κ."""
     from pkmstiff.kinematics import kernels as K
 
     c = _constants(machine)
@@ -223,6 +229,20 @@ def evaluate_small(machine: Machine, x: np.ndarray, checks: Sequence[str],
         *bad, tau, load_bad, ok_rows, reasons)
     if n_amb:
         return None
+    return c, N, n_pairs, rot, rho, pqd, ld, reach, jac, jc, bad, tau, load_bad, ok_rows, reasons, ang, has_load
+
+
+def evaluate_small(machine: Machine, x: np.ndarray, checks: Sequence[str],
+                   drive_load_data: DriveLoadData | None) -> tuple[dict[str, Any], np.ndarray] | None:
+    """The fields of :class:`pkmstiff.admissibility.pipeline.PoseEvaluation` (the inverse kinematics included, as
+    views of the kernel's outputs) for poses ``x`` (N, 6) and the (N,)
+    reachability of the poses, or None where the general path must run (a pose needs an exact κ). Call only where
+    :func:`usable` holds."""
+    run = _run(machine, x, checks, drive_load_data)
+    if run is None:
+        return None
+    c, N, n_pairs, rot, rho, pqd, ld, reach, jac, jc, bad, tau, load_bad, ok_rows, reasons, ang, has_load = run
+    rot_aos = rot.transpose(2, 0, 1)
     frame_bad, range_bad, space_bad, lim_bad, ina_bad, strut_bad, plat_bad = bad
     CR = adm.CheckResult
     results: dict[str, adm.CheckResult] = {}

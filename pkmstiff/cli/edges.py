@@ -148,12 +148,13 @@ def check_jobs(jobs: int | None, option: str = "--jobs") -> int | None:
 
 def predicted_plan(items: int, seconds: float, jobs: int, scheduler: str | None, unit: str, granule: int = 1) -> str:
     """The parallel plan for the cost line, from the estimated ``seconds`` of ``items`` items (the run itself sizes its
-    tasks from a measured first piece of work); connects to ``scheduler`` (exit 2 if unreachable) before any work."""
+    tasks from a measured first piece of work); with a ``scheduler`` it says why the work stays here if it does, and
+    it connects (exit 2 if unreachable) before any work unless the estimate alone keeps the work here."""
     from pkmstiff.evaluation.parallel import connected, plan
 
     with connected(scheduler):
         p = plan(items, seconds / max(items, 1), jobs, scheduler, granule)
-    return p.text(unit) if p.parallel else "serial"
+    return p.text(unit) if p.parallel or scheduler else "serial"
 
 
 # ------------------------------------------------------------------------------------------------ memory budget

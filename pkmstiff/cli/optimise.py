@@ -34,7 +34,7 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
         client(args.scheduler)  # an unreachable scheduler is exit 2 before any evaluation
     budget = design.budget if args.budget is None else args.budget
     tb = design.time_budget if time_budget is None else time_budget
-    where = f"Dask scheduler {args.scheduler}" if args.scheduler else f"{args.jobs} process(es)"
+    where = _plan(args.jobs, args.scheduler, not args.no_report)
     if not args.quiet:
         print(f"pkmstiff optimise: {design.machine}, {len(design.variables)} variable(s), "
               f"{len(design.objectives)} objective(s), {len(design.constraints)} constraint(s), "
@@ -70,6 +70,19 @@ def _cmd_optimise(args: argparse.Namespace) -> int:
           + ", ".join(res.meta["outputs"][k] for k in ("front", "front_plot", "report", "summary")
                       if k in res.meta["outputs"]))
     return 0
+
+
+def _plan(jobs: int, scheduler: str | None, report: bool) -> str:
+    """The cost line's parallel plan (:mod:`pkmstiff.optimise.engine`, :func:`pkmstiff.optimise.outputs.write_outputs`)."""
+    from pkmstiff.evaluation.parallel import MIN_TASK_SECONDS
+
+    extras = "the base design and the references as tasks beside the first batch on their raster"
+    if scheduler:
+        return f"Dask scheduler {scheduler}: candidates in tasks of at least {MIN_TASK_SECONDS:g} s, {extras}"
+    if jobs == 1:
+        return "1 process (serial)"
+    return (f"{'all cores' if jobs == -1 else f'{jobs} local workers'}: one candidate per task, {extras}, "
+            f"the figures in the pool{' while the comparison report builds' if report else ''}")
 
 
 def add_commands(sub) -> None:

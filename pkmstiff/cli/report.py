@@ -23,21 +23,9 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     paths = run_spec(args.spec, Path(args.out), fast=args.fast, n_jobs=args.jobs, log=log,
                      scheduler=getattr(args, "scheduler", None),
-                     check=lambda cost: announce("report", cost, budget, quiet=args.quiet, plan=_plan(args)))
+                     check=lambda cost, plan: announce("report", cost, budget, quiet=args.quiet, plan=plan))
     print(f"pkmstiff report: wrote {paths['html']} and {paths['md']} ({time.perf_counter() - t0:.1f} s)")
     return 0
-
-
-def _plan(args: argparse.Namespace) -> str:
-    """The cost line's plan: where the sections and the workspace run (each splits itself into tasks by its measured
-    cost, :mod:`pkmstiff.evaluation.parallel`; figures and the report files are made here)."""
-    if args.scheduler:
-        where = f"on the Dask cluster {args.scheduler}"
-    elif args.jobs is None:
-        where = "with the spec's options.jobs"
-    else:
-        where = "serially" if args.jobs == 1 else f"on {args.jobs if args.jobs > 0 else 'all'} local workers"
-    return f"sections and workspace {where}, each split into tasks by its measured cost; figures here"
 
 
 def add_commands(sub) -> None:
@@ -50,7 +38,7 @@ def add_commands(sub) -> None:
     p.add_argument("--fast", action="store_true",
                    help="coarse raster/resolution from the spec's [options] fast_step_mm / fast_resolution_mm")
     p.add_argument("--jobs", type=int, default=None,
-                   help="parallel processes for the sections and the workspace (default: spec)")
+                   help="parallel processes for the evaluations and the section maps (default: spec)")
     p.add_argument("--scheduler", default=None, metavar="ADDR",
                    help="Dask scheduler address, e.g. tcp://10.0.0.5:8786: evaluate sections and workspace there")
     p.add_argument("--quiet", action="store_true", help="no progress lines")

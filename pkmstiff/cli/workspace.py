@@ -195,10 +195,10 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         cost = req.cost(machine, n_ori, n_jobs=jobs, scheduler=scheduler, **options)
     if args.out and not args.no_plot:
         cost = cost.plus(FIGURE_3D_LIBRARY_SECONDS + FIGURE_3D_SECONDS, FIGURE_3D_BYTES)
-    # the finest level holds about half the evaluations: it sets the plan (20,000 poses per oracle chunk)
-    plan = predicted_plan(int(cost.count) // 2, cost.seconds / 2, jobs, scheduler, "points", granule=20_000)
+    # the octree's subtrees below a coarse level go to the workers, each task with about as many points
+    plan = predicted_plan(int(cost.count), cost.seconds, jobs, scheduler, "points")
     announce("workspace", cost.named(f"octree at resolution {args.resolution:g} mm"), budget,
-             quiet=args.quiet or args.json, plan=plan if plan == "serial" else f"finest level: {plan}")
+             quiet=args.quiet or args.json, plan=plan if plan == "serial" else f"octree subtrees: {plan}")
     progress = _Progress(not args.quiet, "octree")
     try:
         with _octree_input_errors():
@@ -275,11 +275,17 @@ def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict
 def _cmd_rotation_map(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.errors import ArgumentError
-    from pkmstiff.evaluation.cost import BASE_SECONDS, admissible_fraction, plane_points, rotation_map_cost
+    from pkmstiff.evaluation.cost import (
+        BASE_SECONDS,
+        admissible_fraction,
+        plane_points,
+        rotation_base_seconds,
+        rotation_map_cost,
+    )
     from pkmstiff.evaluation.sections import raster, raster_count
     from pkmstiff.machine.frames import frame_metadata, frame_text, neglect_spindle, to_machine_frame
     from pkmstiff.workspace.requests import RotationMapRequest
-    from pkmstiff.workspace.rotation import DIRECTIONS, direction_group, rotational_workspace_map
+    from pkmstiff.workspace.rotation import DIRECTIONS, FUSED_CHUNK, direction_group, rotational_workspace_map
 
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     inc = math.radians(_positive(args.increment, "--increment", "deg"))
@@ -323,8 +329,12 @@ def _cmd_rotation_map(args: argparse.Namespace) -> int:
                            to_machine_frame(machine, origin, args.frame), ua, va)
         frac = admissible_fraction(machine, pts, ori, checks_without(args.skip_check, "--skip-check"))
     cost = rotation_map_cost(nu * nv, frac, nu + nv - 1, len(dirs), inc, amax, method == "plain", args.verify)
-    plan = predicted_plan(len(dirs), cost.seconds - BASE_SECONDS, jobs, scheduler, "directions",  # start-up: here
-                          direction_group(len(dirs), jobs, scheduler))
+    base_s = rotation_base_seconds(nu * nv)
+    rest = max(nu * nv - FUSED_CHUNK, 0)  # the first chunk of the base check runs here, timed
+    base_plan = predicted_plan(rest, base_s * rest / (nu * nv), jobs, scheduler, "points", FUSED_CHUNK)
+    search_plan = predicted_plan(len(dirs), cost.seconds - BASE_SECONDS - base_s, jobs, scheduler, "directions",
+                                 direction_group(len(dirs), jobs, scheduler))
+    plan = f"base check {base_plan}; search {search_plan}"
     announce("rotation-map", cost.named(f"{len(dirs)} direction(s) on {nu * nv:,} raster points, increment "
                                         f"{args.increment:g} deg"), budget, quiet=args.quiet or args.json, plan=plan)
     t0 = time.perf_counter()

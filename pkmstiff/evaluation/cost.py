@@ -69,14 +69,19 @@ OCTREE_PILOT_MIN = 50_000
 OCTREE_PILOT_EVALUATIONS = 30_000
 #: rotation maps (Hexaglide YZ raster, 1° and 0.1° increments): mean limit angle of a search, prediction error of
 #: the predictor-corrector, its evaluations per point besides the error, increments per block of the plain search,
-#: CPU seconds per evaluation of the plain search (large batches) and per batch of the predictor-corrector (measured
-#: 0.26 ms per batch of a few poses on the shared 2-core machine, 2026-11)
+#: CPU seconds per evaluation of the plain search (large batches) and per batch of the predictor-corrector, per
+#: base pose (the fused kernel in chunks of 4096: ~2.7 us), and per evaluation the predictor-corrector is estimated
+#: to make (it makes ~0.55 of the estimate: 1.2 us; Hexaglide yz maps of 2-3.125 mm, 6 directions, on the shared
+#: 2-core machine, 2026-11: estimated 5.6 s against 4.5 s CPU at 2 mm, 3.2 s against 2.0 s at 3.125 mm; the plain
+#: search 0.9 s CPU for 316,072 evaluations at 12.5 mm, 2.85 us each)
 ROTATION_TYPICAL_LIMIT = math.radians(20.0)
 ROTATION_PREDICTION_ERROR = math.radians(2.5)
 ROTATION_PC_EVALUATIONS = 1.5
 ROTATION_BLOCK = 8
-ROTATION_PLAIN_SECONDS = 10e-6
-ROTATION_CALL_SECONDS = 0.4e-3
+ROTATION_PLAIN_SECONDS = 2.8e-6
+ROTATION_CALL_SECONDS = 0.3e-3
+ROTATION_BASE_SECONDS = 2.7e-6
+ROTATION_PC_SECONDS = 1.2e-6
 #: FE: bytes and CPU seconds per solve per degree of freedom at 1e5 DOFs (sparse direct solve of a 3-D hex mesh),
 #: scaled with the fill-in law n^(4/3) for memory and n^(5/3) for time (nested dissection of a 3-D mesh); measured
 #: on the shipped joint (28,527 DOFs, 2.3 s per tilt angle, 0.77 GB) and platform (44,928 DOFs, 1.46 GB)
@@ -246,7 +251,8 @@ def rotation_map_cost(n_points: int, admissible: float, n_diagonals: int, n_dire
     (:data:`ROTATION_TYPICAL_LIMIT` on average, at most max_angle) in blocks of :data:`ROTATION_BLOCK`; the
     predictor-corrector needs :data:`ROTATION_PC_EVALUATIONS` plus the prediction error
     (:data:`ROTATION_PREDICTION_ERROR`) in increments per point, one batch per step of each of the ``n_diagonals``
-    anti-diagonals; ``verify`` re-checks every increment below the result (held at once per diagonal)."""
+    anti-diagonals; ``verify`` re-checks every increment below the result (held at once per diagonal); the base
+    orientation is checked once per raster point (:func:`rotation_base_seconds`)."""
     k_max = max(max_angle / increment, 1.0)
     walk = min(k_max, ROTATION_TYPICAL_LIMIT / increment)
     pd = n_points * min(max(admissible, 0.0), 1.0) * max(int(n_directions), 1)  # searches
@@ -256,14 +262,20 @@ def rotation_map_cost(n_points: int, admissible: float, n_diagonals: int, n_dire
     else:
         steps = ROTATION_PC_EVALUATIONS + min(k_max, ROTATION_PREDICTION_ERROR / increment)
         evals = pd * steps
-        secs = evals * POSE_SECONDS + (n_diagonals * steps + walk) * ROTATION_CALL_SECONDS
+        secs = evals * ROTATION_PC_SECONDS + (n_diagonals * steps + walk) * ROTATION_CALL_SECONDS
     held = 0.0
     if verify:
         evals += pd * walk
         secs += pd * walk * ROTATION_PLAIN_SECONDS
         held = pd / max(n_diagonals, 1) * walk * 64.0  # (increment, pose) rows of one anti-diagonal
-    return Cost("rotation map", int(evals), "evaluations",
-                BASE_BYTES + CHUNK_BYTES + n_points * n_directions * 64.0 + held, BASE_SECONDS + secs, "--increment")
+    return Cost("rotation map", int(evals), "evaluations", BASE_BYTES + CHUNK_BYTES + n_points * n_directions * 64.0
+                + held, BASE_SECONDS + rotation_base_seconds(n_points) + secs, "--increment")
+
+
+def rotation_base_seconds(n_points: int) -> float:
+    """The check of a rotation map's base orientation on ``n_points`` raster points (s; part of
+    :func:`rotation_map_cost`)."""
+    return n_points * ROTATION_BASE_SECONDS
 
 
 # ----------------------------------------------------------------------------------------------------------- FE

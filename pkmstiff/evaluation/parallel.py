@@ -11,9 +11,12 @@ measured cost, results as compact arrays, and the same tasks on a Dask cluster.
   process): at least :data:`MIN_TASK_SECONDS` each, about :data:`TASKS_PER_WORKER` per worker for load balance, and a
   whole number of ``granule`` items so that the tasks evaluate exactly the chunks the serial run evaluates (results
   are then byte-identical whatever the number of workers).
-* On Dask (``scheduler`` = an address or a ``distributed.Client``) the same tasks go to the cluster; the client is
-  kept per address while :func:`connected` encloses the work, and :class:`PreloadPlugin` imports pkmstiff on every worker once. Start workers with
-  ``dask worker ADDR --preload pkmstiff.evaluation.parallel`` to do that at worker start-up instead.
+* On Dask (``scheduler`` = an address or a ``distributed.Client``) the same tasks go to the cluster while this
+  process takes tasks too (from the other end; it also takes over tasks that run late there), so a run is never much
+  slower than a serial one. The plan counts the cluster's fixed costs (connecting, asking for the workers, measuring
+  the round trip of an empty task, registering :class:`PreloadPlugin`, the warm-up of cold workers) and connects only
+  when the estimate alone does not already keep the work here; what it measured is kept per address for the process.
+  Start workers with ``dask worker ADDR --preload pkmstiff.evaluation.parallel`` to warm them at start-up.
 """
 
 from __future__ import annotations
@@ -26,12 +29,11 @@ import os
 import pickle
 import sys
 import time
-import weakref
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Generic, TypeVar
 
 from pkmstiff.errors import ArgumentError, ResourceError
@@ -47,8 +49,18 @@ MIN_LOCAL_TASK_SECONDS = 0.02
 #: Dask tasks last at least this many measured round trips of an empty task: the scheduler's share stays below 5 %
 DASK_OVERHEAD_FACTOR = 20
 #: seconds a fresh (cold) Dask worker needs to import pkmstiff and load the compiled kernels from the on-disk cache
-#: (measured ~2.6 s on the shared 2-core machine): work shorter than that stays here while the workers warm up
+#: (measured ~2.6 s on the shared 2-core machine): the plan waits for cold workers only when that pays
 COLD_WORKER_SECONDS = 3.0
+#: fixed costs of a Dask cluster not yet measured by this process (s): connecting (66–79 ms measured with a local
+#: cluster on the shared 2-core machine), asking for the workers and whether they are warm (13–33 ms), three round
+#: trips of an empty task (47–124 ms) and registering :class:`PreloadPlugin` (3–18 ms on warm workers)
+DASK_FIXED_SECONDS = 0.2
+#: importing dask.distributed, where this process has not imported it yet (0.3–0.9 s measured on that machine)
+DASK_IMPORT_SECONDS = 0.3
+#: registering :class:`PreloadPlugin` with warm workers (3–18 ms measured)
+DASK_PLUGIN_SECONDS = 0.02
+#: round trip of an empty Dask task (s) assumed until it can be measured on a warm worker (6–14 ms measured there)
+ROUND_TRIP_SECONDS = 0.02
 #: tasks per worker when the work allows it: with a few tasks each, a slow worker (a shared machine) delays the end
 #: by at most a quarter of its share
 TASKS_PER_WORKER = 4
@@ -66,6 +78,8 @@ class Plan:
     task_items: int
     item_seconds: float
     where: str = "serial"
+    #: on Dask: the estimate that chose the plan and the cluster's fixed costs (for the cost line)
+    note: str = ""
 
     @property
     def parallel(self) -> bool:
@@ -73,11 +87,12 @@ class Plan:
 
     def text(self, unit: str = "points", task: str = "tasks") -> str:
         """One line for the cost line, e.g. ``2 local workers, 8 tasks of 16384 points (≈ 0.9 s each)``."""
+        note = f"; {self.note}" if self.note else ""
         if not self.parallel:
-            return f"{self.where} ({self.items} {unit}, ≈ {self.items * self.item_seconds:.1f} s)"
+            return f"{self.where} ({self.items} {unit}, ≈ {self.items * self.item_seconds:.1f} s){note}"
         who = f"{self.workers} local workers" if self.where == "local" else f"{self.where}"
         return (f"{who}, {self.tasks} {task} of {self.task_items} {unit} "
-                f"(≈ {self.task_items * self.item_seconds:.2f} s each)")
+                f"(≈ {self.task_items * self.item_seconds:.2f} s each){note}")
 
 
 def resolve_workers(n_jobs: int) -> int:
@@ -87,44 +102,33 @@ def resolve_workers(n_jobs: int) -> int:
     return os.cpu_count() or 1 if n_jobs == -1 else n_jobs
 
 
-def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None, granule: int = 1) -> Plan:
+def plan(items: int, item_seconds: float, n_jobs: int = 1, scheduler: Any = None, granule: int = 1, *,
+         tasks_per_worker: int = TASKS_PER_WORKER) -> Plan:
     """Split ``items`` items (each ``item_seconds`` s, measured) into tasks for ``n_jobs`` local workers or a Dask
-    cluster: tasks of a whole number of ``granule`` items, each ≥ :data:`MIN_LOCAL_TASK_SECONDS` (local) or
-    ≥ :data:`MIN_TASK_SECONDS` and :data:`DASK_OVERHEAD_FACTOR` measured round trips (Dask), about
-    :data:`TASKS_PER_WORKER` per worker. Too little work for two such tasks runs serially (workers=1, tasks=1), and
-    so does work that the cluster would not finish sooner than this process (its text says why)."""
-    work = items * max(item_seconds, 0.0)
-    rtt = 0.0
-    if scheduler is None:
-        workers, least_seconds, where = resolve_workers(n_jobs), MIN_LOCAL_TASK_SECONDS, "local"
-    else:
-        workers, cold = _dask_workers(scheduler)
-        where = f"Dask ({workers} workers at {_address(scheduler)})"
-        if cold and work < COLD_WORKER_SECONDS + work / workers:
-            _warm_in_background(scheduler)  # not worth waiting for them now; warm for the next run
-            return Plan(items, 1, min(items, 1), items, item_seconds, "serial: the Dask workers are still cold")
-        rtt = round_trip(scheduler)
-        least_seconds = max(MIN_TASK_SECONDS, DASK_OVERHEAD_FACTOR * rtt)
+    cluster: tasks of a whole number of ``granule`` items, each ≥ :data:`MIN_LOCAL_TASK_SECONDS` (local), about
+    ``tasks_per_worker`` per worker (work that ends at a barrier, such as a generation of candidates, asks for as many
+    as the least task time allows: the smaller the last task, the less a worker waits for the other; locally only).
+    Too little work for two such tasks runs serially (workers=1, tasks=1). On Dask (:func:`_dask_plan`) the work stays here unless the cluster, with this process working beside it, finishes
+    it sooner including the cluster's fixed costs; the plan's text says why."""
+    if scheduler is not None:
+        return _dask_plan(items, item_seconds, scheduler, granule)
+    workers = resolve_workers(n_jobs)
+    size, tasks = _task_size(items, item_seconds, granule, workers, MIN_LOCAL_TASK_SECONDS,
+                             tasks_per_worker)
+    if tasks < 2:
+        return Plan(items, 1, min(tasks, 1), items, item_seconds)
+    return Plan(items, min(workers, tasks), tasks, size * granule, item_seconds, "local")
+
+
+def _task_size(items: int, item_seconds: float, granule: int, workers: int, least_seconds: float,
+               tasks_per_worker: int = TASKS_PER_WORKER) -> tuple[int, int]:
+    """(granules per task, tasks) for ``workers`` workers: tasks of ≥ ``least_seconds``, about
+    ``tasks_per_worker`` per worker (one task of everything for one worker)."""
     granules = math.ceil(items / granule) if items else 0
     per_granule = max(item_seconds, 0.0) * granule
     least = max(1, math.ceil(least_seconds / per_granule)) if per_granule > 0 else 1
-    size = max(least, math.ceil(granules / (workers * TASKS_PER_WORKER))) if workers > 1 else granules
-    tasks = math.ceil(granules / size) if size else 0
-    if tasks < 2 and scheduler is not None and items:
-        return Plan(items, 1, 1, items, item_seconds,
-                    f"serial: here ≈ {work:.2f} s, too little for two Dask tasks of ≥ {least_seconds:.2f} s "
-                    f"({rtt * 1e3:.0f} ms per task measured)" if workers > 1 else "serial: the Dask cluster has one "
-                    "worker thread")
-    if tasks < 2:
-        return Plan(items, 1, min(tasks, 1), items, item_seconds)
-    if scheduler is not None:
-        on_dask = math.ceil(tasks / workers) * (size * per_granule + rtt)  # waves of tasks, each with its round trip
-        if on_dask >= work:
-            return Plan(items, 1, 1, items, item_seconds,
-                        f"serial: here ≈ {work:.2f} s, on Dask ≈ {on_dask:.2f} s ({rtt * 1e3:.0f} ms per task "
-                        f"measured)")
-        _register_preload(scheduler)  # waits until every worker is warm (warm ones answer at once)
-    return Plan(items, min(workers, tasks), tasks, size * granule, item_seconds, where)
+    size = max(least, math.ceil(granules / (workers * tasks_per_worker))) if workers > 1 else granules
+    return size, (math.ceil(granules / size) if size else 0)
 
 
 def split(items: int, p: Plan) -> list[tuple[int, int]]:
@@ -230,6 +234,11 @@ def start_workers(workers: int) -> int:
     return len(set(p.map(_pid, range(2 * workers))))
 
 
+def worker_pids() -> list[int]:
+    """Process ids of the running local workers (every pool), for benchmarks that read each worker's CPU time."""
+    return sorted(pid for p in _POOLS.values() for pid in (getattr(p, "_processes", None) or {}))
+
+
 def shutdown() -> None:
     """Stop the local pools and close the Dask clients this process opened."""
     for p in _POOLS.values():
@@ -238,60 +247,99 @@ def shutdown() -> None:
     for c in _CLIENTS.values():
         c.close()
     _CLIENTS.clear()
+    _CLUSTERS.clear()
 
 
 atexit.register(shutdown)
 
 
 # ------------------------------------------------------------------------------------------------------------ dask
+@dataclass
+class _Cluster:
+    """What this process has measured of one Dask cluster (per address, kept for the life of the process)."""
+
+    #: fixed costs paid so far (s): "connect", "query" (workers, and which are warm), "round trips", "plugin"
+    costs: dict[str, float] = field(default_factory=dict)
+    round_trip: float | None = None
+    threads: dict[str, int] | None = None  # worker threads per worker address, at the last look
+    warm: set[str] = field(default_factory=set)  # worker addresses known warm (a worker never cools down)
+    registered: bool = False  # PreloadPlugin registered with the scheduler (it keeps it for workers that join)
+    use: list[str] | None = None  # the workers the current plan's tasks go to (None: any)
+
+    def paid(self, name: str, t0: float) -> None:
+        self.costs[name] = self.costs.get(name, 0.0) + time.perf_counter() - t0
+
+    def text(self) -> str:
+        parts = ", ".join(f"{k} {v:.2f}" for k, v in self.costs.items())
+        return f"fixed costs {sum(self.costs.values()):.2f} s" + (f" ({parts})" if parts else "")
+
+
 _CLIENTS: dict[str, Any] = {}
+_CLUSTERS: dict[str, _Cluster] = {}
+_OPEN = [0]  # depth of nested :func:`connected` blocks
 
 
 def _address(scheduler: Any) -> str:
     return scheduler if isinstance(scheduler, str) else str(getattr(scheduler, "scheduler", scheduler).address)
 
 
+def address(scheduler: Any) -> str:
+    """The address of a Dask ``scheduler`` (an address or a client), e.g. for a cost line."""
+    return _address(scheduler)
+
+
+def _cluster(scheduler: Any) -> _Cluster:
+    return _CLUSTERS.setdefault(_address(scheduler), _Cluster())
+
+
 def client(scheduler: Any) -> Any:
-    """A ``distributed.Client`` for ``scheduler`` (an address or a client), kept per address for the run
-    (:func:`plan` registers :class:`PreloadPlugin` when the work goes to the cluster)."""
+    """A ``distributed.Client`` for ``scheduler`` (an address or a client), kept per address while the outermost
+    :func:`connected` block runs (the time to connect counts as a fixed cost of the cluster)."""
+    t0 = time.perf_counter()
     try:
         from distributed import Client
     except ImportError:
         raise ResourceError("scheduler: Dask execution needs dask.distributed (pip install 'pkmstiff[dask]')") from None
     if isinstance(scheduler, Client):
-        c = scheduler
-    else:
-        c = _CLIENTS.get(scheduler)
-        if c is None:
-            try:
-                c = _CLIENTS[scheduler] = Client(scheduler, timeout=30)
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise ResourceError(f"scheduler: cannot connect to the Dask scheduler {scheduler!r}: {exc}") from None
+        return scheduler
+    c = _CLIENTS.get(scheduler)
+    if c is None or c.status not in ("running", "connecting", "newly-created"):
+        try:
+            c = _CLIENTS[scheduler] = Client(scheduler, timeout=30)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ResourceError(f"scheduler: cannot connect to the Dask scheduler {scheduler!r}: {exc}") from None
+        _cluster(scheduler).paid("connect", t0)
     return c
 
 
 @contextmanager
 def connected(scheduler: Any) -> Iterator[None]:
-    """Keep one client to ``scheduler`` (an address) for the enclosed work and close it afterwards (a client passed
-    in by the caller stays open)."""
+    """Keep one client to ``scheduler`` (an address) for the enclosed work, nested blocks included (a report's
+    sections share it), and close it at the end of the outermost block; a client passed in by the caller stays open.
+    What was measured of the cluster (round trip, warm workers, the plugin) stays known for the process."""
+    _OPEN[0] += 1
     try:
         yield
     finally:
-        if isinstance(scheduler, str) and scheduler in _CLIENTS:
+        _OPEN[0] -= 1
+        if not _OPEN[0] and isinstance(scheduler, str) and scheduler in _CLIENTS:
             _CLIENTS.pop(scheduler).close()
 
 
-def _dask_workers(scheduler: Any) -> tuple[int, int]:
-    """(worker threads, workers not yet warm) of the cluster."""
-    c = client(scheduler)
-    info = c.scheduler_info()
-    warm = c.run(_is_warm)
-    return (max(1, sum(int(w.get("nthreads", 1)) for w in info.get("workers", {}).values())),
-            sum(1 for v in warm.values() if not v))
-
-
-_ROUND_TRIP: dict[str, float] = {}
-_REGISTERED: weakref.WeakSet = weakref.WeakSet()  # clients that registered the plugin
+def _dask_workers(scheduler: Any) -> tuple[dict[str, int], list[str]]:
+    """(worker threads per worker address, addresses of the warm workers) of the cluster; asks only the workers not
+    yet known warm whether they are."""
+    c, rec = client(scheduler), _cluster(scheduler)
+    t0 = time.perf_counter()
+    threads = {a: max(1, int(w.get("nthreads", 1))) for a, w in c.scheduler_info().get("workers", {}).items()}
+    # a worker warming up is not asked (the scheduler knows its tasks): its warm-up thread, at the lowest priority,
+    # holds the interpreter lock for seconds on a busy host, and the worker could not answer meanwhile
+    warming = {a for a, keys in c.processing().items() if any(str(k).startswith(_WARM_UP_KEY) for k in keys)}
+    unknown = [a for a in threads if a not in rec.warm and a not in warming]
+    if unknown:
+        rec.warm.update(a for a, warm in c.run(_is_warm, workers=unknown).items() if warm)
+    rec.paid("query", t0)
+    return threads, [a for a in threads if a in rec.warm]
 
 
 def _noop() -> None:
@@ -300,50 +348,179 @@ def _noop() -> None:
 
 def round_trip(scheduler: Any) -> float:
     """Seconds to submit an empty task to the cluster and collect its result (best of three, measured once per
-    address): the scheduler's overhead per task."""
-    key = _address(scheduler)
-    if key not in _ROUND_TRIP:
+    address and process): the scheduler's overhead per task."""
+    rec = _cluster(scheduler)
+    if rec.round_trip is None:
+        warm = [a for a in rec.threads or {} if a in rec.warm]
+        if not warm:  # a cold worker answers late (it imports pkmstiff): not a measurement of the scheduler
+            return ROUND_TRIP_SECONDS
         c, best = client(scheduler), float("inf")
+        t0 = time.perf_counter()
         for _ in range(3):
-            t0 = time.perf_counter()
-            c.submit(_noop, pure=False).result()
-            best = min(best, time.perf_counter() - t0)
-        _ROUND_TRIP[key] = best
-    return _ROUND_TRIP[key]
+            t = time.perf_counter()
+            c.submit(_noop, pure=False, workers=warm, allow_other_workers=False).result()
+            best = min(best, time.perf_counter() - t)
+        rec.paid("round trips", t0)
+        rec.round_trip = best
+    return rec.round_trip
 
 
 def _register_preload(scheduler: Any) -> None:
-    """Register :class:`PreloadPlugin` once per client (it then also warms workers that join later)."""
-    c = client(scheduler)
-    if c not in _REGISTERED:
-        c.register_plugin(PreloadPlugin())
-        _REGISTERED.add(c)
+    """Register :class:`PreloadPlugin` once per cluster (it then also warms workers that join later; on workers that
+    are not warm yet this waits for their warm-up)."""
+    rec = _cluster(scheduler)
+    if not rec.registered:
+        t0 = time.perf_counter()
+        client(scheduler).register_plugin(_preload_plugin()())
+        rec.registered = True
+        rec.paid("plugin", t0)
 
 
-def _warm_in_background(scheduler: Any) -> None:
-    """One warm-up task per cold worker, not waited for."""
+def _warm_in_background(scheduler: Any, cold: Sequence[str]) -> None:
+    """One warm-up task of the lowest CPU priority per cold worker, not waited for: on a host shared with this
+    process (a local cluster) it does not slow down the work that stays here."""
     from distributed import fire_and_forget
 
     c = client(scheduler)
-    for addr, warm in c.run(_is_warm).items():
-        if not warm:
-            fire_and_forget(c.submit(warm_up, workers=[addr], allow_other_workers=False, pure=False))
+    for addr in cold:
+        fire_and_forget(c.submit(_warm_up_quietly, workers=[addr], allow_other_workers=False, pure=False,
+                                 key=f"{_WARM_UP_KEY}-{addr}-{time.time_ns()}"))
 
 
-try:  # the plugin base class only where distributed is installed
-    from distributed.diagnostics.plugin import WorkerPlugin as _WorkerPlugin
-except ImportError:  # pragma: no cover
-    _WorkerPlugin = object  # type: ignore[assignment,misc]
+_WARM_UP_KEY = "pkmstiff-warm-up"
 
 
-class PreloadPlugin(_WorkerPlugin):  # type: ignore[misc,valid-type]
-    """Dask worker plugin: imports pkmstiff's evaluation modules once per worker (machines are then kept per worker
-    by :class:`Shared`)."""
+def _warm_up_quietly() -> None:
+    """:func:`warm_up` in a thread of nice 19 (Linux gives each thread its own nice value; elsewhere at the
+    worker's priority): imports and compiled kernels are the process's, so the worker is warm afterwards."""
+    import threading
 
-    name = "pkmstiff-preload"
-
-    def setup(self, worker: Any) -> None:
+    def run() -> None:
+        try:
+            os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)
+        except (AttributeError, OSError):  # pragma: no cover - not Linux
+            pass
         warm_up()
+
+    t = threading.Thread(target=run, name="pkmstiff-warm-up")
+    t.start()
+    t.join()
+
+
+def _dask_plan(items: int, item_seconds: float, scheduler: Any, granule: int) -> Plan:
+    """The plan on a Dask cluster (the model is :func:`_on_dask_seconds`'s). The work stays here unless the cluster,
+    with this process working beside it, finishes it sooner, fixed costs included; the text says why, with the round
+    trip and the fixed costs measured. Without connecting, work stays here when what this process knows already says
+    so: before it has measured the cluster, work shorter than the fixed costs of a first connection
+    (:data:`DASK_FIXED_SECONDS`, plus :data:`DASK_IMPORT_SECONDS` if dask.distributed is not imported yet) plus one
+    task (no number of workers could finish it sooner); afterwards, while all its workers were warm at the last look,
+    work that the measured cluster would not finish sooner."""
+    work = items * max(item_seconds, 0.0)
+    address = _address(scheduler)
+    rec = _CLUSTERS.get(address)
+
+    def here(why: str, note: str = "") -> Plan:
+        return Plan(items, 1, min(items, 1), items, item_seconds, f"serial: {why}", note)
+
+    if not items:
+        return here("no work")
+    if rec is None or rec.threads is None:
+        fixed = DASK_FIXED_SECONDS + (DASK_IMPORT_SECONDS if "distributed" not in sys.modules else 0.0)
+        if work < fixed + MIN_TASK_SECONDS or work < 2 * MIN_TASK_SECONDS:
+            return here(f"here ≈ {work:.2f} s, less than a Dask task of ≥ {MIN_TASK_SECONDS:.1f} s plus the fixed "
+                        f"costs of a first connection (≈ {fixed:.2f} s); not connected to {address}")
+    elif len(rec.warm) == len(rec.threads):
+        rtt = rec.round_trip if rec.round_trip is not None else ROUND_TRIP_SECONDS
+        best = _on_dask_seconds(items, item_seconds, granule, rec.threads, list(rec.threads), rtt, rec.registered)
+        if best is None or best[0] >= work:
+            on_dask = "too little for two tasks" if best is None else f"≈ {best[0]:.2f} s"
+            return here(f"here ≈ {work:.2f} s, on Dask {on_dask} as measured before by this process; not connected "
+                        f"to {address}", f"{rtt * 1e3:.0f} ms per task measured, {rec.text()}")
+    rec = _cluster(scheduler)
+    rec.threads, warm = _dask_workers(scheduler)
+    rtt = round_trip(scheduler)
+    least = max(MIN_TASK_SECONDS, DASK_OVERHEAD_FACTOR * rtt)
+    cold = [a for a in rec.threads if a not in warm]
+    best = _on_dask_seconds(items, item_seconds, granule, rec.threads, warm, rtt, rec.registered)
+
+    def note() -> str:
+        return f"{rtt * 1e3:.0f} ms per task measured, {rec.text()}"
+
+    if best is None or best[0] >= work:
+        if cold:
+            _warm_in_background(scheduler, cold)
+        if best is None:
+            return here(f"here ≈ {work:.2f} s, too little for two Dask tasks of ≥ {least:.2f} s", note())
+        if not warm:
+            return here(f"the Dask workers are still cold (they warm up in the background for the next run): here "
+                        f"≈ {work:.2f} s, on Dask ≈ {best[0]:.2f} s with their warm-up", note())
+        return here(f"here ≈ {work:.2f} s, on Dask ≈ {best[0]:.2f} s with this process working beside it", note())
+    t, use, size, tasks = best
+    if len(use) == len(rec.threads):
+        _register_preload(scheduler)  # waits until every worker is warm (warm ones answer at once)
+        rec.warm.update(use)
+        rec.use = None
+    else:
+        _warm_in_background(scheduler, cold)
+        rec.use = list(use)
+    k = sum(rec.threads[a] for a in use)
+    return Plan(items, k, tasks, size * granule, item_seconds, f"Dask ({k} workers at {address}) and this process",
+                f"≈ {t:.2f} s there against ≈ {work:.2f} s here, {note()}")
+
+
+def _on_dask_seconds(items: int, item_seconds: float, granule: int, threads: dict[str, int], warm: Sequence[str],
+                     rtt: float, registered: bool) -> tuple[float, list[str], int, int] | None:
+    """(seconds, workers used, granules per task, tasks) of the quickest way to run the work on the cluster, None if
+    it makes fewer than two tasks. This process works beside the cluster (:func:`run_tasks`), so ``k`` worker threads
+    finish ``tasks`` tasks of ``s`` seconds in about ``F + ⌈tasks / (k + 1)⌉ (s + r)`` seconds: ``r`` the round trip
+    of an empty task, ``F`` the fixed costs still to pay (registering the plugin, :data:`DASK_PLUGIN_SECONDS`; the
+    warm-up of cold workers, :data:`COLD_WORKER_SECONDS`, if they are waited for; those already paid do not count);
+    tasks last ≥ :data:`MIN_TASK_SECONDS` and ≥ :data:`DASK_OVERHEAD_FACTOR` round trips. The ways: the warm workers
+    now (the cold ones warm up in the background), or all once warm."""
+    least = max(MIN_TASK_SECONDS, DASK_OVERHEAD_FACTOR * rtt)
+    plugin = 0.0 if registered else DASK_PLUGIN_SECONDS
+    options = [(list(warm), plugin)]
+    if len(warm) < len(threads):
+        options.append((list(threads), plugin + COLD_WORKER_SECONDS))
+    best = None
+    for use, fixed in options:
+        k = sum(threads[a] for a in use)
+        size, tasks = _task_size(items, item_seconds, granule, k + 1, least) if k else (0, 0)
+        if tasks >= 2:
+            t = fixed + math.ceil(tasks / (k + 1)) * (size * granule * item_seconds + rtt)
+            if best is None or t < best[0]:
+                best = (t, use, size, tasks)
+    return best
+
+
+def _preload_plugin() -> type:
+    """The class :class:`PreloadPlugin`, a ``distributed`` ``WorkerPlugin`` made at the first use: importing
+    dask.distributed costs 0.3–0.9 s, which a command that does not use a cluster should not pay."""
+    global _PLUGIN
+    if _PLUGIN is None:
+        from distributed.diagnostics.plugin import WorkerPlugin
+
+        class PreloadPlugin(WorkerPlugin):
+            """Dask worker plugin: :func:`warm_up` once per worker (machines are then kept per worker by
+            :class:`Shared`)."""
+
+            name = "pkmstiff-preload"
+
+            def setup(self, worker: Any) -> None:
+                warm_up()
+
+        PreloadPlugin.__module__, PreloadPlugin.__qualname__ = __name__, "PreloadPlugin"  # pickled by this name
+        _PLUGIN = PreloadPlugin
+    return _PLUGIN
+
+
+_PLUGIN: type | None = None
+
+
+def __getattr__(name: str) -> Any:
+    if name == "PreloadPlugin":
+        return _preload_plugin()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def dask_setup(worker: Any) -> None:
@@ -365,9 +542,10 @@ def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, schedule
               progress: Callable[[int], None] | None = None, *,
               meanwhile: Callable[[], None] | None = None) -> list[T]:
     """``[fn(*args) for args in payloads]`` in order: in this process (serial plan), in the local pool or on the Dask
-    cluster. ``progress(k)`` is called after each finished task (any order) with the number finished.
-    ``meanwhile()`` runs in this process once the tasks are submitted (first, for a serial plan): work of its own
-    that would otherwise make the workers wait."""
+    cluster, this process taking tasks too (:func:`_run_on_dask`). ``progress(k)`` is called after each finished task
+    (any order) with the number finished. ``meanwhile()`` runs in this process once the tasks are submitted (first,
+    for a serial plan): work of its own that would otherwise make the workers wait. ``fn`` must be a pure function
+    of its arguments: on Dask a task may run twice (here and on a worker), either result is taken."""
     if meanwhile is not None and not (payloads and p.parallel):
         meanwhile()
     if not payloads:
@@ -380,35 +558,146 @@ def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, schedule
                 progress(k)
         return out
     if scheduler is not None:
-        c = client(scheduler)
-        futures = [c.submit(fn, *args, pure=False) for args in payloads]
-    else:
-        ex = pool(p.workers)
-        try:
-            futures = [ex.submit(fn, *args) for args in payloads]
-        except BrokenProcessPool as exc:
-            _POOLS.pop(p.workers, None)
-            raise ResourceError(f"local worker pool broke: {exc}") from None
-    if meanwhile is not None:
-        c0 = time.thread_time()  # this thread's CPU only: the pool's own threads are not the meanwhile work
-        meanwhile()
-        _MEANWHILE_CPU[0] += time.thread_time() - c0
+        return _run_on_dask(fn, payloads, p, scheduler, progress, meanwhile)
+    futures = [submit(p.workers, fn, *args) for args in payloads]
+    _meanwhile(meanwhile)
     if progress:
-        _report_progress(futures, progress, scheduler is not None)
+        from concurrent.futures import as_completed
+
+        for k, _ in enumerate(as_completed(futures), 1):
+            progress(k)
+    return [result(f, p.workers) for f in futures]
+
+
+def submit(workers: int, fn: Callable[..., T], *args: Any) -> Future:
+    """``fn(*args)`` as one task in the local pool of ``workers`` workers, not waited for (a command that schedules
+    tasks of its own, such as a report's whole evaluations and figures); collect it with :func:`result`."""
     try:
-        return c.gather(futures) if scheduler is not None else [f.result() for f in futures]
+        return pool(workers).submit(fn, *args)
     except BrokenProcessPool as exc:
-        _POOLS.pop(p.workers, None)
+        _POOLS.pop(workers, None)
+        raise ResourceError(f"local worker pool broke: {exc}") from None
+
+
+def result(future: Future, workers: int) -> Any:
+    """The result of a task of :func:`submit` (its exception raised here; a dead worker as one line)."""
+    try:
+        return future.result()
+    except BrokenProcessPool as exc:
+        _POOLS.pop(workers, None)
         raise ResourceError(f"a local worker died ({exc}); rerun with fewer --jobs or a larger memory budget") from None
 
 
-def _report_progress(futures: list, progress: Callable[[int], None], dask: bool) -> None:
-    if dask:
-        from distributed import as_completed as done
-    else:
-        from concurrent.futures import as_completed as done  # type: ignore[assignment]
-    for k, _ in enumerate(done(futures), 1):
-        progress(k)
+@contextmanager
+def meanwhile_work(clock: Callable[[], float] = time.thread_time) -> Iterator[None]:
+    """Count the CPU time of the enclosed work (by ``clock``; default this thread's only, so the pool's own threads
+    are not counted) as work done here while the workers run (:func:`meanwhile_cpu_seconds`)."""
+    c0 = clock()
+    try:
+        yield
+    finally:
+        _MEANWHILE_CPU[0] += clock() - c0
+
+
+def _meanwhile(meanwhile: Callable[[], None] | None) -> None:
+    if meanwhile is not None:
+        with meanwhile_work():
+            meanwhile()
+
+
+#: a task on Dask that has run this many times its estimated length (plus a round trip) is taken over by this process
+LATE_FACTOR = 2.0
+
+
+def _run_on_dask(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, scheduler: Any,
+                 progress: Callable[[int], None] | None, meanwhile: Callable[[], None] | None) -> list[T]:
+    """The tasks on the cluster and in this process at once: the cluster's workers take tasks from the front (one per
+    worker thread in flight, the next sent when one finishes), this process from the back; when none is left to
+    start, this process takes over a task that has run :data:`LATE_FACTOR` times its estimated length (a slow or
+    lost worker) or that failed there (it then raises the task's error itself). So the run never takes much longer
+    than this process alone would. Results in task order, whoever computed them (``fn`` is pure)."""
+    import threading
+
+    c, rec = client(scheduler), _cluster(scheduler)
+    where = {"workers": rec.use, "allow_other_workers": False} if rec.use else {}
+    n = len(payloads)
+    out: list[Any] = [None] * n
+    done = [False] * n
+    running: dict[int, tuple[Any, float]] = {}  # task -> (future, time sent)
+    left = [0, n]  # tasks [front, back) not started anywhere
+    lock = threading.Condition()
+    late = LATE_FACTOR * p.task_items * p.item_seconds + (rec.round_trip or 0.0)
+
+    def send() -> None:  # under the lock
+        if left[0] < left[1]:
+            i = left[0]
+            left[0] += 1
+            f = c.submit(fn, *payloads[i], pure=False, **where)
+            running[i] = (f, time.monotonic())
+            f.add_done_callback(lambda f, i=i: finished(i, f))
+
+    def finished(i: int, f: Any) -> None:  # in a thread of the client
+        try:
+            value, ok = (f.result(), True) if f.status == "finished" else (None, False)
+        except Exception:  # noqa: BLE001 - a result lost on its way here: this process computes the task
+            value, ok = None, False
+        with lock:
+            running.pop(i, None)
+            if ok and not done[i]:
+                out[i], done[i] = value, True
+            if f.status != "cancelled":
+                send()
+            lock.notify_all()
+
+    try:
+        with lock:
+            for _ in range(max(p.workers, 1)):
+                send()
+        _meanwhile(meanwhile)
+        reported = 0
+        while True:
+            with lock:
+                i = None
+                while i is None:
+                    if left[0] < left[1]:
+                        left[1] -= 1
+                        i = left[1]
+                        break
+                    todo = [j for j in range(n) if not done[j]]
+                    if not todo:
+                        break
+                    now = time.monotonic()
+                    lost = [j for j in todo if j not in running]  # failed on the cluster
+                    over = [j for j in todo if j in running and now - running[j][1] > late]
+                    if lost or over:
+                        i = (lost or over)[0]
+                        break
+                    wait = min(running[j][1] + late - now for j in todo)
+                    count = sum(done)
+                    if progress and count > reported:
+                        break
+                    lock.wait(timeout=max(wait, 1e-3))
+                count = sum(done)
+            if progress and count > reported:
+                reported = count
+                progress(count)
+            if i is None:
+                if count == n:
+                    return out
+                continue
+            value = fn(*payloads[i])
+            with lock:
+                if not done[i]:
+                    out[i], done[i] = value, True
+                f = running.pop(i, (None, 0.0))[0]
+            if f is not None:
+                f.cancel()
+    finally:
+        with lock:
+            pending = [f for f, _ in running.values()]
+            left[0] = left[1]  # nothing more is sent
+        for f in pending:
+            f.cancel()
 
 
 __all__ = [
@@ -419,15 +708,20 @@ __all__ = [
     "Plan",
     "PreloadPlugin",
     "Shared",
+    "address",
     "client",
     "connected",
     "meanwhile_cpu_seconds",
+    "meanwhile_work",
     "plan",
     "pool",
     "resolve_workers",
+    "result",
     "round_trip",
     "run_tasks",
     "shutdown",
     "split",
     "start_workers",
+    "submit",
+    "worker_pids",
 ]

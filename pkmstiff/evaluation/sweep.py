@@ -8,8 +8,9 @@ of the modified machine returning named numbers (ready-made ones in :mod:`pkmsti
 
 Every task is the pure function :func:`run_task` of a picklable :class:`SweepTask`; a failing task records its
 error message in its row and never stops the sweep. Serial, local-parallel (the run's worker pool) and Dask
-(``dask.distributed.Client(address)``) execution give identical rows in task order; tasks travel in batches sized by
-the measured time of the first task (:mod:`pkmstiff.evaluation.parallel`).
+(``dask.distributed.Client(address)``) execution give identical rows in task order; tasks travel in batches, about
+four per local worker, on Dask sized by the measured time of a task run here first
+(:mod:`pkmstiff.evaluation.parallel`).
 
     from pkmstiff.evaluation.sweep import Parameter, Sweep, run_sweep
     from pkmstiff.report.sweep_evaluations import SectionStatistics
@@ -361,37 +362,38 @@ def _run_batch(tasks: Sequence[SweepTask]) -> list[dict[str, Any]]:
     return [run_task(t) for t in tasks]
 
 
-def _run(tasks: Sequence[SweepTask], n_jobs: int, scheduler: Any, progress: bool) -> tuple[list[dict[str, Any]], Plan]:
-    """Rows in task order. On Dask or serially the first task (on Dask the first two) runs here and the measured time
-    of the last of them sizes batches of the others (:func:`pkmstiff.evaluation.parallel.plan`; too little work stays serial). In the local pool the others
-    are sent at once, in batches sized as if a task took :data:`~pkmstiff.evaluation.parallel.MIN_LOCAL_TASK_SECONDS`
-    (a sweep task builds and evaluates a machine: far longer), and the first runs here meanwhile, so that the workers
-    do not wait for it; its time is the plan's measured cost."""
-    first: list[dict[str, Any]] = []
+def _run_timed_batch(tasks: Sequence[SweepTask]) -> tuple[list[dict[str, Any]], float]:
+    """The rows of ``tasks`` and the seconds they took (in the worker)."""
     t0 = time.perf_counter()
+    return _run_batch(tasks), time.perf_counter() - t0
+
+
+def _run(tasks: Sequence[SweepTask], n_jobs: int, scheduler: Any, progress: bool) -> tuple[list[dict[str, Any]], Plan]:
+    """Rows in task order. In the local pool every task goes to the workers at once, in batches sized as if a task took
+    :data:`~pkmstiff.evaluation.parallel.MIN_LOCAL_TASK_SECONDS` (a sweep task builds and evaluates a machine: far
+    longer), about four per worker, and none runs here: with as many workers as cores a task here would share a core
+    with a worker, and the one task more that one worker then ended with made the 12-task Hexaglide sweep about 6 %
+    slower on 2 workers (docs/user-guide/parallel.md). The plan's cost per task is the workers' mean. On Dask or
+    serially the first task (on Dask the first two) runs here and the measured time of the last of them sizes
+    batches of the others (:func:`pkmstiff.evaluation.parallel.plan`; too little work stays serial)."""
+    if scheduler is None and len(tasks) > 1 and resolve_workers(n_jobs) > 1:
+        p = plan(len(tasks), MIN_LOCAL_TASK_SECONDS, n_jobs)
+        batches = split(len(tasks), p)
+        step = progress_callback(len(batches), progress, "sweep", "batch")
+        done = run_tasks(_run_timed_batch, [(tasks[a:b],) for a, b in batches], p, None, step)
+        return [r for rows, _ in done for r in rows], replace(p, item_seconds=sum(s for _, s in done) / len(tasks))
+    t0 = time.perf_counter()
+    first = [run_task(tasks[0])] if tasks else []
     rest = list(tasks[1:])
-    ahead = scheduler is None and len(rest) > 1 and resolve_workers(n_jobs) > 1
-    if ahead:
-        p = plan(len(rest), MIN_LOCAL_TASK_SECONDS, n_jobs)
-    else:
-        first = [run_task(tasks[0])] if tasks else []
-        if scheduler is not None and len(rest) > 1:
-            # the first task carries this process's one-off costs (3–5 times a later task measured on the Hexaglide
-            # strut sweep, which then went to a cluster that finished later): a second one sizes the plan
-            t0 = time.perf_counter()
-            first.append(run_task(rest.pop(0)))
-        p = plan(len(rest), time.perf_counter() - t0, n_jobs, scheduler)
+    if scheduler is not None and len(rest) > 1:
+        # the first task carries this process's one-off costs (3–5 times a later task measured on the Hexaglide
+        # strut sweep, which then went to a cluster that finished later): a second one sizes the plan
+        t0 = time.perf_counter()
+        first.append(run_task(rest.pop(0)))
+    p = plan(len(rest), time.perf_counter() - t0, n_jobs, scheduler)
     batches = split(len(rest), p if p.parallel else replace(p, task_items=1))
     step = progress_callback(len(batches), progress, "sweep" if scheduler is None else "sweep (dask)", "batch")
-
-    def run_first() -> None:
-        t = time.perf_counter()
-        first.append(run_task(tasks[0]))
-        nonlocal p
-        p = replace(p, item_seconds=time.perf_counter() - t)
-
-    done = run_tasks(_run_batch, [(rest[a:b],) for a, b in batches], p, scheduler, step,
-                     meanwhile=run_first if ahead else None)
+    done = run_tasks(_run_batch, [(rest[a:b],) for a, b in batches], p, scheduler, step)
     return first + [r for batch in done for r in batch], replace(p, items=len(tasks))
 
 
@@ -401,8 +403,9 @@ def run_sweep(sweep: Sweep | Sequence[SweepTask], *, n_jobs: int = 1, scheduler:
 
     ``scheduler``: a Dask scheduler address (``"tcp://host:8786"``) or a ``dask.distributed.Client`` — the tasks
     are submitted to that cluster (``n_jobs`` is ignored). Otherwise ``n_jobs`` = 1 runs serially, > 1 (or -1 =
-    all cores) in the run's local worker pool. The first task runs here; its time sizes batches of the others
-    (:mod:`pkmstiff.evaluation.parallel`). All give identical rows; ``result.plan`` says how the work was split.
+    all cores) in the run's local worker pool, all tasks on the workers; serially and on Dask the first task runs
+    here and its time sizes batches of the others (:mod:`pkmstiff.evaluation.parallel`). All give identical rows;
+    ``result.plan`` says how the work was split.
     """
     tasks = sweep.tasks() if isinstance(sweep, Sweep) else list(sweep)
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs == 0:

@@ -50,14 +50,14 @@ def optimise(design: Design | str | Path, out: str | Path, *, jobs: int = 1, sch
     the same measures (``res.meta["references"]``)."""
     from dataclasses import asdict
 
-    from pkmstiff.optimise.compare import evaluate_references
+    from pkmstiff.optimise.compare import references_compared
     from pkmstiff.optimise.outputs import write_outputs
 
     if not isinstance(design, Design):
         design = load_design(design)
     res = run_optimisation(design, out, jobs=jobs, scheduler=scheduler, budget=budget, time_budget=time_budget,
-                           seed=seed, resume=resume, force=force, progress=progress)
-    res.meta["references"] = [asdict(c) for c in evaluate_references(design, jobs)]
+                           seed=seed, resume=resume, force=force, progress=progress, references=True)
+    res.meta["references"] = [asdict(c) for c in references_compared(design, res.references)]
     res.meta["outputs"] = {k: str(v) for k, v in write_outputs(res, out, report=report, jobs=jobs).items()}
     return res
 

@@ -13,9 +13,9 @@ import numpy as np
 
 from pkmstiff.io.atomic import atomic_path
 from pkmstiff.optimise.design import Design
-from pkmstiff.optimise.engine import Candidate, DesignEvaluation, OptimisationResult
+from pkmstiff.optimise.engine import Candidate, OptimisationResult
 
-__all__ = ["Compared", "compared_designs", "evaluate_references", "plot_comparison"]
+__all__ = ["Compared", "compared_designs", "plot_comparison", "references_compared"]
 
 #: the text sizes of the comparison figures [pt] (at least 9 pt on the page)
 _FONT = 10
@@ -36,17 +36,13 @@ class Compared:
     note: str = ""  # an optimised design's variable values
 
 
-def evaluate_references(design: Design, jobs: int = 1) -> list[Compared]:
-    """The base machine and every reference of ``design``, evaluated with the design's measures (one sweep task
-    each; a design that fails records its error, as a candidate does)."""
-    from pkmstiff.evaluation.sweep import SweepTask, run_sweep
-
+def references_compared(design: Design, evaluated: list[Candidate]) -> list[Compared]:
+    """The base machine and every reference of ``design`` as the run evaluated them with the design's measures
+    (:func:`pkmstiff.optimise.engine.run_optimisation` with ``references=True``: the base first); a design that
+    failed records its error, as a candidate does."""
     named = [("base", "base", design.machine)] + [(r.name, "reference", r.machine) for r in design.references]
-    evaluation = DesignEvaluation(design.measures())
-    tasks = [SweepTask(i, machine, {}, {}, {}, evaluation) for i, (_, _, machine) in enumerate(named)]
-    rows = run_sweep(tasks, n_jobs=jobs).rows
-    return [Compared(name, kind, machine, {k: float(v) for k, v in row.items() if k not in ("task", "error")},
-                     row.get("error", "")) for (name, kind, machine), row in zip(named, rows)]
+    return [Compared(name, kind, machine, {k: float(v) for k, v in c.outputs.items()}, c.error)
+            for (name, kind, machine), c in zip(named, evaluated, strict=True)]
 
 
 def compared_designs(res: OptimisationResult, names: list[str], files: list[str], limit: int = 4) -> list[Compared]:

@@ -3,12 +3,14 @@ content hash of the machine variant, checkpointed as JSON lines) and tells the a
 constraint violations G (<= 0 feasible).
 
 * **Parallel candidates.** The new candidates of a generation are evaluated together: in this process (``jobs`` 1),
-  in the run's forked process pool (``jobs`` > 1) or on a Dask cluster (``scheduler``), in tasks sized by
-  :func:`pkmstiff.evaluation.parallel.plan` from the cost per candidate measured in the previous generation. The run's context (the base machine's name or file and the evaluation) is a
-  :class:`~pkmstiff.evaluation.parallel.Shared`, unpickled once per worker; a task adds only its candidates'
-  overrides, from which the worker builds each variant; a candidate's own evaluation runs serially in its worker (no
-  nested pools). Results come back in candidate order, so a run gives the same history whatever
-  ``jobs``/``scheduler``.
+  in the run's forked process pool (``jobs`` > 1: one candidate per task, whichever worker is free takes the next) or
+  on a Dask cluster (``scheduler``: tasks sized by :func:`pkmstiff.evaluation.parallel.plan` from the cost per
+  candidate measured in the previous generation). The run's context (the base machine's name or file and the
+  evaluation) is a :class:`~pkmstiff.evaluation.parallel.Shared`, unpickled once per worker; a task adds only its
+  candidates' overrides (or a reference's machine), from which the worker builds each variant; a candidate's own
+  evaluation runs serially in its worker (no nested pools). The base machine and the references are tasks beside
+  the first batch on their rasters, not serial work before or after the search. Results come back in candidate
+  order, so a run gives the same history whatever ``jobs``/``scheduler``.
 * **Budgets.** The run stops after ``budget`` evaluations or, checked between generations, once ``time_budget``
   seconds have passed; either way it reports the best feasible design found so far. The re-evaluation on the
   requested raster (coarse-to-fine) comes after the search: it keeps to what is left of ``time_budget`` where it can,
@@ -70,6 +72,7 @@ class Candidate:
     error: str = ""
     index: int = 0  # evaluation order (requested by the algorithm, cached ones included)
     search_outputs: dict[str, float] | None = None  # coarse-to-fine: the outputs on the search (coarse) raster
+    machine: str | None = None  # a reference design's machine (None: the base machine with ``overrides``)
 
     def objective_vector(self, design: Design) -> np.ndarray:
         out = []
@@ -104,6 +107,8 @@ class OptimisationResult:
     meta: dict[str, Any] = field(default_factory=dict)  # seed, budget, jobs, stopped (why the search ended), ...
     search_design: Design | None = None  # as searched: coarse rasters, relative bounds resolved (history's terms)
     refined: list[Candidate] = field(default_factory=list)  # coarse-to-fine: every re-evaluated candidate
+    #: ``references=True``: the base machine, then the design's references, on the requested rasters
+    references: list[Candidate] = field(default_factory=list)
 
     @property
     def best(self) -> Candidate:
@@ -115,6 +120,15 @@ def _variant_hash(raw: dict, overrides: dict[str, Any], evaluation: Any) -> str:
 
     text = json.dumps({"machine": apply_overrides(raw, overrides), "evaluation": repr(evaluation)}, sort_keys=True,
                       default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _reference_hash(machine: str, evaluation: Any) -> str:
+    """The key of a reference design: its machine (name with options, or file), its raw data and the evaluation."""
+    from pkmstiff.machine.variants import raw_machine
+
+    text = json.dumps({"reference": machine, "machine": raw_machine(machine)[0], "evaluation": repr(evaluation)},
+                      sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -242,26 +256,31 @@ class _Context:
     evaluation: DesignEvaluation
 
 
-def _evaluate_batch(context: Any, overrides: Sequence[dict[str, Any]]) -> list[tuple[dict[str, float], str, float]]:
+#: what the evaluator evaluates: a machine (None: the run's base machine) and the overrides applied to it
+Item = tuple[str | None, dict[str, Any]]
+
+
+def _evaluate_batch(context: Any, items: Sequence[Item]) -> list[tuple[dict[str, float], str, float]]:
     """(outputs, error, seconds) of each candidate of a task, in order (a worker's task, or the serial run); a
     candidate's error is recorded, never raised."""
     from pkmstiff.evaluation.sweep import SweepTask, run_task
 
     ctx: _Context = context.get()
     out = []
-    for ov in overrides:
+    for machine, ov in items:
         t0 = time.perf_counter()
-        row = run_task(SweepTask(0, ctx.machine, {}, ov, {}, ctx.evaluation))
+        row = run_task(SweepTask(0, machine or ctx.machine, {}, ov, {}, ctx.evaluation))
         out.append(({k: v for k, v in row.items() if k not in ("task", "error")}, row["error"],
                     time.perf_counter() - t0))
     return out
 
 
 class _Evaluator:
-    """Evaluates candidates' overrides with one evaluation, serially, in the local pool or on Dask (results in
+    """Evaluates candidates (:data:`Item`) with one evaluation, serially, in the local pool or on Dask (results in
     order); ``seconds`` is the measured cost of one candidate (the median of the last batch), from which
-    :func:`pkmstiff.evaluation.parallel.plan` sizes the tasks: several small tasks per worker, taken by whichever
-    worker is free, so a generation of 12 candidates on 2 workers ends when the slower worker's share does."""
+    :func:`pkmstiff.evaluation.parallel.plan` sizes the tasks: as small as the least task time allows (locally one
+    candidate each), taken by whichever worker is free, so a generation of 12 candidates on 2 workers ends at most
+    one candidate after the slower worker's share."""
 
     def __init__(self, machine: str, evaluation: DesignEvaluation, jobs: int, scheduler: Any):
         from pkmstiff.evaluation import parallel
@@ -271,13 +290,13 @@ class _Evaluator:
         self.seconds = parallel.MIN_LOCAL_TASK_SECONDS  # until measured: small tasks
         self.where = "serial"
 
-    def __call__(self, overrides: Sequence[dict[str, Any]]) -> list[tuple[dict[str, float], str, float]]:
+    def __call__(self, items: Sequence[Item]) -> list[tuple[dict[str, float], str, float]]:
         from pkmstiff.evaluation import parallel
 
-        if not overrides:
+        if not items:
             return []
-        p = parallel.plan(len(overrides), self.seconds, self.jobs, self.scheduler)
-        payloads = [(self.shared, list(overrides[a:b])) for a, b in parallel.split(len(overrides), p)]
+        p = parallel.plan(len(items), self.seconds, self.jobs, self.scheduler, tasks_per_worker=len(items))
+        payloads = [(self.shared, list(items[a:b])) for a, b in parallel.split(len(items), p)]
         done = parallel.run_tasks(_evaluate_batch, payloads, p, self.scheduler)
         rows = [r for task in done for r in task]
         self.seconds = max(float(np.median([r[2] for r in rows])), 1e-4)
@@ -307,9 +326,13 @@ def _coarse(design: Design) -> Design:
 # ---------------------------------------------------------------------------------------------------------- run
 def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, scheduler: Any = None,
                      budget: int | None = None, time_budget: float | None = None, seed: int | None = None,
-                     resume: bool = False, force: bool = False,
-                     progress: Callable[[str], None] | None = None) -> OptimisationResult:
+                     resume: bool = False, force: bool = False, progress: Callable[[str], None] | None = None,
+                     references: bool = False) -> OptimisationResult:
     """Optimise ``design``; the checkpoint ``out/evaluations.jsonl`` grows as candidates are evaluated.
+
+    ``references``: also evaluate the base machine and the design's references with the design's measures on the
+    requested rasters (``result.references``), beside the candidates of the first batch on those rasters (the first
+    generation, or the first re-evaluated batch of a coarse-to-fine run) so that the workers share them out.
 
     ``jobs``: local worker processes (-1: all cores); ``scheduler``: a Dask scheduler address or client (``jobs`` is
     then ignored). ``budget`` (evaluations), ``time_budget`` (s) and ``seed`` override the design's. ``out`` must not
@@ -345,28 +368,33 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
     stopped = f"budget of {budget} evaluations"
     t0 = time.perf_counter()
 
-    def evaluate(batch: list[Candidate], ev: _Evaluator, log: Any, count: str | None = "search") -> None:
-        """Fill ``batch``'s outputs: from the checkpoint or evaluated (and appended to it); ``count`` "search"
-        counts them as evaluated or cached, "refine" as re-evaluated, None not at all."""
-        new = list({c.key: c for c in batch if c.key not in cache}.values())
-        for c, (outputs, error, _) in zip(new, ev([c.overrides for c in new])):
+    def evaluate(batch: list[Candidate], ev: _Evaluator, log: Any, count: str = "search",
+                 extra: Sequence[Candidate] = ()) -> None:
+        """Fill the outputs of ``extra`` (the base machine, references: not counted) and ``batch``, in one go: from
+        the checkpoint or evaluated (and appended to it); ``count`` "search" counts ``batch`` as evaluated or
+        cached, "refine" as re-evaluated."""
+        new = list({c.key: c for c in [*extra, *batch] if c.key not in cache}.values())
+        fresh = {c.key for c in new} - {c.key for c in extra}
+        for c, (outputs, error, _) in zip(new, ev([(c.machine, c.overrides) for c in new])):
             rec = {"key": c.key, "values": c.values, "overrides": c.overrides, "error": error, "outputs": outputs}
             cache[c.key] = rec
             log.write(json.dumps(rec, default=repr) + "\n")
         log.flush()
         if count == "refine":
             counts["reevaluated"] += len(batch)
-        elif count == "search":
-            counts["evaluated"] += len(new)
-            counts["cached"] += len(batch) - len(new)
-        for c in batch:
+        else:
+            new_in_batch = len({c.key for c in batch} & fresh)
+            counts["evaluated"] += new_in_batch
+            counts["cached"] += len(batch) - new_in_batch
+        for c in [*extra, *batch]:
             rec = cache[c.key]
             c.outputs, c.error = dict(rec["outputs"]), rec["error"]
 
     with connected(scheduler), open(ckpt, "a", encoding="utf-8") as log:
         evaluation = DesignEvaluation(search.measures())
         ev = _Evaluator(design.machine, evaluation, jobs, scheduler)
-        search = _absolute(search, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=None))
+        base, refs = _extras(search, raw, evaluation, references and design.coarse_step is None)
+        pending = refs or [b for b in (base,) if b]  # evaluated with the first generation
         while algo.has_next() and len(history) < budget:
             if history and time_budget is not None and time.perf_counter() - t0 >= time_budget:
                 stopped = f"time budget of {time_budget:g} s"
@@ -378,18 +406,22 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
                 ov = design.overrides(values)
                 batch.append(Candidate(_variant_hash(raw, ov, evaluation), values, ov, {},
                                        index=len(history) + len(batch)))
-            evaluate(batch, ev, log)
+            evaluate(batch, ev, log, extra=pending)
+            search, pending = _absolute(search, base), []
             history += batch
             algo.tell(np.array([c.objective_vector(search) for c in batch]),
                       np.array([c.violations(search) for c in batch]))
             if progress is not None:
                 progress(_progress_line(search, history, budget, counts, time.perf_counter() - t0))
+        if pending:  # no generation ran (a resumed run that had ended)
+            evaluate([], ev, log, extra=pending)
+            search = _absolute(search, base)
         front = _front(search, history)
         refined: list[Candidate] | None = None
         if design.coarse_step is not None and front:
             deadline = None if time_budget is None else t0 + time_budget
-            design, refined, spent = _refine(design, search, history, front, raw, jobs, scheduler, evaluate, log,
-                                             deadline)
+            design, refined, spent, refs = _refine(design, search, history, front, raw, jobs, scheduler, evaluate,
+                                                   log, deadline, references)
             front = _front(design, refined)
         elif refined is None:
             design = search
@@ -406,7 +438,8 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
         if spent:
             meta["refined"]["time_budget_spent"] = True
     return OptimisationResult(design, history, front, counts["evaluated"], counts["cached"],
-                              counts["reevaluated"], time.perf_counter() - t0, name, meta, search, refined or [])
+                              counts["reevaluated"], time.perf_counter() - t0, name, meta, search, refined or [],
+                              refs)
 
 
 #: coarse-to-fine, one objective: at most this many batches of ``Design.refine`` candidates are re-evaluated
@@ -414,8 +447,8 @@ REFINE_BATCHES = 5
 
 
 def _refine(design: Design, search: Design, history: list[Candidate], front: list[Candidate], raw: dict, jobs: int,
-            scheduler: Any, evaluate: Callable, log: Any,
-            deadline: float | None = None) -> tuple[Design, list[Candidate], bool]:
+            scheduler: Any, evaluate: Callable, log: Any, deadline: float | None = None,
+            references: bool = False) -> tuple[Design, list[Candidate], bool, list[Candidate]]:
     """Re-evaluate search candidates on the requested rasters; their ``search_outputs`` keep the coarse values.
 
     One objective: the feasible search candidates in order of their objective, in batches of ``design.refine``,
@@ -423,17 +456,21 @@ def _refine(design: Design, search: Design, history: list[Candidate], front: lis
     constraint leaves many candidates just inside it on the coarse raster and just outside on the fine one), at
     most :data:`REFINE_BATCHES` batches. Several objectives: the feasible search front, in one batch. Once the
     time budget (``deadline``, a :func:`time.perf_counter` time) is spent, no further batch starts when a
-    re-evaluated design is feasible already; until one is, the batches shrink to one candidate per worker. Returns
-    the design with its relative constraints resolved on the requested rasters, the re-evaluated candidates, and
-    whether the time budget was spent before the re-evaluation ended."""
+    re-evaluated design is feasible already; until one is, the batches shrink to one candidate per worker. The base
+    machine (relative constraints) and, with ``references``, the references are evaluated with the first batch.
+    Returns the design with its relative constraints resolved on the requested rasters, the re-evaluated candidates,
+    whether the time budget was spent before the re-evaluation ended, and the references (base first)."""
     evaluation = DesignEvaluation(design.measures())
     ev = _Evaluator(design.machine, evaluation, jobs, scheduler)
-    design = _absolute(design, raw, evaluation, ev, lambda b: evaluate(b, ev, log, count=None))
+    base, refs = _extras(design, raw, evaluation, references)
+    pending = refs or [b for b in (base,) if b]
 
     def fine(picked: list[Candidate]) -> list[Candidate]:
+        nonlocal design, pending
         out = [Candidate(_variant_hash(raw, c.overrides, evaluation), c.values, c.overrides, {}, index=c.index,
                          search_outputs=c.outputs) for c in picked]
-        evaluate(out, ev, log, count="refine")
+        evaluate(out, ev, log, count="refine", extra=pending)
+        design, pending = _absolute(design, base), []
         return out
 
     single = len(design.objectives) == 1
@@ -456,7 +493,7 @@ def _refine(design: Design, search: Design, history: list[Candidate], front: lis
         k += size
         if single and any(c.feasible(design) for c in done):
             break
-    return design, done, spent or (deadline is not None and time.perf_counter() >= deadline)
+    return design, done, spent or (deadline is not None and time.perf_counter() >= deadline), refs
 
 
 def _workers(jobs: int, scheduler: Any) -> int:
@@ -470,14 +507,25 @@ def _workers(jobs: int, scheduler: Any) -> int:
     return max(1, resolve_workers(jobs))
 
 
-def _absolute(design: Design, raw: dict, evaluation: DesignEvaluation, ev: _Evaluator,
-              evaluate: Callable[[list[Candidate]], None]) -> Design:
-    """``design`` with its relative constraints' bounds resolved from the base machine's values (evaluated with
-    ``evaluation``, checkpointed like a candidate, not counted as one)."""
+def _extras(design: Design, raw: dict, evaluation: DesignEvaluation,
+            references: bool) -> tuple[Candidate | None, list[Candidate]]:
+    """What is evaluated beside the candidates, checkpointed like one, not counted as one: the base machine where a
+    constraint is relative to it or ``references`` are asked for, and (``references``) the list of the base and the
+    design's references."""
+    base = None
+    if references or any(c.relative for c in design.constraints):
+        base = Candidate(_variant_hash(raw, {}, evaluation), [], {}, {})
+    if not references:
+        return base, []
+    return base, [base] + [Candidate(_reference_hash(r.machine, evaluation), [], {}, {}, machine=r.machine)
+                           for r in design.references]
+
+
+def _absolute(design: Design, base: Candidate | None) -> Design:
+    """``design`` with its relative constraints' bounds resolved from the (evaluated) ``base`` machine's values."""
     if not any(c.relative for c in design.constraints):
         return design
-    base = Candidate(_variant_hash(raw, {}, evaluation), [], {}, {})
-    evaluate([base])
+    assert base is not None  # _extras asks for it
     cons = []
     for c in design.constraints:
         v = base.outputs.get(c.measure.label, float("nan"))

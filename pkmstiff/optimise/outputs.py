@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -168,11 +169,30 @@ def _convergence_png(res: OptimisationResult, path: Path) -> None:
     tmp.replace(path)
 
 
+def _draw(figures: list[tuple[Callable[..., Any], tuple]], jobs: int) -> Callable[[], None]:
+    """Draw ``figures`` (function, arguments): as tasks of the local pool of ``jobs`` > 1 workers, while this process
+    goes on (with the comparison report, whose own tasks queue behind them), else here and now; returns a function
+    that waits until every figure is written (and raises a figure's error)."""
+    from pkmstiff.evaluation import parallel
+
+    workers = parallel.resolve_workers(jobs)
+    if workers < 2:
+        for fn, args in figures:
+            fn(*args)
+        return lambda: None
+    futures = [parallel.pool(workers).submit(fn, *args) for fn, args in figures]
+
+    def done() -> None:
+        for f in futures:
+            f.result()
+    return done
+
+
 def write_outputs(res: OptimisationResult, out: str | Path, *, report: bool = True, jobs: int = 1) -> dict[str, Path]:
     """Write front.csv, history.csv, designs/*.toml, convergence.png, front.png, the comparison report (unless
     ``report`` is False; its sections evaluated in ``jobs`` processes) and summary.json into ``out``. The base
     design and the references are those of ``res.meta["references"]``
-    (:func:`pkmstiff.optimise.compare.evaluate_references`)."""
+    (:func:`pkmstiff.optimise.compare.references_compared`)."""
     from pkmstiff.optimise.compare import compared_designs, plot_comparison
 
     out = Path(out)
@@ -188,15 +208,16 @@ def write_outputs(res: OptimisationResult, out: str | Path, *, report: bool = Tr
         p = out / "designs" / f"{name}.toml"
         atomic_write_text(p, design_machine_toml(design, c, name))
         files.append(str(p))
-    _convergence_png(res, paths["convergence"])
     compared = compared_designs(res, names, files)
-    plot_comparison(res, compared, paths["front_plot"])
+    figures_done = _draw([(_convergence_png, (res, paths["convergence"])),
+                          (plot_comparison, (res, compared, paths["front_plot"]))], jobs)
     if report:
         from pkmstiff.optimise.report import write_comparison_report
 
         paths["report"] = write_comparison_report(res, compared, out, {"front": paths["front_plot"],
                                                                        "convergence": paths["convergence"]},
-                                                  jobs=jobs)["html"]
+                                                  jobs=jobs, figures_done=figures_done)["html"]
+    figures_done()
     summary = {
         "design_file": design.source, "machine": design.machine, "algorithm": res.algorithm, **res.meta,
         "evaluations": len(res.history), "evaluated": res.evaluated, "read_from_checkpoint": res.cached,

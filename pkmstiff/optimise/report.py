@@ -7,6 +7,7 @@ design as the run measured them (% of the base design), the Pareto front or bar 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -107,8 +108,10 @@ def _num(c: Compared, label: str) -> float | None:
 
 
 def write_comparison_report(res: OptimisationResult, compared: list[Compared], out: str | Path,
-                            figures: dict[str, Path], jobs: int = 1) -> dict[str, Path]:
-    """Build the comparison report into ``out/report`` (``report.html``, ``report.md``, figures)."""
+                            figures: dict[str, Path], jobs: int = 1,
+                            figures_done: Callable[[], None] = lambda: None) -> dict[str, Path]:
+    """Build the comparison report into ``out/report`` (``report.html``, ``report.md``, figures); ``figures_done()``
+    returns once the files of ``figures`` are written (they may still be drawn elsewhere while the report builds)."""
     from pkmstiff.report.build import build_report
     from pkmstiff.report.render import run_info, write_report
 
@@ -120,4 +123,5 @@ def write_comparison_report(res: OptimisationResult, compared: list[Compared], o
                        "evaluations": len(res.history), **{k: v for k, v in res.meta.items()
                                                            if k in ("seed", "budget", "jobs")},
                        **report.settings}
+    figures_done()
     return write_report(report, folder, run=run_info())

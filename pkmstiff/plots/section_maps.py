@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -9,7 +10,7 @@ from typing import Sequence
 import numpy as np
 
 from pkmstiff.evaluation.sections import SectionResult
-from pkmstiff.io.atomic import atomic_path
+from pkmstiff.io.atomic import atomic_open, atomic_path
 from pkmstiff.machine.model import Machine
 from pkmstiff.plots import offscreen
 from pkmstiff.plots.sketch import add_sketch
@@ -199,11 +200,16 @@ def _map_figure(res: SectionResult, window_size: tuple[int, int] | None, legend_
     return fig, ax
 
 
+def _png(fig) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100, facecolor="white")
+    return buf.getvalue()
+
+
 def _save(fig, path: str | Path) -> Path:
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=100, facecolor="white")
+    with atomic_open(path, "wb") as fh:
+        fh.write(_png(fig))
     return path
 
 
@@ -218,6 +224,13 @@ def plot_section(res: SectionResult, name: str, path: str | Path, window_size: t
     the canvas; by default it follows the plane's aspect so that the map fills the figure.
     """
     return _save(section_figure(res, name, window_size, cmap, clim)[0], path)
+
+
+def section_png(res: SectionResult, name: str, window_size: tuple[int, int] | None = None, cmap: str = "viridis",
+                clim: tuple[float, float] | None = None) -> bytes:
+    """The PNG bytes of :func:`plot_section` (the report renders its maps in its worker pool and writes them
+    here)."""
+    return _png(section_figure(res, name, window_size, cmap, clim)[0])
 
 
 def section_figure(res: SectionResult, name: str, window_size: tuple[int, int] | None = None, cmap: str = "viridis",

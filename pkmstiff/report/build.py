@@ -6,10 +6,13 @@ Every evaluation goes through the request model (:mod:`pkmstiff.evaluation.reque
 
 from __future__ import annotations
 
+import contextlib
 import math
-from dataclasses import replace
 import re
+import threading
 import time
+from concurrent.futures import Future
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -17,6 +20,7 @@ import numpy as np
 
 from pkmstiff.admissibility.checks import checks_left_out, checks_without, left_out_text
 from pkmstiff.errors import InputError
+from pkmstiff.evaluation import parallel
 from pkmstiff.evaluation.cost import (
     FIGURE_3D_BYTES,
     FIGURE_3D_LIBRARY_SECONDS,
@@ -27,13 +31,17 @@ from pkmstiff.evaluation.cost import (
 )
 from pkmstiff.evaluation.quantities import get_quantity
 from pkmstiff.evaluation.requests import STATISTICS, PointRequest, SectionRequest, statistic
+from pkmstiff.evaluation.sections import SectionResult
+from pkmstiff.io.atomic import atomic_open
 from pkmstiff.machine.frames import frame_origin, frame_text
 from pkmstiff.machine.model import Machine
+from pkmstiff.report import tasks
 from pkmstiff.report.model import Figure, Report, Table
 from pkmstiff.report.spec import MACHINE_ROWS, PointSpec, ReportSpec, SectionSpec, Variant, fast_spec, load_spec
 from pkmstiff.workspace.requests import WorkspaceRequest
+from pkmstiff.workspace.translational import WorkspaceResult
 
-__all__ = ["build_report", "check_evaluation", "comparison_labels", "run_spec"]
+__all__ = ["build_report", "check_evaluation", "comparison_labels", "report_plan", "run_spec", "spec_cost"]
 
 
 def _load_variant(v: Variant) -> Machine:
@@ -97,13 +105,14 @@ def _tool_mm(machine: Machine, tl: float | None) -> float:
 
 
 def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
-                 log: Callable[[str], None] | None = None, scheduler: Any = None) -> Report:
+                 log: Callable[[str], None] | None = None, scheduler: Any = None,
+                 machines: Sequence[Machine] | None = None) -> Report:
     """Evaluate a spec for every variant and assemble the report; figures are written to ``out_dir``.
 
-    ``fast`` applies :func:`~pkmstiff.report.spec.fast_spec`; ``n_jobs`` (default: the spec's ``options.jobs``) is
-    passed to the section and workspace evaluations, ``scheduler`` (a Dask address or client) sends them to a
-    cluster (:mod:`pkmstiff.evaluation.parallel`; the numbers are the same). ``log`` receives one progress line per
-    step.
+    ``fast`` applies :func:`~pkmstiff.report.spec.fast_spec`; ``n_jobs`` (default: the spec's ``options.jobs``)
+    local workers or ``scheduler`` (a Dask address or client) run the evaluations and figures by the
+    :func:`report_plan` (:mod:`pkmstiff.report.tasks`; the numbers and files are the same). ``log`` receives one
+    progress line per step. ``machines``: the variants' machines if already loaded (:func:`run_spec`).
     """
     log = log or (lambda msg: None)
     check_evaluation(spec)
@@ -112,10 +121,11 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     jobs = spec.jobs if n_jobs is None else n_jobs
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    machines = []
-    for v in spec.variants:
-        machines.append(_load_variant(v))
-        log(f"variant {v.name}: {machines[-1].title}")
+    machines = list(machines or [])
+    for i, v in enumerate(spec.variants):
+        if i == len(machines):
+            machines.append(_load_variant(v))
+        log(f"variant {v.name}: {machines[i].title}")
     pairs = list(zip(spec.variants, machines))
 
     report = Report(spec.title)
@@ -130,14 +140,22 @@ def build_report(spec: ReportSpec, out_dir: str | Path, *, fast: bool = False, n
     comparison.tables.append(table)
     notes: list[str] = []
 
-    # workspace volume first (as in Cobet Table 5.1), then sections, points, machine values
-    par = {"n_jobs": jobs, "scheduler": scheduler}
-    ws_figs = _workspace_rows(spec, pairs, table, notes, out, log, par) if spec.workspace is not None else []
-    multi = len(spec.sections) > 1
-    map_sections = [(sec, figs) for k, sec in enumerate(spec.sections)
-                    for figs in [_section(sec, k, pairs, table, multi, par, out, log, spec.frame)] if sec.maps]
-    for pt in spec.points:
+    plan = report_plan(spec, jobs, scheduler)
+    work = _Work(spec, pairs, tasks.Runner(plan, {"n_jobs": jobs, "scheduler": scheduler}), out, log)
+    for pt in spec.points:  # here, while the workers evaluate
         _point_rows(pt, pairs, table, notes, spec.frame)
+    ws_figs, map_sections = work.collect()
+    # workspace volume first (as in Cobet Table 5.1), then sections, points, machine values
+    point_rows, table.rows = table.rows, []
+    if spec.workspace is not None:
+        for meth in spec.workspace.methods:
+            table.add(_workspace_label(meth), "m^3", [res.volumes.get(meth) for res in work.workspaces])
+        notes[:0] = [f"Workspace of {v.name} touches the initial box and is cut there (enlarge box_mm)."
+                     for v, res in zip(spec.variants, work.workspaces) if res.octree.touches_box]
+    multi = len(spec.sections) > 1
+    for sec, results in zip(spec.sections, work.sections):
+        _section_rows(sec, results, table, multi)
+    table.rows += point_rows
     for key in spec.machine_rows:
         label, unit, fn = MACHINE_ROWS[key]
         table.add(label, unit, [fn(m, v) for v, m in pairs])
@@ -215,30 +233,136 @@ def _variant_text(v: Variant, m: Machine) -> str:
             f"orientation a, b, c = {_fmt_deg(v.orientation)} deg" + (f". {v.description}" if v.description else ""))
 
 
-def _workspace_rows(spec: ReportSpec, pairs: list, table: Table, notes: list[str], out: Path,
-                    log: Callable[[str], None], par: dict[str, Any]) -> list[Figure]:
+def report_plan(spec: ReportSpec, jobs: int, scheduler: Any = None) -> tasks.ReportPlan:
+    """Where the evaluations and figures of ``spec`` (after ``--fast``) run (:mod:`pkmstiff.report.tasks`)."""
+    n = len(spec.variants)
     ws = spec.workspace
-    figs: list[Figure] = []
-    vols: dict[str, list[float | None]] = {m: [] for m in ws.methods}
-    for v, m in pairs:
-        t0 = time.perf_counter()
-        req = _workspace_request(spec, v)
-        ori = req.orientation
-        res = req.evaluate(m, **par)
-        for meth in ws.methods:
-            vols[meth].append(res.volumes.get(meth))
-        if res.octree.touches_box:
-            notes.append(f"Workspace of {v.name} touches the initial box and is cut there (enlarge box_mm).")
-        log(f"workspace {v.name}: {res.volume:.4f} m^3 ({time.perf_counter() - t0:.1f} s)")
+    return tasks.report_plan(jobs, scheduler, n * ((ws is not None) + len(spec.sections)),
+                             n * sum(len(sec.quantities) for sec in spec.sections if sec.maps),
+                             n if ws is not None and ws.figures else 0)
+
+
+class _Work:
+    """A report's evaluations and figures, started by a :class:`~pkmstiff.report.tasks.Runner` and collected in the
+    spec's order. A section finished for every variant sends its maps at once (a callback of its futures, also while
+    this thread draws a workspace figure); a finished workspace gets its figure in this thread."""
+
+    def __init__(self, spec: ReportSpec, pairs: list, runner: tasks.Runner, out: Path,
+                 log: Callable[[str], None]) -> None:
+        self.spec, self.pairs, self.runner, self.out, self.log = spec, pairs, runner, out, log
+        if runner.plan.pool and runner.plan.maps:
+            import pkmstiff.plots.section_maps  # noqa: F401  (before the pool forks: its workers inherit matplotlib)
+        ws = spec.workspace
+        self.sections: list[list[SectionResult] | None] = [None] * len(spec.sections)
+        self.workspaces: list[WorkspaceResult | None] = [None] * (len(pairs) if ws is not None else 0)
+        self._maps: list[list[tuple[Path, str, Future]]] = [[] for _ in spec.sections]
+        self._ws_figures: list[Figure | None] = [None] * len(self.workspaces)
+        self._section_futures: list[list[Future]] = []
+        self._workspace_futures: list[Future] = []
+        self._lock, self._changed, self._error = threading.Lock(), threading.Event(), None
+        # the longest tasks first (a section outlasts a workspace at the usual steps), and the sections' maps queue
+        # behind the workspaces while the last section runs; but the workspaces first where this process draws
+        # their figures, so that it draws while the workers run
+        starts = [self._start_sections, self._start_workspaces]
+        try:
+            for start in starts[::-1] if ws is not None and ws.figures else starts:
+                start()
+        except BaseException:
+            self._cancel()
+            raise
+
+    def _start_sections(self) -> None:
+        for k, sec in enumerate(self.spec.sections):
+            futures = [self.runner.evaluate(_section_request(sec, v, self.spec.frame), m) for v, m in self.pairs]
+            self._section_futures.append(futures)
+            for f in futures:
+                f.add_done_callback(lambda _, k=k: self._section_finished(k))
+
+    def _start_workspaces(self) -> None:
+        for v, m in self.pairs if self.spec.workspace is not None else []:
+            self._workspace_futures.append(self.runner.evaluate(_workspace_request(self.spec, v), m,
+                                                                self.spec.workspace.figures))
+            self._workspace_futures[-1].add_done_callback(lambda _: self._changed.set())
+
+    def _cancel(self) -> None:
+        for f in [*self._workspace_futures, *(f for fs in self._section_futures for f in fs),
+                  *(f for maps in self._maps for _, _, f in maps)]:
+            f.cancel()
+
+    def _section_finished(self, k: int) -> None:
+        """Callback of section ``k``'s futures: once all are done, take the results and send the maps."""
+        with self._lock:
+            if self.sections[k] is None and all(f.done() for f in self._section_futures[k]):
+                try:
+                    self.sections[k] = self._section_done(k, self._section_futures[k])
+                except BaseException as exc:  # raised in collect(), in the thread that waits
+                    self._error = self._error or exc
+        self._changed.set()
+
+    def _section_done(self, k: int, futures: list[Future]) -> list[SectionResult]:
+        sec, results = self.spec.sections[k], []
+        for (v, m), f in zip(self.pairs, futures):
+            res, seconds = self.runner.result(f)
+            res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
+            if res.tool_length is None:
+                res.tool_length = m.tool.length
+            results.append(res)
+            self.log(f"section {sec.name}, {v.name}: {int(res.ok.sum())} of {res.ok.size} points admissible "
+                     f"({seconds:.1f} s)")
+        for q in sec.quantities if sec.maps else ():
+            clim = tasks.common_clim(results, q)  # one colour scale per quantity across the variants
+            for (v, _), res in zip(self.pairs, results):
+                path = self.out / "maps" / f"{k + 1}_{_slug(sec.plane)}_{_slug(q)}_{_slug(v.name)}.png"
+                caption = (f"{v.name}: {get_quantity(q).label} [{res.units[q]}] on the {sec.name}; white = "
+                           f"inadmissible, black line = admissible boundary")
+                self._maps[k].append((path, caption, self.runner.map_png(res, q, clim)))
+        return results
+
+    def _workspace_finished(self) -> bool:
+        """Take one finished workspace (and draw its figure); False when none is waiting."""
+        for i, f in enumerate(self._workspace_futures):
+            if self.workspaces[i] is None and f.done():
+                break
+        else:
+            return False
+        (v, m), ws = self.pairs[i], self.spec.workspace
+        res, seconds = self.runner.result(f)
+        self.workspaces[i] = res
+        self.log(f"workspace {v.name}: {res.volume:.4f} m^3 ({seconds:.1f} s)")
         if ws.figures:
             from pkmstiff.plots.workspace import plot_workspace
 
-            path = plot_workspace(res, m, out / "workspace" / f"{_slug(v.name)}.png")
-            figs.append(Figure(path, f"{v.name}: workspace at a, b, c = {_fmt_deg(ori)} deg, "
-                                     f"resolution {ws.resolution * 1e3:g} mm, V = {res.volume:.4g} m^3"))
-    for meth in ws.methods:
-        table.add(_workspace_label(meth), "m^3", vols[meth])
-    return figs
+            with parallel.meanwhile_work(time.process_time) if self.runner.plan.pool else contextlib.nullcontext():
+                path = plot_workspace(res, m, self.out / "workspace" / f"{_slug(v.name)}.png")
+            self._ws_figures[i] = Figure(path, f"{v.name}: workspace at a, b, c = "
+                                               f"{_fmt_deg(_workspace_request(self.spec, v).orientation)} deg, "
+                                               f"resolution {ws.resolution * 1e3:g} mm, V = {res.volume:.4g} m^3")
+        return True
+
+    def collect(self) -> tuple[list[Figure], list[tuple[SectionSpec, list[Figure]]]]:
+        """Wait for every evaluation and map, write the maps; (workspace figures, (section, its maps) of the
+        sections with maps)."""
+        try:
+            while True:
+                if self._error is not None:
+                    raise self._error
+                if self._workspace_finished():
+                    continue
+                if all(x is not None for x in [*self.sections, *self.workspaces]):
+                    break
+                self._changed.wait()  # set after each change of state: a change before the clear is seen above
+                self._changed.clear()
+            maps = []
+            for sec, figs in zip(self.spec.sections, self._maps):
+                for path, _, f in figs:
+                    with atomic_open(path, "wb") as fh:
+                        fh.write(self.runner.result(f))
+                if sec.maps:
+                    maps.append((sec, [Figure(path, caption) for path, caption, _ in figs]))
+        except BaseException:
+            self._cancel()
+            raise
+        return [f for f in self._ws_figures if f is not None], maps
 
 
 def _workspace_request(spec: ReportSpec, v: Variant) -> WorkspaceRequest:
@@ -255,57 +379,31 @@ def _section_request(sec: SectionSpec, v: Variant, frame: str) -> SectionRequest
                           frame=frame, neglect_spindle=v.neglect_spindle, skip_checks=v.skip_checks)
 
 
-def spec_cost(spec: ReportSpec, fast: bool = False) -> Cost:
-    """The :class:`~pkmstiff.evaluation.cost.Cost` of :func:`build_report` (one process, so the peaks do not add):
-    every variant's workspace (pilot octree, growth law) and sections (with their maps)."""
+def spec_cost(spec: ReportSpec, fast: bool = False, jobs: int | None = None, scheduler: Any = None,
+              machines: Sequence[Machine] | None = None) -> Cost:
+    """The :class:`~pkmstiff.evaluation.cost.Cost` of :func:`build_report`: every variant's workspace (pilot octree,
+    growth law) and sections (with their maps), one after another; the peak is this process's largest piece plus,
+    where the evaluations run as whole tasks (:func:`report_plan` for ``jobs``/``scheduler``), those running at once
+    in the other workers. ``machines``: the variants' machines if already loaded."""
     if fast:
         spec = fast_spec(spec)
-    parts = []
-    for v in spec.variants:
-        m = _load_variant(v)
+    parts, peaks = [], [0.0]
+    for v, m in zip(spec.variants, machines or [_load_variant(v) for v in spec.variants]):
         if spec.workspace is not None:
             c = _workspace_request(spec, v).cost(m)
+            peaks.append(c.bytes)
             parts.append(c.plus(FIGURE_3D_SECONDS, FIGURE_3D_BYTES) if spec.workspace.figures else c)
         for sec in spec.sections:
             parts.append(_section_request(sec, v, spec.frame).cost(m, len(sec.quantities) if sec.maps else 0))
+            peaks.append(parts[-1].bytes)
     what = (f"{len(spec.variants)} variant(s), {len(spec.sections)} section(s)"
             + (f", workspace at {spec.workspace.resolution * 1e3:g} mm" if spec.workspace is not None else ""))
     libraries = (PLOT_LIBRARY_SECONDS if any(sec.maps for sec in spec.sections) else 0.0) + (
         FIGURE_3D_LIBRARY_SECONDS if spec.workspace is not None and spec.workspace.figures else 0.0)
     out = total(parts, what, "the spec's step_mm / resolution_mm").plus(libraries)
-    return replace(out, unit="octree evaluations and raster points")
-
-
-def _section(sec: SectionSpec, k: int, pairs: list, table: Table, multi: bool, par: dict[str, Any], out: Path,
-             log: Callable[[str], None], frame: str = "machine") -> list[Figure]:
-    """Evaluate one section for every variant, add its rows; the maps' figures (one colour scale per quantity)."""
-    results = []
-    for v, m in pairs:
-        t0 = time.perf_counter()
-        res = _section_request(sec, v, frame).evaluate(m, **par)
-        res.machine = f"{v.name} ({m.name})"  # figure titles name the variant
-        if res.tool_length is None:
-            res.tool_length = m.tool.length
-        results.append(res)
-        log(f"section {sec.name}, {v.name}: {int(res.ok.sum())} of {res.ok.size} points admissible "
-            f"({time.perf_counter() - t0:.1f} s)")
-    _section_rows(sec, results, table, multi)
-    if not sec.maps:
-        return []
-    from pkmstiff.plots.section_maps import plot_section
-
-    figs = []
-    for q in sec.quantities:
-        finite = [r.display(q)[r.ok] for r in results]
-        finite = np.concatenate([f[np.isfinite(f)] for f in finite])
-        clim = (float(finite.min()), float(finite.max())) if finite.size and finite.max() > finite.min() \
-            else None  # one colour scale per quantity across the variants
-        for (v, _), res in zip(pairs, results):
-            path = plot_section(res, q, out / "maps" / f"{k + 1}_{_slug(sec.plane)}_{_slug(q)}_{_slug(v.name)}.png",
-                                clim=clim)
-            figs.append(Figure(path, f"{v.name}: {get_quantity(q).label} [{res.units[q]}] on the "
-                                     f"{sec.name}; white = inadmissible, black line = admissible boundary"))
-    return figs
+    plan = report_plan(spec, spec.jobs if jobs is None else jobs, scheduler)
+    return replace(out, unit="octree evaluations and raster points",
+                   bytes=tasks.cost_bytes(out.bytes, max(peaks), plan))
 
 
 def _point_rows(pt: PointSpec, pairs: list, table: Table, notes: list[str], frame: str = "machine") -> None:
@@ -354,17 +452,22 @@ def _settings(spec: ReportSpec, machines: list[Machine], fast: bool, jobs: int) 
 
 def run_spec(path: str | Path, out_dir: str | Path, *, fast: bool = False, n_jobs: int | None = None,
              log: Callable[[str], None] | None = None, scheduler: Any = None,
-             check: Callable[[Cost], None] | None = None) -> dict[str, Path]:
+             check: Callable[[Cost, str], None] | None = None) -> dict[str, Path]:
     """Load a spec, build the report and write it (``report.html``, ``report.md``); returns their paths.
-    ``check`` receives the :func:`spec_cost` before any work (and may refuse it by raising)."""
+    ``check`` receives the :func:`spec_cost` and the text of the :func:`report_plan` before any work (and may
+    refuse it by raising)."""
     from pkmstiff.report.render import run_info, write_report
 
     t0 = time.perf_counter()
     spec = load_spec(path)
     check_evaluation(spec)  # a bad [[evaluation]] metric: one line before the cost and any evaluation
+    machines = None
     if check is not None:
-        check(spec_cost(spec, fast))
-    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log, scheduler=scheduler)
+        machines = [_load_variant(v) for v in spec.variants]
+        jobs = spec.jobs if n_jobs is None else n_jobs
+        check(spec_cost(spec, fast, jobs, scheduler, machines),
+              report_plan(fast_spec(spec) if fast else spec, jobs, scheduler).text())
+    report = build_report(spec, out_dir, fast=fast, n_jobs=n_jobs, log=log, scheduler=scheduler, machines=machines)
     info = run_info()
     info["run time"] = f"{time.perf_counter() - t0:.1f} s"
     return write_report(report, out_dir, run=info)

@@ -24,6 +24,7 @@ import platform
 import shutil
 import sys
 from dataclasses import dataclass
+from functools import lru_cache
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -332,6 +333,7 @@ def _md_blocks(text: str) -> str:
     return "\n\n".join(parts) + ("\n" if parts else "")
 
 
+@lru_cache(maxsize=2)
 def _environment(kind: str):
     """The Jinja2 environment of the package's templates: autoescape for HTML, Markdown escaping by filter."""
     import jinja2

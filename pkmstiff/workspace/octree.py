@@ -32,15 +32,21 @@ import math
 import time
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Callable
+from collections.abc import Callable
+from itertools import pairwise
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
+from pkmstiff.workspace.kernels import KeyTable, known_corners, ring_misses, ring_triangles
 
 Predicate = Callable[[np.ndarray], np.ndarray]
 Progress = Callable[[int, int, int], None]  # (level, max level, evaluations so far)
+#: a predicate that also counts per point: ``points (N, 3) -> (bool (N,), int (N, C))`` (C counters of the caller's,
+#: e.g. the poses each point cost), so that points evaluated by two subtrees can be counted once
+CountedPredicate = Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
 
 # corner c of a voxel = lower corner + (c & 1, (c >> 1) & 1, (c >> 2) & 1) cells (e2 - e1 along x, ...)
 CORNER_OFFSETS = np.array([[c & 1, (c >> 1) & 1, (c >> 2) & 1] for c in range(8)], dtype=np.int64)
@@ -82,9 +88,22 @@ class OctreeResult:
     touches_box: bool  # an admissible corner lies on the box boundary
     time_total: float  # s, wall clock
     time_evaluation: float  # s spent inside the predicate
-    known_keys: np.ndarray = field(repr=False, default_factory=lambda: np.empty(0, np.int64))  # sorted corner keys
-    admissible_keys: np.ndarray = field(repr=False, default_factory=lambda: np.empty(0, np.int64))  # sorted, subset
     edges: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(repr=False, default=None)
+    leaf_table: KeyTable | None = field(repr=False, default=None)  # leaf lower-corner key -> leaf number
+
+    @cached_property
+    def known_keys(self) -> np.ndarray:
+        """Sorted keys of the evaluated corners of the leaves: the octree's leaves' corners and those the closure
+        evaluated (each a corner of a closure voxel)."""
+        return unique_sorted(self._corner_keys())
+
+    @cached_property
+    def admissible_keys(self) -> np.ndarray:
+        """The admissible ones of :attr:`known_keys`."""
+        return unique_sorted(self._corner_keys()[self.leaf_corners])
+
+    def _corner_keys(self) -> np.ndarray:
+        return self.lattice.key(self.leaf_index)[:, None] + CORNER_OFFSETS @ self.lattice.strides
 
     @property
     def n_cells(self) -> np.ndarray:
@@ -119,12 +138,17 @@ class OctreeResult:
         -1 where a voxel is not a leaf (only without the closure step)."""
         start, axis, _ = self.sign_change_edges()
         lat = self.lattice
-        vkeys = lat.key(self.leaf_index)
-        order = np.argsort(vkeys, kind="stable")  # unique keys: the same order as any sort, faster
-        ring = lat.key(start)[:, None] + lat.ring_offsets()[axis]
-        pos = np.minimum(np.searchsorted(vkeys[order], ring), max(vkeys.size - 1, 0))  # direct: cache-friendlier
-        vid = order[pos]
-        return np.where(vkeys[vid] == ring, vid, -1)
+        if self.leaf_table is None:
+            self.leaf_table = KeyTable(lat.key(self.leaf_index))
+        return self.leaf_table.find(lat.key(start)[:, None] + lat.ring_offsets()[axis])
+
+    @cached_property
+    def ring_triangles(self) -> np.ndarray:
+        """(2E, 3) leaf numbers of the triangles of the boundary mesh (:mod:`pkmstiff.workspace.surface`): the quad
+        of each sign-change edge's ring, whose normal is +axis in ring order, turned to point outwards (from the
+        admissible to the inadmissible end) and split in two; the same for every vertex placement."""
+        _, _, low_adm = self.sign_change_edges()
+        return ring_triangles(np.ascontiguousarray(self.edge_rings), ~low_adm)
 
     def point(self, idx: np.ndarray) -> np.ndarray:
         """Coordinates of lattice indices ``idx`` (..., 3)."""
@@ -165,28 +189,6 @@ def _in_sorted(arr: np.ndarray, q: np.ndarray) -> np.ndarray:
         return np.zeros(q.shape, bool)
     pos = np.minimum(np.searchsorted(arr, q), arr.size - 1)
     return arr[pos] == q
-
-
-class _KeySet:
-    """Sorted int64 keys with cheap insertion: a sorted base plus a small sorted delta, merged when it grows."""
-
-    def __init__(self, keys: np.ndarray):
-        self.base = unique_sorted(keys)
-        self.delta = np.empty(0, np.int64)
-
-    def contains(self, q: np.ndarray) -> np.ndarray:
-        return _in_sorted(self.base, q) | _in_sorted(self.delta, q)
-
-    def add(self, keys: np.ndarray) -> None:
-        if keys.size == 0:
-            return
-        self.delta = np.sort(np.concatenate([self.delta, keys]), kind="stable")
-        if self.delta.size > max(self.base.size // 8, 1024):
-            self.base = np.sort(np.concatenate([self.base, self.delta]), kind="stable")  # merge of two runs
-            self.delta = np.empty(0, np.int64)
-
-    def array(self) -> np.ndarray:
-        return np.sort(np.concatenate([self.base, self.delta]), kind="stable")
 
 
 class Lattice:
@@ -257,21 +259,24 @@ class _Evaluator:
         self.fn, self.lat = fn, lat
         self.count = 0
         self.time = 0.0
+        self.level = 0  # the octree level whose new corners are being evaluated (set by _refine)
 
     def __call__(self, idx: np.ndarray) -> np.ndarray:
         out = np.zeros(idx.shape[0], bool)
         ins = self.lat.inside(idx)
         if ins.any():
-            pts = self.lat.point(idx[ins])
             t0 = time.perf_counter()
-            val = np.asarray(self.fn(pts), bool)
+            val = self._values(idx[ins])
             self.time += time.perf_counter() - t0
-            if val.shape != (pts.shape[0],):
-                raise ArgumentError(f"admissibility predicate: expected a bool array of shape ({pts.shape[0]},), "
+            if val.shape != (int(ins.sum()),):
+                raise ArgumentError(f"admissibility predicate: expected a bool array of shape ({int(ins.sum())},), "
                                        f"found shape {val.shape}")
             out[ins] = val
-            self.count += int(pts.shape[0])
+            self.count += int(val.shape[0])
         return out
+
+    def _values(self, idx: np.ndarray) -> np.ndarray:
+        return np.asarray(self.fn(self.lat.point(idx)), bool)
 
 
 def octree_boundary(
@@ -283,6 +288,7 @@ def octree_boundary(
     min_level: int = 3,
     closure: bool = True,
     progress: Progress | None = None,
+    subtrees: SubtreeRunner | None = None,
 ) -> OctreeResult:
     """Boundary voxels and points of the set ``{x : admissible(x)}`` inside the box [lo, hi] (docs/theory/workspace.md).
 
@@ -290,6 +296,11 @@ def octree_boundary(
     on the uniform grid of level ``min_level`` (8 voxels per axis) instead of level 1, so that sets much smaller
     than the box are not missed; ``1`` reproduces the spec's start, where the initial box is split without
     classifying it (``0`` is treated as ``1``).
+
+    ``subtrees`` (parallel runs): once it says so (:meth:`SubtreeRunner.split_here`), the boundary voxels of that level
+    are cut into contiguous slices whose subtrees are refined to the finest level apart (in workers,
+    :func:`refine_subtree`); the leaves, volumes and counts are the same as without (points on the faces between
+    slices, evaluated by both, are counted once).
     """
     lo_a, hi_a, eps = _check_box(lo, hi, eps)
     t_start = time.perf_counter()
@@ -312,18 +323,31 @@ def octree_boundary(
     if progress:
         progress(l0, lmax, ev.count)
 
-    vox, corners, inside = _refine(vox, corners, l0, levels, lat, ev, per_level, progress)
+    n_slices = [0]
+
+    def stop(level: int, n: int) -> bool:
+        n_slices[0] = 0 if subtrees is None or level >= lmax - 1 else \
+            subtrees.slices(level, n, _evaluations_after(per_level[-1][1], level, levels))
+        return n_slices[0] >= 2
+
+    vox, corners, inside, level = _refine(vox, corners, l0, levels, lat, ev, per_level, progress, stop)
+    if level < lmax and vox.shape[0]:  # stopped: the subtrees of this level's boundary voxels, refined apart
+        t_sub = time.perf_counter()
+        vox, corners = _refine_apart(vox, corners, level, lat, subtrees, n_slices[0], inside,  # type: ignore[arg-type]
+                                     per_level)
+        ev.count = sum(n for _, n in per_level)
+        ev.time += time.perf_counter() - t_sub
+        if progress:
+            progress(lmax, lmax, ev.count)
     inside_volume = 0.0
     for level, count in enumerate(inside[l0:], l0):  # level by level, as the voxels were discarded
         size = 1 << (levels - np.minimum(level, levels))
         inside_volume += float(count) * float(np.prod(size * lat.h))
 
-    closure_added, edges = 0, None
-    ckeys = lat.key(vox)[:, None] + CORNER_OFFSETS @ lat.strides  # keys are linear in the index
-    known, admis = _KeySet(ckeys.ravel()), _KeySet(ckeys[corners])
+    closure_added, edges, table = 0, None, None
     if closure and vox.shape[0]:
         before = ev.count
-        vox, corners, edges, closure_added = _close(vox, corners, known, admis, lat, ev)
+        vox, corners, edges, closure_added, table = _close(vox, corners, lat, ev)
         per_level.append((-1, ev.count - before))
 
     touches = _touches_box(vox, corners, lat)
@@ -331,16 +355,18 @@ def octree_boundary(
         lo=lo_a, hi=hi_a, eps=eps, levels=levels, spacing=lat.h, leaf_index=vox, leaf_corners=corners,
         inside_volume=inside_volume, evaluations=ev.count, evaluations_per_level=per_level,
         closure_voxels=closure_added, touches_box=touches, time_total=time.perf_counter() - t_start,
-        time_evaluation=ev.time, known_keys=known.array(), admissible_keys=admis.array(), edges=edges,
+        time_evaluation=ev.time, edges=edges, leaf_table=table,
     )
 
 
 def _refine(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray, lat: Lattice, ev: _Evaluator,
-            per_level: list[tuple[int, int]], progress: Progress | None = None
-            ) -> tuple[np.ndarray, np.ndarray, list[int]]:
+            per_level: list[tuple[int, int]], progress: Progress | None = None,
+            stop: Callable[[int, int], bool] | None = None) -> tuple[np.ndarray, np.ndarray, list[int], int]:
     """Refine the voxels of ``level`` (with their corner values) to the finest level: the finest boundary voxels,
-    their corners and the number of voxels discarded as inside on each level (index = level; levels below
-    ``level`` hold 0). Appends (level, new evaluations) to ``per_level`` for every split.
+    their corners, the number of voxels discarded as inside on each level (index = level; levels below
+    ``level`` hold 0) and the level of the returned voxels. Appends (level, new evaluations) to ``per_level`` for
+    every split. ``stop(level, boundary voxels)`` true: return that level's boundary voxels unsplit (to hand their
+    subtrees to workers).
 
     The children of a voxel follow each other and keep their parents' order, so the leaves come in depth-first order:
     refining contiguous slices of ``vox`` separately and joining the results in slice order gives the same leaves
@@ -353,14 +379,159 @@ def _refine(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray
         inside[level] = int(np.count_nonzero(code == ALL_CORNERS))
         bnd = (code != 0) & (code != ALL_CORNERS)
         vox, corners = vox[bnd], corners[bnd]
-        if level >= lmax or vox.shape[0] == 0:
-            return vox, corners, inside
+        if level >= lmax or vox.shape[0] == 0 or (stop is not None and stop(level, vox.shape[0])):
+            return vox, corners, inside, level
         before = ev.count
+        ev.level = level + 1
         vox, corners = _split(vox, corners, level, levels, lat, ev)
         level += 1
         per_level.append((level, ev.count - before))
         if progress:
             progress(level, lmax, ev.count)
+
+
+# ------------------------------------------------------------------------------------------------- subtrees apart
+@dataclass
+class SubtreeTask:
+    """One contiguous slice of a level's boundary voxels, to be refined to the finest level apart (compact arrays).
+
+    ``coarse_keys`` (sorted lattice keys of the lower corners of ALL slices' voxels) and ``coarse_slice`` (the slice
+    of each) tell which evaluated points lie on a face shared with another slice: only those can be evaluated twice.
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+    levels: np.ndarray
+    level: int
+    vox: np.ndarray  # (n, 3) lattice indices of the voxels' lower corners
+    corners: np.ndarray  # (n, 8) bool
+    coarse_keys: np.ndarray
+    coarse_slice: np.ndarray
+    slice: int
+
+
+@dataclass
+class Subtree:
+    """The finest boundary voxels of one :class:`SubtreeTask` and what its counts need to be merged exactly."""
+
+    vox: np.ndarray
+    corners: np.ndarray
+    inside: list[int]  # voxels discarded as inside per level
+    per_level: list[tuple[int, int]]  # (level, new evaluations of this slice)
+    shared_keys: np.ndarray  # (K,) keys of the evaluated points on faces shared with another slice
+    shared_level: np.ndarray  # (K,) their levels
+    shared_counts: np.ndarray  # (K, C) their counters (:data:`CountedPredicate`)
+    info: Any = None  # what the runner adds (the evaluation statistics of the task)
+
+
+class SubtreeRunner(Protocol):
+    """Where the subtrees run (:func:`octree_boundary`'s ``subtrees``)."""
+
+    def slices(self, level: int, voxels: int, evaluations: float) -> int:
+        """Number of slices to cut ``voxels`` boundary voxels of ``level`` into now (< 2: not at this level);
+        ``evaluations``: about as many points are left to evaluate below this level."""
+
+    def run(self, tasks: list[SubtreeTask]) -> list[Subtree]:
+        """:func:`refine_subtree` of every task, in task order."""
+
+    def uncount(self, points: int, counts: np.ndarray) -> None:
+        """Take ``points`` points with the summed counters ``counts`` (C,) out of the statistics: they were
+        evaluated by a second slice."""
+
+
+class _CountingEvaluator(_Evaluator):
+    """Evaluator of a subtree: also keeps key, level and counters of the points on faces shared with another slice."""
+
+    def __init__(self, fn: CountedPredicate, lat: Lattice, task: SubtreeTask):
+        super().__init__(fn, lat)  # type: ignore[arg-type]
+        self.task = task
+        self.size = (1 << (task.levels - np.minimum(task.level, task.levels))).astype(np.int64)  # coarse voxel edge
+        self.shared: list[tuple[np.ndarray, int, np.ndarray]] = []
+
+    def _values(self, idx: np.ndarray) -> np.ndarray:
+        val, counts = self.fn(self.lat.point(idx))
+        val = np.asarray(val, bool)
+        sh = self._on_shared_face(idx)
+        if sh.any():
+            self.shared.append((self.lat.key(idx[sh]), self.level, np.asarray(counts)[sh]))
+        return val
+
+    def _on_shared_face(self, idx: np.ndarray) -> np.ndarray:
+        """Points that lie in a voxel (closed) of another slice: one of the up to eight coarse voxels touching them."""
+        t = self.task
+        q, r = np.divmod(idx, self.size)
+        face = np.flatnonzero((r == 0).any(axis=1))
+        out = np.zeros(idx.shape[0], bool)
+        if face.size == 0:
+            return out
+        qf, on = q[face], (r[face] == 0).astype(np.int64)
+        other = np.zeros(face.size, bool)
+        cells = self.lat.n // self.size
+        for o in CORNER_OFFSETS:
+            cand = qf - o * on  # off a face the offset is 0: the same voxel again, harmless
+            valid = np.all((cand >= 0) & (cand < cells), axis=1)
+            ck = self.lat.key(cand * self.size)
+            pos = np.minimum(np.searchsorted(t.coarse_keys, ck), t.coarse_keys.size - 1)
+            other |= valid & (t.coarse_keys[pos] == ck) & (t.coarse_slice[pos] != t.slice)
+        out[face] = other
+        return out
+
+
+def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
+    """Refine one slice (a worker's task): its finest boundary voxels in depth-first order, the per-level counts and
+    the points it shares with other slices (see :func:`octree_boundary`)."""
+    lat = Lattice(task.lo, task.hi, task.levels)
+    ev = _CountingEvaluator(counted, lat, task)
+    per_level: list[tuple[int, int]] = []
+    vox, corners, inside, _ = _refine(task.vox, task.corners, task.level, task.levels, lat, ev, per_level)
+    if ev.shared:
+        keys = np.concatenate([k for k, _, _ in ev.shared])
+        lvl = np.concatenate([np.full(k.size, level, np.int64) for k, level, _ in ev.shared])
+        counts = np.concatenate([c for _, _, c in ev.shared])
+    else:
+        keys, lvl, counts = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0), np.int64)
+    return Subtree(vox, corners, inside, per_level, keys, lvl, counts)
+
+
+def _evaluations_after(last: int, level: int, levels: np.ndarray) -> float:
+    """Evaluations the levels below ``level`` will take, from the ``last`` level's: a boundary surface cut by
+    halving s axes has 2**(s - 1) times as many voxels (×4 while all three axes are halved, ×1 when one is)."""
+    total, e = 0.0, float(last)
+    for lv in range(level + 1, int(levels.max()) + 1):
+        e *= 2.0 ** (int(np.count_nonzero(levels >= lv)) - 1)
+        total += e
+    return total
+
+
+def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice, runner: SubtreeRunner,
+                  n_slices: int, inside: list[int], per_level: list[tuple[int, int]]
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Cut the boundary voxels of ``level`` into ``n_slices`` contiguous slices, refine them apart (``runner``) and
+    join the leaves in slice order (the serial order, :func:`_refine`); the inside counts and the evaluations per level
+    are added to ``inside`` and ``per_level``, a point evaluated by k slices counted once (``runner.uncount``)."""
+    bounds = np.linspace(0, vox.shape[0], n_slices + 1).round().astype(np.int64)
+    keys = lat.key(vox)
+    order = np.argsort(keys, kind="stable")
+    owner = np.repeat(np.arange(n_slices), np.diff(bounds))
+    tasks = [SubtreeTask(lat.lo, lat.hi, lat.levels, level, vox[a:b], corners[a:b], keys[order], owner[order], k)
+             for k, (a, b) in enumerate(pairwise(bounds))]
+    parts = runner.run(tasks)
+    new: dict[int, int] = {}
+    for part in parts:
+        for lv, n in enumerate(part.inside):
+            inside[lv] += n
+        for lv, n in part.per_level:
+            new[lv] = new.get(lv, 0) + n
+    shared = [p for p in parts if p.shared_keys.size]
+    if shared:
+        skeys = np.concatenate([p.shared_keys for p in shared])
+        again = np.ones(skeys.size, bool)  # the second and later evaluations of a point
+        again[np.unique(skeys, return_index=True)[1]] = False
+        for lv, n in zip(*np.unique(np.concatenate([p.shared_level for p in shared])[again], return_counts=True)):
+            new[int(lv)] -= int(n)
+        runner.uncount(int(again.sum()), np.concatenate([p.shared_counts for p in shared])[again].sum(axis=0))
+    per_level.extend(sorted(new.items()))
+    return np.concatenate([p.vox for p in parts]), np.concatenate([p.corners for p in parts])
 
 
 def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
@@ -436,41 +607,41 @@ def owned_edges(vox: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.nd
     return vox[vi], axis, corners[vi, 0]
 
 
-def _close(vox: np.ndarray, corners: np.ndarray, known: _KeySet, admis: _KeySet, lat: Lattice, ev: _Evaluator
-           ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int]:
+def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator
+           ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int, KeyTable]:
     """Add finest voxels around sign-change edges until every such edge has all four voxels (see module doc).
 
-    Only the voxels added in the previous pass can ask for new neighbours, so each pass looks at that frontier.
-    Returns the leaves, their corners, the sign-change edges of all leaves (each once) and the number of added
-    voxels.
+    Only the voxels added in the previous pass can ask for new neighbours, so each pass looks at that frontier; the
+    voxels of a pass are added in the order of their keys. A corner is known (not evaluated again) when a leaf has it:
+    the corners of the octree's leaves and those evaluated in earlier passes. Returns the leaves, their corners, the
+    sign-change edges of all leaves (each once), the number of added voxels and the leaves' key table (key -> leaf
+    number).
     """
-    leaves = _KeySet(lat.key(vox))
     corner_off = CORNER_OFFSETS @ lat.strides
     ring_off = lat.ring_offsets()
-    f_keys, f_corn = lat.key(vox), corners
-    parts_v, parts_c = [vox], [corners]
+    f_keys, f_corn = lat.key(vox), np.ascontiguousarray(corners)
+    table = KeyTable(f_keys, capacity=f_keys.size // 4)
+    parts_v = [vox]
+    all_corn = np.empty((f_keys.size + max(f_keys.size // 4, 1024), 8), bool)  # corners by leaf number, grown
+    all_corn[:f_keys.size] = f_corn
     added = 0
     while f_keys.shape[0]:
-        # sign-change edges of the frontier in key space (lower-end key * 3 + axis), each once
-        vi, ei = np.nonzero(f_corn[:, EDGES[:, 1]] != f_corn[:, EDGES[:, 2]])
-        ek = unique_sorted((f_keys[vi] + corner_off[EDGES[ei, 1]]) * 3 + EDGES[ei, 0])
-        ring = (ek // 3)[:, None] + ring_off[ek % 3]
-        missing = unique_sorted(ring[~leaves.contains(ring)])
+        missing = unique_sorted(ring_misses(table.slots, table.values, table.shift, f_keys, f_corn, corner_off,
+                                            EDGES, ring_off))
         if missing.size == 0:
             break
         ck = (missing[:, None] + corner_off[None]).ravel()
-        kn = known.contains(ck)
-        val = admis.contains(ck)
+        kn, val = known_corners(table.slots, table.values, table.shift, all_corn, ck, corner_off)
         unk = unique_sorted(ck[~kn])
         if unk.size:
             uval = ev(lat.unkey(unk))
             val[~kn] = uval[np.searchsorted(unk, ck[~kn])]
-            known.add(unk)
-            admis.add(unk[uval])
-        leaves.add(missing)
+        table.add(missing)
         f_keys, f_corn = missing, val.reshape(-1, 8)
+        if table.size > all_corn.shape[0]:
+            all_corn = np.concatenate([all_corn, np.empty((max(all_corn.shape[0], f_keys.size), 8), bool)])
+        all_corn[table.size - f_keys.size:table.size] = f_corn
         parts_v.append(lat.unkey(missing))
-        parts_c.append(f_corn)
         added += missing.size
-    vox, corners = np.concatenate(parts_v), np.concatenate(parts_c)
-    return vox, corners, owned_edges(vox, corners), added
+    vox, corners = np.concatenate(parts_v), all_corn[:table.size]
+    return vox, corners, owned_edges(vox, corners), added, table

@@ -24,6 +24,7 @@ import copy
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Iterable, Literal, Sequence
 
@@ -37,6 +38,7 @@ from pkmstiff.evaluation import parallel
 from pkmstiff.evaluation.quantities import EvalContext
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
+from pkmstiff.workspace.octree import Subtree, SubtreeTask, refine_subtree
 from pkmstiff.workspace.requirements import Requirement, parse_requirements
 
 ANGLE_INDEX = {"a": 3, "b": 4, "c": 5}
@@ -67,13 +69,20 @@ class EvaluationStats:
                 "time_pipeline_s": self.time_pipeline, "time_requirements_s": self.time_requirements}
 
 
+#: the per-point counters of :meth:`PoseOracle.counted`, the :class:`EvaluationStats` fields they add up to
+POINT_COUNTERS = ("poses", "full_pipeline", "requirement_poses")
+
+
 def staged_admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str] = adm.ALL_CHECKS,
                       requirements: Sequence[Requirement] = (), stats: EvaluationStats | None = None,
-                      prefilter: bool = True, chunk_size: int = 20_000, tool_length: float | None = None
-                      ) -> np.ndarray:
-    """(N,) admissibility of poses (N, 6), identical to ``evaluate_poses`` + requirements (see module doc)."""
+                      prefilter: bool = True, chunk_size: int = 20_000, tool_length: float | None = None,
+                      per_pose: np.ndarray | None = None) -> np.ndarray:
+    """(N,) admissibility of poses (N, 6), identical to ``evaluate_poses`` + requirements (see module doc).
+    ``per_pose`` (N, 3) int: adds the :data:`POINT_COUNTERS` of every pose (1 or 0 each)."""
     st = stats if stats is not None else EvaluationStats()
     out = np.zeros(len(poses), bool)
+    if per_pose is not None:
+        per_pose[:, 0] += 1
     for s in range(0, len(poses), chunk_size):
         x = poses[s:s + chunk_size]
         st.poses += len(x)
@@ -91,6 +100,10 @@ def staged_admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str]
         ev = evaluate_poses(machine, x[idx], checks=checks, chunk_size=chunk_size)
         ok = ev.ok
         st.full_pipeline += idx.size
+        if per_pose is not None:
+            per_pose[s + idx, 1] += 1
+            if requirements:
+                per_pose[s + idx[ok], 2] += 1
         t2 = time.perf_counter()
         st.time_pipeline += t2 - t1
         if requirements and ok.any():
@@ -175,11 +188,12 @@ class PoseOracle:
         x[:, list(self.free)] = pts
         return x
 
-    def admissible_poses(self, poses: np.ndarray) -> np.ndarray:
-        """(N,) admissibility of full poses (N, 6), honouring the orientation range."""
+    def admissible_poses(self, poses: np.ndarray, per_point: np.ndarray | None = None) -> np.ndarray:
+        """(N,) admissibility of full poses (N, 6), honouring the orientation range; ``per_point`` (N, 3): adds the
+        :data:`POINT_COUNTERS` of each pose's point."""
         if self.range_samples is None:
             return staged_admissible(self.machine, poses, self.checks, self.requirements, self.stats,
-                                     self.prefilter, self.chunk_size)
+                                     self.prefilter, self.chunk_size, per_pose=per_point)
         col, samples = self.range_samples
         want_all = self.range_mode == "all"
         result = np.full(len(poses), want_all)
@@ -190,8 +204,11 @@ class PoseOracle:
                 break
             x = poses[idx].copy()
             x[:, col] = v
+            sub = None if per_point is None else np.zeros((idx.size, len(POINT_COUNTERS)), np.int64)
             ok = staged_admissible(self.machine, x, self.checks, self.requirements, self.stats,
-                                   self.prefilter, self.chunk_size)
+                                   self.prefilter, self.chunk_size, per_pose=sub)
+            if per_point is not None:
+                per_point[idx] += sub
             decided = ~ok if want_all else ok  # "all": one failure decides; "any": one success decides
             result[idx[decided]] = not want_all
             undecided[idx[decided]] = False
@@ -209,41 +226,102 @@ class PoseOracle:
             self._point_seconds = (time.perf_counter() - t0) / max(len(poses), 1)
             return out
         self.plans.append(p)
+        (a0, b0), *rest = parallel.split(len(poses), p)
+        parts = self.run_split(_oracle_task, [(poses[a:b],) for a, b in rest], p,
+                               lambda: self.admissible_poses(poses[a0:b0]))
+        return np.concatenate(parts)
+
+    def counted(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Admissibility of ``points`` here and the :data:`POINT_COUNTERS` of each point (N, 3) (an octree's
+        :data:`~pkmstiff.workspace.octree.CountedPredicate`: points evaluated twice are taken out exactly)."""
+        self.stats.points += len(points)
+        per = np.zeros((len(points), len(POINT_COUNTERS)), np.int64)
+        return self.admissible_poses(self.poses(points), per), per
+
+    def run_split(self, task: Callable[..., tuple[Any, dict[str, float]]], payloads: list[tuple], p: parallel.Plan,
+                  here: Callable[[], Any]) -> list[Any]:
+        """``[here(), task(shared oracle, *payloads[0]), ...]``: ``here()`` in this process while the workers run the
+        payloads (as a section's first chunk); the statistics of all parts are added to this oracle's."""
         if self._shared is None:
             worker = copy.copy(self)
             worker.n_jobs, worker.scheduler, worker.stats, worker._shared = 1, None, EvaluationStats(), None
             self._shared = parallel.Shared(worker)
         t0 = time.perf_counter()
-        (a0, b0), *rest = parallel.split(len(poses), p)
-        first: list[tuple[np.ndarray, dict[str, float]]] = []
+        first: list[tuple[Any, dict[str, float]]] = []
 
-        def run_first() -> None:  # the first task here while the workers run the others (as a section's first chunk)
+        def run_first() -> None:
             before = dataclasses.asdict(self.stats)
-            ok = self.admissible_poses(poses[a0:b0])
-            after = dataclasses.asdict(self.stats)
+            first.append(_stats_delta(self, here))
             for k, v in before.items():  # merged below like a worker's part
                 setattr(self.stats, k, v)
-            first.append((ok, {k: after[k] - before[k] for k in after}))
 
-        parts = parallel.run_tasks(_oracle_task, [(self._shared, poses[a:b]) for a, b in rest], p, self.scheduler,
-                                   meanwhile=run_first)
-        parts = first + parts
+        parts = first + parallel.run_tasks(task, [(self._shared, *a) for a in payloads], p, self.scheduler,
+                                           meanwhile=run_first)
         wall = time.perf_counter() - t0
         times = [k for k in dataclasses.asdict(self.stats) if k.startswith("time_")]
         busy = sum(st[k] for _, st in parts for k in times)
         for _, st in parts:  # counts add up; the workers' times are scaled to this call's wall time (they overlap)
             for k, v in st.items():
                 setattr(self.stats, k, getattr(self.stats, k) + (v * wall / busy if k in times and busy > 0 else v))
-        return np.concatenate([ok for ok, _ in parts])
+        return [out for out, _ in parts]
 
     def __getstate__(self) -> dict[str, Any]:
         return {**self.__dict__, "scheduler": None, "_shared": None}
+
+
+def _stats_delta(o: PoseOracle, fn: Callable[[], Any]) -> tuple[Any, dict[str, float]]:
+    """``fn()`` and what it added to ``o``'s statistics."""
+    before = dataclasses.asdict(o.stats)
+    out = fn()
+    return out, {k: v - before[k] for k, v in dataclasses.asdict(o.stats).items()}
 
 
 def _oracle_task(oracle: parallel.Shared[PoseOracle], poses: np.ndarray) -> tuple[np.ndarray, dict[str, float]]:
     """One parallel task: admissibility of ``poses`` and the evaluation counts/times it added (a compact array and a
     small dict)."""
     o = oracle.get()
-    before = dataclasses.asdict(o.stats)
-    ok = o.admissible_poses(poses)
-    return ok, {k: v - before[k] for k, v in dataclasses.asdict(o.stats).items()}
+    return _stats_delta(o, lambda: o.admissible_poses(poses))
+
+
+def _subtree_task(oracle: parallel.Shared[PoseOracle], task: SubtreeTask) -> tuple[Subtree, dict[str, float]]:
+    """One octree subtree refined in a worker (:func:`~pkmstiff.workspace.octree.refine_subtree`) and the evaluation
+    counts/times it added."""
+    o = oracle.get()
+    return _stats_delta(o, lambda: refine_subtree(task, o.counted))
+
+
+#: a subtree task holds at least this many voxels of the level it starts from: the work per voxel varies with the
+#: boundary area inside it, and many voxels per task even that out
+SUBTREE_VOXELS = 16
+
+
+class OracleSubtrees:
+    """The octree's :class:`~pkmstiff.workspace.octree.SubtreeRunner` on the oracle's workers (local pool or Dask):
+    subtrees are cut as soon as a level has enough boundary voxels for the plan's tasks; the plan is sized from the
+    oracle's measured time per point and the evaluations the remaining levels will take."""
+
+    def __init__(self, oracle: PoseOracle):
+        self.oracle = oracle
+        self.plan: parallel.Plan | None = None
+
+    def slices(self, level: int, voxels: int, evaluations: float) -> int:
+        o = self.oracle
+        if (o.n_jobs == 1 and o.scheduler is None) or o._point_seconds is None:
+            return 0
+        p = parallel.plan(voxels, o._point_seconds * evaluations / voxels, o.n_jobs, o.scheduler)
+        if not p.parallel or voxels < SUBTREE_VOXELS * p.tasks:
+            return 0
+        self.plan = p
+        o.plans.append(p)
+        return p.tasks
+
+    def run(self, tasks: list[SubtreeTask]) -> list[Subtree]:
+        o, p = self.oracle, self.plan
+        assert p is not None
+        return o.run_split(_subtree_task, [(t,) for t in tasks[1:]], p, lambda: refine_subtree(tasks[0], o.counted))
+
+    def uncount(self, points: int, counts: np.ndarray) -> None:
+        st = self.oracle.stats
+        st.points -= points
+        for name, c in zip(POINT_COUNTERS, counts):
+            setattr(st, name, getattr(st, name) - int(c))

@@ -24,7 +24,8 @@ a point admissible up to K reports K * increment (``at_limit``).
   range is checked; a point with an inadmissible gap gets the plain-search result (spec caveat). With it the
   result always equals the plain search.
 
-The base-orientation check is done once per raster point and shared by all directions and both methods.
+The base-orientation check is done once per raster point and shared by all directions and both methods (in tasks of
+whole chunks when the search runs in parallel).
 Evaluation counts: ``evaluations[dir]`` = poses evaluated by the search in that direction (excluding the shared
 base check); ``plain_sequential[dir]`` = what a plain search stopping at the first inadmissible increment needs
 (k* + 2 per point, K + 1 at the limit, 0 outside): the reference for the savings.
@@ -41,9 +42,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
+from pkmstiff.admissibility import fastpath
+from pkmstiff.admissibility.pipeline import evaluate_chunk
 from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation import parallel
 from pkmstiff.machine.model import Machine
+from pkmstiff.machine.roles import drive_load_data
 from pkmstiff.workspace.oracle import EvaluationStats, staged_admissible
 from pkmstiff.workspace.requirements import Requirement, parse_requirements
 
@@ -54,9 +58,9 @@ DIRECTIONS: dict[str, tuple[int, int, int]] = {
 SIX_DIRECTIONS = ("+a", "-a", "+b", "-b", "+a+b", "-a-b")
 Method = Literal["predictor_corrector", "plain"]
 #: the time of one direction's search in units of the base check of the raster: sizes the parallel tasks before any
-#: search has run (measured 1.3–3.5 on the Hexaglide's yz maps of 6.25–25 mm, directions searched together; ~1.5
-#: times more per direction in a task of fewer directions)
-POSES_PER_POINT = 2.5
+#: search has run (measured 0.65-0.85 on the Hexaglide's yz maps of 1.5625-3.125 mm, six directions searched
+#: together, both through the fused kernel; ~1.2 times more per direction in a task of three)
+POSES_PER_POINT = 1.0
 
 
 
@@ -131,15 +135,37 @@ def _values(v: ArrayLike, name: str) -> np.ndarray:
     return arr
 
 
+#: poses per call of the fused kernel (:mod:`pkmstiff.admissibility.fastpath`) in the searches: it costs ~0.1 ms per
+#: call and ~2.6 us per pose against ~1 ms and ~3.2 us of the array path (measured on the Hexaglide, 100-2000 poses),
+#: and most of the searches' batches hold a few hundred poses
+FUSED_CHUNK = 4096
+
+
 class _Evaluator:
+    """Admissibility of poses (N, 6): the fused kernel in chunks of :data:`FUSED_CHUNK` where it applies (no
+    requirements; it gives the array path's results bit for bit, tests/test_pose_fast_path.py), else
+    :func:`pkmstiff.workspace.oracle.staged_admissible`."""
+
     def __init__(self, machine: Machine, checks: Sequence[str], reqs: Sequence[Requirement]):
         self.machine, self.checks, self.reqs = machine, tuple(checks), list(reqs)
         self.stats = EvaluationStats()
+        self.load = drive_load_data(machine)
+        self.fused = False  # set once the fused kernel applies (the compiled kernels load on the first large call)
 
     def __call__(self, poses: np.ndarray) -> np.ndarray:
         if len(poses) == 0:
             return np.zeros(0, bool)
-        return staged_admissible(self.machine, poses, self.checks, self.reqs, self.stats)
+        # usable(.., 1): the machine and the kernels, not the size
+        self.fused = self.fused or (not self.reqs and fastpath.usable(self.machine, 1))
+        if not self.fused:
+            return staged_admissible(self.machine, poses, self.checks, self.reqs, self.stats)
+        out = np.empty(len(poses), bool)
+        for s in range(0, len(poses), FUSED_CHUNK):
+            x = np.ascontiguousarray(poses[s:s + FUSED_CHUNK])
+            ok = fastpath.admissible_small(self.machine, x, self.checks, self.load)
+            out[s:s + len(x)] = ok if ok is not None else evaluate_chunk(self.machine, x, self.checks,
+                                                                         self.load).admissibility.ok
+        return out
 
 
 def angle_search(
@@ -161,10 +187,12 @@ def angle_search(
 ) -> RotationMapResult:
     """Maximum admissible angles from ``base_poses`` (nv, nu, 6) on the raster (u_values, v_values); see module doc.
 
-    ``n_jobs`` > 1 (-1: all cores) / ``scheduler`` (Dask): the directions are searched as separate tasks in the run's
-    worker pool / on the cluster (:mod:`pkmstiff.evaluation.parallel`; the searches of different directions do not
-    interact, so the angles and counts are the same whatever the plan); the base check runs here and its measured
-    time, times :data:`POSES_PER_POINT`, sizes the tasks; ``result.plan`` keeps the plan."""
+    ``n_jobs`` > 1 (-1: all cores) / ``scheduler`` (Dask): the base check runs in tasks of whole chunks of
+    :data:`FUSED_CHUNK` points (the first chunk here, timed), then the directions are searched as separate tasks in
+    the run's worker pool / on the cluster (:mod:`pkmstiff.evaluation.parallel`; the searches of different directions
+    do not interact, so the angles and counts are the same whatever the plan); the measured time of the first chunk,
+    times the raster's points and :data:`POSES_PER_POINT`, sizes the search tasks; ``result.plan`` keeps the search's
+    plan."""
     u, v = _values(u_values, "u_values"), _values(v_values, "v_values")
     base = np.asarray(base_poses, float)
     if base.shape != (v.size, u.size, 6) or not np.isfinite(base).all():
@@ -185,19 +213,21 @@ def angle_search(
     ev = _Evaluator(machine, checks, reqs)
     nv, nu = base.shape[:2]
     flat = base.reshape(-1, 6)
-    t0 = time.perf_counter()
-    base_ok = ev(flat)
     base_evals = flat.shape[0]
     search = (u, v, increment, K, method, verify, block)
     with parallel.connected(scheduler):
-        p = parallel.plan(len(dirs), (time.perf_counter() - t0) * POSES_PER_POINT, n_jobs, scheduler,
+        base_ok, point_seconds, shared = _base_check(ev, flat, n_jobs, scheduler)
+        p = parallel.plan(len(dirs), point_seconds * flat.shape[0] * POSES_PER_POINT, n_jobs, scheduler,
                           granule=direction_group(len(dirs), n_jobs, scheduler))
         if p.parallel:
-            shared = parallel.Shared(machine)
-            parts = parallel.run_tasks(_search_task, [(shared, checks, reqs, flat.reshape(nv, nu, 6), base_ok, dvec[a:b],
-                                                       search) for a, b in parallel.split(len(dirs), p)], p, scheduler)
-            kbest, evals, fixes = (np.concatenate([part[i] for part in parts], axis=-1 if i == 0 else 0)
-                                   for i in range(3))
+            shared = shared or parallel.Shared(machine)
+            inside = flat[base_ok]
+            parts = parallel.run_tasks(_search_task, [(shared, checks, reqs, (nv, nu), base_ok, inside, dvec[a:b],
+                                                       search) for a, b in parallel.split(len(dirs), p)],
+                                       p, scheduler)
+            kbest = np.full((nv * nu, len(dirs)), -1, np.int64)
+            kbest[base_ok] = np.concatenate([part[0] for part in parts], axis=1)
+            evals, fixes = (np.concatenate([part[i] for part in parts]) for i in (1, 2))
         else:
             kbest, evals, fixes = _search(ev, flat.reshape(nv, nu, 6), base_ok, dvec, search)
     angles, at_limit, plain_seq = {}, {}, {}
@@ -216,9 +246,10 @@ def angle_search(
 
 
 def direction_group(n_directions: int, n_jobs: int, scheduler: Any = None) -> int:
-    """Directions per task: a search evaluates all its directions in one batch per step, and the fixed cost of a
-    batch (~0.26 ms, most batches holding a few poses) dominates small rasters, so every task repeats it: local
-    workers get one group of directions each (2 workers, 6 directions: 2 tasks of 3, not 6 tasks of 1)."""
+    """Directions per task: a search evaluates all its directions in one batch per step, and every task makes about
+    as many batches as the serial search (the anti-diagonals follow one another), each with a fixed cost (~0.25 ms:
+    the corrector's bookkeeping and the kernel call, ~100 poses' worth), so local workers get one group of
+    directions each (2 workers, 6 directions: 2 tasks of 3, not 6 tasks of 1)."""
     return 1 if scheduler is not None else math.ceil(n_directions / parallel.resolve_workers(n_jobs))
 
 
@@ -240,10 +271,41 @@ def _search(ev: _Evaluator, base: np.ndarray, base_ok: np.ndarray, dvec: np.ndar
 
 
 def _search_task(machine: parallel.Shared[Machine], checks: Sequence[str], reqs: Sequence[Requirement],
-                 base: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray,
+                 shape: tuple[int, int], base_ok: np.ndarray, inside: np.ndarray, dvec: np.ndarray,
                  search: tuple) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """One task: :func:`_search` of some directions in a worker."""
-    return _search(_Evaluator(machine.get(), checks, reqs), base, base_ok, dvec, search)
+    """One task: :func:`_search` of some directions in a worker, from the base poses ``inside`` (those where
+    ``base_ok``, the only ones a search evaluates); returns kbest of those points only, in the smallest integer
+    type that holds it (-1 .. K), and the counts."""
+    base = np.zeros((base_ok.size, 6))
+    base[base_ok] = inside
+    kbest, evals, fixes = _search(_Evaluator(machine.get(), checks, reqs), base.reshape(*shape, 6), base_ok, dvec,
+                                  search)
+    return kbest[base_ok].astype(np.min_scalar_type(-max(search[3], 1))), evals, fixes
+
+
+def _base_check(ev: _Evaluator, flat: np.ndarray, n_jobs: int, scheduler: Any
+                ) -> tuple[np.ndarray, float, parallel.Shared[Machine] | None]:
+    """Admissibility of the base poses ``flat`` (P, 6): the first :data:`FUSED_CHUNK` here, timed (seconds per
+    point, which sizes the tasks), the rest in tasks of whole chunks of :data:`FUSED_CHUNK` (the chunks the serial
+    run evaluates) in the workers where that pays. Returns (base_ok, seconds per point, the machine as sent to the
+    workers or None)."""
+    t0 = time.perf_counter()
+    first = ev(flat[:FUSED_CHUNK])
+    seconds = (time.perf_counter() - t0) / max(min(len(flat), FUSED_CHUNK), 1)
+    rest = flat[FUSED_CHUNK:]
+    p = parallel.plan(len(rest), seconds, n_jobs, scheduler, granule=FUSED_CHUNK)
+    if not p.parallel:
+        return np.concatenate([first, ev(rest)]), seconds, None
+    shared = parallel.Shared(ev.machine)
+    parts = parallel.run_tasks(_base_task, [(shared, ev.checks, ev.reqs, rest[a:b])
+                                            for a, b in parallel.split(len(rest), p)], p, scheduler)
+    return np.concatenate([first, *parts]), seconds, shared
+
+
+def _base_task(machine: parallel.Shared[Machine], checks: Sequence[str], reqs: Sequence[Requirement],
+               poses: np.ndarray) -> np.ndarray:
+    """One task of the base check: admissibility of ``poses`` in a worker."""
+    return _Evaluator(machine.get(), checks, reqs)(poses)
 
 
 def _plain(ev: _Evaluator, flat: np.ndarray, base_ok: np.ndarray, dvec: np.ndarray, inc: float, K: int,
@@ -301,8 +363,9 @@ def _predictor_corrector(ev: _Evaluator, base: np.ndarray, base_ok: np.ndarray, 
 
 
 #: when few searches of an anti-diagonal are still walking, each batch evaluates up to this many next increments of
-#: each at once (most batches held a few poses and cost ~0.26 ms each, ~50 times a pose); only the increments the
-#: one-at-a-time search evaluates are counted and used, so the angles and counts are those of that search
+#: each at once (a batch costs ~0.25 ms besides its poses, ~100 poses' worth; larger look-aheads evaluated more
+#: poses than they saved batches, measured with the fused kernel at 2 mm); only the increments the one-at-a-time
+#: search evaluates are counted and used, so the angles and counts are those of that search
 LOOKAHEAD = 4
 #: ... as long as the batch holds at most this many poses
 LOOKAHEAD_POSES = 64
@@ -313,33 +376,39 @@ def _steps(ev: _Evaluator, pts: np.ndarray, dvec: np.ndarray, inc: float, K: int
     """One batch of the corrector (in place on ``active``, ``cur``, ``result``, ``evals``; (P, D) arrays): each active
     search walks from ``cur`` upwards (``up``; to the last admissible increment ≤ K) or downwards (to the first
     admissible increment; increment 0 is the base orientation, admissible) by up to L increments."""
-    pi, di = np.nonzero(active)
-    A = pi.size
+    D = active.shape[1]
+    at = np.flatnonzero(active)  # the active (point, direction) pairs, row-major
+    pi, di = np.divmod(at, D)
+    A = at.size
     L = max(1, min(LOOKAHEAD, LOOKAHEAD_POSES // A))
-    u = up[pi, di]
-    c = cur[pi, di]
+    u = up.ravel()[at]
+    c = cur.ravel()[at]
     sign = np.where(u, 1, -1)
-    room = np.where(u, K - c, c - 1)  # increments left before K (up) or before the base orientation (down)
-    n = np.minimum(room, L)
-    j = np.arange(1, L + 1)
-    valid = j[None, :] <= n[:, None]
-    r, col = np.nonzero(valid)  # increment col + 1 of search r
-    ok = np.zeros((A, L), bool)
-    if r.size:
+    n = np.minimum(np.where(u, K - c, c - 1), L)  # increments left before K (up) / the base orientation (down)
+    if L == 1:  # most batches: one increment of each search that has one left (n = 0 or 1)
+        r = np.flatnonzero(n)
+        ok = np.zeros(A, bool)
+        ok[r] = ev(pts[pi[r]] + ((c[r] + sign[r]) * inc)[:, None] * dvec[di[r]])
+        stopped = (n > 0) & (ok != u)
+        walked = n
+    else:
+        r, col = np.nonzero(np.arange(1, L + 1)[None, :] <= n[:, None])  # increment col + 1 of search r
+        ok = np.zeros((A, L), bool)
         ok[r, col] = ev(pts[pi[r]] + ((c[r] + sign[r] * (col + 1)) * inc)[:, None] * dvec[di[r]])
-    # the first increment where the search stops: inadmissible (up) or admissible (down); L + 1 where none
-    stop = np.where(valid & (ok != u[:, None]), j[None, :], L + 1).min(axis=1)
-    stopped = stop <= n
-    walked = np.where(stopped, stop, n)  # the increments the one-at-a-time search evaluates
-    np.add.at(evals, di, walked)
+        # the first increment where the search stops: inadmissible (up) or admissible (down); L + 1 where none
+        j = np.arange(1, L + 1)
+        stop = np.where((j[None, :] <= n[:, None]) & (ok != u[:, None]), j[None, :], L + 1).min(axis=1)
+        stopped = stop <= n
+        walked = np.where(stopped, stop, n)  # the increments the one-at-a-time search evaluates
+    evals += np.bincount(di, walked, D).astype(np.int64)
     new = c + sign * walked
     res = np.where(u, np.where(stopped, new - 1, new), np.where(stopped, new, 0))
     done = stopped | np.where(u, new >= K, new <= 1)
     # upwards: the last admissible increment so far; downwards: set once the search ends (0: the base orientation)
     keep = u | done
-    result[pi[keep], di[keep]] = res[keep]
-    cur[pi, di] = new
-    active[pi[done], di[done]] = False
+    result.ravel()[at[keep]] = res[keep]
+    cur.ravel()[at] = new
+    active.ravel()[at[done]] = False
 
 
 def _prediction(f: np.ndarray, u: np.ndarray, v: np.ndarray, m: np.ndarray, n: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation import parallel
 from pkmstiff.machine.model import Machine
 from pkmstiff.workspace.octree import OctreeResult, Progress, octree_boundary
-from pkmstiff.workspace.oracle import PoseOracle, RangeMode
+from pkmstiff.workspace.oracle import OracleSubtrees, PoseOracle, RangeMode
 from pkmstiff.workspace.requirements import Requirement
 from pkmstiff.workspace.surface import BoundarySurface
 from pkmstiff.workspace.volume import DEFAULT_METHODS, HEADLINE_METHOD, workspace_volume
@@ -180,13 +180,15 @@ def constant_orientation_workspace(
 def _octree(oracle: PoseOracle, lo: np.ndarray, hi: np.ndarray, resolution: float, min_level: int,
             methods: Sequence[str], refine_steps: int, progress: Progress | None) -> tuple[OctreeResult, int, Any]:
     """The octree from ``min_level`` (finer start levels while no start corner is admissible) and its volumes."""
-    res = octree_boundary(oracle, lo, hi, resolution, min_level=min_level, progress=progress)
+    res = octree_boundary(oracle, lo, hi, resolution, min_level=min_level, progress=progress,
+                          subtrees=OracleSubtrees(oracle))
     # A workspace thinner than the start grid's spacing is missed when no start corner is admissible (docs/theory/workspace.md,
     # known limitation): start finer before concluding that there is none, and say so if there still is none.
     level = min_level
     while res.leaf_index.shape[0] == 0 and res.inside_volume == 0.0 and level < max(min_level, MAX_RETRY_LEVEL):
         level += 1
-        res = octree_boundary(oracle, lo, hi, resolution, min_level=level, progress=progress)
+        res = octree_boundary(oracle, lo, hi, resolution, min_level=level, progress=progress,
+                              subtrees=OracleSubtrees(oracle))
     return res, level, workspace_volume(res, tuple(methods), refine_steps=refine_steps, admissible=oracle)
 
 
