@@ -1,7 +1,8 @@
 """Forward kinematics on the output body's six coordinates where every leg reduces to a distance constraint
 (issue 27 item 6: speed of the generic solver; an internal fast path of :func:`pkmstiff.mechanisms.solver.forward`).
 
-Two kinds of leg link reduce (:class:`LegPlan`, found by :func:`leg_plan` from the constraint structure at load):
+Two kinds of leg link reduce (:class:`LegPlan`, found by :func:`leg_plan` from the constraint structure, once per
+mechanism):
 
 - *telescopic*: joined to the ground by a cardan joint (point b) and to the output link by a driven
   ``point_on_axis`` joint (point P, axis a ∥ P − b at home): the drive equation (eq. 8 on the axis u = R_leg a)
@@ -315,8 +316,8 @@ def _legs(t, R, s, q0, q, leg_links, P, b, g, g0, K, ref, e1, e2, ac, rho, gam, 
     return lock
 
 
-def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
-                  path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, n0,
+def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o,
+                  tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, n0,
                   n1):  # pragma: no cover - compiled
     r = np.empty(6)
     rt = np.empty(6)
@@ -427,13 +428,13 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
         rcond[p] = 1.0 / (kappa[p] * (0.5 * (x + math.sqrt(x * x + 4.0))) ** 2)
 
 
-def _newton_impl(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
-                 path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
+def _newton_impl(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o,
+                 tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
                  lock):  # pragma: no cover - compiled
     N = S1.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
-        _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
-                      path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock,
+        _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam,
+                      o, tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock,
                       ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
@@ -450,11 +451,11 @@ _newton_parallel = numba.njit(parallel=True, **_OPTS)(_newton_impl)
 
 
 @numba.njit(**_OPTS)
-def _newton_serial(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
-                   path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
+def _newton_serial(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o,
+                   tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
                    lock):  # pragma: no cover - compiled
-    _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o, tol,
-                  path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, 0,
+    _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o,
+                  tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, 0,
                   S1.shape[0])
 
 
@@ -463,7 +464,8 @@ def solve(mech: Mechanism, lp: LegPlan, q0: Array, s0: Array, s1: Array, n_steps
     """Continuation in ``n_steps`` (N,) equal drive steps from the start (q0 (1 or N, L, 6), drive values s0
     (1 or N, 6)) to s1 (N, 6) [m], each a damped Newton on the output frame to ``path_tol`` (intermediate) /
     ``tol`` (last) on max |r|; then the legs in closed form.  Returns q (N, L, 6), code (N,), accepted steps,
-    max |r|, a lower bound of σ_min/σ_max of diag(D)⁻¹ J, κ(∂x_c/∂s) and the cardan-lock flag (NaN/False where failed)."""
+    max |r|, a lower bound of σ_min/σ_max of diag(D)⁻¹ J, κ(∂x_c/∂s) and the cardan-lock flag (NaN/False
+    where failed)."""
     N, L = s1.shape[0], len(mech.links)
     Q = np.full((N, L * 6), np.nan)
     code = np.empty(N, dtype=np.int64)
@@ -476,6 +478,6 @@ def solve(mech: Mechanism, lp: LegPlan, q0: Array, s0: Array, s1: Array, n_steps
     f = np.ascontiguousarray
     kern(f(q0.reshape(q0.shape[0], -1), dtype=float), f(s0, dtype=float), f(s1, dtype=float),
          f(n_steps, dtype=np.int64), lp.out_link, lp.leg_links, lp.P, lp.b, lp.g, lp.g0, lp.sign, lp.c, lp.mu, lp.K,
-         lp.ref, lp.e1, lp.e2, lp.ac, lp.rho, lp.gam, lp.o, float(tol), float(path_tol), int(max_iter), int(max_backtrack), float(armijo),
-         Q, code, iters, resid, rcond, kappa, lock)
+         lp.ref, lp.e1, lp.e2, lp.ac, lp.rho, lp.gam, lp.o, float(tol), float(path_tol), int(max_iter),
+         int(max_backtrack), float(armijo), Q, code, iters, resid, rcond, kappa, lock)
     return Q.reshape(N, L, 6), code, iters, resid, rcond, kappa, lock

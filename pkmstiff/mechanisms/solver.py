@@ -22,7 +22,7 @@ from pkmstiff.errors import ArgumentError
 from pkmstiff.kinematics.rotation import cardan_angles
 from pkmstiff.mechanisms import reduced
 from pkmstiff.mechanisms.constraints import (Frames, System, cardan_pose_rotation, fk_system, ik_system,
-                                             link_rotations, rotation_log, wrap)
+                                             rotation_log, wrap)
 from pkmstiff.mechanisms.linalg import gap_rank, lstsq_step, singular_values
 from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.mechanisms.outputs import output_condition
@@ -456,8 +456,9 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     κ of ∂x_c/∂s, ``Solution.output_kappa``, above 1/``singular_tol`` — a wrist singularity, where the forward
     kinematics themselves stay regular).  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
     targets are given up sooner, as a section raster needs).  A mechanism of length legs (6-UPS, 6X, Hexaglide:
-    :func:`pkmstiff.mechanisms.reduced.leg_plan`, decided at load) is solved on the output link's 6 coordinates with
-    the legs in closed form (:func:`_forward_reduced`; ``PKMSTIFF_FULL_FK=1`` forces the full path).
+    :func:`pkmstiff.mechanisms.reduced.leg_plan`, decided once per mechanism) is solved on the output link's 6
+    coordinates with the legs in closed form (:func:`_forward_reduced`; ``PKMSTIFF_FULL_FK=1`` forces the full
+    path).
     """
     nd = len(mech.drives)
     if nd == 0:
