@@ -1,14 +1,17 @@
 """Forward kinematics on the output body's six coordinates where every leg reduces to a distance constraint
 (issue 27 item 6: speed of the generic solver; an internal fast path of :func:`pkmstiff.mechanisms.solver.forward`).
 
-Two kinds of leg link reduce (:class:`LegPlan`, found by :func:`leg_plan` from the constraint structure, once per
+Three kinds of leg reduce (:class:`LegPlan`, found by :func:`leg_plan` from the constraint structure, once per
 mechanism):
 
 - *telescopic*: joined to the ground by a cardan joint (point b) and to the output link by a driven
   ``point_on_axis`` joint (point P, axis a ∥ P − b at home): the drive equation (eq. 8 on the axis u = R_leg a)
   reads s = σ|p − b| + c with p = t + R P, σ = sign((P − b)·a), c = offset − (P − b)·a (6-UPS, 6X);
 - *guided rod*: joined to the ground by a driven ``point_on_axis`` joint (carriage point C on a guide along g) and
-  to the output link by a cardan joint (point P): |p − C − (s − offset) g| = |P − C| (Hexaglide).
+  to the output link by a cardan joint (point P): |p − C − (s − offset) g| = |P − C| (Hexaglide);
+- *crank and rod* (two links): a crank on a driven revolute joint on the ground (point b, axis g), a rod joined to
+  it by a cardan joint (point K) and to the output link by a spherical joint (point P):
+  |p − b − Rot(g, s − offset)(K − b)| = |P − K| (6-RUS).
 
 A mechanism whose links are the ground, the output link and six such legs, with no other joint, is solved by a
 Newton iteration on the output frame (t, R) alone — residual rᵢ = σᵢ|p − Aᵢ(sᵢ)| + cᵢ − μᵢsᵢ, Jacobian rows
@@ -16,8 +19,8 @@ Newton iteration on the output frame (t, R) alone — residual rᵢ = σᵢ|p �
 every leg's frame follows in closed form (:func:`_legs`): the cardan R_rel = Rot(e₁, α) Rot(e₂, β) relative to its
 reference link turns the leg's home direction onto the current one, t_leg from the cardan point; of the two β the
 one nearest to the start's leg rotation (the configuration connected to the start, as the full path's
-continuation).  Legs of two links (the crank and rod of a 6-RUS) do not reduce here: such mechanisms keep the full
-path.
+continuation); a crank's frame is Rot(g, s − offset) about b.  Any other structure (a serial wrist, planar
+linkages) keeps the full path.
 
 The controlled-output condition comes from the same 6 × 6 Jacobian: ∂x_c/∂s = G J⁻¹ diag(D) with
 G = [[I, −[R o]×], [0, I]] for the output point o and ω and Dᵢ = −∂rᵢ/∂sᵢ, so κ(∂x_c/∂s) = κ(diag(D)⁻¹ J G⁻¹)
@@ -63,8 +66,9 @@ class LegPlan:
     """The legs of a reducible mechanism (SI, world coordinates at home), in drive order.  Leg i imposes
     rᵢ = σᵢ|p − Aᵢ| + cᵢ − μᵢ sᵢ = 0 on the output point p = t + R Pᵢ with the anchor Aᵢ = bᵢ + (sᵢ − g0ᵢ) gᵢ:
     a telescopic leg (cardan on the ground at b, driven ``point_on_axis`` on the output link: σ|p − b| + c = s)
-    or a guided rod (driven ``point_on_axis`` on a ground guide through b along g, cardan on the output link:
-    |p − A(s)| = L).  Its cardan joins it to the reference link (``ref`` 0: ground, 1: output) at K."""
+    a guided rod (driven ``point_on_axis`` on a ground guide through b along g, cardan on the output link:
+    |p − A(s)| = L) or a crank and rod (the anchor is the crank tip).  Its cardan joins it to the reference link
+    (``ref`` 0: ground, 1: output, 2: the crank) at K."""
 
     out_link: int
     leg_links: np.ndarray  #: (6,) leg link per drive
@@ -76,7 +80,8 @@ class LegPlan:
     c: np.ndarray  #: (6,) c [m]
     mu: np.ndarray  #: (6,) μ (1 telescopic, 0 guided)
     K: np.ndarray  #: (6, 3) cardan points (home)
-    ref: np.ndarray  #: (6,) int64 cardan reference link: 0 ground, 1 output
+    ref: np.ndarray  #: (6,) int64 cardan reference link: 0 ground, 1 output, 2 the leg's crank
+    crank: np.ndarray  #: (6,) int64 crank link of a crank leg (anchor b + Rot(g, s − g0)(K − b)), −1 otherwise
     e1: np.ndarray  #: (6, 3) cardan axes on the reference link (its frame)
     e2: np.ndarray  #: (6, 3) cardan axes on the leg (home)
     ac: np.ndarray  #: (6, 3) the leg direction a = (Q − K)/|Q − K| at home in the basis e₁, e₂, e₁ × e₂
@@ -86,14 +91,35 @@ class LegPlan:
 
 
 def leg_plan(mech: Mechanism) -> LegPlan | None:
-    """The :class:`LegPlan` of a mechanism whose every non-ground link but the output is a telescopic leg or a
-    guided rod, else None (see the module docstring); cached on the mechanism."""
+    """The :class:`LegPlan` of a mechanism whose every non-ground link but the output belongs to one of six legs
+    (telescopic, guided rod, crank and rod), else None (see the module docstring); cached on the mechanism."""
     cached = mech.__dict__.get("_leg_plan", False)
     if cached is not False:
         return cached
     plan = _find_legs(mech)
     mech.__dict__["_leg_plan"] = plan
     return plan
+
+
+def _crank_leg(mech: Mechanism, ci: int, g: int, out: int) -> tuple | None:
+    """The row of a crank leg (driven revolute on the ground at b about g, cardan at K to a rod, spherical at P on
+    the output link: |p − b − Rot(g, s − offset)(K − b)| = |P − K|), or None."""
+    js = [jt for jt in mech.joints if ci in jt.links]
+    rev = [jt for jt in js if jt.type == "revolute" and jt.links == (g, ci) and jt.drive is not None]
+    card = [jt for jt in js if jt.type == "cardan" and jt.links[0] == ci]
+    if len(js) != 2 or len(rev) != 1 or len(card) != 1:
+        return None
+    rj, cj = rev[0], card[0]
+    ri = cj.links[1]
+    rjs = [jt for jt in mech.joints if ri in jt.links]
+    sph = [jt for jt in rjs if jt.type == "spherical" and jt.links == (ri, out)]
+    if len(rjs) != 2 or len(sph) != 1:
+        return None
+    L = float(np.linalg.norm(sph[0].point - cj.point))
+    if L < 1e-9 * mech.length_scale:
+        return None
+    return (mech.drives.index(rj), ri, sph[0].point, rj.point, rj.axis, rj.drive.offset, 1.0, -L, 0.0, cj.point, 2,
+            cj.axis, cj.axis2, sph[0].point, ci)
 
 
 def _leg(mech: Mechanism, li: int, g: int, out: int) -> tuple | None:
@@ -113,13 +139,13 @@ def _leg(mech: Mechanism, li: int, g: int, out: int) -> tuple | None:
             return None
         da = float(d @ pj.axis)
         return (mech.drives.index(pj), li, pj.point, cj.point, np.zeros(3), 0.0, np.sign(da), pj.drive.offset - da,
-                1.0, cj.point, 0, cj.axis, cj.axis2, pj.point)
+                1.0, cj.point, 0, cj.axis, cj.axis2, pj.point, -1)
     if cj.links[0] == out and pj.links == (g, li):  # guided rod: carriage point on a ground guide
         L = float(np.linalg.norm(cj.point - pj.point))
         if L < 1e-9 * mech.length_scale:
             return None
         return (mech.drives.index(pj), li, cj.point, pj.point, pj.axis, pj.drive.offset, 1.0, -L, 0.0, cj.point, 1,
-                cj.axis, cj.axis2, pj.point)
+                cj.axis, cj.axis2, pj.point, -1)
     return None
 
 
@@ -130,18 +156,24 @@ def _find_legs(mech: Mechanism) -> LegPlan | None:
         return None
     g, out = mech.ground[0], o.link
     legs = [li for li in range(len(mech.links)) if li not in (g, out)]
-    if len(legs) != 6 or len(mech.joints) != 12:
+    if len(legs) == 6 and len(mech.joints) == 12:
+        rows = [_leg(mech, li, g, out) for li in legs]
+    elif len(legs) == 12 and len(mech.joints) == 18:
+        cranks = [jt.links[1] for jt in mech.drives if jt.type == "revolute" and jt.links[0] == g]
+        rows = [_crank_leg(mech, ci, g, out) for ci in cranks] if len(cranks) == 6 else [None]
+        if any(r is None for r in rows) or len({r[1] for r in rows} | set(cranks)) != 12:
+            return None
+    else:
         return None
-    rows = [_leg(mech, li, g, out) for li in legs]
     if any(r is None for r in rows):
         return None
     rows.sort(key=lambda r: r[0])
     f = np.ascontiguousarray
-    _, li, P, b, gd, g0, sg, c, mu, K, ref, e1, e2, Q = (f(np.array(v)) for v in zip(*rows))
+    _, li, P, b, gd, g0, sg, c, mu, K, ref, e1, e2, Q, crank = (f(np.array(v)) for v in zip(*rows))
     a = (Q - K) / np.linalg.norm(Q - K, axis=1, keepdims=True)
     ac = f(np.stack([np.einsum("ia,ia->i", a, e) for e in (e1, e2, np.cross(e1, e2))], axis=1))
     return LegPlan(out, li.astype(np.int64), P, b, gd.astype(float), g0.astype(float), sg.astype(float),
-                   c.astype(float), mu.astype(float), K, ref.astype(np.int64), e1, e2, ac,
+                   c.astype(float), mu.astype(float), K, ref.astype(np.int64), crank.astype(np.int64), e1, e2, ac,
                    np.hypot(ac[:, 0], ac[:, 2]), np.arctan2(ac[:, 2], ac[:, 0]), np.asarray(o.point, dtype=float))
 
 
@@ -155,24 +187,39 @@ def enabled() -> bool:
 # ----------------------------------------------------------------------------------------------------------
 
 
-def _eval(t, R, P, b, g, g0, sign, c, mu, s, r, J, D):  # pragma: no cover - compiled
+def _turn(e, ang, x, y, z):  # pragma: no cover - compiled
+    """Rot(e, ang) (x, y, z) for a unit axis e (Rodrigues)."""
+    c, s_ = math.cos(ang), math.sin(ang)
+    k = (e[0] * x + e[1] * y + e[2] * z) * (1.0 - c)
+    return (x * c + (e[1] * z - e[2] * y) * s_ + e[0] * k, y * c + (e[2] * x - e[0] * z) * s_ + e[1] * k,
+            z * c + (e[0] * y - e[1] * x) * s_ + e[2] * k)
+
+
+def _eval(t, R, P, b, g, g0, sign, c, mu, K, crank, s, r, J, D):  # pragma: no cover - compiled
     """Residual r (6,) and Jacobian J (6, 6) (columns δt, δω) of the legs at (t, R): rᵢ = σᵢ|p − Aᵢ| + cᵢ − μᵢ sᵢ
-    with the anchor Aᵢ = bᵢ + (sᵢ − g0ᵢ) gᵢ; with J also D (6,) = −∂rᵢ/∂sᵢ = σᵢ nᵢ·gᵢ + μᵢ."""
+    with the anchor Aᵢ = bᵢ + (sᵢ − g0ᵢ) gᵢ (or the crank tip bᵢ + Rot(gᵢ, sᵢ − g0ᵢ)(Kᵢ − bᵢ)); with J also
+    D (6,) = −∂rᵢ/∂sᵢ = nᵢ·∂Aᵢ/∂sᵢ + μᵢ."""
     for i in range(6):
         rp0 = R[0, 0] * P[i, 0] + R[0, 1] * P[i, 1] + R[0, 2] * P[i, 2]
         rp1 = R[1, 0] * P[i, 0] + R[1, 1] * P[i, 1] + R[1, 2] * P[i, 2]
         rp2 = R[2, 0] * P[i, 0] + R[2, 1] * P[i, 1] + R[2, 2] * P[i, 2]
         h = s[i] - g0[i]
-        d0 = t[0] + rp0 - b[i, 0] - h * g[i, 0]
-        d1 = t[1] + rp1 - b[i, 1] - h * g[i, 1]
-        d2 = t[2] + rp2 - b[i, 2] - h * g[i, 2]
+        if crank[i] < 0:  # anchor b + h g, ∂A/∂s = g
+            a0, a1, a2 = h * g[i, 0], h * g[i, 1], h * g[i, 2]
+            m0, m1, m2 = g[i, 0], g[i, 1], g[i, 2]
+        else:  # crank tip b + Rot(g, h)(K − b), ∂A/∂s = g × (A − b)
+            a0, a1, a2 = _turn(g[i], h, K[i, 0] - b[i, 0], K[i, 1] - b[i, 1], K[i, 2] - b[i, 2])
+            m0, m1, m2 = g[i, 1] * a2 - g[i, 2] * a1, g[i, 2] * a0 - g[i, 0] * a2, g[i, 0] * a1 - g[i, 1] * a0
+        d0 = t[0] + rp0 - b[i, 0] - a0
+        d1 = t[1] + rp1 - b[i, 1] - a1
+        d2 = t[2] + rp2 - b[i, 2] - a2
         ln = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         r[i] = sign[i] * ln + c[i] - mu[i] * s[i]
         if J.shape[0] == 6:
             n0, n1, n2 = sign[i] * d0 / ln, sign[i] * d1 / ln, sign[i] * d2 / ln
             J[i, 0], J[i, 1], J[i, 2] = n0, n1, n2
             J[i, 3], J[i, 4], J[i, 5] = rp1 * n2 - rp2 * n1, rp2 * n0 - rp0 * n2, rp0 * n1 - rp1 * n0
-            D[i] = n0 * g[i, 0] + n1 * g[i, 1] + n2 * g[i, 2] + mu[i]
+            D[i] = n0 * m0 + n1 * m1 + n2 * m2 + mu[i]
 
 
 def _solve6(A, x):  # pragma: no cover - compiled
@@ -247,7 +294,8 @@ def _rot_axis(e, ang, out):  # pragma: no cover - compiled
     _exp_left(ang * e[0], ang * e[1], ang * e[2], _EYE, out)
 
 
-def _legs(t, R, s, q0, q, leg_links, P, b, g, g0, K, ref, e1, e2, ac, rho, gam, W):  # pragma: no cover - compiled
+def _legs(t, R, s, q0, q, leg_links, P, b, g, g0, K, ref, crank, e1, e2, ac, rho, gam,
+          W):  # pragma: no cover - compiled
     """Leg frames into q (see :class:`LegPlan`); returns True where a cardan is near its lock.
 
     The cardan joins the leg to its reference link (ground: R_ref = I, or the output link: R_ref = R) at K; the
@@ -255,27 +303,35 @@ def _legs(t, R, s, q0, q, leg_links, P, b, g, g0, K, ref, e1, e2, ac, rho, gam, 
     the anchor b + (s − g0) g).  R_rel = Rot(e₁, α) Rot(e₂, β) with R_rel a = R_refᵀ v: of the two β that solve
     (R_refᵀ v)·e₁ = a₁ cos β + a₃ sin β (a in the basis e₁, e₂, e₃) the one whose R_leg = R_ref R_rel is nearest
     (Frobenius) to the start's leg rotation; t_leg = K' − R_leg K."""
-    R0, Ra, Rb, Rl, Rbest = W[0], W[1], W[2], W[3], W[4]
+    R0, Ra, Rb, Rl, Rbest, Rr = W[0], W[1], W[2], W[3], W[4], W[5]
     kp = np.empty(3)
     qp = np.empty(3)
     w = np.empty(3)
     lock = False
     for i in range(6):
         h = s[i] - g0[i]
+        if ref[i] == 0:
+            Rr[:] = _EYE
+        elif ref[i] == 1:
+            Rr[:] = R
+        else:  # the crank: Rot(g, h) about b
+            _rot_axis(g[i], h, Rr)
+            ci = 6 * crank[i]
+            for a in range(3):
+                q[ci + a] = b[i, a] - (Rr[a, 0] * b[i, 0] + Rr[a, 1] * b[i, 1] + Rr[a, 2] * b[i, 2])
+            _angles(Rr[0, 0], Rr[1, 0], Rr[2, 0], Rr[0, 1], Rr[1, 1], Rr[0, 2], Rr[1, 2], q[ci + 3:ci + 6])
         for a in range(3):
             pa = t[a] + R[a, 0] * P[i, 0] + R[a, 1] * P[i, 1] + R[a, 2] * P[i, 2]
-            if ref[i] == 0:
-                kp[a] = K[i, a]
-                qp[a] = pa
-            else:
-                kp[a] = pa
+            if ref[i] == 1:  # guided rod: cardan on the output link, other end on the guide
+                kp[a] = t[a] + R[a, 0] * K[i, 0] + R[a, 1] * K[i, 1] + R[a, 2] * K[i, 2]
                 qp[a] = b[i, a] + h * g[i, a]
+            else:  # cardan on the ground / the crank (its tip), other end at the output point
+                kp[a] = b[i, a] + (Rr[a, 0] * (K[i, 0] - b[i, 0]) + Rr[a, 1] * (K[i, 1] - b[i, 1])
+                                   + Rr[a, 2] * (K[i, 2] - b[i, 2]))
+                qp[a] = pa
         f = 1.0 / math.sqrt((qp[0] - kp[0]) ** 2 + (qp[1] - kp[1]) ** 2 + (qp[2] - kp[2]) ** 2)
         for a in range(3):  # R_refᵀ v
-            if ref[i] == 0:
-                w[a] = f * (qp[a] - kp[a])
-            else:
-                w[a] = f * (R[0, a] * (qp[0] - kp[0]) + R[1, a] * (qp[1] - kp[1]) + R[2, a] * (qp[2] - kp[2]))
+            w[a] = f * (Rr[0, a] * (qp[0] - kp[0]) + Rr[1, a] * (qp[1] - kp[1]) + Rr[2, a] * (qp[2] - kp[2]))
         e3 = (e1[i, 1] * e2[i, 2] - e1[i, 2] * e2[i, 1], e1[i, 2] * e2[i, 0] - e1[i, 0] * e2[i, 2],
               e1[i, 0] * e2[i, 1] - e1[i, 1] * e2[i, 0])
         v1 = w[0] * e1[i, 0] + w[1] * e1[i, 1] + w[2] * e1[i, 2]
@@ -297,11 +353,11 @@ def _legs(t, R, s, q0, q, leg_links, P, b, g, g0, K, ref, e1, e2, ac, rho, gam, 
             for r_ in range(3):
                 for c_ in range(3):
                     Rl[r_, c_] = Ra[r_, 0] * Rb[0, c_] + Ra[r_, 1] * Rb[1, c_] + Ra[r_, 2] * Rb[2, c_]
-            if ref[i] == 1:
+            if ref[i] != 0:  # R_leg = R_ref R_rel
                 for c_ in range(3):
                     x0, x1, x2 = Rl[0, c_], Rl[1, c_], Rl[2, c_]
                     for r_ in range(3):
-                        Rl[r_, c_] = R[r_, 0] * x0 + R[r_, 1] * x1 + R[r_, 2] * x2
+                        Rl[r_, c_] = Rr[r_, 0] * x0 + Rr[r_, 1] * x1 + Rr[r_, 2] * x2
             dist = 0.0
             for r_ in range(3):
                 for c_ in range(3):
@@ -316,7 +372,7 @@ def _legs(t, R, s, q0, q, leg_links, P, b, g, g0, K, ref, e1, e2, ac, rho, gam, 
     return lock
 
 
-def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o,
+def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, crank, e1, e2, ac, rho, gam, o,
                   tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, n0,
                   n1):  # pragma: no cover - compiled
     r = np.empty(6)
@@ -333,7 +389,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
     tt = np.empty(3)
     R = np.empty((3, 3))
     Rt = np.empty((3, 3))
-    W = np.empty((5, 3, 3))
+    W = np.empty((6, 3, 3))
     a2 = (1.0 - armijo) ** 2
     ol = 6 * out_link
     for p in range(n0, n1):
@@ -349,7 +405,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
             for i in range(6):
                 s[i] = s0[i] + (k / ns) * (S1[p, i] - s0[i])
             tk = tol if k == ns else path_tol
-            _eval(t, R, P, b, g, g0, sign, c, mu, s, r, J, D)
+            _eval(t, R, P, b, g, g0, sign, c, mu, K, crank, s, r, J, D)
             st = FAILED
             for it_ in range(max_iter + 1):
                 rn = 0.0
@@ -374,7 +430,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
                     for i in range(3):
                         tt[i] = t[i] + alpha * dx[i]
                     _exp_left(alpha * dx[3], alpha * dx[4], alpha * dx[5], R, Rt)
-                    _eval(tt, Rt, P, b, g, g0, sign, c, mu, s, rt, Jt if alpha == 1.0 else Jd, D)
+                    _eval(tt, Rt, P, b, g, g0, sign, c, mu, K, crank, s, rt, Jt if alpha == 1.0 else Jd, D)
                     t2 = 0.0
                     tmax = 0.0
                     for i in range(6):
@@ -396,7 +452,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
                     r, rt = rt, r
                     J, Jt = Jt, J
                 else:
-                    _eval(t, R, P, b, g, g0, sign, c, mu, s, r, J, D)
+                    _eval(t, R, P, b, g, g0, sign, c, mu, K, crank, s, r, J, D)
             if st != CONVERGED:
                 break
         code[p] = st
@@ -408,9 +464,9 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
         qp[:] = 0.0
         qp[ol:ol + 3] = t
         _angles(R[0, 0], R[1, 0], R[2, 0], R[0, 1], R[1, 1], R[0, 2], R[1, 2], qp[ol + 3:ol + 6])
-        lock[p] = _legs(t, R, s, q0, qp, leg_links, P, b, g, g0, K, ref, e1, e2, ac, rho, gam, W)
+        lock[p] = _legs(t, R, s, q0, qp, leg_links, P, b, g, g0, K, ref, crank, e1, e2, ac, rho, gam, W)
         # ∂x_c/∂s = G J⁻¹ diag(D): κ = κ(diag(D)⁻¹ J G⁻¹), G⁻¹ = [[I, [R o]×], [0, I]] (δω columns gain J_t [R o]×)
-        _eval(t, R, P, b, g, g0, sign, c, mu, s, r, J, D)
+        _eval(t, R, P, b, g, g0, sign, c, mu, K, crank, s, r, J, D)
         ro0 = R[0, 0] * o[0] + R[0, 1] * o[1] + R[0, 2] * o[2]
         ro1 = R[1, 0] * o[0] + R[1, 1] * o[1] + R[1, 2] * o[2]
         ro2 = R[2, 0] * o[0] + R[2, 1] * o[1] + R[2, 2] * o[2]
@@ -428,18 +484,19 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
         rcond[p] = 1.0 / (kappa[p] * (0.5 * (x + math.sqrt(x * x + 4.0))) ** 2)
 
 
-def _newton_impl(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o,
+def _newton_impl(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, crank, e1, e2, ac, rho, gam, o,
                  tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
                  lock):  # pragma: no cover - compiled
     N = S1.shape[0]
     for ch in numba.prange((N + _CHUNK - 1) // _CHUNK):
-        _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam,
+        _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, crank, e1, e2, ac, rho, gam,
                       o, tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock,
                       ch * _CHUNK, min(N, (ch + 1) * _CHUNK))
 
 
 _EYE = np.eye(3)
 _OPTS = {"cache": True, "nogil": True, "error_model": "numpy"}
+_turn = numba.njit(**_OPTS)(_turn)
 _eval = numba.njit(**_OPTS)(_eval)
 _solve6 = numba.njit(**_OPTS)(_solve6)
 _svd6 = numba.njit(**_OPTS)(_svd6)
@@ -451,10 +508,10 @@ _newton_parallel = numba.njit(parallel=True, **_OPTS)(_newton_impl)
 
 
 @numba.njit(**_OPTS)
-def _newton_serial(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o,
+def _newton_serial(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, crank, e1, e2, ac, rho, gam, o,
                    tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa,
                    lock):  # pragma: no cover - compiled
-    _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, e1, e2, ac, rho, gam, o,
+    _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c, mu, K, ref, crank, e1, e2, ac, rho, gam, o,
                   tol, path_tol, max_iter, max_backtrack, armijo, Q, code, iters, resid, rcond, kappa, lock, 0,
                   S1.shape[0])
 
@@ -478,6 +535,6 @@ def solve(mech: Mechanism, lp: LegPlan, q0: Array, s0: Array, s1: Array, n_steps
     f = np.ascontiguousarray
     kern(f(q0.reshape(q0.shape[0], -1), dtype=float), f(s0, dtype=float), f(s1, dtype=float),
          f(n_steps, dtype=np.int64), lp.out_link, lp.leg_links, lp.P, lp.b, lp.g, lp.g0, lp.sign, lp.c, lp.mu, lp.K,
-         lp.ref, lp.e1, lp.e2, lp.ac, lp.rho, lp.gam, lp.o, float(tol), float(path_tol), int(max_iter),
+         lp.ref, lp.crank, lp.e1, lp.e2, lp.ac, lp.rho, lp.gam, lp.o, float(tol), float(path_tol), int(max_iter),
          int(max_backtrack), float(armijo), Q, code, iters, resid, rcond, kappa, lock)
     return Q.reshape(N, L, 6), code, iters, resid, rcond, kappa, lock

@@ -455,7 +455,7 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     see ``Solution.status``: ``singular`` also where the controlled outputs are singular (``output_check``:
     κ of ∂x_c/∂s, ``Solution.output_kappa``, above 1/``singular_tol`` — a wrist singularity, where the forward
     kinematics themselves stay regular).  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
-    targets are given up sooner, as a section raster needs).  A mechanism of length legs (6-UPS, 6X, Hexaglide:
+    targets are given up sooner, as a section raster needs).  A mechanism of length legs (6-UPS, 6X, Hexaglide, 6-RUS:
     :func:`pkmstiff.mechanisms.reduced.leg_plan`, decided once per mechanism) is solved on the output link's 6
     coordinates with the legs in closed form (:func:`_forward_reduced`; ``PKMSTIFF_FULL_FK=1`` forces the full
     path).
