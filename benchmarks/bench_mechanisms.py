@@ -8,11 +8,13 @@ Run from the repository root:
 2. Inverse kinematics of 10,000 poses of the hybrid machine (``hybrid_tripod_wrist``) in one vectorised call from
    home, target ≤ 2 s.
 3. Forward kinematics of 10,000 6-UPS poses in one vectorised call from home, side by side with a dedicated
-   vectorised Newton on the platform pose (:func:`dedicated_fk_6ups`, issue 27 item 6: target within 3×).  The
-   generic call solves the 48 × 42 system of all seven links (struts eliminated per Newton step by the block
-   Schur complement of :mod:`pkmstiff.mechanisms.fused`) and then checks the controlled outputs (κ of ∂x_c/∂s,
-   one more factor and an SVD per pose); the dedicated Newton solves 6 × 6 systems and checks nothing.  Compare
-   the CPU ratio: on a shared machine wall-clock time is mostly waiting.
+   vectorised Newton on the platform pose (:func:`dedicated_fk_6ups`, issue 27 item 6: target within 3×) and with
+   the full link-and-joint path (``PKMSTIFF_FULL_FK=1``).  The 6-UPS is a mechanism of length legs, so the generic
+   call takes the fast path of :mod:`pkmstiff.mechanisms.reduced` (compiled Newton on the platform's 6 coordinates,
+   struts in closed form, κ of ∂x_c/∂s from the same 6 × 6 Jacobian); the full path solves the 48 × 42 system of all
+   seven links (struts eliminated per Newton step by the block Schur complement of
+   :mod:`pkmstiff.mechanisms.fused`) and then the output check.  The dedicated Newton checks nothing.  Compare the
+   CPU ratio: on a shared machine wall-clock time is mostly waiting.
 Both wall-clock and CPU time of this process are printed (on a shared machine wall-clock includes waiting for the
 CPU; the compiled kernels run on numba's threads from 2,048 poses on, so CPU time counts all of them, including
 their spin-waiting on a loaded machine).  The IK is timed with numba's default thread count and with one thread.
@@ -118,18 +120,26 @@ def main() -> None:
     lengths = mm.inverse(hexa, Pv).drives
     tol = 1e-13 * hexa.length_scale
     mm.forward(hexa, lengths[:10])
+    mm.forward(hexa, lengths[:4096])  # compile the parallel kernels too
     dedicated_fk_6ups(base, plat, lengths[:10], tol)
-    best_g = best_d = cpu_g = cpu_d = np.inf
+    best_g = best_d = cpu_g = cpu_d = cpu_f = np.inf
     for _ in range(args.repeat):
         sol, wg, cg = timed(lambda: mm.forward(hexa, lengths))
         (t_d, R_d, ok_d), wd, cd = timed(lambda: dedicated_fk_6ups(base, plat, lengths, tol))
+        os.environ["PKMSTIFF_FULL_FK"] = "1"
+        full, _, cf = timed(lambda: mm.forward(hexa, lengths))
+        del os.environ["PKMSTIFF_FULL_FK"]
         best_g, best_d, cpu_g, cpu_d = min(best_g, wg), min(best_d, wd), min(cpu_g, cg), min(cpu_d, cd)
+        cpu_f = min(cpu_f, cf)
     ip = hexa.link_index("platform")
     dev = max(np.abs(sol.q[:, ip, :3] - t_d).max(), np.abs(link_rotations(sol.q[:, ip, 3:], 3)[0] - R_d).max())
     print(f"6-UPS forward kinematics of {args.n_vec} poses (vectorised, from home): generic {best_g:.3f} s, "
           f"dedicated Newton {best_d:.3f} s wall (ratio {best_g / best_d:.1f}, target <= 3); CPU {cpu_g:.3f} s / "
           f"{cpu_d:.3f} s (ratio {cpu_g / cpu_d:.1f}); converged "
           f"{sol.summary()['converged']} / {int(ok_d.sum())}; max deviation of the platform frame {dev:.1e}")
+    print(f"  full link-and-joint path (PKMSTIFF_FULL_FK=1): CPU {cpu_f:.3f} s (ratio {cpu_f / cpu_d:.1f} to the "
+          f"dedicated Newton); statuses equal: {bool((full.status == sol.status).all())}; max |q_fast − q_full| "
+          f"{np.abs(full.q - sol.q).max():.1e}")
 
     hyb = mm.load_mechanism("hybrid_tripod_wrist")
     d = np.column_stack([rng.uniform(-0.1, 0.1, (args.n_ik, 3)), rng.uniform(-1.0, 1.0, args.n_ik),

@@ -445,5 +445,7 @@ def test_sweep_on_a_warm_local_cluster_is_not_slower_than_serial(dask_address):
     assert dask.rows == serial.rows
     # whatever the plan, this process works through the tasks itself unless the workers are sooner; the bound allows
     # the fixed costs (about 0.1 s), the two workers competing with this process for the 2 cores of a small machine
-    # (up to 1.5× for its share) and the noise of a shared machine (1 s)
-    assert t2 - t1 < 1.5 * (t1 - t0) + 1.0
+    # (up to 1.5× for its share) and the noise of a shared machine, where the test suite's other workers run beside it
+    # (2 s: measured up to 1.8 s over 1.5× serial at load 6 on 2 cores; the behaviour guarded against, work sent to
+    # cold workers, took 10 s against 3 s serially)
+    assert t2 - t1 < 1.5 * (t1 - t0) + 2.0

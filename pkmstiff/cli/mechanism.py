@@ -167,7 +167,8 @@ def info_report(name: str) -> dict[str, Any]:
     i = mm.info(mech)
     return {"mechanism": mech.name, "title": mech.title, "dimension": i.dimension, "links": list(i.links),
             "joints": i.joints, "unknowns": i.unknowns, "equations": i.equations, "rank": i.rank,
-            "mobility": i.mobility, "drives": list(i.drives), "assumptions": mech.assumptions}
+            "mobility": i.mobility, "drives": list(i.drives), "assumptions": mech.assumptions,
+            "forward_path": i.forward_path}
 
 
 def _announce_steps(args) -> None:
@@ -335,6 +336,8 @@ def _cmd(args) -> int:
                   + (f" (drive {j['drive']})" if j["drive"] else ""))
         print(f"  unknowns {rep['unknowns']}, equations {rep['equations']}, rank {rep['rank']}, "
               f"mobility {rep['mobility']}")
+        if rep["forward_path"] == "length_legs":
+            print("  forward kinematics: Newton on the output link's 6 coordinates, legs in closed form")
     elif args.action == "path":
         st = ", ".join(f"{k} {v}" for k, v in rep["status"].items())
         print(f"{rep['mechanism']}: {rep['samples']} samples, t = {rep['t_s'][0]:g} .. {rep['t_s'][1]:g} s: {st}")

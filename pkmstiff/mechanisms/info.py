@@ -9,6 +9,7 @@ import numpy as np
 from pkmstiff.mechanisms.constraints import model_system
 from pkmstiff.mechanisms.linalg import gap_rank
 from pkmstiff.mechanisms.model import Mechanism
+from pkmstiff.mechanisms.reduced import leg_plan
 from pkmstiff.mechanisms.solver import home
 
 
@@ -24,6 +25,9 @@ class MechanismInfo:
     mobility: int  #: unknowns − rank
     drives: tuple[str, ...]
     singular_values: np.ndarray  #: of the model Jacobian at home, descending
+    #: forward-kinematics path chosen at load: "length_legs" (Newton on the output link's 6 coordinates, legs in
+    #: closed form, :mod:`pkmstiff.mechanisms.reduced`) or "full" (all link coordinates)
+    forward_path: str = "full"
 
 
 def info(mech: Mechanism) -> MechanismInfo:
@@ -34,5 +38,6 @@ def info(mech: Mechanism) -> MechanismInfo:
     rank = int(gap_rank(s))
     joints = [{"name": j.name, "type": j.type, "links": [mech.links[j.links[0]], mech.links[j.links[1]]],
                "drive": j.drive.name if j.drive else None} for j in mech.joints]
+    path = "length_legs" if leg_plan(mech) is not None else "full"
     return MechanismInfo(mech.name, mech.dim, mech.links, joints, sysm.n, sysm.m, rank, sysm.n - rank,
-                         mech.drive_names, s)
+                         mech.drive_names, s, path)

@@ -20,6 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from pkmstiff.errors import ArgumentError
 from pkmstiff.kinematics.rotation import cardan_angles
+from pkmstiff.mechanisms import reduced
 from pkmstiff.mechanisms.constraints import (Frames, System, cardan_pose_rotation, fk_system, ik_system,
                                              rotation_log, wrap)
 from pkmstiff.mechanisms.linalg import gap_rank, lstsq_step, singular_values
@@ -454,7 +455,10 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
     see ``Solution.status``: ``singular`` also where the controlled outputs are singular (``output_check``:
     κ of ∂x_c/∂s, ``Solution.output_kappa``, above 1/``singular_tol`` — a wrist singularity, where the forward
     kinematics themselves stay regular).  ``max_backtrack`` bounds the step halvings per Newton step (fewer: unreachable
-    targets are given up sooner, as a section raster needs).
+    targets are given up sooner, as a section raster needs).  A mechanism of length legs (6-UPS, 6X, Hexaglide, 6-RUS:
+    :func:`pkmstiff.mechanisms.reduced.leg_plan`, decided once per mechanism) is solved on the output link's 6
+    coordinates with the legs in closed form (:func:`_forward_reduced`; ``PKMSTIFF_FULL_FK=1`` forces the full
+    path).
     """
     nd = len(mech.drives)
     if nd == 0:
@@ -469,10 +473,53 @@ def forward(mech: Mechanism, drives: ArrayLike, start: Solution | Array | None =
         q0 = start.q if isinstance(start, Solution) else np.asarray(start, dtype=float)
         t0 = joint_values(mech, q0, [i for i, j in enumerate(mech.joints) if j.drive is not None])
     n = path_steps(tg - t0, np.array([u == "rad" for u in mech.drive_units]), mech.length_scale, steps)
+    lp = reduced.leg_plan(mech) if reduced.enabled() else None
+    if lp is not None:
+        return _forward_reduced(lp, system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack, singular_tol,
+                                output_check)
+    return _forward_full(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack, singular_tol,
+                         output_check)
+
+
+def _forward_full(system: System, tg: Array, q0: Array, t0: Array, n: Array, tol: float, max_iter: int,
+                  max_refine: int, max_backtrack: int, singular_tol: float, output_check: bool) -> Solution:
+    """:func:`forward` on the whole link-and-joint system: continuation, rank check, output check."""
     out = _grouped(system, tg, q0, t0, n, tol, max_iter, max_refine, max_backtrack)
     sol = _finish(system, *out, tg, singular_tol)
     if output_check:
         _flag_outputs(sol, tg, singular_tol)
+    return sol
+
+
+def _forward_reduced(lp: reduced.LegPlan, system: System, tg: Array, q0: Array, t0: Array, n: Array, tol: float,
+                     max_iter: int, max_refine: int, max_backtrack: int, singular_tol: float,
+                     output_check: bool) -> Solution:
+    """:func:`forward` of a mechanism of length legs (:mod:`pkmstiff.mechanisms.reduced`): Newton on the output
+    frame, legs in closed form; the poses it does not certify regular go through :func:`_forward_full`.
+
+    ``rcond`` of a certified pose is a lower bound of σ_min/σ_max of the reduced 6 × 6 Jacobian diag(D)⁻¹ J (≥
+    ``reduced.REGULAR_SCREEN``), its rank the full one, ``residual`` max |F| of the drive equations (the legs'
+    equations hold to rounding)."""
+    mech = system.mech
+    N = tg.shape[0]
+    q, code, iters, resid, rcond, kappa, lock = reduced.solve(mech, lp, q0, t0, tg, n, tol, _PATH_TOL * tol,
+                                                              max_iter, max_backtrack, _ARMIJO)
+    with np.errstate(invalid="ignore"):
+        good = (code == reduced.CONVERGED) & (rcond >= reduced.REGULAR_SCREEN) & ~lock
+        if output_check:
+            good &= kappa * singular_tol <= 1.0
+    sol = Solution(mech, q, np.full(N, "converged", dtype=f"<U{max(map(len, STATUS))}"), iters, resid,
+                   np.full(N, system.free.size, dtype=int), system.free.size, rcond, np.full(N, np.nan),
+                   np.where(good, kappa, np.nan) if output_check else None)
+    bad = np.flatnonzero(~good)
+    if bad.size:
+        full = _forward_full(system, tg[bad], q0[np.minimum(bad, q0.shape[0] - 1)],
+                             t0[np.minimum(bad, t0.shape[0] - 1)], n[bad], tol, max_iter, max_refine, max_backtrack,
+                             singular_tol, output_check)
+        for f in ("q", "status", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
+            getattr(sol, f)[bad] = getattr(full, f)
+        if output_check:
+            sol.output_kappa[bad] = full.output_kappa
     return sol
 
 

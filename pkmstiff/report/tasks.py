@@ -121,9 +121,9 @@ def evaluate_task(machine: Machine | parallel.Shared[Machine], request: SectionR
     res = request.evaluate(m, **par)
     seconds = time.perf_counter() - t0
     if isinstance(res, WorkspaceResult) and isinstance(machine, parallel.Shared):
-        empty = np.empty(0, np.int64)
-        o = replace(res.octree, known_keys=empty, edges=None,
-                    **({} if figure else {"admissible_keys": empty, "leaf_index": np.empty((0, 3), np.int64),
+        # the lattice keys are computed from the leaves on demand (cached properties, not carried by ``replace``)
+        o = replace(res.octree, edges=None,
+                    **({} if figure else {"leaf_table": None, "leaf_index": np.empty((0, 3), np.int64),
                                           "leaf_corners": np.empty((0, 8), bool)}))
         res = replace(res, octree=o, surface=res.surface if figure else None)
     return res, seconds
