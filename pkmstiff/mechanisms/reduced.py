@@ -222,6 +222,17 @@ def _eval(t, R, P, b, g, g0, sign, c, mu, K, crank, s, r, J, D):  # pragma: no c
             D[i] = n0 * m0 + n1 * m1 + n2 * m2 + mu[i]
 
 
+def _norms6(r):  # pragma: no cover - compiled
+    """(max |rᵢ|, Σ rᵢ²) of a residual (6,); a NaN entry shows in the sum of squares."""
+    rn = 0.0
+    r2 = 0.0
+    for i in range(6):
+        r2 += r[i] * r[i]
+        if not abs(r[i]) <= rn:
+            rn = abs(r[i])
+    return rn, r2
+
+
 def _solve6(A, x):  # pragma: no cover - compiled
     """x ← A⁻¹ x by Gaussian elimination with partial pivoting (A (6, 6) is overwritten); False if singular."""
     for k in range(6):
@@ -408,12 +419,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
             _eval(t, R, P, b, g, g0, sign, c, mu, K, crank, s, r, J, D)
             st = FAILED
             for it_ in range(max_iter + 1):
-                rn = 0.0
-                r2 = 0.0
-                for i in range(6):
-                    r2 += r[i] * r[i]
-                    if not abs(r[i]) <= rn:
-                        rn = abs(r[i])
+                rn, r2 = _norms6(r)
                 if rn <= tk:
                     st = CONVERGED
                     break
@@ -431,12 +437,7 @@ def _newton_chunk(Q0, S0, S1, n_steps, out_link, leg_links, P, b, g, g0, sign, c
                         tt[i] = t[i] + alpha * dx[i]
                     _exp_left(alpha * dx[3], alpha * dx[4], alpha * dx[5], R, Rt)
                     _eval(tt, Rt, P, b, g, g0, sign, c, mu, K, crank, s, rt, Jt if alpha == 1.0 else Jd, D)
-                    t2 = 0.0
-                    tmax = 0.0
-                    for i in range(6):
-                        t2 += rt[i] * rt[i]
-                        if not abs(rt[i]) <= tmax:
-                            tmax = abs(rt[i])
+                    tmax, t2 = _norms6(rt)
                     if math.isfinite(t2) and (t2 <= (1.0 - armijo * alpha) ** 2 * r2
                                               or (alpha == 1.0 and (t2 <= a2 * r2 or tmax <= tk))):
                         ok = True
@@ -498,6 +499,7 @@ _EYE = np.eye(3)
 _OPTS = {"cache": True, "nogil": True, "error_model": "numpy"}
 _turn = numba.njit(**_OPTS)(_turn)
 _eval = numba.njit(**_OPTS)(_eval)
+_norms6 = numba.njit(inline="always", **_OPTS)(_norms6)
 _solve6 = numba.njit(**_OPTS)(_solve6)
 _svd6 = numba.njit(**_OPTS)(_svd6)
 _rot_angles = numba.njit(**_OPTS)(_rot_angles)
