@@ -245,6 +245,13 @@ def test_convergence_judges_each_raster_by_its_own_constraint(tmp_path, monkeypa
     assert real([c], lo, 0)[0].tolist() == [-1.0]  # maximised: the minimised sense
 
 
+def _sigint_default() -> None:
+    """In the child before exec: SIGINT handled by default, so Python turns it into KeyboardInterrupt. A command
+    started in the background by a non-interactive shell (``cmd &``, as CI runners do) inherits SIGINT ignored, and
+    Python keeps an ignored SIGINT ignored: the run would never see the Ctrl-C this test sends."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _checkpoint_lines(path: Path) -> list[dict]:
     return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
 
@@ -265,7 +272,7 @@ def test_sigint_then_resume_reevaluates_nothing_checkpointed(tmp_path, jobs):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     cmd = [sys.executable, "-m", "pkmstiff.cli", "optimise", str(f), "--out", str(out), "--jobs", str(jobs)]
     proc = subprocess.Popen(cmd, env=env, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=_sigint_default)
     deadline = time.monotonic() + 120
     while len(_checkpoint_lines(out / CHECKPOINT)) < 8 and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.05)
