@@ -128,17 +128,34 @@ def type_into(driver, element_id: str, value: str) -> None:
     box.send_keys(Keys.TAB)
 
 
+def click(driver, find_element, what: str) -> None:
+    """Click the element ``find_element(driver)`` returns, again until the click lands: a list that is still fading
+    out (Vuetify's transition) can lie over it for a moment and intercept the click."""
+    def clicked(d):
+        element = find_element(d)
+        if element is None:
+            return False
+        element.click()  # raises ElementClickInterceptedException while covered; wait_for polls again
+        return True
+
+    wait_for(driver, clicked, what)
+
+
 def choose(driver, element_id: str, item: str) -> None:
     """Open the select ``element_id`` (a click on its field: the input itself lies under the shown selection) and
     click its list item ``item``."""
-    driver.find_element("id", element_id).find_element(
-        "xpath", "./ancestor::div[contains(concat(' ', @class, ' '), ' v-field ')][1]").click()
+    def no_open_list(d):
+        return not any(e.is_displayed() for e in d.find_elements("css selector", ".v-overlay-container .v-list"))
+
+    wait_for(driver, no_open_list, f"the lists to close before opening {element_id}")
+    click(driver, lambda d: d.find_element("id", element_id).find_element(
+        "xpath", "./ancestor::div[contains(concat(' ', @class, ' '), ' v-field ')][1]"), f"the field {element_id}")
 
     def item_element(d):
         return next((e for e in d.find_elements("css selector", ".v-overlay-container .v-list-item")
                      if e.is_displayed() and e.text.strip() == item), None)
 
-    wait_for(driver, item_element, f"the item {item!r} of {element_id}").click()
+    click(driver, item_element, f"the item {item!r} of {element_id}")
 
 
 def click_map(driver, u_mm: float, v_mm: float) -> None:
