@@ -294,6 +294,77 @@ def test_refining_slices_separately_gives_the_same_leaves(n_slices):
     assert evaluated.size > ref.evaluations - pre.evaluations  # slices share points on their common faces
 
 
+class _InProcessSubtrees:
+    """A :class:`~pkmstiff.workspace.octree.SubtreeRunner` that refines the slices here, one after the other, and
+    counts every evaluation of the body (the octree's own and the subtrees'), less those taken out (``uncount``)."""
+
+    def __init__(self, body, n_slices: int, level: int):
+        self.body, self.n_slices, self.level = body, n_slices, level
+        self.points = 0
+        self.closure_here = 0  # points the closure of all leaves evaluated itself (not read back)
+
+    def __call__(self, p):  # the octree's own predicate
+        self.points += len(p)
+        return self.body(p)
+
+    def counted(self, p):
+        self.points += len(p)
+        return self.body(p), np.ones((len(p), 1), np.int64)
+
+    def slices(self, level, voxels, evaluations):
+        return self.n_slices if level == self.level else 0
+
+    def run(self, tasks):
+        from pkmstiff.workspace.octree import refine_subtree
+
+        return [refine_subtree(t, self.counted) for t in tasks]
+
+    def uncount(self, points, counts):
+        assert counts.shape == (1,) and counts[0] == points  # one per point
+        self.points -= points
+
+
+def _slotted_sphere(p):  # a sphere with a thin slot: voxels of several levels are discarded on both sides
+    return sphere(p) & ~((np.abs(p[:, 2] - CENTRE[2]) < 0.03) & (np.linalg.norm(p - CENTRE, axis=1) > 0.2))
+
+
+def _thin_plates(p):  # two plates thinner than a level-5 voxel, one touching the box (virtual corners outside)
+    return ((np.abs(p[:, 1] - 0.1) < 0.012) & (np.linalg.norm(p[:, [0, 2]], axis=1) < 0.6)) | (p[:, 0] > 0.77)
+
+
+@pytest.mark.parametrize(("body", "eps", "level", "n_slices"), [
+    (_slotted_sphere, 0.0125, 4, 2), (_slotted_sphere, 0.0125, 5, 7), (_slotted_sphere, 0.025, 3, 3),
+    (_thin_plates, 0.0125, 4, 3), (_thin_plates, 0.0125, 5, 2), (sphere, 0.025, 4, 5)])
+def test_subtrees_closing_their_own_leaves_ahead_give_the_serial_closure(body, eps, level, n_slices):
+    """Subtrees refined apart also close their own leaves within the region no other slice holds (in the workers):
+    the closure of all leaves then reads those points back. Leaves, their order, corners, evaluations per level (the
+    closure's included) and the body's evaluations counted (points evaluated ahead but not needed, or by two slices,
+    taken out) are those of the serial run, and most of the closure's points come from the subtrees."""
+    from pkmstiff.workspace import octree as O
+
+    serial = _InProcessSubtrees(body, 0, -1)
+    ref = octree_boundary(serial, *BOX, eps)
+    here = []  # points the closure of all leaves evaluated itself
+    ahead = O._AheadEvaluator._values
+    runner = _InProcessSubtrees(body, n_slices, level)
+
+    def values(self, idx):
+        here.append(idx.shape[0] - int(np.isin(self.lat.key(idx), self.ahead.keys).sum()))
+        return ahead(self, idx)
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(O._AheadEvaluator, "_values", values)
+        res = octree_boundary(runner, *BOX, eps, subtrees=runner)
+    assert res.closure_voxels == ref.closure_voxels
+    assert np.array_equal(res.leaf_index, ref.leaf_index) and np.array_equal(res.leaf_corners, ref.leaf_corners)
+    assert res.evaluations_per_level == ref.evaluations_per_level and res.evaluations == ref.evaluations
+    assert runner.points == serial.points == ref.evaluations
+    assert res.inside_volume == ref.inside_volume and res.touches_box == ref.touches_box
+    closure = dict(ref.evaluations_per_level)[-1]
+    assert (closure > 0) == (body is not sphere)  # the slot and the plates leave sign changes to close
+    assert sum(here) <= closure / 2  # most of the closure's points were evaluated ahead, in the subtrees
+
+
 def test_key_table_finds_every_key_and_nothing_else_while_it_grows():
     from pkmstiff.workspace.kernels import KeyTable
 

@@ -331,11 +331,11 @@ def octree_boundary(
         return n_slices[0] >= 2
 
     vox, corners, inside, level = _refine(vox, corners, l0, levels, lat, ev, per_level, progress, stop)
-    candidates = None  # the closure's first pass, done by the subtrees
+    candidates, ahead = None, None  # the closure's first pass and points it will evaluate, done by the subtrees
     if level < lmax and vox.shape[0]:  # stopped: the subtrees of this level's boundary voxels, refined apart
         t_sub = time.perf_counter()
-        vox, corners, candidates = _refine_apart(vox, corners, level, lat, subtrees,  # type: ignore[arg-type]
-                                                 n_slices[0], inside, per_level)
+        vox, corners, candidates, ahead = _refine_apart(vox, corners, level, lat, subtrees,  # type: ignore[arg-type]
+                                                        n_slices[0], inside, per_level, closure)
         ev.count = sum(n for _, n in per_level)
         ev.time += time.perf_counter() - t_sub
         if progress:
@@ -348,7 +348,11 @@ def octree_boundary(
     closure_added, edges, table = 0, None, None
     if closure and vox.shape[0]:
         before = ev.count
-        vox, corners, edges, closure_added, table = _close(vox, corners, lat, ev, candidates)
+        if ahead is None:
+            vox, corners, edges, closure_added, table = _close(vox, corners, lat, ev, candidates)
+        else:
+            vox, corners, edges, closure_added, table = _close_ahead(vox, corners, lat, ev, candidates, ahead,
+                                                                     subtrees)  # type: ignore[arg-type]
         per_level.append((-1, ev.count - before))
 
     touches = _touches_box(vox, corners, lat)
@@ -409,6 +413,43 @@ class SubtreeTask:
     coarse_keys: np.ndarray
     coarse_slice: np.ndarray
     slice: int
+    closure: bool = False  # also close the slice's leaves within the region no other slice holds (see Subtree)
+
+    @cached_property
+    def coarse_size(self) -> np.ndarray:
+        """(3,) edge of the slices' voxels in lattice cells."""
+        return (1 << (self.levels - np.minimum(self.level, self.levels))).astype(np.int64)
+
+    def others(self, lat: Lattice, idx: np.ndarray) -> np.ndarray:
+        """Whether the lattice cells ``idx`` (n, 3) lie in a voxel of another slice."""
+        q = idx // self.coarse_size
+        valid = np.all((q >= 0) & (q < lat.n // self.coarse_size), axis=1)
+        ck = lat.key(q * self.coarse_size)
+        pos = np.minimum(np.searchsorted(self.coarse_keys, ck), self.coarse_keys.size - 1)
+        return valid & (self.coarse_keys[pos] == ck) & (self.coarse_slice[pos] != self.slice)
+
+
+@dataclass
+class EvaluatedPoints:
+    """Points evaluated ahead of need: sorted keys, admissibility and the counters of each (:data:`CountedPredicate`)."""
+
+    keys: np.ndarray  # (K,) int64, sorted, distinct
+    ok: np.ndarray  # (K,) bool
+    counts: np.ndarray  # (K, C) int64
+
+    @classmethod
+    def join(cls, parts: list[EvaluatedPoints]) -> tuple[EvaluatedPoints, np.ndarray]:
+        """The points of all ``parts`` (each point once, the first part's) and the summed counters (C,) of the
+        repeats left out."""
+        parts = [p for p in parts if p.keys.size]
+        if not parts:
+            return cls(np.empty(0, np.int64), np.empty(0, bool), np.empty((0, 0), np.int64)), np.zeros(0, np.int64)
+        keys = np.concatenate([p.keys for p in parts])
+        counts = np.concatenate([p.counts for p in parts])
+        ukeys, first = np.unique(keys, return_index=True)
+        again = np.ones(keys.size, bool)
+        again[first] = False
+        return cls(ukeys, np.concatenate([p.ok for p in parts])[first], counts[first]), counts[again].sum(axis=0)
 
 
 @dataclass
@@ -423,6 +464,9 @@ class Subtree:
     shared_level: np.ndarray  # (K,) their levels
     shared_counts: np.ndarray  # (K, C) their counters (:data:`CountedPredicate`)
     ring_misses: np.ndarray | None = None  # sorted keys of voxels around the leaves' sign-change edges not among them
+    #: the points the slice's own closure evaluated (:attr:`SubtreeTask.closure`): the closure of all leaves then
+    #: finds most of its points evaluated (:func:`_close_ahead`)
+    closed: EvaluatedPoints | None = None
     info: Any = None  # what the runner adds (the evaluation statistics of the task)
 
 
@@ -479,9 +523,33 @@ class _CountingEvaluator(_Evaluator):
         return out
 
 
+class _RecordingEvaluator(_Evaluator):
+    """Evaluator of a subtree's own closure: keeps key, value and counters of every point it evaluates."""
+
+    def __init__(self, fn: CountedPredicate, lat: Lattice):
+        super().__init__(fn, lat)  # type: ignore[arg-type]
+        self.parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def _values(self, idx: np.ndarray) -> np.ndarray:
+        val, counts = self.fn(self.lat.point(idx))
+        val = np.asarray(val, bool)
+        self.parts.append((self.lat.key(idx), val, np.asarray(counts)))
+        return val
+
+    def points(self) -> EvaluatedPoints:
+        """What it evaluated, sorted by key (each point once: a closure evaluates a point once)."""
+        if not self.parts:
+            return EvaluatedPoints(np.empty(0, np.int64), np.empty(0, bool), np.empty((0, 0), np.int64))
+        keys = np.concatenate([k for k, _, _ in self.parts])
+        order = np.argsort(keys, kind="stable")
+        return EvaluatedPoints(keys[order], np.concatenate([v for _, v, _ in self.parts])[order],
+                               np.concatenate([c for _, _, c in self.parts])[order])
+
+
 def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
     """Refine one slice (a worker's task): its finest boundary voxels in depth-first order, the per-level counts and
-    the points it shares with other slices (see :func:`octree_boundary`)."""
+    the points it shares with other slices (see :func:`octree_boundary`); with ``task.closure`` also the points the
+    closure of its leaves evaluates within the region that no other slice holds."""
     lat = Lattice(task.lo, task.hi, task.levels)
     ev = _CountingEvaluator(counted, lat, task)
     per_level: list[tuple[int, int]] = []
@@ -492,7 +560,13 @@ def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
         counts = np.concatenate([c for _, _, c in ev.shared])
     else:
         keys, lvl, counts = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0), np.int64)
-    return Subtree(vox, corners, inside, per_level, keys, lvl, counts, _ring_misses(vox, corners, lat))
+    misses = _ring_misses(vox, corners, lat)
+    closed = None
+    if task.closure and vox.shape[0]:
+        rec = _RecordingEvaluator(counted, lat)
+        _closure_passes(vox, corners, lat, rec, misses, keep=lambda k: ~task.others(lat, lat.unkey(k)))
+        closed = rec.points()
+    return Subtree(vox, corners, inside, per_level, keys, lvl, counts, misses, closed)
 
 
 def _ring_misses(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> np.ndarray:
@@ -515,18 +589,19 @@ def _evaluations_after(last: int, level: int, levels: np.ndarray) -> float:
 
 
 def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice, runner: SubtreeRunner,
-                  n_slices: int, inside: list[int], per_level: list[tuple[int, int]]
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  n_slices: int, inside: list[int], per_level: list[tuple[int, int]], closure: bool
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, EvaluatedPoints]:
     """Cut the boundary voxels of ``level`` into ``n_slices`` contiguous slices, refine them apart (``runner``) and
     join the leaves in slice order (the serial order, :func:`_refine`); the inside counts and the evaluations per level
     are added to ``inside`` and ``per_level``, a point evaluated by k slices counted once (``runner.uncount``). Also
-    returns the slices' ring misses (candidates for the closure's first pass, :func:`_close`)."""
+    returns the slices' ring misses (candidates for the closure's first pass, :func:`_close`) and, with ``closure``,
+    the points their own closures evaluated (each once; :func:`_close_ahead`)."""
     bounds = np.linspace(0, vox.shape[0], n_slices + 1).round().astype(np.int64)
     keys = lat.key(vox)
     order = np.argsort(keys, kind="stable")
     owner = np.repeat(np.arange(n_slices), np.diff(bounds))
-    tasks = [SubtreeTask(lat.lo, lat.hi, lat.levels, level, vox[a:b], corners[a:b], keys[order], owner[order], k)
-             for k, (a, b) in enumerate(pairwise(bounds))]
+    tasks = [SubtreeTask(lat.lo, lat.hi, lat.levels, level, vox[a:b], corners[a:b], keys[order], owner[order], k,
+                         closure) for k, (a, b) in enumerate(pairwise(bounds))]
     parts = runner.run(tasks)
     new: dict[int, int] = {}
     for part in parts:
@@ -543,8 +618,12 @@ def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice
             new[int(lv)] -= int(n)
         runner.uncount(int(again.sum()), np.concatenate([p.shared_counts for p in shared])[again].sum(axis=0))
     per_level.extend(sorted(new.items()))
+    closed = [p.closed for p in parts if p.closed is not None]
+    ahead, repeats = EvaluatedPoints.join(closed)
+    if sum(c.keys.size for c in closed) > ahead.keys.size:
+        runner.uncount(sum(c.keys.size for c in closed) - ahead.keys.size, repeats)
     return (np.concatenate([p.vox for p in parts]), np.concatenate([p.corners for p in parts]),
-            np.concatenate([p.ring_misses for p in parts]))
+            np.concatenate([p.ring_misses for p in parts]), ahead)
 
 
 def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
@@ -621,15 +700,69 @@ def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator, c
            ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int, KeyTable]:
     """Add finest voxels around sign-change edges until every such edge has all four voxels (see module doc).
 
+    Returns the leaves, their corners, the sign-change edges of all leaves (each once), the number of added voxels and
+    the leaves' key table (key -> leaf number); the passes are :func:`_closure_passes`'.
+    """
+    vox, corners, added, table = _closure_passes(vox, corners, lat, ev, candidates)
+    return vox, corners, owned_edges(vox, corners), added, table
+
+
+class _AheadEvaluator(_Evaluator):
+    """The closure's evaluator where the subtrees evaluated points ahead: their values are read back (and marked
+    used), the others evaluated by ``ev``'s predicate."""
+
+    def __init__(self, ev: _Evaluator, ahead: EvaluatedPoints):
+        super().__init__(ev.fn, ev.lat)
+        self.ahead = ahead
+        self.used = np.zeros(ahead.keys.size, bool)
+
+    def _values(self, idx: np.ndarray) -> np.ndarray:
+        keys, known = self.lat.key(idx), self.ahead.keys
+        pos = np.minimum(np.searchsorted(known, keys), max(known.size - 1, 0))
+        hit = known[pos] == keys if known.size else np.zeros(keys.size, bool)
+        out = np.empty(keys.size, bool)
+        out[hit] = self.ahead.ok[pos[hit]]
+        self.used[pos[hit]] = True
+        if not hit.all():
+            out[~hit] = super()._values(idx[~hit])
+        return out
+
+
+def _close_ahead(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator, candidates: np.ndarray,
+                 ahead: EvaluatedPoints, runner: SubtreeRunner
+                 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int, KeyTable]:
+    """:func:`_close` where the subtrees' own closures evaluated points ahead (:func:`refine_subtree`): the same
+    passes, leaves and counts (a point read back counts as evaluated here, as in the serial run); the points evaluated
+    ahead that the closure does not need are taken out of the statistics (``runner.uncount``).
+
+    Every voxel a subtree's closure adds is one the closure of all leaves adds too (it lies outside the other slices,
+    which hold all their leaves, and is reached from leaves through voxels of the closure), so most of the points
+    the closure needs are read back; the rest (voxels first reached through another slice's region) are evaluated
+    here."""
+    aev = _AheadEvaluator(ev, ahead)
+    out = _close(vox, corners, lat, aev, candidates)
+    ev.count += aev.count
+    ev.time += aev.time
+    if not aev.used.all():
+        runner.uncount(int((~aev.used).sum()), ahead.counts[~aev.used].sum(axis=0))
+    return out
+
+
+def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator,
+                    candidates: np.ndarray | None = None, keep: Callable[[np.ndarray], np.ndarray] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, int, KeyTable]:
+    """The closure's passes: the leaves with the added voxels, their corners, the number added and the key table.
+
     Only the voxels added in the previous pass can ask for new neighbours, so each pass looks at that frontier; the
     voxels of a pass are added in the order of their keys. A corner is known (not evaluated again) when a leaf has it:
-    the corners of the octree's leaves and those evaluated in earlier passes. Returns the leaves, their corners, the
-    sign-change edges of all leaves (each once), the number of added voxels and the leaves' key table (key -> leaf
-    number).
+    the corners of the octree's leaves and those evaluated in earlier passes.
 
     ``candidates`` (subtrees refined apart): the ring misses of each subtree's leaves alone (computed in the workers).
     A voxel missing among all leaves is missing among a subtree's; a candidate of one subtree may be a leaf of
     another: the first pass keeps the candidates not in the table, which are the misses of a pass over all leaves.
+
+    ``keep`` (a subtree's own closure, :func:`refine_subtree`): keys of missing voxels -> which of them to add; the
+    others are left out (the closure is then that of the leaves within the region ``keep`` allows).
     """
     corner_off = CORNER_OFFSETS @ lat.strides
     ring_off = lat.ring_offsets()
@@ -646,6 +779,8 @@ def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator, c
         else:
             missing = unique_sorted(ring_misses(table.slots, table.shift, f_keys, f_corn, corner_off,
                                                 EDGES, ring_off))
+        if keep is not None:
+            missing = missing[keep(missing)]
         if missing.size == 0:
             break
         ck = (missing[:, None] + corner_off[None]).ravel()
@@ -661,5 +796,4 @@ def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator, c
         all_corn[table.size - f_keys.size:table.size] = f_corn
         parts_v.append(lat.unkey(missing))
         added += missing.size
-    vox, corners = np.concatenate(parts_v), all_corn[:table.size]
-    return vox, corners, owned_edges(vox, corners), added, table
+    return np.concatenate(parts_v), all_corn[:table.size], added, table
