@@ -421,12 +421,31 @@ class SubtreeTask:
         return (1 << (self.levels - np.minimum(self.level, self.levels))).astype(np.int64)
 
     def others(self, lat: Lattice, idx: np.ndarray) -> np.ndarray:
-        """Whether the lattice cells ``idx`` (n, 3) lie in a voxel of another slice."""
+        """Whether the lattice cells ``idx`` (n, 3) lie in the region of another slice: a voxel of another slice, or a
+        voxel of no slice whose neighbours (26) hold voxels of slices, the lowest of them another one (so that two
+        slices' own closures rarely evaluate the same points, :func:`refine_subtree`)."""
         q = idx // self.coarse_size
+        owner = self._owner(lat, q)
+        free = np.flatnonzero(owner < 0)
+        if free.size:
+            near = np.full(free.size, np.iinfo(np.int64).max)
+            for o in NEIGHBOURS:
+                s = self._owner(lat, q[free] + o)
+                near = np.where(s >= 0, np.minimum(near, s), near)
+            owner[free] = np.where(near == np.iinfo(np.int64).max, -1, near)
+        return (owner >= 0) & (owner != self.slice)
+
+    def _owner(self, lat: Lattice, q: np.ndarray) -> np.ndarray:
+        """The slice of the slices' voxels ``q`` (n, 3) (coarse indices), -1 where none."""
         valid = np.all((q >= 0) & (q < lat.n // self.coarse_size), axis=1)
         ck = lat.key(q * self.coarse_size)
         pos = np.minimum(np.searchsorted(self.coarse_keys, ck), self.coarse_keys.size - 1)
-        return valid & (self.coarse_keys[pos] == ck) & (self.coarse_slice[pos] != self.slice)
+        return np.where(valid & (self.coarse_keys[pos] == ck), self.coarse_slice[pos], -1)
+
+
+# the 26 neighbours of a voxel (index offsets)
+NEIGHBOURS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1) if (i, j, k) != (0, 0, 0)],
+                      dtype=np.int64)
 
 
 @dataclass
