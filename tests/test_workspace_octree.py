@@ -335,11 +335,13 @@ def _thin_plates(p):  # two plates thinner than a level-5 voxel, one touching th
 @pytest.mark.parametrize(("body", "eps", "level", "n_slices"), [
     (_slotted_sphere, 0.0125, 4, 2), (_slotted_sphere, 0.0125, 5, 7), (_slotted_sphere, 0.025, 3, 3),
     (_thin_plates, 0.0125, 4, 3), (_thin_plates, 0.0125, 5, 2), (sphere, 0.025, 4, 5)])
-def test_subtrees_closing_their_own_leaves_ahead_give_the_serial_closure(body, eps, level, n_slices):
+@pytest.mark.parametrize("least", [0, 40])
+def test_subtrees_closing_their_own_leaves_ahead_give_the_serial_closure(body, eps, level, n_slices, least):
     """Subtrees refined apart also close their own leaves within the region no other slice holds (in the workers):
     the closure of all leaves then reads those points back. Leaves, their order, corners, evaluations per level (the
     closure's included) and the body's evaluations counted (points evaluated ahead but not needed, or by two slices,
-    taken out) are those of the serial run, and most of the closure's points come from the subtrees."""
+    taken out) are those of the serial run, and most of the closure's points come from the subtrees (all of them
+    here where the subtrees' closures do not stop before small passes, ``least`` = 0)."""
     from pkmstiff.workspace import octree as O
 
     serial = _InProcessSubtrees(body, 0, -1)
@@ -354,6 +356,7 @@ def test_subtrees_closing_their_own_leaves_ahead_give_the_serial_closure(body, e
 
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(O._AheadEvaluator, "_values", values)
+        mp.setattr(O, "AHEAD_LEAST_POINTS", least)
         res = octree_boundary(runner, *BOX, eps, subtrees=runner)
     assert res.closure_voxels == ref.closure_voxels
     assert np.array_equal(res.leaf_index, ref.leaf_index) and np.array_equal(res.leaf_corners, ref.leaf_corners)

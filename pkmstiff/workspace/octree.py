@@ -414,6 +414,8 @@ class SubtreeTask:
     coarse_slice: np.ndarray
     slice: int
     closure: bool = False  # also close the slice's leaves within the region no other slice holds (see Subtree)
+    _regions: KeyTable | None = field(default=None, repr=False)  # coarse voxel key -> number in _region_of
+    _region_of: np.ndarray | None = field(default=None, repr=False)  # the slice whose region each is, -1 none
 
     @cached_property
     def coarse_size(self) -> np.ndarray:
@@ -425,19 +427,32 @@ class SubtreeTask:
         voxel of no slice whose neighbours (26) hold voxels of slices, the lowest of them another one (so that two
         slices' own closures rarely evaluate the same points, :func:`refine_subtree`)."""
         q = idx // self.coarse_size
-        owner = self._owner(lat, q)
-        free = np.flatnonzero(owner < 0)
-        if free.size:
-            near = np.full(free.size, np.iinfo(np.int64).max)
-            for o in NEIGHBOURS:
-                s = self._owner(lat, q[free] + o)
-                near = np.where(s >= 0, np.minimum(near, s), near)
-            owner[free] = np.where(near == np.iinfo(np.int64).max, -1, near)
+        cells = lat.n // self.coarse_size
+        ck = lat.key(q * self.coarse_size)
+        if self._regions is None:
+            self._regions, self._region_of = KeyTable(np.empty(0, np.int64)), np.empty(0, np.int64)
+        pos = self._regions.find(ck)
+        new = np.flatnonzero(pos < 0)
+        if new.size:  # the voxels' region, once per voxel
+            nk, first = np.unique(ck[new], return_index=True)
+            nq = q[new[first]]
+            owner = self._owner(lat, nq, cells)
+            free = np.flatnonzero(owner < 0)
+            if free.size:
+                near = np.full(free.size, np.iinfo(np.int64).max)
+                for o in NEIGHBOURS:
+                    s = self._owner(lat, nq[free] + o, cells)
+                    near = np.where(s >= 0, np.minimum(near, s), near)
+                owner[free] = np.where(near == np.iinfo(np.int64).max, -1, near)
+            self._regions.add(nk)
+            self._region_of = np.concatenate([self._region_of, owner])
+            pos = self._regions.find(ck)
+        owner = self._region_of[pos]
         return (owner >= 0) & (owner != self.slice)
 
-    def _owner(self, lat: Lattice, q: np.ndarray) -> np.ndarray:
+    def _owner(self, lat: Lattice, q: np.ndarray, cells: np.ndarray) -> np.ndarray:
         """The slice of the slices' voxels ``q`` (n, 3) (coarse indices), -1 where none."""
-        valid = np.all((q >= 0) & (q < lat.n // self.coarse_size), axis=1)
+        valid = np.all((q >= 0) & (q < cells), axis=1)
         ck = lat.key(q * self.coarse_size)
         pos = np.minimum(np.searchsorted(self.coarse_keys, ck), self.coarse_keys.size - 1)
         return np.where(valid & (self.coarse_keys[pos] == ck), self.coarse_slice[pos], -1)
@@ -542,6 +557,11 @@ class _CountingEvaluator(_Evaluator):
         return out
 
 
+#: a subtree's own closure stops before a pass of fewer new points than this: each pass costs ~1 ms of fixed costs
+#: (two small evaluation calls), and the closure of all leaves evaluates such tails of all slices in one pass each
+AHEAD_LEAST_POINTS = 256
+
+
 class _RecordingEvaluator(_Evaluator):
     """Evaluator of a subtree's own closure: keeps key, value and counters of every point it evaluates."""
 
@@ -583,7 +603,8 @@ def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
     closed = None
     if task.closure and vox.shape[0]:
         rec = _RecordingEvaluator(counted, lat)
-        _closure_passes(vox, corners, lat, rec, misses, keep=lambda k: ~task.others(lat, lat.unkey(k)))
+        _closure_passes(vox, corners, lat, rec, misses, keep=lambda k: ~task.others(lat, lat.unkey(k)),
+                        least=AHEAD_LEAST_POINTS)
         closed = rec.points()
     return Subtree(vox, corners, inside, per_level, keys, lvl, counts, misses, closed)
 
@@ -768,8 +789,8 @@ def _close_ahead(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evalua
 
 
 def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator,
-                    candidates: np.ndarray | None = None, keep: Callable[[np.ndarray], np.ndarray] | None = None
-                    ) -> tuple[np.ndarray, np.ndarray, int, KeyTable]:
+                    candidates: np.ndarray | None = None, keep: Callable[[np.ndarray], np.ndarray] | None = None,
+                    least: int = 0) -> tuple[np.ndarray, np.ndarray, int, KeyTable]:
     """The closure's passes: the leaves with the added voxels, their corners, the number added and the key table.
 
     Only the voxels added in the previous pass can ask for new neighbours, so each pass looks at that frontier; the
@@ -781,7 +802,8 @@ def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Eva
     another: the first pass keeps the candidates not in the table, which are the misses of a pass over all leaves.
 
     ``keep`` (a subtree's own closure, :func:`refine_subtree`): keys of missing voxels -> which of them to add; the
-    others are left out (the closure is then that of the leaves within the region ``keep`` allows).
+    others are left out (the closure is then that of the leaves within the region ``keep`` allows). ``least``: stop
+    before a pass that would evaluate fewer points (the rest is left to the closure of all leaves).
     """
     corner_off = CORNER_OFFSETS @ lat.strides
     ring_off = lat.ring_offsets()
@@ -805,6 +827,8 @@ def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Eva
         ck = (missing[:, None] + corner_off[None]).ravel()
         kn, val = known_corners(table.slots, table.shift, all_corn, ck, corner_off)
         unk = unique_sorted(ck[~kn])
+        if unk.size < least:
+            break
         if unk.size:
             uval = ev(lat.unkey(unk))
             val[~kn] = uval[np.searchsorted(unk, ck[~kn])]
