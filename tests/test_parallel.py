@@ -264,12 +264,18 @@ def test_rotation_map_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeyp
 
 
 def test_workspace_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeypatch, capsys, dask_address):
+    from pkmstiff.workspace import octree
     from pkmstiff.workspace.oracle import OracleSubtrees
 
     _split_small_work(monkeypatch)
     tasks: list[int] = []
     run = OracleSubtrees.run
     monkeypatch.setattr(OracleSubtrees, "run", lambda self, t: tasks.append(len(t)) or run(self, t))
+    # the subtrees close their own leaves ahead even in passes of a few points; the closure of all leaves reads them
+    monkeypatch.setattr(octree, "AHEAD_LEAST_POINTS", 0)
+    ahead: list[int] = []
+    close_ahead = octree._close_ahead
+    monkeypatch.setattr(octree, "_close_ahead", lambda *a: ahead.append(a[5].keys.size) or close_ahead(*a))
     base = ["workspace", "hexaglide", "--resolution", "50", "--no-plot"]
     printed = {}
     for name, extra in {"1": ["--jobs", "1"], "2": ["--jobs", "2"], "dask": ["--scheduler", dask_address]}.items():
@@ -281,6 +287,7 @@ def test_workspace_files_are_the_same_for_any_jobs_and_dask(tmp_path, monkeypatc
             assert "; octree subtrees: 2 local workers, " in err  # the cost line states the plan
     # the local run split into subtrees (on Dask the plan decides by the cluster's measured costs; same results)
     assert tasks and min(tasks) >= 2
+    assert ahead and min(ahead) > 0  # points evaluated ahead, by the local workers (and on Dask where it split)
     assert printed["2"] == printed["1"] and printed["dask"] == printed["1"]
     assert any("evaluations: " in x for x in printed["1"])
     _same_files_but_timing(tmp_path / "1", tmp_path / "2", "workspace.json")
