@@ -242,8 +242,8 @@ def corner_centroids(index, corners, lo, h):
 
 
 @_jit
-def extent_centre(points):
-    """(3,) 0.5 (min + max) of the points (N >= 1, 3) per axis (no NaN)."""
+def extent(points):
+    """(3,) min and (3,) max of the points (N >= 1, 3) per axis (no NaN), in one pass."""
     lo = points[0].copy()
     hi = points[0].copy()
     for i in range(1, points.shape[0]):
@@ -253,6 +253,13 @@ def extent_centre(points):
                 lo[k] = v
             elif v > hi[k]:
                 hi[k] = v
+    return lo, hi
+
+
+@_jit
+def extent_centre(points):
+    """(3,) 0.5 (min + max) of the points (N >= 1, 3) per axis (no NaN)."""
+    lo, hi = extent(points)
     return 0.5 * (lo + hi)
 
 

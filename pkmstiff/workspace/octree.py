@@ -120,6 +120,15 @@ class OctreeResult:
                                 np.asarray(self.lo, float), np.asarray(self.spacing, float))
 
     @cached_property
+    def extent(self) -> tuple[np.ndarray, np.ndarray]:
+        """(3,) min and (3,) max of the boundary points per axis (NaN without any), computed once: the bounding box
+        and the cloud centre of the volume methods."""
+        p = self.boundary_points
+        if p.shape[0] == 0:
+            return np.full(3, np.nan), np.full(3, np.nan)
+        return kernels.extent(np.ascontiguousarray(p, float))
+
+    @cached_property
     def lattice(self) -> "Lattice":
         return Lattice(self.lo, self.hi, self.levels)
 

@@ -83,10 +83,8 @@ class WorkspaceResult:
         return self.octree.boundary_points
 
     def bounding_box(self) -> tuple[np.ndarray, np.ndarray]:
-        p = self.boundary_points
-        if p.shape[0] == 0:
-            return np.full(3, np.nan), np.full(3, np.nan)
-        return p.min(axis=0), p.max(axis=0)
+        lo, hi = self.octree.extent
+        return lo.copy(), hi.copy()
 
     def summary(self) -> dict[str, Any]:
         """JSON-ready summary; keys name their units."""

@@ -57,10 +57,16 @@ def pyramid_volume(res: OctreeResult, z: ArrayLike | None = None) -> float:
     s = res.boundary_points
     if s.shape[0] == 0:
         return 0.0
-    zz = cloud_centre(s) if z is None else np.asarray(z, float)
+    zz = _centre(res) if z is None else np.asarray(z, float)
     h = np.linalg.norm(s - zz, axis=1)  # eq. 4.4
     e_bar = res.spacing.sum() / 3.0  # eq. 4.5 (all leaves have the finest size)
     return float(h.sum() * e_bar**2 / 3.0)  # eq. 4.6
+
+
+def _centre(res: OctreeResult) -> np.ndarray:
+    """:func:`cloud_centre` of the boundary points, from their extent (computed once per result)."""
+    lo, hi = res.extent
+    return 0.5 * (lo + hi)
 
 
 def tetrahedron_volume(mesh: BoundarySurface, z: ArrayLike | None = None, signed: bool = False) -> float:
@@ -108,8 +114,8 @@ def workspace_volume(
     for m in methods:
         if m == "pyramid":
             out[m] = pyramid_volume(res, z)
-        elif m == "tetrahedron":
-            out[m] = tetrahedron_volume(cmesh, z)  # type: ignore[arg-type]
+        elif m == "tetrahedron":  # the centroid mesh's vertices are the boundary points
+            out[m] = tetrahedron_volume(cmesh, _centre(res) if z is None else z)  # type: ignore[arg-type]
         elif m == "divergence":
             out[m] = cmesh.signed_volume()  # type: ignore[union-attr]
         elif m == "surface_nets":
