@@ -396,6 +396,15 @@ def test_compiled_triangle_volumes_are_the_numpy_formula():
     assert np.allclose(six_volumes(v, t), np.einsum("ij,ij->i", p1, x), rtol=1e-12, atol=1e-12)
 
 
+def test_compiled_extent_is_numpys_min_and_max():
+    from pkmstiff.workspace.kernels import extent, extent_centre
+
+    p = np.random.default_rng(4).normal(size=(1001, 3))
+    lo, hi = extent(p)
+    assert np.array_equal(lo, p.min(axis=0)) and np.array_equal(hi, p.max(axis=0))  # exact: comparisons only
+    assert np.array_equal(extent_centre(p), 0.5 * (p.min(axis=0) + p.max(axis=0)))
+
+
 def test_compiled_mesh_kernels_are_the_numpy_formulas():
     """Centroids (eq. 4.1), crossing vertices, owned edges and lattice keys: the numpy formulations they replaced, bit
     for bit (the same IEEE operations in the same order; no fastmath), on random voxels that also leave the box."""
