@@ -319,7 +319,7 @@ def mechanism_point(mech: Mechanism, pose: np.ndarray, settings: ModelSettings, 
     ev = evaluate(mech, x[None])
     ms = mechanism_structure(mech, solution=ev.solution, point=tip) if ev.solution.ok[0] else None
     if ms is not None and ms.model is not None:
-        n_modes = min(n_modes, ms.model.n_dof - ms.model.n_constraints - len(ms.model.massless_dofs))
+        n_modes = min(n_modes, sde.dynamic_dofs(ms.model))
     axes = "xyz"[:mech.dim]
     res = evaluate_mechanism(mech, ev.solution, n_modes, tuple(axes), point=tip)
     rot = ms is not None and ms.model is not None and isinstance(ms.model.body(ms.load_body), sde.RigidBody)

@@ -454,7 +454,10 @@ def section_report(args) -> dict[str, Any]:
     from pkmstiff.report.mechanism_section import section_where, write_mechanism_section
 
     mech = _load(args.machine)
-    plane = args.plane.lower()
+    plane = (args.plane or ("xy" if mech.dim == 2 else "yz")).lower()  # a planar mechanism: its plane of motion
+    if mech.dim == 2 and plane != "xy":
+        raise ArgumentError(f"--plane: mechanism '{mech.name}' is planar (it moves in the xy plane): expected xy, "
+                            f"found {plane}")
     for opt, given in (("--require", bool(args.require)),
                        ("--frame", args.frame != "machine"), ("--neglect-spindle", args.neglect_spindle),
                        ("--skip-check", bool(args.skip_check))):
@@ -484,8 +487,6 @@ def section_report(args) -> dict[str, Any]:
     outs = ([f"{stem}_{n}.png" for n in names] + [f"{stem}_admissibility.png"] if "png" in formats else []) \
         + [f"{stem}.{f}" for f in ("csv", "npz") if f in formats] + ([f"{stem}.json"] if "csv" in formats else [])
     check_output_dir(args.out, "--out", getattr(args, "force", False), tuple(outs))
-    if mech.dim == 2 and plane != "xy":
-        raise ArgumentError(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
     t0 = time.process_time()
     try:
         check_quantities(mech, names)
@@ -581,7 +582,8 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
                tool_length_mm: float | None = None) -> tuple[list[str], list[list]]:
     """``pkmstiff point MECHANISM --poses FILE``: the machines' CSV columns (pose mm/deg, admissible, reasons,
     k_x, k_y, k_z N/µm, f1… Hz); empty result cells where a pose is inadmissible or not modelled."""
-    from pkmstiff.mechanisms import evaluate, reason_names
+    from pkmstiff.mechanisms import evaluate, inverse, reason_names
+    from pkmstiff.mechanisms.section import mode_filter
     from pkmstiff.mechanisms.stiffness import evaluate_mechanism, take, tool_point
     from pkmstiff.mechanisms.structure import STATUS_BITS
 
@@ -590,7 +592,7 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
         raise ArgumentError(f"--poses: a file of x,y,z,a,b,c poses is for spatial mechanisms; '{mech.name}' is planar "
                             "(use --pose x,y,phi)")
     tip = tool_point(mech, tool_length_mm)
-    ev = evaluate(mech, poses_si)
+    ev = evaluate(mech, poses_si, solution=mode_filter(mech, inverse(mech, poses_si)))  # in home's working mode
     ok = np.flatnonzero(ev.admissible)
     n = len(poses_si)
     k = np.full((n, 3), np.nan)
@@ -610,13 +612,24 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
     return head, rows
 
 
+def _solve_point(mech, pose: np.ndarray, start_pose: str | None):
+    """The configuration of ``point`` at one pose: that of a section at the same point, in the working mode of home
+    or of ``--start-pose`` (:func:`pkmstiff.mechanisms.section.solve_in_mode`)."""
+    from pkmstiff.mechanisms.section import solve_in_mode
+
+    start = _start_configuration(mech, start_pose, None, 1)
+    return solve_in_mode(mech, pose, None if start is None else start[0])
+
+
 def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bool,
-                 unavailable: dict[str, bool], tool_length_mm: float | None = None) -> dict[str, Any]:
+                 unavailable: dict[str, bool], tool_length_mm: float | None = None,
+                 start_pose: str | None = None) -> dict[str, Any]:
     """``pkmstiff point MECHANISM --pose …``: the elastic model (issue 27) at one pose, as the machines' report
     (schema ``pkmstiff/point/1``: stiffness N/µm and N·m/µrad at the output point or the tool tip
     ``tool_length_mm`` along the tool axis, frequencies Hz, weak points %, kinetostatics of
     :mod:`pkmstiff.mechanisms.kinetostatics`). A planar mechanism reports x, y (and the rotation about z) only.
-    ``unavailable``: machine-only options given."""
+    ``unavailable``: machine-only options given; ``start_pose``: the pose (mm, deg) whose working mode is kept
+    (default home)."""
     import pkmstiff.multibody as sde
     from pkmstiff.cli.point import SCHEMA, STIFFNESS_MATRIX_UNITS, _num, _refuse
     from pkmstiff.mechanisms import evaluate, reason_names
@@ -626,7 +639,7 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
     mech = _elastic_mechanism(name, unavailable)
     tip = tool_point(mech, tool_length_mm)
     pose = _parse_poses(mech, [pose_text], "--pose")
-    ev = evaluate(mech, pose)
+    ev = evaluate(mech, pose, solution=_solve_point(mech, pose, start_pose))
     reasons = reason_names(int(ev.reasons[0]))
     names = _pose_names(mech)
     pose_out = {f"{n}_{u}": float(v * (1e3 if u == "mm" else 180 / math.pi)) for (n, u), v in zip(names, pose[0])}
@@ -636,7 +649,7 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
                                                                             for r in reasons])
     ms = mechanism_structure(mech, solution=ev.solution, point=tip) if ev.solution.ok[0] else None
     if ms is not None and ms.model is not None:  # at most the dynamic DOFs (massless and bound ones excluded)
-        n_modes = min(n_modes, ms.model.n_dof - ms.model.n_constraints - len(ms.model.massless_dofs))
+        n_modes = min(n_modes, sde.dynamic_dofs(ms.model))
     axes = "xyz"[:mech.dim]  # a planar mechanism has no z stiffness, no z weak points
     res = evaluate_mechanism(mech, ev.solution, n_modes, tuple(axes), point=tip)
     comp = res.compliance[0]
@@ -706,19 +719,18 @@ def _kinetostatics_report(mech, sol) -> dict[str, Any]:
 
 
 def mode_figures(name: str, pose_text: str, n_modes: int, out: str, names: tuple[str, ...],
-                 tool_length_mm: float | None = None) -> list:
+                 tool_length_mm: float | None = None, start_pose: str | None = None) -> list:
     """``pkmstiff point MECHANISM --figures DIR``: one mode-shape PNG per mode (``names``) of the elastic model at
     the pose (:func:`pkmstiff.plots.mechanism.mechanism_mode_figure`)."""
     from pathlib import Path
 
-    from pkmstiff.mechanisms import inverse
     from pkmstiff.mechanisms.modeshape import mode_shapes
     from pkmstiff.mechanisms.stiffness import tool_point
     from pkmstiff.plots.mechanism import mechanism_mode_figure
 
     mech = _elastic_mechanism(name, {})
     pose = _parse_poses(mech, [pose_text], "--pose")
-    sol = inverse(mech, pose)
+    sol = _solve_point(mech, pose, start_pose)
     if not sol.ok[0]:
         return []
     where = ", ".join(f"{n} = {v * (1e3 if u == 'mm' else 180 / math.pi):g} {u}"

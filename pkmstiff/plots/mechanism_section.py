@@ -12,7 +12,7 @@ from pkmstiff.io.atomic import atomic_path
 MM = 1e3
 #: map categories: admissible, then the first failing reason bit (pkmstiff.mechanisms.REASONS order)
 _CATEGORIES = (("admissible", "#2ca02c"), ("no solution", "#7f7f7f"), ("singular", "#d62728"),
-               ("joint limit", "#ff7f0e"))
+               ("joint limit", "#ff7f0e"), ("other working mode", "#9467bd"))
 
 
 def _categories(sec) -> np.ndarray:
