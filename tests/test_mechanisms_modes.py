@@ -113,3 +113,62 @@ def test_planar_mechanism_section_defaults_to_the_plane_of_motion(capsys, tmp_pa
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "planar (it moves in the xy plane): expected xy, found xz" in err[0]
     assert not out.exists()  # refused before any work
+
+
+def test_section_maps_the_mode_of_a_start_pose(capsys):
+    import json
+
+    from pkmstiff.cli import main
+
+    assert main(["section", "five_bar", "--step", "20", "--start-pose", "100,60,0", "--json"]) == 0
+    rep = json.loads(capsys.readouterr().out)
+    # the other assembly mode (below the couplers' straight line): admissible there, home's mode now "other"
+    assert rep["start_pose_mm_deg"] == [100.0, 60.0, 0.0] and rep["admissible_points"] > 20
+    assert rep["inadmissible_reasons"]["OTHER_WORKING_MODE"] > 0 and rep["window_mm"]["y"][0] < 0
+    home = json.loads((main(["section", "five_bar", "--step", "20", "--json"]), capsys.readouterr().out)[1])
+    assert home["window_mm"]["y"][0] >= 0 and "start_pose_mm_deg" not in home
+    assert main(["section", "hexaglide", "--start-pose", "0,0,-1000,0,0,0"]) == 2
+    assert "--start-pose: only for a mechanism" in capsys.readouterr().err
+
+
+def test_a_drive_path_sample_in_another_mode_is_flagged(tmp_path, monkeypatch, capsys):
+    """``mechanism path`` follows the drives sample after sample; a sample whose forward kinematics lands in another
+    assembly mode than the path's start (forced here: the bipod's mirror configuration for the second sample) is
+    ``other_mode``, with empty pose cells, not a pose of the other branch."""
+    import csv
+
+    from pkmstiff.cli import main
+
+    bip = mm.load_mechanism("bipod_generic")
+    mirror = mm.inverse(bip, [[0.0, -0.4583, 0.0]])  # l1 = l2 ≈ 1.1 m below the base line
+    real = mm.forward
+    calls = []
+
+    def flipping(mech, drives, start=None, **kw):
+        sol = real(mech, drives, start=start, **kw)
+        calls.append(1)
+        if len(calls) == 2:
+            sol = real(mech, drives, start=mirror.q, **kw)  # the same drives, the mirror configuration
+        return sol
+
+    monkeypatch.setattr(mm, "forward", flipping)
+    f = tmp_path / "d.csv"
+    f.write_text("t_s,l1_mm,l2_mm\n0,1200,1200\n0.1,1100,1100\n0.2,1150,1150\n")
+    out = tmp_path / "o.csv"
+    assert main(["mechanism", "path", "bipod_generic", "--drives-file", str(f), "--out", str(out)]) == 0
+    assert "other_mode 1" in capsys.readouterr().out
+    rows = list(csv.DictReader(out.open()))
+    assert [r["status"] for r in rows] == ["converged", "other_mode", "converged"]
+    assert rows[1]["y_mm"] == "" and float(rows[0]["y_mm"]) > 0
+
+
+def test_signature_separates_the_mirror_assembly_mode_of_a_6ups():
+    """Spatial: the platform mirrored through the plane of the base joints (z → −z, parallel platform) has the same
+    six strut lengths — the other assembly mode; the forward-kinematics block's sign tells them apart, a pose of the
+    same mode does not differ."""
+    hexa = mm.load_mechanism("hexapod_6ups")
+    sol = mm.inverse(hexa, [[0.05, 0.02, 1.2, 0, 0, 0], [0.05, 0.02, -1.2, 0, 0, 0], [-0.1, 0.05, 1.1, 3e-2, 0, 0]],
+                     steps=8)
+    assert sol.ok.all() and np.allclose(sol.drives[0], sol.drives[1], rtol=0, atol=1e-12)
+    sig = signature(hexa, sol.q)
+    assert other_mode(sig[1:2], sig[0]).all() and not other_mode(sig[2:3], sig[0]).any()

@@ -247,15 +247,20 @@ def path_report(name: str, drives_file: str, start_pose: str | None = None,
     along a drive path (patent claim 9, :func:`pkmstiff.mechanisms.path.path_derivatives`); returns the JSON-ready
     summary and the CSV rows (header first)."""
     import pkmstiff.mechanisms as mm
+    from pkmstiff.mechanisms.modes import signature
     from pkmstiff.mechanisms.path import path_derivatives
+    from pkmstiff.mechanisms.section import mode_status
 
     mech = _load(name)
     t, sv = read_drive_path(mech, drives_file)
     start = _start_configuration(mech, start_pose, start_drives, 1)
-    # the path is followed sample after sample (each solve starts from the previous configuration)
+    # the path is followed sample after sample (each solve starts from the previous configuration found in the start's
+    # working and assembly mode; a sample whose configuration flipped into another is ``other_mode``)
+    start_sig, ref = signature(mech, mm.home(mech) if start is None else start)[0], None
     q = []
     for i in range(t.size):
         sol_i = mm.forward(mech, sv[0][i:i + 1], start=start)
+        sol_i.status, ref = mode_status(mech, sol_i, start_sig, ref)
         q.append(sol_i)
         if sol_i.ok[0]:
             start = sol_i.q
@@ -481,6 +486,7 @@ def section_report(args) -> dict[str, Any]:
             raise ArgumentError(f"--tool-length: mechanism '{mech.name}' has no [elastic] table (the tool length "
                                 "moves the point of the stiffness quantities)")
     tip = tool_point(mech, args.tool_length) if mech.elastic is not None else None
+    start = _start_configuration(mech, args.start_pose, None, 1)  # None: home's working mode
     stem = f"{safe_stem(mech.name)}_{plane}"
     from pkmstiff.cli.edges import check_output_dir
 
@@ -492,20 +498,23 @@ def section_report(args) -> dict[str, Any]:
         check_quantities(mech, names)
         fitted = ranges is None
         if fitted:
-            (u0, u1), (v0, v1) = fit_window(mech, plane, at, ori, step)
+            (u0, u1), (v0, v1) = fit_window(mech, plane, at, ori, step, start=None if start is None else start[0])
         else:
             (u0, u1), (v0, v1) = ranges[plane[0]], ranges[plane[1]]
         n_points = (int((u1 - u0) / step + 1e-9) + 1) * (int((v1 - v0) / step + 1e-9) + 1)
         if n_points > SECTION_MAX_POINTS:
             raise ArgumentError(f"--step: {n_points} raster points, expected at most {SECTION_MAX_POINTS} for a "
                                 f"mechanism section (a larger step or a smaller --range)")
-        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names, tip)
+        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names, tip,
+                               None if start is None else start[0])
         if tip is not None:
             sec.settings["tool_length_mm"] = float(args.tool_length)
     except PkmstiffError as exc:
         raise ArgumentError(str(exc)) from None
     cpu = time.process_time() - t0
     where = section_where(mech, plane, args.at, ori, args.tool_length if tip is not None else None)
+    if start is not None:  # validated by _start_configuration
+        where["start_pose_mm_deg"] = [float(v) for v in args.start_pose.split(",")]
     files = write_mechanism_section(sec, Path(args.out), stem, formats, where) if args.out else []
     stats = sec.statistics()
     return {**where,
@@ -523,6 +532,8 @@ def print_section(rep: dict[str, Any]) -> None:
         f"{rep['plane']} plane at {({'x', 'y', 'z'} - set(rep['plane'])).pop()} = {rep['at_mm']:g} mm"
     ori = ",".join(f"{a:g}" for a in rep["orientation_deg"])
     tool = f", tool {rep['tool_length_mm']:g} mm" if "tool_length_mm" in rep else ""
+    if "start_pose_mm_deg" in rep:
+        tool += f", working mode of the pose {','.join(f'{v:g}' for v in rep['start_pose_mm_deg'])}"
     print(f"{rep['mechanism']} (mechanism): {where}, orientation {ori} deg{tool}, window {win}"
           f"{' (fitted)' if rep['window_fitted_to_workspace'] else ''}: {rep['admissible_points']} of "
           f"{rep['points']} points admissible ({rep['admissible_area_m2']:.4g} m²)")

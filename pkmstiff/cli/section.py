@@ -50,6 +50,9 @@ def _mechanism_section(args: argparse.Namespace) -> int:
 
 
 def _machine_section(args: argparse.Namespace) -> int:
+    if args.start_pose is not None:
+        raise ArgumentError(f"--start-pose: only for a mechanism (its working mode), found '{args.machine}' (a machine "
+                            "has one closed-form configuration per pose)")
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.evaluation.cost import PLOT_LIBRARY_SECONDS, PNG_SECONDS
     from pkmstiff.evaluation.quantities import get_quantity
@@ -233,6 +236,9 @@ def add_commands(sub) -> None:
     p.add_argument("--plane", default=None, choices=["yz", "xz", "xy", "YZ", "XZ", "XY"],
                    help="section plane (default yz; xy, the plane of motion, for a planar mechanism)")
     p.add_argument("--at", type=float, default=0.0, help="position of the plane along its normal axis [mm]")
+    p.add_argument("--start-pose", default=None, metavar="POSE",
+                   help="a mechanism: map the working/assembly mode of this pose (x,y,z,a,b,c mm/deg; planar x,y,phi), "
+                        "reached from home, instead of home's")
     p.add_argument("--range", default=None,
                    help="in-plane ranges in mm, e.g. y=-600:800,z=-1200:-500 (default: fitted to the admissible "
                         "region by a coarse pass, plus a margin)")

@@ -170,7 +170,7 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], start: Arr
         nonlocal ref
         part = inverse(mech, P[idx], start=begin, output_check=False, **solve_kw)  # κ_out: only where asked
         sol.n_free = part.n_free
-        status, ref = _mode_status(mech, part, start_sig, ref)
+        status, ref = mode_status(mech, part, start_sig, ref)
         for f in ("q", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
             getattr(sol, f)[idx] = getattr(part, f)  # idx are unsolved points: the last try is their result
         sol.status[idx] = status
@@ -226,11 +226,11 @@ def mode_filter(mech: Mechanism, sol: Solution, start: Array | None = None) -> S
     from pkmstiff.mechanisms.modes import signature
 
     q0 = inverse(mech, mech.home_output_pose[None]).q[0] if start is None else np.asarray(start, dtype=float)
-    sol.status = _mode_status(mech, sol, signature(mech, q0[None])[0], None)[0]
+    sol.status = mode_status(mech, sol, signature(mech, q0[None])[0], None)[0]
     return sol
 
 
-def _mode_status(mech: Mechanism, sol: Solution, start_sig: Array, ref: Array | None
+def mode_status(mech: Mechanism, sol: Solution, start_sig: Array, ref: Array | None
                  ) -> tuple[Array, Array | None]:
     """The status of ``sol`` with ``other_mode`` / ``singular`` against the reference signature ``ref`` (None: the
     start's signature, its zeros taken from the first configuration of ``sol``), and that reference."""
@@ -315,23 +315,26 @@ NEIGHBOUR = {"steps": 1, "max_refine": 1, "max_backtrack": 6}
 
 
 def fit_window(mech: Mechanism, plane: str, at: float, orientation: Array, step: float,
-               extent: float | None = None, n: int = 25) -> tuple[tuple[float, float], ...]:
-    """In-plane ranges (m) covering the admissible points of a coarse n×n pass over home ± ``extent`` (default
-    the mechanism's length scale; solved from home, points in another working mode than home's left out:
-    :func:`mode_filter`), widened by one coarse cell and snapped to ``step``."""
+               extent: float | None = None, n: int = 25, start: Array | None = None) -> tuple[tuple[float, float], ...]:
+    """In-plane ranges (m) covering the admissible points of a coarse n×n pass over the start's output point ±
+    ``extent`` (default the mechanism's length scale; solved from the start ``start`` (L, d), default home, points in
+    another working mode than the start's left out: :func:`mode_filter`), widened by one coarse cell and snapped to
+    ``step``."""
     plane = plane.lower()
-    home = mech.home_output_pose
+    centre = mech.home_output_pose if start is None else output_pose(mech, np.asarray(start, float)[None])[0]
     ax = {"x": 0, "y": 1, "z": 2}
     extent = mech.length_scale if extent is None else extent
-    cu, cv = home[ax[plane[0]]], home[ax[plane[1]]]
+    cu, cv = centre[ax[plane[0]]], centre[ax[plane[1]]]
     uu = np.linspace(cu - extent, cu + extent, n)
     vv = np.linspace(cv - extent, cv + extent, n)
     P = plane_poses(mech, plane, at, uu, vv, orientation)
-    ev = evaluate(mech, P, solution=mode_filter(mech, inverse(mech, P, **SOLVE)))
+    begin = None if start is None else np.asarray(start, float)[None]
+    ev = evaluate(mech, P, solution=mode_filter(mech, inverse(mech, P, start=begin, **SOLVE), start))
     ok = ev.admissible.reshape(n, n)
     if not ok.any():
         raise ArgumentError(f"section of '{mech.name}': no admissible point on the {plane} plane at "
-                                  f"{at * 1e3:g} mm within ±{extent * 1e3:g} mm of home (give --range)")
+                                  f"{at * 1e3:g} mm within ±{extent * 1e3:g} mm of "
+                                  f"{'home' if start is None else 'the start pose'} (give --range)")
     cell = 2.0 * extent / (n - 1)
     iu, iv = np.flatnonzero(ok.any(axis=0)), np.flatnonzero(ok.any(axis=1))
     snap = lambda lo, hi: (np.floor((lo - cell) / step) * step, np.ceil((hi + cell) / step) * step)  # noqa: E731
