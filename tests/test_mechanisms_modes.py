@@ -172,3 +172,13 @@ def test_signature_separates_the_mirror_assembly_mode_of_a_6ups():
     assert sol.ok.all() and np.allclose(sol.drives[0], sol.drives[1], rtol=0, atol=1e-12)
     sig = signature(hexa, sol.q)
     assert other_mode(sig[1:2], sig[0]).all() and not other_mode(sig[2:3], sig[0]).any()
+
+
+def test_signature_flips_across_the_hybrid_wrist_singularity():
+    """Spatial, serial (working-mode) singularity: the hybrid's wrist with V2 = ±0.3 rad holds the tool axis on
+    either side of the central strut — one inverse-kinematics block changes sign, and is singular (0) at V2 = 0."""
+    hyb = mm.load_mechanism("hybrid_tripod_wrist")
+    fk = mm.forward(hyb, [[0.05, -0.02, 0.01, 0.4, v2] for v2 in (0.3, 0.0, -0.3, 0.5)], steps=4)
+    sig = signature(hyb, fk.q)
+    assert (sig[1] == 0).sum() == 1 and fk.status[1] == "singular"
+    assert other_mode(sig[2:3], sig[0]).all() and not other_mode(sig[3:4], sig[0]).any()
