@@ -4,7 +4,6 @@ keep the start's mode, the planar default plane."""
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 import pkmstiff.mechanisms as mm
 from pkmstiff.mechanisms.modes import other_mode, signature
@@ -66,7 +65,6 @@ def test_five_bar_section_points_all_keep_the_home_working_mode():
 def test_point_finds_what_the_section_finds(capsys):
     from pkmstiff.cli import main
     from pkmstiff.cli.point import point_report
-
     from pkmstiff.mechanisms.section import NEIGHBOUR, plane_poses, raster_inverse
 
     fb = mm.load_mechanism("five_bar")

@@ -185,8 +185,8 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
     from pkmstiff.admissibility import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.evaluation.quantities import get_quantity
-    from pkmstiff.structure import StructureOptions, build_structure
     from pkmstiff.multibody import dynamic_dofs
+    from pkmstiff.structure import StructureOptions, build_structure
 
     units = {n: get_quantity(n).unit for n in quantities}  # unknown names fail before any work
     options = StructureOptions(**structure) if structure else None
