@@ -445,12 +445,12 @@ class SubtreeTask:
         if new.size:  # the voxels' region, once per voxel
             nk, first = np.unique(ck[new], return_index=True)
             nq = q[new[first]]
-            owner = self._owner(lat, nq, cells)
+            owner = self.owner(lat, nq, cells)
             free = np.flatnonzero(owner < 0)
             if free.size:
                 near = np.full(free.size, np.iinfo(np.int64).max)
                 for o in NEIGHBOURS:
-                    s = self._owner(lat, nq[free] + o, cells)
+                    s = self.owner(lat, nq[free] + o, cells)
                     near = np.where(s >= 0, np.minimum(near, s), near)
                 owner[free] = np.where(near == np.iinfo(np.int64).max, -1, near)
             self._regions.add(nk)
@@ -459,7 +459,7 @@ class SubtreeTask:
         owner = self._region_of[pos]
         return (owner >= 0) & (owner != self.slice)
 
-    def _owner(self, lat: Lattice, q: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    def owner(self, lat: Lattice, q: np.ndarray, cells: np.ndarray) -> np.ndarray:
         """The slice of the slices' voxels ``q`` (n, 3) (coarse indices), -1 where none."""
         valid = np.all((q >= 0) & (q < cells), axis=1)
         ck = lat.key(q * self.coarse_size)
@@ -534,7 +534,6 @@ class _CountingEvaluator(_Evaluator):
     def __init__(self, fn: CountedPredicate, lat: Lattice, task: SubtreeTask):
         super().__init__(fn, lat)  # type: ignore[arg-type]
         self.task = task
-        self.size = (1 << (task.levels - np.minimum(task.level, task.levels))).astype(np.int64)  # coarse voxel edge
         self.shared: list[tuple[np.ndarray, int, np.ndarray]] = []
 
     def _values(self, idx: np.ndarray) -> np.ndarray:
@@ -548,20 +547,17 @@ class _CountingEvaluator(_Evaluator):
     def _on_shared_face(self, idx: np.ndarray) -> np.ndarray:
         """Points that lie in a voxel (closed) of another slice: one of the up to eight coarse voxels touching them."""
         t = self.task
-        q, r = np.divmod(idx, self.size)
+        q, r = np.divmod(idx, t.coarse_size)
         face = np.flatnonzero((r == 0).any(axis=1))
         out = np.zeros(idx.shape[0], bool)
         if face.size == 0:
             return out
         qf, on = q[face], (r[face] == 0).astype(np.int64)
         other = np.zeros(face.size, bool)
-        cells = self.lat.n // self.size
+        cells = self.lat.n // t.coarse_size
         for o in CORNER_OFFSETS:
-            cand = qf - o * on  # off a face the offset is 0: the same voxel again, harmless
-            valid = np.all((cand >= 0) & (cand < cells), axis=1)
-            ck = self.lat.key(cand * self.size)
-            pos = np.minimum(np.searchsorted(t.coarse_keys, ck), t.coarse_keys.size - 1)
-            other |= valid & (t.coarse_keys[pos] == ck) & (t.coarse_slice[pos] != t.slice)
+            s = t.owner(self.lat, qf - o * on, cells)  # off a face the offset is 0: the same voxel again, harmless
+            other |= (s >= 0) & (s != t.slice)
         out[face] = other
         return out
 
