@@ -301,7 +301,6 @@ class _InProcessSubtrees:
     def __init__(self, body, n_slices: int, level: int):
         self.body, self.n_slices, self.level = body, n_slices, level
         self.points = 0
-        self.closure_here = 0  # points the closure of all leaves evaluated itself (not read back)
 
     def __call__(self, p):  # the octree's own predicate
         self.points += len(p)
@@ -340,8 +339,8 @@ def test_subtrees_closing_their_own_leaves_ahead_give_the_serial_closure(body, e
     """Subtrees refined apart also close their own leaves within the region no other slice holds (in the workers):
     the closure of all leaves then reads those points back. Leaves, their order, corners, evaluations per level (the
     closure's included) and the body's evaluations counted (points evaluated ahead but not needed, or by two slices,
-    taken out) are those of the serial run, and most of the closure's points come from the subtrees (all of them
-    here where the subtrees' closures do not stop before small passes, ``least`` = 0)."""
+    taken out) are those of the serial run, and most of the closure's points come from the subtrees, whether or not
+    their closures stop before small passes (``least``)."""
     from pkmstiff.workspace import octree as O
 
     serial = _InProcessSubtrees(body, 0, -1)
