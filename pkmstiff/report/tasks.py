@@ -6,6 +6,7 @@ task, evaluated there serially: the same chunks and octree as a serial run, so t
 each one splits itself into tasks by its measured cost (:mod:`pkmstiff.evaluation.parallel`), one after another.
 Either way every section map is one task of the pool, sent as soon as its section is complete for every variant (one
 colour scale per quantity across the variants) and rendered there to PNG bytes that this process writes atomically.
+Section results and map data cross between the processes as :class:`Compact` (their admissible entries only).
 The 3-D workspace figures are rendered in this process while the workers work: VTK's off-screen context then starts
 once, as in a serial run, instead of once per worker.
 
