@@ -148,35 +148,3 @@ def test_a_section_result_travels_compactly_and_arrives_bit_for_bit():
     odd[~res.ok] = 0.0  # not the NaN the section writes: sent as it is
     moved = pickle.loads(pickle.dumps(tasks.Compact(replace(res, values={"U": odd}))))
     assert same(moved.values["U"], odd)
-
-
-def _map_where(res, name, clim) -> bytes:
-    """A map task that takes long enough for the test below and names the process that ran it."""
-    import os
-    import time
-
-    time.sleep(0.4)
-    return str(os.getpid()).encode()
-
-
-def test_the_last_map_waits_for_a_free_worker_or_is_drawn_here(monkeypatch):
-    """The report's last map does not queue behind busy workers: with both drawing, this process draws it while it
-    waits for theirs; the other maps go to the pool and every future gets its own result."""
-    import os
-
-    from pkmstiff.evaluation.requests import SectionRequest
-    from pkmstiff.machine.loader import load_machine
-
-    res = SectionRequest("yz", 0.0, (-0.6, 1.6), (-1.3, -0.3), 0.1, ("U",), (0.0, 0.0, 0.0),
-                         0.15).evaluate(load_machine("hexaglide"))
-    parallel.shutdown()  # workers forked after the patch run it
-    monkeypatch.setattr(tasks, "map_task", _map_where)
-    try:
-        runner = tasks.Runner(tasks.report_plan(2, None, 0, 3, 0), {})
-        futures = [runner.map_png(res, "U", None) for _ in range(3)]
-        assert [f.done() for f in futures] == [False, False, False]
-        runner.wait_maps(futures)
-        where = [int(runner.result(f)) for f in futures]
-    finally:
-        parallel.shutdown()
-    assert os.getpid() not in where[:2] and where[0] != where[1] and where[2] == os.getpid()

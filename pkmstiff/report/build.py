@@ -286,7 +286,6 @@ class _Work:
             self._workspace_futures[-1].add_done_callback(lambda _: self._changed.set())
 
     def _cancel(self) -> None:
-        self.runner.cancel()
         for f in [*self._workspace_futures, *(f for fs in self._section_futures for f in fs),
                   *(f for maps in self._maps for _, _, f in maps)]:
             f.cancel()
@@ -354,7 +353,6 @@ class _Work:
                     break
                 self._changed.wait()  # set after each change of state: a change before the clear is seen above
                 self._changed.clear()
-            self.runner.wait_maps([f for figs in self._maps for _, _, f in figs])
             maps = []
             for sec, figs in zip(self.spec.sections, self._maps):
                 for path, _, f in figs:

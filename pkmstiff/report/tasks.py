@@ -15,7 +15,6 @@ Serial runs and Dask runs evaluate and draw here, in order (on Dask each evaluat
 
 from __future__ import annotations
 
-import threading
 import time
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
@@ -88,21 +87,11 @@ def _done(value: Any) -> Future:
 
 class Runner:
     """Starts a report's evaluations and maps by its :class:`ReportPlan`: in the local pool (futures not yet done)
-    or here at once (futures already done); ``par`` = ``n_jobs``/``scheduler`` of an evaluation done here.
-
-    Maps wait here until the pool has room (its workers busy and one task queued for the next free one); the last
-    map of the report goes only to a free worker, and when this process has nothing left but to wait for the maps
-    while every worker is busy, it draws that map itself (:meth:`_pump`, :meth:`wait_maps`). The map phase ends on
-    tasks of equal size: a worker that finished first would otherwise idle for up to a map while the other draws the
-    last one; three processes on two cores share that time instead."""
+    or here at once (futures already done); ``par`` = ``n_jobs``/``scheduler`` of an evaluation done here."""
 
     def __init__(self, plan: ReportPlan, par: dict[str, Any]) -> None:
         self.plan, self.par = plan, par
         self._shared: dict[int, parallel.Shared[Machine]] = {}
-        self._lock, self._changed = threading.Lock(), threading.Event()
-        self._running = 0  # tasks in the pool, not yet done
-        self._waiting: list[tuple[Future, tuple]] = []  # maps not yet sent: (their future, map_task's arguments)
-        self._maps = 0  # maps asked for so far
 
     def evaluate(self, request: SectionRequest | WorkspaceRequest, machine: Machine, figure: bool = False) -> Future:
         """A future of (result, seconds) of ``request`` on ``machine``; ``figure``: keep what the workspace figure
@@ -110,80 +99,14 @@ class Runner:
         if not self.plan.whole:
             return _done(evaluate_task(machine, request, figure, self.par))
         shared = self._shared.setdefault(id(machine), parallel.Shared(machine))
-        with self._lock:
-            self._running += 1
-        f = parallel.submit(self.plan.workers, evaluate_task, shared, request, figure, {})
-        f.add_done_callback(self._task_done)
-        return f
+        return parallel.submit(self.plan.workers, evaluate_task, shared, request, figure, {})
 
     def map_png(self, res: SectionResult, name: str, clim: tuple[float, float] | None) -> Future:
         """A future of the PNG bytes of the map of quantity ``name`` of ``res`` (colour scale ``clim``)."""
         res = replace(res, values={name: res.values[name]})  # the one quantity the map draws travels
         if not self.plan.pool:
             return _done(map_task(res, name, clim))
-        out: Future = Future()
-        with self._lock:
-            self._waiting.append((out, (res, name, clim)))
-            self._maps += 1
-        self._pump()
-        return out
-
-    def _pump(self) -> None:
-        """Send waiting maps while the pool has room (a task for every worker and one more), but the report's last
-        map only to a free worker: while every worker is busy it waits for one or for :meth:`wait_maps`."""
-        while True:
-            with self._lock:
-                if not self._waiting or self._running > self.plan.workers or self._hold():
-                    return
-                out, args = self._waiting.pop(0)
-                self._running += 1
-            f = parallel.submit(self.plan.workers, map_task, Compact(args[0]), *args[1:])
-            f.add_done_callback(lambda f, out=out: self._map_done(f, out))
-
-    def _hold(self) -> bool:
-        """The one waiting map is the report's last and every worker is busy (under the lock)."""
-        return len(self._waiting) == 1 and self._maps == self.plan.maps and self._running >= self.plan.workers
-
-    def _task_done(self, _: Future) -> None:
-        with self._lock:
-            self._running -= 1
-        self._pump()
-
-    def _map_done(self, f: Future, out: Future) -> None:
-        if f.cancelled():
-            out.cancel()
-        elif out.set_running_or_notify_cancel():
-            exc = f.exception()
-            if exc is not None:
-                out.set_exception(exc)
-            else:
-                out.set_result(f.result())
-        self._task_done(f)
-        self._changed.set()
-
-    def wait_maps(self, futures: list[Future]) -> None:
-        """Wait until the map ``futures`` are done; the report's last map, if it still waits for a free worker, is
-        drawn here meanwhile."""
-        while True:
-            self._changed.clear()
-            with self._lock:
-                out, args = self._waiting.pop(0) if self._hold() else (None, None)
-            if out is not None and out.set_running_or_notify_cancel():
-                with parallel.meanwhile_work():  # parallel work: the workers draw the other maps meanwhile
-                    try:
-                        out.set_result(map_task(*args))
-                    except BaseException as exc:  # raised by result() in the caller
-                        out.set_exception(exc)
-            if all(f.done() for f in futures):
-                return
-            self._changed.wait()
-
-    def cancel(self) -> None:
-        """Send no more maps."""
-        with self._lock:
-            waiting, self._waiting = self._waiting, []
-        for out, _ in waiting:
-            out.cancel()
+        return parallel.submit(self.plan.workers, map_task, Compact(res), name, clim)
 
     def result(self, future: Future) -> Any:
         """The result of a future of :meth:`evaluate` or :meth:`map_png` (a task's exception raised here)."""
