@@ -48,7 +48,8 @@ def mechanisms(out: Path) -> list[Path]:
 def mechanism_sections(out: Path) -> list[Path]:
     """k_x and f1 of the 6-RUS at z = -400 mm and of the hybrid at its tool plane z = -1073.205 mm (orientation 0,
     window fitted, 10 mm raster; docs/user-guide/mechanisms.md, elastic model); f1 of the bipod's mechanism file in
-    its plane of motion (20 mm raster; docs/user-guide/structure.md)."""
+    its plane of motion (20 mm raster; docs/user-guide/structure.md); the five-bar's admissibility with the other
+    assembly mode (5 mm raster; docs/user-guide/mechanisms.md, working modes)."""
     import pkmstiff.mechanisms as mm
     from pkmstiff.mechanisms.section import evaluate_section, fit_window
     from pkmstiff.plots.mechanism_section import plot_mechanism_quantity
@@ -64,6 +65,11 @@ def mechanism_sections(out: Path) -> list[Path]:
     u, v = fit_window(bipod, "xy", 0.0, np.zeros(3), 0.02)
     sec = evaluate_section(bipod, "xy", 0.0, u, v, 0.02, names=("f1",))
     files.append(plot_mechanism_quantity(sec, "f1", out / "mechanism_bipod_f1.png"))
+    from pkmstiff.plots.mechanism_section import plot_mechanism_reasons
+
+    five = mm.load_mechanism("five_bar")
+    sec = evaluate_section(five, "xy", 0.0, (-0.15, 0.35), (-0.1, 0.38), 0.005)
+    files.append(plot_mechanism_reasons(sec, out / "mechanism_five_bar_modes.png"))
     return files
 
 

@@ -141,6 +141,11 @@ def click(driver, find_element, what: str) -> None:
     wait_for(driver, clicked, what)
 
 
+def press(driver, element_id: str) -> None:
+    """Click the button or checkbox ``element_id`` (retried while a fading list covers it, see :func:`click`)."""
+    click(driver, lambda d: d.find_element("id", element_id), f"a click on {element_id}")
+
+
 def choose(driver, element_id: str, item: str) -> None:
     """Open the select ``element_id`` (a click on its field: the input itself lies under the shown selection) and
     click its list item ``item``."""

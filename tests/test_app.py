@@ -363,3 +363,40 @@ def test_scene_shows_a_mechanism_section_and_animates_its_mode(session, mechanis
     np.testing.assert_allclose(pk - p0, -(pm - p0), atol=1e-3)
     scene.clear_mode(at, pose)
     assert not scene.mode_frames and not any(a.startswith("mode_") for a in scene.plotter.actors)
+
+
+def test_scene_aims_the_camera_again_when_the_section_plane_changes(session):
+    """The camera and the mm axes follow a new section plane (before: they stayed aimed at the machine alone, so a
+    plane elsewhere could lie outside the view); a new quantity on the same plane keeps the user's view."""
+    from pkmstiff.app.mechanisms import mechanism_at_pose
+    from pkmstiff.app.scene import Scene
+
+    name = "hexa_6rus"
+    mech = session.mechanism(name)
+    xy = session.mechanism_section(name, SectionChoice(plane="xy", at_mm=-400.0, step_mm=100.0, quantity="kz"))
+    xz = session.mechanism_section(name, SectionChoice(plane="xz", at_mm=150.0, step_mm=100.0, quantity="kz"))
+    pose = xy.pose_at(*xy.central_node())
+    scene = Scene(window_size=(400, 300))
+    scene.set_machine(mechanism_at_pose(mech, pose), pose)
+    machine_focus = np.array(scene.plotter.camera.focal_point)
+    counts = []
+
+    def box_centre(view) -> np.ndarray:  # centre of the machine's box joined with the plane's
+        pts = view.machine_points() * 1e3
+        lo = np.minimum(scene._machine_box[:, 0], pts.min(axis=0))
+        hi = np.maximum(scene._machine_box[:, 1], pts.max(axis=0))
+        return 0.5 * (lo + hi)
+
+    for view in (xy, xz):
+        scene.set_section(view)
+        # the camera looks at the centre of the joined box (frame_camera; vtk's reset_camera keeps the focus up to
+        # rounding of the padded bounds: 1e-6 mm)
+        np.testing.assert_allclose(scene.plotter.camera.focal_point, box_centre(view), atol=1e-6)
+        counts.append(len(scene.plotter.actors))
+    assert not np.allclose(scene.plotter.camera.focal_point, machine_focus)
+    assert counts[0] == counts[1]  # the axes and the section replaced, not added
+    scene.plotter.camera.azimuth = 30.0  # the user turns the view …
+    turned = scene.plotter.camera_position
+    kx = session.mechanism_section(name, SectionChoice(plane="xz", at_mm=150.0, step_mm=100.0, quantity="kx"))
+    scene.set_section(kx)  # … and changes the quantity only: the view stays
+    assert scene.plotter.camera_position == turned

@@ -82,7 +82,7 @@ def _same_maps(a: dict[str, np.ndarray], b: dict[str, np.ndarray]) -> None:
 
 def _export(driver, capsys, previous: str = "") -> tuple[Path, str, str]:
     """Click export; the new folder, after checking that its section command reproduces its map."""
-    driver.find_element("id", "export").click()
+    ab.press(driver, "export")
     folder = Path(ab.wait_for(driver, lambda d: ab.text(d, "export-folder") not in ("", previous)
                               and ab.text(d, "export-folder"), "the export folder"))
     section_cmd, point_cmd = (folder / "commands.txt").read_text().splitlines()
@@ -155,7 +155,7 @@ def test_app_in_chromium_shows_the_command_lines_numbers(driver, reports, tmp_pa
         first_mode = f"{ref['frequencies_Hz'][0]:.2f} Hz, {ref['mode_descriptions'][0]}"
         ab.choose(driver, "mode", f"1: {first_mode}")
         ab.wait_for(driver, lambda d: "mode 1" in ab.text(d, "mode-shown"), "mode 1 in the 3-D view")
-        driver.find_element("id", "animate").click()
+        ab.press(driver, "animate")
         view = driver.find_element("id", "view-3d")
         time.sleep(1.0)
         first = view.screenshot_as_png
@@ -173,7 +173,7 @@ def test_app_in_chromium_shows_the_command_lines_numbers(driver, reports, tmp_pa
         ab.type_into(driver, "pose-z", f"{v[k] + 50:g}")
         ab.wait_for(driver, lambda d: f", {v[k] + 50:.1f} mm" in ab.text(d, "pose-shown"), "the typed pose")
         old_kx = ab.text(driver, "k-kx")
-        driver.find_element("id", "analyse").click()
+        ab.press(driver, "analyse")
         ab.wait_for(driver, lambda d: ab.text(d, "k-kx") != old_kx and ab.text(d, "status") == "ready",
                     "the analysis of the typed pose")
         typed = json.loads(_cli(capsys, "point", "hexaglide", f"--pose={u[k]:g},0,{v[k] + 50:g},0,0,0", "--json"))
@@ -183,7 +183,7 @@ def test_app_in_chromium_shows_the_command_lines_numbers(driver, reports, tmp_pa
         # and both commands; the exported map equals the one its command computes
         version = ab.geometry(driver)["version"]
         ab.type_into(driver, "tool-length", "150")
-        driver.find_element("id", "neglect-spindle").click()
+        ab.press(driver, "neglect-spindle")
         ab.choose(driver, "frame", "report")
         ab.choose(driver, "skip-checks", "platform_collision")
         driver.find_element("tag name", "body").send_keys(Keys.ESCAPE)  # close the multiple choice's list
@@ -257,12 +257,12 @@ def test_app_in_chromium_draws_a_mechanism_at_its_pose(driver, tmp_path, capsys)
         ab.choose(driver, "mode", f"1: {ref['frequencies_Hz'][0]:.2f} Hz")
         ab.wait_for(driver, lambda d: f"mode 1: {ref['frequencies_Hz'][0]:.2f} Hz" in ab.text(d, "mode-shown"),
                     "mode 1 in the 3-D view")
-        driver.find_element("id", "animate").click()
+        ab.press(driver, "animate")
         time.sleep(1.0)
         still = view.screenshot_as_png
         ab.wait_for(driver, lambda d: view.screenshot_as_png != still, "the mode shape to move", timeout=15)
         driver.save_screenshot(str(tmp_path / "app_mechanism.png"))
-        driver.find_element("id", "export").click()
+        ab.press(driver, "export")
         folder = Path(ab.wait_for(driver, lambda d: ab.text(d, "export-folder"), "the export folder"))
         # the exported map is the CLI's (the same functions in one program: equal texts)
         assert (folder / "five_bar_xy.csv").read_text() == (cli_dir / "five_bar_xy.csv").read_text()

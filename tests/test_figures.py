@@ -544,7 +544,7 @@ DOCS_IMAGE_KINDS = {
     "workspace_curves": ["workspace_volume_convergence", "workspace_volume_vs_orientation"],
     "mechanisms": ["mechanism_slider_crank", "mechanism_hybrid", "mechanism_6rus_f1", "mechanism_6rus_kx",
                    "mechanism_hybrid_f1", "mechanism_hybrid_kx", "mechanism_section_admissibility",
-                   "mechanism_section_kappa", "mechanism_bipod_f1"],
+                   "mechanism_section_kappa", "mechanism_bipod_f1", "mechanism_five_bar_modes"],
     "fe_joint": ["fe_joint_deformed"],
     "calibration": ["calibration_walkthrough_felix_parameters", "calibration_walkthrough_felix_path",
                     "calibration_walkthrough_hexaglide_path"],

@@ -185,8 +185,13 @@ def test_point_command_refuses_machine_options_and_mechanisms_without_elastic_da
     assert "--neglect-spindle: not available for a mechanism" in capsys.readouterr().err
     assert main(["point", "hexaglide_generic", "--pose", "0,300,-3000,0,0,0"]) == 3  # no configuration: refused
     capsys.readouterr()
-    # a configuration near the drive plane whose stiffness matrix is singular: not modelled, said so, no number
-    assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0", "--figures", str(tmp_path / "f")]) == 0
+    # a configuration in the drive plane, singular like the machine's (κ of J⁻¹ = inf there, pkmstiff pose
+    # hexaglide): refused as singular (the forward-kinematics block of the mode signature, pkmstiff.mechanisms.modes);
+    # analysed anyway, its stiffness matrix is singular: not modelled, said so, no number
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0"]) == 3
+    assert "not admissible: singular" in capsys.readouterr().err
+    assert main(["point", "hexaglide_generic", "--pose", "0,300,-300,0,0,0", "--figures", str(tmp_path / "f"),
+                 "--allow-inadmissible"]) == 0
     out = capsys.readouterr().out
     assert "pose not modelled: not positive definite" in out and "k_x =      n/a" in out
     assert "no mode-shape figures: the pose is not modelled" in out and not (tmp_path / "f").exists()

@@ -94,14 +94,20 @@ def test_section_of_a_planar_example_names_its_mechanism_file(capsys, tmp_path):
 @pytest.mark.parametrize("name, pose", [("biglide", "100,600"), ("bipod", "0,-707")])
 def test_point_of_the_mechanism_file_equals_the_planar_point(capsys, name, pose):
     """``pkmstiff point NAME_generic`` prints the planar example's k_x, k_y and frequencies (rtol 1e-9, as above;
-    the bipod's platform rotation is held: no rotational stiffness, n/a)."""
+    the bipod's platform rotation is held: no rotational stiffness, n/a).  The bipod's pose below its base line is
+    the other assembly mode than home's (0, 500) mm: the mechanism is solved there with ``--start-pose`` in it, and
+    is refused without (other working mode, exit 3)."""
     import json
 
     from pkmstiff.cli import main
 
     assert main(["point", name, "--pose", pose, "--json"]) == 0
     ref = json.loads(capsys.readouterr().out)
-    assert main(["point", f"{name}_generic", "--pose", pose + ",0", "--json"]) == 0
+    start = ["--start-pose", pose + ",0"] if name == "bipod" else []
+    if start:
+        assert main(["point", f"{name}_generic", "--pose", pose + ",0"]) == 3
+        assert "other working mode" in capsys.readouterr().err
+    assert main(["point", f"{name}_generic", "--pose", pose + ",0", "--json", *start]) == 0
     got = json.loads(capsys.readouterr().out)
     for ax in "xy":
         assert got["k_N_per_um"][ax] == pytest.approx(ref["k_N_per_um"][ax], rel=RTOL)

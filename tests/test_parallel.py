@@ -7,6 +7,7 @@ import hashlib
 import math
 import os
 import pickle
+import time
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ from hypothesis import strategies as st
 
 from pkmstiff import load_machine
 from pkmstiff.cli import main
-from pkmstiff.errors import ArgumentError
+from pkmstiff.errors import ArgumentError, ResourceError
 from pkmstiff.evaluation import parallel
 from pkmstiff.workspace.oracle import PoseOracle
 
@@ -449,3 +450,19 @@ def test_sweep_on_a_warm_local_cluster_is_not_slower_than_serial(dask_address):
     # (2 s: measured up to 1.8 s over 1.5× serial at load 6 on 2 cores; the behaviour guarded against, work sent to
     # cold workers, took 10 s against 3 s serially)
     assert t2 - t1 < 1.5 * (t1 - t0) + 2.0
+
+
+def test_a_scheduler_address_where_nothing_listens_is_refused_at_once():
+    import socket
+
+    with socket.socket() as s:  # a port that was free a moment ago: nothing listens there
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    t0 = time.perf_counter()
+    with pytest.raises(ResourceError, match="nothing accepts connections"):
+        parallel.client(f"tcp://127.0.0.1:{port}")
+    # a refused connection answers in milliseconds; 5 s (the probe's own limit) leaves room for a loaded machine,
+    # well below distributed's 30 s connect timeout that the probe avoids
+    assert time.perf_counter() - t0 < 5.0
+    with pytest.raises(ResourceError, match="expected host:port"):
+        parallel.client("tcp://127.0.0.1:notaport")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import base64
 import re
 import struct
+import sys
 import zlib
 from html.parser import HTMLParser
 from pathlib import Path
@@ -441,3 +442,13 @@ def test_evaluation_metric_must_be_a_table_row(tmp_path, monkeypatch):
     assert comparison_labels(good) == list(_rows(build_report(good, tmp_path / "out3")))
     with pytest.raises(InputError, match="evaluation\\[1\\].better"):
         load_spec(_mini(tmp_path, extra='[[evaluation]]\nmetric = "kx mean"\nbetter = "more"\n'))
+
+
+def test_run_info_names_the_command_the_user_typed(monkeypatch):
+    from pkmstiff.report.render import run_info
+
+    # ``python -m pkmstiff.cli`` puts the module's __main__.py in argv[0]: the report names the pkmstiff command
+    monkeypatch.setattr(sys, "argv", ["/x/pkmstiff/cli/__main__.py", "report", "spec.toml"])
+    assert run_info()["command"] == "pkmstiff report spec.toml"
+    monkeypatch.setattr(sys, "argv", ["/usr/bin/pkmstiff", "demo"])
+    assert run_info()["command"] == "pkmstiff demo"

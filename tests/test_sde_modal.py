@@ -216,3 +216,26 @@ def test_mode_axes_of_a_pendulum_pass_through_its_pivot():
     # ω² = k_rot / (I_xx + m |c − r0|²) (parallel axes)
     d2 = float(np.sum((c - r0)[1:] ** 2))
     assert res.frequencies_hz[0, 0] == pytest.approx(np.sqrt(1e3 / (7.4 + 117.0 * d2)) / (2 * np.pi), rel=1e-6)
+
+
+def test_massless_bound_rotations_are_condensed_once_closed_form():
+    """A rigid body with mass m and no inertia, rx and ry bound to the frame (massless *and* constrained), rz free
+    but massless: two x springs k1, k2 at y = ±a couple u_x and θ_z; y and z springs at the origin.  Condensing θ_z
+    by hand: K = [[k1 + k2, a(k2 − k1)], [a(k2 − k1), a²(k1 + k2)]] → k_x = 4 k1 k2 / (k1 + k2).  Three modes,
+    ω² = k_x/m, k_y/m, k_z/m (before, n_dof − n_constraints − massless counted the bound massless rotations twice:
+    1 mode, and 0 for the bipod's held platform rotation)."""
+    m, a, k1, k2, ky, kz = 4.0, 0.3, 2e6, 5e6, 1e6, 3e6
+    model = sde.SDEModel()
+    model.add_rigid_body("b", m, np.zeros(3), np.zeros(3))
+    model.add_sde("s1", "b", sde.FRAME, [0.0, a, 0.0], k=k1, axis=[1.0, 0.0, 0.0])
+    model.add_sde("s2", "b", sde.FRAME, [0.0, -a, 0.0], k=k2, axis=[1.0, 0.0, 0.0])
+    model.add_sde("sy", "b", sde.FRAME, np.zeros(3), k=ky, axis=[0.0, 1.0, 0.0])
+    model.add_sde("sz", "b", sde.FRAME, np.zeros(3), k=kz, axis=[0.0, 0.0, 1.0])
+    model.add_rigid_binding("rx", "b", sde.FRAME, np.zeros(3), kind="angular", axis=[1.0, 0.0, 0.0])
+    model.add_rigid_binding("ry", "b", sde.FRAME, np.zeros(3), kind="angular", axis=[0.0, 1.0, 0.0])
+    assert sde.dynamic_dofs(model) == 3
+    want = np.sort(np.sqrt(np.array([4 * k1 * k2 / (k1 + k2), ky, kz]) / m)) / (2 * np.pi)
+    # eigvalsh of a 3 × 3 problem after a null-space projection and a Guyan solve: rounding ~1e-15 relative
+    np.testing.assert_allclose(sde.natural_frequencies(model, 3)[0], want, rtol=1e-12)
+    with pytest.raises(InputError):
+        sde.natural_frequencies(model, 4)  # no fourth mode

@@ -185,6 +185,7 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
     from pkmstiff.admissibility import evaluate_poses
     from pkmstiff.analysis import kinetostatics, modal_analysis, tcp_compliance, weak_points
     from pkmstiff.evaluation.quantities import get_quantity
+    from pkmstiff.multibody import dynamic_dofs
     from pkmstiff.structure import StructureOptions, build_structure
 
     units = {n: get_quantity(n).unit for n in quantities}  # unknown names fail before any work
@@ -199,7 +200,7 @@ def evaluate_points(machine: "StudyMachine", poses: ArrayLike, frame: str = "mac
         st = build_structure(machine, ev, options)  # the chunk's one evaluation: no second inverse kinematics
         comp = tcp_compliance(st, tool_length)
         wp = {d: weak_points(st, d, tool_length) for d in weak_point_directions}
-        k = 0 if st.empty else min(n_modes, st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs))
+        k = 0 if st.empty else min(n_modes, dynamic_dofs(st.model))
         ma = modal_analysis(st, k, shapes=False) if k else None
         parts.append({
             "ok": adm.ok, "adm": adm, "modelled": st.ok,

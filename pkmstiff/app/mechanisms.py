@@ -216,12 +216,19 @@ class MechanismAtPose:
 
 def mechanism_at_pose(mech: Mechanism, pose: np.ndarray, previous: MechanismAtPose | None = None
                       ) -> MechanismAtPose:
-    """The configuration at the output ``pose`` (SI) by continuation from ``previous`` (the pose shown before; the
-    neighbouring configuration keeps the assembly mode), else from home."""
+    """The configuration at the output ``pose`` (SI) in home's working mode: by continuation from ``previous`` (the
+    pose shown before) where that keeps the mode, else as ``point`` and a section find it
+    (:func:`pkmstiff.mechanisms.section.solve_in_mode`)."""
     from pkmstiff.mechanisms import inverse
+    from pkmstiff.mechanisms.section import mode_filter, solve_in_mode
 
-    start = previous.solution if previous is not None and previous.ok else None
-    return MechanismAtPose(mech, np.asarray(pose, float), inverse(mech, np.asarray(pose, float)[None], start=start))
+    x = np.asarray(pose, float)[None]
+    sol = None
+    if previous is not None and previous.ok:
+        sol = mode_filter(mech, inverse(mech, x, start=previous.solution))
+    if sol is None or not sol.ok[0]:
+        sol = solve_in_mode(mech, x)
+    return MechanismAtPose(mech, x[0], sol)
 
 
 def mechanism_section(mech: Mechanism, choice: SectionChoice) -> MechanismSectionView:
@@ -309,6 +316,7 @@ def mechanism_point(mech: Mechanism, pose: np.ndarray, settings: ModelSettings, 
     (modes limited to the model's dynamic degrees of freedom; descriptions of a rigid output body)."""
     import pkmstiff.multibody as sde
     from pkmstiff.mechanisms import evaluate, reason_names
+    from pkmstiff.mechanisms.section import solve_in_mode
     from pkmstiff.mechanisms.stiffness import evaluate_mechanism
     from pkmstiff.mechanisms.structure import mechanism_structure
 
@@ -316,10 +324,10 @@ def mechanism_point(mech: Mechanism, pose: np.ndarray, settings: ModelSettings, 
     _check_settings(mech, settings.checked())
     tip = _tip(mech, settings)
     x = np.asarray(pose, float)
-    ev = evaluate(mech, x[None])
+    ev = evaluate(mech, x[None], solution=solve_in_mode(mech, x[None]))  # as point: in home's working mode
     ms = mechanism_structure(mech, solution=ev.solution, point=tip) if ev.solution.ok[0] else None
     if ms is not None and ms.model is not None:
-        n_modes = min(n_modes, ms.model.n_dof - ms.model.n_constraints - len(ms.model.massless_dofs))
+        n_modes = min(n_modes, sde.dynamic_dofs(ms.model))
     axes = "xyz"[:mech.dim]
     res = evaluate_mechanism(mech, ev.solution, n_modes, tuple(axes), point=tip)
     rot = ms is not None and ms.model is not None and isinstance(ms.model.body(ms.load_body), sde.RigidBody)

@@ -43,6 +43,8 @@ class Scene:
         self.mode_frames: list = []
         self.mode_text = ""
         self._mechanism: MechanismAtPose | None = None  # the mechanism's last configuration found
+        self._machine_box: np.ndarray | None = None  # (3, 2) mm: the machine as first drawn
+        self._section_key: tuple | None = None  # the plane the camera was last aimed at
 
     @property
     def _planar(self) -> bool:
@@ -51,16 +53,21 @@ class Scene:
     def set_machine(self, machine: Drawn, pose: np.ndarray) -> None:
         """A new machine: clear the view, draw the machine at ``pose`` with mm axes around it and aim the camera at
         it (the view stays while the pose changes; the user turns and zooms it with the mouse)."""
-        from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
-
         self.plotter.clear_actors()
         self.mode_frames = []
         self._mechanism = None
+        self._section_key = None
         self.set_pose(machine, pose)
-        bounds = np.array(self.plotter.bounds).reshape(3, 2)
+        self._machine_box = np.array(self.plotter.bounds).reshape(3, 2)
+        self._aim(self._machine_box)
+
+    def _aim(self, box: np.ndarray) -> None:
+        """mm axes around ``box`` (3, 2) [mm] (replacing the last ones) and the camera aimed at it."""
+        from pkmstiff.plots.axes3d import add_mm_axes, frame_camera
+
         direction = PLANAR_VIEW_DIRECTION if self._planar else VIEW_DIRECTION
-        add_mm_axes(self.plotter, bounds.ravel(), direction, font_size=12)
-        frame_camera(self.plotter, direction, bounds, zoom=1.1)
+        add_mm_axes(self.plotter, box.ravel(), direction, font_size=12, name="axes")
+        frame_camera(self.plotter, direction, box, zoom=1.1)
 
     def set_pose(self, machine: Drawn, pose: np.ndarray) -> None:
         """The machine at ``pose`` (x, y, z [m], a, b, c [rad], machine frame), or a mechanism at its pose (its last
@@ -84,7 +91,9 @@ class Scene:
                               position="upper_left", font_size=10, color="black", name="title")
 
     def set_section(self, view: SectionView | MechanismSectionView) -> None:
-        """The section plane in its place, coloured by the map's quantity on the map's colour scale."""
+        """The section plane in its place, coloured by the map's quantity on the map's colour scale.  When the plane
+        or its window changes (not the quantity), the axes and the camera are aimed again at the machine and the
+        plane together, so a plane moved away from the machine (another --at, another plane) stays in view."""
         from pkmstiff.plots.section_maps import pretty_unit, robust_clim
 
         pv = offscreen()
@@ -105,6 +114,12 @@ class Scene:
                               scalar_bar_args={"title": title, "vertical": True, "position_x": 0.03,
                                                "position_y": 0.4, "width": 0.06, "height": 0.45, "color": "black",
                                                "title_font_size": 14, "label_font_size": 12, "fmt": "%.3g"})
+        key = (view.choice.plane, view.choice.at_mm, *view.limits_mm)
+        if key != self._section_key and self._machine_box is not None:
+            lo, hi = points.min(axis=0), points.max(axis=0)
+            self._aim(np.column_stack([np.minimum(self._machine_box[:, 0], lo),
+                                       np.maximum(self._machine_box[:, 1], hi)]))
+        self._section_key = key
 
     def set_mode(self, machine: Drawn, pose: np.ndarray, mode: int) -> None:
         """Mode ``mode`` (1 = lowest) at ``pose``: the machine ghosted grey and :data:`MODE_FRAMES` frames of one

@@ -450,7 +450,7 @@ def _parse_columns(src: str, line: int, columns: list[str], inst: Instrument) ->
         idx = [d[0] for d in drives]
         if idx != list(range(1, len(idx) + 1)):
             raise InputError(src, line=line, reason=f"drive columns must be q1..q{len(idx)}, found "
-                                       f"{', '.join('q%d' % i for i in idx)}")
+                                       f"{', '.join(f'q{i}' for i in idx)}")
         layout["drives"] = [(j, u) for _, j, u in drives]
     if not have and not drives:
         raise InputError(src, line=line, reason="expected the commanded pose (x_mm,y_mm,z_mm,a_deg,b_deg,c_deg) or "

@@ -247,15 +247,20 @@ def path_report(name: str, drives_file: str, start_pose: str | None = None,
     along a drive path (patent claim 9, :func:`pkmstiff.mechanisms.path.path_derivatives`); returns the JSON-ready
     summary and the CSV rows (header first)."""
     import pkmstiff.mechanisms as mm
+    from pkmstiff.mechanisms.modes import signature
     from pkmstiff.mechanisms.path import path_derivatives
+    from pkmstiff.mechanisms.section import mode_status
 
     mech = _load(name)
     t, sv = read_drive_path(mech, drives_file)
     start = _start_configuration(mech, start_pose, start_drives, 1)
-    # the path is followed sample after sample (each solve starts from the previous configuration)
+    # the path is followed sample after sample (each solve starts from the previous configuration found in the start's
+    # working and assembly mode; a sample whose configuration flipped into another is ``other_mode``)
+    start_sig, ref = signature(mech, mm.home(mech) if start is None else start)[0], None
     q = []
     for i in range(t.size):
         sol_i = mm.forward(mech, sv[0][i:i + 1], start=start)
+        sol_i.status, ref = mode_status(mech, sol_i, start_sig, ref)
         q.append(sol_i)
         if sol_i.ok[0]:
             start = sol_i.q
@@ -454,7 +459,10 @@ def section_report(args) -> dict[str, Any]:
     from pkmstiff.report.mechanism_section import section_where, write_mechanism_section
 
     mech = _load(args.machine)
-    plane = args.plane.lower()
+    plane = (args.plane or ("xy" if mech.dim == 2 else "yz")).lower()  # a planar mechanism: its plane of motion
+    if mech.dim == 2 and plane != "xy":
+        raise ArgumentError(f"--plane: mechanism '{mech.name}' is planar (it moves in the xy plane): expected xy, "
+                            f"found {plane}")
     for opt, given in (("--require", bool(args.require)),
                        ("--frame", args.frame != "machine"), ("--neglect-spindle", args.neglect_spindle),
                        ("--skip-check", bool(args.skip_check))):
@@ -478,33 +486,35 @@ def section_report(args) -> dict[str, Any]:
             raise ArgumentError(f"--tool-length: mechanism '{mech.name}' has no [elastic] table (the tool length "
                                 "moves the point of the stiffness quantities)")
     tip = tool_point(mech, args.tool_length) if mech.elastic is not None else None
+    start = _start_configuration(mech, args.start_pose, None, 1)  # None: home's working mode
     stem = f"{safe_stem(mech.name)}_{plane}"
     from pkmstiff.cli.edges import check_output_dir
 
     outs = ([f"{stem}_{n}.png" for n in names] + [f"{stem}_admissibility.png"] if "png" in formats else []) \
         + [f"{stem}.{f}" for f in ("csv", "npz") if f in formats] + ([f"{stem}.json"] if "csv" in formats else [])
     check_output_dir(args.out, "--out", getattr(args, "force", False), tuple(outs))
-    if mech.dim == 2 and plane != "xy":
-        raise ArgumentError(f"--plane: mechanism '{mech.name}' is planar, its section plane is xy, found {plane}")
     t0 = time.process_time()
     try:
         check_quantities(mech, names)
         fitted = ranges is None
         if fitted:
-            (u0, u1), (v0, v1) = fit_window(mech, plane, at, ori, step)
+            (u0, u1), (v0, v1) = fit_window(mech, plane, at, ori, step, start=None if start is None else start[0])
         else:
             (u0, u1), (v0, v1) = ranges[plane[0]], ranges[plane[1]]
         n_points = (int((u1 - u0) / step + 1e-9) + 1) * (int((v1 - v0) / step + 1e-9) + 1)
         if n_points > SECTION_MAX_POINTS:
             raise ArgumentError(f"--step: {n_points} raster points, expected at most {SECTION_MAX_POINTS} for a "
                                 f"mechanism section (a larger step or a smaller --range)")
-        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names, tip)
+        sec = evaluate_section(mech, plane, at, (u0, u1), (v0, v1), step, ori, names, tip,
+                               None if start is None else start[0])
         if tip is not None:
             sec.settings["tool_length_mm"] = float(args.tool_length)
     except PkmstiffError as exc:
         raise ArgumentError(str(exc)) from None
     cpu = time.process_time() - t0
     where = section_where(mech, plane, args.at, ori, args.tool_length if tip is not None else None)
+    if start is not None:  # validated by _start_configuration
+        where["start_pose_mm_deg"] = [float(v) for v in args.start_pose.split(",")]
     files = write_mechanism_section(sec, Path(args.out), stem, formats, where) if args.out else []
     stats = sec.statistics()
     return {**where,
@@ -522,6 +532,8 @@ def print_section(rep: dict[str, Any]) -> None:
         f"{rep['plane']} plane at {({'x', 'y', 'z'} - set(rep['plane'])).pop()} = {rep['at_mm']:g} mm"
     ori = ",".join(f"{a:g}" for a in rep["orientation_deg"])
     tool = f", tool {rep['tool_length_mm']:g} mm" if "tool_length_mm" in rep else ""
+    if "start_pose_mm_deg" in rep:
+        tool += f", working mode of the pose {','.join(f'{v:g}' for v in rep['start_pose_mm_deg'])}"
     print(f"{rep['mechanism']} (mechanism): {where}, orientation {ori} deg{tool}, window {win}"
           f"{' (fitted)' if rep['window_fitted_to_workspace'] else ''}: {rep['admissible_points']} of "
           f"{rep['points']} points admissible ({rep['admissible_area_m2']:.4g} m²)")
@@ -581,7 +593,8 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
                tool_length_mm: float | None = None) -> tuple[list[str], list[list]]:
     """``pkmstiff point MECHANISM --poses FILE``: the machines' CSV columns (pose mm/deg, admissible, reasons,
     k_x, k_y, k_z N/µm, f1… Hz); empty result cells where a pose is inadmissible or not modelled."""
-    from pkmstiff.mechanisms import evaluate, reason_names
+    from pkmstiff.mechanisms import evaluate, inverse, reason_names
+    from pkmstiff.mechanisms.section import mode_filter
     from pkmstiff.mechanisms.stiffness import evaluate_mechanism, take, tool_point
     from pkmstiff.mechanisms.structure import STATUS_BITS
 
@@ -590,7 +603,7 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
         raise ArgumentError(f"--poses: a file of x,y,z,a,b,c poses is for spatial mechanisms; '{mech.name}' is planar "
                             "(use --pose x,y,phi)")
     tip = tool_point(mech, tool_length_mm)
-    ev = evaluate(mech, poses_si)
+    ev = evaluate(mech, poses_si, solution=mode_filter(mech, inverse(mech, poses_si)))  # in home's working mode
     ok = np.flatnonzero(ev.admissible)
     n = len(poses_si)
     k = np.full((n, 3), np.nan)
@@ -610,13 +623,24 @@ def point_rows(name: str, poses_si: np.ndarray, n_modes: int, unavailable: dict[
     return head, rows
 
 
+def _solve_point(mech, pose: np.ndarray, start_pose: str | None):
+    """The configuration of ``point`` at one pose: that of a section at the same point, in the working mode of home
+    or of ``--start-pose`` (:func:`pkmstiff.mechanisms.section.solve_in_mode`)."""
+    from pkmstiff.mechanisms.section import solve_in_mode
+
+    start = _start_configuration(mech, start_pose, None, 1)
+    return solve_in_mode(mech, pose, None if start is None else start[0])
+
+
 def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bool,
-                 unavailable: dict[str, bool], tool_length_mm: float | None = None) -> dict[str, Any]:
+                 unavailable: dict[str, bool], tool_length_mm: float | None = None,
+                 start_pose: str | None = None) -> dict[str, Any]:
     """``pkmstiff point MECHANISM --pose …``: the elastic model (issue 27) at one pose, as the machines' report
     (schema ``pkmstiff/point/1``: stiffness N/µm and N·m/µrad at the output point or the tool tip
     ``tool_length_mm`` along the tool axis, frequencies Hz, weak points %, kinetostatics of
     :mod:`pkmstiff.mechanisms.kinetostatics`). A planar mechanism reports x, y (and the rotation about z) only.
-    ``unavailable``: machine-only options given."""
+    ``unavailable``: machine-only options given; ``start_pose``: the pose (mm, deg) whose working mode is kept
+    (default home)."""
     import pkmstiff.multibody as sde
     from pkmstiff.cli.point import SCHEMA, STIFFNESS_MATRIX_UNITS, _num, _refuse
     from pkmstiff.mechanisms import evaluate, reason_names
@@ -626,7 +650,7 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
     mech = _elastic_mechanism(name, unavailable)
     tip = tool_point(mech, tool_length_mm)
     pose = _parse_poses(mech, [pose_text], "--pose")
-    ev = evaluate(mech, pose)
+    ev = evaluate(mech, pose, solution=_solve_point(mech, pose, start_pose))
     reasons = reason_names(int(ev.reasons[0]))
     names = _pose_names(mech)
     pose_out = {f"{n}_{u}": float(v * (1e3 if u == "mm" else 180 / math.pi)) for (n, u), v in zip(names, pose[0])}
@@ -636,7 +660,7 @@ def point_report(name: str, pose_text: str, n_modes: int, allow_inadmissible: bo
                                                                             for r in reasons])
     ms = mechanism_structure(mech, solution=ev.solution, point=tip) if ev.solution.ok[0] else None
     if ms is not None and ms.model is not None:  # at most the dynamic DOFs (massless and bound ones excluded)
-        n_modes = min(n_modes, ms.model.n_dof - ms.model.n_constraints - len(ms.model.massless_dofs))
+        n_modes = min(n_modes, sde.dynamic_dofs(ms.model))
     axes = "xyz"[:mech.dim]  # a planar mechanism has no z stiffness, no z weak points
     res = evaluate_mechanism(mech, ev.solution, n_modes, tuple(axes), point=tip)
     comp = res.compliance[0]
@@ -706,19 +730,18 @@ def _kinetostatics_report(mech, sol) -> dict[str, Any]:
 
 
 def mode_figures(name: str, pose_text: str, n_modes: int, out: str, names: tuple[str, ...],
-                 tool_length_mm: float | None = None) -> list:
+                 tool_length_mm: float | None = None, start_pose: str | None = None) -> list:
     """``pkmstiff point MECHANISM --figures DIR``: one mode-shape PNG per mode (``names``) of the elastic model at
     the pose (:func:`pkmstiff.plots.mechanism.mechanism_mode_figure`)."""
     from pathlib import Path
 
-    from pkmstiff.mechanisms import inverse
     from pkmstiff.mechanisms.modeshape import mode_shapes
     from pkmstiff.mechanisms.stiffness import tool_point
     from pkmstiff.plots.mechanism import mechanism_mode_figure
 
     mech = _elastic_mechanism(name, {})
     pose = _parse_poses(mech, [pose_text], "--pose")
-    sol = inverse(mech, pose)
+    sol = _solve_point(mech, pose, start_pose)
     if not sol.ok[0]:
         return []
     where = ", ".join(f"{n} = {v * (1e3 if u == 'mm' else 180 / math.pi):g} {u}"

@@ -66,20 +66,24 @@ def _refuse(machine: str, where: str, reasons: list[str]) -> InadmissibleError:
 
 def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None = None, n_modes: int = 6,
                  neglect_spindle: bool = False, frame: str = "machine", allow_inadmissible: bool = True,
-                 skip_checks: Sequence[str] = ()) -> dict:
+                 skip_checks: Sequence[str] = (), start_pose: str | None = None) -> dict:
     """Everything ``pkmstiff point`` prints, as a JSON-ready dict whose keys name their units
     (schema ``pkmstiff/schemas/point.schema.json``).
 
     The pose is given in ``frame`` (:mod:`pkmstiff.machine.frames`; spatial machines only). Admissibility (every
     check of docs/theory/admissibility.md) comes first; with ``allow_inadmissible=False`` an inadmissible pose raises
     :class:`~pkmstiff.errors.InadmissibleError` (exit status 3) before any analysis. ``skip_checks``: names
-    of admissibility checks left out (stated as ``checks_left_out``).
+    of admissibility checks left out (stated as ``checks_left_out``). ``start_pose`` (mechanisms only): the pose
+    whose working mode the solution keeps.
     """
     check_point_options(tool_length_mm, n_modes)
     from pkmstiff.admissibility.checks import checks_without
-    from pkmstiff.cli.targets import Kind, dispatch
+    from pkmstiff.cli.targets import Kind, dispatch, resolve
 
     checks = checks_without(skip_checks, "--skip-check")
+    if start_pose is not None and resolve(machine_name).kind is not Kind.MECHANISM:
+        raise ArgumentError(f"--start-pose: only for a mechanism (its working mode), found '{machine_name}' (a "
+                            "machine has one closed-form configuration per pose)")
 
     def planar(_: object) -> dict:
         if skip_checks:
@@ -91,7 +95,7 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
 
         return mechanism_report(machine_name, pose_text, n_modes, allow_inadmissible,
                                 {"--neglect-spindle": neglect_spindle, "--frame": frame != "machine",
-                                 "--skip-check": bool(skip_checks)}, tool_length_mm)
+                                 "--skip-check": bool(skip_checks)}, tool_length_mm, start_pose)
 
     return dispatch(machine_name, {
         Kind.SPATIAL: lambda _: _machine_report(machine_name, pose_text, tool_length_mm, n_modes, neglect_spindle,
@@ -158,8 +162,9 @@ def _machine_report(machine_name: str, pose_text: str, tool_length_mm: float | N
         rep["weak_points_percent"][d] = {lab: _num(100 * wp.component_shares[0, j])
                                          for j, lab in enumerate(wp.component_labels)}
     if n_modes and not st.empty:
-        n_dyn = st.model.n_dof - st.model.n_constraints - len(st.model.massless_dofs)
-        k = min(n_modes, n_dyn)
+        from pkmstiff.multibody import dynamic_dofs
+
+        k = min(n_modes, dynamic_dofs(st.model))
         ma = modal_analysis(st, k, shapes=False)
         rep["frequencies_Hz"] = _num(ma.frequencies_hz[0])
         rep["mode_descriptions"] = [ma.description(0, i) for i in range(k)]
@@ -355,6 +360,9 @@ def _cmd_point(args: argparse.Namespace) -> int:
     if (args.pose is None) == (getattr(args, "poses", None) is None):
         raise ArgumentError("expected exactly one of --pose x,y,z,a,b,c and --poses FILE.csv")
     if getattr(args, "poses", None) is not None:
+        if getattr(args, "start_pose", None) is not None:
+            raise ArgumentError("--start-pose: expected with --pose (one pose), found with --poses FILE (a batch "
+                                "keeps home's working mode)")
         return _point_batch(args)
     check_point_options(args.tool_length, args.modes)
     if args.figures is not None:
@@ -364,7 +372,7 @@ def _cmd_point(args: argparse.Namespace) -> int:
     try:
         rep = point_report(args.machine, args.pose, args.tool_length, args.modes, args.neglect_spindle,
                            args.frame, allow_inadmissible=getattr(args, "allow_inadmissible", False),
-                           skip_checks=args.skip_check)
+                           skip_checks=args.skip_check, start_pose=args.start_pose)
     except ArgumentError as exc:
         from pkmstiff.errors import ArgumentError
 
@@ -397,7 +405,8 @@ def _mode_figures(args: argparse.Namespace) -> list:
     if resolve(args.machine).kind is Kind.MECHANISM:
         from pkmstiff.cli.mechanism import mode_figures
 
-        return mode_figures(args.machine, args.pose, args.modes, args.figures, _figure_names(args), args.tool_length)
+        return mode_figures(args.machine, args.pose, args.modes, args.figures, _figure_names(args), args.tool_length,
+                            args.start_pose)
     machine = neglect_spindle(load_machine(args.machine), args.neglect_spindle)
     pose = to_machine_frame(machine, parse_pose(args.pose), args.frame)
     out = Path(args.figures)
@@ -459,6 +468,9 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--figures", metavar="DIR", default=None,
                    help="write mode-shape figures (PNG, one per mode) into DIR (spatial machines and mechanisms)")
     p.add_argument("--gif", action="store_true", help="with --figures: also an animated GIF of mode 1")
+    p.add_argument("--start-pose", default=None, metavar="POSE",
+                   help="a mechanism: keep the working/assembly mode of this pose (x,y,z,a,b,c mm/deg; planar x,y,phi), "
+                        "reached from home, instead of home's")
     p.add_argument("--allow-inadmissible", action="store_true",
                    help="analyse an inadmissible pose anyway (every result is marked); default: refuse, exit 3")
     p.set_defaults(func=_cmd_point)

@@ -50,6 +50,9 @@ def _mechanism_section(args: argparse.Namespace) -> int:
 
 
 def _machine_section(args: argparse.Namespace) -> int:
+    if args.start_pose is not None:
+        raise ArgumentError(f"--start-pose: only for a mechanism (its working mode), found '{args.machine}' (a machine "
+                            "has one closed-form configuration per pose)")
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.evaluation.cost import PLOT_LIBRARY_SECONDS, PNG_SECONDS
     from pkmstiff.evaluation.quantities import get_quantity
@@ -66,7 +69,7 @@ def _machine_section(args: argparse.Namespace) -> int:
     from pkmstiff.admissibility.checks import checks_without, left_out_text
     from pkmstiff.report.outputs import write_section_outputs
 
-    plane_kind = args.plane.lower()
+    plane_kind = (args.plane or "yz").lower()
     try:
         ranges = parse_ranges(args.range, plane_kind) if args.range else None
         ori = parse_triple_deg(args.orientation, "--orientation")
@@ -230,8 +233,12 @@ def add_commands(sub) -> None:
     p.add_argument("machine", help="bundled machine name or machine file; or a mechanism (name or file): then the "
                                    "quantities are kappa, the drive names and, with an [elastic] table, kx…krz, fN "
                                    "and share_* (see 'pkmstiff mechanism')")
-    p.add_argument("--plane", default="yz", choices=["yz", "xz", "xy", "YZ", "XZ", "XY"], help="section plane")
+    p.add_argument("--plane", default=None, choices=["yz", "xz", "xy", "YZ", "XZ", "XY"],
+                   help="section plane (default yz; xy, the plane of motion, for a planar mechanism)")
     p.add_argument("--at", type=float, default=0.0, help="position of the plane along its normal axis [mm]")
+    p.add_argument("--start-pose", default=None, metavar="POSE",
+                   help="a mechanism: map the working/assembly mode of this pose (x,y,z,a,b,c mm/deg; planar x,y,phi), "
+                        "reached from home, instead of home's")
     p.add_argument("--range", default=None,
                    help="in-plane ranges in mm, e.g. y=-600:800,z=-1200:-500 (default: fitted to the admissible "
                         "region by a coarse pass, plus a margin)")

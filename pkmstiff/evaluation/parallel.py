@@ -292,6 +292,36 @@ def _cluster(scheduler: Any) -> _Cluster:
     return _CLUSTERS.setdefault(_address(scheduler), _Cluster())
 
 
+#: seconds a connection to a Dask scheduler may take (distributed's default); a plain TCP probe first
+#: (:data:`PROBE_TIMEOUT_S`) answers at once for an address where nothing listens instead of after this wait
+CONNECT_TIMEOUT_S = 30.0
+PROBE_TIMEOUT_S = 5.0
+
+
+def _reachable(scheduler: Any) -> None:
+    """Raise :class:`ResourceError` at once if nothing accepts TCP connections at a ``tcp://host:port`` or
+    ``host:port`` scheduler address (distributed itself retries a refused connection until its timeout). Other
+    protocols (tls://, ucx://, inproc://) are left to distributed."""
+    import socket
+    from urllib.parse import urlsplit
+
+    if not isinstance(scheduler, str):
+        return
+    address = scheduler if "://" in scheduler else f"tcp://{scheduler}"
+    parts = urlsplit(address)
+    if parts.scheme != "tcp" or not parts.hostname:
+        return
+    try:
+        port = parts.port or 8786
+    except ValueError:
+        raise ResourceError(f"scheduler: expected host:port, found {scheduler!r}") from None
+    try:
+        socket.create_connection((parts.hostname, port), timeout=PROBE_TIMEOUT_S).close()
+    except OSError as exc:
+        raise ResourceError(f"scheduler: nothing accepts connections at {scheduler!r} "
+                            f"(probed for up to {PROBE_TIMEOUT_S:g} s: {exc})") from None
+
+
 def client(scheduler: Any) -> Any:
     """A ``distributed.Client`` for ``scheduler`` (an address or a client), kept per address while the outermost
     :func:`connected` block runs (the time to connect counts as a fixed cost of the cluster)."""
@@ -304,8 +334,9 @@ def client(scheduler: Any) -> Any:
         return scheduler
     c = _CLIENTS.get(scheduler)
     if c is None or c.status not in ("running", "connecting", "newly-created"):
+        _reachable(scheduler)
         try:
-            c = _CLIENTS[scheduler] = Client(scheduler, timeout=30)
+            c = _CLIENTS[scheduler] = Client(scheduler, timeout=CONNECT_TIMEOUT_S)
         except (OSError, TimeoutError, ValueError) as exc:
             raise ResourceError(f"scheduler: cannot connect to the Dask scheduler {scheduler!r}: {exc}") from None
         _cluster(scheduler).paid("connect", t0)

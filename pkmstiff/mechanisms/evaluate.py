@@ -17,8 +17,9 @@ from pkmstiff.mechanisms.solver import Solution, inverse, joint_values
 
 Array = NDArray[np.float64]
 
-#: reason bits: no configuration found, singular configuration, a joint outside its limits
-REASONS = {"NO_SOLUTION": 1, "SINGULAR": 2, "JOINT_LIMIT": 4}
+#: reason bits: no configuration found, singular configuration, a joint outside its limits, a configuration only in
+#: another working/assembly mode than the start's (:mod:`pkmstiff.mechanisms.modes`)
+REASONS = {"NO_SOLUTION": 1, "SINGULAR": 2, "JOINT_LIMIT": 4, "OTHER_WORKING_MODE": 8}
 
 
 def reason_names(code: int) -> list[str]:
@@ -57,7 +58,9 @@ def evaluate(mech: Mechanism, poses: ArrayLike, solution: Solution | None = None
     ok = sol.ok
     vals = np.where(ok[:, None], vals, np.nan)
     violated = ok[:, None] & ((vals < lo) | (vals > hi))
-    reasons = np.where(ok, 0, REASONS["NO_SOLUTION"]) | np.where(sol.status == "singular", REASONS["SINGULAR"], 0) \
+    other = sol.status == "other_mode"
+    reasons = np.where(ok | other, 0, REASONS["NO_SOLUTION"]) | np.where(other, REASONS["OTHER_WORKING_MODE"], 0) \
+        | np.where(sol.status == "singular", REASONS["SINGULAR"], 0) \
         | np.where(violated.any(axis=1), REASONS["JOINT_LIMIT"], 0)
     return MechanismEvaluation(np.atleast_2d(np.asarray(poses, dtype=float)), sol, sol.drives, mech.drive_names,
                                tuple(mech.joints[i].name for i in limited), vals, violated, reasons.astype(int))

@@ -162,8 +162,8 @@ def planar_mechanism_dict(pm: PlanarMachine, home: np.ndarray, name: str | None 
     rigid struts without mass.  Bipod: strut links on revolute base joints, the platform (a point mass at P) on
     their axes by ``point_on_axis`` joints (drive l_i = strut length, limits length_min … length_max, the strut
     stiffness in series); Assumption: the platform's rotation, which nothing drives, is held by an
-    ``equal_orientation`` joint to the frame (both struts at one point: it carries no load), and its body has a
-    placeholder inertia about z (1 kg m², without effect on any result: every rotation is held).
+    ``equal_orientation`` joint to the frame (both struts at one point: it carries no load); its body is a point
+    mass without inertia (the held, massless rotation leaves the modal problem: :func:`pkmstiff.multibody.dynamic_dofs`).
     """
     from pkmstiff.analysis.planar import planar_inverse_kinematics
 
@@ -220,8 +220,7 @@ def planar_mechanism_dict(pm: PlanarMachine, home: np.ndarray, name: str | None 
         links, output_link = ["frame", *struts], struts[0]
     else:
         joints.append({"name": "platform_rotation", "type": "equal_orientation", "links": ["frame", "platform"]})
-        # the held rotation needs no inertia; one about z keeps the body out of the massless (condensed) DOFs
-        comps["platform"] = {"model": "rigid_body", "mass": platform_mass, "inertia": [0.0, 0.0, 1.0]}
+        comps["platform"] = {"model": "rigid_body", "mass": platform_mass, "inertia": [0.0, 0.0, 0.0]}
         links_el["platform"] = {"body": "platform", "origin": f(p)}
         links, output_link = ["frame", *struts, "platform"], "platform"
     table = _table(name or f"{pm.name}_generic", pm.title, f"the planar example '{pm.name}' at the home position "
@@ -230,8 +229,7 @@ def planar_mechanism_dict(pm: PlanarMachine, home: np.ndarray, name: str | None 
                   "elastic": {"vertical": f(np.append(vertical, 0.0)), "links": links_el, "joints": joints_el}})
     if pm.kind == "pod":
         table["assumptions"]["joints.platform_rotation"] = ("the bipod's platform is a point: its rotation, which "
-                                                            "nothing drives, is held (no load); its inertia "
-                                                            "1 kg m^2 about z is a placeholder without effect")
+                                                            "nothing drives, is held (no load); no inertia")
     return table
 
 

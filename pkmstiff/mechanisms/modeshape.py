@@ -69,7 +69,7 @@ def mode_shapes(mech: Mechanism, sol: Solution, n_modes: int, point: Array | Non
         raise InputError(mech.path or mech.name, "pose", "a configuration the elastic model can be built at",
                          "no configuration or a component outside its range")
     model = ms.model
-    n_modes = min(n_modes, model.n_dof - model.n_constraints - len(model.massless_dofs))
+    n_modes = min(n_modes, sde.dynamic_dofs(model))
     mr = sde.modes(model, n_modes, shapes=True)
     rigid = isinstance(model.body(ms.output_body), sde.RigidBody)
     descr = sde.describe_modes(model, mr.shapes, ms.output_body) if rigid else None

@@ -31,7 +31,7 @@ from pkmstiff.evaluation.sections import raster
 from pkmstiff.mechanisms.evaluate import REASONS, evaluate
 from pkmstiff.mechanisms.model import Mechanism
 from pkmstiff.mechanisms.outputs import condition_numbers, configuration_rates, output_condition
-from pkmstiff.mechanisms.solver import Solution, inverse, output_pose
+from pkmstiff.mechanisms.solver import STATUS, Solution, inverse, output_pose
 from pkmstiff.mechanisms.stiffness import take
 from pkmstiff.mechanisms.structure import LABELS
 
@@ -137,37 +137,51 @@ def elastic_values(mech: Mechanism, sol: Solution, names, point: Array | None = 
     return values, units, scales
 
 
-def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], **solve_kw) -> Solution:
+def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], start: Array | None = None,
+                   **solve_kw) -> Solution:
     """Inverse kinematics of the raster poses P (nv·nu, pose_size), row-major over ``shape`` = (nv, nu), by
-    continuation from neighbouring points: the point nearest home is solved from home, then in waves every unsolved
-    4-neighbour of a point solved in the last wave starts from that point's configuration (one raster step: the
-    branch of the neighbour is kept).  A point that fails from one neighbour is tried again from each other
-    neighbour solved later (at most once per direction), and a point still unsolved when the waves stop — one that
-    failed from every neighbour or that no wave reached (a part of the plane not connected to the seed through
-    reachable points) — is tried once from home; the waves go on from the points solved there."""
+    continuation from neighbouring points in the working and assembly mode of the start (``start``: a configuration
+    (L, d), default home).
+
+    The point nearest the start's output point is solved from the start, then in waves every unsolved 4-neighbour of
+    a point solved in the last wave starts from that point's configuration (one raster step).  A solution whose mode
+    signature (:func:`pkmstiff.mechanisms.modes.signature`) differs from the start's — the step crossed a singularity
+    into another working or assembly mode — is rejected (status ``other_mode``), as is a failed solve.  A rejected
+    point is tried again from each other neighbour solved later (at most once per direction), and a point still
+    unsolved when the waves stop — one rejected from every neighbour or that no wave reached — is tried once from the
+    start; the waves go on from the points solved there.  A point whose signature has a zero where the start's is
+    regular lies on a singularity of that mode's boundary: status ``singular``."""
+    from pkmstiff.mechanisms.modes import signature
+
     nv, nu = shape
     n = nv * nu
-    home_pose = mech.home_output_pose
-    q0 = inverse(mech, home_pose[None]).q[0]
-    sol = None
-    tried = np.zeros(n, np.uint8)  #: bit d: tried from the neighbour in direction d; bit 4: tried from home
+    q0 = inverse(mech, mech.home_output_pose[None]).q[0] if start is None else np.asarray(start, dtype=float)
+    start_pose = output_pose(mech, q0[None])[0]
+    start_sig = signature(mech, q0[None])[0]
+    ref = None
+    begin0 = None if start is None else q0[None]  # home: the solver's own home start
+    sol = Solution(mech, np.broadcast_to(q0, (n,) + q0.shape).copy(), np.full(n, "no_solution", dtype=_STATUS_DTYPE),
+                   np.zeros(n, int), np.full(n, np.nan), np.zeros(n, int), 0, np.full(n, np.nan), np.full(n, np.nan))
+    tried = np.zeros(n, np.uint8)  #: bit d: tried from the neighbour in direction d; bit 4: tried from the start
     ok = np.zeros(n, bool)
     steps = ((0, 1), (0, -1), (1, 0), (-1, 0))
 
-    def solve(idx: Array, start: Array | None) -> Array:
-        nonlocal sol
-        part = inverse(mech, P[idx], start=start, output_check=False, **solve_kw)  # κ_out: only where asked
-        if sol is None:
-            sol = _empty_like(part, n, q0)
-        for f in ("q", "status", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
+    def solve(idx: Array, begin: Array) -> Array:
+        nonlocal ref
+        part = inverse(mech, P[idx], start=begin, output_check=False, **solve_kw)  # κ_out: only where asked
+        sol.n_free = part.n_free
+        status, ref = mode_status(mech, part, start_sig, ref)
+        for f in ("q", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
             getattr(sol, f)[idx] = getattr(part, f)  # idx are unsolved points: the last try is their result
-        ok[idx] = part.ok
-        return idx[part.ok]
+        sol.status[idx] = status
+        good = (status == "converged") | (status == "singular")
+        ok[idx] = good
+        return idx[good]
 
-    d = np.linalg.norm(P[:, :mech.dim] - home_pose[None, :mech.dim], axis=1)
+    d = np.linalg.norm(P[:, :mech.dim] - start_pose[None, :mech.dim], axis=1)
     seed = np.array([int(np.argmin(d))])
     tried[seed] |= 16
-    frontier = solve(seed, None)
+    frontier = solve(seed, begin0)
     grid = np.arange(n).reshape(nv, nu)
     empty = np.zeros(0, int)
     pending = (empty, empty, empty)  # (point, source, direction bit) not yet tried, from earlier waves
@@ -197,14 +211,40 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], **solve_kw
             break
         tried[rest] |= 16
         pending = (empty, empty, empty)
-        frontier = solve(rest, None)
+        frontier = solve(rest, begin0)
     return sol
 
 
-def _empty_like(part: Solution, n: int, q0: Array) -> Solution:
-    return Solution(part.mech, np.broadcast_to(q0, (n,) + q0.shape).copy(), np.full(n, "no_solution", dtype=part.status.dtype),
-                    np.zeros(n, part.iterations.dtype), np.full(n, np.nan), np.zeros(n, part.rank.dtype), part.n_free,
-                    np.full(n, np.nan), np.full(n, np.nan))
+_STATUS_DTYPE = f"<U{max(map(len, STATUS))}"
+
+
+def mode_filter(mech: Mechanism, sol: Solution, start: Array | None = None) -> Solution:
+    """``sol`` (solved from ``start``, default home) with the status ``other_mode`` where a configuration is in
+    another working or assembly mode than the start's and ``singular`` where it lies on a singularity of a block
+    regular at the start (:mod:`pkmstiff.mechanisms.modes`; the start's singular blocks take the sign of the first
+    configuration found).  Modifies and returns ``sol``."""
+    from pkmstiff.mechanisms.modes import signature
+
+    q0 = inverse(mech, mech.home_output_pose[None]).q[0] if start is None else np.asarray(start, dtype=float)
+    sol.status = mode_status(mech, sol, signature(mech, q0[None])[0], None)[0]
+    return sol
+
+
+def mode_status(mech: Mechanism, sol: Solution, start_sig: Array, ref: Array | None
+                 ) -> tuple[Array, Array | None]:
+    """The status of ``sol`` with ``other_mode`` / ``singular`` against the reference signature ``ref`` (None: the
+    start's signature, its zeros taken from the first configuration of ``sol``), and that reference."""
+    from pkmstiff.mechanisms.modes import on_singularity, other_mode, reference, signature
+
+    status = sol.status.astype(_STATUS_DTYPE)
+    found = np.flatnonzero(sol.ok)
+    if found.size:
+        sig = signature(mech, sol.q[found])
+        if ref is None:
+            ref = reference(start_sig, sig[0])
+        status[found[other_mode(sig, ref)]] = "other_mode"
+        status[found[on_singularity(sig, ref) & (status[found] == "converged")]] = "singular"
+    return status, ref
 
 
 @dataclass
@@ -275,21 +315,26 @@ NEIGHBOUR = {"steps": 1, "max_refine": 1, "max_backtrack": 6}
 
 
 def fit_window(mech: Mechanism, plane: str, at: float, orientation: Array, step: float,
-               extent: float | None = None, n: int = 25) -> tuple[tuple[float, float], ...]:
-    """In-plane ranges (m) covering the admissible points of a coarse n×n pass over home ± ``extent`` (default
-    the mechanism's length scale), widened by one coarse cell and snapped to ``step``."""
+               extent: float | None = None, n: int = 25, start: Array | None = None) -> tuple[tuple[float, float], ...]:
+    """In-plane ranges (m) covering the admissible points of a coarse n×n pass over the start's output point ±
+    ``extent`` (default the mechanism's length scale; solved from the start ``start`` (L, d), default home, points in
+    another working mode than the start's left out: :func:`mode_filter`), widened by one coarse cell and snapped to
+    ``step``."""
     plane = plane.lower()
-    home = mech.home_output_pose
+    centre = mech.home_output_pose if start is None else output_pose(mech, np.asarray(start, float)[None])[0]
     ax = {"x": 0, "y": 1, "z": 2}
     extent = mech.length_scale if extent is None else extent
-    cu, cv = home[ax[plane[0]]], home[ax[plane[1]]]
+    cu, cv = centre[ax[plane[0]]], centre[ax[plane[1]]]
     uu = np.linspace(cu - extent, cu + extent, n)
     vv = np.linspace(cv - extent, cv + extent, n)
-    ev = evaluate(mech, plane_poses(mech, plane, at, uu, vv, orientation), **SOLVE)
+    P = plane_poses(mech, plane, at, uu, vv, orientation)
+    begin = None if start is None else np.asarray(start, float)[None]
+    ev = evaluate(mech, P, solution=mode_filter(mech, inverse(mech, P, start=begin, **SOLVE), start))
     ok = ev.admissible.reshape(n, n)
     if not ok.any():
         raise ArgumentError(f"section of '{mech.name}': no admissible point on the {plane} plane at "
-                                  f"{at * 1e3:g} mm within ±{extent * 1e3:g} mm of home (give --range)")
+                                  f"{at * 1e3:g} mm within ±{extent * 1e3:g} mm of "
+                                  f"{'home' if start is None else 'the start pose'} (give --range)")
     cell = 2.0 * extent / (n - 1)
     iu, iv = np.flatnonzero(ok.any(axis=0)), np.flatnonzero(ok.any(axis=1))
     snap = lambda lo, hi: (np.floor((lo - cell) / step) * step, np.ceil((hi + cell) / step) * step)  # noqa: E731
@@ -298,10 +343,10 @@ def fit_window(mech: Mechanism, plane: str, at: float, orientation: Array, step:
 
 def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[float, float],
                      v_range: tuple[float, float], step: float, orientation=(0.0, 0.0, 0.0),
-                     names=("kappa",), point: Array | None = None) -> MechanismSection:
+                     names=("kappa",), point: Array | None = None, start: Array | None = None) -> MechanismSection:
     """Quantities ``names`` and admissibility on an axis plane (ranges, step, ``at`` in m; orientation rad); the
     elastic quantities at ``point`` (home coordinates on the output link, e.g. a tool tip) instead of the output
-    point."""
+    point; in the working mode of ``start`` (a configuration (L, d), default home; :func:`raster_inverse`)."""
     check_quantities(mech, names)
     ori = np.asarray(orientation, dtype=float)
     uu, vv = raster(*u_range, step), raster(*v_range, step)
@@ -309,7 +354,7 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
         raise ArgumentError("section: the window must span at least two raster steps along each axis")
     P = plane_poses(mech, plane, at, uu, vv, ori)
     shape = (vv.size, uu.size)
-    ev = evaluate(mech, P, solution=raster_inverse(mech, P, shape, **NEIGHBOUR))
+    ev = evaluate(mech, P, solution=raster_inverse(mech, P, shape, start, **NEIGHBOUR))
     values, units, scales = {}, {}, {}
     if "kappa" in names:
         kap = condition_numbers(kinematic_jacobian(ev.solution))
@@ -333,3 +378,39 @@ def evaluate_section(mech: Mechanism, plane: str, at: float, u_range: tuple[floa
     return MechanismSection(mech.name, plane.lower(), at, uu, vv, ori, values, units, scales,
                             ev.reasons.reshape(shape), ev.status.reshape(shape),
                             {"solver": dict(SOLVE), "planar": mech.dim == 2})
+
+
+#: raster of the fallback path of :func:`solve_in_mode`: steps per length scale, and the extent around the start in
+#: length scales (that of the coarse pass of :func:`fit_window`)
+_PATH_STEPS = 20
+_PATH_EXTENT = 1.0
+
+
+def solve_in_mode(mech: Mechanism, poses: Array, start: Array | None = None) -> Solution:
+    """Configurations of output poses in the working and assembly mode of ``start`` (a configuration (L, d), default
+    home) — the configuration a section finds at the same point.
+
+    First the inverse kinematics along the straight path from the start (:func:`~pkmstiff.mechanisms.inverse`,
+    :data:`SOLVE`), checked by :func:`mode_filter`.  A pose that fails there (the straight path leaves the workspace
+    or crosses a singularity) is solved as a section raster point: a raster of the plane through it normal to z (the
+    plane of motion of a planar mechanism) at its orientation, over the start's output point ± the mechanism's size
+    and the pose, step 1/20 of the size, laid so that the pose is a raster node, solved by :func:`raster_inverse`
+    from the start (neighbour continuation that keeps the mode); its result at that node is the pose's."""
+    poses = np.atleast_2d(np.asarray(poses, dtype=float))
+    q0 = inverse(mech, mech.home_output_pose[None]).q[0] if start is None else np.asarray(start, dtype=float)
+    sol = mode_filter(mech, inverse(mech, poses, start=q0[None], **SOLVE), q0)
+    p0 = output_pose(mech, q0[None])[0]
+    h = mech.length_scale / _PATH_STEPS
+    ext = _PATH_EXTENT * mech.length_scale
+    for i in np.flatnonzero(~sol.ok):
+        u, v = poses[i, 0], poses[i, 1]
+        ku = np.arange(np.floor((min(p0[0] - ext, u) - u) / h), np.ceil((max(p0[0] + ext, u) - u) / h) + 1)
+        kv = np.arange(np.floor((min(p0[1] - ext, v) - v) / h), np.ceil((max(p0[1] + ext, v) - v) / h) + 1)
+        uu, vv = u + h * ku, v + h * kv
+        ori = poses[i, 2:3] if mech.dim == 2 else poses[i, 3:6]
+        P = plane_poses(mech, "xy", poses[i, 2] if mech.dim == 3 else 0.0, uu, vv, np.resize(ori, 3))
+        part = raster_inverse(mech, P, (vv.size, uu.size), start=q0, **NEIGHBOUR)
+        j = int(np.flatnonzero(kv == 0)[0] * uu.size + np.flatnonzero(ku == 0)[0])
+        for f in ("q", "status", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
+            getattr(sol, f)[i] = getattr(part, f)[j]
+    return sol

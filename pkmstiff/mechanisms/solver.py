@@ -29,7 +29,9 @@ from pkmstiff.mechanisms.outputs import output_condition
 
 Array = NDArray[np.float64]
 
-STATUS = ("converged", "singular", "no_solution", "max_iter")
+#: ``other_mode``: a configuration was found, but in another working or assembly mode than the continuation's start
+#: (:mod:`pkmstiff.mechanisms.modes`; set by the continuations that keep the mode: sections, ``point``)
+STATUS = ("converged", "singular", "no_solution", "max_iter", "other_mode")
 #: QR-diagonal ratio below which the exact singular values are computed for the status
 _SUSPECT_RCOND = 1e-5
 #: σ-ratio estimate (Cholesky of JᵀJ, :func:`~pkmstiff.mechanisms.linalg.lstsq_step`) above which a converged

@@ -21,6 +21,7 @@ from pkmstiff.multibody.modal import (
                        ModalResult,
                        ModeAxes,
                        describe_modes,
+                       dynamic_dofs,
                        kinetic_energy_shares,
                        mode_axes,
                        mode_label,
@@ -54,7 +55,7 @@ __all__ = [
     "axis_stiffness", "body_displacements", "sde_deformations", "sde_forces", "energy_shares", "group_matrix",
     "weak_points",
     "ModalResult", "modes", "natural_frequencies", "kinetic_energy_shares", "strain_energy_shares",
-    "motion_shares", "describe_modes", "mode_label", "ModeAxes", "mode_axes",
+    "motion_shares", "describe_modes", "dynamic_dofs", "mode_label", "ModeAxes", "mode_axes",
     "PointDirection", "load_vector", "receptance", "accelerance", "find_peaks",
     "PointEvaluation", "evaluate_point",
 ]

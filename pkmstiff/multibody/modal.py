@@ -129,6 +129,13 @@ class ModalResult:
     shapes: np.ndarray | None
 
 
+def dynamic_dofs(model: SDEModel) -> int:
+    """Number of modes the model has: the size of its condensed eigenproblem — the DOFs left by the rigid bindings
+    (null space of the constraint matrix) less the massless directions among them (Guyan).  A DOF that is both
+    massless and bound is counted once (not ``n_dof − n_constraints − len(massless_dofs)``, which counts it twice)."""
+    return int(dynamic_system(model.poses(slice(0, 1)) if model.n_poses > 1 else model).a.shape[1])
+
+
 def modal_chunk(model: SDEModel, n_modes: int, shapes: bool, k: np.ndarray | None = None) -> ModalResult:
     """Lowest ``n_modes`` modes of one chunk (all poses of ``model``)."""
     dyn = dynamic_system(model, k)

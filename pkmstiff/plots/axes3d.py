@@ -33,9 +33,11 @@ def _fmt(v: float) -> str:
 
 
 def add_mm_axes(plotter, bounds_mm: Sequence[float], view_direction: Sequence[float], font_size: int = 18,
-                titles: tuple[str, str, str] = ("x [mm]", "y [mm]", "z [mm]"), color: str = "black") -> None:
+                titles: tuple[str, str, str] = ("x [mm]", "y [mm]", "z [mm]"), color: str = "black",
+                name: str | None = None) -> None:
     """Draw labelled x, y, z axes (mm) along three edges of the box ``bounds_mm`` (xmin, xmax, ymin, ymax, zmin,
-    zmax) as seen from ``view_direction`` (from the focal point towards the camera)."""
+    zmax) as seen from ``view_direction`` (from the focal point towards the camera); ``name``: a prefix for the
+    actors' names, so that drawing the axes again under the same name replaces them."""
     import pyvista as pv
 
     b = np.asarray(bounds_mm, dtype=float).reshape(3, 2)
@@ -83,15 +85,16 @@ def add_mm_axes(plotter, bounds_mm: Sequence[float], view_direction: Sequence[fl
             title_pts.append(top)
     segs = np.array([pt for seg in lines for pt in seg])
     cells = np.hstack([[2, 2 * i, 2 * i + 1] for i in range(len(lines))])
-    plotter.add_mesh(pv.PolyData(segs, lines=cells), color=color, line_width=2)
+    nm = (lambda part: None) if name is None else (lambda part: f"{name}_{part}")  # noqa: E731
+    plotter.add_mesh(pv.PolyData(segs, lines=cells), color=color, line_width=2, name=nm("lines"))
     plotter.add_point_labels(np.array(label_pts), labels, font_size=font_size, text_color=color, shape=None,
                              show_points=False, always_visible=True, justification_horizontal="center",
-                             justification_vertical="center")
+                             justification_vertical="center", name=nm("labels"))
     # invisible anchors: the camera's reset_camera frames the labels too, not only the data
-    plotter.add_mesh(pv.PolyData(np.vstack([label_pts, title_pts])), opacity=0.0, point_size=1)
+    plotter.add_mesh(pv.PolyData(np.vstack([label_pts, title_pts])), opacity=0.0, point_size=1, name=nm("anchors"))
     plotter.add_point_labels(np.array(title_pts), list(titles), font_size=font_size + 2, text_color=color,
                              shape=None, show_points=False, always_visible=True, bold=True,
-                             justification_horizontal="center", justification_vertical="center")
+                             justification_horizontal="center", justification_vertical="center", name=nm("titles"))
 
 
 def frame_camera(p, direction, box: np.ndarray | None, zoom: float = 1.0) -> None:

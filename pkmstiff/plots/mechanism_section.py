@@ -12,7 +12,7 @@ from pkmstiff.io.atomic import atomic_path
 MM = 1e3
 #: map categories: admissible, then the first failing reason bit (pkmstiff.mechanisms.REASONS order)
 _CATEGORIES = (("admissible", "#2ca02c"), ("no solution", "#7f7f7f"), ("singular", "#d62728"),
-               ("joint limit", "#ff7f0e"))
+               ("joint limit", "#ff7f0e"), ("other working mode", "#9467bd"))
 
 
 def _categories(sec) -> np.ndarray:
@@ -24,13 +24,13 @@ def _categories(sec) -> np.ndarray:
     return code
 
 
-def _axes(sec, title: str):
+def _axes(sec, title: str, legend_in: float = 0.0):
     from pkmstiff.plots.section_maps import map_canvas
 
     u, v = sec.plane[0], sec.plane[1]
     aspect = (sec.v_values[-1] - sec.v_values[0]) / max(sec.u_values[-1] - sec.u_values[0], 1e-12)
     w = 5.2
-    fig = map_canvas((w + 2.2, max(3.2, min(8.0, w * aspect + 1.2))))
+    fig = map_canvas((w + 2.2 + legend_in, max(3.2, min(8.0, w * aspect + 1.2))))
     ax = fig.add_subplot()
     ax.set_aspect("equal")
     ax.set_xlabel(f"{u} [mm]")
@@ -59,7 +59,10 @@ def plot_mechanism_reasons(sec, path: str | Path) -> Path:
     present = sorted({int(c) for c in np.unique(code)})
     index = np.searchsorted(present, code)
     colours = [_CATEGORIES[k][1] for k in present]
-    fig, ax = _axes(sec, "admissibility: first failing check per point")
+    # room for the legend beside the map: ~0.075 in per character of its longest label at 9 pt (constrained layout
+    # otherwise pushes the equal-aspect axes and their y label against the left edge)
+    longest = max(len(_CATEGORIES[k][0]) for k in present)
+    fig, ax = _axes(sec, "admissibility: first failing check per point", max(0.0, 0.075 * (longest - 12)))
     ax.pcolormesh(sec.u_values * MM, sec.v_values * MM, index, shading="nearest", cmap=ListedColormap(colours),
                   vmin=-0.5, vmax=len(present) - 0.5)
     ax.legend(handles=[Patch(color=_CATEGORIES[k][1], label=_CATEGORIES[k][0]) for k in present],

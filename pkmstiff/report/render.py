@@ -151,7 +151,9 @@ def run_info() -> dict[str, str]:
         info[dist] = _version(dist)
     info["platform"] = f"{platform.system()} {platform.machine()}"
     if sys.argv and sys.argv[0]:
-        info["command"] = " ".join([Path(sys.argv[0]).name, *sys.argv[1:]])
+        program = Path(sys.argv[0]).name
+        # ``python -m pkmstiff.cli`` names the module's __main__.py; the user ran the pkmstiff command
+        info["command"] = " ".join(["pkmstiff" if program == "__main__.py" else program, *sys.argv[1:]])
     return info
 
 
