@@ -113,7 +113,7 @@ def machine_with(name_or_path: str | Path, overrides: Mapping[str, Any] | None =
         return load_machine(name_or_path, options)
     raw, src, opts = raw_machine(name_or_path, options)
     raw = apply_overrides(raw, overrides, src)
-    where = src if not overrides else f"{src} with overrides {sorted(overrides)}"
+    where = f"{src} with overrides {sorted(overrides)}"
     try:
         return _build(raw, src, opts)
     except InputError as exc:  # add which overrides were applied

@@ -145,8 +145,9 @@ _NAN_BITS = np.array(np.nan).view(np.uint64)
 
 class Compact:
     """A :class:`SectionResult` on its way between processes: each array that holds NaN exactly at the inadmissible
-    points (values, κ) travels as its admissible entries only — 6 to 17 % of a report's raster — and is rebuilt
-    bit for bit on arrival (:func:`_expand`); the object unpickles as the SectionResult itself."""
+    points (values, κ) travels as its admissible entries only (6–17 % of the raster in the Hexaglide variants
+    report) and is rebuilt bit for bit on arrival (:func:`_expand`); the object unpickles as the SectionResult
+    itself."""
 
     def __init__(self, res: SectionResult) -> None:
         self.res = res
