@@ -24,6 +24,7 @@ from pkmstiff.evaluation.sweep import (
     random_points,
     run_sweep,
 )
+from pkmstiff.machine.loader import raw_machine
 from pkmstiff.machine.variants import machine_with, parse_override_path
 from pkmstiff.report.sweep_evaluations import Combined, PointValues, SectionStatistics
 
@@ -39,9 +40,12 @@ def _kx(machine) -> float:
 
 # ------------------------------------------------------------------------------------------------ machine variants
 def test_no_overrides_equals_load_machine():
-    a, b = load_machine("hexapod_6x:constant_drive_stiffness"), machine_with("hexapod_6x:constant_drive_stiffness")
-    assert a.name == b.name and a.components == b.components
-    assert _kx(a) == _kx(b)  # same builder, same data: bit-identical
+    name = "hexapod_6x:constant_drive_stiffness"
+    a, b = load_machine(name), machine_with(name)  # without overrides: the (cached) load
+    k = raw_machine(name)[0]["components"]["constant_strut"]["k"]
+    c = machine_with(name, {"components.constant_strut.k": k})  # an override that changes nothing: the builder
+    assert a.name == b.name == c.name and a.components == b.components == c.components
+    assert _kx(a) == _kx(b) == _kx(c)  # same data: bit-identical
 
 
 def test_overrides_equal_a_hand_edited_machine_file(tmp_path):

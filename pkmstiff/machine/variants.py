@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any, Mapping
 
 from pkmstiff.errors import InputError, OverrideError
-from pkmstiff.machine.loader import _build, raw_machine, split_machine_spec
+from pkmstiff.machine.loader import _build, load_machine, raw_machine, split_machine_spec
 from pkmstiff.machine.model import Machine
 
 __all__ = ["machine_with", "parse_override_path", "raw_machine", "apply_overrides",
@@ -104,13 +104,16 @@ def machine_with(name_or_path: str | Path, overrides: Mapping[str, Any] | None =
     """Load a machine (bundled name with ``:options`` or path) with ``overrides`` applied to its raw TOML values.
 
     The result is validated exactly like :func:`pkmstiff.machine.loader.load_machine` (same builder); with no
-    overrides it equals ``load_machine(name_or_path, options)``. Errors name the machine file and, for invalid
-    values, the key and the overrides applied.
+    overrides it is ``load_machine(name_or_path, options)`` (a bundled machine then comes from the on-disk cache,
+    :mod:`pkmstiff.machine.cache`). Errors name the machine file and, for invalid values, the key and the overrides
+    applied.
     """
-    raw, src, opts = raw_machine(name_or_path, options)
     overrides = dict(overrides or {})
+    if not overrides:
+        return load_machine(name_or_path, options)
+    raw, src, opts = raw_machine(name_or_path, options)
     raw = apply_overrides(raw, overrides, src)
-    where = src if not overrides else f"{src} with overrides {sorted(overrides)}"
+    where = f"{src} with overrides {sorted(overrides)}"
     try:
         return _build(raw, src, opts)
     except InputError as exc:  # add which overrides were applied

@@ -88,10 +88,11 @@ def check_evaluation(spec: ReportSpec) -> None:
 
 
 def _section_rows(sec: SectionSpec, results: list, table: Table, multi: bool) -> None:
+    stats = [res.statistics() for res in results]
     for q in sec.quantities:
         unit = get_quantity(q).unit
         for stat in sec.statistics:
-            vals = [statistic(res.statistics()[q], stat) for res in results]
+            vals = [statistic(st[q], stat) for st in stats]
             table.add(_section_label(sec, q, stat, multi), STATISTICS[stat][1] or unit,
                       [None if v != v else v for v in vals])
 
