@@ -78,12 +78,10 @@ def point_report(machine_name: str, pose_text: str, tool_length_mm: float | None
     """
     check_point_options(tool_length_mm, n_modes)
     from pkmstiff.admissibility.checks import checks_without
-    from pkmstiff.cli.targets import Kind, dispatch, resolve
+    from pkmstiff.cli.targets import Kind, check_start_pose, dispatch
 
     checks = checks_without(skip_checks, "--skip-check")
-    if start_pose is not None and resolve(machine_name).kind is not Kind.MECHANISM:
-        raise ArgumentError(f"--start-pose: only for a mechanism (its working mode), found '{machine_name}' (a "
-                            "machine has one closed-form configuration per pose)")
+    check_start_pose(machine_name, start_pose)
 
     def planar(_: object) -> dict:
         if skip_checks:

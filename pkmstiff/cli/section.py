@@ -50,9 +50,9 @@ def _mechanism_section(args: argparse.Namespace) -> int:
 
 
 def _machine_section(args: argparse.Namespace) -> int:
-    if args.start_pose is not None:
-        raise ArgumentError(f"--start-pose: only for a mechanism (its working mode), found '{args.machine}' (a machine "
-                            "has one closed-form configuration per pose)")
+    from pkmstiff.cli.targets import check_start_pose
+
+    check_start_pose(args.machine, args.start_pose)
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, parse_budget, predicted_plan
     from pkmstiff.evaluation.cost import PLOT_LIBRARY_SECONDS, PNG_SECONDS
     from pkmstiff.evaluation.quantities import get_quantity

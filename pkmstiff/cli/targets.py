@@ -100,4 +100,13 @@ def dispatch(spec: str, evaluators: Mapping[Kind, Callable[[Target], R]]) -> R:
     return evaluators.get(target.kind, evaluators[Kind.SPATIAL])(target)
 
 
-__all__ = ["KINDS", "Kind", "Target", "dispatch", "resolve"]
+def check_start_pose(spec: str, start_pose: str | None) -> None:
+    """``--start-pose`` chooses a mechanism's working mode: refused (one line) for any other kind of model."""
+    if start_pose is not None and resolve(spec).kind is not Kind.MECHANISM:
+        from pkmstiff.errors import ArgumentError
+
+        raise ArgumentError(f"--start-pose: only for a mechanism (its working mode), found '{spec}' (a machine has "
+                            "one closed-form configuration per pose)")
+
+
+__all__ = ["KINDS", "Kind", "Target", "check_start_pose", "dispatch", "resolve"]

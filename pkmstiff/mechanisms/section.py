@@ -137,6 +137,15 @@ def elastic_values(mech: Mechanism, sol: Solution, names, point: Array | None = 
     return values, units, scales
 
 
+#: the per-pose fields of a :class:`Solution` besides its status
+_PER_POSE = ("q", "iterations", "residual", "rank", "rcond", "sigma_ratio")
+
+
+def _start_q(mech: Mechanism, start: Array | None) -> Array:
+    """The configuration (L, d) a mode-keeping continuation starts from: ``start``, default home's solution."""
+    return inverse(mech, mech.home_output_pose[None]).q[0] if start is None else np.asarray(start, dtype=float)
+
+
 def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], start: Array | None = None,
                    **solve_kw) -> Solution:
     """Inverse kinematics of the raster poses P (nv·nu, pose_size), row-major over ``shape`` = (nv, nu), by
@@ -155,7 +164,7 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], start: Arr
 
     nv, nu = shape
     n = nv * nu
-    q0 = inverse(mech, mech.home_output_pose[None]).q[0] if start is None else np.asarray(start, dtype=float)
+    q0 = _start_q(mech, start)
     start_pose = output_pose(mech, q0[None])[0]
     start_sig = signature(mech, q0[None])[0]
     ref = None
@@ -171,7 +180,7 @@ def raster_inverse(mech: Mechanism, P: Array, shape: tuple[int, int], start: Arr
         part = inverse(mech, P[idx], start=begin, output_check=False, **solve_kw)  # κ_out: only where asked
         sol.n_free = part.n_free
         status, ref = mode_status(mech, part, start_sig, ref)
-        for f in ("q", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
+        for f in _PER_POSE:
             getattr(sol, f)[idx] = getattr(part, f)  # idx are unsolved points: the last try is their result
         sol.status[idx] = status
         good = (status == "converged") | (status == "singular")
@@ -225,7 +234,7 @@ def mode_filter(mech: Mechanism, sol: Solution, start: Array | None = None) -> S
     configuration found).  Modifies and returns ``sol``."""
     from pkmstiff.mechanisms.modes import signature
 
-    q0 = inverse(mech, mech.home_output_pose[None]).q[0] if start is None else np.asarray(start, dtype=float)
+    q0 = _start_q(mech, start)
     sol.status = mode_status(mech, sol, signature(mech, q0[None])[0], None)[0]
     return sol
 
@@ -397,7 +406,7 @@ def solve_in_mode(mech: Mechanism, poses: Array, start: Array | None = None) -> 
     and the pose, step 1/20 of the size, laid so that the pose is a raster node, solved by :func:`raster_inverse`
     from the start (neighbour continuation that keeps the mode); its result at that node is the pose's."""
     poses = np.atleast_2d(np.asarray(poses, dtype=float))
-    q0 = inverse(mech, mech.home_output_pose[None]).q[0] if start is None else np.asarray(start, dtype=float)
+    q0 = _start_q(mech, start)
     sol = mode_filter(mech, inverse(mech, poses, start=q0[None], **SOLVE), q0)
     p0 = output_pose(mech, q0[None])[0]
     h = mech.length_scale / _PATH_STEPS
@@ -411,6 +420,6 @@ def solve_in_mode(mech: Mechanism, poses: Array, start: Array | None = None) -> 
         P = plane_poses(mech, "xy", poses[i, 2] if mech.dim == 3 else 0.0, uu, vv, np.resize(ori, 3))
         part = raster_inverse(mech, P, (vv.size, uu.size), start=q0, **NEIGHBOUR)
         j = int(np.flatnonzero(kv == 0)[0] * uu.size + np.flatnonzero(ku == 0)[0])
-        for f in ("q", "status", "iterations", "residual", "rank", "rcond", "sigma_ratio"):
+        for f in ("status", *_PER_POSE):
             getattr(sol, f)[i] = getattr(part, f)[j]
     return sol

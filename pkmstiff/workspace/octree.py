@@ -481,12 +481,16 @@ class EvaluatedPoints:
     counts: np.ndarray  # (K, C) int64
 
     @classmethod
+    def empty(cls) -> EvaluatedPoints:
+        return cls(np.empty(0, np.int64), np.empty(0, bool), np.empty((0, 0), np.int64))
+
+    @classmethod
     def join(cls, parts: list[EvaluatedPoints]) -> tuple[EvaluatedPoints, np.ndarray]:
         """The points of all ``parts`` (each point once, the first part's) and the summed counters (C,) of the
         repeats left out."""
         parts = [p for p in parts if p.keys.size]
         if not parts:
-            return cls(np.empty(0, np.int64), np.empty(0, bool), np.empty((0, 0), np.int64)), np.zeros(0, np.int64)
+            return cls.empty(), np.zeros(0, np.int64)
         keys = np.concatenate([p.keys for p in parts])
         counts = np.concatenate([p.counts for p in parts])
         ukeys, first = np.unique(keys, return_index=True)
@@ -583,7 +587,7 @@ class _RecordingEvaluator(_Evaluator):
     def points(self) -> EvaluatedPoints:
         """What it evaluated, sorted by key (each point once: a closure evaluates a point once)."""
         if not self.parts:
-            return EvaluatedPoints(np.empty(0, np.int64), np.empty(0, bool), np.empty((0, 0), np.int64))
+            return EvaluatedPoints.empty()
         keys = np.concatenate([k for k, _, _ in self.parts])
         order = np.argsort(keys, kind="stable")
         return EvaluatedPoints(keys[order], np.concatenate([v for _, v, _ in self.parts])[order],
