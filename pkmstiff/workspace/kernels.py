@@ -242,6 +242,27 @@ def corner_centroids(index, corners, lo, h):
 
 
 @_jit
+def touches_box(vox, corners, n):
+    """Whether an admissible corner of the voxels ``vox`` (M, 3) lower-corner lattice indices, ``corners`` (M, 8)
+    in corner order c = (c & 1, c >> 1 & 1, c >> 2 & 1), lies on a face of the lattice box 0..n (3,) and inside it."""
+    for m in range(vox.shape[0]):
+        for c in range(8):
+            if not corners[m, c]:
+                continue
+            face = False
+            inside = True
+            for k in range(3):
+                i = vox[m, k] + ((c >> k) & 1)
+                if i < 0 or i > n[k]:
+                    inside = False
+                elif i == 0 or i == n[k]:
+                    face = True
+            if face and inside:
+                return True
+    return False
+
+
+@_jit
 def extent(points):
     """(3,) min and (3,) max of the points (N >= 1, 3) per axis (no NaN), in one pass."""
     lo = points[0].copy()

@@ -90,6 +90,9 @@ class OctreeResult:
     time_evaluation: float  # s spent inside the predicate
     edges: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(repr=False, default=None)
     leaf_table: KeyTable | None = field(repr=False, default=None)  # leaf lower-corner key -> leaf number
+    #: threads the mesh's look-ups and volumes may use (:func:`pkmstiff.workspace.volume.workspace_volume`): 1, or
+    #: 2 in a parallel run, whose workers are idle by then
+    threads: int = field(repr=False, default=1)
 
     @cached_property
     def known_keys(self) -> np.ndarray:
@@ -141,13 +144,17 @@ class OctreeResult:
     @cached_property
     def edge_rings(self) -> np.ndarray:
         """(E, 4) leaf numbers of the four voxels around each sign-change edge (see :meth:`Lattice.ring_offsets`);
-        -1 where a voxel is not a leaf (only without the closure step)."""
+        -1 where a voxel is not a leaf (only without the closure step). Looked up on :attr:`threads` threads (the
+        compiled look-up releases the GIL), each a contiguous part of the edges."""
         start, axis, _ = self.sign_change_edges()
         lat = self.lattice
         if self.leaf_table is None:
             self.leaf_table = KeyTable(lat.key(self.leaf_index))
-        return ring_lookup(self.leaf_table.slots, self.leaf_table.shift, np.ascontiguousarray(start, np.int64),
-                           np.ascontiguousarray(axis, np.int64), lat.dims, lat.ring_offsets())
+        start, axis = np.ascontiguousarray(start, np.int64), np.ascontiguousarray(axis, np.int64)
+        table, dims, off = self.leaf_table, lat.dims, lat.ring_offsets()
+        parts = in_threads(lambda a, b: ring_lookup(table.slots, table.shift, start[a:b], axis[a:b], dims, off),
+                           start.shape[0], self.threads)
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
 
     @cached_property
     def ring_triangles(self) -> np.ndarray:
@@ -164,6 +171,25 @@ class OctreeResult:
     def admissible_points(self) -> np.ndarray:
         """(K, 3) coordinates of the evaluated admissible corners of the finest level."""
         return self.lattice.point(self.lattice.unkey(self.admissible_keys))
+
+
+#: fewest items per thread worth a thread of its own (:func:`in_threads`): below, starting it costs a noticeable share
+THREAD_LEAST_ITEMS = 100_000
+
+
+def in_threads(fn: Callable[[int, int], Any], items: int, threads: int) -> list[Any]:
+    """``[fn(a, b) for contiguous (a, b) covering 0..items]``: up to ``threads`` parts of at least
+    :data:`THREAD_LEAST_ITEMS` items, run on as many threads (``fn`` must release the GIL to gain: a compiled kernel)."""
+    n = max(1, min(threads, items // THREAD_LEAST_ITEMS))
+    bounds = np.linspace(0, items, n + 1).round().astype(np.int64)
+    if n == 1:
+        return [fn(0, items)]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(n - 1) as ex:
+        rest = [ex.submit(fn, int(a), int(b)) for a, b in pairwise(bounds[1:])]
+        first = fn(0, int(bounds[1]))
+        return [first] + [f.result() for f in rest]
 
 
 def unique_sorted(keys: np.ndarray) -> np.ndarray:
@@ -524,6 +550,10 @@ class SubtreeRunner(Protocol):
         """Number of slices to cut ``voxels`` boundary voxels of ``level`` into now (< 2: not at this level);
         ``evaluations``: about as many points are left to evaluate below this level."""
 
+    def bounds(self, voxels: int, n_slices: int) -> np.ndarray:
+        """(n_slices + 1,) bounds of the contiguous slices of the ``voxels`` boundary voxels (any sizes: the leaves
+        are the same, :func:`_refine`)."""
+
     def run(self, tasks: list[SubtreeTask]) -> list[Subtree]:
         """:func:`refine_subtree` of every task, in task order."""
 
@@ -645,7 +675,7 @@ def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice
     are added to ``inside`` and ``per_level``, a point evaluated by k slices counted once (``runner.uncount``). Also
     returns the slices' ring misses (candidates for the closure's first pass, :func:`_close`) and, with ``closure``,
     the points their own closures evaluated (each once; :func:`_close_ahead`)."""
-    bounds = np.linspace(0, vox.shape[0], n_slices + 1).round().astype(np.int64)
+    bounds = runner.bounds(vox.shape[0], n_slices)
     keys = lat.key(vox)
     order = np.argsort(keys, kind="stable")
     owner = np.repeat(np.arange(n_slices), np.diff(bounds))
@@ -676,11 +706,9 @@ def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice
 
 
 def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
-    """An admissible corner of a finest voxel lies on the box boundary (only voxels at the boundary are looked at)."""
-    near = np.flatnonzero(np.any((vox <= 0) | (vox + 1 >= lat.n), axis=1))
-    all_idx = vox[near, None, :] + CORNER_OFFSETS[None]
-    on_face = np.any((all_idx == 0) | (all_idx == lat.n), axis=-1) & lat.inside(all_idx)
-    return bool(np.any(on_face & corners[near]))
+    """An admissible corner of a finest voxel lies on the box boundary (:func:`kernels.touches_box`)."""
+    return bool(kernels.touches_box(np.ascontiguousarray(vox, np.int64), np.ascontiguousarray(corners, bool),
+                                    np.ascontiguousarray(lat.n, np.int64)))
 
 
 def _split(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray, lat: Lattice,
