@@ -484,3 +484,43 @@ def test_volumes_and_meshes_on_two_threads_are_those_of_one(monkeypatch):
     for m, n in ((a.crossing_mesh, b.crossing_mesh), (a.centroid_mesh, b.centroid_mesh)):
         assert np.array_equal(m.vertices, n.vertices) and np.array_equal(m.triangles, n.triangles)
     assert np.array_equal(one.edge_rings, two.edge_rings)
+
+
+def test_compiled_shared_face_test_is_the_numpy_formula():
+    """Points in a closed coarse voxel of another slice: the numpy formulation it replaced (the up to eight coarse
+    voxels touching each point looked up among the slices' sorted voxel keys), on random points of a lattice whose
+    coarse voxels belong to three slices or none."""
+    from pkmstiff.workspace import kernels
+    from pkmstiff.workspace.octree import KeyTable, Lattice
+
+    rng = np.random.default_rng(13)
+    lat = Lattice(np.zeros(3), np.ones(3), np.array([5, 4, 5]))
+    size = np.array([4, 2, 4])
+    cells = lat.n // size
+    coarse = np.stack(np.meshgrid(*[np.arange(c) for c in cells], indexing="ij"), -1).reshape(-1, 3)
+    coarse = coarse[rng.random(len(coarse)) < 0.6]
+    keys = lat.key(coarse * size)
+    order = np.argsort(keys)
+    keys, owner = keys[order], rng.integers(0, 3, len(keys))
+    idx = np.concatenate([rng.integers(0, lat.n + 1, (3000, 3)),
+                          rng.integers(0, cells + 1, (3000, 3)) * size])  # many on coarse faces and edges
+
+    def numpy_other(me):
+        q, r = np.divmod(idx, size)
+        on = (r == 0).astype(np.int64)
+        other = np.zeros(len(idx), bool)
+        for o in CORNER_OFFSETS:
+            qq = q - o * on
+            valid = np.all((qq >= 0) & (qq < cells), axis=1)
+            ck = lat.key(qq * size)
+            pos = np.minimum(np.searchsorted(keys, ck), keys.size - 1)
+            s = np.where(valid & (keys[pos] == ck), owner[pos], -1)
+            other |= (s >= 0) & (s != me)
+        return other & (r == 0).any(axis=1)
+
+    table = KeyTable(np.empty(0, np.int64), capacity=keys.size)
+    table.add(keys, owner)
+    for me in range(3):
+        got = kernels.on_other_slice(idx, size, cells, lat.dims, table.slots, table.shift, me)
+        want = numpy_other(me)
+        assert np.array_equal(got, want) and 0 < want.sum() < len(idx)

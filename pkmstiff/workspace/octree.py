@@ -152,9 +152,10 @@ class OctreeResult:
             self.leaf_table = KeyTable(lat.key(self.leaf_index))
         start, axis = np.ascontiguousarray(start, np.int64), np.ascontiguousarray(axis, np.int64)
         table, dims, off = self.leaf_table, lat.dims, lat.ring_offsets()
-        parts = in_threads(lambda a, b: ring_lookup(table.slots, table.shift, start[a:b], axis[a:b], dims, off),
-                           start.shape[0], self.threads)
-        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+        out = np.empty((start.shape[0], 4), np.int64)
+        in_threads(lambda a, b: ring_lookup(table.slots, table.shift, start, axis, dims, off, out, a, b),
+                   start.shape[0], self.threads)
+        return out
 
     @cached_property
     def ring_triangles(self) -> np.ndarray:
@@ -451,6 +452,7 @@ class SubtreeTask:
     closure: bool = False  # also close the slice's leaves within the region no other slice holds (see Subtree)
     _regions: KeyTable | None = field(default=None, repr=False)  # coarse voxel key -> number in _region_of
     _region_of: np.ndarray | None = field(default=None, repr=False)  # the slice whose region each is, -1 none
+    _slices: KeyTable | None = field(default=None, repr=False)  # :meth:`slice_table`
 
     @cached_property
     def coarse_size(self) -> np.ndarray:
@@ -484,6 +486,13 @@ class SubtreeTask:
             pos = self._regions.find(ck)
         owner = self._region_of[pos]
         return (owner >= 0) & (owner != self.slice)
+
+    def slice_table(self) -> KeyTable:
+        """The lower-corner keys of all slices' voxels -> their slice (built once)."""
+        if self._slices is None:
+            self._slices = KeyTable(np.empty(0, np.int64), capacity=self.coarse_keys.size)
+            self._slices.add(self.coarse_keys, self.coarse_slice)
+        return self._slices
 
     def owner(self, lat: Lattice, q: np.ndarray, cells: np.ndarray) -> np.ndarray:
         """The slice of the slices' voxels ``q`` (n, 3) (coarse indices), -1 where none."""
@@ -579,21 +588,12 @@ class _CountingEvaluator(_Evaluator):
         return val
 
     def _on_shared_face(self, idx: np.ndarray) -> np.ndarray:
-        """Points that lie in a voxel (closed) of another slice: one of the up to eight coarse voxels touching them."""
-        t = self.task
-        q, r = np.divmod(idx, t.coarse_size)
-        face = np.flatnonzero((r == 0).any(axis=1))
-        out = np.zeros(idx.shape[0], bool)
-        if face.size == 0:
-            return out
-        qf, on = q[face], (r[face] == 0).astype(np.int64)
-        other = np.zeros(face.size, bool)
-        cells = self.lat.n // t.coarse_size
-        for o in CORNER_OFFSETS:
-            s = t.owner(self.lat, qf - o * on, cells)  # off a face the offset is 0: the same voxel again, harmless
-            other |= (s >= 0) & (s != t.slice)
-        out[face] = other
-        return out
+        """Points that lie in a voxel (closed) of another slice: one of the up to eight coarse voxels touching them
+        (:func:`kernels.on_other_slice`)."""
+        t, lat = self.task, self.lat
+        table = t.slice_table()
+        return kernels.on_other_slice(np.ascontiguousarray(idx, np.int64), t.coarse_size, lat.n // t.coarse_size,
+                                      lat.dims, table.slots, table.shift, t.slice)
 
 
 #: a subtree's own closure stops before a pass of fewer new points than this: each pass costs ~1 ms of fixed costs
