@@ -7,6 +7,7 @@ import hashlib
 import math
 import os
 import pickle
+import platform
 import time
 from pathlib import Path
 
@@ -61,6 +62,18 @@ def test_guided_bounds_cover_every_item_once_with_sizes_falling_to_a_quarter(ite
         w = parallel.GUIDED_LAST ** (np.arange(tasks) / (tasks - 1))
         exact = items * w / w.sum()
         assert np.all(np.abs(sizes - exact) <= 1.0 + 1e-9)
+
+
+@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="mallopt is glibc's")
+def test_local_workers_keep_freed_memory_for_their_next_arrays():
+    """Every local worker sets glibc's mmap and trim thresholds at start (steady_malloc); this process keeps its own."""
+    parallel.shutdown()
+    try:
+        got = [parallel.result(parallel.submit(2, parallel._malloc_steady), 2) for _ in range(4)]
+    finally:
+        parallel.shutdown()
+    assert got == [True] * 4
+    assert not parallel._malloc_steady()
 
 
 def test_plan_text_names_workers_tasks_and_task_size():
