@@ -66,14 +66,17 @@ def test_guided_bounds_cover_every_item_once_with_sizes_falling_to_a_quarter(ite
 
 @pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="mallopt is glibc's")
 def test_local_workers_keep_freed_memory_for_their_next_arrays():
-    """Every local worker sets glibc's mmap and trim thresholds at start (steady_malloc); this process keeps its own."""
+    """Every local worker sets glibc's mmap and trim thresholds at start, and every command its own process
+    (steady_malloc)."""
     parallel.shutdown()
+    parallel._MALLOC_STEADY[0] = False  # as in a process that ran no command yet; workers forked now start so too
     try:
         got = [parallel.result(parallel.submit(2, parallel._malloc_steady), 2) for _ in range(4)]
     finally:
         parallel.shutdown()
     assert got == [True] * 4
     assert not parallel._malloc_steady()
+    assert main([]) == 0 and parallel._malloc_steady()
 
 
 def test_plan_text_names_workers_tasks_and_task_size():

@@ -126,7 +126,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     (a bug: one line, the traceback with ``PKMSTIFF_TRACEBACK=1``); 130 interrupted; 141 output pipe closed. The
     statuses of the error kinds are :data:`EXIT_STATUS`.
     """
+    from pkmstiff.evaluation.parallel import steady_malloc
+
     _headless()
+    steady_malloc()
     argv = list(sys.argv[1:] if argv is None else argv)
     command = _command_of(argv)
     try:

@@ -229,7 +229,7 @@ def _worker_init(warm: bool) -> None:
         warm_up()
 
 
-#: glibc ``mallopt`` parameters and the values a worker sets (:func:`steady_malloc`)
+#: glibc ``mallopt`` parameters and the values a command and its workers set (:func:`steady_malloc`)
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
 WORKER_MMAP_THRESHOLD = 32 << 20  # bytes: arrays below it come from the heap (glibc's own upper bound for its
 #: adaptive threshold, which a long-running command reaches after its first large arrays)
@@ -239,11 +239,11 @@ _MALLOC_STEADY = [False]
 
 def steady_malloc() -> bool:
     """glibc only (elsewhere nothing, False): serve arrays up to :data:`WORKER_MMAP_THRESHOLD` from the heap and keep
-    up to :data:`WORKER_TRIM_THRESHOLD` of freed memory instead of returning it to the system. A freshly forked worker
-    otherwise maps and unmaps its large temporary arrays afresh for every chunk, and the system zeroes each page again
-    on first touch: at 2 mm the workspace's workers took 230–360k minor page faults and 0.6–0.8 s of system CPU per
-    run, with these settings 73–91k and 0.2–0.3 s (the command's own process, warm from earlier work, had reached that
-    state by itself)."""
+    up to :data:`WORKER_TRIM_THRESHOLD` of freed memory instead of returning it to the system; set by every command
+    (:func:`pkmstiff.cli.main`) and every local worker. A fresh process otherwise maps and unmaps its large temporary
+    arrays afresh for every chunk, and the system zeroes each page again on first touch: at 2 mm the workspace's
+    workers took 230–360k minor page faults and 0.6–0.8 s of system CPU per run, with these settings 73–91k and
+    0.2–0.3 s; a whole `--jobs 1` run 175–204k faults and 1.0–1.1 s against 115–137k and 0.55–0.75 s."""
     import ctypes
 
     try:
