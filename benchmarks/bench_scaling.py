@@ -10,8 +10,9 @@ it imports (a sweep builds machines from their files: scipy.spatial for the hull
 caches inside the process. Timed without the untimed run, whichever run came first paid them (a 25 mm sweep measured
 1.73 s on 1 worker and 0.51 s on 2, 169 % efficiency; a 5 mm sweep 28.1 s of CPU serially against 12.2 s on 16
 workers). The local workers are forked from this process after it, so they inherit the imports and loaded kernels
-exactly as the serial run uses them. ``--repeat R`` runs each ``--jobs 1`` / ``--jobs 2`` pair R times, alternating,
-and keeps the fastest of each (on a shared machine other load only slows a run down).
+exactly as the serial run uses them. ``--repeat R`` runs each ``--jobs 1`` / ``--jobs 2`` pair (and each warm Dask run
+with a serial one) R times, alternating, and keeps the fastest of each (on a shared machine other load only slows a run
+down).
 
 Besides the fit from wall times, each parallel run measures the serial fraction from CPU time: the CPU seconds of this
 process (everything not in a worker: planning, sending, collecting, statistics, forks; not the work it does while its
@@ -232,7 +233,7 @@ def main() -> None:
         rows = {n: run_once([*argv, "--jobs", str(n)]) for n in counts}
         table[name] = _scaling(argv, rows)
     if a.dask:
-        table.update(_dask_runs(work, max(counts)))
+        table.update(_dask_runs(work, max(counts), a.repeat))
     if table:
         print(f"\n{'work':<20}" + "".join(f"{f'{n} w: wall s (eff.)':>20}" for n in counts)
               + f"{'s (wall fit)':>13}{'pred. 16':>9}{'s_cpu':>8}{'pred. 16 (cpu)':>15}")
@@ -351,9 +352,10 @@ def jobs_pairs(work: dict[str, list[str]], repeat: int = 1) -> dict[str, dict]:
     return out
 
 
-def _dask_runs(work: dict[str, list[str]], n: int) -> dict[str, dict]:
+def _dask_runs(work: dict[str, list[str]], n: int, repeat: int = 1) -> dict[str, dict]:
     """sweep-25 and section with ``--scheduler`` on a fresh local cluster of ``n`` single-threaded workers against
-    serial: the first run finds the workers cold (small work then stays local while they warm up), the second warm."""
+    serial: the first run finds the workers cold (small work then stays local while they warm up), then ``repeat``
+    warm runs alternating with as many serial ones (the fastest of each counts, as for the pairs)."""
     from distributed import LocalCluster
 
     out = {}
@@ -362,12 +364,18 @@ def _dask_runs(work: dict[str, list[str]], n: int) -> dict[str, dict]:
             if name not in work:
                 continue
             warm_up(work[name])
-            serial = run_once([*work[name], "--jobs", "1"])
-            for state in ("cold", "warm"):
-                dask = run_once([*work[name], "--scheduler", cluster.scheduler_address])
-                t = _scaling(work[name], {1: serial, n: dask})
+            on_dask = [*work[name], "--scheduler", cluster.scheduler_address]
+            serial = [run_once([*work[name], "--jobs", "1"])]
+            cold = run_once(on_dask)
+            warm = []
+            for _ in range(repeat):
+                warm.append(run_once(on_dask))
+                serial.append(run_once([*work[name], "--jobs", "1"]))
+            best = min(serial, key=lambda r: r["wall_s"])
+            for state, dask in (("cold", cold), ("warm", min(warm, key=lambda r: r["wall_s"]))):
+                t = _scaling(work[name], {1: best, n: dask})
                 t.pop("serial_fraction_cpu", None)  # the Dask workers' CPU is not counted here
-                t["plan"] = PLANS.get(" ".join([*work[name], "--scheduler", cluster.scheduler_address]), "")
+                t["plan"] = PLANS.get(" ".join(on_dask), "")
                 out[f"{name}/dask-{state}"] = t
     return out
 

@@ -45,6 +45,24 @@ def test_plan_covers_every_item_once_with_tasks_of_whole_granules(items, us, job
         assert jobs == 1 or items * us * 1e-6 < 2 * parallel.MIN_LOCAL_TASK_SECONDS + 2 * granule * us * 1e-6
 
 
+@settings(max_examples=200, deadline=None)
+@given(st.integers(0, 5000), st.integers(1, 40), st.integers(1, 16))
+def test_guided_bounds_cover_every_item_once_with_sizes_falling_to_a_quarter(items, tasks, workers):
+    """Contiguous tasks covering 0..items, each non-empty while items >= tasks; equal (within one item) where each
+    worker takes one task; otherwise sizes falling geometrically from the first to about a quarter of it (rounding
+    to whole items moves each bound by at most half an item, so sizes are within one item of the exact ones)."""
+    b = parallel.guided_bounds(items, tasks, workers)
+    sizes = np.diff(b)
+    assert b[0] == 0 and b[-1] == items and np.all(sizes >= (1 if items >= tasks else 0))
+    assert b.size == tasks + 1
+    if tasks <= workers or items <= tasks:
+        assert sizes.max() - sizes.min() <= 1
+    else:
+        w = parallel.GUIDED_LAST ** (np.arange(tasks) / (tasks - 1))
+        exact = items * w / w.sum()
+        assert np.all(np.abs(sizes - exact) <= 1.0 + 1e-9)
+
+
 def test_plan_text_names_workers_tasks_and_task_size():
     p = parallel.plan(1_000_000, 50e-6, 2, granule=4096)
     assert p.parallel and p.workers == 2 and p.tasks == 8  # 50 s of work: 4 tasks per worker

@@ -313,6 +313,11 @@ class _InProcessSubtrees:
     def slices(self, level, voxels, evaluations):
         return self.n_slices if level == self.level else 0
 
+    def bounds(self, voxels, n_slices):  # slices falling in size, as the workers get them
+        from pkmstiff.evaluation.parallel import guided_bounds
+
+        return guided_bounds(voxels, n_slices, 1)
+
     def run(self, tasks):
         from pkmstiff.workspace.octree import refine_subtree
 
@@ -441,3 +446,81 @@ def test_compiled_mesh_kernels_are_the_numpy_formulas():
     dims = n + 3
     i = vox + 1
     assert np.array_equal(kernels.lattice_keys(vox, dims), i[:, 0] + dims[0] * (i[:, 1] + dims[1] * i[:, 2]))
+
+
+def test_compiled_touches_box_is_the_numpy_formula():
+    """An admissible corner on a face of the box and inside it: the numpy formulation it replaced, on random voxels at
+    and beyond the faces (each voxel alone, so every voxel's answer is checked)."""
+    from pkmstiff.workspace import kernels
+
+    rng = np.random.default_rng(12)
+    n = np.array([6, 5, 7])
+    vox = rng.integers(-1, n + 1, (600, 3))
+    corners = rng.random((600, 8)) < 0.3
+
+    def numpy_touches(v, c):
+        idx = v[:, None, :] + CORNER_OFFSETS[None]
+        on_face = np.any((idx == 0) | (idx == n), axis=-1) & np.all((idx >= 0) & (idx <= n), axis=-1)
+        return bool(np.any(on_face & c))
+
+    got = [kernels.touches_box(vox[i:i + 1], corners[i:i + 1], n) for i in range(600)]
+    want = [numpy_touches(vox[i:i + 1], corners[i:i + 1]) for i in range(600)]
+    assert got == want and 0 < sum(want) < 600  # both answers occur
+    assert kernels.touches_box(vox, corners, n) == numpy_touches(vox, corners)
+
+
+def test_volumes_and_meshes_on_two_threads_are_those_of_one(monkeypatch):
+    """A parallel run's mesh look-ups (edges split over threads) and volumes (the two meshes at once) give the same
+    bits as one thread: each kernel computes every element alone, the parts are joined in order."""
+    from pkmstiff.workspace import octree as O
+
+    monkeypatch.setattr(O, "THREAD_LEAST_ITEMS", 100)  # split even this small result
+    one = octree_boundary(_slotted_sphere, *BOX, 0.025)
+    two = octree_boundary(_slotted_sphere, *BOX, 0.025)
+    two.threads = 2
+    a, b = workspace_volume(one), workspace_volume(two)
+    assert len(O.in_threads(lambda s, e: (s, e), two.sign_change_edges()[0].shape[0], 2)) == 2
+    assert a.volumes == b.volumes and list(b.volumes) == list(a.volumes)
+    for m, n in ((a.crossing_mesh, b.crossing_mesh), (a.centroid_mesh, b.centroid_mesh)):
+        assert np.array_equal(m.vertices, n.vertices) and np.array_equal(m.triangles, n.triangles)
+    assert np.array_equal(one.edge_rings, two.edge_rings)
+
+
+def test_compiled_shared_face_test_is_the_numpy_formula():
+    """Points in a closed coarse voxel of another slice: the numpy formulation it replaced (the up to eight coarse
+    voxels touching each point looked up among the slices' sorted voxel keys), on random points of a lattice whose
+    coarse voxels belong to three slices or none."""
+    from pkmstiff.workspace import kernels
+    from pkmstiff.workspace.octree import KeyTable, Lattice
+
+    rng = np.random.default_rng(13)
+    lat = Lattice(np.zeros(3), np.ones(3), np.array([5, 4, 5]))
+    size = np.array([4, 2, 4])
+    cells = lat.n // size
+    coarse = np.stack(np.meshgrid(*[np.arange(c) for c in cells], indexing="ij"), -1).reshape(-1, 3)
+    coarse = coarse[rng.random(len(coarse)) < 0.6]
+    keys = lat.key(coarse * size)
+    order = np.argsort(keys)
+    keys, owner = keys[order], rng.integers(0, 3, len(keys))
+    idx = np.concatenate([rng.integers(0, lat.n + 1, (3000, 3)),
+                          rng.integers(0, cells + 1, (3000, 3)) * size])  # many on coarse faces and edges
+
+    def numpy_other(me):
+        q, r = np.divmod(idx, size)
+        on = (r == 0).astype(np.int64)
+        other = np.zeros(len(idx), bool)
+        for o in CORNER_OFFSETS:
+            qq = q - o * on
+            valid = np.all((qq >= 0) & (qq < cells), axis=1)
+            ck = lat.key(qq * size)
+            pos = np.minimum(np.searchsorted(keys, ck), keys.size - 1)
+            s = np.where(valid & (keys[pos] == ck), owner[pos], -1)
+            other |= (s >= 0) & (s != me)
+        return other & (r == 0).any(axis=1)
+
+    table = KeyTable(np.empty(0, np.int64), capacity=keys.size)
+    table.add(keys, owner)
+    for me in range(3):
+        got = kernels.on_other_slice(idx, size, cells, lat.dims, table.slots, table.shift, me)
+        want = numpy_other(me)
+        assert np.array_equal(got, want) and 0 < want.sum() < len(idx)

@@ -246,8 +246,8 @@ class StudyMachine(Machine):
 
             fitted = window_ranges(self, kind, at, step, tuple(orientation), check_frame(frame),
                                    *(() if checks is None else (checks,)))
-            u_range = fitted[0] if u_range is None else u_range
-            v_range = fitted[1] if v_range is None else v_range
+            u_range = fitted.u_range if u_range is None else u_range
+            v_range = fitted.v_range if v_range is None else v_range
         return axis_plane(kind, at, u_range, v_range, step)
 
     def workspace(self, resolution: float = 0.025, orientation: Iterable[float] = (0.0, 0.0, 0.0), *,

@@ -102,18 +102,18 @@ def _machine_section(args: argparse.Namespace) -> int:
     if ranges is None:
         from pkmstiff.workspace.windows import window_ranges
 
-        ranges = dict(zip(plane_kind, window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori,
-                                                    args.frame, checks, n_jobs=args.jobs,
-                                                    scheduler=getattr(args, "scheduler", None))))
-        fitted = True
+        w = window_ranges(machine, plane_kind, args.at * 1e-3, args.step * 1e-3, ori, args.frame, checks,
+                          n_jobs=args.jobs, scheduler=getattr(args, "scheduler", None))
+        ranges, fitted, fraction = dict(zip(plane_kind, (w.u_range, w.v_range))), True, w.admissible_fraction
     else:
-        fitted = False
+        fitted, fraction = False, None
     all_names = list(dict.fromkeys(names + [r.quantity for r in requirements]))
     window = ", ".join(f"{a} {lo * 1e3:g}..{hi * 1e3:g} mm" for a, (lo, hi) in ranges.items())
     fmts = formats if args.out else []
     cost = SectionRequest(plane_kind, args.at * 1e-3, ranges[plane_kind[0]], ranges[plane_kind[1]], step,
                           tuple(all_names), tuple(ori), frame=args.frame, skip_checks=tuple(args.skip_check)).cost(
-        machine, len(names) if "png" in fmts else 0, write=bool(set(fmts) & {"vtu", "csv", "npz"}))
+        machine, len(names) if "png" in fmts else 0, write=bool(set(fmts) & {"vtu", "csv", "npz"}),
+        admissible_fraction=fraction)
     if "png" in fmts or getattr(args, "reasons_map", False):
         cost = cost.plus(PLOT_LIBRARY_SECONDS + (PNG_SECONDS if getattr(args, "reasons_map", False) else 0.0))
     plan = predicted_plan(int(cost.count), cost.seconds, args.jobs, getattr(args, "scheduler", None), "points",

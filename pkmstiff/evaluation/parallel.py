@@ -36,6 +36,8 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, Generic, TypeVar
 
+import numpy as np
+
 from pkmstiff.errors import ArgumentError, ResourceError
 
 T = TypeVar("T")
@@ -134,6 +136,26 @@ def _task_size(items: int, item_seconds: float, granule: int, workers: int, leas
 def split(items: int, p: Plan) -> list[tuple[int, int]]:
     """(start, stop) of each task of ``p`` over ``items`` items."""
     return [(s, min(s + p.task_items, items)) for s in range(0, items, max(p.task_items, 1))]
+
+
+#: the last task of a guided split holds this fraction of the first's items
+GUIDED_LAST = 0.25
+
+
+def guided_bounds(items: int, tasks: int, workers: int, last: float = GUIDED_LAST) -> np.ndarray:
+    """(tasks + 1,) bounds of ``tasks`` contiguous tasks over ``items`` items whose sizes fall geometrically from the
+    first to the last (``last`` times the first's): the workers take them in order, so the long ones start first and
+    the short ones fill the ends, and a worker waits for the other at the end for at most about a short task
+    (guided self-scheduling, Polychronopoulos & Kuck 1987) where equal tasks of varying cost leave one core idle for up
+    to a long one. Equal tasks where there are no more than ``workers`` (each worker takes one). Every task holds at
+    least one item while ``items >= tasks``."""
+    if tasks <= max(workers, 1) or items <= tasks:
+        return np.linspace(0, items, max(tasks, 1) + 1).round().astype(np.int64)
+    w = last ** (np.arange(tasks) / (tasks - 1))
+    b = np.concatenate([[0.0], np.cumsum(w)]) * (items / w.sum())
+    b = b.round().astype(np.int64)
+    b = np.maximum(b, np.arange(tasks + 1))  # at least one item per task ...
+    return np.minimum(b, items - tasks + np.arange(tasks + 1))  # ... from both ends
 
 
 # ---------------------------------------------------------------------------------------------------- shared data

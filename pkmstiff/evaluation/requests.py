@@ -78,11 +78,15 @@ class SectionRequest:
                                 orientation=self.orientation, tool_length=self.tool_length, n_jobs=n_jobs,
                                 progress=progress, frame=self.frame, checks=checks, scheduler=scheduler)
 
-    def cost(self, machine: Machine, n_png: int = 0, write: bool = False) -> Cost:
+    def cost(self, machine: Machine, n_png: int = 0, write: bool = False, admissible_fraction: float | None = None
+             ) -> Cost:
         """The :class:`~pkmstiff.evaluation.cost.Cost` of :meth:`evaluate` (plus ``n_png`` maps and, ``write``, the
-        VTU/CSV/NPZ files): raster points, the admissible fraction measured on a sub-raster (only admissible points
-        get quantities), kinematic and structure quantities. The raster itself is not built."""
-        from pkmstiff.evaluation.cost import STRUCTURE_GROUPS, admissible_fraction, plane_points, section_cost
+        VTU/CSV/NPZ files): raster points, the admissible fraction (only admissible points get quantities; measured
+        on a sub-raster unless given, e.g. by the window fit's coarse pass,
+        :class:`~pkmstiff.workspace.windows.Window`), kinematic and structure quantities. The raster itself is not
+        built."""
+        from pkmstiff.evaluation.cost import STRUCTURE_GROUPS, plane_points, section_cost
+        from pkmstiff.evaluation.cost import admissible_fraction as admissible_fraction_of
         from pkmstiff.evaluation.sections import AXES, raster_count
         from pkmstiff.machine.frames import frame_origin
 
@@ -90,9 +94,11 @@ class SectionRequest:
         n_points = raster_count(*self.u_range, self.step) * raster_count(*self.v_range, self.step)
         normal = ({"x", "y", "z"} - set(kind)).pop()
         origin = AXES[normal] * self.at + frame_origin(machine, self.frame)
-        pts = plane_points(self.u_range, self.v_range, self.step, origin, AXES[kind[0]], AXES[kind[1]])
-        frac = admissible_fraction(machine, pts, self.orientation,
-                                   checks_without(self.skip_checks, "SectionRequest"))
+        frac = admissible_fraction
+        if frac is None:
+            pts = plane_points(self.u_range, self.v_range, self.step, origin, AXES[kind[0]], AXES[kind[1]])
+            frac = admissible_fraction_of(machine, pts, self.orientation,
+                                          checks_without(self.skip_checks, "SectionRequest"))
         qs = [get_quantity(n) for n in dict.fromkeys(self.quantities)]
         structure = sum(q.group in STRUCTURE_GROUPS for q in qs)
         return section_cost(n_points, frac, len(qs) - structure, structure, any(q.group == "modal" for q in qs),

@@ -207,16 +207,14 @@ def owned_edges(vox, corners):
 
 
 @_jit
-def ring_lookup(slots, shift, start, axis, dims, ring_off):
-    """(E, 4) values (leaf numbers, -1 where absent) of the lattice keys of the four voxels around each edge: lower end
-    ``start`` (E, 3) lattice indices, ``axis`` (E,), keys as :func:`lattice_keys`, the voxels' key offsets
-    ``ring_off`` (3, 4)."""
-    out = np.empty((start.shape[0], 4), np.int64)
-    for e in range(start.shape[0]):
+def ring_lookup(slots, shift, start, axis, dims, ring_off, out, a, b):
+    """Into ``out[a:b]`` (E, 4): the values (leaf numbers, -1 where absent) of the lattice keys of the four voxels
+    around edges a..b-1: lower end ``start`` (E, 3) lattice indices, ``axis`` (E,), keys as :func:`lattice_keys`,
+    the voxels' key offsets ``ring_off`` (3, 4) (parts of the edges on threads of their own write into one array)."""
+    for e in range(a, b):
         base = _key(start, e, dims)
         for r in range(4):
             out[e, r] = _find(slots, shift, base + ring_off[axis[e], r])
-    return out
 
 
 @_jit
@@ -239,6 +237,56 @@ def corner_centroids(index, corners, lo, h):
         out[m, 1] = lo[1] + (index[m, 1] + np.float64(a1) / np.float64(n)) * h[1]
         out[m, 2] = lo[2] + (index[m, 2] + np.float64(a2) / np.float64(n)) * h[2]
     return out
+
+
+@_jit
+def on_other_slice(idx, size, cells, dims, slots, shift, me):
+    """(N,) whether each lattice point ``idx`` (N, 3) (inside the lattice) lies in a coarse voxel (closed) of a slice
+    other than ``me``: one of the up to eight coarse voxels of edge ``size`` (3,) cells touching it (two along an axis
+    where it lies on a coarse face, one otherwise), looked up in the table of the coarse voxels' lower-corner keys
+    (:func:`lattice_keys` with ``dims``) -> slice; ``cells`` (3,) coarse voxels per axis."""
+    out = np.zeros(idx.shape[0], np.bool_)
+    for i in range(idx.shape[0]):
+        q0, q1, q2 = idx[i, 0] // size[0], idx[i, 1] // size[1], idx[i, 2] // size[2]
+        f0 = idx[i, 0] - q0 * size[0] == 0
+        f1 = idx[i, 1] - q1 * size[1] == 0
+        f2 = idx[i, 2] - q2 * size[2] == 0
+        if not (f0 or f1 or f2):
+            continue
+        for c in range(8):
+            o0, o1, o2 = c & 1, (c >> 1) & 1, (c >> 2) & 1
+            if (o0 and not f0) or (o1 and not f1) or (o2 and not f2):
+                continue
+            a0, a1, a2 = q0 - o0, q1 - o1, q2 - o2
+            if a0 < 0 or a1 < 0 or a2 < 0 or a0 >= cells[0] or a1 >= cells[1] or a2 >= cells[2]:
+                continue
+            key = (a0 * size[0] + 1) + dims[0] * ((a1 * size[1] + 1) + dims[1] * (a2 * size[2] + 1))
+            s = _find(slots, shift, key)
+            if s >= 0 and s != me:
+                out[i] = True
+                break
+    return out
+
+
+@_jit
+def touches_box(vox, corners, n):
+    """Whether an admissible corner of the voxels ``vox`` (M, 3) lower-corner lattice indices, ``corners`` (M, 8)
+    in corner order c = (c & 1, c >> 1 & 1, c >> 2 & 1), lies on a face of the lattice box 0..n (3,) and inside it."""
+    for m in range(vox.shape[0]):
+        for c in range(8):
+            if not corners[m, c]:
+                continue
+            face = False
+            inside = True
+            for k in range(3):
+                i = vox[m, k] + ((c >> k) & 1)
+                if i < 0 or i > n[k]:
+                    inside = False
+                elif i == 0 or i == n[k]:
+                    face = True
+            if face and inside:
+                return True
+    return False
 
 
 @_jit
@@ -276,15 +324,16 @@ class KeyTable:
         self.shift = 64 - bits
         self.slots = np.full(2 << bits, -1, np.int64)  # (key, value) pairs
 
-    def add(self, keys: np.ndarray) -> None:
-        """Add distinct new keys; their values are the next numbers (the order of addition)."""
+    def add(self, keys: np.ndarray, values: np.ndarray | None = None) -> None:
+        """Add distinct new keys with ``values`` (int64 >= 0), by default the next numbers (the order of addition)."""
         keys = np.ascontiguousarray(keys, np.int64).ravel()
         if 4 * (self.size + keys.size) > self.slots.size:  # keep the load below 1/2
             pairs = self.slots.reshape(-1, 2)
             old = pairs[pairs[:, 0] != -1]
             self._alloc(4 * (self.size + keys.size))
             table_insert(self.slots, self.shift, np.ascontiguousarray(old[:, 0]), np.ascontiguousarray(old[:, 1]))
-        table_insert(self.slots, self.shift, keys, np.arange(self.size, self.size + keys.size))
+        table_insert(self.slots, self.shift, keys, np.arange(self.size, self.size + keys.size) if values is None
+                     else np.ascontiguousarray(values, np.int64).ravel())
         self.size += keys.size
 
     def find(self, keys: np.ndarray) -> np.ndarray:

@@ -90,6 +90,9 @@ class OctreeResult:
     time_evaluation: float  # s spent inside the predicate
     edges: tuple[np.ndarray, np.ndarray, np.ndarray] | None = field(repr=False, default=None)
     leaf_table: KeyTable | None = field(repr=False, default=None)  # leaf lower-corner key -> leaf number
+    #: threads the mesh's look-ups and volumes may use (:func:`pkmstiff.workspace.volume.workspace_volume`): 1, or
+    #: 2 in a parallel run, whose workers are idle by then
+    threads: int = field(repr=False, default=1)
 
     @cached_property
     def known_keys(self) -> np.ndarray:
@@ -141,13 +144,18 @@ class OctreeResult:
     @cached_property
     def edge_rings(self) -> np.ndarray:
         """(E, 4) leaf numbers of the four voxels around each sign-change edge (see :meth:`Lattice.ring_offsets`);
-        -1 where a voxel is not a leaf (only without the closure step)."""
+        -1 where a voxel is not a leaf (only without the closure step). Looked up on :attr:`threads` threads (the
+        compiled look-up releases the GIL), each a contiguous part of the edges."""
         start, axis, _ = self.sign_change_edges()
         lat = self.lattice
         if self.leaf_table is None:
             self.leaf_table = KeyTable(lat.key(self.leaf_index))
-        return ring_lookup(self.leaf_table.slots, self.leaf_table.shift, np.ascontiguousarray(start, np.int64),
-                           np.ascontiguousarray(axis, np.int64), lat.dims, lat.ring_offsets())
+        start, axis = np.ascontiguousarray(start, np.int64), np.ascontiguousarray(axis, np.int64)
+        table, dims, off = self.leaf_table, lat.dims, lat.ring_offsets()
+        out = np.empty((start.shape[0], 4), np.int64)
+        in_threads(lambda a, b: ring_lookup(table.slots, table.shift, start, axis, dims, off, out, a, b),
+                   start.shape[0], self.threads)
+        return out
 
     @cached_property
     def ring_triangles(self) -> np.ndarray:
@@ -164,6 +172,25 @@ class OctreeResult:
     def admissible_points(self) -> np.ndarray:
         """(K, 3) coordinates of the evaluated admissible corners of the finest level."""
         return self.lattice.point(self.lattice.unkey(self.admissible_keys))
+
+
+#: fewest items per thread worth a thread of its own (:func:`in_threads`): below, starting it costs a noticeable share
+THREAD_LEAST_ITEMS = 100_000
+
+
+def in_threads(fn: Callable[[int, int], Any], items: int, threads: int) -> list[Any]:
+    """``[fn(a, b) for contiguous (a, b) covering 0..items]``: up to ``threads`` parts of at least
+    :data:`THREAD_LEAST_ITEMS` items, run on as many threads (``fn`` must release the GIL to gain: a compiled kernel)."""
+    n = max(1, min(threads, items // THREAD_LEAST_ITEMS))
+    bounds = np.linspace(0, items, n + 1).round().astype(np.int64)
+    if n == 1:
+        return [fn(0, items)]
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(n - 1) as ex:
+        rest = [ex.submit(fn, int(a), int(b)) for a, b in pairwise(bounds[1:])]
+        first = fn(0, int(bounds[1]))
+        return [first] + [f.result() for f in rest]
 
 
 def unique_sorted(keys: np.ndarray) -> np.ndarray:
@@ -425,6 +452,7 @@ class SubtreeTask:
     closure: bool = False  # also close the slice's leaves within the region no other slice holds (see Subtree)
     _regions: KeyTable | None = field(default=None, repr=False)  # coarse voxel key -> number in _region_of
     _region_of: np.ndarray | None = field(default=None, repr=False)  # the slice whose region each is, -1 none
+    _slices: KeyTable | None = field(default=None, repr=False)  # :meth:`slice_table`
 
     @cached_property
     def coarse_size(self) -> np.ndarray:
@@ -458,6 +486,13 @@ class SubtreeTask:
             pos = self._regions.find(ck)
         owner = self._region_of[pos]
         return (owner >= 0) & (owner != self.slice)
+
+    def slice_table(self) -> KeyTable:
+        """The lower-corner keys of all slices' voxels -> their slice (built once)."""
+        if self._slices is None:
+            self._slices = KeyTable(np.empty(0, np.int64), capacity=self.coarse_keys.size)
+            self._slices.add(self.coarse_keys, self.coarse_slice)
+        return self._slices
 
     def owner(self, lat: Lattice, q: np.ndarray, cells: np.ndarray) -> np.ndarray:
         """The slice of the slices' voxels ``q`` (n, 3) (coarse indices), -1 where none."""
@@ -524,6 +559,10 @@ class SubtreeRunner(Protocol):
         """Number of slices to cut ``voxels`` boundary voxels of ``level`` into now (< 2: not at this level);
         ``evaluations``: about as many points are left to evaluate below this level."""
 
+    def bounds(self, voxels: int, n_slices: int) -> np.ndarray:
+        """(n_slices + 1,) bounds of the contiguous slices of the ``voxels`` boundary voxels (any sizes: the leaves
+        are the same, :func:`_refine`)."""
+
     def run(self, tasks: list[SubtreeTask]) -> list[Subtree]:
         """:func:`refine_subtree` of every task, in task order."""
 
@@ -549,21 +588,12 @@ class _CountingEvaluator(_Evaluator):
         return val
 
     def _on_shared_face(self, idx: np.ndarray) -> np.ndarray:
-        """Points that lie in a voxel (closed) of another slice: one of the up to eight coarse voxels touching them."""
-        t = self.task
-        q, r = np.divmod(idx, t.coarse_size)
-        face = np.flatnonzero((r == 0).any(axis=1))
-        out = np.zeros(idx.shape[0], bool)
-        if face.size == 0:
-            return out
-        qf, on = q[face], (r[face] == 0).astype(np.int64)
-        other = np.zeros(face.size, bool)
-        cells = self.lat.n // t.coarse_size
-        for o in CORNER_OFFSETS:
-            s = t.owner(self.lat, qf - o * on, cells)  # off a face the offset is 0: the same voxel again, harmless
-            other |= (s >= 0) & (s != t.slice)
-        out[face] = other
-        return out
+        """Points that lie in a voxel (closed) of another slice: one of the up to eight coarse voxels touching them
+        (:func:`kernels.on_other_slice`)."""
+        t, lat = self.task, self.lat
+        table = t.slice_table()
+        return kernels.on_other_slice(np.ascontiguousarray(idx, np.int64), t.coarse_size, lat.n // t.coarse_size,
+                                      lat.dims, table.slots, table.shift, t.slice)
 
 
 #: a subtree's own closure stops before a pass of fewer new points than this: each pass costs ~1 ms of fixed costs
@@ -645,7 +675,7 @@ def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice
     are added to ``inside`` and ``per_level``, a point evaluated by k slices counted once (``runner.uncount``). Also
     returns the slices' ring misses (candidates for the closure's first pass, :func:`_close`) and, with ``closure``,
     the points their own closures evaluated (each once; :func:`_close_ahead`)."""
-    bounds = np.linspace(0, vox.shape[0], n_slices + 1).round().astype(np.int64)
+    bounds = runner.bounds(vox.shape[0], n_slices)
     keys = lat.key(vox)
     order = np.argsort(keys, kind="stable")
     owner = np.repeat(np.arange(n_slices), np.diff(bounds))
@@ -676,11 +706,9 @@ def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice
 
 
 def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
-    """An admissible corner of a finest voxel lies on the box boundary (only voxels at the boundary are looked at)."""
-    near = np.flatnonzero(np.any((vox <= 0) | (vox + 1 >= lat.n), axis=1))
-    all_idx = vox[near, None, :] + CORNER_OFFSETS[None]
-    on_face = np.any((all_idx == 0) | (all_idx == lat.n), axis=-1) & lat.inside(all_idx)
-    return bool(np.any(on_face & corners[near]))
+    """An admissible corner of a finest voxel lies on the box boundary (:func:`kernels.touches_box`)."""
+    return bool(kernels.touches_box(np.ascontiguousarray(vox, np.int64), np.ascontiguousarray(corners, bool),
+                                    np.ascontiguousarray(lat.n, np.int64)))
 
 
 def _split(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray, lat: Lattice,

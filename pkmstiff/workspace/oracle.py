@@ -155,9 +155,12 @@ class PoseOracle:
         self.stats = EvaluationStats()
         self.range_mode = range_mode
         self.range_samples = self._range_samples(orientation_range, range_step, range_mode)
-        parallel.resolve_workers(n_jobs)
+        workers = parallel.resolve_workers(n_jobs)
         self.n_jobs, self.scheduler = n_jobs, scheduler
         self._point_seconds: float | None = None  # measured on the last call evaluated here
+        #: threads this process may use for its own compiled work (the octree's mesh and volumes): the local workers'
+        #: cores, idle by then (1 serially or on Dask, whose workers are elsewhere)
+        self.threads = workers if scheduler is None else 1
         self._shared: parallel.Shared[PoseOracle] | None = None
         self.plans: list[parallel.Plan] = []  # one per call split over workers
 
@@ -315,10 +318,19 @@ class OracleSubtrees:
         o.plans.append(p)
         return p.tasks
 
+    def bounds(self, voxels: int, n_slices: int) -> np.ndarray:
+        """Slices falling in size (:func:`~pkmstiff.evaluation.parallel.guided_bounds`): the workers take them in
+        order, this process the last."""
+        assert self.plan is not None
+        return parallel.guided_bounds(voxels, n_slices, self.plan.workers + 1)
+
     def run(self, tasks: list[SubtreeTask]) -> list[Subtree]:
         o, p = self.oracle, self.plan
         assert p is not None
-        return o.run_split(_subtree_task, [(t,) for t in tasks[1:]], p, lambda: refine_subtree(tasks[0], o.counted))
+        # this process takes the last (shortest) slice: it shares the cores with the workers meanwhile
+        here, *others = o.run_split(_subtree_task, [(t,) for t in tasks[:-1]], p,
+                                    lambda: refine_subtree(tasks[-1], o.counted))
+        return [*others, here]
 
     def uncount(self, points: int, counts: np.ndarray) -> None:
         st = self.oracle.stats

@@ -20,6 +20,7 @@ Methods (all return the volume in the cube of the box's length unit, m^3 for pos
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable
 
@@ -83,6 +84,23 @@ def voxel_volume(res: OctreeResult) -> float:
     return float(res.inside_volume + res.leaf_corners.sum() / 8.0 * res.voxel_volume)
 
 
+def _centroid_volumes(res: OctreeResult, methods: tuple[str, ...], z: ArrayLike | None
+                      ) -> tuple[dict[str, float], BoundarySurface | None]:
+    """The volumes of ``methods`` but surface nets and the centroid mesh (None where none of them needs it)."""
+    cmesh = boundary_surface(res, "centroid") if {"tetrahedron", "divergence"} & set(methods) else None
+    out: dict[str, float] = {}
+    for m in methods:
+        if m == "pyramid":
+            out[m] = pyramid_volume(res, z)
+        elif m == "tetrahedron":  # the centroid mesh's vertices are the boundary points
+            out[m] = tetrahedron_volume(cmesh, _centre(res) if z is None else z)  # type: ignore[arg-type]
+        elif m == "divergence":
+            out[m] = cmesh.signed_volume()  # type: ignore[union-attr]
+        elif m == "voxels":
+            out[m] = voxel_volume(res)
+    return out, cmesh
+
+
 @dataclass
 class VolumeReport:
     """Volumes by method (unit: box length unit cubed) and the meshes they used."""
@@ -105,21 +123,24 @@ def workspace_volume(
     bad = [m for m in methods if m not in METHODS]
     if bad:
         raise ArgumentError(f"volume methods {bad}: expected a subset of {METHODS}")
-    out: dict[str, float] = {}
-    cmesh = xmesh = None
-    if {"tetrahedron", "divergence"} & set(methods):
-        cmesh = boundary_surface(res, "centroid")
-    if "surface_nets" in methods:
-        xmesh = boundary_surface(res, "crossing", refine_steps=refine_steps, admissible=admissible)
-    for m in methods:
-        if m == "pyramid":
-            out[m] = pyramid_volume(res, z)
-        elif m == "tetrahedron":  # the centroid mesh's vertices are the boundary points
-            out[m] = tetrahedron_volume(cmesh, _centre(res) if z is None else z)  # type: ignore[arg-type]
-        elif m == "divergence":
-            out[m] = cmesh.signed_volume()  # type: ignore[union-attr]
-        elif m == "surface_nets":
-            out[m] = xmesh.signed_volume()  # type: ignore[union-attr]
-        elif m == "voxels":
-            out[m] = voxel_volume(res)
+    want_c, want_x = bool({"tetrahedron", "divergence"} & set(methods)), "surface_nets" in methods
+
+    def crossing() -> tuple[BoundarySurface | None, float]:
+        if not want_x:
+            return None, float("nan")
+        mesh = boundary_surface(res, "crossing", refine_steps=refine_steps, admissible=admissible)
+        return mesh, mesh.signed_volume()
+
+    if res.threads > 1 and want_c and want_x and refine_steps == 0 and res.leaf_index.shape[0]:
+        # the crossing mesh and its volume on a thread of its own while the others are computed here (the compiled
+        # kernels release the GIL); the edges and rings both meshes use first
+        _ = res.ring_triangles
+        with ThreadPoolExecutor(1) as ex:
+            later = ex.submit(crossing)
+            out, cmesh = _centroid_volumes(res, methods, z)
+            xmesh, nets = later.result()
+    else:
+        xmesh, nets = crossing()
+        out, cmesh = _centroid_volumes(res, methods, z)
+    out = {m: nets if m == "surface_nets" else out[m] for m in methods}
     return VolumeReport(out, cmesh, xmesh, 0 if xmesh is None else xmesh.refine_evaluations)

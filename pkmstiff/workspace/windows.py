@@ -5,6 +5,7 @@ gives the in-plane extent of the admissible region, so that a default section ne
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, Iterable, Sequence
 
 import numpy as np
@@ -23,9 +24,19 @@ COARSE_CHUNK = 512
 ROUND_TO = 0.01
 
 
+@dataclass(frozen=True)
+class Window:
+    """In-plane ranges (m) of a fitted section window and the admissible fraction of the coarse points inside them
+    (what a section of the window costs scales with it, :meth:`~pkmstiff.evaluation.requests.SectionRequest.cost`)."""
+
+    u_range: tuple[float, float]
+    v_range: tuple[float, float]
+    admissible_fraction: float
+
+
 def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[float] = (0.0, 0.0, 0.0),
                margin_steps: float = 1.5, checks: Sequence[str] = ALL_CHECKS, n_jobs: int = 1,
-               scheduler: Any = None) -> tuple[tuple[float, float], tuple[float, float]]:
+               scheduler: Any = None) -> Window:
     """In-plane ranges (m) of plane ``kind`` ('yz', 'xz', 'xy') at ``at`` (m) that contain the admissible region.
 
     A raster of :data:`COARSE_POINTS` points along the longer side of the chains' reach box
@@ -59,13 +70,15 @@ def fit_window(machine: Machine, kind: str, at: float, orientation: Iterable[flo
         return (round(math.floor(lo_ / ROUND_TO + 1e-9) * ROUND_TO, 9),
                 round(math.ceil(hi_ / ROUND_TO - 1e-9) * ROUND_TO, 9))
 
-    return rng(u, cols), rng(v, rows)
+    ur, vr = rng(u, cols), rng(v, rows)
+    inside = np.count_nonzero((u >= ur[0]) & (u <= ur[1])) * np.count_nonzero((v >= vr[0]) & (v <= vr[1]))
+    return Window(ur, vr, rows.size / max(int(inside), 1))
 
 
 def window_ranges(machine: Machine, kind: str, at: float, step: float, orientation: Iterable[float] = (0.0, 0.0, 0.0),
                   frame: str = "machine", checks: Sequence[str] = ALL_CHECKS, n_jobs: int = 1,
-                  scheduler: Any = None) -> tuple[tuple[float, float], tuple[float, float]]:
-    """The in-plane ranges (m) of :func:`fit_window`, upper ends extended to whole raster steps (:func:`snap_to_step`)
+                  scheduler: Any = None) -> Window:
+    """The :class:`Window` of :func:`fit_window`, upper ends extended to whole raster steps (:func:`snap_to_step`)
     so that the raster's last row and column lie outside the admissible region too. ``at`` and the ranges are in
     ``frame`` (:mod:`pkmstiff.machine.frames`); the fit itself runs in the machine frame (``n_jobs`` / ``scheduler``:
     see :func:`fit_window`)."""
@@ -74,16 +87,18 @@ def window_ranges(machine: Machine, kind: str, at: float, step: float, orientati
     kind = kind.lower()
     o = frame_origin(machine, frame)
     normal = "xyz".index(({"x", "y", "z"} - set(kind)).pop())
-    ur, vr = fit_window(machine, kind, at + o[normal], orientation, checks=checks, n_jobs=n_jobs, scheduler=scheduler)
+    w = fit_window(machine, kind, at + o[normal], orientation, checks=checks, n_jobs=n_jobs, scheduler=scheduler)
     iu, iv = "xyz".index(kind[0]), "xyz".index(kind[1])
-    return (snap_to_step((ur[0] - o[iu], ur[1] - o[iu]), step), snap_to_step((vr[0] - o[iv], vr[1] - o[iv]), step))
+    (u0, u1), (v0, v1) = w.u_range, w.v_range
+    return Window(snap_to_step((u0 - o[iu], u1 - o[iu]), step), snap_to_step((v0 - o[iv], v1 - o[iv]), step),
+                  w.admissible_fraction)
 
 
 def window_for(machine: Machine, kind: str, at: float, step: float,
                orientation: Iterable[float] = (0.0, 0.0, 0.0), frame: str = "machine"):
     """The fitted :class:`~pkmstiff.evaluation.sections.Plane` (raster ``step`` in m) of :func:`window_ranges`."""
-    ur, vr = window_ranges(machine, kind, at, step, orientation, frame)
-    return axis_plane(kind, at, ur, vr, step)
+    w = window_ranges(machine, kind, at, step, orientation, frame)
+    return axis_plane(kind, at, w.u_range, w.v_range, step)
 
 
 def snap_to_step(rng: tuple[float, float], step: float) -> tuple[float, float]:
