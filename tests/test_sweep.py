@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import itertools
+import json
 import math
 from pathlib import Path
 
@@ -13,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pkmstiff import load_machine
-from pkmstiff.errors import ArgumentError, InputError
+from pkmstiff.errors import ArgumentError, InputError, OverrideError
 from pkmstiff.evaluation.sweep import (
     LogUniform,
     Normal,
@@ -25,7 +26,7 @@ from pkmstiff.evaluation.sweep import (
     run_sweep,
 )
 from pkmstiff.machine.loader import raw_machine
-from pkmstiff.machine.variants import machine_with, parse_override_path
+from pkmstiff.machine.variants import apply_overrides, machine_with, parse_override_path
 from pkmstiff.report.sweep_evaluations import Combined, PointValues, SectionStatistics
 
 POSE = np.array([[0.0, 0.0, -1.0, 0.0, 0.0, 0.0]])
@@ -103,6 +104,34 @@ def test_invalid_override_gives_a_clear_error(overrides, exc, pattern):
 def test_parse_override_path():
     assert parse_override_path("chains[3].platform_joint") == [("chains", 3), ("platform_joint", None)]
     assert parse_override_path("chains[*].label") == [("chains", "*"), ("label", None)]
+
+
+@pytest.mark.parametrize("overrides", [
+    {"components.strut_950.k": "300 N/um", "joint_types.iwf_3dof.tilt_min": "7 deg"},
+    {"chains[3].platform_joint": [0.31, -0.13, 0.15], "chains[*].strut_radius": "30 mm"},
+    {"chains[*].strut_radius": "30 mm", "chains[2].strut_radius": "20 mm", "chains[2].drive_axis": [0, 0, -1]},
+    {"chains[1].drive_axis": [0.1, 0.0, -0.99], "chains[2].drive_axis": [-0.1, 0.0, -0.99]},
+])
+def test_shared_overrides_equal_the_deep_copy_and_leave_the_raw_data(overrides):
+    """``share=True`` copies only the paths it changes: the same data as the deep copy (the optimiser's candidate
+    keys hash it), and the raw data it shares stay as they were."""
+    raw = raw_machine("hexaglide")[0]
+    before = json.dumps(raw, sort_keys=True, default=repr)
+    shared = apply_overrides(raw, overrides, share=True)
+    assert shared == apply_overrides(raw, overrides)
+    assert json.dumps(raw, sort_keys=True, default=repr) == before
+
+
+def test_shared_overrides_give_the_same_errors():
+    raw = raw_machine("hexaglide")[0]
+    before = json.dumps(raw, sort_keys=True, default=repr)
+    for bad in ({"chains[9].label": "x"}, {"nosuch.key": 1}, {"chains[1].nosuch.key": 1}):
+        with pytest.raises(OverrideError) as deep:
+            apply_overrides(raw, bad)
+        with pytest.raises(OverrideError) as shared:
+            apply_overrides(raw, bad, share=True)
+        assert str(shared.value) == str(deep.value)
+    assert json.dumps(raw, sort_keys=True, default=repr) == before
 
 
 # ---------------------------------------------------------------------------------------------- grid and random

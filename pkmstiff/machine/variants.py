@@ -82,14 +82,40 @@ def _set(node: Any, segments: list[tuple[str, int | str | None]], value: Any, pa
             _set(seq[t], segments[1:], value, path, src, f"{here}[{t + 1}]")
 
 
+def _copy_path(node: Any, segments: list[tuple[str, int | str | None]]) -> None:
+    """Replace the tables and arrays below ``node`` (a copy already) on the path ``segments`` by shallow copies, so
+    that :func:`_set` changes copies only; a path that does not lead into the data is left to :func:`_set`'s
+    error."""
+    key, idx = segments[0]
+    if not isinstance(node, dict) or not isinstance(node.get(key), (dict, list)):
+        return
+    node[key] = child = copy.copy(node[key])
+    if idx is None:
+        if len(segments) > 1:
+            _copy_path(child, segments[1:])
+        return
+    if not isinstance(child, list) or len(segments) == 1:
+        return
+    for t in range(len(child)) if idx == "*" else [idx - 1] if 1 <= idx <= len(child) else []:
+        if isinstance(child[t], (dict, list)):
+            child[t] = copy.copy(child[t])
+            _copy_path(child[t], segments[1:])
+
+
 #: keys resolved before overrides apply (the parent file, the format, the option tables): an override of them would
 #: be accepted and ignored
 _RESOLVED_FIRST = (("machine", "extends"), ("format_version",), ("options",))
 
 
-def apply_overrides(raw: dict[str, Any], overrides: Mapping[str, Any], src: str = "(override)") -> dict[str, Any]:
-    """A deep copy of ``raw`` with every override set (in the mapping's order)."""
-    out = copy.deepcopy(raw)
+def apply_overrides(raw: dict[str, Any], overrides: Mapping[str, Any], src: str = "(override)", *,
+                    share: bool = False) -> dict[str, Any]:
+    """A deep copy of ``raw`` with every override set (in the mapping's order). ``share``: copy only the tables and
+    arrays on the overrides' paths and share the rest with ``raw`` (equal data, for reading only, e.g. to hash it;
+    a deep copy of a machine file takes about as long as hashing it)."""
+    out = dict(raw) if share else copy.deepcopy(raw)
+    if share:
+        for path in overrides:
+            _copy_path(out, parse_override_path(path))
     for path, value in overrides.items():
         keys = tuple(k for k, _ in parse_override_path(path))
         if any(keys[:len(r)] == r for r in _RESOLVED_FIRST):

@@ -118,8 +118,8 @@ class OptimisationResult:
 def _variant_hash(raw: dict, overrides: dict[str, Any], evaluation: Any) -> str:
     from pkmstiff.machine.variants import apply_overrides
 
-    text = json.dumps({"machine": apply_overrides(raw, overrides), "evaluation": repr(evaluation)}, sort_keys=True,
-                      default=repr)
+    text = json.dumps({"machine": apply_overrides(raw, overrides, share=True), "evaluation": repr(evaluation)},
+                      sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()
 
 

@@ -98,7 +98,9 @@ class Runner:
         draws (a whole task returns only what the report uses)."""
         if not self.plan.whole:
             return _done(evaluate_task(machine, request, figure, self.par))
-        shared = self._shared.setdefault(id(machine), parallel.Shared(machine))
+        shared = self._shared.get(id(machine))
+        if shared is None:  # pickled once per machine, not once per evaluation
+            shared = self._shared[id(machine)] = parallel.Shared(machine)
         return parallel.submit(self.plan.workers, evaluate_task, shared, request, figure, {})
 
     def map_png(self, res: SectionResult, name: str, clim: tuple[float, float] | None) -> Future:
