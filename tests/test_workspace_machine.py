@@ -136,3 +136,37 @@ def test_thin_workspace_is_found_by_a_finer_start_grid():
     ws = constant_orientation_workspace(load_machine("linapod"), 0.05, (0.0, 0.0, 0.0))
     assert ws.settings["start_level"] > 3
     assert ws.volume > 0.5  # m^3; 0.657 m^3 at 25 mm
+
+
+@pytest.mark.parametrize("name", ["hexaglide", "hexapod_6x"])
+@pytest.mark.parametrize(("checks_left_out", "prefilter"), [((), True), ((), False), (("drive_range",), True),
+                                                            (("drive_load", "singularity"), True)])
+def test_fused_kernel_gives_the_staged_admissibility_and_counts(monkeypatch, name, checks_left_out, prefilter):
+    """The octree oracle's fused path (no requirements): the same admissibility and the same counters per pose and in
+    total (poses, full-pipeline poses: those the prefilter of inverse kinematics and drive ranges lets through) as the
+    staged array path, on poses around the workspace that fail every kind of check (unreachable ones included)."""
+    import pkmstiff.admissibility.checks as adm
+    from pkmstiff.admissibility import fastpath
+    from pkmstiff.workspace import oracle as O
+
+    m = load_machine(name)
+    checks = adm.checks_without(checks_left_out, "test")
+    lo, hi = reach_box(m)
+    rng = np.random.default_rng(21)
+    n = 9000
+    poses = np.concatenate([lo - 0.1 + rng.random((n, 3)) * (hi - lo + 0.2), rng.normal(scale=0.15, size=(n, 3))], 1)
+    evaluate_poses(m, poses[:5000])  # the compiled kernels loaded: the fused path applies
+    assert fastpath.usable(m, 1)
+
+    def run():
+        st, per = O.EvaluationStats(), np.zeros((n, 3), np.int64)
+        ok = O.staged_admissible(m, poses, checks, (), st, prefilter, 4000, per_pose=per)
+        return ok, per, (st.poses, st.full_pipeline, st.requirement_poses)
+
+    fused = run()
+    monkeypatch.setattr(fastpath, "usable", lambda machine, n_poses: False)
+    staged = run()
+    assert np.array_equal(fused[0], staged[0]) and np.array_equal(fused[1], staged[1]) and fused[2] == staged[2]
+    assert 0 < fused[0].sum() < n  # admissible and inadmissible poses both occur
+    filtered = prefilter and "drive_range" in checks
+    assert (0 < fused[2][1] < n) if filtered else fused[2][1] == n  # ... and the prefilter rules some out

@@ -43,6 +43,7 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.admissibility import fastpath
+from pkmstiff.admissibility.fastpath import FUSED_CHUNK
 from pkmstiff.admissibility.pipeline import evaluate_chunk
 from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation import parallel
@@ -133,12 +134,6 @@ def _values(v: ArrayLike, name: str) -> np.ndarray:
         raise ArgumentError(option=name, found=v,
                             expected="a non-empty strictly increasing list of finite numbers")
     return arr
-
-
-#: poses per call of the fused kernel (:mod:`pkmstiff.admissibility.fastpath`) in the searches: it costs ~0.1 ms per
-#: call and ~2.6 us per pose against ~1 ms and ~3.2 us of the array path (measured on the Hexaglide, 100-2000 poses),
-#: and most of the searches' batches hold a few hundred poses
-FUSED_CHUNK = 4096
 
 
 class _Evaluator:
