@@ -238,15 +238,15 @@ def _worker_init(warm: bool) -> None:
 
 #: glibc ``mallopt`` parameters and the values a command and its workers set (:func:`steady_malloc`)
 M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
-WORKER_MMAP_THRESHOLD = 32 << 20  # bytes: arrays below it come from the heap (glibc's own upper bound for its
+MALLOC_MMAP_THRESHOLD = 32 << 20  # bytes: arrays below it come from the heap (glibc's own upper bound for its
 #: adaptive threshold, which a long-running command reaches after its first large arrays)
-WORKER_TRIM_THRESHOLD = 128 << 20  # bytes of free memory a worker keeps at the top of its heap
+MALLOC_TRIM_THRESHOLD = 128 << 20  # bytes of free memory a process keeps at the top of its heap
 _MALLOC_STEADY = [False]
 
 
 def steady_malloc() -> bool:
-    """glibc only (elsewhere nothing, False): serve arrays up to :data:`WORKER_MMAP_THRESHOLD` from the heap and keep
-    up to :data:`WORKER_TRIM_THRESHOLD` of freed memory instead of returning it to the system; set by every command
+    """glibc only (elsewhere nothing, False): serve arrays up to :data:`MALLOC_MMAP_THRESHOLD` from the heap and keep
+    up to :data:`MALLOC_TRIM_THRESHOLD` of freed memory instead of returning it to the system; set by every command
     (:func:`pkmstiff.cli.main`) and every local worker. A fresh process otherwise maps and unmaps its large temporary
     arrays afresh for every chunk, and the system zeroes each page again on first touch: at 2 mm the workspace's
     workers took 230–360k minor page faults and 0.6–0.8 s of system CPU per run, with these settings 73–91k and
@@ -257,8 +257,8 @@ def steady_malloc() -> bool:
         mallopt = ctypes.CDLL(None).mallopt
     except (OSError, AttributeError):
         return False
-    _MALLOC_STEADY[0] = bool(mallopt(M_MMAP_THRESHOLD, WORKER_MMAP_THRESHOLD)) and \
-        bool(mallopt(M_TRIM_THRESHOLD, WORKER_TRIM_THRESHOLD))
+    _MALLOC_STEADY[0] = bool(mallopt(M_MMAP_THRESHOLD, MALLOC_MMAP_THRESHOLD)) and \
+        bool(mallopt(M_TRIM_THRESHOLD, MALLOC_TRIM_THRESHOLD))
     return _MALLOC_STEADY[0]
 
 

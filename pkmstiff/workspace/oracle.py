@@ -40,7 +40,7 @@ from pkmstiff.evaluation import parallel
 from pkmstiff.evaluation.quantities import EvalContext
 from pkmstiff.kinematics import inverse_kinematics
 from pkmstiff.machine.model import Machine
-from pkmstiff.machine.roles import DriveLoadData, drive_load_data
+from pkmstiff.machine.roles import drive_load_data
 from pkmstiff.workspace.octree import Subtree, SubtreeTask, refine_subtree
 from pkmstiff.workspace.requirements import Requirement, parse_requirements
 
@@ -90,13 +90,13 @@ def staged_admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str]
     # small batches (the octree's closure passes of a few hundred points) through the fused kernel (no requirements;
     # the same admissibility bit for bit, tests/test_pose_fast_path.py): ~0.1 ms per call against ~2 ms of the staged
     # array path; larger ones stay staged, where the prefilter spares the full pipeline most outside points
-    fused = not requirements and 0 < len(poses) <= FUSED_CHUNK and fastpath.usable(machine, 1)
+    fused = not requirements and 0 < len(poses) <= FUSED_CHUNK and fastpath.usable(machine, 1)  # a chunk: one call
     load = drive_load_data(machine) if fused else None
     for s in range(0, len(poses), chunk_size):
         x = poses[s:s + chunk_size]
         st.poses += len(x)
         t0 = time.perf_counter()
-        reasons = _fused_reasons(machine, x, checks, load) if fused else None
+        reasons = fastpath.reasons_small(machine, np.ascontiguousarray(x), checks, load) if fused else None
         if reasons is not None:  # a pose ruled out by the prefilter's checks would not have reached the pipeline
             live = (reasons & _PREFILTER) == 0 if staged else np.ones(len(x), bool)
             st.full_pipeline += int(np.count_nonzero(live))
@@ -140,19 +140,6 @@ def staged_admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str]
 
 #: the reasons of the prefilter (inverse kinematics and drive ranges) of :func:`staged_admissible`
 _PREFILTER = np.uint32(adm.Reason.UNREACHABLE | adm.Reason.DRIVE_RANGE)
-
-
-def _fused_reasons(machine: Machine, x: np.ndarray, checks: Sequence[str], load: DriveLoadData | None
-                   ) -> np.ndarray | None:
-    """(N,) reason codes of poses ``x`` by the fused kernel in chunks of :data:`FUSED_CHUNK`, or None where a chunk
-    needs the general path (an exact κ)."""
-    out = np.empty(len(x), np.uint32)
-    for a in range(0, len(x), FUSED_CHUNK):
-        r = fastpath.reasons_small(machine, np.ascontiguousarray(x[a:a + FUSED_CHUNK]), checks, load)
-        if r is None:
-            return None
-        out[a:a + len(r)] = r
-    return out
 
 
 class PoseOracle:

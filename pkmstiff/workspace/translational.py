@@ -180,7 +180,6 @@ def _octree(oracle: PoseOracle, lo: np.ndarray, hi: np.ndarray, resolution: floa
     """The octree from ``min_level`` (finer start levels while no start corner is admissible) and its volumes."""
     res = octree_boundary(oracle, lo, hi, resolution, min_level=min_level, progress=progress,
                           subtrees=OracleSubtrees(oracle))
-    res.threads = oracle.threads
     # A workspace thinner than the start grid's spacing is missed when no start corner is admissible (docs/theory/workspace.md,
     # known limitation): start finer before concluding that there is none, and say so if there still is none.
     level = min_level
@@ -188,7 +187,7 @@ def _octree(oracle: PoseOracle, lo: np.ndarray, hi: np.ndarray, resolution: floa
         level += 1
         res = octree_boundary(oracle, lo, hi, resolution, min_level=level, progress=progress,
                               subtrees=OracleSubtrees(oracle))
-        res.threads = oracle.threads
+    res.threads = oracle.threads
     return res, level, workspace_volume(res, tuple(methods), refine_steps=refine_steps, admissible=oracle)
 
 
