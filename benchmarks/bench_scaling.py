@@ -168,6 +168,42 @@ def startup_overhead(n: int, repeats: int = 3) -> float:
     return best
 
 
+def hardware_ceiling(argv: list[str], n: int) -> dict[str, float]:
+    """The speed-up the machine's cores allow on ``n`` workers, whatever the program: ``n`` copies of the serial run
+    (``--jobs 1``) forked at once, each timing itself; ceiling = n × (one copy alone) / (mean copy among n). Below n
+    where the copies slow each other down (shared caches and memory bandwidth, cores that are hyper-threads, a lower
+    clock when all cores are busy): a parallel run's CPU grows the same way, which Amdahl's fit counts as serial
+    work. Linux (fork) only: {} elsewhere."""
+    if not hasattr(os, "fork"):
+        return {}
+    warm_up(argv)
+    alone = min(run_once([*argv, "--jobs", "1"])["wall_s"] for _ in range(2))
+    reader, writer = os.pipe()
+    pids = []
+    for _ in range(n):
+        pid = os.fork()
+        if pid == 0:  # a copy: one serial run, its wall time to the pipe
+            code = 1
+            try:
+                os.close(reader)
+                wall = run_once([*argv, "--jobs", "1"])["wall_s"]
+                os.write(writer, f"{wall!r}\n".encode())
+                code = 0
+            finally:
+                os._exit(code)
+        pids.append(pid)
+    os.close(writer)
+    with os.fdopen(reader) as f:
+        walls = [float(x) for x in f.read().split()]
+    for pid in pids:
+        os.waitpid(pid, 0)
+    if len(walls) != n:
+        raise SystemExit(f"bench_scaling: {len(walls)} of {n} simultaneous copies of {' '.join(argv)} finished")
+    mean = sum(walls) / n
+    return {"workers": n, "alone_s": alone, "copy_mean_s": mean, "copy_max_s": max(walls),
+            "ceiling": n * alone / mean}
+
+
 def amdahl(workers: list[int], speedups: list[float]) -> tuple[float, float]:
     """Least-squares serial fraction s of 1/S(n) = s (1 - 1/n) + 1/n and the speed-up it predicts on 16 workers."""
     num = sum((1 / sp - 1 / n) * (1 - 1 / n) for n, sp in zip(workers, speedups) if n > 1)
@@ -205,6 +241,9 @@ def main() -> None:
     for key, (full, quick) in PAIR_SIZES.items():
         ap.add_argument("--" + key.replace("_", "-"), type=float, default=None,
                         help=f"pair size (default {full:g}, --quick {quick:g})")
+    ap.add_argument("--ceiling", default="section", help="comma-separated table workloads whose hardware ceiling "
+                                                         "(n simultaneous serial copies) is measured on the most "
+                                                         "workers (default section; 'none' for none)")
     ap.add_argument("--report-figures", action="store_true", help="the report pair with the 3-D workspace figures "
                                                                   "(needs pyvista)")
     a = ap.parse_args()
@@ -232,6 +271,13 @@ def main() -> None:
         warm_up(argv)
         rows = {n: run_once([*argv, "--jobs", str(n)]) for n in counts}
         table[name] = _scaling(argv, rows)
+    ceilings = {name: hardware_ceiling(work[name], max(counts)) for name in (a.ceiling or "").split(",")
+                if name in work and max(counts) > 1}
+    for name, c in ceilings.items():
+        if c:
+            t = table[name]
+            t["hardware_ceiling"] = c
+            t["efficiency_of_ceiling"] = t["runs"][max(counts)]["speedup"] / c["ceiling"]
     if a.dask:
         table.update(_dask_runs(work, max(counts), a.repeat))
     if table:
@@ -245,6 +291,14 @@ def main() -> None:
         print("CPU s, this process + local workers (Dask workers not counted): " + "; ".join(
             f"{name} " + ", ".join(f"{n} w {r['parent_cpu_s']:.2f}+{r['workers_cpu_s']:.1f}"
                                    for n, r in t["runs"].items()) for name, t in table.items()))
+    for name, t in table.items():
+        c = t.get("hardware_ceiling")
+        if c:
+            n = c["workers"]
+            print(f"hardware ceiling, {name}: {n} serial copies at once take {c['copy_mean_s']:.2f} s each (max "
+                  f"{c['copy_max_s']:.2f}) against {c['alone_s']:.2f} s alone: the cores deliver {c['ceiling']:.1f}× "
+                  f"of {n}; the {n}-worker run's {t['runs'][n]['speedup']:.1f}× is "
+                  f"{t['efficiency_of_ceiling'] * 100:.0f} % of that")
     chosen = a.pairs.split(",") if a.pairs else None
     pairs = {} if a.no_pairs else jobs_pairs(pair_workloads(sizes, a.report_figures, tmp, chosen), a.repeat)
     if pairs:

@@ -8,6 +8,7 @@ import math
 import os
 import pickle
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -107,6 +108,30 @@ def test_pool_is_started_once_and_reused():
     pool = parallel.pool(2)
     pids = {f.result() for f in [pool.submit(parallel._pid, k) for k in range(8)]}
     assert parallel.pool(2) is pool and 1 <= len(pids) <= 2 and os.getpid() not in pids
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pipe sizes are Linux's")
+def test_new_pool_gets_a_wide_result_pipe_and_a_trimmed_heap(monkeypatch):
+    """A pool made now trims this process's heap before forking and widens its result pipe to RESULT_PIPE_BYTES
+    (read back from the pipe itself); its workers still answer."""
+    import fcntl
+
+    limit = int(Path("/proc/sys/fs/pipe-max-size").read_text())
+    if limit < parallel.RESULT_PIPE_BYTES and os.geteuid() != 0:
+        pytest.skip(f"this system lets a process widen a pipe to {limit} bytes only")
+    trims = []
+    real_trim = parallel.trim_heap
+    monkeypatch.setattr(parallel, "trim_heap", lambda: trims.append(1) or real_trim())
+    parallel.shutdown()
+    try:
+        pool = parallel.pool(2)
+        size = fcntl.fcntl(pool._result_queue._reader.fileno(), fcntl.F_GETPIPE_SZ)
+        assert pool.submit(np.arange, 300_000).result().sum() == 300_000 * 299_999 // 2  # 2.4 MB through the pipe
+    finally:
+        parallel.shutdown()
+    assert size >= parallel.RESULT_PIPE_BYTES
+    assert trims == ([1] if parallel._context().get_start_method() == "fork" else [])
+    assert isinstance(real_trim(), bool)
 
 
 def _collect_faults() -> tuple[int, int]:
