@@ -80,6 +80,19 @@ def test_local_workers_keep_freed_memory_for_their_next_arrays():
     assert main([]) == 0 and parallel._malloc_steady()
 
 
+def test_commands_give_fresh_arrays_small_pages(monkeypatch):
+    """A command asks numpy not to request transparent huge pages for its large arrays (where numpy has the switch)."""
+    switch = parallel._huge_page_switch()
+    if switch is None:
+        pytest.skip("this numpy has no huge-page switch")
+    previous = switch(True)  # returns the setting it replaces
+    try:
+        assert main([]) == 0
+        assert switch(True) is False  # the command had switched them off
+    finally:
+        switch(previous)
+
+
 def test_plan_text_names_workers_tasks_and_task_size():
     p = parallel.plan(1_000_000, 50e-6, 2, granule=4096)
     assert p.parallel and p.workers == 2 and p.tasks == 8  # 50 s of work: 4 tasks per worker
