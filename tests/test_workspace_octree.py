@@ -386,18 +386,29 @@ def test_key_table_finds_every_key_and_nothing_else_while_it_grows():
     assert np.all(table.find(np.array([-1, -2])) == -1)  # -1 marks an empty slot: a query of -1 is absent too
 
 
-def test_compiled_triangle_volumes_are_the_numpy_formula():
+@pytest.mark.parametrize("origin", [(0.0, 0.0, 0.0), (0.3, -1.7, 0.05)])
+def test_compiled_triangle_volumes_are_the_numpy_formula(origin):
     from pkmstiff.workspace.kernels import six_volumes
 
     rng = np.random.default_rng(2)
     v = rng.normal(size=(500, 3))
     t = rng.integers(0, 500, (2000, 3))
-    p1, p2, p3 = (v[t[:, k]] for k in range(3))
+    o = np.array(origin)
+    p1, p2, p3 = (v[t[:, k]] - o for k in range(3))  # the shifted vertices, as the kernel shifts them
     x = np.cross(p2, p3)
     # the kernel's order of the three products, bit for bit
-    assert np.array_equal(six_volumes(v, t), (p1[:, 0] * x[:, 0] + p1[:, 2] * x[:, 2]) + p1[:, 1] * x[:, 1])
+    assert np.array_equal(six_volumes(v, t, o), (p1[:, 0] * x[:, 0] + p1[:, 2] * x[:, 2]) + p1[:, 1] * x[:, 1])
     # and einsum's value within rounding (its order of summation is numpy's choice, 1e-15 relative per term)
-    assert np.allclose(six_volumes(v, t), np.einsum("ij,ij->i", p1, x), rtol=1e-12, atol=1e-12)
+    assert np.allclose(six_volumes(v, t, o), np.einsum("ij,ij->i", p1, x), rtol=1e-12, atol=1e-12)
+
+
+def test_compiled_distances_are_numpys_norm_bit_for_bit():
+    from pkmstiff.workspace.kernels import distances
+
+    rng = np.random.default_rng(3)
+    p = rng.normal(size=(20_000, 3)) * rng.uniform(1e-3, 1e3, (20_000, 1))
+    z = np.array([0.11, -0.2, 0.3])
+    assert np.array_equal(distances(p, z), np.linalg.norm(p - z, axis=1))
 
 
 def test_compiled_extent_is_numpys_min_and_max():
@@ -409,10 +420,10 @@ def test_compiled_extent_is_numpys_min_and_max():
     assert np.array_equal(extent_centre(p), 0.5 * (p.min(axis=0) + p.max(axis=0)))
 
 
-def test_compiled_mesh_kernels_are_the_numpy_formulas():
+def test_compiled_mesh_kernels_are_the_numpy_formulas(monkeypatch):
     """Centroids (eq. 4.1), crossing vertices, owned edges and lattice keys: the numpy formulations they replaced, bit
     for bit (the same IEEE operations in the same order; no fastmath), on random voxels that also leave the box."""
-    from pkmstiff.workspace import kernels
+    from pkmstiff.workspace import kernels, octree
 
     rng = np.random.default_rng(11)
     n = np.array([6, 5, 7])
@@ -439,9 +450,11 @@ def test_compiled_mesh_kernels_are_the_numpy_formulas():
 
     parts = [np.flatnonzero(corners[:, 0] != corners[:, 1 << a]) for a in range(3)]
     vi = np.concatenate(parts)
-    s, a, low = kernels.owned_edges(vox, corners)
-    assert np.array_equal(s, vox[vi]) and np.array_equal(low, corners[vi, 0])
-    assert np.array_equal(a, np.concatenate([np.full(p.size, k) for k, p in enumerate(parts)]))
+    for threads, least in ((1, 100_000), (3, 50)):  # parts of 133 voxels each on three threads: the same arrays
+        monkeypatch.setattr(octree, "THREAD_LEAST_ITEMS", least)
+        s, a, low = octree.owned_edges(vox, corners, threads)
+        assert np.array_equal(s, vox[vi]) and np.array_equal(low, corners[vi, 0])
+        assert np.array_equal(a, np.concatenate([np.full(p.size, k) for k, p in enumerate(parts)]))
 
     dims = n + 3
     i = vox + 1
@@ -476,8 +489,9 @@ def test_volumes_and_meshes_on_two_threads_are_those_of_one(monkeypatch):
 
     monkeypatch.setattr(O, "THREAD_LEAST_ITEMS", 100)  # split even this small result
     one = octree_boundary(_slotted_sphere, *BOX, 0.025)
-    two = octree_boundary(_slotted_sphere, *BOX, 0.025)
-    two.threads = 2
+    two = octree_boundary(_slotted_sphere, *BOX, 0.025, threads=2)  # the closure's edges and box test too
+    assert two.threads == 2 and two.touches_box == one.touches_box
+    assert all(np.array_equal(x, y) for x, y in zip(one.edges, two.edges))
     a, b = workspace_volume(one), workspace_volume(two)
     assert len(O.in_threads(lambda s, e: (s, e), two.sign_change_edges()[0].shape[0], 2)) == 2
     assert a.volumes == b.volumes and list(b.volumes) == list(a.volumes)

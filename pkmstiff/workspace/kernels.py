@@ -102,17 +102,34 @@ def known_corners(slots, shift, leaf_corners, keys, corner_off):
 
 
 @_jit
-def six_volumes(vertices, triangles):
-    """(T,) p1 . (p2 x p3) of every triangle: ``np.cross``'s products and differences, then the dot product summed as
-    numpy's ``einsum("ij,ij->i", ...)`` sums three terms on x86-64 (first and third, then the second), so the volumes
-    are those of the numpy formulation it replaced, bit for bit (tests/test_workspace_octree.py)."""
+def six_volumes(vertices, triangles, origin):
+    """(T,) p1 . (p2 x p3) of every triangle, p = vertex - ``origin`` (3,): ``np.cross``'s products and differences,
+    then the dot product summed as numpy's ``einsum("ij,ij->i", ...)`` sums three terms on x86-64 (first and third,
+    then the second), so the volumes are those of the numpy formulation it replaced, bit for bit, without the shifted
+    copy of the vertices (tests/test_workspace_octree.py)."""
     out = np.empty(triangles.shape[0])
+    o0, o1, o2 = origin[0], origin[1], origin[2]
     for t in range(triangles.shape[0]):
         a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
-        x0 = vertices[b, 1] * vertices[c, 2] - vertices[b, 2] * vertices[c, 1]
-        x1 = vertices[b, 2] * vertices[c, 0] - vertices[b, 0] * vertices[c, 2]
-        x2 = vertices[b, 0] * vertices[c, 1] - vertices[b, 1] * vertices[c, 0]
-        out[t] = (vertices[a, 0] * x0 + vertices[a, 2] * x2) + vertices[a, 1] * x1
+        a0, a1, a2 = vertices[a, 0] - o0, vertices[a, 1] - o1, vertices[a, 2] - o2
+        b0, b1, b2 = vertices[b, 0] - o0, vertices[b, 1] - o1, vertices[b, 2] - o2
+        c0, c1, c2 = vertices[c, 0] - o0, vertices[c, 1] - o1, vertices[c, 2] - o2
+        x0 = b1 * c2 - b2 * c1
+        x1 = b2 * c0 - b0 * c2
+        x2 = b0 * c1 - b1 * c0
+        out[t] = (a0 * x0 + a2 * x2) + a1 * x1
+    return out
+
+
+@_jit
+def distances(points, z):
+    """(N,) Euclidean distance of each point (N, 3) from ``z`` (3,): the square root of ((dx² + dy²) + dz²), the order
+    in which ``np.linalg.norm(points - z, axis=1)`` sums, so the same numbers bit for bit without its two (N, 3)
+    temporaries (tests/test_workspace_octree.py)."""
+    out = np.empty(points.shape[0])
+    for i in range(points.shape[0]):
+        d0, d1, d2 = points[i, 0] - z[0], points[i, 1] - z[1], points[i, 2] - z[2]
+        out[i] = np.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
     return out
 
 
@@ -153,19 +170,18 @@ def crossing_vertices(vid, start, axis, t, n, lo, h, n_vox):
 
 
 @_jit
-def ring_triangles(vid, flip):
-    """(2E, 3) triangles of the quads through the four voxels ``vid`` (E, 4) of each edge, the ring reversed where
-    ``flip``: first the triangles (0, 1, 2) of every quad, then the triangles (0, 2, 3)."""
+def ring_triangles(vid, flip, out, a, b):
+    """Into ``out`` (2E, 3): the triangles of the quads through the four voxels ``vid`` (E, 4) of edges a..b-1, the
+    ring reversed where ``flip``: first the triangles (0, 1, 2) of every quad (rows e), then the triangles (0, 2, 3)
+    (rows E + e); parts of the edges on threads of their own write into one array."""
     n = vid.shape[0]
-    out = np.empty((2 * n, 3), np.int64)
-    for e in range(n):
+    for e in range(a, b):
         if flip[e]:
             q0, q1, q2, q3 = vid[e, 3], vid[e, 2], vid[e, 1], vid[e, 0]
         else:
             q0, q1, q2, q3 = vid[e, 0], vid[e, 1], vid[e, 2], vid[e, 3]
         out[e, 0], out[e, 1], out[e, 2] = q0, q1, q2
         out[n + e, 0], out[n + e, 1], out[n + e, 2] = q0, q2, q3
-    return out
 
 
 @_jit
@@ -184,26 +200,31 @@ def lattice_keys(idx, dims):
 
 
 @_jit
-def owned_edges(vox, corners):
-    """Sign-change edges at the lower corner of each voxel ``vox`` (E, 3) with flags ``corners`` (E, 8): first those
-    along x in voxel order, then y, then z; (lower end (E, 3), axis (E,), lower end admissible (E,))."""
-    n = 0
-    for a in range(3):
-        for m in range(vox.shape[0]):
-            if corners[m, 0] != corners[m, 1 << a]:
-                n += 1
-    start = np.empty((n, 3), np.int64)
-    axis = np.empty(n, np.int64)
-    low = np.empty(n, np.bool_)
-    e = 0
-    for a in range(3):
-        for m in range(vox.shape[0]):
-            if corners[m, 0] != corners[m, 1 << a]:
+def owned_edge_counts(corners, a, b):
+    """(3,) sign-change edges at the lower corner of voxels a..b-1 per axis (:func:`owned_edges_into`)."""
+    out = np.zeros(3, np.int64)
+    for ax in range(3):
+        for m in range(a, b):
+            if corners[m, 0] != corners[m, 1 << ax]:
+                out[ax] += 1
+    return out
+
+
+@_jit
+def owned_edges_into(vox, corners, a, b, at, start, axis, low):
+    """Into ``start`` (E, 3), ``axis`` (E,), ``low`` (E,): the sign-change edges at the lower corner of voxels a..b-1
+    (``vox`` (M, 3), ``corners`` (M, 8)), those along axis k from row ``at[k]`` on in voxel order: lower end, axis,
+    lower end admissible. With the rows of each part of the voxels after those of the parts before it, per axis, the
+    edges of all voxels are listed first along x in voxel order, then y, then z (parts on threads of their own write
+    into one array)."""
+    for ax in range(3):
+        e = at[ax]
+        for m in range(a, b):
+            if corners[m, 0] != corners[m, 1 << ax]:
                 start[e, 0], start[e, 1], start[e, 2] = vox[m, 0], vox[m, 1], vox[m, 2]
-                axis[e] = a
+                axis[e] = ax
                 low[e] = corners[m, 0]
                 e += 1
-    return start, axis, low
 
 
 @_jit

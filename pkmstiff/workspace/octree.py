@@ -161,9 +161,13 @@ class OctreeResult:
     def ring_triangles(self) -> np.ndarray:
         """(2E, 3) leaf numbers of the triangles of the boundary mesh (:mod:`pkmstiff.workspace.surface`): the quad
         of each sign-change edge's ring, whose normal is +axis in ring order, turned to point outwards (from the
-        admissible to the inadmissible end) and split in two; the same for every vertex placement."""
+        admissible to the inadmissible end) and split in two; the same for every vertex placement. Made on
+        :attr:`threads` threads, each a contiguous part of the edges."""
         _, _, low_adm = self.sign_change_edges()
-        return ring_triangles(np.ascontiguousarray(self.edge_rings), ~low_adm)
+        rings, flip = np.ascontiguousarray(self.edge_rings), np.ascontiguousarray(~low_adm)
+        out = np.empty((2 * rings.shape[0], 3), np.int64)
+        in_threads(lambda a, b: ring_triangles(rings, flip, out, a, b), rings.shape[0], self.threads)
+        return out
 
     def point(self, idx: np.ndarray) -> np.ndarray:
         """Coordinates of lattice indices ``idx`` (..., 3)."""
@@ -178,11 +182,18 @@ class OctreeResult:
 THREAD_LEAST_ITEMS = 100_000
 
 
+def thread_parts(items: int, threads: int) -> np.ndarray:
+    """(n + 1,) bounds of the contiguous parts :func:`in_threads` runs: up to ``threads`` parts of at least
+    :data:`THREAD_LEAST_ITEMS` items (one at least)."""
+    n = max(1, min(threads, items // THREAD_LEAST_ITEMS))
+    return np.linspace(0, items, n + 1).round().astype(np.int64)
+
+
 def in_threads(fn: Callable[[int, int], Any], items: int, threads: int) -> list[Any]:
     """``[fn(a, b) for contiguous (a, b) covering 0..items]``: up to ``threads`` parts of at least
     :data:`THREAD_LEAST_ITEMS` items, run on as many threads (``fn`` must release the GIL to gain: a compiled kernel)."""
-    n = max(1, min(threads, items // THREAD_LEAST_ITEMS))
-    bounds = np.linspace(0, items, n + 1).round().astype(np.int64)
+    bounds = thread_parts(items, threads)
+    n = bounds.size - 1
     if n == 1:
         return [fn(0, items)]
     from concurrent.futures import ThreadPoolExecutor
@@ -325,6 +336,7 @@ def octree_boundary(
     closure: bool = True,
     progress: Progress | None = None,
     subtrees: SubtreeRunner | None = None,
+    threads: int = 1,
 ) -> OctreeResult:
     """Boundary voxels and points of the set ``{x : admissible(x)}`` inside the box [lo, hi] (docs/theory/workspace.md).
 
@@ -337,6 +349,9 @@ def octree_boundary(
     are cut into contiguous slices whose subtrees are refined to the finest level apart (in workers,
     :func:`refine_subtree`); the leaves, volumes and counts are the same as without (points on the faces between
     slices, evaluated by both, are counted once).
+
+    ``threads``: threads the bookkeeping after the closure (edges, box test) and the result's mesh look-ups and volumes
+    may use (:attr:`OctreeResult.threads`): the same result for any number.
     """
     lo_a, hi_a, eps = _check_box(lo, hi, eps)
     t_start = time.perf_counter()
@@ -385,18 +400,18 @@ def octree_boundary(
     if closure and vox.shape[0]:
         before = ev.count
         if ahead is None:
-            vox, corners, edges, closure_added, table = _close(vox, corners, lat, ev, candidates)
+            vox, corners, edges, closure_added, table = _close(vox, corners, lat, ev, candidates, threads)
         else:
             vox, corners, edges, closure_added, table = _close_ahead(vox, corners, lat, ev, candidates, ahead,
-                                                                     subtrees)  # type: ignore[arg-type]
+                                                                     subtrees, threads)  # type: ignore[arg-type]
         per_level.append((-1, ev.count - before))
 
-    touches = _touches_box(vox, corners, lat)
+    touches = _touches_box(vox, corners, lat, threads)
     return OctreeResult(
         lo=lo_a, hi=hi_a, eps=eps, levels=levels, spacing=lat.h, leaf_index=vox, leaf_corners=corners,
         inside_volume=inside_volume, evaluations=ev.count, evaluations_per_level=per_level,
         closure_voxels=closure_added, touches_box=touches, time_total=time.perf_counter() - t_start,
-        time_evaluation=ev.time, edges=edges, leaf_table=table,
+        time_evaluation=ev.time, edges=edges, leaf_table=table, threads=threads,
     )
 
 
@@ -705,10 +720,12 @@ def _refine_apart(vox: np.ndarray, corners: np.ndarray, level: int, lat: Lattice
             np.concatenate([p.ring_misses for p in parts]), ahead)
 
 
-def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> bool:
-    """An admissible corner of a finest voxel lies on the box boundary (:func:`kernels.touches_box`)."""
-    return bool(kernels.touches_box(np.ascontiguousarray(vox, np.int64), np.ascontiguousarray(corners, bool),
-                                    np.ascontiguousarray(lat.n, np.int64)))
+def _touches_box(vox: np.ndarray, corners: np.ndarray, lat: Lattice, threads: int = 1) -> bool:
+    """An admissible corner of a finest voxel lies on the box boundary (:func:`kernels.touches_box`; contiguous parts
+    of the voxels on up to ``threads`` threads)."""
+    vox, corners = np.ascontiguousarray(vox, np.int64), np.ascontiguousarray(corners, bool)
+    n = np.ascontiguousarray(lat.n, np.int64)
+    return any(in_threads(lambda a, b: bool(kernels.touches_box(vox[a:b], corners[a:b], n)), vox.shape[0], threads))
 
 
 def _split(vox: np.ndarray, corners: np.ndarray, level: int, levels: np.ndarray, lat: Lattice,
@@ -764,24 +781,37 @@ def sign_change_edges(vox: np.ndarray, corners: np.ndarray, dedupe: bool = True
     return start[first], axis[first], low_adm[first]
 
 
-def owned_edges(vox: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Sign-change edges listed once, by their owner: the voxel whose lower corner is the edge's lower end.
+def owned_edges(vox: np.ndarray, corners: np.ndarray, threads: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Sign-change edges listed once, by their owner: the voxel whose lower corner is the edge's lower end; first those
+    along x in voxel order, then y, then z: (lower end (E, 3), axis (E,), lower end admissible (E,)).
 
     Complete only for a closed leaf set (every voxel around a sign-change edge is a leaf), which the closure step
-    guarantees; no sorting needed.
+    guarantees; no sorting needed. Counted, then listed, on up to ``threads`` threads (contiguous parts of the
+    voxels; the same arrays for any number).
     """
-    return kernels.owned_edges(np.ascontiguousarray(vox, np.int64), np.ascontiguousarray(corners, bool))
+    vox, corners = np.ascontiguousarray(vox, np.int64), np.ascontiguousarray(corners, bool)
+    m = vox.shape[0]
+    counts = np.array(in_threads(lambda a, b: kernels.owned_edge_counts(corners, a, b), m, threads),
+                      np.int64).reshape(-1, 3)  # (parts, 3)
+    per_axis = counts.sum(axis=0)
+    # first row of each part's edges along each axis: the edges of the axes before, then those of the parts before
+    at = np.concatenate([[0], np.cumsum(per_axis)[:-1]])[None] + np.cumsum(counts, axis=0) - counts
+    part = {int(a): k for k, a in enumerate(thread_parts(m, threads)[:-1])}
+    n = int(per_axis.sum())
+    start, axis, low = np.empty((n, 3), np.int64), np.empty(n, np.int64), np.empty(n, bool)
+    in_threads(lambda a, b: kernels.owned_edges_into(vox, corners, a, b, at[part[a]], start, axis, low), m, threads)
+    return start, axis, low
 
 
-def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator, candidates: np.ndarray | None = None
-           ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int, KeyTable]:
+def _close(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator, candidates: np.ndarray | None = None,
+           threads: int = 1) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int, KeyTable]:
     """Add finest voxels around sign-change edges until every such edge has all four voxels (see module doc).
 
     Returns the leaves, their corners, the sign-change edges of all leaves (each once), the number of added voxels and
     the leaves' key table (key -> leaf number); the passes are :func:`_closure_passes`'.
     """
     vox, corners, added, table = _closure_passes(vox, corners, lat, ev, candidates)
-    return vox, corners, owned_edges(vox, corners), added, table
+    return vox, corners, owned_edges(vox, corners, threads), added, table
 
 
 class _AheadEvaluator(_Evaluator):
@@ -806,7 +836,7 @@ class _AheadEvaluator(_Evaluator):
 
 
 def _close_ahead(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator, candidates: np.ndarray,
-                 ahead: EvaluatedPoints, runner: SubtreeRunner
+                 ahead: EvaluatedPoints, runner: SubtreeRunner, threads: int = 1
                  ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray], int, KeyTable]:
     """:func:`_close` where the subtrees' own closures evaluated points ahead (:func:`refine_subtree`): the same
     passes, leaves and counts (a point read back counts as evaluated here, as in the serial run); the points evaluated
@@ -817,7 +847,7 @@ def _close_ahead(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evalua
     the closure needs are read back; the rest (voxels first reached through another slice's region) are evaluated
     here."""
     aev = _AheadEvaluator(ev, ahead)
-    out = _close(vox, corners, lat, aev, candidates)
+    out = _close(vox, corners, lat, aev, candidates, threads)
     ev.count += aev.count
     ev.time += aev.time
     if not aev.used.all():

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Callable, Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
 from pkmstiff.io.atomic import atomic_path
@@ -79,10 +80,11 @@ class BoundarySurface:
         return path
 
 
-def six_volumes(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """(T,) p1 . (p2 x p3) of every triangle: six times the signed volume of its tetrahedron with the origin
-    (eq. 4.14), in one compiled pass over the triangles (:func:`pkmstiff.workspace.kernels.six_volumes`)."""
-    return kernels.six_volumes(np.ascontiguousarray(vertices, float), np.ascontiguousarray(triangles, np.int64))
+def six_volumes(vertices: np.ndarray, triangles: np.ndarray, origin: ArrayLike = (0.0, 0.0, 0.0)) -> np.ndarray:
+    """(T,) p1 . (p2 x p3) of every triangle, p = vertex - ``origin``: six times the signed volume of its tetrahedron
+    with ``origin`` (eq. 4.14), in one compiled pass over the triangles (:func:`pkmstiff.workspace.kernels.six_volumes`)."""
+    return kernels.six_volumes(np.ascontiguousarray(vertices, float), np.ascontiguousarray(triangles, np.int64),
+                               np.ascontiguousarray(origin, float).reshape(3))
 
 
 def _edge_brackets(lat: Lattice, start: np.ndarray, axis: np.ndarray, low_adm: np.ndarray, refine_steps: int,

@@ -179,15 +179,14 @@ def _octree(oracle: PoseOracle, lo: np.ndarray, hi: np.ndarray, resolution: floa
             methods: Sequence[str], refine_steps: int, progress: Progress | None) -> tuple[OctreeResult, int, Any]:
     """The octree from ``min_level`` (finer start levels while no start corner is admissible) and its volumes."""
     res = octree_boundary(oracle, lo, hi, resolution, min_level=min_level, progress=progress,
-                          subtrees=OracleSubtrees(oracle))
+                          subtrees=OracleSubtrees(oracle), threads=oracle.threads)
     # A workspace thinner than the start grid's spacing is missed when no start corner is admissible (docs/theory/workspace.md,
     # known limitation): start finer before concluding that there is none, and say so if there still is none.
     level = min_level
     while res.leaf_index.shape[0] == 0 and res.inside_volume == 0.0 and level < max(min_level, MAX_RETRY_LEVEL):
         level += 1
         res = octree_boundary(oracle, lo, hi, resolution, min_level=level, progress=progress,
-                              subtrees=OracleSubtrees(oracle))
-    res.threads = oracle.threads
+                              subtrees=OracleSubtrees(oracle), threads=oracle.threads)
     return res, level, workspace_volume(res, tuple(methods), refine_steps=refine_steps, admissible=oracle)
 
 

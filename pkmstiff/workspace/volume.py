@@ -59,7 +59,7 @@ def pyramid_volume(res: OctreeResult, z: ArrayLike | None = None) -> float:
     if s.shape[0] == 0:
         return 0.0
     zz = _centre(res) if z is None else np.asarray(z, float)
-    h = np.linalg.norm(s - zz, axis=1)  # eq. 4.4
+    h = kernels.distances(np.ascontiguousarray(s, float), np.ascontiguousarray(zz, float).reshape(3))  # eq. 4.4
     e_bar = res.spacing.sum() / 3.0  # eq. 4.5 (all leaves have the finest size)
     return float(h.sum() * e_bar**2 / 3.0)  # eq. 4.6
 
@@ -75,7 +75,7 @@ def tetrahedron_volume(mesh: BoundarySurface, z: ArrayLike | None = None, signed
     if mesh.triangles.shape[0] == 0:
         return 0.0
     zz = cloud_centre(mesh.vertices) if z is None else np.asarray(z, float)
-    six_v = six_volumes(mesh.vertices - zz, mesh.triangles)  # (v - z)[t] == v[t] - z, element by element
+    six_v = six_volumes(mesh.vertices, mesh.triangles, zz)
     return float((six_v.sum() if signed else np.abs(six_v).sum()) / 6.0)
 
 
