@@ -406,10 +406,20 @@ def jobs_pairs(work: dict[str, list[str]], repeat: int = 1) -> dict[str, dict]:
     return out
 
 
+def _wait_until_warm(address: str, n: int, timeout: float = 120.0) -> None:
+    """Wait until the ``n`` workers of the cluster have warmed up (the warm-up the cold run started in the
+    background, at the lowest priority: seconds on a busy machine)."""
+    t0 = time.perf_counter()
+    while len(parallel._dask_workers(address)[1]) < n:
+        if time.perf_counter() - t0 > timeout:
+            raise SystemExit(f"bench_scaling: the Dask workers at {address} did not warm up in {timeout:.0f} s")
+        time.sleep(0.5)
+
+
 def _dask_runs(work: dict[str, list[str]], n: int, repeat: int = 1) -> dict[str, dict]:
     """sweep-25 and section with ``--scheduler`` on a fresh local cluster of ``n`` single-threaded workers against
-    serial: the first run finds the workers cold (small work then stays local while they warm up), then ``repeat``
-    warm runs alternating with as many serial ones (the fastest of each counts, as for the pairs)."""
+    serial: the first run finds the workers cold (small work then stays local while they warm up); once they are warm,
+    ``repeat`` warm runs alternating with as many serial ones (the fastest of each counts, as for the pairs)."""
     from distributed import LocalCluster
 
     out = {}
@@ -421,6 +431,7 @@ def _dask_runs(work: dict[str, list[str]], n: int, repeat: int = 1) -> dict[str,
             on_dask = [*work[name], "--scheduler", cluster.scheduler_address]
             serial = [run_once([*work[name], "--jobs", "1"])]
             cold = run_once(on_dask)
+            _wait_until_warm(cluster.scheduler_address, n)  # as for a user's next run some seconds later
             warm = []
             for _ in range(repeat):
                 warm.append(run_once(on_dask))
