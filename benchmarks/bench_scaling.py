@@ -406,14 +406,13 @@ def jobs_pairs(work: dict[str, list[str]], repeat: int = 1) -> dict[str, dict]:
     return out
 
 
-def _wait_until_warm(address: str, n: int, timeout: float = 120.0) -> None:
-    """Wait until the ``n`` workers of the cluster have warmed up (the warm-up the cold run started in the
-    background, at the lowest priority: seconds on a busy machine)."""
-    t0 = time.perf_counter()
-    while len(parallel._dask_workers(address)[1]) < n:
-        if time.perf_counter() - t0 > timeout:
-            raise SystemExit(f"bench_scaling: the Dask workers at {address} did not warm up in {timeout:.0f} s")
-        time.sleep(0.5)
+def _wait_until_warm(address: str, n: int) -> None:
+    """Warm the ``n`` workers of the cluster (import pkmstiff, load the kernels: what the cold run started in the
+    background, if it connected at all) and wait for it, as a user's next run some time later finds them."""
+    parallel.client(address).run(parallel.warm_up)
+    warm = len(parallel._dask_workers(address)[1])
+    if warm < n:
+        raise SystemExit(f"bench_scaling: {warm} of the {n} Dask workers at {address} are warm after warming them")
 
 
 def _dask_runs(work: dict[str, list[str]], n: int, repeat: int = 1) -> dict[str, dict]:
