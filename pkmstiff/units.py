@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import re
+import threading
 from functools import lru_cache
 from typing import Any
 
@@ -45,8 +46,22 @@ PLAUSIBLE_RANGES: dict[str, tuple[str, float]] = {
 PLAUSIBLE_DEFAULT = 1.0e20
 
 
-@lru_cache(maxsize=1)
+_UREG: list[Any] = []
+_UREG_LOCK = threading.Lock()
+
+
 def ureg() -> "pint.UnitRegistry":  # noqa: F821 (pint is imported here, on first use: ~0.3 s of start-up)
+    """The one unit registry of the process, made at the first call. Under a lock: two threads asking first (a Dask
+    worker's warm-up beside a task) made two registries, and a quantity of one converted by the other failed
+    ("Cannot convert from 'newton / micrometer' to 'dimensionless'")."""
+    if not _UREG:
+        with _UREG_LOCK:
+            if not _UREG:
+                _UREG.append(_new_registry())
+    return _UREG[0]
+
+
+def _new_registry() -> "pint.UnitRegistry":  # noqa: F821
     import pint
 
     # pint's on-disk cache of its parsed definitions (the user cache directory) cuts the registry's start-up from
