@@ -441,6 +441,7 @@ def _dask_runs(work: dict[str, list[str]], n: int, repeat: int = 1) -> dict[str,
                 t.pop("serial_fraction_cpu", None)  # the Dask workers' CPU is not counted here
                 t["plan"] = PLANS.get(" ".join(on_dask), "")
                 out[f"{name}/dask-{state}"] = t
+        parallel.shutdown()  # the client closed before its cluster (else it tries to reconnect, and says so)
     return out
 
 

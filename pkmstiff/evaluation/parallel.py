@@ -28,6 +28,7 @@ import multiprocessing
 import os
 import pickle
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
@@ -195,6 +196,7 @@ _POOLS: dict[int, ProcessPoolExecutor] = {}
 
 
 _WARM = False
+_WARM_LOCK = threading.Lock()
 
 
 def warm_up() -> None:
@@ -207,14 +209,18 @@ def warm_up() -> None:
     global _WARM
     if _WARM:
         return
-    from pkmstiff.evaluation.sections import axis_plane, evaluate_section
-    from pkmstiff.machine.variants import machine_with
-    from pkmstiff.report.sweep_evaluations import PointValues
+    with _WARM_LOCK:  # once, also where a Dask worker's background warm-up and a task's ask at the same time
+        if _WARM:
+            return
+        from pkmstiff.evaluation.sections import axis_plane, evaluate_section
+        from pkmstiff.machine.variants import machine_with
+        from pkmstiff.report.sweep_evaluations import PointValues
 
-    machine = machine_with("hexaglide")
-    evaluate_section(machine, axis_plane("yz", 0.0, (0.0, 0.1), (-1.0, -0.9), 0.005), ["kx", "f1"], progress=False)
-    PointValues((0.0, 0.0, -1000.0, 0.0, 0.0, 0.0), ("kx", "f1"), frame="report")(machine)
-    _WARM = True
+        machine = machine_with("hexaglide")
+        evaluate_section(machine, axis_plane("yz", 0.0, (0.0, 0.1), (-1.0, -0.9), 0.005), ["kx", "f1"],
+                         progress=False)
+        PointValues((0.0, 0.0, -1000.0, 0.0, 0.0, 0.0), ("kx", "f1"), frame="report")(machine)
+        _WARM = True
 
 
 def _is_warm() -> bool:
@@ -552,7 +558,6 @@ _WARM_UP_KEY = "pkmstiff-warm-up"
 def _warm_up_quietly() -> None:
     """:func:`warm_up` in a thread of nice 19 (Linux gives each thread its own nice value; elsewhere at the
     worker's priority): imports and compiled kernels are the process's, so the worker is warm afterwards."""
-    import threading
 
     def run() -> None:
         try:
@@ -775,8 +780,6 @@ def _run_on_dask(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, sched
     start, this process takes over a task that has run :data:`LATE_FACTOR` times its estimated length (a slow or
     lost worker) or that failed there (it then raises the task's error itself). So the run never takes much longer
     than this process alone would. Results in task order, whoever computed them (``fn`` is pure)."""
-    import threading
-
     c, rec = client(scheduler), _cluster(scheduler)
     where = {"workers": rec.use, "allow_other_workers": False} if rec.use else {}
     n = len(payloads)
