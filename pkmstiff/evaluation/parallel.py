@@ -212,14 +212,14 @@ def warm_up() -> None:
     with _WARM_LOCK:  # once, also where a Dask worker's background warm-up and a task's ask at the same time
         if _WARM:
             return
+        from pkmstiff.evaluation.requests import PointRequest
         from pkmstiff.evaluation.sections import axis_plane, evaluate_section
         from pkmstiff.machine.variants import machine_with
-        from pkmstiff.report.sweep_evaluations import PointValues
 
         machine = machine_with("hexaglide")
         evaluate_section(machine, axis_plane("yz", 0.0, (0.0, 0.1), (-1.0, -0.9), 0.005), ["kx", "f1"],
                          progress=False)
-        PointValues((0.0, 0.0, -1000.0, 0.0, 0.0, 0.0), ("kx", "f1"), frame="report")(machine)
+        PointRequest((0.0, 0.0, -1.0, 0.0, 0.0, 0.0), ("kx", "f1"), frame="report").evaluate(machine)
         _WARM = True
 
 
