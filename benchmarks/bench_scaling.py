@@ -429,17 +429,18 @@ def _dask_runs(work: dict[str, list[str]], n: int, repeat: int = 1) -> dict[str,
             warm_up(work[name])
             on_dask = [*work[name], "--scheduler", cluster.scheduler_address]
             serial = [run_once([*work[name], "--jobs", "1"])]
-            cold = run_once(on_dask)
+            key = " ".join(on_dask)
+            cold = (run_once(on_dask), PLANS.get(key, ""))  # each run's plan: PLANS keeps only the last
             _wait_until_warm(cluster.scheduler_address, n)  # as for a user's next run some seconds later
             warm = []
             for _ in range(repeat):
-                warm.append(run_once(on_dask))
+                warm.append((run_once(on_dask), PLANS.get(key, "")))
                 serial.append(run_once([*work[name], "--jobs", "1"]))
             best = min(serial, key=lambda r: r["wall_s"])
-            for state, dask in (("cold", cold), ("warm", min(warm, key=lambda r: r["wall_s"]))):
+            for state, (dask, plan) in (("cold", cold), ("warm", min(warm, key=lambda r: r[0]["wall_s"]))):
                 t = _scaling(work[name], {1: best, n: dask})
                 t.pop("serial_fraction_cpu", None)  # the Dask workers' CPU is not counted here
-                t["plan"] = PLANS.get(" ".join(on_dask), "")
+                t["plan"] = plan
                 out[f"{name}/dask-{state}"] = t
         parallel.shutdown()  # the client closed before its cluster (else it tries to reconnect, and says so)
     return out

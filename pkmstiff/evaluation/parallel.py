@@ -261,16 +261,23 @@ def steady_malloc() -> bool:
     arrays afresh for every chunk, and the system zeroes each page again on first touch: at 2 mm the workspace's
     workers took 230–360k minor page faults and 0.6–0.8 s of system CPU per run, with these settings 73–91k and
     0.2–0.3 s; a whole `--jobs 1` run 175–204k faults and 1.0–1.1 s against 115–137k and 0.55–0.75 s."""
-    import ctypes
-
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
+    mallopt = _libc_function("mallopt")
+    if mallopt is None:
         return False
     _MALLOC_STEADY[0] = bool(mallopt(M_MMAP_THRESHOLD, MALLOC_MMAP_THRESHOLD)) and \
         bool(mallopt(M_TRIM_THRESHOLD, MALLOC_TRIM_THRESHOLD))
     _small_pages_for_fresh_arrays()
     return _MALLOC_STEADY[0]
+
+
+def _libc_function(name: str) -> Callable[..., int] | None:
+    """The C library's function ``name`` (glibc's ``mallopt``, ``malloc_trim``), None where there is none."""
+    import ctypes
+
+    try:
+        return getattr(ctypes.CDLL(None), name)
+    except (OSError, AttributeError):
+        return None
 
 
 def _small_pages_for_fresh_arrays() -> bool:
@@ -320,10 +327,11 @@ def pool(workers: int) -> ProcessPoolExecutor:
     p = _POOLS.get(workers)
     if p is None:
         ctx = _context()
-        if ctx.get_start_method() == "fork":
+        forked = ctx.get_start_method() == "fork"
+        if forked:
             trim_heap()
         p = _POOLS[workers] = ProcessPoolExecutor(max_workers=workers, mp_context=ctx, initializer=_worker_init,
-                                                  initargs=(ctx.get_start_method() != "fork",))
+                                                  initargs=(not forked,))
         _widen_result_pipe(p)
     return p
 
@@ -347,12 +355,8 @@ def _widen_result_pipe(p: ProcessPoolExecutor) -> bool:
 
 def trim_heap() -> bool:
     """glibc only (elsewhere nothing, False): return the heap's free memory to the system (``malloc_trim``)."""
-    import ctypes
-
-    try:
-        return bool(ctypes.CDLL(None).malloc_trim(0))
-    except (OSError, AttributeError):
-        return False
+    malloc_trim = _libc_function("malloc_trim")
+    return malloc_trim is not None and bool(malloc_trim(0))
 
 
 def _pid(_: int) -> int:
