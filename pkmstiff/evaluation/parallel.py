@@ -7,6 +7,8 @@ measured cost, results as compact arrays, and the same tasks on a Dask cluster.
   a second section, a sweep or the next chunk of a report reuses it.
 * A machine travels to the workers as a :class:`Shared` (its pickle, ~16 kB, and a hash of it); each worker unpickles
   a given machine once and keeps it, so tasks of the same run do not rebuild it.
+* A task's large result arrays come back through files in shared memory, mapped here without a copy
+  (:mod:`pkmstiff.evaluation.result_files`; the result pipe carries the rest).
 * :func:`plan` sizes the tasks from a *measured* cost per item (the caller times the first piece of work in this
   process): at least :data:`MIN_TASK_SECONDS` each, about :data:`TASKS_PER_WORKER` per worker for load balance, and a
   whole number of ``granule`` items so that the tasks evaluate exactly the chunks the serial run evaluates (results
@@ -40,6 +42,7 @@ from typing import Any, ClassVar, Generic, TypeVar
 import numpy as np
 
 from pkmstiff.errors import ArgumentError, ResourceError
+from pkmstiff.evaluation import result_files
 
 T = TypeVar("T")
 
@@ -382,6 +385,7 @@ def shutdown() -> None:
     for p in _POOLS.values():
         p.shutdown(wait=True, cancel_futures=True)
     _POOLS.clear()
+    result_files.clear()
     for c in _CLIENTS.values():
         c.close()
     _CLIENTS.clear()
@@ -741,7 +745,7 @@ def submit(workers: int, fn: Callable[..., T], *args: Any) -> Future:
     """``fn(*args)`` as one task in the local pool of ``workers`` workers, not waited for (a command that schedules
     tasks of its own, such as a report's whole evaluations and figures); collect it with :func:`result`."""
     try:
-        return pool(workers).submit(fn, *args)
+        return pool(workers).submit(result_files.call, result_files.directory(), fn, *args)
     except BrokenProcessPool as exc:
         _POOLS.pop(workers, None)
         raise ResourceError(f"local worker pool broke: {exc}") from None
@@ -750,7 +754,7 @@ def submit(workers: int, fn: Callable[..., T], *args: Any) -> Future:
 def result(future: Future, workers: int) -> Any:
     """The result of a task of :func:`submit` (its exception raised here; a dead worker as one line)."""
     try:
-        return future.result()
+        return result_files.restore(future.result())
     except BrokenProcessPool as exc:
         _POOLS.pop(workers, None)
         raise ResourceError(f"a local worker died ({exc}); rerun with fewer --jobs or a larger memory budget") from None
