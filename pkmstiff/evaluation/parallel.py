@@ -250,7 +250,7 @@ def _worker_init(warm: bool) -> None:
 
 
 #: glibc ``mallopt`` parameters and the values a command and its workers set (:func:`steady_malloc`)
-M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
+M_TRIM_THRESHOLD, M_MMAP_THRESHOLD, M_ARENA_MAX = -1, -3, -8
 MALLOC_MMAP_THRESHOLD = 32 << 20  # bytes: arrays below it come from the heap (glibc's own upper bound for its
 #: adaptive threshold, which a long-running command reaches after its first large arrays)
 MALLOC_TRIM_THRESHOLD = 128 << 20  # bytes of free memory a process keeps at the top of its heap
@@ -263,12 +263,19 @@ def steady_malloc() -> bool:
     (:func:`pkmstiff.cli.main`) and every local worker. A fresh process otherwise maps and unmaps its large temporary
     arrays afresh for every chunk, and the system zeroes each page again on first touch: at 2 mm the workspace's
     workers took 230–360k minor page faults and 0.6–0.8 s of system CPU per run, with these settings 73–91k and
-    0.2–0.3 s; a whole `--jobs 1` run 175–204k faults and 1.0–1.1 s against 115–137k and 0.55–0.75 s."""
+    0.2–0.3 s; a whole `--jobs 1` run 175–204k faults and 1.0–1.1 s against 115–137k and 0.55–0.75 s.
+
+    Threads allocate from the same heap (one arena, ``M_ARENA_MAX``): glibc otherwise gives a thread of its own (the
+    workspace's mesh and volumes run on two threads after a parallel octree) an arena of its own, whose heap grows
+    and shrinks by ``mprotect`` and ``madvise`` while the other thread takes page faults; that phase of a 2 mm
+    workspace took 0.23–0.36 s with 0.13–0.28 s of system CPU, with one arena 0.19–0.20 s with 0.08–0.10 s (four
+    runs each). Our threads run compiled loops between a few large allocations: the shared arena's lock costs
+    nothing measurable."""
     mallopt = _libc_function("mallopt")
     if mallopt is None:
         return False
     _MALLOC_STEADY[0] = bool(mallopt(M_MMAP_THRESHOLD, MALLOC_MMAP_THRESHOLD)) and \
-        bool(mallopt(M_TRIM_THRESHOLD, MALLOC_TRIM_THRESHOLD))
+        bool(mallopt(M_TRIM_THRESHOLD, MALLOC_TRIM_THRESHOLD)) and bool(mallopt(M_ARENA_MAX, 1))
     _small_pages_for_fresh_arrays()
     return _MALLOC_STEADY[0]
 
