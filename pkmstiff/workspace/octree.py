@@ -653,21 +653,22 @@ def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
         counts = np.concatenate([c for _, _, c in ev.shared])
     else:
         keys, lvl, counts = np.empty(0, np.int64), np.empty(0, np.int64), np.empty((0, 0), np.int64)
-    misses = _ring_misses(vox, corners, lat)
+    leaf_keys = lat.key(vox)
+    table = KeyTable(leaf_keys, capacity=leaf_keys.size // 4)  # the closure's below adds its voxels to it
+    misses = _ring_misses(table, leaf_keys, corners, lat)
     closed = None
     if task.closure and vox.shape[0]:
         rec = _RecordingEvaluator(counted, lat)
         _closure_passes(vox, corners, lat, rec, misses, keep=lambda k: ~task.others(lat, lat.unkey(k)),
-                        least=AHEAD_LEAST_POINTS)
+                        least=AHEAD_LEAST_POINTS, table=table)
         closed = rec.points()
     return Subtree(vox, corners, inside, per_level, keys, lvl, counts, misses, closed)
 
 
-def _ring_misses(vox: np.ndarray, corners: np.ndarray, lat: Lattice) -> np.ndarray:
-    """Sorted keys of the voxels around the sign-change edges of the leaves ``vox`` that are not among them: the
-    closure's first pass over these leaves alone (a superset of its first pass over all leaves, see :func:`_close`)."""
-    keys = lat.key(vox)
-    table = KeyTable(keys)
+def _ring_misses(table: KeyTable, keys: np.ndarray, corners: np.ndarray, lat: Lattice) -> np.ndarray:
+    """Sorted keys of the voxels around the sign-change edges of the leaves (``keys``, all in ``table``) that are not
+    among them: the closure's first pass over these leaves alone (a superset of its first pass over all leaves, see
+    :func:`_close`)."""
     return unique_sorted(ring_misses(table.slots, table.shift, keys, np.ascontiguousarray(corners),
                                      CORNER_OFFSETS @ lat.strides, EDGES, lat.ring_offsets()))
 
@@ -857,7 +858,7 @@ def _close_ahead(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evalua
 
 def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator,
                     candidates: np.ndarray | None = None, keep: Callable[[np.ndarray], np.ndarray] | None = None,
-                    least: int = 0) -> tuple[np.ndarray, np.ndarray, int, KeyTable]:
+                    least: int = 0, table: KeyTable | None = None) -> tuple[np.ndarray, np.ndarray, int, KeyTable]:
     """The closure's passes: the leaves with the added voxels, their corners, the number added and the key table.
 
     Only the voxels added in the previous pass can ask for new neighbours, so each pass looks at that frontier; the
@@ -870,20 +871,23 @@ def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Eva
 
     ``keep`` (a subtree's own closure, :func:`refine_subtree`): keys of missing voxels -> which of them to add; the
     others are left out (the closure is then that of the leaves within the region ``keep`` allows). ``least``: stop
-    before a pass that would evaluate fewer points (the rest is left to the closure of all leaves).
+    before a pass that would evaluate fewer points (the rest is left to the closure of all leaves). ``table``: the
+    leaves' key table where the caller has it (``candidates`` are then the misses of these very leaves, none in it).
     """
     corner_off = CORNER_OFFSETS @ lat.strides
     ring_off = lat.ring_offsets()
     f_keys, f_corn = lat.key(vox), np.ascontiguousarray(corners)
-    table = KeyTable(f_keys, capacity=f_keys.size // 4)
+    known = table is not None
+    if table is None:
+        table = KeyTable(f_keys, capacity=f_keys.size // 4)
     parts_v = [vox]
     all_corn = np.empty((f_keys.size + max(f_keys.size // 4, 1024), 8), bool)  # corners by leaf number, grown
     all_corn[:f_keys.size] = f_corn
     added = 0
     while f_keys.shape[0]:
         if candidates is not None:
-            missing, candidates = candidates[table.find(candidates) < 0], None
-            missing = unique_sorted(missing)
+            missing = candidates if known else unique_sorted(candidates[table.find(candidates) < 0])
+            candidates = None
         else:
             missing = unique_sorted(ring_misses(table.slots, table.shift, f_keys, f_corn, corner_off,
                                                 EDGES, ring_off))
