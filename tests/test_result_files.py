@@ -112,3 +112,60 @@ def test_directories_of_ended_processes_are_removed(monkeypatch, tmp_path):
     assert made is not None and os.path.dirname(made) == str(tmp_path)
     assert stat.S_IMODE(os.stat(made).st_mode) == 0o700
     assert not orphan.exists() and mine.exists()
+
+
+def test_tasks_write_their_columns_into_a_shared_output():
+    out = result_files.SharedOutput.create({"ok": ((10,), bool), "vals": ((3, 10), float)})
+    assert out is not None
+    try:
+        with out.target.writer() as w:  # as a worker does, in two parts
+            w.put("ok", 0, np.array([True, False, True]))
+            w.put("vals", 0, np.arange(9.0).reshape(3, 3))
+        with out.target.writer() as w:
+            w.put("ok", 3, np.ones(7, bool))
+            w.put("vals", 3, -np.arange(21.0).reshape(3, 7))
+            with pytest.raises(ValueError, match="does not fit"):
+                w.put("vals", 8, np.zeros((3, 3)))
+    finally:
+        out.close()
+    assert not os.path.exists(out.target.path)  # unlinked; the arrays stay
+    assert out.arrays["ok"].tolist() == [True, False, True] + [True] * 7
+    expect = np.concatenate([np.arange(9.0).reshape(3, 3), -np.arange(21.0).reshape(3, 7)], axis=1)
+    assert out.arrays["vals"].tobytes() == expect.tobytes()
+
+
+def test_sections_are_the_same_whether_workers_write_in_place_or_return_their_parts(monkeypatch):
+    """--jobs 2 with the shared output, with every write refused (a full /dev/shm: the parts come back) and serially:
+    the same bytes."""
+    from pkmstiff.evaluation import sections
+    from pkmstiff.evaluation.sections import axis_plane, evaluate_section
+    from pkmstiff.machine.variants import machine_with
+
+    machine = machine_with("hexaglide")
+    plane = axis_plane("yz", 0.0, (-0.2, 0.4), (-1.2, -0.6), 0.01)
+    kw = dict(quantities=["kx", "f1"], chunk_size=512, progress=False)
+    made = []
+    create = result_files.SharedOutput.create
+    monkeypatch.setattr(result_files.SharedOutput, "create", lambda arrays: made.append(create(arrays)) or made[-1])
+    try:
+        serial = evaluate_section(machine, plane, **kw)
+        assert made == []  # serially nothing is shared
+        in_place = evaluate_section(machine, plane, n_jobs=2, **kw)
+        assert in_place.plan is not None and in_place.plan.parallel and made[-1] is not None
+        assert np.shares_memory(in_place.ok, made[-1].arrays["ok"])  # the workers' columns, not a joined copy
+        assert _files(result_files.directory()) == []
+
+        def refused(*_a):
+            raise OSError(28, "No space left on device")
+
+        monkeypatch.setattr(sections, "_put", lambda *a: False)  # here: the first chunk and the fallback
+        monkeypatch.setattr(result_files.os, "pwrite", refused)  # in the workers forked from now on
+        parallel.shutdown()
+        returned = evaluate_section(machine, plane, n_jobs=2, **kw)
+    finally:
+        parallel.shutdown()
+    for r in (in_place, returned):
+        assert r.ok.tobytes() == serial.ok.tobytes() and r.reasons.tobytes() == serial.reasons.tobytes()
+        for name in ("kx", "f1"):
+            assert r.values[name].tobytes() == serial.values[name].tobytes()
+        assert r.kappa.tobytes() == serial.kappa.tobytes()

@@ -106,6 +106,88 @@ def clear() -> None:
                     os.unlink(e.path)
 
 
+class OutputTarget(NamedTuple):
+    """Where a task writes its part of a :class:`SharedOutput` (picklable: the file and, per array, its byte offset,
+    shape and dtype)."""
+
+    path: str
+    layout: dict[str, tuple[int, tuple[int, ...], str]]
+
+    def writer(self) -> "OutputWriter":
+        return OutputWriter(self)
+
+
+class OutputWriter:
+    """A task's open handle on an :class:`OutputTarget` (a context manager)."""
+
+    def __init__(self, target: OutputTarget):
+        self.target = target
+        self.fd = os.open(target.path, os.O_WRONLY)
+
+    def __enter__(self) -> "OutputWriter":
+        return self
+
+    def __exit__(self, *_: Any) -> None:
+        os.close(self.fd)
+
+    def put(self, name: str, start: int, values: np.ndarray) -> None:
+        """Columns ``start`` … ``start + k - 1`` (along the last axis) of array ``name`` := ``values`` (..., k)."""
+        offset, shape, dtype = self.target.layout[name]
+        dt = np.dtype(dtype)
+        v = np.ascontiguousarray(values, dt)
+        n, k = shape[-1], v.shape[-1]
+        if v.shape[:-1] != tuple(shape[:-1]) or start < 0 or start + k > n:
+            raise ValueError(f"{name}: part of shape {v.shape} at column {start} does not fit {shape}")
+        rows = v.reshape(-1, k)
+        for r in range(rows.shape[0]):
+            view = memoryview(rows[r]).cast("B")
+            at = offset + (r * n + start) * dt.itemsize
+            while view:
+                done = os.pwrite(self.fd, view, at)
+                view, at = view[done:], at + done
+
+
+class SharedOutput:
+    """Arrays of a run's result written in place by its tasks: one file in this process's directory, mapped here
+    (shared), each task writing its columns with ``pwrite`` (:class:`OutputWriter`); no result crosses the pipe and
+    nothing is joined here. :meth:`create` returns None where there is no directory (then results travel as usual).
+    :meth:`close` unlinks the file once the tasks are done (the arrays stay)."""
+
+    def __init__(self, path: str, layout: dict[str, tuple[int, tuple[int, ...], str]], buf: mmap.mmap):
+        self.target = OutputTarget(path, layout)
+        self.arrays = {name: np.ndarray(shape, np.dtype(dt), buffer=buf, offset=off)
+                       for name, (off, shape, dt) in layout.items()}
+
+    @classmethod
+    def create(cls, arrays: dict[str, tuple[tuple[int, ...], Any]]) -> "SharedOutput | None":
+        where = directory()
+        if where is None:
+            return None
+        layout, size = {}, 0
+        for name, (shape, dtype) in arrays.items():
+            dt = np.dtype(dtype)
+            layout[name] = (size, tuple(int(x) for x in shape), dt.str)
+            size += -(-int(np.prod(shape, dtype=np.int64)) * dt.itemsize // 64) * 64  # each array 64-byte aligned
+        try:
+            fd, path = tempfile.mkstemp(dir=where)
+        except OSError:
+            return None
+        try:
+            os.ftruncate(fd, max(size, 1))
+            buf = mmap.mmap(fd, max(size, 1), flags=mmap.MAP_SHARED, prot=mmap.PROT_READ | mmap.PROT_WRITE)
+        except OSError:
+            with suppress(OSError):
+                os.unlink(path)
+            return None
+        finally:
+            os.close(fd)
+        return cls(path, layout, buf)
+
+    def close(self) -> None:
+        with suppress(OSError):
+            os.unlink(self.target.path)
+
+
 def call(where: str | None, fn: Callable[..., Any], *args: Any) -> Any:
     """In a worker: ``fn(*args)`` with its large arrays written to files in ``where`` (None: as it is)."""
     out = fn(*args)

@@ -25,7 +25,7 @@ from pkmstiff.admissibility.checks import (
 )
 from pkmstiff.admissibility.pipeline import evaluate_poses
 from pkmstiff.errors import ArgumentError
-from pkmstiff.evaluation import parallel
+from pkmstiff.evaluation import parallel, result_files
 from pkmstiff.evaluation.progress import callback as progress_callback
 from pkmstiff.evaluation.quantities import EvalContext, get_quantity
 from pkmstiff.machine.frames import frame_metadata, frame_origin
@@ -245,14 +245,47 @@ def _evaluate_chunk(machine: Machine, poses: np.ndarray, names: Sequence[str], t
 
 def _evaluate_task(machine: parallel.Shared[Machine], raster: tuple[Plane, np.ndarray, np.ndarray], start: int,
                    stop: int, chunk_size: int, names: Sequence[str], tool_length: float | None,
-                   options: dict[str, Any], checks: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   options: dict[str, Any], checks: Sequence[str], target: result_files.OutputTarget | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """One task: raster points ``start`` … ``stop`` - 1 of ``raster`` = (plane, orientation, frame origin), made here
-    and evaluated in consecutive chunks of ``chunk_size`` (the chunks the serial run evaluates), returned as three
-    compact arrays."""
+    and evaluated in consecutive chunks of ``chunk_size`` (the chunks the serial run evaluates): written into
+    ``target`` at their columns (None returned), or returned as three compact arrays (without a target, or where
+    writing it fails: a full ``/dev/shm``)."""
     m = machine.get()
     parts = [_evaluate_chunk(m, _raster_poses(raster, a, min(a + chunk_size, stop)), names, tool_length, options,
                              checks) for a in range(start, stop, chunk_size)]
-    return _concat(parts)
+    out = _concat(parts)
+    if target is not None and _put(target, start, out):
+        return None
+    return out
+
+
+_OUTPUT_NAMES = ("ok", "reasons", "vals")
+
+
+def _put(target: result_files.OutputTarget, start: int, parts: tuple[np.ndarray, np.ndarray, np.ndarray]) -> bool:
+    """``parts`` (ok, reasons, values) into ``target`` from column ``start`` on; False where the system refuses."""
+    try:
+        with target.writer() as w:
+            for name, a in zip(_OUTPUT_NAMES, parts):
+                w.put(name, start, a)
+    except OSError:
+        return False
+    return True
+
+
+def _written(out: result_files.SharedOutput, parts: list[tuple[int, Any]]
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The arrays of ``out`` once its tasks are done, with the parts ``(start column, arrays or None)`` that came back
+    instead of being written (this process's own first chunk; a task whose writes the system refused) put in."""
+    back = [(a, p) for a, p in parts if p is not None]
+    if not all(_put(out.target, a, p) for a, p in back):  # no room left: ordinary arrays
+        arrays = {k: np.array(v) for k, v in out.arrays.items()}
+        for a, p in back:
+            for name, x in zip(_OUTPUT_NAMES, p):
+                arrays[name][..., a:a + x.shape[-1]] = x
+        return arrays["ok"], arrays["reasons"], arrays["vals"]
+    return out.arrays["ok"], out.arrays["reasons"], out.arrays["vals"]
 
 
 def _concat(parts: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -335,14 +368,26 @@ def evaluate_section(
                              scheduler, granule=chunk_size)
         bounds = parallel.split(rest, plan if plan.parallel else dataclasses.replace(plan, task_items=chunk_size))
         shared = parallel.Shared(machine)
-        payloads = [(shared, raster, n_first + a, n_first + b, chunk_size, names, tool_length, opts, checks)
+        # local workers write their columns straight into the result's arrays (no result through the pipe, nothing
+        # joined here, issue 25); elsewhere, or without a place for them, the parts come back and are joined
+        out = result_files.SharedOutput.create(
+            {"ok": ((n,), bool), "reasons": ((n,), np.uint32), "vals": ((len(names) + 1, n), float)}
+        ) if plan.where == "local" else None
+        target = None if out is None else out.target
+        payloads = [(shared, raster, n_first + a, n_first + b, chunk_size, names, tool_length, opts, checks, target)
                     for a, b in bounds]
         step = progress_callback(len(payloads), progress, "section", "task" if plan.parallel else "chunk")
-        parts = parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step,
-                                   meanwhile=run_first if ahead else None)
-    parts = [*first, *parts]
+        try:
+            parts = parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step,
+                                       meanwhile=run_first if ahead else None)
+            if out is not None:
+                ok, reasons, vals = _written(out, [(0, first[0])] + [(p[2], part) for p, part in zip(payloads, parts)])
+        finally:
+            if out is not None:
+                out.close()
     plan = dataclasses.replace(plan, item_seconds=seconds[0])
-    ok, reasons, vals = _concat(parts)
+    if out is None:
+        ok, reasons, vals = _concat([*first, *parts])
     shape = plane.shape
     return SectionResult(
         machine=machine.name, plane=plane, orientation=np.asarray(orientation, float), tool_length=tool_length,
