@@ -143,7 +143,7 @@ def test_sections_are_the_same_whether_workers_write_in_place_or_return_their_pa
 
     machine = machine_with("hexaglide")
     plane = axis_plane("yz", 0.0, (-0.2, 0.4), (-1.2, -0.6), 0.01)
-    kw = dict(quantities=["kx", "f1"], chunk_size=512, progress=False)
+    kw = {"quantities": ["kx", "f1"], "chunk_size": 512, "progress": False}
     made = []
     create = result_files.SharedOutput.create
     monkeypatch.setattr(result_files.SharedOutput, "create", lambda arrays: made.append(create(arrays)) or made[-1])

@@ -29,7 +29,7 @@ import tempfile
 from collections.abc import Callable
 from contextlib import suppress
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Self
 
 import numpy as np
 
@@ -113,7 +113,7 @@ class OutputTarget(NamedTuple):
     path: str
     layout: dict[str, tuple[int, tuple[int, ...], str]]
 
-    def writer(self) -> "OutputWriter":
+    def writer(self) -> OutputWriter:
         return OutputWriter(self)
 
 
@@ -124,10 +124,10 @@ class OutputWriter:
         self.target = target
         self.fd = os.open(target.path, os.O_WRONLY)
 
-    def __enter__(self) -> "OutputWriter":
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, *_: Any) -> None:
+    def __exit__(self, *_: object) -> None:
         os.close(self.fd)
 
     def put(self, name: str, start: int, values: np.ndarray) -> None:
@@ -159,7 +159,7 @@ class SharedOutput:
                        for name, (off, shape, dt) in layout.items()}
 
     @classmethod
-    def create(cls, arrays: dict[str, tuple[tuple[int, ...], Any]]) -> "SharedOutput | None":
+    def create(cls, arrays: dict[str, tuple[tuple[int, ...], Any]]) -> SharedOutput | None:
         where = directory()
         if where is None:
             return None
