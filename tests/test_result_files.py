@@ -126,12 +126,38 @@ def test_tasks_write_their_columns_into_a_shared_output():
             w.put("vals", 3, -np.arange(21.0).reshape(3, 7))
             with pytest.raises(ValueError, match="does not fit"):
                 w.put("vals", 8, np.zeros((3, 3)))
-    finally:
+    except BaseException:
         out.close()
+        raise
+    # ordinary arrays read with pread (what a refused write leaves falls back to): the same values
+    copies = out.copies()
+    assert all(np.array_equal(copies[k], out.arrays[k]) and not np.shares_memory(copies[k], out.arrays[k])
+               for k in out.arrays)
+    out.close()
     assert not os.path.exists(out.target.path)  # unlinked; the arrays stay
     assert out.arrays["ok"].tolist() == [True, False, True] + [True] * 7
     expect = np.concatenate([np.arange(9.0).reshape(3, 3), -np.arange(21.0).reshape(3, 7)], axis=1)
     assert out.arrays["vals"].tobytes() == expect.tobytes()
+
+
+def test_a_shared_output_with_unwritten_columns_reads_back_zeros_there():
+    out = result_files.SharedOutput.create({"vals": ((2, 100_000), float)})
+    assert out is not None
+    try:
+        with out.target.writer() as w:
+            w.put("vals", 50_000, np.ones((2, 50_000)))
+        got = out.copies()["vals"]
+    finally:
+        out.close()
+    assert (got[:, :50_000] == 0).all() and (got[:, 50_000:] == 1).all()
+
+
+def test_no_shared_output_where_the_directory_lacks_room(monkeypatch):
+    class Full:
+        f_bavail, f_frsize = 10, 4096
+
+    monkeypatch.setattr(result_files.os, "statvfs", lambda _: Full())
+    assert result_files.SharedOutput.create({"vals": ((2, 100_000), float)}) is None
 
 
 def test_sections_are_the_same_whether_workers_write_in_place_or_return_their_parts(monkeypatch):

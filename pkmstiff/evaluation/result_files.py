@@ -169,6 +169,9 @@ class SharedOutput:
             layout[name] = (size, tuple(int(x) for x in shape), dt.str)
             size += -(-int(np.prod(shape, dtype=np.int64)) * dt.itemsize // 64) * 64  # each array 64-byte aligned
         try:
+            free = os.statvfs(where)
+            if free.f_bavail * free.f_frsize < 2 * size:  # no room: the parts come back through the pipe
+                return None
             fd, path = tempfile.mkstemp(dir=where)
         except OSError:
             return None
@@ -182,6 +185,26 @@ class SharedOutput:
         finally:
             os.close(fd)
         return cls(path, layout, buf)
+
+    def copies(self) -> dict[str, np.ndarray]:
+        """Ordinary arrays with what the file holds (zeros where nothing was written), read with ``pread``: where a
+        write was refused the file may have holes, and touching a hole through the mapping of a full ``/dev/shm``
+        would kill the process (SIGBUS)."""
+        out = {}
+        fd = os.open(self.target.path, os.O_RDONLY)
+        try:
+            for name, (off, shape, dt) in self.target.layout.items():
+                a = np.zeros(shape, np.dtype(dt))
+                view, at = memoryview(a).cast("B"), off
+                while view:
+                    got = os.preadv(fd, [view], at)
+                    if got == 0:
+                        break
+                    view, at = view[got:], at + got
+                out[name] = a
+        finally:
+            os.close(fd)
+        return out
 
     def close(self) -> None:
         with suppress(OSError):

@@ -280,7 +280,7 @@ def _written(out: result_files.SharedOutput, parts: list[tuple[int, Any]]
     instead of being written (this process's own first chunk; a task whose writes the system refused) put in."""
     back = [(a, p) for a, p in parts if p is not None]
     if not all(_put(out.target, a, p) for a, p in back):  # no room left: ordinary arrays
-        arrays = {k: np.array(v) for k, v in out.arrays.items()}
+        arrays = out.copies()
         for a, p in back:
             for name, x in zip(_OUTPUT_NAMES, p):
                 arrays[name][..., a:a + x.shape[-1]] = x
