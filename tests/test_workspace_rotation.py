@@ -152,3 +152,62 @@ def test_search_evaluator_equals_the_staged_pipeline(hexaglide, monkeypatch):
         ok = rot._Evaluator(m, checks, reqs)(p)
         assert np.array_equal(ok, staged_admissible(m, p, checks, reqs))
         assert ok.any() and not ok.all()
+
+
+def _numpy_steps(ev, pts, dvec, inc, K, active, up, cur, result, evals, lookahead, budget):
+    """The corrector's batch as numpy array operations (the formulation the compiled one replaced)."""
+    D = active.shape[1]
+    at = np.flatnonzero(active)
+    pi, di = np.divmod(at, D)
+    A = at.size
+    L = max(1, min(lookahead, budget // A))
+    u, c = up.ravel()[at], cur.ravel()[at]
+    sign = np.where(u, 1, -1)
+    n = np.minimum(np.where(u, K - c, c - 1), L)
+    r, col = np.nonzero(np.arange(1, L + 1)[None, :] <= n[:, None])
+    ok = np.zeros((A, L), bool)
+    ok[r, col] = ev(pts[pi[r]] + ((c[r] + sign[r] * (col + 1)) * inc)[:, None] * dvec[di[r]])
+    j = np.arange(1, L + 1)
+    stop = np.where((j[None, :] <= n[:, None]) & (ok != u[:, None]), j[None, :], L + 1).min(axis=1)
+    stopped = stop <= n
+    walked = np.where(stopped, stop, n)
+    evals += np.bincount(di, walked, D).astype(np.int64)
+    new = c + sign * walked
+    res = np.where(u, np.where(stopped, new - 1, new), np.where(stopped, new, 0))
+    done = stopped | np.where(u, new >= K, new <= 1)
+    keep = u | done
+    result.ravel()[at[keep]] = res[keep]
+    cur.ravel()[at] = new
+    active.ravel()[at[done]] = False
+
+
+@pytest.mark.parametrize("budget", [1, 64, 4096])  # one increment per search, look-ahead on few, on all
+def test_compiled_corrector_batch_is_the_numpy_formulation(monkeypatch, budget):
+    """Random corrector states and a random admissibility field: the compiled batch evaluates the same poses (bit for
+    bit, in the same order) and leaves the same state and counts as the numpy formulation."""
+    from pkmstiff.workspace import rotation as R
+
+    rng = np.random.default_rng(3)
+    P, D, K, inc = 40, 3, 30, math.radians(1.0)
+    pts, dvec = rng.normal(size=(P, 6)), rng.normal(size=(D, 6))
+    field = {}
+
+    def ev(poses):  # deterministic per pose, recording what it was asked
+        seen.append(poses.copy())
+        return np.array([field.setdefault(p.tobytes(), bool(rng.random() < 0.8)) for p in poses], bool)
+
+    monkeypatch.setattr(R, "LOOKAHEAD_POSES", budget)
+    up = rng.random((P, D)) < 0.6
+    cur = np.where(up, rng.integers(0, K, (P, D)), rng.integers(1, K + 1, (P, D)))
+    state = [rng.random((P, D)) < 0.7, up, cur, np.where(up, cur, -1), np.zeros(D, np.int64)]
+    runs = []
+    for fn in (lambda *a: R._steps(*a), lambda *a: _numpy_steps(*a, R.LOOKAHEAD, budget)):
+        seen: list[np.ndarray] = []
+        active, u, c, result, evals = (x.copy() for x in state)
+        for _ in range(6):
+            if active.any():
+                fn(ev, pts, dvec, inc, K, active, u, c, result, evals)
+        runs.append((np.concatenate(seen).tobytes(), active, c, result, evals))
+    (p1, *s1), (p2, *s2) = runs
+    assert p1 == p2
+    assert all(np.array_equal(a, b) for a, b in zip(s1, s2))

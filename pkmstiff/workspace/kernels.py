@@ -361,3 +361,75 @@ class KeyTable:
         """Value of each key (shape of ``keys``), -1 where absent."""
         q = np.ascontiguousarray(keys, np.int64)
         return table_lookup(self.slots, self.shift, q.ravel()).reshape(q.shape)
+
+
+@_jit
+def corrector_poses(active, up, cur, D, K, lookahead, budget, pts, dvec, inc):
+    """The poses of one batch of the rotation map's corrector (:func:`pkmstiff.workspace.rotation._steps`): the active
+    (point, direction) searches (``active``, ``up``, ``cur``: (P, D) flattened row-major) in that order, each walking
+    from ``cur`` upwards (``up``, to K) or downwards (to 1) by up to L = max(1, min(``lookahead``, ``budget`` //
+    searches)) increments. Returns the searches' flat indices, the increments each evaluates (n), L and the poses
+    (pts[p] + (cur ± j) inc dvec[d], j = 1 … n, search by search)."""
+    count = 0
+    for i in range(active.size):
+        if active[i]:
+            count += 1
+    at = np.empty(count, np.int64)
+    k = 0
+    for i in range(active.size):
+        if active[i]:
+            at[k] = i
+            k += 1
+    L = max(1, min(lookahead, budget // max(count, 1)))
+    n = np.empty(count, np.int64)
+    total = 0
+    for a in range(count):
+        c = cur[at[a]]
+        n[a] = min(K - c if up[at[a]] else c - 1, L)
+        total += n[a]
+    poses = np.empty((total, 6))
+    row = 0
+    for a in range(count):
+        p, d = at[a] // D, at[a] % D
+        c = cur[at[a]]
+        sign = 1 if up[at[a]] else -1
+        for j in range(1, n[a] + 1):
+            t = (c + sign * j) * inc
+            for q in range(6):
+                poses[row, q] = pts[p, q] + t * dvec[d, q]
+            row += 1
+    return at, n, L, poses
+
+
+@_jit
+def corrector_update(at, n, L, ok, D, K, up, cur, result, active, evals):
+    """The searches of :func:`corrector_poses` after their poses' admissibility ``ok``: each stops at its first
+    increment whose admissibility differs from its direction of walk (inadmissible upwards, admissible downwards) and
+    counts the increments the one-at-a-time search evaluates (up to the stop); ``cur``, ``result`` (upwards: the last
+    admissible increment so far; downwards: set when the search ends, 0 = the base orientation), ``active`` (all
+    (P, D) flattened) and ``evals`` (D,) in place."""
+    row = 0
+    for a in range(at.size):
+        i = at[a]
+        u = up[i]
+        c = cur[i]
+        stop = L + 1
+        for j in range(1, n[a] + 1):
+            if stop == L + 1 and ok[row + j - 1] != u:
+                stop = j
+        row += n[a]
+        stopped = stop <= n[a]
+        walked = stop if stopped else n[a]
+        evals[i % D] += walked
+        new = c + walked if u else c - walked
+        if u:
+            res = new - 1 if stopped else new
+            done = stopped or new >= K
+        else:
+            res = new if stopped else 0
+            done = stopped or new <= 1
+        if u or done:
+            result[i] = res
+        cur[i] = new
+        if done:
+            active[i] = False
