@@ -6,6 +6,7 @@ import os
 import stat
 import subprocess
 import sys
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -107,11 +108,16 @@ def test_directories_of_ended_processes_are_removed(monkeypatch, tmp_path):
     (orphan / "x").write_bytes(b"1")
     mine = tmp_path / f"pkmstiff-results-{os.getpid()}-def"  # a live process's (this one)
     mine.mkdir()
+    recent = tmp_path / f"pkmstiff-results-{pid}-ghi"  # an ended pid's, touched a moment ago: another namespace's?
+    recent.mkdir()
+    old = time.time() - 2 * result_files.ORPHAN_SECONDS
+    os.utime(orphan, (old, old))
+    os.utime(mine, (old, old))
     monkeypatch.setattr(result_files, "SHARED_MEMORY", tmp_path)
     made = result_files._make_directory()
     assert made is not None and os.path.dirname(made) == str(tmp_path)
     assert stat.S_IMODE(os.stat(made).st_mode) == 0o700
-    assert not orphan.exists() and mine.exists()
+    assert not orphan.exists() and mine.exists() and recent.exists()
 
 
 def test_tasks_write_their_columns_into_a_shared_output():

@@ -14,7 +14,7 @@ Safety: the directory is made by this process (``mkdtemp``: mode 0700, a random 
 Where there is no ``/dev/shm`` (macOS, Windows), or a file cannot be written (a full ``/dev/shm``: Docker gives 64 MB),
 the array travels in the pipe as before. The files a run leaves (tasks cancelled before their result was collected)
 are removed when the pools stop, the directory when this process ends, and directories left by processes that died
-are removed by the next command that makes its own.
+(untouched for :data:`ORPHAN_SECONDS`) are removed by the next command that makes its own.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import mmap
 import os
 import shutil
 import tempfile
+import time
 from collections.abc import Callable
 from contextlib import suppress
 from pathlib import Path
@@ -77,18 +78,25 @@ def _make_directory() -> str | None:
     return path
 
 
+#: a directory of a process that no longer runs is removed once untouched this long (s): a process of another PID
+#: namespace sharing ``/dev/shm`` (containers) looks ended from here, but its run touches its directory with every task
+ORPHAN_SECONDS = 3600.0
+
+
 def _remove_orphans() -> None:
     """Remove the directories of this user's processes that ended without removing theirs (killed)."""
     try:
         entries = list(os.scandir(SHARED_MEMORY))
     except OSError:
         return
+    now = time.time()
     for e in entries:
         if not e.name.startswith(_PREFIX):
             continue
         try:
             pid = int(e.name[len(_PREFIX):].split("-", 1)[0])
-            if e.stat(follow_symlinks=False).st_uid != os.getuid() or not e.is_dir(follow_symlinks=False):
+            st = e.stat(follow_symlinks=False)
+            if st.st_uid != os.getuid() or not e.is_dir(follow_symlinks=False) or now - st.st_mtime < ORPHAN_SECONDS:
                 continue
             os.kill(pid, 0)
         except ProcessLookupError:
