@@ -148,11 +148,16 @@ class OutputWriter:
             raise ValueError(f"{name}: part of shape {v.shape} at column {start} does not fit {shape}")
         rows = v.reshape(-1, k)
         for r in range(rows.shape[0]):
-            view = memoryview(rows[r]).cast("B")
-            at = offset + (r * n + start) * dt.itemsize
-            while view:
-                done = os.pwrite(self.fd, view, at)
-                view, at = view[done:], at + done
+            _pwrite_all(self.fd, rows[r], offset + (r * n + start) * dt.itemsize)
+
+
+def _pwrite_all(fd: int, a: np.ndarray, at: int) -> None:
+    """The bytes of the C-contiguous array ``a`` into file ``fd`` from byte ``at`` on (``pwrite`` may write less
+    than asked)."""
+    view = memoryview(a).cast("B")
+    while view:
+        done = os.pwrite(fd, view, at)
+        view, at = view[done:], at + done
 
 
 class SharedOutput:
@@ -271,14 +276,13 @@ def _write(a: np.ndarray, where: str) -> FileArray | None:
     except OSError:
         return None
     try:
-        with os.fdopen(fd, "wb", buffering=0) as f:
-            view = memoryview(a).cast("B")
-            while view:
-                view = view[f.write(view):]
+        _pwrite_all(fd, a, 0)
     except OSError:  # full: the pipe takes it
         with suppress(OSError):
             os.unlink(path)
         return None
+    finally:
+        os.close(fd)
     return FileArray(path, a.dtype.str, tuple(a.shape))
 
 
@@ -288,8 +292,9 @@ def _read(h: FileArray) -> np.ndarray:
         os.unlink(h.path)
         dtype = np.dtype(h.dtype)
         size = int(np.prod(h.shape, dtype=np.int64)) * dtype.itemsize
-        if os.fstat(fd).st_size != size:
-            raise OSError(f"{h.path}: a worker's result file holds {os.fstat(fd).st_size} bytes, expected {size}")
+        held = os.fstat(fd).st_size
+        if held != size:
+            raise OSError(f"{h.path}: a worker's result file holds {held} bytes, expected {size}")
         buf = mmap.mmap(fd, size, flags=mmap.MAP_PRIVATE, prot=mmap.PROT_READ | mmap.PROT_WRITE)
     finally:
         os.close(fd)

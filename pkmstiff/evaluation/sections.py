@@ -381,7 +381,8 @@ def evaluate_section(
             parts = parallel.run_tasks(_evaluate_task, payloads, plan, scheduler, step,
                                        meanwhile=run_first if ahead else None)
             if out is not None:
-                ok, reasons, vals = _written(out, [(0, first[0])] + [(p[2], part) for p, part in zip(payloads, parts)])
+                ok, reasons, vals = _written(out, [(0, first[0])] + [(n_first + a, part)
+                                                                       for (a, _), part in zip(bounds, parts)])
         finally:
             if out is not None:
                 out.close()

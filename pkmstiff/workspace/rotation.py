@@ -375,10 +375,11 @@ def _steps(ev: _Evaluator, pts: np.ndarray, dvec: np.ndarray, inc: float, K: int
     bookkeeping around the evaluation, :func:`pkmstiff.workspace.kernels.corrector_poses` / ``corrector_update``: a
     batch's fixed cost was ~0.25 ms of numpy calls, paid again by every parallel task)."""
     D = active.shape[1]
-    flat = active.reshape(-1), up.reshape(-1), cur.reshape(-1)  # views: the kernels write through them
-    at, n, L, poses = kernels.corrector_poses(*flat, D, K, LOOKAHEAD, LOOKAHEAD_POSES, pts, dvec, inc)
+    # flat views (C-ordered arrays): the kernels write through them
+    act, up1, cur1, res1 = active.reshape(-1), up.reshape(-1), cur.reshape(-1), result.reshape(-1)
+    at, n, L, poses = kernels.corrector_poses(act, up1, cur1, D, K, LOOKAHEAD, LOOKAHEAD_POSES, pts, dvec, inc)
     ok = ev(poses)
-    kernels.corrector_update(at, n, L, ok, D, K, flat[1], flat[2], result.reshape(-1), flat[0], evals)
+    kernels.corrector_update(at, n, L, ok, D, K, up1, cur1, res1, act, evals)
 
 
 def _prediction(f: np.ndarray, u: np.ndarray, v: np.ndarray, m: np.ndarray, n: np.ndarray) -> np.ndarray:
