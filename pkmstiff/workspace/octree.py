@@ -896,15 +896,15 @@ def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Eva
         if missing.size == 0:
             break
         ck = (missing[:, None] + corner_off[None]).ravel()
-        kn, val = known_corners(table.slots, table.shift, all_corn, ck, corner_off)
-        unk = unique_sorted(ck[~kn])
+        uck, at = unique_inverse(ck)  # neighbouring missing voxels share corners: each looked up once
+        kn, uval = known_corners(table.slots, table.shift, all_corn, uck, corner_off)
+        unk = uck[~kn]
         if unk.size < least:
             break
         if unk.size:
-            uval = ev(lat.unkey(unk))
-            val[~kn] = uval[np.searchsorted(unk, ck[~kn])]
+            uval[~kn] = ev(lat.unkey(unk))
         table.add(missing)
-        f_keys, f_corn = missing, val.reshape(-1, 8)
+        f_keys, f_corn = missing, uval[at].reshape(-1, 8)
         if table.size > all_corn.shape[0]:
             all_corn = np.concatenate([all_corn, np.empty((max(all_corn.shape[0], f_keys.size), 8), bool)])
         all_corn[table.size - f_keys.size:table.size] = f_corn
