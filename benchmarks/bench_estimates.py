@@ -10,28 +10,30 @@ Both ratios estimate / actual must lie within 0.5..2 (exit status 1 otherwise).
     python benchmarks/bench_estimates.py --large    # also the full Hexaglide report (3.125 mm workspace)
     python benchmarks/bench_estimates.py -k section # only cases whose name contains 'section'
 
-Measured 2026-11-26 on the shared 2-core machine (load average 7.5..10: wall times 3..8x the CPU times):
+Measured 2026-11-26 on the shared 2-core machine (load average 7.5..10: wall times 3..8x the CPU times; the workspace
+and report rows again at load average 0.8..0.9 after the octree's time per evaluation was measured anew,
+``cost.OCTREE_SECONDS`` 6 -> 3 us):
 
     case                           est s   CPU s t ratio   est MB   RSS MB m ratio
     section kappa 5 mm               1.2     1.4    0.84      265      228    1.16
     section kx,f1 2.5 mm             4.9     4.1    1.21      283      266    1.06
     section kx 5 mm + files          2.8     3.4    0.82      265      286    0.93
-    workspace 25 mm                  1.2     1.3    0.91      270      209    1.29
-    workspace 6.25 mm                3.2     2.8    1.15      364      305    1.19
-    workspace felix 12.5 mm          4.7     3.5    1.34      437      352    1.24
-    workspace 25 mm + figure         2.9     2.8    1.05      610      558    1.09
+    workspace 25 mm                  1.1     1.5    0.73      270      189    1.43
+    workspace 6.25 mm                2.1     3.1    0.67      364      287    1.27
+    workspace felix 12.5 mm          2.9     2.7    1.08      437      307    1.43
+    workspace 25 mm + figure         2.8     3.9    0.71      610      602    1.01
     rotation-map pc 1 deg            1.3     1.5    0.88      260      221    1.18
     rotation-map pc 0.1 deg          2.8     2.2    1.29      260      221    1.17
     rotation-map plain 0.1 deg       2.8     2.0    1.40      260      237    1.10
-    report --fast                    8.0     5.9    1.35      610      595    1.03
+    report --fast                    7.7     7.4    1.04      610      639    0.96
     fe-joint 3 angles                8.5     8.8    0.96      815      763    1.07
     fe-platform                     11.0    10.8    1.02     1229     1470    0.84
     point --poses 40k                3.8     3.8    1.01      373      385    0.97
     ballbar 200k rows                2.6     2.1    1.21      310      296    1.05
     sweep example                    2.3     2.5    0.93      260      251    1.04
     mechanism 10k steps              9.0    11.1    0.81      220      204    1.08
-    workspace 3.125 mm (--large)     9.7     8.3    1.17      674      681    0.99
-    report full (--large)           30.0    20.5    1.46     1014      910    1.11
+    workspace 3.125 mm (--large)     5.3     5.6    0.95      674      371    1.82
+    report full (--large)           20.0    19.8    1.01     1014     1159    0.87
 """
 
 from __future__ import annotations

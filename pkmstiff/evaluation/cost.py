@@ -61,8 +61,11 @@ FIGURE_3D_LIBRARY_SECONDS = 1.0
 #: modified octree: evaluations per (reach-box surface / eps²); measured 0.41 (Hexaglide) .. 0.92 (6X); the
 #: geometric mean keeps every bundled machine within 1.6×
 OCTREE_SURFACE_FACTOR = 0.65
-#: per octree evaluation: pose pipeline, lattice bookkeeping, surface extraction (s) and the held lattice (bytes)
-OCTREE_SECONDS = 6e-6
+#: per octree evaluation: pose pipeline, lattice bookkeeping, surface extraction (s) and the held lattice (bytes);
+#: serial runs on the shared 2-core machine, 2026-11-26: 1.7 (Paralix, 6X, 4 mm) .. 1.9 (Felix 4 mm) .. 2.6 us
+#: (Hexaglide 2-4 mm) of run time per evaluation, the command's start-up (BASE_SECONDS) aside (6 us before the
+#: compiled kernels put Felix at 4 mm 2.9x over)
+OCTREE_SECONDS = 3e-6
 OCTREE_BYTES = 300
 #: a pilot run (growth law, :func:`octree_pilot_halvings`) for runs expected above OCTREE_PILOT_MIN evaluations
 OCTREE_PILOT_MIN = 50_000
