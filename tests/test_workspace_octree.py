@@ -246,6 +246,28 @@ def test_boundary_points_are_the_centroids_of_the_admissible_corners():
     assert np.array_equal(res.boundary_points, ref)  # small integer sums over a count: exact in any order
 
 
+def test_every_leaf_corner_is_the_predicates_value_and_the_closure_evaluates_each_point_once():
+    """The closure adds voxels whose corners come partly from leaves (known) and partly from new evaluations, each
+    distinct point looked up once per pass: every leaf's corner flags, the closure's included, are the predicate's
+    value at that corner, and the closure evaluates no point twice (the slotted sphere needs a closure; a point of a
+    voxel discarded during the refinement may be evaluated again by the closure, which knows only the leaves)."""
+    seen: list[np.ndarray] = []
+
+    def body(p):
+        seen.append(np.round((p - BOX[0]) / 0.025).astype(np.int64))
+        return _slotted_sphere(p)
+
+    res = octree_boundary(body, *BOX, 0.025)
+    assert res.closure_voxels > 0
+    corners = res.leaf_index[:, None, :] + CORNER_OFFSETS[None]  # (M, 8, 3) lattice indices
+    truth = _slotted_sphere(res.lo + corners.reshape(-1, 3) * res.spacing).reshape(-1, 8)
+    assert np.array_equal(res.leaf_corners, truth)
+    points = np.concatenate(seen)
+    assert points.shape[0] == res.evaluations
+    closure = points[points.shape[0] - dict(res.evaluations_per_level)[-1]:]  # its passes come last
+    assert closure.shape[0] > 0 and np.unique(closure, axis=0).shape[0] == closure.shape[0]
+
+
 @pytest.mark.parametrize("n_slices", [2, 3, 7])
 def test_refining_slices_separately_gives_the_same_leaves(n_slices):
     """The design that lets workers refine subtrees (docs/user-guide/parallel.md): contiguous slices of a level's
