@@ -370,16 +370,8 @@ def corrector_poses(active, up, cur, D, K, lookahead, budget, pts, dvec, inc):
     from ``cur`` upwards (``up``, to K) or downwards (to 1) by up to L = max(1, min(``lookahead``, ``budget`` //
     searches)) increments. Returns the searches' flat indices, the increments each evaluates (n), L and the poses
     (pts[p] + (cur ± j) inc dvec[d], j = 1 … n, search by search)."""
-    count = 0
-    for i in range(active.size):
-        if active[i]:
-            count += 1
-    at = np.empty(count, np.int64)
-    k = 0
-    for i in range(active.size):
-        if active[i]:
-            at[k] = i
-            k += 1
+    at = np.flatnonzero(active)
+    count = at.size
     L = max(1, min(lookahead, budget // max(count, 1)))
     n = np.empty(count, np.int64)
     total = 0
@@ -415,8 +407,9 @@ def corrector_update(at, n, L, ok, D, K, up, cur, result, active, evals):
         c = cur[i]
         stop = L + 1
         for j in range(1, n[a] + 1):
-            if stop == L + 1 and ok[row + j - 1] != u:
+            if ok[row + j - 1] != u:
                 stop = j
+                break
         row += n[a]
         stopped = stop <= n[a]
         walked = stop if stopped else n[a]
