@@ -660,7 +660,7 @@ def refine_subtree(task: SubtreeTask, counted: CountedPredicate) -> Subtree:
     if task.closure and vox.shape[0]:
         rec = _RecordingEvaluator(counted, lat)
         _closure_passes(vox, corners, lat, rec, misses, keep=lambda k: ~task.others(lat, lat.unkey(k)),
-                        least=AHEAD_LEAST_POINTS, table=table)
+                        least=AHEAD_LEAST_POINTS, table=table, keys=leaf_keys)
         closed = rec.points()
     return Subtree(vox, corners, inside, per_level, keys, lvl, counts, misses, closed)
 
@@ -858,7 +858,8 @@ def _close_ahead(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evalua
 
 def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Evaluator,
                     candidates: np.ndarray | None = None, keep: Callable[[np.ndarray], np.ndarray] | None = None,
-                    least: int = 0, table: KeyTable | None = None) -> tuple[np.ndarray, np.ndarray, int, KeyTable]:
+                    least: int = 0, table: KeyTable | None = None, keys: np.ndarray | None = None
+                    ) -> tuple[np.ndarray, np.ndarray, int, KeyTable]:
     """The closure's passes: the leaves with the added voxels, their corners, the number added and the key table.
 
     Only the voxels added in the previous pass can ask for new neighbours, so each pass looks at that frontier; the
@@ -871,12 +872,13 @@ def _closure_passes(vox: np.ndarray, corners: np.ndarray, lat: Lattice, ev: _Eva
 
     ``keep`` (a subtree's own closure, :func:`refine_subtree`): keys of missing voxels -> which of them to add; the
     others are left out (the closure is then that of the leaves within the region ``keep`` allows). ``least``: stop
-    before a pass that would evaluate fewer points (the rest is left to the closure of all leaves). ``table``: the
-    leaves' key table where the caller has it (``candidates`` are then the misses of these very leaves, none in it).
+    before a pass that would evaluate fewer points (the rest is left to the closure of all leaves). ``table``,
+    ``keys``: the leaves' key table and lattice keys where the caller has them (``candidates`` are then the misses of
+    these very leaves, none in the table).
     """
     corner_off = CORNER_OFFSETS @ lat.strides
     ring_off = lat.ring_offsets()
-    f_keys, f_corn = lat.key(vox), np.ascontiguousarray(corners)
+    f_keys, f_corn = lat.key(vox) if keys is None else keys, np.ascontiguousarray(corners)
     known = table is not None
     if table is None:
         table = KeyTable(f_keys, capacity=f_keys.size // 4)
