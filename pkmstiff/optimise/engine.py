@@ -375,11 +375,13 @@ def run_optimisation(design: Design, out: str | Path, *, jobs: int = 1, schedule
         cached, "refine" as re-evaluated."""
         new = list({c.key: c for c in [*extra, *batch] if c.key not in cache}.values())
         fresh = {c.key for c in new} - {c.key for c in extra}
-        for c, (outputs, error, _) in zip(new, ev([(c.machine, c.overrides) for c in new])):
-            rec = {"key": c.key, "values": c.values, "overrides": c.overrides, "error": error, "outputs": outputs}
-            cache[c.key] = rec
-            log.write(json.dumps(rec, default=repr) + "\n")
+        recs = [{"key": c.key, "values": c.values, "overrides": c.overrides, "error": error, "outputs": outputs}
+                for c, (outputs, error, _) in zip(new, ev([(c.machine, c.overrides) for c in new]))]
+        # one write: a Ctrl-C lands before or after the batch's records, and closing the file on the way out
+        # flushes what was written, so the checkpoint holds whole batches
+        log.write("".join(json.dumps(rec, default=repr) + "\n" for rec in recs))
         log.flush()
+        cache.update((rec["key"], rec) for rec in recs)
         if count == "refine":
             counts["reevaluated"] += len(batch)
         else:
