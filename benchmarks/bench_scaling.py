@@ -25,7 +25,9 @@ busiest worker's CPU and half of the parallel CPU (workers and the work here mea
 ``--jobs 1`` against ``--jobs 2`` for every command with ``--jobs`` (section, workspace, rotation-map, report, sweep,
 optimise) on work of 5 s or more serially on the 2-core machine runs after the table (``--no-pairs`` skips it); the
 sizes are options (``--section-step``, ``--workspace-resolution``, ``--rotation-map-step``, ``--report-step``,
-``--report-resolution``, ``--report-figures``, ``--sweep-step``, ``--optimise-budget``).
+``--report-resolution``, ``--report-figures``, ``--sweep-step``, ``--optimise-budget``). ``--write`` lets the
+section, workspace and rotation-map pairs write their files too (``--out``), as a user's run does: the files are
+then part of the timed work.
 
 Work (the commands themselves, run in this process through ``pkmstiff.cli.main``; the pool is stopped after each
 run so every run pays its workers' start-up):
@@ -244,6 +246,8 @@ def main() -> None:
     ap.add_argument("--ceiling", default="section", help="comma-separated table workloads whose hardware ceiling "
                                                          "(n simultaneous serial copies) is measured on the most "
                                                          "workers (default section; 'none' for none)")
+    ap.add_argument("--write", action="store_true", help="the section, workspace and rotation-map pairs also write "
+                                                          "their files (--out), as a user's run does")
     ap.add_argument("--report-figures", action="store_true", help="the report pair with the 3-D workspace figures "
                                                                   "(needs pyvista)")
     a = ap.parse_args()
@@ -260,7 +264,7 @@ def main() -> None:
     load0 = os.getloadavg()
     info = {"cpu_count": os.cpu_count(), "platform": platform.platform(), "python": platform.python_version(),
             "quick": a.quick, "workers": counts, "load_average_start": load0, "pair_sizes": sizes,
-            "repeat": a.repeat, "method": "each command run once untimed (--jobs 1) before its timed runs"}
+            "repeat": a.repeat, "write": a.write, "method": "each command run once untimed (--jobs 1) before its timed runs"}
     print(f"bench_scaling: {os.cpu_count()} cores, load average {load0[0]:.1f} {load0[1]:.1f} {load0[2]:.1f}, "
           f"workers {counts}{', quick' if a.quick else ''}; every command runs once untimed before it is timed")
     run_once(["section", "hexaglide", "--plane", "yz", "--step", "50", "--quiet"])  # compiled kernels loaded once
@@ -300,7 +304,7 @@ def main() -> None:
                   f"of {n}; the {n}-worker run's {t['runs'][n]['speedup']:.1f}× is "
                   f"{t['efficiency_of_ceiling'] * 100:.0f} % of that")
     chosen = a.pairs.split(",") if a.pairs else None
-    pairs = {} if a.no_pairs else jobs_pairs(pair_workloads(sizes, a.report_figures, tmp, chosen), a.repeat)
+    pairs = {} if a.no_pairs else jobs_pairs(pair_workloads(sizes, a.report_figures, tmp, chosen, a.write), a.repeat)
     if pairs:
         print(f"\n--jobs 1 against --jobs 2 (work of 5 s or more serially; best of {a.repeat}):\n{'command':<14}"
               f"{'jobs 1 s':>10}{'jobs 2 s':>10}{'ratio':>8}{'CPU 1 s':>9}{'CPU 2 s':>16}{'s_cpu':>7}"
@@ -366,9 +370,10 @@ def _report_spec(tmp: Path, step_mm: float, resolution_mm: float, figures: bool)
 
 
 def pair_workloads(sizes: dict[str, float], figures: bool, tmp: Path,
-                   chosen: list[str] | None = None) -> dict[str, list[str]]:
+                   chosen: list[str] | None = None, write: bool = False) -> dict[str, list[str]]:
     """Every command with --jobs on work of ``sizes`` (:data:`PAIR_SIZES`). Not --quiet (but optimise): the cost line
-    with the plan is kept."""
+    with the plan is kept. ``write``: the section, workspace and rotation map also write their files (``--out``),
+    as a user's run does; the report, sweep and optimise always do."""
     out = {
         "section": ["section", "hexaglide", "--plane", "yz", "--step", f"{sizes['section_step']:g}"],
         "workspace": ["workspace", "hexaglide", "--resolution", f"{sizes['workspace_resolution']:g}",
@@ -382,6 +387,9 @@ def pair_workloads(sizes: dict[str, float], figures: bool, tmp: Path,
         "optimise": ["optimise", "hexaglide_joint_orientation", "--out", str(tmp / "optimise"), "--budget",
                      f"{int(sizes['optimise_budget'])}", "--force", "--quiet", "--no-report"],
     }
+    if write:
+        for name in ("section", "workspace", "rotation-map"):
+            out[name] += ["--out", str(tmp / f"{name}-files"), "--force"]
     return {k: v for k, v in out.items() if chosen is None or k in chosen}
 
 

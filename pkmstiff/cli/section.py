@@ -67,6 +67,7 @@ def _machine_section(args: argparse.Namespace) -> int:
     from pkmstiff.io.ranges import parse_names, parse_ranges, parse_triple_deg
     from pkmstiff.machine.loader import load_machine
     from pkmstiff.admissibility.checks import checks_without, left_out_text
+    from pkmstiff.evaluation.parallel import resolve_workers
     from pkmstiff.report.outputs import write_section_outputs
 
     plane_kind = (args.plane or "yz").lower()
@@ -133,7 +134,8 @@ def _machine_section(args: argparse.Namespace) -> int:
             d.pop(extra, None)
     res.settings["window_fitted_to_workspace"] = fitted
     seconds = time.perf_counter() - t0
-    paths = write_section_outputs(res, Path(args.out), formats, stem, progress=False if args.quiet else None) \
+    paths = write_section_outputs(res, Path(args.out), formats, stem, progress=False if args.quiet else None,
+                                  threads=resolve_workers(args.jobs)) \
         if args.out else []
     if args.out and getattr(args, "reasons_map", False):
         from pkmstiff.plots.section_maps import plot_reasons

@@ -3,20 +3,22 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import json
 import math
 import sys
 import time
+from collections.abc import Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from pkmstiff.admissibility.checks import checks_without, left_out_text
 from pkmstiff.errors import ArgumentError
+from pkmstiff.evaluation import parallel
 from pkmstiff.io.atomic import atomic_open, atomic_write_text
+from pkmstiff.io.numeric_csv import distinct_rows, write_numeric_csv
 from pkmstiff.machine.loader import load_machine
 
 PLANES = {  # name -> (u axis, v axis, normal axis)
@@ -206,7 +208,8 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     finally:
         progress.close()
     summary = res.summary()
-    files = _write_workspace(res, machine, Path(args.out), summary, plot=not args.no_plot) if args.out else {}
+    files = _write_workspace(res, machine, Path(args.out), summary, plot=not args.no_plot,
+                             threads=parallel.resolve_workers(args.jobs)) if args.out else {}
     summary["files"] = files
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -240,28 +243,41 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
     return 0
 
 
-def _write_workspace(res, machine, out: Path, summary: dict, plot: bool) -> dict[str, str]:
-    """boundary_points.csv, the surface (STL, VTP), the PNG and workspace.json (``summary`` with the file list)."""
+def _write_workspace(res, machine, out: Path, summary: dict, plot: bool, threads: int = 1) -> dict[str, str]:
+    """boundary_points.csv, the surface (STL, VTP), the PNG and workspace.json (``summary`` with the file list).
+    ``threads`` > 1: the CSV, STL and VTP are written on ``threads`` - 1 threads while the figure is drawn here
+    (VTK's writers and the CSV's row kernel release the GIL; the figure's VTK window stays on this thread)."""
+    from concurrent.futures import ThreadPoolExecutor
+    from contextlib import nullcontext
+
     out.mkdir(parents=True, exist_ok=True)
-    files: dict[str, str] = {}
     pts = (res.boundary_points - np.asarray(res.frame.get("frame_origin_mm", [0, 0, 0]), float) * 1e-3) * 1e3
     # positions in the result's frame (stated in workspace.json), each once: neighbouring leaf voxels can share the
     # centroid of their admissible corners (eq. 4.1), which would repeat a row
     pts = np.round(pts, 4)
-    pts = pts[np.sort(np.unique(pts, axis=0, return_index=True)[1])] if pts.size else pts
-    p = out / "boundary_points.csv"
-    with atomic_open(p, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(["x_mm", "y_mm", "z_mm"])
-        w.writerows(pts.tolist())
-    files[f"boundary points (eq. 4.1, mm, {res.frame.get('frame', 'machine')} frame)"] = str(p)
-    if res.surface is not None and res.surface.triangles.shape[0]:
-        files["surface STL (mm)"] = str(res.surface.save(out / "workspace_surface.stl", scale=1e3))
-        files["surface VTK (mm)"] = str(res.surface.save(out / "workspace_surface.vtp", scale=1e3))
-    if plot:
-        from pkmstiff.plots.workspace import plot_workspace
+    pts = pts[distinct_rows(pts)[0]] if pts.size else pts
 
-        files["figure"] = str(plot_workspace(res, machine, out / "workspace.png"))
+    def points_csv() -> Path:
+        p = out / "boundary_points.csv"
+        with atomic_open(p, "wb") as fh:
+            write_numeric_csv(fh, ["x_mm", "y_mm", "z_mm"], list(np.asarray(pts, float).reshape(-1, 3).T), "")
+        return p
+
+    jobs = {f"boundary points (eq. 4.1, mm, {res.frame.get('frame', 'machine')} frame)": points_csv}
+    if res.surface is not None and res.surface.triangles.shape[0]:
+        jobs["surface STL (mm)"] = lambda: res.surface.save(out / "workspace_surface.stl", scale=1e3)
+        jobs["surface VTK (mm)"] = lambda: res.surface.save(out / "workspace_surface.vtp", scale=1e3)
+    with ThreadPoolExecutor(threads - 1) if threads > 1 else nullcontext() as ex:  # --jobs 1: here, in turn
+        futures = {name: ex.submit(job) for name, job in jobs.items()} if ex else {}
+        files = {name: str(job()) for name, job in jobs.items() if name not in futures}
+        figure = None
+        if plot:
+            from pkmstiff.plots.workspace import plot_workspace
+
+            figure = plot_workspace(res, machine, out / "workspace.png")
+        files.update({name: str(f.result()) for name, f in futures.items()})
+    if figure is not None:
+        files["figure"] = str(figure)
     summary["boundary_points_distinct"] = int(pts.shape[0])  # the rows of boundary_points.csv
     summary["files"] = files
     atomic_write_text(out / "workspace.json", json.dumps(summary, indent=2))
@@ -416,11 +432,11 @@ def _write_map(path: Path, u: np.ndarray, v: np.ndarray, deg: np.ndarray, labels
     """One direction's map as a plain CSV, one row per raster point (``v`` outer, ``u`` inner): the two raster
     coordinates named by the column rule (``y_mm``, ``z_mm``; ``b_deg``, ``c_deg`` at a point) and
     ``max_angle_deg`` (empty = inadmissible base orientation); ``meta`` goes to ``<name>.json`` beside it."""
-    from pkmstiff.io.columns import label_column, write_table
+    from pkmstiff.io.columns import label_column, write_column_table
 
-    U, V = np.meshgrid(u, v)
-    rows = zip(U.ravel().tolist(), V.ravel().tolist(), np.asarray(deg, dtype=float).ravel().tolist())
-    write_table(path, [label_column(labels[0]), label_column(labels[1]), "max_angle_deg"], rows, meta, ".6g")
+    U, V = np.meshgrid(np.asarray(u, float), np.asarray(v, float))
+    write_column_table(path, [label_column(labels[0]), label_column(labels[1]), "max_angle_deg"],
+                       [U.ravel(), V.ravel(), np.asarray(deg, dtype=float).ravel()], meta, ".6g")
 
 
 def add_commands(sub: Any) -> None:

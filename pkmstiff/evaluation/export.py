@@ -9,7 +9,6 @@ VTU and into the NPZ (``metadata``). Inadmissible points hold NaN (an empty CSV 
 
 from __future__ import annotations
 
-import csv
 import json
 from pathlib import Path
 
@@ -20,6 +19,8 @@ from pkmstiff.evaluation.sections import SectionResult
 from pkmstiff.io.atomic import atomic_open, atomic_path, atomic_write_text
 from pkmstiff.io.columns import column_name
 from pkmstiff.io.columns import sidecar_path as metadata_path  # the name this module's users import
+from pkmstiff.io.numeric_csv import write_numeric_csv
+from pkmstiff.io.vtk_xml import write_vtk_xml
 
 MM = 1e3
 
@@ -45,19 +46,33 @@ def _metadata(res: SectionResult) -> dict:
 
 def to_vtk(res: SectionResult, path: str | Path) -> Path:
     """Write a ``.vtu`` grid of quad cells (points in mm, one point array per quantity, named with its unit) for
-    ParaView; the metadata go to a JSON file beside it (``<name>.json``). Written and readable by meshio."""
-    import meshio
+    ParaView (:func:`pkmstiff.io.vtk_xml.write_vtk_xml`); the metadata go to a JSON file beside it
+    (``<name>.json``). Readable by meshio."""
+    from vtkmodules.util.numpy_support import numpy_to_vtk
+    from vtkmodules.vtkCommonCore import vtkPoints
+    from vtkmodules.vtkCommonDataModel import VTK_QUAD, vtkCellArray, vtkUnstructuredGrid
 
     nv, nu = res.plane.shape
     idx = np.arange(nv * nu).reshape(nv, nu)
-    quads = np.stack([idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]], axis=-1).reshape(-1, 4)
-    data = {k: np.asarray(v, float) for k, v in _columns(res).items() if k not in ("x_mm", "y_mm", "z_mm")}
+    quads = np.stack([idx[:-1, :-1], idx[:-1, 1:], idx[1:, 1:], idx[1:, :-1]], axis=-1).reshape(-1)
+    grid = vtkUnstructuredGrid()  # numpy_to_vtk keeps a reference to each array it wraps
+    pts = vtkPoints()
+    pts.SetData(numpy_to_vtk(np.ascontiguousarray(res.plane.points() * MM)))
+    grid.SetPoints(pts)
+    cells = vtkCellArray()
+    cells.SetData(numpy_to_vtk(np.arange(0, quads.size + 1, 4, dtype=np.int64)),
+                  numpy_to_vtk(np.ascontiguousarray(quads, np.int64)))
+    grid.SetCells(VTK_QUAD, cells)
+    for k, v in _columns(res).items():
+        if k not in ("x_mm", "y_mm", "z_mm"):
+            arr = numpy_to_vtk(np.ascontiguousarray(v, float))
+            arr.SetName(k)
+            grid.GetPointData().AddArray(arr)
     path = Path(path)
     if path.suffix != ".vtu":
         path = path.with_suffix(".vtu")
     path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_path(path) as tmp:
-        meshio.write(tmp, meshio.Mesh(res.plane.points() * MM, [("quad", quads)], point_data=data))
+    write_vtk_xml(grid, path)
     atomic_write_text(metadata_path(path), json.dumps(_metadata(res), indent=2))
     return path
 
@@ -68,11 +83,8 @@ def to_csv(res: SectionResult, path: str | Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     cols = _columns(res)
     atomic_write_text(metadata_path(path), json.dumps(_metadata(res), indent=2))
-    with atomic_open(path, "w", newline="", encoding="utf-8") as fh:
-        w = csv.writer(fh)
-        w.writerow(list(cols))
-        for row in zip(*cols.values()):
-            w.writerow(["" if isinstance(x, float) and np.isnan(x) else f"{x:.10g}" for x in row])
+    with atomic_open(path, "wb") as fh:
+        write_numeric_csv(fh, list(cols), list(cols.values()), ".10g")
     return path
 
 

@@ -83,6 +83,21 @@ def write_csv(fh: IO[str], header: Sequence[str], rows: Iterable[Sequence[Any]],
     w.writerows([[table_cell(v, float_format) for v in r] for r in rows])
 
 
+def write_column_table(path: str | Path, header: Sequence[str], columns: Sequence[np.ndarray],
+                       metadata: dict[str, Any], float_format: str = ".10g") -> Path:
+    """:func:`write_table` of numeric columns (1-D arrays, floats or integers), the same bytes as for their rows
+    (floats through :func:`table_cell`), written by :func:`pkmstiff.io.numeric_csv.write_numeric_csv` without a
+    Python call per cell: for tables of many rows (a rotation map's raster)."""
+    from pkmstiff.io.atomic import atomic_open, atomic_write_text
+    from pkmstiff.io.numeric_csv import write_numeric_csv
+
+    path = Path(path)
+    atomic_write_text(sidecar_path(path), json.dumps(metadata, indent=2, ensure_ascii=False, default=str) + "\n")
+    with atomic_open(path, "wb") as fh:
+        write_numeric_csv(fh, header, columns, float_format, blank_infinite=True)
+    return path
+
+
 def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[Any]],
                 metadata: dict[str, Any], float_format: str = ".10g") -> Path:
     """Write ``rows`` under ``header`` as a plain CSV (``pandas.read_csv(path)`` reads it with no options) and

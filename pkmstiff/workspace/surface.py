@@ -18,15 +18,17 @@ Vertex placement (``vertices=``):
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Literal
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from pkmstiff.errors import ArgumentError
 from pkmstiff.io.atomic import atomic_path
+from pkmstiff.io.vtk_xml import write_vtk_xml
 from pkmstiff.workspace import kernels
 from pkmstiff.workspace.octree import Lattice, OctreeResult
 
@@ -68,13 +70,16 @@ class BoundarySurface:
         return pv.PolyData(self.vertices.copy(), faces)
 
     def save(self, path: str | Path, scale: float = 1.0) -> Path:
-        """Write the mesh as STL (binary), VTK/VTP or PLY, chosen by the suffix; coordinates times ``scale``
-        (e.g. 1000 for mm in STL files, whose format carries no unit)."""
+        """Write the mesh as STL (binary), VTK/VTP or PLY, chosen by the suffix (VTP:
+        :func:`pkmstiff.io.vtk_xml.write_vtk_xml`); coordinates times ``scale`` (e.g. 1000 for mm in STL files, whose
+        format carries no unit). VTK's writers release the GIL: several files can be written on threads at once."""
         path = Path(path)
         suffix = path.suffix.lower()
         if suffix not in (".stl", ".vtk", ".vtp", ".ply"):
             raise ArgumentError(option=path, expected="a file name ending in .stl, .vtk, .vtp or .ply", found=suffix)
         mesh = BoundarySurface(self.vertices * scale, self.triangles, self.vertex_mode).to_pyvista()
+        if suffix == ".vtp":
+            return write_vtk_xml(mesh, path)
         with atomic_path(path) as tmp:
             mesh.save(str(tmp), binary=True)
         return path
