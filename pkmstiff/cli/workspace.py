@@ -16,9 +16,7 @@ import numpy as np
 
 from pkmstiff.admissibility.checks import checks_without, left_out_text
 from pkmstiff.errors import ArgumentError
-from pkmstiff.evaluation import parallel
 from pkmstiff.io.atomic import atomic_open, atomic_write_text
-from pkmstiff.io.numeric_csv import distinct_rows, write_numeric_csv
 from pkmstiff.machine.loader import load_machine
 
 PLANES = {  # name -> (u axis, v axis, normal axis)
@@ -146,6 +144,7 @@ def _octree_input_errors():
 def _cmd_workspace(args: argparse.Namespace) -> int:
     from pkmstiff.cli.edges import announce, check_jobs, check_output_dir, old_range_form, parse_budget, predicted_plan
     from pkmstiff.evaluation.cost import FIGURE_3D_BYTES, FIGURE_3D_LIBRARY_SECONDS, FIGURE_3D_SECONDS
+    from pkmstiff.evaluation.parallel import resolve_workers
     from pkmstiff.machine.frames import frame_text
     from pkmstiff.workspace.requests import WorkspaceRequest
     from pkmstiff.workspace.translational import DEFAULT_METHODS
@@ -209,7 +208,7 @@ def _cmd_workspace(args: argparse.Namespace) -> int:
         progress.close()
     summary = res.summary()
     files = _write_workspace(res, machine, Path(args.out), summary, plot=not args.no_plot,
-                             threads=parallel.resolve_workers(args.jobs)) if args.out else {}
+                             threads=resolve_workers(args.jobs)) if args.out else {}
     summary["files"] = files
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -249,6 +248,8 @@ def _write_workspace(res, machine, out: Path, summary: dict, plot: bool, threads
     (VTK's writers and the CSV's row kernel release the GIL; the figure's VTK window stays on this thread)."""
     from concurrent.futures import ThreadPoolExecutor
     from contextlib import nullcontext
+
+    from pkmstiff.io.numeric_csv import distinct_rows, write_numeric_csv
 
     out.mkdir(parents=True, exist_ok=True)
     pts = (res.boundary_points - np.asarray(res.frame.get("frame_origin_mm", [0, 0, 0]), float) * 1e-3) * 1e3
