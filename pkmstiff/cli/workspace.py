@@ -261,7 +261,7 @@ def _write_workspace(res, machine, out: Path, summary: dict, plot: bool, threads
     def points_csv() -> Path:
         p = out / "boundary_points.csv"
         with atomic_open(p, "wb") as fh:
-            write_numeric_csv(fh, ["x_mm", "y_mm", "z_mm"], list(np.asarray(pts, float).reshape(-1, 3).T), "")
+            write_numeric_csv(fh, ["x_mm", "y_mm", "z_mm"], list(pts.T), "")
         return p
 
     jobs = {f"boundary points (eq. 4.1, mm, {res.frame.get('frame', 'machine')} frame)": points_csv}
