@@ -461,6 +461,24 @@ def test_dask_sweep_is_sized_by_a_second_task_here(monkeypatch, dask_address):
     assert len(calls) >= 2 and res.plan.item_seconds < 2.0
 
 
+def _nap(seconds: float) -> int:
+    time.sleep(seconds)
+    return os.getpid()
+
+
+@pytest.mark.parametrize("last", [False, True])
+def test_meanwhile_runs_at_once_or_when_every_task_has_started(last):
+    """This process's own work runs as soon as the tasks are submitted, or (``meanwhile_last``, the octree's last
+    slice) once as many tasks are left as there are workers: 5 tasks on 2 workers, so after the 3rd has finished."""
+    p = parallel.Plan(5, 2, 5, 1, 0.2, "local")
+    finished: list[int] = []
+    seen: list[int] = []
+    out = parallel.run_tasks(_nap, [(0.2,)] * 5, p, progress=finished.append,
+                             meanwhile=lambda: seen.append(len(finished)), meanwhile_last=last)
+    assert len(out) == 5 and os.getpid() not in out  # in order, all in the workers
+    assert seen == [3 if last else 0] and finished == [1, 2, 3, 4, 5]
+
+
 def _on_dask(scheduler: str, fn, n: int, task_seconds: float) -> list:
     """``[fn(i) for i in range(n)]`` through :func:`parallel.run_tasks` with a Dask plan of ``n`` tasks."""
     parallel._cluster(scheduler).use = None

@@ -719,11 +719,14 @@ def meanwhile_cpu_seconds() -> float:
 
 def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, scheduler: Any = None,
               progress: Callable[[int], None] | None = None, *,
-              meanwhile: Callable[[], None] | None = None) -> list[T]:
+              meanwhile: Callable[[], None] | None = None, meanwhile_last: bool = False) -> list[T]:
     """``[fn(*args) for args in payloads]`` in order: in this process (serial plan), in the local pool or on the Dask
     cluster, this process taking tasks too (:func:`_run_on_dask`). ``progress(k)`` is called after each finished task
     (any order) with the number finished. ``meanwhile()`` runs in this process once the tasks are submitted (first,
-    for a serial plan): work of its own that would otherwise make the workers wait. ``fn`` must be a pure function
+    for a serial plan): work of its own that would otherwise make the workers wait. With ``meanwhile_last`` (local
+    pool) it runs once every task has started (as many are left as there are workers): this process's work then
+    shares the cores with the workers' last tasks, and all end together instead of a worker idling while the other
+    finishes its last task. ``fn`` must be a pure function
     of its arguments: on Dask a task may run twice (here and on a worker), either result is taken."""
     if meanwhile is not None and not (payloads and p.parallel):
         meanwhile()
@@ -739,12 +742,19 @@ def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, schedule
     if scheduler is not None:
         return _run_on_dask(fn, payloads, p, scheduler, progress, meanwhile)
     futures = [submit(p.workers, fn, *args) for args in payloads]
-    _meanwhile(meanwhile)
-    if progress:
+    if not meanwhile_last:
+        _meanwhile(meanwhile)
+    if progress or meanwhile_last:
         from concurrent.futures import as_completed
 
+        started = len(futures) - p.workers  # once this many have finished, every task has started
+        if meanwhile_last and started <= 0:
+            _meanwhile(meanwhile)
         for k, _ in enumerate(as_completed(futures), 1):
-            progress(k)
+            if progress:
+                progress(k)
+            if meanwhile_last and k == started:
+                _meanwhile(meanwhile)
     return [result(f, p.workers) for f in futures]
 
 

@@ -264,9 +264,10 @@ class PoseOracle:
         return self.admissible_poses(self.poses(points), per), per
 
     def run_split(self, task: Callable[..., tuple[Any, dict[str, float]]], payloads: list[tuple], p: parallel.Plan,
-                  here: Callable[[], Any]) -> list[Any]:
+                  here: Callable[[], Any], here_last: bool = False) -> list[Any]:
         """``[here(), task(shared oracle, *payloads[0]), ...]``: ``here()`` in this process while the workers run the
-        payloads (as a section's first chunk); the statistics of all parts are added to this oracle's."""
+        payloads (as a section's first chunk; with ``here_last`` once every payload has started,
+        :func:`~pkmstiff.evaluation.parallel.run_tasks`); the statistics of all parts are added to this oracle's."""
         if self._shared is None:
             worker = copy.copy(self)
             worker.n_jobs, worker.scheduler, worker.stats, worker._shared = 1, None, EvaluationStats(), None
@@ -281,7 +282,7 @@ class PoseOracle:
                 setattr(self.stats, k, v)
 
         parts = first + parallel.run_tasks(task, [(self._shared, *a) for a in payloads], p, self.scheduler,
-                                           meanwhile=run_first)
+                                           meanwhile=run_first, meanwhile_last=here_last)
         wall = time.perf_counter() - t0
         times = [k for k in dataclasses.asdict(self.stats) if k.startswith("time_")]
         busy = sum(st[k] for _, st in parts for k in times)
@@ -349,9 +350,10 @@ class OracleSubtrees:
     def run(self, tasks: list[SubtreeTask]) -> list[Subtree]:
         o, p = self.oracle, self.plan
         assert p is not None
-        # this process takes the last (shortest) slice: it shares the cores with the workers meanwhile
+        # this process takes the last (shortest) slice once every other has started: it shares the cores with the
+        # workers' last slices, so that all three end together instead of one worker waiting for the other
         here, *others = o.run_split(_subtree_task, [(t,) for t in tasks[:-1]], p,
-                                    lambda: refine_subtree(tasks[-1], o.counted))
+                                    lambda: refine_subtree(tasks[-1], o.counted), here_last=True)
         return [*others, here]
 
     def uncount(self, points: int, counts: np.ndarray) -> None:
