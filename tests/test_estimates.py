@@ -111,7 +111,7 @@ def test_announce_refuses_above_the_budget_naming_option_estimate_and_budget(cap
                                              r"than the memory budget of 4\.0 GB"):
         announce("point", c, budget=4 * GB)
     announce("point", c, budget=16 * GB)
-    assert (f"pkmstiff point: poses.csv: 1,000,000 pose rows, about 9.5 GB and {human_seconds(c.seconds)}"
+    assert (f"pkmstiff point: poses.csv: 1,000,000 pose rows, about 9.5 GB and {human_seconds(c.seconds)} of CPU"
             in capsys.readouterr().err)
 
 

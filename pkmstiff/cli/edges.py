@@ -261,7 +261,8 @@ def add_budget_argument(p) -> None:
 def announce(command: str, cost, budget: int, quiet: bool = False, plan: str | None = None) -> None:
     """Refuse a :class:`~pkmstiff.evaluation.cost.Cost` above the memory budget or the time budget (one line naming
     the option that sets the size, the estimate and the budget); otherwise print the cost line on stderr (ending with
-    the parallel ``plan`` when given)."""
+    the parallel ``plan`` when given). The time is CPU time: a parallel run's wall time is about that divided by its
+    workers (the plan says how many), a serial run's about that."""
     size = f"{cost.count:,.0f} {cost.unit}"
     opt = f"{cost.option}: " if cost.option else ""
     if cost.bytes > budget:
@@ -274,7 +275,7 @@ def announce(command: str, cost, budget: int, quiet: bool = False, plan: str | N
                              f"than the time budget of {human_seconds(limit)} (PKMSTIFF_TIME_BUDGET); {cost.advice}")
     if not quiet:
         print(f"pkmstiff {command}: {cost.what}: {size}, about {human_bytes(cost.bytes)} and "
-              f"{human_seconds(cost.seconds)}{f'; {plan}' if plan else ''}", file=sys.stderr, flush=True)
+              f"{human_seconds(cost.seconds)} of CPU{f'; {plan}' if plan else ''}", file=sys.stderr, flush=True)
 
 
 def length_option(text: str | None, option: str) -> float | None:
