@@ -475,7 +475,7 @@ def test_meanwhile_runs_at_once_or_when_every_task_has_started(last):
     seen: list[int] = []
     out = parallel.run_tasks(_nap, [(0.2,)] * 5, p, progress=finished.append,
                              meanwhile=lambda: seen.append(len(finished)), meanwhile_last=last)
-    assert len(out) == 5 and os.getpid() not in out  # in order, all in the workers
+    assert len(out) == 5 and os.getpid() not in out  # every task ran in a worker
     assert seen == [3 if last else 0] and finished == [1, 2, 3, 4, 5]
 
 

@@ -726,8 +726,8 @@ def run_tasks(fn: Callable[..., T], payloads: Sequence[tuple], p: Plan, schedule
     for a serial plan): work of its own that would otherwise make the workers wait. With ``meanwhile_last`` (local
     pool) it runs once every task has started (as many are left as there are workers): this process's work then
     shares the cores with the workers' last tasks, and all end together instead of a worker idling while the other
-    finishes its last task. ``fn`` must be a pure function
-    of its arguments: on Dask a task may run twice (here and on a worker), either result is taken."""
+    finishes its last task. ``fn`` must be a pure function of its arguments: on Dask a task may run twice (here and
+    on a worker), either result is taken."""
     if meanwhile is not None and not (payloads and p.parallel):
         meanwhile()
     if not payloads:
