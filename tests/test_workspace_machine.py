@@ -142,9 +142,10 @@ def test_thin_workspace_is_found_by_a_finer_start_grid():
 @pytest.mark.parametrize(("checks_left_out", "prefilter"), [((), True), ((), False), (("drive_range",), True),
                                                             (("drive_load", "singularity"), True)])
 def test_fused_kernel_gives_the_staged_admissibility_and_counts(monkeypatch, name, checks_left_out, prefilter):
-    """The octree oracle's fused path (no requirements): the same admissibility and the same counters per pose and in
-    total (poses, full-pipeline poses: those the prefilter of inverse kinematics and drive ranges lets through) as the
-    staged array path, on poses around the workspace that fail every kind of check (unreachable ones included)."""
+    """The octree oracle's fused path (no requirements; a batch of up to FUSED_CHUNK poses in one call, a larger one
+    after the prefilter): the same admissibility and the same counters per pose and in total (poses, full-pipeline
+    poses: those the prefilter of inverse kinematics and drive ranges lets through) as the staged array path, on
+    poses around the workspace that fail every kind of check (unreachable ones included)."""
     import pkmstiff.admissibility.checks as adm
     from pkmstiff.admissibility import fastpath
     from pkmstiff.workspace import oracle as O
@@ -158,15 +159,16 @@ def test_fused_kernel_gives_the_staged_admissibility_and_counts(monkeypatch, nam
     evaluate_poses(m, poses[:5000])  # the compiled kernels loaded: the fused path applies
     assert fastpath.usable(m, 1)
 
-    def run():
-        st, per = O.EvaluationStats(), np.zeros((n, 3), np.int64)
-        ok = O.staged_admissible(m, poses, checks, (), st, prefilter, 4000, per_pose=per)
+    def run(k):
+        st, per = O.EvaluationStats(), np.zeros((k, 3), np.int64)
+        ok = O.staged_admissible(m, poses[:k], checks, (), st, prefilter, 4000, per_pose=per)
         return ok, per, (st.poses, st.full_pipeline, st.requirement_poses)
 
-    fused = run()
+    sizes = (fastpath.FUSED_CHUNK, n)  # one call; chunks of 4000 poses, each prefiltered, then in calls
+    fused = [run(k) for k in sizes]
     monkeypatch.setattr(fastpath, "usable", lambda machine, n_poses: False)
-    staged = run()
-    assert np.array_equal(fused[0], staged[0]) and np.array_equal(fused[1], staged[1]) and fused[2] == staged[2]
-    assert 0 < fused[0].sum() < n  # admissible and inadmissible poses both occur
-    filtered = prefilter and "drive_range" in checks
-    assert (0 < fused[2][1] < n) if filtered else fused[2][1] == n  # ... and the prefilter rules some out
+    for k, f, staged in zip(sizes, fused, [run(k) for k in sizes]):
+        assert np.array_equal(f[0], staged[0]) and np.array_equal(f[1], staged[1]) and f[2] == staged[2]
+        assert 0 < f[0].sum() < k  # admissible and inadmissible poses both occur
+        filtered = prefilter and "drive_range" in checks
+        assert (0 < f[2][1] < k) if filtered else f[2][1] == k  # ... and the prefilter rules some out

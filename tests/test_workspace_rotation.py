@@ -139,12 +139,13 @@ def test_search_evaluator_equals_the_staged_pipeline(hexaglide, monkeypatch):
     # admissibility of the staged pipeline pose for pose, with the checks subset and with a requirement (which
     # takes the staged pipeline itself)
     import pkmstiff.workspace.rotation as rot
+    from pkmstiff.admissibility import fastpath
     from pkmstiff.admissibility.checks import ALL_CHECKS
     from pkmstiff.workspace.oracle import staged_admissible
     from pkmstiff.workspace.requirements import parse_requirements
 
     monkeypatch.setenv("PKMSTIFF_JIT", "1")  # the fused kernel runs only with the compiled kernels
-    monkeypatch.setattr(rot, "FUSED_CHUNK", 7)
+    monkeypatch.setattr(fastpath, "FUSED_CHUNK", 7)
     m = hexaglide
     rng = np.random.default_rng(3)  # about half of these poses are admissible
     p = rng.uniform([-0.1, 0.0, -1.1, -0.2, -0.2, -0.2], [0.1, 0.9, -0.6, 0.2, 0.2, 0.2], size=(300, 6))

@@ -29,8 +29,10 @@ from pkmstiff.machine.roles import DriveLoadData
 SMALL_N = 64
 #: poses per call of the fused kernel where a caller needs only the admissibility (rotation-map searches, workspace
 #: octrees): it costs ~0.1 ms per call and ~2.6 us per pose against ~1 ms and ~3.2 us of the array path (measured on
-#: the Hexaglide, 100-2000 poses), and most of their batches hold a few hundred poses
-FUSED_CHUNK = 4096
+#: the Hexaglide, 100-2000 poses), and most of their batches hold a few hundred poses. A call's buffers (~1.7 kB per
+#: pose) stay in a core's cache up to about this many: per pose, calls of 256-1024 poses took 3.4-3.5 us, of 4096
+#: poses 4.3 us (random Hexaglide poses on the 2-core machine)
+FUSED_CHUNK = 1024
 
 _R = adm.Reason
 #: the checks of the kernel's ``ok_rows`` in row order, with the ``checks`` name that enables each

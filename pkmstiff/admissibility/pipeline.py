@@ -173,6 +173,22 @@ def evaluate_chunk(
     return ev
 
 
+def admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str],
+               drive_load_data: DriveLoadData | None) -> np.ndarray:
+    """(N,) admissibility of poses (N, 6), bit for bit the ``ok`` of :func:`evaluate_chunk` without requirements
+    (tests/test_pose_fast_path.py), for searches that need nothing else: the fused kernel in calls of
+    :data:`~pkmstiff.admissibility.fastpath.FUSED_CHUNK` poses, the array path for a call it declines (a pose that
+    needs an exact κ). Call only where ``fastpath.usable(machine, 1)`` holds."""
+    out = np.empty(len(poses), bool)
+    step = _fast.FUSED_CHUNK
+    for s in range(0, len(poses), step):
+        x = np.ascontiguousarray(poses[s:s + step])
+        ok = _fast.admissible_small(machine, x, checks, drive_load_data)
+        out[s:s + len(x)] = ok if ok is not None else \
+            evaluate_chunk(machine, x, checks, drive_load_data, _valid=True).admissibility.ok
+    return out
+
+
 def _evaluate_general(machine: Machine, poses: np.ndarray, checks: tuple[str, ...],
                       drive_load_data: DriveLoadData | None) -> tuple[PoseEvaluation, list[adm.CheckResult]]:
     """The array path of :func:`evaluate_chunk` (any N): the evaluation and its check results."""

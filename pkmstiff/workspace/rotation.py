@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.admissibility import fastpath
 from pkmstiff.admissibility.fastpath import FUSED_CHUNK
-from pkmstiff.admissibility.pipeline import evaluate_chunk
+from pkmstiff.admissibility.pipeline import admissible
 from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation import parallel
 from pkmstiff.machine.model import Machine
@@ -138,9 +138,8 @@ def _values(v: ArrayLike, name: str) -> np.ndarray:
 
 
 class _Evaluator:
-    """Admissibility of poses (N, 6): the fused kernel in chunks of :data:`FUSED_CHUNK` where it applies (no
-    requirements; it gives the array path's results bit for bit, tests/test_pose_fast_path.py), else
-    :func:`pkmstiff.workspace.oracle.staged_admissible`."""
+    """Admissibility of poses (N, 6): :func:`pkmstiff.admissibility.pipeline.admissible` (the fused kernel in chunks)
+    where it applies (no requirements), else :func:`pkmstiff.workspace.oracle.staged_admissible`."""
 
     def __init__(self, machine: Machine, checks: Sequence[str], reqs: Sequence[Requirement]):
         self.machine, self.checks, self.reqs = machine, tuple(checks), list(reqs)
@@ -155,13 +154,7 @@ class _Evaluator:
         self.fused = self.fused or (not self.reqs and fastpath.usable(self.machine, 1))
         if not self.fused:
             return staged_admissible(self.machine, poses, self.checks, self.reqs, self.stats)
-        out = np.empty(len(poses), bool)
-        for s in range(0, len(poses), FUSED_CHUNK):
-            x = np.ascontiguousarray(poses[s:s + FUSED_CHUNK])
-            ok = fastpath.admissible_small(self.machine, x, self.checks, self.load)
-            out[s:s + len(x)] = ok if ok is not None else evaluate_chunk(self.machine, x, self.checks,
-                                                                         self.load).admissibility.ok
-        return out
+        return admissible(self.machine, poses, self.checks, self.load)
 
 
 def angle_search(
