@@ -22,6 +22,10 @@ and ``pred. 16 (cpu)`` in the table). For the pairs the CPU accounting also pred
 free cores (``pred. (cpu)``): T1 = CPU of the serial run, T2 = the serial CPU of this process + the larger of the
 busiest worker's CPU and half of the parallel CPU (workers and the work here meanwhile).
 
+A core check (at the start, after each pair's command and at the end) times the same compiled work pinned to each
+core in turn: on a shared host one core can run 1.0-1.5× slower than the other from one second to the next (a busy
+sibling elsewhere), which bounds what two workers can give, while a serial run may have had the faster core.
+
 ``--jobs 1`` against ``--jobs 2`` for every command with ``--jobs`` (section, workspace, rotation-map, report, sweep,
 optimise) on work of 5 s or more serially on the 2-core machine runs after the table (``--no-pairs`` skips it); the
 sizes are options (``--section-step``, ``--workspace-resolution``, ``--rotation-map-step``, ``--report-step``,
@@ -110,6 +114,49 @@ def _worker_cpu(pids: list[int]) -> list[float]:
         except (OSError, IndexError):
             continue
         out.append((int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK"))  # utime, stime
+    return out
+
+
+#: the core check's work: the admissibility of this many random Hexaglide poses (fused kernel), pinned to each core
+CORE_CHECK_POSES = 8192
+CORE_CHECKS: list[dict] = []
+
+
+def core_check(when: str, rounds: int = 5) -> dict | None:
+    """Time the same compiled work pinned to each core in turn (median of ``rounds``) and print how much slower the
+    slowest core is: on a shared host a core whose sibling is busy elsewhere runs slower for seconds at a time (the
+    2-core machine: 1.0-1.5× apart from one second to the next), and a ``--jobs 2`` run then gets less than two
+    cores' work while a serial run may have had the faster one. Linux only (None elsewhere)."""
+    if not hasattr(os, "sched_setaffinity"):
+        return None
+    import numpy as np
+
+    from pkmstiff.admissibility import checks, fastpath
+    from pkmstiff.admissibility.pipeline import admissible
+    from pkmstiff.machine.loader import load_machine
+    from pkmstiff.machine.roles import drive_load_data
+
+    m = load_machine("hexaglide")
+    if not fastpath.usable(m, 1):
+        return None
+    rng = np.random.default_rng(0)
+    x = np.c_[rng.uniform([-0.1, 0.0, -1.1], [0.1, 0.8, -0.7], (CORE_CHECK_POSES, 3)), np.zeros((CORE_CHECK_POSES, 3))]
+    load, cores, mask = drive_load_data(m), sorted(os.sched_getaffinity(0)), os.sched_getaffinity(0)
+    times: dict[int, list[float]] = {c: [] for c in cores}
+    try:
+        for _ in range(rounds):
+            for c in cores:
+                os.sched_setaffinity(0, {c})
+                t0 = time.perf_counter()
+                admissible(m, x, checks.ALL_CHECKS, load)
+                times[c].append(time.perf_counter() - t0)
+    finally:
+        os.sched_setaffinity(0, mask)
+    med = {c: sorted(v)[len(v) // 2] for c, v in times.items()}
+    out = {"when": when, "median_s": med, "slowest_over_fastest": max(med.values()) / min(med.values())}
+    CORE_CHECKS.append(out)
+    print(f"core check ({when}): " + ", ".join(f"cpu{c} {t * 1e3:.0f} ms" for c, t in med.items())
+          + f" for the same work; the slowest core takes {out['slowest_over_fastest']:.2f}× the fastest's time")
     return out
 
 
@@ -268,6 +315,7 @@ def main() -> None:
     print(f"bench_scaling: {os.cpu_count()} cores, load average {load0[0]:.1f} {load0[1]:.1f} {load0[2]:.1f}, "
           f"workers {counts}{', quick' if a.quick else ''}; every command runs once untimed before it is timed")
     run_once(["section", "hexaglide", "--plane", "yz", "--step", "50", "--quiet"])  # compiled kernels loaded once
+    core_check("start")
     startup = {n: startup_overhead(n) for n in sorted({1, 2, max(counts)})}
     print("per-worker start-up overhead: " + ", ".join(f"{n} workers {s * 1e3:.0f} ms" for n, s in startup.items()))
     table: dict[str, dict] = {}
@@ -307,21 +355,23 @@ def main() -> None:
     pairs = {} if a.no_pairs else jobs_pairs(pair_workloads(sizes, a.report_figures, tmp, chosen, a.write), a.repeat)
     if pairs:
         print(f"\n--jobs 1 against --jobs 2 (work of 5 s or more serially; best of {a.repeat}):\n{'command':<14}"
-              f"{'jobs 1 s':>10}{'jobs 2 s':>10}{'ratio':>8}{'CPU 1 s':>9}{'CPU 2 s':>16}{'s_cpu':>7}"
+              f"{'jobs 1 s':>10}{'jobs 2 s':>10}{'ratio':>8}{'median':>8}{'CPU 1 s':>9}{'CPU 2 s':>16}{'s_cpu':>7}"
               f"{'pred. (cpu)':>12}  plan of --jobs 2")
         for name, r in pairs.items():
             one, two = r["1"], r["2"]
             cpu2 = f"{two['parent_cpu_s']:.2f}+{two['workers_cpu_s']:.2f}"
-            print(f"{name:<14}{one['wall_s']:>10.2f}{two['wall_s']:>10.2f}{r['ratio']:>7.2f}×{one['cpu_s']:>9.2f}"
-                  f"{cpu2:>16}{cpu_serial_fraction(two):>7.3f}{r['predicted_ratio_cpu']:>11.2f}×  "
+            print(f"{name:<14}{one['wall_s']:>10.2f}{two['wall_s']:>10.2f}{r['ratio']:>7.2f}×{r['median_ratio']:>7.2f}×"
+                  f"{one['cpu_s']:>9.2f}{cpu2:>16}{cpu_serial_fraction(two):>7.3f}{r['predicted_ratio_cpu']:>11.2f}×  "
                   f"{_plan_of(r['plan'])[:90]}")
-        print("CPU 2 s: this process + its workers; pred. (cpu): the ratio the CPU accounting predicts on 2 free "
-              "cores")
+        print("ratio: of the fastest runs; median: of the median runs; CPU 2 s: this process + its workers; "
+              "pred. (cpu): the ratio the CPU accounting predicts on 2 free cores")
+    core_check("end")
     info["load_average_end"] = os.getloadavg()
     print(f"load average at the end {info['load_average_end'][0]:.1f}")
     if a.json:
         Path(a.json).write_text(json.dumps({"machine": info, "startup_overhead_s_per_worker": startup,
-                                            "work": table, "jobs_1_vs_2": pairs, "plans": PLANS}, indent=2,
+                                            "work": table, "jobs_1_vs_2": pairs, "core_checks": CORE_CHECKS,
+                                            "plans": PLANS}, indent=2,
                                            default=str))
         print(f"wrote {a.json}")
 
@@ -395,7 +445,8 @@ def pair_workloads(sizes: dict[str, float], figures: bool, tmp: Path,
 
 def jobs_pairs(work: dict[str, list[str]], repeat: int = 1) -> dict[str, dict]:
     """--jobs 1 and --jobs 2 of every command, after one untimed run (:func:`warm_up`), ``repeat`` times alternating;
-    the fastest run of each counts."""
+    the fastest run of each counts (``ratio``; ``median_ratio``: of the median runs, the lower median for an even
+    ``repeat``). A core check (:func:`core_check`) follows each command."""
     out = {}
     for name, argv in work.items():
         try:
@@ -408,7 +459,10 @@ def jobs_pairs(work: dict[str, list[str]], repeat: int = 1) -> dict[str, dict]:
             print(f"  {name}: skipped ({type(exc).__name__}: {str(exc)[-200:]})")
             continue
         one, two = (min(runs[jobs], key=lambda r: r["wall_s"]) for jobs in (1, 2))
+        median = [sorted(r["wall_s"] for r in runs[jobs])[(repeat - 1) // 2] for jobs in (1, 2)]
+        core_check(f"after {name}")
         out[name] = {"argv": argv, "1": one, "2": two, "ratio": one["wall_s"] / two["wall_s"],
+                     "median_ratio": median[0] / median[1],
                      "predicted_ratio_cpu": one["cpu_s"] / max(cpu_predicted_wall(two), 1e-12),
                      "plan": PLANS.get(" ".join([*argv, "--jobs", "2"]), ""), "runs": runs}
     return out
