@@ -141,7 +141,8 @@ def core_check(when: str, rounds: int = 5) -> dict | None:
         return None
     rng = np.random.default_rng(0)
     x = np.c_[rng.uniform([-0.1, 0.0, -1.1], [0.1, 0.8, -0.7], (CORE_CHECK_POSES, 3)), np.zeros((CORE_CHECK_POSES, 3))]
-    load, cores, mask = drive_load_data(m), sorted(os.sched_getaffinity(0)), os.sched_getaffinity(0)
+    load, mask = drive_load_data(m), os.sched_getaffinity(0)
+    cores = sorted(mask)
     times: dict[int, list[float]] = {c: [] for c in cores}
     try:
         for _ in range(rounds):

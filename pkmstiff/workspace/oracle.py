@@ -33,7 +33,6 @@ from numpy.typing import ArrayLike
 
 import pkmstiff.admissibility.checks as adm
 from pkmstiff.admissibility import fastpath
-from pkmstiff.admissibility.fastpath import FUSED_CHUNK
 from pkmstiff.admissibility.pipeline import admissible, evaluate_poses
 from pkmstiff.errors import ArgumentError
 from pkmstiff.evaluation import parallel
@@ -92,7 +91,7 @@ def staged_admissible(machine: Machine, poses: np.ndarray, checks: Sequence[str]
     # ~0.1 ms against ~2 ms of the staged array path; a larger one after the prefilter, which spares most outside
     # points the full pipeline, on the poses it leaves (~20 % less time than the array pipeline on them)
     fusable = not requirements and fastpath.usable(machine, 1)
-    whole = fusable and 0 < len(poses) <= FUSED_CHUNK  # a chunk: one call
+    whole = fusable and 0 < len(poses) <= fastpath.FUSED_CHUNK  # a chunk: one call (pipeline.admissible's)
     load = drive_load_data(machine) if fusable else None
     for s in range(0, len(poses), chunk_size):
         x = poses[s:s + chunk_size]
